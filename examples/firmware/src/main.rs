@@ -1,0 +1,2 @@
+//! Placeholder until the firmware example lands.
+fn main() {}

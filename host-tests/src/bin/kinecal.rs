@@ -1,0 +1,72 @@
+//! `kinecal`: robot calibration from the command line (interfaces.md §4).
+
+use clap::{Parser, Subcommand};
+use kinecal_host::cli;
+
+#[derive(Parser, Debug)]
+#[command(name = "kinecal", version, about = "Kinematic calibration of serial robot arms")]
+struct Cli {
+    /// Print exactly one JSON object on stdout (logs and progress go to stderr).
+    #[arg(long, global = true)]
+    json: bool,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Validate a robot file and a measurement file; nominal RMS error.
+    Check(cli::check::Args),
+    /// The BPNN-PSO paper's simulation end to end on built-in data.
+    Demo(cli::demo::Args),
+    /// Make measurement data from a robot with known errors.
+    Simulate(cli::simulate::Args),
+    /// Fit the model to measurements (LM, PSO, BPNN-PSO, PSO+LM).
+    Identify(cli::identify::Args),
+    /// Find and name what the geometric model is missing.
+    Diagnose(cli::diagnose::Args),
+    /// Base frame and tool distances from single-joint sweeps.
+    Frames(cli::frames::Args),
+    /// Corrected joint commands for target points.
+    Compensate(cli::compensate::Args),
+    /// Choose measurement poses (optimum experimental design).
+    Plan(cli::plan::Args),
+}
+
+fn dispatch(cli: Cli) -> anyhow::Result<serde_json::Value> {
+    let j = cli.json;
+    match &cli.command {
+        Command::Check(a) => cli::check::run(a, j),
+        Command::Demo(a) => cli::demo::run(a, j),
+        Command::Simulate(a) => cli::simulate::run(a, j),
+        Command::Identify(a) => cli::identify::run(a, j),
+        Command::Diagnose(a) => cli::diagnose::run(a, j),
+        Command::Frames(a) => cli::frames::run(a, j),
+        Command::Compensate(a) => cli::compensate::run(a, j),
+        Command::Plan(a) => cli::plan::run(a, j),
+    }
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let json = cli.json;
+    // Large models (per-joint tables) keep their normal equations on the stack: give the
+    // work a thread with room for them.
+    let worker = std::thread::Builder::new().stack_size(1 << 30).spawn(move || dispatch(cli));
+    let result = match worker {
+        Ok(h) => h.join().unwrap_or_else(|_| Err(anyhow::anyhow!("internal error (a thread panicked)"))),
+        Err(e) => Err(anyhow::anyhow!("cannot start worker thread: {e}")),
+    };
+    match result {
+        Ok(v) => {
+            if json {
+                println!("{}", serde_json::to_string_pretty(&v).unwrap_or_else(|_| "{}".into()));
+            }
+        }
+        Err(e) => {
+            let msg = format!("{e:#}").replace('\n', " ");
+            eprintln!("kinecal: {msg}");
+            std::process::exit(1);
+        }
+    }
+}

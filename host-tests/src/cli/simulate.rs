@@ -1,0 +1,10 @@
+//! `kinecal simulate`: makes measurement data from a robot with known errors.
+
+/// Arguments of `kinecal simulate` (see interfaces.md §4).
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+/// Runs the subcommand; returns the JSON report (printed when `--json` is given).
+pub fn run(_args: &Args, _json: bool) -> anyhow::Result<serde_json::Value> {
+    anyhow::bail!("`kinecal simulate` is not implemented yet")
+}

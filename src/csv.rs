@@ -1,0 +1,329 @@
+//! Measurement CSV records (interfaces.md §3) from any `embedded_io::Read`: a UART on the
+//! controller, a file on the desktop.
+//!
+//! Fixed line buffer of `L` bytes, header → column map, up to `X` extra columns carried by name,
+//! `#` comments and blank lines skipped. Every error carries the 1-based line and column so a
+//! technician can find the bad cell; after an error the reader continues with the next line.
+
+use crate::Measurement;
+use crate::Real;
+use embedded_io::Read;
+use heapless::{String, Vec};
+
+/// What went wrong in a CSV file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CsvErrorKind {
+    /// The underlying reader failed.
+    Io,
+    /// The file has no header line.
+    Empty,
+    /// The header lacks a required column (`q1`…`qN`, `x`, `y`, `z`); `column` is 0.
+    MissingColumn,
+    /// The header names a column twice.
+    DuplicateColumn,
+    /// The header has a joint column beyond `qN` (the data is for a robot with more joints).
+    TooManyJoints,
+    /// A line is longer than the reader's buffer.
+    LineTooLong,
+    /// A line is not valid UTF-8.
+    NotText,
+    /// A cell that must be a number is not one.
+    NotANumber,
+    /// A cell is NaN or infinite.
+    NotFinite,
+    /// A line has fewer cells than a required column needs.
+    ShortLine,
+    /// More columns than the reader can map.
+    TooManyColumns,
+}
+
+impl CsvErrorKind {
+    pub fn describe(self) -> &'static str {
+        match self {
+            CsvErrorKind::Io => "read error",
+            CsvErrorKind::Empty => "empty file: no header line",
+            CsvErrorKind::MissingColumn => "missing required column",
+            CsvErrorKind::DuplicateColumn => "duplicate column",
+            CsvErrorKind::TooManyJoints => "joint column beyond the robot's joints",
+            CsvErrorKind::LineTooLong => "line too long",
+            CsvErrorKind::NotText => "line is not UTF-8 text",
+            CsvErrorKind::NotANumber => "not a number",
+            CsvErrorKind::NotFinite => "NaN or infinite value",
+            CsvErrorKind::ShortLine => "line has too few columns",
+            CsvErrorKind::TooManyColumns => "too many columns",
+        }
+    }
+}
+
+/// A CSV error at a place in the file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CsvError {
+    pub kind: CsvErrorKind,
+    /// 1-based line number (0 when the file has none).
+    pub line: u32,
+    /// 1-based column number (0 when the error concerns the whole line or header).
+    pub column: u16,
+    /// For `MissingColumn`: which required column (0..N = q1.., N = x, N+1 = y, N+2 = z).
+    pub which: u16,
+}
+
+/// Longest extra-column name carried.
+pub const NAME_LEN: usize = 24;
+/// Most columns a header may have.
+pub const MAX_COLUMNS: usize = 64;
+
+/// One record, in file units (degrees, millimetres), with the extra columns' values.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Record<const N: usize, const X: usize> {
+    pub q_deg: [f64; N],
+    pub xyz_mm: [f64; 3],
+    pub extra: Vec<f64, X>,
+    /// Line of the file this record came from.
+    pub line: u32,
+}
+
+impl<const N: usize, const X: usize> Record<N, X> {
+    /// The measurement in library units (rad, mm).
+    pub fn measurement<T: Real>(&self) -> Measurement<T, N> {
+        Measurement::from_deg(&self.q_deg, &self.xyz_mm)
+    }
+}
+
+#[derive(Clone, Copy, PartialEq, Debug)]
+enum Slot {
+    Ignored,
+    Joint(u8),
+    Xyz(u8),
+    Extra(u8),
+}
+
+/// Streaming reader of measurement records for an `N`-joint robot.
+#[derive(Debug)]
+pub struct CsvReader<R: Read, const N: usize, const L: usize = 512, const X: usize = 8> {
+    reader: R,
+    chunk: [u8; 64],
+    chunk_len: usize,
+    chunk_pos: usize,
+    line: [u8; L],
+    line_no: u32,
+    slots: Vec<Slot, MAX_COLUMNS>,
+    extra_names: Vec<String<NAME_LEN>, X>,
+    eof: bool,
+}
+
+enum LineRead {
+    Line(usize),
+    TooLong,
+    Eof,
+}
+
+impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L, X> {
+    /// Reads the header and builds the column map.
+    pub fn new(reader: R) -> Result<Self, CsvError> {
+        let mut s = Self {
+            reader,
+            chunk: [0; 64],
+            chunk_len: 0,
+            chunk_pos: 0,
+            line: [0; L],
+            line_no: 0,
+            slots: Vec::new(),
+            extra_names: Vec::new(),
+            eof: false,
+        };
+        let err = |kind, line, column| CsvError { kind, line, column, which: 0 };
+        loop {
+            match s.read_line()? {
+                LineRead::Eof => return Err(err(CsvErrorKind::Empty, s.line_no, 0)),
+                LineRead::TooLong => return Err(err(CsvErrorKind::LineTooLong, s.line_no, 0)),
+                LineRead::Line(n) => {
+                    if Self::skip(&s.line[..n]) {
+                        continue;
+                    }
+                    s.header(n)?;
+                    return Ok(s);
+                }
+            }
+        }
+    }
+
+    /// Names of the extra columns carried, in the order of [`Record::extra`].
+    pub fn extra_names(&self) -> &[String<NAME_LEN>] {
+        &self.extra_names
+    }
+
+    /// Index in [`Record::extra`] of the named extra column.
+    pub fn extra_index(&self, name: &str) -> Option<usize> {
+        self.extra_names.iter().position(|n| n.as_str() == name)
+    }
+
+    fn skip(line: &[u8]) -> bool {
+        let t = line.trim_ascii();
+        t.is_empty() || t[0] == b'#'
+    }
+
+    fn header(&mut self, n: usize) -> Result<(), CsvError> {
+        let line_no = self.line_no;
+        let text = core::str::from_utf8(&self.line[..n])
+            .map_err(|_| CsvError { kind: CsvErrorKind::NotText, line: line_no, column: 0, which: 0 })?;
+        let mut seen_q = [false; N];
+        let mut seen_xyz = [false; 3];
+        for (c, cell) in text.split(',').enumerate() {
+            let col = (c + 1) as u16;
+            let e = |kind| CsvError { kind, line: line_no, column: col, which: 0 };
+            let name = cell.trim().trim_matches('"');
+            let slot = if let Some(rest) = name.strip_prefix('q').filter(|r| !r.is_empty() && r.bytes().all(|b| b.is_ascii_digit())) {
+                match rest.parse::<usize>() {
+                    Ok(j) if j >= 1 && j <= N => {
+                        if seen_q[j - 1] {
+                            return Err(e(CsvErrorKind::DuplicateColumn));
+                        }
+                        seen_q[j - 1] = true;
+                        Slot::Joint((j - 1) as u8)
+                    }
+                    _ => return Err(e(CsvErrorKind::TooManyJoints)),
+                }
+            } else if let Some(k) = ["x", "y", "z"].iter().position(|x| *x == name) {
+                if seen_xyz[k] {
+                    return Err(e(CsvErrorKind::DuplicateColumn));
+                }
+                seen_xyz[k] = true;
+                Slot::Xyz(k as u8)
+            } else if !name.is_empty() && name.len() <= NAME_LEN && !self.extra_names.is_full() {
+                if self.extra_names.iter().any(|n| n.as_str() == name) {
+                    return Err(e(CsvErrorKind::DuplicateColumn));
+                }
+                let mut s = String::new();
+                let _ = s.push_str(name);
+                let _ = self.extra_names.push(s);
+                Slot::Extra((self.extra_names.len() - 1) as u8)
+            } else {
+                Slot::Ignored
+            };
+            self.slots.push(slot).map_err(|_| e(CsvErrorKind::TooManyColumns))?;
+        }
+        let missing = seen_q.iter().position(|s| !s).or_else(|| seen_xyz.iter().position(|s| !s).map(|k| N + k));
+        if let Some(w) = missing {
+            return Err(CsvError { kind: CsvErrorKind::MissingColumn, line: line_no, column: 0, which: w as u16 });
+        }
+        Ok(())
+    }
+
+    fn fill(&mut self) -> Result<bool, CsvError> {
+        if self.eof {
+            return Ok(false);
+        }
+        match self.reader.read(&mut self.chunk) {
+            Ok(0) => {
+                self.eof = true;
+                Ok(false)
+            }
+            Ok(n) => {
+                self.chunk_len = n;
+                self.chunk_pos = 0;
+                Ok(true)
+            }
+            Err(_) => Err(CsvError { kind: CsvErrorKind::Io, line: self.line_no + 1, column: 0, which: 0 }),
+        }
+    }
+
+    /// Reads one line (without the terminator) into the buffer.
+    fn read_line(&mut self) -> Result<LineRead, CsvError> {
+        let mut n = 0usize;
+        let mut too_long = false;
+        let mut any = false;
+        loop {
+            if self.chunk_pos >= self.chunk_len && !self.fill()? {
+                if !any {
+                    return Ok(LineRead::Eof);
+                }
+                break;
+            }
+            let b = self.chunk[self.chunk_pos];
+            self.chunk_pos += 1;
+            any = true;
+            if b == b'\n' {
+                break;
+            }
+            if n < L {
+                self.line[n] = b;
+                n += 1;
+            } else {
+                too_long = true;
+            }
+        }
+        self.line_no = self.line_no.saturating_add(1);
+        if n > 0 && self.line[n - 1] == b'\r' {
+            n -= 1;
+        }
+        Ok(if too_long { LineRead::TooLong } else { LineRead::Line(n) })
+    }
+
+    /// The next record, `None` at the end of the file.
+    pub fn next_record(&mut self) -> Option<Result<Record<N, X>, CsvError>> {
+        loop {
+            let n = match self.read_line() {
+                Err(e) => return Some(Err(e)),
+                Ok(LineRead::Eof) => return None,
+                Ok(LineRead::TooLong) => {
+                    return Some(Err(CsvError { kind: CsvErrorKind::LineTooLong, line: self.line_no, column: 0, which: 0 }))
+                }
+                Ok(LineRead::Line(n)) => n,
+            };
+            if Self::skip(&self.line[..n]) {
+                continue;
+            }
+            return Some(self.parse(n));
+        }
+    }
+
+    fn parse(&self, n: usize) -> Result<Record<N, X>, CsvError> {
+        let line = self.line_no;
+        let e = |kind, column: usize| CsvError { kind, line, column: column as u16, which: 0 };
+        let text = core::str::from_utf8(&self.line[..n]).map_err(|_| e(CsvErrorKind::NotText, 0))?;
+        let mut rec = Record { q_deg: [0.0; N], xyz_mm: [0.0; 3], extra: Vec::new(), line };
+        let mut extra = [f64::NAN; X];
+        let mut cells = 0usize;
+        for (c, cell) in text.split(',').enumerate() {
+            cells = c + 1;
+            let slot = match self.slots.get(c) {
+                Some(s) => *s,
+                None => break,
+            };
+            if slot == Slot::Ignored {
+                continue;
+            }
+            let t = cell.trim();
+            let v: f64 = match t.parse() {
+                Ok(v) => v,
+                Err(_) => {
+                    // An empty or non-numeric extra cell is carried as NaN; required cells must be numbers.
+                    if let Slot::Extra(_) = slot {
+                        continue;
+                    }
+                    return Err(e(CsvErrorKind::NotANumber, c + 1));
+                }
+            };
+            match slot {
+                Slot::Joint(j) | Slot::Xyz(j) if !v.is_finite() => {
+                    let _ = j;
+                    return Err(e(CsvErrorKind::NotFinite, c + 1));
+                }
+                Slot::Joint(j) => rec.q_deg[j as usize] = v,
+                Slot::Xyz(k) => rec.xyz_mm[k as usize] = v,
+                Slot::Extra(k) => extra[k as usize] = v,
+                Slot::Ignored => {}
+            }
+        }
+        // Any required column at or beyond the number of cells present is missing.
+        if let Some(c) = self.slots.iter().enumerate().skip(cells).find(|(_, s)| matches!(s, Slot::Joint(_) | Slot::Xyz(_))) {
+            return Err(e(CsvErrorKind::ShortLine, c.0 + 1));
+        }
+        for v in extra.iter().take(self.extra_names.len()) {
+            let _ = rec.extra.push(*v);
+        }
+        Ok(rec)
+    }
+}

@@ -1,0 +1,288 @@
+//! Non-geometric joint corrections (interfaces.md §2): what a plain MDH model misses.
+//!
+//! Each effect adds `dq_j = Σ_k v_k · φ_k(q)` to a joint reading before the geometry is applied.
+//! The model is linear in its values `v_k`, so identification needs only the basis `φ_k` (the
+//! Jacobian column is `∂p/∂q_j · φ_k`), and compensation needs `∂dq_j/∂q_j`; both live here,
+//! beside the correction itself. `axis-tilt` is geometric (the joint's `beta`), so it is not here.
+
+use crate::Real;
+use heapless::Vec;
+
+/// How many effects one model can carry.
+pub const MAX_EFFECTS: usize = 32;
+
+/// The kinds of joint correction of interfaces.md §2.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum EffectKind {
+    /// `s · q_j`: a gear ratio or encoder scale that is slightly off.
+    Scale,
+    /// `a·sin(n q_j) + b·cos(n q_j)`: gear eccentricity, once (or n times) per turn.
+    Cyclic,
+    /// `k · τ_j(q)`: the joint deflects under the tool's weight; τ_j is the lever arm (m).
+    Compliance,
+    /// Piecewise-linear in `q_j` through equally spaced knots: any smooth repeatable error.
+    Table,
+}
+
+impl EffectKind {
+    /// The identifier used in files and on the command line.
+    pub const fn id(self) -> &'static str {
+        match self {
+            EffectKind::Scale => "joint-scale",
+            EffectKind::Cyclic => "joint-cyclic",
+            EffectKind::Compliance => "joint-compliance",
+            EffectKind::Table => "joint-table",
+        }
+    }
+
+    /// Parses an identifier of interfaces.md §2 (`axis-tilt` is not a joint correction).
+    pub fn from_id(s: &str) -> Option<Self> {
+        Some(match s {
+            "joint-scale" => EffectKind::Scale,
+            "joint-cyclic" => EffectKind::Cyclic,
+            "joint-compliance" => EffectKind::Compliance,
+            "joint-table" => EffectKind::Table,
+            _ => return None,
+        })
+    }
+}
+
+/// One correction on one joint; its values live in [`Effects::values`] from `first` on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Effect<T: Real> {
+    pub kind: EffectKind,
+    /// 0-based joint index.
+    pub joint: u8,
+    /// Harmonic order `n` (cyclic only, ≥ 1).
+    pub order: u16,
+    /// Position of the lowest knot, rad (table only).
+    pub start: T,
+    /// Knot spacing, rad (table only, > 0).
+    pub step: T,
+    /// Index of the first value in the value array.
+    pub first: u16,
+    /// Number of values: 1 (scale, compliance), 2 (cyclic: a, b), knots (table).
+    pub len: u16,
+}
+
+impl<T: Real> Effect<T> {
+    /// Knot position `k` of a table, rad.
+    pub fn knot(&self, k: usize) -> T {
+        self.start + self.step * T::of(k as f64)
+    }
+
+    /// Table segment of `q`: lower knot index and weight of the upper knot, clamped at the ends
+    /// so that a reading outside the table gets the end value.
+    #[inline]
+    pub fn segment(&self, q: T) -> (usize, T) {
+        let n = self.len as usize;
+        if n < 2 || !(self.step > T::zero()) {
+            return (0, T::zero());
+        }
+        let u = (q - self.start) / self.step;
+        if !(u > T::zero()) {
+            return (0, T::zero());
+        }
+        let last = T::of((n - 1) as f64);
+        if u >= last {
+            return (n - 2, T::one());
+        }
+        // Truncation of a positive value below n - 1: the floor.
+        let k = (u.to_f64() as usize).min(n - 2);
+        (k, u - T::of(k as f64))
+    }
+}
+
+/// Error when building or changing the effect list.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum EffectError {
+    /// More effects than [`MAX_EFFECTS`] or more values than the model's capacity `V`.
+    Capacity,
+    /// Joint index outside the robot.
+    Joint,
+    /// Wrong number of values, a zero order, a non-positive or non-finite step.
+    Shape,
+}
+
+/// The list of effects of a model and their values (capacity `V` values in all).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Effects<T: Real, const V: usize> {
+    list: Vec<Effect<T>, MAX_EFFECTS>,
+    values: [T; V],
+    used: usize,
+}
+
+impl<T: Real, const V: usize> Default for Effects<T, V> {
+    fn default() -> Self {
+        Self { list: Vec::new(), values: [T::zero(); V], used: 0 }
+    }
+}
+
+impl<T: Real, const V: usize> Effects<T, V> {
+    pub fn iter(&self) -> impl Iterator<Item = &Effect<T>> {
+        self.list.iter()
+    }
+    pub fn len(&self) -> usize {
+        self.list.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
+    pub fn get(&self, i: usize) -> Option<&Effect<T>> {
+        self.list.get(i)
+    }
+    /// All values in use, effect by effect.
+    pub fn values(&self) -> &[T] {
+        &self.values[..self.used]
+    }
+    /// Values of effect `i`.
+    pub fn values_of(&self, i: usize) -> &[T] {
+        match self.list.get(i) {
+            Some(e) => &self.values[e.first as usize..(e.first + e.len) as usize],
+            None => &[],
+        }
+    }
+    pub(crate) fn values_mut(&mut self) -> &mut [T] {
+        &mut self.values[..self.used]
+    }
+    /// True when some effect needs the lever arms τ (a compliance term).
+    pub fn needs_lever_arms(&self) -> bool {
+        self.list.iter().any(|e| e.kind == EffectKind::Compliance)
+    }
+    /// Index of the effect of this kind on this joint (and order, for cyclic), if present.
+    pub fn find(&self, kind: EffectKind, joint: usize, order: u16) -> Option<usize> {
+        self.list.iter().position(|e| {
+            e.kind == kind && e.joint as usize == joint && (kind != EffectKind::Cyclic || e.order == order)
+        })
+    }
+
+    /// Appends an effect with its values; `n_joints` checks the joint index. On error nothing
+    /// changes. `start`/`step` matter for tables only, `order` for cyclic only.
+    #[allow(clippy::too_many_arguments)]
+    pub fn push(
+        &mut self,
+        kind: EffectKind,
+        joint: usize,
+        n_joints: usize,
+        order: u16,
+        start: T,
+        step: T,
+        values: &[T],
+    ) -> Result<usize, EffectError> {
+        if joint >= n_joints {
+            return Err(EffectError::Joint);
+        }
+        let ok_len = match kind {
+            EffectKind::Scale | EffectKind::Compliance => values.len() == 1,
+            EffectKind::Cyclic => values.len() == 2 && order >= 1,
+            EffectKind::Table => values.len() >= 2 && step > T::zero() && step.finite() && start.finite(),
+        };
+        if !ok_len || values.iter().any(|v| !v.finite()) {
+            return Err(EffectError::Shape);
+        }
+        if self.list.is_full() || self.used + values.len() > V || values.len() > u16::MAX as usize {
+            return Err(EffectError::Capacity);
+        }
+        let e = Effect {
+            kind,
+            joint: joint as u8,
+            order,
+            start,
+            step,
+            first: self.used as u16,
+            len: values.len() as u16,
+        };
+        self.values[self.used..self.used + values.len()].copy_from_slice(values);
+        self.used += values.len();
+        // Cannot fail: checked `is_full` above.
+        let _ = self.list.push(e);
+        Ok(self.list.len() - 1)
+    }
+
+    /// Joint corrections `dq` for readings `q`; `tau` are the lever arms (m), used only by
+    /// compliance terms.
+    pub fn correction<const N: usize>(&self, q: &[T; N], tau: &[T; N]) -> [T; N] {
+        let mut dq = [T::zero(); N];
+        for e in self.list.iter() {
+            let j = e.joint as usize;
+            if j >= N {
+                continue;
+            }
+            let v = &self.values[e.first as usize..(e.first + e.len) as usize];
+            dq[j] += match e.kind {
+                EffectKind::Scale => v[0] * q[j],
+                EffectKind::Compliance => v[0] * tau[j],
+                EffectKind::Cyclic => {
+                    let (s, c) = (q[j] * T::of(e.order as f64)).sincos();
+                    v[0] * s + v[1] * c
+                }
+                EffectKind::Table => {
+                    let (k, w) = e.segment(q[j]);
+                    v[k] * (T::one() - w) + v[k + 1] * w
+                }
+            };
+        }
+        dq
+    }
+
+    /// `∂dq_j/∂q_j` for each joint (compliance's dependence on the pose is second order and
+    /// left out): what compensation's Newton steps need.
+    pub fn correction_slope<const N: usize>(&self, q: &[T; N]) -> [T; N] {
+        let mut g = [T::zero(); N];
+        for e in self.list.iter() {
+            let j = e.joint as usize;
+            if j >= N {
+                continue;
+            }
+            let v = &self.values[e.first as usize..(e.first + e.len) as usize];
+            g[j] += match e.kind {
+                EffectKind::Scale => v[0],
+                EffectKind::Compliance => T::zero(),
+                EffectKind::Cyclic => {
+                    let n = T::of(e.order as f64);
+                    let (s, c) = (q[j] * n).sincos();
+                    n * (v[0] * c - v[1] * s)
+                }
+                EffectKind::Table => {
+                    let (k, _) = e.segment(q[j]);
+                    let u = (q[j] - e.start) / e.step;
+                    let inside = u > T::zero() && u < T::of((e.len - 1) as f64);
+                    if inside { (v[k + 1] - v[k]) / e.step } else { T::zero() }
+                }
+            };
+        }
+        g
+    }
+
+    /// Basis function `φ` of value `k` (global value index) at readings `q`, lever arms `tau`:
+    /// `∂dq_joint/∂v_k`. Returns the joint it acts on.
+    pub fn basis<const N: usize>(&self, k: usize, q: &[T; N], tau: &[T; N]) -> Option<(usize, T)> {
+        let e = self.list.iter().find(|e| (e.first as usize) <= k && k < (e.first + e.len) as usize)?;
+        let j = e.joint as usize;
+        if j >= N {
+            return None;
+        }
+        let i = k - e.first as usize;
+        let phi = match e.kind {
+            EffectKind::Scale => q[j],
+            EffectKind::Compliance => tau[j],
+            EffectKind::Cyclic => {
+                let (s, c) = (q[j] * T::of(e.order as f64)).sincos();
+                if i == 0 { s } else { c }
+            }
+            EffectKind::Table => {
+                let (seg, w) = e.segment(q[j]);
+                if i == seg {
+                    T::one() - w
+                } else if i == seg + 1 {
+                    w
+                } else {
+                    T::zero()
+                }
+            }
+        };
+        Some((j, phi))
+    }
+}

@@ -1,0 +1,51 @@
+//! # kinecal: kinematic calibration of serial robot arms, on the controller and the desktop
+//!
+//! `#![no_std]`, no allocation, no panics on input reachable through the public API: bad input
+//! gets a typed error and valid state stays valid. Every algorithm is generic over the scalar
+//! (`f32` on a Cortex-M4F, `f64` on the desktop) and sized by const generics.
+//!
+//! ## Layers (bottom to top)
+//!
+//! - **Numbers**: [`Real`] (the scalar), [`trig`] (an `f32` `sin_cos` 30× cheaper than libm's
+//!   on an M4F), [`linalg`] (Cholesky, rank-revealing Cholesky, Jacobi eigen on fixed storage).
+//! - **Model** (constant description, like Pinocchio's `Model`): [`Frame`], [`Joint`] (modified
+//!   DH + Hayati tilt), [`Robot`] (base pose, rows, tool point, [`Effects`] = the non-geometric
+//!   joint corrections of interfaces.md §2), [`param`] (named parameters, the identified subset,
+//!   updates).
+//! - **Kinematics** (scratch workspaces, like Pinocchio's `Data`): [`ForwardKinematics`] with its
+//!   derivatives beside it (identification Jacobian, joint Jacobian).
+//! - **Data**: [`Measurement`] and the streaming [`csv`] reader over `embedded_io::Read`.
+//!
+//! Units: millimetres and radians inside the library; degrees only at file boundaries.
+
+#![no_std]
+#![forbid(unsafe_code)]
+#![warn(missing_debug_implementations)]
+
+pub mod bpnn;
+pub mod capsule;
+pub mod circle;
+pub mod compensate;
+pub mod csv;
+pub mod effects;
+pub mod forward;
+pub mod frame;
+pub mod linalg;
+pub mod lm;
+pub mod measurement;
+pub mod observability;
+pub mod param;
+pub mod planning;
+pub mod pso;
+pub mod real;
+pub mod robot;
+pub mod snapshot;
+pub mod trig;
+
+pub use effects::{Effect, EffectKind, Effects};
+pub use forward::ForwardKinematics;
+pub use frame::Frame;
+pub use measurement::Measurement;
+pub use param::{Param, ParamSet};
+pub use real::Real;
+pub use robot::{Joint, Robot, RobotError};

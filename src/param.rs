@@ -1,0 +1,309 @@
+//! Named model parameters, the identified subset, and the updates identification applies.
+//!
+//! Layout (interfaces.md §1): `base.x base.y base.z base.rx base.ry base.rz`, then per joint
+//! `alphaI aI thetaI dI betaI`, then `tool.x tool.y tool.z`, then the effect values. Angles are
+//! rad and lengths mm inside the library. A [`ParamSet`] is the ordered subset being identified.
+
+use crate::effects::EffectKind;
+use crate::{Real, Robot};
+use core::fmt;
+use heapless::Vec;
+use nalgebra::Vector3;
+
+/// One model parameter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Param {
+    BaseX,
+    BaseY,
+    BaseZ,
+    /// Base rotation about the measurement frame's x axis (identification updates it as a
+    /// small rotation about the base origin; the model file stores roll/pitch/yaw).
+    BaseRx,
+    BaseRy,
+    BaseRz,
+    /// Row parameters of joint `i` (0-based).
+    Alpha(u8),
+    A(u8),
+    Theta(u8),
+    D(u8),
+    Beta(u8),
+    ToolX,
+    ToolY,
+    ToolZ,
+    /// Value `k` of the model's effect list (see [`crate::Effects::values`]).
+    Effect(u16),
+}
+
+impl Param {
+    /// True for parameters measured in millimetres (the rest are radians or per-radian).
+    pub fn is_length(self) -> bool {
+        matches!(
+            self,
+            Param::BaseX | Param::BaseY | Param::BaseZ | Param::A(_) | Param::D(_) | Param::ToolX | Param::ToolY | Param::ToolZ
+        )
+    }
+
+    /// Scale that makes a unit step comparable to 1 mm at the tool: 1 for lengths, the robot's
+    /// reach (mm per rad) for angles and effect values.
+    pub fn scale<T: Real>(self, reach: T) -> T {
+        if self.is_length() { T::one() } else { reach }
+    }
+
+    /// Joint the parameter belongs to (0-based), if any.
+    pub fn joint(self) -> Option<usize> {
+        match self {
+            Param::Alpha(i) | Param::A(i) | Param::Theta(i) | Param::D(i) | Param::Beta(i) => Some(i as usize),
+            _ => None,
+        }
+    }
+
+    /// A displayable name (`d2`, `base.rz`, `joint-table3[12]`); effect names need the robot.
+    pub fn name<'a, T: Real, const N: usize, const V: usize>(self, robot: &'a Robot<T, N, V>) -> ParamName<'a, T, N, V> {
+        ParamName { p: self, robot: Some(robot) }
+    }
+
+    /// Parses a name written by [`Param::name`] for geometric parameters (not effects).
+    pub fn parse(s: &str) -> Option<Param> {
+        Some(match s {
+            "base.x" => Param::BaseX,
+            "base.y" => Param::BaseY,
+            "base.z" => Param::BaseZ,
+            "base.rx" => Param::BaseRx,
+            "base.ry" => Param::BaseRy,
+            "base.rz" => Param::BaseRz,
+            "tool.x" => Param::ToolX,
+            "tool.y" => Param::ToolY,
+            "tool.z" => Param::ToolZ,
+            _ => {
+                let split = s.find(|c: char| c.is_ascii_digit())?;
+                let (head, num) = s.split_at(split);
+                let i: u8 = num.parse().ok()?;
+                if i == 0 {
+                    return None;
+                }
+                let i = i - 1;
+                match head {
+                    "alpha" => Param::Alpha(i),
+                    "a" => Param::A(i),
+                    "theta" => Param::Theta(i),
+                    "d" => Param::D(i),
+                    "beta" => Param::Beta(i),
+                    _ => return None,
+                }
+            }
+        })
+    }
+}
+
+/// [`fmt::Display`] of a parameter's name.
+#[derive(Debug)]
+pub struct ParamName<'a, T: Real, const N: usize, const V: usize> {
+    p: Param,
+    robot: Option<&'a Robot<T, N, V>>,
+}
+
+impl<T: Real, const N: usize, const V: usize> fmt::Display for ParamName<'_, T, N, V> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.p {
+            Param::BaseX => f.write_str("base.x"),
+            Param::BaseY => f.write_str("base.y"),
+            Param::BaseZ => f.write_str("base.z"),
+            Param::BaseRx => f.write_str("base.rx"),
+            Param::BaseRy => f.write_str("base.ry"),
+            Param::BaseRz => f.write_str("base.rz"),
+            Param::Alpha(i) => write!(f, "alpha{}", i + 1),
+            Param::A(i) => write!(f, "a{}", i + 1),
+            Param::Theta(i) => write!(f, "theta{}", i + 1),
+            Param::D(i) => write!(f, "d{}", i + 1),
+            Param::Beta(i) => write!(f, "beta{}", i + 1),
+            Param::ToolX => f.write_str("tool.x"),
+            Param::ToolY => f.write_str("tool.y"),
+            Param::ToolZ => f.write_str("tool.z"),
+            Param::Effect(k) => {
+                let k = k as usize;
+                let eff = self.robot.and_then(|r| r.effects().iter().find(|e| (e.first as usize) <= k && k < (e.first + e.len) as usize));
+                match eff {
+                    None => write!(f, "effect[{k}]"),
+                    Some(e) => {
+                        let i = k - e.first as usize;
+                        let j = e.joint + 1;
+                        match e.kind {
+                            EffectKind::Cyclic => write!(f, "joint-cyclic{j}.n{}.{}", e.order, if i == 0 { 'a' } else { 'b' }),
+                            EffectKind::Table => write!(f, "joint-table{j}[{i}]"),
+                            kind => write!(f, "{}{j}", kind.id()),
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Why a parameter set or update was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ParamError {
+    /// More parameters than the set's capacity.
+    Capacity,
+    /// A parameter refers to a joint or effect value the robot does not have.
+    OutOfRange,
+    /// The update vector's length differs from the set's, or holds NaN/inf.
+    Shape,
+}
+
+/// An ordered set of at most `P` parameters: the columns being identified.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct ParamSet<const P: usize> {
+    items: Vec<Param, P>,
+}
+
+impl<const P: usize> ParamSet<P> {
+    pub fn new() -> Self {
+        Self { items: Vec::new() }
+    }
+    pub fn as_slice(&self) -> &[Param] {
+        &self.items
+    }
+    pub fn len(&self) -> usize {
+        self.items.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.items.is_empty()
+    }
+    pub fn contains(&self, p: Param) -> bool {
+        self.items.contains(&p)
+    }
+    pub fn position(&self, p: Param) -> Option<usize> {
+        self.items.iter().position(|x| *x == p)
+    }
+    /// Adds a parameter (ignored if already present).
+    pub fn push(&mut self, p: Param) -> Result<(), ParamError> {
+        if self.contains(p) {
+            return Ok(());
+        }
+        self.items.push(p).map_err(|_| ParamError::Capacity)
+    }
+    /// Removes a parameter, keeping the order of the rest.
+    pub fn remove(&mut self, p: Param) {
+        if let Some(i) = self.position(p) {
+            self.items.remove(i);
+        }
+    }
+
+    /// The BPNN-PSO paper's 24-style set: alpha, a, theta, d of every joint (base and tool fixed).
+    pub fn mdh(n: usize) -> Result<Self, ParamError> {
+        let mut s = Self::new();
+        for i in 0..n as u8 {
+            for p in [Param::Alpha(i), Param::A(i), Param::Theta(i), Param::D(i)] {
+                s.push(p)?;
+            }
+        }
+        Ok(s)
+    }
+
+    /// The default full set: base pose (when `base_unknown`), alpha, a, theta, d per joint, tool.
+    pub fn full(n: usize, base_unknown: bool) -> Result<Self, ParamError> {
+        let mut s = Self::new();
+        if base_unknown {
+            for p in [Param::BaseX, Param::BaseY, Param::BaseZ, Param::BaseRx, Param::BaseRy, Param::BaseRz] {
+                s.push(p)?;
+            }
+        }
+        for p in Self::mdh(n)?.as_slice() {
+            s.push(*p)?;
+        }
+        for p in [Param::ToolX, Param::ToolY, Param::ToolZ] {
+            s.push(p)?;
+        }
+        Ok(s)
+    }
+
+    /// Adds every value of every effect of `robot`.
+    pub fn with_effects<T: Real, const N: usize, const V: usize>(mut self, robot: &Robot<T, N, V>) -> Result<Self, ParamError> {
+        for k in 0..robot.effects().values().len() {
+            self.push(Param::Effect(k as u16))?;
+        }
+        Ok(self)
+    }
+
+    /// Checks that every parameter exists in `robot`.
+    pub fn check<T: Real, const N: usize, const V: usize>(&self, robot: &Robot<T, N, V>) -> Result<(), ParamError> {
+        let nv = robot.effects().values().len();
+        for p in self.items.iter() {
+            let ok = match *p {
+                Param::Effect(k) => (k as usize) < nv,
+                p => p.joint().is_none_or(|j| j < N),
+            };
+            if !ok {
+                return Err(ParamError::OutOfRange);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Value of a parameter in `robot` (rad or mm; the base rotation as fixed-axis roll/pitch/yaw).
+pub fn value<T: Real, const N: usize, const V: usize>(robot: &Robot<T, N, V>, p: Param) -> Option<T> {
+    let j = |i: u8| robot.joint(i as usize);
+    Some(match p {
+        Param::BaseX => robot.base().o.x,
+        Param::BaseY => robot.base().o.y,
+        Param::BaseZ => robot.base().o.z,
+        Param::BaseRx => robot.base().rpy()[0],
+        Param::BaseRy => robot.base().rpy()[1],
+        Param::BaseRz => robot.base().rpy()[2],
+        Param::Alpha(i) => j(i)?.alpha,
+        Param::A(i) => j(i)?.a,
+        Param::Theta(i) => j(i)?.theta,
+        Param::D(i) => j(i)?.d,
+        Param::Beta(i) => j(i)?.beta,
+        Param::ToolX => robot.tool().x,
+        Param::ToolY => robot.tool().y,
+        Param::ToolZ => robot.tool().z,
+        Param::Effect(k) => *robot.effects().values().get(k as usize)?,
+    })
+}
+
+/// Applies an update `delta` (one entry per parameter of `set`) to `robot`: lengths and angles
+/// are added, the base rotation entries form a rotation vector applied about the base origin.
+/// On error the robot is unchanged.
+pub fn apply_delta<T: Real, const N: usize, const V: usize, const P: usize>(
+    robot: &mut Robot<T, N, V>,
+    set: &ParamSet<P>,
+    delta: &[T],
+) -> Result<(), ParamError> {
+    if delta.len() != set.len() || delta.iter().any(|d| !d.finite()) {
+        return Err(ParamError::Shape);
+    }
+    set.check(robot)?;
+    let mut w = Vector3::zeros();
+    let mut dt = Vector3::zeros();
+    {
+        let (base, joints, tool, effects) = robot.parts_mut();
+        for (p, d) in set.as_slice().iter().zip(delta) {
+            let d = *d;
+            match *p {
+                Param::BaseX => dt.x += d,
+                Param::BaseY => dt.y += d,
+                Param::BaseZ => dt.z += d,
+                Param::BaseRx => w.x += d,
+                Param::BaseRy => w.y += d,
+                Param::BaseRz => w.z += d,
+                Param::Alpha(i) => joints[i as usize].alpha += d,
+                Param::A(i) => joints[i as usize].a += d,
+                Param::Theta(i) => joints[i as usize].theta += d,
+                Param::D(i) => joints[i as usize].d += d,
+                Param::Beta(i) => joints[i as usize].beta += d,
+                Param::ToolX => tool.x += d,
+                Param::ToolY => tool.y += d,
+                Param::ToolZ => tool.z += d,
+                Param::Effect(k) => effects.values_mut()[k as usize] += d,
+            }
+        }
+        base.o += dt;
+        base.rotate_in_parent(&w);
+    }
+    robot.refresh();
+    Ok(())
+}

@@ -1,0 +1,210 @@
+//! The constant robot description: base pose, MDH rows with tilt, tool point, joint corrections.
+//!
+//! This is the *model* (read-mostly); per-evaluation scratch lives in
+//! [`crate::ForwardKinematics`]. The constant trigonometry of every row (`alpha`, `beta`) is
+//! cached here, so it is paid once per parameter change, not once per pose.
+
+use crate::effects::Effects;
+use crate::{Frame, Real};
+use nalgebra::Vector3;
+
+/// One joint's modified Denavit–Hartenberg row (Craig) plus the Hayati tilt `beta`:
+/// `T_i(q) = Rx(alpha)·Tx(a)·Ry(beta)·Rz(theta + q)·Tz(d)`. Angles in rad, lengths in mm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Joint<T: Real> {
+    pub alpha: T,
+    pub a: T,
+    pub theta: T,
+    pub d: T,
+    pub beta: T,
+    /// Joint limits (rad), `lower < upper`.
+    pub lower: T,
+    pub upper: T,
+}
+
+impl<T: Real> Joint<T> {
+    /// A row with no tilt and limits of ±180°.
+    pub fn mdh(alpha: T, a: T, theta: T, d: T) -> Self {
+        Self { alpha, a, theta, d, beta: T::zero(), lower: -T::pi(), upper: T::pi() }
+    }
+
+    /// The same row with degrees for the angles (file and command-line units).
+    pub fn mdh_deg(alpha_deg: f64, a_mm: f64, theta_deg: f64, d_mm: f64) -> Self {
+        Self::mdh(T::of(alpha_deg.to_radians()), T::of(a_mm), T::of(theta_deg.to_radians()), T::of(d_mm))
+    }
+
+    fn valid(&self) -> bool {
+        [self.alpha, self.a, self.theta, self.d, self.beta, self.lower, self.upper].iter().all(|v| v.finite())
+            && self.lower < self.upper
+    }
+}
+
+/// Cached constant trigonometry of one row.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub(crate) struct RowTrig<T: Real> {
+    pub ca: T,
+    pub sa: T,
+    pub cb: T,
+    pub sb: T,
+    pub tilted: bool,
+}
+
+/// Why a robot description was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RobotError {
+    /// A parameter is NaN or infinite, or a joint's limits are not `lower < upper`.
+    NotFinite,
+}
+
+/// A serial robot with `N` revolute joints and room for `V` joint-correction values.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Robot<T: Real, const N: usize, const V: usize = 0> {
+    base: Frame<T>,
+    joints: [Joint<T>; N],
+    tool: Vector3<T>,
+    effects: Effects<T, V>,
+    trig: [RowTrig<T>; N],
+}
+
+impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
+    /// A robot from its base pose (measurement frame ← base), rows and tool point (flange frame).
+    pub fn new(base: Frame<T>, joints: [Joint<T>; N], tool: Vector3<T>) -> Result<Self, RobotError> {
+        let ok = joints.iter().all(Joint::valid)
+            && tool.iter().all(|v| v.finite())
+            && [base.x, base.y, base.z, base.o].iter().all(|v| v.iter().all(|c| c.finite()));
+        if !ok {
+            return Err(RobotError::NotFinite);
+        }
+        let mut r = Self { base, joints, tool, effects: Effects::default(), trig: [RowTrig::default(); N] };
+        r.refresh();
+        Ok(r)
+    }
+
+    /// Recomputes the cached trigonometry after a row changed.
+    pub(crate) fn refresh(&mut self) {
+        for (t, j) in self.trig.iter_mut().zip(self.joints.iter()) {
+            let (sa, ca) = j.alpha.sincos();
+            let (sb, cb) = j.beta.sincos();
+            *t = RowTrig { ca, sa, cb, sb, tilted: j.beta != T::zero() };
+        }
+    }
+
+    pub fn base(&self) -> &Frame<T> {
+        &self.base
+    }
+    pub fn joints(&self) -> &[Joint<T>; N] {
+        &self.joints
+    }
+    pub fn joint(&self, i: usize) -> Option<&Joint<T>> {
+        self.joints.get(i)
+    }
+    pub fn tool(&self) -> &Vector3<T> {
+        &self.tool
+    }
+    pub fn effects(&self) -> &Effects<T, V> {
+        &self.effects
+    }
+    pub(crate) fn trig(&self) -> &[RowTrig<T>; N] {
+        &self.trig
+    }
+
+    /// Replaces the base pose.
+    pub fn set_base(&mut self, base: Frame<T>) -> Result<(), RobotError> {
+        if ![base.x, base.y, base.z, base.o].iter().all(|v| v.iter().all(|c| c.finite())) {
+            return Err(RobotError::NotFinite);
+        }
+        self.base = base;
+        Ok(())
+    }
+
+    /// Replaces one row; on error the robot is unchanged.
+    pub fn set_joint(&mut self, i: usize, j: Joint<T>) -> Result<(), RobotError> {
+        if !j.valid() || i >= N {
+            return Err(RobotError::NotFinite);
+        }
+        self.joints[i] = j;
+        self.refresh();
+        Ok(())
+    }
+
+    /// Replaces the tool point.
+    pub fn set_tool(&mut self, tool: Vector3<T>) -> Result<(), RobotError> {
+        if !tool.iter().all(|v| v.finite()) {
+            return Err(RobotError::NotFinite);
+        }
+        self.tool = tool;
+        Ok(())
+    }
+
+    /// The effect list, to add corrections (see [`Effects::push`]).
+    pub fn effects_mut(&mut self) -> &mut Effects<T, V> {
+        &mut self.effects
+    }
+
+    pub(crate) fn parts_mut(&mut self) -> (&mut Frame<T>, &mut [Joint<T>; N], &mut Vector3<T>, &mut Effects<T, V>) {
+        (&mut self.base, &mut self.joints, &mut self.tool, &mut self.effects)
+    }
+
+    /// Sum of |a| + |d| over the rows plus the tool length: a length scale (mm) that makes
+    /// one radian of an angle parameter comparable to a millimetre of a length parameter.
+    pub fn reach(&self) -> T {
+        let mut s = self.tool.norm();
+        for j in self.joints.iter() {
+            s += j.a.abs() + j.d.abs();
+        }
+        if s > T::zero() { s } else { T::one() }
+    }
+
+    /// True when every reading is within its joint's limits.
+    pub fn within_limits(&self, q: &[T; N]) -> bool {
+        q.iter().zip(self.joints.iter()).all(|(q, j)| *q >= j.lower && *q <= j.upper)
+    }
+
+    /// The same robot in another scalar type (effects included).
+    pub fn cast<U: Real>(&self) -> Robot<U, N, V> {
+        let c = |x: T| U::of(x.to_f64());
+        let joints = self.joints.map(|j| Joint {
+            alpha: c(j.alpha),
+            a: c(j.a),
+            theta: c(j.theta),
+            d: c(j.d),
+            beta: c(j.beta),
+            lower: c(j.lower),
+            upper: c(j.upper),
+        });
+        let mut r = Robot {
+            base: self.base.cast(),
+            joints,
+            tool: Vector3::new(c(self.tool.x), c(self.tool.y), c(self.tool.z)),
+            effects: Effects::default(),
+            trig: [RowTrig::default(); N],
+        };
+        r.refresh();
+        for (i, e) in self.effects.iter().enumerate() {
+            let mut vals = [U::zero(); V];
+            let src = self.effects.values_of(i);
+            for (d, s) in vals.iter_mut().zip(src) {
+                *d = c(*s);
+            }
+            // Same capacity, same shapes: cannot fail.
+            let _ = r.effects.push(e.kind, e.joint as usize, N, e.order, c(e.start), c(e.step), &vals[..src.len()]);
+        }
+        r
+    }
+
+    /// The same geometry and effects with a different value capacity `W` (fails if too small).
+    pub fn with_capacity<const W: usize>(&self) -> Result<Robot<T, N, W>, crate::effects::EffectError> {
+        let mut r = Robot {
+            base: self.base,
+            joints: self.joints,
+            tool: self.tool,
+            effects: Effects::default(),
+            trig: self.trig,
+        };
+        for (i, e) in self.effects.iter().enumerate() {
+            r.effects.push(e.kind, e.joint as usize, N, e.order, e.start, e.step, self.effects.values_of(i))?;
+        }
+        Ok(r)
+    }
+}

@@ -31,6 +31,8 @@ enum Command {
     Compensate(cli::compensate::Args),
     /// Choose measurement poses (optimum experimental design).
     Plan(cli::plan::Args),
+    /// The planning study of Jost et al. 2017: KPI vs random vs D-optimal over 90 manipulators.
+    Study(cli::study::Args),
 }
 
 fn dispatch(cli: Cli) -> anyhow::Result<serde_json::Value> {
@@ -44,6 +46,7 @@ fn dispatch(cli: Cli) -> anyhow::Result<serde_json::Value> {
         Command::Frames(a) => cli::frames::run(a, j),
         Command::Compensate(a) => cli::compensate::run(a, j),
         Command::Plan(a) => cli::plan::run(a, j),
+        Command::Study(a) => cli::study::run(a, j),
     }
 }
 

@@ -8,3 +8,4 @@ pub mod diagnose;
 pub mod frames;
 pub mod compensate;
 pub mod plan;
+pub mod study;

@@ -1,1 +1,544 @@
-//! (placeholder: this module is being written)
+//! Streaming Levenberg–Marquardt identification with identifiability analysis.
+//!
+//! The normal equations `JᵀJ`, `Jᵀr` are accumulated one measurement at a time, so memory is
+//! `O(P²)` whatever the number of poses, and one [`Levenberg::step`] call processes at most a
+//! caller-chosen number of poses: firmware runs it in idle cycles, the desktop in one call.
+//!
+//! Parameters are scaled by [`Param::scale`] (angles × reach) so that a unit step moves the
+//! tool by about a millimetre whatever the parameter; Marquardt's diagonal damping with
+//! Nielsen's update of λ makes convergence from the nominal model reliable.
+//!
+//! **Identifiability.** On the first pass the scaled normal matrix is normalised to unit
+//! diagonal (a correlation matrix) and factored by rank-revealing Cholesky. Columns whose
+//! pivot falls below `rank_tolerance` are directions the data cannot determine (base z vs d1,
+//! theta of the last joint vs the tool, d of parallel axes, effect values no pose excites):
+//! they are reported by name and kept at their starting value instead of running off. A tiny
+//! ridge on the accumulated update keeps nearly dependent directions bounded as well.
+
+use crate::linalg::{cholesky, cholesky_solve, pivoted_cholesky, LinalgError, Square};
+use crate::param::{apply_delta, Param, ParamError, ParamSet};
+use crate::{ForwardKinematics, Measurement, Real, Robot};
+use nalgebra::Vector3;
+
+/// Settings of the solver; [`LmConfig::default`] suits laser-tracker data.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LmConfig<T: Real> {
+    /// Stop after this many accepted or rejected steps.
+    pub max_iterations: u32,
+    /// Stop when a step lowers the cost by less than this fraction.
+    pub cost_tolerance: T,
+    /// Stop when the scaled step is shorter than this (mm-equivalent).
+    pub step_tolerance: T,
+    /// Relative pivot below which a parameter direction counts as unidentifiable.
+    pub rank_tolerance: T,
+    /// Ridge on the accumulated scaled update, relative to the mean diagonal of `JᵀJ`.
+    pub ridge: T,
+    /// Initial damping relative to the diagonal.
+    pub initial_damping: T,
+}
+
+impl<T: Real> Default for LmConfig<T> {
+    fn default() -> Self {
+        Self {
+            max_iterations: 100,
+            cost_tolerance: T::of(1e-10).max(T::EPS * T::of(16.0)),
+            step_tolerance: T::of(1e-9).max(T::EPS * T::of(16.0)),
+            rank_tolerance: T::EPS.sqrt(),
+            ridge: T::of(1e-9).max(T::EPS),
+            initial_damping: T::of(1e-3),
+        }
+    }
+}
+
+/// Why the solver refused a call.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LmError {
+    /// No measurements, or fewer residuals than active parameters.
+    TooFewMeasurements,
+    /// The measurement slice changed length between calls.
+    DataChanged,
+    /// A measurement holds NaN or infinity.
+    NonFiniteMeasurement,
+    /// The parameter set does not fit the robot or the capacity.
+    Params(ParamError),
+}
+
+/// Why the solver stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LmStop {
+    /// The cost stopped decreasing (relative change below tolerance).
+    Converged,
+    /// The step became negligibly small.
+    SmallStep,
+    /// The iteration limit was reached.
+    MaxIterations,
+    /// No step could lower the cost even with very strong damping.
+    NoProgress,
+}
+
+/// Where a run stands after a [`Levenberg::step`] call.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LmProgress<T: Real> {
+    pub iteration: u32,
+    /// Full passes over all poses so far (model evaluations of all poses).
+    pub evaluations: u32,
+    /// Sum of squared residuals (mm²) at the current estimate (after the first pass).
+    pub cost: T,
+    /// `Some` once the run has finished.
+    pub stopped: Option<LmStop>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Phase {
+    /// Accumulating the normal equations at the current estimate.
+    Accumulate,
+    /// Solving the damped equations for a candidate.
+    Solve,
+    /// Evaluating the candidate's cost.
+    Evaluate,
+    Done(LmStop),
+}
+
+/// The Levenberg–Marquardt stepper for a robot with `N` joints, `V` effect values and at most
+/// `P` identified parameters.
+#[derive(Clone, Debug)]
+pub struct Levenberg<T: Real, const N: usize, const V: usize, const P: usize> {
+    cfg: LmConfig<T>,
+    robot: Robot<T, N, V>,
+    candidate: Robot<T, N, V>,
+    params: ParamSet<P>,
+    /// `active[k]`: parameter k is being estimated (false: unidentifiable, held).
+    active: [bool; P],
+    analysed: bool,
+    scale: [T; P],
+    /// Accumulated scaled update since the start (for the ridge).
+    total: [T; P],
+    jtj: Square<T, P>,
+    jtr: [T; P],
+    work: Square<T, P>,
+    step: [T; P],
+    cost: T,
+    acc_cost: T,
+    cand_cost: T,
+    lambda: T,
+    nu: T,
+    predicted: T,
+    next: usize,
+    n_poses: usize,
+    phase: Phase,
+    iteration: u32,
+    evaluations: u32,
+    fk: ForwardKinematics<T, N>,
+}
+
+impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V, P> {
+    /// A solver starting from `start`, estimating `params` (all must exist in the robot).
+    pub fn new(
+        start: Robot<T, N, V>,
+        params: ParamSet<P>,
+        cfg: LmConfig<T>,
+    ) -> Result<Self, LmError> {
+        params.check(&start).map_err(LmError::Params)?;
+        let reach = start.reach();
+        let mut scale = [T::one(); P];
+        for (s, p) in scale.iter_mut().zip(params.as_slice()) {
+            *s = p.scale(reach);
+        }
+        let mut active = [false; P];
+        for a in active.iter_mut().take(params.len()) {
+            *a = true;
+        }
+        Ok(Self {
+            cfg,
+            candidate: start.clone(),
+            robot: start,
+            params,
+            active,
+            analysed: false,
+            scale,
+            total: [T::zero(); P],
+            jtj: [[T::zero(); P]; P],
+            jtr: [T::zero(); P],
+            work: [[T::zero(); P]; P],
+            step: [T::zero(); P],
+            cost: T::zero(),
+            acc_cost: T::zero(),
+            cand_cost: T::zero(),
+            lambda: cfg.initial_damping,
+            nu: T::of(2.0),
+            predicted: T::zero(),
+            next: 0,
+            n_poses: 0,
+            phase: Phase::Accumulate,
+            iteration: 0,
+            evaluations: 0,
+            fk: ForwardKinematics::new(),
+        })
+    }
+
+    /// The current estimate.
+    pub fn robot(&self) -> &Robot<T, N, V> {
+        &self.robot
+    }
+    /// The requested parameter set.
+    pub fn params(&self) -> &ParamSet<P> {
+        &self.params
+    }
+    /// Parameters found unidentifiable (held at their start values); empty before the first pass.
+    pub fn unidentifiable(&self) -> impl Iterator<Item = Param> + '_ {
+        self.params
+            .as_slice()
+            .iter()
+            .zip(self.active.iter())
+            .filter(|(_, a)| !**a)
+            .map(|(p, _)| *p)
+    }
+    /// True once identifiability has been analysed (after the first full pass).
+    pub fn analysed(&self) -> bool {
+        self.analysed
+    }
+    pub fn progress(&self) -> LmProgress<T> {
+        LmProgress {
+            iteration: self.iteration,
+            evaluations: self.evaluations,
+            cost: self.cost,
+            stopped: match self.phase {
+                Phase::Done(s) => Some(s),
+                _ => None,
+            },
+        }
+    }
+
+    /// Does at most `budget` poses of work (a solve counts as one unit and ends the call) and
+    /// returns the progress. `data` must be the same slice on every call of a run.
+    pub fn step(
+        &mut self,
+        data: &[Measurement<T, N>],
+        budget: usize,
+    ) -> Result<LmProgress<T>, LmError> {
+        if self.n_poses == 0 {
+            if data.is_empty() || 3 * data.len() < self.params.len() {
+                return Err(LmError::TooFewMeasurements);
+            }
+            if data.iter().any(|m| !m.is_finite()) {
+                return Err(LmError::NonFiniteMeasurement);
+            }
+            self.n_poses = data.len();
+        } else if data.len() != self.n_poses {
+            return Err(LmError::DataChanged);
+        }
+        let mut left = budget;
+        while left > 0 {
+            match self.phase {
+                Phase::Done(_) => break,
+                Phase::Accumulate => {
+                    if self.next == 0 {
+                        self.clear_normal_equations();
+                    }
+                    while left > 0 && self.next < self.n_poses {
+                        self.accumulate(&data[self.next]);
+                        self.next += 1;
+                        left -= 1;
+                    }
+                    if self.next == self.n_poses {
+                        self.next = 0;
+                        self.evaluations += 1;
+                        self.cost = self.acc_cost;
+                        if !self.analysed {
+                            self.analyse();
+                        }
+                        self.phase = Phase::Solve;
+                    }
+                }
+                Phase::Solve => {
+                    self.solve();
+                    break;
+                }
+                Phase::Evaluate => {
+                    while left > 0 && self.next < self.n_poses {
+                        let m = &data[self.next];
+                        let r = m.point - self.fk.compute(&self.candidate, &m.q);
+                        self.cand_cost += r.norm_squared();
+                        self.next += 1;
+                        left -= 1;
+                    }
+                    if self.next == self.n_poses {
+                        self.next = 0;
+                        self.evaluations += 1;
+                        self.decide();
+                    }
+                }
+            }
+        }
+        Ok(self.progress())
+    }
+
+    /// Runs to the end in one call (desktop use).
+    pub fn run(&mut self, data: &[Measurement<T, N>]) -> Result<LmProgress<T>, LmError> {
+        loop {
+            let p = self.step(data, usize::MAX)?;
+            if p.stopped.is_some() {
+                return Ok(p);
+            }
+        }
+    }
+
+    fn clear_normal_equations(&mut self) {
+        let n = self.params.len();
+        for row in self.jtj.iter_mut().take(n) {
+            for v in row.iter_mut().take(n) {
+                *v = T::zero();
+            }
+        }
+        for v in self.jtr.iter_mut().take(n) {
+            *v = T::zero();
+        }
+        self.acc_cost = T::zero();
+    }
+
+    /// Adds one pose's residual and scaled Jacobian to the normal equations.
+    fn accumulate(&mut self, m: &Measurement<T, N>) {
+        let p = self.fk.compute(&self.robot, &m.q);
+        let r = m.point - p;
+        self.acc_cost += r.norm_squared();
+        let n = self.params.len();
+        // Only the columns this pose excites (tables touch two knots of many): the update then
+        // costs O(k²) for k non-zero columns instead of O(P²).
+        let mut cols = [Vector3::zeros(); P];
+        let mut nz = [0usize; P];
+        let mut k_nz = 0;
+        for k in 0..n {
+            if !self.active[k] {
+                continue;
+            }
+            // Parameters were checked against the robot at construction: a column always exists.
+            let c = self
+                .fk
+                .column(&self.robot, self.params.as_slice()[k])
+                .unwrap_or_else(|_| Vector3::zeros())
+                / self.scale[k];
+            if c.x != T::zero() || c.y != T::zero() || c.z != T::zero() {
+                cols[k_nz] = c;
+                nz[k_nz] = k;
+                k_nz += 1;
+            }
+        }
+        for a in 0..k_nz {
+            let i = nz[a];
+            let ci = cols[a];
+            self.jtr[i] += ci.dot(&r);
+            for b in 0..=a {
+                // nz is increasing, so nz[b] ≤ i: the lower triangle.
+                self.jtj[i][nz[b]] += ci.dot(&cols[b]);
+            }
+        }
+    }
+
+    /// Marks unidentifiable parameters using the first pass's normal matrix.
+    fn analyse(&mut self) {
+        let n = self.params.len();
+        let mut d = [T::zero(); P];
+        for (i, di) in d.iter_mut().enumerate().take(n) {
+            *di = self.jtj[i][i];
+        }
+        let dmax = d.iter().take(n).fold(T::zero(), |a, b| a.max(*b));
+        for i in 0..n {
+            for j in 0..=i {
+                let v = if d[i] > T::zero() && d[j] > T::zero() {
+                    self.jtj[i][j] / (d[i] * d[j]).sqrt()
+                } else {
+                    T::zero()
+                };
+                self.work[i][j] = v;
+                self.work[j][i] = v;
+            }
+        }
+        let mut order = [0usize; P];
+        let rank =
+            pivoted_cholesky(&mut self.work, n, &mut order, self.cfg.rank_tolerance).unwrap_or(0);
+        for a in self.active.iter_mut().take(n) {
+            *a = false;
+        }
+        for &k in order.iter().take(rank) {
+            // A column with no information at all (relative to the strongest) is dropped too.
+            if d[k] > dmax * T::EPS {
+                self.active[k] = true;
+            }
+        }
+        self.analysed = true;
+    }
+
+    /// Solves the damped normal equations for a candidate step.
+    fn solve(&mut self) {
+        let n = self.params.len();
+        // Compact the active parameters into the leading block of `work`.
+        let mut idx = [0usize; P];
+        let mut m = 0;
+        for k in 0..n {
+            if self.active[k] {
+                idx[m] = k;
+                m += 1;
+            }
+        }
+        if m == 0 {
+            self.phase = Phase::Done(LmStop::Converged);
+            return;
+        }
+        let mut mean_diag = T::zero();
+        for &k in idx.iter().take(m) {
+            mean_diag += self.jtj[k][k];
+        }
+        mean_diag /= T::of(m as f64);
+        let mu = self.cfg.ridge * mean_diag;
+        loop {
+            let mut g = [T::zero(); P];
+            for a in 0..m {
+                let ka = idx[a];
+                for b in 0..=a {
+                    let kb = idx[b];
+                    self.work[a][b] = self.jtj[ka][kb];
+                }
+                let diag = self.jtj[ka][ka];
+                self.work[a][a] = diag + self.lambda * diag.max(mean_diag * T::EPS) + mu;
+                g[a] = self.jtr[ka] - mu * self.total[ka];
+            }
+            let mut x = g;
+            let ok = cholesky(&mut self.work, m)
+                .and_then(|_| cholesky_solve(&self.work, m, &mut x[..m]));
+            match ok {
+                Ok(()) if x.iter().take(m).all(|v| v.finite()) => {
+                    // Predicted reduction of the (ridged) cost: xᵀ(2g − A x) = xᵀ(g + λ D x + … ).
+                    let mut pred = T::zero();
+                    for a in 0..m {
+                        let ka = idx[a];
+                        let diag = self.jtj[ka][ka];
+                        pred += x[a] * (g[a] + (self.lambda * diag.max(mean_diag * T::EPS)) * x[a]);
+                    }
+                    self.predicted = pred;
+                    for v in self.step.iter_mut() {
+                        *v = T::zero();
+                    }
+                    let mut norm2 = T::zero();
+                    for a in 0..m {
+                        self.step[idx[a]] = x[a];
+                        norm2 += x[a] * x[a];
+                    }
+                    if norm2.sqrt() < self.cfg.step_tolerance {
+                        self.phase = Phase::Done(LmStop::SmallStep);
+                        return;
+                    }
+                    // Unscale into parameter units and build the candidate.
+                    let mut delta = [T::zero(); P];
+                    for k in 0..n {
+                        delta[k] = self.step[k] / self.scale[k];
+                    }
+                    self.candidate.clone_from(&self.robot);
+                    if apply_delta(&mut self.candidate, &self.params, &delta[..n]).is_err() {
+                        self.reject();
+                        return;
+                    }
+                    self.cand_cost = T::zero();
+                    self.next = 0;
+                    self.phase = Phase::Evaluate;
+                    return;
+                }
+                Ok(()) | Err(LinalgError::NotPositiveDefinite) | Err(LinalgError::Size) => {
+                    // Not solvable at this damping: damp harder and retry, up to a limit.
+                    self.lambda *= T::of(10.0);
+                    if !(self.lambda < T::of(1e16)) {
+                        self.phase = Phase::Done(LmStop::NoProgress);
+                        return;
+                    }
+                }
+            }
+        }
+    }
+
+    fn reject(&mut self) {
+        self.lambda *= self.nu;
+        self.nu *= T::of(2.0);
+        self.iteration += 1;
+        if !(self.lambda < T::of(1e16)) {
+            self.phase = Phase::Done(LmStop::NoProgress);
+        } else if self.iteration >= self.cfg.max_iterations {
+            self.phase = Phase::Done(LmStop::MaxIterations);
+        } else {
+            self.phase = Phase::Solve;
+        }
+    }
+
+    /// Accepts or rejects the evaluated candidate (Nielsen's damping update).
+    fn decide(&mut self) {
+        let n = self.params.len();
+        let mu = {
+            let mut s = T::zero();
+            let mut m = 0;
+            for k in 0..n {
+                if self.active[k] {
+                    s += self.jtj[k][k];
+                    m += 1;
+                }
+            }
+            if m > 0 {
+                self.cfg.ridge * s / T::of(m as f64)
+            } else {
+                T::zero()
+            }
+        };
+        // Ridge terms of old and new cost.
+        let mut ridge_old = T::zero();
+        let mut ridge_new = T::zero();
+        for k in 0..n {
+            ridge_old += self.total[k] * self.total[k];
+            let t = self.total[k] + self.step[k];
+            ridge_new += t * t;
+        }
+        let old = self.cost + mu * ridge_old;
+        let new = self.cand_cost + mu * ridge_new;
+        let actual = old - new;
+        let rho = if self.predicted > T::zero() {
+            actual / self.predicted
+        } else {
+            -T::one()
+        };
+        if rho > T::zero() && new.finite() {
+            core::mem::swap(&mut self.robot, &mut self.candidate);
+            for k in 0..n {
+                self.total[k] += self.step[k];
+            }
+            let rel = actual / old.max(T::EPS);
+            self.cost = self.cand_cost;
+            let t = T::of(2.0) * rho - T::one();
+            self.lambda *= T::of(1.0 / 3.0).max(T::one() - t * t * t);
+            self.nu = T::of(2.0);
+            self.iteration += 1;
+            if rel < self.cfg.cost_tolerance {
+                self.phase = Phase::Done(LmStop::Converged);
+            } else if self.iteration >= self.cfg.max_iterations {
+                self.phase = Phase::Done(LmStop::MaxIterations);
+            } else {
+                self.phase = Phase::Accumulate;
+            }
+        } else {
+            self.reject();
+        }
+    }
+}
+
+/// Root-mean-square position error (mm) of `robot` over `data` (3-D distance per pose).
+pub fn rms_error<T: Real, const N: usize, const V: usize>(
+    robot: &Robot<T, N, V>,
+    data: &[Measurement<T, N>],
+) -> T {
+    if data.is_empty() {
+        return T::zero();
+    }
+    let mut fk = ForwardKinematics::new();
+    let mut s = T::zero();
+    for m in data {
+        s += (m.point - fk.compute(robot, &m.q)).norm_squared();
+    }
+    (s / T::of(data.len() as f64)).sqrt()
+}

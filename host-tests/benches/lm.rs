@@ -1,2 +1,103 @@
-//! Placeholder bench (being written).
-fn main() {}
+//! Full Levenberg–Marquardt solves (50 poses, 10 µm noise, geometry errors of the paper's kind):
+//! the 24-parameter MDH set and the full set (+ tool), in f64 and f32.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use kinecal::lm::{Levenberg, LmConfig};
+use kinecal::param::{apply_delta, ParamSet};
+use kinecal::{ForwardKinematics, Frame, Joint, Measurement, Real, Robot};
+use nalgebra::Vector3;
+use rand::{RngExt, SeedableRng};
+use rand_distr::{Distribution, Normal};
+use rand_xoshiro::Xoshiro256PlusPlus;
+use std::hint::black_box;
+
+fn er20() -> Robot<f64, 6, 0> {
+    let rows = [
+        (0.0, 0.0, 0.0, 504.0),
+        (-90.0, 170.0, -90.0, 0.0),
+        (0.0, 780.0, 0.0, 0.0),
+        (-90.0, 140.0, 0.0, 760.0),
+        (90.0, 0.0, 0.0, 0.0),
+        (-90.0, 0.0, 0.0, 125.0),
+    ];
+    Robot::new(
+        Frame::identity(),
+        rows.map(|(al, a, th, d)| Joint::mdh_deg(al, a, th, d)),
+        Vector3::new(0.0, 0.0, 100.0),
+    )
+    .unwrap()
+}
+
+fn data() -> (Robot<f64, 6, 0>, Vec<Measurement<f64, 6>>) {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(1);
+    let nominal = er20();
+    let mut truth = nominal.clone();
+    let set = ParamSet::<64>::full(6, false).unwrap();
+    let d: Vec<f64> = set
+        .as_slice()
+        .iter()
+        .map(|p| {
+            if p.is_length() {
+                rng.random_range(-1.0..1.0)
+            } else {
+                rng.random_range(-0.2f64..0.2).to_radians()
+            }
+        })
+        .collect();
+    apply_delta(&mut truth, &set, &d).unwrap();
+    let noise = Normal::new(0.0, 0.01).unwrap();
+    let mut fk = ForwardKinematics::new();
+    let ms = (0..50)
+        .map(|_| {
+            let q: [f64; 6] =
+                core::array::from_fn(|_| rng.random_range(-170f64..170.0).to_radians());
+            let p = fk.compute(&truth, &q)
+                + Vector3::new(
+                    noise.sample(&mut rng),
+                    noise.sample(&mut rng),
+                    noise.sample(&mut rng),
+                );
+            Measurement { q, point: p }
+        })
+        .collect();
+    (nominal, ms)
+}
+
+fn solve<T: Real, const P: usize>(
+    nominal: &Robot<T, 6, 0>,
+    set: &ParamSet<P>,
+    data: &[Measurement<T, 6>],
+) -> T {
+    let mut lm =
+        Levenberg::<T, 6, 0, P>::new(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
+    lm.run(data).unwrap().cost
+}
+
+fn bench(c: &mut Criterion) {
+    let (nominal, ms) = data();
+    let nominal32 = nominal.cast::<f32>();
+    let ms32: Vec<Measurement<f32, 6>> = ms
+        .iter()
+        .map(|m| Measurement {
+            q: m.q.map(|v| v as f32),
+            point: m.point.cast(),
+        })
+        .collect();
+    let mdh = ParamSet::<24>::mdh(6).unwrap();
+    let full = ParamSet::<27>::full(6, false).unwrap();
+    c.bench_function("lm_solve_24_f64_50poses", |b| {
+        b.iter(|| black_box(solve(&nominal, &mdh, &ms)))
+    });
+    c.bench_function("lm_solve_full_f64_50poses", |b| {
+        b.iter(|| black_box(solve(&nominal, &full, &ms)))
+    });
+    c.bench_function("lm_solve_24_f32_50poses", |b| {
+        b.iter(|| black_box(solve(&nominal32, &mdh, &ms32)))
+    });
+    c.bench_function("lm_solve_full_f32_50poses", |b| {
+        b.iter(|| black_box(solve(&nominal32, &full, &ms32)))
+    });
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

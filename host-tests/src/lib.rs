@@ -2,6 +2,7 @@
 //! an independent `f64` reference implementation for cross-checks, and the `kinecal` command line.
 
 pub mod cli;
+pub mod identify;
 
 /// Effect-value capacity of host-side models: room for per-joint tables on every joint.
 pub const VCAP: usize = 2048;

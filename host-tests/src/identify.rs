@@ -1,0 +1,172 @@
+//! Identification on the desktop: split the data, start the base, run a method, report errors
+//! before and after in the units and keys of interfaces.md §4.
+
+use kinecal::lm::{Levenberg, LmConfig};
+use kinecal::param::{value, Param, ParamSet};
+use kinecal::{ForwardKinematics, Measurement, Robot};
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Largest parameter count the desktop solver handles (geometry + effect values).
+pub const PCAP: usize = 640;
+
+/// Position errors of a model over one data set.
+#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+pub struct ErrorStats {
+    pub rms_mm: f64,
+    pub mean_mm: f64,
+    pub max_mm: f64,
+}
+
+impl ErrorStats {
+    pub fn of(errors: &[f64]) -> Option<Self> {
+        if errors.is_empty() {
+            return None;
+        }
+        let n = errors.len() as f64;
+        Some(Self {
+            rms_mm: (errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt(),
+            mean_mm: errors.iter().sum::<f64>() / n,
+            max_mm: errors.iter().cloned().fold(0.0, f64::max),
+        })
+    }
+}
+
+/// Per-pose 3-D position errors (mm) of `robot` on `data`.
+pub fn pose_errors<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    data: &[Measurement<f64, N>],
+) -> Vec<f64> {
+    let mut fk = ForwardKinematics::new();
+    data.iter()
+        .map(|m| (m.point - fk.compute(robot, &m.q)).norm())
+        .collect()
+}
+
+/// The `before`/`after` object of the identify report.
+#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+pub struct Residuals {
+    pub identification_rms_mm: f64,
+    pub validation_rms_mm: Option<f64>,
+    pub validation_mean_mm: Option<f64>,
+    pub validation_max_mm: Option<f64>,
+}
+
+impl Residuals {
+    pub fn of<const N: usize, const V: usize>(
+        robot: &Robot<f64, N, V>,
+        ident: &[Measurement<f64, N>],
+        valid: &[Measurement<f64, N>],
+    ) -> Self {
+        let i = ErrorStats::of(&pose_errors(robot, ident));
+        let v = ErrorStats::of(&pose_errors(robot, valid));
+        Self {
+            identification_rms_mm: i.map_or(0.0, |s| s.rms_mm),
+            validation_rms_mm: v.map(|s| s.rms_mm),
+            validation_mean_mm: v.map(|s| s.mean_mm),
+            validation_max_mm: v.map(|s| s.max_mm),
+        }
+    }
+}
+
+/// Splits poses into identification and held-out sets: `holdout` < 1 is the held-out fraction,
+/// ≥ 1 the held-out count; the held-out poses are the last ones of the file (measurement order,
+/// so a drift over the session shows up as a validation error instead of being averaged away).
+pub fn split_holdout<T: Clone>(all: &[T], holdout: f64) -> anyhow::Result<(Vec<T>, Vec<T>)> {
+    let n = all.len();
+    let k = if holdout < 1.0 {
+        (holdout * n as f64).round() as usize
+    } else {
+        holdout as usize
+    };
+    anyhow::ensure!(
+        holdout >= 0.0 && holdout.is_finite() && k < n,
+        "--holdout {holdout} leaves no poses to identify from ({n} poses)"
+    );
+    Ok((all[..n - k].to_vec(), all[n - k..].to_vec()))
+}
+
+/// Named parameter values in file units (degrees for angles, mm for lengths, raw for effects).
+pub fn named_values<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    params: &[Param],
+) -> BTreeMap<String, f64> {
+    params
+        .iter()
+        .filter_map(|p| {
+            let v = value(robot, *p)?;
+            let v = match p {
+                Param::Effect(_) => v,
+                p if p.is_length() => v,
+                _ => v.to_degrees(),
+            };
+            Some((p.name(robot).to_string(), v))
+        })
+        .collect()
+}
+
+/// Outcome of one identification run.
+#[derive(Clone, Debug)]
+pub struct Fit<const N: usize, const V: usize> {
+    pub robot: Robot<f64, N, V>,
+    pub iterations: u32,
+    pub evaluations: u64,
+    pub unidentifiable: Vec<String>,
+    /// Best objective value (sum of squared errors, mm²) per iteration, when the method has one.
+    pub history: Vec<f64>,
+}
+
+/// Levenberg–Marquardt from `start` over `params`. Small sets run with a small fixed capacity
+/// (cheap to set up); large ones (effect tables) with [`PCAP`], whose normal equations live on
+/// the stack: that needs a big stack (the `kinecal` binary provides one).
+pub fn fit_lm<const N: usize, const V: usize>(
+    start: &Robot<f64, N, V>,
+    params: &[Param],
+    data: &[Measurement<f64, N>],
+    cfg: LmConfig<f64>,
+) -> anyhow::Result<Fit<N, V>> {
+    if params.len() <= 64 {
+        fit_lm_with::<N, V, 64>(start, params, data, cfg)
+    } else {
+        fit_lm_with::<N, V, PCAP>(start, params, data, cfg)
+    }
+}
+
+fn fit_lm_with<const N: usize, const V: usize, const P: usize>(
+    start: &Robot<f64, N, V>,
+    params: &[Param],
+    data: &[Measurement<f64, N>],
+    cfg: LmConfig<f64>,
+) -> anyhow::Result<Fit<N, V>> {
+    let mut set = ParamSet::<P>::new();
+    for p in params {
+        set.push(*p)
+            .map_err(|_| anyhow::anyhow!("more than {P} parameters to identify"))?;
+    }
+    let mut lm = Box::new(
+        Levenberg::<f64, N, V, P>::new(start.clone(), set, cfg)
+            .map_err(|e| anyhow::anyhow!("identification setup: {e:?}"))?,
+    );
+    let mut history = Vec::new();
+    let p = loop {
+        let p = lm
+            .step(data, usize::MAX)
+            .map_err(|e| anyhow::anyhow!("identification: {e:?}"))?;
+        if lm.analysed() && history.last() != Some(&p.cost) {
+            history.push(p.cost);
+        }
+        if p.stopped.is_some() {
+            break p;
+        }
+    };
+    Ok(Fit {
+        robot: lm.robot().clone(),
+        iterations: p.iteration,
+        evaluations: p.evaluations as u64,
+        unidentifiable: lm
+            .unidentifiable()
+            .map(|q| q.name(lm.robot()).to_string())
+            .collect(),
+        history,
+    })
+}

@@ -72,12 +72,18 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     }
 
     fn chain<const V: usize>(&mut self, robot: &Robot<T, N, V>, q: &[T; N]) {
+        // Origins are accumulated relative to the base origin and shifted once at the end:
+        // with the robot metres away from the tracker, summing in absolute coordinates
+        // rounds every step at the large magnitude (f32: 1.1 µm worst case at 3 m, vs 0.7 µm).
+        let b = robot.base().o;
         let mut f = *robot.base();
+        f.o = Vector3::zeros();
         for i in 0..N {
             f = advance(&f, &robot.joints()[i], &robot.trig()[i], q[i]);
             self.frames[i] = f;
+            self.frames[i].o += b;
         }
-        self.point = if N > 0 { f.point(robot.tool()) } else { robot.base().o };
+        self.point = if N > 0 { f.point(robot.tool()) + b } else { b };
     }
 
     /// Evaluates the chain at joint readings `q` and returns the measured point.

@@ -1,0 +1,423 @@
+//! An independent `f64` reference of interfaces.md §1–2, written plainly from the formulas
+//! with 4×4 homogeneous matrices, and its derivatives by central differences.
+//!
+//! It shares nothing with the library's kinematics (no `Frame`, no cached trigonometry, no
+//! analytic Jacobian): the cross-check tests compare the two. Slow on purpose.
+
+use crate::robot_file::{RobotFile, AXIS_TILT};
+use kinecal::effects::EffectKind;
+use kinecal::param::Param;
+use kinecal::Robot;
+use nalgebra::{Matrix3, Matrix4, Rotation3, Vector3, Vector4};
+
+/// One MDH row with tilt (rad, mm).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RefJoint {
+    pub alpha: f64,
+    pub a: f64,
+    pub theta: f64,
+    pub d: f64,
+    pub beta: f64,
+}
+
+/// A joint correction of interfaces.md §2 (`joint` 0-based, values in rad / rad per m).
+#[derive(Clone, Debug, PartialEq)]
+pub enum RefEffect {
+    Scale {
+        joint: usize,
+        s: f64,
+    },
+    Cyclic {
+        joint: usize,
+        order: u32,
+        a: f64,
+        b: f64,
+    },
+    Compliance {
+        joint: usize,
+        k: f64,
+    },
+    Table {
+        joint: usize,
+        start: f64,
+        step: f64,
+        knots: Vec<f64>,
+    },
+}
+
+impl RefEffect {
+    fn values_mut(&mut self) -> Vec<&mut f64> {
+        match self {
+            RefEffect::Scale { s, .. } => vec![s],
+            RefEffect::Cyclic { a, b, .. } => vec![a, b],
+            RefEffect::Compliance { k, .. } => vec![k],
+            RefEffect::Table { knots, .. } => knots.iter_mut().collect(),
+        }
+    }
+}
+
+/// The reference robot: `p = B·T_1(q_1)…T_N(q_N)·tool`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RefRobot {
+    /// Base pose in the measurement frame.
+    pub base: Matrix4<f64>,
+    pub joints: Vec<RefJoint>,
+    pub tool: Vector3<f64>,
+    /// In the order of the library's effect list (its value numbering follows this order).
+    pub effects: Vec<RefEffect>,
+}
+
+/// Rotation about x by `t` (homogeneous).
+pub fn rx(t: f64) -> Matrix4<f64> {
+    let (s, c) = t.sin_cos();
+    Matrix4::new(
+        1.0, 0.0, 0.0, 0.0, 0.0, c, -s, 0.0, 0.0, s, c, 0.0, 0.0, 0.0, 0.0, 1.0,
+    )
+}
+/// Rotation about y by `t`.
+pub fn ry(t: f64) -> Matrix4<f64> {
+    let (s, c) = t.sin_cos();
+    Matrix4::new(
+        c, 0.0, s, 0.0, 0.0, 1.0, 0.0, 0.0, -s, 0.0, c, 0.0, 0.0, 0.0, 0.0, 1.0,
+    )
+}
+/// Rotation about z by `t`.
+pub fn rz(t: f64) -> Matrix4<f64> {
+    let (s, c) = t.sin_cos();
+    Matrix4::new(
+        c, -s, 0.0, 0.0, s, c, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+    )
+}
+/// Translation along x by `a`.
+pub fn tx(a: f64) -> Matrix4<f64> {
+    let mut m = Matrix4::identity();
+    m[(0, 3)] = a;
+    m
+}
+/// Translation along z by `d`.
+pub fn tz(d: f64) -> Matrix4<f64> {
+    let mut m = Matrix4::identity();
+    m[(2, 3)] = d;
+    m
+}
+
+/// Homogeneous pose from a translation and fixed-axis roll, pitch, yaw (rad):
+/// `R = Rz(yaw)·Ry(pitch)·Rx(roll)`.
+pub fn pose_xyz_rpy(xyz: [f64; 3], rpy: [f64; 3]) -> Matrix4<f64> {
+    let mut m = rz(rpy[2]) * ry(rpy[1]) * rx(rpy[0]);
+    m[(0, 3)] = xyz[0];
+    m[(1, 3)] = xyz[1];
+    m[(2, 3)] = xyz[2];
+    m
+}
+
+/// Piecewise-linear interpolation through `knots` at `start + k·step`, constant beyond the ends.
+pub fn table_value(start: f64, step: f64, knots: &[f64], q: f64) -> f64 {
+    let n = knots.len();
+    if n == 0 {
+        return 0.0;
+    }
+    if q <= start {
+        return knots[0];
+    }
+    let last = start + step * (n - 1) as f64;
+    if q >= last {
+        return knots[n - 1];
+    }
+    for k in 0..n - 1 {
+        let lo = start + step * k as f64;
+        let hi = start + step * (k + 1) as f64;
+        if q >= lo && q <= hi {
+            let w = (q - lo) / step;
+            return knots[k] * (1.0 - w) + knots[k + 1] * w;
+        }
+    }
+    knots[n - 1]
+}
+
+fn translation(m: &Matrix4<f64>) -> Vector3<f64> {
+    Vector3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)])
+}
+
+impl RefRobot {
+    /// From a robot file, independently of the library's conversion (degrees → radians here,
+    /// tables starting at the joint's lower limit unless `start_deg` is given).
+    pub fn from_file(f: &RobotFile) -> RefRobot {
+        let mut joints: Vec<RefJoint> = f
+            .joints
+            .iter()
+            .map(|j| RefJoint {
+                alpha: j.alpha_deg.to_radians(),
+                a: j.a_mm,
+                theta: j.theta_deg.to_radians(),
+                d: j.d_mm,
+                beta: j.beta_deg.unwrap_or(0.0).to_radians(),
+            })
+            .collect();
+        let base = match &f.base {
+            Some(b) => pose_xyz_rpy(b.xyz_mm, b.rpy_deg.map(f64::to_radians)),
+            None => Matrix4::identity(),
+        };
+        let mut effects = Vec::new();
+        for e in &f.effects {
+            let j = e.joint - 1;
+            match e.kind.as_str() {
+                AXIS_TILT => {
+                    if let Some(b) = e.values.first() {
+                        joints[j].beta = *b;
+                    }
+                }
+                "joint-scale" => effects.push(RefEffect::Scale {
+                    joint: j,
+                    s: e.values[0],
+                }),
+                "joint-compliance" => effects.push(RefEffect::Compliance {
+                    joint: j,
+                    k: e.values[0],
+                }),
+                "joint-cyclic" => effects.push(RefEffect::Cyclic {
+                    joint: j,
+                    order: e.order.unwrap_or(1) as u32,
+                    a: e.values[0],
+                    b: e.values[1],
+                }),
+                "joint-table" => effects.push(RefEffect::Table {
+                    joint: j,
+                    start: e.start_deg.unwrap_or(f.limits_deg(j)[0]).to_radians(),
+                    step: e.step_deg.unwrap_or(1.0).to_radians(),
+                    knots: e.values.clone(),
+                }),
+                _ => {}
+            }
+        }
+        RefRobot {
+            base,
+            joints,
+            tool: Vector3::from(f.tool.xyz_mm),
+            effects,
+        }
+    }
+
+    /// Copies the numbers of a library model (nothing else is shared).
+    pub fn from_robot<const N: usize, const V: usize>(r: &Robot<f64, N, V>) -> RefRobot {
+        let b = r.base();
+        let mut base = Matrix4::identity();
+        for (c, v) in [b.x, b.y, b.z, b.o].iter().enumerate() {
+            for row in 0..3 {
+                base[(row, c)] = v[row];
+            }
+        }
+        let joints = r
+            .joints()
+            .iter()
+            .map(|j| RefJoint {
+                alpha: j.alpha,
+                a: j.a,
+                theta: j.theta,
+                d: j.d,
+                beta: j.beta,
+            })
+            .collect();
+        let effects = r
+            .effects()
+            .iter()
+            .enumerate()
+            .map(|(i, e)| {
+                let v = r.effects().values_of(i);
+                let joint = e.joint as usize;
+                match e.kind {
+                    EffectKind::Scale => RefEffect::Scale { joint, s: v[0] },
+                    EffectKind::Cyclic => RefEffect::Cyclic {
+                        joint,
+                        order: e.order as u32,
+                        a: v[0],
+                        b: v[1],
+                    },
+                    EffectKind::Compliance => RefEffect::Compliance { joint, k: v[0] },
+                    EffectKind::Table => RefEffect::Table {
+                        joint,
+                        start: e.start,
+                        step: e.step,
+                        knots: v.to_vec(),
+                    },
+                }
+            })
+            .collect();
+        RefRobot {
+            base,
+            joints,
+            tool: *r.tool(),
+            effects,
+        }
+    }
+
+    /// `T_i(q) = Rx(alpha)·Tx(a)·Ry(beta)·Rz(theta + q)·Tz(d)`.
+    pub fn link(&self, i: usize, q: f64) -> Matrix4<f64> {
+        let j = &self.joints[i];
+        rx(j.alpha) * tx(j.a) * ry(j.beta) * rz(j.theta + q) * tz(j.d)
+    }
+
+    /// Joint frames `T_1…T_i` in the robot base frame (no `B`), at the given geometric angles.
+    pub fn frames_in_base(&self, q: &[f64]) -> Vec<Matrix4<f64>> {
+        let mut t = Matrix4::identity();
+        (0..self.joints.len())
+            .map(|i| {
+                t *= self.link(i, q[i]);
+                t
+            })
+            .collect()
+    }
+
+    /// The point in the robot base frame at the given geometric angles (no corrections).
+    fn point_in_base(&self, q: &[f64]) -> Vector3<f64> {
+        let frames = self.frames_in_base(q);
+        let last = frames.last().copied().unwrap_or_else(Matrix4::identity);
+        (last * Vector4::new(self.tool.x, self.tool.y, self.tool.z, 1.0)).xyz()
+    }
+
+    /// Lever arms tau_j (m) of a unit downward force at the point about each joint axis, from
+    /// the geometry at the readings: `((z_j × (p − o_j)) · g) / 1000`, g = (0, 0, −1), base frame.
+    pub fn lever_arms(&self, q: &[f64]) -> Vec<f64> {
+        let frames = self.frames_in_base(q);
+        let p = self.point_in_base(q);
+        let g = Vector3::new(0.0, 0.0, -1.0);
+        frames
+            .iter()
+            .map(|f| {
+                let z = Vector3::new(f[(0, 2)], f[(1, 2)], f[(2, 2)]);
+                z.cross(&(p - translation(f))).dot(&g) / 1000.0
+            })
+            .collect()
+    }
+
+    /// The angles the geometry sees: readings plus every correction.
+    pub fn corrected(&self, q: &[f64]) -> Vec<f64> {
+        let tau = if self
+            .effects
+            .iter()
+            .any(|e| matches!(e, RefEffect::Compliance { .. }))
+        {
+            self.lever_arms(q)
+        } else {
+            vec![0.0; q.len()]
+        };
+        let mut out = q.to_vec();
+        for e in &self.effects {
+            match e {
+                RefEffect::Scale { joint, s } => out[*joint] += s * q[*joint],
+                RefEffect::Cyclic { joint, order, a, b } => {
+                    let n = *order as f64;
+                    out[*joint] += a * (n * q[*joint]).sin() + b * (n * q[*joint]).cos();
+                }
+                RefEffect::Compliance { joint, k } => out[*joint] += k * tau[*joint],
+                RefEffect::Table {
+                    joint,
+                    start,
+                    step,
+                    knots,
+                } => out[*joint] += table_value(*start, *step, knots, q[*joint]),
+            }
+        }
+        out
+    }
+
+    /// The full chain `B·T_1…T_N` at readings `q` (corrections applied).
+    pub fn flange(&self, q: &[f64]) -> Matrix4<f64> {
+        let qg = self.corrected(q);
+        let mut t = self.base;
+        for (i, qi) in qg.iter().enumerate() {
+            t *= self.link(i, *qi);
+        }
+        t
+    }
+
+    /// The measured point `p(q)`, mm, measurement frame.
+    pub fn point(&self, q: &[f64]) -> Vector3<f64> {
+        (self.flange(q) * Vector4::new(self.tool.x, self.tool.y, self.tool.z, 1.0)).xyz()
+    }
+
+    /// The flange (= tool) orientation in the measurement frame.
+    pub fn tool_rotation(&self, q: &[f64]) -> Matrix3<f64> {
+        self.flange(q).fixed_view::<3, 3>(0, 0).into_owned()
+    }
+
+    /// The model value behind a library effect value number `k`.
+    fn effect_value_mut(&mut self, k: usize) -> Option<&mut f64> {
+        self.effects.iter_mut().flat_map(|e| e.values_mut()).nth(k)
+    }
+
+    /// A copy with parameter `p` moved by `h` (rad, mm, or the effect value's unit). Base
+    /// rotations are rotation-vector steps about the base origin in the measurement frame,
+    /// the library's convention for `base.rx/ry/rz`.
+    pub fn perturbed(&self, p: Param, h: f64) -> RefRobot {
+        let mut r = self.clone();
+        let rot = |axis: Vector3<f64>, r: &mut RefRobot| {
+            let m = Rotation3::from_scaled_axis(axis * h).into_inner();
+            let old = r.base.fixed_view::<3, 3>(0, 0).into_owned();
+            r.base.fixed_view_mut::<3, 3>(0, 0).copy_from(&(m * old));
+        };
+        match p {
+            Param::BaseX => r.base[(0, 3)] += h,
+            Param::BaseY => r.base[(1, 3)] += h,
+            Param::BaseZ => r.base[(2, 3)] += h,
+            Param::BaseRx => rot(Vector3::x(), &mut r),
+            Param::BaseRy => rot(Vector3::y(), &mut r),
+            Param::BaseRz => rot(Vector3::z(), &mut r),
+            Param::Alpha(i) => r.joints[i as usize].alpha += h,
+            Param::A(i) => r.joints[i as usize].a += h,
+            Param::Theta(i) => r.joints[i as usize].theta += h,
+            Param::D(i) => r.joints[i as usize].d += h,
+            Param::Beta(i) => r.joints[i as usize].beta += h,
+            Param::ToolX => r.tool.x += h,
+            Param::ToolY => r.tool.y += h,
+            Param::ToolZ => r.tool.z += h,
+            Param::Effect(k) => {
+                if let Some(v) = r.effect_value_mut(k as usize) {
+                    *v += h;
+                }
+            }
+        }
+        r
+    }
+
+    /// `∂p/∂param` by the five-point central difference: step 1 mm for lengths (p is affine
+    /// in them, so the difference is exact), 1e-3 for angles and effect values (truncation
+    /// O(h⁴) ≈ 1e-10 mm per unit, rounding ≈ 1e-8).
+    pub fn dp_dparam(&self, q: &[f64], p: Param) -> Vector3<f64> {
+        let h = if p.is_length() { 1.0 } else { 1e-3 };
+        let f = |s: f64| self.perturbed(p, s * h).point(q);
+        (f(-2.0) - f(2.0) + (f(1.0) - f(-1.0)) * 8.0) / (12.0 * h)
+    }
+
+    /// `∂p/∂q_j` by the five-point central difference (step 1e-3 rad).
+    pub fn dp_dq(&self, q: &[f64], j: usize) -> Vector3<f64> {
+        let h = 1e-3;
+        let f = |s: f64| {
+            let mut qq = q.to_vec();
+            qq[j] += s * h;
+            self.point(&qq)
+        };
+        (f(-2.0) - f(2.0) + (f(1.0) - f(-1.0)) * 8.0) / (12.0 * h)
+    }
+
+    /// Angular velocity of the tool orientation per unit `q_j` (rotation vector per rad), by
+    /// central differences of `R(q + h)·R(q − h)ᵀ`.
+    pub fn dr_dq(&self, q: &[f64], j: usize) -> Vector3<f64> {
+        let h = 1e-4;
+        let mut qp = q.to_vec();
+        let mut qm = q.to_vec();
+        qp[j] += h;
+        qm[j] -= h;
+        let r = self.tool_rotation(&qp) * self.tool_rotation(&qm).transpose();
+        // Logarithm of a small rotation from its skew part (acos of the trace loses half
+        // the digits near the identity).
+        let v = Vector3::new(
+            r[(2, 1)] - r[(1, 2)],
+            r[(0, 2)] - r[(2, 0)],
+            r[(1, 0)] - r[(0, 1)],
+        ) * 0.5;
+        let s = v.norm();
+        let w = if s > 0.0 { v * (s.asin() / s) } else { v };
+        w / (2.0 * h)
+    }
+}

@@ -23,23 +23,30 @@
 #![warn(missing_debug_implementations)]
 
 pub mod bpnn;
+pub mod bpnn_pso;
 pub mod capsule;
 pub mod circle;
 pub mod compensate;
 pub mod csv;
 pub mod effects;
+pub mod fitness;
 pub mod forward;
 pub mod frame;
+pub mod information;
 pub mod linalg;
 pub mod lm;
 pub mod measurement;
 pub mod observability;
+pub mod online_design;
 pub mod param;
 pub mod planning;
+pub mod pose_pool;
 pub mod pso;
 pub mod real;
 pub mod robot;
+pub mod scene;
 pub mod snapshot;
+pub mod sweep_frames;
 pub mod trig;
 
 pub use effects::{Effect, EffectKind, Effects};

@@ -542,3 +542,169 @@ pub fn rms_error<T: Real, const N: usize, const V: usize>(
     }
     (s / T::of(data.len() as f64)).sqrt()
 }
+
+mod snapshot_impl {
+    //! Snapshot of the LM state: everything except scratch that the next phase rewrites.
+    use super::*;
+    use crate::snapshot::{restore_with, save_with, Decoder, Encoder, Kind, Snapshot, SnapshotError};
+    use crate::Frame;
+    use embedded_io::{Read, Write};
+
+    fn param_tag(p: Param) -> (u8, u16) {
+        match p {
+            Param::BaseX => (0, 0),
+            Param::BaseY => (1, 0),
+            Param::BaseZ => (2, 0),
+            Param::BaseRx => (3, 0),
+            Param::BaseRy => (4, 0),
+            Param::BaseRz => (5, 0),
+            Param::Alpha(i) => (6, i as u16),
+            Param::A(i) => (7, i as u16),
+            Param::Theta(i) => (8, i as u16),
+            Param::D(i) => (9, i as u16),
+            Param::Beta(i) => (10, i as u16),
+            Param::ToolX => (11, 0),
+            Param::ToolY => (12, 0),
+            Param::ToolZ => (13, 0),
+            Param::Effect(k) => (14, k),
+        }
+    }
+
+    fn put_robot<T: Real, W: Write, const N: usize, const V: usize>(e: &mut Encoder<'_, W>, r: &Robot<T, N, V>) -> Result<(), SnapshotError> {
+        let b = r.base();
+        for v in [b.x, b.y, b.z, b.o] {
+            e.reals(v.as_slice())?;
+        }
+        for j in r.joints() {
+            e.reals(&[j.alpha, j.a, j.theta, j.d, j.beta, j.lower, j.upper])?;
+        }
+        e.reals(r.tool().as_slice())?;
+        e.usize(r.effects().values().len())?;
+        e.reals(r.effects().values())
+    }
+
+    /// Reads a robot into `r`, whose effect list must have the same shape.
+    fn get_robot<T: Real, R: Read, const N: usize, const V: usize>(d: &mut Decoder<'_, R>, r: &mut Robot<T, N, V>) -> Result<(), SnapshotError> {
+        let mut axes = [Vector3::<T>::zeros(); 4];
+        for a in axes.iter_mut() {
+            let mut v = [T::zero(); 3];
+            d.reals(&mut v)?;
+            *a = Vector3::new(v[0], v[1], v[2]);
+        }
+        let base = Frame { x: axes[0], y: axes[1], z: axes[2], o: axes[3] };
+        let mut joints = *r.joints();
+        for j in joints.iter_mut() {
+            let mut v = [T::zero(); 7];
+            d.reals(&mut v)?;
+            *j = crate::Joint { alpha: v[0], a: v[1], theta: v[2], d: v[3], beta: v[4], lower: v[5], upper: v[6] };
+        }
+        let mut t = [T::zero(); 3];
+        d.reals(&mut t)?;
+        d.expect_shape(r.effects().values().len())?;
+        let (b, js, tool, eff) = r.parts_mut();
+        d.reals(eff.values_mut())?;
+        *b = base;
+        *js = joints;
+        *tool = Vector3::new(t[0], t[1], t[2]);
+        r.refresh();
+        Ok(())
+    }
+
+    impl<T: Real, const N: usize, const V: usize, const P: usize> Snapshot for Levenberg<T, N, V, P> {
+        fn save<W: Write>(&self, w: &mut W) -> Result<(), SnapshotError> {
+            save_with::<T, W, _>(w, Kind::Levenberg, |e| {
+                e.usize(N)?;
+                e.usize(V)?;
+                e.usize(P)?;
+                let n = self.params.len();
+                e.usize(n)?;
+                for p in self.params.as_slice() {
+                    let (t, i) = param_tag(*p);
+                    e.u8(t)?;
+                    e.u16(i)?;
+                }
+                put_robot(e, &self.robot)?;
+                put_robot(e, &self.candidate)?;
+                for k in 0..n {
+                    e.bool(self.active[k])?;
+                }
+                e.bool(self.analysed)?;
+                e.reals(&self.scale[..n])?;
+                e.reals(&self.total[..n])?;
+                for row in self.jtj.iter().take(n) {
+                    e.reals(&row[..n])?;
+                }
+                e.reals(&self.jtr[..n])?;
+                e.reals(&self.step[..n])?;
+                e.reals(&[self.cost, self.acc_cost, self.cand_cost, self.lambda, self.nu, self.predicted])?;
+                e.usize(self.next)?;
+                e.usize(self.n_poses)?;
+                let (ph, stop) = match self.phase {
+                    Phase::Accumulate => (0, 0),
+                    Phase::Solve => (1, 0),
+                    Phase::Evaluate => (2, 0),
+                    Phase::Done(s) => (3, s as u8),
+                };
+                e.u8(ph)?;
+                e.u8(stop)?;
+                e.u32(self.iteration)?;
+                e.u32(self.evaluations)
+            })
+        }
+
+        fn restore<R: Read>(&mut self, r: &mut R) -> Result<(), SnapshotError> {
+            let restored = restore_with::<T, R, _, _>(r, Kind::Levenberg, |d| {
+                d.expect_shape(N)?;
+                d.expect_shape(V)?;
+                d.expect_shape(P)?;
+                let n = self.params.len();
+                d.expect_shape(n)?;
+                for p in self.params.as_slice() {
+                    let (t, i) = param_tag(*p);
+                    if d.u8()? != t || d.u16()? != i {
+                        return Err(SnapshotError::Shape);
+                    }
+                }
+                let mut s = self.clone();
+                get_robot(d, &mut s.robot)?;
+                get_robot(d, &mut s.candidate)?;
+                for k in 0..n {
+                    s.active[k] = d.bool()?;
+                }
+                s.analysed = d.bool()?;
+                d.reals(&mut s.scale[..n])?;
+                d.reals(&mut s.total[..n])?;
+                for row in s.jtj.iter_mut().take(n) {
+                    d.reals(&mut row[..n])?;
+                }
+                d.reals(&mut s.jtr[..n])?;
+                d.reals(&mut s.step[..n])?;
+                let mut v = [T::zero(); 6];
+                d.reals(&mut v)?;
+                [s.cost, s.acc_cost, s.cand_cost, s.lambda, s.nu, s.predicted] = v;
+                s.next = d.usize()?;
+                s.n_poses = d.usize()?;
+                let ph = d.u8()?;
+                let stop = d.u8()?;
+                s.phase = match (ph, stop) {
+                    (0, _) => Phase::Accumulate,
+                    (1, _) => Phase::Solve,
+                    (2, _) => Phase::Evaluate,
+                    (3, 0) => Phase::Done(LmStop::Converged),
+                    (3, 1) => Phase::Done(LmStop::SmallStep),
+                    (3, 2) => Phase::Done(LmStop::MaxIterations),
+                    (3, 3) => Phase::Done(LmStop::NoProgress),
+                    _ => return Err(SnapshotError::Invalid),
+                };
+                s.iteration = d.u32()?;
+                s.evaluations = d.u32()?;
+                if s.next > s.n_poses || s.scale[..n].iter().any(|x| !(*x > T::zero())) {
+                    return Err(SnapshotError::Invalid);
+                }
+                Ok(s)
+            })?;
+            *self = restored;
+            Ok(())
+        }
+    }
+}

@@ -150,3 +150,50 @@ fn bad_input_is_refused_without_damage() {
     bad_set.push(Param::D(9)).unwrap();
     assert!(Levenberg::<f64, 6, 64, 64>::new(nominal, bad_set, LmConfig::default()).is_err());
 }
+
+#[test]
+fn snapshot_at_every_step_restores_to_a_bit_identical_run() {
+    use kinecal::snapshot::Snapshot;
+    let nominal = er20();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
+    let truth = perturbed(&nominal, &mut rng);
+    let data = measure(&truth, 30, 0.01, &mut rng);
+    let set = ParamSet::<64>::full(6, false).unwrap();
+    let mut reference = Levenberg::new(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
+    reference.run(&data).unwrap();
+
+    // Interrupt after every call of 7 poses: save, restore into a fresh solver, continue.
+    let mut lm = Levenberg::new(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
+    let mut restores = 0;
+    loop {
+        let p = lm.step(&data, 7).unwrap();
+        if p.stopped.is_some() {
+            break;
+        }
+        let mut buf = Vec::new();
+        lm.save(&mut buf).unwrap();
+        let mut fresh = Levenberg::new(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
+        fresh.restore(&mut buf.as_slice()).unwrap();
+        lm = fresh;
+        restores += 1;
+    }
+    assert!(restores > 10);
+    assert_eq!(lm.robot(), reference.robot());
+    assert_eq!(lm.progress(), reference.progress());
+
+    // A corrupted snapshot is refused and the target keeps its state.
+    let mut buf = Vec::new();
+    lm.save(&mut buf).unwrap();
+    let mut target = Levenberg::new(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
+    target.step(&data, 5).unwrap();
+    let before = target.progress();
+    let before_robot = target.robot().clone();
+    for i in [0usize, 5, 25, buf.len() / 2, buf.len() - 1] {
+        let mut bad = buf.clone();
+        bad[i] ^= 0x10;
+        assert!(target.restore(&mut bad.as_slice()).is_err(), "flipped byte {i} accepted");
+    }
+    assert!(target.restore(&mut &buf[..buf.len() - 3]).is_err());
+    assert_eq!(target.progress(), before);
+    assert_eq!(target.robot(), &before_robot);
+}

@@ -2,7 +2,23 @@
 //! an independent `f64` reference implementation for cross-checks, and the `kinecal` command line.
 
 pub mod cli;
+pub mod data;
+pub mod reference;
+pub mod robot_file;
+pub mod scene;
+pub mod sim;
+pub mod study_figure;
+pub mod sweeps;
 pub mod identify;
+pub mod registration;
+pub mod global;
+pub mod plots;
+pub mod candidates;
+pub mod cross_validation;
+pub mod diagnose;
+pub mod penalised_fit;
+pub mod residual_plots;
+pub mod significance;
 
 /// Effect-value capacity of host-side models: room for per-joint tables on every joint.
 pub const VCAP: usize = 2048;

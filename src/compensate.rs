@@ -1,1 +1,698 @@
-//! (placeholder: this module is being written)
+//! Online compensation: the joint command that brings the *identified* robot to a target.
+//!
+//! The controller knows where it wants the tool (a point in the measurement frame, or a full
+//! tool pose) and has a joint vector near the answer: its nominal inverse kinematics, or the
+//! previous cycle's command. [`compensate`] runs a fixed, small number of damped Newton
+//! (Levenberg–Marquardt) steps on the identified model from that seed. Because
+//! [`ForwardKinematics::compute`] applies the joint corrections and
+//! [`ForwardKinematics::joint_jacobian`] carries their slope, compliance, cyclic, scale and
+//! table effects are inverted along with the geometry.
+//!
+//! Safety, in the order a servo loop needs it:
+//! - every command stays in the box `|q − seed| ≤ max_step` ∩ joint limits, so the answer is
+//!   never a jump, whatever the target;
+//! - non-finite inputs are refused before anything is computed ([`CompensateError::InvalidInput`]);
+//! - a singular, limited or unreachable target returns a typed error that still carries the best
+//!   command found inside the box, so the controller can hold or creep instead of stopping dead.
+//!
+//! Cost per call: at most `iterations + 1` forward kinematics plus one ≤ 6×6 Cholesky solve per
+//! step, no allocation. [`Tracker`] is the streaming form for trajectories: it keeps the previous
+//! correction and starts the next cycle from it (usually one or two steps then suffice).
+
+use crate::forward::ForwardKinematics;
+use crate::frame::orientation_error;
+use crate::linalg::{cholesky, cholesky_solve, Square};
+use crate::{Frame, Real, Robot};
+use nalgebra::Vector3;
+
+/// Targets farther than this many reaches ([`Robot::reach`]) from the base are refused as
+/// invalid input rather than iterated on.
+pub const FAR: f64 = 1000.0;
+
+/// Where the tool should go, in the measurement frame (mm).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Target<T: Real> {
+    /// Only the measured point (3 equations): any robot.
+    Point(Vector3<T>),
+    /// Point (the frame's origin) and tool orientation (the flange axes, as in
+    /// [`ForwardKinematics::tool_pose`]): 6 equations, robots with six or more joints.
+    Pose(Frame<T>),
+}
+
+impl<T: Real> Target<T> {
+    /// The target point (mm, measurement frame).
+    pub fn point(&self) -> &Vector3<T> {
+        match self {
+            Target::Point(p) => p,
+            Target::Pose(f) => &f.o,
+        }
+    }
+
+    /// Number of equations: 3 for a point, 6 for a pose.
+    pub fn rows(&self) -> usize {
+        match self {
+            Target::Point(_) => 3,
+            Target::Pose(_) => 6,
+        }
+    }
+
+    /// True when every number is finite.
+    pub fn is_finite(&self) -> bool {
+        match self {
+            Target::Point(p) => p.iter().all(|v| v.finite()),
+            Target::Pose(f) => [f.x, f.y, f.z, f.o]
+                .iter()
+                .all(|v| v.iter().all(|c| c.finite())),
+        }
+    }
+}
+
+/// Tuning of the Newton iteration and of the safety checks.
+///
+/// The defaults suit an industrial arm with seeds within a degree of the answer: they converge
+/// to well below a micrometre in `f64` within 3–4 steps and to the `f32` rounding floor
+/// (~0.1–0.5 µm) in `f32`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Config<T: Real> {
+    /// Most Newton steps per call; each costs one forward kinematics. Default 8.
+    pub iterations: u8,
+    /// Damping floor λ₀ (mm). Each step solves with λ² = μ·(λ₀² + |r|²): the residual term
+    /// (Sugihara's) shortens steps towards far or singular targets and vanishes at convergence,
+    /// so the converged answer is not biased. Default 0.1 mm.
+    pub damping: T,
+    /// Stop early once the residual is below this (mm, orientation scaled). Default 1e-5 mm
+    /// (10 nm: far below any robot's repeatability, reached in 2–3 steps from 0.3° off).
+    pub tolerance: T,
+    /// A residual above this after the iterations is not a success (mm, orientation scaled).
+    /// Default 0.01 mm, ten times below a laser tracker's noise.
+    pub accept: T,
+    /// Per-joint bound on |command − seed| (rad): the largest correction the controller
+    /// accepts. Default 2° (0.0349 rad).
+    pub max_step: T,
+    /// Length scale (mm per rad) that makes orientation error comparable to position error
+    /// in pose targets; `None` uses [`Robot::reach`], the scale identification uses. Default None.
+    pub orientation_scale: Option<T>,
+    /// Singular when the scaled Jacobian's conditioning σ_h (see [`Solution::sigma`]) falls
+    /// below `singular · reach` (mm/rad). Default 0.01: at a 2 m reach, 20 mm/rad, i.e. a
+    /// 1 mm correction would need ~3° along the weakest direction. About 1–2° from a
+    /// wrist singularity for pose targets.
+    pub singular: T,
+}
+
+impl<T: Real> Default for Config<T> {
+    fn default() -> Self {
+        Self {
+            iterations: 8,
+            damping: T::of(0.1),
+            tolerance: T::of(1e-5),
+            accept: T::of(0.01),
+            max_step: T::of(2f64.to_radians()),
+            orientation_scale: None,
+            singular: T::of(0.01),
+        }
+    }
+}
+
+impl<T: Real> Config<T> {
+    /// True when every setting is finite and in range.
+    pub fn is_valid(&self) -> bool {
+        let nonneg = |x: T| x.finite() && x >= T::zero();
+        let pos = |x: T| x.finite() && x > T::zero();
+        nonneg(self.damping)
+            && nonneg(self.tolerance)
+            && pos(self.accept)
+            && pos(self.max_step)
+            && nonneg(self.singular)
+            && self.orientation_scale.is_none_or(pos)
+    }
+}
+
+/// A joint command and how well it meets the target on the model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Solution<T: Real, const N: usize> {
+    /// The joint command (rad), inside the seed's step box and the joint limits.
+    pub q: [T; N],
+    /// |target point − model point at `q`| (mm).
+    pub position_error: T,
+    /// Angle between target and model tool orientation at `q` (rad); 0 for point targets.
+    pub orientation_error: T,
+    /// Conditioning of the scaled Jacobian at `q` (mm/rad): σ_h = (Σ 1/σ_i²)^(-1/2), a cheap
+    /// bound on the smallest singular value, σ_h ≤ σ_min ≤ √m·σ_h (m = 3 or 6 equations).
+    pub sigma: T,
+    /// Newton steps tried.
+    pub iterations: u8,
+}
+
+/// Outcome class of one compensation, for logs and the `status` column of `kinecal compensate`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Status {
+    Ok,
+    Singular,
+    Unreachable,
+    Limited,
+    Invalid,
+}
+
+impl Status {
+    /// Lower-case name: `ok`, `singular`, `unreachable`, `limited`, `invalid`.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            Status::Ok => "ok",
+            Status::Singular => "singular",
+            Status::Unreachable => "unreachable",
+            Status::Limited => "limited",
+            Status::Invalid => "invalid",
+        }
+    }
+
+    /// The class of a compensation result.
+    pub fn of<T: Real, const N: usize>(r: &Result<Solution<T, N>, CompensateError<T, N>>) -> Self {
+        match r {
+            Ok(_) => Status::Ok,
+            Err(e) => e.status(),
+        }
+    }
+}
+
+/// Why no command meets the target; all but `InvalidInput` carry the best safe command, which
+/// is finite and inside the step box around the seed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CompensateError<T: Real, const N: usize> {
+    /// A target, seed or configuration value is NaN, infinite or out of range, the target is
+    /// more than [`FAR`] × reach from the base (a unit or frame mistake, not a target), a pose
+    /// target was given to a robot with fewer than six joints, or [`Tracker::follow`] has no previous
+    /// command. Nothing was computed: hold the previous command.
+    InvalidInput,
+    /// The Jacobian at the answer is (nearly) rank-deficient (σ_h below the threshold): a
+    /// wrist, shoulder or elbow singularity, or the edge of the workspace. The target may even
+    /// be met, but neighbouring targets would need large joint motion.
+    Singular(Solution<T, N>),
+    /// The residual did not converge and nothing else explains it, or the target lies beyond
+    /// the arm's reach (farther from the base than Σ(|a|+|d|) + |tool|).
+    Unreachable(Solution<T, N>),
+    /// The residual did not converge because a joint limit or the step bound stops the joints
+    /// that would reduce it (or the seed lies beyond a joint limit by more than `max_step`).
+    /// When the Jacobian is also singular there, `Singular` is reported instead: the
+    /// singularity is the cause, the bound only what stopped the resulting large step.
+    Limited(Solution<T, N>),
+}
+
+impl<T: Real, const N: usize> CompensateError<T, N> {
+    /// The best safe command found, if any was computed.
+    pub fn best(&self) -> Option<&Solution<T, N>> {
+        match self {
+            CompensateError::InvalidInput => None,
+            CompensateError::Singular(s)
+            | CompensateError::Unreachable(s)
+            | CompensateError::Limited(s) => Some(s),
+        }
+    }
+
+    pub fn status(&self) -> Status {
+        match self {
+            CompensateError::InvalidInput => Status::Invalid,
+            CompensateError::Singular(_) => Status::Singular,
+            CompensateError::Unreachable(_) => Status::Unreachable,
+            CompensateError::Limited(_) => Status::Limited,
+        }
+    }
+}
+
+/// The corrected joint command for `target` on the identified `robot`, starting from `seed`
+/// (rad), which also centres the step box `|q − seed| ≤ config.max_step`.
+///
+/// Six-joint (or larger) arms with a [`Target::Pose`] solve 6 equations; a [`Target::Point`]
+/// solves 3. When the joints outnumber the equations, each step is the minimum-norm change
+/// *from the seed* of the linearised problem, so the redundancy stays where the seed put it.
+pub fn compensate<T: Real, const N: usize, const V: usize>(
+    robot: &Robot<T, N, V>,
+    target: &Target<T>,
+    seed: &[T; N],
+    config: &Config<T>,
+) -> Result<Solution<T, N>, CompensateError<T, N>> {
+    compensate_from(robot, target, seed, seed, config)
+}
+
+/// As [`compensate`], but the iteration starts at `start` (a warm start, clamped into the box)
+/// while the box and the redundancy pull stay centred on `seed`.
+pub fn compensate_from<T: Real, const N: usize, const V: usize>(
+    robot: &Robot<T, N, V>,
+    target: &Target<T>,
+    seed: &[T; N],
+    start: &[T; N],
+    config: &Config<T>,
+) -> Result<Solution<T, N>, CompensateError<T, N>> {
+    let m = target.rows();
+    let finite = |q: &[T; N]| q.iter().all(|v| v.finite());
+    if N == 0
+        || !config.is_valid()
+        || !target.is_finite()
+        || !finite(seed)
+        || !finite(start)
+        || (m == 6 && N < 6)
+    {
+        return Err(CompensateError::InvalidInput);
+    }
+    let reach = robot.reach();
+    // A target a thousand reaches away is a unit or frame mistake, and its squared residual
+    // could overflow (f32 already at ~1e19 mm).
+    let far = reach * T::of(FAR);
+    let offset = target.point() - robot.base().o;
+    // Both are finite here, so the difference is finite or ±inf, never NaN.
+    if offset.iter().any(|c| c.abs() > far) || offset.norm() > far {
+        return Err(CompensateError::InvalidInput);
+    }
+    let scale = config.orientation_scale.unwrap_or(reach);
+
+    // The step box: within max_step of the seed and within the limits. A seed beyond a limit
+    // by more than max_step gets a one-point box max_step towards the range.
+    let mut lo = [T::zero(); N];
+    let mut hi = [T::zero(); N];
+    let mut pinned = false;
+    for j in 0..N {
+        let lim = &robot.joints()[j];
+        let (s, d) = (seed[j], config.max_step);
+        lo[j] = if s - d > lim.lower { s - d } else { lim.lower };
+        hi[j] = if s + d < lim.upper { s + d } else { lim.upper };
+        if lo[j] > hi[j] {
+            let t = if s > lim.upper { s - d } else { s + d };
+            lo[j] = t;
+            hi[j] = t;
+            pinned = true;
+        }
+    }
+    let clamp = |q: &mut [T; N]| {
+        for j in 0..N {
+            if q[j] < lo[j] {
+                q[j] = lo[j];
+            } else if q[j] > hi[j] {
+                q[j] = hi[j];
+            }
+        }
+    };
+
+    let mut fk = ForwardKinematics::new();
+    let mut q0 = *start;
+    clamp(&mut q0);
+    let mut best = evaluate(&mut fk, robot, target, scale, &q0);
+    if !best.rn.finite() {
+        return Err(CompensateError::InvalidInput);
+    }
+    let damp2 = config.damping * config.damping;
+    // Rounding level of the model's point: a few dozen ulps of the coordinates involved.
+    let noise = T::EPS * T::of(64.0) * (target.point().norm() + reach);
+    let mut mu = T::one();
+    let mut steps = 0u8;
+    while steps < config.iterations && best.rn > config.tolerance {
+        steps += 1;
+        let lambda2 = mu * (damp2 + best.rn * best.rn);
+        let dq = match constrained_step(&best, m, lambda2, seed, &lo, &hi) {
+            Some(dq) => dq,
+            None => {
+                mu = stiffer(mu);
+                continue;
+            }
+        };
+        let mut q = best.q;
+        let mut moved = false;
+        for j in 0..N {
+            let before = q[j];
+            q[j] += dq[j];
+            moved |= q[j] != before;
+        }
+        clamp(&mut q);
+        if !moved {
+            break;
+        }
+        let cand = evaluate(&mut fk, robot, target, scale, &q);
+        // Once the residual is at the rounding level of the model (f32 lives there), the step
+        // just taken was the last useful one: more would only wander in the noise.
+        let at_noise = best.rn <= noise;
+        if cand.rn.finite() && cand.rn < best.rn {
+            best = cand;
+            mu = if mu > T::one() {
+                mu * T::of(0.1)
+            } else {
+                T::one()
+            };
+        } else {
+            mu = stiffer(mu);
+        }
+        if at_noise {
+            break;
+        }
+    }
+
+    let sol = Solution {
+        q: best.q,
+        position_error: best.pos,
+        orientation_error: best.ori,
+        sigma: conditioning(&best.cols, m),
+        iterations: steps,
+    };
+    // σ_h is finite by construction (0 when the Gram matrix is not definite).
+    let singular = sol.sigma < config.singular * reach;
+    if pinned {
+        return Err(CompensateError::Limited(sol));
+    }
+    if best.rn <= config.accept {
+        return if singular {
+            Err(CompensateError::Singular(sol))
+        } else {
+            Ok(sol)
+        };
+    }
+    if (target.point() - robot.base().o).norm() > reach {
+        return Err(CompensateError::Unreachable(sol));
+    }
+    if singular {
+        return Err(CompensateError::Singular(sol));
+    }
+    if blocked(&best, m, &lo, &hi) {
+        return Err(CompensateError::Limited(sol));
+    }
+    Err(CompensateError::Unreachable(sol))
+}
+
+/// Ten times more damping after a failed step, capped so that it stays finite.
+fn stiffer<T: Real>(mu: T) -> T {
+    if mu < T::of(1e12) {
+        mu * T::of(10.0)
+    } else {
+        mu
+    }
+}
+
+/// Residual and scaled Jacobian at one joint vector.
+#[derive(Clone, Copy)]
+struct Eval<T: Real, const N: usize> {
+    q: [T; N],
+    /// Residual target − model: position (mm), then scaled orientation (mm) for poses.
+    r: [T; 6],
+    /// |r| (mm, orientation scaled).
+    rn: T,
+    pos: T,
+    ori: T,
+    /// Column j: ∂(model)/∂q_j, orientation rows scaled (mm/rad).
+    cols: [[T; 6]; N],
+}
+
+fn evaluate<T: Real, const N: usize, const V: usize>(
+    fk: &mut ForwardKinematics<T, N>,
+    robot: &Robot<T, N, V>,
+    target: &Target<T>,
+    scale: T,
+    q: &[T; N],
+) -> Eval<T, N> {
+    let p = fk.compute(robot, q);
+    let dp = target.point() - p;
+    let mut r = [T::zero(); 6];
+    r[..3].copy_from_slice(dp.as_slice());
+    let (lin, ang) = fk.joint_jacobian(robot);
+    let mut cols = [[T::zero(); 6]; N];
+    for (c, l) in cols.iter_mut().zip(lin.iter()) {
+        c[..3].copy_from_slice(l.as_slice());
+    }
+    let mut ori = T::zero();
+    if let Target::Pose(f) = target {
+        let w = orientation_error(f, &fk.tool_pose());
+        ori = w.norm();
+        for i in 0..3 {
+            r[3 + i] = w[i] * scale;
+        }
+        for (c, a) in cols.iter_mut().zip(ang.iter()) {
+            for i in 0..3 {
+                c[3 + i] = a[i] * scale;
+            }
+        }
+    }
+    let rn = r.iter().fold(T::zero(), |s, v| s + *v * *v).sqrt();
+    Eval {
+        q: *q,
+        r,
+        rn,
+        pos: dp.norm(),
+        ori,
+        cols,
+    }
+}
+
+#[inline]
+fn dot<T: Real>(a: &[T; 6], b: &[T; 6], m: usize) -> T {
+    a.iter()
+        .zip(b.iter())
+        .take(m)
+        .fold(T::zero(), |s, (x, y)| s + *x * *y)
+}
+
+/// One damped step from `e.q`, with the joints whose step would leave the box at a bound
+/// frozen (a small active-set loop), so a limited joint does not spoil the others' step.
+fn constrained_step<T: Real, const N: usize>(
+    e: &Eval<T, N>,
+    m: usize,
+    lambda2: T,
+    seed: &[T; N],
+    lo: &[T; N],
+    hi: &[T; N],
+) -> Option<[T; N]> {
+    let mut free = [true; N];
+    let mut dq = [T::zero(); N];
+    for _pass in 0..=N {
+        dq = damped_step(e, m, lambda2, seed, &free)?;
+        let mut changed = false;
+        for j in 0..N {
+            let x = e.q[j] + dq[j];
+            if free[j] && ((x > hi[j] && e.q[j] >= hi[j]) || (x < lo[j] && e.q[j] <= lo[j])) {
+                free[j] = false;
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    Some(dq)
+}
+
+/// The damped least-squares step over the free joints. With at most as many joints as
+/// equations: `(JᵀJ + λ²I)·dq = Jᵀr`. With more joints: the minimum-norm change from the seed,
+/// `dq = d + Jᵀ(JJᵀ + λ²I)⁻¹(r − J·d)` with `d = seed − q`. `None` if the solve failed.
+fn damped_step<T: Real, const N: usize>(
+    e: &Eval<T, N>,
+    m: usize,
+    lambda2: T,
+    seed: &[T; N],
+    free: &[bool; N],
+) -> Option<[T; N]> {
+    let mut dq = [T::zero(); N];
+    if N <= m {
+        let mut a: Square<T, N> = [[T::zero(); N]; N];
+        for i in 0..N {
+            if !free[i] {
+                a[i][i] = T::one();
+                continue;
+            }
+            dq[i] = dot(&e.cols[i], &e.r, m);
+            for k in 0..i {
+                if free[k] {
+                    a[i][k] = dot(&e.cols[i], &e.cols[k], m);
+                }
+            }
+            a[i][i] = dot(&e.cols[i], &e.cols[i], m) + lambda2;
+        }
+        cholesky(&mut a, N).ok()?;
+        cholesky_solve(&a, N, &mut dq).ok()?;
+    } else {
+        let mut d = [T::zero(); N];
+        for j in 0..N {
+            if free[j] {
+                d[j] = seed[j] - e.q[j];
+            }
+        }
+        let mut a: Square<T, 6> = [[T::zero(); 6]; 6];
+        let mut b = e.r;
+        for j in (0..N).filter(|j| free[*j]) {
+            let c = &e.cols[j];
+            for i in 0..m {
+                b[i] -= c[i] * d[j];
+                for k in 0..=i {
+                    a[i][k] += c[i] * c[k];
+                }
+            }
+        }
+        for (i, row) in a.iter_mut().enumerate().take(m) {
+            row[i] += lambda2;
+        }
+        cholesky(&mut a, m).ok()?;
+        cholesky_solve(&a, m, &mut b).ok()?;
+        for j in (0..N).filter(|j| free[*j]) {
+            dq[j] = d[j] + dot(&e.cols[j], &b, m);
+        }
+    }
+    if dq.iter().all(|v| v.finite()) {
+        Some(dq)
+    } else {
+        None
+    }
+}
+
+/// σ_h = (trace((Gram)⁻¹))^(-1/2) of the scaled Jacobian (0 when the Gram matrix is singular):
+/// within a factor √m of the smallest singular value, from one small Cholesky.
+fn conditioning<T: Real, const N: usize>(cols: &[[T; 6]; N], m: usize) -> T {
+    if N <= m {
+        let mut a: Square<T, N> = [[T::zero(); N]; N];
+        for i in 0..N {
+            for k in 0..=i {
+                a[i][k] = dot(&cols[i], &cols[k], m);
+            }
+        }
+        harmonic(&mut a, N)
+    } else {
+        let mut a: Square<T, 6> = [[T::zero(); 6]; 6];
+        for c in cols.iter() {
+            for i in 0..m {
+                for k in 0..=i {
+                    a[i][k] += c[i] * c[k];
+                }
+            }
+        }
+        harmonic(&mut a, m)
+    }
+}
+
+/// `trace(A⁻¹)^(-1/2)` of a symmetric positive definite `A` (lower triangle), 0 if not definite.
+fn harmonic<T: Real, const P: usize>(a: &mut Square<T, P>, n: usize) -> T {
+    if n == 0 || cholesky(a, n).is_err() {
+        return T::zero();
+    }
+    // trace(A⁻¹) = ‖L⁻¹‖²_F: forward-substitute the unit vectors.
+    let mut tr = T::zero();
+    for i in 0..n {
+        let mut x = [T::zero(); P];
+        for k in i..n {
+            let mut s = if k == i { T::one() } else { T::zero() };
+            for (l, xl) in a[k].iter().zip(x.iter()).take(k).skip(i) {
+                s -= *l * *xl;
+            }
+            x[k] = s / a[k][k];
+            tr += x[k] * x[k];
+        }
+    }
+    let s = T::one() / tr.sqrt();
+    if s.finite() {
+        s
+    } else {
+        T::zero()
+    }
+}
+
+/// True when some joint sits at a bound of the box and the residual's descent direction `Jᵀr`
+/// pushes it outward: the bound, not the model, stops the residual from shrinking.
+fn blocked<T: Real, const N: usize>(e: &Eval<T, N>, m: usize, lo: &[T; N], hi: &[T; N]) -> bool {
+    let mut g = [T::zero(); N];
+    let mut gmax = T::zero();
+    for (gj, c) in g.iter_mut().zip(e.cols.iter()) {
+        *gj = dot(c, &e.r, m);
+        if gj.abs() > gmax {
+            gmax = gj.abs();
+        }
+    }
+    let tiny = gmax * T::of(1e-3);
+    (0..N).any(|j| (e.q[j] >= hi[j] && g[j] > tiny) || (e.q[j] <= lo[j] && g[j] < -tiny))
+}
+
+/// Streaming compensation along a trajectory: keeps the previous command and starts each cycle
+/// from it, so a servo loop usually needs one or two Newton steps per cycle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tracker<T: Real, const N: usize> {
+    /// Settings used by every cycle (may be changed between cycles).
+    pub config: Config<T>,
+    command: Option<[T; N]>,
+    nominal: Option<[T; N]>,
+}
+
+impl<T: Real, const N: usize> Tracker<T, N> {
+    pub fn new(config: Config<T>) -> Self {
+        Self {
+            config,
+            command: None,
+            nominal: None,
+        }
+    }
+
+    /// Forgets the trajectory (the next call starts from its seed).
+    pub fn reset(&mut self) {
+        self.command = None;
+        self.nominal = None;
+    }
+
+    /// Starts a trajectory at the joints' current position (rad), for [`Tracker::follow`].
+    pub fn start(&mut self, q: &[T; N]) -> Result<(), CompensateError<T, N>> {
+        if !q.iter().all(|v| v.finite()) {
+            return Err(CompensateError::InvalidInput);
+        }
+        self.command = Some(*q);
+        self.nominal = None;
+        Ok(())
+    }
+
+    /// The last command returned (also after a typed error: its best safe command).
+    pub fn last(&self) -> Option<&[T; N]> {
+        self.command.as_ref()
+    }
+
+    /// One trajectory point with the controller's nominal inverse kinematics `nominal` for it:
+    /// the step box is centred on `nominal` (the command never strays more than `max_step` from
+    /// the controller's own trajectory), and the iteration starts from the previous correction
+    /// carried over, `last command + (nominal − previous nominal)`, which stays good even if
+    /// the nominal solution switches branch.
+    pub fn next<const V: usize>(
+        &mut self,
+        robot: &Robot<T, N, V>,
+        target: &Target<T>,
+        nominal: &[T; N],
+    ) -> Result<Solution<T, N>, CompensateError<T, N>> {
+        let mut start = *nominal;
+        if let (Some(c), Some(n)) = (self.command, self.nominal) {
+            for j in 0..N {
+                start[j] = c[j] + (nominal[j] - n[j]);
+            }
+            if !start.iter().all(|v| v.finite()) {
+                start = *nominal;
+            }
+        }
+        let r = compensate_from(robot, target, nominal, &start, &self.config);
+        self.remember(&r, Some(*nominal));
+        r
+    }
+
+    /// One trajectory point without a nominal solution: the previous command is the seed, so
+    /// the joints move at most `max_step` per cycle. Needs [`Tracker::start`] or an earlier call.
+    pub fn follow<const V: usize>(
+        &mut self,
+        robot: &Robot<T, N, V>,
+        target: &Target<T>,
+    ) -> Result<Solution<T, N>, CompensateError<T, N>> {
+        let seed = self.command.ok_or(CompensateError::InvalidInput)?;
+        let r = compensate(robot, target, &seed, &self.config);
+        self.remember(&r, None);
+        r
+    }
+
+    fn remember(
+        &mut self,
+        r: &Result<Solution<T, N>, CompensateError<T, N>>,
+        nominal: Option<[T; N]>,
+    ) {
+        let sol = match r {
+            Ok(s) => s,
+            Err(e) => match e.best() {
+                Some(s) => s,
+                None => return,
+            },
+        };
+        self.command = Some(sol.q);
+        self.nominal = nominal;
+    }
+}

@@ -1,0 +1,358 @@
+//! The discrepancy workflow: fit the geometry, find where model and data disagree, name the
+//! missing effect, add it, and show with held-out poses that the gap shrank.
+//!
+//! 1. **Geometry.** The base is started by point-set registration when unknown, then base +
+//!    MDH rows + tool are fitted by the library's Levenberg–Marquardt; parameters the data
+//!    cannot determine are held (its identifiability analysis).
+//! 2. **Rounds.** With deterministic k-fold cross-validation (k = 5): every candidate of the
+//!    catalogue ([`crate::candidates`]) is screened by one linearised step from the current
+//!    solution ([`crate::cross_validation::Linearised`]); the best few (3 effect families) are
+//!    refitted fold by fold ([`crate::penalised_fit`]); a refit is added only if its per-pose held-out
+//!    improvement passes the one-sided paired t test at `α / m` (Bonferroni over the `m`
+//!    candidates screened in the round, α = 5 %; see [`crate::significance`]) and is not
+//!    negligible (at least 1 % of the held-out mean squared error); of those, the simplest one
+//!    within one standard error of the best is added ([`choose`]).
+//! 3. **Stop** when nothing passes, when the held-out RMS reaches the noise floor estimated from
+//!    repeated poses (if the data have any), or after `max_effects` additions.
+//! 4. **Noise floor**: repeated poses, else `√3 · √(SSR / (3n − p_eff))` of the final model.
+
+use crate::candidates::{catalogue, Candidate, CandidateKind, CatalogueConfig};
+use crate::cross_validation::{candidate_columns, refit_errors, rms, Folds, Linearised};
+use crate::identify::fit_lm;
+use crate::penalised_fit::{fit, Problem, TablePenalty};
+use crate::significance::{paired_improvement, repeat_noise, residual_noise, PairedTest};
+use crate::VCAP;
+use kinecal::lm::LmConfig;
+use kinecal::param::{Param, ParamSet};
+use kinecal::{Measurement, Robot};
+use std::time::Instant;
+
+/// Settings of the search; the defaults are the ones the test matrix was run with.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Config {
+    /// Cross-validation folds.
+    pub folds: usize,
+    /// Family-wise false-alarm rate per round (Bonferroni over the candidates screened).
+    pub alpha: f64,
+    pub catalogue: CatalogueConfig,
+    /// How many of the best screened candidates are refitted fold by fold.
+    pub refit_best: usize,
+    /// At most this many effects are added.
+    pub max_effects: usize,
+    /// Seed of the folds.
+    pub seed: u64,
+    pub penalty: TablePenalty,
+    /// Iteration limit of each refit.
+    pub refit_iterations: u32,
+    /// With a noise floor from repeated poses: stop once the held-out RMS is within this factor.
+    pub floor_tolerance: f64,
+    /// Besides being significant, an addition must cut the held-out mean squared error by at
+    /// least this fraction: a real but negligible gain (a parameter that moves the predictions
+    /// by nanometres) is not worth a model term.
+    pub min_improvement: f64,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Self {
+            folds: 5,
+            alpha: 0.05,
+            catalogue: CatalogueConfig::default(),
+            refit_best: 3,
+            max_effects: 12,
+            seed: 0,
+            penalty: TablePenalty::default(),
+            refit_iterations: 20,
+            floor_tolerance: 1.05,
+            min_improvement: 0.01,
+        }
+    }
+}
+
+/// One candidate after the screen of a round.
+#[derive(Clone, Debug)]
+pub struct Screened {
+    pub candidate: Candidate,
+    /// Held-out RMS predicted by the linearised step (mm).
+    pub linear_rms_mm: f64,
+}
+
+/// One candidate refitted fold by fold and tested.
+#[derive(Clone, Debug)]
+pub struct Tested {
+    pub candidate: Candidate,
+    /// Number of parameters the candidate adds.
+    pub parameters: usize,
+    pub validation_rms_mm: f64,
+    pub test: PairedTest,
+}
+
+/// What happened in one round.
+#[derive(Clone, Debug)]
+pub struct Round {
+    /// Held-out RMS of the model the round started from (mm).
+    pub start_rms_mm: f64,
+    pub screened: Vec<Screened>,
+    pub tested: Vec<Tested>,
+    /// `α / m`.
+    pub threshold: f64,
+    /// Index into `tested` of the one added.
+    pub chosen: Option<usize>,
+    pub seconds: f64,
+}
+
+/// An effect the search added.
+#[derive(Clone, Debug)]
+pub struct Found<const N: usize> {
+    pub candidate: Candidate,
+    /// Held-out RMS before and after adding it (mm).
+    pub before_rms_mm: f64,
+    pub validation_rms_mm: f64,
+    pub test: PairedTest,
+    /// The p-value threshold it passed (`α / m`) and `m`.
+    pub threshold: f64,
+    pub candidates_compared: usize,
+    /// The full-data fits without and with it (for plots).
+    pub before: Robot<f64, N, VCAP>,
+    pub after: Robot<f64, N, VCAP>,
+}
+
+/// Where the noise floor estimate comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NoiseSource {
+    RepeatedPoses,
+    Residual,
+}
+
+/// The outcome of the workflow.
+#[derive(Clone, Debug)]
+pub struct Diagnosis<const N: usize> {
+    /// Geometry fitted to all poses (base when unknown, rows, tool).
+    pub geometric: Robot<f64, N, VCAP>,
+    /// Geometric parameters the data cannot determine (held at nominal).
+    pub unidentifiable: Vec<Param>,
+    pub baseline_validation_rms_mm: f64,
+    /// Per-pose held-out squared errors of the geometric model and of the final one (mm²).
+    pub baseline_errors: Vec<f64>,
+    pub final_errors: Vec<f64>,
+    pub found: Vec<Found<N>>,
+    pub final_validation_rms_mm: f64,
+    /// The extended model, fitted to all poses.
+    pub model: Robot<f64, N, VCAP>,
+    /// Joints (0-based) whose `beta` is free in the model (axis-tilt).
+    pub free_tilt: Vec<usize>,
+    /// Noise floor in the held-out RMS sense, `√3 σ` (mm), and per-coordinate σ.
+    pub noise_floor_mm: f64,
+    pub noise_sigma_mm: f64,
+    pub noise_source: NoiseSource,
+    /// Residual RMS of the final model on all poses (mm) and its effective parameter count.
+    pub fit_rms_mm: f64,
+    pub effective_parameters: f64,
+    pub rounds: Vec<Round>,
+    pub stop_reason: String,
+    pub folds: Folds,
+    pub geometry_seconds: f64,
+    pub seconds: f64,
+}
+
+impl<const N: usize> Found<N> {
+    /// One sentence: what is missing, how much it helps, how sure.
+    pub fn sentence(&self, noise_floor_mm: f64) -> String {
+        let values = self.candidate.values(&self.after);
+        format!(
+            "{}: held-out RMS {:.3} → {:.3} mm, noise floor {:.3} mm (one-sided paired t test p = {:.1e}, below the 5 % family-wise threshold {:.1e} over {} candidates)",
+            self.candidate.meaning(&values),
+            self.before_rms_mm,
+            self.validation_rms_mm,
+            noise_floor_mm,
+            self.test.p,
+            self.threshold,
+            self.candidates_compared
+        )
+    }
+}
+
+/// Which tested candidate to add: among those that pass the test (p ≤ `threshold`, mean gain
+/// ≥ `min_gain` mm²), the one with the fewest parameters whose held-out mean squared error is
+/// within one standard error of the best one's (the "one-standard-error rule" of Hastie,
+/// Tibshirani & Friedman, §7.10: the standard error of the best model's cross-validated error).
+/// A table can imitate a scale error or a once-per-turn error; when the data cannot tell them
+/// apart, the simpler effect is the better name. Ties go to the lower held-out error.
+pub fn choose(tested: &[Tested], errors: &[&[f64]], threshold: f64, min_gain: f64) -> Option<usize> {
+    let ok: Vec<usize> = (0..tested.len()).filter(|&i| tested[i].test.p <= threshold && tested[i].test.mean >= min_gain).collect();
+    let best = *ok.iter().min_by(|a, b| tested[**a].validation_rms_mm.total_cmp(&tested[**b].validation_rms_mm))?;
+    let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len().max(1) as f64;
+    let eb = errors[best];
+    let mb = mean(eb);
+    let se = (eb.iter().map(|x| (x - mb) * (x - mb)).sum::<f64>() / (eb.len().max(2) - 1) as f64 / eb.len().max(1) as f64).sqrt();
+    ok.into_iter()
+        .filter(|&i| mean(errors[i]) <= mb + se)
+        .min_by(|a, b| tested[*a].parameters.cmp(&tested[*b].parameters).then(tested[*a].validation_rms_mm.total_cmp(&tested[*b].validation_rms_mm)))
+}
+
+/// Fits the geometry: base started by registration when unknown, then LM over base (when
+/// unknown), rows, tool and the betas of `free_tilt`. Returns the robot and the held parameters.
+pub fn fit_geometry<const N: usize>(
+    nominal: &Robot<f64, N, VCAP>,
+    base_known: bool,
+    free_tilt: &[usize],
+    data: &[Measurement<f64, N>],
+) -> anyhow::Result<(Robot<f64, N, VCAP>, Vec<Param>)> {
+    let mut start = nominal.clone();
+    if !base_known {
+        let base = crate::registration::fit_base(nominal, data)?;
+        start.set_base(base).map_err(|e| anyhow::anyhow!("base registration: {e:?}"))?;
+    }
+    let mut params: Vec<Param> = ParamSet::<64>::full(N, !base_known).map_err(|e| anyhow::anyhow!("{e:?}"))?.as_slice().to_vec();
+    for j in free_tilt {
+        params.push(Param::Beta(*j as u8));
+    }
+    let fitted = fit_lm(&start, &params, data, LmConfig::default())?;
+    let held: Vec<Param> = params.iter().copied().filter(|p| fitted.unidentifiable.contains(&p.name(&fitted.robot).to_string())).collect();
+    Ok((fitted.robot, held))
+}
+
+/// Runs the whole workflow on `data` for the `nominal` model (its effects, if any, are kept
+/// and refitted; `free_tilt` are joints whose beta is already free).
+pub fn diagnose<const N: usize>(
+    nominal: &Robot<f64, N, VCAP>,
+    base_known: bool,
+    free_tilt: &[usize],
+    data: &[Measurement<f64, N>],
+    cfg: &Config,
+) -> anyhow::Result<Diagnosis<N>> {
+    let t0 = Instant::now();
+    anyhow::ensure!(data.len() >= 2 * cfg.folds.max(2), "{} poses are too few for {}-fold cross-validation", data.len(), cfg.folds);
+    let (geometric, held) = fit_geometry(nominal, base_known, free_tilt, data)?;
+    let geometry_seconds = t0.elapsed().as_secs_f64();
+    let mut params: Vec<Param> = ParamSet::<64>::full(N, !base_known).map_err(|e| anyhow::anyhow!("{e:?}"))?.as_slice().to_vec();
+    params.extend(free_tilt.iter().map(|j| Param::Beta(*j as u8)));
+    params.retain(|p| !held.contains(p));
+    params.extend((0..geometric.effects().values().len()).map(|k| Param::Effect(k as u16)));
+    let mut problem = Problem::new(&geometric, &params, cfg.penalty)?;
+    let mut current = fit(&geometric, &problem, data, cfg.refit_iterations)?.robot;
+    let folds = Folds::new(data, cfg.folds, cfg.seed);
+    let baseline_errors = refit_errors(&current, &problem, data, &folds, cfg.refit_iterations)?;
+    let baseline_rms = rms(&baseline_errors);
+    let repeat = repeat_noise(data);
+    let mut errors = baseline_errors.clone();
+    let mut free_tilt: Vec<usize> = free_tilt.to_vec();
+    let mut found: Vec<Found<N>> = Vec::new();
+    let mut rounds = Vec::new();
+    let stop_reason;
+    loop {
+        let cur_rms = rms(&errors);
+        if let Some((sigma, _)) = repeat {
+            if cur_rms <= cfg.floor_tolerance * 3f64.sqrt() * sigma {
+                stop_reason = format!("the held-out RMS {cur_rms:.4} mm reached the noise floor of the repeated poses");
+                break;
+            }
+        }
+        if found.len() >= cfg.max_effects {
+            stop_reason = format!("{} effects added (the limit)", found.len());
+            break;
+        }
+        let tr = Instant::now();
+        let cands: Vec<Candidate> = catalogue(&current, base_known, data, &cfg.catalogue)
+            .into_iter()
+            .filter(|c| !c.present_in(&current, &free_tilt) && !found.iter().any(|f| f.candidate.same_effect(c)))
+            .collect();
+        if cands.is_empty() {
+            stop_reason = "no candidate left".into();
+            break;
+        }
+        let lin = Linearised::new(&current, &problem, data, &folds);
+        let lin_base = rms(&lin.baseline());
+        let mut screened: Vec<Screened> = Vec::with_capacity(cands.len());
+        for c in &cands {
+            let mut robot_c = current.clone();
+            let extra = c.add_to(&mut robot_c)?;
+            let cols = candidate_columns(&robot_c, &extra, data);
+            let table = matches!(c.kind, CandidateKind::Table { .. }).then_some(cfg.penalty);
+            let e = lin.screen(&cols, extra.len(), table);
+            screened.push(Screened { candidate: *c, linear_rms_mm: rms(&e) });
+        }
+        screened.sort_by(|a, b| a.linear_rms_mm.total_cmp(&b.linear_rms_mm));
+        let m = screened.len();
+        let threshold = cfg.alpha / m as f64;
+        let mut tested = Vec::new();
+        let mut fits = Vec::new();
+        // Refit the best member of each of the best few families (one effect kind on one joint:
+        // the grids of a table are one family), so that a simple effect is not crowded out by
+        // several resolutions of a table that contains it.
+        let mut families: Vec<Candidate> = Vec::new();
+        for s in screened.iter().filter(|s| s.linear_rms_mm < lin_base) {
+            if families.len() >= cfg.refit_best {
+                break;
+            }
+            if !families.iter().any(|f| f.same_effect(&s.candidate)) {
+                families.push(s.candidate);
+            }
+        }
+        for c in &families {
+            let mut robot_c = current.clone();
+            let extra = c.add_to(&mut robot_c)?;
+            let parameters = extra.len();
+            let mut p = problem.params.clone();
+            p.extend(extra);
+            let problem_c = Problem::new(&robot_c, &p, cfg.penalty)?;
+            let e = refit_errors(&robot_c, &problem_c, data, &folds, cfg.refit_iterations)?;
+            let test = paired_improvement(&errors, &e);
+            tested.push(Tested { candidate: *c, parameters, validation_rms_mm: rms(&e), test });
+            fits.push((robot_c, problem_c, e));
+        }
+        let chosen = choose(&tested, &fits.iter().map(|f| f.2.as_slice()).collect::<Vec<_>>(), threshold, cfg.min_improvement * cur_rms * cur_rms);
+        rounds.push(Round { start_rms_mm: cur_rms, screened, tested: tested.clone(), threshold, chosen, seconds: tr.elapsed().as_secs_f64() });
+        let Some(i) = chosen else {
+            stop_reason = "no remaining candidate improves the held-out error significantly".into();
+            break;
+        };
+        let (robot_c, problem_c, e) = fits.swap_remove(i);
+        let after = fit(&robot_c, &problem_c, data, cfg.refit_iterations)?.robot;
+        let t = &tested[i];
+        if t.candidate.kind == CandidateKind::Tilt {
+            free_tilt.push(t.candidate.joint);
+        }
+        found.push(Found {
+            candidate: t.candidate,
+            before_rms_mm: cur_rms,
+            validation_rms_mm: t.validation_rms_mm,
+            test: t.test,
+            threshold,
+            candidates_compared: m,
+            before: current.clone(),
+            after: after.clone(),
+        });
+        current = after;
+        problem = problem_c;
+        errors = e;
+    }
+    // Final fit statistics and the noise floor.
+    let final_fit = fit(&current, &problem, data, cfg.refit_iterations)?;
+    let n = data.len();
+    let (noise_sigma_mm, noise_source) = match repeat {
+        Some((s, _)) => (s, NoiseSource::RepeatedPoses),
+        None => (residual_noise(final_fit.ssr, n, final_fit.effective_parameters), NoiseSource::Residual),
+    };
+    Ok(Diagnosis {
+        geometric,
+        unidentifiable: held,
+        baseline_validation_rms_mm: baseline_rms,
+        baseline_errors,
+        final_validation_rms_mm: rms(&errors),
+        final_errors: errors,
+        found,
+        model: final_fit.robot,
+        free_tilt,
+        noise_floor_mm: 3f64.sqrt() * noise_sigma_mm,
+        noise_sigma_mm,
+        noise_source,
+        fit_rms_mm: (final_fit.ssr / n as f64).sqrt(),
+        effective_parameters: final_fit.effective_parameters,
+        rounds,
+        stop_reason,
+        folds,
+        geometry_seconds,
+        seconds: t0.elapsed().as_secs_f64(),
+    })
+}

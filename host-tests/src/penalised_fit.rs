@@ -1,0 +1,370 @@
+//! Penalised Levenberg–Marquardt on dense (heap) normal equations: the refits of the
+//! discrepancy search.
+//!
+//! The library's [`kinecal::lm::Levenberg`] fits the geometry from the nominal model (robust
+//! damping, identifiability analysis). Once effects join the model, two things need more than
+//! it offers: correction tables need a penalty on their knot values (a light ridge towards zero
+//! and a second-difference smoothness term: a knot that few poses excite must not run off, and
+//! a table's constant part must go to the joint's `theta`, which is free), and the search runs
+//! hundreds of short refits from a nearby solution on subsets of the poses. Here the normal
+//! equations live on the heap (models with six 3.6° tables have ~500 parameters), only the
+//! columns a pose excites are accumulated (a table touches two knots), and the cost minimised is
+//!
+//! `Σ |r_i|² + xᵀ Π x`,
+//!
+//! `x` being the parameters in scaled units ([`Param::scale`]: 1 mm at the tool per unit) and
+//! `Π` the table penalty, scaled by the table's own mean diagonal of `JᵀJ` so that it is light
+//! whatever the number of poses.
+
+use kinecal::effects::EffectKind;
+use kinecal::param::{apply_delta, value, Param};
+use kinecal::{ForwardKinematics, Measurement, Robot};
+use nalgebra::{DMatrix, DVector, Vector3};
+
+/// Strength of the table penalty, relative to the mean diagonal of the table's block of `JᵀJ`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TablePenalty {
+    /// Ridge towards zero on every knot value.
+    pub ridge: f64,
+    /// Weight of the squared second differences of neighbouring knots.
+    pub smoothness: f64,
+}
+
+impl Default for TablePenalty {
+    fn default() -> Self {
+        Self { ridge: 1e-3, smoothness: 0.0 }
+    }
+}
+
+/// The free parameters of a fit and how they are scaled and penalised.
+#[derive(Clone, Debug)]
+pub struct Problem {
+    pub params: Vec<Param>,
+    /// [`Param::scale`] of each parameter (mm per unit).
+    pub scale: Vec<f64>,
+    /// For effect value `k` of the robot: its index in `params` (None: held).
+    effect_index: Vec<Option<usize>>,
+    /// Indices in `params` of the non-effect parameters.
+    geometric: Vec<usize>,
+    /// Knot indices in `params` of every table, lowest knot first.
+    pub tables: Vec<Vec<usize>>,
+    pub penalty: TablePenalty,
+}
+
+impl Problem {
+    /// The parameters `params` of `robot` (duplicates ignored). Tables must be free as a whole
+    /// or held as a whole.
+    pub fn new<const N: usize, const V: usize>(robot: &Robot<f64, N, V>, params: &[Param], penalty: TablePenalty) -> anyhow::Result<Self> {
+        let mut list: Vec<Param> = Vec::with_capacity(params.len());
+        for p in params {
+            if !list.contains(p) {
+                list.push(*p);
+            }
+        }
+        let reach = robot.reach();
+        let nv = robot.effects().values().len();
+        let mut effect_index = vec![None; nv];
+        let mut geometric = Vec::new();
+        for (i, p) in list.iter().enumerate() {
+            match *p {
+                Param::Effect(k) => {
+                    let slot = effect_index.get_mut(k as usize).ok_or_else(|| anyhow::anyhow!("effect value {k} does not exist"))?;
+                    *slot = Some(i);
+                }
+                p => {
+                    anyhow::ensure!(p.joint().is_none_or(|j| j < N), "parameter {p:?} does not exist");
+                    geometric.push(i)
+                }
+            }
+        }
+        let mut tables = Vec::new();
+        for e in robot.effects().iter().filter(|e| e.kind == EffectKind::Table) {
+            let idx: Vec<Option<usize>> = (e.first..e.first + e.len).map(|k| effect_index[k as usize]).collect();
+            if idx.iter().all(Option::is_some) {
+                tables.push(idx.into_iter().flatten().collect());
+            } else {
+                anyhow::ensure!(idx.iter().all(Option::is_none), "a table must be free or held as a whole");
+            }
+        }
+        let scale = list.iter().map(|p| p.scale(reach)).collect();
+        Ok(Self { params: list, scale, effect_index, geometric, tables, penalty })
+    }
+
+    pub fn len(&self) -> usize {
+        self.params.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.params.is_empty()
+    }
+
+    /// Current values of the parameters in scaled units (the base rotation counts as zero:
+    /// it is updated as a small rotation and never penalised).
+    pub fn scaled_values<const N: usize, const V: usize>(&self, robot: &Robot<f64, N, V>) -> DVector<f64> {
+        DVector::from_iterator(
+            self.len(),
+            self.params.iter().zip(&self.scale).map(|(p, s)| match p {
+                Param::Effect(_) => value(robot, *p).unwrap_or(0.0) * s,
+                _ => 0.0,
+            }),
+        )
+    }
+
+    /// The penalty matrix `Π` (scaled units) for a normal matrix whose diagonal is `diag`.
+    pub fn penalty_matrix(&self, diag: &DVector<f64>) -> DMatrix<f64> {
+        let mut pen = DMatrix::zeros(self.len(), self.len());
+        for t in &self.tables {
+            add_table_penalty(&mut pen, t, diag, self.penalty);
+        }
+        pen
+    }
+
+    /// Residual and the non-zero scaled Jacobian columns of one pose at `robot`.
+    pub fn pose_rows<const N: usize, const V: usize>(
+        &self,
+        fk: &mut ForwardKinematics<f64, N>,
+        robot: &Robot<f64, N, V>,
+        m: &Measurement<f64, N>,
+        cols: &mut Vec<(usize, Vector3<f64>)>,
+    ) -> Vector3<f64> {
+        cols.clear();
+        let r = m.point - fk.compute(robot, &m.q);
+        for &i in &self.geometric {
+            if let Ok(c) = fk.column(robot, self.params[i]) {
+                cols.push((i, c / self.scale[i]));
+            }
+        }
+        let effects = robot.effects();
+        for e in effects.iter() {
+            let j = e.joint as usize;
+            if j >= N {
+                continue;
+            }
+            let first = e.first as usize;
+            if e.kind == EffectKind::Table {
+                let (seg, w) = e.segment(m.q[j]);
+                let jc = fk.joint_column(j);
+                for (kk, wk) in [(seg, 1.0 - w), (seg + 1, w)] {
+                    if wk == 0.0 {
+                        continue;
+                    }
+                    if let Some(Some(i)) = self.effect_index.get(first + kk) {
+                        cols.push((*i, jc * (wk / self.scale[*i])));
+                    }
+                }
+            } else {
+                for k in first..first + e.len as usize {
+                    if let Some(Some(i)) = self.effect_index.get(k) {
+                        if let Ok(c) = fk.column(robot, Param::Effect(k as u16)) {
+                            cols.push((*i, c / self.scale[*i]));
+                        }
+                    }
+                }
+            }
+        }
+        r
+    }
+}
+
+/// Adds `w·(ridge·I + smoothness·DᵀD)` on the knots `t` (indices into the matrix), `w` the mean
+/// of `diag` over the knots.
+pub fn add_table_penalty(pen: &mut DMatrix<f64>, t: &[usize], diag: &DVector<f64>, p: TablePenalty) {
+    if t.is_empty() {
+        return;
+    }
+    let w = t.iter().map(|&i| diag[i]).sum::<f64>() / t.len() as f64;
+    let w = if w > 0.0 && w.is_finite() { w } else { 1.0 };
+    for &i in t {
+        pen[(i, i)] += w * p.ridge;
+    }
+    if t.len() >= 3 && p.smoothness > 0.0 {
+        for k in 1..t.len() - 1 {
+            let idx = [t[k - 1], t[k], t[k + 1]];
+            let c = [1.0, -2.0, 1.0];
+            for a in 0..3 {
+                for b in 0..3 {
+                    pen[(idx[a], idx[b])] += w * p.smoothness * c[a] * c[b];
+                }
+            }
+        }
+    }
+}
+
+/// Normal equations `JᵀJ`, `Jᵀr` and the sum of squared residuals over some poses.
+#[derive(Clone, Debug)]
+pub struct Normal {
+    pub a: DMatrix<f64>,
+    pub g: DVector<f64>,
+    pub ssr: f64,
+    pub poses: usize,
+}
+
+impl Normal {
+    pub fn zeros(p: usize) -> Self {
+        Self { a: DMatrix::zeros(p, p), g: DVector::zeros(p), ssr: 0.0, poses: 0 }
+    }
+
+    /// Adds one pose.
+    pub fn add(&mut self, r: &Vector3<f64>, cols: &[(usize, Vector3<f64>)]) {
+        self.ssr += r.norm_squared();
+        self.poses += 1;
+        for (x, (i, ci)) in cols.iter().enumerate() {
+            self.g[*i] += ci.dot(r);
+            for (j, cj) in &cols[..=x] {
+                let v = ci.dot(cj);
+                self.a[(*i, *j)] += v;
+                if i != j {
+                    self.a[(*j, *i)] += v;
+                }
+            }
+        }
+    }
+
+    /// `self − other` (training = all − held-out fold).
+    pub fn minus(&self, other: &Normal) -> Normal {
+        Normal { a: &self.a - &other.a, g: &self.g - &other.g, ssr: self.ssr - other.ssr, poses: self.poses - other.poses }
+    }
+
+    /// Normal equations of `robot` over `data`.
+    pub fn of<const N: usize, const V: usize>(problem: &Problem, robot: &Robot<f64, N, V>, data: &[Measurement<f64, N>]) -> Normal {
+        let mut n = Normal::zeros(problem.len());
+        let mut fk = ForwardKinematics::new();
+        let mut cols = Vec::with_capacity(problem.len());
+        for m in data {
+            let r = problem.pose_rows(&mut fk, robot, m, &mut cols);
+            n.add(&r, &cols);
+        }
+        n
+    }
+}
+
+/// Adds the tiny ridge `μ_i = 1e-10 · max(h_ii, 1e-12 · mean h_ii)` to the diagonal: relative
+/// to each column's own size (so that a weakly excited but real direction is not held), with a
+/// floor that keeps directions no pose excites (an empty knot) at zero.
+pub fn add_tiny_ridge(h: &mut DMatrix<f64>) {
+    let p = h.nrows();
+    if p == 0 {
+        return;
+    }
+    let mean = (0..p).map(|i| h[(i, i)]).sum::<f64>() / p as f64;
+    let floor = 1e-12 * mean.max(f64::MIN_POSITIVE);
+    for i in 0..p {
+        let d = h[(i, i)];
+        h[(i, i)] = d + 1e-10 * d.max(floor) + floor;
+    }
+}
+
+/// Solves `(A + Π + λ·diag + μ) δ = g − Π x` by Cholesky (`λ` the Levenberg damping, `μ` the
+/// tiny ridge of [`add_tiny_ridge`]).
+pub fn solve_penalised(a: &DMatrix<f64>, pen: &DMatrix<f64>, g: &DVector<f64>, x: &DVector<f64>, damping: f64) -> Option<DVector<f64>> {
+    let p = a.nrows();
+    if p == 0 {
+        return Some(DVector::zeros(0));
+    }
+    let mut h = a + pen;
+    for i in 0..p {
+        h[(i, i)] *= 1.0 + damping;
+    }
+    add_tiny_ridge(&mut h);
+    let rhs = g - pen * x;
+    let chol = h.cholesky()?;
+    let d = chol.solve(&rhs);
+    d.iter().all(|v| v.is_finite()).then_some(d)
+}
+
+/// Result of a penalised fit.
+#[derive(Clone, Debug)]
+pub struct FitOutcome<const N: usize, const V: usize> {
+    pub robot: Robot<f64, N, V>,
+    /// Sum of squared residuals (mm²) at the solution.
+    pub ssr: f64,
+    /// Accepted steps.
+    pub iterations: u32,
+    /// Effective number of parameters, `tr((JᵀJ + Π)⁻¹ JᵀJ)`: the degrees of freedom the fit
+    /// used (= the parameter count without penalty).
+    pub effective_parameters: f64,
+}
+
+/// Penalised Levenberg–Marquardt from `start` over `data` (at most `max_iterations` steps).
+pub fn fit<const N: usize, const V: usize>(
+    start: &Robot<f64, N, V>,
+    problem: &Problem,
+    data: &[Measurement<f64, N>],
+    max_iterations: u32,
+) -> anyhow::Result<FitOutcome<N, V>> {
+    anyhow::ensure!(3 * data.len() > problem.len(), "{} poses cannot determine {} parameters", data.len(), problem.len());
+    let mut robot = start.clone();
+    let mut normal = Normal::of(problem, &robot, data);
+    let diag = normal.a.diagonal();
+    let pen = problem.penalty_matrix(&diag);
+    let mut x = problem.scaled_values(&robot);
+    let mut cost = normal.ssr + x.dot(&(&pen * &x));
+    let set = kinecal_set(problem)?;
+    let mut lambda = 1e-6;
+    let mut iterations = 0;
+    let mut rejects = 0;
+    while iterations < max_iterations && rejects < 12 {
+        let Some(step) = solve_penalised(&normal.a, &pen, &normal.g, &x, lambda) else {
+            lambda = (lambda * 10.0).max(1e-6);
+            rejects += 1;
+            continue;
+        };
+        let delta: Vec<f64> = step.iter().zip(&problem.scale).map(|(d, s)| d / s).collect();
+        let mut cand = robot.clone();
+        if apply_delta(&mut cand, &set, &delta).is_err() {
+            lambda = (lambda * 10.0).max(1e-6);
+            rejects += 1;
+            continue;
+        }
+        let cand_normal = Normal::of(problem, &cand, data);
+        let cand_x = &x + &step;
+        let cand_cost = cand_normal.ssr + cand_x.dot(&(&pen * &cand_x));
+        if cand_cost.is_finite() && cand_cost <= cost {
+            let rel = (cost - cand_cost) / cost.max(f64::MIN_POSITIVE);
+            robot = cand;
+            normal = cand_normal;
+            x = cand_x;
+            cost = cand_cost;
+            lambda = (lambda / 3.0).max(1e-12);
+            iterations += 1;
+            rejects = 0;
+            if rel < 1e-10 || step.norm() < 1e-10 {
+                break;
+            }
+        } else {
+            lambda = (lambda * 4.0).max(1e-6);
+            rejects += 1;
+        }
+    }
+    let effective_parameters = effective_parameters(&normal.a, &pen);
+    Ok(FitOutcome { robot, ssr: normal.ssr, iterations, effective_parameters })
+}
+
+/// `tr((A + Π)⁻¹ A)`: the degrees of freedom a penalised fit uses (directions no pose
+/// excites count zero).
+pub fn effective_parameters(a: &DMatrix<f64>, pen: &DMatrix<f64>) -> f64 {
+    let p = a.nrows();
+    if p == 0 {
+        return 0.0;
+    }
+    let mut h = a + pen;
+    add_tiny_ridge(&mut h);
+    match h.cholesky() {
+        Some(c) => c.solve(a).trace(),
+        None => p as f64,
+    }
+}
+
+/// The library's parameter-set type for [`apply_delta`] (capacity for any host model).
+fn kinecal_set(problem: &Problem) -> anyhow::Result<kinecal::ParamSet<{ crate::VCAP + 64 }>> {
+    let mut s = kinecal::ParamSet::new();
+    for p in &problem.params {
+        s.push(*p).map_err(|e| anyhow::anyhow!("parameter set: {e:?}"))?;
+    }
+    Ok(s)
+}
+
+/// Squared 3-D position error (mm²) of every pose.
+pub fn squared_errors<const N: usize, const V: usize>(robot: &Robot<f64, N, V>, data: &[Measurement<f64, N>]) -> Vec<f64> {
+    let mut fk = ForwardKinematics::new();
+    data.iter().map(|m| (m.point - fk.compute(robot, &m.q)).norm_squared()).collect()
+}

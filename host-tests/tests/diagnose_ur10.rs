@@ -1,0 +1,63 @@
+//! The discrepancy workflow on the real UR10 laser-tracker data (../shared/data/ur10).
+//!
+//!     cargo test --release -p kinecal-host --test diagnose_ur10 -- --ignored --nocapture
+//!
+//! The first 1,000 poses of the file identify (the search and its 5-fold cross-validation run on
+//! them only), the remaining 1,773 are held out. The independent study found 0.49 mm held-out
+//! RMS for the best geometric fit and 0.12 mm with 3.6° joint tables on all six joints; the
+//! issue asks for at most 0.45× the geometric fit's.
+
+use kinecal_host::candidates::CandidateKind;
+use kinecal_host::data;
+use kinecal_host::diagnose::{diagnose, Config};
+use kinecal_host::penalised_fit::squared_errors;
+use kinecal_host::robot_file::load_robot;
+use std::path::PathBuf;
+
+fn ur10_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/ur10")
+}
+
+fn rms(sq: &[f64]) -> f64 {
+    (sq.iter().sum::<f64>() / sq.len() as f64).sqrt()
+}
+
+#[test]
+#[ignore = "minutes on real data: cargo test --release -p kinecal-host --test diagnose_ur10 -- --ignored --nocapture"]
+fn ur10_tables_cut_the_held_out_error_below_045_of_the_geometric_fit() {
+    std::thread::Builder::new()
+        .stack_size(1 << 30)
+        .spawn(|| {
+            let dir = ur10_dir();
+            let (file, nominal) = load_robot::<6>(&dir.join("robot.toml")).unwrap();
+            let all = data::load::<6>(&dir.join("ur10_random_poses.csv")).unwrap().measurements::<f64>();
+            let (ident, held) = all.split_at(1000);
+            let d = diagnose(&nominal, file.base_known(), &file.tilt_joints(), ident, &Config::default()).unwrap();
+            let geo = rms(&squared_errors(&d.geometric, held));
+            let fin = rms(&squared_errors(&d.model, held));
+            let report = kinecal_host::cli::diagnose::report(&d);
+            eprintln!("{}", serde_json::to_string_pretty(&report["rounds"]).unwrap());
+            for f in &d.found {
+                eprintln!("{}", f.sentence(d.noise_floor_mm));
+            }
+            eprintln!(
+                "UR10: cross-validated {:.4} → {:.4} mm on 1000 poses; held-out ({} poses) {geo:.4} → {fin:.4} mm = {:.3}×; noise floor {:.4} mm; {:.1} s",
+                d.baseline_validation_rms_mm,
+                d.final_validation_rms_mm,
+                held.len(),
+                fin / geo,
+                d.noise_floor_mm,
+                d.seconds
+            );
+            // The geometric fit is where the independent study put it…
+            assert!((0.40..0.60).contains(&geo), "geometric held-out {geo}");
+            // …and the named effects cut it to at most 0.45× on poses the search never saw.
+            assert!(fin <= 0.45 * geo, "held-out {geo} → {fin}");
+            // What cuts it is joint tables (the study's finding), on several joints.
+            let tables = d.found.iter().filter(|f| matches!(f.candidate.kind, CandidateKind::Table { .. })).count();
+            assert!(tables >= 3, "{tables} tables named");
+        })
+        .unwrap()
+        .join()
+        .unwrap();
+}

@@ -1,0 +1,298 @@
+//! Host side of the firmware example: makes the measurement file the firmware streams in and
+//! computes, in `f64`, every value the firmware checks itself against.
+//!
+//! ```text
+//! cargo run -p kinecal-firmware            # rewrite data/measurements.csv and src/reference.rs
+//! cargo run -p kinecal-firmware -- --check # exit 1 if either file is out of date
+//! ```
+//!
+//! Rerun it whenever the library's algorithms or the scenario change; the firmware then checks
+//! its `f32` results against the new values on the next `cargo run --target thumbv7em-…`.
+
+use crate::scenario::{self, ID_POSES, N, P, SWARM, TICKS, VAL_POSES};
+use kinecal::compensate::{Target, Tracker};
+use kinecal::csv::CsvReader;
+use kinecal::fitness::PositionFitness;
+use kinecal::lm::{rms_error, Levenberg};
+use kinecal::param::apply_delta;
+use kinecal::pso::Pso;
+use kinecal::{ForwardKinematics, Measurement, Robot};
+use nalgebra::Vector3;
+use rand::{RngExt, SeedableRng};
+use rand_distr::{Distribution, Normal};
+use rand_xoshiro::Xoshiro256PlusPlus;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+const SEED: u64 = 20_261_122;
+/// Tracker noise per axis, mm.
+const SIGMA_MM: f64 = 0.01;
+
+pub fn main() -> ExitCode {
+    let check = std::env::args().any(|a| a == "--check");
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let (csv, truth) = measurements();
+    let reference = reference(csv.as_bytes(), &truth);
+    let files: [(PathBuf, &str); 2] = [
+        (dir.join("data/measurements.csv"), &csv),
+        (dir.join("src/reference.rs"), &reference),
+    ];
+    let mut stale = false;
+    for (path, text) in files.iter() {
+        let old = std::fs::read_to_string(path).unwrap_or_default();
+        if old == *text {
+            println!("up to date: {}", path.display());
+        } else if check {
+            println!(
+                "out of date: {} (regenerate with `cargo run -p kinecal-firmware`)",
+                path.display()
+            );
+            stale = true;
+        } else {
+            write(path, text);
+            println!("wrote {}", path.display());
+        }
+    }
+    if stale {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    }
+}
+
+fn write(path: &Path, text: &str) {
+    if let Some(d) = path.parent() {
+        if let Err(e) = std::fs::create_dir_all(d) {
+            panic!("cannot create {}: {e}", d.display());
+        }
+    }
+    if let Err(e) = std::fs::write(path, text) {
+        panic!("cannot write {}: {e}", path.display());
+    }
+}
+
+/// The "true" robot: the nominal one with small errors in all 24 parameters.
+fn truth(rng: &mut Xoshiro256PlusPlus) -> Robot<f64, N> {
+    let mut t = scenario::nominal::<f64>();
+    let set = scenario::params();
+    let delta: Vec<f64> = set
+        .as_slice()
+        .iter()
+        .map(|p| {
+            if p.is_length() {
+                rng.random_range(-0.8..0.8)
+            } else {
+                rng.random_range(-0.1f64..0.1).to_radians()
+            }
+        })
+        .collect();
+    apply_delta(&mut t, &set, &delta).expect("24 finite deltas");
+    t
+}
+
+/// CSV (interfaces.md §3) of the true robot seen by a tracker with noise: 50 identification
+/// poses (`set` 0) then 20 held-out ones (`set` 1), with a carried-along `temp_c` column.
+fn measurements() -> (String, Robot<f64, N>) {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(SEED);
+    let truth = truth(&mut rng);
+    let noise = Normal::new(0.0, SIGMA_MM).expect("finite sigma");
+    let mut fk = ForwardKinematics::new();
+    let mut s = String::new();
+    s.push_str("# kinecal firmware example: ER20-C10-like arm, 10 um tracker noise (generated, see src/generate.rs)\n");
+    s.push_str("q1,q2,q3,q4,q5,q6,x,y,z,set,temp_c\n");
+    for i in 0..ID_POSES + VAL_POSES {
+        let q_deg: [f64; N] = std::array::from_fn(|_| rng.random_range(-150.0f64..150.0));
+        let q_deg = q_deg.map(|v| (v * 1e4).round() / 1e4);
+        let p = fk.compute(&truth, &q_deg.map(f64::to_radians));
+        let m = p + Vector3::new(
+            noise.sample(&mut rng),
+            noise.sample(&mut rng),
+            noise.sample(&mut rng),
+        );
+        for q in q_deg {
+            let _ = write!(s, "{q:.4},");
+        }
+        let set = usize::from(i >= ID_POSES);
+        let temp = 21.0 + 0.05 * i as f64;
+        let _ = writeln!(s, "{:.4},{:.4},{:.4},{set},{temp:.2}", m.x, m.y, m.z);
+    }
+    (s, truth)
+}
+
+/// Parses the CSV exactly as the firmware does (same reader, `f64`).
+fn parse(bytes: &[u8]) -> (Vec<Measurement<f64, N>>, Vec<Measurement<f64, N>>, [f64; 2]) {
+    let mut reader = CsvReader::<&[u8], N, 128, 4>::new(bytes).expect("header");
+    let set_col = reader.extra_index("set").expect("set column");
+    let temp_col = reader.extra_index("temp_c").expect("temp_c column");
+    let (mut id, mut val) = (Vec::new(), Vec::new());
+    let mut sums = [0.0; 2];
+    while let Some(r) = reader.next_record() {
+        let r = r.expect("record");
+        sums[0] += r.q_deg.iter().sum::<f64>() + r.xyz_mm.iter().sum::<f64>();
+        sums[1] += r.extra[temp_col];
+        if r.extra[set_col] == 0.0 {
+            id.push(r.measurement())
+        } else {
+            val.push(r.measurement())
+        }
+    }
+    (id, val, sums)
+}
+
+fn reference(csv: &[u8], truth: &Robot<f64, N>) -> String {
+    let (id, val, sums) = parse(csv);
+    assert_eq!((id.len(), val.len()), (ID_POSES, VAL_POSES));
+    let nominal = scenario::nominal::<f64>();
+    let mut fk = ForwardKinematics::<f64, N>::new();
+
+    let nominal_fk: Vec<[f64; 3]> = id
+        .iter()
+        .take(4)
+        .map(|m| fk.compute(&nominal, &m.q).into())
+        .collect();
+    fk.compute(&nominal, &id[0].q);
+    let set = scenario::params();
+    let mut cols = [Vector3::zeros(); P];
+    fk.identification_jacobian(&nominal, set.as_slice(), &mut cols)
+        .expect("24 columns");
+    let jac: Vec<[f64; 3]> = cols.iter().map(|c| (*c).into()).collect();
+
+    let mut lm = Levenberg::<f64, N, 0, P>::new(nominal.clone(), set, scenario::lm_config())
+        .expect("solver");
+    let progress = lm.run(&id).expect("LM runs");
+    let model = lm.robot().clone();
+    let predicted: Vec<[f64; 3]> = val
+        .iter()
+        .map(|m| fk.compute(&model, &m.q).into())
+        .collect();
+
+    // The small swarm, same seed and schedule as the firmware's (f32 runs diverge from f64
+    // after a few iterations, so its result is reported beside the firmware's, not compared).
+    let mut swarm = Pso::<f64, SWARM, P, { scenario::PSO_HISTORY }>::new(
+        scenario::pso_config(),
+        scenario::PSO_SEED,
+    )
+    .expect("swarm");
+    let params = scenario::params();
+    let mut fitness = PositionFitness::new(&nominal, &params, &id).expect("fitness");
+    swarm.run(&mut fitness).expect("PSO runs");
+    let nominal_cost = fitness.of_robot(&nominal);
+
+    let net = scenario::net::<f64>();
+    let net_out = net.forward(&scenario::net_input());
+
+    // The servo loop's trajectory compensated with the f64 identified model.
+    let mut tracker = Tracker::new(scenario::compensation());
+    let mut commands = Vec::new();
+    for k in 0..TICKS {
+        let qn = scenario::nominal_joints::<f64>(k);
+        fk.compute(&nominal, &qn);
+        let target = Target::Pose(fk.tool_pose());
+        let s = tracker
+            .next(&model, &target, &qn)
+            .expect("trajectory point compensates");
+        commands.push(s.q);
+    }
+    let rows: Vec<[f64; 4]> = truth
+        .joints()
+        .iter()
+        .map(|j| [j.alpha, j.a, j.theta, j.d])
+        .collect();
+
+    let mut o = String::new();
+    o.push_str("//! Values the firmware checks itself against, computed on the host in f64.\n");
+    o.push_str(
+        "//! Generated by `cargo run -p kinecal-firmware` (src/generate.rs): do not edit.\n\n",
+    );
+    let _ = writeln!(
+        o,
+        "/// Sum of all joint readings (deg) and coordinates (mm) in the file; sum of `temp_c`."
+    );
+    let _ = writeln!(o, "pub const CSV_SUMS: [f64; 2] = {:?};", sums);
+    let _ = writeln!(
+        o,
+        "/// Nominal forward kinematics at the first identification poses, mm."
+    );
+    let _ = writeln!(
+        o,
+        "pub const NOMINAL_FK: [[f64; 3]; 4] = {};",
+        arr3(&nominal_fk)
+    );
+    let _ = writeln!(
+        o,
+        "/// RMS error of the nominal model on the identification poses, mm."
+    );
+    let _ = writeln!(
+        o,
+        "pub const NOMINAL_RMS_MM: f64 = {:?};",
+        rms_error(&nominal, &id)
+    );
+    let _ = writeln!(
+        o,
+        "/// Identification Jacobian of the 24 parameters, nominal model, first pose."
+    );
+    let _ = writeln!(o, "pub const JACOBIAN: [[f64; 3]; {P}] = {};", arr3(&jac));
+    let _ = writeln!(o, "/// LM from the nominal model: iterations, RMS on the identification and held-out poses (mm).");
+    let _ = writeln!(o, "pub const LM_ITERATIONS: u32 = {};", progress.iteration);
+    let _ = writeln!(
+        o,
+        "pub const LM_ID_RMS_MM: f64 = {:?};",
+        rms_error(&model, &id)
+    );
+    let _ = writeln!(
+        o,
+        "pub const LM_VAL_RMS_MM: f64 = {:?};",
+        rms_error(&model, &val)
+    );
+    let _ = writeln!(
+        o,
+        "/// The identified model's prediction at the held-out poses, mm."
+    );
+    let _ = writeln!(
+        o,
+        "pub const LM_VAL_PREDICTED: [[f64; 3]; {VAL_POSES}] = {};",
+        arr3(&predicted)
+    );
+    let _ = writeln!(
+        o,
+        "/// PSO cost (sum of squared errors, mm²) of the nominal model and the swarm's best."
+    );
+    let _ = writeln!(o, "pub const NOMINAL_COST_MM2: f64 = {:?};", nominal_cost);
+    let _ = writeln!(
+        o,
+        "pub const PSO_BEST_MM2: f64 = {:?};",
+        swarm.best_fitness()
+    );
+    let _ = writeln!(
+        o,
+        "/// Output of the seeded, untrained BPNN at `scenario::net_input()`."
+    );
+    let _ = writeln!(o, "pub const NET_OUTPUT: [f64; {P}] = {:?};", net_out);
+    let _ = writeln!(o, "/// The simulated robot's true rows (alpha rad, a mm, theta rad, d mm); tool and base nominal.");
+    let _ = writeln!(o, "pub const TRUE_ROWS: [[f64; 4]; {N}] = {};", arrn(&rows));
+    let _ = writeln!(
+        o,
+        "/// Joint commands (rad) of the compensated trajectory, f64 identified model."
+    );
+    let _ = writeln!(
+        o,
+        "pub const COMMANDS: [[f64; {N}]; {TICKS}] = {};",
+        arrn(&commands)
+    );
+    o
+}
+
+fn arrn<const K: usize>(v: &[[f64; K]]) -> String {
+    let mut s = String::from("[\n");
+    for r in v {
+        let cells: Vec<String> = r.iter().map(|x| format!("{x:?}")).collect();
+        let _ = writeln!(s, "    [{}],", cells.join(", "));
+    }
+    s.push(']');
+    s
+}
+
+fn arr3(v: &[[f64; 3]]) -> String {
+    arrn(v)
+}

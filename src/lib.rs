@@ -20,6 +20,10 @@
 
 #![no_std]
 #![forbid(unsafe_code)]
+// Matrix kernels index rows and columns; iterator chains would hide the algebra.
+#![allow(clippy::needless_range_loop)]
+// `!(x > 0)` is deliberate throughout: a NaN must fail the test, not pass it.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 #![warn(missing_debug_implementations)]
 
 pub mod bpnn;

@@ -329,9 +329,19 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
             let i = nz[a];
             let ci = cols[a];
             self.jtr[i] += ci.dot(&r);
-            for b in 0..=a {
+            let row = &mut self.jtj[i];
+            if k_nz == n {
+                // Every column excited (the usual geometric case): nz[b] = b, a contiguous row.
+                for (v, c) in row[..a + 1].iter_mut().zip(&cols[..a + 1]) {
+                    *v += ci.x * c.x + ci.y * c.y + ci.z * c.z;
+                }
+            } else {
                 // nz is increasing, so nz[b] ≤ i: the lower triangle.
-                self.jtj[i][nz[b]] += ci.dot(&cols[b]);
+                for (c, &j) in cols[..a + 1].iter().zip(&nz[..a + 1]) {
+                    if let Some(v) = row.get_mut(j) {
+                        *v += ci.x * c.x + ci.y * c.y + ci.z * c.z;
+                    }
+                }
             }
         }
     }
@@ -546,7 +556,9 @@ pub fn rms_error<T: Real, const N: usize, const V: usize>(
 mod snapshot_impl {
     //! Snapshot of the LM state: everything except scratch that the next phase rewrites.
     use super::*;
-    use crate::snapshot::{restore_with, save_with, Decoder, Encoder, Kind, Snapshot, SnapshotError};
+    use crate::snapshot::{
+        restore_with, save_with, Decoder, Encoder, Kind, Snapshot, SnapshotError,
+    };
     use crate::Frame;
     use embedded_io::{Read, Write};
 
@@ -570,7 +582,10 @@ mod snapshot_impl {
         }
     }
 
-    fn put_robot<T: Real, W: Write, const N: usize, const V: usize>(e: &mut Encoder<'_, W>, r: &Robot<T, N, V>) -> Result<(), SnapshotError> {
+    fn put_robot<T: Real, W: Write, const N: usize, const V: usize>(
+        e: &mut Encoder<'_, W>,
+        r: &Robot<T, N, V>,
+    ) -> Result<(), SnapshotError> {
         let b = r.base();
         for v in [b.x, b.y, b.z, b.o] {
             e.reals(v.as_slice())?;
@@ -584,19 +599,35 @@ mod snapshot_impl {
     }
 
     /// Reads a robot into `r`, whose effect list must have the same shape.
-    fn get_robot<T: Real, R: Read, const N: usize, const V: usize>(d: &mut Decoder<'_, R>, r: &mut Robot<T, N, V>) -> Result<(), SnapshotError> {
+    fn get_robot<T: Real, R: Read, const N: usize, const V: usize>(
+        d: &mut Decoder<'_, R>,
+        r: &mut Robot<T, N, V>,
+    ) -> Result<(), SnapshotError> {
         let mut axes = [Vector3::<T>::zeros(); 4];
         for a in axes.iter_mut() {
             let mut v = [T::zero(); 3];
             d.reals(&mut v)?;
             *a = Vector3::new(v[0], v[1], v[2]);
         }
-        let base = Frame { x: axes[0], y: axes[1], z: axes[2], o: axes[3] };
+        let base = Frame {
+            x: axes[0],
+            y: axes[1],
+            z: axes[2],
+            o: axes[3],
+        };
         let mut joints = *r.joints();
         for j in joints.iter_mut() {
             let mut v = [T::zero(); 7];
             d.reals(&mut v)?;
-            *j = crate::Joint { alpha: v[0], a: v[1], theta: v[2], d: v[3], beta: v[4], lower: v[5], upper: v[6] };
+            *j = crate::Joint {
+                alpha: v[0],
+                a: v[1],
+                theta: v[2],
+                d: v[3],
+                beta: v[4],
+                lower: v[5],
+                upper: v[6],
+            };
         }
         let mut t = [T::zero(); 3];
         d.reals(&mut t)?;
@@ -636,7 +667,14 @@ mod snapshot_impl {
                 }
                 e.reals(&self.jtr[..n])?;
                 e.reals(&self.step[..n])?;
-                e.reals(&[self.cost, self.acc_cost, self.cand_cost, self.lambda, self.nu, self.predicted])?;
+                e.reals(&[
+                    self.cost,
+                    self.acc_cost,
+                    self.cand_cost,
+                    self.lambda,
+                    self.nu,
+                    self.predicted,
+                ])?;
                 e.usize(self.next)?;
                 e.usize(self.n_poses)?;
                 let (ph, stop) = match self.phase {

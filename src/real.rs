@@ -51,7 +51,7 @@ impl Real for f64 {
     }
     #[inline(always)]
     fn sincos(self) -> (Self, Self) {
-        (libm::sin(self), libm::cos(self))
+        crate::trig::sincos_f64(self)
     }
     const EPS: Self = f64::EPSILON;
     #[inline(always)]

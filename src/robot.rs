@@ -25,16 +25,33 @@ pub struct Joint<T: Real> {
 impl<T: Real> Joint<T> {
     /// A row with no tilt and limits of ±180°.
     pub fn mdh(alpha: T, a: T, theta: T, d: T) -> Self {
-        Self { alpha, a, theta, d, beta: T::zero(), lower: -T::pi(), upper: T::pi() }
+        Self {
+            alpha,
+            a,
+            theta,
+            d,
+            beta: T::zero(),
+            lower: -T::pi(),
+            upper: T::pi(),
+        }
     }
 
     /// The same row with degrees for the angles (file and command-line units).
     pub fn mdh_deg(alpha_deg: f64, a_mm: f64, theta_deg: f64, d_mm: f64) -> Self {
-        Self::mdh(T::of(alpha_deg.to_radians()), T::of(a_mm), T::of(theta_deg.to_radians()), T::of(d_mm))
+        Self::mdh(
+            T::of(alpha_deg.to_radians()),
+            T::of(a_mm),
+            T::of(theta_deg.to_radians()),
+            T::of(d_mm),
+        )
     }
 
     fn valid(&self) -> bool {
-        [self.alpha, self.a, self.theta, self.d, self.beta, self.lower, self.upper].iter().all(|v| v.finite())
+        [
+            self.alpha, self.a, self.theta, self.d, self.beta, self.lower, self.upper,
+        ]
+        .iter()
+        .all(|v| v.finite())
             && self.lower < self.upper
     }
 }
@@ -69,14 +86,26 @@ pub struct Robot<T: Real, const N: usize, const V: usize = 0> {
 
 impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
     /// A robot from its base pose (measurement frame ← base), rows and tool point (flange frame).
-    pub fn new(base: Frame<T>, joints: [Joint<T>; N], tool: Vector3<T>) -> Result<Self, RobotError> {
+    pub fn new(
+        base: Frame<T>,
+        joints: [Joint<T>; N],
+        tool: Vector3<T>,
+    ) -> Result<Self, RobotError> {
         let ok = joints.iter().all(Joint::valid)
             && tool.iter().all(|v| v.finite())
-            && [base.x, base.y, base.z, base.o].iter().all(|v| v.iter().all(|c| c.finite()));
+            && [base.x, base.y, base.z, base.o]
+                .iter()
+                .all(|v| v.iter().all(|c| c.finite()));
         if !ok {
             return Err(RobotError::NotFinite);
         }
-        let mut r = Self { base, joints, tool, effects: Effects::default(), trig: [RowTrig::default(); N] };
+        let mut r = Self {
+            base,
+            joints,
+            tool,
+            effects: Effects::default(),
+            trig: [RowTrig::default(); N],
+        };
         r.refresh();
         Ok(r)
     }
@@ -86,7 +115,13 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
         for (t, j) in self.trig.iter_mut().zip(self.joints.iter()) {
             let (sa, ca) = j.alpha.sincos();
             let (sb, cb) = j.beta.sincos();
-            *t = RowTrig { ca, sa, cb, sb, tilted: j.beta != T::zero() };
+            *t = RowTrig {
+                ca,
+                sa,
+                cb,
+                sb,
+                tilted: j.beta != T::zero(),
+            };
         }
     }
 
@@ -111,7 +146,10 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
 
     /// Replaces the base pose.
     pub fn set_base(&mut self, base: Frame<T>) -> Result<(), RobotError> {
-        if ![base.x, base.y, base.z, base.o].iter().all(|v| v.iter().all(|c| c.finite())) {
+        if ![base.x, base.y, base.z, base.o]
+            .iter()
+            .all(|v| v.iter().all(|c| c.finite()))
+        {
             return Err(RobotError::NotFinite);
         }
         self.base = base;
@@ -142,8 +180,21 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
         &mut self.effects
     }
 
-    pub(crate) fn parts_mut(&mut self) -> (&mut Frame<T>, &mut [Joint<T>; N], &mut Vector3<T>, &mut Effects<T, V>) {
-        (&mut self.base, &mut self.joints, &mut self.tool, &mut self.effects)
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn parts_mut(
+        &mut self,
+    ) -> (
+        &mut Frame<T>,
+        &mut [Joint<T>; N],
+        &mut Vector3<T>,
+        &mut Effects<T, V>,
+    ) {
+        (
+            &mut self.base,
+            &mut self.joints,
+            &mut self.tool,
+            &mut self.effects,
+        )
     }
 
     /// Sum of |a| + |d| over the rows plus the tool length: a length scale (mm) that makes
@@ -153,12 +204,18 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
         for j in self.joints.iter() {
             s += j.a.abs() + j.d.abs();
         }
-        if s > T::zero() { s } else { T::one() }
+        if s > T::zero() {
+            s
+        } else {
+            T::one()
+        }
     }
 
     /// True when every reading is within its joint's limits.
     pub fn within_limits(&self, q: &[T; N]) -> bool {
-        q.iter().zip(self.joints.iter()).all(|(q, j)| *q >= j.lower && *q <= j.upper)
+        q.iter()
+            .zip(self.joints.iter())
+            .all(|(q, j)| *q >= j.lower && *q <= j.upper)
     }
 
     /// The same robot in another scalar type (effects included).
@@ -188,13 +245,23 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
                 *d = c(*s);
             }
             // Same capacity, same shapes: cannot fail.
-            let _ = r.effects.push(e.kind, e.joint as usize, N, e.order, c(e.start), c(e.step), &vals[..src.len()]);
+            let _ = r.effects.push(
+                e.kind,
+                e.joint as usize,
+                N,
+                e.order,
+                c(e.start),
+                c(e.step),
+                &vals[..src.len()],
+            );
         }
         r
     }
 
     /// The same geometry and effects with a different value capacity `W` (fails if too small).
-    pub fn with_capacity<const W: usize>(&self) -> Result<Robot<T, N, W>, crate::effects::EffectError> {
+    pub fn with_capacity<const W: usize>(
+        &self,
+    ) -> Result<Robot<T, N, W>, crate::effects::EffectError> {
         let mut r = Robot {
             base: self.base,
             joints: self.joints,
@@ -203,7 +270,15 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
             trig: self.trig,
         };
         for (i, e) in self.effects.iter().enumerate() {
-            r.effects.push(e.kind, e.joint as usize, N, e.order, e.start, e.step, self.effects.values_of(i))?;
+            r.effects.push(
+                e.kind,
+                e.joint as usize,
+                N,
+                e.order,
+                e.start,
+                e.step,
+                self.effects.values_of(i),
+            )?;
         }
         Ok(r)
     }

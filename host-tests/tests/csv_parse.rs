@@ -322,3 +322,35 @@ proptest! {
         }
     }
 }
+
+mod decimal {
+    use kinecal::csv::parse_decimal;
+    use proptest::prelude::*;
+
+    #[test]
+    fn agrees_with_core_on_typical_and_edge_cells() {
+        for s in ["0", "-0", "1", "-179.999848", "3240.75620", "1e-3", "2.5E+2", ".5", "5.", "+7", "0.000001", "123456789012345", "1e22", "1e-22", "00012.50"] {
+            assert_eq!(parse_decimal(s).map(f64::to_bits), s.parse::<f64>().ok().map(f64::to_bits), "{s}");
+        }
+        for s in ["", "-", ".", "e5", "1e", "1e+", "1.2.3", "12a", "--1", "0x10"] {
+            assert_eq!(parse_decimal(s), None, "{s:?}");
+        }
+        assert!(parse_decimal("NaN").unwrap().is_nan());
+        assert_eq!(parse_decimal("-inf"), Some(f64::NEG_INFINITY));
+    }
+
+    proptest! {
+        #[test]
+        fn exact_for_file_precision(v in -1e7f64..1e7, decimals in 0usize..9) {
+            let s = format!("{v:.decimals$}");
+            prop_assert_eq!(parse_decimal(&s).map(f64::to_bits), s.parse::<f64>().ok().map(f64::to_bits), "{}", s);
+        }
+
+        #[test]
+        fn close_for_any_float(v in proptest::num::f64::NORMAL) {
+            let s = format!("{v:e}");
+            let p = parse_decimal(&s).unwrap();
+            prop_assert!(((p - v) / v).abs() < 1e-14, "{} -> {}", s, p);
+        }
+    }
+}

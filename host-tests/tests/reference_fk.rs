@@ -529,3 +529,25 @@ fn f32_error_statistics() {
         assert!(worst <= 1e-3 && worst_a <= 1e-3);
     }
 }
+
+#[test]
+fn sincos_f64_matches_std_to_an_ulp_or_two() {
+    let mut worst: f64 = 0.0;
+    let n = 400_000;
+    for i in 0..=n {
+        let x = -50.0 + 100.0 * i as f64 / n as f64;
+        let (s, c) = kinecal::trig::sincos_f64(x);
+        worst = worst.max((s - x.sin()).abs()).max((c - x.cos()).abs());
+    }
+    for k in -64i32..=64 {
+        let x = k as f64 * std::f64::consts::FRAC_PI_4;
+        for d in [-2e-16, 0.0, 2e-16] {
+            let (s, c) = kinecal::trig::sincos_f64(x + d);
+            worst = worst.max((s - (x + d).sin()).abs()).max((c - (x + d).cos()).abs());
+        }
+    }
+    assert!(worst < 4.0 * f64::EPSILON, "max error {worst:e}");
+    assert!(kinecal::trig::sincos_f64(f64::NAN).0.is_nan());
+    let (s, c) = kinecal::trig::sincos_f64(1e9);
+    assert!((s * s + c * c - 1.0).abs() < 1e-9);
+}

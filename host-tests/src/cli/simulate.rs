@@ -46,6 +46,20 @@ pub struct Args {
     /// Also write the true model (robot TOML).
     #[arg(long)]
     pub truth: Option<PathBuf>,
+    /// Instead of random poses, single-joint sweeps of these joints (1-based, e.g. 1,2,5,6) for
+    /// `kinecal frames`; the CSV gets a `sweep` column.
+    #[arg(long, value_delimiter = ',')]
+    pub sweeps: Vec<usize>,
+    /// Points per sweep.
+    #[arg(long, default_value_t = 24)]
+    pub sweep_points: usize,
+    /// Angular span of each sweep (degrees), shortened to the joint's limits. Short arcs fix
+    /// the circle's centre poorly: 360° for joints 1 and 2 gives the base within ~0.03 mm.
+    #[arg(long, default_value_t = 360.0)]
+    pub sweep_span_deg: f64,
+    /// Joint readings (degrees) the sweeps start from, q1,…,qN (default: a bent pose).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub rest: Vec<f64>,
 }
 
 fn simulate_n<const N: usize>(
@@ -70,7 +84,15 @@ fn simulate_n<const N: usize>(
         geom_errors: args.geom_errors.then(GeomErrors::default),
         effects: effects.clone(),
     };
-    let (truth, ds) = sim::simulate(&nominal, &sim)?;
+    let (truth, mut ds) = sim::simulate(&nominal, &sim)?;
+    if !args.sweeps.is_empty() {
+        let rest: [f64; N] = if args.rest.is_empty() {
+            crate::sweeps::default_rest(&truth)
+        } else {
+            args.rest.as_slice().try_into().map_err(|_| anyhow!("--rest needs {N} joint readings, got {}", args.rest.len()))?
+        };
+        ds = crate::sweeps::sweep_data(&truth, &rest, &args.sweeps, args.sweep_points, args.sweep_span_deg, args.noise_mm, args.seed)?;
+    }
     data::write(&args.out, &ds)?;
     if let Some(t) = &args.truth {
         let mut tilt = file.tilt_joints();

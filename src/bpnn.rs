@@ -63,7 +63,12 @@ pub struct BpnnConfig<T: Real> {
 impl<T: Real> Default for BpnnConfig<T> {
     /// `η = 0.01`, `μ = 0.9`, per-sample updates, tanh.
     fn default() -> Self {
-        Self { learning_rate: T::of(0.01), momentum: T::of(0.9), batch: 1, activation: Activation::Tanh }
+        Self {
+            learning_rate: T::of(0.01),
+            momentum: T::of(0.9),
+            batch: 1,
+            activation: Activation::Tanh,
+        }
     }
 }
 
@@ -95,7 +100,12 @@ struct Weights<T: Real, const I: usize, const H: usize, const O: usize> {
 
 impl<T: Real, const I: usize, const H: usize, const O: usize> Weights<T, I, H, O> {
     fn zero() -> Self {
-        Self { w1: [[T::zero(); I]; H], b1: [T::zero(); H], w2: [[T::zero(); H]; O], b2: [T::zero(); O] }
+        Self {
+            w1: [[T::zero(); I]; H],
+            b1: [T::zero(); H],
+            w2: [[T::zero(); H]; O],
+            b2: [T::zero(); O],
+        }
     }
     fn finite(&self) -> bool {
         self.w1.iter().all(|r| r.iter().all(|v| v.finite()))
@@ -126,7 +136,10 @@ struct Range<T: Real, const K: usize> {
 
 impl<T: Real, const K: usize> Range<T, K> {
     fn unit() -> Self {
-        Self { mid: [T::zero(); K], half: [T::one(); K] }
+        Self {
+            mid: [T::zero(); K],
+            half: [T::one(); K],
+        }
     }
     /// From `lo ≤ hi`; a component with `lo == hi` gets `half = 1`, so it maps to 0 without
     /// dividing by zero.
@@ -150,7 +163,8 @@ impl<T: Real, const K: usize> Range<T, K> {
         n
     }
     fn valid(&self) -> bool {
-        self.mid.iter().all(|v| v.finite()) && self.half.iter().all(|v| v.finite() && *v > T::zero())
+        self.mid.iter().all(|v| v.finite())
+            && self.half.iter().all(|v| v.finite() && *v > T::zero())
     }
 }
 
@@ -216,7 +230,13 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
     }
 
     /// Sets the ranges mapped to [−1, 1]: inputs `[in_lo, in_hi]`, outputs `[out_lo, out_hi]`.
-    pub fn set_ranges(&mut self, in_lo: &[T; I], in_hi: &[T; I], out_lo: &[T; O], out_hi: &[T; O]) -> Result<(), BpnnError> {
+    pub fn set_ranges(
+        &mut self,
+        in_lo: &[T; I],
+        in_hi: &[T; I],
+        out_lo: &[T; O],
+        out_hi: &[T; O],
+    ) -> Result<(), BpnnError> {
         let input = Range::from_bounds(in_lo, in_hi)?;
         let output = Range::from_bounds(out_lo, out_hi)?;
         self.input = input;
@@ -425,8 +445,15 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
         self.rng = d.rng()?;
         self.epochs = d.u32()?;
         self.grad = Weights::zero();
-        let ok = self.weights.finite() && self.momentum.finite() && self.input.valid() && self.output.valid();
-        if ok { Ok(()) } else { Err(SnapshotError::Invalid) }
+        let ok = self.weights.finite()
+            && self.momentum.finite()
+            && self.input.valid()
+            && self.output.valid();
+        if ok {
+            Ok(())
+        } else {
+            Err(SnapshotError::Invalid)
+        }
     }
 }
 
@@ -449,15 +476,27 @@ fn check_config<T: Real>(cfg: &BpnnConfig<T>) -> Result<(), BpnnError> {
         && cfg.momentum >= T::zero()
         && cfg.momentum < T::one()
         && cfg.batch >= 1;
-    if ok { Ok(()) } else { Err(BpnnError::Config) }
+    if ok {
+        Ok(())
+    } else {
+        Err(BpnnError::Config)
+    }
 }
 
-fn check_data<T: Real, const I: usize, const O: usize>(inputs: &[[T; I]], targets: &[[T; O]]) -> Result<(), BpnnError> {
+fn check_data<T: Real, const I: usize, const O: usize>(
+    inputs: &[[T; I]],
+    targets: &[[T; O]],
+) -> Result<(), BpnnError> {
     if inputs.is_empty() || inputs.len() != targets.len() {
         return Err(BpnnError::Shape);
     }
-    let finite = inputs.iter().all(|r| r.iter().all(|v| v.finite())) && targets.iter().all(|r| r.iter().all(|v| v.finite()));
-    if finite { Ok(()) } else { Err(BpnnError::NonFinite) }
+    let finite = inputs.iter().all(|r| r.iter().all(|v| v.finite()))
+        && targets.iter().all(|r| r.iter().all(|v| v.finite()));
+    if finite {
+        Ok(())
+    } else {
+        Err(BpnnError::NonFinite)
+    }
 }
 
 fn min_max<T: Real, const K: usize>(rows: &[[T; K]]) -> ([T; K], [T; K]) {

@@ -60,7 +60,8 @@ use crate::Real;
 pub const DEFAULT_EPOCHS: u32 = 300;
 
 /// The network for the paper's 24 parameters: 24 → 12 → 24.
-pub type Mdh24Net<T> = Bpnn<T, 24, { crate::bpnn::hidden_size(24, 24, crate::bpnn::DEFAULT_A) }, 24>;
+pub type Mdh24Net<T> =
+    Bpnn<T, 24, { crate::bpnn::hidden_size(24, 24, crate::bpnn::DEFAULT_A) }, 24>;
 
 /// Why BPNN-PSO could not train or seed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -90,7 +91,9 @@ pub fn train<T: Real, const S: usize, const D: usize, const HN: usize, const HH:
     net.fit_ranges(inputs, targets).map_err(BpnnPsoError::Net)?;
     let mut loss = net.loss(inputs, targets).map_err(BpnnPsoError::Net)?;
     for _ in 0..epochs {
-        loss = net.train_epoch(inputs, targets).map_err(BpnnPsoError::Net)?;
+        loss = net
+            .train_epoch(inputs, targets)
+            .map_err(BpnnPsoError::Net)?;
     }
     Ok(loss)
 }
@@ -106,7 +109,11 @@ pub fn seed<T: Real, const S: usize, const D: usize, const HN: usize, const HH: 
         return Err(BpnnPsoError::Swarm(PsoError::Start));
     }
     // Check every prediction before moving any particle (predicting twice is cheap).
-    if !swarm.initial_positions().iter().all(|x| net.forward(x).iter().all(|v| v.finite())) {
+    if !swarm
+        .initial_positions()
+        .iter()
+        .all(|x| net.forward(x).iter().all(|v| v.finite()))
+    {
         return Err(BpnnPsoError::Net(BpnnError::NonFinite));
     }
     let rest = [T::zero(); D];

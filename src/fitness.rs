@@ -66,7 +66,11 @@ pub struct PositionFitness<'a, T: Real, const N: usize, const V: usize, const P:
 
 impl<'a, T: Real, const N: usize, const V: usize, const P: usize> PositionFitness<'a, T, N, V, P> {
     /// The objective for deltas over `params` from `reference`, fitted to `data`.
-    pub fn new(reference: &'a Robot<T, N, V>, params: &'a ParamSet<P>, data: &'a [Measurement<T, N>]) -> Result<Self, FitnessError> {
+    pub fn new(
+        reference: &'a Robot<T, N, V>,
+        params: &'a ParamSet<P>,
+        data: &'a [Measurement<T, N>],
+    ) -> Result<Self, FitnessError> {
         params.check(reference).map_err(FitnessError::Params)?;
         if data.is_empty() {
             return Err(FitnessError::NoMeasurements);
@@ -74,7 +78,14 @@ impl<'a, T: Real, const N: usize, const V: usize, const P: usize> PositionFitnes
         if data.iter().any(|m| !m.is_finite()) {
             return Err(FitnessError::NonFiniteMeasurement);
         }
-        Ok(Self { reference, params, data, work: reference.clone(), fk: ForwardKinematics::new(), cache: None })
+        Ok(Self {
+            reference,
+            params,
+            data,
+            work: reference.clone(),
+            fk: ForwardKinematics::new(),
+            cache: None,
+        })
     }
 
     /// As [`PositionFitness::new`], filling `cache` (at least one entry per measurement) with
@@ -87,7 +98,9 @@ impl<'a, T: Real, const N: usize, const V: usize, const P: usize> PositionFitnes
         cache: &'a mut [JointTrig<T, N>],
     ) -> Result<Self, FitnessError> {
         let mut f = Self::new(reference, params, data)?;
-        let cache = cache.get_mut(..data.len()).ok_or(FitnessError::CacheTooSmall)?;
+        let cache = cache
+            .get_mut(..data.len())
+            .ok_or(FitnessError::CacheTooSmall)?;
         for (c, m) in cache.iter_mut().zip(data) {
             for (cj, q) in c.iter_mut().zip(m.q.iter()) {
                 *cj = q.sincos();
@@ -126,7 +139,9 @@ impl<'a, T: Real, const N: usize, const V: usize, const P: usize> PositionFitnes
     }
 }
 
-impl<T: Real, const N: usize, const V: usize, const P: usize> Objective<T> for PositionFitness<'_, T, N, V, P> {
+impl<T: Real, const N: usize, const V: usize, const P: usize> Objective<T>
+    for PositionFitness<'_, T, N, V, P>
+{
     fn dimension(&self) -> usize {
         self.params.len()
     }
@@ -151,7 +166,11 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Objective<T> for P
 /// The fast path: forward kinematics of the measured point only, with the joint angle's sine
 /// and cosine from `sin(θ + q)`, `cos(θ + q)` by angle addition. Same arithmetic as
 /// [`ForwardKinematics::compute`] otherwise (tested against it).
-fn sum_cached<T: Real, const N: usize, const V: usize>(robot: &Robot<T, N, V>, data: &[Measurement<T, N>], cache: &[JointTrig<T, N>]) -> T {
+fn sum_cached<T: Real, const N: usize, const V: usize>(
+    robot: &Robot<T, N, V>,
+    data: &[Measurement<T, N>],
+    cache: &[JointTrig<T, N>],
+) -> T {
     let joints = robot.joints();
     let rows = robot.trig();
     let mut theta = [(T::zero(), T::one()); N];
@@ -164,9 +183,19 @@ fn sum_cached<T: Real, const N: usize, const V: usize>(robot: &Robot<T, N, V>, d
         for i in 0..N {
             let (st, ct) = theta[i];
             let (sq, cq) = qt[i];
-            f = advance(&f, &joints[i], &rows[i], st * cq + ct * sq, ct * cq - st * sq);
+            f = advance(
+                &f,
+                &joints[i],
+                &rows[i],
+                st * cq + ct * sq,
+                ct * cq - st * sq,
+            );
         }
-        let p = if N > 0 { f.point(robot.tool()) } else { robot.base().o };
+        let p = if N > 0 {
+            f.point(robot.tool())
+        } else {
+            robot.base().o
+        };
         s += (m.point - p).norm_squared();
     }
     s
@@ -187,5 +216,10 @@ fn advance<T: Real>(f: &Frame<T>, j: &Joint<T>, t: &RowTrig<T>, s: T, c: T) -> F
     let nx = x * c + y * s;
     y = y * c - x * s;
     x = nx;
-    Frame { x, y, z, o: o + z * j.d }
+    Frame {
+        x,
+        y,
+        z,
+        o: o + z * j.d,
+    }
 }

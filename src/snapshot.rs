@@ -101,7 +101,11 @@ pub trait Snapshot {
 
 /// Scalar width tag of `T` for the header.
 pub fn scalar_width<T: Real>() -> u8 {
-    if core::mem::size_of::<T>() == 4 { 4 } else { 8 }
+    if core::mem::size_of::<T>() == 4 {
+        4
+    } else {
+        8
+    }
 }
 
 /// Streaming CRC-32 (IEEE 802.3 polynomial, reflected, as zlib and PNG), nibble-table based
@@ -116,7 +120,11 @@ const CRC_NIBBLE: [u32; 16] = {
         let mut c = i as u32;
         let mut k = 0;
         while k < 4 {
-            c = if c & 1 != 0 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+            c = if c & 1 != 0 {
+                0xEDB8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            };
             k += 1;
         }
         t[i] = c;
@@ -209,7 +217,10 @@ impl<W: Write> Encoder<'_, W> {
         v.iter().try_for_each(|x| self.real(*x))
     }
     /// Rows of reals (`[[T; D]]`, e.g. a swarm or a matrix), row after row.
-    pub fn real_rows<T: Real, const D: usize>(&mut self, v: &[[T; D]]) -> Result<(), SnapshotError> {
+    pub fn real_rows<T: Real, const D: usize>(
+        &mut self,
+        v: &[[T; D]],
+    ) -> Result<(), SnapshotError> {
         v.iter().try_for_each(|row| self.reals(row))
     }
     /// A `Xoshiro256PlusPlus` generator's state (32 bytes).
@@ -270,12 +281,18 @@ impl<R: Read> Decoder<'_, R> {
     /// Reads a u32 and checks it equals `expected` (shape fields); otherwise [`SnapshotError::Shape`].
     pub fn expect_shape(&mut self, expected: usize) -> Result<(), SnapshotError> {
         let v = self.u32()?;
-        if usize::try_from(v).ok() == Some(expected) { Ok(()) } else { Err(SnapshotError::Shape) }
+        if usize::try_from(v).ok() == Some(expected) {
+            Ok(())
+        } else {
+            Err(SnapshotError::Shape)
+        }
     }
     /// A real written by [`Encoder::real`] (NaN and infinities pass; validate afterwards).
     pub fn real<T: Real>(&mut self) -> Result<T, SnapshotError> {
         if scalar_width::<T>() == 4 {
-            Ok(T::of(f32::from_bits(u32::from_le_bytes(self.array()?)) as f64))
+            Ok(T::of(
+                f32::from_bits(u32::from_le_bytes(self.array()?)) as f64
+            ))
         } else {
             Ok(T::of(f64::from_bits(u64::from_le_bytes(self.array()?))))
         }
@@ -283,7 +300,11 @@ impl<R: Read> Decoder<'_, R> {
     /// A finite real; anything else is [`SnapshotError::Invalid`].
     pub fn finite<T: Real>(&mut self) -> Result<T, SnapshotError> {
         let v: T = self.real()?;
-        if v.finite() { Ok(v) } else { Err(SnapshotError::Invalid) }
+        if v.finite() {
+            Ok(v)
+        } else {
+            Err(SnapshotError::Invalid)
+        }
     }
     pub fn reals<T: Real>(&mut self, out: &mut [T]) -> Result<(), SnapshotError> {
         out.iter_mut().try_for_each(|x| {
@@ -291,7 +312,10 @@ impl<R: Read> Decoder<'_, R> {
             Ok(())
         })
     }
-    pub fn real_rows<T: Real, const D: usize>(&mut self, out: &mut [[T; D]]) -> Result<(), SnapshotError> {
+    pub fn real_rows<T: Real, const D: usize>(
+        &mut self,
+        out: &mut [[T; D]],
+    ) -> Result<(), SnapshotError> {
         out.iter_mut().try_for_each(|row| self.reals(row))
     }
     /// A generator state written by [`Encoder::rng`]; the all-zero state (unreachable from
@@ -313,11 +337,19 @@ impl<R: Read> Decoder<'_, R> {
 /// Writes a complete snapshot: header, then the payload produced by `payload`.
 ///
 /// `payload` is called twice (measure, then write) and must produce the same bytes both times.
-pub fn save_with<T: Real, W: Write, F>(w: &mut W, kind: Kind, mut payload: F) -> Result<(), SnapshotError>
+pub fn save_with<T: Real, W: Write, F>(
+    w: &mut W,
+    kind: Kind,
+    mut payload: F,
+) -> Result<(), SnapshotError>
 where
     F: FnMut(&mut Encoder<'_, W>) -> Result<(), SnapshotError>,
 {
-    let mut measure: Encoder<'_, W> = Encoder { sink: None, crc: Crc32::new(), len: 0 };
+    let mut measure: Encoder<'_, W> = Encoder {
+        sink: None,
+        crc: Crc32::new(),
+        len: 0,
+    };
     payload(&mut measure)?;
     let len = u32::try_from(measure.len).map_err(|_| SnapshotError::Length)?;
     let crc = measure.crc.value();
@@ -329,19 +361,28 @@ where
     header[12..16].copy_from_slice(&len.to_le_bytes());
     header[16..20].copy_from_slice(&crc.to_le_bytes());
     w.write_all(&header).map_err(|_| SnapshotError::Io)?;
-    let mut enc = Encoder { sink: Some(w), crc: Crc32::new(), len: 0 };
+    let mut enc = Encoder {
+        sink: Some(w),
+        crc: Crc32::new(),
+        len: 0,
+    };
     payload(&mut enc)?;
     if enc.len != len as u64 || enc.crc.value() != crc {
         // The closure is not deterministic: the snapshot just written is unusable.
         return Err(SnapshotError::Invalid);
     }
-    enc.sink.map_or(Ok(()), |w| w.flush().map_err(|_| SnapshotError::Io))
+    enc.sink
+        .map_or(Ok(()), |w| w.flush().map_err(|_| SnapshotError::Io))
 }
 
 /// Reads and checks a snapshot of `kind` for scalar `T`, decoding the payload with `payload`
 /// into a value of the caller's choice (a temporary copy of the stepper). The value is returned
 /// only when the payload was consumed exactly and its CRC matched.
-pub fn restore_with<T: Real, R: Read, X, F>(r: &mut R, kind: Kind, payload: F) -> Result<X, SnapshotError>
+pub fn restore_with<T: Real, R: Read, X, F>(
+    r: &mut R,
+    kind: Kind,
+    payload: F,
+) -> Result<X, SnapshotError>
 where
     F: FnOnce(&mut Decoder<'_, R>) -> Result<X, SnapshotError>,
 {
@@ -366,7 +407,11 @@ where
     }
     let len = u32::from_le_bytes([header[12], header[13], header[14], header[15]]);
     let crc = u32::from_le_bytes([header[16], header[17], header[18], header[19]]);
-    let mut dec = Decoder { src: r, crc: Crc32::new(), left: len };
+    let mut dec = Decoder {
+        src: r,
+        crc: Crc32::new(),
+        left: len,
+    };
     let value = payload(&mut dec)?;
     if dec.left != 0 {
         return Err(SnapshotError::Length);

@@ -4,7 +4,10 @@ use kinecal::bpnn::{hidden_size, Activation, Bpnn, BpnnConfig, BpnnError, DEFAUL
 
 /// A smooth map of [−1, 1]² with outputs of different size and offset.
 fn smooth(x: &[f64; 2]) -> [f64; 2] {
-    [3.0 * (1.5 * x[0]).sin() * x[1].cos() + 10.0, 0.2 * (x[0] * x[0] - 0.5 * x[1])]
+    [
+        3.0 * (1.5 * x[0]).sin() * x[1].cos() + 10.0,
+        0.2 * (x[0] * x[0] - 0.5 * x[1]),
+    ]
 }
 
 fn grid(n: usize, shift: f64) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
@@ -49,8 +52,15 @@ fn learns_a_known_smooth_function() {
     let (tx, ty) = grid(10, 0.37);
     for cfg in [
         BpnnConfig::default(),
-        BpnnConfig { activation: Activation::Sigmoid, ..BpnnConfig::default() },
-        BpnnConfig { learning_rate: 0.1, batch: 10, ..BpnnConfig::default() },
+        BpnnConfig {
+            activation: Activation::Sigmoid,
+            ..BpnnConfig::default()
+        },
+        BpnnConfig {
+            learning_rate: 0.1,
+            batch: 10,
+            ..BpnnConfig::default()
+        },
     ] {
         let mut net = Bpnn::<f64, 2, H, 2>::new(cfg, 1).unwrap();
         net.fit_ranges(&xs, &ys).unwrap();
@@ -61,10 +71,19 @@ fn learns_a_known_smooth_function() {
         }
         let held_out = net.loss(&tx, &ty).unwrap();
         assert_eq!(net.epochs(), 1000);
-        assert!(start > 0.1, "{cfg:?}: an untrained net is far off ({start})");
-        assert!(last < 1e-3 && held_out < 1e-3, "{cfg:?}: training {last}, held-out {held_out}");
+        assert!(
+            start > 0.1,
+            "{cfg:?}: an untrained net is far off ({start})"
+        );
+        assert!(
+            last < 1e-3 && held_out < 1e-3,
+            "{cfg:?}: training {last}, held-out {held_out}"
+        );
         let worst = max_relative_error(&net, &tx, &ty);
-        assert!(worst < 0.05, "{cfg:?}: worst held-out error {worst} of the range");
+        assert!(
+            worst < 0.05,
+            "{cfg:?}: worst held-out error {worst} of the range"
+        );
     }
 }
 
@@ -95,33 +114,69 @@ fn constant_outputs_and_ranges() {
     }
     let p = net.forward(&[0.5, 0.5])[0];
     assert!((p - 7.5).abs() < 1e-3, "{p}");
-    assert_eq!(net.set_ranges(&[0.0, 1.0], &[1.0, 0.0], &[0.0], &[1.0]).unwrap_err(), BpnnError::NonFinite);
-    assert_eq!(net.set_ranges(&[0.0, f64::NAN], &[1.0, 1.0], &[0.0], &[1.0]).unwrap_err(), BpnnError::NonFinite);
+    assert_eq!(
+        net.set_ranges(&[0.0, 1.0], &[1.0, 0.0], &[0.0], &[1.0])
+            .unwrap_err(),
+        BpnnError::NonFinite
+    );
+    assert_eq!(
+        net.set_ranges(&[0.0, f64::NAN], &[1.0, 1.0], &[0.0], &[1.0])
+            .unwrap_err(),
+        BpnnError::NonFinite
+    );
 }
 
 #[test]
 fn bad_input_is_refused_and_divergence_undone() {
-    assert_eq!(Bpnn::<f64, 0, 3, 1>::new(BpnnConfig::default(), 0).unwrap_err(), BpnnError::Empty);
+    assert_eq!(
+        Bpnn::<f64, 0, 3, 1>::new(BpnnConfig::default(), 0).unwrap_err(),
+        BpnnError::Empty
+    );
     for cfg in [
-        BpnnConfig { learning_rate: 0.0, ..BpnnConfig::default() },
-        BpnnConfig { learning_rate: f64::NAN, ..BpnnConfig::default() },
-        BpnnConfig { momentum: 1.0, ..BpnnConfig::default() },
-        BpnnConfig { batch: 0, ..BpnnConfig::default() },
+        BpnnConfig {
+            learning_rate: 0.0,
+            ..BpnnConfig::default()
+        },
+        BpnnConfig {
+            learning_rate: f64::NAN,
+            ..BpnnConfig::default()
+        },
+        BpnnConfig {
+            momentum: 1.0,
+            ..BpnnConfig::default()
+        },
+        BpnnConfig {
+            batch: 0,
+            ..BpnnConfig::default()
+        },
     ] {
-        assert_eq!(Bpnn::<f64, 2, 3, 1>::new(cfg, 0).unwrap_err(), BpnnError::Config);
+        assert_eq!(
+            Bpnn::<f64, 2, 3, 1>::new(cfg, 0).unwrap_err(),
+            BpnnError::Config
+        );
     }
     let (xs, ys) = grid(6, 0.0);
     let mut net = Bpnn::<f64, 2, H, 2>::new(BpnnConfig::default(), 3).unwrap();
     net.fit_ranges(&xs, &ys).unwrap();
-    assert_eq!(net.train_epoch(&xs, &ys[..5]).unwrap_err(), BpnnError::Shape);
+    assert_eq!(
+        net.train_epoch(&xs, &ys[..5]).unwrap_err(),
+        BpnnError::Shape
+    );
     assert_eq!(net.train_epoch(&[], &[]).unwrap_err(), BpnnError::Shape);
     let mut bad = ys.clone();
     bad[2][1] = f64::INFINITY;
-    assert_eq!(net.train_epoch(&xs, &bad).unwrap_err(), BpnnError::NonFinite);
+    assert_eq!(
+        net.train_epoch(&xs, &bad).unwrap_err(),
+        BpnnError::NonFinite
+    );
     assert_eq!(net.fit_ranges(&xs, &bad).unwrap_err(), BpnnError::NonFinite);
 
     // A step size far too large blows the weights up: the epoch is undone.
-    net.set_config(BpnnConfig { learning_rate: 1e200, ..BpnnConfig::default() }).unwrap();
+    net.set_config(BpnnConfig {
+        learning_rate: 1e200,
+        ..BpnnConfig::default()
+    })
+    .unwrap();
     let before = net.forward(&[0.1, 0.2]);
     let epochs = net.epochs();
     assert_eq!(net.train_epoch(&xs, &ys).unwrap_err(), BpnnError::Diverged);

@@ -170,7 +170,11 @@ fn pose<T: Real, const N: usize, const W: usize>(r: &Robot<T, N, W>, q: &[T; N])
 }
 
 /// Position (mm) and orientation (rad) error of the robot's tool at `q` against `target`.
-fn miss<const N: usize, const W: usize>(r: &Robot<f64, N, W>, q: &[f64; N], target: &Target<f64>) -> (f64, f64) {
+fn miss<const N: usize, const W: usize>(
+    r: &Robot<f64, N, W>,
+    q: &[f64; N],
+    target: &Target<f64>,
+) -> (f64, f64) {
     let f = pose(r, q);
     let dp = (f.o - target.point()).norm();
     let dw = match target {
@@ -871,12 +875,14 @@ proptest! {
                 let s = match &r { Ok(s) => s, Err(e) => e.best().unwrap() };
                 prop_assert!(s.q.iter().all(|v| v.is_finite()));
                 prop_assert!(s.position_error.is_finite() && s.sigma.is_finite());
-                for j in 0..6 {
-                    let lim = truth.joint(j).unwrap();
+                for (j, lim) in truth.joints().iter().enumerate() {
                     let inside = s.q[j] >= lim.lower && s.q[j] <= lim.upper;
-                    // Inside the limits, or (seed beyond them) moved exactly max_step towards them.
-                    prop_assert!((s.q[j] - seed[j]).abs() <= max_step * (1.0 + 1e-12));
-                    prop_assert!(inside || ((s.q[j] - seed[j]).abs() - max_step).abs() <= 1e-12 * max_step.max(seed[j].abs()));
+                    // Within max_step of the seed (to the rounding of seed ± max_step), and inside
+                    // the limits or, for a seed beyond them, moved max_step towards them.
+                    let rounding = 4.0 * f64::EPSILON * (max_step + seed[j].abs());
+                    let dev = (s.q[j] - seed[j]).abs();
+                    prop_assert!(dev <= max_step + rounding);
+                    prop_assert!(inside || (dev - max_step).abs() <= rounding);
                 }
             }
         }
@@ -1036,8 +1042,13 @@ fn command_line_writes_commands_that_reach_the_targets() {
     let mut truth = with_geometry_errors(&er20(), &mut rng);
     add_effects(&mut truth, Fx::All, &mut rng);
     let model_path = dir.path().join("model.toml");
-    RobotFile::from_robot("identified", &truth, true, &[2]).save(&model_path).unwrap();
-    let model = RobotFile::load(&model_path).unwrap().to_robot::<6>().unwrap();
+    RobotFile::from_robot("identified", &truth, true, &[2])
+        .save(&model_path)
+        .unwrap();
+    let model = RobotFile::load(&model_path)
+        .unwrap()
+        .to_robot::<6>()
+        .unwrap();
 
     for six in [false, true] {
         let mut csv = String::from("# seeds are the nominal joints\nq1,q2,q3,q4,q5,q6,x,y,z");
@@ -1059,12 +1070,25 @@ fn command_line_writes_commands_that_reach_the_targets() {
             write!(csv, "{:.9},{:.9},{:.9}", f.o.x, f.o.y, f.o.z).unwrap();
             let rpy = f.rpy();
             if six {
-                write!(csv, ",{:.12},{:.12},{:.12}", rpy[0].to_degrees(), rpy[1].to_degrees(), rpy[2].to_degrees()).unwrap();
+                write!(
+                    csv,
+                    ",{:.12},{:.12},{:.12}",
+                    rpy[0].to_degrees(),
+                    rpy[1].to_degrees(),
+                    rpy[2].to_degrees()
+                )
+                .unwrap();
             }
             csv.push('\n');
-            let rad = rpy.map(|a| (a.to_degrees() * 1e12).round() / 1e12).map(f64::to_radians);
+            let rad = rpy
+                .map(|a| (a.to_degrees() * 1e12).round() / 1e12)
+                .map(f64::to_radians);
             let t = Frame::from_xyz_rpy([f.o.x, f.o.y, f.o.z], rad);
-            targets.push(if six { Target::Pose(t) } else { Target::Point(f.o) });
+            targets.push(if six {
+                Target::Pose(t)
+            } else {
+                Target::Point(f.o)
+            });
         }
         let t_path = dir.path().join("targets.csv");
         std::fs::write(&t_path, csv).unwrap();
@@ -1088,8 +1112,12 @@ fn command_line_writes_commands_that_reach_the_targets() {
         let mut statuses = Vec::new();
         for (k, line) in lines.enumerate() {
             let cells: Vec<&str> = line.split(',').collect();
-            let q: [f64; 6] = core::array::from_fn(|j| cells[j].parse::<f64>().unwrap().to_radians());
-            assert!(cells[0].split('.').nth(1).unwrap().len() >= 6, "at least 6 decimals");
+            let q: [f64; 6] =
+                core::array::from_fn(|j| cells[j].parse::<f64>().unwrap().to_radians());
+            assert!(
+                cells[0].split('.').nth(1).unwrap().len() >= 6,
+                "at least 6 decimals"
+            );
             statuses.push(cells[6].to_string());
             if cells[6] == "ok" {
                 let (dp, dw) = miss(&model, &q, &targets[k]);
@@ -1108,14 +1136,29 @@ fn command_line_writes_commands_that_reach_the_targets() {
 
         // Streaming the same rows and the f32 path give the same statuses for the ok rows.
         for (stream, f32) in [(true, false), (false, true)] {
-            let j2 = run(&Args { stream, f32, targets: t_path.clone(), out: out.clone(), model: model_path.clone(), ..args }, true).unwrap();
+            let j2 = run(
+                &Args {
+                    stream,
+                    f32,
+                    targets: t_path.clone(),
+                    out: out.clone(),
+                    model: model_path.clone(),
+                    ..args
+                },
+                true,
+            )
+            .unwrap();
             assert_eq!(j2["ok"], j["ok"], "stream={stream} f32={f32}");
         }
     }
 
     // Malformed targets files: one line naming the file and the place.
     let bad = dir.path().join("bad.csv");
-    std::fs::write(&bad, "q1,q2,q3,q4,q5,q6,x,y,z,rx,ry\n0,0,0,0,0,0,1,2,3,4,5\n").unwrap();
+    std::fs::write(
+        &bad,
+        "q1,q2,q3,q4,q5,q6,x,y,z,rx,ry\n0,0,0,0,0,0,1,2,3,4,5\n",
+    )
+    .unwrap();
     let args = Args {
         model: model_path.clone(),
         targets: bad.clone(),
@@ -1128,7 +1171,11 @@ fn command_line_writes_commands_that_reach_the_targets() {
     };
     let e = run(&args, true).unwrap_err().to_string();
     assert!(e.contains("bad.csv:1:") && e.contains("rz"), "{e}");
-    std::fs::write(&bad, "q1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz\n0,0,0,0,0,0,1,2,3,4,5,6\n0,0,0,0,0,0,1,2,3,4,,6\n").unwrap();
+    std::fs::write(
+        &bad,
+        "q1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz\n0,0,0,0,0,0,1,2,3,4,5,6\n0,0,0,0,0,0,1,2,3,4,,6\n",
+    )
+    .unwrap();
     let e = run(&args, true).unwrap_err().to_string();
     assert!(e.contains("bad.csv:3:11") && e.contains("ry"), "{e}");
     std::fs::write(&bad, "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,zero,1,2,3\n").unwrap();

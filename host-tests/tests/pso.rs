@@ -15,7 +15,9 @@ type Swarm = Pso<f64, 200, 24>;
 
 fn sum_sq_reference(robot: &Robot<f64, 6>, data: &[Measurement<f64, 6>]) -> f64 {
     let mut fk = ForwardKinematics::new();
-    data.iter().map(|m| (m.point - fk.compute(robot, &m.q)).norm_squared()).sum()
+    data.iter()
+        .map(|m| (m.point - fk.compute(robot, &m.q)).norm_squared())
+        .sum()
 }
 
 #[test]
@@ -51,14 +53,20 @@ fn cached_path_matches_forward_kinematics_with_tilt_base_and_tool() {
     let mut j = *r.joint(4).unwrap();
     j.beta = -0.2f64.to_radians();
     r.set_joint(4, j).unwrap();
-    r.set_base(Frame::from_xyz_rpy([1500.0, -300.0, 200.0], [0.01, -0.02, 1.2])).unwrap();
+    r.set_base(Frame::from_xyz_rpy(
+        [1500.0, -300.0, 200.0],
+        [0.01, -0.02, 1.2],
+    ))
+    .unwrap();
     r.set_tool(Vector3::new(12.0, -7.0, 95.0)).unwrap();
     let data = poses(&r, 40, 0.05, 9);
     let params: ParamSet<40> = ParamSet::full(6, true).unwrap();
     let mut cache = vec![[(0.0, 0.0); 6]; 40];
     let mut plain = PositionFitness::new(&r, &params, &data).unwrap();
     let mut cached = PositionFitness::with_cache(&r, &params, &data, &mut cache).unwrap();
-    let x: Vec<f64> = (0..params.len()).map(|k| 1e-3 * ((k as f64) * 1.7).sin()).collect();
+    let x: Vec<f64> = (0..params.len())
+        .map(|k| 1e-3 * ((k as f64) * 1.7).sin())
+        .collect();
     let (a, b) = (plain.fitness(&x), cached.fitness(&x));
     assert!((a - b).abs() <= 1e-9 * a, "{a} vs {b}");
     let mut moved = r.clone();
@@ -69,11 +77,19 @@ fn cached_path_matches_forward_kinematics_with_tilt_base_and_tool() {
 #[test]
 fn effects_take_the_general_path() {
     let mut r: Robot<f64, 6, 4> = er20_nominal().with_capacity::<4>().unwrap();
-    r.effects_mut().push(EffectKind::Scale, 1, 6, 1, 0.0, 0.0, &[1e-3]).unwrap();
+    r.effects_mut()
+        .push(EffectKind::Scale, 1, 6, 1, 0.0, 0.0, &[1e-3])
+        .unwrap();
     let data = {
         let mut fk = ForwardKinematics::new();
         let plain = poses(&er20_nominal(), 30, 0.0, 4);
-        plain.iter().map(|m| Measurement { q: m.q, point: fk.compute(&r, &m.q) }).collect::<Vec<_>>()
+        plain
+            .iter()
+            .map(|m| Measurement {
+                q: m.q,
+                point: fk.compute(&r, &m.q),
+            })
+            .collect::<Vec<_>>()
     };
     let params = mdh24();
     let mut cache = vec![[(0.0, 0.0); 6]; 30];
@@ -87,15 +103,27 @@ fn fitness_construction_errors() {
     let nominal = er20_nominal();
     let params = mdh24();
     let data = poses(&nominal, 5, 0.0, 1);
-    assert_eq!(PositionFitness::new(&nominal, &params, &[]).unwrap_err(), FitnessError::NoMeasurements);
+    assert_eq!(
+        PositionFitness::new(&nominal, &params, &[]).unwrap_err(),
+        FitnessError::NoMeasurements
+    );
     let mut bad = data.clone();
     bad[3].point.y = f64::NAN;
-    assert_eq!(PositionFitness::new(&nominal, &params, &bad).unwrap_err(), FitnessError::NonFiniteMeasurement);
+    assert_eq!(
+        PositionFitness::new(&nominal, &params, &bad).unwrap_err(),
+        FitnessError::NonFiniteMeasurement
+    );
     let mut seven: ParamSet<25> = ParamSet::mdh(6).unwrap();
     seven.push(Param::D(6)).unwrap();
-    assert!(matches!(PositionFitness::new(&nominal, &seven, &data), Err(FitnessError::Params(_))));
+    assert!(matches!(
+        PositionFitness::new(&nominal, &seven, &data),
+        Err(FitnessError::Params(_))
+    ));
     let mut small = vec![[(0.0, 0.0); 6]; 4];
-    assert_eq!(PositionFitness::with_cache(&nominal, &params, &data, &mut small).unwrap_err(), FitnessError::CacheTooSmall);
+    assert_eq!(
+        PositionFitness::with_cache(&nominal, &params, &data, &mut small).unwrap_err(),
+        FitnessError::CacheTooSmall
+    );
 }
 
 #[test]
@@ -104,18 +132,37 @@ fn calibration_box_and_config_errors() {
     let cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
     assert_eq!((cfg.inertia, cfg.cognitive, cfg.social), (0.9, 0.5, 1.25));
     for (k, p) in params.as_slice().iter().enumerate() {
-        let want = if p.is_length() { 2.0 } else { 0.5f64.to_radians() };
+        let want = if p.is_length() {
+            2.0
+        } else {
+            0.5f64.to_radians()
+        };
         assert_eq!((cfg.lower[k], cfg.upper[k]), (-want, want), "{p:?}");
     }
-    assert_eq!(PsoConfig::<f64, 23>::calibration(params.as_slice()).unwrap_err(), PsoError::Dimension);
-    assert_eq!(PsoConfig::<f64, 2>::new([0.0, 1.0], [1.0, 1.0]).unwrap_err(), PsoError::Bounds);
-    assert_eq!(PsoConfig::<f64, 1>::new([f64::NAN], [1.0]).unwrap_err(), PsoError::Bounds);
+    assert_eq!(
+        PsoConfig::<f64, 23>::calibration(params.as_slice()).unwrap_err(),
+        PsoError::Dimension
+    );
+    assert_eq!(
+        PsoConfig::<f64, 2>::new([0.0, 1.0], [1.0, 1.0]).unwrap_err(),
+        PsoError::Bounds
+    );
+    assert_eq!(
+        PsoConfig::<f64, 1>::new([f64::NAN], [1.0]).unwrap_err(),
+        PsoError::Bounds
+    );
     let mut c = PsoConfig::<f64, 1>::new([0.0], [1.0]).unwrap();
     c.inertia = -0.1;
-    assert_eq!(Pso::<f64, 4, 1>::new(c, 0).unwrap_err(), PsoError::Coefficient);
+    assert_eq!(
+        Pso::<f64, 4, 1>::new(c, 0).unwrap_err(),
+        PsoError::Coefficient
+    );
     c.inertia = 0.9;
     c.max_velocity = 0.0;
-    assert_eq!(Pso::<f64, 4, 1>::new(c, 0).unwrap_err(), PsoError::Coefficient);
+    assert_eq!(
+        Pso::<f64, 4, 1>::new(c, 0).unwrap_err(),
+        PsoError::Coefficient
+    );
     c.max_velocity = 0.1;
     assert_eq!(Pso::<f64, 0, 1>::new(c, 0).unwrap_err(), PsoError::Empty);
 }
@@ -130,7 +177,10 @@ impl<const D: usize> Objective<f64> for Bowl<D> {
         D
     }
     fn fitness(&mut self, x: &[f64]) -> f64 {
-        x.iter().zip(self.centre.iter()).map(|(a, b)| (a - b) * (a - b)).sum()
+        x.iter()
+            .zip(self.centre.iter())
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum()
     }
 }
 
@@ -138,7 +188,9 @@ impl<const D: usize> Objective<f64> for Bowl<D> {
 fn bounds_and_velocity_limits_hold_with_the_optimum_outside_the_box() {
     let cfg = PsoConfig::<f64, 3>::new([-1.0, -2.0, 0.0], [1.0, 2.0, 0.5]).unwrap();
     let mut pso = Pso::<f64, 30, 3>::new(cfg, 5).unwrap();
-    let mut f = Bowl { centre: [5.0, -9.0, 0.25] };
+    let mut f = Bowl {
+        centre: [5.0, -9.0, 0.25],
+    };
     let vmax = *pso.velocity_limits();
     assert_eq!(vmax, [0.2, 0.4, 0.05]);
     for _ in 0..100 {
@@ -152,7 +204,10 @@ fn bounds_and_velocity_limits_hold_with_the_optimum_outside_the_box() {
     }
     // The best point is the box's nearest corner to the centre.
     let b = pso.best_position();
-    assert!((b[0] - 1.0).abs() < 1e-9 && (b[1] + 2.0).abs() < 1e-9 && (b[2] - 0.25).abs() < 1e-4, "{b:?}");
+    assert!(
+        (b[0] - 1.0).abs() < 1e-9 && (b[1] + 2.0).abs() < 1e-9 && (b[2] - 0.25).abs() < 1e-4,
+        "{b:?}"
+    );
 }
 
 #[test]
@@ -161,15 +216,26 @@ fn termination_by_target_iterations_and_stagnation() {
     cfg.stagnation_window = 0;
     cfg.max_iterations = 7;
     let mut pso = Pso::<f64, 10, 2>::new(cfg, 1).unwrap();
-    let p = pso.run(&mut Bowl { centre: [0.3, -0.2] }).unwrap();
-    assert_eq!((p.iteration, p.evaluations, p.stopped), (7, 80, Some(PsoStop::MaxIterations)));
+    let p = pso
+        .run(&mut Bowl {
+            centre: [0.3, -0.2],
+        })
+        .unwrap();
+    assert_eq!(
+        (p.iteration, p.evaluations, p.stopped),
+        (7, 80, Some(PsoStop::MaxIterations))
+    );
     assert_eq!(pso.history().len(), 8);
     assert!(pso.history().windows(2).all(|w| w[1] <= w[0]));
 
     cfg.max_iterations = 1000;
     cfg.target_fitness = 1e-6;
     let mut pso = Pso::<f64, 10, 2>::new(cfg, 1).unwrap();
-    let p = pso.run(&mut Bowl { centre: [0.3, -0.2] }).unwrap();
+    let p = pso
+        .run(&mut Bowl {
+            centre: [0.3, -0.2],
+        })
+        .unwrap();
     assert_eq!(p.stopped, Some(PsoStop::Target));
     assert!(p.best_fitness <= 1e-6 && p.iteration < 1000);
     assert!(pso.history()[p.iteration as usize - 1] > 1e-6);
@@ -192,7 +258,10 @@ fn termination_by_target_iterations_and_stagnation() {
     // Finished: further steps do nothing.
     assert_eq!(pso.step(&mut Flat, 100).unwrap(), p);
     // Wrong dimension is refused.
-    assert_eq!(pso.step(&mut Bowl { centre: [0.0; 3] }, 1).unwrap_err(), PsoError::Dimension);
+    assert_eq!(
+        pso.step(&mut Bowl { centre: [0.0; 3] }, 1).unwrap_err(),
+        PsoError::Dimension
+    );
 }
 
 #[test]
@@ -203,10 +272,19 @@ fn set_start_only_before_the_first_evaluation() {
     assert_eq!(pso.positions()[1], [1.0, -0.5]); // clamped into the box
     assert_eq!(pso.velocities()[1], [0.2, 0.0]); // clamped to the velocity limit
     assert_ne!(pso.initial_positions()[1], [1.0, -0.5]); // the draw is kept
-    assert_eq!(pso.set_start(4, &[0.0; 2], &[0.0; 2]).unwrap_err(), PsoError::Start);
-    assert_eq!(pso.set_start(0, &[f64::NAN, 0.0], &[0.0; 2]).unwrap_err(), PsoError::Start);
+    assert_eq!(
+        pso.set_start(4, &[0.0; 2], &[0.0; 2]).unwrap_err(),
+        PsoError::Start
+    );
+    assert_eq!(
+        pso.set_start(0, &[f64::NAN, 0.0], &[0.0; 2]).unwrap_err(),
+        PsoError::Start
+    );
     pso.step(&mut Bowl { centre: [0.0; 2] }, 1).unwrap();
-    assert_eq!(pso.set_start(2, &[0.0; 2], &[0.0; 2]).unwrap_err(), PsoError::Start);
+    assert_eq!(
+        pso.set_start(2, &[0.0; 2], &[0.0; 2]).unwrap_err(),
+        PsoError::Start
+    );
     // A restart draws a fresh swarm in place, identical to a new one.
     pso.restart(cfg, 3).unwrap();
     let fresh = Pso::<f64, 4, 2>::new(cfg, 3).unwrap();
@@ -231,16 +309,35 @@ fn pso_identifies_the_er20_and_converges() {
         let p = pso.run(&mut f).unwrap();
         let h = pso.history();
         assert_eq!(h.len(), p.iteration as usize + 1);
-        assert!(h.windows(2).all(|w| w[1] <= w[0]), "the global best never gets worse");
-        assert!(h[0] > 100.0 * h[100] && h[100] > h[600], "{} {} {}", h[0], h[100], h[600]);
+        assert!(
+            h.windows(2).all(|w| w[1] <= w[0]),
+            "the global best never gets worse"
+        );
+        assert!(
+            h[0] > 100.0 * h[100] && h[100] > h[600],
+            "{} {} {}",
+            h[0],
+            h[100],
+            h[600]
+        );
         // From 1675 mm² at the nominal model to within a few times the noise floor.
         assert!(nominal_fitness > 1000.0);
-        assert!(p.best_fitness < 10.0 * truth_fitness, "{} vs {}", p.best_fitness, truth_fitness);
+        assert!(
+            p.best_fitness < 10.0 * truth_fitness,
+            "{} vs {}",
+            p.best_fitness,
+            truth_fitness
+        );
         // The identified model predicts held-out poses far better than the nominal one.
         let valid = poses(&truth, 50, 0.0, 99);
         let found = f.robot(pso.best_position()).unwrap();
         let rms = |r: &Robot<f64, 6>| (sum_sq_reference(r, &valid) / 50.0).sqrt();
-        assert!(rms(&found) < 0.05 * rms(&nominal), "{} vs {}", rms(&found), rms(&nominal));
+        assert!(
+            rms(&found) < 0.05 * rms(&nominal),
+            "{} vs {}",
+            rms(&found),
+            rms(&nominal)
+        );
     });
 }
 
@@ -288,9 +385,20 @@ fn same_seed_same_result_whatever_the_slicing() {
         for budget in [1, 7, 199, 200, 201] {
             let b = run(&mut f, 42, budget);
             assert_eq!(a.progress(), b.progress());
-            assert_eq!(a.best_position().map(f64::to_bits), b.best_position().map(f64::to_bits));
-            assert_eq!(a.history().iter().map(|v| v.to_bits()).collect::<Vec<_>>(), b.history().iter().map(|v| v.to_bits()).collect::<Vec<_>>());
-            assert!(a.positions().iter().flatten().zip(b.positions().iter().flatten()).all(|(x, y)| x.to_bits() == y.to_bits()));
+            assert_eq!(
+                a.best_position().map(f64::to_bits),
+                b.best_position().map(f64::to_bits)
+            );
+            assert_eq!(
+                a.history().iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                b.history().iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+            );
+            assert!(a
+                .positions()
+                .iter()
+                .flatten()
+                .zip(b.positions().iter().flatten())
+                .all(|(x, y)| x.to_bits() == y.to_bits()));
         }
         let c = run(&mut f, 43, usize::MAX);
         assert_ne!(a.best_position(), c.best_position());
@@ -307,7 +415,13 @@ fn pso_runs_in_f32() {
         let truth = with_delta(&nominal, &er20_errors());
         let data64 = poses(&truth, 50, 0.01, 1);
         let nominal32: Robot<f32, 6> = nominal.cast();
-        let data: Vec<Measurement<f32, 6>> = data64.iter().map(|m| Measurement { q: m.q.map(|v| v as f32), point: m.point.map(|v| v as f32) }).collect();
+        let data: Vec<Measurement<f32, 6>> = data64
+            .iter()
+            .map(|m| Measurement {
+                q: m.q.map(|v| v as f32),
+                point: m.point.map(|v| v as f32),
+            })
+            .collect();
         let params = mdh24();
         let mut cache = vec![[(0.0f32, 0.0f32); 6]; 50];
         let mut f = PositionFitness::with_cache(&nominal32, &params, &data, &mut cache).unwrap();
@@ -317,7 +431,12 @@ fn pso_runs_in_f32() {
         let p = pso.run(&mut f).unwrap();
         let h = pso.history();
         assert!(h.windows(2).all(|w| w[1] <= w[0]));
-        assert!(p.best_fitness < 0.01 * h[0], "{} from {}", p.best_fitness, h[0]);
+        assert!(
+            p.best_fitness < 0.01 * h[0],
+            "{} from {}",
+            p.best_fitness,
+            h[0]
+        );
     });
 }
 
@@ -342,15 +461,25 @@ fn bpnn_pso_reaches_pso_final_fitness_in_a_quarter_of_the_iterations() {
         let factory_truth = with_delta(&nominal, &er20_errors());
         let factory_data = poses(&factory_truth, 50, 0.01, 100);
         let mut cache = vec![[(0.0, 0.0); 6]; 50];
-        let mut f = PositionFitness::with_cache(&nominal, &params, &factory_data, &mut cache).unwrap();
+        let mut f =
+            PositionFitness::with_cache(&nominal, &params, &factory_data, &mut cache).unwrap();
         let mut factory = Box::new(Swarm::new(cfg, 0).unwrap());
         let mut net: Mdh24Net<f64> = Bpnn::new(BpnnConfig::default(), 0).unwrap();
-        assert_eq!(bpnn_pso::train(&mut net, &factory, 1).unwrap_err(), BpnnPsoError::NotFinished);
+        assert_eq!(
+            bpnn_pso::train(&mut net, &factory, 1).unwrap_err(),
+            BpnnPsoError::NotFinished
+        );
         factory.run(&mut f).unwrap();
-        net.fit_ranges(factory.initial_positions(), factory.personal_bests()).unwrap();
-        let before = net.loss(factory.initial_positions(), factory.personal_bests()).unwrap();
+        net.fit_ranges(factory.initial_positions(), factory.personal_bests())
+            .unwrap();
+        let before = net
+            .loss(factory.initial_positions(), factory.personal_bests())
+            .unwrap();
         let loss = bpnn_pso::train(&mut net, &factory, DEFAULT_EPOCHS).unwrap();
-        assert!(loss < 0.25 * before, "training lowers the loss: {before} → {loss}");
+        assert!(
+            loss < 0.25 * before,
+            "training lowers the loss: {before} → {loss}"
+        );
 
         // Follow-up after a small drift.
         let mut drifted = er20_errors();
@@ -373,18 +502,29 @@ fn bpnn_pso_reaches_pso_final_fitness_in_a_quarter_of_the_iterations() {
             let mut hybrid = Box::new(Swarm::new(with_target, seed).unwrap());
             bpnn_pso::seed(&mut hybrid, &net).unwrap();
             let h = hybrid.run(&mut f).unwrap();
-            assert_eq!(h.stopped, Some(PsoStop::Target), "seed {seed}: BPNN-PSO never reached {}", p.best_fitness);
+            assert_eq!(
+                h.stopped,
+                Some(PsoStop::Target),
+                "seed {seed}: BPNN-PSO never reached {}",
+                p.best_fitness
+            );
             eprintln!("seed {seed}: PSO {pso_iterations} iterations to {:.5} mm²; BPNN-PSO {} (starts at {:.4})", p.best_fitness, h.iteration, hybrid.history()[0]);
             total_pso += pso_iterations;
             total_hybrid += h.iteration;
             ratios.push(h.iteration as f64 / pso_iterations as f64);
             // Seeding is only possible on a fresh swarm.
-            assert!(matches!(bpnn_pso::seed(&mut hybrid, &net), Err(BpnnPsoError::Swarm(PsoError::Start))));
+            assert!(matches!(
+                bpnn_pso::seed(&mut hybrid, &net),
+                Err(BpnnPsoError::Swarm(PsoError::Start))
+            ));
         }
         ratios.sort_by(f64::total_cmp);
         let median = 0.5 * (ratios[3] + ratios[4]);
         eprintln!("total: PSO {total_pso}, BPNN-PSO {total_hybrid}; median ratio {median:.3}");
-        assert!(4 * total_hybrid <= total_pso, "{total_hybrid} vs {total_pso}");
+        assert!(
+            4 * total_hybrid <= total_pso,
+            "{total_hybrid} vs {total_pso}"
+        );
         assert!(median <= 0.25, "{ratios:?}");
     });
 }

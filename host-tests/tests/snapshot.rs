@@ -6,7 +6,9 @@ mod pso_sim;
 use kinecal::bpnn::{Bpnn, BpnnConfig};
 use kinecal::fitness::{Objective, PositionFitness};
 use kinecal::pso::{Pso, PsoConfig};
-use kinecal::snapshot::{crc32, restore_with, save_with, Crc32, Kind, Snapshot, SnapshotError, HEADER_LEN};
+use kinecal::snapshot::{
+    crc32, restore_with, save_with, Crc32, Kind, Snapshot, SnapshotError, HEADER_LEN,
+};
 use pso_sim::*;
 
 fn bytes<S: Snapshot>(s: &S) -> Vec<u8> {
@@ -28,7 +30,11 @@ fn crc32_is_the_standard_one() {
 /// Small swarm on the ER20 problem, so that the exhaustive corruption test stays fast.
 type Small = Pso<f64, 6, 24, 16>;
 
-fn er20_problem() -> (kinecal::Robot<f64, 6>, kinecal::ParamSet<24>, Vec<kinecal::Measurement<f64, 6>>) {
+fn er20_problem() -> (
+    kinecal::Robot<f64, 6>,
+    kinecal::ParamSet<24>,
+    Vec<kinecal::Measurement<f64, 6>>,
+) {
     let nominal = er20_nominal();
     let truth = with_delta(&nominal, &er20_errors());
     let data = poses(&truth, 50, 0.01, 1);
@@ -66,8 +72,15 @@ fn pso_interrupted_at_every_step_ends_bit_identical() {
             }
             assert!(calls > 1);
             assert_eq!(run.progress(), straight.progress());
-            assert_eq!(run.best_position().map(f64::to_bits), straight.best_position().map(f64::to_bits));
-            assert_eq!(bytes(&*run), bytes(&*straight), "budget {budget}: final states differ");
+            assert_eq!(
+                run.best_position().map(f64::to_bits),
+                straight.best_position().map(f64::to_bits)
+            );
+            assert_eq!(
+                bytes(&*run),
+                bytes(&*straight),
+                "budget {budget}: final states differ"
+            );
         }
     });
 }
@@ -89,8 +102,13 @@ fn paper_sized_swarm_round_trips_in_f32_and_f64() {
         assert_eq!(bytes(&*a), bytes(&*b));
 
         let n32: kinecal::Robot<f32, 6> = nominal.cast();
-        let d32: Vec<kinecal::Measurement<f32, 6>> =
-            data.iter().map(|m| kinecal::Measurement { q: m.q.map(|v| v as f32), point: m.point.map(|v| v as f32) }).collect();
+        let d32: Vec<kinecal::Measurement<f32, 6>> = data
+            .iter()
+            .map(|m| kinecal::Measurement {
+                q: m.q.map(|v| v as f32),
+                point: m.point.map(|v| v as f32),
+            })
+            .collect();
         let mut g = PositionFitness::new(&n32, &params, &d32).unwrap();
         let mut c32 = PsoConfig::<f32, 24>::calibration(params.as_slice()).unwrap();
         c32.max_iterations = 6;
@@ -99,11 +117,18 @@ fn paper_sized_swarm_round_trips_in_f32_and_f64() {
         a.step(&mut g, 333).unwrap();
         let snap = bytes(&*a);
         // An f32 swarm of 200 × 24 is 4 arrays of 19,200 bytes plus config and history.
-        assert!(snap.len() > 4 * 19_200 && snap.len() < 4 * 19_200 + 2_000, "{}", snap.len());
+        assert!(
+            snap.len() > 4 * 19_200 && snap.len() < 4 * 19_200 + 2_000,
+            "{}",
+            snap.len()
+        );
         b.restore(&mut snap.as_slice()).unwrap();
         a.run(&mut g).unwrap();
         b.run(&mut g).unwrap();
-        assert_eq!(a.best_position().map(f32::to_bits), b.best_position().map(f32::to_bits));
+        assert_eq!(
+            a.best_position().map(f32::to_bits),
+            b.best_position().map(f32::to_bits)
+        );
         assert_eq!(bytes(&*a), bytes(&*b));
     });
 }
@@ -112,7 +137,11 @@ fn paper_sized_swarm_round_trips_in_f32_and_f64() {
 fn refused<S: Snapshot>(target: &mut S, snap: &[u8]) -> SnapshotError {
     let before = bytes(target);
     let err = target.restore(&mut &snap[..]).unwrap_err();
-    assert_eq!(bytes(target), before, "a refused snapshot changed the target ({err:?})");
+    assert_eq!(
+        bytes(target),
+        before,
+        "a refused snapshot changed the target ({err:?})"
+    );
     err
 }
 
@@ -140,7 +169,10 @@ fn corrupted_snapshots_are_refused_and_change_nothing() {
         // Every truncation.
         for len in 0..good.len() {
             let e = refused(&mut target, &good[..len]);
-            assert!(matches!(e, SnapshotError::UnexpectedEof | SnapshotError::Length), "{len}: {e:?}");
+            assert!(
+                matches!(e, SnapshotError::UnexpectedEof | SnapshotError::Length),
+                "{len}: {e:?}"
+            );
         }
         // Header fields give specific errors.
         let mut bad = good.clone();
@@ -156,6 +188,24 @@ fn corrupted_snapshots_are_refused_and_change_nothing() {
         // The uncorrupted snapshot still restores into the untouched target.
         target.restore(&mut good.as_slice()).unwrap();
         assert_eq!(bytes(&target), good);
+
+        // The same through a scratch swarm instead of a copy on the stack.
+        let mut other = Small::new(cfg, 3).unwrap();
+        let mut scratch = Small::new(cfg, 4).unwrap();
+        let before = bytes(&other);
+        let mut bad = good.clone();
+        bad[HEADER_LEN + 200] ^= 0x20;
+        assert_eq!(
+            other
+                .restore_using(&mut scratch, &mut bad.as_slice())
+                .unwrap_err(),
+            SnapshotError::Checksum
+        );
+        assert_eq!(bytes(&other), before);
+        other
+            .restore_using(&mut scratch, &mut good.as_slice())
+            .unwrap();
+        assert_eq!(bytes(&other), good);
     });
 }
 
@@ -165,16 +215,28 @@ fn snapshots_of_another_kind_scalar_or_size_are_refused() {
     let mut target = Pso::<f64, 4, 2>::new(cfg, 0).unwrap();
 
     let other_size = Pso::<f64, 5, 2>::new(cfg, 0).unwrap();
-    assert_eq!(refused(&mut target, &bytes(&other_size)), SnapshotError::Shape);
+    assert_eq!(
+        refused(&mut target, &bytes(&other_size)),
+        SnapshotError::Shape
+    );
     let other_history = Pso::<f64, 4, 2, 8>::new(cfg, 0).unwrap();
-    assert_eq!(refused(&mut target, &bytes(&other_history)), SnapshotError::Shape);
+    assert_eq!(
+        refused(&mut target, &bytes(&other_history)),
+        SnapshotError::Shape
+    );
 
     let c32 = PsoConfig::<f32, 2>::new([-1.0; 2], [1.0; 2]).unwrap();
     let single = Pso::<f32, 4, 2>::new(c32, 0).unwrap();
-    assert_eq!(refused(&mut target, &bytes(&single)), SnapshotError::Scalar(4));
+    assert_eq!(
+        refused(&mut target, &bytes(&single)),
+        SnapshotError::Scalar(4)
+    );
 
     let net = Bpnn::<f64, 2, 3, 2>::new(BpnnConfig::default(), 0).unwrap();
-    assert_eq!(refused(&mut target, &bytes(&net)), SnapshotError::Kind(Kind::Bpnn as u16));
+    assert_eq!(
+        refused(&mut target, &bytes(&net)),
+        SnapshotError::Kind(Kind::Bpnn as u16)
+    );
 
     // A snapshot with a valid checksum but an impossible state is refused too: write NaN into
     // the first lower bound (after the 20-byte header, 3 shape words and 3 coefficients) and
@@ -197,21 +259,45 @@ fn snapshots_of_another_kind_scalar_or_size_are_refused() {
 
 #[test]
 fn bpnn_training_continues_bit_identical_after_restore() {
-    let xs: Vec<[f64; 3]> = (0..40).map(|i| [(i as f64 * 0.31).sin(), (i as f64 * 0.17).cos(), i as f64 / 40.0]).collect();
-    let ys: Vec<[f64; 2]> = xs.iter().map(|x| [x[0] * x[1] + x[2], (x[0] - x[2]).tanh()]).collect();
+    let xs: Vec<[f64; 3]> = (0..40)
+        .map(|i| {
+            [
+                (i as f64 * 0.31).sin(),
+                (i as f64 * 0.17).cos(),
+                i as f64 / 40.0,
+            ]
+        })
+        .collect();
+    let ys: Vec<[f64; 2]> = xs
+        .iter()
+        .map(|x| [x[0] * x[1] + x[2], (x[0] - x[2]).tanh()])
+        .collect();
     let mut a = Bpnn::<f64, 3, 5, 2>::new(BpnnConfig::default(), 8).unwrap();
     a.fit_ranges(&xs, &ys).unwrap();
     for _ in 0..7 {
         a.train_epoch(&xs, &ys).unwrap();
     }
     let snap = bytes(&a);
-    let mut b = Bpnn::<f64, 3, 5, 2>::new(BpnnConfig { batch: 4, ..BpnnConfig::default() }, 99).unwrap();
+    let mut b = Bpnn::<f64, 3, 5, 2>::new(
+        BpnnConfig {
+            batch: 4,
+            ..BpnnConfig::default()
+        },
+        99,
+    )
+    .unwrap();
     b.restore(&mut snap.as_slice()).unwrap();
     for _ in 0..11 {
-        let (la, lb) = (a.train_epoch(&xs, &ys).unwrap(), b.train_epoch(&xs, &ys).unwrap());
+        let (la, lb) = (
+            a.train_epoch(&xs, &ys).unwrap(),
+            b.train_epoch(&xs, &ys).unwrap(),
+        );
         assert_eq!(la.to_bits(), lb.to_bits());
     }
-    assert_eq!(a.forward(&[0.2, 0.4, 0.6]).map(f64::to_bits), b.forward(&[0.2, 0.4, 0.6]).map(f64::to_bits));
+    assert_eq!(
+        a.forward(&[0.2, 0.4, 0.6]).map(f64::to_bits),
+        b.forward(&[0.2, 0.4, 0.6]).map(f64::to_bits)
+    );
     assert_eq!(bytes(&a), bytes(&b));
 
     // Corruption anywhere is refused, leaving the net as it was.
@@ -223,7 +309,10 @@ fn bpnn_training_continues_bit_identical_after_restore() {
     }
     let cfg = PsoConfig::<f64, 2>::new([-1.0; 2], [1.0; 2]).unwrap();
     let swarm = Pso::<f64, 4, 2>::new(cfg, 0).unwrap();
-    assert_eq!(refused(&mut b, &bytes(&swarm)), SnapshotError::Kind(Kind::Pso as u16));
+    assert_eq!(
+        refused(&mut b, &bytes(&swarm)),
+        SnapshotError::Kind(Kind::Pso as u16)
+    );
 }
 
 /// The helpers the other steppers (the LM in `kinecal::lm`) build their snapshots from.
@@ -251,7 +340,15 @@ fn container_helpers_round_trip_every_field_type() {
     // Header + 1 + 1 + 2 + 4 + 8 + 4 + 8 + 24 + 32 + 32 payload bytes.
     assert_eq!(buf.len(), HEADER_LEN + 116);
     let read = restore_with::<f64, _, _, _>(&mut buf.as_slice(), Kind::Levenberg, |d| {
-        let a = (d.u8()?, d.bool()?, d.u16()?, d.u32()?, d.u64()?, d.usize()?, d.real::<f64>()?);
+        let a = (
+            d.u8()?,
+            d.bool()?,
+            d.u16()?,
+            d.u32()?,
+            d.u64()?,
+            d.usize()?,
+            d.real::<f64>()?,
+        );
         let mut v = [0.0f64; 3];
         d.reals(&mut v)?;
         let mut r = [[0.0f64; 2]; 2];
@@ -295,6 +392,9 @@ fn objective_is_unaffected_by_restore() {
         a.run(&mut f).unwrap();
         let mut b = Small::new(cfg, 2).unwrap();
         b.restore(&mut bytes(&a).as_slice()).unwrap();
-        assert_eq!(f.fitness(b.best_position()).to_bits(), a.best_fitness().to_bits());
+        assert_eq!(
+            f.fitness(b.best_position()).to_bits(),
+            a.best_fitness().to_bits()
+        );
     });
 }

@@ -130,8 +130,8 @@ fn run_n<const N: usize>(
         if *status == Status::Ok {
             ok_err.push(e);
         }
-        for j in 0..N {
-            let c = (q[j] - row.seed[j]).to_degrees().abs();
+        for (qj, sj) in q.iter().zip(&row.seed) {
+            let c = (qj - sj).to_degrees().abs();
             max_corr = max_corr.max(c);
             sum_corr2 += c * c;
             ncorr += 1;

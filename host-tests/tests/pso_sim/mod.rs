@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 use kinecal::param::{apply_delta, ParamSet};
-use kinecal::{Frame, ForwardKinematics, Joint, Measurement, Robot};
+use kinecal::{ForwardKinematics, Frame, Joint, Measurement, Robot};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
@@ -78,8 +78,20 @@ pub fn with_delta(nominal: &Robot<f64, 6>, delta: &[f64; 24]) -> Robot<f64, 6> {
 
 /// `n` poses with joint readings uniform in a typical working range, measured on `truth`
 /// with isotropic Gaussian noise of `sigma_mm` per axis.
-pub fn poses(truth: &Robot<f64, 6>, n: usize, sigma_mm: f64, seed: u64) -> Vec<Measurement<f64, 6>> {
-    let ranges_deg = [(-170.0, 170.0), (-80.0, 60.0), (-70.0, 80.0), (-170.0, 170.0), (-115.0, 115.0), (-180.0, 180.0)];
+pub fn poses(
+    truth: &Robot<f64, 6>,
+    n: usize,
+    sigma_mm: f64,
+    seed: u64,
+) -> Vec<Measurement<f64, 6>> {
+    let ranges_deg = [
+        (-170.0, 170.0),
+        (-80.0, 60.0),
+        (-70.0, 80.0),
+        (-170.0, 170.0),
+        (-115.0, 115.0),
+        (-180.0, 180.0),
+    ];
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     let noise = Normal::new(0.0, sigma_mm).unwrap();
     let mut fk = ForwardKinematics::new();
@@ -87,7 +99,11 @@ pub fn poses(truth: &Robot<f64, 6>, n: usize, sigma_mm: f64, seed: u64) -> Vec<M
         .map(|_| {
             let q = ranges_deg.map(|(lo, hi): (f64, f64)| rng.random_range(lo..hi).to_radians());
             let p = fk.compute(truth, &q);
-            let point = p + Vector3::new(noise.sample(&mut rng), noise.sample(&mut rng), noise.sample(&mut rng));
+            let point = p + Vector3::new(
+                noise.sample(&mut rng),
+                noise.sample(&mut rng),
+                noise.sample(&mut rng),
+            );
             Measurement { q, point }
         })
         .collect()
@@ -95,5 +111,10 @@ pub fn poses(truth: &Robot<f64, 6>, n: usize, sigma_mm: f64, seed: u64) -> Vec<M
 
 /// Runs `f` on a thread with a 256 MiB stack (swarms are large fixed-size arrays).
 pub fn big_stack<R: Send + 'static>(f: impl FnOnce() -> R + Send + 'static) -> R {
-    std::thread::Builder::new().stack_size(256 << 20).spawn(f).unwrap().join().unwrap()
+    std::thread::Builder::new()
+        .stack_size(256 << 20)
+        .spawn(f)
+        .unwrap()
+        .join()
+        .unwrap()
 }

@@ -67,7 +67,9 @@ impl Default for CatalogueConfig {
     fn default() -> Self {
         Self {
             max_cyclic_order: 3,
-            table_intervals: (2..=24).chain([30, 36, 40, 48, 60, 72, 90, 100, 120, 150, 180, 200]).collect(),
+            table_intervals: (2..=24)
+                .chain([30, 36, 40, 48, 60, 72, 90, 100, 120, 150, 180, 200])
+                .collect(),
             min_poses_per_interval: 4.0,
             min_knots: 4,
             parallel_tolerance_deg: 2.0,
@@ -104,7 +106,10 @@ impl Candidate {
         match self.kind {
             CandidateKind::Cyclic(n) => format!("joint-cyclic order {n} on joint {j}"),
             CandidateKind::Table { step, knots, .. } => {
-                format!("joint-table every {}° ({knots} knots) on joint {j}", round_sig(step.to_degrees(), 4))
+                format!(
+                    "joint-table every {}° ({knots} knots) on joint {j}",
+                    round_sig(step.to_degrees(), 4)
+                )
             }
             _ => format!("{} on joint {j}", self.id()),
         }
@@ -122,7 +127,11 @@ impl Candidate {
 
     /// True when `robot` already carries this effect (or a table on the joint, or a free tilt
     /// listed in `free_tilt`).
-    pub fn present_in<const N: usize, const V: usize>(&self, robot: &Robot<f64, N, V>, free_tilt: &[usize]) -> bool {
+    pub fn present_in<const N: usize, const V: usize>(
+        &self,
+        robot: &Robot<f64, N, V>,
+        free_tilt: &[usize],
+    ) -> bool {
         match (self.kind, self.effect_kind()) {
             (CandidateKind::Tilt, _) => free_tilt.contains(&self.joint),
             (CandidateKind::Cyclic(n), Some(k)) => robot.effects().find(k, self.joint, n).is_some(),
@@ -132,7 +141,10 @@ impl Candidate {
     }
 
     /// Adds the candidate to `robot` with zero values; returns the parameters it makes free.
-    pub fn add_to<const N: usize, const V: usize>(&self, robot: &mut Robot<f64, N, V>) -> anyhow::Result<Vec<Param>> {
+    pub fn add_to<const N: usize, const V: usize>(
+        &self,
+        robot: &mut Robot<f64, N, V>,
+    ) -> anyhow::Result<Vec<Param>> {
         anyhow::ensure!(self.joint < N, "joint {} does not exist", self.joint + 1);
         let (order, start, step, len) = match self.kind {
             CandidateKind::Tilt => return Ok(vec![Param::Beta(self.joint as u8)]),
@@ -140,23 +152,37 @@ impl Candidate {
             CandidateKind::Table { start, step, knots } => (1, start, step, knots),
             _ => (1, 0.0, 0.0, 1),
         };
-        let kind = self.effect_kind().ok_or_else(|| anyhow::anyhow!("no effect kind"))?;
+        let kind = self
+            .effect_kind()
+            .ok_or_else(|| anyhow::anyhow!("no effect kind"))?;
         let first = robot.effects().values().len();
         robot
             .effects_mut()
             .push(kind, self.joint, N, order, start, step, &vec![0.0; len])
             .map_err(|e| anyhow::anyhow!("cannot add {}: {e:?}", self.label()))?;
-        Ok((first..first + len).map(|k| Param::Effect(k as u16)).collect())
+        Ok((first..first + len)
+            .map(|k| Param::Effect(k as u16))
+            .collect())
     }
 
     /// The candidate's values in `robot` (in the units of the robot file: rad, rad per m,
     /// dimensionless; axis-tilt: `[beta]` in rad).
     pub fn values<const N: usize, const V: usize>(&self, robot: &Robot<f64, N, V>) -> Vec<f64> {
         match (self.kind, self.effect_kind()) {
-            (CandidateKind::Tilt, _) => vec![robot.joints().get(self.joint).map_or(0.0, |j| j.beta)],
+            (CandidateKind::Tilt, _) => {
+                vec![robot.joints().get(self.joint).map_or(0.0, |j| j.beta)]
+            }
             (kind, Some(k)) => {
-                let order = if let CandidateKind::Cyclic(n) = kind { n } else { 1 };
-                robot.effects().find(k, self.joint, order).map(|i| robot.effects().values_of(i).to_vec()).unwrap_or_default()
+                let order = if let CandidateKind::Cyclic(n) = kind {
+                    n
+                } else {
+                    1
+                };
+                robot
+                    .effects()
+                    .find(k, self.joint, order)
+                    .map(|i| robot.effects().values_of(i).to_vec())
+                    .unwrap_or_default()
             }
             _ => Vec::new(),
         }
@@ -225,6 +251,16 @@ impl Candidate {
     }
 }
 
+/// A length in mm for sentences: three decimals, or three significant digits below 0.01 mm.
+pub fn fmt_mm(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || x.abs() >= 0.01 {
+        format!("{x:.3}")
+    } else {
+        let decimals = (2.0 - x.abs().log10().floor()) as usize;
+        format!("{x:.decimals$}")
+    }
+}
+
 /// An angle given in rad as degrees with about three significant digits.
 pub fn fmt_deg(rad: f64) -> String {
     let d = rad.to_degrees();
@@ -275,17 +311,33 @@ pub fn catalogue<const N: usize, const V: usize>(
     for (j, row) in robot.joints().iter().enumerate() {
         let moved = hi[j] - lo[j] > 1e-3;
         if tau_max[j] > 1e-6 {
-            out.push(Candidate { kind: CandidateKind::Compliance, joint: j });
+            out.push(Candidate {
+                kind: CandidateKind::Compliance,
+                joint: j,
+            });
         }
         if moved {
             for n in 1..=cfg.max_cyclic_order {
-                out.push(Candidate { kind: CandidateKind::Cyclic(n), joint: j });
+                out.push(Candidate {
+                    kind: CandidateKind::Cyclic(n),
+                    joint: j,
+                });
             }
-            out.push(Candidate { kind: CandidateKind::Scale, joint: j });
+            out.push(Candidate {
+                kind: CandidateKind::Scale,
+                joint: j,
+            });
         }
-        let tilt_ok = if j == 0 { base_known && parallel(row, cfg.parallel_tolerance_deg) } else { parallel(row, cfg.parallel_tolerance_deg) };
+        let tilt_ok = if j == 0 {
+            base_known && parallel(row, cfg.parallel_tolerance_deg)
+        } else {
+            parallel(row, cfg.parallel_tolerance_deg)
+        };
         if tilt_ok {
-            out.push(Candidate { kind: CandidateKind::Tilt, joint: j });
+            out.push(Candidate {
+                kind: CandidateKind::Tilt,
+                joint: j,
+            });
         }
         if moved {
             let mut grids: Vec<(f64, f64, usize)> = Vec::new();
@@ -294,21 +346,26 @@ pub fn catalogue<const N: usize, const V: usize>(
                     continue;
                 }
                 let step = (row.upper - row.lower) / m as f64;
-                if !(step > 0.0) {
+                if step.is_nan() || step <= 0.0 {
                     continue;
                 }
                 let k0 = ((lo[j] - row.lower) / step + 1e-9).floor();
                 let k1 = ((hi[j] - row.lower) / step - 1e-9).ceil();
                 let knots = ((k1 - k0) as usize + 1).max(2);
                 let intervals = (knots - 1) as f64;
-                if data.len() as f64 / intervals >= cfg.min_poses_per_interval && knots >= cfg.min_knots {
+                if data.len() as f64 / intervals >= cfg.min_poses_per_interval
+                    && knots >= cfg.min_knots
+                {
                     grids.push((step, row.lower + k0 * step, knots));
                 }
             }
             grids.sort_by(|a, b| a.0.total_cmp(&b.0));
             grids.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-12);
             for (step, start, knots) in grids {
-                out.push(Candidate { kind: CandidateKind::Table { start, step, knots }, joint: j });
+                out.push(Candidate {
+                    kind: CandidateKind::Table { start, step, knots },
+                    joint: j,
+                });
             }
         }
     }

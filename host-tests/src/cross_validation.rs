@@ -13,7 +13,9 @@
 //! is accurate to second order, so the screen ranks candidates like the refits do at a fraction
 //! of the cost; only the best few are refitted.
 
-use crate::penalised_fit::{add_table_penalty, add_tiny_ridge, fit, squared_errors, Normal, Problem, TablePenalty};
+use crate::penalised_fit::{
+    add_table_penalty, add_tiny_ridge, fit, squared_errors, Normal, Problem, TablePenalty,
+};
 use crate::significance::pose_groups;
 use kinecal::{ForwardKinematics, Measurement, Param, Robot};
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn, Vector3};
@@ -42,7 +44,10 @@ impl Folds {
         for (pos, g) in order.iter().enumerate() {
             fold_of_group[*g] = pos % k;
         }
-        Self { k, of: groups.iter().map(|g| fold_of_group[*g]).collect() }
+        Self {
+            k,
+            of: groups.iter().map(|g| fold_of_group[*g]).collect(),
+        }
     }
 
     /// Indices of the poses in fold `f` (held out) and of the others (training).
@@ -54,7 +59,10 @@ impl Folds {
 }
 
 /// The poses at `idx`.
-pub fn subset<const N: usize>(data: &[Measurement<f64, N>], idx: &[usize]) -> Vec<Measurement<f64, N>> {
+pub fn subset<const N: usize>(
+    data: &[Measurement<f64, N>],
+    idx: &[usize],
+) -> Vec<Measurement<f64, N>> {
     idx.iter().map(|&i| data[i]).collect()
 }
 
@@ -94,6 +102,9 @@ pub fn rms(sq: &[f64]) -> f64 {
 /// Sparse scaled columns of one pose: (column index, ∂p/∂x).
 pub type PoseColumns = Vec<(usize, Vector3<f64>)>;
 
+/// Cholesky factor of one fold's penalised training matrix and `L⁻¹(g − Π x)`.
+type FoldFactor = (Cholesky<f64, Dyn>, DVector<f64>);
+
 /// The current model linearised at its full-data solution, with per-fold factors.
 #[derive(Debug)]
 pub struct Linearised {
@@ -101,12 +112,17 @@ pub struct Linearised {
     residuals: Vec<Vector3<f64>>,
     columns: Vec<PoseColumns>,
     /// Per fold: factor of the penalised training matrix and `L⁻¹(g − Π x)`.
-    factors: Vec<Option<(Cholesky<f64, Dyn>, DVector<f64>)>>,
+    factors: Vec<Option<FoldFactor>>,
     p: usize,
 }
 
 impl Linearised {
-    pub fn new<const N: usize, const V: usize>(robot: &Robot<f64, N, V>, problem: &Problem, data: &[Measurement<f64, N>], folds: &Folds) -> Self {
+    pub fn new<const N: usize, const V: usize>(
+        robot: &Robot<f64, N, V>,
+        problem: &Problem,
+        data: &[Measurement<f64, N>],
+        folds: &Folds,
+    ) -> Self {
         let p = problem.len();
         let mut fk = ForwardKinematics::new();
         let mut residuals = Vec::with_capacity(data.len());
@@ -140,7 +156,13 @@ impl Linearised {
                 Some((chol, z))
             })
             .collect();
-        Self { folds: folds.clone(), residuals, columns, factors, p }
+        Self {
+            folds: folds.clone(),
+            residuals,
+            columns,
+            factors,
+            p,
+        }
     }
 
     /// Held-out squared errors of the current model itself (linearised refits).
@@ -158,12 +180,12 @@ impl Linearised {
         let mut b = vec![DMatrix::<f64>::zeros(p, m); k];
         let mut d = vec![DMatrix::<f64>::zeros(m, m); k];
         let mut e = vec![DVector::<f64>::zeros(m); k];
-        for i in 0..n {
+        for (i, cols) in extra.iter().enumerate().take(n) {
             let f = self.folds.of[i];
             let r = &self.residuals[i];
-            for (x, (ci, cv)) in extra[i].iter().enumerate() {
+            for (x, (ci, cv)) in cols.iter().enumerate() {
                 e[f][*ci] += cv.dot(r);
-                for (cj, cw) in &extra[i][..=x] {
+                for (cj, cw) in &cols[..=x] {
                     let v = cv.dot(cw);
                     d[f][(*ci, *cj)] += v;
                     if ci != cj {
@@ -178,7 +200,9 @@ impl Linearised {
         let (bt, dt, et) = (sum(&b), sum(&d), sum(&e));
         let mut out = vec![f64::INFINITY; n];
         for f in 0..k {
-            let Some((chol, z)) = &self.factors[f] else { continue };
+            let Some((chol, z)) = &self.factors[f] else {
+                continue;
+            };
             let btr = &bt - &b[f];
             let mut dtr = &dt - &d[f];
             let etr = &et - &e[f];
@@ -191,16 +215,22 @@ impl Linearised {
             }
             let l = chol.l_dirty();
             let (dp, dc) = if m > 0 {
-                let Some(y) = l.solve_lower_triangular(&btr) else { continue };
+                let Some(y) = l.solve_lower_triangular(&btr) else {
+                    continue;
+                };
                 let mut s = &dtr - y.transpose() * &y;
                 add_tiny_ridge(&mut s);
                 let rhs = &etr - y.transpose() * z;
                 let Some(sc) = s.cholesky() else { continue };
                 let dc = sc.solve(&rhs);
-                let Some(dp) = l.tr_solve_lower_triangular(&(z - &y * &dc)) else { continue };
+                let Some(dp) = l.tr_solve_lower_triangular(&(z - &y * &dc)) else {
+                    continue;
+                };
                 (dp, dc)
             } else {
-                let Some(dp) = l.tr_solve_lower_triangular(z) else { continue };
+                let Some(dp) = l.tr_solve_lower_triangular(z) else {
+                    continue;
+                };
                 (dp, DVector::zeros(0))
             };
             for i in (0..n).filter(|i| self.folds.of[*i] == f) {
@@ -218,7 +248,9 @@ impl Linearised {
     }
 }
 
-fn sum<R: nalgebra::Dim, C: nalgebra::Dim>(v: &[nalgebra::OMatrix<f64, R, C>]) -> nalgebra::OMatrix<f64, R, C>
+fn sum<R: nalgebra::Dim, C: nalgebra::Dim>(
+    v: &[nalgebra::OMatrix<f64, R, C>],
+) -> nalgebra::OMatrix<f64, R, C>
 where
     nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<R, C>,
 {
@@ -231,7 +263,11 @@ where
 
 /// The scaled columns of `params` at every pose of `data` for `robot` (for a candidate: the
 /// robot with the candidate added at zero values, so the points are the current model's).
-pub fn candidate_columns<const N: usize, const V: usize>(robot: &Robot<f64, N, V>, params: &[Param], data: &[Measurement<f64, N>]) -> Vec<PoseColumns> {
+pub fn candidate_columns<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    params: &[Param],
+    data: &[Measurement<f64, N>],
+) -> Vec<PoseColumns> {
     let reach = robot.reach();
     let scale: Vec<f64> = params.iter().map(|p| p.scale(reach)).collect();
     let mut fk = ForwardKinematics::new();

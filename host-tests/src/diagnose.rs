@@ -6,17 +6,17 @@
 //!    cannot determine are held (its identifiability analysis).
 //! 2. **Rounds.** With deterministic k-fold cross-validation (k = 5): every candidate of the
 //!    catalogue ([`crate::candidates`]) is screened by one linearised step from the current
-//!    solution ([`crate::cross_validation::Linearised`]); the best few (3 effect families) are
-//!    refitted fold by fold ([`crate::penalised_fit`]); a refit is added only if its per-pose held-out
-//!    improvement passes the one-sided paired t test at `α / m` (Bonferroni over the `m`
-//!    candidates screened in the round, α = 5 %; see [`crate::significance`]) and is not
-//!    negligible (at least 1 % of the held-out mean squared error); of those, the simplest one
-//!    within one standard error of the best is added ([`choose`]).
+//!    solution ([`crate::cross_validation::Linearised`]); the best few (3 effect families)
+//!    are refitted fold by fold ([`crate::penalised_fit`]); a refit is added only if its
+//!    per-pose held-out improvement passes the one-sided paired t test at `α / m` (Bonferroni
+//!    over the `m` candidates screened in the round, α = 5 %; see [`crate::significance`])
+//!    and is not negligible (at least 1 % of the held-out mean squared error); of those, the
+//!    simplest one within one standard error of the best is added ([`choose`]).
 //! 3. **Stop** when nothing passes, when the held-out RMS reaches the noise floor estimated from
 //!    repeated poses (if the data have any), or after `max_effects` additions.
 //! 4. **Noise floor**: repeated poses, else `√3 · √(SSR / (3n − p_eff))` of the final model.
 
-use crate::candidates::{catalogue, Candidate, CandidateKind, CatalogueConfig};
+use crate::candidates::{catalogue, fmt_mm, Candidate, CandidateKind, CatalogueConfig};
 use crate::cross_validation::{candidate_columns, refit_errors, rms, Folds, Linearised};
 use crate::identify::fit_lm;
 use crate::penalised_fit::{fit, Problem, TablePenalty};
@@ -160,11 +160,11 @@ impl<const N: usize> Found<N> {
     pub fn sentence(&self, noise_floor_mm: f64) -> String {
         let values = self.candidate.values(&self.after);
         format!(
-            "{}: held-out RMS {:.3} → {:.3} mm, noise floor {:.3} mm (one-sided paired t test p = {:.1e}, below the 5 % family-wise threshold {:.1e} over {} candidates)",
+            "{}: held-out RMS {} → {} mm, noise floor {} mm (one-sided paired t test p = {:.1e}, below the 5 % family-wise threshold {:.1e} over {} candidates)",
             self.candidate.meaning(&values),
-            self.before_rms_mm,
-            self.validation_rms_mm,
-            noise_floor_mm,
+            fmt_mm(self.before_rms_mm),
+            fmt_mm(self.validation_rms_mm),
+            fmt_mm(noise_floor_mm),
             self.test.p,
             self.threshold,
             self.candidates_compared
@@ -178,16 +178,36 @@ impl<const N: usize> Found<N> {
 /// Tibshirani & Friedman, §7.10: the standard error of the best model's cross-validated error).
 /// A table can imitate a scale error or a once-per-turn error; when the data cannot tell them
 /// apart, the simpler effect is the better name. Ties go to the lower held-out error.
-pub fn choose(tested: &[Tested], errors: &[&[f64]], threshold: f64, min_gain: f64) -> Option<usize> {
-    let ok: Vec<usize> = (0..tested.len()).filter(|&i| tested[i].test.p <= threshold && tested[i].test.mean >= min_gain).collect();
-    let best = *ok.iter().min_by(|a, b| tested[**a].validation_rms_mm.total_cmp(&tested[**b].validation_rms_mm))?;
+pub fn choose(
+    tested: &[Tested],
+    errors: &[&[f64]],
+    threshold: f64,
+    min_gain: f64,
+) -> Option<usize> {
+    let ok: Vec<usize> = (0..tested.len())
+        .filter(|&i| tested[i].test.p <= threshold && tested[i].test.mean >= min_gain)
+        .collect();
+    let best = *ok.iter().min_by(|a, b| {
+        tested[**a]
+            .validation_rms_mm
+            .total_cmp(&tested[**b].validation_rms_mm)
+    })?;
     let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len().max(1) as f64;
     let eb = errors[best];
     let mb = mean(eb);
-    let se = (eb.iter().map(|x| (x - mb) * (x - mb)).sum::<f64>() / (eb.len().max(2) - 1) as f64 / eb.len().max(1) as f64).sqrt();
+    let se = (eb.iter().map(|x| (x - mb) * (x - mb)).sum::<f64>()
+        / (eb.len().max(2) - 1) as f64
+        / eb.len().max(1) as f64)
+        .sqrt();
     ok.into_iter()
         .filter(|&i| mean(errors[i]) <= mb + se)
-        .min_by(|a, b| tested[*a].parameters.cmp(&tested[*b].parameters).then(tested[*a].validation_rms_mm.total_cmp(&tested[*b].validation_rms_mm)))
+        .min_by(|a, b| {
+            tested[*a].parameters.cmp(&tested[*b].parameters).then(
+                tested[*a]
+                    .validation_rms_mm
+                    .total_cmp(&tested[*b].validation_rms_mm),
+            )
+        })
 }
 
 /// Fits the geometry: base started by registration when unknown, then LM over base (when
@@ -201,14 +221,27 @@ pub fn fit_geometry<const N: usize>(
     let mut start = nominal.clone();
     if !base_known {
         let base = crate::registration::fit_base(nominal, data)?;
-        start.set_base(base).map_err(|e| anyhow::anyhow!("base registration: {e:?}"))?;
+        start
+            .set_base(base)
+            .map_err(|e| anyhow::anyhow!("base registration: {e:?}"))?;
     }
-    let mut params: Vec<Param> = ParamSet::<64>::full(N, !base_known).map_err(|e| anyhow::anyhow!("{e:?}"))?.as_slice().to_vec();
+    let mut params: Vec<Param> = ParamSet::<64>::full(N, !base_known)
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?
+        .as_slice()
+        .to_vec();
     for j in free_tilt {
         params.push(Param::Beta(*j as u8));
     }
     let fitted = fit_lm(&start, &params, data, LmConfig::default())?;
-    let held: Vec<Param> = params.iter().copied().filter(|p| fitted.unidentifiable.contains(&p.name(&fitted.robot).to_string())).collect();
+    let held: Vec<Param> = params
+        .iter()
+        .copied()
+        .filter(|p| {
+            fitted
+                .unidentifiable
+                .contains(&p.name(&fitted.robot).to_string())
+        })
+        .collect();
     Ok((fitted.robot, held))
 }
 
@@ -222,10 +255,18 @@ pub fn diagnose<const N: usize>(
     cfg: &Config,
 ) -> anyhow::Result<Diagnosis<N>> {
     let t0 = Instant::now();
-    anyhow::ensure!(data.len() >= 2 * cfg.folds.max(2), "{} poses are too few for {}-fold cross-validation", data.len(), cfg.folds);
+    anyhow::ensure!(
+        data.len() >= 2 * cfg.folds.max(2),
+        "{} poses are too few for {}-fold cross-validation",
+        data.len(),
+        cfg.folds
+    );
     let (geometric, held) = fit_geometry(nominal, base_known, free_tilt, data)?;
     let geometry_seconds = t0.elapsed().as_secs_f64();
-    let mut params: Vec<Param> = ParamSet::<64>::full(N, !base_known).map_err(|e| anyhow::anyhow!("{e:?}"))?.as_slice().to_vec();
+    let mut params: Vec<Param> = ParamSet::<64>::full(N, !base_known)
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?
+        .as_slice()
+        .to_vec();
     params.extend(free_tilt.iter().map(|j| Param::Beta(*j as u8)));
     params.retain(|p| !held.contains(p));
     params.extend((0..geometric.effects().values().len()).map(|k| Param::Effect(k as u16)));
@@ -255,7 +296,10 @@ pub fn diagnose<const N: usize>(
         let tr = Instant::now();
         let cands: Vec<Candidate> = catalogue(&current, base_known, data, &cfg.catalogue)
             .into_iter()
-            .filter(|c| !c.present_in(&current, &free_tilt) && !found.iter().any(|f| f.candidate.same_effect(c)))
+            .filter(|c| {
+                !c.present_in(&current, &free_tilt)
+                    && !found.iter().any(|f| f.candidate.same_effect(c))
+            })
             .collect();
         if cands.is_empty() {
             stop_reason = "no candidate left".into();
@@ -266,11 +310,17 @@ pub fn diagnose<const N: usize>(
         let mut screened: Vec<Screened> = Vec::with_capacity(cands.len());
         for c in &cands {
             let mut robot_c = current.clone();
-            let extra = c.add_to(&mut robot_c)?;
+            // A candidate the model has no room for (effect capacity) is not compared.
+            let Ok(extra) = c.add_to(&mut robot_c) else {
+                continue;
+            };
             let cols = candidate_columns(&robot_c, &extra, data);
             let table = matches!(c.kind, CandidateKind::Table { .. }).then_some(cfg.penalty);
             let e = lin.screen(&cols, extra.len(), table);
-            screened.push(Screened { candidate: *c, linear_rms_mm: rms(&e) });
+            screened.push(Screened {
+                candidate: *c,
+                linear_rms_mm: rms(&e),
+            });
         }
         screened.sort_by(|a, b| a.linear_rms_mm.total_cmp(&b.linear_rms_mm));
         let m = screened.len();
@@ -298,11 +348,28 @@ pub fn diagnose<const N: usize>(
             let problem_c = Problem::new(&robot_c, &p, cfg.penalty)?;
             let e = refit_errors(&robot_c, &problem_c, data, &folds, cfg.refit_iterations)?;
             let test = paired_improvement(&errors, &e);
-            tested.push(Tested { candidate: *c, parameters, validation_rms_mm: rms(&e), test });
+            tested.push(Tested {
+                candidate: *c,
+                parameters,
+                validation_rms_mm: rms(&e),
+                test,
+            });
             fits.push((robot_c, problem_c, e));
         }
-        let chosen = choose(&tested, &fits.iter().map(|f| f.2.as_slice()).collect::<Vec<_>>(), threshold, cfg.min_improvement * cur_rms * cur_rms);
-        rounds.push(Round { start_rms_mm: cur_rms, screened, tested: tested.clone(), threshold, chosen, seconds: tr.elapsed().as_secs_f64() });
+        let chosen = choose(
+            &tested,
+            &fits.iter().map(|f| f.2.as_slice()).collect::<Vec<_>>(),
+            threshold,
+            cfg.min_improvement * cur_rms * cur_rms,
+        );
+        rounds.push(Round {
+            start_rms_mm: cur_rms,
+            screened,
+            tested: tested.clone(),
+            threshold,
+            chosen,
+            seconds: tr.elapsed().as_secs_f64(),
+        });
         let Some(i) = chosen else {
             stop_reason = "no remaining candidate improves the held-out error significantly".into();
             break;
@@ -332,7 +399,10 @@ pub fn diagnose<const N: usize>(
     let n = data.len();
     let (noise_sigma_mm, noise_source) = match repeat {
         Some((s, _)) => (s, NoiseSource::RepeatedPoses),
-        None => (residual_noise(final_fit.ssr, n, final_fit.effective_parameters), NoiseSource::Residual),
+        None => (
+            residual_noise(final_fit.ssr, n, final_fit.effective_parameters),
+            NoiseSource::Residual,
+        ),
     };
     Ok(Diagnosis {
         geometric,

@@ -41,7 +41,13 @@ pub struct PairedTest {
 pub fn paired_improvement(before: &[f64], after: &[f64]) -> PairedTest {
     let n = before.len().min(after.len());
     if n < 2 {
-        return PairedTest { n, mean: 0.0, standard_error: 0.0, t: 0.0, p: 1.0 };
+        return PairedTest {
+            n,
+            mean: 0.0,
+            standard_error: 0.0,
+            t: 0.0,
+            p: 1.0,
+        };
     }
     let d: Vec<f64> = before.iter().zip(after).map(|(b, a)| b - a).collect();
     let mean = d.iter().sum::<f64>() / n as f64;
@@ -55,12 +61,18 @@ pub fn paired_improvement(before: &[f64], after: &[f64]) -> PairedTest {
     } else {
         (0.0, 1.0)
     };
-    PairedTest { n, mean, standard_error: se, t, p }
+    PairedTest {
+        n,
+        mean,
+        standard_error: se,
+        t,
+        p,
+    }
 }
 
 /// `P(T > t)` for Student's t with `nu` degrees of freedom.
 pub fn student_t_sf(t: f64, nu: f64) -> f64 {
-    if t.is_nan() || !(nu > 0.0) {
+    if t.is_nan() || nu.is_nan() || nu <= 0.0 {
         return f64::NAN;
     }
     if t.is_infinite() {
@@ -165,7 +177,8 @@ pub fn ln_gamma(x: f64) -> f64 {
 /// within-group scatter. `None` unless at least 3 groups with repeats (and 6 degrees of
 /// freedom) exist. Returns `(σ, degrees of freedom)`.
 pub fn repeat_noise<const N: usize>(data: &[Measurement<f64, N>]) -> Option<(f64, usize)> {
-    let mut groups: std::collections::HashMap<[u64; N], Vec<usize>> = std::collections::HashMap::new();
+    let mut groups: std::collections::HashMap<[u64; N], Vec<usize>> =
+        std::collections::HashMap::new();
     for (i, m) in data.iter().enumerate() {
         groups.entry(m.q.map(f64::to_bits)).or_default().push(i);
     }
@@ -174,8 +187,15 @@ pub fn repeat_noise<const N: usize>(data: &[Measurement<f64, N>]) -> Option<(f64
     let mut repeated = 0usize;
     for idx in groups.values().filter(|g| g.len() > 1) {
         repeated += 1;
-        let mean = idx.iter().map(|&i| data[i].point).sum::<nalgebra::Vector3<f64>>() / idx.len() as f64;
-        ss += idx.iter().map(|&i| (data[i].point - mean).norm_squared()).sum::<f64>();
+        let mean = idx
+            .iter()
+            .map(|&i| data[i].point)
+            .sum::<nalgebra::Vector3<f64>>()
+            / idx.len() as f64;
+        ss += idx
+            .iter()
+            .map(|&i| (data[i].point - mean).norm_squared())
+            .sum::<f64>();
         dof += 3 * (idx.len() - 1);
     }
     (repeated >= 3 && dof >= 6).then(|| ((ss / dof as f64).sqrt(), dof))

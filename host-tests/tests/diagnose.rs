@@ -2,6 +2,7 @@
 //! test's false-alarm rate, the folds, the linearised screen against full refits, the
 //! penalised table fit, and `kinecal diagnose` end to end (JSON keys, model file, plots).
 
+use kinecal::param::{Param, ParamSet};
 use kinecal::{Measurement, Robot};
 use kinecal_host::candidates::{catalogue, Candidate, CandidateKind, CatalogueConfig};
 use kinecal_host::cli::diagnose::{run, Args};
@@ -13,7 +14,6 @@ use kinecal_host::robot_file::RobotFile;
 use kinecal_host::significance::{incomplete_beta, paired_improvement, repeat_noise, student_t_sf};
 use kinecal_host::sim::{simulate, EffectArg, GeomErrors, Simulation};
 use kinecal_host::VCAP;
-use kinecal::param::{Param, ParamSet};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -24,19 +24,43 @@ fn data_dir() -> PathBuf {
 }
 
 fn er20() -> Robot<f64, 6, VCAP> {
-    RobotFile::load(&data_dir().join("er20.toml")).unwrap().to_robot::<6>().unwrap()
+    RobotFile::load(&data_dir().join("er20.toml"))
+        .unwrap()
+        .to_robot::<6>()
+        .unwrap()
 }
 
 fn big_stack<F: FnOnce() + Send + 'static>(f: F) {
-    std::thread::Builder::new().stack_size(1 << 30).spawn(f).unwrap().join().unwrap();
+    std::thread::Builder::new()
+        .stack_size(1 << 30)
+        .spawn(f)
+        .unwrap()
+        .join()
+        .unwrap();
 }
 
 fn effect(kind: &str, joint: usize, values: &[f64], order: u16) -> EffectArg {
-    EffectArg { kind: kind.into(), joint: joint - 1, values: values.to_vec(), order }
+    EffectArg {
+        kind: kind.into(),
+        joint: joint - 1,
+        values: values.to_vec(),
+        order,
+    }
 }
 
-fn simulated(effects: Vec<EffectArg>, noise: f64, seed: u64, poses: usize) -> (Robot<f64, 6, VCAP>, Vec<Measurement<f64, 6>>) {
-    let s = Simulation { poses, noise_mm: noise, seed, geom_errors: Some(GeomErrors::default()), effects };
+fn simulated(
+    effects: Vec<EffectArg>,
+    noise: f64,
+    seed: u64,
+    poses: usize,
+) -> (Robot<f64, 6, VCAP>, Vec<Measurement<f64, 6>>) {
+    let s = Simulation {
+        poses,
+        noise_mm: noise,
+        seed,
+        geom_errors: Some(GeomErrors::default()),
+        effects,
+    };
     let (truth, d) = simulate(&er20(), &s).unwrap();
     (truth, d.measurements())
 }
@@ -64,8 +88,23 @@ fn paired_test_holds_its_level_and_has_power() {
     // Squared errors of two models with the same error distribution (chi-square-like, skewed).
     let sq = Normal::new(0.0, 1.0).unwrap();
     let draw = |shift: f64, rng: &mut Xoshiro256PlusPlus| -> (Vec<f64>, Vec<f64>) {
-        let a: Vec<f64> = (0..100).map(|_| (0..3).map(|_| { let x: f64 = sq.sample(rng); x * x }).sum::<f64>()).collect();
-        let b: Vec<f64> = a.iter().map(|x| { let e: f64 = sq.sample(rng); x * (1.0 - shift) + 0.3 * e }).collect();
+        let a: Vec<f64> = (0..100)
+            .map(|_| {
+                (0..3)
+                    .map(|_| {
+                        let x: f64 = sq.sample(rng);
+                        x * x
+                    })
+                    .sum::<f64>()
+            })
+            .collect();
+        let b: Vec<f64> = a
+            .iter()
+            .map(|x| {
+                let e: f64 = sq.sample(rng);
+                x * (1.0 - shift) + 0.3 * e
+            })
+            .collect();
         (a, b)
     };
     let trials = 4000;
@@ -97,7 +136,11 @@ fn folds_are_deterministic_balanced_and_keep_repeats_together() {
     assert_eq!(a, Folds::new(&d, 5, 9));
     assert_ne!(a, Folds::new(&d, 5, 10));
     for i in 0..3 {
-        assert_eq!(a.of[103 + i], a.of[i], "a repeat of pose {i} is in another fold");
+        assert_eq!(
+            a.of[103 + i],
+            a.of[i],
+            "a repeat of pose {i} is in another fold"
+        );
     }
     for f in 0..5 {
         let n = a.of.iter().filter(|x| **x == f).count();
@@ -115,7 +158,12 @@ fn folds_are_deterministic_balanced_and_keep_repeats_together() {
 #[test]
 fn linearised_screen_agrees_with_full_refits() {
     big_stack(|| {
-        let (_, d) = simulated(vec![effect("joint-compliance", 2, &[3e-4], 1)], 0.02, 11, 100);
+        let (_, d) = simulated(
+            vec![effect("joint-compliance", 2, &[3e-4], 1)],
+            0.02,
+            11,
+            100,
+        );
         let nominal = er20();
         let (geo, held) = fit_geometry(&nominal, true, &[], &d).unwrap();
         let mut params: Vec<Param> = ParamSet::<64>::full(6, false).unwrap().as_slice().to_vec();
@@ -126,11 +174,23 @@ fn linearised_screen_agrees_with_full_refits() {
         let lin = Linearised::new(&current, &problem, &d, &folds);
         let base_lin = rms(&lin.baseline());
         let base_refit = rms(&refit_errors(&current, &problem, &d, &folds, 20).unwrap());
-        assert!((base_lin / base_refit - 1.0).abs() < 0.01, "{base_lin} vs {base_refit}");
+        assert!(
+            (base_lin / base_refit - 1.0).abs() < 0.01,
+            "{base_lin} vs {base_refit}"
+        );
         for c in [
-            Candidate { kind: CandidateKind::Compliance, joint: 1 },
-            Candidate { kind: CandidateKind::Cyclic(1), joint: 1 },
-            Candidate { kind: CandidateKind::Scale, joint: 3 },
+            Candidate {
+                kind: CandidateKind::Compliance,
+                joint: 1,
+            },
+            Candidate {
+                kind: CandidateKind::Cyclic(1),
+                joint: 1,
+            },
+            Candidate {
+                kind: CandidateKind::Scale,
+                joint: 3,
+            },
         ] {
             let mut robot_c = current.clone();
             let extra = c.add_to(&mut robot_c).unwrap();
@@ -140,8 +200,15 @@ fn linearised_screen_agrees_with_full_refits() {
             p.extend(extra);
             let problem_c = Problem::new(&robot_c, &p, TablePenalty::default()).unwrap();
             let refit = rms(&refit_errors(&robot_c, &problem_c, &d, &folds, 20).unwrap());
-            eprintln!("{}: screen {screened:.5} refit {refit:.5} (baseline {base_refit:.5})", c.label());
-            assert!((screened / refit - 1.0).abs() < 0.02, "{}: {screened} vs {refit}", c.label());
+            eprintln!(
+                "{}: screen {screened:.5} refit {refit:.5} (baseline {base_refit:.5})",
+                c.label()
+            );
+            assert!(
+                (screened / refit - 1.0).abs() < 0.02,
+                "{}: {screened} vs {refit}",
+                c.label()
+            );
         }
     });
 }
@@ -174,20 +241,75 @@ fn penalised_fit_recovers_a_table() {
         assert!(after < 1.2 * 3f64.sqrt() * 0.005, "{before} → {after}");
         // Knot values up to a constant (which theta3 absorbed).
         let v = c.values(&fitted.robot);
-        let CandidateKind::Table { start, step, .. } = c.kind else { unreachable!() };
+        let CandidateKind::Table { start, step, .. } = c.kind else {
+            unreachable!()
+        };
         let offset = fitted.robot.joints()[2].theta - truth.joints()[2].theta;
         for (i, t) in knots.iter().enumerate() {
             let q = truth.joints()[2].lower + i as f64 * 50f64.to_radians();
             let k = ((q - start) / step).round() as usize;
             if k < v.len() {
-                assert!((v[k] + offset - t).abs() < 2e-5, "knot {i}: {} vs {t}", v[k] + offset);
+                assert!(
+                    (v[k] + offset - t).abs() < 2e-5,
+                    "knot {i}: {} vs {t}",
+                    v[k] + offset
+                );
             }
         }
     });
 }
 
+/// With repeated poses the noise floor comes from their scatter (the model plays no part), and
+/// the search stops once the held-out error reaches it.
+#[test]
+fn noise_floor_comes_from_repeated_poses() {
+    big_stack(|| {
+        let sigma = 0.02;
+        let (truth, mut d) = simulated(
+            vec![effect("joint-compliance", 2, &[3e-4], 1)],
+            sigma,
+            31,
+            80,
+        );
+        // The first 20 configurations measured twice more: same readings, fresh noise.
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(99);
+        let configs: Vec<[f64; 6]> = d[..20].iter().map(|m| m.q).collect();
+        for _ in 0..2 {
+            let points = kinecal_host::sim::measure(&truth, &configs, sigma, &mut rng);
+            for (q, p) in configs.iter().zip(points) {
+                d.push(Measurement { q: *q, point: p });
+            }
+        }
+        let r =
+            kinecal_host::diagnose::diagnose(&er20(), true, &[], &d, &Default::default()).unwrap();
+        assert_eq!(
+            r.noise_source,
+            kinecal_host::diagnose::NoiseSource::RepeatedPoses
+        );
+        let floor = 3f64.sqrt() * sigma;
+        assert!(
+            (r.noise_floor_mm / floor - 1.0).abs() < 0.2,
+            "{} vs {floor}",
+            r.noise_floor_mm
+        );
+        let names: Vec<(&str, usize)> = r
+            .found
+            .iter()
+            .map(|f| (f.candidate.id(), f.candidate.joint))
+            .collect();
+        assert_eq!(names, [("joint-compliance", 1)]);
+        assert!(r.final_validation_rms_mm < 1.25 * r.noise_floor_mm);
+    });
+}
+
 fn write_case(dir: &std::path::Path, effects: Vec<EffectArg>, seed: u64) -> (PathBuf, PathBuf) {
-    let s = Simulation { poses: 100, noise_mm: 0.02, seed, geom_errors: Some(GeomErrors::default()), effects };
+    let s = Simulation {
+        poses: 100,
+        noise_mm: 0.02,
+        seed,
+        geom_errors: Some(GeomErrors::default()),
+        effects,
+    };
     let (_, ds) = simulate(&er20(), &s).unwrap();
     let data = dir.join("d.csv");
     data::write(&data, &ds).unwrap();
@@ -214,12 +336,21 @@ fn args(robot: PathBuf, data: PathBuf) -> Args {
 fn diagnose_command_names_the_effect_writes_the_model_and_plots() {
     big_stack(|| {
         let tmp = tempfile::tempdir().unwrap();
-        let (robot, data) = write_case(tmp.path(), vec![effect("joint-compliance", 2, &[2e-4], 1)], 4);
+        let (robot, data) = write_case(
+            tmp.path(),
+            vec![effect("joint-compliance", 2, &[2e-4], 1)],
+            4,
+        );
         let mut a = args(robot, data.clone());
         a.out = Some(tmp.path().join("m.toml"));
         a.plots = Some(tmp.path().join("plots"));
         let r = run(&a, true).unwrap();
-        for key in ["baseline_validation_rms_mm", "found", "final_validation_rms_mm", "noise_floor_mm"] {
+        for key in [
+            "baseline_validation_rms_mm",
+            "found",
+            "final_validation_rms_mm",
+            "noise_floor_mm",
+        ] {
             assert!(r.get(key).is_some(), "missing {key}");
         }
         let found = r["found"].as_array().unwrap();
@@ -232,9 +363,18 @@ fn diagnose_command_names_the_effect_writes_the_model_and_plots() {
         let fin = r["final_validation_rms_mm"].as_f64().unwrap();
         let floor = r["noise_floor_mm"].as_f64().unwrap();
         assert_eq!(found[0]["validation_rms_mm"].as_f64().unwrap(), fin);
-        assert!(base > 3.0 * floor && fin < 1.25 * floor, "{base} → {fin}, floor {floor}");
-        assert!((floor / (3f64.sqrt() * 0.02) - 1.0).abs() < 0.25, "floor {floor}");
-        assert!(found[0]["sentence"].as_str().unwrap().starts_with("joint 2 deflects under load"));
+        assert!(
+            base > 3.0 * floor && fin < 1.25 * floor,
+            "{base} → {fin}, floor {floor}"
+        );
+        assert!(
+            (floor / (3f64.sqrt() * 0.02) - 1.0).abs() < 0.25,
+            "floor {floor}"
+        );
+        assert!(found[0]["sentence"]
+            .as_str()
+            .unwrap()
+            .starts_with("joint 2 deflects under load"));
         // The extended model reads back with its effect, and reproduces the data as well.
         let model = RobotFile::load(&tmp.path().join("m.toml")).unwrap();
         assert!(model.base.is_some());
@@ -242,11 +382,18 @@ fn diagnose_command_names_the_effect_writes_the_model_and_plots() {
         assert_eq!(model.effects[0].kind, "joint-compliance");
         assert_eq!(model.effects[0].joint, 2);
         let robot = model.to_robot::<6>().unwrap();
-        let d = kinecal_host::data::load::<6>(&data).unwrap().measurements::<f64>();
+        let d = kinecal_host::data::load::<6>(&data)
+            .unwrap()
+            .measurements::<f64>();
         let fit_rms = (squared_errors(&robot, &d).iter().sum::<f64>() / d.len() as f64).sqrt();
         assert!(fit_rms < floor, "model file fit {fit_rms}");
         // Plots: per-pose errors and one per named effect, valid SVG.
-        let plots: Vec<String> = r["plots"].as_array().unwrap().iter().map(|p| p.as_str().unwrap().to_string()).collect();
+        let plots: Vec<String> = r["plots"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p.as_str().unwrap().to_string())
+            .collect();
         assert_eq!(plots.len(), 2);
         for p in plots {
             let text = std::fs::read_to_string(&p).unwrap();
@@ -265,7 +412,10 @@ fn diagnose_command_names_nothing_when_nothing_is_missing() {
         let base = r["baseline_validation_rms_mm"].as_f64().unwrap();
         assert_eq!(base, r["final_validation_rms_mm"].as_f64().unwrap());
         assert!(base < 1.25 * r["noise_floor_mm"].as_f64().unwrap());
-        assert!(r["summary"].as_str().unwrap().starts_with("Nothing significant is missing"));
+        assert!(r["summary"]
+            .as_str()
+            .unwrap()
+            .starts_with("Nothing significant is missing from the model"));
     });
 }
 
@@ -273,11 +423,19 @@ fn diagnose_command_names_nothing_when_nothing_is_missing() {
 fn diagnose_command_refuses_bad_input_with_a_reason() {
     big_stack(|| {
         let tmp = tempfile::tempdir().unwrap();
-        let s = Simulation { poses: 6, noise_mm: 0.02, seed: 1, geom_errors: None, effects: Vec::new() };
+        let s = Simulation {
+            poses: 6,
+            noise_mm: 0.02,
+            seed: 1,
+            geom_errors: None,
+            effects: Vec::new(),
+        };
         let (_, ds) = simulate(&er20(), &s).unwrap();
         let data = tmp.path().join("few.csv");
         data::write(&data, &ds).unwrap();
-        let e = run(&args(data_dir().join("er20.toml"), data), true).unwrap_err().to_string();
+        let e = run(&args(data_dir().join("er20.toml"), data), true)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("too few"), "{e}");
         let mut a = args(data_dir().join("er20.toml"), tmp.path().join("missing.csv"));
         a.folds = 5;

@@ -3,14 +3,16 @@
 //! Fast subset (runs with `cargo test`): a few cases of every kind, asserted one by one.
 //! Full matrices (print the naming rate, the false-alarm rate and the gap to the noise floor):
 //!
-//!     cargo test --release -p kinecal-host --test diagnose_matrix -- --ignored --nocapture
+//!     cargo test -p kinecal-host --test diagnose_matrix -- --ignored --nocapture
 //!
 //! `full_matrix` runs diagnose_matrix.toml (the matrix the search was developed on);
 //! `unseen_matrix` runs diagnose_matrix_unseen.toml (robots, joints, amplitudes, noise levels
 //! and seeds the search was never tuned on, a 7-joint arm, and cases with raw effect values as
 //! `kinecal simulate --effect` takes them).
 //!
-//! (`KINECAL_MATRIX_THREADS=2` runs two cases at a time; `KINECAL_MATRIX_ONLY=SEED,…` only the
+//! (The test profile is optimised: no `--release` needed. `KINECAL_MATRIX_FILE=other.toml` makes
+//! `full_matrix` run another configuration, relative to tests/data or absolute;
+//! `KINECAL_MATRIX_THREADS=2` runs two cases at a time; `KINECAL_MATRIX_ONLY=SEED,…` only the
 //! cases with these seeds; `KINECAL_MATRIX_VERBOSE=1` prints every case's JSON report.)
 
 use kinecal::{Frame, Measurement, Robot};
@@ -88,7 +90,11 @@ impl Hidden {
             "joint-table" => 9,
             _ => 0,
         });
-        Hidden { kind: p[0].to_string(), joint: p[1].parse().unwrap(), arg }
+        Hidden {
+            kind: p[0].to_string(),
+            joint: p[1].parse().unwrap(),
+            arg,
+        }
     }
     pub fn label(&self) -> String {
         match self.kind.as_str() {
@@ -109,7 +115,16 @@ impl Hidden {
             "joint-scale" => vec![1e-5],
             _ => vec![1e-4],
         };
-        EffectArg { kind: self.kind.clone(), joint: self.joint - 1, values, order: if self.kind == "joint-cyclic" { self.arg as u16 } else { 1 } }
+        EffectArg {
+            kind: self.kind.clone(),
+            joint: self.joint - 1,
+            values,
+            order: if self.kind == "joint-cyclic" {
+                self.arg as u16
+            } else {
+                1
+            },
+        }
     }
 }
 
@@ -179,17 +194,43 @@ pub fn load_robot<const N: usize>(rc: &RobotCase) -> Loaded<N> {
         let rpy = rc.base_rpy_deg.unwrap_or([0.0; 3]).map(f64::to_radians);
         sim_nominal.set_base(Frame::from_xyz_rpy(xyz, rpy)).unwrap();
     }
-    assert_eq!(file.base_known(), rc.base_known, "{}: base_known disagrees with the file", rc.name);
-    Loaded { nominal, sim_nominal, base_known: rc.base_known }
+    assert_eq!(
+        file.base_known(),
+        rc.base_known,
+        "{}: base_known disagrees with the file",
+        rc.name
+    );
+    Loaded {
+        nominal,
+        sim_nominal,
+        base_known: rc.base_known,
+    }
 }
 
-pub fn sim<const N: usize>(l: &Loaded<N>, poses: usize, noise: f64, seed: u64, effects: Vec<EffectArg>) -> Vec<Measurement<f64, N>> {
-    let s = Simulation { poses, noise_mm: noise, seed, geom_errors: Some(GeomErrors::default()), effects };
+pub fn sim<const N: usize>(
+    l: &Loaded<N>,
+    poses: usize,
+    noise: f64,
+    seed: u64,
+    effects: Vec<EffectArg>,
+) -> Vec<Measurement<f64, N>> {
+    let s = Simulation {
+        poses,
+        noise_mm: noise,
+        seed,
+        geom_errors: Some(GeomErrors::default()),
+        effects,
+    };
     simulate(&l.sim_nominal, &s).unwrap().1.measurements()
 }
 
 /// RMS (mm) a geometric refit leaves of noiseless data with `effects`.
-pub fn unexplained<const N: usize>(l: &Loaded<N>, poses: usize, seed: u64, effects: Vec<EffectArg>) -> f64 {
+pub fn unexplained<const N: usize>(
+    l: &Loaded<N>,
+    poses: usize,
+    seed: u64,
+    effects: Vec<EffectArg>,
+) -> f64 {
     let data = sim(l, poses, 0.0, seed, effects);
     let (fitted, _) = fit_geometry(&l.nominal, l.base_known, &[], &data).unwrap();
     kinecal::lm::rms_error(&fitted, &data)
@@ -197,7 +238,11 @@ pub fn unexplained<const N: usize>(l: &Loaded<N>, poses: usize, seed: u64, effec
 
 /// The data of a case: each hidden effect scaled so that what the geometry cannot absorb has an
 /// RMS of `amplitude` noise floors.
-pub fn make_data<const N: usize>(l: &Loaded<N>, poses: usize, c: &Case) -> Vec<Measurement<f64, N>> {
+pub fn make_data<const N: usize>(
+    l: &Loaded<N>,
+    poses: usize,
+    c: &Case,
+) -> Vec<Measurement<f64, N>> {
     if let Some(raw) = &c.raw {
         return sim(l, poses, c.noise_mm, c.seed, raw.clone());
     }
@@ -232,14 +277,24 @@ pub fn named<const N: usize>(d: &Diagnosis<N>) -> Vec<Hidden> {
                 kinecal_host::candidates::CandidateKind::Cyclic(n) => n as usize,
                 _ => 0,
             };
-            Hidden { kind: f.candidate.id().to_string(), joint: f.candidate.joint + 1, arg }
+            Hidden {
+                kind: f.candidate.id().to_string(),
+                joint: f.candidate.joint + 1,
+                arg,
+            }
         })
         .collect()
 }
 
 /// Named exactly: the same kinds on the same joints (cyclic: the same order), nothing else.
 pub fn exact(hidden: &[Hidden], found: &[Hidden]) -> bool {
-    let key = |h: &Hidden| (h.kind.clone(), h.joint, if h.kind == "joint-cyclic" { h.arg } else { 0 });
+    let key = |h: &Hidden| {
+        (
+            h.kind.clone(),
+            h.joint,
+            if h.kind == "joint-cyclic" { h.arg } else { 0 },
+        )
+    };
     let mut a: Vec<_> = hidden.iter().map(key).collect();
     let mut b: Vec<_> = found.iter().map(key).collect();
     a.sort();
@@ -269,52 +324,121 @@ pub fn run_case<const N: usize>(l: &Loaded<N>, poses: usize, c: &Case) -> Outcom
 }
 
 pub fn big_stack<F: FnOnce() + Send + 'static>(f: F) {
-    std::thread::Builder::new().stack_size(1 << 30).spawn(f).unwrap().join().unwrap();
+    std::thread::Builder::new()
+        .stack_size(1 << 30)
+        .spawn(f)
+        .unwrap()
+        .join()
+        .unwrap();
 }
 
 pub fn all_cases(m: &Matrix) -> Vec<Case> {
     let mut cases = Vec::new();
-    let mut seed = 1000u64;
+    let mut seed = m.seed_base;
     for (ri, rc) in m.robots.iter().enumerate() {
-        let mut sets: Vec<Vec<Hidden>> = rc.effects.iter().map(|e| vec![Hidden::parse(e)]).collect();
-        sets.extend(rc.pairs.iter().map(|p| p.iter().map(|e| Hidden::parse(e)).collect()));
+        let mut sets: Vec<Vec<Hidden>> =
+            rc.effects.iter().map(|e| vec![Hidden::parse(e)]).collect();
+        sets.extend(
+            rc.pairs
+                .iter()
+                .map(|p| p.iter().map(|e| Hidden::parse(e)).collect()),
+        );
         for hidden in sets {
             for &noise in &m.noise_mm {
                 for &amp in &m.amplitudes {
                     seed += 1;
-                    cases.push(Case { robot: ri, hidden: hidden.clone(), noise_mm: noise, amplitude: amp, seed });
+                    cases.push(Case {
+                        robot: ri,
+                        hidden: hidden.clone(),
+                        noise_mm: noise,
+                        amplitude: amp,
+                        seed,
+                        raw: None,
+                    });
                 }
             }
         }
         for &noise in &m.noise_mm {
             for _ in 0..m.nothing_seeds {
                 seed += 1;
-                cases.push(Case { robot: ri, hidden: Vec::new(), noise_mm: noise, amplitude: 0.0, seed });
+                cases.push(Case {
+                    robot: ri,
+                    hidden: Vec::new(),
+                    noise_mm: noise,
+                    amplitude: 0.0,
+                    seed,
+                    raw: None,
+                });
             }
+        }
+    }
+    for rc in &m.raw {
+        let ri = m
+            .robots
+            .iter()
+            .position(|r| r.name == rc.robot)
+            .unwrap_or_else(|| panic!("raw case: no robot {}", rc.robot));
+        let effects: Vec<EffectArg> = rc.effects.iter().map(|e| e.parse().unwrap()).collect();
+        let hidden = effects
+            .iter()
+            .map(|e| Hidden {
+                kind: e.kind.clone(),
+                joint: e.joint + 1,
+                arg: if e.kind == "joint-cyclic" {
+                    e.order as usize
+                } else {
+                    e.values.len()
+                },
+            })
+            .collect::<Vec<_>>();
+        for _ in 0..rc.seeds {
+            seed += 1;
+            cases.push(Case {
+                robot: ri,
+                hidden: hidden.clone(),
+                noise_mm: rc.noise_mm,
+                amplitude: f64::NAN,
+                seed,
+                raw: Some(effects.clone()),
+            });
         }
     }
     cases
 }
 
 pub fn describe(m: &Matrix, c: &Case) -> String {
-    let h: Vec<String> = c.hidden.iter().map(|h| h.label()).collect();
+    let h: Vec<String> = match &c.raw {
+        Some(raw) => raw
+            .iter()
+            .map(|e| format!("{}:{}:{:?}", e.kind, e.joint + 1, e.values))
+            .collect(),
+        None => c.hidden.iter().map(|h| h.label()).collect(),
+    };
     format!(
-        "{:5} seed {:5} noise {:.3} amp {:.0}  hidden [{}]",
+        "{:6} seed {:5} noise {:.3} amp {:>4}  hidden [{}]",
         m.robots[c.robot].name,
         c.seed,
         c.noise_mm,
-        c.amplitude,
-        if h.is_empty() { "nothing".into() } else { h.join(" + ") }
+        if c.amplitude.is_nan() {
+            "raw".to_string()
+        } else {
+            format!("{:.0}", c.amplitude)
+        },
+        if h.is_empty() {
+            "nothing".into()
+        } else {
+            h.join(" + ")
+        }
     )
 }
 
 /// A few cases of each kind, asserted: the hidden effects named exactly and the held-out RMS
 /// within 1.25× the noise floor; nothing named where nothing is hidden.
 #[test]
-pub fn fast_subset_names_hidden_effects_exactly() {
+fn fast_subset_names_hidden_effects_exactly() {
     big_stack(|| {
         let m = load_matrix();
-        let robots: Vec<Loaded> = m.robots.iter().map(load_robot).collect();
+        let robots: Vec<Arm> = m.robots.iter().map(load_arm).collect();
         let pick = [
             (0, vec!["joint-compliance:2"], 0.02, 4.0),
             (0, vec!["joint-cyclic:4:2"], 0.02, 4.0),
@@ -329,8 +453,15 @@ pub fn fast_subset_names_hidden_effects_exactly() {
         ];
         let mut failures = Vec::new();
         for (i, (r, h, noise, amp)) in pick.into_iter().enumerate() {
-            let c = Case { robot: r, hidden: h.iter().map(|s| Hidden::parse(s)).collect(), noise_mm: noise, amplitude: amp, seed: 77 + i as u64 };
-            let o = run_case(&robots[r], m.poses, &c);
+            let c = Case {
+                robot: r,
+                hidden: h.iter().map(|s| Hidden::parse(s)).collect(),
+                noise_mm: noise,
+                amplitude: amp,
+                seed: 77 + i as u64,
+                raw: None,
+            };
+            let o = robots[r].run(m.poses, &c);
             let line = format!(
                 "{}: named {:?}; held-out {:.4} → {:.4} mm, floor {:.4} (true {:.4}), {:.2} s",
                 describe(&m, &c),
@@ -346,99 +477,144 @@ pub fn fast_subset_names_hidden_effects_exactly() {
                 failures.push(line);
             }
         }
-        assert!(failures.is_empty(), "failed cases:\n{}", failures.join("\n"));
+        assert!(
+            failures.is_empty(),
+            "failed cases:\n{}",
+            failures.join("\n")
+        );
     });
 }
 
-/// The full matrix: naming rate, false-alarm rate, gap to the noise floor.
+/// The matrix the search was developed on: naming rate, false-alarm rate, gap to the floor.
 #[test]
-#[ignore = "the full matrix takes minutes: cargo test --release -p kinecal-host --test diagnose_matrix -- --ignored --nocapture"]
-pub fn full_matrix() {
+#[ignore = "the full matrix takes minutes: cargo test -p kinecal-host --test diagnose_matrix -- --ignored --nocapture"]
+fn full_matrix() {
     big_stack(|| {
-        let m = load_matrix();
-        let robots: Vec<Loaded> = m.robots.iter().map(load_robot).collect();
-        let mut cases = all_cases(&m);
-        // KINECAL_MATRIX_ONLY=1040,1041 runs only the cases with these seeds.
-        if let Ok(only) = std::env::var("KINECAL_MATRIX_ONLY") {
-            let seeds: Vec<u64> = only.split(',').filter_map(|s| s.trim().parse().ok()).collect();
-            cases.retain(|c| seeds.contains(&c.seed));
-        }
-        let threads: usize = std::env::var("KINECAL_MATRIX_THREADS").ok().and_then(|s| s.parse().ok()).unwrap_or(1).max(1);
-        let next = std::sync::atomic::AtomicUsize::new(0);
-        let results: std::sync::Mutex<Vec<(usize, Outcome)>> = std::sync::Mutex::new(Vec::new());
-        std::thread::scope(|s| {
-            for _ in 0..threads {
-                // Each worker needs a big stack too.
-                let work = || loop {
-                    let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    let Some(c) = cases.get(i) else { break };
-                    let o = run_case(&robots[c.robot], m.poses, c);
-                    eprintln!(
-                        "{}{}: named {:?}; held-out {:.4} → {:.4} mm = {:.2}× floor (est {:.4}, true {:.4}), {:.2} s",
-                        if (c.hidden.is_empty() && !o.named.is_empty()) || (!c.hidden.is_empty() && !o.exact) { "MISS " } else { "" },
-                        describe(&m, c),
-                        o.named,
-                        o.baseline_rms,
-                        o.final_rms,
-                        o.final_rms / o.floor_est,
-                        o.floor_est,
-                        o.floor_true,
-                        o.seconds
-                    );
-                    results.lock().unwrap().push((i, o));
-                };
-                std::thread::Builder::new().stack_size(1 << 30).spawn_scoped(s, work).unwrap();
-            }
-        });
-        let results = results.into_inner().unwrap();
-        let mut hidden_n = 0;
-        let mut hidden_exact = 0;
-        let mut nothing_n = 0;
-        let mut false_alarms = 0;
-        let mut gaps_est = Vec::new();
-        let mut gaps_true = Vec::new();
-        let mut secs = Vec::new();
-        let mut by_kind: std::collections::BTreeMap<String, (usize, usize)> = Default::default();
-        for (i, o) in &results {
-            let c = &cases[*i];
-            secs.push(o.seconds);
-            if c.hidden.is_empty() {
-                nothing_n += 1;
-                false_alarms += usize::from(!o.named.is_empty());
-            } else {
-                hidden_n += 1;
-                hidden_exact += usize::from(o.exact);
-                let key = if c.hidden.len() > 1 { "two effects".to_string() } else { c.hidden[0].kind.clone() };
-                let e = by_kind.entry(key).or_default();
-                e.0 += 1;
-                e.1 += usize::from(o.exact);
-            }
-            gaps_est.push(o.final_rms / o.floor_est);
-            gaps_true.push(o.final_rms / o.floor_true);
-        }
-        let stats = |v: &mut Vec<f64>| {
-            v.sort_by(f64::total_cmp);
-            let mean = v.iter().sum::<f64>() / v.len() as f64;
-            let within = v.iter().filter(|g| **g <= 1.25).count() as f64 / v.len() as f64;
-            (mean, v[v.len() / 2], v[v.len() - 1], within)
-        };
-        let (ge_mean, ge_med, ge_max, ge_in) = stats(&mut gaps_est);
-        let (gt_mean, gt_med, gt_max, gt_in) = stats(&mut gaps_true);
-        secs.sort_by(f64::total_cmp);
-        println!("\n=== discrepancy-search test matrix: {} cases, {} poses each ===", results.len(), m.poses);
-        println!("naming rate (hidden effects named exactly, nothing else): {hidden_exact}/{hidden_n} = {:.1} %", 100.0 * hidden_exact as f64 / hidden_n as f64);
-        for (k, (n, ok)) in &by_kind {
-            println!("  {k:18} {ok}/{n}");
-        }
-        println!("false-alarm rate (something named, nothing hidden): {false_alarms}/{nothing_n} = {:.1} %", 100.0 * false_alarms as f64 / nothing_n.max(1) as f64);
-        println!(
-            "final held-out RMS / estimated noise floor: mean {ge_mean:.3}, median {ge_med:.3}, max {ge_max:.3}; ≤ 1.25 in {:.1} % of cases",
-            100.0 * ge_in
-        );
-        println!(
-            "final held-out RMS / true noise floor √3σ:  mean {gt_mean:.3}, median {gt_med:.3}, max {gt_max:.3}; ≤ 1.25 in {:.1} % of cases",
-            100.0 * gt_in
-        );
-        println!("seconds per case: median {:.2}, max {:.2}", secs[secs.len() / 2], secs[secs.len() - 1]);
+        let file =
+            std::env::var("KINECAL_MATRIX_FILE").unwrap_or_else(|_| "diagnose_matrix.toml".into());
+        run_matrix(&file)
     });
+}
+
+/// Cases the search was never tuned on.
+#[test]
+#[ignore = "the full matrix takes minutes: cargo test -p kinecal-host --test diagnose_matrix -- --ignored --nocapture"]
+fn unseen_matrix() {
+    big_stack(|| run_matrix("diagnose_matrix_unseen.toml"));
+}
+
+/// Runs every case of a matrix file and prints the rates.
+pub fn run_matrix(file: &str) {
+    let m = load_matrix_file(file);
+    let robots: Vec<Arm> = m.robots.iter().map(load_arm).collect();
+    let mut cases = all_cases(&m);
+    // KINECAL_MATRIX_ONLY=1040,1041 runs only the cases with these seeds.
+    if let Ok(only) = std::env::var("KINECAL_MATRIX_ONLY") {
+        let seeds: Vec<u64> = only
+            .split(',')
+            .filter_map(|s| s.trim().parse().ok())
+            .collect();
+        cases.retain(|c| seeds.contains(&c.seed));
+    }
+    let threads: usize = std::env::var("KINECAL_MATRIX_THREADS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1)
+        .max(1);
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results: std::sync::Mutex<Vec<(usize, Outcome)>> = std::sync::Mutex::new(Vec::new());
+    std::thread::scope(|s| {
+        for _ in 0..threads {
+            // Each worker needs a big stack too.
+            let work = || loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(c) = cases.get(i) else { break };
+                let o = robots[c.robot].run(m.poses, c);
+                eprintln!(
+                    "{}{}: named {:?}; held-out {:.4} → {:.4} mm = {:.2}× floor (est {:.4}, true {:.4}), {:.2} s",
+                    if (c.hidden.is_empty() && !o.named.is_empty()) || (!c.hidden.is_empty() && !o.exact) { "MISS " } else { "" },
+                    describe(&m, c),
+                    o.named,
+                    o.baseline_rms,
+                    o.final_rms,
+                    o.final_rms / o.floor_est,
+                    o.floor_est,
+                    o.floor_true,
+                    o.seconds
+                );
+                results.lock().unwrap().push((i, o));
+            };
+            std::thread::Builder::new()
+                .stack_size(1 << 30)
+                .spawn_scoped(s, work)
+                .unwrap();
+        }
+    });
+    let results = results.into_inner().unwrap();
+    let mut hidden_n = 0;
+    let mut hidden_exact = 0;
+    let mut nothing_n = 0;
+    let mut false_alarms = 0;
+    let mut gaps_est = Vec::new();
+    let mut gaps_true = Vec::new();
+    let mut secs = Vec::new();
+    let mut by_kind: std::collections::BTreeMap<String, (usize, usize)> = Default::default();
+    for (i, o) in &results {
+        let c = &cases[*i];
+        secs.push(o.seconds);
+        if c.hidden.is_empty() {
+            nothing_n += 1;
+            false_alarms += usize::from(!o.named.is_empty());
+        } else {
+            hidden_n += 1;
+            hidden_exact += usize::from(o.exact);
+            let key = if c.hidden.len() > 1 {
+                "two effects".to_string()
+            } else {
+                c.hidden[0].kind.clone()
+            };
+            let key = if c.raw.is_some() {
+                format!("{key} (raw values)")
+            } else {
+                key
+            };
+            let e = by_kind.entry(key).or_default();
+            e.0 += 1;
+            e.1 += usize::from(o.exact);
+        }
+        gaps_est.push(o.final_rms / o.floor_est);
+        gaps_true.push(o.final_rms / o.floor_true);
+    }
+    let stats = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        let mean = v.iter().sum::<f64>() / v.len() as f64;
+        let within = v.iter().filter(|g| **g <= 1.25).count() as f64 / v.len() as f64;
+        (mean, v[v.len() / 2], v[v.len() - 1], within)
+    };
+    let (ge_mean, ge_med, ge_max, ge_in) = stats(&mut gaps_est);
+    let (gt_mean, gt_med, gt_max, gt_in) = stats(&mut gaps_true);
+    secs.sort_by(f64::total_cmp);
+    println!(
+        "\n=== {file}: {} cases, {} poses each ===",
+        results.len(),
+        m.poses
+    );
+    println!(
+        "naming rate (hidden effects named exactly, nothing else): {hidden_exact}/{hidden_n} = {:.1} %",
+        100.0 * hidden_exact as f64 / hidden_n.max(1) as f64
+    );
+    for (k, (n, ok)) in &by_kind {
+        println!("  {k:30} {ok}/{n}");
+    }
+    println!(
+        "false-alarm rate (something named, nothing hidden): {false_alarms}/{nothing_n} = {:.1} %",
+        100.0 * false_alarms as f64 / nothing_n.max(1) as f64
+    );
+    println!("final held-out RMS / estimated noise floor: mean {ge_mean:.3}, median {ge_med:.3}, max {ge_max:.3}; ≤ 1.25 in {:.1} % of cases", 100.0 * ge_in);
+    println!("final held-out RMS / true noise floor √3σ:  mean {gt_mean:.3}, median {gt_med:.3}, max {gt_max:.3}; ≤ 1.25 in {:.1} % of cases", 100.0 * gt_in);
+    println!(
+        "seconds per case (diagnose only): median {:.2}, max {:.2}",
+        secs[secs.len() / 2],
+        secs[secs.len() - 1]
+    );
 }

@@ -2,7 +2,7 @@
 //! finds where model and data disagree, names the missing effects, adds them and shows the
 //! held-out gap shrink.
 
-use crate::candidates::CandidateKind;
+use crate::candidates::{fmt_mm, CandidateKind};
 use crate::data;
 use crate::diagnose::{diagnose, Config, Diagnosis, NoiseSource};
 use crate::identify::split_holdout;
@@ -25,7 +25,7 @@ pub struct Args {
     /// Seed of the cross-validation folds.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Write the extended model (robot TOML with [[effects]]).
+    /// Write the extended model (robot TOML with its effects).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Write SVG plots (residuals against each named effect, per-pose errors) into this folder.
@@ -67,11 +67,26 @@ fn run_n<const N: usize>(args: &Args, json: bool) -> anyhow::Result<Value> {
         (None, None) => (all, Vec::new()),
     };
     anyhow::ensure!(args.folds >= 2, "--folds must be at least 2");
-    anyhow::ensure!(args.alpha > 0.0 && args.alpha < 1.0, "--alpha must be between 0 and 1");
+    anyhow::ensure!(
+        args.alpha > 0.0 && args.alpha < 1.0,
+        "--alpha must be between 0 and 1"
+    );
     anyhow::ensure!(args.max_order >= 1, "--max-order must be at least 1");
-    let mut cfg = Config { folds: args.folds, alpha: args.alpha, max_effects: args.max_effects, seed: args.seed, ..Config::default() };
+    let mut cfg = Config {
+        folds: args.folds,
+        alpha: args.alpha,
+        max_effects: args.max_effects,
+        seed: args.seed,
+        ..Config::default()
+    };
     cfg.catalogue.max_cyclic_order = args.max_order;
-    let d = diagnose(&nominal, file.base_known(), &file.tilt_joints(), &search, &cfg)?;
+    let d = diagnose(
+        &nominal,
+        file.base_known(),
+        &file.tilt_joints(),
+        &search,
+        &cfg,
+    )?;
     let mut report = report(&d);
     if !held.is_empty() {
         let rms = |sq: Vec<f64>| (sq.iter().sum::<f64>() / sq.len() as f64).sqrt();
@@ -83,13 +98,21 @@ fn run_n<const N: usize>(args: &Args, json: bool) -> anyhow::Result<Value> {
     }
     report["poses"] = json!(search.len());
     if let Some(out) = &args.out {
-        let f = RobotFile::from_robot(&format!("{} (diagnosed)", file.name), &d.model, true, &d.free_tilt);
+        let f = RobotFile::from_robot(
+            &format!("{} (diagnosed)", file.name),
+            &d.model,
+            true,
+            &d.free_tilt,
+        );
         f.save(out)?;
         report["out"] = json!(out.display().to_string());
     }
     if let Some(dir) = &args.plots {
         let files = crate::residual_plots::write_all(dir, &d, &search)?;
-        report["plots"] = json!(files.iter().map(|p| p.display().to_string()).collect::<Vec<_>>());
+        report["plots"] = json!(files
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>());
     }
     if !json {
         print_human(&report, &d, &search);
@@ -142,7 +165,11 @@ pub fn report<const N: usize>(d: &Diagnosis<N>) -> Value {
             })
         })
         .collect();
-    let sentences: Vec<String> = d.found.iter().map(|f| f.sentence(d.noise_floor_mm)).collect();
+    let sentences: Vec<String> = d
+        .found
+        .iter()
+        .map(|f| f.sentence(d.noise_floor_mm))
+        .collect();
     json!({
         "baseline_validation_rms_mm": d.baseline_validation_rms_mm,
         "found": found,
@@ -167,16 +194,17 @@ pub fn report<const N: usize>(d: &Diagnosis<N>) -> Value {
 pub fn summary<const N: usize>(d: &Diagnosis<N>) -> String {
     if d.found.is_empty() {
         format!(
-            "Nothing significant is missing from the geometric model: held-out RMS {:.3} mm, noise floor {:.3} mm (no candidate improved the held-out error at the 5 % family-wise level).",
-            d.baseline_validation_rms_mm, d.noise_floor_mm
+            "Nothing significant is missing from the model: held-out RMS {} mm, noise floor {} mm (no candidate improved the held-out error at the 5 % family-wise level).",
+            fmt_mm(d.baseline_validation_rms_mm),
+            fmt_mm(d.noise_floor_mm)
         )
     } else {
         format!(
-            "{} effect(s) missing from the geometric model: held-out RMS {:.3} → {:.3} mm, noise floor {:.3} mm.",
+            "{} effect(s) missing from the model: held-out RMS {} → {} mm, noise floor {} mm.",
             d.found.len(),
-            d.baseline_validation_rms_mm,
-            d.final_validation_rms_mm,
-            d.noise_floor_mm
+            fmt_mm(d.baseline_validation_rms_mm),
+            fmt_mm(d.final_validation_rms_mm),
+            fmt_mm(d.noise_floor_mm)
         )
     }
 }
@@ -190,7 +218,7 @@ fn print_human<const N: usize>(r: &Value, d: &Diagnosis<N>, data: &[Measurement<
     println!("stopped: {}", d.stop_reason);
     if let Some(h) = r.get("holdout") {
         println!(
-            "held-out poses ({}): geometry {:.4} mm → extended model {:.4} mm",
+            "held-out poses ({}): starting model refitted {:.4} mm → extended model {:.4} mm",
             h["poses"],
             h["geometric_rms_mm"].as_f64().unwrap_or(f64::NAN),
             h["final_rms_mm"].as_f64().unwrap_or(f64::NAN)

@@ -37,7 +37,12 @@ fn clamp01<T: Real>(x: T) -> T {
 /// Robust for segments that degenerate to points and for parallel or collinear segments
 /// (then one of the equally close pairs is returned). Non-finite input gives a non-finite
 /// distance, never a panic.
-pub fn segment_distance<T: Real>(p0: &Vector3<T>, p1: &Vector3<T>, q0: &Vector3<T>, q1: &Vector3<T>) -> Closest<T> {
+pub fn segment_distance<T: Real>(
+    p0: &Vector3<T>,
+    p1: &Vector3<T>,
+    q0: &Vector3<T>,
+    q1: &Vector3<T>,
+) -> Closest<T> {
     let d1 = p1 - p0;
     let d2 = q1 - q0;
     let r = p0 - q0;
@@ -63,7 +68,11 @@ pub fn segment_distance<T: Real>(p0: &Vector3<T>, p1: &Vector3<T>, q0: &Vector3<
             let b = d1.dot(&d2);
             let denom = a * e - b * b;
             // Parallel (sin² of the angle below rounding): any s works, start at p0.
-            let s0 = if denom > T::EPS * a * e { clamp01((b * f - c * e) / denom) } else { T::zero() };
+            let s0 = if denom > T::EPS * a * e {
+                clamp01((b * f - c * e) / denom)
+            } else {
+                T::zero()
+            };
             let t0 = (b * s0 + f) / e;
             if t0 < T::zero() {
                 t = T::zero();
@@ -96,12 +105,18 @@ impl<T: Real> Capsule<T> {
 
     /// True when every number is finite and the radius is not negative.
     pub fn is_valid(&self) -> bool {
-        self.a.iter().chain(self.b.iter()).all(|v| v.finite()) && self.radius.finite() && self.radius >= T::zero()
+        self.a.iter().chain(self.b.iter()).all(|v| v.finite())
+            && self.radius.finite()
+            && self.radius >= T::zero()
     }
 
     /// The same capsule with its end points mapped from `frame` to the frame's parent.
     pub fn placed(&self, frame: &Frame<T>) -> Self {
-        Self { a: frame.point(&self.a), b: frame.point(&self.b), radius: self.radius }
+        Self {
+            a: frame.point(&self.a),
+            b: frame.point(&self.b),
+            radius: self.radius,
+        }
     }
 
     /// Surface-to-surface distance (negative when the capsules overlap, by the depth along the

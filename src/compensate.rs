@@ -22,8 +22,8 @@
 //! correction and starts the next cycle from it (usually one or two steps then suffice).
 
 use crate::forward::ForwardKinematics;
-use crate::frame::orientation_error;
-use crate::linalg::{cholesky, cholesky_solve, Square};
+use crate::frame::{orientation_error, orientation_sin_cos};
+use crate::linalg::{ldlt, ldlt_solve, ldlt_trace_inverse, Square};
 use crate::{Frame, Real, Robot};
 use nalgebra::Vector3;
 
@@ -264,7 +264,7 @@ pub fn compensate_from<T: Real, const N: usize, const V: usize>(
     let far = reach * T::of(FAR);
     let offset = target.point() - robot.base().o;
     // Both are finite here, so the difference is finite or ±inf, never NaN.
-    if offset.iter().any(|c| c.abs() > far) || offset.norm() > far {
+    if offset.iter().any(|c| c.abs() > far) || offset.norm_squared() > far * far {
         return Err(CompensateError::InvalidInput);
     }
     let scale = config.orientation_scale.unwrap_or(reach);
@@ -299,19 +299,38 @@ pub fn compensate_from<T: Real, const N: usize, const V: usize>(
     let mut fk = ForwardKinematics::new();
     let mut q0 = *start;
     clamp(&mut q0);
-    let mut best = evaluate(&mut fk, robot, target, scale, &q0);
-    if !best.rn.finite() {
+    // Two evaluation slots used in turn (best, candidate): accepting a step flips an index
+    // instead of copying the Jacobian.
+    let mut slots = [
+        evaluate(&mut fk, robot, target, scale, &q0),
+        evaluate_empty(),
+    ];
+    let mut b = 0usize;
+    if !slots[0].rn2.finite() {
         return Err(CompensateError::InvalidInput);
     }
     let damp2 = config.damping * config.damping;
     // Rounding level of the model's point: a few dozen ulps of the coordinates involved.
-    let noise = T::EPS * T::of(64.0) * (target.point().norm() + reach);
+    // Scale of the coordinates without a square root (|x|+|y|+|z| bounds the norm within √3).
+    let size = target.point().iter().fold(T::zero(), |a, c| a + c.abs()) + reach;
+    let noise = T::EPS * T::of(64.0) * size;
     let mut mu = T::one();
     let mut steps = 0u8;
-    while steps < config.iterations && best.rn > config.tolerance {
+    // Squared norms throughout: no square root per evaluation (software on a Cortex-M4F).
+    // A residual at the scalar's rounding level (one ulp of the coordinates, ~0.65 µm in f32
+    // at 3 m, ~1e-12 mm in f64) cannot be improved by another step: stop there.
+    let floor = T::EPS * size;
+    let tol = if config.tolerance > floor {
+        config.tolerance
+    } else {
+        floor
+    };
+    let tol2 = tol * tol;
+    while steps < config.iterations && slots[b].rn2 > tol2 {
+        let best = &slots[b];
         steps += 1;
-        let lambda2 = mu * (damp2 + best.rn * best.rn);
-        let dq = match constrained_step(&best, m, lambda2, seed, &lo, &hi) {
+        let lambda2 = mu * (damp2 + best.rn2);
+        let dq = match constrained_step(best, m, lambda2, seed, &lo, &hi) {
             Some(dq) => dq,
             None => {
                 mu = stiffer(mu);
@@ -329,12 +348,15 @@ pub fn compensate_from<T: Real, const N: usize, const V: usize>(
         if !moved {
             break;
         }
-        let cand = evaluate(&mut fk, robot, target, scale, &q);
+        let best_rn2 = best.rn2;
+        let c = 1 - b;
+        evaluate_into(&mut slots[c], &mut fk, robot, target, scale, &q);
+        let cand = &slots[c];
         // Once the residual is at the rounding level of the model (f32 lives there), the step
         // just taken was the last useful one: more would only wander in the noise.
-        let at_noise = best.rn <= noise;
-        if cand.rn.finite() && cand.rn < best.rn {
-            best = cand;
+        let at_noise = best_rn2 <= noise * noise;
+        if cand.rn2.finite() && cand.rn2 < best_rn2 {
+            b = c;
             mu = if mu > T::one() {
                 mu * T::of(0.1)
             } else {
@@ -348,10 +370,11 @@ pub fn compensate_from<T: Real, const N: usize, const V: usize>(
         }
     }
 
+    let best = &slots[b];
     let sol = Solution {
         q: best.q,
-        position_error: best.pos,
-        orientation_error: best.ori,
+        position_error: best.pos2.sqrt(),
+        orientation_error: best.angle(),
         sigma: conditioning(&best.cols, m),
         iterations: steps,
     };
@@ -360,7 +383,7 @@ pub fn compensate_from<T: Real, const N: usize, const V: usize>(
     if pinned {
         return Err(CompensateError::Limited(sol));
     }
-    if best.rn <= config.accept {
+    if best.rn2 <= config.accept * config.accept {
         return if singular {
             Err(CompensateError::Singular(sol))
         } else {
@@ -373,7 +396,7 @@ pub fn compensate_from<T: Real, const N: usize, const V: usize>(
     if singular {
         return Err(CompensateError::Singular(sol));
     }
-    if blocked(&best, m, &lo, &hi) {
+    if blocked(best, m, &lo, &hi) {
         return Err(CompensateError::Limited(sol));
     }
     Err(CompensateError::Unreachable(sol))
@@ -395,9 +418,13 @@ struct Eval<T: Real, const N: usize> {
     /// Residual target − model: position (mm), then scaled orientation (mm) for poses.
     r: [T; 6],
     /// |r| (mm, orientation scaled).
-    rn: T,
-    pos: T,
-    ori: T,
+    /// |r|² (mm², orientation scaled).
+    rn2: T,
+    /// |position error|² (mm²).
+    pos2: T,
+    /// sin² and cos of the orientation error angle (0 and 1 for point targets).
+    ori_sin2: T,
+    ori_cos: T,
     /// Column j: ∂(model)/∂q_j, orientation rows scaled (mm/rad).
     cols: [[T; 6]; N],
 }
@@ -409,19 +436,58 @@ fn evaluate<T: Real, const N: usize, const V: usize>(
     scale: T,
     q: &[T; N],
 ) -> Eval<T, N> {
+    let mut e = evaluate_empty();
+    evaluate_into(&mut e, fk, robot, target, scale, q);
+    e
+}
+
+fn evaluate_empty<T: Real, const N: usize>() -> Eval<T, N> {
+    Eval {
+        q: [T::zero(); N],
+        r: [T::zero(); 6],
+        rn2: T::zero(),
+        pos2: T::zero(),
+        ori_sin2: T::zero(),
+        ori_cos: T::one(),
+        cols: [[T::zero(); 6]; N],
+    }
+}
+
+/// Evaluates the model at `q` into `e` (residual, its norms, the scaled joint Jacobian).
+fn evaluate_into<T: Real, const N: usize, const V: usize>(
+    e: &mut Eval<T, N>,
+    fk: &mut ForwardKinematics<T, N>,
+    robot: &Robot<T, N, V>,
+    target: &Target<T>,
+    scale: T,
+    q: &[T; N],
+) {
     let p = fk.compute(robot, q);
     let dp = target.point() - p;
-    let mut r = [T::zero(); 6];
-    r[..3].copy_from_slice(dp.as_slice());
+    let r = &mut e.r;
+    r[0] = dp.x;
+    r[1] = dp.y;
+    r[2] = dp.z;
     let (lin, ang) = fk.joint_jacobian(robot);
-    let mut cols = [[T::zero(); 6]; N];
+    let cols = &mut e.cols;
     for (c, l) in cols.iter_mut().zip(lin.iter()) {
-        c[..3].copy_from_slice(l.as_slice());
+        c[0] = l.x;
+        c[1] = l.y;
+        c[2] = l.z;
     }
-    let mut ori = T::zero();
+    let (mut ori_sin2, mut ori_cos) = (T::zero(), T::one());
     if let Target::Pose(f) = target {
-        let w = orientation_error(f, &fk.tool_pose());
-        ori = w.norm();
+        // The residual is sin(θ)·axis: zero exactly where θ·axis is, with the same Jacobian to
+        // first order, and free of atan2 and sqrt. Past 90° it would shrink again, so there
+        // the exact rotation vector takes over.
+        let (v, c) = orientation_sin_cos(f, &fk.tool_pose());
+        let w = if c > T::zero() {
+            v
+        } else {
+            orientation_error(f, &fk.tool_pose())
+        };
+        ori_sin2 = v.norm_squared();
+        ori_cos = c;
         for i in 0..3 {
             r[3 + i] = w[i] * scale;
         }
@@ -431,23 +497,31 @@ fn evaluate<T: Real, const N: usize, const V: usize>(
             }
         }
     }
-    let rn = r.iter().fold(T::zero(), |s, v| s + *v * *v).sqrt();
-    Eval {
-        q: *q,
-        r,
-        rn,
-        pos: dp.norm(),
-        ori,
-        cols,
+    let rn2 = r.iter().fold(T::zero(), |s, v| s + *v * *v);
+    e.q = *q;
+    e.rn2 = rn2;
+    e.pos2 = dp.norm_squared();
+    e.ori_sin2 = ori_sin2;
+    e.ori_cos = ori_cos;
+}
+
+impl<T: Real, const N: usize> Eval<T, N> {
+    /// The orientation error angle (rad), computed once for the reported solution.
+    fn angle(&self) -> T {
+        self.ori_sin2.sqrt().atan2(self.ori_cos)
     }
 }
 
-#[inline]
+/// Dot product of the first `m` rows (3 or 6, straight-line code for both: this is the servo
+/// loop's innermost operation).
+#[inline(always)]
 fn dot<T: Real>(a: &[T; 6], b: &[T; 6], m: usize) -> T {
-    a.iter()
-        .zip(b.iter())
-        .take(m)
-        .fold(T::zero(), |s, (x, y)| s + *x * *y)
+    let p = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    if m > 3 {
+        p + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
+    } else {
+        p
+    }
 }
 
 /// One damped step from `e.q`, with the joints whose step would leave the box at a bound
@@ -505,8 +579,8 @@ fn damped_step<T: Real, const N: usize>(
             }
             a[i][i] = dot(&e.cols[i], &e.cols[i], m) + lambda2;
         }
-        cholesky(&mut a, N).ok()?;
-        cholesky_solve(&a, N, &mut dq).ok()?;
+        ldlt(&mut a, N).ok()?;
+        ldlt_solve(&a, N, &mut dq).ok()?;
     } else {
         let mut d = [T::zero(); N];
         for j in 0..N {
@@ -528,8 +602,8 @@ fn damped_step<T: Real, const N: usize>(
         for (i, row) in a.iter_mut().enumerate().take(m) {
             row[i] += lambda2;
         }
-        cholesky(&mut a, m).ok()?;
-        cholesky_solve(&a, m, &mut b).ok()?;
+        ldlt(&mut a, m).ok()?;
+        ldlt_solve(&a, m, &mut b).ok()?;
         for j in (0..N).filter(|j| free[*j]) {
             dq[j] = d[j] + dot(&e.cols[j], &b, m);
         }
@@ -566,23 +640,13 @@ fn conditioning<T: Real, const N: usize>(cols: &[[T; 6]; N], m: usize) -> T {
 }
 
 /// `trace(A⁻¹)^(-1/2)` of a symmetric positive definite `A` (lower triangle), 0 if not definite.
+/// LDLᵀ, not Cholesky: no square roots but the last one (`f32` `sqrt` is a software routine on
+/// a Cortex-M4F).
 fn harmonic<T: Real, const P: usize>(a: &mut Square<T, P>, n: usize) -> T {
-    if n == 0 || cholesky(a, n).is_err() {
+    if n == 0 || ldlt(a, n).is_err() {
         return T::zero();
     }
-    // trace(A⁻¹) = ‖L⁻¹‖²_F: forward-substitute the unit vectors.
-    let mut tr = T::zero();
-    for i in 0..n {
-        let mut x = [T::zero(); P];
-        for k in i..n {
-            let mut s = if k == i { T::one() } else { T::zero() };
-            for (l, xl) in a[k].iter().zip(x.iter()).take(k).skip(i) {
-                s -= *l * *xl;
-            }
-            x[k] = s / a[k][k];
-            tr += x[k] * x[k];
-        }
-    }
+    let tr = ldlt_trace_inverse(a, n).unwrap_or(T::zero());
     let s = T::one() / tr.sqrt();
     if s.finite() {
         s

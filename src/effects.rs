@@ -116,7 +116,11 @@ pub struct Effects<T: Real, const V: usize> {
 
 impl<T: Real, const V: usize> Default for Effects<T, V> {
     fn default() -> Self {
-        Self { list: Vec::new(), values: [T::zero(); V], used: 0 }
+        Self {
+            list: Vec::new(),
+            values: [T::zero(); V],
+            used: 0,
+        }
     }
 }
 
@@ -154,7 +158,9 @@ impl<T: Real, const V: usize> Effects<T, V> {
     /// Index of the effect of this kind on this joint (and order, for cyclic), if present.
     pub fn find(&self, kind: EffectKind, joint: usize, order: u16) -> Option<usize> {
         self.list.iter().position(|e| {
-            e.kind == kind && e.joint as usize == joint && (kind != EffectKind::Cyclic || e.order == order)
+            e.kind == kind
+                && e.joint as usize == joint
+                && (kind != EffectKind::Cyclic || e.order == order)
         })
     }
 
@@ -177,7 +183,9 @@ impl<T: Real, const V: usize> Effects<T, V> {
         let ok_len = match kind {
             EffectKind::Scale | EffectKind::Compliance => values.len() == 1,
             EffectKind::Cyclic => values.len() == 2 && order >= 1,
-            EffectKind::Table => values.len() >= 2 && step > T::zero() && step.finite() && start.finite(),
+            EffectKind::Table => {
+                values.len() >= 2 && step > T::zero() && step.finite() && start.finite()
+            }
         };
         if !ok_len || values.iter().any(|v| !v.finite()) {
             return Err(EffectError::Shape);
@@ -249,7 +257,11 @@ impl<T: Real, const V: usize> Effects<T, V> {
                     let (k, _) = e.segment(q[j]);
                     let u = (q[j] - e.start) / e.step;
                     let inside = u > T::zero() && u < T::of((e.len - 1) as f64);
-                    if inside { (v[k + 1] - v[k]) / e.step } else { T::zero() }
+                    if inside {
+                        (v[k + 1] - v[k]) / e.step
+                    } else {
+                        T::zero()
+                    }
                 }
             };
         }
@@ -259,7 +271,10 @@ impl<T: Real, const V: usize> Effects<T, V> {
     /// Basis function `φ` of value `k` (global value index) at readings `q`, lever arms `tau`:
     /// `∂dq_joint/∂v_k`. Returns the joint it acts on.
     pub fn basis<const N: usize>(&self, k: usize, q: &[T; N], tau: &[T; N]) -> Option<(usize, T)> {
-        let e = self.list.iter().find(|e| (e.first as usize) <= k && k < (e.first + e.len) as usize)?;
+        let e = self
+            .list
+            .iter()
+            .find(|e| (e.first as usize) <= k && k < (e.first + e.len) as usize)?;
         let j = e.joint as usize;
         if j >= N {
             return None;
@@ -270,7 +285,11 @@ impl<T: Real, const V: usize> Effects<T, V> {
             EffectKind::Compliance => tau[j],
             EffectKind::Cyclic => {
                 let (s, c) = (q[j] * T::of(e.order as f64)).sincos();
-                if i == 0 { s } else { c }
+                if i == 0 {
+                    s
+                } else {
+                    c
+                }
             }
             EffectKind::Table => {
                 let (seg, w) = e.segment(q[j]);

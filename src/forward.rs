@@ -142,15 +142,27 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     /// Frame before joint `i`'s row (the base for the first joint).
     #[inline]
     fn previous(&self, i: usize) -> &Frame<T> {
-        if i == 0 { &self.base } else { &self.frames[i - 1] }
+        if i == 0 {
+            &self.base
+        } else {
+            &self.frames[i - 1]
+        }
     }
 
     /// One column of the identification Jacobian, `∂p/∂param`, at the last computed pose.
-    pub fn column<const V: usize>(&self, robot: &Robot<T, N, V>, p: Param) -> Result<Vector3<T>, ParamError> {
+    pub fn column<const V: usize>(
+        &self,
+        robot: &Robot<T, N, V>,
+        p: Param,
+    ) -> Result<Vector3<T>, ParamError> {
         let pt = self.point;
         let joint = |i: u8| -> Result<usize, ParamError> {
             let i = i as usize;
-            if i < N { Ok(i) } else { Err(ParamError::OutOfRange) }
+            if i < N {
+                Ok(i)
+            } else {
+                Err(ParamError::OutOfRange)
+            }
         };
         Ok(match p {
             Param::BaseX => Vector3::x(),
@@ -186,7 +198,10 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
                 }
             }
             Param::Effect(k) => {
-                let (j, phi) = robot.effects().basis(k as usize, &self.q, &self.tau).ok_or(ParamError::OutOfRange)?;
+                let (j, phi) = robot
+                    .effects()
+                    .basis(k as usize, &self.q, &self.tau)
+                    .ok_or(ParamError::OutOfRange)?;
                 self.joint_column(j) * phi
             }
         })
@@ -211,7 +226,10 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
 
     /// Joint Jacobian of the point (`lin[j] = ∂p/∂q_j`) and of the tool orientation
     /// (`ang[j]`, rotation vector per rad), including the slope of the joint corrections.
-    pub fn joint_jacobian<const V: usize>(&self, robot: &Robot<T, N, V>) -> ([Vector3<T>; N], [Vector3<T>; N]) {
+    pub fn joint_jacobian<const V: usize>(
+        &self,
+        robot: &Robot<T, N, V>,
+    ) -> ([Vector3<T>; N], [Vector3<T>; N]) {
         let slope = robot.effects().correction_slope(&self.q);
         let mut lin = [Vector3::zeros(); N];
         let mut ang = [Vector3::zeros(); N];
@@ -225,6 +243,9 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
 }
 
 /// Forward kinematics of one configuration without keeping the workspace.
-pub fn point<T: Real, const N: usize, const V: usize>(robot: &Robot<T, N, V>, q: &[T; N]) -> Vector3<T> {
+pub fn point<T: Real, const N: usize, const V: usize>(
+    robot: &Robot<T, N, V>,
+    q: &[T; N],
+) -> Vector3<T> {
     ForwardKinematics::new().compute(robot, q)
 }

@@ -97,7 +97,13 @@ impl<T: Real> Frame<T> {
     pub fn rpy(&self) -> [T; 3] {
         let r20 = self.x.z;
         let one = T::one();
-        let s = if r20 > one { one } else if r20 < -one { -one } else { r20 };
+        let s = if r20 > one {
+            one
+        } else if r20 < -one {
+            -one
+        } else {
+            r20
+        };
         let pitch = -s.asin();
         let cp = pitch.cos();
         if cp > T::of(1e-9) {
@@ -144,19 +150,40 @@ impl<T: Real> Frame<T> {
 
     /// Casts to another scalar type.
     pub fn cast<U: Real>(&self) -> Frame<U> {
-        let c = |v: &Vector3<T>| Vector3::new(U::of(v.x.to_f64()), U::of(v.y.to_f64()), U::of(v.z.to_f64()));
-        Frame { x: c(&self.x), y: c(&self.y), z: c(&self.z), o: c(&self.o) }
+        let c = |v: &Vector3<T>| {
+            Vector3::new(
+                U::of(v.x.to_f64()),
+                U::of(v.y.to_f64()),
+                U::of(v.z.to_f64()),
+            )
+        };
+        Frame {
+            x: c(&self.x),
+            y: c(&self.y),
+            z: c(&self.z),
+            o: c(&self.o),
+        }
     }
+}
+
+/// `(sin θ · axis, cos θ)` of the rotation `R_a · R_bᵀ` that takes frame `b`'s orientation to
+/// frame `a`'s: the cheap form of the orientation error (no trigonometry, no square root).
+pub fn orientation_sin_cos<T: Real>(a: &Frame<T>, b: &Frame<T>) -> (Vector3<T>, T) {
+    let r = a.rotation() * b.rotation().transpose();
+    let half = T::of(0.5);
+    let v = Vector3::new(
+        r[(2, 1)] - r[(1, 2)],
+        r[(0, 2)] - r[(2, 0)],
+        r[(1, 0)] - r[(0, 1)],
+    ) * half;
+    (v, (r.trace() - T::one()) * half)
 }
 
 /// Rotation vector (axis × angle) of `R_a · R_bᵀ`: the small orientation error that takes
 /// frame `b`'s orientation to frame `a`'s, in the parent frame.
 pub fn orientation_error<T: Real>(a: &Frame<T>, b: &Frame<T>) -> Vector3<T> {
-    let r = a.rotation() * b.rotation().transpose();
-    let half = T::of(0.5);
-    let v = Vector3::new(r[(2, 1)] - r[(1, 2)], r[(0, 2)] - r[(2, 0)], r[(1, 0)] - r[(0, 1)]) * half;
+    let (v, c) = orientation_sin_cos(a, b);
     let s = v.norm();
-    let c = (r.trace() - T::one()) * half;
     if s <= T::of(1e-12) {
         return v;
     }

@@ -12,7 +12,10 @@ pub struct Measurement<T: Real, const N: usize> {
 
 impl<T: Real, const N: usize> Default for Measurement<T, N> {
     fn default() -> Self {
-        Self { q: [T::zero(); N], point: Vector3::zeros() }
+        Self {
+            q: [T::zero(); N],
+            point: Vector3::zeros(),
+        }
     }
 }
 

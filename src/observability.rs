@@ -54,7 +54,13 @@ pub fn indices<T: Real, const P: usize>(cov: &Covariance<T, P>, poses: usize) ->
     let m = ev.len();
     if m == 0 || poses == 0 {
         let z = T::zero();
-        return Indices { o1: z, o2: T::max_value().unwrap_or(T::one()), o3: z, o4: z, o5: z };
+        return Indices {
+            o1: z,
+            o2: T::max_value().unwrap_or(T::one()),
+            o3: z,
+            o4: z,
+            o5: z,
+        };
     }
     // Ascending eigenvalues of JᵀJ: σ_min² first.
     let smin = ev[0].max(T::zero()).sqrt();
@@ -77,7 +83,10 @@ pub fn indices<T: Real, const P: usize>(cov: &Covariance<T, P>, poses: usize) ->
 
 /// The A, D, E and KPI-A criteria; `work` holds the scaled Jacobian of the tool point at each
 /// working configuration.
-pub fn criteria<T: Real, const P: usize>(cov: &Covariance<T, P>, work: &[PoseRows<T, P>]) -> Criteria<T> {
+pub fn criteria<T: Real, const P: usize>(
+    cov: &Covariance<T, P>,
+    work: &[PoseRows<T, P>],
+) -> Criteria<T> {
     let ev = cov.identifiable_eigenvalues();
     let s2 = cov.sigma2();
     let mut a = T::zero();
@@ -87,7 +96,11 @@ pub fn criteria<T: Real, const P: usize>(cov: &Covariance<T, P>, work: &[PoseRow
         log_det += (s2 / *l).ln();
     }
     let m = ev.len();
-    let d = if m > 0 { (log_det / T::of(m as f64)).exp() } else { T::zero() };
+    let d = if m > 0 {
+        (log_det / T::of(m as f64)).exp()
+    } else {
+        T::zero()
+    };
     let e = if m > 0 { s2 / ev[0] } else { T::zero() };
     let mut kpi = T::zero();
     for js in work {

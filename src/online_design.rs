@@ -44,7 +44,9 @@ pub struct OnlineDesign<T: Real, const N: usize, const V: usize, const P: usize,
     fk: ForwardKinematics<T, N>,
 }
 
-impl<T: Real, const N: usize, const V: usize, const P: usize, const S: usize> OnlineDesign<T, N, V, P, S> {
+impl<T: Real, const N: usize, const V: usize, const P: usize, const S: usize>
+    OnlineDesign<T, N, V, P, S>
+{
     /// A stepper for `robot` (the model used for the Jacobians), the identified `params`, the
     /// identifiable `basis` (e.g. from the pool), the working configurations `work`, noise
     /// `sigma` (mm per coordinate) and the target standard deviation (mm) of the tool point.
@@ -59,7 +61,11 @@ impl<T: Real, const N: usize, const V: usize, const P: usize, const S: usize> On
         if work.is_empty() || work.len() > S {
             return Err(PlanError::WorkConfigurations);
         }
-        if basis.dim() != params.len() || !(sigma > T::zero()) || !sigma.finite() || !target_std.finite() {
+        if basis.dim() != params.len()
+            || !(sigma > T::zero())
+            || !sigma.finite()
+            || !target_std.finite()
+        {
             return Err(PlanError::Size);
         }
         params.check(&robot).map_err(|_| PlanError::Size)?;
@@ -73,14 +79,24 @@ impl<T: Real, const N: usize, const V: usize, const P: usize, const S: usize> On
         }
         let ridge = basis.per_pose() * T::EPS.sqrt();
         let state = DesignState::new(basis.rank(), &rows[..work.len()], ridge)?;
-        Ok(Self { robot, params, basis, state, works: work.len(), sigma, target_std, fk })
+        Ok(Self {
+            robot,
+            params,
+            basis,
+            state,
+            works: work.len(),
+            sigma,
+            target_std,
+            fk,
+        })
     }
 
     /// The Jacobian block of configuration `q` in identifiable coordinates.
     pub fn rows(&mut self, q: &[T; N]) -> Result<PoseRows<T, P>, PlanError> {
         self.fk.compute(&self.robot, q);
         let mut g = [[T::zero(); P]; 3];
-        scaled_rows(&self.robot, &self.fk, self.params.as_slice(), &mut g).map_err(|_| PlanError::Size)?;
+        scaled_rows(&self.robot, &self.fk, self.params.as_slice(), &mut g)
+            .map_err(|_| PlanError::Size)?;
         Ok(self.basis.reduce(&g))
     }
 
@@ -109,7 +125,9 @@ impl<T: Real, const N: usize, const V: usize, const P: usize, const S: usize> On
     /// Predicted precision and whether the target is reached.
     pub fn status(&self) -> Status<T, S> {
         let mut var = [T::zero(); S];
-        let known = self.state.tool_variances(self.sigma, &mut var[..self.works]);
+        let known = self
+            .state
+            .tool_variances(self.sigma, &mut var[..self.works]);
         let inf = T::max_value().unwrap_or(T::one());
         let (tool_std, worst) = if known {
             let mut std = [T::zero(); S];
@@ -122,7 +140,12 @@ impl<T: Real, const N: usize, const V: usize, const P: usize, const S: usize> On
         } else {
             (None, inf)
         };
-        Status { measurements: self.state.poses(), tool_std, worst_std: worst, reached: known && worst <= self.target_std }
+        Status {
+            measurements: self.state.poses(),
+            tool_std,
+            worst_std: worst,
+            reached: known && worst <= self.target_std,
+        }
     }
 
     /// The unselected pool candidate (rows in this stepper's identifiable coordinates, see

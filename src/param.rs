@@ -40,27 +40,46 @@ impl Param {
     pub fn is_length(self) -> bool {
         matches!(
             self,
-            Param::BaseX | Param::BaseY | Param::BaseZ | Param::A(_) | Param::D(_) | Param::ToolX | Param::ToolY | Param::ToolZ
+            Param::BaseX
+                | Param::BaseY
+                | Param::BaseZ
+                | Param::A(_)
+                | Param::D(_)
+                | Param::ToolX
+                | Param::ToolY
+                | Param::ToolZ
         )
     }
 
     /// Scale that makes a unit step comparable to 1 mm at the tool: 1 for lengths, the robot's
     /// reach (mm per rad) for angles and effect values.
     pub fn scale<T: Real>(self, reach: T) -> T {
-        if self.is_length() { T::one() } else { reach }
+        if self.is_length() {
+            T::one()
+        } else {
+            reach
+        }
     }
 
     /// Joint the parameter belongs to (0-based), if any.
     pub fn joint(self) -> Option<usize> {
         match self {
-            Param::Alpha(i) | Param::A(i) | Param::Theta(i) | Param::D(i) | Param::Beta(i) => Some(i as usize),
+            Param::Alpha(i) | Param::A(i) | Param::Theta(i) | Param::D(i) | Param::Beta(i) => {
+                Some(i as usize)
+            }
             _ => None,
         }
     }
 
     /// A displayable name (`d2`, `base.rz`, `joint-table3[12]`); effect names need the robot.
-    pub fn name<'a, T: Real, const N: usize, const V: usize>(self, robot: &'a Robot<T, N, V>) -> ParamName<'a, T, N, V> {
-        ParamName { p: self, robot: Some(robot) }
+    pub fn name<'a, T: Real, const N: usize, const V: usize>(
+        self,
+        robot: &'a Robot<T, N, V>,
+    ) -> ParamName<'a, T, N, V> {
+        ParamName {
+            p: self,
+            robot: Some(robot),
+        }
     }
 
     /// Parses a name written by [`Param::name`] for geometric parameters (not effects).
@@ -122,14 +141,23 @@ impl<T: Real, const N: usize, const V: usize> fmt::Display for ParamName<'_, T, 
             Param::ToolZ => f.write_str("tool.z"),
             Param::Effect(k) => {
                 let k = k as usize;
-                let eff = self.robot.and_then(|r| r.effects().iter().find(|e| (e.first as usize) <= k && k < (e.first + e.len) as usize));
+                let eff = self.robot.and_then(|r| {
+                    r.effects()
+                        .iter()
+                        .find(|e| (e.first as usize) <= k && k < (e.first + e.len) as usize)
+                });
                 match eff {
                     None => write!(f, "effect[{k}]"),
                     Some(e) => {
                         let i = k - e.first as usize;
                         let j = e.joint + 1;
                         match e.kind {
-                            EffectKind::Cyclic => write!(f, "joint-cyclic{j}.n{}.{}", e.order, if i == 0 { 'a' } else { 'b' }),
+                            EffectKind::Cyclic => write!(
+                                f,
+                                "joint-cyclic{j}.n{}.{}",
+                                e.order,
+                                if i == 0 { 'a' } else { 'b' }
+                            ),
                             EffectKind::Table => write!(f, "joint-table{j}[{i}]"),
                             kind => write!(f, "{}{j}", kind.id()),
                         }
@@ -206,7 +234,14 @@ impl<const P: usize> ParamSet<P> {
     pub fn full(n: usize, base_unknown: bool) -> Result<Self, ParamError> {
         let mut s = Self::new();
         if base_unknown {
-            for p in [Param::BaseX, Param::BaseY, Param::BaseZ, Param::BaseRx, Param::BaseRy, Param::BaseRz] {
+            for p in [
+                Param::BaseX,
+                Param::BaseY,
+                Param::BaseZ,
+                Param::BaseRx,
+                Param::BaseRy,
+                Param::BaseRz,
+            ] {
                 s.push(p)?;
             }
         }
@@ -220,7 +255,10 @@ impl<const P: usize> ParamSet<P> {
     }
 
     /// Adds every value of every effect of `robot`.
-    pub fn with_effects<T: Real, const N: usize, const V: usize>(mut self, robot: &Robot<T, N, V>) -> Result<Self, ParamError> {
+    pub fn with_effects<T: Real, const N: usize, const V: usize>(
+        mut self,
+        robot: &Robot<T, N, V>,
+    ) -> Result<Self, ParamError> {
         for k in 0..robot.effects().values().len() {
             self.push(Param::Effect(k as u16))?;
         }
@@ -228,7 +266,10 @@ impl<const P: usize> ParamSet<P> {
     }
 
     /// Checks that every parameter exists in `robot`.
-    pub fn check<T: Real, const N: usize, const V: usize>(&self, robot: &Robot<T, N, V>) -> Result<(), ParamError> {
+    pub fn check<T: Real, const N: usize, const V: usize>(
+        &self,
+        robot: &Robot<T, N, V>,
+    ) -> Result<(), ParamError> {
         let nv = robot.effects().values().len();
         for p in self.items.iter() {
             let ok = match *p {
@@ -244,7 +285,10 @@ impl<const P: usize> ParamSet<P> {
 }
 
 /// Value of a parameter in `robot` (rad or mm; the base rotation as fixed-axis roll/pitch/yaw).
-pub fn value<T: Real, const N: usize, const V: usize>(robot: &Robot<T, N, V>, p: Param) -> Option<T> {
+pub fn value<T: Real, const N: usize, const V: usize>(
+    robot: &Robot<T, N, V>,
+    p: Param,
+) -> Option<T> {
     let j = |i: u8| robot.joint(i as usize);
     Some(match p {
         Param::BaseX => robot.base().o.x,

@@ -103,7 +103,11 @@ impl<T: Real, const P: usize> Basis<T, P> {
         if !(max > T::zero()) || !max.finite() {
             return Err(PlanError::Numerical);
         }
-        let first = values.iter().take(n).position(|l| *l > tol * max).unwrap_or(n);
+        let first = values
+            .iter()
+            .take(n)
+            .position(|l| *l > tol * max)
+            .unwrap_or(n);
         let rank = n - first;
         let mut vectors = [[T::zero(); P]; P];
         let mut sum = T::zero();
@@ -114,7 +118,12 @@ impl<T: Real, const P: usize> Basis<T, P> {
             }
         }
         let poses = T::of(info.poses().max(1) as f64);
-        Ok(Self { vectors, n, rank, per_pose: sum / (T::of(rank.max(1) as f64) * poses) })
+        Ok(Self {
+            vectors,
+            n,
+            rank,
+            per_pose: sum / (T::of(rank.max(1) as f64) * poses),
+        })
     }
 
     /// Dimension of the identifiable subspace.
@@ -178,7 +187,11 @@ fn inv3<T: Real>(s: &[[T; 3]; 3]) -> Option<[[T; 3]; 3]> {
     let c12 = s[0][2] * s[1][0] - s[0][0] * s[1][2];
     let c22 = s[0][0] * s[1][1] - s[0][1] * s[1][0];
     let d = T::one() / det;
-    Some([[c00 * d, c01 * d, c02 * d], [c01 * d, c11 * d, c12 * d], [c02 * d, c12 * d, c22 * d]])
+    Some([
+        [c00 * d, c01 * d, c02 * d],
+        [c01 * d, c11 * d, c12 * d],
+        [c02 * d, c12 * d, c22 * d],
+    ])
 }
 
 impl<T: Real, const P: usize, const S: usize> DesignState<T, P, S> {
@@ -196,7 +209,14 @@ impl<T: Real, const P: usize, const S: usize> DesignState<T, P, S> {
         for g in work {
             w.push(*g).map_err(|_| PlanError::WorkConfigurations)?;
         }
-        let mut s = Self { r, m: [[T::zero(); P]; P], minv: [[T::zero(); P]; P], work: w, ridge, poses: 0 };
+        let mut s = Self {
+            r,
+            m: [[T::zero(); P]; P],
+            minv: [[T::zero(); P]; P],
+            work: w,
+            ridge,
+            poses: 0,
+        };
         s.refactor()?;
         Ok(s)
     }
@@ -332,7 +352,8 @@ impl<T: Real, const P: usize, const S: usize> DesignState<T, P, S> {
         let mut q = [[T::zero(); 3]; 3];
         match criterion {
             Criterion::D => {
-                let det = s[0][0] * (s[1][1] * s[2][2] - s[1][2] * s[2][1]) - s[0][1] * (s[1][0] * s[2][2] - s[1][2] * s[2][0])
+                let det = s[0][0] * (s[1][1] * s[2][2] - s[1][2] * s[2][1])
+                    - s[0][1] * (s[1][0] * s[2][2] - s[1][2] * s[2][0])
                     + s[0][2] * (s[1][0] * s[2][1] - s[1][1] * s[2][0]);
                 return if det > T::zero() { det.ln() } else { bad };
             }
@@ -367,7 +388,11 @@ impl<T: Real, const P: usize, const S: usize> DesignState<T, P, S> {
                 t += sinv[a][b] * q[b][a];
             }
         }
-        if t.finite() { t } else { bad }
+        if t.finite() {
+            t
+        } else {
+            bad
+        }
     }
 
     /// Current value of `criterion` with the ridge: `−ln det(M + ridge·I)` for D,
@@ -451,7 +476,11 @@ impl<T: Real, const P: usize, const S: usize> DesignState<T, P, S> {
     }
 
     /// Index of the unselected candidate with the largest gain, and the gain.
-    pub fn best<const N: usize>(&self, criterion: Criterion, pool: &[Candidate<T, N, P>]) -> Option<(usize, T)> {
+    pub fn best<const N: usize>(
+        &self,
+        criterion: Criterion,
+        pool: &[Candidate<T, N, P>],
+    ) -> Option<(usize, T)> {
         let mut best: Option<(usize, T)> = None;
         for (i, c) in pool.iter().enumerate() {
             if c.selected {
@@ -508,7 +537,33 @@ pub fn select<T: Real, const N: usize, const P: usize, const S: usize>(
         *slot = i;
     }
     let greedy_objective = state.objective(criterion);
-    // Fedorov exchange, one design slot at a time.
+    let (passes, exchanges) = exchange(state, criterion, pool, design, max_passes)?;
+    Ok(Outcome {
+        passes,
+        exchanges,
+        greedy_objective,
+        objective: state.objective(criterion),
+    })
+}
+
+/// Fedorov exchange passes on an existing design: `design` holds pool indices whose
+/// candidates are marked `selected` and whose rows `state` contains. Each pass tries every
+/// slot: remove its pose, add the best unselected candidate (or the same pose back), keep
+/// the swap when it helps. Stops after a pass without a swap or after `max_passes`. Returns
+/// the passes made and the swaps accepted. [`select`] ends with it; call it again after the
+/// pool has grown (for example by poses near the selected ones).
+pub fn exchange<T: Real, const N: usize, const P: usize, const S: usize>(
+    state: &mut DesignState<T, P, S>,
+    criterion: Criterion,
+    pool: &mut [Candidate<T, N, P>],
+    design: &mut [usize],
+    max_passes: u32,
+) -> Result<(u32, u32), PlanError> {
+    if design.iter().any(|i| *i >= pool.len()) {
+        return Err(PlanError::PoolTooSmall);
+    }
+    let n = design.len();
+    // One design slot at a time.
     let mut passes = 0;
     let mut exchanges = 0;
     while passes < max_passes {
@@ -537,5 +592,5 @@ pub fn select<T: Real, const N: usize, const P: usize, const S: usize>(
             break;
         }
     }
-    Ok(Outcome { passes, exchanges, greedy_objective, objective: state.objective(criterion) })
+    Ok((passes, exchanges))
 }

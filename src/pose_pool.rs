@@ -98,7 +98,11 @@ pub fn aim_wrist<T: Real, const N: usize, const V: usize>(
             axis * (angle / s)
         } else {
             // Opposite: any axis perpendicular to z.
-            let p = if z.x.abs() < T::of(0.9) { Vector3::x() } else { Vector3::y() };
+            let p = if z.x.abs() < T::of(0.9) {
+                Vector3::x()
+            } else {
+                Vector3::y()
+            };
             z.cross(&p).normalize() * angle
         };
         // Damped least squares on the components perpendicular to z.
@@ -154,7 +158,11 @@ pub fn aim_target<T: Real, R: Rng + ?Sized>(
     let c = T::one() - (T::one() - cmin) * uniform::<T, R>(rng);
     let s = (T::one() - c * c).max(T::zero()).sqrt();
     let phi = T::two_pi() * uniform::<T, R>(rng);
-    let p = if u.x.abs() < T::of(0.9) { Vector3::x() } else { Vector3::y() };
+    let p = if u.x.abs() < T::of(0.9) {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
     let e1 = u.cross(&p).normalize();
     let e2 = u.cross(&e1);
     let (sp, cp) = phi.sincos();
@@ -176,13 +184,25 @@ pub struct Sampling<T: Real> {
 
 impl<T: Real> Default for Sampling<T> {
     fn default() -> Self {
-        Self { aimed_fraction: T::one(), cone_fraction: T::of(0.97), collisions: true }
+        Self {
+            aimed_fraction: T::one(),
+            cone_fraction: T::of(0.97),
+            collisions: true,
+        }
     }
 }
 
 /// Draws one configuration (aimed or uniform, per `sampling`) and returns it as a candidate
 /// when the scene finds it feasible, with its scaled Jacobian rows for `params`.
-pub fn draw<T: Real, const N: usize, const V: usize, const P: usize, const C: usize, const O: usize, R: Rng + ?Sized>(
+pub fn draw<
+    T: Real,
+    const N: usize,
+    const V: usize,
+    const P: usize,
+    const C: usize,
+    const O: usize,
+    R: Rng + ?Sized,
+>(
     rng: &mut R,
     robot: &Robot<T, N, V>,
     scene: &Scene<T, C, O>,
@@ -195,7 +215,12 @@ pub fn draw<T: Real, const N: usize, const V: usize, const P: usize, const C: us
     if aimed {
         fk.compute(robot, &q);
         let tracker = fk.base.point(&scene.tracker().position);
-        let target = aim_target(rng, &tracker, &fk.point, scene.tracker().max_incidence * sampling.cone_fraction);
+        let target = aim_target(
+            rng,
+            &tracker,
+            &fk.point,
+            scene.tracker().max_incidence * sampling.cone_fraction,
+        );
         if !aim_wrist(robot, fk, &mut q, &target, T::of(1e-4)) {
             return None;
         }
@@ -205,7 +230,14 @@ pub fn draw<T: Real, const N: usize, const V: usize, const P: usize, const C: us
 
 /// The candidate at `q` if the scene finds it feasible (limits, incidence, and with
 /// `collisions` the capsules, floor and beam).
-pub fn candidate<T: Real, const N: usize, const V: usize, const P: usize, const C: usize, const O: usize>(
+pub fn candidate<
+    T: Real,
+    const N: usize,
+    const V: usize,
+    const P: usize,
+    const C: usize,
+    const O: usize,
+>(
     robot: &Robot<T, N, V>,
     scene: &Scene<T, C, O>,
     params: &[Param],
@@ -220,5 +252,11 @@ pub fn candidate<T: Real, const N: usize, const V: usize, const P: usize, const 
     }
     let mut rows = [[T::zero(); P]; 3];
     scaled_rows(robot, fk, params, &mut rows).ok()?;
-    Some(Candidate { q: *q, rows, incidence: a.incidence, clearance: a.clearance, selected: false })
+    Some(Candidate {
+        q: *q,
+        rows,
+        incidence: a.incidence,
+        clearance: a.clearance,
+        selected: false,
+    })
 }

@@ -82,6 +82,8 @@ pub struct Robot<T: Real, const N: usize, const V: usize = 0> {
     tool: Vector3<T>,
     effects: Effects<T, V>,
     trig: [RowTrig<T>; N],
+    /// Cached [`Robot::reach`] (it needs a square root, costly in `f32` on a Cortex-M4F).
+    reach: T,
 }
 
 impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
@@ -105,12 +107,13 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
             tool,
             effects: Effects::default(),
             trig: [RowTrig::default(); N],
+            reach: T::one(),
         };
         r.refresh();
         Ok(r)
     }
 
-    /// Recomputes the cached trigonometry after a row changed.
+    /// Recomputes the cached trigonometry and reach after the geometry changed.
     pub(crate) fn refresh(&mut self) {
         for (t, j) in self.trig.iter_mut().zip(self.joints.iter()) {
             let (sa, ca) = j.alpha.sincos();
@@ -123,6 +126,11 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
                 tilted: j.beta != T::zero(),
             };
         }
+        let mut s = self.tool.norm();
+        for j in self.joints.iter() {
+            s += j.a.abs() + j.d.abs();
+        }
+        self.reach = if s > T::zero() { s } else { T::one() };
     }
 
     pub fn base(&self) -> &Frame<T> {
@@ -172,6 +180,7 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
             return Err(RobotError::NotFinite);
         }
         self.tool = tool;
+        self.refresh();
         Ok(())
     }
 
@@ -200,15 +209,7 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
     /// Sum of |a| + |d| over the rows plus the tool length: a length scale (mm) that makes
     /// one radian of an angle parameter comparable to a millimetre of a length parameter.
     pub fn reach(&self) -> T {
-        let mut s = self.tool.norm();
-        for j in self.joints.iter() {
-            s += j.a.abs() + j.d.abs();
-        }
-        if s > T::zero() {
-            s
-        } else {
-            T::one()
-        }
+        self.reach
     }
 
     /// True when every reading is within its joint's limits.
@@ -236,6 +237,7 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
             tool: Vector3::new(c(self.tool.x), c(self.tool.y), c(self.tool.z)),
             effects: Effects::default(),
             trig: [RowTrig::default(); N],
+            reach: U::one(),
         };
         r.refresh();
         for (i, e) in self.effects.iter().enumerate() {
@@ -268,6 +270,7 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
             tool: self.tool,
             effects: Effects::default(),
             trig: self.trig,
+            reach: self.reach,
         };
         for (i, e) in self.effects.iter().enumerate() {
             r.effects.push(

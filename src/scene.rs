@@ -151,7 +151,9 @@ impl<T: Real, const C: usize, const O: usize> Scene<T, C, O> {
         if !capsule.is_valid() {
             return Err(SceneError::Invalid);
         }
-        self.links.push(LinkCapsule { frame, capsule }).map_err(|_| SceneError::Capacity)?;
+        self.links
+            .push(LinkCapsule { frame, capsule })
+            .map_err(|_| SceneError::Capacity)?;
         // Rank = number of distinct capsule frames below this one's.
         for i in 0..self.links.len() {
             let f = self.links[i].frame;
@@ -175,7 +177,9 @@ impl<T: Real, const C: usize, const O: usize> Scene<T, C, O> {
         if !capsule.is_valid() {
             return Err(SceneError::Invalid);
         }
-        self.obstacles.push(capsule).map_err(|_| SceneError::Capacity)
+        self.obstacles
+            .push(capsule)
+            .map_err(|_| SceneError::Capacity)
     }
 
     /// True when link capsules `i` and `j` are compared for self-collision: they sit on bodies
@@ -218,7 +222,11 @@ impl<T: Real, const C: usize, const O: usize> Scene<T, C, O> {
         fk: &ForwardKinematics<T, N>,
         collisions: bool,
     ) -> Assessment<T> {
-        let mut out = Assessment { incidence: T::pi(), clearance: T::max_value().unwrap_or(T::one()), violation: None };
+        let mut out = Assessment {
+            incidence: T::pi(),
+            clearance: T::max_value().unwrap_or(T::one()),
+            violation: None,
+        };
         for (i, (q, j)) in fk.q.iter().zip(robot.joints().iter()).enumerate() {
             if !(*q >= j.lower && *q <= j.upper) {
                 out.violation = Some(Violation::Limits { joint: i as u8 });
@@ -264,7 +272,12 @@ impl<T: Real, const C: usize, const O: usize> Scene<T, C, O> {
 
     /// The collision part of [`Scene::check`]; with `stop` the first violation is returned
     /// as an error, otherwise only an unknown frame is.
-    fn collision_clearance<const N: usize>(&self, fk: &ForwardKinematics<T, N>, point: &Vector3<T>, stop: bool) -> Result<T, Violation> {
+    fn collision_clearance<const N: usize>(
+        &self,
+        fk: &ForwardKinematics<T, N>,
+        point: &Vector3<T>,
+        stop: bool,
+    ) -> Result<T, Violation> {
         let to_base = fk.base.inverse();
         let rel = |f: &Frame<T>| to_base.compose(f);
         let point = *point;
@@ -299,14 +312,26 @@ impl<T: Real, const C: usize, const O: usize> Scene<T, C, O> {
             for j in i + 1..placed.len() {
                 if self.compared(i, j) {
                     let d = placed[i].clearance(&placed[j]);
-                    hit(d, Violation::SelfCollision { first: i as u8, second: j as u8 })?;
+                    hit(
+                        d,
+                        Violation::SelfCollision {
+                            first: i as u8,
+                            second: j as u8,
+                        },
+                    )?;
                 }
             }
         }
         for (i, p) in placed.iter().enumerate() {
             for (j, o) in self.obstacles.iter().enumerate() {
                 let d = p.clearance(o);
-                hit(d, Violation::Obstacle { link: i as u8, obstacle: j as u8 })?;
+                hit(
+                    d,
+                    Violation::Obstacle {
+                        link: i as u8,
+                        obstacle: j as u8,
+                    },
+                )?;
             }
         }
         let beam = Capsule::new(self.tracker.position, point, self.tracker.beam_radius);
@@ -318,7 +343,8 @@ impl<T: Real, const C: usize, const O: usize> Scene<T, C, O> {
             if l.frame as usize == N {
                 continue;
             }
-            let d = segment_distance(&beam.a, &beam.b, &p.a, &p.b).distance - beam.radius - p.radius;
+            let d =
+                segment_distance(&beam.a, &beam.b, &p.a, &p.b).distance - beam.radius - p.radius;
             hit(d, Violation::BeamLink { link: i as u8 })?;
         }
         Ok(min)

@@ -3,11 +3,11 @@
 
 use crate::cli::identify::Method;
 use crate::identify::{fit_lm, Fit};
+use kinecal::bpnn::BpnnConfig;
+use kinecal::bpnn_pso::{self, Mdh24Net};
 use kinecal::fitness::PositionFitness;
 use kinecal::lm::LmConfig;
 use kinecal::param::{apply_delta, Param, ParamSet};
-use kinecal::bpnn::BpnnConfig;
-use kinecal::bpnn_pso::{self, Mdh24Net};
 use kinecal::pso::{Pso, PsoConfig};
 use kinecal::{Measurement, Robot};
 
@@ -59,27 +59,41 @@ fn pso_with<const N: usize, const V: usize, const D: usize>(
     let params = ParamSet::<D>::mdh(N).map_err(|e| anyhow::anyhow!("{e:?}"))?;
     // The swarm evaluates geometry only: a copy without effect storage is cheaper to clone.
     let geometric: Robot<f64, N, 0> = if start.effects().is_empty() {
-        start.with_capacity::<0>().map_err(|e| anyhow::anyhow!("{e:?}"))?
+        start
+            .with_capacity::<0>()
+            .map_err(|e| anyhow::anyhow!("{e:?}"))?
     } else {
         anyhow::bail!("PSO searches geometry only; the model has joint corrections: use lm")
     };
-    let mut cfg = PsoConfig::<f64, D>::calibration(params.as_slice()).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let mut cfg = PsoConfig::<f64, D>::calibration(params.as_slice())
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
     cfg.max_iterations = max_iterations;
-    let mut pso = Box::new(Pso::<f64, SWARM, D>::new(cfg, seed).map_err(|e| anyhow::anyhow!("{e:?}"))?);
+    let mut pso =
+        Box::new(Pso::<f64, SWARM, D>::new(cfg, seed).map_err(|e| anyhow::anyhow!("{e:?}"))?);
     if let Some(init) = init {
         for (i, x) in init.iter().enumerate().take(SWARM) {
-            let x: [f64; D] = x.as_slice().try_into().map_err(|_| anyhow::anyhow!("BPNN prediction has the wrong dimension"))?;
+            let x: [f64; D] = x
+                .as_slice()
+                .try_into()
+                .map_err(|_| anyhow::anyhow!("BPNN prediction has the wrong dimension"))?;
             let v = [0.0; D];
-            pso.set_start(i, &x, &v).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            pso.set_start(i, &x, &v)
+                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
         }
     }
     // Joint sines and cosines once per pose, not once per particle: 3.7x faster iterations.
     let mut cache = vec![[(0.0, 0.0); N]; data.len()];
-    let mut objective = PositionFitness::with_cache(&geometric, &params, data, &mut cache).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let mut objective = PositionFitness::with_cache(&geometric, &params, data, &mut cache)
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
     let bar = indicatif::ProgressBar::new(max_iterations as u64);
-    bar.set_style(indicatif::ProgressStyle::with_template("PSO {bar:40} {pos}/{len} iterations, best {msg}").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("PSO {bar:40} {pos}/{len} iterations, best {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
     let p = loop {
-        let p = pso.step(&mut objective, SWARM).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        let p = pso
+            .step(&mut objective, SWARM)
+            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
         bar.set_position(p.iteration as u64);
         bar.set_message(format!("{:.4e} mm²", p.best_fitness));
         if p.stopped.is_some() {
@@ -90,7 +104,13 @@ fn pso_with<const N: usize, const V: usize, const D: usize>(
     let mut robot = start.clone();
     apply_delta(&mut robot, &params, pso.best_position()).map_err(|e| anyhow::anyhow!("{e:?}"))?;
     Ok(SwarmRun {
-        fit: Fit { robot, iterations: p.iteration, evaluations: p.evaluations, unidentifiable: Vec::new(), history: pso.history().to_vec() },
+        fit: Fit {
+            robot,
+            iterations: p.iteration,
+            evaluations: p.evaluations,
+            unidentifiable: Vec::new(),
+            history: pso.history().to_vec(),
+        },
         initial: pso.initial_positions().iter().map(|x| x.to_vec()).collect(),
         personal_bests: pso.personal_bests().iter().map(|x| x.to_vec()).collect(),
         best: pso.best_position().to_vec(),
@@ -127,15 +147,37 @@ pub fn identify<const N: usize, const V: usize>(
 
 /// Trains the paper's 24 → 12 → 24 network on a finished 6-joint PSO run (each particle's
 /// initial position → its final personal best; see `kinecal::bpnn_pso`).
-pub fn train_bpnn<const N: usize, const V: usize>(run: &SwarmRun<N, V>, seed: u64) -> anyhow::Result<Box<Mdh24Net<f64>>> {
-    anyhow::ensure!(N == 6 && run.initial.len() == SWARM, "BPNN-PSO is built for the 24 MDH parameters of a 6-joint arm");
-    let mut net = Box::new(Mdh24Net::<f64>::new(BpnnConfig::default(), seed).map_err(|e| anyhow::anyhow!("{e:?}"))?);
-    let to24 = |v: &Vec<f64>| -> anyhow::Result<[f64; 24]> { v.as_slice().try_into().map_err(|_| anyhow::anyhow!("dimension")) };
-    let inputs: Vec<[f64; 24]> = run.initial.iter().map(to24).collect::<anyhow::Result<_>>()?;
-    let targets: Vec<[f64; 24]> = run.personal_bests.iter().map(to24).collect::<anyhow::Result<_>>()?;
-    net.fit_ranges(&inputs, &targets).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+pub fn train_bpnn<const N: usize, const V: usize>(
+    run: &SwarmRun<N, V>,
+    seed: u64,
+) -> anyhow::Result<Box<Mdh24Net<f64>>> {
+    anyhow::ensure!(
+        N == 6 && run.initial.len() == SWARM,
+        "BPNN-PSO is built for the 24 MDH parameters of a 6-joint arm"
+    );
+    let mut net = Box::new(
+        Mdh24Net::<f64>::new(BpnnConfig::default(), seed).map_err(|e| anyhow::anyhow!("{e:?}"))?,
+    );
+    let to24 = |v: &Vec<f64>| -> anyhow::Result<[f64; 24]> {
+        v.as_slice()
+            .try_into()
+            .map_err(|_| anyhow::anyhow!("dimension"))
+    };
+    let inputs: Vec<[f64; 24]> = run
+        .initial
+        .iter()
+        .map(to24)
+        .collect::<anyhow::Result<_>>()?;
+    let targets: Vec<[f64; 24]> = run
+        .personal_bests
+        .iter()
+        .map(to24)
+        .collect::<anyhow::Result<_>>()?;
+    net.fit_ranges(&inputs, &targets)
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
     for _ in 0..bpnn_pso::DEFAULT_EPOCHS {
-        net.train_epoch(&inputs, &targets).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        net.train_epoch(&inputs, &targets)
+            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
     }
     Ok(net)
 }
@@ -149,11 +191,16 @@ pub fn bpnn_pso_mdh<const N: usize, const V: usize>(
     seed: u64,
     max_iterations: u32,
 ) -> anyhow::Result<SwarmRun<N, V>> {
-    anyhow::ensure!(N == 6, "BPNN-PSO is built for the 24 MDH parameters of a 6-joint arm");
+    anyhow::ensure!(
+        N == 6,
+        "BPNN-PSO is built for the 24 MDH parameters of a 6-joint arm"
+    );
     let params = ParamSet::<24>::mdh(N).map_err(|e| anyhow::anyhow!("{e:?}"))?;
-    let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice())
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
     cfg.max_iterations = max_iterations;
-    let mut swarm = Box::new(Pso::<f64, SWARM, 24>::new(cfg, seed).map_err(|e| anyhow::anyhow!("{e:?}"))?);
+    let mut swarm =
+        Box::new(Pso::<f64, SWARM, 24>::new(cfg, seed).map_err(|e| anyhow::anyhow!("{e:?}"))?);
     bpnn_pso::seed(&mut swarm, net).map_err(|e| anyhow::anyhow!("{e:?}"))?;
     let init: Vec<Vec<f64>> = swarm.positions().iter().map(|x| x.to_vec()).collect();
     pso_mdh(start, data, seed, max_iterations, Some(&init))

@@ -194,16 +194,26 @@ impl std::str::FromStr for EffectRequest {
             .parse()
             .map_err(|_| anyhow::anyhow!("--effect {s}: JOINT must be a joint number (1-based)"))?;
         let arg = match it.next() {
-            Some(a) => Some(a.parse::<f64>().map_err(|_| anyhow::anyhow!("--effect {s}: ARG must be a number"))?),
+            Some(a) => Some(
+                a.parse::<f64>()
+                    .map_err(|_| anyhow::anyhow!("--effect {s}: ARG must be a number"))?,
+            ),
             None => None,
         };
-        anyhow::ensure!(it.next().is_none(), "--effect {s}: expected KIND:JOINT[:ARG]");
+        anyhow::ensure!(
+            it.next().is_none(),
+            "--effect {s}: expected KIND:JOINT[:ARG]"
+        );
         anyhow::ensure!(joint >= 1, "--effect {s}: joints are numbered from 1");
         anyhow::ensure!(
             kind == "axis-tilt" || kinecal::EffectKind::from_id(&kind).is_some(),
             "--effect {s}: unknown effect '{kind}' (joint-compliance, joint-cyclic, joint-scale, axis-tilt, joint-table)"
         );
-        Ok(Self { kind, joint: joint - 1, arg })
+        Ok(Self {
+            kind,
+            joint: joint - 1,
+            arg,
+        })
     }
 }
 
@@ -214,23 +224,38 @@ pub fn add_effect<const N: usize, const V: usize>(
     req: &EffectRequest,
     q_range_rad: (f64, f64),
 ) -> anyhow::Result<Vec<Param>> {
-    anyhow::ensure!(req.joint < N, "effect on joint {} but the robot has {N} joints", req.joint + 1);
+    anyhow::ensure!(
+        req.joint < N,
+        "effect on joint {} but the robot has {N} joints",
+        req.joint + 1
+    );
     if req.kind == "axis-tilt" {
         return Ok(vec![Param::Beta(req.joint as u8)]);
     }
-    let kind = kinecal::EffectKind::from_id(&req.kind).ok_or_else(|| anyhow::anyhow!("unknown effect '{}'", req.kind))?;
+    let kind = kinecal::EffectKind::from_id(&req.kind)
+        .ok_or_else(|| anyhow::anyhow!("unknown effect '{}'", req.kind))?;
     let first = robot.effects().values().len();
     let (order, start, step, len) = match kind {
         kinecal::EffectKind::Cyclic => {
             let n = req.arg.unwrap_or(1.0);
-            anyhow::ensure!(n >= 1.0 && n.fract() == 0.0 && n < 65536.0, "joint-cyclic order must be a whole number ≥ 1");
+            anyhow::ensure!(
+                n >= 1.0 && n.fract() == 0.0 && n < 65536.0,
+                "joint-cyclic order must be a whole number ≥ 1"
+            );
             (n as u16, 0.0, 0.0, 2)
         }
         kinecal::EffectKind::Table => {
             let step = req.arg.unwrap_or(3.6).to_radians();
-            anyhow::ensure!(step > 0.0 && step.is_finite(), "joint-table step must be positive");
+            anyhow::ensure!(
+                step > 0.0 && step.is_finite(),
+                "joint-table step must be positive"
+            );
             let (lo, hi) = q_range_rad;
-            anyhow::ensure!(lo.is_finite() && hi.is_finite() && hi >= lo, "joint-table on joint {}: no joint range", req.joint + 1);
+            anyhow::ensure!(
+                lo.is_finite() && hi.is_finite() && hi >= lo,
+                "joint-table on joint {}: no joint range",
+                req.joint + 1
+            );
             let start = (lo / step).floor() * step;
             let knots = (((hi - start) / step).ceil() as usize + 1).max(2);
             (0, start, step, knots)
@@ -241,6 +266,10 @@ pub fn add_effect<const N: usize, const V: usize>(
     robot
         .effects_mut()
         .push(kind, req.joint, N, order, start, step, &zeros)
-        .map_err(|e| anyhow::anyhow!("cannot add {} on joint {}: {e:?}", req.kind, req.joint + 1))?;
-    Ok((first..first + len).map(|k| Param::Effect(k as u16)).collect())
+        .map_err(|e| {
+            anyhow::anyhow!("cannot add {} on joint {}: {e:?}", req.kind, req.joint + 1)
+        })?;
+    Ok((first..first + len)
+        .map(|k| Param::Effect(k as u16))
+        .collect())
 }

@@ -7,15 +7,41 @@ fn plot_err<E: std::fmt::Display>(e: E) -> anyhow::Error {
     anyhow::anyhow!("plot: {e}")
 }
 
-const COLOURS: [RGBColor; 6] = [RED, BLUE, RGBColor(0, 140, 0), MAGENTA, RGBColor(230, 140, 0), BLACK];
+const COLOURS: [RGBColor; 6] = [
+    RED,
+    BLUE,
+    RGBColor(0, 140, 0),
+    MAGENTA,
+    RGBColor(230, 140, 0),
+    BLACK,
+];
 
 /// Lines `(x, y)` per named series; `log_y` plots log10 of y (for fitness that falls by decades).
-pub fn line_chart(path: &Path, title: &str, x_label: &str, y_label: &str, series: &[(String, Vec<(f64, f64)>)], log_y: bool) -> anyhow::Result<()> {
+pub fn line_chart(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[(String, Vec<(f64, f64)>)],
+    log_y: bool,
+) -> anyhow::Result<()> {
     let tf = |y: f64| if log_y { y.max(1e-300).log10() } else { y };
-    let pts: Vec<(f64, f64)> = series.iter().flat_map(|s| s.1.iter().map(|&(x, y)| (x, tf(y)))).filter(|p| p.0.is_finite() && p.1.is_finite()).collect();
+    let pts: Vec<(f64, f64)> = series
+        .iter()
+        .flat_map(|s| s.1.iter().map(|&(x, y)| (x, tf(y))))
+        .filter(|p| p.0.is_finite() && p.1.is_finite())
+        .collect();
     anyhow::ensure!(!pts.is_empty(), "plot {}: no data", path.display());
-    let (x0, x1) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.0), b.max(p.0)));
-    let (y0, y1) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    let (x0, x1) = pts
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.0), b.max(p.0))
+        });
+    let (y0, y1) = pts
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.1), b.max(p.1))
+        });
     let pad = ((y1 - y0) * 0.05).max(1e-9);
     let root = SVGBackend::new(path, (900, 500)).into_drawing_area();
     root.fill(&WHITE).map_err(plot_err)?;
@@ -26,24 +52,46 @@ pub fn line_chart(path: &Path, title: &str, x_label: &str, y_label: &str, series
         .y_label_area_size(70)
         .build_cartesian_2d(x0..x1.max(x0 + 1.0), (y0 - pad)..(y1 + pad))
         .map_err(plot_err)?;
-    let y_desc = if log_y { format!("log10 {y_label}") } else { y_label.to_string() };
-    chart.configure_mesh().x_desc(x_label).y_desc(y_desc).draw().map_err(plot_err)?;
+    let y_desc = if log_y {
+        format!("log10 {y_label}")
+    } else {
+        y_label.to_string()
+    };
+    chart
+        .configure_mesh()
+        .x_desc(x_label)
+        .y_desc(y_desc)
+        .draw()
+        .map_err(plot_err)?;
     for (k, (name, s)) in series.iter().enumerate() {
         let c = COLOURS[k % COLOURS.len()];
         chart
-            .draw_series(LineSeries::new(s.iter().map(|&(x, y)| (x, tf(y))), c.stroke_width(2)))
+            .draw_series(LineSeries::new(
+                s.iter().map(|&(x, y)| (x, tf(y))),
+                c.stroke_width(2),
+            ))
             .map_err(plot_err)?
             .label(name.as_str())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
     }
-    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(plot_err)?;
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(plot_err)?;
     root.present().map_err(plot_err)?;
     Ok(())
 }
 
 /// Per-pose position errors (mm) of several models on the same poses, as points.
 pub fn pose_errors(path: &Path, title: &str, series: &[(String, Vec<f64>)]) -> anyhow::Result<()> {
-    let ymax = series.iter().flat_map(|s| s.1.iter().copied()).fold(0.0, f64::max).max(1e-6) * 1.05;
+    let ymax = series
+        .iter()
+        .flat_map(|s| s.1.iter().copied())
+        .fold(0.0, f64::max)
+        .max(1e-6)
+        * 1.05;
     let n = series.iter().map(|s| s.1.len()).max().unwrap_or(1) as f64;
     let root = SVGBackend::new(path, (900, 500)).into_drawing_area();
     root.fill(&WHITE).map_err(plot_err)?;
@@ -54,16 +102,32 @@ pub fn pose_errors(path: &Path, title: &str, series: &[(String, Vec<f64>)]) -> a
         .y_label_area_size(70)
         .build_cartesian_2d(0.0..n + 1.0, 0.0..ymax)
         .map_err(plot_err)?;
-    chart.configure_mesh().x_desc("pose").y_desc("position error (mm)").draw().map_err(plot_err)?;
+    chart
+        .configure_mesh()
+        .x_desc("pose")
+        .y_desc("position error (mm)")
+        .draw()
+        .map_err(plot_err)?;
     for (k, (name, e)) in series.iter().enumerate() {
         let c = COLOURS[k % COLOURS.len()];
         chart
-            .draw_series(LineSeries::new(e.iter().enumerate().map(|(i, v)| (i as f64 + 1.0, *v)), c.stroke_width(1)).point_size(3))
+            .draw_series(
+                LineSeries::new(
+                    e.iter().enumerate().map(|(i, v)| (i as f64 + 1.0, *v)),
+                    c.stroke_width(1),
+                )
+                .point_size(3),
+            )
             .map_err(plot_err)?
             .label(name.as_str())
             .legend(move |(x, y)| Circle::new((x + 10, y), 3, c.filled()));
     }
-    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(plot_err)?;
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(plot_err)?;
     root.present().map_err(plot_err)?;
     Ok(())
 }

@@ -125,18 +125,35 @@ impl SceneFile {
             let (l, c) = span.map_or((1, 1), |s| line_column(text, s.start));
             format!("{origin}:{l}:{c}")
         };
-        let raw: RawScene =
-            toml::from_str(text).map_err(|e| anyhow!("{}: {}", at(e.span()), e.message().trim().replace('\n', " ")))?;
+        let raw: RawScene = toml::from_str(text).map_err(|e| {
+            anyhow!(
+                "{}: {}",
+                at(e.span()),
+                e.message().trim().replace('\n', " ")
+            )
+        })?;
         let t = raw.tracker.get_ref();
         let bad = |span: Range<usize>, msg: String| Err(anyhow!("{}: {msg}", at(Some(span))));
         if !finite(&t.xyz_mm) || !finite(&[t.max_incidence_deg, t.beam_radius_mm]) {
             return bad(raw.tracker.span(), "tracker: numbers must be finite".into());
         }
         if !(t.max_incidence_deg > 0.0 && t.max_incidence_deg <= 180.0) {
-            return bad(raw.tracker.span(), format!("tracker: max_incidence_deg must be in (0, 180], got {}", t.max_incidence_deg));
+            return bad(
+                raw.tracker.span(),
+                format!(
+                    "tracker: max_incidence_deg must be in (0, 180], got {}",
+                    t.max_incidence_deg
+                ),
+            );
         }
         if t.beam_radius_mm < 0.0 {
-            return bad(raw.tracker.span(), format!("tracker: beam_radius_mm must be ≥ 0, got {}", t.beam_radius_mm));
+            return bad(
+                raw.tracker.span(),
+                format!(
+                    "tracker: beam_radius_mm must be ≥ 0, got {}",
+                    t.beam_radius_mm
+                ),
+            );
         }
         if let Some(f) = &raw.floor {
             if !f.get_ref().z_mm.is_finite() {
@@ -154,22 +171,53 @@ impl SceneFile {
         for (i, c) in raw.link_capsules.iter().enumerate() {
             let s = c.get_ref();
             if s.frame > joints {
-                return bad(c.span(), format!("link_capsules[{}]: frame {} does not exist (0 to {joints})", i + 1, s.frame));
+                return bad(
+                    c.span(),
+                    format!(
+                        "link_capsules[{}]: frame {} does not exist (0 to {joints})",
+                        i + 1,
+                        s.frame
+                    ),
+                );
             }
-            if !(finite(&s.a_mm) && finite(&s.b_mm) && s.radius_mm.is_finite() && s.radius_mm >= 0.0) {
-                return bad(c.span(), format!("link_capsules[{}]: end points must be finite and radius_mm ≥ 0", i + 1));
+            if !(finite(&s.a_mm)
+                && finite(&s.b_mm)
+                && s.radius_mm.is_finite()
+                && s.radius_mm >= 0.0)
+            {
+                return bad(
+                    c.span(),
+                    format!(
+                        "link_capsules[{}]: end points must be finite and radius_mm ≥ 0",
+                        i + 1
+                    ),
+                );
             }
         }
         for (i, c) in raw.obstacles.iter().enumerate() {
             let s = c.get_ref();
-            if !(finite(&s.a_mm) && finite(&s.b_mm) && s.radius_mm.is_finite() && s.radius_mm >= 0.0) {
-                return bad(c.span(), format!("obstacles[{}]: end points must be finite and radius_mm ≥ 0", i + 1));
+            if !(finite(&s.a_mm)
+                && finite(&s.b_mm)
+                && s.radius_mm.is_finite()
+                && s.radius_mm >= 0.0)
+            {
+                return bad(
+                    c.span(),
+                    format!(
+                        "obstacles[{}]: end points must be finite and radius_mm ≥ 0",
+                        i + 1
+                    ),
+                );
             }
         }
         Ok(SceneFile {
             tracker: t.clone(),
             floor: raw.floor.map(|f| f.into_inner()),
-            link_capsules: raw.link_capsules.into_iter().map(|c| c.into_inner()).collect(),
+            link_capsules: raw
+                .link_capsules
+                .into_iter()
+                .map(|c| c.into_inner())
+                .collect(),
             obstacles: raw.obstacles.into_iter().map(|c| c.into_inner()).collect(),
         })
     }
@@ -177,7 +225,8 @@ impl SceneFile {
     /// Reads and validates a scene file for a robot with `joints` joints.
     pub fn load(path: &Path, joints: usize) -> anyhow::Result<SceneFile> {
         let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| anyhow!("{origin}: cannot read: {e}"))?;
+        let text =
+            std::fs::read_to_string(path).map_err(|e| anyhow!("{origin}: cannot read: {e}"))?;
         Self::parse(&text, &origin, joints)
     }
 
@@ -194,15 +243,19 @@ impl SceneFile {
             max_incidence: t.max_incidence_deg.to_radians(),
             beam_radius: t.beam_radius_mm,
         };
-        let mut scene = HostScene::new(tracker, self.floor.as_ref().map(|f| f.z_mm)).map_err(|e| anyhow!("invalid scene: {e:?}"))?;
+        let mut scene = HostScene::new(tracker, self.floor.as_ref().map(|f| f.z_mm))
+            .map_err(|e| anyhow!("invalid scene: {e:?}"))?;
         for (i, c) in self.link_capsules.iter().enumerate() {
-            let frame = u8::try_from(c.frame).map_err(|_| anyhow!("link_capsules[{}]: frame out of range", i + 1))?;
+            let frame = u8::try_from(c.frame)
+                .map_err(|_| anyhow!("link_capsules[{}]: frame out of range", i + 1))?;
             scene
                 .add_link_capsule(frame, capsule(c.a_mm, c.b_mm, c.radius_mm))
                 .map_err(|e| anyhow!("link_capsules[{}]: {e:?}", i + 1))?;
         }
         for (i, c) in self.obstacles.iter().enumerate() {
-            scene.add_obstacle(capsule(c.a_mm, c.b_mm, c.radius_mm)).map_err(|e| anyhow!("obstacles[{}]: {e:?}", i + 1))?;
+            scene
+                .add_obstacle(capsule(c.a_mm, c.b_mm, c.radius_mm))
+                .map_err(|e| anyhow!("obstacles[{}]: {e:?}", i + 1))?;
         }
         Ok(scene)
     }

@@ -8,14 +8,22 @@ fn plot_err<E: std::fmt::Display>(e: E) -> anyhow::Error {
     anyhow::anyhow!("plot: {e}")
 }
 
-const COLOURS: [RGBColor; 4] = [RGBColor(200, 30, 30), RGBColor(30, 60, 200), RGBColor(240, 150, 150), RGBColor(140, 160, 240)];
+const COLOURS: [RGBColor; 4] = [
+    RGBColor(200, 30, 30),
+    RGBColor(30, 60, 200),
+    RGBColor(240, 150, 150),
+    RGBColor(140, 160, 240),
+];
 
 /// One series per comparison: improvement in percent (`1 − KPI/other`) per manipulator, in
 /// manipulator order; filled markers for the first two series, hollow for the rest.
 pub fn improvements(path: &Path, title: &str, series: &[(String, Vec<f64>)]) -> anyhow::Result<()> {
     let n = series.iter().map(|s| s.1.len()).max().unwrap_or(0);
     anyhow::ensure!(n > 0, "plot {}: no data", path.display());
-    let vals = series.iter().flat_map(|s| s.1.iter().copied()).filter(|v| v.is_finite());
+    let vals = series
+        .iter()
+        .flat_map(|s| s.1.iter().copied())
+        .filter(|v| v.is_finite());
     let (lo, hi) = vals.fold((0.0f64, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
     let root = SVGBackend::new(path, (1000, 520)).into_drawing_area();
     root.fill(&WHITE).map_err(plot_err)?;
@@ -24,7 +32,10 @@ pub fn improvements(path: &Path, title: &str, series: &[(String, Vec<f64>)]) -> 
         .margin(14)
         .x_label_area_size(45)
         .y_label_area_size(60)
-        .build_cartesian_2d(0.0..(n as f64 + 1.0), (lo - 5.0).min(0.0)..(hi + 10.0).min(100.0))
+        .build_cartesian_2d(
+            0.0..(n as f64 + 1.0),
+            (lo - 5.0).min(0.0)..(hi + 10.0).min(100.0),
+        )
         .map_err(plot_err)?;
     chart
         .configure_mesh()
@@ -35,14 +46,29 @@ pub fn improvements(path: &Path, title: &str, series: &[(String, Vec<f64>)]) -> 
     for (k, (name, v)) in series.iter().enumerate() {
         let c = COLOURS[k % COLOURS.len()];
         let filled = k < 2;
-        let style = if filled { c.filled() } else { c.stroke_width(1) };
+        let style = if filled {
+            c.filled()
+        } else {
+            c.stroke_width(1)
+        };
         chart
-            .draw_series(v.iter().enumerate().filter(|(_, y)| y.is_finite()).map(move |(i, y)| Circle::new((i as f64 + 1.0, *y), 3, style)))
+            .draw_series(
+                v.iter()
+                    .enumerate()
+                    .filter(|(_, y)| y.is_finite())
+                    .map(move |(i, y)| Circle::new((i as f64 + 1.0, *y), 3, style)),
+            )
             .map_err(plot_err)?
             .label(name.as_str())
             .legend(move |(x, y)| Circle::new((x + 10, y), 4, style));
     }
-    chart.configure_series_labels().position(SeriesLabelPosition::LowerRight).background_style(WHITE.mix(0.85)).border_style(BLACK).draw().map_err(plot_err)?;
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(plot_err)?;
     root.present().map_err(plot_err)?;
     Ok(())
 }

@@ -329,10 +329,32 @@ mod decimal {
 
     #[test]
     fn agrees_with_core_on_typical_and_edge_cells() {
-        for s in ["0", "-0", "1", "-179.999848", "3240.75620", "1e-3", "2.5E+2", ".5", "5.", "+7", "0.000001", "123456789012345", "1e22", "1e-22", "00012.50"] {
-            assert_eq!(parse_decimal(s).map(f64::to_bits), s.parse::<f64>().ok().map(f64::to_bits), "{s}");
+        for s in [
+            "0",
+            "-0",
+            "1",
+            "-179.999848",
+            "3240.75620",
+            "1e-3",
+            "2.5E+2",
+            ".5",
+            "5.",
+            "+7",
+            "0.000001",
+            "123456789012345",
+            "1e22",
+            "1e-22",
+            "00012.50",
+        ] {
+            assert_eq!(
+                parse_decimal(s).map(f64::to_bits),
+                s.parse::<f64>().ok().map(f64::to_bits),
+                "{s}"
+            );
         }
-        for s in ["", "-", ".", "e5", "1e", "1e+", "1.2.3", "12a", "--1", "0x10"] {
+        for s in [
+            "", "-", ".", "e5", "1e", "1e+", "1.2.3", "12a", "--1", "0x10",
+        ] {
             assert_eq!(parse_decimal(s), None, "{s:?}");
         }
         assert!(parse_decimal("NaN").unwrap().is_nan());

@@ -191,7 +191,10 @@ fn snapshot_at_every_step_restores_to_a_bit_identical_run() {
     for i in [0usize, 5, 25, buf.len() / 2, buf.len() - 1] {
         let mut bad = buf.clone();
         bad[i] ^= 0x10;
-        assert!(target.restore(&mut bad.as_slice()).is_err(), "flipped byte {i} accepted");
+        assert!(
+            target.restore(&mut bad.as_slice()).is_err(),
+            "flipped byte {i} accepted"
+        );
     }
     assert!(target.restore(&mut &buf[..buf.len() - 3]).is_err());
     assert_eq!(target.progress(), before);

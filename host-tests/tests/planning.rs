@@ -35,7 +35,10 @@ fn load() -> (RobotFile, Robot<f64, 6, { kinecal_host::VCAP }>, SceneFile) {
     (file, robot, scene)
 }
 
-const WORK_DEG: [[f64; 6]; 2] = [[0.0, 30.0, 10.0, 0.0, -40.0, 0.0], [-20.0, 30.0, 30.0, 0.0, -60.0, 0.0]];
+const WORK_DEG: [[f64; 6]; 2] = [
+    [0.0, 30.0, 10.0, 0.0, -40.0, 0.0],
+    [-20.0, 30.0, 30.0, 0.0, -60.0, 0.0],
+];
 
 fn work() -> Vec<[f64; 6]> {
     WORK_DEG.iter().map(|q| q.map(f64::to_radians)).collect()
@@ -43,7 +46,12 @@ fn work() -> Vec<[f64; 6]> {
 
 /// Runs `f` on a thread with a big stack (plans keep fixed-size matrices on the stack).
 fn big_stack<R: Send + 'static>(f: impl FnOnce() -> R + Send + 'static) -> R {
-    std::thread::Builder::new().stack_size(256 << 20).spawn(f).unwrap().join().unwrap()
+    std::thread::Builder::new()
+        .stack_size(256 << 20)
+        .spawn(f)
+        .unwrap()
+        .join()
+        .unwrap()
 }
 
 // ---------------------------------------------------------------------------------------
@@ -54,17 +62,27 @@ fn big_stack<R: Send + 'static>(f: impl FnOnce() -> R + Send + 'static) -> R {
 fn frames(file: &RobotFile, q_deg: &[f64]) -> Vec<Matrix4<f64>> {
     let rx = |a: f64| {
         let (s, c) = a.sin_cos();
-        Matrix4::new(1.0, 0.0, 0.0, 0.0, 0.0, c, -s, 0.0, 0.0, s, c, 0.0, 0.0, 0.0, 0.0, 1.0)
+        Matrix4::new(
+            1.0, 0.0, 0.0, 0.0, 0.0, c, -s, 0.0, 0.0, s, c, 0.0, 0.0, 0.0, 0.0, 1.0,
+        )
     };
     let ry = |a: f64| {
         let (s, c) = a.sin_cos();
-        Matrix4::new(c, 0.0, s, 0.0, 0.0, 1.0, 0.0, 0.0, -s, 0.0, c, 0.0, 0.0, 0.0, 0.0, 1.0)
+        Matrix4::new(
+            c, 0.0, s, 0.0, 0.0, 1.0, 0.0, 0.0, -s, 0.0, c, 0.0, 0.0, 0.0, 0.0, 1.0,
+        )
     };
     let rz = |a: f64| {
         let (s, c) = a.sin_cos();
-        Matrix4::new(c, -s, 0.0, 0.0, s, c, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+        Matrix4::new(
+            c, -s, 0.0, 0.0, s, c, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+        )
     };
-    let tr = |x: f64, y: f64, z: f64| Matrix4::new(1.0, 0.0, 0.0, x, 0.0, 1.0, 0.0, y, 0.0, 0.0, 1.0, z, 0.0, 0.0, 0.0, 1.0);
+    let tr = |x: f64, y: f64, z: f64| {
+        Matrix4::new(
+            1.0, 0.0, 0.0, x, 0.0, 1.0, 0.0, y, 0.0, 0.0, 1.0, z, 0.0, 0.0, 0.0, 1.0,
+        )
+    };
     let mut t = Matrix4::identity();
     let mut out = vec![t];
     for (j, q) in file.joints.iter().zip(q_deg) {
@@ -88,7 +106,11 @@ fn apply(t: &Matrix4<f64>, p: [f64; 3]) -> Vector3<f64> {
 fn point_segment(x: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
     let d = b - a;
     let l2 = d.norm_squared();
-    let t = if l2 > 0.0 { ((x - a).dot(&d) / l2).clamp(0.0, 1.0) } else { 0.0 };
+    let t = if l2 > 0.0 {
+        ((x - a).dot(&d) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     (a + d * t - x).norm()
 }
 
@@ -110,7 +132,12 @@ fn seg_seg(p0: &Vector3<f64>, p1: &Vector3<f64>, q0: &Vector3<f64>, q1: &Vector3
 }
 
 /// Why a pose is infeasible, or None. Written from the scene file's definitions.
-fn independent_violation(file: &RobotFile, scene: &SceneFile, q_deg: &[f64], collisions: bool) -> Option<String> {
+fn independent_violation(
+    file: &RobotFile,
+    scene: &SceneFile,
+    q_deg: &[f64],
+    collisions: bool,
+) -> Option<String> {
     let n = file.joints.len();
     for (i, (j, q)) in file.joints.iter().zip(q_deg).enumerate() {
         let [lo, hi] = j.limits_deg.unwrap_or([-180.0, 180.0]);
@@ -130,8 +157,18 @@ fn independent_violation(file: &RobotFile, scene: &SceneFile, q_deg: &[f64], col
     if !collisions {
         return None;
     }
-    let links: Vec<(usize, Vector3<f64>, Vector3<f64>, f64)> =
-        scene.link_capsules.iter().map(|c| (c.frame, apply(&f[c.frame], c.a_mm), apply(&f[c.frame], c.b_mm), c.radius_mm)).collect();
+    let links: Vec<(usize, Vector3<f64>, Vector3<f64>, f64)> = scene
+        .link_capsules
+        .iter()
+        .map(|c| {
+            (
+                c.frame,
+                apply(&f[c.frame], c.a_mm),
+                apply(&f[c.frame], c.b_mm),
+                c.radius_mm,
+            )
+        })
+        .collect();
     if let Some(fl) = &scene.floor {
         for (k, l) in links.iter().enumerate() {
             if l.1.z.min(l.2.z) - l.3 <= fl.z_mm {
@@ -148,14 +185,19 @@ fn independent_violation(file: &RobotFile, scene: &SceneFile, q_deg: &[f64], col
             if (rank(links[i].0) - rank(links[j].0)).abs() < 2 {
                 continue;
             }
-            let d = seg_seg(&links[i].1, &links[i].2, &links[j].1, &links[j].2) - links[i].3 - links[j].3;
+            let d = seg_seg(&links[i].1, &links[i].2, &links[j].1, &links[j].2)
+                - links[i].3
+                - links[j].3;
             if d <= 0.0 {
                 return Some(format!("link capsules {i} and {j} collide ({d} mm)"));
             }
         }
     }
-    let obstacles: Vec<(Vector3<f64>, Vector3<f64>, f64)> =
-        scene.obstacles.iter().map(|o| (Vector3::from(o.a_mm), Vector3::from(o.b_mm), o.radius_mm)).collect();
+    let obstacles: Vec<(Vector3<f64>, Vector3<f64>, f64)> = scene
+        .obstacles
+        .iter()
+        .map(|o| (Vector3::from(o.a_mm), Vector3::from(o.b_mm), o.radius_mm))
+        .collect();
     for (i, l) in links.iter().enumerate() {
         for (j, o) in obstacles.iter().enumerate() {
             if seg_seg(&l.1, &l.2, &o.0, &o.1) - l.3 - o.2 <= 0.0 {
@@ -184,7 +226,12 @@ fn independent_violation(file: &RobotFile, scene: &SceneFile, q_deg: &[f64], col
 // ---------------------------------------------------------------------------------------
 // Independent KPI: dense Jacobian, SVD pseudo-inverse.
 
-fn dense_kpi(robot: &Robot<f64, 6, { kinecal_host::VCAP }>, poses: &[[f64; 6]], work: &[[f64; 6]], sigma: f64) -> f64 {
+fn dense_kpi(
+    robot: &Robot<f64, 6, { kinecal_host::VCAP }>,
+    poses: &[[f64; 6]],
+    work: &[[f64; 6]],
+    sigma: f64,
+) -> f64 {
     let robot = plan::in_base_frame(robot);
     let params = ParamSet::<PCAP>::full(6, true).unwrap();
     let n = params.len();
@@ -232,9 +279,13 @@ fn plan_with(criterion: CriterionArg, collisions: bool, seed: u64) -> (Vec<[f64;
             collisions,
             passes: 30,
             seed,
+            refine: true,
         };
         let p = plan::plan(&robot, &req).unwrap();
-        (p.poses.iter().map(|c| c.q).collect(), p.evaluation.kpi_trace_mm2)
+        (
+            p.poses.iter().map(|c| c.q).collect(),
+            p.evaluation.kpi_trace_mm2,
+        )
     })
 }
 
@@ -265,8 +316,13 @@ fn every_planned_pose_is_feasible_and_kpi_beats_random_and_d() {
                     }
                 }
                 let dense = dense_kpi(&robot, &poses, &w, 0.01);
-                assert!((dense - predicted).abs() <= 1e-6 * dense, "{criterion:?}: predicted {predicted} vs dense {dense}");
-                kpi.entry((collisions, criterion.name())).or_insert_with(Vec::new).push(dense);
+                assert!(
+                    (dense - predicted).abs() <= 1e-6 * dense,
+                    "{criterion:?}: predicted {predicted} vs dense {dense}"
+                );
+                kpi.entry((collisions, criterion.name()))
+                    .or_insert_with(Vec::new)
+                    .push(dense);
             }
         }
     }
@@ -279,13 +335,19 @@ fn every_planned_pose_is_feasible_and_kpi_beats_random_and_d() {
         let k = &kpi[&(collisions, "kpi")];
         eprintln!("collisions {collisions}: random {random:.3e}, d {d:.3e}, o1 {o1:.3e}, a {a:.3e}, kpi {k:?} mm²");
         for v in k {
-            assert!(*v <= 0.45 * random, "KPI design {v:.3e} vs random {random:.3e}");
+            assert!(
+                *v <= 0.45 * random,
+                "KPI design {v:.3e} vs random {random:.3e}"
+            );
             assert!(*v <= 0.6 * d, "KPI design {v:.3e} vs D-optimal {d:.3e}");
             assert!(*v <= 0.6 * o1, "KPI design {v:.3e} vs O1-optimal {o1:.3e}");
             assert!(*v < a, "KPI design {v:.3e} vs A-optimal {a:.3e}");
         }
         // Different seeds (different pools and starts) agree closely.
-        assert!((k[0] - k[1]).abs() <= 0.05 * k[0], "KPI designs of two seeds: {k:?}");
+        assert!(
+            (k[0] - k[1]).abs() <= 0.05 * k[0],
+            "KPI designs of two seeds: {k:?}"
+        );
     }
     // Designs without collision avoidance are at least as good (more freedom) but collide.
     assert!(mean(&kpi[&(false, "kpi")]) <= 1.02 * mean(&kpi[&(true, "kpi")]));
@@ -301,12 +363,26 @@ fn plan_command_accepts_negative_work_values_and_writes_csv_and_json() {
         .arg(cell.join("robot.toml"))
         .arg("--scene")
         .arg(cell.join("scene.toml"))
-        .args(["--poses", "25", "--criterion", "kpi", "--work=-20,30,30,0,-60,0", "--work", "0,30,10,0,-40,0", "--seed", "7"])
+        .args([
+            "--poses",
+            "25",
+            "--criterion",
+            "kpi",
+            "--work=-20,30,30,0,-60,0",
+            "--work",
+            "0,30,10,0,-40,0",
+            "--seed",
+            "7",
+        ])
         .args(["--noise-mm", "0.02", "--pool", "800", "--json", "--out"])
         .arg(&out)
         .output()
         .unwrap();
-    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     assert_eq!(v["criterion"], "kpi");
     assert_eq!(v["poses"], 25);
@@ -332,13 +408,23 @@ fn plan_command_accepts_negative_work_values_and_writes_csv_and_json() {
         .arg(cell.join("robot.toml"))
         .arg("--scene")
         .arg(cell.join("scene.toml"))
-        .args(["--poses", "10", "--criterion", "d", "--work=-20,30,x,0,-60,0", "--out"])
+        .args([
+            "--poses",
+            "10",
+            "--criterion",
+            "d",
+            "--work=-20,30,x,0,-60,0",
+            "--out",
+        ])
         .arg(&out)
         .output()
         .unwrap();
     assert!(!bad.status.success());
     let err = String::from_utf8_lossy(&bad.stderr);
-    assert!(err.contains("--work") && err.trim().lines().count() == 1, "{err}");
+    assert!(
+        err.contains("--work") && err.trim().lines().count() == 1,
+        "{err}"
+    );
 }
 
 #[test]
@@ -349,7 +435,16 @@ fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
         let robot = plan::in_base_frame(&robot);
         let params = plan::plan_params(6).unwrap();
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
-        let mut pool = plan::build_pool(&robot, &scene, params.as_slice(), 1500, true, &mut rng, 1_000_000).candidates;
+        let mut pool = plan::build_pool(
+            &robot,
+            &scene,
+            params.as_slice(),
+            1500,
+            true,
+            &mut rng,
+            1_000_000,
+        )
+        .candidates;
         let basis = plan::pool_basis(&pool, params.len()).unwrap();
         basis.reduce_pool(&mut pool);
         let w = work();
@@ -357,16 +452,38 @@ fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
         // Target: what a 40-pose KPI design reaches, plus 10 %.
         let (_, k40) = {
             let mut p2: Vec<HostCandidate<6>> = pool.clone();
-            let wr: Vec<_> = plan::work_rows(&robot, params.as_slice(), &w).unwrap().iter().map(|g| basis.reduce(g)).collect();
-            let (d, _) = plan::optimise(&mut p2, &basis, &wr, kinecal::planning::Criterion::Kpi, 40, 30).unwrap();
+            let wr: Vec<_> = plan::work_rows(&robot, params.as_slice(), &w)
+                .unwrap()
+                .iter()
+                .map(|g| basis.reduce(g))
+                .collect();
+            let (d, _) = plan::optimise::<6, { kinecal_host::VCAP }>(
+                &mut p2,
+                &basis,
+                &wr,
+                kinecal::planning::Criterion::Kpi,
+                40,
+                30,
+                None,
+            )
+            .unwrap();
             let qs: Vec<[f64; 6]> = d.iter().map(|i| p2[*i].q).collect();
-            (qs.clone(), plan::evaluate(&robot, params.as_slice(), &qs, &w, sigma).unwrap())
+            (
+                qs.clone(),
+                plan::evaluate(&robot, params.as_slice(), &qs, &w, sigma).unwrap(),
+            )
         };
         let worst40 = k40.tool_std_mm.iter().cloned().fold(0.0, f64::max);
         let target = worst40 * 1.1;
-        let mut online =
-            OnlineDesign::<f64, 6, { kinecal_host::VCAP }, PCAP, 4>::new(robot.clone(), params.clone(), basis.clone(), &w, sigma, target)
-                .unwrap();
+        let mut online = OnlineDesign::<f64, 6, { kinecal_host::VCAP }, PCAP, 4>::new(
+            robot.clone(),
+            params.clone(),
+            basis.clone(),
+            &w,
+            sigma,
+            target,
+        )
+        .unwrap();
         let mut measured: Vec<[f64; 6]> = Vec::new();
         let mut last = f64::INFINITY;
         let mut first_known = None;
@@ -378,7 +495,11 @@ fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
             assert_eq!(status.measurements, measured.len());
             if let Some(std) = status.tool_std {
                 first_known.get_or_insert(measured.len());
-                assert!(status.worst_std <= last * (1.0 + 1e-9), "precision got worse: {} after {last}", status.worst_std);
+                assert!(
+                    status.worst_std <= last * (1.0 + 1e-9),
+                    "precision got worse: {} after {last}",
+                    status.worst_std
+                );
                 last = status.worst_std;
                 // Agrees with the batch prediction from scratch.
                 let ev = plan::evaluate(&robot, params.as_slice(), &measured, &w, sigma).unwrap();
@@ -392,14 +513,110 @@ fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
                 assert!(status.worst_std <= target);
                 break;
             }
-            assert!(measured.len() < 120, "target {target} not reached after 120 poses (now {last})");
+            assert!(
+                measured.len() < 120,
+                "target {target} not reached after 120 poses (now {last})"
+            );
         }
         let first_known = first_known.unwrap();
         // Every identifiable direction needs ≥ rank/3 poses; greedy gets there quickly, and
         // reaches a 40-pose exchange design's precision (+10 %) with about as many poses.
-        assert!(first_known <= basis.rank(), "first full-rank prediction after {first_known} poses");
-        assert!(measured.len() <= 60, "{} poses to reach {target}", measured.len());
-        eprintln!("online: determined after {first_known} poses, target {target:.5} mm reached after {}", measured.len());
+        assert!(
+            first_known <= basis.rank(),
+            "first full-rank prediction after {first_known} poses"
+        );
+        assert!(
+            measured.len() <= 60,
+            "{} poses to reach {target}",
+            measured.len()
+        );
+        eprintln!(
+            "online: determined after {first_known} poses, target {target:.5} mm reached after {}",
+            measured.len()
+        );
         let _ = default_tolerance::<f64>();
     });
+}
+
+#[test]
+fn example_scene_file_is_the_studys_cell_and_round_trips() {
+    let (_, _, scene) = load();
+    let built = kinecal_host::cli::study::example_scene_file().unwrap();
+    assert_eq!(
+        scene, built,
+        "examples/cell/scene.toml differs from study::cell(780, 760)"
+    );
+    let text = scene.to_toml().unwrap();
+    assert_eq!(SceneFile::parse(&text, "round-trip", 6).unwrap(), scene);
+    // Errors name the file, line and column.
+    let bad = text.replacen("frame = 2", "frame = 9", 1);
+    let e = SceneFile::parse(&bad, "cell.toml", 6)
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("cell.toml:") && e.contains("frame 9"), "{e}");
+    let line: usize = e.split(':').nth(1).unwrap().parse().unwrap();
+    assert!(
+        bad.lines()
+            .nth(line - 1)
+            .unwrap()
+            .contains("[[link_capsules]]")
+            || bad.lines().nth(line - 1).unwrap().contains("frame = 9"),
+        "{e}"
+    );
+    let e = SceneFile::parse("[tracker]\nxyz_mm = [1, 2]\n", "s.toml", 6)
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("s.toml:2:"), "{e}");
+}
+
+#[test]
+fn plans_without_collision_avoidance_report_their_collisions() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p.csv");
+    let cell = cell_dir();
+    let output = Command::new(env!("CARGO_BIN_EXE_kinecal"))
+        .args(["plan", "--robot"])
+        .arg(cell.join("robot.toml"))
+        .arg("--scene")
+        .arg(cell.join("scene.toml"))
+        .args([
+            "--poses",
+            "40",
+            "--criterion",
+            "d",
+            "--work=0,30,10,0,-40,0",
+            "--no-collisions",
+            "--no-refine",
+            "--pool",
+            "800",
+            "--json",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let (file, _, scene) = load();
+    let text = std::fs::read_to_string(&out).unwrap();
+    let colliding = text
+        .lines()
+        .skip(1)
+        .filter(|l| {
+            let q: Vec<f64> = l.split(',').take(6).map(|x| x.parse().unwrap()).collect();
+            // Limits and incidence always hold; collisions are what was not avoided.
+            assert_eq!(independent_violation(&file, &scene, &q, false), None);
+            independent_violation(&file, &scene, &q, true).is_some()
+        })
+        .count();
+    assert_eq!(v["colliding_poses"].as_u64().unwrap() as usize, colliding);
+    assert!(
+        colliding > 0,
+        "a D design ignoring collisions is expected to collide somewhere"
+    );
+    assert!(v["min_clearance_mm"].as_f64().unwrap() <= 0.0);
 }

@@ -29,7 +29,9 @@ fn robot() -> Robot<f64, 6, 0> {
 
 fn configs(n: usize, seed: u64) -> Vec<[f64; 6]> {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
-    (0..n).map(|_| std::array::from_fn(|_| rng.random_range(-2.5..2.5))).collect()
+    (0..n)
+        .map(|_| std::array::from_fn(|_| rng.random_range(-2.5..2.5)))
+        .collect()
 }
 
 fn rows_at(r: &Robot<f64, 6, 0>, params: &ParamSet<P>, q: &[f64; 6]) -> PoseRows<f64, P> {
@@ -75,14 +77,19 @@ fn covariance_criteria_and_indices_match_dense_svd() {
     let jtj = j.transpose() * &j;
     for a in 0..n {
         for b in 0..n {
-            assert!((info.matrix()[a][b] - jtj[(a, b)]).abs() <= 1e-9 * jtj[(a, a)].max(jtj[(b, b)]).max(1.0));
+            assert!(
+                (info.matrix()[a][b] - jtj[(a, b)]).abs()
+                    <= 1e-9 * jtj[(a, a)].max(jtj[(b, b)]).max(1.0)
+            );
         }
     }
     // Removing a pose undoes its update.
     let mut less = info.clone();
     less.remove_pose(&rows[0]).unwrap();
     less.add_pose(&rows[0]).unwrap();
-    assert!((0..n).all(|a| (0..n).all(|b| (less.matrix()[a][b] - info.matrix()[a][b]).abs() < 1e-6)));
+    assert!(
+        (0..n).all(|a| (0..n).all(|b| (less.matrix()[a][b] - info.matrix()[a][b]).abs() < 1e-6))
+    );
 
     let sigma = 0.02;
     let cov = Covariance::new(&info, sigma, default_tolerance()).unwrap();
@@ -91,7 +98,12 @@ fn covariance_criteria_and_indices_match_dense_svd() {
     assert_eq!(cov.rank(), n - 7, "identifiable directions");
     let svd = j.clone().svd(false, false);
     let smax = svd.singular_values.max();
-    let mut s: Vec<f64> = svd.singular_values.iter().copied().filter(|v| *v > 1e-6 * smax).collect();
+    let mut s: Vec<f64> = svd
+        .singular_values
+        .iter()
+        .copied()
+        .filter(|v| *v > 1e-6 * smax)
+        .collect();
     s.sort_by(|a, b| b.total_cmp(a));
     assert_eq!(s.len(), cov.rank());
     let m = s.len() as f64;
@@ -99,7 +111,8 @@ fn covariance_criteria_and_indices_match_dense_svd() {
     let o1 = o1.exp() / (qs.len() as f64).sqrt();
     let (s1, sm) = (s[0], s[s.len() - 1]);
     let ix = indices(&cov, qs.len());
-    let close = |a: f64, b: f64, what: &str| assert!((a - b).abs() <= 1e-6 * b.abs(), "{what}: {a} vs {b}");
+    let close =
+        |a: f64, b: f64, what: &str| assert!((a - b).abs() <= 1e-6 * b.abs(), "{what}: {a} vs {b}");
     close(ix.o1, o1, "O1");
     close(ix.o2, s1 / sm, "O2");
     close(ix.o3, sm, "O3");
@@ -114,11 +127,17 @@ fn covariance_criteria_and_indices_match_dense_svd() {
     let cmax = c_ref.amax();
     for a in 0..n {
         for b in 0..n {
-            assert!((c[a][b] - c_ref[(a, b)]).abs() <= 1e-6 * cmax, "C[{a}][{b}]");
+            assert!(
+                (c[a][b] - c_ref[(a, b)]).abs() <= 1e-6 * cmax,
+                "C[{a}][{b}]"
+            );
         }
     }
     // Tool covariance at two working configurations, and the criteria.
-    let work: Vec<_> = configs(2, 99).iter().map(|q| rows_at(&r, &params, q)).collect();
+    let work: Vec<_> = configs(2, 99)
+        .iter()
+        .map(|q| rows_at(&r, &params, q))
+        .collect();
     let mut kpi_ref = 0.0;
     for w in &work {
         let js = DMatrix::from_fn(3, n, |i, k| w[i][k]);
@@ -135,7 +154,11 @@ fn covariance_criteria_and_indices_match_dense_svd() {
     close(cr.kpi, kpi_ref, "KPI-A");
     close(cr.a, c_ref.trace(), "A");
     close(cr.e, sigma * sigma / (sm * sm), "E");
-    let log_d = s.iter().map(|v| (sigma * sigma / (v * v)).ln()).sum::<f64>() / m;
+    let log_d = s
+        .iter()
+        .map(|v| (sigma * sigma / (v * v)).ln())
+        .sum::<f64>()
+        / m;
     close(cr.d, log_d.exp(), "D");
 }
 
@@ -150,7 +173,13 @@ fn rank_three_gains_equal_objective_changes_and_reduction_keeps_the_kpi() {
     let qs = configs(200, 5);
     let mut pool: Vec<Candidate<f64, 6, P>> = qs
         .iter()
-        .map(|q| Candidate { q: *q, rows: rows_at(&r, &params, q), incidence: 0.0, clearance: 1.0, selected: false })
+        .map(|q| Candidate {
+            q: *q,
+            rows: rows_at(&r, &params, q),
+            incidence: 0.0,
+            clearance: 1.0,
+            selected: false,
+        })
         .collect();
     let mut info = Information::<f64, P>::new(n).unwrap();
     for c in &pool {
@@ -175,7 +204,11 @@ fn rank_three_gains_equal_objective_changes_and_reduction_keeps_the_kpi() {
             s2.add(&c.rows).unwrap();
             let after = s2.objective(criterion);
             assert!(gain >= 0.0);
-            assert!((gain - (before - after)).abs() <= 1e-7 * before.abs().max(gain), "{criterion:?}: gain {gain} vs {}", before - after);
+            assert!(
+                (gain - (before - after)).abs() <= 1e-7 * before.abs().max(gain),
+                "{criterion:?}: gain {gain} vs {}",
+                before - after
+            );
         }
     }
     // KPI of the 30 poses: reduced coordinates (ridge negligible) vs full pseudo-inverse.
@@ -186,7 +219,10 @@ fn rank_three_gains_equal_objective_changes_and_reduction_keeps_the_kpi() {
     let cov = Covariance::new(&full, 1.0, default_tolerance()).unwrap();
     let kpi_full = criteria(&cov, &work_full).kpi;
     let kpi_reduced = state.objective(Criterion::Kpi);
-    assert!((kpi_full - kpi_reduced).abs() <= 1e-5 * kpi_full, "{kpi_full} vs {kpi_reduced}");
+    assert!(
+        (kpi_full - kpi_reduced).abs() <= 1e-5 * kpi_full,
+        "{kpi_full} vs {kpi_reduced}"
+    );
     let mut var = [0.0; 2];
     assert!(state.tool_variances(1.0, &mut var));
     assert!((var[0] + var[1] - kpi_full).abs() <= 1e-5 * kpi_full);

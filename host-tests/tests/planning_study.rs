@@ -10,11 +10,27 @@ fn small_study_reproduces_the_papers_claims() {
     let dir = tempfile::tempdir().unwrap();
     let svg = dir.path().join("study.svg");
     let out = Command::new(env!("CARGO_BIN_EXE_kinecal"))
-        .args(["study", "--upper-arm-mm", "650:1100:450", "--forearm-mm", "600:1000:400", "--pool", "1000", "--monte-carlo", "0", "--json", "--svg"])
+        .args([
+            "study",
+            "--upper-arm-mm",
+            "650:1100:450",
+            "--forearm-mm",
+            "600:1000:400",
+            "--pool",
+            "1000",
+            "--monte-carlo",
+            "0",
+            "--json",
+            "--svg",
+        ])
         .arg(&svg)
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["arms"], 4);
     let table = v["table"].as_array().unwrap();
@@ -23,14 +39,21 @@ fn small_study_reproduces_the_papers_claims() {
         let d = &row["designs"];
         let vs_random = d["random"]["kpi_improvement_mean"].as_f64().unwrap();
         let vs_d = d["d_o1"]["kpi_improvement_mean"].as_f64().unwrap();
-        eprintln!("collision avoidance {}: improvement vs random {vs_random:.3}, vs D/O1 {vs_d:.3}", row["collision_avoidance"]);
+        eprintln!(
+            "collision avoidance {}: improvement vs random {vs_random:.3}, vs D/O1 {vs_d:.3}",
+            row["collision_avoidance"]
+        );
         assert!(vs_random >= 0.36, "{row}");
         assert!(vs_d >= 0.10, "{row}");
         assert!(d["random"]["kpi_improvement_min"].as_f64().unwrap() > 0.0);
         assert!(d["d_o1"]["kpi_improvement_min"].as_f64().unwrap() > 0.0);
     }
     // Without collision avoidance most planned poses collide (the paper: 50 % to 70 %).
-    assert!(table[1]["colliding_share"].as_f64().unwrap() > 0.3, "{}", table[1]);
+    assert!(
+        table[1]["colliding_share"].as_f64().unwrap() > 0.3,
+        "{}",
+        table[1]
+    );
     for a in v["per_arm"].as_array().unwrap() {
         assert!(a["with"]["kpi"].as_f64().unwrap() < a["with"]["d_o1"].as_f64().unwrap());
     }

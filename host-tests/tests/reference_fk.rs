@@ -543,7 +543,9 @@ fn sincos_f64_matches_std_to_an_ulp_or_two() {
         let x = k as f64 * std::f64::consts::FRAC_PI_4;
         for d in [-2e-16, 0.0, 2e-16] {
             let (s, c) = kinecal::trig::sincos_f64(x + d);
-            worst = worst.max((s - (x + d).sin()).abs()).max((c - (x + d).cos()).abs());
+            worst = worst
+                .max((s - (x + d).sin()).abs())
+                .max((c - (x + d).cos()).abs());
         }
     }
     assert!(worst < 4.0 * f64::EPSILON, "max error {worst:e}");

@@ -111,7 +111,8 @@ pub fn nominal_joints<T: Real>(k: usize) -> [T; N] {
     let t = k as f64 / TICKS as f64;
     core::array::from_fn(|j| {
         let phase = j as f64 * 0.7;
-        let deg = Q_MID_DEG[j] + 1.5 * kinecal::trig::sincos_f64(core::f64::consts::TAU * t + phase).0;
+        let deg =
+            Q_MID_DEG[j] + 1.5 * kinecal::trig::sincos_f64(core::f64::consts::TAU * t + phase).0;
         T::of(deg.to_radians())
     })
 }

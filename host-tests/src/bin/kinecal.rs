@@ -4,7 +4,11 @@ use clap::{Parser, Subcommand};
 use kinecal_host::cli;
 
 #[derive(Parser, Debug)]
-#[command(name = "kinecal", version, about = "Kinematic calibration of serial robot arms")]
+#[command(
+    name = "kinecal",
+    version,
+    about = "Kinematic calibration of serial robot arms"
+)]
 struct Cli {
     /// Print exactly one JSON object on stdout (logs and progress go to stderr).
     #[arg(long, global = true)]
@@ -55,15 +59,22 @@ fn main() {
     let json = cli.json;
     // Large models (per-joint tables) keep their normal equations on the stack: give the
     // work a thread with room for them.
-    let worker = std::thread::Builder::new().stack_size(1 << 30).spawn(move || dispatch(cli));
+    let worker = std::thread::Builder::new()
+        .stack_size(1 << 30)
+        .spawn(move || dispatch(cli));
     let result = match worker {
-        Ok(h) => h.join().unwrap_or_else(|_| Err(anyhow::anyhow!("internal error (a thread panicked)"))),
+        Ok(h) => h
+            .join()
+            .unwrap_or_else(|_| Err(anyhow::anyhow!("internal error (a thread panicked)"))),
         Err(e) => Err(anyhow::anyhow!("cannot start worker thread: {e}")),
     };
     match result {
         Ok(v) => {
             if json {
-                println!("{}", serde_json::to_string_pretty(&v).unwrap_or_else(|_| "{}".into()));
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&v).unwrap_or_else(|_| "{}".into())
+                );
             }
         }
         Err(e) => {

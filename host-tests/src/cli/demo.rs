@@ -44,7 +44,14 @@ pub struct Args {
 
 /// The ER20-C10 stand-in (rows alpha°, a mm, theta°, d mm; tool 100 mm along the flange z).
 pub fn er20_c10() -> Robot<f64, 6, VCAP> {
-    let rows = [(0.0, 0.0, 0.0, 504.0), (-90.0, 170.0, -90.0, 0.0), (0.0, 780.0, 0.0, 0.0), (-90.0, 140.0, 0.0, 760.0), (90.0, 0.0, 0.0, 0.0), (-90.0, 0.0, 0.0, 125.0)];
+    let rows = [
+        (0.0, 0.0, 0.0, 504.0),
+        (-90.0, 170.0, -90.0, 0.0),
+        (0.0, 780.0, 0.0, 0.0),
+        (-90.0, 140.0, 0.0, 760.0),
+        (90.0, 0.0, 0.0, 0.0),
+        (-90.0, 0.0, 0.0, 125.0),
+    ];
     let mut joints = rows.map(|(al, a, th, d)| Joint::mdh_deg(al, a, th, d));
     for j in joints.iter_mut() {
         j.lower = (-170f64).to_radians();
@@ -59,18 +66,34 @@ fn mdh_errors(rng: &mut Xoshiro256PlusPlus, angle_deg: f64, length_mm: f64) -> V
     let set = ParamSet::<24>::mdh(6).expect("24 parameters");
     set.as_slice()
         .iter()
-        .map(|p| if p.is_length() { rng.random_range(-length_mm..length_mm) } else { rng.random_range(-angle_deg..angle_deg).to_radians() })
+        .map(|p| {
+            if p.is_length() {
+                rng.random_range(-length_mm..length_mm)
+            } else {
+                rng.random_range(-angle_deg..angle_deg).to_radians()
+            }
+        })
         .collect()
 }
 
-fn measure(robot: &Robot<f64, 6, VCAP>, n: usize, sigma: f64, rng: &mut Xoshiro256PlusPlus) -> Vec<Measurement<f64, 6>> {
+fn measure(
+    robot: &Robot<f64, 6, VCAP>,
+    n: usize,
+    sigma: f64,
+    rng: &mut Xoshiro256PlusPlus,
+) -> Vec<Measurement<f64, 6>> {
     let noise = Normal::new(0.0, sigma).expect("sigma");
     let mut fk = ForwardKinematics::new();
     (0..n)
         .map(|_| {
-            let q: [f64; 6] = core::array::from_fn(|j| rng.random_range(robot.joints()[j].lower..robot.joints()[j].upper));
+            let q: [f64; 6] = core::array::from_fn(|j| {
+                rng.random_range(robot.joints()[j].lower..robot.joints()[j].upper)
+            });
             let p = fk.compute(robot, &q);
-            Measurement { q, point: p + Vector3::new(noise.sample(rng), noise.sample(rng), noise.sample(rng)) }
+            Measurement {
+                q,
+                point: p + Vector3::new(noise.sample(rng), noise.sample(rng), noise.sample(rng)),
+            }
         })
         .collect()
 }
@@ -83,32 +106,58 @@ pub fn run(args: &Args, json_out: bool) -> anyhow::Result<serde_json::Value> {
 
     // The robot as it left the factory, and its first ("factory") identification by PSO.
     let mut factory = nominal.clone();
-    apply_delta(&mut factory, &set, &mdh_errors(&mut rng, 0.2, 1.0)).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    apply_delta(&mut factory, &set, &mdh_errors(&mut rng, 0.2, 1.0))
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
     let factory_data = measure(&factory, 50, sigma, &mut rng);
     eprintln!("factory identification (PSO) trains the BP network…");
-    let factory_run = pso_mdh(&nominal, &factory_data, args.seed ^ 0xfac7, args.max_iterations, None)?;
+    let factory_run = pso_mdh(
+        &nominal,
+        &factory_data,
+        args.seed ^ 0xfac7,
+        args.max_iterations,
+        None,
+    )?;
     let net = train_bpnn(&factory_run, args.seed)?;
 
     // Months later: the errors drifted a little; a follow-up identification of the same robot.
     let mut truth = factory.clone();
-    apply_delta(&mut truth, &set, &mdh_errors(&mut rng, args.drift_deg, args.drift_mm)).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    apply_delta(
+        &mut truth,
+        &set,
+        &mdh_errors(&mut rng, args.drift_deg, args.drift_mm),
+    )
+    .map_err(|e| anyhow::anyhow!("{e:?}"))?;
     let ident = measure(&truth, 50, sigma, &mut rng);
     let valid = measure(&truth, 50, sigma, &mut rng);
     let swarm_seed = args.seed ^ 0x5eed;
 
     let mut rows = Vec::new();
     let mut curves = Vec::new();
-    let mut errors = vec![("before identification".to_string(), pose_errors(&nominal, &valid))];
+    let mut errors = vec![(
+        "before identification".to_string(),
+        pose_errors(&nominal, &valid),
+    )];
     let before = ErrorStats::of(&pose_errors(&nominal, &valid)).expect("50 poses");
     let before_ident = ErrorStats::of(&pose_errors(&nominal, &ident)).expect("50 poses");
 
-    let mut record = |name: &str, fit: Fit<6, VCAP>, seconds: f64, extra: serde_json::Value| -> f64 {
+    let mut record = |name: &str,
+                      fit: Fit<6, VCAP>,
+                      seconds: f64,
+                      extra: serde_json::Value|
+     -> f64 {
         let mut fitness = PositionFitness::new(&fit.robot, &set, &ident).expect("valid data");
         let best = fitness.of_robot(&fit.robot);
         let after = ErrorStats::of(&pose_errors(&fit.robot, &valid)).expect("50 poses");
         let after_ident = ErrorStats::of(&pose_errors(&fit.robot, &ident)).expect("50 poses");
         if !fit.history.is_empty() {
-            curves.push((name.to_string(), fit.history.iter().enumerate().map(|(i, f)| (i as f64, *f)).collect::<Vec<_>>()));
+            curves.push((
+                name.to_string(),
+                fit.history
+                    .iter()
+                    .enumerate()
+                    .map(|(i, f)| (i as f64, *f))
+                    .collect::<Vec<_>>(),
+            ));
         }
         errors.push((format!("after {name}"), pose_errors(&fit.robot, &valid)));
         let mut row = json!({
@@ -131,14 +180,29 @@ pub fn run(args: &Args, json_out: bool) -> anyhow::Result<serde_json::Value> {
     let pso = pso_mdh(&nominal, &ident, swarm_seed, args.max_iterations, None)?;
     let pso_seconds = t.elapsed().as_secs_f64();
     let pso_final = pso.fit.history.last().copied().unwrap_or(f64::INFINITY);
-    let pso_reach = pso.fit.history.iter().position(|f| *f <= pso_final).unwrap_or(0);
-    record("pso", pso.fit, pso_seconds, json!({"iterations_to_final": pso_reach}));
+    let pso_reach = pso
+        .fit
+        .history
+        .iter()
+        .position(|f| *f <= pso_final)
+        .unwrap_or(0);
+    record(
+        "pso",
+        pso.fit,
+        pso_seconds,
+        json!({"iterations_to_final": pso_reach}),
+    );
 
     let t = Instant::now();
     let hybrid = bpnn_pso_mdh(&net, &nominal, &ident, swarm_seed, args.max_iterations)?;
     let hybrid_seconds = t.elapsed().as_secs_f64();
     let hybrid_reach = hybrid.fit.history.iter().position(|f| *f <= pso_final);
-    record("bpnn-pso", hybrid.fit, hybrid_seconds, json!({"iterations_to_pso_final": hybrid_reach}));
+    record(
+        "bpnn-pso",
+        hybrid.fit,
+        hybrid_seconds,
+        json!({"iterations_to_pso_final": hybrid_reach}),
+    );
 
     let t = Instant::now();
     let lm = fit_lm(&nominal, set.as_slice(), &ident, LmConfig::default())?;
@@ -146,7 +210,12 @@ pub fn run(args: &Args, json_out: bool) -> anyhow::Result<serde_json::Value> {
 
     let t = Instant::now();
     let first = pso_mdh(&nominal, &ident, swarm_seed, args.max_iterations, None)?;
-    let mut polished = fit_lm(&first.fit.robot, set.as_slice(), &ident, LmConfig::default())?;
+    let mut polished = fit_lm(
+        &first.fit.robot,
+        set.as_slice(),
+        &ident,
+        LmConfig::default(),
+    )?;
     polished.iterations += first.fit.iterations;
     polished.evaluations += first.fit.evaluations;
     let mut h = first.fit.history.clone();
@@ -154,12 +223,27 @@ pub fn run(args: &Args, json_out: bool) -> anyhow::Result<serde_json::Value> {
     polished.history = h;
     record("pso+lm", polished, t.elapsed().as_secs_f64(), json!({}));
 
-    std::fs::create_dir_all(&args.out_dir).map_err(|e| anyhow::anyhow!("{}: {e}", args.out_dir.display()))?;
+    std::fs::create_dir_all(&args.out_dir)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.out_dir.display()))?;
     let fit_svg = args.out_dir.join("fitness.svg");
-    let curves: Vec<(String, Vec<(f64, f64)>)> = curves.into_iter().filter(|c| c.0 == "pso" || c.0 == "bpnn-pso").collect();
-    plots::line_chart(&fit_svg, "Best fitness per iteration (follow-up identification)", "iteration", "fitness Σ|e|² (mm²)", &curves, true)?;
+    let curves: Vec<(String, Vec<(f64, f64)>)> = curves
+        .into_iter()
+        .filter(|c| c.0 == "pso" || c.0 == "bpnn-pso")
+        .collect();
+    plots::line_chart(
+        &fit_svg,
+        "Best fitness per iteration (follow-up identification)",
+        "iteration",
+        "fitness Σ|e|² (mm²)",
+        &curves,
+        true,
+    )?;
     let err_svg = args.out_dir.join("pose_errors.svg");
-    plots::pose_errors(&err_svg, "Position error on the 50 validation poses", &errors)?;
+    plots::pose_errors(
+        &err_svg,
+        "Position error on the 50 validation poses",
+        &errors,
+    )?;
 
     let ratio = hybrid_reach.map(|h| h as f64 / pso_reach.max(1) as f64);
     let report = json!({
@@ -183,9 +267,21 @@ fn print_table(r: &serde_json::Value) {
     println!("BPNN-PSO paper simulation (ER20-C10 stand-in, 50 + 50 poses, 10 µm noise)");
     println!(
         "drift since the factory identification: ±{}°, ±{} mm ({:.3} mm RMS at the tool)",
-        r["drift"]["angle_deg"], r["drift"]["length_mm"], r["drift"]["validation_rms_mm"].as_f64().unwrap_or(f64::NAN)
+        r["drift"]["angle_deg"],
+        r["drift"]["length_mm"],
+        r["drift"]["validation_rms_mm"].as_f64().unwrap_or(f64::NAN)
     );
-    println!("{:<9} {:>6} {:>13} {:>9} {:>12} {:>12} {:>12} {:>12}", "method", "iter", "best fitness", "seconds", "before RMS", "after RMS", "after mean", "after max");
+    println!(
+        "{:<9} {:>6} {:>13} {:>9} {:>12} {:>12} {:>12} {:>12}",
+        "method",
+        "iter",
+        "best fitness",
+        "seconds",
+        "before RMS",
+        "after RMS",
+        "after mean",
+        "after max"
+    );
     for m in r["methods"].as_array().into_iter().flatten() {
         let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
         println!(

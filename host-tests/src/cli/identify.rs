@@ -1,7 +1,9 @@
 //! `kinecal identify`: fits the model to measurements and reports residuals before and after.
 
 use crate::data;
-use crate::identify::{add_effect, fit_lm, named_values, split_holdout, EffectRequest, Fit, Residuals};
+use crate::identify::{
+    add_effect, fit_lm, named_values, split_holdout, EffectRequest, Fit, Residuals,
+};
 use crate::robot_file::{load_robot, RobotFile};
 use crate::{with_joints, VCAP};
 use anyhow::Context;
@@ -80,11 +82,18 @@ fn run_n<const N: usize>(args: &Args, json: bool) -> anyhow::Result<serde_json::
         (None, Some(h)) => split_holdout(&all, h)?,
         (None, None) => (all, Vec::new()),
     };
-    anyhow::ensure!(!ident.is_empty(), "{}: no measurements", args.data.display());
+    anyhow::ensure!(
+        !ident.is_empty(),
+        "{}: no measurements",
+        args.data.display()
+    );
     let base_unknown = !file.base_known();
     if base_unknown {
-        let base = crate::registration::fit_base(&nominal, &ident).context("estimating the base pose")?;
-        nominal.set_base(base).map_err(|e| anyhow::anyhow!("estimated base pose is invalid: {e:?}"))?;
+        let base =
+            crate::registration::fit_base(&nominal, &ident).context("estimating the base pose")?;
+        nominal
+            .set_base(base)
+            .map_err(|e| anyhow::anyhow!("estimated base pose is invalid: {e:?}"))?;
     }
     // Effects requested on the command line join the model with zero values.
     let mut extra = Vec::new();
@@ -99,7 +108,10 @@ fn run_n<const N: usize>(args: &Args, json: bool) -> anyhow::Result<serde_json::
     let t0 = Instant::now();
     let fit = match args.method {
         Method::Lm => {
-            let mut params: Vec<kinecal::Param> = ParamSet::<64>::full(N, base_unknown).map_err(|e| anyhow::anyhow!("{e:?}"))?.as_slice().to_vec();
+            let mut params: Vec<kinecal::Param> = ParamSet::<64>::full(N, base_unknown)
+                .map_err(|e| anyhow::anyhow!("{e:?}"))?
+                .as_slice()
+                .to_vec();
             params.extend(existing_effect_params(&nominal, &params));
             params.extend(extra.iter().copied());
             params.dedup();
@@ -110,10 +122,24 @@ fn run_n<const N: usize>(args: &Args, json: bool) -> anyhow::Result<serde_json::
     let seconds = t0.elapsed().as_secs_f64();
     let after = Residuals::of(&fit.robot, &ident, &valid);
     if let Some(out) = &args.out {
-        let f = RobotFile::from_robot(&format!("{} (identified)", file.name), &fit.robot, true, &file.tilt_joints());
+        let f = RobotFile::from_robot(
+            &format!("{} (identified)", file.name),
+            &fit.robot,
+            true,
+            &file.tilt_joints(),
+        );
         f.save(out)?;
     }
-    let report = report(args.method, &file, &fit, &ident, &valid, before, after, seconds);
+    let report = report(
+        args.method,
+        &file,
+        &fit,
+        &ident,
+        &valid,
+        before,
+        after,
+        seconds,
+    );
     if !json {
         print_human(&report);
     }
@@ -121,13 +147,22 @@ fn run_n<const N: usize>(args: &Args, json: bool) -> anyhow::Result<serde_json::
 }
 
 /// Parameters of effects the model file already carries (identified along with the geometry).
-fn existing_effect_params<const N: usize>(robot: &Robot<f64, N, VCAP>, have: &[kinecal::Param]) -> Vec<kinecal::Param> {
-    (0..robot.effects().values().len()).map(|k| kinecal::Param::Effect(k as u16)).filter(|p| !have.contains(p)).collect()
+fn existing_effect_params<const N: usize>(
+    robot: &Robot<f64, N, VCAP>,
+    have: &[kinecal::Param],
+) -> Vec<kinecal::Param> {
+    (0..robot.effects().values().len())
+        .map(|k| kinecal::Param::Effect(k as u16))
+        .filter(|p| !have.contains(p))
+        .collect()
 }
 
 /// (min, max) of joint `j` over the data, rad.
 pub fn joint_range<const N: usize>(data: &[Measurement<f64, N>], j: usize) -> (f64, f64) {
-    data.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| (lo.min(m.q[j]), hi.max(m.q[j])))
+    data.iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
+            (lo.min(m.q[j]), hi.max(m.q[j]))
+        })
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -141,9 +176,16 @@ fn report<const N: usize>(
     after: Residuals,
     seconds: f64,
 ) -> serde_json::Value {
-    let mut params: Vec<kinecal::Param> = ParamSet::<64>::full(N, true).map(|s| s.as_slice().to_vec()).unwrap_or_default();
-    params.extend((0..N as u8).map(kinecal::Param::Beta).filter(|p| file.tilt_joints().contains(&(p.joint().unwrap_or(99)))));
-    params.extend((0..fit.robot.effects().values().len()).map(|k| kinecal::Param::Effect(k as u16)));
+    let mut params: Vec<kinecal::Param> = ParamSet::<64>::full(N, true)
+        .map(|s| s.as_slice().to_vec())
+        .unwrap_or_default();
+    params.extend(
+        (0..N as u8)
+            .map(kinecal::Param::Beta)
+            .filter(|p| file.tilt_joints().contains(&(p.joint().unwrap_or(99)))),
+    );
+    params
+        .extend((0..fit.robot.effects().values().len()).map(|k| kinecal::Param::Effect(k as u16)));
     json!({
         "method": method.id(),
         "n_identification": ident.len(),
@@ -161,8 +203,16 @@ fn report<const N: usize>(
 
 fn print_human(r: &serde_json::Value) {
     let f = |v: &serde_json::Value| v.as_f64().map_or("-".to_string(), |x| format!("{x:.4}"));
-    println!("method {}: {} identification poses, {} validation poses", r["method"].as_str().unwrap_or(""), r["n_identification"], r["n_validation"]);
-    println!("{:>8} {:>16} {:>16} {:>16} {:>16}", "", "ident RMS mm", "valid RMS mm", "valid mean mm", "valid max mm");
+    println!(
+        "method {}: {} identification poses, {} validation poses",
+        r["method"].as_str().unwrap_or(""),
+        r["n_identification"],
+        r["n_validation"]
+    );
+    println!(
+        "{:>8} {:>16} {:>16} {:>16} {:>16}",
+        "", "ident RMS mm", "valid RMS mm", "valid mean mm", "valid max mm"
+    );
     for k in ["before", "after"] {
         let o = &r[k];
         println!(
@@ -174,11 +224,19 @@ fn print_human(r: &serde_json::Value) {
             f(&o["validation_max_mm"])
         );
     }
-    println!("{} iterations, {} evaluations, {:.3} s", r["iterations"], r["evaluations"], r["seconds"].as_f64().unwrap_or(0.0));
+    println!(
+        "{} iterations, {} evaluations, {:.3} s",
+        r["iterations"],
+        r["evaluations"],
+        r["seconds"].as_f64().unwrap_or(0.0)
+    );
     if let Some(u) = r["unidentifiable"].as_array() {
         if !u.is_empty() {
             let names: Vec<&str> = u.iter().filter_map(|v| v.as_str()).collect();
-            println!("held at nominal (not identifiable from these data): {}", names.join(", "));
+            println!(
+                "held at nominal (not identifiable from these data): {}",
+                names.join(", ")
+            );
         }
     }
 }

@@ -97,7 +97,12 @@ pub struct Args {
     pub criterion: CriterionArg,
     /// A working configuration q1,…,qN in degrees (repeatable; negative values are fine,
     /// e.g. `--work=-20,-80,120,10,-30,45`).
-    #[arg(long = "work", value_name = "Q1,…,QN", allow_hyphen_values = true, required = true)]
+    #[arg(
+        long = "work",
+        value_name = "Q1,…,QN",
+        allow_hyphen_values = true,
+        required = true
+    )]
     pub work: Vec<String>,
     /// Random seed (pool and random designs).
     #[arg(long, default_value_t = 1)]
@@ -118,17 +123,26 @@ pub struct Args {
     /// Most Fedorov exchange passes.
     #[arg(long, default_value_t = 30)]
     pub passes: u32,
+    /// Skip the local refinement (poses near the selected ones added to the pool, then more
+    /// exchange passes).
+    #[arg(long)]
+    pub no_refine: bool,
 }
 
 /// Parses `q1,…,qN` (degrees) into radians.
 pub fn parse_configuration<const N: usize>(text: &str) -> anyhow::Result<[f64; N]> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     if parts.len() != N {
-        bail!("--work `{text}`: expected {N} comma-separated joint values (degrees), got {}", parts.len());
+        bail!(
+            "--work `{text}`: expected {N} comma-separated joint values (degrees), got {}",
+            parts.len()
+        );
     }
     let mut q = [0.0; N];
     for (i, (qi, p)) in q.iter_mut().zip(&parts).enumerate() {
-        let v: f64 = p.parse().map_err(|_| anyhow!("--work `{text}`: value {} (`{p}`) is not a number", i + 1))?;
+        let v: f64 = p
+            .parse()
+            .map_err(|_| anyhow!("--work `{text}`: value {} (`{p}`) is not a number", i + 1))?;
         if !v.is_finite() {
             bail!("--work `{text}`: value {} is not finite", i + 1);
         }
@@ -150,8 +164,13 @@ pub fn in_base_frame<const N: usize, const V: usize>(robot: &Robot<f64, N, V>) -
     r
 }
 
-fn keeps_margins<const N: usize>(c: &HostCandidate<N>, scene: &HostScene, collisions: bool) -> bool {
-    c.incidence <= scene.tracker().max_incidence - INCIDENCE_MARGIN_RAD && (!collisions || c.clearance >= CLEARANCE_MARGIN_MM)
+fn keeps_margins<const N: usize>(
+    c: &HostCandidate<N>,
+    scene: &HostScene,
+    collisions: bool,
+) -> bool {
+    c.incidence <= scene.tracker().max_incidence - INCIDENCE_MARGIN_RAD
+        && (!collisions || c.clearance >= CLEARANCE_MARGIN_MM)
 }
 
 /// A pool of feasible candidates and how many draws it took.
@@ -170,13 +189,19 @@ pub fn build_pool<const N: usize, const V: usize>(
     rng: &mut Xoshiro256PlusPlus,
     max_draws: u64,
 ) -> Pool<N> {
-    let sampling = Sampling { aimed_fraction: 0.8, cone_fraction: 0.97, collisions };
+    let sampling = Sampling {
+        aimed_fraction: 0.8,
+        cone_fraction: 0.97,
+        collisions,
+    };
     let mut fk = ForwardKinematics::new();
     let mut candidates = Vec::with_capacity(size);
     let mut draws = 0;
     while candidates.len() < size && draws < max_draws {
         draws += 1;
-        if let Some(c) = pose_pool::draw::<f64, N, V, PCAP, _, _, _>(rng, robot, scene, params, &sampling, &mut fk) {
+        if let Some(c) = pose_pool::draw::<f64, N, V, PCAP, _, _, _>(
+            rng, robot, scene, params, &sampling, &mut fk,
+        ) {
             if keeps_margins(&c, scene, collisions) {
                 candidates.push(c);
             }
@@ -201,11 +226,16 @@ pub fn random_design<const N: usize, const V: usize>(
     let mut draws = 0;
     while out.len() < n {
         if draws >= max_draws {
-            bail!("only {} of {n} random poses were feasible after {draws} draws: check the scene", out.len());
+            bail!(
+                "only {} of {n} random poses were feasible after {draws} draws: check the scene",
+                out.len()
+            );
         }
         draws += 1;
         let q = pose_pool::uniform_configuration(rng, robot);
-        if let Some(c) = pose_pool::candidate::<f64, N, V, PCAP, _, _>(robot, scene, params, &q, collisions, &mut fk) {
+        if let Some(c) = pose_pool::candidate::<f64, N, V, PCAP, _, _>(
+            robot, scene, params, &q, collisions, &mut fk,
+        ) {
             if keeps_margins(&c, scene, collisions) {
                 out.push(c);
             }
@@ -215,7 +245,11 @@ pub fn random_design<const N: usize, const V: usize>(
 }
 
 /// Scaled Jacobian rows of the tool point at each working configuration.
-pub fn work_rows<const N: usize, const V: usize>(robot: &Robot<f64, N, V>, params: &[Param], work: &[[f64; N]]) -> anyhow::Result<Vec<PoseRows<f64, PCAP>>> {
+pub fn work_rows<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    params: &[Param],
+    work: &[[f64; N]],
+) -> anyhow::Result<Vec<PoseRows<f64, PCAP>>> {
     let mut fk = ForwardKinematics::new();
     work.iter()
         .map(|q| {
@@ -228,32 +262,158 @@ pub fn work_rows<const N: usize, const V: usize>(robot: &Robot<f64, N, V>, param
 }
 
 /// The identifiable basis of a pool (from its full-parameter rows).
-pub fn pool_basis<const N: usize>(pool: &[HostCandidate<N>], n_params: usize) -> anyhow::Result<Basis<f64, PCAP>> {
+pub fn pool_basis<const N: usize>(
+    pool: &[HostCandidate<N>],
+    n_params: usize,
+) -> anyhow::Result<Basis<f64, PCAP>> {
     let mut info = Information::<f64, PCAP>::new(n_params).map_err(|e| anyhow!("{e:?}"))?;
     for c in pool {
-        info.add_pose(&c.rows).map_err(|e| anyhow!("pool information: {e:?}"))?;
+        info.add_pose(&c.rows)
+            .map_err(|e| anyhow!("pool information: {e:?}"))?;
     }
     Basis::new(&info, default_tolerance()).map_err(|e| anyhow!("identifiable subspace: {e:?}"))
 }
 
-/// Selects `n` poses from `pool` (rows already reduced by `basis`) for `criterion`; returns
-/// the pool indices.
-pub fn optimise<const N: usize>(
-    pool: &mut [HostCandidate<N>],
+/// Local refinement of a selected design (the discrete counterpart of the paper's continuous
+/// SQP polish): poses near the selected ones join the pool, then more exchange passes; the
+/// neighbourhood shrinks each round.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Refinement {
+    pub rounds: u32,
+    /// New candidates tried around each selected pose per round.
+    pub neighbours: usize,
+    /// Half-width of the joint perturbation in the first round (rad).
+    pub step: f64,
+}
+
+impl Default for Refinement {
+    fn default() -> Self {
+        Self {
+            rounds: 3,
+            neighbours: 6,
+            step: 6f64.to_radians(),
+        }
+    }
+}
+
+/// What is needed to make new feasible candidates near a pose.
+pub struct Neighbourhood<'a, const N: usize, const V: usize> {
+    pub robot: &'a Robot<f64, N, V>,
+    pub scene: &'a HostScene,
+    pub params: &'a [Param],
+    pub collisions: bool,
+}
+
+impl<const N: usize, const V: usize> Neighbourhood<'_, N, V> {
+    /// A feasible candidate (full rows) near `q`: every joint moved by up to ±`step`, and
+    /// half of the time the wrist re-aimed at the tracker (within the incidence cone).
+    pub fn near(
+        &self,
+        q: &[f64; N],
+        step: f64,
+        rng: &mut Xoshiro256PlusPlus,
+        fk: &mut ForwardKinematics<f64, N>,
+    ) -> Option<HostCandidate<N>> {
+        let mut x = *q;
+        for (xi, j) in x.iter_mut().zip(self.robot.joints()) {
+            let u: f64 = pose_pool::uniform(rng);
+            *xi = (*xi + step * (2.0 * u - 1.0)).clamp(j.lower, j.upper);
+        }
+        if pose_pool::uniform::<f64, _>(rng) < 0.5 {
+            fk.compute(self.robot, &x);
+            let tracker = fk.base.point(&self.scene.tracker().position);
+            let target = pose_pool::aim_target(
+                rng,
+                &tracker,
+                &fk.point,
+                self.scene.tracker().max_incidence * 0.97,
+            );
+            if !pose_pool::aim_wrist(self.robot, fk, &mut x, &target, 1e-4) {
+                return None;
+            }
+        }
+        let c = pose_pool::candidate::<f64, N, V, PCAP, _, _>(
+            self.robot,
+            self.scene,
+            self.params,
+            &x,
+            self.collisions,
+            fk,
+        )?;
+        keeps_margins(&c, self.scene, self.collisions).then_some(c)
+    }
+}
+
+/// How a host design went.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Optimised {
+    pub outcome: planning::Outcome<f64>,
+    /// Candidates added near the design by refinement, and the swaps they brought.
+    pub added: usize,
+    pub refine_swaps: u32,
+}
+
+/// Selects `n` poses from `pool` (rows already reduced by `basis`) for `criterion`, then,
+/// with `refine`, grows the pool near the design and exchanges again. Returns the pool
+/// indices (the pool may have grown).
+#[allow(clippy::too_many_arguments)]
+pub fn optimise<const N: usize, const V: usize>(
+    pool: &mut Vec<HostCandidate<N>>,
     basis: &Basis<f64, PCAP>,
     work_reduced: &[PoseRows<f64, PCAP>],
     criterion: Criterion,
     n: usize,
     passes: u32,
-) -> anyhow::Result<(Vec<usize>, planning::Outcome<f64>)> {
+    refine: Option<(&Neighbourhood<N, V>, &Refinement, &mut Xoshiro256PlusPlus)>,
+) -> anyhow::Result<(Vec<usize>, Optimised)> {
     let ridge = basis.per_pose() * 1e-8;
-    let mut state = Box::new(DesignState::<f64, PCAP, WCAP>::new(basis.rank(), work_reduced, ridge).map_err(|e| anyhow!("design: {e:?}"))?);
+    let mut state = Box::new(
+        DesignState::<f64, PCAP, WCAP>::new(basis.rank(), work_reduced, ridge)
+            .map_err(|e| anyhow!("design: {e:?}"))?,
+    );
     let mut design = vec![0usize; n];
-    let outcome = planning::select(&mut state, criterion, pool, &mut design, passes).map_err(|e| match e {
-        planning::PlanError::PoolTooSmall => anyhow!("the pool has {} feasible poses, fewer than the {n} requested", pool.len()),
-        e => anyhow!("design: {e:?}"),
-    })?;
-    Ok((design, outcome))
+    let too_small =
+        |len: usize| anyhow!("the pool has {len} feasible poses, fewer than the {n} requested");
+    let outcome = planning::select(&mut state, criterion, pool, &mut design, passes).map_err(
+        |e| match e {
+            planning::PlanError::PoolTooSmall => too_small(pool.len()),
+            e => anyhow!("design: {e:?}"),
+        },
+    )?;
+    let mut added = 0;
+    let mut refine_swaps = 0;
+    if let Some((hood, r, rng)) = refine {
+        let mut fk = ForwardKinematics::new();
+        let mut step = r.step;
+        for _ in 0..r.rounds {
+            let around: Vec<[f64; N]> = design.iter().map(|i| pool[*i].q).collect();
+            for q in &around {
+                for _ in 0..r.neighbours {
+                    if let Some(mut c) = hood.near(q, step, rng, &mut fk) {
+                        c.rows = basis.reduce(&c.rows);
+                        pool.push(c);
+                        added += 1;
+                    }
+                }
+            }
+            let (_, swaps) = planning::exchange(&mut state, criterion, pool, &mut design, passes)
+                .map_err(|e| anyhow!("design: {e:?}"))?;
+            refine_swaps += swaps;
+            step *= 0.5;
+        }
+    }
+    let outcome = planning::Outcome {
+        objective: state.objective(criterion),
+        ..outcome
+    };
+    Ok((
+        design,
+        Optimised {
+            outcome,
+            added,
+            refine_swaps,
+        },
+    ))
 }
 
 /// What linear error propagation predicts for a design.
@@ -280,21 +440,29 @@ pub fn evaluate<const N: usize, const V: usize>(
     work: &[[f64; N]],
     sigma: f64,
 ) -> anyhow::Result<Evaluation> {
-    let mut info = Box::new(Information::<f64, PCAP>::new(params.len()).map_err(|e| anyhow!("{e:?}"))?);
+    let mut info =
+        Box::new(Information::<f64, PCAP>::new(params.len()).map_err(|e| anyhow!("{e:?}"))?);
     let mut fk = ForwardKinematics::new();
     for q in poses {
         fk.compute(robot, q);
         let mut g = [[0.0; PCAP]; 3];
         scaled_rows(robot, &fk, params, &mut g).map_err(|e| anyhow!("Jacobian: {e:?}"))?;
-        info.add_pose(&g).map_err(|e| anyhow!("information: {e:?}"))?;
+        info.add_pose(&g)
+            .map_err(|e| anyhow!("information: {e:?}"))?;
     }
-    let cov = Box::new(Covariance::new(&info, sigma, default_tolerance()).map_err(|e| anyhow!("covariance: {e:?}"))?);
+    let cov = Box::new(
+        Covariance::new(&info, sigma, default_tolerance())
+            .map_err(|e| anyhow!("covariance: {e:?}"))?,
+    );
     let w = work_rows(robot, params, work)?;
     let c = criteria(&cov, &w);
     let ix = indices(&cov, poses.len());
     Ok(Evaluation {
         kpi_trace_mm2: c.kpi,
-        tool_std_mm: w.iter().map(|g| cov.tool_variance(g).max(0.0).sqrt()).collect(),
+        tool_std_mm: w
+            .iter()
+            .map(|g| cov.tool_variance(g).max(0.0).sqrt())
+            .collect(),
         a: c.a,
         d: c.d,
         e: c.e,
@@ -325,15 +493,23 @@ pub struct PlanRequest<'a, const N: usize> {
     pub collisions: bool,
     pub passes: u32,
     pub seed: u64,
+    /// Polish the design by local refinement ([`Refinement`]).
+    pub refine: bool,
 }
 
 /// Plans `req.poses` poses for `robot` (any base: it is set to identity).
-pub fn plan<const N: usize, const V: usize>(robot: &Robot<f64, N, V>, req: &PlanRequest<N>) -> anyhow::Result<Plan<N>> {
+pub fn plan<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    req: &PlanRequest<N>,
+) -> anyhow::Result<Plan<N>> {
     if req.poses == 0 {
         bail!("--poses must be at least 1");
     }
     if req.work.is_empty() || req.work.len() > WCAP {
-        bail!("give 1 to {WCAP} working configurations (--work), got {}", req.work.len());
+        bail!(
+            "give 1 to {WCAP} working configurations (--work), got {}",
+            req.work.len()
+        );
     }
     if !(req.sigma.is_finite() && req.sigma > 0.0) {
         bail!("--noise-mm must be a positive number, got {}", req.sigma);
@@ -345,12 +521,28 @@ pub fn plan<const N: usize, const V: usize>(robot: &Robot<f64, N, V>, req: &Plan
     let max_draws = 2_000_000 + 2_000 * req.pool.max(req.poses) as u64;
     let (poses, draws, pool_size, passes, exchanges, basis_rank) = match req.criterion.criterion() {
         None => {
-            let (poses, draws) = random_design(&robot, req.scene, params, req.poses, req.collisions, &mut rng, max_draws)?;
+            let (poses, draws) = random_design(
+                &robot,
+                req.scene,
+                params,
+                req.poses,
+                req.collisions,
+                &mut rng,
+                max_draws,
+            )?;
             (poses, draws, 0, 0, 0, 0)
         }
         Some(criterion) => {
             let size = req.pool.max(req.poses);
-            let mut pool = build_pool(&robot, req.scene, params, size, req.collisions, &mut rng, max_draws);
+            let mut pool = build_pool(
+                &robot,
+                req.scene,
+                params,
+                size,
+                req.collisions,
+                &mut rng,
+                max_draws,
+            );
             if pool.candidates.len() < req.poses {
                 bail!(
                     "only {} feasible poses found in {} draws, fewer than the {} requested: check the scene",
@@ -359,25 +551,65 @@ pub fn plan<const N: usize, const V: usize>(robot: &Robot<f64, N, V>, req: &Plan
                     req.poses
                 );
             }
-            let full: Vec<[f64; N]> = pool.candidates.iter().map(|c| c.q).collect();
             let basis = pool_basis(&pool.candidates, params.len())?;
             basis.reduce_pool(&mut pool.candidates);
-            let work: Vec<PoseRows<f64, PCAP>> = work_rows(&robot, params, req.work)?.iter().map(|g| basis.reduce(g)).collect();
-            let (design, outcome) = optimise(&mut pool.candidates, &basis, &work, criterion, req.poses, req.passes)?;
+            let work: Vec<PoseRows<f64, PCAP>> = work_rows(&robot, params, req.work)?
+                .iter()
+                .map(|g| basis.reduce(g))
+                .collect();
+            let hood = Neighbourhood {
+                robot: &robot,
+                scene: req.scene,
+                params,
+                collisions: req.collisions,
+            };
+            let refinement = Refinement::default();
+            let refine = req.refine.then_some((&hood, &refinement, &mut rng));
+            let (design, opt) = optimise(
+                &mut pool.candidates,
+                &basis,
+                &work,
+                criterion,
+                req.poses,
+                req.passes,
+                refine,
+            )?;
             let mut fk = ForwardKinematics::new();
             let mut chosen = Vec::with_capacity(design.len());
             for i in design {
                 // Recompute full rows for the report (the pool holds reduced ones).
-                let c = pose_pool::candidate::<f64, N, V, PCAP, _, _>(&robot, req.scene, params, &full[i], req.collisions, &mut fk)
-                    .ok_or_else(|| anyhow!("internal: a pool pose is no longer feasible"))?;
+                let c = pose_pool::candidate::<f64, N, V, PCAP, _, _>(
+                    &robot,
+                    req.scene,
+                    params,
+                    &pool.candidates[i].q,
+                    req.collisions,
+                    &mut fk,
+                )
+                .ok_or_else(|| anyhow!("internal: a pool pose is no longer feasible"))?;
                 chosen.push(c);
             }
-            (chosen, pool.draws, pool.candidates.len(), outcome.passes, outcome.exchanges, basis.rank())
+            (
+                chosen,
+                pool.draws,
+                pool.candidates.len(),
+                opt.outcome.passes,
+                opt.outcome.exchanges + opt.refine_swaps,
+                basis.rank(),
+            )
         }
     };
     let qs: Vec<[f64; N]> = poses.iter().map(|c| c.q).collect();
     let evaluation = evaluate(&robot, params, &qs, req.work, req.sigma)?;
-    Ok(Plan { poses, evaluation, pool_size, draws, passes, exchanges, basis_rank })
+    Ok(Plan {
+        poses,
+        evaluation,
+        pool_size,
+        draws,
+        passes,
+        exchanges,
+        basis_rank,
+    })
 }
 
 /// The CSV text of planned poses: `q1…qN` (degrees, 9 decimals), incidence, clearance.
@@ -391,19 +623,36 @@ pub fn poses_csv<const N: usize>(poses: &[HostCandidate<N>]) -> String {
         for q in c.q {
             let _ = write!(s, "{:.9},", q.to_degrees());
         }
-        let clearance = if c.clearance.is_finite() && c.clearance < 1e300 { format!("{:.3}", c.clearance) } else { "inf".into() };
+        let clearance = if c.clearance.is_finite() && c.clearance < 1e300 {
+            format!("{:.3}", c.clearance)
+        } else {
+            "inf".into()
+        };
         let _ = writeln!(s, "{:.6},{clearance}", c.incidence.to_degrees());
     }
     s
 }
 
-fn run_n<const N: usize>(args: &Args, file: &RobotFile, json: bool) -> anyhow::Result<serde_json::Value> {
-    let robot = file.to_robot::<N>().map_err(|e| anyhow!("{}: {e}", args.robot.display()))?;
+fn run_n<const N: usize>(
+    args: &Args,
+    file: &RobotFile,
+    json: bool,
+) -> anyhow::Result<serde_json::Value> {
+    let robot = file
+        .to_robot::<N>()
+        .map_err(|e| anyhow!("{}: {e}", args.robot.display()))?;
     let scene = SceneFile::load(&args.scene, N)?.to_scene()?;
-    let work = args.work.iter().map(|w| parse_configuration::<N>(w)).collect::<anyhow::Result<Vec<_>>>()?;
+    let work = args
+        .work
+        .iter()
+        .map(|w| parse_configuration::<N>(w))
+        .collect::<anyhow::Result<Vec<_>>>()?;
     for (k, q) in work.iter().enumerate() {
         if !robot.within_limits(q) {
-            eprintln!("kinecal plan: warning: working configuration {} is outside the joint limits", k + 1);
+            eprintln!(
+                "kinecal plan: warning: working configuration {} is outside the joint limits",
+                k + 1
+            );
         }
     }
     let start = Instant::now();
@@ -417,26 +666,60 @@ fn run_n<const N: usize>(args: &Args, file: &RobotFile, json: bool) -> anyhow::R
         collisions: !args.no_collisions,
         passes: args.passes,
         seed: args.seed,
+        refine: !args.no_refine,
     };
     let p = plan(&robot, &req)?;
     let seconds = start.elapsed().as_secs_f64();
-    std::fs::write(&args.out, poses_csv(&p.poses)).map_err(|e| anyhow!("{}: cannot write: {e}", args.out.display()))?;
-    let min_clearance = p.poses.iter().map(|c| c.clearance).fold(f64::INFINITY, f64::min);
-    let max_incidence = p.poses.iter().map(|c| c.incidence.to_degrees()).fold(0.0, f64::max);
+    // Signed clearance in the full cell, also for plans made without collision avoidance
+    // (negative: the pose collides).
+    let base_robot = in_base_frame(&robot);
+    let mut fk = ForwardKinematics::new();
+    let clearances: Vec<f64> = p
+        .poses
+        .iter()
+        .map(|c| {
+            fk.compute(&base_robot, &c.q);
+            scene.clearance(&fk)
+        })
+        .collect();
+    let min_clearance = clearances.iter().cloned().fold(f64::INFINITY, f64::min);
+    let colliding = clearances.iter().filter(|c| **c <= 0.0).count();
+    let mut written = p.poses.clone();
+    for (c, cl) in written.iter_mut().zip(&clearances) {
+        c.clearance = *cl;
+    }
+    std::fs::write(&args.out, poses_csv(&written))
+        .map_err(|e| anyhow!("{}: cannot write: {e}", args.out.display()))?;
+    let max_incidence = p
+        .poses
+        .iter()
+        .map(|c| c.incidence.to_degrees())
+        .fold(0.0, f64::max);
     let ev = &p.evaluation;
     if !json {
-        println!("{} poses ({} design) written to {}", p.poses.len(), args.criterion.name(), args.out.display());
+        println!(
+            "{} poses ({} design) written to {}",
+            p.poses.len(),
+            args.criterion.name(),
+            args.out.display()
+        );
         println!(
             "predicted TCP covariance trace {:.4e} mm² (σ = {} mm); TCP std per working configuration: {}",
             ev.kpi_trace_mm2,
             args.noise_mm,
             ev.tool_std_mm.iter().map(|s| format!("{:.4} mm", s)).collect::<Vec<_>>().join(", ")
         );
-        println!("A {:.4e}  D {:.4e}  E {:.4e} (mm², scaled parameters); identifiable directions {}", ev.a, ev.d, ev.e, ev.rank);
-        println!("O1 {:.4}  O2 {:.4}  O3 {:.4}  O4 {:.4}  O5 {:.4}", ev.o[0], ev.o[1], ev.o[2], ev.o[3], ev.o[4]);
+        println!(
+            "A {:.4e}  D {:.4e}  E {:.4e} (mm², scaled parameters); identifiable directions {}",
+            ev.a, ev.d, ev.e, ev.rank
+        );
+        println!(
+            "O1 {:.4}  O2 {:.4}  O3 {:.4}  O4 {:.4}  O5 {:.4}",
+            ev.o[0], ev.o[1], ev.o[2], ev.o[3], ev.o[4]
+        );
         println!(
             "min clearance {} mm, max incidence {:.2}°; pool {} feasible of {} draws; {} exchange passes, {} swaps; {:.2} s",
-            if args.no_collisions { "not checked".to_string() } else { format!("{min_clearance:.1}") },
+            if args.no_collisions { format!("{min_clearance:.1} ({colliding} colliding poses: collisions not avoided)") } else { format!("{min_clearance:.1}") },
             max_incidence,
             p.pool_size,
             p.draws,
@@ -450,7 +733,8 @@ fn run_n<const N: usize>(args: &Args, file: &RobotFile, json: bool) -> anyhow::R
         "poses": p.poses.len(),
         "kpi_trace_mm2": ev.kpi_trace_mm2,
         "tool_std_mm": ev.tool_std_mm,
-        "min_clearance_mm": if args.no_collisions { serde_json::Value::Null } else { json!(min_clearance) },
+        "min_clearance_mm": min_clearance,
+        "colliding_poses": colliding,
         "max_incidence_deg": max_incidence,
         "noise_mm": args.noise_mm,
         "criteria": { "a": ev.a, "d": ev.d, "e": ev.e },

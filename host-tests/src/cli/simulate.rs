@@ -89,9 +89,20 @@ fn simulate_n<const N: usize>(
         let rest: [f64; N] = if args.rest.is_empty() {
             crate::sweeps::default_rest(&truth)
         } else {
-            args.rest.as_slice().try_into().map_err(|_| anyhow!("--rest needs {N} joint readings, got {}", args.rest.len()))?
+            args.rest
+                .as_slice()
+                .try_into()
+                .map_err(|_| anyhow!("--rest needs {N} joint readings, got {}", args.rest.len()))?
         };
-        ds = crate::sweeps::sweep_data(&truth, &rest, &args.sweeps, args.sweep_points, args.sweep_span_deg, args.noise_mm, args.seed)?;
+        ds = crate::sweeps::sweep_data(
+            &truth,
+            &rest,
+            &args.sweeps,
+            args.sweep_points,
+            args.sweep_span_deg,
+            args.noise_mm,
+            args.seed,
+        )?;
     }
     data::write(&args.out, &ds)?;
     if let Some(t) = &args.truth {

@@ -23,7 +23,9 @@
 //! unknown), and the spread of the identified tool points at the working configuration is
 //! compared with the plan's prediction σ²·trace C_s.
 
-use crate::cli::plan::{self, optimise, CriterionArg, HostCandidate, PoseRowsHost};
+use crate::cli::plan::{
+    self, optimise, CriterionArg, HostCandidate, Neighbourhood, PoseRowsHost, Refinement,
+};
 use crate::identify::fit_lm;
 use crate::scene::{HostScene, SceneFile};
 use crate::sim::{self, GeomErrors};
@@ -64,7 +66,11 @@ pub struct Args {
     #[arg(long, default_value_t = 10)]
     pub passes: u32,
     /// Working configuration q1,…,q6 in degrees.
-    #[arg(long = "work", default_value = "0,30,10,0,-40,0", allow_hyphen_values = true)]
+    #[arg(
+        long = "work",
+        default_value = "0,30,10,0,-40,0",
+        allow_hyphen_values = true
+    )]
     pub work: String,
     /// Measurement noise, standard deviation per axis (mm).
     #[arg(long, default_value_t = 0.01)]
@@ -75,6 +81,10 @@ pub struct Args {
     /// Monte Carlo runs of simulate + identify for the example arm's KPI design (0 = skip).
     #[arg(long, default_value_t = 1000)]
     pub monte_carlo: usize,
+    /// Also polish the D and KPI designs by local refinement (poses near the selected ones
+    /// added to the pool, as `kinecal plan` does by default); about 5× slower.
+    #[arg(long)]
+    pub refine: bool,
     /// Worker threads.
     #[arg(long, default_value_t = 2)]
     pub threads: usize,
@@ -85,7 +95,11 @@ pub struct Args {
 
 /// The example arm with upper arm `upper` and forearm `forearm` (mm).
 pub fn arm(upper: f64, forearm: f64) -> anyhow::Result<Robot<f64, 6, 0>> {
-    let lim = |j: Joint<f64>, lo: f64, hi: f64| Joint { lower: lo.to_radians(), upper: hi.to_radians(), ..j };
+    let lim = |j: Joint<f64>, lo: f64, hi: f64| Joint {
+        lower: lo.to_radians(),
+        upper: hi.to_radians(),
+        ..j
+    };
     let rows = [
         lim(Joint::mdh_deg(0.0, 0.0, 0.0, 504.0), -170.0, 170.0),
         lim(Joint::mdh_deg(-90.0, 170.0, -90.0, 0.0), -90.0, 150.0),
@@ -94,7 +108,8 @@ pub fn arm(upper: f64, forearm: f64) -> anyhow::Result<Robot<f64, 6, 0>> {
         lim(Joint::mdh_deg(90.0, 0.0, 0.0, 0.0), -135.0, 135.0),
         lim(Joint::mdh_deg(-90.0, 0.0, 0.0, 125.0), -360.0, 360.0),
     ];
-    Robot::new(Frame::identity(), rows, Vector3::new(0.0, 0.0, 100.0)).map_err(|e| anyhow!("arm: {e:?}"))
+    Robot::new(Frame::identity(), rows, Vector3::new(0.0, 0.0, 100.0))
+        .map_err(|e| anyhow!("arm: {e:?}"))
 }
 
 /// Horizontal reach of an arm of this family (mm): shoulder offset, upper arm, forearm with
@@ -107,13 +122,20 @@ fn reach(upper: f64, forearm: f64) -> f64 {
 pub fn cell(upper: f64, forearm: f64) -> anyhow::Result<HostScene> {
     let v = Vector3::new;
     let c = |a: Vector3<f64>, b: Vector3<f64>, r: f64| Capsule::new(a, b, r);
-    let tracker = Tracker { position: v(1000.0, -2700.0, 300.0), max_incidence: 30f64.to_radians(), beam_radius: 5.0 };
+    let tracker = Tracker {
+        position: v(1000.0, -2700.0, 300.0),
+        max_incidence: 30f64.to_radians(),
+        beam_radius: 5.0,
+    };
     let mut s: HostScene = Scene::new(tracker, Some(-450.0)).map_err(|e| anyhow!("{e:?}"))?;
     let links = [
         (0, c(v(0.0, 0.0, 0.0), v(0.0, 0.0, 150.0), 200.0)),
         (1, c(v(0.0, 0.0, -250.0), v(170.0, 0.0, 0.0), 170.0)),
         (2, c(v(0.0, 0.0, 0.0), v(upper, 0.0, 0.0), 130.0)),
-        (3, c(v(70.0, -100.0, 0.0), v(140.0, forearm - 140.0, 0.0), 110.0)),
+        (
+            3,
+            c(v(70.0, -100.0, 0.0), v(140.0, forearm - 140.0, 0.0), 110.0),
+        ),
         (5, c(v(0.0, -60.0, 0.0), v(0.0, 70.0, 0.0), 85.0)),
         (6, c(v(0.0, 0.0, 0.0), v(0.0, 0.0, 40.0), 45.0)),
     ];
@@ -123,8 +145,16 @@ pub fn cell(upper: f64, forearm: f64) -> anyhow::Result<HostScene> {
     // The example cell's car side is at x = 1100, 56.5 % of the example arm's reach.
     let shift = 1100.0 / reach(780.0, 760.0) * (reach(upper, forearm) - reach(780.0, 760.0));
     for cap in [
-        c(v(1900.0 + shift, -2000.0, 100.0), v(1900.0 + shift, 2000.0, 100.0), 800.0),
-        c(v(2000.0 + shift, -900.0, 800.0), v(2000.0 + shift, 900.0, 800.0), 600.0),
+        c(
+            v(1900.0 + shift, -2000.0, 100.0),
+            v(1900.0 + shift, 2000.0, 100.0),
+            800.0,
+        ),
+        c(
+            v(2000.0 + shift, -900.0, 800.0),
+            v(2000.0 + shift, 900.0, 800.0),
+            600.0,
+        ),
         c(v(-1700.0, -3500.0, 500.0), v(-1700.0, 3500.0, 500.0), 800.0),
     ] {
         s.add_obstacle(cap).map_err(|e| anyhow!("{e:?}"))?;
@@ -138,7 +168,9 @@ fn parse_range(text: &str, what: &str) -> anyhow::Result<Vec<f64>> {
         .map(|x| x.trim().parse::<f64>())
         .collect::<Result<_, _>>()
         .map_err(|_| anyhow!("{what} `{text}`: expected MIN:MAX:STEP in mm"))?;
-    let [lo, hi, step] = p[..] else { bail!("{what} `{text}`: expected MIN:MAX:STEP in mm") };
+    let [lo, hi, step] = p[..] else {
+        bail!("{what} `{text}`: expected MIN:MAX:STEP in mm")
+    };
     if !(lo.is_finite() && hi.is_finite() && step > 0.0 && lo <= hi && lo > 0.0) {
         bail!("{what} `{text}`: need 0 < MIN ≤ MAX and STEP > 0");
     }
@@ -167,7 +199,11 @@ struct ArmResult {
     settings: [Cell; 2],
 }
 
-fn colliding_share<const N: usize, const V: usize>(robot: &Robot<f64, N, V>, scene: &HostScene, poses: &[[f64; N]]) -> f64 {
+fn colliding_share<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    scene: &HostScene,
+    poses: &[[f64; N]],
+) -> f64 {
     let mut fk = ForwardKinematics::new();
     let bad = poses
         .iter()
@@ -179,7 +215,13 @@ fn colliding_share<const N: usize, const V: usize>(robot: &Robot<f64, N, V>, sce
     bad as f64 / poses.len().max(1) as f64
 }
 
-fn study_arm(args: &Args, upper: f64, forearm: f64, work: &[[f64; 6]], seed: u64) -> anyhow::Result<ArmResult> {
+fn study_arm(
+    args: &Args,
+    upper: f64,
+    forearm: f64,
+    work: &[[f64; 6]],
+    seed: u64,
+) -> anyhow::Result<ArmResult> {
     let robot = arm(upper, forearm)?;
     let scene = cell(upper, forearm)?;
     let params = plan::plan_params(6)?;
@@ -190,33 +232,76 @@ fn study_arm(args: &Args, upper: f64, forearm: f64, work: &[[f64; 6]], seed: u64
         let max_draws = 4_000_000;
         let mut random = 0.0;
         for _ in 0..args.random_designs.max(1) {
-            let (poses, _) = plan::random_design(&robot, &scene, params, args.poses, collisions, &mut rng, max_draws)?;
+            let (poses, _) = plan::random_design(
+                &robot, &scene, params, args.poses, collisions, &mut rng, max_draws,
+            )?;
             let qs: Vec<[f64; 6]> = poses.iter().map(|c| c.q).collect();
             random += plan::evaluate(&robot, params, &qs, work, args.noise_mm)?.kpi_trace_mm2;
         }
         random /= args.random_designs.max(1) as f64;
-        let pool = plan::build_pool(&robot, &scene, params, args.pool.max(args.poses), collisions, &mut rng, max_draws);
+        let pool = plan::build_pool(
+            &robot,
+            &scene,
+            params,
+            args.pool.max(args.poses),
+            collisions,
+            &mut rng,
+            max_draws,
+        );
         if pool.candidates.len() < args.poses {
-            bail!("arm {upper}/{forearm} mm: only {} feasible poses in {} draws", pool.candidates.len(), pool.draws);
+            bail!(
+                "arm {upper}/{forearm} mm: only {} feasible poses in {} draws",
+                pool.candidates.len(),
+                pool.draws
+            );
         }
         let mut cands: Vec<HostCandidate<6>> = pool.candidates;
-        let full_q: Vec<[f64; 6]> = cands.iter().map(|c| c.q).collect();
         let basis = plan::pool_basis(&cands, params.len())?;
         basis.reduce_pool(&mut cands);
-        let wr: Vec<PoseRowsHost> = plan::work_rows(&robot, params, work)?.iter().map(|g| basis.reduce(g)).collect();
+        let wr: Vec<PoseRowsHost> = plan::work_rows(&robot, params, work)?
+            .iter()
+            .map(|g| basis.reduce(g))
+            .collect();
         let mut traces = [0.0; 2];
         let mut colliding = 0.0;
+        let hood = Neighbourhood {
+            robot: &robot,
+            scene: &scene,
+            params,
+            collisions,
+        };
+        let refinement = Refinement::default();
         for (t, criterion) in traces.iter_mut().zip([Criterion::D, Criterion::Kpi]) {
-            let (design, _) = optimise(&mut cands, &basis, &wr, criterion, args.poses, args.passes)?;
-            let qs: Vec<[f64; 6]> = design.iter().map(|i| full_q[*i]).collect();
+            // Each design starts from the same pool and refines with its own neighbours.
+            let mut own = cands.clone();
+            let refine = args.refine.then_some((&hood, &refinement, &mut rng));
+            let (design, _) = optimise(
+                &mut own,
+                &basis,
+                &wr,
+                criterion,
+                args.poses,
+                args.passes,
+                refine,
+            )?;
+            let qs: Vec<[f64; 6]> = design.iter().map(|i| own[*i].q).collect();
             *t = plan::evaluate(&robot, params, &qs, work, args.noise_mm)?.kpi_trace_mm2;
             if !collisions {
                 colliding += 0.5 * colliding_share(&robot, &scene, &qs);
             }
         }
-        settings[k] = Cell { random, d: traces[0], kpi: traces[1], colliding };
+        settings[k] = Cell {
+            random,
+            d: traces[0],
+            kpi: traces[1],
+            colliding,
+        };
     }
-    Ok(ArmResult { upper, forearm, settings })
+    Ok(ArmResult {
+        upper,
+        forearm,
+        settings,
+    })
 }
 
 /// Monte Carlo of simulate + identify against the plan's prediction.
@@ -266,6 +351,7 @@ pub fn monte_carlo<const V: usize>(
         collisions: true,
         passes: 30,
         seed,
+        refine: true,
     };
     let p = plan::plan(&nominal, &req)?;
     let qs: Vec<[f64; 6]> = p.poses.iter().map(|c| c.q).collect();
@@ -280,7 +366,11 @@ pub fn monte_carlo<const V: usize>(
     let cfg = LmConfig::default();
     for _ in 0..runs {
         let points = sim::measure(&truth, &qs, sigma, &mut streams.noise);
-        let data: Vec<Measurement<f64, 6>> = qs.iter().zip(&points).map(|(q, p)| Measurement { q: *q, point: *p }).collect();
+        let data: Vec<Measurement<f64, 6>> = qs
+            .iter()
+            .zip(&points)
+            .map(|(q, p)| Measurement { q: *q, point: *p })
+            .collect();
         let fit = fit_lm(&nominal, params.as_slice(), &data, cfg)?;
         for (s, q) in work.iter().enumerate() {
             let e = fk.compute(&fit.robot, q) - true_tcp[s];
@@ -323,12 +413,19 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
         bail!("--noise-mm must be a positive number");
     }
     let work = vec![plan::parse_configuration::<6>(&args.work)?];
-    let arms: Vec<(f64, f64)> = uppers.iter().flat_map(|u| forearms.iter().map(move |f| (*u, *f))).collect();
+    let arms: Vec<(f64, f64)> = uppers
+        .iter()
+        .flat_map(|u| forearms.iter().map(move |f| (*u, *f)))
+        .collect();
     let start = Instant::now();
     let bar = indicatif::ProgressBar::new(arms.len() as u64);
-    bar.set_style(indicatif::ProgressStyle::with_template("study {bar:40} {pos}/{len} arms {elapsed}").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("study {bar:40} {pos}/{len} arms {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
     let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<Option<anyhow::Result<ArmResult>>>> = Mutex::new((0..arms.len()).map(|_| None).collect());
+    let results: Mutex<Vec<Option<anyhow::Result<ArmResult>>>> =
+        Mutex::new((0..arms.len()).map(|_| None).collect());
     std::thread::scope(|scope| {
         for _ in 0..args.threads.clamp(1, 64) {
             let builder = std::thread::Builder::new().stack_size(256 << 20);
@@ -362,19 +459,39 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
         args.work
     ));
     text.push_str("setting                      design   mean TCP trace (mm²)   min        max        KPI improvement mean [min, max]\n");
-    for (k, name) in ["with collision avoidance", "without collision avoidance"].iter().enumerate() {
+    for (k, name) in ["with collision avoidance", "without collision avoidance"]
+        .iter()
+        .enumerate()
+    {
         let kpi: Vec<f64> = results.iter().map(|r| r.settings[k].kpi).collect();
         let mut designs = serde_json::Map::new();
         for (design, vals) in [
-            ("random", results.iter().map(|r| r.settings[k].random).collect::<Vec<_>>()),
+            (
+                "random",
+                results
+                    .iter()
+                    .map(|r| r.settings[k].random)
+                    .collect::<Vec<_>>(),
+            ),
             ("d_o1", results.iter().map(|r| r.settings[k].d).collect()),
             ("kpi", kpi.clone()),
         ] {
             let (mean, min, max) = stats(&vals);
             let imp: Vec<f64> = vals.iter().zip(&kpi).map(|(o, k)| 1.0 - k / o).collect();
             let (im, imin, imax) = stats(&imp);
-            let imp_text = if design == "kpi" { String::new() } else { format!("{:5.1} % [{:.1}, {:.1}]", 100.0 * im, 100.0 * imin, 100.0 * imax) };
-            text.push_str(&format!("{name:28} {design:8} {mean:12.4e}          {min:.3e}  {max:.3e}  {imp_text}\n"));
+            let imp_text = if design == "kpi" {
+                String::new()
+            } else {
+                format!(
+                    "{:5.1} % [{:.1}, {:.1}]",
+                    100.0 * im,
+                    100.0 * imin,
+                    100.0 * imax
+                )
+            };
+            text.push_str(&format!(
+                "{name:28} {design:8} {mean:12.4e}          {min:.3e}  {max:.3e}  {imp_text}\n"
+            ));
             designs.insert(
                 design.to_string(),
                 json!({ "mean_kpi_trace_mm2": mean, "min_kpi_trace_mm2": min, "max_kpi_trace_mm2": max,
@@ -383,18 +500,44 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
                         "kpi_improvement_max": if design == "kpi" { serde_json::Value::Null } else { json!(imax) } }),
             );
         }
-        let colliding = if k == 1 { Some(stats(&results.iter().map(|r| r.settings[1].colliding).collect::<Vec<_>>()).0) } else { None };
+        let colliding = if k == 1 {
+            Some(
+                stats(
+                    &results
+                        .iter()
+                        .map(|r| r.settings[1].colliding)
+                        .collect::<Vec<_>>(),
+                )
+                .0,
+            )
+        } else {
+            None
+        };
         if let Some(c) = colliding {
             text.push_str(&format!("  (designs planned without collision avoidance: {:.0} % of their poses collide in the full cell)\n", 100.0 * c));
         }
         table.push(json!({ "collision_avoidance": k == 0, "designs": designs, "colliding_share": colliding }));
     }
-    text.push_str(&format!("study: {:.1} s on {} threads\n", study_seconds, args.threads.clamp(1, 64)));
+    text.push_str(&format!(
+        "study: {:.1} s on {} threads\n",
+        study_seconds,
+        args.threads.clamp(1, 64)
+    ));
 
     let mc = if args.monte_carlo > 0 {
         let robot = arm(780.0, 760.0)?;
         let scene = cell(780.0, 760.0)?;
-        let m = monte_carlo(&robot, &scene, CriterionArg::Kpi, &work, args.poses, 3000, args.noise_mm, args.monte_carlo, args.seed)?;
+        let m = monte_carlo(
+            &robot,
+            &scene,
+            CriterionArg::Kpi,
+            &work,
+            args.poses,
+            3000,
+            args.noise_mm,
+            args.monte_carlo,
+            args.seed,
+        )?;
         text.push_str(&format!(
             "Monte Carlo ({} runs of simulate + LM identify, example arm, KPI design): predicted TCP trace {:.4e} mm², \
              sample covariance trace {:.4e} mm² (ratio {:.3}), mean squared error {:.4e} mm²; {:.1} s\n",
@@ -405,20 +548,53 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
             m.empirical_mse_mm2,
             m.seconds
         ));
-        Some(json!({ "runs": m.runs, "predicted_trace_mm2": m.predicted_trace_mm2, "empirical_trace_mm2": m.empirical_trace_mm2,
-                     "ratio": m.ratio(), "empirical_mse_mm2": m.empirical_mse_mm2, "seconds": m.seconds }))
+        Some(
+            json!({ "runs": m.runs, "predicted_trace_mm2": m.predicted_trace_mm2, "empirical_trace_mm2": m.empirical_trace_mm2,
+                     "ratio": m.ratio(), "empirical_mse_mm2": m.empirical_mse_mm2, "seconds": m.seconds }),
+        )
     } else {
         None
     };
 
     if let Some(path) = &args.svg {
         let series: Vec<(String, Vec<f64>)> = vec![
-            ("vs random, with collision avoidance".into(), results.iter().map(|r| 100.0 * (1.0 - r.settings[0].kpi / r.settings[0].random)).collect()),
-            ("vs D/O1, with collision avoidance".into(), results.iter().map(|r| 100.0 * (1.0 - r.settings[0].kpi / r.settings[0].d)).collect()),
-            ("vs random, without".into(), results.iter().map(|r| 100.0 * (1.0 - r.settings[1].kpi / r.settings[1].random)).collect()),
-            ("vs D/O1, without".into(), results.iter().map(|r| 100.0 * (1.0 - r.settings[1].kpi / r.settings[1].d)).collect()),
+            (
+                "vs random, with collision avoidance".into(),
+                results
+                    .iter()
+                    .map(|r| 100.0 * (1.0 - r.settings[0].kpi / r.settings[0].random))
+                    .collect(),
+            ),
+            (
+                "vs D/O1, with collision avoidance".into(),
+                results
+                    .iter()
+                    .map(|r| 100.0 * (1.0 - r.settings[0].kpi / r.settings[0].d))
+                    .collect(),
+            ),
+            (
+                "vs random, without".into(),
+                results
+                    .iter()
+                    .map(|r| 100.0 * (1.0 - r.settings[1].kpi / r.settings[1].random))
+                    .collect(),
+            ),
+            (
+                "vs D/O1, without".into(),
+                results
+                    .iter()
+                    .map(|r| 100.0 * (1.0 - r.settings[1].kpi / r.settings[1].d))
+                    .collect(),
+            ),
         ];
-        crate::study_figure::improvements(path, &format!("KPI design: TCP variance improvement, {} arms", results.len()), &series)?;
+        crate::study_figure::improvements(
+            path,
+            &format!(
+                "KPI design: TCP variance improvement, {} arms",
+                results.len()
+            ),
+            &series,
+        )?;
         text.push_str(&format!("figure written to {}\n", path.display()));
     }
     if !json {
@@ -452,15 +628,28 @@ pub fn example_scene_file() -> anyhow::Result<SceneFile> {
     Ok(SceneFile {
         tracker: crate::scene::TrackerSpec {
             xyz_mm: v3(&s.tracker().position),
-            max_incidence_deg: s.tracker().max_incidence.to_degrees(),
+            max_incidence_deg: (s.tracker().max_incidence.to_degrees() * 1e9).round() / 1e9,
             beam_radius_mm: s.tracker().beam_radius,
         },
         floor: s.floor_z().map(|z| crate::scene::FloorSpec { z_mm: z }),
         link_capsules: s
             .link_capsules()
             .iter()
-            .map(|l| crate::scene::LinkCapsuleSpec { frame: l.frame as usize, a_mm: v3(&l.capsule.a), b_mm: v3(&l.capsule.b), radius_mm: l.capsule.radius })
+            .map(|l| crate::scene::LinkCapsuleSpec {
+                frame: l.frame as usize,
+                a_mm: v3(&l.capsule.a),
+                b_mm: v3(&l.capsule.b),
+                radius_mm: l.capsule.radius,
+            })
             .collect(),
-        obstacles: s.obstacles().iter().map(|o| crate::scene::ObstacleSpec { a_mm: v3(&o.a), b_mm: v3(&o.b), radius_mm: o.radius }).collect(),
+        obstacles: s
+            .obstacles()
+            .iter()
+            .map(|o| crate::scene::ObstacleSpec {
+                a_mm: v3(&o.a),
+                b_mm: v3(&o.b),
+                radius_mm: o.radius,
+            })
+            .collect(),
     })
 }

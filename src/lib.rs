@@ -15,6 +15,18 @@
 //! - **Kinematics** (scratch workspaces, like Pinocchio's `Data`): [`ForwardKinematics`] with its
 //!   derivatives beside it (identification Jacobian, joint Jacobian).
 //! - **Data**: [`Measurement`] and the streaming [`csv`] reader over `embedded_io::Read`.
+//! - **Identification** (steppers: a bounded slice of work per `step()`, snapshots over
+//!   `embedded_io` via [`snapshot`]): [`lm`] (streaming Levenberg–Marquardt with identifiability
+//!   analysis), [`fitness`] (the objective of the global searches), [`pso`], [`bpnn`] and
+//!   [`bpnn_pso`] (Gao et al. 2018).
+//! - **Compensation**: [`compensate`] (damped Newton on the identified model, typed safety errors,
+//!   a trajectory tracker).
+//! - **Frames from sweeps**: [`circle`] (3-D circle fit) and [`sweep_frames`] (joint axes, base
+//!   frame, tool distances; the circle-point method).
+//! - **Measurement planning** (Jost et al. 2017): [`information`] (information matrix, parameter
+//!   and tool covariance), [`observability`] (O1–O5, A/D/E/KPI criteria), [`capsule`] and
+//!   [`scene`] (collision, floor, beam and incidence checks), [`pose_pool`] (feasible candidate
+//!   poses), [`planning`] (greedy + exchange selection), [`online_design`] (next best pose).
 //!
 //! Units: millimetres and radians inside the library; degrees only at file boundaries.
 

@@ -4,28 +4,16 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use kinecal::lm::{Levenberg, LmConfig};
 use kinecal::param::{apply_delta, ParamSet};
-use kinecal::{ForwardKinematics, Frame, Joint, Measurement, Real, Robot};
+use kinecal::{ForwardKinematics, Measurement, Real, Robot};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use std::hint::black_box;
 
+/// The ER20-C10 stand-in of the demo (joint limits ±170°).
 fn er20() -> Robot<f64, 6, 0> {
-    let rows = [
-        (0.0, 0.0, 0.0, 504.0),
-        (-90.0, 170.0, -90.0, 0.0),
-        (0.0, 780.0, 0.0, 0.0),
-        (-90.0, 140.0, 0.0, 760.0),
-        (90.0, 0.0, 0.0, 0.0),
-        (-90.0, 0.0, 0.0, 125.0),
-    ];
-    Robot::new(
-        Frame::identity(),
-        rows.map(|(al, a, th, d)| Joint::mdh_deg(al, a, th, d)),
-        Vector3::new(0.0, 0.0, 100.0),
-    )
-    .unwrap()
+    kinecal_host::sim::er20_c10().with_capacity::<0>().unwrap()
 }
 
 fn data() -> (Robot<f64, 6, 0>, Vec<Measurement<f64, 6>>) {

@@ -312,3 +312,27 @@ pub fn simulate<const N: usize>(
     let points = measure(&truth, &configs, sim.noise_mm, &mut rng.noise);
     Ok((truth, dataset(&configs, &points)))
 }
+
+/// The ER20-C10 stand-in (rows alpha°, a mm, theta°, d mm; tool 100 mm along the flange z).
+pub fn er20_c10() -> kinecal::Robot<f64, 6, { crate::VCAP }> {
+    let rows = [
+        (0.0, 0.0, 0.0, 504.0),
+        (-90.0, 170.0, -90.0, 0.0),
+        (0.0, 780.0, 0.0, 0.0),
+        (-90.0, 140.0, 0.0, 760.0),
+        (90.0, 0.0, 0.0, 0.0),
+        (-90.0, 0.0, 0.0, 125.0),
+    ];
+    let mut joints = rows.map(|(al, a, th, d)| kinecal::Joint::mdh_deg(al, a, th, d));
+    for j in joints.iter_mut() {
+        j.lower = (-170f64).to_radians();
+        j.upper = 170f64.to_radians();
+    }
+    // Cannot fail: finite constants.
+    kinecal::Robot::new(
+        kinecal::Frame::identity(),
+        joints,
+        nalgebra::Vector3::new(0.0, 0.0, 100.0),
+    )
+    .expect("built-in robot")
+}

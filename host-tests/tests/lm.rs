@@ -2,23 +2,15 @@
 
 use kinecal::lm::{rms_error, Levenberg, LmConfig, LmStop};
 use kinecal::param::{apply_delta, Param, ParamSet};
-use kinecal::{ForwardKinematics, Frame, Joint, Measurement, Robot};
+use kinecal::{ForwardKinematics, Measurement, Robot};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
+/// The ER20-C10 stand-in of the demo (joint limits ±170°).
 fn er20() -> Robot<f64, 6, 64> {
-    let rows = [
-        (0.0, 0.0, 0.0, 504.0),
-        (-90.0, 170.0, -90.0, 0.0),
-        (0.0, 780.0, 0.0, 0.0),
-        (-90.0, 140.0, 0.0, 760.0),
-        (90.0, 0.0, 0.0, 0.0),
-        (-90.0, 0.0, 0.0, 125.0),
-    ];
-    let joints = rows.map(|(al, a, th, d)| Joint::mdh_deg(al, a, th, d));
-    Robot::new(Frame::identity(), joints, Vector3::new(0.0, 0.0, 100.0)).unwrap()
+    kinecal_host::sim::er20_c10().with_capacity::<64>().unwrap()
 }
 
 fn perturbed(nominal: &Robot<f64, 6, 64>, rng: &mut Xoshiro256PlusPlus) -> Robot<f64, 6, 64> {

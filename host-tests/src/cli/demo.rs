@@ -8,11 +8,12 @@
 use crate::global::{bpnn_pso_mdh, pso_mdh, train_bpnn};
 use crate::identify::{fit_lm, pose_errors, ErrorStats, Fit};
 use crate::plots;
+use crate::sim::er20_c10;
 use crate::VCAP;
 use kinecal::fitness::PositionFitness;
 use kinecal::lm::LmConfig;
 use kinecal::param::{apply_delta, ParamSet};
-use kinecal::{ForwardKinematics, Frame, Joint, Measurement, Robot};
+use kinecal::{ForwardKinematics, Measurement, Robot};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
@@ -40,25 +41,6 @@ pub struct Args {
     /// Drift of a/d (mm, uniform ±) between the two identifications.
     #[arg(long, default_value_t = 0.01)]
     pub drift_mm: f64,
-}
-
-/// The ER20-C10 stand-in (rows alpha°, a mm, theta°, d mm; tool 100 mm along the flange z).
-pub fn er20_c10() -> Robot<f64, 6, VCAP> {
-    let rows = [
-        (0.0, 0.0, 0.0, 504.0),
-        (-90.0, 170.0, -90.0, 0.0),
-        (0.0, 780.0, 0.0, 0.0),
-        (-90.0, 140.0, 0.0, 760.0),
-        (90.0, 0.0, 0.0, 0.0),
-        (-90.0, 0.0, 0.0, 125.0),
-    ];
-    let mut joints = rows.map(|(al, a, th, d)| Joint::mdh_deg(al, a, th, d));
-    for j in joints.iter_mut() {
-        j.lower = (-170f64).to_radians();
-        j.upper = 170f64.to_radians();
-    }
-    // Cannot fail: finite constants.
-    Robot::new(Frame::identity(), joints, Vector3::new(0.0, 0.0, 100.0)).expect("built-in robot")
 }
 
 /// MDH errors: alpha/theta uniform within ±`angle_deg`, a/d within ±`length_mm`.

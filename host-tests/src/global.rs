@@ -130,7 +130,10 @@ pub fn identify<const N: usize, const V: usize>(
         Method::Pso => Ok(pso_mdh(start, data, seed, 1000, None)?.fit),
         Method::PsoLm => {
             let run = pso_mdh(start, data, seed, 1000, None)?;
-            let mut params: Vec<Param> = ParamSet::<64>::full(N, base_unknown).map_err(|e| anyhow::anyhow!("{e:?}"))?.as_slice().to_vec();
+            let mut params: Vec<Param> = ParamSet::<64>::full(N, base_unknown)
+                .map_err(|e| anyhow::anyhow!("{e:?}"))?
+                .as_slice()
+                .to_vec();
             params.extend(extra.iter().copied());
             let mut polished = fit_lm(&run.fit.robot, &params, data, LmConfig::default())?;
             polished.iterations += run.fit.iterations;
@@ -140,7 +143,14 @@ pub fn identify<const N: usize, const V: usize>(
             polished.history = history;
             Ok(polished)
         }
-        Method::BpnnPso => anyhow::bail!("bpnn-pso needs a network trained on a previous PSO run of this robot (see `kinecal demo`)"),
+        Method::BpnnPso => {
+            // On the command line there is no earlier identification to learn from: a first
+            // ("factory") PSO run on the same data trains the network, as in the paper's
+            // procedure; `kinecal demo` shows the follow-up case where that pays off.
+            let factory = pso_mdh(start, data, seed ^ 0xfac7, 1000, None)?;
+            let net = train_bpnn(&factory, seed)?;
+            Ok(bpnn_pso_mdh(&net, start, data, seed, 1000)?.fit)
+        }
         Method::Lm => fit_lm(start, extra, data, LmConfig::default()),
     }
 }

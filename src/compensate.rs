@@ -8,6 +8,11 @@
 //! [`ForwardKinematics::joint_jacobian`] carries their slope, compliance, cyclic, scale and
 //! table effects are inverted along with the geometry.
 //!
+//! Seeds, commands and joint limits are the controller's own *readings*: with joint couplings
+//! (FANUC J3 read from the horizontal, [`crate::Couplings`]) the forward kinematics maps them
+//! to model angles and the joint Jacobian is taken with respect to the readings (chain rule),
+//! so the Newton steps, the step box and the limits all live in the controller's coordinates.
+//!
 //! Safety, in the order a servo loop needs it:
 //! - every command stays in the box `|q − seed| ≤ max_step` ∩ joint limits, so the answer is
 //!   never a jump, whatever the target;

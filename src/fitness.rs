@@ -21,7 +21,8 @@ use crate::param::{apply_delta, ParamError, ParamSet};
 use crate::robot::RowTrig;
 use crate::{ForwardKinematics, Frame, Joint, Measurement, Real, Robot};
 
-/// `(sin q_j, cos q_j)` of one pose's joint readings: the per-pose cache of [`PositionFitness`].
+/// `(sin q_j, cos q_j)` of one pose's model angles (the joint readings through the robot's
+/// couplings): the per-pose cache of [`PositionFitness`].
 pub type JointTrig<T, const N: usize> = [(T, T); N];
 
 /// A function to minimise over `dimension()` real variables; lower is better.
@@ -89,8 +90,9 @@ impl<'a, T: Real, const N: usize, const V: usize, const P: usize> PositionFitnes
     }
 
     /// As [`PositionFitness::new`], filling `cache` (at least one entry per measurement) with
-    /// the joint readings' sine and cosine so that evaluations need no trigonometry. The cache
-    /// is used only when `reference` has no joint-correction effects.
+    /// the sine and cosine of the readings' model angles (through `reference`'s couplings) so
+    /// that evaluations need no trigonometry. The cache is used only when `reference` has no
+    /// joint-correction effects.
     pub fn with_cache(
         reference: &'a Robot<T, N, V>,
         params: &'a ParamSet<P>,
@@ -101,8 +103,12 @@ impl<'a, T: Real, const N: usize, const V: usize, const P: usize> PositionFitnes
         let cache = cache
             .get_mut(..data.len())
             .ok_or(FitnessError::CacheTooSmall)?;
+        // The model angles of the readings: couplings are part of the reference and constant
+        // over the search (without effects nothing else moves them).
+        let couplings = reference.couplings();
         for (c, m) in cache.iter_mut().zip(data) {
-            for (cj, q) in c.iter_mut().zip(m.q.iter()) {
+            let q = couplings.to_model(&m.q);
+            for (cj, q) in c.iter_mut().zip(q.iter()) {
                 *cj = q.sincos();
             }
         }

@@ -4,7 +4,14 @@
 //! [`ForwardKinematics`] is the per-evaluation workspace (Pinocchio's `Data`): one
 //! [`ForwardKinematics::compute`] fills every joint frame, the measured point and the lever arms,
 //! and the Jacobians are then read off those frames without another pass.
+//!
+//! Order of operations (interfaces.md §2–3): joint readings `r` → the joint corrections act on
+//! the readings, `r' = r + dq(r)` → the couplings map `r'` to model angles → geometry. So the
+//! geometric parameters' Jacobian columns are those of the model angles, while the effect
+//! columns and the joint Jacobian are derivatives with respect to readings (the chain rule
+//! through the couplings, [`ForwardKinematics::reading_column`]).
 
+use crate::coupling::Couplings;
 use crate::param::{Param, ParamError};
 use crate::robot::RowTrig;
 use crate::{Frame, Joint, Real, Robot};
@@ -21,10 +28,11 @@ pub struct ForwardKinematics<T: Real, const N: usize> {
     pub point: Vector3<T>,
     /// Joint readings as given.
     pub q: [T; N],
-    /// Angles applied to the geometry: readings plus the model's joint corrections.
+    /// Angles applied to the geometry (model angles): readings plus the model's joint
+    /// corrections, then mapped through the couplings.
     pub q_geometric: [T; N],
-    /// Lever arms τ_j (m) of a unit downward force at the point, computed at the readings
-    /// (zero unless the model has a compliance term).
+    /// Lever arms τ_j (m) of a unit downward force at the point, computed at the readings'
+    /// model angles without corrections (zero unless the model has a compliance term).
     pub tau: [T; N],
 }
 
@@ -89,7 +97,8 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     /// Evaluates the chain at joint readings `q` and returns the measured point.
     ///
     /// With a compliance term the lever arms need the pose first, so the chain runs twice;
-    /// without one, once. Non-finite readings give non-finite output, never a panic.
+    /// without one, once. Non-finite readings give non-finite output, never a panic. A robot
+    /// without couplings pays one branch for them.
     pub fn compute<const V: usize>(&mut self, robot: &Robot<T, N, V>, q: &[T; N]) -> Vector3<T> {
         self.base = *robot.base();
         self.q = *q;
@@ -99,7 +108,13 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
             self.tau = [T::zero(); N];
         } else {
             if effects.needs_lever_arms() {
-                self.chain(robot, q);
+                // The pose of the readings' model angles, without corrections.
+                self.q_geometric = *q;
+                if !robot.couplings().is_empty() {
+                    self.couple_angles(robot.couplings());
+                }
+                let q0 = self.q_geometric;
+                self.chain(robot, &q0);
                 self.tau = self.lever_arms();
             } else {
                 self.tau = [T::zero(); N];
@@ -109,9 +124,18 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
                 self.q_geometric[i] = q[i] + dq[i];
             }
         }
+        if !robot.couplings().is_empty() {
+            self.couple_angles(robot.couplings());
+        }
         let qg = self.q_geometric;
         self.chain(robot, &qg);
         self.point
+    }
+
+    /// `q_geometric` ← model angles of `q_geometric` (out of line: only coupled robots pay).
+    #[inline(never)]
+    fn couple_angles(&mut self, couplings: &Couplings<T, N>) {
+        self.q_geometric = couplings.to_model(&self.q_geometric);
     }
 
     /// The tool pose: the flange orientation with the origin at the measured point.
@@ -132,11 +156,64 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
         tau
     }
 
-    /// `∂p/∂q_j` at the current pose: z_j × (p − o_j).
-    #[inline]
+    /// `∂p/∂q_j` at the current pose: z_j × (p − o_j), for the model angle `q_j`.
+    #[inline(always)]
     pub fn joint_column(&self, j: usize) -> Vector3<T> {
         let f = &self.frames[j];
         f.z.cross(&(self.point - f.o))
+    }
+
+    /// `∂p/∂r'_j` at the current pose for the corrected reading `r'_j` of joint `j` (what a
+    /// joint correction adds to): the model-angle column plus, for every joint `k` coupled
+    /// from `j`, `ratio_k · ∂p/∂q_k`. Equals [`Self::joint_column`] without couplings.
+    #[inline]
+    pub fn reading_column<const V: usize>(&self, robot: &Robot<T, N, V>, j: usize) -> Vector3<T> {
+        let couplings = robot.couplings();
+        if couplings.is_empty() {
+            self.joint_column(j)
+        } else {
+            self.coupled_column(couplings, j)
+        }
+    }
+
+    /// [`Self::reading_column`] of a coupled robot (out of line: only coupled robots pay).
+    #[inline(never)]
+    fn coupled_column(&self, couplings: &Couplings<T, N>, j: usize) -> Vector3<T> {
+        let mut c = self.joint_column(j);
+        for i in 0..couplings.len() {
+            if let Some((k, f, ratio)) = couplings.entry(i) {
+                if f == j {
+                    c += self.joint_column(k) * ratio;
+                }
+            }
+        }
+        c
+    }
+
+    /// The general joint Jacobian (effects and/or couplings) from the model-angle columns in
+    /// `lin`, `ang`: through the couplings to readings, then times `1 + slope`. Out of line:
+    /// a plain model does not come here.
+    #[inline(never)]
+    fn reading_jacobian<const V: usize>(
+        &self,
+        robot: &Robot<T, N, V>,
+        lin: &mut [Vector3<T>; N],
+        ang: &mut [Vector3<T>; N],
+    ) {
+        let couplings = robot.couplings();
+        if !couplings.is_empty() {
+            couplings.reading_columns(lin);
+            couplings.reading_columns(ang);
+        }
+        let effects = robot.effects();
+        if !effects.is_empty() {
+            let slope = effects.correction_slope(&self.q);
+            for j in 0..N {
+                let g = T::one() + slope[j];
+                lin[j] *= g;
+                ang[j] *= g;
+            }
+        }
     }
 
     /// Frame before joint `i`'s row (the base for the first joint).
@@ -197,14 +274,24 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
                     _ => f.z,
                 }
             }
-            Param::Effect(k) => {
-                let (j, phi) = robot
-                    .effects()
-                    .basis(k as usize, &self.q, &self.tau)
-                    .ok_or(ParamError::OutOfRange)?;
-                self.joint_column(j) * phi
-            }
+            Param::Effect(k) => self.effect_column(robot, k)?,
         })
+    }
+
+    /// The column of effect value `k`: `∂p/∂r'_j · φ_k` (the correction acts on the reading of
+    /// its joint `j`, so the column goes through the couplings). Out of line, so that the
+    /// geometric columns (the LM's inner loop) do not pay for it.
+    #[inline(never)]
+    fn effect_column<const V: usize>(
+        &self,
+        robot: &Robot<T, N, V>,
+        k: u16,
+    ) -> Result<Vector3<T>, ParamError> {
+        let (j, phi) = robot
+            .effects()
+            .basis(k as usize, &self.q, &self.tau)
+            .ok_or(ParamError::OutOfRange)?;
+        Ok(self.reading_column(robot, j) * phi)
     }
 
     /// The identification Jacobian for `params` at the last computed pose, one column per
@@ -224,19 +311,22 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
         Ok(())
     }
 
-    /// Joint Jacobian of the point (`lin[j] = ∂p/∂q_j`) and of the tool orientation
-    /// (`ang[j]`, rotation vector per rad), including the slope of the joint corrections.
+    /// Joint Jacobian of the point (`lin[j] = ∂p/∂r_j`) and of the tool orientation
+    /// (`ang[j]`, rotation vector per rad) with respect to the joint *readings* `r`, including
+    /// the slope of the joint corrections and the couplings (chain rule).
     pub fn joint_jacobian<const V: usize>(
         &self,
         robot: &Robot<T, N, V>,
     ) -> ([Vector3<T>; N], [Vector3<T>; N]) {
-        let slope = robot.effects().correction_slope(&self.q);
         let mut lin = [Vector3::zeros(); N];
         let mut ang = [Vector3::zeros(); N];
         for j in 0..N {
-            let g = T::one() + slope[j];
-            lin[j] = self.joint_column(j) * g;
-            ang[j] = self.frames[j].z * g;
+            lin[j] = self.joint_column(j);
+            ang[j] = self.frames[j].z;
+        }
+        // A plain model (the servo loop's usual case): readings are model angles, slope 0.
+        if !(robot.effects().is_empty() && robot.couplings().is_empty()) {
+            self.reading_jacobian(robot, &mut lin, &mut ang);
         }
         (lin, ang)
     }

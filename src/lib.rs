@@ -10,7 +10,8 @@
 //!   on an M4F), [`linalg`] (Cholesky, rank-revealing Cholesky, Jacobi eigen on fixed storage).
 //! - **Model** (constant description, like Pinocchio's `Model`): [`Frame`], [`Joint`] (modified
 //!   DH + Hayati tilt), [`Robot`] (base pose, rows, tool point, [`Effects`] = the non-geometric
-//!   joint corrections of interfaces.md §2), [`param`] (named parameters, the identified subset,
+//!   joint corrections of interfaces.md §2, [`Couplings`] = joints read relative to another),
+//!   [`param`] (named parameters, the identified subset,
 //!   updates).
 //! - **Kinematics** (scratch workspaces, like Pinocchio's `Data`): [`ForwardKinematics`] with its
 //!   derivatives beside it (identification Jacobian, joint Jacobian).
@@ -43,6 +44,7 @@ pub mod bpnn_pso;
 pub mod capsule;
 pub mod circle;
 pub mod compensate;
+pub mod coupling;
 pub mod csv;
 pub mod effects;
 pub mod fitness;
@@ -65,6 +67,7 @@ pub mod snapshot;
 pub mod sweep_frames;
 pub mod trig;
 
+pub use coupling::{CouplingError, Couplings};
 pub use effects::{Effect, EffectKind, Effects};
 pub use forward::ForwardKinematics;
 pub use frame::Frame;

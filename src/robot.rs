@@ -1,9 +1,11 @@
-//! The constant robot description: base pose, MDH rows with tilt, tool point, joint corrections.
+//! The constant robot description: base pose, MDH rows with tilt, tool point, joint corrections,
+//! joint couplings.
 //!
 //! This is the *model* (read-mostly); per-evaluation scratch lives in
 //! [`crate::ForwardKinematics`]. The constant trigonometry of every row (`alpha`, `beta`) is
 //! cached here, so it is paid once per parameter change, not once per pose.
 
+use crate::coupling::{CouplingError, Couplings};
 use crate::effects::Effects;
 use crate::{Frame, Real};
 use nalgebra::Vector3;
@@ -72,6 +74,14 @@ pub(crate) struct RowTrig<T: Real> {
 pub enum RobotError {
     /// A parameter is NaN or infinite, or a joint's limits are not `lower < upper`.
     NotFinite,
+    /// A joint coupling was refused (see [`Couplings::add`]).
+    BadCoupling(CouplingError),
+}
+
+impl From<CouplingError> for RobotError {
+    fn from(e: CouplingError) -> Self {
+        RobotError::BadCoupling(e)
+    }
 }
 
 /// A serial robot with `N` revolute joints and room for `V` joint-correction values.
@@ -84,6 +94,9 @@ pub struct Robot<T: Real, const N: usize, const V: usize = 0> {
     trig: [RowTrig<T>; N],
     /// Cached [`Robot::reach`] (it needs a square root, costly in `f32` on a Cortex-M4F).
     reach: T,
+    /// Joints read relative to another (FANUC J3); empty for most arms. Last, so that the
+    /// hot fields keep their offsets (an `f32` load reaches 1020 bytes on a Cortex-M4F).
+    couplings: Couplings<T, N>,
 }
 
 impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
@@ -106,6 +119,7 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
             joints,
             tool,
             effects: Effects::default(),
+            couplings: Couplings::default(),
             trig: [RowTrig::default(); N],
             reach: T::one(),
         };
@@ -148,6 +162,10 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
     pub fn effects(&self) -> &Effects<T, V> {
         &self.effects
     }
+    /// The joint couplings: readings → model angles (see [`crate::coupling`]).
+    pub fn couplings(&self) -> &Couplings<T, N> {
+        &self.couplings
+    }
     pub(crate) fn trig(&self) -> &[RowTrig<T>; N] {
         &self.trig
     }
@@ -182,6 +200,23 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
         self.tool = tool;
         self.refresh();
         Ok(())
+    }
+
+    /// Couples `joint` to `from` (0-based): the model angle of `joint` is its reading plus
+    /// `ratio` times the reading of `from`. On error the robot is unchanged.
+    pub fn set_coupling(&mut self, joint: usize, from: usize, ratio: T) -> Result<(), RobotError> {
+        self.couplings.add(joint, from, ratio)?;
+        Ok(())
+    }
+
+    /// Removes the coupling of `joint`, if any.
+    pub fn remove_coupling(&mut self, joint: usize) {
+        self.couplings.remove(joint);
+    }
+
+    /// Removes every coupling: readings are model angles again.
+    pub fn clear_couplings(&mut self) {
+        self.couplings.clear();
     }
 
     /// The effect list, to add corrections (see [`Effects::push`]).
@@ -219,7 +254,7 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
             .all(|(q, j)| *q >= j.lower && *q <= j.upper)
     }
 
-    /// The same robot in another scalar type (effects included).
+    /// The same robot in another scalar type (effects and couplings included).
     pub fn cast<U: Real>(&self) -> Robot<U, N, V> {
         let c = |x: T| U::of(x.to_f64());
         let joints = self.joints.map(|j| Joint {
@@ -236,6 +271,7 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
             joints,
             tool: Vector3::new(c(self.tool.x), c(self.tool.y), c(self.tool.z)),
             effects: Effects::default(),
+            couplings: self.couplings.cast(),
             trig: [RowTrig::default(); N],
             reach: U::one(),
         };
@@ -260,7 +296,8 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
         r
     }
 
-    /// The same geometry and effects with a different value capacity `W` (fails if too small).
+    /// The same geometry, effects and couplings with a different value capacity `W` (fails if
+    /// too small).
     pub fn with_capacity<const W: usize>(
         &self,
     ) -> Result<Robot<T, N, W>, crate::effects::EffectError> {
@@ -269,6 +306,7 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
             joints: self.joints,
             tool: self.tool,
             effects: Effects::default(),
+            couplings: self.couplings,
             trig: self.trig,
             reach: self.reach,
         };

@@ -26,8 +26,16 @@
 //! The base height is not observable from the sweeps (it trades off with `d1`): the nominal `d1`
 //! fixes it, as in the paper. Parallel joint-1 and joint-2 axes leave the height undetermined and
 //! are refused.
+//!
+//! **Couplings.** With joint couplings (FANUC J3 read from the horizontal) a sweep is a
+//! single-joint rotation of the *model* angle: [`base_from_sweeps`] and [`tool_from_sweeps`]
+//! map the readings through the robot's couplings and require that only the swept joint's
+//! model angle moved. Turning J2's reading alone also turns J3's model angle (the point then
+//! does not move on a circle): that is refused with [`FramesError::CoupledJointMoved`]; the
+//! sweep must move the coupled joint's reading by `−ratio ×` the swept joint's change.
 
 use crate::circle::{basis, fit_circle_with, unit, Circle, CircleError};
+use crate::coupling::Couplings;
 use crate::linalg::{cholesky, cholesky_solve, Square};
 use crate::{ForwardKinematics, Frame, Real, Robot};
 use nalgebra::Vector3;
@@ -49,6 +57,10 @@ pub enum FramesError {
     NoRotation,
     /// A joint other than the swept one moved during the sweep (0-based joint index).
     OtherJointMoved(u8),
+    /// The model angle of this joint (0-based) turned with the swept joint because it is
+    /// coupled to it ([`crate::Couplings`]) while its reading stayed put: the sweep is not a
+    /// single rotation. Move its reading by `−ratio ×` the swept joint's change instead.
+    CoupledJointMoved(u8),
     /// The two axes are parallel: the base height or the common normal is undetermined.
     ParallelAxes,
     /// The two lines coincide.
@@ -251,6 +263,16 @@ impl<'a, T: Real, const N: usize> Sweep<'a, T, N> {
     /// Mean readings over the sweep; errors if a joint other than the swept one moved by more
     /// than [`FIXED_JOINT_TOLERANCE`].
     pub fn fixed_readings(&self) -> Result<[T; N], FramesError> {
+        self.fixed_readings_coupled(&Couplings::new())
+    }
+
+    /// As [`Sweep::fixed_readings`] for a robot with `couplings`: the joints other than the
+    /// swept one must keep their *model* angles (readings through the couplings). Returns the
+    /// mean readings.
+    pub fn fixed_readings_coupled(
+        &self,
+        couplings: &Couplings<T, N>,
+    ) -> Result<[T; N], FramesError> {
         self.check()?;
         if self.q.is_empty() {
             return Err(FramesError::Circle(CircleError::TooFewPoints));
@@ -269,11 +291,31 @@ impl<'a, T: Real, const N: usize> Sweep<'a, T, N> {
             *m /= nt;
         }
         let tol = T::of(FIXED_JOINT_TOLERANCE);
-        for row in self.q.iter() {
-            for (j, (v, m)) in row.iter().zip(mean.iter()).enumerate() {
-                if j != self.joint && (*v - *m).abs() > tol {
-                    return Err(FramesError::OtherJointMoved(j as u8));
+        if couplings.is_empty() {
+            for row in self.q.iter() {
+                for (j, (v, m)) in row.iter().zip(mean.iter()).enumerate() {
+                    if j != self.joint && (*v - *m).abs() > tol {
+                        return Err(FramesError::OtherJointMoved(j as u8));
+                    }
                 }
+            }
+            return Ok(mean);
+        }
+        // The model angles are linear in the readings: their mean is the mean's model angles.
+        let mean_model = couplings.to_model(&mean);
+        for row in self.q.iter() {
+            let model = couplings.to_model(row);
+            for j in 0..N {
+                if j == self.joint || !((model[j] - mean_model[j]).abs() > tol) {
+                    continue;
+                }
+                let dragged = couplings.get(j).is_some_and(|(f, _)| f == self.joint)
+                    && !((row[j] - mean[j]).abs() > tol);
+                return Err(if dragged {
+                    FramesError::CoupledJointMoved(j as u8)
+                } else {
+                    FramesError::OtherJointMoved(j as u8)
+                });
             }
         }
         Ok(mean)
@@ -317,8 +359,9 @@ pub fn base_from_sweeps<T: Real, const N: usize, const V: usize>(
     if N < 2 || first.joint != 0 || second.joint != 1 {
         return Err(FramesError::Shape);
     }
-    first.fixed_readings()?;
-    let q = second.fixed_readings()?;
+    let couplings = robot.couplings();
+    first.fixed_readings_coupled(couplings)?;
+    let q = second.fixed_readings_coupled(couplings)?;
     let axis1 = first.axis()?;
     let axis2 = second.axis()?;
     let measured = common_normal(&axis1.line, &axis2.line)?;
@@ -445,7 +488,8 @@ pub fn tool_from_sweeps<T: Real, const N: usize, const V: usize>(
     if N < 2 || wrist.joint != N - 2 || flange.is_some_and(|f| f.joint != N - 1) {
         return Err(FramesError::Shape);
     }
-    let qw = wrist.fixed_readings()?;
+    let couplings = robot.couplings();
+    let qw = wrist.fixed_readings_coupled(couplings)?;
     let wax = wrist.axis()?;
     let last = robot.joints().get(N - 1).ok_or(FramesError::Shape)?;
     let a_last = last.a;
@@ -466,10 +510,12 @@ pub fn tool_from_sweeps<T: Real, const N: usize, const V: usize>(
             flange: None,
         });
     };
-    let qf = fl.fixed_readings()?;
-    let same_arm = qw
+    let qf = fl.fixed_readings_coupled(couplings)?;
+    // The same arm pose: the joints before the wrist at the same model angles.
+    let (mw, mf) = (couplings.to_model(&qw), couplings.to_model(&qf));
+    let same_arm = mw
         .iter()
-        .zip(qf.iter())
+        .zip(mf.iter())
         .take(N - 2)
         .all(|(a, b)| (*a - *b).abs() <= T::of(FIXED_JOINT_TOLERANCE));
     let rot = rotation_fit(fl)?;

@@ -181,7 +181,7 @@ impl Problem {
             let first = e.first as usize;
             if e.kind == EffectKind::Table {
                 let (seg, w) = e.segment(m.q[j]);
-                let jc = fk.joint_column(j);
+                let jc = fk.reading_column(robot, j);
                 for (kk, wk) in [(seg, 1.0 - w), (seg + 1, w)] {
                     if wk == 0.0 {
                         continue;

@@ -1,5 +1,6 @@
-//! An independent `f64` reference of interfaces.md §1–2, written plainly from the formulas
-//! with 4×4 homogeneous matrices, and its derivatives by central differences.
+//! An independent `f64` reference of interfaces.md §1–3, written plainly from the formulas
+//! with 4×4 homogeneous matrices, and its derivatives by central differences. Joint couplings
+//! (§3 `[[couplings]]`) are a plain N×N matrix applied to the corrected readings.
 //!
 //! It shares nothing with the library's kinematics (no `Frame`, no cached trigonometry, no
 //! analytic Jacobian): the cross-check tests compare the two. Slow on purpose.
@@ -8,7 +9,7 @@ use crate::robot_file::{RobotFile, AXIS_TILT};
 use kinecal::effects::EffectKind;
 use kinecal::param::Param;
 use kinecal::Robot;
-use nalgebra::{Matrix3, Matrix4, Rotation3, Vector3, Vector4};
+use nalgebra::{DMatrix, DVector, Matrix3, Matrix4, Rotation3, Vector3, Vector4};
 
 /// One MDH row with tilt (rad, mm).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -56,6 +57,15 @@ impl RefEffect {
     }
 }
 
+/// A joint read relative to another (0-based): model angle of `joint` = its reading +
+/// `ratio` · the reading of `from`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RefCoupling {
+    pub joint: usize,
+    pub from: usize,
+    pub ratio: f64,
+}
+
 /// The reference robot: `p = B·T_1(q_1)…T_N(q_N)·tool`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RefRobot {
@@ -65,6 +75,8 @@ pub struct RefRobot {
     pub tool: Vector3<f64>,
     /// In the order of the library's effect list (its value numbering follows this order).
     pub effects: Vec<RefEffect>,
+    /// Joint couplings: model angles = C · (corrected readings), C = I + Σ ratio·e_joint·e_fromᵀ.
+    pub couplings: Vec<RefCoupling>,
 }
 
 /// Rotation about x by `t` (homogeneous).
@@ -190,11 +202,21 @@ impl RefRobot {
                 _ => {}
             }
         }
+        let couplings = f
+            .couplings
+            .iter()
+            .map(|c| RefCoupling {
+                joint: c.joint - 1,
+                from: c.from - 1,
+                ratio: c.ratio,
+            })
+            .collect();
         RefRobot {
             base,
             joints,
             tool: Vector3::from(f.tool.xyz_mm),
             effects,
+            couplings,
         }
     }
 
@@ -243,11 +265,17 @@ impl RefRobot {
                 }
             })
             .collect();
+        let couplings = r
+            .couplings()
+            .iter()
+            .map(|(joint, from, ratio)| RefCoupling { joint, from, ratio })
+            .collect();
         RefRobot {
             base,
             joints,
             tool: *r.tool(),
             effects,
+            couplings,
         }
     }
 
@@ -276,7 +304,8 @@ impl RefRobot {
     }
 
     /// Lever arms tau_j (m) of a unit downward force at the point about each joint axis, from
-    /// the geometry at the readings: `((z_j × (p − o_j)) · g) / 1000`, g = (0, 0, −1), base frame.
+    /// the geometry at the angles `q` (the readings' model angles, without corrections):
+    /// `((z_j × (p − o_j)) · g) / 1000`, g = (0, 0, −1), base frame.
     pub fn lever_arms(&self, q: &[f64]) -> Vec<f64> {
         let frames = self.frames_in_base(q);
         let p = self.point_in_base(q);
@@ -290,14 +319,30 @@ impl RefRobot {
             .collect()
     }
 
-    /// The angles the geometry sees: readings plus every correction.
+    /// The coupling matrix C (N×N): model angles = C · readings.
+    pub fn coupling_matrix(&self) -> DMatrix<f64> {
+        let n = self.joints.len();
+        let mut c = DMatrix::identity(n, n);
+        for k in &self.couplings {
+            c[(k.joint, k.from)] += k.ratio;
+        }
+        c
+    }
+
+    /// Model angles of (corrected) readings: `C · r`.
+    pub fn coupled(&self, r: &[f64]) -> Vec<f64> {
+        let v = self.coupling_matrix() * DVector::from_column_slice(r);
+        v.iter().copied().collect()
+    }
+
+    /// The angles the geometry sees: readings plus every correction, through the couplings.
     pub fn corrected(&self, q: &[f64]) -> Vec<f64> {
         let tau = if self
             .effects
             .iter()
             .any(|e| matches!(e, RefEffect::Compliance { .. }))
         {
-            self.lever_arms(q)
+            self.lever_arms(&self.coupled(q))
         } else {
             vec![0.0; q.len()]
         };
@@ -318,7 +363,7 @@ impl RefRobot {
                 } => out[*joint] += table_value(*start, *step, knots, q[*joint]),
             }
         }
-        out
+        self.coupled(&out)
     }
 
     /// The full chain `B·T_1…T_N` at readings `q` (corrections applied).

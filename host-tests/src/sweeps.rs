@@ -2,6 +2,11 @@
 //! `kinecal frames`): one joint turns through a span around a rest configuration while the
 //! others stay at rest, the tracker reads the point with Gaussian noise, and each row carries
 //! the swept joint's number in the extra column [`SWEEP_COLUMN`].
+//!
+//! With joint couplings a sweep turns one *model* angle: sweeping the reading of a joint that
+//! others are coupled from (FANUC J2, with J3 read from the horizontal) moves each coupled
+//! joint's reading by `−ratio ×` the swept reading's change, so their model angles stay put and
+//! the point moves on a circle about the swept axis (what `kinecal frames` needs).
 
 use crate::data::{quantize_deg, Dataset, Record};
 use crate::sim::{measure, Streams};
@@ -15,8 +20,10 @@ pub const SWEEP_COLUMN: &str = "sweep";
 
 /// Readings (degrees) of one sweep of `joint` (0-based): `points` values over `span_deg`
 /// centred on the rest reading, shifted (and if need be shortened) to stay inside the joint's
-/// limits. A span of 360° or more gives `points` evenly spaced readings round the full turn
-/// (no repeated end point). Every reading is quantized to what the CSV writer keeps.
+/// limits (and, with couplings, inside the range where the coupled joints' compensating
+/// readings stay within theirs, see [`coupled_readings`]). A span of 360° or more gives
+/// `points` evenly spaced readings round the full turn (no repeated end point). Every reading
+/// is quantized to what the CSV writer keeps.
 pub fn sweep_readings<const N: usize, const V: usize>(
     robot: &Robot<f64, N, V>,
     rest_deg: &[f64; N],
@@ -33,8 +40,20 @@ pub fn sweep_readings<const N: usize, const V: usize>(
     if !(span_deg.is_finite() && span_deg > 0.0) {
         bail!("the sweep span must be a positive number of degrees, got {span_deg}");
     }
-    let (lower, upper) = (j.lower.to_degrees(), j.upper.to_degrees());
+    let (mut lower, mut upper) = (j.lower.to_degrees(), j.upper.to_degrees());
     let rest = rest_deg[joint];
+    // Coupled joints follow with −ratio × the change: keep their readings within limits.
+    for (k, ratio) in robot.couplings().dependents(joint) {
+        if ratio == 0.0 {
+            continue;
+        }
+        let lk = &robot.joints()[k];
+        let (lo_k, hi_k) = (lk.lower.to_degrees(), lk.upper.to_degrees());
+        let a = rest + (rest_deg[k] - hi_k) / ratio;
+        let b = rest + (rest_deg[k] - lo_k) / ratio;
+        lower = lower.max(a.min(b));
+        upper = upper.min(a.max(b));
+    }
     if !(rest >= lower && rest <= upper) {
         bail!(
             "rest reading {rest}° of joint {} is outside its limits [{lower}°, {upper}°]",
@@ -56,6 +75,28 @@ pub fn sweep_readings<const N: usize, const V: usize>(
     Ok((0..points)
         .map(|k| quantize_deg(lo + span * k as f64 / steps).clamp(lower, upper))
         .collect())
+}
+
+/// The readings (degrees) of a sweep row: `rest_deg` with `joint` (0-based) at `reading`, and
+/// every joint coupled from `joint` moved by `−ratio × (reading − rest)` so that its model
+/// angle stays at rest (quantized like every reading the CSV writer keeps).
+pub fn coupled_readings<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    rest_deg: &[f64; N],
+    joint: usize,
+    reading: f64,
+) -> [f64; N] {
+    let mut c = *rest_deg;
+    if joint >= N {
+        return c;
+    }
+    c[joint] = reading;
+    for (k, ratio) in robot.couplings().dependents(joint) {
+        let lk = &robot.joints()[k];
+        c[k] = quantize_deg(rest_deg[k] - ratio * (reading - rest_deg[joint]))
+            .clamp(lk.lower.to_degrees(), lk.upper.to_degrees());
+    }
+    c
 }
 
 /// Distance (mm) of the measured point from joint `j`'s axis at readings `q` (rad).
@@ -163,8 +204,7 @@ pub fn sweep_data<const N: usize, const V: usize>(
             bail!("cannot sweep joint {joint}: joints are numbered 1 to {N}");
         }
         for q in sweep_readings(robot, &rest, joint - 1, points, span_deg)? {
-            let mut c = rest;
-            c[joint - 1] = q;
+            let c = coupled_readings(robot, &rest, joint - 1, q);
             configs.push(c.map(f64::to_radians));
             labels.push(joint as f64);
         }

@@ -428,13 +428,17 @@ fn stream(
 fn kinematics(checks: &mut Checks, id: &[Measurement<f32, N>]) {
     let nominal = scenario::nominal::<f32>();
     let mut fk = ForwardKinematics::<f32, N>::new();
-    let mut worst = 0.0f32;
-    for (m, want) in id.iter().zip(host::NOMINAL_FK.iter()) {
-        let p = fk_f32(&mut fk, &nominal, &m.q);
-        worst = worst.max((p - v3(want)).norm());
-    }
+    let worst = fk_worst(&mut fk, &nominal, id, &host::NOMINAL_FK);
     checks.check(
         "fk.f32",
+        worst < 2e-3,
+        format_args!("max |p_f32 - p_f64| = {} µm", fx(worst * 1e3, 3)),
+    );
+    // The FANUC way of reading J3 (from the horizontal, q3 = J3 + J2): same readings, other
+    // points.
+    let worst = fk_worst(&mut fk, &scenario::coupled(), id, &host::COUPLED_FK);
+    checks.check(
+        "fk.coupled_f32",
         worst < 2e-3,
         format_args!("max |p_f32 - p_f64| = {} µm", fx(worst * 1e3, 3)),
     );
@@ -848,6 +852,22 @@ fn report(name: &str, insns: f32) {
 #[inline(never)]
 fn fk_f32(fk: &mut ForwardKinematics<f32, N>, robot: &Robot<f32, N>, q: &[f32; N]) -> Vector3<f32> {
     fk.compute(robot, q)
+}
+
+/// Largest distance (mm) of `robot`'s f32 points at the first poses of `id` from the host's.
+#[inline(never)]
+fn fk_worst(
+    fk: &mut ForwardKinematics<f32, N>,
+    robot: &Robot<f32, N>,
+    id: &[Measurement<f32, N>],
+    want: &[[f64; 3]],
+) -> f32 {
+    let mut worst = 0.0f32;
+    for (m, w) in id.iter().zip(want.iter()) {
+        let p = fk_f32(fk, robot, &m.q);
+        worst = worst.max((p - v3(w)).norm());
+    }
+    worst
 }
 
 #[inline(never)]

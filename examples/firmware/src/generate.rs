@@ -151,6 +151,12 @@ fn reference(csv: &[u8], truth: &Robot<f64, N>) -> String {
         .take(4)
         .map(|m| fk.compute(&nominal, &m.q).into())
         .collect();
+    let coupled = scenario::coupled::<f64>();
+    let coupled_fk: Vec<[f64; 3]> = id
+        .iter()
+        .take(4)
+        .map(|m| fk.compute(&coupled, &m.q).into())
+        .collect();
     fk.compute(&nominal, &id[0].q);
     let set = scenario::params();
     let mut cols = [Vector3::zeros(); P];
@@ -218,6 +224,15 @@ fn reference(csv: &[u8], truth: &Robot<f64, N>) -> String {
         o,
         "pub const NOMINAL_FK: [[f64; 3]; 4] = {};",
         arr3(&nominal_fk)
+    );
+    let _ = writeln!(
+        o,
+        "/// The same poses' readings on the coupled arm (q3 = J3 + J2), mm."
+    );
+    let _ = writeln!(
+        o,
+        "pub const COUPLED_FK: [[f64; 3]; 4] = {};",
+        arr3(&coupled_fk)
     );
     let _ = writeln!(
         o,

@@ -10,6 +10,13 @@ pub const NOMINAL_FK: [[f64; 3]; 4] = [
     [-1211.6050469851018, 284.34698036039845, -460.33122336818593],
     [-365.500702361293, -666.9889275454393, 861.2233173845082],
 ];
+/// The same poses' readings on the coupled arm (q3 = J3 + J2), mm.
+pub const COUPLED_FK: [[f64; 3]; 4] = [
+    [750.0238886449665, -204.84023440406702, 1519.9279069760623],
+    [527.9890271285469, 407.5328193808327, 835.4418961713579],
+    [343.68579370501135, -187.72102984792235, -265.12483669206927],
+    [-342.00431364356285, -585.0818134720118, 788.2203123307546],
+];
 /// RMS error of the nominal model on the identification poses, mm.
 pub const NOMINAL_RMS_MM: f64 = 2.477368008659823;
 /// Identification Jacobian of the 24 parameters, nominal model, first pose.

@@ -40,6 +40,16 @@ pub fn nominal<T: Real>() -> Robot<T, N> {
     }
 }
 
+/// The same arm read the FANUC way: J3 measured from the horizontal, so the model angle is
+/// `q3 = J3 + J2` (a `[[couplings]]` table, interfaces.md §3).
+pub fn coupled<T: Real>() -> Robot<T, N> {
+    let mut r = nominal::<T>();
+    match r.set_coupling(2, 1, T::one()) {
+        Ok(()) => r,
+        Err(_) => unreachable!("J3 from J2 is a valid coupling"),
+    }
+}
+
 /// The 24 parameters of the paper's model.
 pub fn params() -> ParamSet<P> {
     match ParamSet::mdh(N) {

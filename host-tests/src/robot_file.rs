@@ -2,15 +2,18 @@
 //! from the library's [`Robot`].
 //!
 //! Units in the file are degrees and millimetres; the library works in radians. Angles are
-//! written so that reading them back gives the *same* `f64` radians (see [`deg_exact`]), so an
-//! identified model survives a write/read cycle bit for bit (the base orientation, stored as
-//! roll/pitch/yaw, to rounding).
+//! written as the shortest decimal that reads back as the *same* `f64` radians (see
+//! [`deg_short`]): the user's `-60.0` comes back as `-60.0`, and an identified model survives a
+//! write/read cycle bit for bit (the base orientation, stored as roll/pitch/yaw, to rounding).
 //!
 //! Every loading error is one line `FILE:LINE:COLUMN: what is wrong`, pointing at the offending
-//! table when the problem is a value rather than the syntax.
+//! table when the problem is a value rather than the syntax; it makes the command line exit
+//! with status 2 (input refused, [`crate::refused`]). Files are written atomically
+//! ([`crate::atomic::write_atomic`]).
 
-use crate::VCAP;
+use crate::{refused, VCAP};
 use anyhow::{anyhow, Context};
+use kinecal::coupling::MAX_COUPLINGS;
 use kinecal::effects::{EffectKind, MAX_EFFECTS};
 use kinecal::{Frame, Joint, Robot};
 use nalgebra::Vector3;
@@ -35,6 +38,9 @@ pub struct RobotFile {
     pub base: Option<BaseSpec>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub effects: Vec<EffectSpec>,
+    /// `[[couplings]]`: joints read relative to another (interfaces.md §3).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub couplings: Vec<CouplingSpec>,
 }
 
 /// One `[[joints]]` table: the modified DH row of interfaces.md §1.
@@ -91,6 +97,19 @@ pub struct EffectSpec {
     pub start_deg: Option<f64>,
 }
 
+/// One `[[couplings]]` table: the model angle of `joint` is its reading plus `ratio` times the
+/// reading of `from` (FANUC J3 measured from the horizontal: `joint = 3, from = 2, ratio = 1`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CouplingSpec {
+    /// 1-based joint whose reading is relative.
+    pub joint: usize,
+    /// 1-based joint whose reading it is relative to.
+    pub from: usize,
+    /// `q_joint = reading_joint + ratio · reading_from` (degrees per degree).
+    pub ratio: f64,
+}
+
 /// The same file with the position of every table, for error messages. Unknown keys are
 /// refused everywhere: a misspelt `[[joints]]` must not silently drop a joint.
 #[derive(Deserialize)]
@@ -104,6 +123,8 @@ struct RawFile {
     base: Option<Spanned<BaseSpec>>,
     #[serde(default)]
     effects: Vec<Spanned<EffectSpec>>,
+    #[serde(default)]
+    couplings: Vec<Spanned<CouplingSpec>>,
 }
 
 /// Where a validation problem is (indices are 0-based positions in the file's lists).
@@ -115,6 +136,7 @@ pub enum Place {
     Tool,
     Base,
     Effect(usize),
+    Coupling(usize),
 }
 
 /// A value problem found by [`RobotFile::validate`].
@@ -170,6 +192,77 @@ pub fn deg_exact(rad: f64) -> f64 {
         }
     }
     d0
+}
+
+/// Degrees of an angle in radians as the user would write them: the `f64` with the shortest
+/// decimal form among those `d` with `d.to_radians() == rad` (so `(-60f64).to_radians()` gives
+/// back `-60.0`, not `-59.99999999999999`), trying increasing precision. Keeps the guarantee of
+/// [`deg_exact`] (which it falls back on): the value reads back as the same radians.
+pub fn deg_short(rad: f64) -> f64 {
+    let d0 = deg_exact(rad);
+    if !d0.is_finite() || d0 == 0.0 {
+        return d0;
+    }
+    for digits in 1..=17usize {
+        // The nearest `digits`-significant-digit decimal, and its neighbours one unit of the
+        // last digit either side (the set of exact values is a few ulps wide, so the shortest
+        // decimal in it is one of these).
+        let text = format!("{:.*e}", digits - 1, d0);
+        let Some((mantissa, exp)) = text.split_once('e') else {
+            continue;
+        };
+        let (Ok(m), Ok(e)) = (mantissa.parse::<f64>(), exp.parse::<i32>()) else {
+            continue;
+        };
+        let unit = 10f64.powi(digits as i32 - 1);
+        let m_int = (m * unit).round();
+        let mut best: Option<f64> = None;
+        for k in [0.0, -1.0, 1.0] {
+            let cand: Option<f64> = format!("{}e{}", m_int + k, e - (digits as i32 - 1))
+                .parse()
+                .ok();
+            if let Some(c) = cand {
+                if c.to_radians() == rad && best.is_none_or(|b| (c - d0).abs() < (b - d0).abs()) {
+                    best = Some(c);
+                }
+            }
+        }
+        if let Some(b) = best {
+            return b;
+        }
+    }
+    d0
+}
+
+/// Roll, pitch, yaw (degrees) of a base pose as the user would write them: the shortest
+/// decimals (same number of significant digits for the three) from which
+/// [`Frame::from_xyz_rpy`] rebuilds exactly this rotation, so a `[base]` read from a file is
+/// written back as given (`1.0`, not `0.9999999999999998`). Falls back on [`deg_short`] of
+/// each angle (an identified base's rotation, which no short decimals reproduce).
+pub fn rpy_deg_short(base: &Frame<f64>) -> [f64; 3] {
+    let rpy = base.rpy();
+    let fallback = rpy.map(deg_short);
+    if !fallback.iter().all(|v| v.is_finite()) {
+        return fallback;
+    }
+    let xyz = [base.o.x, base.o.y, base.o.z];
+    let same = |deg: [f64; 3]| {
+        let f = Frame::from_xyz_rpy(xyz, deg.map(f64::to_radians));
+        f.x == base.x && f.y == base.y && f.z == base.z
+    };
+    for digits in 1..=17usize {
+        let cand = fallback.map(|d| {
+            if d == 0.0 {
+                0.0
+            } else {
+                format!("{:.*e}", digits - 1, d).parse().unwrap_or(d)
+            }
+        });
+        if same(cand) {
+            return cand;
+        }
+    }
+    fallback
 }
 
 fn finite(xs: &[f64]) -> bool {
@@ -324,6 +417,40 @@ impl RobotFile {
                 total += e.values.len();
             }
         }
+        for (i, c) in self.couplings.iter().enumerate() {
+            let p = Place::Coupling(i);
+            let what = format!("coupling of joint {} from joint {}", c.joint, c.from);
+            if i >= MAX_COUPLINGS {
+                return issue(
+                    p,
+                    format!("{what}: at most {MAX_COUPLINGS} couplings are supported"),
+                );
+            }
+            if c.joint < 1 || c.joint > n || c.from < 1 || c.from > n {
+                return issue(p, format!("{what}: joint and from must be 1 to {n}"));
+            }
+            if c.joint == c.from {
+                return issue(p, format!("{what}: a joint cannot be coupled to itself"));
+            }
+            if !c.ratio.is_finite() {
+                return issue(p, format!("{what}: ratio must be a finite number"));
+            }
+            let earlier = &self.couplings[..i];
+            if earlier.iter().any(|o| o.joint == c.joint) {
+                return issue(p, format!("{what}: joint {} is coupled twice", c.joint));
+            }
+            let chained = self
+                .couplings
+                .iter()
+                .enumerate()
+                .any(|(k, o)| k != i && (o.joint == c.from || o.from == c.joint));
+            if chained {
+                return issue(
+                    p,
+                    format!("{what}: chained couplings are not supported (a coupled joint cannot be the `from` of another coupling)"),
+                );
+            }
+        }
         let n_eff = self.effects.iter().filter(|e| e.kind != AXIS_TILT).count();
         if n_eff > MAX_EFFECTS || total > VCAP {
             return issue(
@@ -344,11 +471,11 @@ impl RobotFile {
             None => format!("{origin}:1:1"),
         };
         let raw: RawFile = toml::from_str(text).map_err(|e| {
-            anyhow!(
+            refused(format!(
                 "{}: {}",
                 at(e.span()),
                 e.message().trim().replace('\n', " ")
-            )
+            ))
         })?;
         let file = RobotFile {
             name: raw.name,
@@ -361,6 +488,7 @@ impl RobotFile {
             tool: raw.tool.get_ref().clone(),
             base: raw.base.as_ref().map(|b| b.get_ref().clone()),
             effects: raw.effects.iter().map(|e| e.get_ref().clone()).collect(),
+            couplings: raw.couplings.iter().map(|c| c.get_ref().clone()).collect(),
         };
         if let Err(issue) = file.validate() {
             let span = match issue.place {
@@ -370,8 +498,9 @@ impl RobotFile {
                 Place::Tool => Some(raw.tool.span()),
                 Place::Base => raw.base.as_ref().map(|b| b.span()),
                 Place::Effect(i) => raw.effects.get(i).map(|e| e.span()),
+                Place::Coupling(i) => raw.couplings.get(i).map(|c| c.span()),
             };
-            return Err(anyhow!("{}: {}", at(span), issue.message));
+            return Err(refused(format!("{}: {}", at(span), issue.message)));
         }
         Ok(file)
     }
@@ -379,13 +508,14 @@ impl RobotFile {
     /// Reads, parses and validates a robot file.
     pub fn load(path: &Path) -> anyhow::Result<RobotFile> {
         let origin = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|e| anyhow!("{origin}: cannot read: {e}"))?;
+        let bytes =
+            std::fs::read(path).map_err(|e| refused(format!("{origin}: cannot read: {e}")))?;
         let text = match std::str::from_utf8(&bytes) {
             Ok(t) => t,
             Err(e) => {
                 let valid = std::str::from_utf8(&bytes[..e.valid_up_to()]).unwrap_or("");
                 let (l, c) = line_column(valid, valid.len());
-                return Err(anyhow!("{origin}:{l}:{c}: not UTF-8 text"));
+                return Err(refused(format!("{origin}:{l}:{c}: not UTF-8 text")));
             }
         };
         Self::parse(text, &origin)
@@ -396,10 +526,11 @@ impl RobotFile {
         toml::to_string(self).context("cannot format the robot file")
     }
 
-    /// Writes the file.
+    /// Writes the file atomically: a reader (or a crash) sees the old file or the whole new one.
     pub fn save(&self, path: &Path) -> anyhow::Result<()> {
         let text = self.to_toml()?;
-        std::fs::write(path, text).map_err(|e| anyhow!("{}: cannot write: {e}", path.display()))
+        crate::atomic::write_atomic(path, text.as_bytes())
+            .map_err(|e| anyhow!("{}: cannot write: {e}", path.display()))
     }
 
     /// The library model (base = identity when the file has no `[base]`; see [`Self::base_known`]).
@@ -452,12 +583,24 @@ impl RobotFile {
                 .push(kind, j, N, e.order.unwrap_or(1), start, step, &e.values)
                 .map_err(|err| anyhow!("effect `{}` on joint {}: {err:?}", e.kind, e.joint))?;
         }
+        for c in &self.couplings {
+            robot
+                .set_coupling(c.joint - 1, c.from - 1, c.ratio)
+                .map_err(|err| {
+                    anyhow!(
+                        "coupling of joint {} from joint {}: {err:?}",
+                        c.joint,
+                        c.from
+                    )
+                })?;
+        }
         Ok(robot)
     }
 
     /// The file of a library model. `base_known` = write `[base]`; `tilt` (0-based joints) are
     /// written as `axis-tilt` effects carrying their `beta` in rad, so a re-identification
-    /// knows to free them. Angles are written with [`deg_exact`], so they read back exactly.
+    /// knows to free them. Angles are written with [`deg_short`], so they read back exactly.
+    /// The robot's couplings become `[[couplings]]`.
     pub fn from_robot<const N: usize, const V: usize>(
         name: &str,
         robot: &Robot<f64, N, V>,
@@ -468,23 +611,23 @@ impl RobotFile {
             .joints()
             .iter()
             .map(|j| JointSpec {
-                alpha_deg: deg_exact(j.alpha),
+                alpha_deg: deg_short(j.alpha),
                 a_mm: j.a,
-                theta_deg: deg_exact(j.theta),
+                theta_deg: deg_short(j.theta),
                 d_mm: j.d,
                 beta_deg: if j.beta != 0.0 {
-                    Some(deg_exact(j.beta))
+                    Some(deg_short(j.beta))
                 } else {
                     None
                 },
-                limits_deg: Some([deg_exact(j.lower), deg_exact(j.upper)]),
+                limits_deg: Some([deg_short(j.lower), deg_short(j.upper)]),
             })
             .collect();
         let base = base_known.then(|| {
             let b = robot.base();
             BaseSpec {
                 xyz_mm: [b.o.x, b.o.y, b.o.z],
-                rpy_deg: b.rpy().map(deg_exact),
+                rpy_deg: rpy_deg_short(b),
             }
         });
         let mut effects: Vec<EffectSpec> = Vec::new();
@@ -495,8 +638,8 @@ impl RobotFile {
                 joint: e.joint as usize + 1,
                 values: robot.effects().values_of(i).to_vec(),
                 order: (e.kind == EffectKind::Cyclic).then_some(e.order),
-                step_deg: table.then(|| deg_exact(e.step)),
-                start_deg: table.then(|| deg_exact(e.start)),
+                step_deg: table.then(|| deg_short(e.step)),
+                start_deg: table.then(|| deg_short(e.start)),
             });
         }
         let mut tilt: Vec<usize> = tilt.iter().copied().filter(|j| *j < N).collect();
@@ -520,6 +663,15 @@ impl RobotFile {
             },
             base,
             effects,
+            couplings: robot
+                .couplings()
+                .iter()
+                .map(|(joint, from, ratio)| CouplingSpec {
+                    joint: joint + 1,
+                    from: from + 1,
+                    ratio,
+                })
+                .collect(),
         }
     }
 }
@@ -529,6 +681,6 @@ pub fn load_robot<const N: usize>(path: &Path) -> anyhow::Result<(RobotFile, Rob
     let file = RobotFile::load(path)?;
     let robot = file
         .to_robot::<N>()
-        .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+        .map_err(|e| refused(format!("{}: {e}", path.display())))?;
     Ok((file, robot))
 }

@@ -2,7 +2,7 @@
 
 use kinecal::effects::EffectKind;
 use kinecal::{Frame, Joint, Robot};
-use kinecal_host::robot_file::{deg_exact, line_column, RobotFile};
+use kinecal_host::robot_file::{deg_exact, deg_short, line_column, RobotFile};
 use kinecal_host::VCAP;
 use nalgebra::Vector3;
 use proptest::prelude::*;
@@ -444,4 +444,108 @@ fn not_utf8_and_missing_file() {
         RobotFile::load(&dir.path().join("none.toml")).unwrap_err()
     );
     assert!(msg.contains("none.toml") && !msg.contains('\n'), "{msg}");
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    /// A user's short decimal (up to 6 decimals, within ±400°) comes back as exactly that
+    /// number, not `-59.99999999999999`; and any angle comes back bit-exact whenever a degree
+    /// value that converts back to it exists (the guarantee of `deg_exact`).
+    #[test]
+    fn short_degrees_come_back_as_written(k in -400_000_000i64..400_000_000, m in 0u32..7) {
+        let d = k as f64 / 10f64.powi(m as i32);
+        let d: f64 = format!("{d:.*}", m as usize).parse().unwrap();
+        let back = deg_short(d.to_radians());
+        prop_assert_eq!(back, d, "{} -> {} rad -> {}", d, d.to_radians(), back);
+        prop_assert_eq!(back.to_string(), d.to_string());
+    }
+
+    #[test]
+    fn short_degrees_keep_the_exact_read_back(x in -7.0f64..7.0) {
+        let s = deg_short(x);
+        if deg_exact(x).to_radians() == x {
+            prop_assert_eq!(s.to_radians(), x);
+        }
+        prop_assert!(ulps(s.to_radians(), x) <= 1);
+        let (short, exact) = (s.to_string(), deg_exact(x).to_string());
+        prop_assert!(short.len() <= exact.len(), "{} longer than {}", short, exact);
+    }
+}
+
+/// `identify --out` writes the user's limits back as given (`-60.0`, the shortest decimal
+/// that reads back), and the written model reads back bit-exact.
+#[test]
+fn out_writes_limits_as_given_and_reads_back_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = er20_with("limits_deg = [-170.0, 170.0]", "limits_deg = [-60.0, 33.3]").replacen(
+        "d_mm = 0.0\n",
+        "d_mm = 0.0\nlimits_deg = [-147.25, 92.1]\n",
+        1,
+    );
+    let robot = dir.path().join("r.toml");
+    std::fs::write(&robot, &text).unwrap();
+    let data = dir.path().join("d.csv");
+    let model = dir.path().join("m.toml");
+    let bin = env!("CARGO_BIN_EXE_kinecal");
+    let run = |args: &[&str]| {
+        let o = std::process::Command::new(bin).args(args).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    let p = |x: &std::path::Path| x.to_str().unwrap().to_string();
+    run(&[
+        "simulate",
+        "--robot",
+        &p(&robot),
+        "--poses",
+        "60",
+        "--noise-mm",
+        "0.01",
+        "--out",
+        &p(&data),
+    ]);
+    run(&[
+        "identify",
+        "--robot",
+        &p(&robot),
+        "--data",
+        &p(&data),
+        "--out",
+        &p(&model),
+    ]);
+    let written = std::fs::read_to_string(&model).unwrap();
+    assert!(written.contains("limits_deg = [-60.0, 33.3]"), "{written}");
+    assert!(
+        written.contains("limits_deg = [-147.25, 92.1]"),
+        "{written}"
+    );
+    // Every angle the user gave comes back as given: limits, the base orientation too.
+    assert!(written.contains("rpy_deg = [1.0, -2.0, 30.0]"), "{written}");
+    for l in written
+        .lines()
+        .filter(|l| l.starts_with("limits_deg") || l.starts_with("rpy_deg"))
+    {
+        assert!(!l.contains("99999") && !l.contains("00000"), "{l}");
+    }
+    // Read back: bit for bit the model that was written.
+    let back = RobotFile::load(&model).unwrap();
+    let r = back.to_robot::<6>().unwrap();
+    let again = RobotFile::from_robot(&back.name, &r, true, &back.tilt_joints());
+    assert_eq!(again, back, "written model is a fixed point");
+    let nominal = parse(&text).unwrap().to_robot::<6>().unwrap();
+    for (a, b) in nominal.joints().iter().zip(r.joints()) {
+        assert_eq!(
+            (a.lower.to_bits(), a.upper.to_bits()),
+            (b.lower.to_bits(), b.upper.to_bits())
+        );
+    }
+    // The nominal file written from its model: every angle as the user wrote it.
+    let f = parse(&text).unwrap();
+    let from = RobotFile::from_robot(&f.name, &nominal, true, &f.tilt_joints());
+    for (a, b) in f.joints.iter().zip(&from.joints) {
+        assert_eq!((a.alpha_deg, a.theta_deg), (b.alpha_deg, b.theta_deg));
+        if let Some(l) = a.limits_deg {
+            assert_eq!(Some(l), b.limits_deg);
+        }
+    }
 }

@@ -1,0 +1,54 @@
+//! Atomic file output: a reader, a crash or a `kill -9` sees either the previous file or the
+//! whole new one, never a half-written file.
+//!
+//! The bytes go to a temporary file beside the target (same directory, so the same file
+//! system), which is flushed to disk and then renamed over the target; finally the directory
+//! is synced so that the rename itself survives a power loss. On error the temporary file is
+//! removed and the target is untouched.
+
+use std::fs::{self, File, OpenOptions};
+use std::io::{self, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// A temporary name beside `path`: `.NAME.tmp-PID-K` (hidden, unique per process and call).
+fn temporary_beside(path: &Path) -> io::Result<PathBuf> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let name = path.file_name().ok_or_else(|| {
+        io::Error::new(io::ErrorKind::InvalidInput, "the output path names no file")
+    })?;
+    let k = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let tmp = format!(".{}.tmp-{}-{k}", name.to_string_lossy(), std::process::id());
+    Ok(path.with_file_name(tmp))
+}
+
+/// Writes `bytes` to `path` atomically (temporary file beside it, fsync, rename, directory
+/// fsync). The file gets the usual permissions of a new file (or keeps the old file's mode when
+/// it replaces one).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
+    let tmp = temporary_beside(path)?;
+    let result = (|| {
+        let mut f = OpenOptions::new().write(true).create_new(true).open(&tmp)?;
+        if let Ok(old) = fs::metadata(path) {
+            // Keep the mode of the file being replaced (best effort).
+            let _ = f.set_permissions(old.permissions());
+        }
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        drop(f);
+        fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+        return result;
+    }
+    // Make the rename durable; not every platform or file system lets a directory be opened.
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if let Ok(d) = File::open(dir) {
+        let _ = d.sync_all();
+    }
+    Ok(())
+}

@@ -216,17 +216,22 @@ fn context_lines(path: &Path, want: u32) -> (Option<Vec<String>>, Option<String>
     (header, wanted)
 }
 
-/// Loads a measurement file for an `N`-joint robot. Errors are one line naming the file, line
-/// and column.
+/// Loads a measurement file for an `N`-joint robot, values as written (no unit conversion:
+/// the commands load through [`crate::units`]). Errors are one line naming the file, line and
+/// column; malformed content is [`crate::Refused`] (exit status 2), an unreadable file is not.
 pub fn load<const N: usize>(path: &Path) -> anyhow::Result<Dataset<N>> {
     let origin = path.display().to_string();
     let f = open_skipping_bom(path).map_err(|e| anyhow!("{origin}: cannot read: {e}"))?;
+    // Malformed content is refused input (exit status 2, interfaces.md §4).
     read_records::<N, _>(BufReader::new(f)).map_err(|e| {
         let (header, text) = context_lines(path, e.line);
-        anyhow!(
-            "{}",
-            describe_error(&origin, &e, N, header.as_deref(), text.as_deref())
-        )
+        crate::refused(describe_error(
+            &origin,
+            &e,
+            N,
+            header.as_deref(),
+            text.as_deref(),
+        ))
     })
 }
 
@@ -252,14 +257,17 @@ pub fn joint_count(path: &Path) -> anyhow::Result<usize> {
             .max()
             .unwrap_or(0);
         if n == 0 {
-            return Err(anyhow!(
+            return Err(crate::refused(format!(
                 "{origin}:{}:1: the header has no joint columns q1, q2, …",
                 i + 1
-            ));
+            )));
         }
         return Ok(n);
     }
-    Err(anyhow!("{origin}:1:1: {}", CsvErrorKind::Empty.describe()))
+    Err(crate::refused(format!(
+        "{origin}:1:1: {}",
+        CsvErrorKind::Empty.describe()
+    )))
 }
 
 /// The CSV text of a dataset: header `q1..qN,x,y,z[,extra…]`, joint readings with

@@ -1102,6 +1102,7 @@ fn command_line_writes_commands_that_reach_the_targets() {
             accept_mm: 0.01,
             stream: false,
             f32: false,
+            units: Default::default(),
         };
         let j = run(&args, true).unwrap();
         assert_eq!(j["targets"], 32);
@@ -1168,6 +1169,7 @@ fn command_line_writes_commands_that_reach_the_targets() {
         accept_mm: 0.01,
         stream: false,
         f32: false,
+        units: Default::default(),
     };
     let e = run(&args, true).unwrap_err().to_string();
     assert!(e.contains("bad.csv:1:") && e.contains("rz"), "{e}");

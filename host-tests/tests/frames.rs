@@ -654,6 +654,7 @@ fn frames_args(
         robot: robot.to_path_buf(),
         data: data.to_path_buf(),
         out,
+        units: Default::default(),
     }
 }
 
@@ -818,7 +819,7 @@ fn identify_from_the_sweep_base_converges_as_well_as_from_registration() {
 }
 
 fn identify_case() {
-    use kinecal_host::cli::identify::{run, Args, Method};
+    use kinecal_host::cli::identify::{run, Args};
     use kinecal_host::sim::{
         dataset, measure, perturb_geometry, random_configurations, GeomErrors, Streams,
     };
@@ -860,16 +861,28 @@ fn identify_case() {
         let ident = write("ident.csv", 50, &mut streams);
         let valid = write("valid.csv", 50, &mut streams);
         let fit = |robot: &std::path::Path| {
-            let args = Args {
-                robot: robot.to_path_buf(),
-                data: ident.clone(),
-                method: Method::Lm,
-                holdout: None,
-                validate: Some(valid.clone()),
-                effects: Vec::new(),
-                seed: 1,
-                out: None,
-            };
+            // Parsed like the command line, so options added to `identify` keep their defaults.
+            use clap::Parser;
+            #[derive(clap::Parser)]
+            struct Cmd {
+                #[command(flatten)]
+                args: Args,
+            }
+            let args = Cmd::try_parse_from([
+                "identify",
+                "--robot",
+                robot.to_str().unwrap(),
+                "--data",
+                ident.to_str().unwrap(),
+                "--method",
+                "lm",
+                "--validate",
+                valid.to_str().unwrap(),
+                "--seed",
+                "1",
+            ])
+            .unwrap()
+            .args;
             let v = run(&args, true).unwrap();
             (
                 v["after"]["validation_rms_mm"].as_f64().unwrap(),

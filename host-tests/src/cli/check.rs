@@ -5,12 +5,13 @@
 //! registration ([`fit_rigid`], Kabsch without scale) of the nominal points to the measured
 //! ones: the best rigid placement of the nominal robot, which is also how `identify` starts.
 
-use crate::data;
 use crate::identify::{pose_errors, ErrorStats};
+use crate::numfmt::sig;
 use crate::registration::fit_base;
 use crate::robot_file::RobotFile;
+use crate::units::{load_measurements, UnitArgs};
 use crate::with_joints;
-use anyhow::{anyhow, bail};
+use anyhow::anyhow;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 
@@ -23,23 +24,41 @@ pub struct Args {
     /// Measurements (CSV with q1..qN, x, y, z).
     #[arg(long)]
     pub data: PathBuf,
+    #[command(flatten)]
+    pub units: UnitArgs,
 }
 
 fn check_n<const N: usize>(
     robot_path: &Path,
     file: &RobotFile,
     data_path: &Path,
+    units: &UnitArgs,
     json: bool,
 ) -> anyhow::Result<serde_json::Value> {
     let mut robot = file
         .to_robot::<N>()
         .map_err(|e| anyhow!("{}: {e}", robot_path.display()))?;
-    let ds = data::load::<N>(data_path)?;
+    let ds = load_measurements::<N, _>(data_path, units, &robot, file.base_known())?;
     if ds.is_empty() {
-        bail!("{}: no measurements after the header", data_path.display());
+        crate::refuse!("{}: no measurements after the header", data_path.display());
     }
     let meas = ds.measurements::<f64>();
-    let outside = meas.iter().filter(|m| !robot.within_limits(&m.q)).count();
+    // Only limits the robot file states are checked: without them nothing is known to violate.
+    let stated: Vec<(usize, [f64; 2])> = file
+        .joints
+        .iter()
+        .enumerate()
+        .filter_map(|(i, j)| j.limits_deg.map(|l| (i, l)))
+        .collect();
+    let outside = ds
+        .records
+        .iter()
+        .filter(|r| {
+            stated
+                .iter()
+                .any(|(i, [lo, hi])| !(r.q_deg[*i] >= *lo && r.q_deg[*i] <= *hi))
+        })
+        .count();
     let fitted = !file.base_known();
     if fitted {
         let base = fit_base(&robot, &meas).map_err(|e| anyhow!("{}: {e}", data_path.display()))?;
@@ -74,23 +93,30 @@ fn check_n<const N: usize>(
         println!("data   {}: {} poses{extra}", data_path.display(), ds.len());
         println!("joint ranges covered (deg):");
         for (i, (lo, hi)) in ranges.iter().enumerate() {
-            let [llo, lhi] = file.limits_deg(i);
-            println!(
-                "  q{}: {lo:9.3} .. {hi:9.3}   (limits {llo} .. {lhi})",
-                i + 1
-            );
+            let limits = match file.joints.get(i).and_then(|j| j.limits_deg) {
+                Some([llo, lhi]) => format!("limits {} .. {}", sig(llo, 6), sig(lhi, 6)),
+                None => "no limits in the robot file".to_string(),
+            };
+            println!("  q{}: {lo:9.3} .. {hi:9.3}   ({limits})", i + 1);
         }
         if outside > 0 {
-            println!("warning: {outside} poses have readings outside the joint limits");
+            println!(
+                "warning: {outside} of {} poses have readings outside the joint limits of the robot file",
+                ds.len()
+            );
         }
         if fitted {
+            // Coordinates: fixed decimals (an absolute resolution), unlike the error figures.
             println!(
                 "fitted base: xyz_mm = [{:.3}, {:.3}, {:.3}], rpy_deg = [{:.4}, {:.4}, {:.4}]",
                 xyz[0], xyz[1], xyz[2], rpy[0], rpy[1], rpy[2]
             );
         }
         println!(
-            "nominal model error: RMS {rms_mm:.4} mm, mean {mean_mm:.4} mm, max {max_mm:.4} mm"
+            "nominal model error: RMS {} mm, mean {} mm, max {} mm",
+            sig(rms_mm, 3),
+            sig(mean_mm, 3),
+            sig(max_mm, 3)
         );
     }
     Ok(json!({
@@ -107,11 +133,12 @@ fn check_n<const N: usize>(
         "nominal_rms_mm": rms_mm,
         "nominal_mean_mm": mean_mm,
         "nominal_max_mm": max_mm,
+        "coupling_hint": crate::coupling_hint::check_hint::<N>(file, &meas),
     }))
 }
 
 /// Runs the subcommand; returns the JSON report (printed when `--json` is given).
 pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
     let file = RobotFile::load(&args.robot)?;
-    with_joints!(file.joint_count(), N => check_n::<N>(&args.robot, &file, &args.data, json))
+    with_joints!(file.joint_count(), N => check_n::<N>(&args.robot, &file, &args.data, &args.units, json))
 }

@@ -4,11 +4,16 @@
 //! Targets file: `q1`…`qN` (the seed: the controller's nominal joints, degrees), `x`,`y`,`z`
 //! (target point, mm, measurement frame), optionally `rx`,`ry`,`rz` (degrees, fixed-axis
 //! roll/pitch/yaw of the tool orientation, the convention of the robot file's `rpy_deg`) for a
-//! full pose target. Output: `q1`…`qN` (degrees, 9 decimals), `status` (`ok`, `singular`,
-//! `unreachable`, `limited`, `invalid`), and the model's remaining error at the command.
+//! full pose target. `--length-unit m` and `--angle-unit rad` read the points, and the seeds and
+//! `rx`,`ry`,`rz`, in metres and radians instead ([`crate::units`]; a file that looks like
+//! other units than the ones assumed is refused: the seeds must bring the model near the
+//! targets). Output: `q1`…`qN` in the angle unit of the targets (degrees with 9 decimals,
+//! radians with 11), so the controller gets its own unit back; `status` (`ok`, `singular`,
+//! `unreachable`, `limited`, `invalid`); and the model's remaining error at the command in the
+//! units its column names say (`error_mm`, `error_deg`).
 
-use crate::data;
 use crate::robot_file::RobotFile;
+use crate::units::{load_targets, AngleUnit, UnitArgs};
 use crate::with_joints;
 use anyhow::{anyhow, bail};
 use kinecal::compensate::{compensate, Config, Solution, Status, Target, Tracker};
@@ -25,10 +30,12 @@ pub struct Args {
     /// Identified robot model (TOML, interfaces.md §3), effects included.
     #[arg(long)]
     pub model: PathBuf,
-    /// Targets (CSV): q1..qN seed in degrees, x, y, z in mm, optionally rx, ry, rz in degrees.
+    /// Targets (CSV): q1..qN seed, x, y, z, optionally rx, ry, rz; in mm and degrees unless
+    /// --length-unit / --angle-unit say otherwise.
     #[arg(long)]
     pub targets: PathBuf,
-    /// Output CSV: q1..qN in degrees, status, error_mm, error_deg.
+    /// Output CSV: q1..qN in the targets' angle unit (degrees, or radians with
+    /// --angle-unit rad), status, error_mm (mm), error_deg (degrees).
     #[arg(long)]
     pub out: PathBuf,
     /// Most damped Newton steps per target.
@@ -46,6 +53,10 @@ pub struct Args {
     /// Compute in single precision, as the controller does.
     #[arg(long)]
     pub f32: bool,
+    /// Units of the targets file, and of the joint commands written (never second-guessed
+    /// when given).
+    #[command(flatten)]
+    pub units: UnitArgs,
 }
 
 /// One target row in library units.
@@ -71,13 +82,13 @@ fn run_n<const N: usize>(
     let robot = file
         .to_robot::<N>()
         .map_err(|e| anyhow!("{}: {e}", args.model.display()))?;
+    let rows = read_targets::<N>(&args.targets, &args.units, &robot)?;
     if !file.base_known() {
         eprintln!(
             "kinecal compensate: {} has no [base]: targets are taken in the robot base frame",
             args.model.display()
         );
     }
-    let rows = read_targets::<N>(&args.targets)?;
     let poses = rows.iter().filter(|r| r.rpy.is_some()).count();
     if poses > 0 && N < 6 {
         bail!(
@@ -111,6 +122,12 @@ fn run_n<const N: usize>(
 
     // Output file and summary.
     let mut csv = String::new();
+    // Joint commands in the targets' angle unit, with about the same resolution (1e-9°).
+    let angle = args.units.angle();
+    let decimals = match angle {
+        AngleUnit::Deg => 9,
+        AngleUnit::Rad => 11,
+    };
     let head: Vec<String> = (1..=N).map(|i| format!("q{i}")).collect();
     let _ = writeln!(csv, "{},status,error_mm,error_deg", head.join(","));
     let mut counts = std::collections::BTreeMap::<&str, usize>::new();
@@ -121,7 +138,7 @@ fn run_n<const N: usize>(
             .map(|s| s.q)
             .unwrap_or(std::array::from_fn(|j| row.seed[j]));
         for v in q {
-            let _ = write!(csv, "{:.9},", v.to_degrees());
+            let _ = write!(csv, "{:.decimals$},", angle.from_deg(v.to_degrees()));
         }
         let (e, w) = sol
             .map(|s| (s.position_error, s.orientation_error.to_degrees()))
@@ -256,8 +273,12 @@ fn solve_all<T: Real, const N: usize, const V: usize>(
 
 /// Reads the targets file: the library's CSV reader for q, x, y, z; `rx`, `ry`, `rz` arrive as
 /// extra columns and must be all present or all absent (per file), finite on every row.
-fn read_targets<const N: usize>(path: &Path) -> anyhow::Result<Vec<Row>> {
-    let ds = data::load::<N>(path)?;
+fn read_targets<const N: usize>(
+    path: &Path,
+    units: &UnitArgs,
+    model: &Robot<f64, N, { crate::VCAP }>,
+) -> anyhow::Result<Vec<Row>> {
+    let ds = load_targets(path, units, model)?;
     let origin = path.display();
     let idx: Vec<Option<usize>> = ["rx", "ry", "rz"]
         .iter()
@@ -266,7 +287,7 @@ fn read_targets<const N: usize>(path: &Path) -> anyhow::Result<Vec<Row>> {
     let pose = match (idx[0], idx[1], idx[2]) {
         (None, None, None) => None,
         (Some(a), Some(b), Some(c)) => Some([a, b, c]),
-        _ => bail!("{origin}:{}:1: a pose target needs all of rx, ry, rz (degrees); the header has only some of them", header_line(path)),
+        _ => crate::refuse!("{origin}:{}:1: a pose target needs all of rx, ry, rz; the header has only some of them", header_line(path)),
     };
     let mut rows = Vec::with_capacity(ds.len());
     for r in &ds.records {
@@ -277,9 +298,9 @@ fn read_targets<const N: usize>(path: &Path) -> anyhow::Result<Vec<Row>> {
                 let v = k.map(|i| r.extra.get(i).copied().unwrap_or(f64::NAN));
                 if let Some(bad) = (0..3).find(|i| !v[*i].is_finite()) {
                     let col = ["rx", "ry", "rz"][bad];
-                    bail!("{origin}:{}:{}: `{col}` must be a finite number of degrees on every row of a pose target file", r.line, header_column(path, col));
+                    crate::refuse!("{origin}:{}:{}: `{col}` must be a finite angle on every row of a pose target file", r.line, header_column(path, col));
                 }
-                Some(v.map(f64::to_radians))
+                Some(v.map(|a| units.angle().to_deg(a).to_radians()))
             }
         };
         rows.push(Row {

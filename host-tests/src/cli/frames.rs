@@ -5,7 +5,7 @@
 //! row; rows with an empty cell or 0 there are ignored. Joints 1 and 2 give the base pose,
 //! the last two joints the tool's radial and axial distances from the flange axis.
 
-use crate::data::{self, Dataset};
+use crate::data::Dataset;
 use crate::robot_file::{deg_exact, load_robot, BaseSpec, RobotFile};
 use crate::sweeps::{SweepSet, SWEEP_COLUMN};
 use crate::{with_joints, VCAP};
@@ -42,6 +42,9 @@ pub struct Args {
     /// Write the robot file with `[base]` set to the pose found.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Units of the sweep file (never second-guessed when given).
+    #[command(flatten)]
+    pub units: crate::units::UnitArgs,
 }
 
 /// Runs the subcommand; returns the JSON report (printed when `--json` is given).
@@ -101,6 +104,14 @@ fn explain(e: FramesError, what: &str) -> anyhow::Error {
         FramesError::OtherJointMoved(j) => {
             format!("joint {} moved during the sweep (more than 0.057°)", j + 1)
         }
+        FramesError::CoupledJointMoved(j) => {
+            // Input refused (exit 2): the sweep is not a single rotation of the model.
+            return crate::refused(format!(
+                "{what}: joint {} is coupled to the swept joint ([[couplings]]), so its model angle turned too and the points are not on a circle; sweep again moving joint {}'s reading by -ratio x the swept joint's change so that its model angle stays fixed (as `kinecal simulate --sweeps` does)",
+                j + 1,
+                j + 1
+            ));
+        }
         FramesError::ParallelAxes => {
             "the axes are parallel, so the base height is undetermined".to_string()
         }
@@ -149,23 +160,33 @@ fn judge(joint: usize, a: &JointAxis<f64>, warnings: &mut Vec<String>) {
         ));
     }
     let sdn = c.sd_normal.to_degrees();
-    let base = joint < 2;
-    let (max_n, max_c) = if base {
-        (MAX_SD_NORMAL_DEG, MAX_SD_CENTRE_MM)
-    } else {
-        (f64::INFINITY, 2.0 * MAX_SD_CENTRE_MM)
-    };
-    if sdn > max_n || c.sd_centre > max_c {
+    let sig = crate::numfmt::sig;
+    if joint < 2 {
+        // Base sweeps: both the axis direction and its position become the base frame.
+        if sdn > MAX_SD_NORMAL_DEG || c.sd_centre > MAX_SD_CENTRE_MM {
+            warnings.push(format!(
+                "sweep of joint {j} is too noisy or too short to trust: axis ±{}°, centre ±{} mm (the base frame needs ≤ {}° and ≤ {} mm)",
+                sig(sdn, 2),
+                sig(c.sd_centre, 2),
+                sig(MAX_SD_NORMAL_DEG, 1),
+                sig(MAX_SD_CENTRE_MM, 1)
+            ));
+        }
+    } else if c.sd_centre > 2.0 * MAX_SD_CENTRE_MM {
+        // Wrist and flange sweeps: only the axis's position enters the tool distances, so
+        // there is no limit on its direction.
         warnings.push(format!(
-            "sweep of joint {j} is too noisy or too short to trust: axis ±{sdn:.4}°, centre ±{:.3} mm (want ≤ {max_n}°, ≤ {max_c} mm)",
-            c.sd_centre
+            "sweep of joint {j} is too noisy or too short to trust: centre ±{} mm (the tool distances need ≤ {} mm; the axis direction, ±{}°, does not enter them)",
+            sig(c.sd_centre, 2),
+            sig(2.0 * MAX_SD_CENTRE_MM, 1),
+            sig(sdn, 2)
         ));
     }
 }
 
 fn run_n<const N: usize>(args: &Args, json: bool) -> anyhow::Result<Value> {
     let (file, robot): (RobotFile, Robot<f64, N, VCAP>) = load_robot::<N>(&args.robot)?;
-    let data = data::load::<N>(&args.data)?;
+    let data = crate::units::load_sweeps(&args.data, &args.units, &robot)?;
     let sweeps = group(&args.data, &data)?;
     let origin = args.data.display();
     let mut warnings = Vec::new();
@@ -281,6 +302,8 @@ fn run_n<const N: usize>(args: &Args, json: bool) -> anyhow::Result<Value> {
         "tool": tool_json,
         "circles": circles,
         "axis_distance_mm": base.common_normal.distance,
+        // The nominal model's common normal of axes 1 and 2 (row 2's a), for comparison.
+        "nominal_axis_distance_mm": robot.joints()[1].a.abs(),
         "axis_angle_deg": base.axis1.line.direction.angle(&base.axis2.line.direction).to_degrees(),
         "warnings": warnings,
         "notes": notes,
@@ -311,15 +334,28 @@ fn print_human(r: &Value) {
     println!("xyz_mm = [{}]", f3(&r["base"]["xyz_mm"]));
     println!("rpy_deg = [{}]", f3(&r["base"]["rpy_deg"]));
     println!();
+    let sig = crate::numfmt::sig;
+    // Lengths to the micrometre, and small ones with two significant digits (never "0.000").
+    let len = |x: f64| {
+        if x.abs() >= 0.1 {
+            format!("{x:.3}")
+        } else {
+            sig(x, 2)
+        }
+    };
     println!(
-        "axes 1 and 2: {:.4} mm apart, {:.4}° between them",
-        num(&r["axis_distance_mm"]),
-        num(&r["axis_angle_deg"])
+        "axes 1 and 2: {} mm apart (nominal {} mm), {}° between them",
+        len(num(&r["axis_distance_mm"])),
+        len(num(&r["nominal_axis_distance_mm"])),
+        sig(num(&r["axis_angle_deg"]), 6)
     );
     match (r["tool_radial_mm"].as_f64(), r["tool_axial_mm"].as_f64()) {
         (radial, Some(axial)) => {
-            let radial = radial.map_or("not measured".to_string(), |v| format!("{v:.4} mm"));
-            println!("tool: radial {radial}, axial (d_N + tool z) {axial:.4} mm");
+            let radial = radial.map_or("not measured".to_string(), |v| format!("{} mm", len(v)));
+            println!(
+                "tool: radial {radial}, axial (d_N + tool z) {} mm",
+                len(axial)
+            );
         }
         _ => println!("tool: not measured"),
     }
@@ -327,22 +363,22 @@ fn print_human(r: &Value) {
     for c in r["circles"].as_array().into_iter().flatten() {
         if c["rms_mm"].is_null() {
             println!(
-                "  joint {}: {} points, no circle (moves {:.4} mm: the point is on the axis)",
+                "  joint {}: {} points, no circle (moves {} mm: the point is on the axis)",
                 c["joint"],
                 c["points"],
-                num(&c["radius_mm"])
+                sig(num(&c["radius_mm"]), 2)
             );
             continue;
         }
         println!(
-            "  joint {}: {} points over {:.1}°, radius {:.4} mm, rms {:.4} mm, axis ±{:.5}°, centre ±{:.4} mm",
+            "  joint {}: {} points over {}°, radius {} mm, rms {} mm, axis ±{}°, centre ±{} mm",
             c["joint"],
             c["points"],
-            num(&c["span_deg"]),
-            num(&c["radius_mm"]),
-            num(&c["rms_mm"]),
-            num(&c["sd_axis_deg"]),
-            num(&c["sd_centre_mm"]),
+            sig(num(&c["span_deg"]), 3),
+            len(num(&c["radius_mm"])),
+            sig(num(&c["rms_mm"]), 2),
+            sig(num(&c["sd_axis_deg"]), 2),
+            sig(num(&c["sd_centre_mm"]), 2),
         );
     }
     for n in r["notes"].as_array().into_iter().flatten() {

@@ -19,6 +19,7 @@
 //!   and the robot file's default `start_deg`); a misplaced knot would leave a kink unmodelled.
 //!   On the UR10 (limits ±360°) `M` = 200 gives the 3.6° knots of the findings.
 
+use crate::numfmt::sig;
 use crate::robot_file::AXIS_TILT;
 use kinecal::effects::EffectKind;
 use kinecal::param::Param;
@@ -218,11 +219,14 @@ impl Candidate {
         let j = self.joint + 1;
         let v0 = values.first().copied().unwrap_or(0.0);
         match self.kind {
-            CandidateKind::Compliance => format!("joint {j} deflects under load (compliance {v0:.1e} rad per m of lever arm)"),
+            CandidateKind::Compliance => format!(
+                "joint {j} deflects under load (compliance {} rad per m of lever arm)",
+                if v0.is_finite() { format!("{v0:.1e}") } else { "-".into() }
+            ),
             CandidateKind::Scale => format!(
-                "joint {j} turns {} than its reading says (scale error {:+.0} ppm: gear ratio or encoder resolution slightly off)",
+                "joint {j} turns {} than its reading says (scale error {} ppm: gear ratio or encoder resolution slightly off)",
                 if v0 >= 0.0 { "further" } else { "less far" },
-                v0 * 1e6
+                if v0.is_finite() { format!("{}{}", if v0 >= 0.0 { "+" } else { "" }, sig(v0 * 1e6, 3)) } else { "-".into() }
             ),
             CandidateKind::Cyclic(n) => {
                 let amp = (v0 * v0 + values.get(1).map_or(0.0, |b| b * b)).sqrt();
@@ -251,24 +255,15 @@ impl Candidate {
     }
 }
 
-/// A length in mm for sentences: three decimals, or three significant digits below 0.01 mm.
+/// A length in mm for sentences: three significant digits (`-` when not finite). To print
+/// two figures that must be told apart, use [`crate::diagnose::distinct_figures`].
 pub fn fmt_mm(x: f64) -> String {
-    if x == 0.0 || !x.is_finite() || x.abs() >= 0.01 {
-        format!("{x:.3}")
-    } else {
-        let decimals = (2.0 - x.abs().log10().floor()) as usize;
-        format!("{x:.decimals$}")
-    }
+    sig(x, 3)
 }
 
-/// An angle given in rad as degrees with about three significant digits.
+/// An angle given in rad as degrees with three significant digits (`-` when not finite).
 pub fn fmt_deg(rad: f64) -> String {
-    let d = rad.to_degrees();
-    if d.abs() >= 0.01 {
-        format!("{d:.3}°")
-    } else {
-        format!("{d:.2e}°")
-    }
+    format!("{}°", sig(rad.to_degrees(), 3))
 }
 
 fn round_sig(x: f64, digits: i32) -> f64 {

@@ -285,3 +285,80 @@ pub fn candidate_columns<const N: usize, const V: usize>(
         })
         .collect()
 }
+
+/// How much the fold fits' own estimation error inflates the held-out errors.
+///
+/// With the model linearised at its full-data solution and noise of variance σ² per
+/// coordinate, the held-out residuals of fold `f` are `r_f = y_f − J_f δ̂_f`, where the training
+/// fit `δ̂_f = H_f⁻¹ (J_Tᵀ y_T − Π x)` (`A_f = J_TᵀJ_T`, `H_f = A_f + Π_f` plus the tiny ridge,
+/// exactly the factor the screen and the refits use) has covariance `σ² C_f`,
+/// `C_f = H_f⁻¹ A_f H_f⁻¹`. So `Cov(r_f) = σ² (I + B_f)` with `B_f = J_f C_f J_fᵀ` (positive
+/// semi-definite): every held-out squared error carries the noise of its own pose **plus** the
+/// error of a fit made without it. With few poses per fold and many parameters that second part
+/// is large (24 poses, 5 folds, ~25 parameters: the held-out mean squared error is ~1.5–2× the
+/// noise's), which is why a held-out RMS is an upward-biased estimate of the noise.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FoldInflation {
+    /// Held-out coordinates (3 per pose).
+    pub coordinates: usize,
+    /// `Σ_f tr B_f`: what the fold fits add to `E[Σ |r_i|²] / σ²` beyond `coordinates`.
+    pub trace: f64,
+    /// `Σ_f tr B_f²` (for the degrees of freedom of the estimate).
+    pub trace_squared: f64,
+}
+
+/// [`FoldInflation`] of `problem` at `robot` for these folds (see there).
+pub fn fold_inflation<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    problem: &Problem,
+    data: &[Measurement<f64, N>],
+    folds: &Folds,
+) -> FoldInflation {
+    let p = problem.len();
+    let mut fk = ForwardKinematics::new();
+    let mut columns = Vec::with_capacity(data.len());
+    let mut per_fold: Vec<Normal> = (0..folds.k).map(|_| Normal::zeros(p)).collect();
+    let mut total = Normal::zeros(p);
+    let mut cols = Vec::new();
+    for (i, m) in data.iter().enumerate() {
+        let r = problem.pose_rows(&mut fk, robot, m, &mut cols);
+        per_fold[folds.of[i]].add(&r, &cols);
+        columns.push(cols.clone());
+    }
+    for n in &per_fold {
+        total.a += &n.a;
+    }
+    let mut out = FoldInflation {
+        coordinates: 3 * data.len(),
+        trace: 0.0,
+        trace_squared: 0.0,
+    };
+    for (f, nf) in per_fold.iter().enumerate() {
+        let test: Vec<usize> = (0..data.len()).filter(|i| folds.of[*i] == f).collect();
+        if test.is_empty() || p == 0 {
+            continue;
+        }
+        let a = &total.a - &nf.a;
+        let pen = problem.penalty_matrix(&a.diagonal());
+        let mut h = &a + &pen;
+        add_tiny_ridge(&mut h);
+        // A fold whose training matrix cannot be factored adds nothing: the estimate then
+        // falls back towards the plain held-out mean squared error (its upper end).
+        let Some(chol) = h.cholesky() else { continue };
+        let mut jt = DMatrix::<f64>::zeros(p, 3 * test.len());
+        for (k, i) in test.iter().enumerate() {
+            for (j, c) in &columns[*i] {
+                for x in 0..3 {
+                    jt[(*j, 3 * k + x)] += c[x];
+                }
+            }
+        }
+        let g = chol.solve(&jt);
+        let b = g.transpose() * (&a * &g);
+        if b.iter().all(|v| v.is_finite()) {
+            out.trace += b.trace().max(0.0);
+            out.trace_squared += b.norm_squared();
+        }
+    }
+    out
+}

@@ -14,13 +14,23 @@
 //!    simplest one within one standard error of the best is added ([`choose`]).
 //! 3. **Stop** when nothing passes, when the held-out RMS reaches the noise floor estimated from
 //!    repeated poses (if the data have any), or after `max_effects` additions.
-//! 4. **Noise floor**: repeated poses, else `√3 · √(SSR / (3n − p_eff))` of the final model.
+//! 4. **Noise floor**: repeated poses, else the final model's cross-validated held-out errors
+//!    with the fold fits' share taken out ([`crate::significance::held_out_noise`]); never above
+//!    the final held-out RMS (a floor the model already beats on unseen poses is no floor).
+//!
+//! One fit per parameter set: the model the baseline held-out RMS is of ([`Diagnosis::
+//! baseline_model`]) is fitted once, and when nothing is added it *is* the final model.
 
-use crate::candidates::{catalogue, fmt_mm, Candidate, CandidateKind, CatalogueConfig};
-use crate::cross_validation::{candidate_columns, refit_errors, rms, Folds, Linearised};
+use crate::candidates::{catalogue, Candidate, CandidateKind, CatalogueConfig};
+use crate::cross_validation::{
+    candidate_columns, fold_inflation, refit_errors, rms, Folds, Linearised,
+};
 use crate::identify::fit_lm;
+use crate::numfmt::sig;
 use crate::penalised_fit::{fit, Problem, TablePenalty};
-use crate::significance::{paired_improvement, repeat_noise, residual_noise, PairedTest};
+use crate::significance::{
+    held_out_noise, noise_floor_interval, paired_improvement, repeat_noise, PairedTest,
+};
 use crate::VCAP;
 use kinecal::lm::LmConfig;
 use kinecal::param::{Param, ParamSet};
@@ -120,15 +130,22 @@ pub struct Found<const N: usize> {
 /// Where the noise floor estimate comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NoiseSource {
+    /// Scatter of repeated poses (identical joint readings).
     RepeatedPoses,
-    Residual,
+    /// The final model's cross-validated held-out errors less the fold fits' share.
+    HeldOut,
 }
 
 /// The outcome of the workflow.
 #[derive(Clone, Debug)]
 pub struct Diagnosis<const N: usize> {
-    /// Geometry fitted to all poses (base when unknown, rows, tool).
+    /// Geometry fitted to all poses by the library's LM (base when unknown, rows, tool): where
+    /// the search starts from.
     pub geometric: Robot<f64, N, VCAP>,
+    /// The starting parameter set (geometry without the held parameters, plus the nominal
+    /// model's own effects) fitted to all poses by the search's fit: the model
+    /// `baseline_validation_rms_mm` is of. When nothing is added, `model` is this very fit.
+    pub baseline_model: Robot<f64, N, VCAP>,
     /// Geometric parameters the data cannot determine (held at nominal).
     pub unidentifiable: Vec<Param>,
     pub baseline_validation_rms_mm: f64,
@@ -141,10 +158,16 @@ pub struct Diagnosis<const N: usize> {
     pub model: Robot<f64, N, VCAP>,
     /// Joints (0-based) whose `beta` is free in the model (axis-tilt).
     pub free_tilt: Vec<usize>,
-    /// Noise floor in the held-out RMS sense, `√3 σ` (mm), and per-coordinate σ.
+    /// Noise floor in the held-out RMS sense, `√3 σ` (mm), and per-coordinate σ; never above
+    /// `final_validation_rms_mm`.
     pub noise_floor_mm: f64,
     pub noise_sigma_mm: f64,
     pub noise_source: NoiseSource,
+    /// Approximate 95 % interval of the noise floor (mm) and the degrees of freedom behind it.
+    pub noise_floor_interval_mm: [f64; 2],
+    pub noise_dof: f64,
+    /// Family-wise false-alarm rate of each round.
+    pub alpha: f64,
     /// Residual RMS of the final model on all poses (mm) and its effective parameter count.
     pub fit_rms_mm: f64,
     pub effective_parameters: f64,
@@ -159,16 +182,72 @@ impl<const N: usize> Found<N> {
     /// One sentence: what is missing, how much it helps, how sure.
     pub fn sentence(&self, noise_floor_mm: f64) -> String {
         let values = self.candidate.values(&self.after);
+        let [before, after, floor] =
+            distinct_figures([self.before_rms_mm, self.validation_rms_mm, noise_floor_mm]);
+        let alpha = self.threshold * self.candidates_compared as f64;
         format!(
-            "{}: held-out RMS {} → {} mm, noise floor {} mm (one-sided paired t test p = {:.1e}, below the 5 % family-wise threshold {:.1e} over {} candidates)",
+            "{}: held-out RMS {before} → {after} mm, {} (one-sided paired t test p = {}, below the {} % family-wise threshold {} over {} candidates)",
             self.candidate.meaning(&values),
-            fmt_mm(self.before_rms_mm),
-            fmt_mm(self.validation_rms_mm),
-            fmt_mm(noise_floor_mm),
-            self.test.p,
-            self.threshold,
+            floor_phrase(noise_floor_mm, &floor),
+            sig(self.test.p, 2),
+            percent(alpha),
+            sig(self.threshold, 2),
             self.candidates_compared
         )
+    }
+}
+
+/// Figures for one sentence, with significant digits (at least 3, at most 9): as many as it
+/// takes for figures that differ to print differently ("0.0178 → 0.0174", not "0.018 → 0.018";
+/// "0.29720 → 0.29724"), all with the same number of digits; a figure that is not finite
+/// prints as `-`.
+pub fn distinct_figures<const K: usize>(x: [f64; K]) -> [String; K] {
+    let mut digits = 3;
+    while digits < 9 {
+        let s = x.map(|v| sig(v, digits));
+        let clash = (0..K).any(|i| {
+            (0..i).any(|j| x[i].is_finite() && x[j].is_finite() && x[i] != x[j] && s[i] == s[j])
+        });
+        if !clash {
+            return s;
+        }
+        digits += 1;
+    }
+    x.map(|v| sig(v, digits))
+}
+
+/// A rate as a percentage without trailing zeros ("5", "2.5").
+pub fn percent(rate: f64) -> String {
+    let s = sig(100.0 * rate, 3);
+    if s.contains('.') && !s.contains('e') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+/// "noise floor 0.0346 mm", or what stands for it when no floor could be estimated.
+pub fn floor_phrase(floor_mm: f64, text: &str) -> String {
+    if floor_mm.is_finite() {
+        format!("noise floor {text} mm")
+    } else {
+        "noise floor not estimated".to_string()
+    }
+}
+
+impl<const N: usize> Diagnosis<N> {
+    /// Held-out poses outside the search (a holdout or validation file) reached
+    /// `held_out_rms_mm` with the final model: a noise floor above it is contradicted by those
+    /// poses (their errors are noise plus the model's), so it is lowered to it. Returns whether
+    /// it was.
+    pub fn cap_noise_floor(&mut self, held_out_rms_mm: f64) -> bool {
+        if !(held_out_rms_mm.is_finite() && self.noise_floor_mm > held_out_rms_mm) {
+            return false;
+        }
+        self.noise_floor_mm = held_out_rms_mm;
+        self.noise_sigma_mm = held_out_rms_mm / 3f64.sqrt();
+        self.noise_floor_interval_mm[0] = self.noise_floor_interval_mm[0].min(held_out_rms_mm);
+        true
     }
 }
 
@@ -271,7 +350,11 @@ pub fn diagnose<const N: usize>(
     params.retain(|p| !held.contains(p));
     params.extend((0..geometric.effects().values().len()).map(|k| Param::Effect(k as u16)));
     let mut problem = Problem::new(&geometric, &params, cfg.penalty)?;
-    let mut current = fit(&geometric, &problem, data, cfg.refit_iterations)?.robot;
+    // The one fit of the starting parameter set: the baseline's model, and the final model
+    // when nothing is added.
+    let mut current_fit = fit(&geometric, &problem, data, cfg.refit_iterations)?;
+    let baseline_model = current_fit.robot.clone();
+    let mut current = current_fit.robot.clone();
     let folds = Folds::new(data, cfg.folds, cfg.seed);
     let baseline_errors = refit_errors(&current, &problem, data, &folds, cfg.refit_iterations)?;
     let baseline_rms = rms(&baseline_errors);
@@ -285,7 +368,11 @@ pub fn diagnose<const N: usize>(
         let cur_rms = rms(&errors);
         if let Some((sigma, _)) = repeat {
             if cur_rms <= cfg.floor_tolerance * 3f64.sqrt() * sigma {
-                stop_reason = format!("the held-out RMS {cur_rms:.4} mm reached the noise floor of the repeated poses");
+                stop_reason = format!(
+                    "the held-out RMS {} mm reached the noise floor of the repeated poses ({} mm)",
+                    sig(cur_rms, 4),
+                    sig(3f64.sqrt() * sigma, 4)
+                );
                 break;
             }
         }
@@ -375,7 +462,8 @@ pub fn diagnose<const N: usize>(
             break;
         };
         let (robot_c, problem_c, e) = fits.swap_remove(i);
-        let after = fit(&robot_c, &problem_c, data, cfg.refit_iterations)?.robot;
+        let after_fit = fit(&robot_c, &problem_c, data, cfg.refit_iterations)?;
+        let after = after_fit.robot.clone();
         let t = &tested[i];
         if t.candidate.kind == CandidateKind::Tilt {
             free_tilt.push(t.candidate.joint);
@@ -391,32 +479,63 @@ pub fn diagnose<const N: usize>(
             after: after.clone(),
         });
         current = after;
+        current_fit = after_fit;
         problem = problem_c;
         errors = e;
     }
-    // Final fit statistics and the noise floor.
-    let final_fit = fit(&current, &problem, data, cfg.refit_iterations)?;
+    // The final model: with nothing added, the baseline's own fit (not a second fit of the
+    // same parameters); with effects added, the last fit continued to convergence (a model
+    // with a new parameter set, so no figure of the same set is reported for it elsewhere).
+    let final_fit = if found.is_empty() {
+        current_fit
+    } else {
+        fit(&current, &problem, data, cfg.refit_iterations)?
+    };
     let n = data.len();
-    let (noise_sigma_mm, noise_source) = match repeat {
-        Some((s, _)) => (s, NoiseSource::RepeatedPoses),
-        None => (
-            residual_noise(final_fit.ssr, n, final_fit.effective_parameters),
-            NoiseSource::Residual,
-        ),
+    let final_rms = rms(&errors);
+    // The noise floor, in the held-out RMS sense (√3 σ).
+    let (floor, dof, noise_source) = match repeat {
+        Some((s, dof)) => (3f64.sqrt() * s, dof as f64, NoiseSource::RepeatedPoses),
+        None => {
+            let inflation = fold_inflation(&final_fit.robot, &problem, data, &folds);
+            let (s, nu) = held_out_noise(errors.iter().sum(), &inflation);
+            // The Satterthwaite ν leaves out the covariances between folds (optimistic): it
+            // is capped at the residual's degrees of freedom, 3n − p_eff.
+            let residual_dof = (3 * n) as f64 - final_fit.effective_parameters;
+            (
+                3f64.sqrt() * s,
+                nu.min(residual_dof.max(1.0)),
+                NoiseSource::HeldOut,
+            )
+        }
+    };
+    let mut interval = noise_floor_interval(floor, dof);
+    // Held-out errors are noise plus a fit's error: the floor cannot lie above what the final
+    // model reaches on poses it did not see. (By construction for the held-out estimate; for
+    // repeated poses a cap when their scatter happens to exceed it.)
+    let noise_floor_mm = if floor.is_finite() && floor > final_rms {
+        interval[0] = interval[0].min(final_rms);
+        final_rms
+    } else {
+        floor
     };
     Ok(Diagnosis {
         geometric,
+        baseline_model,
         unidentifiable: held,
         baseline_validation_rms_mm: baseline_rms,
         baseline_errors,
-        final_validation_rms_mm: rms(&errors),
+        final_validation_rms_mm: final_rms,
         final_errors: errors,
         found,
         model: final_fit.robot,
         free_tilt,
-        noise_floor_mm: 3f64.sqrt() * noise_sigma_mm,
-        noise_sigma_mm,
+        noise_floor_mm,
+        noise_sigma_mm: noise_floor_mm / 3f64.sqrt(),
         noise_source,
+        noise_floor_interval_mm: interval,
+        noise_dof: dof,
+        alpha: cfg.alpha,
         fit_rms_mm: (final_fit.ssr / n as f64).sqrt(),
         effective_parameters: final_fit.effective_parameters,
         rounds,

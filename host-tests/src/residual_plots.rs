@@ -9,7 +9,7 @@
 //!   extended model), from the same cross-validation folds.
 
 use crate::candidates::{Candidate, CandidateKind};
-use crate::diagnose::{Diagnosis, Found};
+use crate::diagnose::{distinct_figures, Diagnosis, Found};
 use crate::VCAP;
 use anyhow::anyhow;
 use kinecal::param::Param;
@@ -79,18 +79,16 @@ pub fn per_pose_errors(path: &Path, before_sq: &[f64], after_sq: &[f64]) -> anyh
         .y_desc("held-out 3-D error (mm)")
         .draw()
         .map_err(plot_err)?;
+    let [rb, ra] = distinct_figures([rms(before_sq), rms(after_sq)]);
     chart
         .draw_series(b.iter().map(|p| Circle::new(*p, 2, RED.filled())))
         .map_err(plot_err)?
-        .label(format!("geometry only: RMS {:.3} mm", rms(before_sq)))
+        .label(format!("geometry only: RMS {rb} mm"))
         .legend(|(x, y)| Circle::new((x, y), 3, RED.filled()));
     chart
         .draw_series(a.iter().map(|p| Circle::new(*p, 2, BLUE.filled())))
         .map_err(plot_err)?
-        .label(format!(
-            "with the named effects: RMS {:.3} mm",
-            rms(after_sq)
-        ))
+        .label(format!("with the named effects: RMS {ra} mm"))
         .legend(|(x, y)| Circle::new((x, y), 3, BLUE.filled()));
     chart
         .configure_series_labels()
@@ -129,7 +127,7 @@ pub fn effect_residuals<const N: usize>(
                     CandidateKind::Tilt => {
                         fk.column(robot, Param::Beta(j as u8)).unwrap_or_default()
                     }
-                    _ => fk.joint_column(j),
+                    _ => fk.reading_column(robot, j),
                 };
                 let n2 = dir.norm_squared();
                 let e = if n2 > 0.0 { dir.dot(&r) / n2 } else { 0.0 };
@@ -182,12 +180,10 @@ pub fn effect_residuals<const N: usize>(
     root.fill(&WHITE).map_err(plot_err)?;
     let mut chart = ChartBuilder::on(&root)
         .caption(
-            format!(
-                "{}: held-out RMS {:.3} → {:.3} mm",
-                c.label(),
-                f.before_rms_mm,
-                f.validation_rms_mm
-            ),
+            {
+                let [before, after] = distinct_figures([f.before_rms_mm, f.validation_rms_mm]);
+                format!("{}: held-out RMS {before} → {after} mm", c.label())
+            },
             ("sans-serif", 20),
         )
         .margin(12)

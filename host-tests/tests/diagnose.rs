@@ -316,20 +316,27 @@ fn write_case(dir: &std::path::Path, effects: Vec<EffectArg>, seed: u64) -> (Pat
     (data_dir().join("er20.toml"), data)
 }
 
-fn args(robot: PathBuf, data: PathBuf) -> Args {
-    Args {
-        robot,
-        data,
-        seed: 0,
-        out: None,
-        plots: None,
-        holdout: None,
-        validate: None,
-        folds: 5,
-        alpha: 0.05,
-        max_order: 3,
-        max_effects: 12,
+/// `kinecal diagnose` arguments as the command line would give them (so that arguments added
+/// later with defaults need no change here).
+fn parse_args(argv: &[&str]) -> Args {
+    use clap::Parser;
+    #[derive(clap::Parser)]
+    struct Cmd {
+        #[command(flatten)]
+        args: Args,
     }
+    Cmd::try_parse_from(std::iter::once("diagnose").chain(argv.iter().copied()))
+        .unwrap()
+        .args
+}
+
+fn args(robot: PathBuf, data: PathBuf) -> Args {
+    parse_args(&[
+        "--robot",
+        robot.to_str().unwrap(),
+        "--data",
+        data.to_str().unwrap(),
+    ])
 }
 
 #[test]
@@ -441,5 +448,369 @@ fn diagnose_command_refuses_bad_input_with_a_reason() {
         a.folds = 5;
         let e = run(&a, true).unwrap_err().to_string();
         assert!(e.contains("missing.csv"), "{e}");
+    });
+}
+
+// ---------------------------------------------------------------------------------------------
+// The noise floor and the figures of the human output (a user's report on 24 real poses: a
+// "noise floor" above the held-out error, "0.018 → 0.018 mm", and "starting model refitted
+// 0.2972 mm → extended model 0.3023 mm" with nothing added).
+
+/// A robot of the tests, as nominal (what diagnose is given) and as simulated (its base where
+/// the tracker sees it), the base known or not.
+struct Arm {
+    name: &'static str,
+    nominal: Robot<f64, 6, VCAP>,
+    simulated: Robot<f64, 6, VCAP>,
+    base_known: bool,
+}
+
+fn arms() -> Vec<Arm> {
+    let er = er20();
+    let ur10 = RobotFile::load(&data_dir().join("ur10.toml")).unwrap();
+    let nominal = ur10.to_robot::<6>().unwrap();
+    let mut simulated = nominal.clone();
+    // As in the test matrix: the tracker sees the base about 3 m away, diagnose starts from
+    // the identity (base estimated).
+    simulated
+        .set_base(kinecal::Frame::from_xyz_rpy(
+            [380.0, -3240.0, 200.0],
+            [0.3f64, -0.2, 35.0].map(f64::to_radians),
+        ))
+        .unwrap();
+    assert!(!ur10.base_known());
+    vec![
+        Arm {
+            name: "er20",
+            nominal: er.clone(),
+            simulated: er,
+            base_known: true,
+        },
+        Arm {
+            name: "ur10",
+            nominal,
+            simulated,
+            base_known: false,
+        },
+    ]
+}
+
+/// `identify + held` poses of `arm` with geometric errors only (nothing hidden), σ = `sigma`.
+fn nothing_hidden(
+    arm: &Arm,
+    identify: usize,
+    held: usize,
+    sigma: f64,
+    seed: u64,
+) -> (Vec<Measurement<f64, 6>>, Vec<Measurement<f64, 6>>) {
+    let s = Simulation {
+        poses: identify + held,
+        noise_mm: sigma,
+        seed,
+        geom_errors: Some(GeomErrors::default()),
+        effects: Vec::new(),
+    };
+    let mut d = simulate(&arm.simulated, &s).unwrap().1.measurements();
+    let held = d.split_off(identify);
+    (d, held)
+}
+
+fn rms_of(sq: &[f64]) -> f64 {
+    (sq.iter().sum::<f64>() / sq.len() as f64).sqrt()
+}
+
+/// On 24 poses (5 folds of ~19 identification poses for ~25 parameters) the held-out errors
+/// carry much more than the noise: the floor must not exceed what held-out poses reach, and
+/// still be of the noise's size. Nothing is hidden: nothing is named, and the final model is
+/// the baseline's own fit.
+#[test]
+fn noise_floor_never_exceeds_the_held_out_rms_on_few_poses() {
+    big_stack(|| {
+        let sigma = 0.02;
+        let truth = 3f64.sqrt() * sigma;
+        for arm in arms() {
+            for seed in [1u64, 2, 3] {
+                let (ident, held) = nothing_hidden(&arm, 24, 100, sigma, seed);
+                let d = kinecal_host::diagnose::diagnose(
+                    &arm.nominal,
+                    arm.base_known,
+                    &[],
+                    &ident,
+                    &Default::default(),
+                )
+                .unwrap();
+                let unseen = rms_of(&squared_errors(&d.model, &held));
+                let line = format!(
+                    "{} seed {seed}: floor {:.4} [{:.4}, {:.4}] (true {truth:.4}), cross-validated {:.4}, unseen poses {unseen:.4}, found {}",
+                    arm.name,
+                    d.noise_floor_mm,
+                    d.noise_floor_interval_mm[0],
+                    d.noise_floor_interval_mm[1],
+                    d.final_validation_rms_mm,
+                    d.found.len()
+                );
+                eprintln!("{line}");
+                assert_eq!(d.noise_source, kinecal_host::diagnose::NoiseSource::HeldOut);
+                assert!(
+                    d.noise_floor_mm.is_finite() && d.noise_floor_mm > 0.0,
+                    "{line}"
+                );
+                assert!(d.noise_floor_mm <= d.final_validation_rms_mm, "{line}");
+                // Of the noise's size (the estimate has ~45 degrees of freedom here).
+                assert!((0.7..1.4).contains(&(d.noise_floor_mm / truth)), "{line}");
+                let [lo, hi] = d.noise_floor_interval_mm;
+                assert!(lo < d.noise_floor_mm && d.noise_floor_mm < hi, "{line}");
+                // Nothing hidden: nothing named, and the final model is the baseline's fit.
+                assert!(d.found.is_empty(), "{line}");
+                assert_eq!(d.final_validation_rms_mm, d.baseline_validation_rms_mm);
+                assert_eq!(
+                    squared_errors(&d.model, &held),
+                    squared_errors(&d.baseline_model, &held),
+                    "{line}: the final model is a different fit than the baseline's"
+                );
+            }
+        }
+    });
+}
+
+/// On many poses the fold fits add little, and the floor is an honest estimate of √3 σ.
+#[test]
+fn noise_floor_is_the_noise_level_on_many_poses() {
+    big_stack(|| {
+        let sigma = 0.02;
+        let truth = 3f64.sqrt() * sigma;
+        for arm in arms() {
+            for seed in [5u64, 6] {
+                let (ident, _) = nothing_hidden(&arm, 200, 0, sigma, seed);
+                let d = kinecal_host::diagnose::diagnose(
+                    &arm.nominal,
+                    arm.base_known,
+                    &[],
+                    &ident,
+                    &Default::default(),
+                )
+                .unwrap();
+                let line = format!(
+                    "{} seed {seed}: floor {:.4} [{:.4}, {:.4}] / true {truth:.4} = {:.3}, cross-validated {:.4}",
+                    arm.name,
+                    d.noise_floor_mm,
+                    d.noise_floor_interval_mm[0],
+                    d.noise_floor_interval_mm[1],
+                    d.noise_floor_mm / truth,
+                    d.final_validation_rms_mm
+                );
+                eprintln!("{line}");
+                assert!((0.8..1.25).contains(&(d.noise_floor_mm / truth)), "{line}");
+                assert!(d.noise_floor_mm <= d.final_validation_rms_mm, "{line}");
+                let [lo, hi] = d.noise_floor_interval_mm;
+                assert!(
+                    lo < truth && truth < hi,
+                    "{line}: interval misses the truth"
+                );
+                assert!(hi / lo < 1.3, "{line}: interval too wide for 200 poses");
+            }
+        }
+    });
+}
+
+/// Chi-square quantiles of the interval against tables.
+#[test]
+fn chi_square_quantiles_match_tables() {
+    use kinecal_host::significance::{chi_square_quantile, normal_quantile};
+    assert!((normal_quantile(0.975) - 1.959_964).abs() < 1e-6);
+    assert!((normal_quantile(0.025) + 1.959_964).abs() < 1e-6);
+    assert!((normal_quantile(0.5)).abs() < 1e-12);
+    // χ²(10): 3.247, 20.483; χ²(100): 74.22, 129.56.
+    for (p, nu, q) in [
+        (0.025, 10.0, 3.247),
+        (0.975, 10.0, 20.483),
+        (0.025, 100.0, 74.222),
+        (0.975, 100.0, 129.561),
+    ] {
+        let x = chi_square_quantile(p, nu);
+        assert!((x / q - 1.0).abs() < 0.01, "χ²({nu}) {p}: {x} vs {q}");
+    }
+}
+
+/// Figures that differ print differently; equal ones alike; never `inf` or `NaN`.
+#[test]
+fn figures_that_differ_print_differently() {
+    use kinecal_host::diagnose::distinct_figures;
+    assert_eq!(distinct_figures([0.0178, 0.0174]), ["0.0178", "0.0174"]);
+    let [a, b] = distinct_figures([0.29720, 0.29724]);
+    assert_ne!(a, b);
+    assert_eq!((a.as_str(), b.as_str()), ("0.29720", "0.29724"));
+    assert_eq!(distinct_figures([0.2972, 0.2972]), ["0.297", "0.297"]);
+    let [x, y, z] = distinct_figures([f64::NAN, f64::INFINITY, 0.05]);
+    assert_eq!((x.as_str(), y.as_str(), z.as_str()), ("-", "-", "0.0500"));
+}
+
+/// The numbers in `text` (tokens that parse as f64, punctuation around them trimmed).
+fn numbers(text: &str) -> Vec<(String, f64)> {
+    text.split(|c: char| c.is_whitespace() || c == '(' || c == ')' || c == '[' || c == ']')
+        .map(|t| t.trim_end_matches([',', ';', ':', '.']))
+        .filter_map(|t| t.parse::<f64>().ok().map(|v| (t.to_string(), v)))
+        .collect()
+}
+
+/// `printed` shows `value` to at least three significant digits.
+fn shows(printed: &(String, f64), value: f64) -> bool {
+    (printed.1 - value).abs() <= 0.005 * value.abs() + 1e-15
+}
+
+fn kinecal(argv: &[&str]) -> String {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_kinecal"))
+        .args(argv)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        out.status.success(),
+        "kinecal {argv:?}: {}\n{stdout}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+/// The user's case, simulated: 24 poses searched, 6 held out, nothing hidden. The JSON's
+/// starting and extended figures are one fit (equal exactly), the floor is below both held-out
+/// figures, and the human output says it once, with no `inf`/`NaN`.
+#[test]
+fn nothing_added_reports_one_fit_and_a_floor_below_the_held_out_errors() {
+    big_stack(|| {
+        let tmp = tempfile::tempdir().unwrap();
+        let arms = arms();
+        for (arm, seed) in [(&arms[0], 11u64), (&arms[1], 12)] {
+            let (mut ident, held) = nothing_hidden(arm, 24, 6, 0.02, seed);
+            ident.extend(held);
+            let path = tmp.path().join(format!("{}.csv", arm.name));
+            let mut points = Vec::new();
+            let mut configs = Vec::new();
+            for m in &ident {
+                configs.push(m.q);
+                points.push(m.point);
+            }
+            data::write(&path, &kinecal_host::sim::dataset(&configs, &points)).unwrap();
+            let robot = data_dir().join(format!("{}.toml", arm.name));
+            let argv = [
+                "diagnose",
+                "--robot",
+                robot.to_str().unwrap(),
+                "--data",
+                path.to_str().unwrap(),
+                "--holdout",
+                "6",
+            ];
+            let r = run(&parse_args(&argv[1..]), true).unwrap();
+            assert_eq!(r["poses"], 24);
+            assert_eq!(r["found"].as_array().unwrap().len(), 0, "{r:#}");
+            let base = r["baseline_validation_rms_mm"].as_f64().unwrap();
+            let fin = r["final_validation_rms_mm"].as_f64().unwrap();
+            let floor = r["noise_floor_mm"].as_f64().unwrap();
+            let h = &r["holdout"];
+            let (hg, hf) = (
+                h["geometric_rms_mm"].as_f64().unwrap(),
+                h["final_rms_mm"].as_f64().unwrap(),
+            );
+            eprintln!(
+                "{}: cross-validated {base:.5} → {fin:.5}, floor {floor:.5}, held-out {hg:.5} → {hf:.5}",
+                arm.name
+            );
+            assert_eq!(base, fin);
+            assert_eq!(hg, hf, "refitted and extended are different fits");
+            assert!(
+                floor <= fin && floor <= hf,
+                "floor {floor} above {fin} / {hf}"
+            );
+            let iv = r["noise_floor_interval_mm"].as_array().unwrap();
+            assert!(iv[0].as_f64().unwrap() <= floor && floor <= iv[1].as_f64().unwrap());
+            // Human output: one held-out figure, shown to three significant digits or more.
+            let text = kinecal(&argv);
+            eprintln!("{text}");
+            for bad in ["NaN", "inf", " → -"] {
+                assert!(!text.contains(bad), "{bad} in:\n{text}");
+            }
+            let line = text
+                .lines()
+                .find(|l| l.starts_with("held-out poses (6)"))
+                .unwrap_or_else(|| panic!("no held-out line in:\n{text}"));
+            assert!(
+                !line.contains('→') && line.contains("nothing added"),
+                "{line}"
+            );
+            let nums = numbers(line);
+            assert_eq!(nums.len(), 2, "{line}"); // "(6)" and the figure
+            assert!(shows(&nums[1], hf), "{line} vs {hf}");
+            let summary = text.lines().nth(1).unwrap();
+            let nums = numbers(summary);
+            assert!(shows(&nums[0], base) && shows(&nums[1], floor), "{summary}");
+        }
+    });
+}
+
+/// Something found: every figure of the headline, the sentence and the held-out line is shown
+/// to at least three significant digits, and figures that differ print differently (without
+/// held-out poses the final cross-validated RMS and the floor differ by a few % only).
+#[test]
+fn human_output_shows_small_differences() {
+    big_stack(|| {
+        let tmp = tempfile::tempdir().unwrap();
+        let (robot, data) = write_case(
+            tmp.path(),
+            vec![effect("joint-compliance", 2, &[2e-4], 1)],
+            4,
+        );
+        let argv = [
+            "diagnose",
+            "--robot",
+            robot.to_str().unwrap(),
+            "--data",
+            data.to_str().unwrap(),
+        ];
+        let r = run(&parse_args(&argv[1..]), true).unwrap();
+        assert_eq!(r["found"].as_array().unwrap().len(), 1, "{r:#}");
+        let base = r["baseline_validation_rms_mm"].as_f64().unwrap();
+        let fin = r["final_validation_rms_mm"].as_f64().unwrap();
+        let floor = r["noise_floor_mm"].as_f64().unwrap();
+        assert!(floor < fin && fin < 1.1 * floor, "{fin} vs {floor}");
+        let text = kinecal(&argv);
+        eprintln!("{text}");
+        for bad in ["NaN", "inf"] {
+            assert!(!text.contains(bad), "{bad} in:\n{text}");
+        }
+        // "1 effect(s) missing from the model: held-out RMS A → B mm, noise floor C mm."
+        let summary = text.lines().nth(1).unwrap();
+        let nums = numbers(summary);
+        assert_eq!(nums.len(), 4, "{summary}");
+        for (n, v) in nums[1..].iter().zip([base, fin, floor]) {
+            assert!(shows(n, v), "{summary}: {} shows {v}", n.0);
+        }
+        assert_ne!(
+            nums[2].0, nums[3].0,
+            "{summary}: final and floor print alike"
+        );
+        // The sentence of the effect: the same figures.
+        let sentence = text.lines().find(|l| l.starts_with("  1. ")).unwrap();
+        assert!(
+            sentence.contains(&format!("{} → {} mm", nums[1].0, nums[2].0)),
+            "{sentence}"
+        );
+        // With held-out poses: "held-out poses (20): starting model refitted X mm → extended
+        // model Y mm".
+        let argv = [&argv[..], &["--holdout", "20"]].concat();
+        let r = run(&parse_args(&argv[1..]), true).unwrap();
+        let hg = r["holdout"]["geometric_rms_mm"].as_f64().unwrap();
+        let hf = r["holdout"]["final_rms_mm"].as_f64().unwrap();
+        assert!(r["noise_floor_mm"].as_f64().unwrap() <= hf);
+        let text = kinecal(&argv);
+        eprintln!("{text}");
+        let line = text
+            .lines()
+            .find(|l| l.starts_with("held-out poses (20)"))
+            .unwrap();
+        let nums = numbers(line);
+        assert_eq!(nums.len(), 3, "{line}");
+        assert!(shows(&nums[1], hg) && shows(&nums[2], hf), "{line}");
+        assert_ne!(nums[1].0, nums[2].0, "{line}");
     });
 }

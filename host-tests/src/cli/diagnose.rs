@@ -2,10 +2,12 @@
 //! finds where model and data disagree, names the missing effects, adds them and shows the
 //! held-out gap shrink.
 
-use crate::candidates::{fmt_mm, CandidateKind};
-use crate::data;
-use crate::diagnose::{diagnose, Config, Diagnosis, NoiseSource};
+use crate::candidates::CandidateKind;
+use crate::diagnose::{
+    diagnose, distinct_figures, floor_phrase, percent, Config, Diagnosis, NoiseSource,
+};
 use crate::identify::split_holdout;
+use crate::numfmt::sig;
 use crate::penalised_fit::squared_errors;
 use crate::robot_file::{load_robot, RobotFile};
 use crate::with_joints;
@@ -50,6 +52,13 @@ pub struct Args {
     /// Most effects to add.
     #[arg(long, default_value_t = 12)]
     pub max_effects: usize,
+    /// A geometric fit whose held-out RMS stays above this has not found the robot (units, a
+    /// coupled joint, the tool, the base): nothing is diagnosed from it and the command exits 3.
+    #[arg(long, default_value_t = 5.0)]
+    pub stall_rms_mm: f64,
+    /// Units of the data and --validate files (never second-guessed when given).
+    #[command(flatten)]
+    pub units: crate::units::UnitArgs,
 }
 
 pub fn run(args: &Args, json: bool) -> anyhow::Result<Value> {
@@ -59,10 +68,14 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<Value> {
 
 fn run_n<const N: usize>(args: &Args, json: bool) -> anyhow::Result<Value> {
     let (file, nominal) = load_robot::<N>(&args.robot)?;
-    let all = data::load::<N>(&args.data)?.measurements::<f64>();
+    let load = |p: &std::path::Path| {
+        crate::units::load_measurements(p, &args.units, &nominal, file.base_known())
+            .map(|d| d.measurements::<f64>())
+    };
+    let all = load(&args.data)?;
     anyhow::ensure!(!all.is_empty(), "{}: no measurements", args.data.display());
     let (search, held) = match (&args.validate, args.holdout) {
-        (Some(v), _) => (all, data::load::<N>(v)?.measurements::<f64>()),
+        (Some(v), _) => (all, load(v)?),
         (None, Some(h)) => split_holdout(&all, h)?,
         (None, None) => (all, Vec::new()),
     };
@@ -80,23 +93,48 @@ fn run_n<const N: usize>(args: &Args, json: bool) -> anyhow::Result<Value> {
         ..Config::default()
     };
     cfg.catalogue.max_cyclic_order = args.max_order;
-    let d = diagnose(
+    let mut d = diagnose(
         &nominal,
         file.base_known(),
         &file.tilt_joints(),
         &search,
         &cfg,
     )?;
-    let mut report = report(&d);
+    let mut holdout = None;
     if !held.is_empty() {
         let rms = |sq: Vec<f64>| (sq.iter().sum::<f64>() / sq.len() as f64).sqrt();
-        report["holdout"] = json!({
+        // The starting model as the search fitted it (the same fit as the final model when
+        // nothing is added), and the final model.
+        let baseline = rms(squared_errors(&d.baseline_model, &held));
+        let fin = rms(squared_errors(&d.model, &held));
+        let capped = d.cap_noise_floor(fin);
+        holdout = Some(json!({
             "poses": held.len(),
-            "geometric_rms_mm": rms(squared_errors(&d.geometric, &held)),
-            "final_rms_mm": rms(squared_errors(&d.model, &held)),
-        });
+            "geometric_rms_mm": baseline,
+            "final_rms_mm": fin,
+            "noise_floor_capped": capped,
+        }));
+    }
+    let mut report = report(&d);
+    if let Some(h) = holdout {
+        report["holdout"] = h;
     }
     report["poses"] = json!(search.len());
+    // A geometric model that cannot reach the data is not "missing an effect": the data or the
+    // model are wrong, and a noise floor of metres is no finding (interfaces.md §4: exit 3).
+    let fitted = d.baseline_validation_rms_mm.is_finite()
+        && d.baseline_validation_rms_mm <= args.stall_rms_mm;
+    report["converged"] = json!(fitted);
+    if !fitted {
+        eprintln!(
+            "error: the geometric model does not fit the data (held-out RMS {} mm, above \
+             --stall-rms-mm {}): check the units (--length-unit, --angle-unit), coupled joints \
+             ([[couplings]], see `kinecal check`), the tool and the base; nothing is diagnosed \
+             (exit 3)",
+            sig(d.baseline_validation_rms_mm, 4),
+            sig(args.stall_rms_mm, 3)
+        );
+    }
     if let Some(out) = &args.out {
         let f = RobotFile::from_robot(
             &format!("{} (diagnosed)", file.name),
@@ -175,7 +213,9 @@ pub fn report<const N: usize>(d: &Diagnosis<N>) -> Value {
         "found": found,
         "final_validation_rms_mm": d.final_validation_rms_mm,
         "noise_floor_mm": d.noise_floor_mm,
-        "noise_floor_source": match d.noise_source { NoiseSource::RepeatedPoses => "repeated poses", NoiseSource::Residual => "residual of the final model, SSR/(3n - p_eff)" },
+        "noise_floor_source": match d.noise_source { NoiseSource::RepeatedPoses => "repeated poses", NoiseSource::HeldOut => "held-out errors of the final model less the fold fits' share, sum |r|^2 / (3n + sum tr B_f)" },
+        "noise_floor_interval_mm": d.noise_floor_interval_mm,
+        "noise_floor_dof": d.noise_dof,
         "noise_sigma_mm": d.noise_sigma_mm,
         "summary": summary(d),
         "sentences": sentences,
@@ -192,37 +232,87 @@ pub fn report<const N: usize>(d: &Diagnosis<N>) -> Value {
 
 /// The headline: what is missing, or that nothing is.
 pub fn summary<const N: usize>(d: &Diagnosis<N>) -> String {
+    let [base, fin, floor] = distinct_figures([
+        d.baseline_validation_rms_mm,
+        d.final_validation_rms_mm,
+        d.noise_floor_mm,
+    ]);
+    let floor = floor_phrase(d.noise_floor_mm, &floor);
     if d.found.is_empty() {
-        format!(
-            "Nothing significant is missing from the model: held-out RMS {} mm, noise floor {} mm (no candidate improved the held-out error at the 5 % family-wise level).",
-            fmt_mm(d.baseline_validation_rms_mm),
-            fmt_mm(d.noise_floor_mm)
-        )
+        // Why nothing was added: the test found nothing, or the search did not get to test.
+        let why = if d.rounds.is_empty() {
+            format!("no candidate was tested: {}", d.stop_reason)
+        } else {
+            format!(
+                "no candidate improved the held-out error at the {} % family-wise level",
+                percent(d.alpha)
+            )
+        };
+        format!("Nothing significant is missing from the model: held-out RMS {base} mm, {floor} ({why}).")
     } else {
         format!(
-            "{} effect(s) missing from the model: held-out RMS {} → {} mm, noise floor {} mm.",
+            "{} effect(s) missing from the model: held-out RMS {base} → {fin} mm, {floor}.",
             d.found.len(),
-            fmt_mm(d.baseline_validation_rms_mm),
-            fmt_mm(d.final_validation_rms_mm),
-            fmt_mm(d.noise_floor_mm)
         )
     }
 }
 
 fn print_human<const N: usize>(r: &Value, d: &Diagnosis<N>, data: &[Measurement<f64, N>]) {
     println!("{} poses, {}-fold cross-validation", data.len(), d.folds.k);
+    if r["converged"] == false {
+        println!(
+            "The geometric model does not fit these data (held-out RMS {} mm): nothing can be \
+             diagnosed until the units, couplings, tool or base are right.",
+            sig(d.baseline_validation_rms_mm, 4)
+        );
+        return;
+    }
     println!("{}", summary(d));
     for (k, f) in d.found.iter().enumerate() {
         println!("  {}. {}", k + 1, f.sentence(d.noise_floor_mm));
     }
+    if d.noise_floor_mm.is_finite() {
+        let [floor, lo, hi] = distinct_figures([
+            d.noise_floor_mm,
+            d.noise_floor_interval_mm[0],
+            d.noise_floor_interval_mm[1],
+        ]);
+        let interval = if d.noise_floor_interval_mm.iter().all(|x| x.is_finite()) {
+            format!(" (approximately 95 % within {lo}–{hi} mm)")
+        } else {
+            String::new()
+        };
+        let source = match d.noise_source {
+            NoiseSource::RepeatedPoses => "from the scatter of the repeated poses",
+            NoiseSource::HeldOut => {
+                "from the held-out errors less what the fold fits add to them (it also holds whatever the model still misses)"
+            }
+        };
+        println!("noise floor {floor} mm{interval}, {source}");
+    }
     println!("stopped: {}", d.stop_reason);
     if let Some(h) = r.get("holdout") {
-        println!(
-            "held-out poses ({}): starting model refitted {:.4} mm → extended model {:.4} mm",
-            h["poses"],
-            h["geometric_rms_mm"].as_f64().unwrap_or(f64::NAN),
-            h["final_rms_mm"].as_f64().unwrap_or(f64::NAN)
-        );
+        let g = h["geometric_rms_mm"].as_f64().unwrap_or(f64::NAN);
+        let f = h["final_rms_mm"].as_f64().unwrap_or(f64::NAN);
+        if d.found.is_empty() {
+            // One model: nothing was added to the starting model as refitted.
+            println!(
+                "held-out poses ({}): {} mm with the starting model refitted (nothing added)",
+                h["poses"],
+                sig(g, 4)
+            );
+        } else {
+            let [g, f] = distinct_figures([g, f]);
+            println!(
+                "held-out poses ({}): starting model refitted {g} mm → extended model {f} mm",
+                h["poses"]
+            );
+        }
+        if h["noise_floor_capped"].as_bool() == Some(true) {
+            println!(
+                "  (the noise floor above is lowered to the RMS these poses reached: their errors are the noise plus the model's, so the noise is no larger)"
+            );
+        }
     }
     println!("{:.2} s", d.seconds);
 }

@@ -86,6 +86,23 @@ pub fn pivoted_cholesky<T: Real, const P: usize>(
     order: &mut [usize],
     tol: T,
 ) -> Result<usize, LinalgError> {
+    pivoted_cholesky_preferring(a, n, order, tol, &[], tol)
+}
+
+/// [`pivoted_cholesky`] that takes the columns marked in `preferred` (indexed like `A`; missing
+/// entries count as not preferred) as pivots first, while their pivots pass `tol`, and only
+/// then the others, which must pass `tol_other`. Re-deciding identifiability with the
+/// parameters estimated so far preferred keeps a confounded pair (theta6 vs the tool point)
+/// from swapping at every call: a column joins only when it adds a direction the preferred
+/// ones do not span, by the margin `tol_other`.
+pub fn pivoted_cholesky_preferring<T: Real, const P: usize>(
+    a: &mut Square<T, P>,
+    n: usize,
+    order: &mut [usize],
+    tol: T,
+    preferred: &[bool],
+    tol_other: T,
+) -> Result<usize, LinalgError> {
     if n > P || order.len() < n {
         return Err(LinalgError::Size);
     }
@@ -102,18 +119,29 @@ pub fn pivoted_cholesky<T: Real, const P: usize>(
         return Ok(0);
     }
     let limit = tol * dmax;
+    let limit_other = tol_other.max(tol) * dmax;
     // Work on the permuted matrix explicitly: swap rows and columns.
     for k in 0..n {
-        // Choose the largest remaining diagonal (the Schur complement's).
-        let mut best = k;
-        for i in k + 1..n {
-            if a[i][i] > a[best][best] {
-                best = i;
+        // Choose the largest remaining diagonal (the Schur complement's), among the preferred
+        // columns first.
+        let pref = |i: usize, order: &[usize]| preferred.get(order[i]).copied().unwrap_or(false);
+        let mut best = None;
+        for (class, limit) in [(true, limit), (false, limit_other)] {
+            for i in k..n {
+                if pref(i, order) == class
+                    && a[i][i] > limit
+                    && best.is_none_or(|b: usize| a[i][i] > a[b][b])
+                {
+                    best = Some(i);
+                }
+            }
+            if best.is_some() {
+                break;
             }
         }
-        if !(a[best][best] > limit) {
+        let Some(best) = best else {
             return Ok(k);
-        }
+        };
         if best != k {
             a.swap(k, best);
             for row in a.iter_mut().take(n) {

@@ -8,14 +8,20 @@
 //! tool by about a millimetre whatever the parameter; Marquardt's diagonal damping with
 //! Nielsen's update of λ makes convergence from the nominal model reliable.
 //!
-//! **Identifiability.** On the first pass the scaled normal matrix is normalised to unit
-//! diagonal (a correlation matrix) and factored by rank-revealing Cholesky. Columns whose
-//! pivot falls below `rank_tolerance` are directions the data cannot determine (base z vs d1,
-//! theta of the last joint vs the tool, d of parallel axes, effect values no pose excites):
-//! they are reported by name and kept at their starting value instead of running off. A tiny
-//! ridge on the accumulated update keeps nearly dependent directions bounded as well.
+//! **Identifiability follows the model.** On the first pass the scaled normal matrix is
+//! normalised to unit diagonal (a correlation matrix) and factored by rank-revealing Cholesky.
+//! Columns whose pivot falls below `rank_tolerance` are directions the data cannot determine
+//! (base z vs d1, theta of the last joint vs the tool, d of parallel axes, effect values no
+//! pose excites): they are held at their current value instead of running off. What the data
+//! determine depends on where the model is, though: a tool point started on the flange axis
+//! makes theta6 and the last rows' angles invisible until the fit moves the point off the axis.
+//! So the decision is taken again whenever a held parameter's column has grown since it was
+//! taken (checked at every accepted step, `O(P)`), and once more at the converged model; the
+//! run only ends when a re-analysis at the final model confirms the held set. Re-analysis
+//! prefers the parameters already estimated, so a confounded pair does not swap back and
+//! forth. A tiny ridge on the accumulated update keeps nearly dependent directions bounded.
 
-use crate::linalg::{cholesky, cholesky_solve, pivoted_cholesky, LinalgError, Square};
+use crate::linalg::{cholesky, cholesky_solve, pivoted_cholesky_preferring, LinalgError, Square};
 use crate::param::{apply_delta, Param, ParamError, ParamSet};
 use crate::{ForwardKinematics, Measurement, Real, Robot};
 use nalgebra::Vector3;
@@ -35,6 +41,13 @@ pub struct LmConfig<T: Real> {
     pub ridge: T,
     /// Initial damping relative to the diagonal.
     pub initial_damping: T,
+    /// Most identifiability analyses in one run (the first one included); 1 decides once, at
+    /// the starting model.
+    pub max_analyses: u8,
+    /// Relative pivot a held parameter needs to join on a re-analysis (stricter than
+    /// `rank_tolerance`): moving off the nominal geometry turns exact dependencies (d of
+    /// parallel axes) into near ones, which the data still cannot determine.
+    pub activation_tolerance: T,
 }
 
 impl<T: Real> Default for LmConfig<T> {
@@ -46,6 +59,8 @@ impl<T: Real> Default for LmConfig<T> {
             rank_tolerance: T::EPS.sqrt(),
             ridge: T::of(1e-9).max(T::EPS),
             initial_damping: T::of(1e-3),
+            max_analyses: 8,
+            activation_tolerance: T::of(1e-4),
         }
     }
 }
@@ -98,6 +113,11 @@ enum Phase {
     Solve,
     /// Evaluating the candidate's cost.
     Evaluate,
+    /// Accumulating at the model the run would stop at, to confirm the held set (stop reason
+    /// kept for when it is confirmed).
+    Confirm(LmStop),
+    /// Accumulating every column again at the current model, to re-decide identifiability.
+    Reanalyse,
     Done(LmStop),
 }
 
@@ -112,6 +132,11 @@ pub struct Levenberg<T: Real, const N: usize, const V: usize, const P: usize> {
     /// `active[k]`: parameter k is being estimated (false: unidentifiable, held).
     active: [bool; P],
     analysed: bool,
+    /// Identifiability analyses done so far.
+    analyses: u8,
+    /// Diagonal of the scaled normal matrix at the last analysis (a held column that grows
+    /// well beyond it triggers a new one).
+    analysed_diag: [T; P],
     scale: [T; P],
     /// Accumulated scaled update since the start (for the ridge).
     total: [T; P],
@@ -157,6 +182,8 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
             params,
             active,
             analysed: false,
+            analyses: 0,
+            analysed_diag: [T::zero(); P],
             scale,
             total: [T::zero(); P],
             jtj: [[T::zero(); P]; P],
@@ -199,6 +226,22 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
     pub fn analysed(&self) -> bool {
         self.analysed
     }
+    /// How many identifiability analyses the run has made (the first, re-analyses as the model
+    /// moved, and the confirmation at the end).
+    pub fn analyses(&self) -> u8 {
+        self.analyses
+    }
+    /// True when parameter `k` (position in [`Levenberg::params`]) is being estimated.
+    pub fn is_active(&self, k: usize) -> bool {
+        self.active.get(k).copied().unwrap_or(false)
+    }
+    /// The scaled normal matrix `JᵀJ` (lower triangle of the leading `n × n` block,
+    /// `n = params().len()`; the upper triangle is not kept) of the last
+    /// full pass, and the scale of each column (parameter = scaled value / scale). After a run
+    /// that converged it belongs to the final model: covariance and confounding read it.
+    pub fn normal_matrix(&self) -> (&[[T; P]; P], &[T; P]) {
+        (&self.jtj, &self.scale)
+    }
     pub fn progress(&self) -> LmProgress<T> {
         LmProgress {
             iteration: self.iteration,
@@ -233,7 +276,7 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
         while left > 0 {
             match self.phase {
                 Phase::Done(_) => break,
-                Phase::Accumulate => {
+                Phase::Accumulate | Phase::Confirm(_) | Phase::Reanalyse => {
                     if self.next == 0 {
                         self.clear_normal_equations();
                     }
@@ -246,10 +289,26 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
                         self.next = 0;
                         self.evaluations += 1;
                         self.cost = self.acc_cost;
-                        if !self.analysed {
-                            self.analyse();
-                        }
-                        self.phase = Phase::Solve;
+                        self.phase = match self.phase {
+                            Phase::Confirm(stop) => {
+                                if self.analyse() {
+                                    Phase::Solve
+                                } else {
+                                    Phase::Done(stop)
+                                }
+                            }
+                            Phase::Reanalyse => {
+                                self.analyse();
+                                Phase::Solve
+                            }
+                            _ if !self.analysed => {
+                                self.analyse();
+                                Phase::Solve
+                            }
+                            // The held columns' off-diagonal terms are missing: one full pass.
+                            _ if self.held_column_grew() => Phase::Reanalyse,
+                            _ => Phase::Solve,
+                        };
                     }
                 }
                 Phase::Solve => {
@@ -309,16 +368,20 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
         let mut cols = [Vector3::zeros(); P];
         let mut nz = [0usize; P];
         let mut k_nz = 0;
+        // Held columns join fully only on the passes that decide identifiability; otherwise
+        // just their diagonal, which tells when the model has moved to where the data see them.
+        let full = !self.analysed || matches!(self.phase, Phase::Confirm(_) | Phase::Reanalyse);
         for k in 0..n {
-            if !self.active[k] {
-                continue;
-            }
             // Parameters were checked against the robot at construction: a column always exists.
             let c = self
                 .fk
                 .column(&self.robot, self.params.as_slice()[k])
                 .unwrap_or_else(|_| Vector3::zeros())
                 / self.scale[k];
+            if !self.active[k] && !full {
+                self.jtj[k][k] += c.norm_squared();
+                continue;
+            }
             if c.x != T::zero() || c.y != T::zero() || c.z != T::zero() {
                 cols[k_nz] = c;
                 nz[k_nz] = k;
@@ -346,8 +409,39 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
         }
     }
 
-    /// Marks unidentifiable parameters using the first pass's normal matrix.
-    fn analyse(&mut self) {
+    /// True when a held parameter's column has grown well beyond its size at the last
+    /// analysis (the model moved to where the data may see it), and another analysis is allowed.
+    fn held_column_grew(&self) -> bool {
+        // One analysis stays in reserve for the confirmation at the end.
+        if self.analyses.saturating_add(1) >= self.cfg.max_analyses {
+            return false;
+        }
+        let n = self.params.len();
+        let dmax = (0..n).fold(T::zero(), |a, k| a.max(self.jtj[k][k]));
+        (0..n).any(|k| {
+            let d = self.jtj[k][k];
+            !self.active[k]
+                && d > dmax * self.cfg.rank_tolerance * self.cfg.rank_tolerance
+                && d > T::of(4.0) * self.analysed_diag[k]
+        })
+    }
+
+    /// Once the run would stop at `stop`: confirm the held set with a full pass at the final
+    /// model (its normal matrix is then complete for covariance and confounding reports), or
+    /// stop when nothing is held or no analysis is left.
+    fn finish(&mut self, stop: LmStop) {
+        let held = self.active.iter().take(self.params.len()).any(|a| !*a);
+        if !held || self.analyses >= self.cfg.max_analyses {
+            self.phase = Phase::Done(stop);
+        } else {
+            self.next = 0;
+            self.phase = Phase::Confirm(stop);
+        }
+    }
+
+    /// Decides which parameters the data determine at the current model (normal matrix of the
+    /// last pass), preferring those estimated so far; true when the set changed.
+    fn analyse(&mut self) -> bool {
         let n = self.params.len();
         let mut d = [T::zero(); P];
         for (i, di) in d.iter_mut().enumerate().take(n) {
@@ -366,8 +460,22 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
             }
         }
         let mut order = [0usize; P];
-        let rank =
-            pivoted_cholesky(&mut self.work, n, &mut order, self.cfg.rank_tolerance).unwrap_or(0);
+        let before = self.active;
+        // The first analysis has no estimate to prefer.
+        let preferred: &[bool] = if self.analysed { &before[..n] } else { &[] };
+        let rank = pivoted_cholesky_preferring(
+            &mut self.work,
+            n,
+            &mut order,
+            self.cfg.rank_tolerance,
+            preferred,
+            if self.analysed {
+                self.cfg.activation_tolerance
+            } else {
+                self.cfg.rank_tolerance
+            },
+        )
+        .unwrap_or(0);
         for a in self.active.iter_mut().take(n) {
             *a = false;
         }
@@ -377,7 +485,10 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
                 self.active[k] = true;
             }
         }
+        self.analysed_diag[..n].copy_from_slice(&d[..n]);
         self.analysed = true;
+        self.analyses = self.analyses.saturating_add(1);
+        before[..n] != self.active[..n]
     }
 
     /// Solves the damped normal equations for a candidate step.
@@ -393,7 +504,7 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
             }
         }
         if m == 0 {
-            self.phase = Phase::Done(LmStop::Converged);
+            self.finish(LmStop::Converged);
             return;
         }
         let mut mean_diag = T::zero();
@@ -436,7 +547,7 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
                         norm2 += x[a] * x[a];
                     }
                     if norm2.sqrt() < self.cfg.step_tolerance {
-                        self.phase = Phase::Done(LmStop::SmallStep);
+                        self.finish(LmStop::SmallStep);
                         return;
                     }
                     // Unscale into parameter units and build the candidate.
@@ -525,7 +636,7 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
             self.nu = T::of(2.0);
             self.iteration += 1;
             if rel < self.cfg.cost_tolerance {
-                self.phase = Phase::Done(LmStop::Converged);
+                self.finish(LmStop::Converged);
             } else if self.iteration >= self.cfg.max_iterations {
                 self.phase = Phase::Done(LmStop::MaxIterations);
             } else {
@@ -594,6 +705,13 @@ mod snapshot_impl {
             e.reals(&[j.alpha, j.a, j.theta, j.d, j.beta, j.lower, j.upper])?;
         }
         e.reals(r.tool().as_slice())?;
+        // The couplings are constant: stored so that a snapshot of another robot is refused.
+        e.usize(r.couplings().len())?;
+        for (joint, from, ratio) in r.couplings().iter() {
+            e.usize(joint)?;
+            e.usize(from)?;
+            e.reals(&[ratio])?;
+        }
         e.usize(r.effects().values().len())?;
         e.reals(r.effects().values())
     }
@@ -631,6 +749,16 @@ mod snapshot_impl {
         }
         let mut t = [T::zero(); 3];
         d.reals(&mut t)?;
+        d.expect_shape(r.couplings().len())?;
+        for (joint, from, ratio) in r.couplings().iter() {
+            d.expect_shape(joint)?;
+            d.expect_shape(from)?;
+            let mut v = [T::zero(); 1];
+            d.reals(&mut v)?;
+            if v[0] != ratio {
+                return Err(SnapshotError::Shape);
+            }
+        }
         d.expect_shape(r.effects().values().len())?;
         let (b, js, tool, eff) = r.parts_mut();
         d.reals(eff.values_mut())?;
@@ -660,6 +788,8 @@ mod snapshot_impl {
                     e.bool(self.active[k])?;
                 }
                 e.bool(self.analysed)?;
+                e.u8(self.analyses)?;
+                e.reals(&self.analysed_diag[..n])?;
                 e.reals(&self.scale[..n])?;
                 e.reals(&self.total[..n])?;
                 for row in self.jtj.iter().take(n) {
@@ -682,6 +812,8 @@ mod snapshot_impl {
                     Phase::Solve => (1, 0),
                     Phase::Evaluate => (2, 0),
                     Phase::Done(s) => (3, s as u8),
+                    Phase::Confirm(s) => (4, s as u8),
+                    Phase::Reanalyse => (5, 0),
                 };
                 e.u8(ph)?;
                 e.u8(stop)?;
@@ -710,6 +842,8 @@ mod snapshot_impl {
                     s.active[k] = d.bool()?;
                 }
                 s.analysed = d.bool()?;
+                s.analyses = d.u8()?;
+                d.reals(&mut s.analysed_diag[..n])?;
                 d.reals(&mut s.scale[..n])?;
                 d.reals(&mut s.total[..n])?;
                 for row in s.jtj.iter_mut().take(n) {
@@ -724,14 +858,20 @@ mod snapshot_impl {
                 s.n_poses = d.usize()?;
                 let ph = d.u8()?;
                 let stop = d.u8()?;
-                s.phase = match (ph, stop) {
-                    (0, _) => Phase::Accumulate,
-                    (1, _) => Phase::Solve,
-                    (2, _) => Phase::Evaluate,
-                    (3, 0) => Phase::Done(LmStop::Converged),
-                    (3, 1) => Phase::Done(LmStop::SmallStep),
-                    (3, 2) => Phase::Done(LmStop::MaxIterations),
-                    (3, 3) => Phase::Done(LmStop::NoProgress),
+                let reason = match stop {
+                    0 => LmStop::Converged,
+                    1 => LmStop::SmallStep,
+                    2 => LmStop::MaxIterations,
+                    3 => LmStop::NoProgress,
+                    _ => return Err(SnapshotError::Invalid),
+                };
+                s.phase = match ph {
+                    0 => Phase::Accumulate,
+                    1 => Phase::Solve,
+                    2 => Phase::Evaluate,
+                    3 => Phase::Done(reason),
+                    4 => Phase::Confirm(reason),
+                    5 => Phase::Reanalyse,
                     _ => return Err(SnapshotError::Invalid),
                 };
                 s.iteration = d.u32()?;

@@ -1,7 +1,7 @@
 //! Identification on the desktop: split the data, start the base, run a method, report errors
 //! before and after in the units and keys of interfaces.md §4.
 
-use kinecal::lm::{Levenberg, LmConfig};
+use kinecal::lm::{Levenberg, LmConfig, LmStop};
 use kinecal::param::{value, Param, ParamSet};
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use serde::Serialize;
@@ -114,6 +114,49 @@ pub struct Fit<const N: usize, const V: usize> {
     pub unidentifiable: Vec<String>,
     /// Best objective value (sum of squared errors, mm²) per iteration, when the method has one.
     pub history: Vec<f64>,
+    /// Why the local solver stopped (`None` for a method without one, such as PSO alone).
+    pub stop: Option<LmStop>,
+    /// What was held at its start value, and with which estimated parameters it is confounded.
+    pub held: Vec<Held>,
+    /// 1-σ of each estimated parameter in file units (mm, degrees, raw for effect values),
+    /// from the covariance `s²(JᵀJ)⁻¹` with `s²` the residual variance per coordinate.
+    pub sigma: BTreeMap<String, f64>,
+}
+
+impl<const N: usize, const V: usize> Fit<N, V> {
+    /// A fit with no solver diagnostics (global methods).
+    pub fn plain(
+        robot: Robot<f64, N, V>,
+        iterations: u32,
+        evaluations: u64,
+        history: Vec<f64>,
+    ) -> Self {
+        Self {
+            robot,
+            iterations,
+            evaluations,
+            unidentifiable: Vec::new(),
+            history,
+            stop: None,
+            held: Vec::new(),
+            sigma: BTreeMap::new(),
+        }
+    }
+
+    /// True when the local solver ended at a minimum (cost or step below tolerance), false when
+    /// it hit its iteration limit or could not make progress.
+    pub fn solver_converged(&self) -> bool {
+        !matches!(self.stop, Some(LmStop::MaxIterations | LmStop::NoProgress))
+    }
+}
+
+/// A parameter the data could not determine, and why.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Held {
+    pub name: String,
+    /// Estimated parameters whose combination reproduces its effect on the measured points,
+    /// strongest first (empty when no pose moves the point with it at all).
+    pub confounded_with: Vec<String>,
 }
 
 /// Levenberg–Marquardt from `start` over `params`. Small sets run with a small fixed capacity
@@ -159,6 +202,7 @@ fn fit_lm_with<const N: usize, const V: usize, const P: usize>(
             break p;
         }
     };
+    let (held, sigma) = identifiability_report(&lm, data.len(), p.cost);
     Ok(Fit {
         robot: lm.robot().clone(),
         iterations: p.iteration,
@@ -168,7 +212,88 @@ fn fit_lm_with<const N: usize, const V: usize, const P: usize>(
             .map(|q| q.name(lm.robot()).to_string())
             .collect(),
         history,
+        stop: p.stopped,
+        held,
+        sigma,
     })
+}
+
+/// Reads the solver's last normal matrix: for each held parameter the estimated ones it is
+/// confounded with (coefficients of its normalised column on theirs), and the 1-σ of each
+/// estimated parameter.
+fn identifiability_report<const N: usize, const V: usize, const P: usize>(
+    lm: &Levenberg<f64, N, V, P>,
+    n_poses: usize,
+    cost: f64,
+) -> (Vec<Held>, BTreeMap<String, f64>) {
+    use nalgebra::{DMatrix, DVector};
+    let params = lm.params().as_slice();
+    let n = params.len();
+    let (lower, scale) = lm.normal_matrix();
+    // The solver keeps the lower triangle.
+    let jtj = |i: usize, j: usize| if i >= j { lower[i][j] } else { lower[j][i] };
+    let robot = lm.robot();
+    let active: Vec<usize> = (0..n).filter(|&k| lm.is_active(k)).collect();
+    let m = active.len();
+    let a = DMatrix::from_fn(m, m, |i, j| jtj(active[i], active[j]));
+    let mut sigma = BTreeMap::new();
+    let dof = (3 * n_poses).saturating_sub(m);
+    let chol = a.clone().cholesky();
+    if let (Some(ch), true) = (&chol, dof > 0) {
+        let s2 = cost / dof as f64;
+        let inv = ch.inverse();
+        for (i, &k) in active.iter().enumerate() {
+            let sd = (s2 * inv[(i, i)]).max(0.0).sqrt() / scale[k];
+            let sd = match params[k] {
+                Param::Effect(_) => sd,
+                p if p.is_length() => sd,
+                _ => sd.to_degrees(),
+            };
+            sigma.insert(params[k].name(robot).to_string(), sd);
+        }
+    }
+    // Correlation-normalised: the coefficients then compare columns of different units.
+    let d: Vec<f64> = (0..n).map(|k| jtj(k, k).max(0.0).sqrt()).collect();
+    let corr = |i: usize, j: usize| {
+        if d[i] > 0.0 && d[j] > 0.0 {
+            jtj(i, j) / (d[i] * d[j])
+        } else {
+            0.0
+        }
+    };
+    let r = DMatrix::from_fn(m, m, |i, j| corr(active[i], active[j]));
+    let rchol = r.cholesky();
+    let dmax = d.iter().cloned().fold(0.0, f64::max);
+    let held = (0..n)
+        .filter(|&k| !lm.is_active(k))
+        .map(|k| {
+            let mut with = Vec::new();
+            if d[k] > dmax * 1e-8 {
+                if let Some(ch) = &rchol {
+                    let b = DVector::from_fn(m, |i, _| corr(active[i], k));
+                    let c = ch.solve(&b);
+                    let big = c.iter().fold(0.0f64, |x, v| x.max(v.abs()));
+                    let mut terms: Vec<(f64, usize)> = c
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, v)| v.abs() >= 0.2 * big && v.abs() > 1e-6)
+                        .map(|(i, v)| (v.abs(), active[i]))
+                        .collect();
+                    terms.sort_by(|x, y| y.0.total_cmp(&x.0));
+                    with = terms
+                        .iter()
+                        .take(4)
+                        .map(|(_, j)| params[*j].name(robot).to_string())
+                        .collect();
+                }
+            }
+            Held {
+                name: params[k].name(robot).to_string(),
+                confounded_with: with,
+            }
+        })
+        .collect();
+    (held, sigma)
 }
 
 /// An effect to add to the model before identification (`--effect KIND:JOINT[:ARG]`).

@@ -1,13 +1,16 @@
 //! Host-side companion of the `kinecal` library: file formats (TOML robots, CSV measurements),
 //! an independent `f64` reference implementation for cross-checks, and the `kinecal` command line.
 
+pub mod atomic;
 pub mod candidates;
 pub mod cli;
+pub mod coupling_hint;
 pub mod cross_validation;
 pub mod data;
 pub mod diagnose;
 pub mod global;
 pub mod identify;
+pub mod numfmt;
 pub mod penalised_fit;
 pub mod plots;
 pub mod reference;
@@ -19,6 +22,40 @@ pub mod significance;
 pub mod sim;
 pub mod study_figure;
 pub mod sweeps;
+pub mod units;
+
+/// Input that kinecal refuses (malformed, or implausible in the units assumed): the command
+/// exits with status 2 and the one-line reason (interfaces.md §4). Wrap the reason with
+/// [`refused`] or the [`refuse!`] macro; `main` finds it anywhere in an error's chain.
+#[derive(Debug)]
+pub struct Refused(pub String);
+
+impl std::fmt::Display for Refused {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Refused {}
+
+/// An [`anyhow::Error`] that makes the command exit with status 2 (input refused).
+pub fn refused(reason: impl Into<String>) -> anyhow::Error {
+    anyhow::Error::new(Refused(reason.into()))
+}
+
+/// `refuse!("fmt", args…)`: returns early with a [`Refused`] error (exit status 2).
+#[macro_export]
+macro_rules! refuse {
+    ($($t:tt)*) => {
+        return Err($crate::refused(format!($($t)*)))
+    };
+}
+
+/// Exit status of a command that ran but whose result must not be trusted as calibrated
+/// (`identify` stopped at its iteration limit or stalled): the JSON is still written.
+pub const EXIT_NOT_CONVERGED: i32 = 3;
+/// Exit status of refused input.
+pub const EXIT_REFUSED: i32 = 2;
 
 /// Effect-value capacity of host-side models: room for per-joint tables on every joint.
 pub const VCAP: usize = 2048;

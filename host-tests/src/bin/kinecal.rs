@@ -76,11 +76,20 @@ fn main() {
                     serde_json::to_string_pretty(&v).unwrap_or_else(|_| "{}".into())
                 );
             }
+            // A result that must not be taken as calibrated (interfaces.md §4: exit 3).
+            if v.get("converged") == Some(&serde_json::Value::Bool(false)) {
+                std::process::exit(kinecal_host::EXIT_NOT_CONVERGED);
+            }
         }
         Err(e) => {
             let msg = format!("{e:#}").replace('\n', " ");
             eprintln!("kinecal: {msg}");
-            std::process::exit(1);
+            let refused = e.chain().any(|c| c.is::<kinecal_host::Refused>());
+            std::process::exit(if refused {
+                kinecal_host::EXIT_REFUSED
+            } else {
+                1
+            });
         }
     }
 }

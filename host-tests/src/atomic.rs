@@ -52,3 +52,27 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     }
     Ok(())
 }
+
+/// True when `a` and `b` name the same file (the same path, or the same file through links or
+/// relative paths once both exist).
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    a == b || (a.canonicalize().ok().is_some() && a.canonicalize().ok() == b.canonicalize().ok())
+}
+
+/// Refuses (exit 2) an output path that names one of the command's inputs: `identify --data D
+/// --out D` must not destroy the measurements it just read.
+pub fn refuse_overwriting_inputs(
+    flag: &str,
+    out: &Path,
+    inputs: &[(&str, &Path)],
+) -> anyhow::Result<()> {
+    for (name, input) in inputs {
+        if same_file(out, input) {
+            crate::refuse!(
+                "{flag} {} is the {name} file: choose another output path (kinecal never writes over its inputs)",
+                out.display()
+            );
+        }
+    }
+    Ok(())
+}

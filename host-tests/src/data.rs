@@ -303,6 +303,6 @@ pub fn to_csv_string<const N: usize>(data: &Dataset<N>) -> String {
 
 /// Writes a measurement file (see [`to_csv_string`]).
 pub fn write<const N: usize>(path: &Path, data: &Dataset<N>) -> anyhow::Result<()> {
-    std::fs::write(path, to_csv_string(data))
+    crate::atomic::write_atomic(path, to_csv_string(data).as_bytes())
         .map_err(|e| anyhow!("{}: cannot write: {e}", path.display()))
 }

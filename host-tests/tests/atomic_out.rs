@@ -251,3 +251,86 @@ fn kill_9_during_identify_never_leaves_a_torn_model() {
         "some kills must land before the write ({kept} kept, {replaced} replaced)"
     );
 }
+
+/// `--out` naming one of the command's inputs is refused (exit 2) before anything is written:
+/// `identify --data D --out D` used to destroy the measurements it had just read.
+#[test]
+fn out_never_overwrites_an_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = dir.path().join("r.toml");
+    std::fs::write(&robot, ROBOT).unwrap();
+    let data = dir.path().join("d.csv");
+    run(&[
+        "simulate",
+        "--robot",
+        s(&robot),
+        "--poses",
+        "40",
+        "--noise-mm",
+        "0.01",
+        "--out",
+        s(&data),
+    ]);
+    let targets = dir.path().join("t.csv");
+    std::fs::copy(&data, &targets).unwrap();
+    let before_robot = std::fs::read(&robot).unwrap();
+    let before_data = std::fs::read(&data).unwrap();
+    // The same file through another spelling of its path counts too.
+    let data_alias = dir.path().join(".").join("d.csv");
+    let cases: Vec<Vec<&str>> = vec![
+        vec![
+            "identify",
+            "--robot",
+            s(&robot),
+            "--data",
+            s(&data),
+            "--out",
+            s(&data_alias),
+        ],
+        vec![
+            "identify",
+            "--robot",
+            s(&robot),
+            "--data",
+            s(&data),
+            "--out",
+            s(&robot),
+        ],
+        vec![
+            "diagnose",
+            "--robot",
+            s(&robot),
+            "--data",
+            s(&data),
+            "--out",
+            s(&data),
+        ],
+        vec![
+            "compensate",
+            "--model",
+            s(&robot),
+            "--targets",
+            s(&targets),
+            "--out",
+            s(&robot),
+        ],
+        vec![
+            "compensate",
+            "--model",
+            s(&robot),
+            "--targets",
+            s(&targets),
+            "--out",
+            s(&targets),
+        ],
+    ];
+    for args in cases {
+        let out = Command::new(bin()).args(&args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains("never writes over its inputs"), "{err}");
+        assert_eq!(err.trim().lines().count(), 1, "one line: {err}");
+    }
+    assert_eq!(std::fs::read(&robot).unwrap(), before_robot);
+    assert_eq!(std::fs::read(&data).unwrap(), before_data);
+}

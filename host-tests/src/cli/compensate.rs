@@ -69,6 +69,14 @@ struct Row {
 
 /// Runs the subcommand; returns the JSON report (printed when `--json` is given).
 pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
+    crate::atomic::refuse_overwriting_inputs(
+        "--out",
+        &args.out,
+        &[
+            ("model", args.model.as_path()),
+            ("targets", args.targets.as_path()),
+        ],
+    )?;
     let file = RobotFile::load(&args.model)?;
     let n = file.joint_count();
     with_joints!(n, N => run_n::<N>(args, &file, json))
@@ -154,7 +162,7 @@ fn run_n<const N: usize>(
             ncorr += 1;
         }
     }
-    std::fs::write(&args.out, csv)
+    crate::atomic::write_atomic(&args.out, csv.as_bytes())
         .map_err(|e| anyhow!("{}: cannot write: {e}", args.out.display()))?;
     let ok = counts.get("ok").copied().unwrap_or(0);
     let failed = rows.len() - ok;

@@ -49,6 +49,16 @@ pub struct Args {
 
 /// Runs the subcommand; returns the JSON report (printed when `--json` is given).
 pub fn run(args: &Args, json: bool) -> anyhow::Result<Value> {
+    if let Some(out) = &args.out {
+        crate::atomic::refuse_overwriting_inputs(
+            "--out",
+            out,
+            &[
+                ("robot", args.robot.as_path()),
+                ("sweep data", args.data.as_path()),
+            ],
+        )?;
+    }
     let n = RobotFile::load(&args.robot)?.joint_count();
     with_joints!(n, N => run_n::<N>(args, json))
 }

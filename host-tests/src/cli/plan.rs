@@ -688,7 +688,7 @@ fn run_n<const N: usize>(
     for (c, cl) in written.iter_mut().zip(&clearances) {
         c.clearance = *cl;
     }
-    std::fs::write(&args.out, poses_csv(&written))
+    crate::atomic::write_atomic(&args.out, poses_csv(&written).as_bytes())
         .map_err(|e| anyhow!("{}: cannot write: {e}", args.out.display()))?;
     let max_incidence = p
         .poses
@@ -752,6 +752,14 @@ fn run_n<const N: usize>(
 
 /// Runs the subcommand; returns the JSON report (printed when `--json` is given).
 pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
+    crate::atomic::refuse_overwriting_inputs(
+        "--out",
+        &args.out,
+        &[
+            ("robot", args.robot.as_path()),
+            ("scene", args.scene.as_path()),
+        ],
+    )?;
     let file = RobotFile::load(&args.robot)?;
     with_joints!(file.joint_count(), N => run_n::<N>(args, &file, json))
 }

@@ -12,7 +12,7 @@ use crate::sim::{self, EffectArg, GeomErrors, Simulation};
 use crate::with_joints;
 use anyhow::{anyhow, bail};
 use serde_json::json;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Arguments of `kinecal simulate` (see interfaces.md §4).
 #[derive(clap::Args, Debug)]
@@ -152,10 +152,6 @@ fn simulate_n<const N: usize>(
     }))
 }
 
-fn same_file(a: &Path, b: &Path) -> bool {
-    a == b || (a.canonicalize().ok().is_some() && a.canonicalize().ok() == b.canonicalize().ok())
-}
-
 /// Runs the subcommand; returns the JSON report (printed when `--json` is given).
 pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
     let file = RobotFile::load(&args.robot)?;
@@ -165,6 +161,7 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
             args.noise_mm
         );
     }
+    use crate::atomic::same_file;
     if same_file(&args.out, &args.robot)
         || args
             .truth

@@ -10,59 +10,8 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Instant;
 
-const ROBOT: &str = r#"name = "ER20-C10-like 6R"
-[[joints]]
-alpha_deg = 0.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 504.0
-limits_deg = [-170.0, 170.0]
-[[joints]]
-alpha_deg = -90.0
-a_mm = 170.0
-theta_deg = -90.0
-d_mm = 0.0
-limits_deg = [-150.0, 90.0]
-[[joints]]
-alpha_deg = 0.0
-a_mm = 780.0
-theta_deg = 0.0
-d_mm = 0.0
-[[joints]]
-alpha_deg = -90.0
-a_mm = 140.0
-theta_deg = 0.0
-d_mm = 760.0
-[[joints]]
-alpha_deg = 90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 0.0
-limits_deg = [-125.0, 125.0]
-[[joints]]
-alpha_deg = -90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 125.0
-[tool]
-xyz_mm = [12.0, -7.0, 100.0]
-[base]
-xyz_mm = [2500.0, -1200.0, -300.0]
-rpy_deg = [0.7, -1.3, 155.0]
-"#;
-
-fn bin() -> &'static str {
-    env!("CARGO_BIN_EXE_kinecal")
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn run(args: &[&str]) {
-    let o = Command::new(bin()).args(args).output().unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-}
+mod common;
+use common::{args_with_out, bin, kinecal, kinecal_ok, s, simulate, write, ER20_PLACED};
 
 /// Files in `dir` other than hidden ones (an interrupted write may leave its hidden
 /// temporary file behind; it never takes the target's name).
@@ -108,36 +57,23 @@ fn write_atomic_replaces_whole_files_and_leaves_nothing_on_error() {
 fn a_write_that_fails_halfway_keeps_the_previous_file() {
     let dir = tempfile::tempdir().unwrap();
     // A long name makes the model file larger than the limit.
-    let text = ROBOT.replacen(
+    let text = ER20_PLACED.replacen(
         "ER20-C10-like 6R",
         &format!("ER20-C10-like 6R {}", "x".repeat(1500)),
         1,
     );
-    let robot = dir.path().join("r.toml");
-    std::fs::write(&robot, &text).unwrap();
+    let robot = write(dir.path(), "r.toml", &text);
     let data = dir.path().join("d.csv");
-    run(&[
-        "simulate",
-        "--robot",
-        s(&robot),
-        "--poses",
-        "60",
-        "--noise-mm",
-        "0.01",
-        "--geom-errors",
-        "--out",
-        s(&data),
-    ]);
+    simulate(
+        &robot,
+        Some(60),
+        Some(0.01),
+        None,
+        &["--geom-errors"],
+        &data,
+    );
     let model = dir.path().join("m.toml");
-    run(&[
-        "identify",
-        "--robot",
-        s(&robot),
-        "--data",
-        s(&data),
-        "--out",
-        s(&model),
-    ]);
+    kinecal_ok(&args_with_out("identify", &robot, &data, &model));
     let new_text = std::fs::read_to_string(&model).unwrap();
     assert!(
         new_text.len() > 2048,
@@ -175,33 +111,20 @@ fn a_write_that_fails_halfway_keeps_the_previous_file() {
 #[test]
 fn kill_9_during_identify_never_leaves_a_torn_model() {
     let dir = tempfile::tempdir().unwrap();
-    let robot = dir.path().join("r.toml");
-    std::fs::write(&robot, ROBOT).unwrap();
+    let robot = write(dir.path(), "r.toml", ER20_PLACED);
     let data = dir.path().join("big.csv");
-    run(&[
-        "simulate",
-        "--robot",
-        s(&robot),
-        "--poses",
-        "30000",
-        "--noise-mm",
-        "0.01",
-        "--geom-errors",
-        "--out",
-        s(&data),
-    ]);
+    simulate(
+        &robot,
+        Some(30000),
+        Some(0.01),
+        None,
+        &["--geom-errors"],
+        &data,
+    );
     let model = dir.path().join("M.toml");
     let identify = || {
         Command::new(bin())
-            .args([
-                "identify",
-                "--robot",
-                s(&robot),
-                "--data",
-                s(&data),
-                "--out",
-                s(&model),
-            ])
+            .args(args_with_out("identify", &robot, &data, &model))
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
@@ -215,7 +138,7 @@ fn kill_9_during_identify_never_leaves_a_torn_model() {
     let new_file = RobotFile::parse(&new_text, "M.toml").unwrap();
     assert!(new_file.name.contains("identified"));
 
-    let previous = RobotFile::parse(ROBOT, "r.toml")
+    let previous = RobotFile::parse(ER20_PLACED, "r.toml")
         .unwrap()
         .to_toml()
         .unwrap();
@@ -257,20 +180,9 @@ fn kill_9_during_identify_never_leaves_a_torn_model() {
 #[test]
 fn out_never_overwrites_an_input() {
     let dir = tempfile::tempdir().unwrap();
-    let robot = dir.path().join("r.toml");
-    std::fs::write(&robot, ROBOT).unwrap();
+    let robot = write(dir.path(), "r.toml", ER20_PLACED);
     let data = dir.path().join("d.csv");
-    run(&[
-        "simulate",
-        "--robot",
-        s(&robot),
-        "--poses",
-        "40",
-        "--noise-mm",
-        "0.01",
-        "--out",
-        s(&data),
-    ]);
+    simulate(&robot, Some(40), Some(0.01), None, &[], &data);
     let targets = dir.path().join("t.csv");
     std::fs::copy(&data, &targets).unwrap();
     let before_robot = std::fs::read(&robot).unwrap();
@@ -278,54 +190,14 @@ fn out_never_overwrites_an_input() {
     // The same file through another spelling of its path counts too.
     let data_alias = dir.path().join(".").join("d.csv");
     let cases: Vec<Vec<&str>> = vec![
-        vec![
-            "identify",
-            "--robot",
-            s(&robot),
-            "--data",
-            s(&data),
-            "--out",
-            s(&data_alias),
-        ],
-        vec![
-            "identify",
-            "--robot",
-            s(&robot),
-            "--data",
-            s(&data),
-            "--out",
-            s(&robot),
-        ],
-        vec![
-            "diagnose",
-            "--robot",
-            s(&robot),
-            "--data",
-            s(&data),
-            "--out",
-            s(&data),
-        ],
-        vec![
-            "compensate",
-            "--model",
-            s(&robot),
-            "--targets",
-            s(&targets),
-            "--out",
-            s(&robot),
-        ],
-        vec![
-            "compensate",
-            "--model",
-            s(&robot),
-            "--targets",
-            s(&targets),
-            "--out",
-            s(&targets),
-        ],
+        args_with_out("identify", &robot, &data, &data_alias),
+        args_with_out("identify", &robot, &data, &robot),
+        args_with_out("diagnose", &robot, &data, &data),
+        args_with_out("compensate", &robot, &targets, &robot),
+        args_with_out("compensate", &robot, &targets, &targets),
     ];
     for args in cases {
-        let out = Command::new(bin()).args(&args).output().unwrap();
+        let out = kinecal(&args);
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
         assert!(err.contains("never writes over its inputs"), "{err}");

@@ -6,125 +6,14 @@ use kinecal_host::data;
 use kinecal_host::reference::RefRobot;
 use kinecal_host::robot_file::RobotFile;
 use nalgebra::Vector3;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Output;
 
-const ER20: &str = r#"name = "ER20-C10-like 6R, tilted and placed"
-[[joints]]
-alpha_deg = 0.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 504.0
-limits_deg = [-170.0, 170.0]
-[[joints]]
-alpha_deg = -90.0
-a_mm = 170.0
-theta_deg = -90.0
-d_mm = 0.0
-limits_deg = [-150.0, 90.0]
-[[joints]]
-alpha_deg = 0.0
-a_mm = 780.0
-theta_deg = 0.0
-d_mm = 0.0
-beta_deg = 0.3
-[[joints]]
-alpha_deg = -90.0
-a_mm = 140.0
-theta_deg = 0.0
-d_mm = 760.0
-[[joints]]
-alpha_deg = 90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 0.0
-limits_deg = [-125.0, 125.0]
-[[joints]]
-alpha_deg = -90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 125.0
-[tool]
-xyz_mm = [12.0, -7.0, 100.0]
-[base]
-xyz_mm = [2500.0, -1200.0, -300.0]
-rpy_deg = [0.7, -1.3, 155.0]
-"#;
-
-const LBR7: &str = r#"name = "7R, tilt, base"
-[[joints]]
-alpha_deg = 0.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 340.0
-[[joints]]
-alpha_deg = -90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 0.0
-[[joints]]
-alpha_deg = 90.0
-a_mm = 0.0
-theta_deg = 10.0
-d_mm = 400.0
-beta_deg = -0.5
-[[joints]]
-alpha_deg = 90.0
-a_mm = 5.0
-theta_deg = 0.0
-d_mm = 0.0
-[[joints]]
-alpha_deg = -90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 400.0
-[[joints]]
-alpha_deg = -90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 0.0
-[[joints]]
-alpha_deg = 90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 126.0
-[tool]
-xyz_mm = [0.0, 30.0, 150.0]
-[base]
-xyz_mm = [-1800.0, 2200.0, 450.0]
-rpy_deg = [-2.0, 1.0, -60.0]
-"#;
-
-fn kinecal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_kinecal"))
-        .args(args)
-        .output()
-        .expect("run kinecal")
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
-}
-
-/// Asserts success and returns stdout parsed as exactly one JSON object.
-fn json_of(out: &Output) -> serde_json::Value {
-    assert!(
-        out.status.success(),
-        "stderr: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let text = String::from_utf8(out.stdout.clone()).unwrap();
-    let v: serde_json::Value = serde_json::from_str(&text)
-        .unwrap_or_else(|e| panic!("stdout is one JSON object ({e}): {text}"));
-    assert!(v.is_object());
-    v
-}
+mod common;
+use common::{
+    f64s, json_of, kinecal, location, run_on, s, simulate, write, ER20_TILTED_PLACED as ER20,
+    LBR7_TILTED_PLACED as LBR7,
+};
 
 /// Asserts failure with exactly one stderr line that names `file:LINE:COLUMN:`; returns
 /// `(line, column, line of text)`.
@@ -133,21 +22,7 @@ fn one_line_error(out: &Output, file: &Path) -> (usize, usize, String) {
     let err = String::from_utf8(out.stderr.clone()).unwrap();
     let lines: Vec<&str> = err.lines().collect();
     assert_eq!(lines.len(), 1, "exactly one line on stderr: {err}");
-    let needle = format!("{}:", file.display());
-    let at = lines[0]
-        .find(&needle)
-        .unwrap_or_else(|| panic!("names {}: {err}", file.display()));
-    let mut it = lines[0][at + needle.len()..].splitn(3, ':');
-    let l = it
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap_or_else(|_| panic!("line number: {err}"));
-    let c = it
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap_or_else(|_| panic!("column number: {err}"));
+    let (l, c, _) = location(lines[0], &file.display().to_string());
     (l, c, lines[0].to_string())
 }
 
@@ -161,28 +36,9 @@ fn simulate_matches<const N: usize>(
 ) -> f64 {
     let out_csv = dir.join("sim.csv");
     let truth = dir.join("truth.toml");
-    let mut args = vec![
-        "simulate",
-        "--robot",
-        s(robot),
-        "--poses",
-        "200",
-        "--noise-mm",
-        "0",
-        "--seed",
-        "11",
-        "--out",
-        s(&out_csv),
-        "--truth",
-        s(&truth),
-    ];
+    let mut args = vec!["--truth", s(&truth)];
     args.extend_from_slice(extra);
-    let out = kinecal(&args);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    simulate(robot, Some(200), Some(0.0), Some(11), &args, &out_csv);
     let ds = data::load::<N>(&out_csv).unwrap();
     assert_eq!(ds.len(), 200);
     let r = reference(&truth);
@@ -313,59 +169,27 @@ fn without_base_simulate_uses_identity_and_check_fits_it() {
     // Simulating the unplaced robot: identity base, said on stderr, truth has an identity base.
     let csv = dir.path().join("d.csv");
     let truth = dir.path().join("t.toml");
-    let out = kinecal(&[
-        "simulate",
-        "--robot",
-        s(&unplaced),
-        "--poses",
-        "30",
-        "--out",
-        s(&csv),
-        "--truth",
-        s(&truth),
-    ]);
-    assert!(out.status.success());
+    let out = simulate(
+        &unplaced,
+        Some(30),
+        None,
+        None,
+        &["--truth", s(&truth)],
+        &csv,
+    );
     assert!(String::from_utf8_lossy(&out.stderr).contains("identity"));
     let t = RobotFile::load(&truth).unwrap();
     let b = t.base.expect("truth has a base");
     assert_eq!((b.xyz_mm, b.rpy_deg), ([0.0; 3], [0.0; 3]));
 
     // Data of the placed robot, checked against the unplaced file: the base is recovered.
-    let out = kinecal(&[
-        "simulate",
-        "--robot",
-        s(&placed),
-        "--poses",
-        "60",
-        "--seed",
-        "5",
-        "--out",
-        s(&csv),
-    ]);
-    assert!(out.status.success());
-    let v = json_of(&kinecal(&[
-        "check",
-        "--robot",
-        s(&unplaced),
-        "--data",
-        s(&csv),
-        "--json",
-    ]));
+    simulate(&placed, Some(60), None, Some(5), &[], &csv);
+    let v = json_of(&run_on("check", &unplaced, &csv, &["--json"]));
     assert_eq!(v["poses"], 60);
     assert_eq!(v["base_fitted"], true);
     assert!(v["nominal_rms_mm"].as_f64().unwrap() < 1e-5, "{v}");
-    let xyz: Vec<f64> = v["base"]["xyz_mm"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_f64().unwrap())
-        .collect();
-    let rpy: Vec<f64> = v["base"]["rpy_deg"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_f64().unwrap())
-        .collect();
+    let xyz = f64s(&v["base"]["xyz_mm"]);
+    let rpy = f64s(&v["base"]["rpy_deg"]);
     for (a, b) in xyz.iter().zip([2500.0, -1200.0, -300.0]) {
         assert!((a - b).abs() < 1e-5, "{xyz:?}");
     }
@@ -379,33 +203,20 @@ fn check_reports_noise_level_and_ranges() {
     let dir = tempfile::tempdir().unwrap();
     let robot = write(dir.path(), "robot.toml", ER20);
     let csv = dir.path().join("d.csv");
-    let v = json_of(&kinecal(&[
-        "--json",
-        "simulate",
-        "--robot",
-        s(&robot),
-        "--poses",
-        "2000",
-        "--noise-mm",
-        "0.05",
-        "--seed",
-        "2",
-        "--out",
-        s(&csv),
-    ]));
+    let v = json_of(&simulate(
+        &robot,
+        Some(2000),
+        Some(0.05),
+        Some(2),
+        &["--json"],
+        &csv,
+    ));
     assert_eq!(
         (v["poses"].as_u64(), v["seed"].as_u64()),
         (Some(2000), Some(2))
     );
     assert_eq!(v["out"], s(&csv));
-    let v = json_of(&kinecal(&[
-        "check",
-        "--json",
-        "--robot",
-        s(&robot),
-        "--data",
-        s(&csv),
-    ]));
+    let v = json_of(&run_on("check", &robot, &csv, &["--json"]));
     assert_eq!(v["poses"], 2000);
     assert_eq!(v["base_fitted"], false);
     // RMS of 3-D Gaussian noise of σ per axis is √3·σ.
@@ -442,33 +253,28 @@ fn check_reports_noise_level_and_ranges() {
 fn same_seed_same_files() {
     let dir = tempfile::tempdir().unwrap();
     let robot = write(dir.path(), "robot.toml", LBR7);
-    let run = |seed: &str, name: &str| -> (Vec<u8>, Vec<u8>) {
+    let run = |seed: u64, name: &str| -> (Vec<u8>, Vec<u8>) {
         let csv = dir.path().join(format!("{name}.csv"));
         let truth = dir.path().join(format!("{name}.toml"));
-        let out = kinecal(&[
-            "simulate",
-            "--robot",
-            s(&robot),
-            "--poses",
-            "40",
-            "--noise-mm",
-            "0.02",
-            "--seed",
-            seed,
-            "--geom-errors",
-            "--effect",
-            "joint-cyclic:2:1e-4,2e-4",
-            "--out",
-            s(&csv),
-            "--truth",
-            s(&truth),
-        ]);
-        assert!(out.status.success());
+        simulate(
+            &robot,
+            Some(40),
+            Some(0.02),
+            Some(seed),
+            &[
+                "--geom-errors",
+                "--effect",
+                "joint-cyclic:2:1e-4,2e-4",
+                "--truth",
+                s(&truth),
+            ],
+            &csv,
+        );
         (std::fs::read(csv).unwrap(), std::fs::read(truth).unwrap())
     };
-    let a = run("42", "a");
-    let b = run("42", "b");
-    let c = run("43", "c");
+    let a = run(42, "a");
+    let b = run(42, "b");
+    let c = run(43, "c");
     assert_eq!(a, b);
     assert_ne!(a.0, c.0);
     assert_ne!(a.1, c.1);
@@ -478,28 +284,13 @@ fn same_seed_same_files() {
 fn the_noise_level_does_not_move_the_poses() {
     let dir = tempfile::tempdir().unwrap();
     let robot = write(dir.path(), "robot.toml", ER20);
-    let read = |noise: &str, geom: bool| {
+    let read = |noise: f64, geom: bool| {
         let csv = dir.path().join("d.csv");
-        let mut args = vec![
-            "simulate",
-            "--robot",
-            s(&robot),
-            "--poses",
-            "20",
-            "--seed",
-            "9",
-            "--noise-mm",
-            noise,
-            "--out",
-            s(&csv),
-        ];
-        if geom {
-            args.push("--geom-errors");
-        }
-        assert!(kinecal(&args).status.success());
+        let extra: &[&str] = if geom { &["--geom-errors"] } else { &[] };
+        simulate(&robot, Some(20), Some(noise), Some(9), extra, &csv);
         data::load::<6>(&csv).unwrap()
     };
-    let (a, b, c) = (read("0", false), read("0.1", false), read("0", true));
+    let (a, b, c) = (read(0.0, false), read(0.1, false), read(0.0, true));
     for ((x, y), z) in a.records.iter().zip(&b.records).zip(&c.records) {
         assert_eq!(x.q_deg, y.q_deg);
         assert_eq!(x.q_deg, z.q_deg);
@@ -513,17 +304,7 @@ fn malformed_files_fail_with_one_located_line() {
     let d = dir.path();
     let robot = write(d, "robot.toml", ER20);
     let good_csv = d.join("good.csv");
-    assert!(kinecal(&[
-        "simulate",
-        "--robot",
-        s(&robot),
-        "--poses",
-        "5",
-        "--out",
-        s(&good_csv)
-    ])
-    .status
-    .success());
+    simulate(&robot, Some(5), None, None, &[], &good_csv);
     let good = std::fs::read_to_string(&good_csv).unwrap();
     let head = "q1,q2,q3,q4,q5,q6,x,y,z";
 

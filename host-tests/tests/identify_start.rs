@@ -4,24 +4,18 @@
 //! says so with exit status 3, and `--fix`/`--free` change what is estimated.
 
 use kinecal_host::robot_file::RobotFile;
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::Path;
 
-fn kinecal(args: &[&str]) -> (i32, serde_json::Value, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_kinecal"))
-        .args(args)
-        .output()
-        .expect("run kinecal");
+mod common;
+use common::{data_file, run_on, simulate, stderr};
+
+/// `kinecal identify --json --robot ROBOT --data DATA EXTRA…`: (exit status, stdout as JSON or
+/// `Null`, stderr).
+fn identify(robot: &Path, data: &Path, extra: &[&str]) -> (i32, serde_json::Value, String) {
+    let out = run_on("identify", robot, data, &[&["--json"], extra].concat());
     let stdout = String::from_utf8_lossy(&out.stdout).to_string();
-    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
     let v = serde_json::from_str(&stdout).unwrap_or(serde_json::Value::Null);
-    (out.status.code().unwrap_or(-1), v, stderr)
-}
-
-fn data_file(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(name)
+    (out.status.code().unwrap_or(-1), v, stderr(&out))
 }
 
 /// Writes `robot` with its tool point replaced.
@@ -40,33 +34,16 @@ fn compare_starts(robot: &str, tool: [f64; 3], seed: u64) -> (f64, f64) {
     with_tool(&data_file(robot), tool, &truth);
     with_tool(&data_file(robot), [0.0, 0.0, 0.0], &on_axis);
     let data = dir.path().join("d.csv");
-    let seed = seed.to_string();
-    let (code, _, err) = kinecal(&[
-        "simulate",
-        "--robot",
-        truth.to_str().unwrap(),
-        "--poses",
-        "160",
-        "--noise-mm",
-        "0.01",
-        "--seed",
-        &seed,
-        "--geom-errors",
-        "--out",
-        data.to_str().unwrap(),
-    ]);
-    assert_eq!(code, 0, "{err}");
+    simulate(
+        &truth,
+        Some(160),
+        Some(0.01),
+        Some(seed),
+        &["--geom-errors"],
+        &data,
+    );
     let run = |r: &Path| {
-        let (code, v, err) = kinecal(&[
-            "identify",
-            "--json",
-            "--robot",
-            r.to_str().unwrap(),
-            "--data",
-            data.to_str().unwrap(),
-            "--holdout",
-            "60",
-        ]);
+        let (code, v, err) = identify(r, &data, &["--holdout", "60"]);
         assert_eq!(code, 0, "{robot}: {err}");
         assert_eq!(v["converged"], true);
         v["after"]["validation_rms_mm"].as_f64().unwrap()
@@ -101,40 +78,20 @@ fn a_tool_started_on_the_flange_axis_reaches_the_true_tool_optimum() {
 fn a_fit_that_cannot_converge_exits_3_with_its_json() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("er20.csv");
-    let (code, _, err) = kinecal(&[
-        "simulate",
-        "--robot",
-        data_file("er20.toml").to_str().unwrap(),
-        "--poses",
-        "80",
-        "--noise-mm",
-        "0.01",
-        "--seed",
-        "5",
-        "--out",
-        data.to_str().unwrap(),
-    ]);
-    assert_eq!(code, 0, "{err}");
-    let (code, v, err) = kinecal(&[
-        "identify",
-        "--json",
-        "--robot",
-        data_file("ur10.toml").to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-    ]);
+    simulate(
+        &data_file("er20.toml"),
+        Some(80),
+        Some(0.01),
+        Some(5),
+        &[],
+        &data,
+    );
+    let (code, v, err) = identify(&data_file("ur10.toml"), &data, &[]);
     assert_eq!(code, 3, "{err}");
     assert_eq!(v["converged"], false);
     assert!(err.contains("not a calibration"), "{err}");
     // The same data with its own model converges (exit 0).
-    let (code, v, err) = kinecal(&[
-        "identify",
-        "--json",
-        "--robot",
-        data_file("er20.toml").to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-    ]);
+    let (code, v, err) = identify(&data_file("er20.toml"), &data, &[]);
     assert_eq!(code, 0, "{err}");
     assert_eq!(v["converged"], true);
     assert_eq!(v["suspicious"], serde_json::json!([]));
@@ -151,33 +108,9 @@ fn fix_free_and_suspicious_parameters() {
     f.joints[5].d_mm += 30.0; // d6 is 30 mm off in the file: beyond the 20 mm tolerance
     std::fs::write(&truth, f.to_toml().unwrap()).unwrap();
     let data = dir.path().join("d.csv");
-    let (code, _, err) = kinecal(&[
-        "simulate",
-        "--robot",
-        truth.to_str().unwrap(),
-        "--poses",
-        "120",
-        "--noise-mm",
-        "0.01",
-        "--seed",
-        "9",
-        "--out",
-        data.to_str().unwrap(),
-    ]);
-    assert_eq!(code, 0, "{err}");
+    simulate(&truth, Some(120), Some(0.01), Some(9), &[], &data);
     let robot = data_file("er20.toml");
-    let id = |extra: &[&str]| {
-        let mut a = vec![
-            "identify",
-            "--json",
-            "--robot",
-            robot.to_str().unwrap(),
-            "--data",
-            data.to_str().unwrap(),
-        ];
-        a.extend_from_slice(extra);
-        kinecal(&a)
-    };
+    let id = |extra: &[&str]| identify(&robot, &data, extra);
     let (code, v, err) = id(&[]);
     assert_eq!(code, 0, "{err}");
     let sus: Vec<&str> = v["suspicious"]
@@ -227,33 +160,16 @@ fn fix_free_and_suspicious_parameters() {
 fn pso_with_an_unknown_base_fits_base_and_tool_first_and_says_so() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("d.csv");
-    let (code, _, err) = kinecal(&[
-        "simulate",
-        "--robot",
-        data_file("ur10.toml").to_str().unwrap(),
-        "--poses",
-        "80",
-        "--noise-mm",
-        "0.01",
-        "--seed",
-        "4",
-        "--geom-errors",
-        "--out",
-        data.to_str().unwrap(),
-    ]);
-    assert_eq!(code, 0, "{err}");
-    let (code, v, err) = kinecal(&[
-        "identify",
-        "--json",
-        "--method",
-        "pso",
-        "--robot",
-        data_file("ur10.toml").to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-        "--holdout",
-        "30",
-    ]);
+    let ur10 = data_file("ur10.toml");
+    simulate(
+        &ur10,
+        Some(80),
+        Some(0.01),
+        Some(4),
+        &["--geom-errors"],
+        &data,
+    );
+    let (code, v, err) = identify(&ur10, &data, &["--method", "pso", "--holdout", "30"]);
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("fitted first by LM"), "{err}");
     let before = v["before"]["validation_rms_mm"].as_f64().unwrap();

@@ -9,119 +9,13 @@
 //! known), then rewritten in other units here.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-/// A placed, tilted ER20-like 6R (base known), as in cli_check_simulate.rs.
-const ER20: &str = r#"name = "ER20-C10-like 6R, tilted and placed"
-[[joints]]
-alpha_deg = 0.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 504.0
-limits_deg = [-170.0, 170.0]
-[[joints]]
-alpha_deg = -90.0
-a_mm = 170.0
-theta_deg = -90.0
-d_mm = 0.0
-limits_deg = [-150.0, 90.0]
-[[joints]]
-alpha_deg = 0.0
-a_mm = 780.0
-theta_deg = 0.0
-d_mm = 0.0
-beta_deg = 0.3
-[[joints]]
-alpha_deg = -90.0
-a_mm = 140.0
-theta_deg = 0.0
-d_mm = 760.0
-[[joints]]
-alpha_deg = 90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 0.0
-limits_deg = [-125.0, 125.0]
-[[joints]]
-alpha_deg = -90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 125.0
-[tool]
-xyz_mm = [12.0, -7.0, 100.0]
-[base]
-xyz_mm = [2500.0, -1200.0, -300.0]
-rpy_deg = [0.7, -1.3, 155.0]
-"#;
-
-/// A placed 7R (base known), as in cli_check_simulate.rs.
-const LBR7: &str = r#"name = "7R, tilt, base"
-[[joints]]
-alpha_deg = 0.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 340.0
-[[joints]]
-alpha_deg = -90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 0.0
-[[joints]]
-alpha_deg = 90.0
-a_mm = 0.0
-theta_deg = 10.0
-d_mm = 400.0
-[[joints]]
-alpha_deg = 90.0
-a_mm = 5.0
-theta_deg = 0.0
-d_mm = 0.0
-[[joints]]
-alpha_deg = -90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 400.0
-[[joints]]
-alpha_deg = -90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 0.0
-[[joints]]
-alpha_deg = 90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 126.0
-[tool]
-xyz_mm = [0.0, 30.0, 150.0]
-[base]
-xyz_mm = [-1800.0, 2200.0, 450.0]
-rpy_deg = [-2.0, 1.0, -60.0]
-"#;
-
-fn kinecal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_kinecal"))
-        .args(args)
-        .output()
-        .expect("run kinecal")
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
-}
-
-fn ur10_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/ur10")
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).to_string()
-}
+mod common;
+use common::{
+    args_with_out, kinecal, run_on, s, simulate, stderr, ur10_dir, write, ER20_TILTED_PLACED,
+    LBR7_PLACED,
+};
 
 /// Stdout parsed as one JSON object (the command may have exited 0 or 3).
 fn json_of(out: &Output) -> serde_json::Value {
@@ -133,16 +27,6 @@ fn json_of(out: &Output) -> serde_json::Value {
     );
     let text = String::from_utf8(out.stdout.clone()).unwrap();
     serde_json::from_str(&text).unwrap_or_else(|e| panic!("one JSON object ({e}): {text}"))
-}
-
-/// Runs `kinecal simulate` with `extra` arguments into `dir/name`.
-fn simulate(dir: &Path, robot: &Path, name: &str, extra: &[&str]) -> PathBuf {
-    let out = dir.join(name);
-    let mut args = vec!["simulate", "--robot", s(robot), "--out", s(&out)];
-    args.extend_from_slice(extra);
-    let o = kinecal(&args);
-    assert!(o.status.success(), "simulate: {}", stderr(&o));
-    out
 }
 
 /// Units a file is rewritten in.
@@ -275,30 +159,32 @@ fn case(dir: &Path, name: &'static str, robot_text: Option<&str>) -> Case {
         Some(t) => write(&d, "robot.toml", t),
         None => ur10_dir().join("robot.toml"),
     };
-    let common = ["--noise-mm", "0.02", "--geom-errors"];
-    let mut a = vec!["--poses", "40", "--seed", "7"];
-    a.extend(common);
-    let data = simulate(&d, &robot, "data.csv", &a);
-    let mut a = vec!["--poses", "25", "--seed", "8"];
-    a.extend(common);
-    let valid = simulate(&d, &robot, "valid.csv", &a);
+    let (data, valid) = (d.join("data.csv"), d.join("valid.csv"));
+    simulate(
+        &robot,
+        Some(40),
+        Some(0.02),
+        Some(7),
+        &["--geom-errors"],
+        &data,
+    );
+    simulate(
+        &robot,
+        Some(25),
+        Some(0.02),
+        Some(8),
+        &["--geom-errors"],
+        &valid,
+    );
     let n = if name == "lbr7" { 7 } else { 6 };
     let sweeps = (n == 6).then(|| {
-        simulate(
-            &d,
-            &robot,
-            "sweeps.csv",
-            &[
-                "--sweeps",
-                "1,2,5,6",
-                "--sweep-points",
-                "12",
-                "--noise-mm",
-                "0.005",
-            ],
-        )
+        let sweeps = d.join("sweeps.csv");
+        let args = ["--sweeps", "1,2,5,6", "--sweep-points", "12"];
+        simulate(&robot, None, Some(0.005), None, &args, &sweeps);
+        sweeps
     });
-    let targets = simulate(&d, &robot, "targets.csv", &["--poses", "12", "--seed", "9"]);
+    let targets = d.join("targets.csv");
+    simulate(&robot, Some(12), None, Some(9), &[], &targets);
     Case {
         name,
         robot,
@@ -347,15 +233,7 @@ fn commands(
     let targets = conv(&c.targets);
     v.push((
         "compensate".to_string(),
-        vec![
-            "compensate",
-            "--model",
-            r,
-            "--targets",
-            s(&targets),
-            "--out",
-            s(&q),
-        ],
+        args_with_out("compensate", &c.robot, &targets, &q),
         targets.clone(),
     ));
     let mut out: Vec<(String, Vec<String>, PathBuf)> = v
@@ -455,8 +333,8 @@ fn commands_deg(path: &Path, rad: bool) -> Vec<Vec<f64>> {
 fn cases(dir: &Path) -> Vec<Case> {
     vec![
         case(dir, "ur10", None),
-        case(dir, "er20", Some(ER20)),
-        case(dir, "lbr7", Some(LBR7)),
+        case(dir, "er20", Some(ER20_TILTED_PLACED)),
+        case(dir, "lbr7", Some(LBR7_PLACED)),
     ]
 }
 
@@ -519,7 +397,7 @@ fn wrong_units_are_refused_and_the_flag_gives_the_same_results() {
 #[test]
 fn an_explicit_unit_is_never_second_guessed() {
     let dir = tempfile::tempdir().unwrap();
-    let c = case(dir.path(), "er20", Some(ER20));
+    let c = case(dir.path(), "er20", Some(ER20_TILTED_PLACED));
     let r = s(&c.robot);
     let base = kinecal(&["check", "--json", "--robot", r, "--data", s(&c.data)]);
     let rms0 = json_of(&base)["nominal_rms_mm"].as_f64().unwrap();
@@ -575,14 +453,7 @@ fn real_data_in_the_right_units_is_not_refused() {
     let robot = ur.join("robot.toml");
     let full = ur.join("ur10_random_poses.csv");
     for f in [full.clone(), ur.join("ur10_random_poses_6d.csv")] {
-        let v = json_of(&kinecal(&[
-            "check",
-            "--json",
-            "--robot",
-            s(&robot),
-            "--data",
-            s(&f),
-        ]));
+        let v = json_of(&run_on("check", &robot, &f, &["--json"]));
         assert!(v["poses"].as_u64().unwrap() > 2000);
         assert!(v["nominal_rms_mm"].as_f64().unwrap() < 20.0, "{v}");
     }
@@ -614,12 +485,12 @@ fn real_data_in_the_right_units_is_not_refused() {
         }
     }
     // Sweeps of one joint: a full one, and ±2° around the zero pose (every reading within ±π).
-    for (name, text) in [("ur10", None), ("er20", Some(ER20))] {
+    for (name, text) in [("ur10", None), ("er20", Some(ER20_TILTED_PLACED))] {
         let d = dir.path().join(name);
         std::fs::create_dir_all(&d).unwrap();
         let r = text.map_or(robot.clone(), |t| write(&d, "robot.toml", t));
         for (file, args) in [
-            ("one.csv", vec!["--sweeps", "1", "--noise-mm", "0.01"]),
+            ("one.csv", vec!["--sweeps", "1"]),
             (
                 "small.csv",
                 vec![
@@ -631,12 +502,11 @@ fn real_data_in_the_right_units_is_not_refused() {
                     "9",
                     "--rest",
                     "0,0,0,0,0,0",
-                    "--noise-mm",
-                    "0.01",
                 ],
             ),
         ] {
-            let p = simulate(&d, &r, file, &args);
+            let p = d.join(file);
+            simulate(&r, None, Some(0.01), None, &args, &p);
             let o = kinecal(&["check", "--json", "--robot", s(&r), "--data", s(&p)]);
             assert_eq!(o.status.code(), Some(0), "{name} {file}: {}", stderr(&o));
         }
@@ -648,7 +518,7 @@ fn real_data_in_the_right_units_is_not_refused() {
 #[test]
 fn malformed_files_exit_2() {
     let dir = tempfile::tempdir().unwrap();
-    let robot = write(dir.path(), "robot.toml", ER20);
+    let robot = write(dir.path(), "robot.toml", ER20_TILTED_PLACED);
     let good = "q1,q2,q3,q4,q5,q6,x,y,z\n";
     let bad = [
         (
@@ -672,15 +542,7 @@ fn malformed_files_exit_2() {
             vec!["identify", "--robot", s(&robot), "--data", s(&p)],
             vec!["diagnose", "--robot", s(&robot), "--data", s(&p)],
             vec!["frames", "--robot", s(&robot), "--data", s(&p)],
-            vec![
-                "compensate",
-                "--model",
-                s(&robot),
-                "--targets",
-                s(&p),
-                "--out",
-                s(&q),
-            ],
+            args_with_out("compensate", &robot, &p, &q),
         ] {
             let o = kinecal(&args);
             let e = stderr(&o);
@@ -697,15 +559,7 @@ fn malformed_files_exit_2() {
         "q1,q2,q3,q4,q5,q6,x,y,z,rx,ry\n0,0,0,0,0,0,1,2,3,4,5\n",
     );
     let q = dir.path().join("q.csv");
-    let o = kinecal(&[
-        "compensate",
-        "--model",
-        s(&robot),
-        "--targets",
-        s(&p),
-        "--out",
-        s(&q),
-    ]);
+    let o = kinecal(&args_with_out("compensate", &robot, &p, &q));
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }
 
@@ -731,14 +585,7 @@ fn check_warns_about_limits_only_where_the_file_has_them() {
         "{out}"
     );
     assert!(out.contains("no limits in the robot file"), "{out}");
-    let v = json_of(&kinecal(&[
-        "check",
-        "--json",
-        "--robot",
-        s(&r),
-        "--data",
-        s(&data),
-    ]));
+    let v = json_of(&run_on("check", &r, &data, &["--json"]));
     assert_eq!(v["outside_limits"], 0);
 
     // Control: limits of ±180° stated on joint 1 only: the poses beyond them are counted.
@@ -759,13 +606,6 @@ fn check_warns_about_limits_only_where_the_file_has_them() {
     let o = kinecal(&["check", "--robot", s(&r), "--data", s(&data)]);
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains(&format!("warning: {beyond} of ")), "{out}");
-    let v = json_of(&kinecal(&[
-        "check",
-        "--json",
-        "--robot",
-        s(&r),
-        "--data",
-        s(&data),
-    ]));
+    let v = json_of(&run_on("check", &r, &data, &["--json"]));
     assert_eq!(v["outside_limits"], beyond);
 }

@@ -1,0 +1,162 @@
+//! Support shared by the test binaries (`mod common;` in each): running the `kinecal` binary,
+//! paths and temporary files, `kinecal simulate`, and the robot files of the tests.
+//!
+//! The robot texts are the files of tests/data/, included as text so that a test can edit them
+//! (drop the `[base]`, append `[[effects]]`, break a line) before writing them out.
+
+// Every test binary compiles its own copy and uses only part of it.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// A placed, tilted ER20-like 6R: `beta_deg = 0.3` on joint 3, `[base]` known.
+pub const ER20_TILTED_PLACED: &str = include_str!("../data/er20_tilted_placed.toml");
+
+/// The ER20-like 6R of [`ER20_TILTED_PLACED`] without the tilt, named "ER20-C10-like 6R".
+pub const ER20_PLACED: &str = include_str!("../data/er20_placed.toml");
+
+/// A placed 7R with a tilted joint 3 (`beta_deg = -0.5`), `[base]` known.
+pub const LBR7_TILTED_PLACED: &str = include_str!("../data/lbr7_tilted_placed.toml");
+
+/// The 7R of [`LBR7_TILTED_PLACED`] without the tilt (its name is the same).
+pub const LBR7_PLACED: &str = include_str!("../data/lbr7_placed.toml");
+
+/// The `kinecal` binary of this build.
+pub fn bin() -> &'static str {
+    env!("CARGO_BIN_EXE_kinecal")
+}
+
+/// Runs `kinecal` with `args`; the exit status is the caller's to check.
+pub fn kinecal(args: &[&str]) -> Output {
+    Command::new(bin())
+        .args(args)
+        .output()
+        .expect("run kinecal")
+}
+
+/// Runs `kinecal` with `args` and asserts that it succeeded.
+pub fn kinecal_ok(args: &[&str]) -> Output {
+    let out = kinecal(args);
+    assert!(out.status.success(), "kinecal {args:?}: {}", stderr(&out));
+    out
+}
+
+/// Runs `kinecal COMMAND --robot ROBOT --data DATA EXTRA…` (`check`, `identify`, `diagnose`,
+/// `frames`); the exit status is the caller's to check.
+pub fn run_on(command: &str, robot: &Path, data: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![command, "--robot", s(robot), "--data", s(data)];
+    args.extend_from_slice(extra);
+    kinecal(&args)
+}
+
+/// The arguments `COMMAND --robot ROBOT --data DATA --out OUT`; for `compensate`, `--model
+/// ROBOT --targets DATA`.
+pub fn args_with_out<'a>(
+    command: &'a str,
+    robot: &'a Path,
+    data: &'a Path,
+    out: &'a Path,
+) -> Vec<&'a str> {
+    let (model, input) = match command {
+        "compensate" => ("--model", "--targets"),
+        _ => ("--robot", "--data"),
+    };
+    vec![command, model, s(robot), input, s(data), "--out", s(out)]
+}
+
+/// Asserts success and returns stdout parsed as exactly one JSON object.
+pub fn json_of(out: &Output) -> serde_json::Value {
+    assert!(out.status.success(), "stderr: {}", stderr(out));
+    let text = String::from_utf8(out.stdout.clone()).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text)
+        .unwrap_or_else(|e| panic!("stdout is one JSON object ({e}): {text}"));
+    assert!(v.is_object(), "stdout is one JSON object: {text}");
+    v
+}
+
+/// The numbers of a JSON array.
+pub fn f64s(v: &serde_json::Value) -> Vec<f64> {
+    v.as_array()
+        .unwrap_or_else(|| panic!("an array: {v}"))
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
+}
+
+pub fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).to_string()
+}
+
+pub fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Writes `text` to `dir/name`.
+pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// A file of tests/data/.
+pub fn data_file(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
+}
+
+/// The real UR10 data (robot.toml and the tracker measurements), outside the repository.
+pub fn ur10_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/ur10")
+}
+
+/// Runs `kinecal simulate --robot ROBOT [--poses N] [--noise-mm σ] [--seed S] EXTRA… --out OUT`
+/// and asserts that it succeeded; `None` leaves the program's default.
+pub fn simulate(
+    robot: &Path,
+    poses: Option<usize>,
+    noise_mm: Option<f64>,
+    seed: Option<u64>,
+    extra: &[&str],
+    out: &Path,
+) -> Output {
+    let (poses, noise_mm, seed) = (
+        poses.map(|n| n.to_string()),
+        noise_mm.map(|x| x.to_string()),
+        seed.map(|x| x.to_string()),
+    );
+    let mut args = vec!["simulate", "--robot", s(robot)];
+    for (flag, value) in [
+        ("--poses", &poses),
+        ("--noise-mm", &noise_mm),
+        ("--seed", &seed),
+    ] {
+        if let Some(v) = value {
+            args.extend([flag, v.as_str()]);
+        }
+    }
+    args.extend_from_slice(extra);
+    args.extend(["--out", s(out)]);
+    let o = kinecal(&args);
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    o
+}
+
+/// Where a one-line error message names `file`: `(line, column, the rest of the message)`
+/// from `…FILE:LINE:COLUMN:rest`.
+pub fn location<'a>(msg: &'a str, file: &str) -> (usize, usize, &'a str) {
+    let needle = format!("{file}:");
+    let at = msg
+        .find(&needle)
+        .unwrap_or_else(|| panic!("names {file}: {msg}"));
+    let mut it = msg[at + needle.len()..].splitn(3, ':');
+    let mut number = |what: &str| -> usize {
+        it.next()
+            .unwrap_or("")
+            .parse()
+            .unwrap_or_else(|_| panic!("{what} number: {msg}"))
+    };
+    let (line, column) = (number("line"), number("column"));
+    (line, column, it.next().unwrap_or(""))
+}

@@ -1,4 +1,5 @@
-//! Dense symmetric linear algebra on fixed-capacity storage `[[T; P]; P]` with `n ≤ P` in use.
+//! Dense symmetric linear algebra on fixed-capacity storage `[[T; P]; P]` with `n ≤ P` in use,
+//! or (the factorisations the identification needs) on a caller's flat buffer ([`Flat`]).
 //!
 //! Normal equations of identification and information matrices of measurement planning are
 //! symmetric positive (semi)definite; these routines are all they need, without allocation.
@@ -19,58 +20,125 @@ pub enum LinalgError {
 /// Square matrix storage with capacity `P`.
 pub type Square<T, const P: usize> = [[T; P]; P];
 
+/// Square matrix storage the factorisations work on: a fixed array ([`Square`]) or a view of a
+/// caller's flat buffer ([`Flat`]), so that the solver of a 600-parameter model needs no
+/// megabyte-sized value, while the 6 × 6 solves of compensation keep their fixed arrays.
+pub trait SquareStorage<T: Real> {
+    /// Rows (and columns) the storage holds.
+    fn capacity(&self) -> usize;
+    /// Element `(i, j)`; both below [`SquareStorage::capacity`].
+    fn at(&self, i: usize, j: usize) -> T;
+    /// Element `(i, j)` for writing.
+    fn at_mut(&mut self, i: usize, j: usize) -> &mut T;
+}
+
+impl<T: Real, const P: usize> SquareStorage<T> for Square<T, P> {
+    #[inline(always)]
+    fn capacity(&self) -> usize {
+        P
+    }
+    #[inline(always)]
+    fn at(&self, i: usize, j: usize) -> T {
+        self[i][j]
+    }
+    #[inline(always)]
+    fn at_mut(&mut self, i: usize, j: usize) -> &mut T {
+        &mut self[i][j]
+    }
+}
+
+/// An `n × n` row-major matrix in a caller's buffer.
+#[derive(Debug)]
+pub struct Flat<'a, T> {
+    data: &'a mut [T],
+    n: usize,
+}
+
+impl<'a, T: Real> Flat<'a, T> {
+    /// The leading `n²` values of `data` as an `n × n` matrix (fails when `data` is shorter).
+    pub fn new(data: &'a mut [T], n: usize) -> Result<Self, LinalgError> {
+        let len = n.checked_mul(n).ok_or(LinalgError::Size)?;
+        let data = data.get_mut(..len).ok_or(LinalgError::Size)?;
+        Ok(Self { data, n })
+    }
+    /// Row `i` (empty when out of range).
+    pub fn row(&self, i: usize) -> &[T] {
+        self.data.get(i * self.n..(i + 1) * self.n).unwrap_or(&[])
+    }
+    /// Row `i` for writing (empty when out of range).
+    pub fn row_mut(&mut self, i: usize) -> &mut [T] {
+        let n = self.n;
+        self.data.get_mut(i * n..(i + 1) * n).unwrap_or(&mut [])
+    }
+}
+
+impl<T: Real> SquareStorage<T> for Flat<'_, T> {
+    #[inline(always)]
+    fn capacity(&self) -> usize {
+        self.n
+    }
+    #[inline(always)]
+    fn at(&self, i: usize, j: usize) -> T {
+        self.data[i * self.n + j]
+    }
+    #[inline(always)]
+    fn at_mut(&mut self, i: usize, j: usize) -> &mut T {
+        &mut self.data[i * self.n + j]
+    }
+}
+
 /// Cholesky factorisation `A = L·Lᵀ` of the leading `n × n` block, in place (lower triangle
 /// holds L; the upper triangle is left as it was).
-pub fn cholesky<T: Real, const P: usize>(
-    a: &mut Square<T, P>,
+pub fn cholesky<T: Real, M: SquareStorage<T> + ?Sized>(
+    a: &mut M,
     n: usize,
 ) -> Result<(), LinalgError> {
-    if n > P {
+    if n > a.capacity() {
         return Err(LinalgError::Size);
     }
     for j in 0..n {
-        let mut d = a[j][j];
+        let mut d = a.at(j, j);
         for k in 0..j {
-            d -= a[j][k] * a[j][k];
+            d -= a.at(j, k) * a.at(j, k);
         }
         if !(d > T::zero()) || !d.finite() {
             return Err(LinalgError::NotPositiveDefinite);
         }
         let d = d.sqrt();
-        a[j][j] = d;
+        *a.at_mut(j, j) = d;
         for i in j + 1..n {
-            let mut s = a[i][j];
+            let mut s = a.at(i, j);
             for k in 0..j {
-                s -= a[i][k] * a[j][k];
+                s -= a.at(i, k) * a.at(j, k);
             }
-            a[i][j] = s / d;
+            *a.at_mut(i, j) = s / d;
         }
     }
     Ok(())
 }
 
 /// Solves `L·Lᵀ·x = b` in place with the factor from [`cholesky`].
-pub fn cholesky_solve<T: Real, const P: usize>(
-    l: &Square<T, P>,
+pub fn cholesky_solve<T: Real, M: SquareStorage<T> + ?Sized>(
+    l: &M,
     n: usize,
     b: &mut [T],
 ) -> Result<(), LinalgError> {
-    if n > P || b.len() < n {
+    if n > l.capacity() || b.len() < n {
         return Err(LinalgError::Size);
     }
     for i in 0..n {
         let mut s = b[i];
         for k in 0..i {
-            s -= l[i][k] * b[k];
+            s -= l.at(i, k) * b[k];
         }
-        b[i] = s / l[i][i];
+        b[i] = s / l.at(i, i);
     }
     for i in (0..n).rev() {
         let mut s = b[i];
         for k in i + 1..n {
-            s -= l[k][i] * b[k];
+            s -= l.at(k, i) * b[k];
         }
-        b[i] = s / l[i][i];
+        b[i] = s / l.at(i, i);
     }
     Ok(())
 }
@@ -80,8 +148,8 @@ pub fn cholesky_solve<T: Real, const P: usize>(
 /// columns that are linearly independent to the relative tolerance `tol` (a pivot is accepted
 /// while it exceeds `tol` times the largest original diagonal); the rest are the dependent
 /// ones, the directions the data cannot determine. Returns the rank.
-pub fn pivoted_cholesky<T: Real, const P: usize>(
-    a: &mut Square<T, P>,
+pub fn pivoted_cholesky<T: Real, M: SquareStorage<T> + ?Sized>(
+    a: &mut M,
     n: usize,
     order: &mut [usize],
     tol: T,
@@ -95,24 +163,24 @@ pub fn pivoted_cholesky<T: Real, const P: usize>(
 /// parameters estimated so far preferred keeps a confounded pair (theta6 vs the tool point)
 /// from swapping at every call: a column joins only when it adds a direction the preferred
 /// ones do not span, by the margin `tol_other`.
-pub fn pivoted_cholesky_preferring<T: Real, const P: usize>(
-    a: &mut Square<T, P>,
+pub fn pivoted_cholesky_preferring<T: Real, M: SquareStorage<T> + ?Sized>(
+    a: &mut M,
     n: usize,
     order: &mut [usize],
     tol: T,
     preferred: &[bool],
     tol_other: T,
 ) -> Result<usize, LinalgError> {
-    if n > P || order.len() < n {
+    if n > a.capacity() || order.len() < n {
         return Err(LinalgError::Size);
     }
     for (i, o) in order.iter_mut().enumerate().take(n) {
         *o = i;
     }
     let mut dmax = T::zero();
-    for (i, row) in a.iter().enumerate().take(n) {
-        if row[i] > dmax {
-            dmax = row[i];
+    for i in 0..n {
+        if a.at(i, i) > dmax {
+            dmax = a.at(i, i);
         }
     }
     if !(dmax > T::zero()) || !dmax.finite() {
@@ -129,8 +197,8 @@ pub fn pivoted_cholesky_preferring<T: Real, const P: usize>(
         for (class, limit) in [(true, limit), (false, limit_other)] {
             for i in k..n {
                 if pref(i, order) == class
-                    && a[i][i] > limit
-                    && best.is_none_or(|b: usize| a[i][i] > a[b][b])
+                    && a.at(i, i) > limit
+                    && best.is_none_or(|b: usize| a.at(i, i) > a.at(b, b))
                 {
                     best = Some(i);
                 }
@@ -143,25 +211,32 @@ pub fn pivoted_cholesky_preferring<T: Real, const P: usize>(
             return Ok(k);
         };
         if best != k {
-            a.swap(k, best);
-            for row in a.iter_mut().take(n) {
-                row.swap(k, best);
+            for j in 0..n {
+                let (x, y) = (a.at(k, j), a.at(best, j));
+                *a.at_mut(k, j) = y;
+                *a.at_mut(best, j) = x;
+            }
+            for i in 0..n {
+                let (x, y) = (a.at(i, k), a.at(i, best));
+                *a.at_mut(i, k) = y;
+                *a.at_mut(i, best) = x;
             }
             order.swap(k, best);
         }
-        let d = a[k][k].sqrt();
-        a[k][k] = d;
+        let d = a.at(k, k).sqrt();
+        *a.at_mut(k, k) = d;
         for i in k + 1..n {
-            a[i][k] /= d;
+            *a.at_mut(i, k) /= d;
         }
         for i in k + 1..n {
-            let lik = a[i][k];
+            let lik = a.at(i, k);
             for j in k + 1..=i {
-                a[i][j] -= lik * a[j][k];
+                let v = a.at(i, j) - lik * a.at(j, k);
+                *a.at_mut(i, j) = v;
             }
             // Keep the block symmetric so the next pivot search reads the diagonal only.
             for j in k + 1..i {
-                a[j][i] = a[i][j];
+                *a.at_mut(j, i) = a.at(i, j);
             }
         }
     }

@@ -21,8 +21,9 @@
 //! prefers the parameters already estimated, so a confounded pair does not swap back and
 //! forth. A tiny ridge on the accumulated update keeps nearly dependent directions bounded.
 
-use crate::linalg::{cholesky, cholesky_solve, pivoted_cholesky_preferring, LinalgError, Square};
-use crate::param::{apply_delta, Param, ParamError, ParamSet};
+use crate::linalg::{cholesky, cholesky_solve, pivoted_cholesky_preferring, Flat, LinalgError};
+pub use crate::lm_storage::{FixedLm, LmParts, LmPartsRef, LmStorage};
+use crate::param::{apply_delta, check_params, Param, ParamError};
 use crate::{ForwardKinematics, Measurement, Real, Robot};
 use nalgebra::Vector3;
 
@@ -121,29 +122,17 @@ enum Phase {
     Done(LmStop),
 }
 
-/// The Levenberg–Marquardt stepper for a robot with `N` joints, `V` effect values and at most
-/// `P` identified parameters.
+/// The Levenberg–Marquardt stepper for a robot with `N` joints and `V` effect values, over the
+/// caller's storage `S` (the parameters and the normal equations: see [`crate::lm_storage`]).
 #[derive(Clone, Debug)]
-pub struct Levenberg<T: Real, const N: usize, const V: usize, const P: usize> {
+pub struct Levenberg<T: Real, const N: usize, const V: usize, S: LmStorage<T>> {
     cfg: LmConfig<T>,
     robot: Robot<T, N, V>,
     candidate: Robot<T, N, V>,
-    params: ParamSet<P>,
-    /// `active[k]`: parameter k is being estimated (false: unidentifiable, held).
-    active: [bool; P],
+    st: S,
     analysed: bool,
     /// Identifiability analyses done so far.
     analyses: u8,
-    /// Diagonal of the scaled normal matrix at the last analysis (a held column that grows
-    /// well beyond it triggers a new one).
-    analysed_diag: [T; P],
-    scale: [T; P],
-    /// Accumulated scaled update since the start (for the ridge).
-    total: [T; P],
-    jtj: Square<T, P>,
-    jtr: [T; P],
-    work: Square<T, P>,
-    step: [T; P],
     cost: T,
     acc_cost: T,
     cand_cost: T,
@@ -158,38 +147,72 @@ pub struct Levenberg<T: Real, const N: usize, const V: usize, const P: usize> {
     fk: ForwardKinematics<T, N>,
 }
 
-impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V, P> {
-    /// A solver starting from `start`, estimating `params` (all must exist in the robot).
-    pub fn new(
+/// A solver in fixed arrays with room for `P` parameters (firmware; small host problems).
+pub type FixedLevenberg<T, const N: usize, const V: usize, const P: usize> =
+    Levenberg<T, N, V, FixedLm<T, P>>;
+
+impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V, FixedLm<T, P>> {
+    /// A solver in fixed arrays with room for the `P` parameters of `params`.
+    pub fn fixed(
         start: Robot<T, N, V>,
-        params: ParamSet<P>,
+        params: crate::param::ParamSet<P>,
         cfg: LmConfig<T>,
     ) -> Result<Self, LmError> {
-        params.check(&start).map_err(LmError::Params)?;
-        let reach = start.reach();
-        let mut scale = [T::one(); P];
-        for (s, p) in scale.iter_mut().zip(params.as_slice()) {
-            *s = p.scale(reach);
+        Self::new(start, FixedLm::new(params), cfg)
+    }
+}
+
+/// Checks that the storage has room for its parameters.
+fn storage_fits<T: Real, S: LmStorage<T>>(st: &mut S) -> bool {
+    let n = st.params().len();
+    let p = st.parts();
+    let vectors = [
+        p.jtr.len(),
+        p.step.len(),
+        p.total.len(),
+        p.scale.len(),
+        p.analysed_diag.len(),
+        p.g.len(),
+        p.x.len(),
+        p.delta.len(),
+        p.cols.len(),
+        p.nz.len(),
+        p.idx.len(),
+        p.order.len(),
+        p.active.len(),
+        p.before.len(),
+    ];
+    let matrix = p.stride.checked_mul(p.stride);
+    p.stride >= n
+        && vectors.iter().all(|&l| l >= n)
+        && matrix.is_some_and(|m| p.jtj.len() >= m && p.work.len() >= m)
+}
+
+impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V, S> {
+    /// A solver starting from `start`, estimating the parameters of `storage` (all must exist
+    /// in the robot, and the storage must have room for them).
+    pub fn new(start: Robot<T, N, V>, mut storage: S, cfg: LmConfig<T>) -> Result<Self, LmError> {
+        check_params(storage.params(), &start).map_err(LmError::Params)?;
+        if !storage_fits(&mut storage) {
+            return Err(LmError::Params(ParamError::Shape));
         }
-        let mut active = [false; P];
-        for a in active.iter_mut().take(params.len()) {
-            *a = true;
+        let reach = start.reach();
+        let p = storage.parts();
+        for (k, param) in p.params.iter().enumerate() {
+            p.scale[k] = param.scale(reach);
+            p.total[k] = T::zero();
+            p.step[k] = T::zero();
+            p.jtr[k] = T::zero();
+            p.analysed_diag[k] = T::zero();
+            p.active[k] = true;
         }
         Ok(Self {
             cfg,
             candidate: start.clone(),
             robot: start,
-            params,
-            active,
+            st: storage,
             analysed: false,
             analyses: 0,
-            analysed_diag: [T::zero(); P],
-            scale,
-            total: [T::zero(); P],
-            jtj: [[T::zero(); P]; P],
-            jtr: [T::zero(); P],
-            work: [[T::zero(); P]; P],
-            step: [T::zero(); P],
             cost: T::zero(),
             acc_cost: T::zero(),
             cand_cost: T::zero(),
@@ -209,16 +232,17 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
     pub fn robot(&self) -> &Robot<T, N, V> {
         &self.robot
     }
-    /// The requested parameter set.
-    pub fn params(&self) -> &ParamSet<P> {
-        &self.params
+    /// The parameters being estimated.
+    pub fn params(&self) -> &[Param] {
+        self.st.params()
     }
     /// Parameters found unidentifiable (held at their start values); empty before the first pass.
     pub fn unidentifiable(&self) -> impl Iterator<Item = Param> + '_ {
-        self.params
-            .as_slice()
+        let active = self.st.parts_ref().active;
+        self.st
+            .params()
             .iter()
-            .zip(self.active.iter())
+            .zip(active.iter())
             .filter(|(_, a)| !**a)
             .map(|(p, _)| *p)
     }
@@ -233,14 +257,28 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
     }
     /// True when parameter `k` (position in [`Levenberg::params`]) is being estimated.
     pub fn is_active(&self, k: usize) -> bool {
-        self.active.get(k).copied().unwrap_or(false)
+        self.st.parts_ref().active.get(k).copied().unwrap_or(false)
     }
-    /// The scaled normal matrix `JᵀJ` (lower triangle of the leading `n × n` block,
-    /// `n = params().len()`; the upper triangle is not kept) of the last
-    /// full pass, and the scale of each column (parameter = scaled value / scale). After a run
-    /// that converged it belongs to the final model: covariance and confounding read it.
-    pub fn normal_matrix(&self) -> (&[[T; P]; P], &[T; P]) {
-        (&self.jtj, &self.scale)
+    /// Element `(i, j)` of the scaled normal matrix `JᵀJ` of the last full pass (symmetric;
+    /// `0` outside the parameter count). After a run that converged it belongs to the final
+    /// model: covariance and confounding read it.
+    pub fn normal_matrix(&self, i: usize, j: usize) -> T {
+        let p = self.st.parts_ref();
+        let n = self.st.params().len();
+        if i >= n || j >= n {
+            return T::zero();
+        }
+        let (i, j) = if i >= j { (i, j) } else { (j, i) };
+        p.jtj[i * p.stride + j]
+    }
+    /// The column scale of parameter `k` (parameter = scaled value / scale).
+    pub fn scale(&self, k: usize) -> T {
+        self.st
+            .parts_ref()
+            .scale
+            .get(k)
+            .copied()
+            .unwrap_or(T::one())
     }
     pub fn progress(&self) -> LmProgress<T> {
         LmProgress {
@@ -262,7 +300,7 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
         budget: usize,
     ) -> Result<LmProgress<T>, LmError> {
         if self.n_poses == 0 {
-            if data.is_empty() || 3 * data.len() < self.params.len() {
+            if data.is_empty() || 3 * data.len() < self.st.params().len() {
                 return Err(LmError::TooFewMeasurements);
             }
             if data.iter().any(|m| !m.is_finite()) {
@@ -345,15 +383,12 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
     }
 
     fn clear_normal_equations(&mut self) {
-        let n = self.params.len();
-        for row in self.jtj.iter_mut().take(n) {
-            for v in row.iter_mut().take(n) {
-                *v = T::zero();
-            }
+        let n = self.st.params().len();
+        let p = self.st.parts();
+        for i in 0..n {
+            p.jtj[i * p.stride..i * p.stride + n].fill(T::zero());
         }
-        for v in self.jtr.iter_mut().take(n) {
-            *v = T::zero();
-        }
+        p.jtr[..n].fill(T::zero());
         self.acc_cost = T::zero();
     }
 
@@ -362,37 +397,37 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
         let p = self.fk.compute(&self.robot, &m.q);
         let r = m.point - p;
         self.acc_cost += r.norm_squared();
-        let n = self.params.len();
-        // Only the columns this pose excites (tables touch two knots of many): the update then
-        // costs O(k²) for k non-zero columns instead of O(P²).
-        let mut cols = [Vector3::zeros(); P];
-        let mut nz = [0usize; P];
-        let mut k_nz = 0;
         // Held columns join fully only on the passes that decide identifiability; otherwise
         // just their diagonal, which tells when the model has moved to where the data see them.
         let full = !self.analysed || matches!(self.phase, Phase::Confirm(_) | Phase::Reanalyse);
+        let st = self.st.parts();
+        let n = st.params.len();
+        // Only the columns this pose excites (tables touch two knots of many): the update then
+        // costs O(k²) for k non-zero columns instead of O(P²).
+        let mut k_nz = 0;
         for k in 0..n {
             // Parameters were checked against the robot at construction: a column always exists.
             let c = self
                 .fk
-                .column(&self.robot, self.params.as_slice()[k])
+                .column(&self.robot, st.params[k])
                 .unwrap_or_else(|_| Vector3::zeros())
-                / self.scale[k];
-            if !self.active[k] && !full {
-                self.jtj[k][k] += c.norm_squared();
+                / st.scale[k];
+            if !st.active[k] && !full {
+                st.jtj[k * st.stride + k] += c.norm_squared();
                 continue;
             }
             if c.x != T::zero() || c.y != T::zero() || c.z != T::zero() {
-                cols[k_nz] = c;
-                nz[k_nz] = k;
+                st.cols[k_nz] = c;
+                st.nz[k_nz] = k;
                 k_nz += 1;
             }
         }
+        let (cols, nz) = (&st.cols[..k_nz], &st.nz[..k_nz]);
         for a in 0..k_nz {
             let i = nz[a];
             let ci = cols[a];
-            self.jtr[i] += ci.dot(&r);
-            let row = &mut self.jtj[i];
+            st.jtr[i] += ci.dot(&r);
+            let row = &mut st.jtj[i * st.stride..i * st.stride + i + 1];
             if k_nz == n {
                 // Every column excited (the usual geometric case): nz[b] = b, a contiguous row.
                 for (v, c) in row[..a + 1].iter_mut().zip(&cols[..a + 1]) {
@@ -416,13 +451,15 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
         if self.analyses.saturating_add(1) >= self.cfg.max_analyses {
             return false;
         }
-        let n = self.params.len();
-        let dmax = (0..n).fold(T::zero(), |a, k| a.max(self.jtj[k][k]));
+        let n = self.st.params().len();
+        let p = self.st.parts_ref();
+        let diag = |k: usize| p.jtj[k * p.stride + k];
+        let dmax = (0..n).fold(T::zero(), |a, k| a.max(diag(k)));
         (0..n).any(|k| {
-            let d = self.jtj[k][k];
-            !self.active[k]
+            let d = diag(k);
+            !p.active[k]
                 && d > dmax * self.cfg.rank_tolerance * self.cfg.rank_tolerance
-                && d > T::of(4.0) * self.analysed_diag[k]
+                && d > T::of(4.0) * p.analysed_diag[k]
         })
     }
 
@@ -430,7 +467,8 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
     /// model (its normal matrix is then complete for covariance and confounding reports), or
     /// stop when nothing is held or no analysis is left.
     fn finish(&mut self, stop: LmStop) {
-        let held = self.active.iter().take(self.params.len()).any(|a| !*a);
+        let n = self.st.params().len();
+        let held = self.st.parts_ref().active[..n].iter().any(|a| !*a);
         if !held || self.analyses >= self.cfg.max_analyses {
             self.phase = Phase::Done(stop);
         } else {
@@ -442,64 +480,72 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
     /// Decides which parameters the data determine at the current model (normal matrix of the
     /// last pass), preferring those estimated so far; true when the set changed.
     fn analyse(&mut self) -> bool {
-        let n = self.params.len();
-        let mut d = [T::zero(); P];
-        for (i, di) in d.iter_mut().enumerate().take(n) {
-            *di = self.jtj[i][i];
+        let n = self.st.params().len();
+        let first = !self.analysed;
+        let cfg = self.cfg;
+        let p = self.st.parts();
+        let s = p.stride;
+        // The diagonal goes to analysed_diag (kept for the growth test).
+        for i in 0..n {
+            p.analysed_diag[i] = p.jtj[i * s + i];
         }
-        let dmax = d.iter().take(n).fold(T::zero(), |a, b| a.max(*b));
+        let d = &*p.analysed_diag;
+        let dmax = d[..n].iter().fold(T::zero(), |a, b| a.max(*b));
         for i in 0..n {
             for j in 0..=i {
                 let v = if d[i] > T::zero() && d[j] > T::zero() {
-                    self.jtj[i][j] / (d[i] * d[j]).sqrt()
+                    p.jtj[i * s + j] / (d[i] * d[j]).sqrt()
                 } else {
                     T::zero()
                 };
-                self.work[i][j] = v;
-                self.work[j][i] = v;
+                p.work[i * s + j] = v;
+                p.work[j * s + i] = v;
             }
         }
-        let mut order = [0usize; P];
-        let before = self.active;
+        p.before[..n].copy_from_slice(&p.active[..n]);
         // The first analysis has no estimate to prefer.
-        let preferred: &[bool] = if self.analysed { &before[..n] } else { &[] };
-        let rank = pivoted_cholesky_preferring(
-            &mut self.work,
-            n,
-            &mut order,
-            self.cfg.rank_tolerance,
-            preferred,
-            if self.analysed {
-                self.cfg.activation_tolerance
-            } else {
-                self.cfg.rank_tolerance
-            },
-        )
-        .unwrap_or(0);
-        for a in self.active.iter_mut().take(n) {
-            *a = false;
-        }
-        for &k in order.iter().take(rank) {
+        let preferred: &[bool] = if first { &[] } else { &p.before[..n] };
+        let rank = Flat::new(p.work, s)
+            .and_then(|mut w| {
+                pivoted_cholesky_preferring(
+                    &mut w,
+                    n,
+                    p.order,
+                    cfg.rank_tolerance,
+                    preferred,
+                    if first {
+                        cfg.rank_tolerance
+                    } else {
+                        cfg.activation_tolerance
+                    },
+                )
+            })
+            .unwrap_or(0);
+        p.active[..n].fill(false);
+        for &k in p.order[..rank].iter() {
             // A column with no information at all (relative to the strongest) is dropped too.
             if d[k] > dmax * T::EPS {
-                self.active[k] = true;
+                p.active[k] = true;
             }
         }
-        self.analysed_diag[..n].copy_from_slice(&d[..n]);
+        let changed = p.before[..n] != p.active[..n];
         self.analysed = true;
         self.analyses = self.analyses.saturating_add(1);
-        before[..n] != self.active[..n]
+        changed
     }
 
     /// Solves the damped normal equations for a candidate step.
     fn solve(&mut self) {
-        let n = self.params.len();
+        let n = self.st.params().len();
+        let cfg = self.cfg;
+        let lambda = self.lambda;
+        let p = self.st.parts();
+        let s = p.stride;
         // Compact the active parameters into the leading block of `work`.
-        let mut idx = [0usize; P];
         let mut m = 0;
         for k in 0..n {
-            if self.active[k] {
-                idx[m] = k;
+            if p.active[k] {
+                p.idx[m] = k;
                 m += 1;
             }
         }
@@ -507,74 +553,74 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
             self.finish(LmStop::Converged);
             return;
         }
+        let idx = &p.idx[..m];
         let mut mean_diag = T::zero();
-        for &k in idx.iter().take(m) {
-            mean_diag += self.jtj[k][k];
+        for &k in idx {
+            mean_diag += p.jtj[k * s + k];
         }
         mean_diag /= T::of(m as f64);
-        let mu = self.cfg.ridge * mean_diag;
-        loop {
-            let mut g = [T::zero(); P];
+        let mu = cfg.ridge * mean_diag;
+        let mut lambda = lambda;
+        let outcome = loop {
             for a in 0..m {
                 let ka = idx[a];
                 for b in 0..=a {
-                    let kb = idx[b];
-                    self.work[a][b] = self.jtj[ka][kb];
+                    p.work[a * s + b] = p.jtj[ka * s + idx[b]];
                 }
-                let diag = self.jtj[ka][ka];
-                self.work[a][a] = diag + self.lambda * diag.max(mean_diag * T::EPS) + mu;
-                g[a] = self.jtr[ka] - mu * self.total[ka];
+                let diag = p.jtj[ka * s + ka];
+                p.work[a * s + a] = diag + lambda * diag.max(mean_diag * T::EPS) + mu;
+                p.g[a] = p.jtr[ka] - mu * p.total[ka];
             }
-            let mut x = g;
-            let ok = cholesky(&mut self.work, m)
-                .and_then(|_| cholesky_solve(&self.work, m, &mut x[..m]));
+            p.x[..m].copy_from_slice(&p.g[..m]);
+            let ok = Flat::new(&mut *p.work, s).and_then(|mut w| {
+                cholesky(&mut w, m)?;
+                cholesky_solve(&w, m, &mut p.x[..m])
+            });
             match ok {
-                Ok(()) if x.iter().take(m).all(|v| v.finite()) => {
-                    // Predicted reduction of the (ridged) cost: xᵀ(2g − A x) = xᵀ(g + λ D x + … ).
-                    let mut pred = T::zero();
-                    for a in 0..m {
-                        let ka = idx[a];
-                        let diag = self.jtj[ka][ka];
-                        pred += x[a] * (g[a] + (self.lambda * diag.max(mean_diag * T::EPS)) * x[a]);
-                    }
-                    self.predicted = pred;
-                    for v in self.step.iter_mut() {
-                        *v = T::zero();
-                    }
-                    let mut norm2 = T::zero();
-                    for a in 0..m {
-                        self.step[idx[a]] = x[a];
-                        norm2 += x[a] * x[a];
-                    }
-                    if norm2.sqrt() < self.cfg.step_tolerance {
-                        self.finish(LmStop::SmallStep);
-                        return;
-                    }
-                    // Unscale into parameter units and build the candidate.
-                    let mut delta = [T::zero(); P];
-                    for k in 0..n {
-                        delta[k] = self.step[k] / self.scale[k];
-                    }
-                    self.candidate.clone_from(&self.robot);
-                    if apply_delta(&mut self.candidate, &self.params, &delta[..n]).is_err() {
-                        self.reject();
-                        return;
-                    }
-                    self.cand_cost = T::zero();
-                    self.next = 0;
-                    self.phase = Phase::Evaluate;
-                    return;
-                }
+                Ok(()) if p.x[..m].iter().all(|v| v.finite()) => break Some(()),
                 Ok(()) | Err(LinalgError::NotPositiveDefinite) | Err(LinalgError::Size) => {
                     // Not solvable at this damping: damp harder and retry, up to a limit.
-                    self.lambda *= T::of(10.0);
-                    if !(self.lambda < T::of(1e16)) {
-                        self.phase = Phase::Done(LmStop::NoProgress);
-                        return;
+                    lambda *= T::of(10.0);
+                    if !(lambda < T::of(1e16)) {
+                        break None;
                     }
                 }
             }
+        };
+        self.lambda = lambda;
+        if outcome.is_none() {
+            self.phase = Phase::Done(LmStop::NoProgress);
+            return;
         }
+        // Predicted reduction of the (ridged) cost: xᵀ(2g − A x) = xᵀ(g + λ D x + … ).
+        let mut pred = T::zero();
+        for a in 0..m {
+            let diag = p.jtj[idx[a] * s + idx[a]];
+            pred += p.x[a] * (p.g[a] + (lambda * diag.max(mean_diag * T::EPS)) * p.x[a]);
+        }
+        self.predicted = pred;
+        p.step[..n].fill(T::zero());
+        let mut norm2 = T::zero();
+        for a in 0..m {
+            p.step[idx[a]] = p.x[a];
+            norm2 += p.x[a] * p.x[a];
+        }
+        if norm2.sqrt() < cfg.step_tolerance {
+            self.finish(LmStop::SmallStep);
+            return;
+        }
+        // Unscale into parameter units and build the candidate.
+        for k in 0..n {
+            p.delta[k] = p.step[k] / p.scale[k];
+        }
+        self.candidate.clone_from(&self.robot);
+        if apply_delta(&mut self.candidate, p.params, &p.delta[..n]).is_err() {
+            self.reject();
+            return;
+        }
+        self.cand_cost = T::zero();
+        self.next = 0;
+        self.phase = Phase::Evaluate;
     }
 
     fn reject(&mut self) {
@@ -592,18 +638,20 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
 
     /// Accepts or rejects the evaluated candidate (Nielsen's damping update).
     fn decide(&mut self) {
-        let n = self.params.len();
+        let n = self.st.params().len();
+        let p = self.st.parts();
+        let s = p.stride;
         let mu = {
-            let mut s = T::zero();
+            let mut sum = T::zero();
             let mut m = 0;
             for k in 0..n {
-                if self.active[k] {
-                    s += self.jtj[k][k];
+                if p.active[k] {
+                    sum += p.jtj[k * s + k];
                     m += 1;
                 }
             }
             if m > 0 {
-                self.cfg.ridge * s / T::of(m as f64)
+                self.cfg.ridge * sum / T::of(m as f64)
             } else {
                 T::zero()
             }
@@ -612,8 +660,8 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
         let mut ridge_old = T::zero();
         let mut ridge_new = T::zero();
         for k in 0..n {
-            ridge_old += self.total[k] * self.total[k];
-            let t = self.total[k] + self.step[k];
+            ridge_old += p.total[k] * p.total[k];
+            let t = p.total[k] + p.step[k];
             ridge_new += t * t;
         }
         let old = self.cost + mu * ridge_old;
@@ -627,7 +675,7 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
         if rho > T::zero() && new.finite() {
             core::mem::swap(&mut self.robot, &mut self.candidate);
             for k in 0..n {
-                self.total[k] += self.step[k];
+                p.total[k] += p.step[k];
             }
             let rel = actual / old.max(T::EPS);
             self.cost = self.cand_cost;
@@ -769,34 +817,39 @@ mod snapshot_impl {
         Ok(())
     }
 
-    impl<T: Real, const N: usize, const V: usize, const P: usize> Snapshot for Levenberg<T, N, V, P> {
+    /// A snapshot holds the parameter list, not the storage's capacity: it restores into any
+    /// storage with room for the same parameters (fixed arrays or a host's heap).
+    impl<T: Real, const N: usize, const V: usize, S: LmStorage<T> + Clone> Snapshot
+        for Levenberg<T, N, V, S>
+    {
         fn save<W: Write>(&self, w: &mut W) -> Result<(), SnapshotError> {
+            let p = self.st.parts_ref();
+            let s = p.stride;
             save_with::<T, W, _>(w, Kind::Levenberg, |e| {
                 e.usize(N)?;
                 e.usize(V)?;
-                e.usize(P)?;
-                let n = self.params.len();
+                let n = p.params.len();
                 e.usize(n)?;
-                for p in self.params.as_slice() {
-                    let (t, i) = param_tag(*p);
+                for q in p.params {
+                    let (t, i) = param_tag(*q);
                     e.u8(t)?;
                     e.u16(i)?;
                 }
                 put_robot(e, &self.robot)?;
                 put_robot(e, &self.candidate)?;
                 for k in 0..n {
-                    e.bool(self.active[k])?;
+                    e.bool(p.active[k])?;
                 }
                 e.bool(self.analysed)?;
                 e.u8(self.analyses)?;
-                e.reals(&self.analysed_diag[..n])?;
-                e.reals(&self.scale[..n])?;
-                e.reals(&self.total[..n])?;
-                for row in self.jtj.iter().take(n) {
-                    e.reals(&row[..n])?;
+                e.reals(&p.analysed_diag[..n])?;
+                e.reals(&p.scale[..n])?;
+                e.reals(&p.total[..n])?;
+                for i in 0..n {
+                    e.reals(&p.jtj[i * s..i * s + n])?;
                 }
-                e.reals(&self.jtr[..n])?;
-                e.reals(&self.step[..n])?;
+                e.reals(&p.jtr[..n])?;
+                e.reals(&p.step[..n])?;
                 e.reals(&[
                     self.cost,
                     self.acc_cost,
@@ -826,11 +879,10 @@ mod snapshot_impl {
             let restored = restore_with::<T, R, _, _>(r, Kind::Levenberg, |d| {
                 d.expect_shape(N)?;
                 d.expect_shape(V)?;
-                d.expect_shape(P)?;
-                let n = self.params.len();
+                let n = self.st.params().len();
                 d.expect_shape(n)?;
-                for p in self.params.as_slice() {
-                    let (t, i) = param_tag(*p);
+                for q in self.st.params() {
+                    let (t, i) = param_tag(*q);
                     if d.u8()? != t || d.u16()? != i {
                         return Err(SnapshotError::Shape);
                     }
@@ -838,19 +890,22 @@ mod snapshot_impl {
                 let mut s = self.clone();
                 get_robot(d, &mut s.robot)?;
                 get_robot(d, &mut s.candidate)?;
+                let p = s.st.parts();
+                let st = p.stride;
                 for k in 0..n {
-                    s.active[k] = d.bool()?;
+                    p.active[k] = d.bool()?;
                 }
                 s.analysed = d.bool()?;
                 s.analyses = d.u8()?;
-                d.reals(&mut s.analysed_diag[..n])?;
-                d.reals(&mut s.scale[..n])?;
-                d.reals(&mut s.total[..n])?;
-                for row in s.jtj.iter_mut().take(n) {
-                    d.reals(&mut row[..n])?;
+                d.reals(&mut p.analysed_diag[..n])?;
+                d.reals(&mut p.scale[..n])?;
+                d.reals(&mut p.total[..n])?;
+                for i in 0..n {
+                    d.reals(&mut p.jtj[i * st..i * st + n])?;
                 }
-                d.reals(&mut s.jtr[..n])?;
-                d.reals(&mut s.step[..n])?;
+                d.reals(&mut p.jtr[..n])?;
+                d.reals(&mut p.step[..n])?;
+                let bad_scale = p.scale[..n].iter().any(|x| !(*x > T::zero()));
                 let mut v = [T::zero(); 6];
                 d.reals(&mut v)?;
                 [s.cost, s.acc_cost, s.cand_cost, s.lambda, s.nu, s.predicted] = v;
@@ -876,7 +931,7 @@ mod snapshot_impl {
                 };
                 s.iteration = d.u32()?;
                 s.evaluations = d.u32()?;
-                if s.next > s.n_poses || s.scale[..n].iter().any(|x| !(*x > T::zero())) {
+                if s.next > s.n_poses || bad_scale {
                     return Err(SnapshotError::Invalid);
                 }
                 Ok(s)

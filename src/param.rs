@@ -270,18 +270,33 @@ impl<const P: usize> ParamSet<P> {
         &self,
         robot: &Robot<T, N, V>,
     ) -> Result<(), ParamError> {
-        let nv = robot.effects().values().len();
-        for p in self.items.iter() {
-            let ok = match *p {
-                Param::Effect(k) => (k as usize) < nv,
-                p => p.joint().is_none_or(|j| j < N),
-            };
-            if !ok {
-                return Err(ParamError::OutOfRange);
-            }
-        }
-        Ok(())
+        check_params(self.as_slice(), robot)
     }
+}
+
+impl<const P: usize> core::ops::Deref for ParamSet<P> {
+    type Target = [Param];
+    fn deref(&self) -> &[Param] {
+        self.as_slice()
+    }
+}
+
+/// Checks that every parameter of `params` exists in `robot`.
+pub fn check_params<T: Real, const N: usize, const V: usize>(
+    params: &[Param],
+    robot: &Robot<T, N, V>,
+) -> Result<(), ParamError> {
+    let nv = robot.effects().values().len();
+    for p in params {
+        let ok = match *p {
+            Param::Effect(k) => (k as usize) < nv,
+            p => p.joint().is_none_or(|j| j < N),
+        };
+        if !ok {
+            return Err(ParamError::OutOfRange);
+        }
+    }
+    Ok(())
 }
 
 /// Value of a parameter in `robot` (rad or mm; the base rotation as fixed-axis roll/pitch/yaw).
@@ -312,20 +327,20 @@ pub fn value<T: Real, const N: usize, const V: usize>(
 /// Applies an update `delta` (one entry per parameter of `set`) to `robot`: lengths and angles
 /// are added, the base rotation entries form a rotation vector applied about the base origin.
 /// On error the robot is unchanged.
-pub fn apply_delta<T: Real, const N: usize, const V: usize, const P: usize>(
+pub fn apply_delta<T: Real, const N: usize, const V: usize>(
     robot: &mut Robot<T, N, V>,
-    set: &ParamSet<P>,
+    set: &[Param],
     delta: &[T],
 ) -> Result<(), ParamError> {
     if delta.len() != set.len() || delta.iter().any(|d| !d.finite()) {
         return Err(ParamError::Shape);
     }
-    set.check(robot)?;
+    check_params(set, robot)?;
     let mut w = Vector3::zeros();
     let mut dt = Vector3::zeros();
     {
         let (base, joints, tool, effects) = robot.parts_mut();
-        for (p, d) in set.as_slice().iter().zip(delta) {
+        for (p, d) in set.iter().zip(delta) {
             let d = *d;
             match *p {
                 Param::BaseX => dt.x += d,

@@ -2,7 +2,7 @@
 //! the 24-parameter MDH set and the full set (+ tool), in f64 and f32.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use kinecal::lm::{Levenberg, LmConfig};
+use kinecal::lm::{FixedLevenberg, LmConfig};
 use kinecal::param::{apply_delta, ParamSet};
 use kinecal::{ForwardKinematics, Measurement, Real, Robot};
 use nalgebra::Vector3;
@@ -57,7 +57,8 @@ fn solve<T: Real, const P: usize>(
     data: &[Measurement<T, 6>],
 ) -> T {
     let mut lm =
-        Levenberg::<T, 6, 0, P>::new(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
+        FixedLevenberg::<T, 6, 0, P>::fixed(nominal.clone(), set.clone(), LmConfig::default())
+            .unwrap();
     lm.run(data).unwrap().cost
 }
 

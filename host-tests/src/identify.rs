@@ -1,14 +1,12 @@
 //! Identification on the desktop: split the data, start the base, run a method, report errors
 //! before and after in the units and keys of interfaces.md §4.
 
+use crate::vec_lm::VecLm;
 use kinecal::lm::{Levenberg, LmConfig, LmStop};
-use kinecal::param::{value, Param, ParamSet};
+use kinecal::param::{value, Param};
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use serde::Serialize;
 use std::collections::BTreeMap;
-
-/// Largest parameter count the desktop solver handles (geometry + effect values).
-pub const PCAP: usize = 640;
 
 /// Position errors of a model over one data set.
 #[derive(Clone, Copy, Debug, Serialize, PartialEq)]
@@ -159,35 +157,16 @@ pub struct Held {
     pub confounded_with: Vec<String>,
 }
 
-/// Levenberg–Marquardt from `start` over `params`. Small sets run with a small fixed capacity
-/// (cheap to set up); large ones (effect tables) with [`PCAP`], whose normal equations live on
-/// the stack: that needs a big stack (the `kinecal` binary provides one).
+/// Levenberg–Marquardt from `start` over `params`, its normal equations on the heap sized
+/// for exactly these parameters ([`VecLm`]).
 pub fn fit_lm<const N: usize, const V: usize>(
     start: &Robot<f64, N, V>,
     params: &[Param],
     data: &[Measurement<f64, N>],
     cfg: LmConfig<f64>,
 ) -> anyhow::Result<Fit<N, V>> {
-    if params.len() <= 64 {
-        fit_lm_with::<N, V, 64>(start, params, data, cfg)
-    } else {
-        fit_lm_with::<N, V, PCAP>(start, params, data, cfg)
-    }
-}
-
-fn fit_lm_with<const N: usize, const V: usize, const P: usize>(
-    start: &Robot<f64, N, V>,
-    params: &[Param],
-    data: &[Measurement<f64, N>],
-    cfg: LmConfig<f64>,
-) -> anyhow::Result<Fit<N, V>> {
-    let mut set = ParamSet::<P>::new();
-    for p in params {
-        set.push(*p)
-            .map_err(|_| anyhow::anyhow!("more than {P} parameters to identify"))?;
-    }
     let mut lm = Box::new(
-        Levenberg::<f64, N, V, P>::new(start.clone(), set, cfg)
+        Levenberg::new(start.clone(), VecLm::new(params), cfg)
             .map_err(|e| anyhow::anyhow!("identification setup: {e:?}"))?,
     );
     let mut history = Vec::new();
@@ -221,17 +200,15 @@ fn fit_lm_with<const N: usize, const V: usize, const P: usize>(
 /// Reads the solver's last normal matrix: for each held parameter the estimated ones it is
 /// confounded with (coefficients of its normalised column on theirs), and the 1-σ of each
 /// estimated parameter.
-fn identifiability_report<const N: usize, const V: usize, const P: usize>(
-    lm: &Levenberg<f64, N, V, P>,
+fn identifiability_report<const N: usize, const V: usize>(
+    lm: &Levenberg<f64, N, V, VecLm<f64>>,
     n_poses: usize,
     cost: f64,
 ) -> (Vec<Held>, BTreeMap<String, f64>) {
     use nalgebra::{DMatrix, DVector};
-    let params = lm.params().as_slice();
+    let params = lm.params();
     let n = params.len();
-    let (lower, scale) = lm.normal_matrix();
-    // The solver keeps the lower triangle.
-    let jtj = |i: usize, j: usize| if i >= j { lower[i][j] } else { lower[j][i] };
+    let jtj = |i: usize, j: usize| lm.normal_matrix(i, j);
     let robot = lm.robot();
     let active: Vec<usize> = (0..n).filter(|&k| lm.is_active(k)).collect();
     let m = active.len();
@@ -243,7 +220,7 @@ fn identifiability_report<const N: usize, const V: usize, const P: usize>(
         let s2 = cost / dof as f64;
         let inv = ch.inverse();
         for (i, &k) in active.iter().enumerate() {
-            let sd = (s2 * inv[(i, i)]).max(0.0).sqrt() / scale[k];
+            let sd = (s2 * inv[(i, i)]).max(0.0).sqrt() / lm.scale(k);
             let sd = match params[k] {
                 Param::Effect(_) => sd,
                 p if p.is_length() => sd,

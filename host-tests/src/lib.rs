@@ -23,6 +23,7 @@ pub mod sim;
 pub mod study_figure;
 pub mod sweeps;
 pub mod units;
+pub mod vec_lm;
 
 /// Input that kinecal refuses (malformed, or implausible in the units assumed): the command
 /// exits with status 2 and the one-line reason (interfaces.md §4). Wrap the reason with

@@ -10,7 +10,7 @@ use kinecal::coupling::{CouplingError, Couplings};
 use kinecal::fitness::{JointTrig, Objective, PositionFitness};
 use kinecal::forward::ForwardKinematics;
 use kinecal::information::{scaled_rows, PoseRows};
-use kinecal::lm::{Levenberg, LmConfig};
+use kinecal::lm::{FixedLevenberg, Levenberg, LmConfig};
 use kinecal::param::{Param, ParamSet};
 use kinecal::scene::{Scene, Tracker};
 use kinecal::sweep_frames::{base_from_sweeps, FramesError};
@@ -24,110 +24,17 @@ use nalgebra::{Matrix3, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+
+mod common;
+use common::{f64s, json_of, kinecal, location, run_on, s, simulate, ur10_dir, write};
 
 /// A FANUC-like 6R arm whose J3 is read from the horizontal: q3 = J3 + J2.
-const FANUC: &str = r#"name = "FANUC-like 6R, J3 from the horizontal"
-[[joints]]
-alpha_deg = 0.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 525.0
-limits_deg = [-170.0, 170.0]
-[[joints]]
-alpha_deg = -90.0
-a_mm = 150.0
-theta_deg = -90.0
-d_mm = 0.0
-limits_deg = [-100.0, 140.0]
-[[joints]]
-alpha_deg = 0.0
-a_mm = 790.0
-theta_deg = 0.0
-d_mm = 0.0
-limits_deg = [-160.0, 170.0]
-[[joints]]
-alpha_deg = -90.0
-a_mm = 250.0
-theta_deg = 0.0
-d_mm = 835.0
-limits_deg = [-180.0, 180.0]
-[[joints]]
-alpha_deg = 90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 0.0
-limits_deg = [-125.0, 125.0]
-[[joints]]
-alpha_deg = -90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 100.0
-limits_deg = [-180.0, 180.0]
-[tool]
-xyz_mm = [15.0, -10.0, 120.0]
-[base]
-xyz_mm = [2200.0, -900.0, -350.0]
-rpy_deg = [0.4, -0.8, 130.0]
-"#;
+const FANUC: &str = include_str!("data/fanuc_j3_horizontal.toml");
 
 const FANUC_COUPLING: &str = "[[couplings]]\njoint = 3\nfrom = 2\nratio = 1.0\n";
 
 /// A 7R arm with two couplings of other ratios and pairs: q4 = r4 − 1.3·r2, q7 = r7 + 0.25·r6.
-const ARM7: &str = r#"name = "7R, coupled"
-[[joints]]
-alpha_deg = 0.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 340.0
-[[joints]]
-alpha_deg = -90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 0.0
-limits_deg = [-120.0, 120.0]
-[[joints]]
-alpha_deg = 90.0
-a_mm = 0.0
-theta_deg = 10.0
-d_mm = 400.0
-beta_deg = -0.5
-[[joints]]
-alpha_deg = 90.0
-a_mm = 5.0
-theta_deg = 0.0
-d_mm = 0.0
-limits_deg = [-120.0, 120.0]
-[[joints]]
-alpha_deg = -90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 400.0
-[[joints]]
-alpha_deg = -90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 0.0
-limits_deg = [-120.0, 120.0]
-[[joints]]
-alpha_deg = 90.0
-a_mm = 0.0
-theta_deg = 0.0
-d_mm = 126.0
-[tool]
-xyz_mm = [0.0, 30.0, 150.0]
-[base]
-xyz_mm = [-1800.0, 2200.0, 450.0]
-rpy_deg = [-2.0, 1.0, -60.0]
-[[couplings]]
-joint = 4
-from = 2
-ratio = -1.3
-[[couplings]]
-joint = 7
-from = 6
-ratio = 0.25
-"#;
+const ARM7: &str = include_str!("data/arm7_coupled.toml");
 
 fn fanuc_text() -> String {
     format!("{FANUC}{FANUC_COUPLING}")
@@ -169,33 +76,6 @@ fn arr<const N: usize>(q: &[f64]) -> [f64; N] {
 
 fn rotation(f: &kinecal::Frame<f64>) -> Matrix3<f64> {
     f.rotation()
-}
-
-fn kinecal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_kinecal"))
-        .args(args)
-        .output()
-        .expect("run kinecal")
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
-}
-
-/// Asserts success and returns stdout parsed as exactly one JSON object.
-fn json_of(out: &Output) -> serde_json::Value {
-    assert!(
-        out.status.success(),
-        "stderr: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("stdout is one JSON object")
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -504,12 +384,16 @@ fn pso_fitness_cache_and_lm_with_snapshots_honour_couplings() {
     // LM: coupled model on readings = uncoupled model on model angles; a snapshot at every
     // step resumes bit-identically (the couplings survive the restore).
     use kinecal::snapshot::Snapshot;
-    let mut a =
-        Levenberg::<f64, 6, VCAP, 64>::new(nominal.clone(), set.clone(), LmConfig::default())
-            .unwrap();
+    let mut a = FixedLevenberg::<f64, 6, VCAP, 64>::fixed(
+        nominal.clone(),
+        set.clone(),
+        LmConfig::default(),
+    )
+    .unwrap();
     a.run(&data).unwrap();
-    let mut b = Levenberg::<f64, 6, VCAP, 64>::new(plain.clone(), set.clone(), LmConfig::default())
-        .unwrap();
+    let mut b =
+        FixedLevenberg::<f64, 6, VCAP, 64>::fixed(plain.clone(), set.clone(), LmConfig::default())
+            .unwrap();
     b.run(&converted).unwrap();
     assert_eq!(a.robot().couplings(), nominal.couplings());
     for p in set.as_slice() {
@@ -521,9 +405,12 @@ fn pso_fitness_cache_and_lm_with_snapshots_honour_couplings() {
     }
     let rms = kinecal::lm::rms_error(a.robot(), &data);
     assert!(rms < 1e-4, "rms {rms} {:?}", a.progress());
-    let mut lm =
-        Levenberg::<f64, 6, VCAP, 64>::new(nominal.clone(), set.clone(), LmConfig::default())
-            .unwrap();
+    let mut lm = FixedLevenberg::<f64, 6, VCAP, 64>::fixed(
+        nominal.clone(),
+        set.clone(),
+        LmConfig::default(),
+    )
+    .unwrap();
     loop {
         let p = lm.step(&data, 9).unwrap();
         if p.stopped.is_some() {
@@ -531,7 +418,8 @@ fn pso_fitness_cache_and_lm_with_snapshots_honour_couplings() {
         }
         let mut buf = Vec::new();
         lm.save(&mut buf).unwrap();
-        let mut fresh = Levenberg::new(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
+        let mut fresh =
+            Levenberg::fixed(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
         fresh.restore(&mut buf.as_slice()).unwrap();
         lm = fresh;
     }
@@ -541,7 +429,7 @@ fn pso_fitness_cache_and_lm_with_snapshots_honour_couplings() {
     let mut buf = Vec::new();
     lm.save(&mut buf).unwrap();
     let mut other =
-        Levenberg::<f64, 6, VCAP, 64>::new(plain.clone(), set.clone(), LmConfig::default())
+        FixedLevenberg::<f64, 6, VCAP, 64>::fixed(plain.clone(), set.clone(), LmConfig::default())
             .unwrap();
     let kept = other.robot().clone();
     assert_eq!(
@@ -648,36 +536,16 @@ fn cli_frames_accepts_simulated_coupled_sweeps_and_refuses_dragged_ones() {
     let dir = tempfile::tempdir().unwrap();
     let robot = write(dir.path(), "fanuc.toml", &fanuc_text());
     let sweeps = dir.path().join("sweeps.csv");
-    let out = kinecal(&[
-        "simulate",
-        "--robot",
-        s(&robot),
-        "--sweeps",
-        "1,2,5,6",
-        "--noise-mm",
-        "0",
-        "--out",
-        s(&sweeps),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    simulate(
+        &robot,
+        None,
+        Some(0.0),
+        None,
+        &["--sweeps", "1,2,5,6"],
+        &sweeps,
     );
-    let v = json_of(&kinecal(&[
-        "frames",
-        "--robot",
-        s(&robot),
-        "--data",
-        s(&sweeps),
-        "--json",
-    ]));
-    let xyz: Vec<f64> = v["base"]["xyz_mm"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_f64().unwrap())
-        .collect();
+    let v = json_of(&run_on("frames", &robot, &sweeps, &["--json"]));
+    let xyz = f64s(&v["base"]["xyz_mm"]);
     let want = [2200.0, -900.0, -350.0];
     for (a, b) in xyz.iter().zip(want) {
         assert!((a - b).abs() < 1e-3, "base {xyz:?} vs {want:?}");
@@ -733,17 +601,7 @@ fn bad_couplings_are_refused_with_file_line_column_and_exit_2() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("d.csv");
     let good = write(dir.path(), "good.toml", &fanuc_text());
-    assert!(kinecal(&[
-        "simulate",
-        "--robot",
-        s(&good),
-        "--poses",
-        "20",
-        "--out",
-        s(&data)
-    ])
-    .status
-    .success());
+    simulate(&good, Some(20), None, None, &[], &data);
     let cases = [
         ("joint = 3\nfrom = 3\nratio = 1.0\n", "itself"),
         ("joint = 7\nfrom = 2\nratio = 1.0\n", "1 to 6"),
@@ -766,18 +624,7 @@ fn bad_couplings_are_refused_with_file_line_column_and_exit_2() {
         let p = write(dir.path(), "bad.toml", &text);
         let err = RobotFile::load(&p).unwrap_err().to_string();
         assert!(err.starts_with(&format!("{}:", p.display())), "{err}");
-        let rest = &err[p.display().to_string().len() + 1..];
-        let mut it = rest.splitn(3, ':');
-        let line: usize = it
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap_or_else(|_| panic!("{err}"));
-        let col: usize = it
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap_or_else(|_| panic!("{err}"));
+        let (line, col, _) = location(&err, &p.display().to_string());
         assert!(line >= header_line && col >= 1, "{err}: line {line}");
         assert!(err.contains(says), "{err} should say {says}");
         let out = kinecal(&["check", "--robot", s(&p), "--data", s(&data)]);
@@ -843,21 +690,14 @@ fn identify_equivalence<const N: usize>(text: &str, tag: &str, exact: bool) {
         &uncoupled(&f).to_toml().unwrap(),
     );
     let id = dir.path().join("id.csv");
-    let o = kinecal(&[
-        "simulate",
-        "--robot",
-        s(&coupled),
-        "--poses",
-        "140",
-        "--noise-mm",
-        "0.01",
-        "--geom-errors",
-        "--seed",
-        "3",
-        "--out",
-        s(&id),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    simulate(
+        &coupled,
+        Some(140),
+        Some(0.01),
+        Some(3),
+        &["--geom-errors"],
+        &id,
+    );
     let mut ds = data::load::<N>(&id).unwrap();
     if exact {
         ds.records
@@ -868,30 +708,18 @@ fn identify_equivalence<const N: usize>(text: &str, tag: &str, exact: bool) {
     let id_m = dir.path().join("id_m.csv");
     preconvert(&f, &ds, &id_m, exact);
     let (m1, m2) = (dir.path().join("m1.toml"), dir.path().join("m2.toml"));
-    let a = json_of(&kinecal(&[
+    let a = json_of(&run_on(
         "identify",
-        "--robot",
-        s(&coupled),
-        "--data",
-        s(&id),
-        "--holdout",
-        "0.3",
-        "--json",
-        "--out",
-        s(&m1),
-    ]));
-    let b = json_of(&kinecal(&[
+        &coupled,
+        &id,
+        &["--holdout", "0.3", "--json", "--out", s(&m1)],
+    ));
+    let b = json_of(&run_on(
         "identify",
-        "--robot",
-        s(&plain),
-        "--data",
-        s(&id_m),
-        "--holdout",
-        "0.3",
-        "--json",
-        "--out",
-        s(&m2),
-    ]));
+        &plain,
+        &id_m,
+        &["--holdout", "0.3", "--json", "--out", s(&m2)],
+    ));
     assert_eq!(a["n_validation"], b["n_validation"]);
     assert!(a["n_validation"].as_u64().unwrap() >= 30, "{a}");
     for k in [
@@ -1025,30 +853,30 @@ fn compensate_returns_commands_in_the_controllers_readings() {
     }
 }
 
+/// The FANUC file with its coupling and without, written to `dir`, and `poses` poses simulated
+/// from the coupled one (geometric errors, σ = 0.02 mm): (coupled, plain, data).
+fn coupled_data(dir: &Path, poses: usize, seed: Option<u64>) -> (PathBuf, PathBuf, PathBuf) {
+    let coupled = write(dir, "fanuc.toml", &fanuc_text());
+    let plain = write(dir, "fanuc-plain.toml", FANUC);
+    let d = dir.join("d.csv");
+    simulate(
+        &coupled,
+        Some(poses),
+        Some(0.02),
+        seed,
+        &["--geom-errors"],
+        &d,
+    );
+    (coupled, plain, d)
+}
+
 /// Coupled data fitted with a file that lacks the coupling: neither `identify` nor `diagnose`
 /// may turn the mistake into a number with exit 0 (they ended at 61.7 mm with exit 0 and at
 /// "nothing significant is missing, noise floor 101.654 mm"): both exit 3 and say why.
 #[test]
 fn a_missing_coupling_is_neither_calibrated_nor_diagnosed() {
     let dir = tempfile::tempdir().unwrap();
-    let coupled = write(dir.path(), "fanuc.toml", &fanuc_text());
-    let plain = write(dir.path(), "fanuc-plain.toml", FANUC);
-    let d = dir.path().join("d.csv");
-    let o = kinecal(&[
-        "simulate",
-        "--robot",
-        s(&coupled),
-        "--poses",
-        "60",
-        "--noise-mm",
-        "0.02",
-        "--geom-errors",
-        "--seed",
-        "3",
-        "--out",
-        s(&d),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (coupled, plain, d) = coupled_data(dir.path(), 60, Some(3));
     for cmd in ["identify", "diagnose"] {
         let out = kinecal(&[cmd, "--robot", s(&plain), "--data", s(&d), "--json"]);
         let err = String::from_utf8_lossy(&out.stderr);
@@ -1065,22 +893,7 @@ fn a_missing_coupling_is_neither_calibrated_nor_diagnosed() {
 #[test]
 fn check_hints_at_a_missing_coupling_and_not_on_ur10() {
     let dir = tempfile::tempdir().unwrap();
-    let coupled = write(dir.path(), "fanuc.toml", &fanuc_text());
-    let plain = write(dir.path(), "fanuc-plain.toml", FANUC);
-    let d = dir.path().join("d.csv");
-    let o = kinecal(&[
-        "simulate",
-        "--robot",
-        s(&coupled),
-        "--poses",
-        "150",
-        "--noise-mm",
-        "0.02",
-        "--geom-errors",
-        "--out",
-        s(&d),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (coupled, plain, d) = coupled_data(dir.path(), 150, None);
     // The file without the coupling: the hint names it, in JSON and on stderr.
     let out = kinecal(&["check", "--robot", s(&plain), "--data", s(&d), "--json"]);
     let v = json_of(&out);
@@ -1109,36 +922,20 @@ fn check_hints_at_a_missing_coupling_and_not_on_ur10() {
     );
     assert!(!no_base.contains("[base]"));
     let p2 = write(dir.path(), "fanuc-nobase.toml", &no_base);
-    let v = json_of(&kinecal(&[
-        "check",
-        "--robot",
-        s(&p2),
-        "--data",
-        s(&d),
-        "--json",
-    ]));
+    let v = json_of(&run_on("check", &p2, &d, &["--json"]));
     assert_eq!(v["coupling_hint"]["joint"], 3, "{v}");
     // The right file: no hint.
-    let v = json_of(&kinecal(&[
-        "check",
-        "--robot",
-        s(&coupled),
-        "--data",
-        s(&d),
-        "--json",
-    ]));
+    let v = json_of(&run_on("check", &coupled, &d, &["--json"]));
     assert!(v["coupling_hint"].is_null(), "{v}");
     // Real UR10 data with its own robot file: no hint.
-    let ur10 = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/ur10");
+    let ur10 = ur10_dir();
     for csv in ["ur10_random_poses.csv", "ur10_random_poses_6d.csv"] {
-        let out = kinecal(&[
+        let out = run_on(
             "check",
-            "--robot",
-            s(&ur10.join("robot.toml")),
-            "--data",
-            s(&ur10.join(csv)),
-            "--json",
-        ]);
+            &ur10.join("robot.toml"),
+            &ur10.join(csv),
+            &["--json"],
+        );
         let v = json_of(&out);
         assert!(v["coupling_hint"].is_null(), "{csv}: {v}");
         assert!(!String::from_utf8_lossy(&out.stderr).contains("hint:"));

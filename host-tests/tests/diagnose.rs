@@ -30,9 +30,10 @@ fn er20() -> Robot<f64, 6, VCAP> {
         .unwrap()
 }
 
-fn big_stack<F: FnOnce() + Send + 'static>(f: F) {
+/// Runs `f` on a thread with the stack of a main thread (8 MiB), as the `kinecal` binary has.
+fn main_sized_stack<F: FnOnce() + Send + 'static>(f: F) {
     std::thread::Builder::new()
-        .stack_size(1 << 30)
+        .stack_size(8 << 20)
         .spawn(f)
         .unwrap()
         .join()
@@ -157,7 +158,7 @@ fn folds_are_deterministic_balanced_and_keep_repeats_together() {
 /// full refits (the screen ranks candidates like the refits).
 #[test]
 fn linearised_screen_agrees_with_full_refits() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let (_, d) = simulated(
             vec![effect("joint-compliance", 2, &[3e-4], 1)],
             0.02,
@@ -217,7 +218,7 @@ fn linearised_screen_agrees_with_full_refits() {
 /// and the knot values match the truth up to the part `theta` takes (a constant).
 #[test]
 fn penalised_fit_recovers_a_table() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let knots = [2e-4, -1e-4, 3e-4, 0.0, -2e-4, 1e-4, -3e-4];
         let (truth, d) = simulated(vec![effect("joint-table", 3, &knots, 1)], 0.005, 21, 300);
         let nominal = er20();
@@ -263,7 +264,7 @@ fn penalised_fit_recovers_a_table() {
 /// the search stops once the held-out error reaches it.
 #[test]
 fn noise_floor_comes_from_repeated_poses() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let sigma = 0.02;
         let (truth, mut d) = simulated(
             vec![effect("joint-compliance", 2, &[3e-4], 1)],
@@ -341,7 +342,7 @@ fn args(robot: PathBuf, data: PathBuf) -> Args {
 
 #[test]
 fn diagnose_command_names_the_effect_writes_the_model_and_plots() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let tmp = tempfile::tempdir().unwrap();
         let (robot, data) = write_case(
             tmp.path(),
@@ -411,7 +412,7 @@ fn diagnose_command_names_the_effect_writes_the_model_and_plots() {
 
 #[test]
 fn diagnose_command_names_nothing_when_nothing_is_missing() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let tmp = tempfile::tempdir().unwrap();
         let (robot, data) = write_case(tmp.path(), Vec::new(), 8);
         let r = run(&args(robot, data), true).unwrap();
@@ -428,7 +429,7 @@ fn diagnose_command_names_nothing_when_nothing_is_missing() {
 
 #[test]
 fn diagnose_command_refuses_bad_input_with_a_reason() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let tmp = tempfile::tempdir().unwrap();
         let s = Simulation {
             poses: 6,
@@ -515,6 +516,18 @@ fn nothing_hidden(
     (d, held)
 }
 
+/// `diagnose` of `arm`'s nominal model on `ident`, with the default configuration.
+fn diagnose_arm(arm: &Arm, ident: &[Measurement<f64, 6>]) -> kinecal_host::diagnose::Diagnosis<6> {
+    kinecal_host::diagnose::diagnose(
+        &arm.nominal,
+        arm.base_known,
+        &[],
+        ident,
+        &Default::default(),
+    )
+    .unwrap()
+}
+
 fn rms_of(sq: &[f64]) -> f64 {
     (sq.iter().sum::<f64>() / sq.len() as f64).sqrt()
 }
@@ -525,20 +538,13 @@ fn rms_of(sq: &[f64]) -> f64 {
 /// the baseline's own fit.
 #[test]
 fn noise_floor_never_exceeds_the_held_out_rms_on_few_poses() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let sigma = 0.02;
         let truth = 3f64.sqrt() * sigma;
         for arm in arms() {
             for seed in [1u64, 2, 3] {
                 let (ident, held) = nothing_hidden(&arm, 24, 100, sigma, seed);
-                let d = kinecal_host::diagnose::diagnose(
-                    &arm.nominal,
-                    arm.base_known,
-                    &[],
-                    &ident,
-                    &Default::default(),
-                )
-                .unwrap();
+                let d = diagnose_arm(&arm, &ident);
                 let unseen = rms_of(&squared_errors(&d.model, &held));
                 let line = format!(
                     "{} seed {seed}: floor {:.4} [{:.4}, {:.4}] (true {truth:.4}), cross-validated {:.4}, unseen poses {unseen:.4}, found {}",
@@ -576,20 +582,13 @@ fn noise_floor_never_exceeds_the_held_out_rms_on_few_poses() {
 /// On many poses the fold fits add little, and the floor is an honest estimate of √3 σ.
 #[test]
 fn noise_floor_is_the_noise_level_on_many_poses() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let sigma = 0.02;
         let truth = 3f64.sqrt() * sigma;
         for arm in arms() {
             for seed in [5u64, 6] {
                 let (ident, _) = nothing_hidden(&arm, 200, 0, sigma, seed);
-                let d = kinecal_host::diagnose::diagnose(
-                    &arm.nominal,
-                    arm.base_known,
-                    &[],
-                    &ident,
-                    &Default::default(),
-                )
-                .unwrap();
+                let d = diagnose_arm(&arm, &ident);
                 let line = format!(
                     "{} seed {seed}: floor {:.4} [{:.4}, {:.4}] / true {truth:.4} = {:.3}, cross-validated {:.4}",
                     arm.name,
@@ -677,7 +676,7 @@ fn kinecal(argv: &[&str]) -> String {
 /// figures, and the human output says it once, with no `inf`/`NaN`.
 #[test]
 fn nothing_added_reports_one_fit_and_a_floor_below_the_held_out_errors() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let tmp = tempfile::tempdir().unwrap();
         let arms = arms();
         for (arm, seed) in [(&arms[0], 11u64), (&arms[1], 12)] {
@@ -753,7 +752,7 @@ fn nothing_added_reports_one_fit_and_a_floor_below_the_held_out_errors() {
 /// held-out poses the final cross-validated RMS and the floor differ by a few % only).
 #[test]
 fn human_output_shows_small_differences() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let tmp = tempfile::tempdir().unwrap();
         let (robot, data) = write_case(
             tmp.path(),

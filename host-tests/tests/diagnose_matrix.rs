@@ -323,9 +323,10 @@ pub fn run_case<const N: usize>(l: &Loaded<N>, poses: usize, c: &Case) -> Outcom
     }
 }
 
-pub fn big_stack<F: FnOnce() + Send + 'static>(f: F) {
+/// Runs `f` on a thread with the stack of a main thread (8 MiB), as the `kinecal` binary has.
+pub fn main_sized_stack<F: FnOnce() + Send + 'static>(f: F) {
     std::thread::Builder::new()
-        .stack_size(1 << 30)
+        .stack_size(8 << 20)
         .spawn(f)
         .unwrap()
         .join()
@@ -436,7 +437,7 @@ pub fn describe(m: &Matrix, c: &Case) -> String {
 /// within 1.25× the noise floor; nothing named where nothing is hidden.
 #[test]
 fn fast_subset_names_hidden_effects_exactly() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let m = load_matrix();
         let robots: Vec<Arm> = m.robots.iter().map(load_arm).collect();
         let pick = [
@@ -489,7 +490,7 @@ fn fast_subset_names_hidden_effects_exactly() {
 #[test]
 #[ignore = "the full matrix takes minutes: cargo test -p kinecal-host --test diagnose_matrix -- --ignored --nocapture"]
 fn full_matrix() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let file =
             std::env::var("KINECAL_MATRIX_FILE").unwrap_or_else(|_| "diagnose_matrix.toml".into());
         run_matrix(&file)
@@ -500,7 +501,7 @@ fn full_matrix() {
 #[test]
 #[ignore = "the full matrix takes minutes: cargo test -p kinecal-host --test diagnose_matrix -- --ignored --nocapture"]
 fn unseen_matrix() {
-    big_stack(|| run_matrix("diagnose_matrix_unseen.toml"));
+    main_sized_stack(|| run_matrix("diagnose_matrix_unseen.toml"));
 }
 
 /// Runs every case of a matrix file and prints the rates.
@@ -545,7 +546,7 @@ pub fn run_matrix(file: &str) {
                 results.lock().unwrap().push((i, o));
             };
             std::thread::Builder::new()
-                .stack_size(1 << 30)
+                .stack_size(8 << 20)
                 .spawn_scoped(s, work)
                 .unwrap();
         }

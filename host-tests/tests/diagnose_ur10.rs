@@ -26,7 +26,7 @@ fn rms(sq: &[f64]) -> f64 {
 #[ignore = "minutes on real data: cargo test -p kinecal-host --test diagnose_ur10 -- --ignored --nocapture"]
 fn ur10_tables_cut_the_held_out_error_below_045_of_the_geometric_fit() {
     std::thread::Builder::new()
-        .stack_size(1 << 30)
+        .stack_size(8 << 20)
         .spawn(|| {
             let dir = ur10_dir();
             let (file, nominal) = load_robot::<6>(&dir.join("robot.toml")).unwrap();

@@ -811,7 +811,7 @@ fn frames_binary_prints_one_json_object() {
 #[test]
 fn identify_from_the_sweep_base_converges_as_well_as_from_registration() {
     std::thread::Builder::new()
-        .stack_size(512 << 20)
+        .stack_size(8 << 20)
         .spawn(identify_case)
         .unwrap()
         .join()

@@ -1,6 +1,6 @@
 //! Levenberg–Marquardt identification against known truth.
 
-use kinecal::lm::{rms_error, Levenberg, LmConfig, LmStop};
+use kinecal::lm::{rms_error, FixedLevenberg, Levenberg, LmConfig, LmStop};
 use kinecal::param::{apply_delta, Param, ParamSet};
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use nalgebra::Vector3;
@@ -61,7 +61,7 @@ fn lm_reaches_the_noise_floor_on_simulated_geometry_errors() {
         let valid = measure(&truth, 50, sigma, &mut rng);
         let before = rms_error(&nominal, &valid);
         let set = ParamSet::<64>::full(6, false).unwrap();
-        let mut lm = Levenberg::new(nominal.clone(), set, LmConfig::default()).unwrap();
+        let mut lm = Levenberg::fixed(nominal.clone(), set, LmConfig::default()).unwrap();
         let p = lm.run(&ident).unwrap();
         let after = rms_error(lm.robot(), &valid);
         let floor = 3f64.sqrt() * sigma;
@@ -88,9 +88,9 @@ fn stepping_in_slices_gives_the_same_result_as_one_call() {
     let truth = perturbed(&nominal, &mut rng);
     let data = measure(&truth, 40, 0.01, &mut rng);
     let set = ParamSet::<64>::full(6, false).unwrap();
-    let mut a = Levenberg::new(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
+    let mut a = Levenberg::fixed(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
     a.run(&data).unwrap();
-    let mut b = Levenberg::new(nominal, set, LmConfig::default()).unwrap();
+    let mut b = Levenberg::fixed(nominal, set, LmConfig::default()).unwrap();
     let mut calls = 0;
     while b.step(&data, 3).unwrap().stopped.is_none() {
         calls += 1;
@@ -106,7 +106,7 @@ fn redundant_base_and_first_row_are_reported_and_held() {
     let truth = perturbed(&nominal, &mut rng);
     let data = measure(&truth, 60, 0.01, &mut rng);
     let set = ParamSet::<64>::full(6, true).unwrap();
-    let mut lm = Levenberg::new(nominal.clone(), set, LmConfig::default()).unwrap();
+    let mut lm = Levenberg::fixed(nominal.clone(), set, LmConfig::default()).unwrap();
     lm.run(&data).unwrap();
     let held: Vec<Param> = lm.unidentifiable().collect();
     // base z and d1 move the point identically; so do base.rz and theta1.
@@ -132,7 +132,7 @@ fn redundant_base_and_first_row_are_reported_and_held() {
 fn bad_input_is_refused_without_damage() {
     let nominal = er20();
     let set = ParamSet::<64>::full(6, false).unwrap();
-    let mut lm = Levenberg::new(nominal.clone(), set, LmConfig::default()).unwrap();
+    let mut lm = Levenberg::fixed(nominal.clone(), set, LmConfig::default()).unwrap();
     assert!(lm.step(&[], 10).is_err());
     let mut bad = vec![Measurement::<f64, 6>::default(); 20];
     bad[3].point.x = f64::NAN;
@@ -140,7 +140,9 @@ fn bad_input_is_refused_without_damage() {
     assert_eq!(lm.robot(), &nominal);
     let mut bad_set = ParamSet::<64>::new();
     bad_set.push(Param::D(9)).unwrap();
-    assert!(Levenberg::<f64, 6, 64, 64>::new(nominal, bad_set, LmConfig::default()).is_err());
+    assert!(
+        FixedLevenberg::<f64, 6, 64, 64>::fixed(nominal, bad_set, LmConfig::default()).is_err()
+    );
 }
 
 #[test]
@@ -151,11 +153,12 @@ fn snapshot_at_every_step_restores_to_a_bit_identical_run() {
     let truth = perturbed(&nominal, &mut rng);
     let data = measure(&truth, 30, 0.01, &mut rng);
     let set = ParamSet::<64>::full(6, false).unwrap();
-    let mut reference = Levenberg::new(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
+    let mut reference =
+        Levenberg::fixed(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
     reference.run(&data).unwrap();
 
     // Interrupt after every call of 7 poses: save, restore into a fresh solver, continue.
-    let mut lm = Levenberg::new(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
+    let mut lm = Levenberg::fixed(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
     let mut restores = 0;
     loop {
         let p = lm.step(&data, 7).unwrap();
@@ -164,7 +167,8 @@ fn snapshot_at_every_step_restores_to_a_bit_identical_run() {
         }
         let mut buf = Vec::new();
         lm.save(&mut buf).unwrap();
-        let mut fresh = Levenberg::new(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
+        let mut fresh =
+            Levenberg::fixed(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
         fresh.restore(&mut buf.as_slice()).unwrap();
         lm = fresh;
         restores += 1;
@@ -176,7 +180,7 @@ fn snapshot_at_every_step_restores_to_a_bit_identical_run() {
     // A corrupted snapshot is refused and the target keeps its state.
     let mut buf = Vec::new();
     lm.save(&mut buf).unwrap();
-    let mut target = Levenberg::new(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
+    let mut target = Levenberg::fixed(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
     target.step(&data, 5).unwrap();
     let before = target.progress();
     let before_robot = target.robot().clone();

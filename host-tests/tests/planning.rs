@@ -44,10 +44,10 @@ fn work() -> Vec<[f64; 6]> {
     WORK_DEG.iter().map(|q| q.map(f64::to_radians)).collect()
 }
 
-/// Runs `f` on a thread with a big stack (plans keep fixed-size matrices on the stack).
-fn big_stack<R: Send + 'static>(f: impl FnOnce() -> R + Send + 'static) -> R {
+/// Runs `f` on a thread with the stack of a main thread (8 MiB), as the `kinecal` binary has.
+fn main_sized_stack<R: Send + 'static>(f: impl FnOnce() -> R + Send + 'static) -> R {
     std::thread::Builder::new()
-        .stack_size(256 << 20)
+        .stack_size(8 << 20)
         .spawn(f)
         .unwrap()
         .join()
@@ -265,7 +265,7 @@ fn dense_kpi(
 }
 
 fn plan_with(criterion: CriterionArg, collisions: bool, seed: u64) -> (Vec<[f64; 6]>, f64) {
-    big_stack(move || {
+    main_sized_stack(move || {
         let (_, robot, scene_file) = load();
         let scene = scene_file.to_scene().unwrap();
         let w = work();
@@ -429,7 +429,7 @@ fn plan_command_accepts_negative_work_values_and_writes_csv_and_json() {
 
 #[test]
 fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let (_, robot, scene_file) = load();
         let scene = scene_file.to_scene().unwrap();
         let robot = plan::in_base_frame(&robot);

@@ -94,7 +94,7 @@ fn configs(n: usize, seed: u64) -> Vec<[f64; 6]> {
 #[test]
 fn f32_selection_and_online_stepper_match_f64() {
     std::thread::Builder::new()
-        .stack_size(64 << 20)
+        .stack_size(8 << 20)
         .spawn(|| {
             let qs = configs(500, 8);
             let work = configs(2, 9);

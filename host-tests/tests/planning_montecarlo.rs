@@ -11,7 +11,7 @@ use kinecal_host::cli::study::{arm, cell, monte_carlo};
 
 fn run(criterion: CriterionArg, runs: usize, seed: u64) -> (f64, f64, f64) {
     std::thread::Builder::new()
-        .stack_size(256 << 20)
+        .stack_size(8 << 20)
         .spawn(move || {
             let robot = arm(780.0, 760.0).unwrap();
             let scene = cell(780.0, 760.0).unwrap();

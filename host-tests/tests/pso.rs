@@ -294,7 +294,7 @@ fn set_start_only_before_the_first_evaluation() {
 
 #[test]
 fn pso_identifies_the_er20_and_converges() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let nominal = er20_nominal();
         let truth = with_delta(&nominal, &er20_errors());
         let data = poses(&truth, 50, 0.01, 1);
@@ -368,7 +368,7 @@ fn pso_recovers_the_truth_in_an_easy_low_dimensional_case() {
 
 #[test]
 fn same_seed_same_result_whatever_the_slicing() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let nominal = er20_nominal();
         let truth = with_delta(&nominal, &er20_errors());
         let data = poses(&truth, 50, 0.01, 1);
@@ -410,7 +410,7 @@ fn same_seed_same_result_whatever_the_slicing() {
 
 #[test]
 fn pso_runs_in_f32() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let nominal = er20_nominal();
         let truth = with_delta(&nominal, &er20_errors());
         let data64 = poses(&truth, 50, 0.01, 1);
@@ -452,7 +452,7 @@ fn pso_runs_in_f32() {
 /// stop). `kinecal::bpnn_pso`'s module docs give the ratios for larger drifts, where it fails.
 #[test]
 fn bpnn_pso_reaches_pso_final_fitness_in_a_quarter_of_the_iterations() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let nominal = er20_nominal();
         let params = mdh24();
         let cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();

@@ -43,7 +43,7 @@ fn er20_problem() -> (
 
 #[test]
 fn pso_interrupted_at_every_step_ends_bit_identical() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let (nominal, params, data) = er20_problem();
         let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
         let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
@@ -87,7 +87,7 @@ fn pso_interrupted_at_every_step_ends_bit_identical() {
 
 #[test]
 fn paper_sized_swarm_round_trips_in_f32_and_f64() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let (nominal, params, data) = er20_problem();
         let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
         let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
@@ -147,7 +147,7 @@ fn refused<S: Snapshot>(target: &mut S, snap: &[u8]) -> SnapshotError {
 
 #[test]
 fn corrupted_snapshots_are_refused_and_change_nothing() {
-    big_stack(|| {
+    main_sized_stack(|| {
         let (nominal, params, data) = er20_problem();
         let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
         let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
@@ -383,7 +383,7 @@ fn container_helpers_round_trip_every_field_type() {
 fn objective_is_unaffected_by_restore() {
     // Restoring a swarm does not need the problem: the fitness of the best position after a
     // restore is the same number the original swarm recorded.
-    big_stack(|| {
+    main_sized_stack(|| {
         let (nominal, params, data) = er20_problem();
         let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
         let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();

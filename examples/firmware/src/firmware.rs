@@ -30,7 +30,7 @@ use heapless::Vec;
 use kinecal::compensate::{compensate, Target, Tracker};
 use kinecal::csv::CsvReader;
 use kinecal::fitness::PositionFitness;
-use kinecal::lm::{rms_error, Levenberg, LmError, LmProgress};
+use kinecal::lm::{rms_error, FixedLm, Levenberg, LmError, LmProgress};
 use kinecal::pso::PsoError;
 use kinecal::snapshot::Snapshot;
 use kinecal::{ForwardKinematics, Param};
@@ -51,7 +51,8 @@ const PSO_SLICE: usize = 2;
 /// Room for one stepper snapshot (the "flash page").
 const SNAPSHOT_BYTES: usize = 8192;
 
-type Lm = Levenberg<f32, N, 0, P>;
+/// The solver with its normal equations in fixed arrays sized for this robot's 24 parameters.
+type Lm = Levenberg<f32, N, 0, FixedLm<f32, P>>;
 type Swarm = kinecal::pso::Pso<f32, SWARM, P, { scenario::PSO_HISTORY }>;
 
 /// The model the servo tick compensates with: read every tick, replaced by the idle loop when
@@ -568,7 +569,7 @@ fn identify(
 fn new_lm() -> Result<Lm, LmError> {
     Levenberg::new(
         scenario::nominal(),
-        scenario::params(),
+        FixedLm::new(scenario::params()),
         scenario::lm_config(),
     )
 }

@@ -13,7 +13,7 @@ use crate::scenario::{self, ID_POSES, N, P, SWARM, TICKS, VAL_POSES};
 use kinecal::compensate::{Target, Tracker};
 use kinecal::csv::CsvReader;
 use kinecal::fitness::PositionFitness;
-use kinecal::lm::{rms_error, Levenberg};
+use kinecal::lm::{rms_error, FixedLm, Levenberg};
 use kinecal::param::apply_delta;
 use kinecal::pso::Pso;
 use kinecal::{ForwardKinematics, Measurement, Robot};
@@ -164,8 +164,12 @@ fn reference(csv: &[u8], truth: &Robot<f64, N>) -> String {
         .expect("24 columns");
     let jac: Vec<[f64; 3]> = cols.iter().map(|c| (*c).into()).collect();
 
-    let mut lm = Levenberg::<f64, N, 0, P>::new(nominal.clone(), set, scenario::lm_config())
-        .expect("solver");
+    let mut lm = Levenberg::<f64, N, 0, _>::new(
+        nominal.clone(),
+        FixedLm::<f64, P>::new(set),
+        scenario::lm_config(),
+    )
+    .expect("solver");
     let progress = lm.run(&id).expect("LM runs");
     let model = lm.robot().clone();
     let predicted: Vec<[f64; 3]> = val

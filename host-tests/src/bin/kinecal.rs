@@ -57,17 +57,9 @@ fn dispatch(cli: Cli) -> anyhow::Result<serde_json::Value> {
 fn main() {
     let cli = Cli::parse();
     let json = cli.json;
-    // Large models (per-joint tables) keep their normal equations on the stack: give the
-    // work a thread with room for them.
-    let worker = std::thread::Builder::new()
-        .stack_size(1 << 30)
-        .spawn(move || dispatch(cli));
-    let result = match worker {
-        Ok(h) => h
-            .join()
-            .unwrap_or_else(|_| Err(anyhow::anyhow!("internal error (a thread panicked)"))),
-        Err(e) => Err(anyhow::anyhow!("cannot start worker thread: {e}")),
-    };
+    // Storage is sized from the problem on the heap (the solver's normal equations included):
+    // the main thread's ordinary stack is enough.
+    let result = dispatch(cli);
     match result {
         Ok(v) => {
             if json {

@@ -4,9 +4,9 @@
 //! tool pose) and has a joint vector near the answer: its nominal inverse kinematics, or the
 //! previous cycle's command. [`compensate`] runs a fixed, small number of damped Newton
 //! (Levenberg–Marquardt) steps on the identified model from that seed. Because
-//! [`ForwardKinematics::compute`] applies the joint corrections and
-//! [`ForwardKinematics::joint_jacobian`] carries their slope, compliance, cyclic, scale and
-//! table effects are inverted along with the geometry.
+//! [`ForwardKinematics::compute`] applies the joint corrections and the joint Jacobian (as
+//! [`ForwardKinematics::joint_jacobian`] has it) carries their slope, compliance, cyclic, scale
+//! and table effects are inverted along with the geometry.
 //!
 //! Seeds, commands and joint limits are the controller's own *readings*: with joint couplings
 //! (FANUC J3 read from the horizontal, [`crate::Couplings`]) the forward kinematics maps them
@@ -20,15 +20,16 @@
 //! - a singular, limited or unreachable target returns a typed error that still carries the best
 //!   command found inside the box, so the controller can hold or creep instead of stopping dead.
 //!
-//! Cost per call: at most `iterations + 1` forward kinematics (with their joint Jacobians) plus
-//! one or two ≤ 6×6 Cholesky solves per step and one for the conditioning, no allocation; once
-//! the residual reaches the scalar type's rounding level one more step is taken and the
-//! iteration stops, so `f32` does not spend its budget wandering in the noise. [`Tracker`] is the streaming form for trajectories: it keeps the previous
-//! correction and starts the next cycle from it (usually one or two steps then suffice).
+//! Cost per call: at most `iterations + 1` forward kinematics (with their joint Jacobians, read
+//! off the same pass) plus one or two ≤ 6×6 LDLᵀ solves per step and one for the conditioning,
+//! in straight-line code, no allocation; once the residual reaches the scalar type's rounding
+//! level one more step is taken and the iteration stops, so `f32` does not spend its budget
+//! wandering in the noise. [`Tracker`] is the streaming form for trajectories: it keeps the
+//! previous correction and starts the next cycle from it (usually one or two steps then
+//! suffice).
 
 use crate::forward::ForwardKinematics;
 use crate::frame::{orientation_error, orientation_sin_cos};
-use crate::linalg::{ldlt, ldlt_solve, ldlt_trace_inverse, Square};
 use crate::{Frame, Real, Robot};
 use nalgebra::Vector3;
 
@@ -66,10 +67,13 @@ impl<T: Real> Target<T> {
     /// True when every number is finite.
     pub fn is_finite(&self) -> bool {
         match self {
-            Target::Point(p) => p.iter().all(|v| v.finite()),
-            Target::Pose(f) => [f.x, f.y, f.z, f.o]
-                .iter()
-                .all(|v| v.iter().all(|c| c.finite())),
+            Target::Point(p) => all_finite(p.as_slice()),
+            Target::Pose(f) => {
+                all_finite(f.x.as_slice())
+                    && all_finite(f.y.as_slice())
+                    && all_finite(f.z.as_slice())
+                    && all_finite(f.o.as_slice())
+            }
         }
     }
 }
@@ -123,8 +127,8 @@ impl<T: Real> Default for Config<T> {
 impl<T: Real> Config<T> {
     /// True when every setting is finite and in range.
     pub fn is_valid(&self) -> bool {
-        let nonneg = |x: T| x.finite() && x >= T::zero();
-        let pos = |x: T| x.finite() && x > T::zero();
+        let nonneg = |x: T| finite(x) && x >= T::zero();
+        let pos = |x: T| finite(x) && x > T::zero();
         nonneg(self.damping)
             && nonneg(self.tolerance)
             && pos(self.accept)
@@ -253,12 +257,11 @@ pub fn compensate_from<T: Real, const N: usize, const V: usize>(
     config: &Config<T>,
 ) -> Result<Solution<T, N>, CompensateError<T, N>> {
     let m = target.rows();
-    let finite = |q: &[T; N]| q.iter().all(|v| v.finite());
     if N == 0
         || !config.is_valid()
         || !target.is_finite()
-        || !finite(seed)
-        || !finite(start)
+        || !all_finite(seed)
+        || !all_finite(start)
         || (m == 6 && N < 6)
     {
         return Err(CompensateError::InvalidInput);
@@ -306,12 +309,10 @@ pub fn compensate_from<T: Real, const N: usize, const V: usize>(
     clamp(&mut q0);
     // Two evaluation slots used in turn (best, candidate): accepting a step flips an index
     // instead of copying the Jacobian.
-    let mut slots = [
-        evaluate(&mut fk, robot, target, scale, &q0),
-        evaluate_empty(),
-    ];
+    let mut slots = [Eval::empty(), Eval::empty()];
+    evaluate_into(&mut slots[0], &mut fk, robot, target, scale, &q0);
     let mut b = 0usize;
-    if !slots[0].rn2.finite() {
+    if !finite(slots[0].rn2) {
         return Err(CompensateError::InvalidInput);
     }
     let damp2 = config.damping * config.damping;
@@ -360,7 +361,7 @@ pub fn compensate_from<T: Real, const N: usize, const V: usize>(
         // Once the residual is at the rounding level of the model (f32 lives there), the step
         // just taken was the last useful one: more would only wander in the noise.
         let at_noise = best_rn2 <= noise * noise;
-        if cand.rn2.finite() && cand.rn2 < best_rn2 {
+        if finite(cand.rn2) && cand.rn2 < best_rn2 {
             b = c;
             mu = if mu > T::one() {
                 mu * T::of(0.1)
@@ -380,7 +381,7 @@ pub fn compensate_from<T: Real, const N: usize, const V: usize>(
         q: best.q,
         position_error: best.pos2.sqrt(),
         orientation_error: best.angle(),
-        sigma: conditioning(&best.cols, m),
+        sigma: conditioning(best, m),
         iterations: steps,
     };
     // σ_h is finite by construction (0 when the Gram matrix is not definite).
@@ -407,6 +408,28 @@ pub fn compensate_from<T: Real, const N: usize, const V: usize>(
     Err(CompensateError::Unreachable(sol))
 }
 
+/// `x − x`: 0 for a finite `x`, NaN for ±∞ and NaN.
+#[allow(clippy::eq_op)] // the subtraction is the test
+#[inline(always)]
+fn nan_unless_finite<T: Real>(x: T) -> T {
+    x - x
+}
+
+/// True for a finite `x`, by [`nan_unless_finite`]: two floating-point instructions, where the
+/// bit test of [`Real::finite`] takes about a dozen integer ones on a Cortex-M4F (the checks
+/// run several times per Newton step).
+#[inline(always)]
+fn finite<T: Real>(x: T) -> bool {
+    nan_unless_finite(x) == T::zero()
+}
+
+/// True when every value is finite (one non-finite value makes the sum NaN; the sum of
+/// zeros cannot overflow).
+#[inline(always)]
+fn all_finite<T: Real>(v: &[T]) -> bool {
+    v.iter().fold(T::zero(), |s, x| s + nan_unless_finite(*x)) == T::zero()
+}
+
 /// Ten times more damping after a failed step, capped so that it stays finite.
 fn stiffer<T: Real>(mu: T) -> T {
     if mu < T::of(1e12) {
@@ -416,13 +439,33 @@ fn stiffer<T: Real>(mu: T) -> T {
     }
 }
 
+/// `$body` for `$j` = 0, …, 5: the firmware's unroll threshold keeps LLVM from unrolling an
+/// outer loop whose inner loops' bounds depend on it; written out, every bound is a constant
+/// and every index of the packed triangle one.
+macro_rules! for_0_to_5 {
+    ($j:ident => $body:block) => {{
+        let $j: usize = 0;
+        $body
+        let $j: usize = 1;
+        $body
+        let $j: usize = 2;
+        $body
+        let $j: usize = 3;
+        $body
+        let $j: usize = 4;
+        $body
+        let $j: usize = 5;
+        $body
+    }};
+}
+
 /// Residual and scaled Jacobian at one joint vector.
 #[derive(Clone, Copy)]
 struct Eval<T: Real, const N: usize> {
     q: [T; N],
-    /// Residual target − model: position (mm), then scaled orientation (mm) for poses.
+    /// Residual target − model: position (mm), then scaled orientation (mm) for poses (zero
+    /// for point targets).
     r: [T; 6],
-    /// |r| (mm, orientation scaled).
     /// |r|² (mm², orientation scaled).
     rn2: T,
     /// |position error|² (mm²).
@@ -430,35 +473,69 @@ struct Eval<T: Real, const N: usize> {
     /// sin² and cos of the orientation error angle (0 and 1 for point targets).
     ori_sin2: T,
     ori_cos: T,
-    /// Column j: ∂(model)/∂q_j, orientation rows scaled (mm/rad).
-    cols: [[T; 6]; N],
+    /// Column j: ∂(model)/∂q_j, orientation rows scaled (mm/rad); rows past `m` unused.
+    cols: [Col<T>; N],
 }
 
-fn evaluate<T: Real, const N: usize, const V: usize>(
-    fk: &mut ForwardKinematics<T, N>,
-    robot: &Robot<T, N, V>,
-    target: &Target<T>,
-    scale: T,
-    q: &[T; N],
-) -> Eval<T, N> {
-    let mut e = evaluate_empty();
-    evaluate_into(&mut e, fk, robot, target, scale, q);
-    e
-}
+/// One column of the scaled joint Jacobian: position rows, then orientation rows.
+#[derive(Clone, Copy)]
+struct Col<T>([T; 6]);
 
-fn evaluate_empty<T: Real, const N: usize>() -> Eval<T, N> {
-    Eval {
-        q: [T::zero(); N],
-        r: [T::zero(); 6],
-        rn2: T::zero(),
-        pos2: T::zero(),
-        ori_sin2: T::zero(),
-        ori_cos: T::one(),
-        cols: [[T::zero(); 6]; N],
+impl<T> core::ops::Deref for Col<T> {
+    type Target = [T; 6];
+    #[inline(always)]
+    fn deref(&self) -> &[T; 6] {
+        &self.0
     }
 }
 
-/// Evaluates the model at `q` into `e` (residual, its norms, the scaled joint Jacobian).
+impl<T> core::ops::DerefMut for Col<T> {
+    #[inline(always)]
+    fn deref_mut(&mut self) -> &mut [T; 6] {
+        &mut self.0
+    }
+}
+
+// What `Couplings::reading_columns` needs of a column.
+impl<T: Real> core::ops::AddAssign for Col<T> {
+    fn add_assign(&mut self, o: Self) {
+        for (a, b) in self.0.iter_mut().zip(o.0) {
+            *a += b;
+        }
+    }
+}
+
+impl<T: Real> core::ops::Mul<T> for Col<T> {
+    type Output = Self;
+    fn mul(mut self, k: T) -> Self {
+        for a in self.0.iter_mut() {
+            *a *= k;
+        }
+        self
+    }
+}
+
+impl<T: Real, const N: usize> Eval<T, N> {
+    fn empty() -> Self {
+        Eval {
+            q: [T::zero(); N],
+            r: [T::zero(); 6],
+            rn2: T::zero(),
+            pos2: T::zero(),
+            ori_sin2: T::zero(),
+            ori_cos: T::one(),
+            cols: [Col([T::zero(); 6]); N],
+        }
+    }
+
+    /// The orientation error angle (rad), computed once for the reported solution.
+    fn angle(&self) -> T {
+        self.ori_sin2.sqrt().atan2(self.ori_cos)
+    }
+}
+
+/// Evaluates the model at `q` into `e` (residual, its norms, the scaled joint Jacobian),
+/// overwriting every field.
 fn evaluate_into<T: Real, const N: usize, const V: usize>(
     e: &mut Eval<T, N>,
     fk: &mut ForwardKinematics<T, N>,
@@ -469,38 +546,53 @@ fn evaluate_into<T: Real, const N: usize, const V: usize>(
 ) {
     let p = fk.compute(robot, q);
     let dp = target.point() - p;
+    let pose = match target {
+        Target::Pose(f) => Some(f),
+        Target::Point(_) => None,
+    };
+    // The columns for the model angles, straight off the frames: z_j × (p − o_j) and z_j.
+    // For a plain model (the servo loop's usual case) they are the joint Jacobian.
+    let cols = &mut e.cols;
+    for (j, c) in cols.iter_mut().enumerate() {
+        let l = fk.joint_column(j);
+        c[0] = l.x;
+        c[1] = l.y;
+        c[2] = l.z;
+        if pose.is_some() {
+            let a = &fk.frames[j].z;
+            c[3] = a.x * scale;
+            c[4] = a.y * scale;
+            c[5] = a.z * scale;
+        }
+    }
+    if !(robot.effects().is_empty() && robot.couplings().is_empty()) {
+        reading_columns(cols, fk, robot, pose.is_some(), scale);
+    }
     let r = &mut e.r;
     r[0] = dp.x;
     r[1] = dp.y;
     r[2] = dp.z;
-    let (lin, ang) = fk.joint_jacobian(robot);
-    let cols = &mut e.cols;
-    for (c, l) in cols.iter_mut().zip(lin.iter()) {
-        c[0] = l.x;
-        c[1] = l.y;
-        c[2] = l.z;
-    }
     let (mut ori_sin2, mut ori_cos) = (T::zero(), T::one());
-    if let Target::Pose(f) = target {
+    if let Some(f) = pose {
         // The residual is sin(θ)·axis: zero exactly where θ·axis is, with the same Jacobian to
         // first order, and free of atan2 and sqrt. Past 90° it would shrink again, so there
         // the exact rotation vector takes over.
-        let (v, c) = orientation_sin_cos(f, &fk.tool_pose());
+        let tool = fk.tool_pose();
+        let (v, c) = orientation_sin_cos(f, &tool);
         let w = if c > T::zero() {
             v
         } else {
-            orientation_error(f, &fk.tool_pose())
+            orientation_error(f, &tool)
         };
         ori_sin2 = v.norm_squared();
         ori_cos = c;
         for i in 0..3 {
             r[3 + i] = w[i] * scale;
         }
-        for (c, a) in cols.iter_mut().zip(ang.iter()) {
-            for i in 0..3 {
-                c[3 + i] = a[i] * scale;
-            }
-        }
+    } else {
+        r[3] = T::zero();
+        r[4] = T::zero();
+        r[5] = T::zero();
     }
     let rn2 = r.iter().fold(T::zero(), |s, v| s + *v * *v);
     e.q = *q;
@@ -510,10 +602,41 @@ fn evaluate_into<T: Real, const N: usize, const V: usize>(
     e.ori_cos = ori_cos;
 }
 
-impl<T: Real, const N: usize> Eval<T, N> {
-    /// The orientation error angle (rad), computed once for the reported solution.
-    fn angle(&self) -> T {
-        self.ori_sin2.sqrt().atan2(self.ori_cos)
+/// Turns the model-angle columns in `cols` into the joint Jacobian with respect to the
+/// readings of a model with couplings or joint corrections: the chain rule through the
+/// couplings ([`crate::Couplings::reading_columns`]), then times `1 + slope` of the
+/// corrections, the operations of [`ForwardKinematics::joint_jacobian`] in its order (same
+/// values). Out of line: the servo loop's plain model does not come here.
+#[inline(never)]
+fn reading_columns<T: Real, const N: usize, const V: usize>(
+    cols: &mut [Col<T>; N],
+    fk: &ForwardKinematics<T, N>,
+    robot: &Robot<T, N, V>,
+    pose: bool,
+    scale: T,
+) {
+    // The orientation rows unscaled (scaled last, as the sums of `joint_jacobian` round).
+    for (c, f) in cols.iter_mut().zip(fk.frames.iter()) {
+        c[3] = f.z.x;
+        c[4] = f.z.y;
+        c[5] = f.z.z;
+    }
+    let couplings = robot.couplings();
+    if !couplings.is_empty() {
+        couplings.reading_columns(cols);
+    }
+    let effects = robot.effects();
+    if !effects.is_empty() {
+        let slope = effects.correction_slope(&fk.q);
+        for (c, s) in cols.iter_mut().zip(slope.iter()) {
+            *c = *c * (T::one() + *s);
+        }
+    }
+    let k = if pose { scale } else { T::zero() };
+    for c in cols.iter_mut() {
+        for v in &mut c[3..] {
+            *v *= k;
+        }
     }
 }
 
@@ -570,22 +693,12 @@ fn damped_step<T: Real, const N: usize>(
 ) -> Option<[T; N]> {
     let mut dq = [T::zero(); N];
     if N <= m {
-        let mut a: Square<T, N> = [[T::zero(); N]; N];
-        for i in 0..N {
-            if !free[i] {
-                a[i][i] = T::one();
-                continue;
-            }
-            dq[i] = dot(&e.cols[i], &e.r, m);
-            for k in 0..i {
-                if free[k] {
-                    a[i][k] = dot(&e.cols[i], &e.cols[k], m);
-                }
-            }
-            a[i][i] = dot(&e.cols[i], &e.cols[i], m) + lambda2;
+        let (mut a, mut b) = ([T::zero(); TRI], [T::zero(); 6]);
+        joint_system(&mut a, &mut b, e, m, lambda2, Some(free));
+        if !solve6(&mut a, &mut b) {
+            return None;
         }
-        ldlt(&mut a, N).ok()?;
-        ldlt_solve(&a, N, &mut dq).ok()?;
+        dq.copy_from_slice(&b[..N]);
     } else {
         let mut d = [T::zero(); N];
         for j in 0..N {
@@ -593,67 +706,131 @@ fn damped_step<T: Real, const N: usize>(
                 d[j] = seed[j] - e.q[j];
             }
         }
-        let mut a: Square<T, 6> = [[T::zero(); 6]; 6];
-        let mut b = e.r;
-        for j in (0..N).filter(|j| free[*j]) {
-            let c = &e.cols[j];
-            for i in 0..m {
-                b[i] -= c[i] * d[j];
-                for k in 0..=i {
-                    a[i][k] += c[i] * c[k];
-                }
-            }
+        let (mut a, mut b) = ([T::zero(); TRI], e.r);
+        task_system(&mut a, &mut b, e, m, lambda2, &d, free);
+        if !solve6(&mut a, &mut b) {
+            return None;
         }
-        for (i, row) in a.iter_mut().enumerate().take(m) {
-            row[i] += lambda2;
-        }
-        ldlt(&mut a, m).ok()?;
-        ldlt_solve(&a, m, &mut b).ok()?;
         for j in (0..N).filter(|j| free[*j]) {
             dq[j] = d[j] + dot(&e.cols[j], &b, m);
         }
     }
-    if dq.iter().all(|v| v.finite()) {
+    if all_finite(&dq) {
         Some(dq)
     } else {
         None
     }
 }
 
-/// σ_h = (trace((Gram)⁻¹))^(-1/2) of the scaled Jacobian (0 when the Gram matrix is singular):
-/// within a factor √m of the smallest singular value, from one small Cholesky.
-fn conditioning<T: Real, const N: usize>(cols: &[[T; 6]; N], m: usize) -> T {
-    if N <= m {
-        let mut a: Square<T, N> = [[T::zero(); N]; N];
-        for i in 0..N {
-            for k in 0..=i {
-                a[i][k] = dot(&cols[i], &cols[k], m);
-            }
-        }
-        harmonic(&mut a, N)
+/// Rows of the Jacobian when the joints are at most as many (`N ≤ m`): more than three joints
+/// there means a pose target, so the servo loop's six joints fold `m` to the constant 6.
+#[inline(always)]
+fn rows_square<const N: usize>(m: usize) -> usize {
+    if N > 3 {
+        6
     } else {
-        let mut a: Square<T, 6> = [[T::zero(); 6]; 6];
-        for c in cols.iter() {
-            for i in 0..m {
-                for k in 0..=i {
-                    a[i][k] += c[i] * c[k];
-                }
-            }
-        }
-        harmonic(&mut a, m)
+        m
     }
 }
 
-/// `trace(A⁻¹)^(-1/2)` of a symmetric positive definite `A` (lower triangle), 0 if not definite.
-/// LDLᵀ, not Cholesky: no square roots but the last one (`f32` `sqrt` is a software routine on
-/// a Cortex-M4F).
-fn harmonic<T: Real, const P: usize>(a: &mut Square<T, P>, n: usize) -> T {
-    if n == 0 || ldlt(a, n).is_err() {
+/// `JᵀJ + λ²I` over the joints (`N ≤ m`) and, when `free` is given, `Jᵀr`, with the frozen
+/// joints' rows and columns replaced by the identity's: order `N`, padded to 6 (see [`Tri`]).
+fn joint_system<T: Real, const N: usize>(
+    a: &mut Tri<T>,
+    b: &mut [T; 6],
+    e: &Eval<T, N>,
+    m: usize,
+    lambda2: T,
+    free: Option<&[bool; N]>,
+) {
+    let m = rows_square::<N>(m);
+    for_0_to_5!(i => {
+        if i < N {
+            let c = &e.cols[i];
+            for k in 0..i {
+                a[ix(i, k)] = dot(c, &e.cols[k], m);
+            }
+            a[ix(i, i)] = dot(c, c, m) + lambda2;
+            if free.is_some() {
+                b[i] = dot(c, &e.r, m);
+            }
+        }
+    });
+    for i in N..6 {
+        a[ix(i, i)] = T::one();
+    }
+    if let Some(free) = free {
+        if free.iter().any(|f| !f) {
+            freeze(a, b, free);
+        }
+    }
+}
+
+/// Replaces the rows and columns of the joints not `free` by the identity's (rare: a joint
+/// at a bound of the step box).
+#[inline(never)]
+fn freeze<T: Real>(a: &mut Tri<T>, b: &mut [T; 6], free: &[bool]) {
+    for (i, f) in free.iter().enumerate() {
+        if !f {
+            for k in 0..6 {
+                a[if k < i { ix(i, k) } else { ix(k, i) }] = T::zero();
+            }
+            a[ix(i, i)] = T::one();
+            b[i] = T::zero();
+        }
+    }
+}
+
+/// `JJᵀ + λ²I` over the free joints (`N > m`) into `a` (zero on entry) and `b −= J·d` (`b`
+/// holds `r` on entry): order `m`, padded to 6.
+#[inline(never)]
+fn task_system<T: Real, const N: usize>(
+    a: &mut Tri<T>,
+    b: &mut [T; 6],
+    e: &Eval<T, N>,
+    m: usize,
+    lambda2: T,
+    d: &[T; N],
+    free: &[bool; N],
+) {
+    for j in (0..N).filter(|j| free[*j]) {
+        let c = &e.cols[j];
+        for i in 0..m {
+            b[i] -= c[i] * d[j];
+            for k in 0..=i {
+                a[ix(i, k)] += c[i] * c[k];
+            }
+        }
+    }
+    for i in 0..6 {
+        a[ix(i, i)] += if i < m { lambda2 } else { T::one() };
+    }
+}
+
+/// σ_h = (trace((Gram)⁻¹))^(-1/2) of the scaled Jacobian (0 when the Gram matrix is singular):
+/// within a factor √m of the smallest singular value, from one small LDLᵀ.
+fn conditioning<T: Real, const N: usize>(e: &Eval<T, N>, m: usize) -> T {
+    let (mut a, mut b) = ([T::zero(); TRI], [T::zero(); 6]);
+    let n = if N <= m {
+        joint_system(&mut a, &mut b, e, m, T::zero(), None);
+        N
+    } else {
+        task_system(&mut a, &mut b, e, m, T::zero(), &[T::zero(); N], &[true; N]);
+        m
+    };
+    harmonic(&mut a, n)
+}
+
+/// `trace(A⁻¹)^(-1/2)` of a symmetric positive definite `A` of order `n` (see [`Tri`]), 0 if
+/// not definite. LDLᵀ, not Cholesky: no square roots but the last one (`f32` `sqrt` is a
+/// software routine on a Cortex-M4F).
+fn harmonic<T: Real>(a: &mut Tri<T>, n: usize) -> T {
+    if n == 0 || !ldlt6(a) {
         return T::zero();
     }
-    let tr = ldlt_trace_inverse(a, n).unwrap_or(T::zero());
+    let tr = trace_inverse6(a, n);
     let s = T::one() / tr.sqrt();
-    if s.finite() {
+    if finite(s) {
         s
     } else {
         T::zero()
@@ -673,6 +850,105 @@ fn blocked<T: Real, const N: usize>(e: &Eval<T, N>, m: usize, lo: &[T; N], hi: &
     }
     let tiny = gmax * T::of(1e-3);
     (0..N).any(|j| (e.q[j] >= hi[j] && g[j] > tiny) || (e.q[j] <= lo[j] && g[j] < -tiny))
+}
+
+// The symmetric systems of the Newton steps and of the conditioning have order 1–3 or 6. All
+// are solved as order 6, a smaller one padded with the identity (zero off-diagonal, one on the
+// diagonal, zero right-hand side): the padding factors and solves exactly (pivots 1, zero
+// multipliers), so the results are those of the unpadded system, while one straight-line 6 × 6
+// routine serves every size. Operations and their order are those of `linalg::ldlt`,
+// `ldlt_solve` and `ldlt_trace_inverse`.
+
+/// Entries of a packed lower triangle of order 6.
+const TRI: usize = 21;
+/// Symmetric 6 × 6 matrix as its packed lower triangle: `(i, k)`, `k ≤ i`, at [`ix`].
+type Tri<T> = [T; TRI];
+
+#[inline(always)]
+const fn ix(i: usize, k: usize) -> usize {
+    i * (i + 1) / 2 + k
+}
+
+/// `A = L·D·Lᵀ` in place (unit `L` below the diagonal, `D` on it); false unless every pivot
+/// is positive and finite.
+#[inline(never)]
+fn ldlt6<T: Real>(a: &mut Tri<T>) -> bool {
+    // w[k] = L[j][k]·d[k], reused by every row below j.
+    let mut w = [T::zero(); 6];
+    for_0_to_5!(j => {
+        let mut d = a[ix(j, j)];
+        for k in 0..j {
+            w[k] = a[ix(j, k)] * a[ix(k, k)];
+            d -= a[ix(j, k)] * w[k];
+        }
+        if !(d > T::zero() && finite(d)) {
+            return false;
+        }
+        a[ix(j, j)] = d;
+        let inv = T::one() / d;
+        for i in j + 1..6 {
+            let mut s = a[ix(i, j)];
+            for k in 0..j {
+                s -= a[ix(i, k)] * w[k];
+            }
+            a[ix(i, j)] = s * inv;
+        }
+    });
+    true
+}
+
+/// Solves `A·x = b` in place by LDLᵀ; false if `A` is not positive definite.
+#[inline(never)]
+fn solve6<T: Real>(a: &mut Tri<T>, b: &mut [T; 6]) -> bool {
+    if !ldlt6(a) {
+        return false;
+    }
+    for_0_to_5!(i => {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= a[ix(i, k)] * b[k];
+        }
+        b[i] = s;
+    });
+    for i in 0..6 {
+        b[i] /= a[ix(i, i)];
+    }
+    for_0_to_5!(r => {
+        let i = 5 - r;
+        let mut s = b[i];
+        for k in i + 1..6 {
+            s -= a[ix(k, i)] * b[k];
+        }
+        b[i] = s;
+    });
+    true
+}
+
+/// `trace(A⁻¹)` of the leading `n × n` block from the factor of [`ldlt6`]:
+/// `Σ_i Σ_k (L⁻¹)_{ki}² / d_k` (the padding past `n` adds exact zeros).
+fn trace_inverse6<T: Real>(l: &Tri<T>, n: usize) -> T {
+    let mut inv_d = [T::zero(); 6];
+    for k in 0..6 {
+        inv_d[k] = T::one() / l[ix(k, k)];
+    }
+    let mut tr = T::zero();
+    let mut y = [T::zero(); 6];
+    for_0_to_5!(i => {
+        if i < n {
+            // y = L⁻¹ e_i: zero above i, one at i, forward substitution below.
+            y[i] = T::one();
+            tr += inv_d[i];
+            for k in i + 1..6 {
+                let mut s = T::zero();
+                for m in i..k {
+                    s -= l[ix(k, m)] * y[m];
+                }
+                y[k] = s;
+                tr += s * s * inv_d[k];
+            }
+        }
+    });
+    tr
 }
 
 /// Streaming compensation along a trajectory: keeps the previous command and starts each cycle
@@ -702,7 +978,7 @@ impl<T: Real, const N: usize> Tracker<T, N> {
 
     /// Starts a trajectory at the joints' current position (rad), for [`Tracker::follow`].
     pub fn start(&mut self, q: &[T; N]) -> Result<(), CompensateError<T, N>> {
-        if !q.iter().all(|v| v.finite()) {
+        if !all_finite(q) {
             return Err(CompensateError::InvalidInput);
         }
         self.command = Some(*q);
@@ -731,7 +1007,7 @@ impl<T: Real, const N: usize> Tracker<T, N> {
             for j in 0..N {
                 start[j] = c[j] + (nominal[j] - n[j]);
             }
-            if !start.iter().all(|v| v.finite()) {
+            if !all_finite(&start) {
                 start = *nominal;
             }
         }

@@ -105,13 +105,12 @@ impl Counter {
     /// `f` must do the same work on every call. One extra call is bracketed by the plugin's
     /// markers, and `MEASURE <k> <insns>` is printed for the cross-check (`.ci/crosscheck-insncount`).
     pub fn per_call<F: FnMut()>(&mut self, mut f: F) -> f32 {
-        let id = self.marks;
-        self.marks += 1;
+        let id = self.next_mark();
         bench_start(id);
         f();
         bench_stop(id);
         let n = self.per_call_raw(f) - self.overhead;
-        cortex_m_semihosting::hprintln!("MEASURE {} {}", id, libm::roundf(n) as u32);
+        measured(id, libm::roundf(n) as u32);
         n
     }
 
@@ -120,8 +119,7 @@ impl Counter {
     /// once: resolution 40/`calls`. The whole block is bracketed by the plugin's markers and
     /// its total printed as `MEASURE <k> <insns>`.
     pub fn per_call_once<F: FnMut()>(&mut self, calls: u32, mut f: F) -> f32 {
-        let id = self.marks;
-        self.marks += 1;
+        let id = self.next_mark();
         let t = self.ticks_of(|| {
             bench_start(id);
             for _ in 0..black_box(calls) {
@@ -130,9 +128,23 @@ impl Counter {
             bench_stop(id);
         });
         let total = t * INSNS_PER_TICK;
-        cortex_m_semihosting::hprintln!("MEASURE {} {}", id, total);
+        measured(id, total);
         (total as f32 - self.overhead * calls as f32) / calls as f32
     }
+
+    /// The next marker pair's number.
+    fn next_mark(&mut self) -> u32 {
+        let id = self.marks;
+        self.marks += 1;
+        id
+    }
+}
+
+/// Prints `MEASURE <k> <insns>` (out of line: one copy of the formatting for every measured
+/// closure).
+#[inline(never)]
+fn measured(id: u32, insns: u32) {
+    cortex_m_semihosting::hprintln!("MEASURE {} {}", id, insns);
 }
 
 #[inline(never)]

@@ -29,7 +29,9 @@ pub const ROWS: [(f64, f64, f64, f64); N] = [
 /// Tool point in the flange frame, mm: off the flange axis so that theta6 is observable.
 pub const TOOL_MM: [f64; 3] = [40.0, 30.0, 120.0];
 
-/// The nominal model (data are in the robot base frame, so the base is the identity).
+/// The nominal model (data are in the robot base frame, so the base is the identity). Out of
+/// line: the firmware builds it in several stages, one copy of the code serves them all.
+#[inline(never)]
 pub fn nominal<T: Real>() -> Robot<T, N> {
     let joints = ROWS.map(|(al, a, th, d)| Joint::mdh_deg(al, a, th, d));
     let tool = Vector3::new(T::of(TOOL_MM[0]), T::of(TOOL_MM[1]), T::of(TOOL_MM[2]));
@@ -104,9 +106,17 @@ pub fn net<T: Real>() -> Net<T> {
 
 /// The input of the BPNN forward check: a fixed point inside the box.
 pub fn net_input<T: Real>() -> [T; P] {
-    let c = pso_config::<f64>();
+    let set = params();
     core::array::from_fn(|k| {
-        T::of(c.lower[k] + (c.upper[k] - c.lower[k]) * ((k * 7 % 24) as f64 + 0.5) / 24.0)
+        // The PSO box in f64, as `PsoConfig::calibration` draws it (±0.5° for angles, ±2 mm
+        // for lengths), without an f64 `PsoConfig` in the firmware (1 KB of soft-float code).
+        let b = if set.as_slice()[k].is_length() {
+            2.0
+        } else {
+            0.5f64.to_radians()
+        };
+        let (lower, upper) = (-b, b);
+        T::of(lower + (upper - lower) * ((k * 7 % 24) as f64 + 0.5) / 24.0)
     })
 }
 

@@ -76,3 +76,19 @@ pub fn refuse_overwriting_inputs(
     }
     Ok(())
 }
+
+/// [`refuse_overwriting_inputs`] for a command that writes a model (`--out`) from a robot file,
+/// a data file and an optional validation file (`identify`, `diagnose`).
+pub fn refuse_model_over_inputs(
+    out: Option<&Path>,
+    robot: &Path,
+    data: &Path,
+    validate: Option<&Path>,
+) -> anyhow::Result<()> {
+    let Some(out) = out else { return Ok(()) };
+    let mut inputs = vec![("robot", robot), ("data", data)];
+    if let Some(v) = validate {
+        inputs.push(("validation", v));
+    }
+    refuse_overwriting_inputs("--out", out, &inputs)
+}

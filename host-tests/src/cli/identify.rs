@@ -91,16 +91,12 @@ pub struct Args {
 }
 
 pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
-    if let Some(out) = &args.out {
-        let mut inputs = vec![
-            ("robot", args.robot.as_path()),
-            ("data", args.data.as_path()),
-        ];
-        if let Some(v) = &args.validate {
-            inputs.push(("validation", v.as_path()));
-        }
-        crate::atomic::refuse_overwriting_inputs("--out", out, &inputs)?;
-    }
+    crate::atomic::refuse_model_over_inputs(
+        args.out.as_deref(),
+        &args.robot,
+        &args.data,
+        args.validate.as_deref(),
+    )?;
     let n = RobotFile::load(&args.robot)?.joint_count();
     with_joints!(n, N => run_n::<N>(args, json))
 }

@@ -124,24 +124,12 @@ impl Linearised {
         folds: &Folds,
     ) -> Self {
         let p = problem.len();
-        let mut fk = ForwardKinematics::new();
-        let mut residuals = Vec::with_capacity(data.len());
-        let mut columns = Vec::with_capacity(data.len());
-        let mut per_fold: Vec<Normal> = (0..folds.k).map(|_| Normal::zeros(p)).collect();
-        let mut total = Normal::zeros(p);
-        let mut cols = Vec::new();
-        for (i, m) in data.iter().enumerate() {
-            let r = problem.pose_rows(&mut fk, robot, m, &mut cols);
-            per_fold[folds.of[i]].add(&r, &cols);
-            residuals.push(r);
-            columns.push(cols.clone());
-        }
-        for n in &per_fold {
-            total.a += &n.a;
-            total.g += &n.g;
-            total.ssr += n.ssr;
-            total.poses += n.poses;
-        }
+        let FoldSums {
+            residuals,
+            columns,
+            per_fold,
+            total,
+        } = fold_sums(robot, problem, data, folds);
         let x = problem.scaled_values(robot);
         let factors = per_fold
             .iter()
@@ -307,6 +295,48 @@ pub struct FoldInflation {
     pub trace_squared: f64,
 }
 
+/// Every pose's residual and sparse columns at `robot`, the normal equations of each fold, and
+/// their total.
+struct FoldSums {
+    residuals: Vec<Vector3<f64>>,
+    columns: Vec<PoseColumns>,
+    per_fold: Vec<Normal>,
+    total: Normal,
+}
+
+fn fold_sums<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    problem: &Problem,
+    data: &[Measurement<f64, N>],
+    folds: &Folds,
+) -> FoldSums {
+    let p = problem.len();
+    let mut fk = ForwardKinematics::new();
+    let mut residuals = Vec::with_capacity(data.len());
+    let mut columns = Vec::with_capacity(data.len());
+    let mut per_fold: Vec<Normal> = (0..folds.k).map(|_| Normal::zeros(p)).collect();
+    let mut total = Normal::zeros(p);
+    let mut cols = Vec::new();
+    for (i, m) in data.iter().enumerate() {
+        let r = problem.pose_rows(&mut fk, robot, m, &mut cols);
+        per_fold[folds.of[i]].add(&r, &cols);
+        residuals.push(r);
+        columns.push(cols.clone());
+    }
+    for n in &per_fold {
+        total.a += &n.a;
+        total.g += &n.g;
+        total.ssr += n.ssr;
+        total.poses += n.poses;
+    }
+    FoldSums {
+        residuals,
+        columns,
+        per_fold,
+        total,
+    }
+}
+
 /// [`FoldInflation`] of `problem` at `robot` for these folds (see there).
 pub fn fold_inflation<const N: usize, const V: usize>(
     robot: &Robot<f64, N, V>,
@@ -315,19 +345,12 @@ pub fn fold_inflation<const N: usize, const V: usize>(
     folds: &Folds,
 ) -> FoldInflation {
     let p = problem.len();
-    let mut fk = ForwardKinematics::new();
-    let mut columns = Vec::with_capacity(data.len());
-    let mut per_fold: Vec<Normal> = (0..folds.k).map(|_| Normal::zeros(p)).collect();
-    let mut total = Normal::zeros(p);
-    let mut cols = Vec::new();
-    for (i, m) in data.iter().enumerate() {
-        let r = problem.pose_rows(&mut fk, robot, m, &mut cols);
-        per_fold[folds.of[i]].add(&r, &cols);
-        columns.push(cols.clone());
-    }
-    for n in &per_fold {
-        total.a += &n.a;
-    }
+    let FoldSums {
+        columns,
+        per_fold,
+        total,
+        ..
+    } = fold_sums(robot, problem, data, folds);
     let mut out = FoldInflation {
         coordinates: 3 * data.len(),
         trace: 0.0,

@@ -51,6 +51,24 @@ impl Param {
         )
     }
 
+    /// True for the six parameters of the base pose.
+    pub fn is_base(self) -> bool {
+        matches!(
+            self,
+            Param::BaseX
+                | Param::BaseY
+                | Param::BaseZ
+                | Param::BaseRx
+                | Param::BaseRy
+                | Param::BaseRz
+        )
+    }
+
+    /// True for the three coordinates of the tool point.
+    pub fn is_tool(self) -> bool {
+        matches!(self, Param::ToolX | Param::ToolY | Param::ToolZ)
+    }
+
     /// Scale that makes a unit step comparable to 1 mm at the tool: 1 for lengths, the robot's
     /// reach (mm per rad) for angles and effect values.
     pub fn scale<T: Real>(self, reach: T) -> T {

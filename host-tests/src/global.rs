@@ -129,20 +129,7 @@ pub fn identify<const N: usize, const V: usize>(
     let frame_params: Vec<Param> = lm_params
         .iter()
         .copied()
-        .filter(|p| {
-            matches!(
-                p,
-                Param::BaseX
-                    | Param::BaseY
-                    | Param::BaseZ
-                    | Param::BaseRx
-                    | Param::BaseRy
-                    | Param::BaseRz
-                    | Param::ToolX
-                    | Param::ToolY
-                    | Param::ToolZ
-            )
-        })
+        .filter(|p| p.is_base() || p.is_tool())
         .collect();
     let framed = |what: &str| -> anyhow::Result<Robot<f64, N, V>> {
         if frame_params.is_empty() || method == Method::PsoLm {

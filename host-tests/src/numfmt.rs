@@ -1,5 +1,6 @@
 //! Numbers for people: significant digits instead of fixed decimals, so that 0.0178 → 0.0174 mm
-//! does not print as "0.018 → 0.018", and never `inf` or `NaN` inside a sentence.
+//! does not print as "0.018 → 0.018", and never `inf` or `NaN` inside a sentence. (Robot files
+//! are written with the shortest round-tripping decimals: `robot_file::deg_short`.)
 
 /// `x` with `digits` significant digits (at least 1), in plain notation for magnitudes between
 /// 1e-4 and 1e6 and in scientific notation outside; `-` for a value that is not finite.
@@ -25,11 +26,6 @@ pub fn sig(x: f64, digits: usize) -> String {
     };
     let decimals = (digits as i32 - 1 - mag2).max(0) as usize;
     format!("{rounded:.decimals$}")
-}
-
-/// The shortest decimal text that reads back as exactly `x` (Rust's `Display` for `f64`).
-pub fn shortest(x: f64) -> String {
-    format!("{x}")
 }
 
 #[cfg(test)]

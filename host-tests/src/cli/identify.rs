@@ -315,19 +315,10 @@ fn changes<const N: usize>(
         .filter_map(|p| {
             let name = p.name(&fit.robot).to_string();
             let (a, b) = (*from.get(&name)?, *to.get(&name)?);
-            let is_base = matches!(
-                p,
-                kinecal::Param::BaseX
-                    | kinecal::Param::BaseY
-                    | kinecal::Param::BaseZ
-                    | kinecal::Param::BaseRx
-                    | kinecal::Param::BaseRy
-                    | kinecal::Param::BaseRz
-            );
             Some(Change {
                 sigma: fit.sigma.get(&name).copied(),
                 length: p.is_length(),
-                free_start: matches!(p, kinecal::Param::Effect(_)) || (is_base && base_unknown),
+                free_start: matches!(p, kinecal::Param::Effect(_)) || (p.is_base() && base_unknown),
                 nominal: a,
                 calibrated: b,
                 change: b - a,

@@ -227,6 +227,9 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     }
 
     /// One column of the identification Jacobian, `∂p/∂param`, at the last computed pose.
+    /// Inline: called once per parameter and pose in identification's inner loop, where a
+    /// call returning the column through memory stalls on store forwarding.
+    #[inline(always)]
     pub fn column<const V: usize>(
         &self,
         robot: &Robot<T, N, V>,

@@ -53,6 +53,7 @@ pub mod frame;
 pub mod information;
 pub mod linalg;
 pub mod lm;
+pub mod lm_pass;
 pub mod lm_storage;
 pub mod measurement;
 pub mod observability;

@@ -4,6 +4,11 @@
 //! `O(P²)` whatever the number of poses, and one [`Levenberg::step`] call processes at most a
 //! caller-chosen number of poses: firmware runs it in idle cycles, the desktop in one call.
 //!
+//! A candidate step is tried with a full pass at the candidate, which accumulates its normal
+//! equations while summing its cost: accepted (the usual case), they are the next iteration's,
+//! so an iteration costs one pass over the data; rejected, the estimate's are accumulated
+//! again. Passes can be spread over workers ([`crate::lm_pass`]).
+//!
 //! Parameters are scaled by [`Param::scale`] (angles × reach) so that a unit step moves the
 //! tool by about a millimetre whatever the parameter; Marquardt's diagonal damping with
 //! Nielsen's update of λ makes convergence from the nominal model reliable.
@@ -22,6 +27,9 @@
 //! forth. A tiny ridge on the accumulated update keeps nearly dependent directions bounded.
 
 use crate::linalg::{cholesky, cholesky_solve, pivoted_cholesky_preferring, Flat, LinalgError};
+use crate::lm_pass::{accumulate_pose, clear_normal_equations, Columns, NormalSums};
+pub use crate::lm_pass::{Pass, PassKind, PassPart};
+use crate::lm_storage::storage_fits;
 pub use crate::lm_storage::{FixedLm, LmParts, LmPartsRef, LmStorage};
 use crate::param::{apply_delta, check_params, Param, ParamError};
 use crate::{ForwardKinematics, Measurement, Real, Robot};
@@ -78,6 +86,9 @@ pub enum LmError {
     NonFiniteMeasurement,
     /// The parameter set does not fit the robot or the capacity.
     Params(ParamError),
+    /// Parts handed to [`Levenberg::complete_pass`] are not of the pending pass, do not cover
+    /// the data once, or hold other parameters; or no pass is pending.
+    PassMismatch,
 }
 
 /// Why the solver stopped.
@@ -160,32 +171,6 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
     ) -> Result<Self, LmError> {
         Self::new(start, FixedLm::new(params), cfg)
     }
-}
-
-/// Checks that the storage has room for its parameters.
-fn storage_fits<T: Real, S: LmStorage<T>>(st: &mut S) -> bool {
-    let n = st.params().len();
-    let p = st.parts();
-    let vectors = [
-        p.jtr.len(),
-        p.step.len(),
-        p.total.len(),
-        p.scale.len(),
-        p.analysed_diag.len(),
-        p.g.len(),
-        p.x.len(),
-        p.delta.len(),
-        p.cols.len(),
-        p.nz.len(),
-        p.idx.len(),
-        p.order.len(),
-        p.active.len(),
-        p.before.len(),
-    ];
-    let matrix = p.stride.checked_mul(p.stride);
-    p.stride >= n
-        && vectors.iter().all(|&l| l >= n)
-        && matrix.is_some_and(|m| p.jtj.len() >= m && p.work.len() >= m)
 }
 
 impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V, S> {
@@ -314,7 +299,7 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
         while left > 0 {
             match self.phase {
                 Phase::Done(_) => break,
-                Phase::Accumulate | Phase::Confirm(_) | Phase::Reanalyse => {
+                Phase::Accumulate | Phase::Confirm(_) | Phase::Reanalyse | Phase::Evaluate => {
                     if self.next == 0 {
                         self.clear_normal_equations();
                     }
@@ -324,48 +309,12 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
                         left -= 1;
                     }
                     if self.next == self.n_poses {
-                        self.next = 0;
-                        self.evaluations += 1;
-                        self.cost = self.acc_cost;
-                        self.phase = match self.phase {
-                            Phase::Confirm(stop) => {
-                                if self.analyse() {
-                                    Phase::Solve
-                                } else {
-                                    Phase::Done(stop)
-                                }
-                            }
-                            Phase::Reanalyse => {
-                                self.analyse();
-                                Phase::Solve
-                            }
-                            _ if !self.analysed => {
-                                self.analyse();
-                                Phase::Solve
-                            }
-                            // The held columns' off-diagonal terms are missing: one full pass.
-                            _ if self.held_column_grew() => Phase::Reanalyse,
-                            _ => Phase::Solve,
-                        };
+                        self.end_pass();
                     }
                 }
                 Phase::Solve => {
                     self.solve();
                     break;
-                }
-                Phase::Evaluate => {
-                    while left > 0 && self.next < self.n_poses {
-                        let m = &data[self.next];
-                        let r = m.point - self.fk.compute(&self.candidate, &m.q);
-                        self.cand_cost += r.norm_squared();
-                        self.next += 1;
-                        left -= 1;
-                    }
-                    if self.next == self.n_poses {
-                        self.next = 0;
-                        self.evaluations += 1;
-                        self.decide();
-                    }
                 }
             }
         }
@@ -382,66 +331,165 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
         }
     }
 
+    /// The pass over the measurements the run needs next, for a caller who spreads it over
+    /// workers ([`crate::lm_pass`]); `None` while the next work is a solve, after the end, or
+    /// when a [`Self::step`] call left a pass half done.
+    pub fn pass(&self) -> Option<Pass<'_, T, N, V>> {
+        let kind = match self.phase {
+            Phase::Accumulate | Phase::Confirm(_) | Phase::Reanalyse => PassKind::Estimate,
+            Phase::Evaluate => PassKind::Candidate,
+            Phase::Solve | Phase::Done(_) => return None,
+        };
+        if self.next != 0 {
+            return None;
+        }
+        let p = self.st.parts_ref();
+        Some(Pass {
+            kind,
+            id: self.evaluations,
+            robot: if kind == PassKind::Candidate {
+                &self.candidate
+            } else {
+                &self.robot
+            },
+            columns: Columns {
+                params: p.params,
+                scale: p.scale,
+                active: p.active,
+                full: self.full_columns(),
+            },
+        })
+    }
+
+    /// Ends the pending pass with the workers' `parts` (every measurement in exactly one part,
+    /// each part filled by [`Pass::accumulate`] in this pass), summed in slice order, and
+    /// moves the run on as [`Self::step`] would at the end of the pass.
+    pub fn complete_pass<P: LmStorage<T>>(
+        &mut self,
+        parts: &[PassPart<T, P>],
+    ) -> Result<LmProgress<T>, LmError> {
+        if self.pass().is_none() {
+            return Err(LmError::PassMismatch);
+        }
+        let n = self.st.params().len();
+        let mut poses = 0usize;
+        for part in parts {
+            if part.id != Some(self.evaluations) || part.storage.params() != self.st.params() {
+                return Err(LmError::PassMismatch);
+            }
+            poses = poses.saturating_add(part.poses);
+        }
+        if self.n_poses == 0 {
+            if poses == 0 || 3 * poses < n {
+                return Err(LmError::TooFewMeasurements);
+            }
+            self.n_poses = poses;
+        } else if poses != self.n_poses {
+            return Err(LmError::DataChanged);
+        }
+        let cost = parts.iter().fold(T::zero(), |c, part| c + part.cost);
+        self.clear_normal_equations();
+        let p = self.st.parts();
+        for part in parts {
+            let q = part.storage.parts_ref();
+            for i in 0..n {
+                let row = &mut p.jtj[i * p.stride..i * p.stride + i + 1];
+                for (v, w) in row.iter_mut().zip(&q.jtj[i * q.stride..]) {
+                    *v += *w;
+                }
+                p.jtr[i] += q.jtr[i];
+            }
+        }
+        self.acc_cost = cost;
+        self.end_pass();
+        Ok(self.progress())
+    }
+
     fn clear_normal_equations(&mut self) {
         let n = self.st.params().len();
         let p = self.st.parts();
-        for i in 0..n {
-            p.jtj[i * p.stride..i * p.stride + n].fill(T::zero());
-        }
-        p.jtr[..n].fill(T::zero());
+        clear_normal_equations(p.jtj, p.jtr, p.stride, n);
         self.acc_cost = T::zero();
+    }
+
+    /// Held columns enter the normal equations in full on the passes that decide
+    /// identifiability (the first, a confirmation, a re-analysis); otherwise just their
+    /// diagonal.
+    fn full_columns(&self) -> bool {
+        !self.analysed || matches!(self.phase, Phase::Confirm(_) | Phase::Reanalyse)
     }
 
     /// Adds one pose's residual and scaled Jacobian to the normal equations.
     fn accumulate(&mut self, m: &Measurement<T, N>) {
-        let p = self.fk.compute(&self.robot, &m.q);
-        let r = m.point - p;
-        self.acc_cost += r.norm_squared();
-        // Held columns join fully only on the passes that decide identifiability; otherwise
-        // just their diagonal, which tells when the model has moved to where the data see them.
-        let full = !self.analysed || matches!(self.phase, Phase::Confirm(_) | Phase::Reanalyse);
-        let st = self.st.parts();
-        let n = st.params.len();
-        // Only the columns this pose excites (tables touch two knots of many): the update then
-        // costs O(k²) for k non-zero columns instead of O(P²).
-        let mut k_nz = 0;
-        for k in 0..n {
-            // Parameters were checked against the robot at construction: a column always exists.
-            let c = self
-                .fk
-                .column(&self.robot, st.params[k])
-                .unwrap_or_else(|_| Vector3::zeros())
-                / st.scale[k];
-            if !st.active[k] && !full {
-                st.jtj[k * st.stride + k] += c.norm_squared();
-                continue;
-            }
-            if c.x != T::zero() || c.y != T::zero() || c.z != T::zero() {
-                st.cols[k_nz] = c;
-                st.nz[k_nz] = k;
-                k_nz += 1;
-            }
+        let full = self.full_columns();
+        let p = self.st.parts();
+        let columns = Columns {
+            params: p.params,
+            scale: p.scale,
+            active: p.active,
+            full,
+        };
+        let mut sums = NormalSums {
+            stride: p.stride,
+            jtj: p.jtj,
+            jtr: p.jtr,
+            cx: p.cx,
+            cy: p.cy,
+            cz: p.cz,
+            nz: p.nz,
+        };
+        let robot = if self.phase == Phase::Evaluate {
+            &self.candidate
+        } else {
+            &self.robot
+        };
+        self.acc_cost += accumulate_pose(&mut self.fk, robot, m, &columns, &mut sums);
+    }
+
+    /// The end of a pass: of a candidate's, accept or reject it; of the estimate's, decide what
+    /// comes next.
+    fn end_pass(&mut self) {
+        if self.phase == Phase::Evaluate {
+            self.cand_cost = self.acc_cost;
+            self.end_evaluate();
+        } else {
+            self.end_accumulate();
         }
-        let (cols, nz) = (&st.cols[..k_nz], &st.nz[..k_nz]);
-        for a in 0..k_nz {
-            let i = nz[a];
-            let ci = cols[a];
-            st.jtr[i] += ci.dot(&r);
-            let row = &mut st.jtj[i * st.stride..i * st.stride + i + 1];
-            if k_nz == n {
-                // Every column excited (the usual geometric case): nz[b] = b, a contiguous row.
-                for (v, c) in row[..a + 1].iter_mut().zip(&cols[..a + 1]) {
-                    *v += ci.x * c.x + ci.y * c.y + ci.z * c.z;
-                }
-            } else {
-                // nz is increasing, so nz[b] ≤ i: the lower triangle.
-                for (c, &j) in cols[..a + 1].iter().zip(&nz[..a + 1]) {
-                    if let Some(v) = row.get_mut(j) {
-                        *v += ci.x * c.x + ci.y * c.y + ci.z * c.z;
-                    }
+    }
+
+    /// The end of a pass that accumulated the normal equations at the estimate.
+    fn end_accumulate(&mut self) {
+        self.next = 0;
+        self.evaluations += 1;
+        self.cost = self.acc_cost;
+        self.phase = match self.phase {
+            Phase::Confirm(stop) => {
+                if self.analyse() {
+                    Phase::Solve
+                } else {
+                    Phase::Done(stop)
                 }
             }
-        }
+            Phase::Reanalyse => {
+                self.analyse();
+                Phase::Solve
+            }
+            _ if !self.analysed => {
+                self.analyse();
+                Phase::Solve
+            }
+            // The held columns' off-diagonal terms are missing: one full pass.
+            _ if self.held_column_grew() => Phase::Reanalyse,
+            _ => Phase::Solve,
+        };
+    }
+
+    /// The end of a pass at the candidate (its cost, and its normal equations in place of the
+    /// estimate's): accept or reject it.
+    fn end_evaluate(&mut self) {
+        self.next = 0;
+        self.evaluations += 1;
+        self.decide();
     }
 
     /// True when a held parameter's column has grown well beyond its size at the last
@@ -609,13 +657,20 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
             self.finish(LmStop::SmallStep);
             return;
         }
+        // Lightly damped (λ ≤ 1: at least about half the Gauss–Newton reduction), a step that
+        // promises less than the cost tolerance is not worth a pass over the data: converged.
+        // (Without this a run spends its last passes on steps that change the 13th digit.)
+        if lambda <= T::one() && pred <= cfg.cost_tolerance * self.cost {
+            self.finish(LmStop::Converged);
+            return;
+        }
         // Unscale into parameter units and build the candidate.
         for k in 0..n {
             p.delta[k] = p.step[k] / p.scale[k];
         }
         self.candidate.clone_from(&self.robot);
         if apply_delta(&mut self.candidate, p.params, &p.delta[..n]).is_err() {
-            self.reject();
+            self.reject(Phase::Solve);
             return;
         }
         self.cand_cost = T::zero();
@@ -623,7 +678,10 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
         self.phase = Phase::Evaluate;
     }
 
-    fn reject(&mut self) {
+    /// Rejects the step: damp harder and solve again, from the estimate's normal equations
+    /// (`then`: `Solve` when they are still in place, `Accumulate` after a candidate's pass
+    /// replaced them).
+    fn reject(&mut self, then: Phase) {
         self.lambda *= self.nu;
         self.nu *= T::of(2.0);
         self.iteration += 1;
@@ -632,11 +690,13 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
         } else if self.iteration >= self.cfg.max_iterations {
             self.phase = Phase::Done(LmStop::MaxIterations);
         } else {
-            self.phase = Phase::Solve;
+            self.phase = then;
         }
     }
 
-    /// Accepts or rejects the evaluated candidate (Nielsen's damping update).
+    /// Accepts or rejects the evaluated candidate (Nielsen's damping update). The ridge weight
+    /// is taken from the candidate's normal matrix (now in place), the same for the old and the
+    /// new cost.
     fn decide(&mut self) {
         let n = self.st.params().len();
         let p = self.st.parts();
@@ -688,10 +748,16 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
             } else if self.iteration >= self.cfg.max_iterations {
                 self.phase = Phase::Done(LmStop::MaxIterations);
             } else {
-                self.phase = Phase::Accumulate;
+                // The candidate's pass left its normal equations: the next solve's. (A held
+                // column that grew needs the full ones first.)
+                self.phase = if self.held_column_grew() {
+                    Phase::Reanalyse
+                } else {
+                    Phase::Solve
+                };
             }
         } else {
-            self.reject();
+            self.reject(Phase::Accumulate);
         }
     }
 }

@@ -10,10 +10,9 @@
 use crate::linalg::Square;
 use crate::param::{Param, ParamError, ParamSet};
 use crate::Real;
-use nalgebra::Vector3;
 
 /// Number of length-`n` real vectors in [`LmParts`].
-pub const LM_VECTORS: usize = 8;
+pub const LM_VECTORS: usize = 11;
 /// Number of length-`n` index vectors in [`LmParts`].
 pub const LM_INDEX_VECTORS: usize = 3;
 
@@ -42,8 +41,11 @@ pub struct LmParts<'a, T> {
     pub g: &'a mut [T],
     pub x: &'a mut [T],
     pub delta: &'a mut [T],
-    /// One pose's non-zero scaled columns.
-    pub cols: &'a mut [Vector3<T>],
+    /// One pose's scaled columns by coordinate (column `k` is `(cx[k], cy[k], cz[k])`): rows
+    /// of `JᵀJ` are then updated from contiguous arrays, which vectorises.
+    pub cx: &'a mut [T],
+    pub cy: &'a mut [T],
+    pub cz: &'a mut [T],
     /// Indices of those columns; of the active parameters; the pivot order.
     pub nz: &'a mut [usize],
     pub idx: &'a mut [usize],
@@ -87,7 +89,6 @@ pub struct FixedLm<T: Real, const P: usize> {
     jtj: Square<T, P>,
     work: Square<T, P>,
     vectors: [[T; P]; LM_VECTORS],
-    cols: [Vector3<T>; P],
     indices: [[usize; P]; LM_INDEX_VECTORS],
     flags: [[bool; P]; 2],
 }
@@ -100,7 +101,6 @@ impl<T: Real, const P: usize> FixedLm<T, P> {
             jtj: [[T::zero(); P]; P],
             work: [[T::zero(); P]; P],
             vectors: [[T::zero(); P]; LM_VECTORS],
-            cols: [Vector3::zeros(); P],
             indices: [[0; P]; LM_INDEX_VECTORS],
             flags: [[false; P]; 2],
         }
@@ -118,7 +118,7 @@ impl<T: Real, const P: usize> FixedLm<T, P> {
 
 impl<T: Real, const P: usize> LmStorage<T> for FixedLm<T, P> {
     fn parts(&mut self) -> LmParts<'_, T> {
-        let [jtr, step, total, scale, analysed_diag, g, x, delta] = &mut self.vectors;
+        let [jtr, step, total, scale, analysed_diag, g, x, delta, cx, cy, cz] = &mut self.vectors;
         let [nz, idx, order] = &mut self.indices;
         let [active, before] = &mut self.flags;
         LmParts {
@@ -134,7 +134,9 @@ impl<T: Real, const P: usize> LmStorage<T> for FixedLm<T, P> {
             g,
             x,
             delta,
-            cols: &mut self.cols,
+            cx,
+            cy,
+            cz,
             nz,
             idx,
             order,
@@ -157,4 +159,32 @@ impl<T: Real, const P: usize> LmStorage<T> for FixedLm<T, P> {
             active: &self.flags[0],
         }
     }
+}
+
+/// Checks that the storage has room for its parameters.
+pub(crate) fn storage_fits<T: Real, S: LmStorage<T>>(st: &mut S) -> bool {
+    let n = st.params().len();
+    let p = st.parts();
+    let vectors = [
+        p.jtr.len(),
+        p.step.len(),
+        p.total.len(),
+        p.scale.len(),
+        p.analysed_diag.len(),
+        p.g.len(),
+        p.x.len(),
+        p.delta.len(),
+        p.cx.len(),
+        p.cy.len(),
+        p.cz.len(),
+        p.nz.len(),
+        p.idx.len(),
+        p.order.len(),
+        p.active.len(),
+        p.before.len(),
+    ];
+    let matrix = p.stride.checked_mul(p.stride);
+    p.stride >= n
+        && vectors.iter().all(|&l| l >= n)
+        && matrix.is_some_and(|m| p.jtj.len() >= m && p.work.len() >= m)
 }

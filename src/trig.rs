@@ -84,10 +84,15 @@ pub fn sincos_f64(x: f64) -> (f64, f64) {
                         + z * (-2.755_731_435_139_066_330_35e-7
                             + z * (2.087_572_321_298_174_827_90e-9
                                 + z * -1.135_964_755_778_819_482_65e-11)))));
-    match (k as i64) & 3 {
-        0 => (s, c),
-        1 => (c, -s),
-        2 => (-s, -c),
-        _ => (-c, s),
-    }
+    // The quadrant without branches (random joint angles would mispredict a `match` half the
+    // time): odd quadrants swap sine and cosine, and the sign bits follow bit 1 of q and q + 1.
+    let q = k as i64 as u64;
+    let swap = 0u64.wrapping_sub(q & 1);
+    let (sb, cb) = (s.to_bits(), c.to_bits());
+    let sin = (sb & !swap) | (cb & swap);
+    let cos = (cb & !swap) | (sb & swap);
+    (
+        f64::from_bits(sin ^ ((q & 2) << 62)),
+        f64::from_bits(cos ^ ((q.wrapping_add(1) & 2) << 62)),
+    )
 }

@@ -221,9 +221,12 @@ fn context_lines(path: &Path, want: u32) -> (Option<Vec<String>>, Option<String>
 /// column; malformed content is [`crate::Refused`] (exit status 2), an unreadable file is not.
 pub fn load<const N: usize>(path: &Path) -> anyhow::Result<Dataset<N>> {
     let origin = path.display().to_string();
-    let f = open_skipping_bom(path).map_err(|e| anyhow!("{origin}: cannot read: {e}"))?;
+    let mut bytes = std::fs::read(path).map_err(|e| anyhow!("{origin}: cannot read: {e}"))?;
+    if bytes.starts_with(&[0xEF, 0xBB, 0xBF]) {
+        bytes.drain(..3);
+    }
     // Malformed content is refused input (exit status 2, interfaces.md §4).
-    read_records::<N, _>(BufReader::new(f)).map_err(|e| {
+    read_bytes::<N>(&bytes).map_err(|e| {
         let (header, text) = context_lines(path, e.line);
         crate::refused(describe_error(
             &origin,
@@ -233,6 +236,77 @@ pub fn load<const N: usize>(path: &Path) -> anyhow::Result<Dataset<N>> {
             text.as_deref(),
         ))
     })
+}
+
+/// Files larger than this are parsed in parts on several threads.
+pub const PARALLEL_MIN_BYTES: usize = 1 << 20;
+
+/// Reads all records of a whole file in memory: large files in [`crate::parallel::PARTS`]
+/// parts cut at line ends, each read by the library reader after the file's header lines, on
+/// several threads. Records, line numbers and the first error are those of one reader over the
+/// whole file.
+pub fn read_bytes<const N: usize>(bytes: &[u8]) -> Result<Dataset<N>, CsvError> {
+    let Some(body_start) = header_end(bytes).filter(|_| bytes.len() >= PARALLEL_MIN_BYTES) else {
+        return read_records::<N, _>(bytes);
+    };
+    let (prefix, body) = bytes.split_at(body_start);
+    let parts = split_at_lines(body, crate::parallel::PARTS);
+    let read = crate::parallel::map_each(&parts, |part| {
+        let lines = part.iter().filter(|b| **b == b'\n').count() as u32;
+        (read_records::<N, _>(prefix.chain(*part)), lines)
+    });
+    let mut out = Dataset::default();
+    let mut before = 0u32;
+    for (ds, lines) in read {
+        // A part's reader numbers the prefix's lines too, as the whole file's reader does.
+        let ds = ds.map_err(|e| CsvError {
+            line: e.line.saturating_add(before),
+            ..e
+        })?;
+        out.extra_names = ds.extra_names;
+        out.records.extend(ds.records.into_iter().map(|r| Record {
+            line: r.line.saturating_add(before),
+            ..r
+        }));
+        before = before.saturating_add(lines);
+    }
+    Ok(out)
+}
+
+/// The index just after the header line (the first line neither blank nor a comment, as the
+/// library reader decides), `None` when there is no complete one.
+fn header_end(bytes: &[u8]) -> Option<usize> {
+    let mut start = 0;
+    while let Some(len) = bytes[start..].iter().position(|b| *b == b'\n') {
+        let t = bytes[start..start + len].trim_ascii();
+        start += len + 1;
+        if !(t.is_empty() || t[0] == b'#') {
+            return Some(start);
+        }
+    }
+    None
+}
+
+/// `bytes` cut into at most `parts` pieces of similar size, each ending at a line end (the
+/// last at the end of `bytes`).
+fn split_at_lines(bytes: &[u8], parts: usize) -> Vec<&[u8]> {
+    let target = bytes.len().div_ceil(parts.max(1)).max(1);
+    let mut out = Vec::with_capacity(parts);
+    let mut rest = bytes;
+    while !rest.is_empty() {
+        let cut = if rest.len() <= target {
+            rest.len()
+        } else {
+            rest[target..]
+                .iter()
+                .position(|b| *b == b'\n')
+                .map_or(rest.len(), |k| target + k + 1)
+        };
+        let (head, tail) = rest.split_at(cut);
+        out.push(head);
+        rest = tail;
+    }
+    out
 }
 
 /// The joint count a measurement file is for: the largest `K` of its `qK` columns.

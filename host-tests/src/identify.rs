@@ -35,10 +35,13 @@ pub fn pose_errors<const N: usize, const V: usize>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
 ) -> Vec<f64> {
-    let mut fk = ForwardKinematics::new();
-    data.iter()
-        .map(|m| (m.point - fk.compute(robot, &m.q)).norm())
-        .collect()
+    crate::parallel::map_parts(data, |part| {
+        let mut fk = ForwardKinematics::new();
+        part.iter()
+            .map(|m| (m.point - fk.compute(robot, &m.q)).norm())
+            .collect::<Vec<f64>>()
+    })
+    .concat()
 }
 
 /// The `before`/`after` object of the identify report.
@@ -170,17 +173,12 @@ pub fn fit_lm<const N: usize, const V: usize>(
             .map_err(|e| anyhow::anyhow!("identification setup: {e:?}"))?,
     );
     let mut history = Vec::new();
-    let p = loop {
-        let p = lm
-            .step(data, usize::MAX)
-            .map_err(|e| anyhow::anyhow!("identification: {e:?}"))?;
+    let p = crate::parallel::run_lm(&mut lm, data, |lm, p| {
         if lm.analysed() && history.last() != Some(&p.cost) {
             history.push(p.cost);
         }
-        if p.stopped.is_some() {
-            break p;
-        }
-    };
+    })
+    .map_err(|e| anyhow::anyhow!("identification: {e:?}"))?;
     let (held, sigma) = identifiability_report(&lm, data.len(), p.cost);
     Ok(Fit {
         robot: lm.robot().clone(),

@@ -11,6 +11,7 @@ pub mod diagnose;
 pub mod global;
 pub mod identify;
 pub mod numfmt;
+pub mod parallel;
 pub mod penalised_fit;
 pub mod plots;
 pub mod reference;

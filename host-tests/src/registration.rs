@@ -61,8 +61,13 @@ pub fn fit_base<const N: usize, const V: usize>(
     placed
         .set_base(Frame::identity())
         .map_err(|e| anyhow!("{e:?}"))?;
-    let mut fk = ForwardKinematics::<f64, N>::new();
-    let model: Vec<Vector3<f64>> = data.iter().map(|m| fk.compute(&placed, &m.q)).collect();
+    let model: Vec<Vector3<f64>> = crate::parallel::map_parts(data, |part| {
+        let mut fk = ForwardKinematics::<f64, N>::new();
+        part.iter()
+            .map(|m| fk.compute(&placed, &m.q))
+            .collect::<Vec<_>>()
+    })
+    .concat();
     let measured: Vec<Vector3<f64>> = data.iter().map(|m| m.point).collect();
     fit_rigid(&model, &measured)
 }

@@ -203,6 +203,19 @@ pub const NEAR_TURN_RAD: f64 = 1.6 * PI;
 pub const WIDE_LIMITS_DEG: f64 = 25.0;
 /// The assumed units' fit must be worse than this fraction of the reach for any refusal.
 pub const FLOOR_OF_REACH: f64 = 1e-3;
+/// Most poses the unit hypotheses are scored on (evenly spaced over the file). A unit mistake
+/// scales every pose, so a few thousand tell as well as a million, and a tracker streaming at
+/// 1 kHz would otherwise pay seconds of forward kinematics and base fits before any work.
+pub const SCORED_POSES: usize = 4096;
+
+/// At most `most` of `items`, evenly spaced from the first (all of them when there are few).
+fn evenly_spaced<T: Clone>(items: &[T], most: usize) -> std::borrow::Cow<'_, [T]> {
+    if items.len() <= most {
+        return std::borrow::Cow::Borrowed(items);
+    }
+    let n = items.len();
+    std::borrow::Cow::Owned((0..most).map(|k| items[k * n / most].clone()).collect())
+}
 
 /// How well one hypothesis explains the file.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -474,15 +487,16 @@ pub fn suspect<const N: usize, const V: usize>(
     }
     let mut fk = ForwardKinematics::<f64, N>::new();
     let mut list = Vec::new();
+    let scored = evenly_spaced(records, SCORED_POSES);
     for &a in &angles {
-        let model: Vec<Vector3<f64>> = records
+        let model: Vec<Vector3<f64>> = scored
             .iter()
             .map(|r| fk.compute(&placed, &r.q_deg.map(|x| a.to_deg(x).to_radians())))
             .collect();
         let model_ok = model.iter().all(|p| p.iter().all(|c| c.is_finite()));
         for &l in &lengths {
             let s = if model_ok {
-                score(records, &placed, base_known, &model, l)
+                score(&scored, &placed, base_known, &model, l)
             } else {
                 Score::Unknown
             };

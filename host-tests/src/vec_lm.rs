@@ -6,7 +6,6 @@ use kinecal::lm::{LmParts, LmPartsRef, LmStorage};
 use kinecal::lm_storage::{LM_INDEX_VECTORS, LM_VECTORS};
 use kinecal::param::Param;
 use kinecal::Real;
-use nalgebra::Vector3;
 
 /// [`LmStorage`] in `Vec`s sized for exactly the parameters of the run.
 #[derive(Clone, Debug)]
@@ -15,7 +14,6 @@ pub struct VecLm<T: Real> {
     jtj: Vec<T>,
     work: Vec<T>,
     vectors: Vec<T>,
-    cols: Vec<Vector3<T>>,
     indices: Vec<usize>,
     flags: Vec<bool>,
 }
@@ -29,10 +27,19 @@ impl<T: Real> VecLm<T> {
             jtj: vec![T::zero(); n * n],
             work: vec![T::zero(); n * n],
             vectors: vec![T::zero(); LM_VECTORS * n],
-            cols: vec![Vector3::zeros(); n],
             indices: vec![0; LM_INDEX_VECTORS * n],
             flags: vec![false; 2 * n],
         }
+    }
+}
+
+impl<T: Real> VecLm<T> {
+    /// Storage for one part of a pass over `params` ([`kinecal::lm::PassPart`]): only what a
+    /// pass writes (no scratch matrix), half the memory of [`VecLm::new`].
+    pub fn for_pass(params: &[Param]) -> Self {
+        let mut s = Self::new(params);
+        s.work = Vec::new();
+        s
     }
 }
 
@@ -43,6 +50,7 @@ impl<T: Real> LmStorage<T> for VecLm<T> {
         let mut next = || v.next().unwrap_or(&mut []);
         let (jtr, step, total, scale) = (next(), next(), next(), next());
         let (analysed_diag, g, x, delta) = (next(), next(), next(), next());
+        let (cx, cy, cz) = (next(), next(), next());
         let mut ix = self.indices.chunks_exact_mut(n.max(1));
         let mut next_ix = || ix.next().unwrap_or(&mut []);
         let (nz, idx, order) = (next_ix(), next_ix(), next_ix());
@@ -60,7 +68,9 @@ impl<T: Real> LmStorage<T> for VecLm<T> {
             g,
             x,
             delta,
-            cols: &mut self.cols,
+            cx,
+            cy,
+            cz,
             nz,
             idx,
             order,

@@ -376,3 +376,52 @@ mod decimal {
         }
     }
 }
+
+/// A file above `PARALLEL_MIN_BYTES`: comment lines before the header, CRLF endings, blank
+/// and comment lines scattered through the body, an extra column.
+fn big_file(rows: usize) -> String {
+    let mut t = String::from("# exported by a tracker\r\n\r\nq1,q2,q3,q4,q5,q6,x,y,z,temp\r\n");
+    for i in 0..rows {
+        if i % 997 == 0 {
+            t.push_str("# a comment in the body\r\n\r\n");
+        }
+        let v = i as f64 * 0.001;
+        t.push_str(&format!(
+            "{v:.6},{:.6},{:.6},1.5,-2.5,3.5,{:.8},{:.8},{:.8},{}\r\n",
+            -v,
+            2.0 * v,
+            100.0 + v,
+            -200.0 - v,
+            300.0,
+            20 + i % 5
+        ));
+    }
+    t
+}
+
+#[test]
+fn a_large_file_read_in_parts_equals_one_reader() {
+    let text = big_file(30_000);
+    assert!(text.len() > data::PARALLEL_MIN_BYTES);
+    let parts = data::read_bytes::<6>(text.as_bytes()).unwrap();
+    let whole = read6(&text).unwrap();
+    assert_eq!(parts.records.len(), 30_000);
+    assert_eq!(parts, whole, "records, extra columns and line numbers");
+}
+
+#[test]
+fn an_error_deep_in_a_large_file_names_its_line() {
+    let text = big_file(30_000);
+    // Damage a row in the last part and one in the middle: the first one is reported.
+    for frac in [0.97, 0.5] {
+        let mut lines: Vec<&str> = text.split_inclusive('\n').collect();
+        let k = (lines.len() as f64 * frac) as usize;
+        let bad = lines[k].replacen(',', ",x", 1);
+        lines[k] = &bad;
+        let damaged: String = lines.concat();
+        let e = data::read_bytes::<6>(damaged.as_bytes()).expect_err("refused");
+        let one = read6(&damaged).expect_err("refused");
+        assert_eq!(e, one);
+        assert_eq!(e.line as usize, k + 1, "1-based line of the damaged row");
+    }
+}

@@ -1,0 +1,125 @@
+//! Both cores for the passes over many poses: the library's Levenberg–Marquardt passes
+//! ([`kinecal::lm_pass`]) and per-pose evaluations, spread over scoped threads.
+//!
+//! Large data are always cut into the same [`PARTS`] contiguous parts, whatever the number of
+//! threads, and the parts are summed in order: a result does not depend on the machine's core
+//! count. Below [`PARALLEL_MIN_POSES`] everything runs on the calling thread in one piece
+//! (starting threads would cost more than it saves), exactly as the library's own `step` does.
+
+use crate::vec_lm::VecLm;
+use kinecal::lm::{Levenberg, LmError, LmProgress, PassPart};
+use kinecal::{ForwardKinematics, Measurement};
+
+/// The number of parts a pass is cut into (and the most threads used).
+pub const PARTS: usize = 8;
+/// Fewer poses than this run on one thread.
+pub const PARALLEL_MIN_POSES: usize = 4096;
+
+/// Threads to use: the cores the process may run on, at most [`PARTS`].
+pub fn workers() -> usize {
+    std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .clamp(1, PARTS)
+}
+
+/// `f` of each item, on [`workers`] threads (items dealt out in turn); results in order.
+pub fn map_each_mut<I: Send, R: Send>(items: &mut [I], f: impl Fn(&mut I) -> R + Sync) -> Vec<R> {
+    let workers = workers().min(items.len());
+    if workers < 2 {
+        return items.iter_mut().map(f).collect();
+    }
+    let mut out: Vec<Option<R>> = items.iter().map(|_| None).collect();
+    std::thread::scope(|s| {
+        let mut slots: Vec<Vec<(&mut Option<R>, &mut I)>> =
+            (0..workers).map(|_| Vec::new()).collect();
+        for (i, job) in out.iter_mut().zip(items.iter_mut()).enumerate() {
+            slots[i % workers].push(job);
+        }
+        let f = &f;
+        let handles: Vec<_> = slots
+            .into_iter()
+            .map(|slot| {
+                s.spawn(move || {
+                    for (o, item) in slot {
+                        *o = Some(f(item));
+                    }
+                })
+            })
+            .collect();
+        for h in handles {
+            if let Err(e) = h.join() {
+                std::panic::resume_unwind(e);
+            }
+        }
+    });
+    out.into_iter().flatten().collect()
+}
+
+/// [`map_each_mut`] over shared items.
+pub fn map_each<I: Sync, R: Send>(items: &[I], f: impl Fn(&I) -> R + Sync) -> Vec<R> {
+    let mut refs: Vec<&I> = items.iter().collect();
+    map_each_mut(&mut refs, |i| f(i))
+}
+
+/// `f` of each of the [`PARTS`] contiguous parts of `items` on [`workers`] threads, results in
+/// order; `f` of all of them at once below [`PARALLEL_MIN_POSES`] items.
+pub fn map_parts<I: Sync, R: Send>(items: &[I], f: impl Fn(&[I]) -> R + Sync) -> Vec<R> {
+    if items.len() < PARALLEL_MIN_POSES {
+        return vec![f(items)];
+    }
+    let chunks: Vec<&[I]> = items.chunks(items.len().div_ceil(PARTS)).collect();
+    map_each(&chunks, |c| f(c))
+}
+
+/// Memory for the parts' normal matrices of one pass: fewer parts for large models (each part
+/// holds a `P × P` matrix).
+pub const PART_MATRIX_BYTES: usize = 32 << 20;
+
+/// Parts a pass over a model with `params` parameters is cut into: [`PARTS`], fewer (at least
+/// 2) when their matrices would exceed [`PART_MATRIX_BYTES`]. It depends on the problem only,
+/// never on the machine.
+pub fn pass_parts(params: usize) -> usize {
+    let matrix = (8 * params * params).max(1);
+    (PART_MATRIX_BYTES / matrix).clamp(2, PARTS)
+}
+
+/// Runs `lm` over `data` to the end, its passes over the poses on [`workers`] threads when
+/// there are many poses; `on_progress` sees the progress after every call into the solver.
+pub fn run_lm<const N: usize, const V: usize>(
+    lm: &mut Levenberg<f64, N, V, VecLm<f64>>,
+    data: &[Measurement<f64, N>],
+    mut on_progress: impl FnMut(&Levenberg<f64, N, V, VecLm<f64>>, &LmProgress<f64>),
+) -> Result<LmProgress<f64>, LmError> {
+    // In parts whenever the data are large, even on one core: the sums then do not depend on
+    // the machine.
+    let parallel = data.len() >= PARALLEL_MIN_POSES;
+    let chunks: Vec<&[Measurement<f64, N>]> = if parallel {
+        data.chunks(data.len().div_ceil(pass_parts(lm.params().len())))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let mut parts: Vec<PassPart<f64, VecLm<f64>>> = chunks
+        .iter()
+        .map(|_| PassPart::new(VecLm::for_pass(lm.params())))
+        .collect();
+    loop {
+        let progress = match lm.pass().filter(|_| parallel) {
+            Some(pass) => {
+                let mut jobs: Vec<_> = parts.iter_mut().zip(&chunks).collect();
+                map_each_mut(&mut jobs, |(part, poses)| {
+                    pass.accumulate(&mut ForwardKinematics::new(), poses, part)
+                })
+                .into_iter()
+                .collect::<Result<(), LmError>>()?;
+                lm.complete_pass(&parts)?
+            }
+            // A solve, or the whole run on this thread.
+            None => lm.step(data, if parallel { 1 } else { usize::MAX })?,
+        };
+        on_progress(lm, &progress);
+        if progress.stopped.is_some() {
+            return Ok(progress);
+        }
+    }
+}

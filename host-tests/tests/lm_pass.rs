@@ -1,0 +1,213 @@
+//! Levenberg–Marquardt passes spread over parts (`kinecal::lm_pass`, the host's
+//! `parallel::run_lm`): the same run as one `step` loop up to the order of summation, and every
+//! misuse refused with a typed error.
+
+use kinecal::lm::{Levenberg, LmConfig, LmError, PassKind, PassPart};
+use kinecal::param::{apply_delta, Param, ParamSet};
+use kinecal::{ForwardKinematics, Measurement, Robot};
+use kinecal_host::vec_lm::VecLm;
+use nalgebra::Vector3;
+use rand::{RngExt, SeedableRng};
+use rand_distr::{Distribution, Normal};
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+type Lm = Levenberg<f64, 6, 64, VecLm<f64>>;
+
+/// The ER20 stand-in, its base placed off the tracker's origin (base unknown: 6 base
+/// parameters, some confounded and held), a perturbed truth, and noisy poses of it.
+fn problem(n: usize, seed: u64) -> (Robot<f64, 6, 64>, Vec<Param>, Vec<Measurement<f64, 6>>) {
+    let nominal = kinecal_host::sim::er20_c10().with_capacity::<64>().unwrap();
+    let set = ParamSet::<64>::full(6, true).unwrap();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+    let mut truth = nominal.clone();
+    let delta: Vec<f64> = set
+        .iter()
+        .map(|p| {
+            if p.is_length() {
+                rng.random_range(-0.8..0.8)
+            } else {
+                rng.random_range(-0.1f64..0.1).to_radians()
+            }
+        })
+        .collect();
+    apply_delta(&mut truth, &set, &delta).unwrap();
+    let noise = Normal::new(0.0, 0.01).unwrap();
+    let mut fk = ForwardKinematics::new();
+    let data = (0..n)
+        .map(|_| {
+            let q: [f64; 6] =
+                core::array::from_fn(|_| rng.random_range(-170f64..170.0).to_radians());
+            let e = Vector3::new(
+                noise.sample(&mut rng),
+                noise.sample(&mut rng),
+                noise.sample(&mut rng),
+            );
+            Measurement {
+                q,
+                point: fk.compute(&truth, &q) + e,
+            }
+        })
+        .collect();
+    (nominal, set.to_vec(), data)
+}
+
+fn solver(start: &Robot<f64, 6, 64>, params: &[Param]) -> Lm {
+    Levenberg::new(start.clone(), VecLm::new(params), LmConfig::default()).unwrap()
+}
+
+/// Runs `lm` with every pass cut into `parts` pieces, accumulated in reverse order (so that
+/// nothing depends on the order the workers finish in).
+fn run_in_parts(lm: &mut Lm, data: &[Measurement<f64, 6>], parts: usize) -> u32 {
+    let chunks: Vec<_> = data.chunks(data.len().div_ceil(parts)).collect();
+    let mut store: Vec<PassPart<f64, VecLm<f64>>> = chunks
+        .iter()
+        .map(|_| PassPart::new(VecLm::for_pass(lm.params())))
+        .collect();
+    let mut passes = 0;
+    loop {
+        let p = match lm.pass() {
+            Some(pass) => {
+                let mut fk = ForwardKinematics::new();
+                for (part, poses) in store.iter_mut().zip(&chunks).rev() {
+                    pass.accumulate(&mut fk, poses, part).unwrap();
+                }
+                passes += 1;
+                lm.complete_pass(&store).unwrap()
+            }
+            None => lm.step(data, 1).unwrap(),
+        };
+        if p.stopped.is_some() {
+            return passes;
+        }
+    }
+}
+
+/// The largest distance (mm) between the points two models predict at the poses of `data`.
+fn model_gap(a: &Lm, b: &Lm, data: &[Measurement<f64, 6>]) -> f64 {
+    let (mut fa, mut fb) = (ForwardKinematics::new(), ForwardKinematics::new());
+    data.iter()
+        .map(|m| (fa.compute(a.robot(), &m.q) - fb.compute(b.robot(), &m.q)).norm())
+        .fold(0.0, f64::max)
+}
+
+/// Both runs ended at a minimum (not at a limit) with the same cost, the same held set and the
+/// same model. Summation order moves the costs in the 13th digit, which can decide whether one
+/// more tiny step is taken at the end: iteration counts may differ, the outcome may not.
+fn same_outcome(a: &Lm, b: &Lm, data: &[Measurement<f64, 6>]) {
+    use kinecal::lm::LmStop::{Converged, SmallStep};
+    let (pa, pb) = (a.progress(), b.progress());
+    assert!(matches!(pa.stopped, Some(Converged | SmallStep)), "{pa:?}");
+    assert!(matches!(pb.stopped, Some(Converged | SmallStep)), "{pb:?}");
+    assert!(
+        (pa.cost - pb.cost).abs() <= 1e-9 * pb.cost,
+        "cost {} vs {}",
+        pa.cost,
+        pb.cost
+    );
+    let held = |lm: &Lm| lm.unidentifiable().collect::<Vec<_>>();
+    assert_eq!(held(a), held(b));
+    assert!(!held(b).is_empty(), "the base confounds some parameters");
+    let gap = model_gap(a, b, data);
+    assert!(gap < 1e-6, "the models differ by {gap} mm");
+}
+
+#[test]
+fn a_run_in_parts_is_the_run_of_step() {
+    for (seed, parts) in [(1, 2), (2, 3), (3, 7)] {
+        let (start, params, data) = problem(400, seed);
+        let mut whole = solver(&start, &params);
+        let end = whole.run(&data).unwrap();
+        let mut split = solver(&start, &params);
+        let passes = run_in_parts(&mut split, &data, parts);
+        assert!(end.stopped.is_some());
+        assert_eq!(
+            passes,
+            split.progress().evaluations,
+            "every pass went through the parts"
+        );
+        same_outcome(&split, &whole, &data);
+    }
+}
+
+#[test]
+fn the_host_runs_large_data_in_parts_with_the_same_outcome() {
+    let n = kinecal_host::parallel::PARALLEL_MIN_POSES + 1000;
+    let (start, params, data) = problem(n, 4);
+    let mut whole = solver(&start, &params);
+    let end = whole.run(&data).unwrap();
+    let mut host = solver(&start, &params);
+    let mut calls = 0;
+    let p = kinecal_host::parallel::run_lm(&mut host, &data, |_, _| calls += 1).unwrap();
+    assert!(end.stopped.is_some());
+    assert!(
+        calls >= p.evaluations as usize,
+        "one call per pass at least"
+    );
+    same_outcome(&host, &whole, &data);
+}
+
+#[test]
+fn parts_that_do_not_cover_the_data_once_are_refused() {
+    let (start, params, data) = problem(60, 5);
+    let mut lm = solver(&start, &params);
+    let mut part = PassPart::new(VecLm::new(&params));
+    let pass = lm.pass().unwrap();
+    assert_eq!(pass.kind(), PassKind::Estimate);
+    pass.accumulate(&mut ForwardKinematics::new(), &data, &mut part)
+        .unwrap();
+    assert_eq!(part.poses(), 60);
+    lm.complete_pass(&[part.clone()]).unwrap();
+    // The first pass fixed the data at 60 poses; now a solve is due, not a pass.
+    assert!(lm.pass().is_none());
+    assert_eq!(
+        lm.complete_pass(&[part.clone()]),
+        Err(LmError::PassMismatch)
+    );
+    lm.step(&data, 1).unwrap();
+    let pass = lm.pass().unwrap();
+    assert_eq!(pass.kind(), PassKind::Candidate);
+    // A part still holding the last pass's sums is not of this pass.
+    assert_eq!(
+        lm.complete_pass(&[part.clone()]),
+        Err(LmError::PassMismatch)
+    );
+    // Half the poses: the data changed.
+    let pass = lm.pass().unwrap();
+    pass.accumulate(&mut ForwardKinematics::new(), &data[..30], &mut part)
+        .unwrap();
+    assert_eq!(lm.complete_pass(&[part.clone()]), Err(LmError::DataChanged));
+    // The refusals left the run where it was: the whole pass completes it.
+    let pass = lm.pass().unwrap();
+    let mut whole = PassPart::new(VecLm::new(&params));
+    pass.accumulate(&mut ForwardKinematics::new(), &data, &mut whole)
+        .unwrap();
+    lm.complete_pass(&[whole]).unwrap();
+    assert_eq!(lm.progress().evaluations, 2);
+}
+
+#[test]
+fn bad_parts_and_bad_poses_get_typed_errors() {
+    let (start, params, mut data) = problem(60, 6);
+    let lm = solver(&start, &params);
+    let pass = lm.pass().unwrap();
+    let mut fk = ForwardKinematics::new();
+    // Storage for other parameters.
+    let mut other = PassPart::new(VecLm::new(&params[1..]));
+    assert_eq!(
+        pass.accumulate(&mut fk, &data, &mut other),
+        Err(LmError::PassMismatch)
+    );
+    // A non-finite pose.
+    data[7].point.x = f64::NAN;
+    let mut part = PassPart::new(VecLm::new(&params));
+    assert_eq!(
+        pass.accumulate(&mut fk, &data, &mut part),
+        Err(LmError::NonFiniteMeasurement)
+    );
+    // Too few poses for the parameters, on the first pass.
+    let mut lm = solver(&start, &params);
+    let pass = lm.pass().unwrap();
+    let mut part = PassPart::new(VecLm::new(&params));
+    pass.accumulate(&mut fk, &data[..3], &mut part).unwrap();
+    assert_eq!(lm.complete_pass(&[part]), Err(LmError::TooFewMeasurements));
+}

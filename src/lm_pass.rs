@@ -1,0 +1,241 @@
+//! One pass of a [`crate::lm::Levenberg`] run over the measurements, spread over workers.
+//!
+//! A run alternates passes over all poses (accumulate the residuals and normal equations at
+//! the estimate or at a candidate step) with solves of `P × P` systems. The passes are
+//! where the time goes with many poses, and they are sums: each worker can take a slice of the
+//! measurements into its own partial sums, and the solver adds the parts. [`Levenberg::pass`]
+//! hands out the pass the run needs next (borrowing the solver immutably, so the workers may
+//! share it), [`Pass::accumulate`] fills one [`PassPart`], and [`Levenberg::complete_pass`]
+//! merges the parts and moves the run on. The outcome equals [`Levenberg::step`] over the same
+//! data up to the order of summation; a caller who always cuts the data into the same parts
+//! gets the same numbers whatever the number of threads.
+//!
+//! The library spawns nothing: the caller chooses the workers (host threads, or one core after
+//! another) and owns each part's storage, as it owns the solver's.
+//!
+//! [`Levenberg::pass`]: crate::lm::Levenberg::pass
+//! [`Levenberg::complete_pass`]: crate::lm::Levenberg::complete_pass
+//! [`Levenberg::step`]: crate::lm::Levenberg::step
+
+use crate::lm::LmError;
+use crate::lm_storage::LmStorage;
+use crate::param::Param;
+use crate::{ForwardKinematics, Measurement, Real, Robot};
+use nalgebra::Vector3;
+
+/// What a pass computes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PassKind {
+    /// Residuals and normal equations `JᵀJ`, `Jᵀr` at the current estimate.
+    Estimate,
+    /// The same at a candidate step: its cost decides the step, and when it is accepted (the
+    /// usual case) its normal equations are the next iteration's.
+    Candidate,
+}
+
+/// The pass a run needs next (see the [module](self)). Borrowing the solver, it is shared by
+/// the workers of one pass.
+#[derive(Clone, Copy, Debug)]
+pub struct Pass<'a, T: Real, const N: usize, const V: usize> {
+    pub(crate) kind: PassKind,
+    /// Which pass of the run this is (parts of another pass are refused).
+    pub(crate) id: u32,
+    /// The model the pass evaluates (the estimate, or the candidate).
+    pub(crate) robot: &'a Robot<T, N, V>,
+    pub(crate) columns: Columns<'a, T>,
+}
+
+/// One worker's share of a pass: its partial sums, in storage for the solver's parameters
+/// (only the normal equations `jtj`, `jtr` and the per-pose scratch `cx`, `cy`, `cz`, `nz` are
+/// used;
+/// the other arrays may be empty).
+#[derive(Clone, Debug)]
+pub struct PassPart<T: Real, S: LmStorage<T>> {
+    pub(crate) storage: S,
+    pub(crate) cost: T,
+    pub(crate) poses: usize,
+    /// The pass these sums belong to (`None`: never used).
+    pub(crate) id: Option<u32>,
+}
+
+impl<T: Real, S: LmStorage<T>> PassPart<T, S> {
+    /// A part with `storage` for the same parameters as the solver's.
+    pub fn new(storage: S) -> Self {
+        Self {
+            storage,
+            cost: T::zero(),
+            poses: 0,
+            id: None,
+        }
+    }
+
+    /// Poses accumulated into this part in its pass.
+    pub fn poses(&self) -> usize {
+        self.poses
+    }
+
+    /// The part's sum of squared residuals (mm²).
+    pub fn cost(&self) -> T {
+        self.cost
+    }
+}
+
+impl<T: Real, const N: usize, const V: usize> Pass<'_, T, N, V> {
+    /// What this pass computes.
+    pub fn kind(&self) -> PassKind {
+        self.kind
+    }
+
+    /// Adds `poses` (a slice of the run's measurements; every pose in exactly one part) to
+    /// `part`, starting it afresh when it last served another pass. `fk` is the worker's own
+    /// scratch.
+    pub fn accumulate<S: LmStorage<T>>(
+        &self,
+        fk: &mut ForwardKinematics<T, N>,
+        poses: &[Measurement<T, N>],
+        part: &mut PassPart<T, S>,
+    ) -> Result<(), LmError> {
+        if part.storage.params() != self.columns.params || !part_fits(&mut part.storage) {
+            return Err(LmError::PassMismatch);
+        }
+        if poses.iter().any(|m| !m.is_finite()) {
+            return Err(LmError::NonFiniteMeasurement);
+        }
+        let n = self.columns.params.len();
+        if part.id != Some(self.id) {
+            part.id = Some(self.id);
+            part.cost = T::zero();
+            part.poses = 0;
+            let p = part.storage.parts();
+            clear_normal_equations(p.jtj, p.jtr, p.stride, n);
+        }
+        let p = part.storage.parts();
+        let mut sums = NormalSums {
+            stride: p.stride,
+            jtj: p.jtj,
+            jtr: p.jtr,
+            cx: p.cx,
+            cy: p.cy,
+            cz: p.cz,
+            nz: p.nz,
+        };
+        for m in poses {
+            part.cost += accumulate_pose(fk, self.robot, m, &self.columns, &mut sums);
+        }
+        part.poses += poses.len();
+        Ok(())
+    }
+}
+
+/// Checks that a part's storage has room for what a pass writes: the normal equations and the
+/// per-pose scratch (the solver's other arrays may be empty).
+fn part_fits<T: Real, S: LmStorage<T>>(st: &mut S) -> bool {
+    let n = st.params().len();
+    let p = st.parts();
+    p.stride >= n
+        && p.stride
+            .checked_mul(p.stride)
+            .is_some_and(|m| p.jtj.len() >= m)
+        && p.jtr.len() >= n
+        && [p.cx.len(), p.cy.len(), p.cz.len()].iter().all(|l| *l >= n)
+        && p.nz.len() >= n
+}
+
+/// Zeroes the first `n` rows and entries of normal equations with row stride `stride`.
+pub(crate) fn clear_normal_equations<T: Real>(
+    jtj: &mut [T],
+    jtr: &mut [T],
+    stride: usize,
+    n: usize,
+) {
+    for i in 0..n {
+        jtj[i * stride..i * stride + n].fill(T::zero());
+    }
+    jtr[..n].fill(T::zero());
+}
+
+/// Where one pose's contribution goes: the lower triangle of `JᵀJ` (row stride `stride`),
+/// `Jᵀr`, and the per-pose scratch of non-zero columns.
+pub(crate) struct NormalSums<'a, T> {
+    pub stride: usize,
+    pub jtj: &'a mut [T],
+    pub jtr: &'a mut [T],
+    pub cx: &'a mut [T],
+    pub cy: &'a mut [T],
+    pub cz: &'a mut [T],
+    pub nz: &'a mut [usize],
+}
+
+/// The parameters, their scales, which are estimated, and whether held columns enter in full:
+/// what a pass needs to know of the solver.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Columns<'a, T> {
+    pub params: &'a [Param],
+    pub scale: &'a [T],
+    pub active: &'a [bool],
+    pub full: bool,
+}
+
+/// Adds one pose's residual and scaled Jacobian to `out` and returns its squared residual.
+///
+/// Held columns join fully only on the passes that decide identifiability; otherwise just
+/// their diagonal, which tells when the model has moved to where the data see them. When few
+/// columns are non-zero at this pose (tables touch two knots of many) only their pairs are
+/// updated: `O(k²)` for `k` of them instead of `O(P²)`.
+pub(crate) fn accumulate_pose<T: Real, const N: usize, const V: usize>(
+    fk: &mut ForwardKinematics<T, N>,
+    robot: &Robot<T, N, V>,
+    m: &Measurement<T, N>,
+    set: &Columns<'_, T>,
+    out: &mut NormalSums<'_, T>,
+) -> T {
+    let r = m.point - fk.compute(robot, &m.q);
+    let Columns {
+        params,
+        scale,
+        active,
+        full,
+    } = *set;
+    let n = params.len();
+    let s = out.stride;
+    // Column k is (cx[k], cy[k], cz[k]) (zero when it does not enter); `nz`: the entering
+    // non-zero ones.
+    let mut k_nz = 0;
+    for k in 0..n {
+        // Parameters were checked against the robot at construction: a column always exists.
+        let mut c = fk
+            .column(robot, params[k])
+            .unwrap_or_else(|_| Vector3::zeros())
+            / scale[k];
+        if !active[k] && !full {
+            out.jtj[k * s + k] += c.norm_squared();
+            c = Vector3::zeros();
+        } else if c.x != T::zero() || c.y != T::zero() || c.z != T::zero() {
+            out.nz[k_nz] = k;
+            k_nz += 1;
+        }
+        (out.cx[k], out.cy[k], out.cz[k]) = (c.x, c.y, c.z);
+    }
+    let (cx, cy, cz, nz) = (&out.cx[..n], &out.cy[..n], &out.cz[..n], &out.nz[..k_nz]);
+    // Most columns enter (the geometric case): whole contiguous rows, zero columns adding
+    // nothing. Few (tables touch two knots of many): only the pairs that do.
+    let dense = 2 * k_nz >= n;
+    for (a, &i) in nz.iter().enumerate() {
+        let (xi, yi, zi) = (cx[i], cy[i], cz[i]);
+        out.jtr[i] += Vector3::new(xi, yi, zi).dot(&r);
+        let row = &mut out.jtj[i * s..i * s + i + 1];
+        if dense {
+            let cols = cx[..=i].iter().zip(&cy[..=i]).zip(&cz[..=i]);
+            for (v, ((x, y), z)) in row.iter_mut().zip(cols) {
+                *v += xi * *x + yi * *y + zi * *z;
+            }
+        } else {
+            // nz is increasing, so every j ≤ i: the lower triangle.
+            for &j in &nz[..=a] {
+                row[j] += xi * cx[j] + yi * cy[j] + zi * cz[j];
+            }
+        }
+    }
+    r.norm_squared()
+}

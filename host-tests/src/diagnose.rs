@@ -11,7 +11,9 @@
 //!    per-pose held-out improvement passes the one-sided paired t test at `α / m` (Bonferroni
 //!    over the `m` candidates screened in the round, α = 5 %; see [`crate::significance`])
 //!    and is not negligible (at least 1 % of the held-out mean squared error); of those, the
-//!    simplest one within one standard error of the best is added ([`choose`]).
+//!    simplest one within one standard error of the best is added ([`choose`]). The screen's
+//!    candidates and the refits' folds are independent jobs, spread over the cores
+//!    ([`crate::parallel::map_each`]); no result depends on how they were scheduled.
 //! 3. **Stop** when nothing passes, when the held-out RMS reaches the noise floor estimated from
 //!    repeated poses (if the data have any), or after `max_effects` additions.
 //! 4. **Noise floor**: repeated poses, else the final model's cross-validated held-out errors
@@ -23,10 +25,11 @@
 
 use crate::candidates::{catalogue, Candidate, CandidateKind, CatalogueConfig};
 use crate::cross_validation::{
-    candidate_columns, fold_inflation, refit_errors, rms, Folds, Linearised,
+    fold_inflation, refit_errors, refit_errors_each, rms, Folds, Linearised, PoseKinematics,
 };
 use crate::identify::fit_lm;
 use crate::numfmt::sig;
+use crate::parallel;
 use crate::penalised_fit::{fit, Problem, TablePenalty};
 use crate::significance::{
     held_out_noise, noise_floor_interval, paired_improvement, repeat_noise, PairedTest,
@@ -394,26 +397,25 @@ pub fn diagnose<const N: usize>(
         }
         let lin = Linearised::new(&current, &problem, data, &folds);
         let lin_base = rms(&lin.baseline());
-        let mut screened: Vec<Screened> = Vec::with_capacity(cands.len());
-        for c in &cands {
+        let kinematics = PoseKinematics::new(&current, data);
+        let mut screened: Vec<Screened> = parallel::map_each(&cands, |c| {
             let mut robot_c = current.clone();
             // A candidate the model has no room for (effect capacity) is not compared.
-            let Ok(extra) = c.add_to(&mut robot_c) else {
-                continue;
-            };
-            let cols = candidate_columns(&robot_c, &extra, data);
+            let extra = c.add_to(&mut robot_c).ok()?;
+            let cols = kinematics.columns(&robot_c, &extra);
             let table = matches!(c.kind, CandidateKind::Table { .. }).then_some(cfg.penalty);
             let e = lin.screen(&cols, extra.len(), table);
-            screened.push(Screened {
+            Some(Screened {
                 candidate: *c,
                 linear_rms_mm: rms(&e),
-            });
-        }
+            })
+        })
+        .into_iter()
+        .flatten()
+        .collect();
         screened.sort_by(|a, b| a.linear_rms_mm.total_cmp(&b.linear_rms_mm));
         let m = screened.len();
         let threshold = cfg.alpha / m as f64;
-        let mut tested = Vec::new();
-        let mut fits = Vec::new();
         // Refit the best member of each of the best few families (one effect kind on one joint:
         // the grids of a table are one family), so that a simple effect is not crowded out by
         // several resolutions of a table that contains it.
@@ -426,6 +428,8 @@ pub fn diagnose<const N: usize>(
                 families.push(s.candidate);
             }
         }
+        // The families' fold refits are independent: all of them at once, over the cores.
+        let mut models = Vec::with_capacity(families.len());
         for c in &families {
             let mut robot_c = current.clone();
             let extra = c.add_to(&mut robot_c)?;
@@ -433,16 +437,27 @@ pub fn diagnose<const N: usize>(
             let mut p = problem.params.clone();
             p.extend(extra);
             let problem_c = Problem::new(&robot_c, &p, cfg.penalty)?;
-            let e = refit_errors(&robot_c, &problem_c, data, &folds, cfg.refit_iterations)?;
-            let test = paired_improvement(&errors, &e);
-            tested.push(Tested {
-                candidate: *c,
-                parameters,
-                validation_rms_mm: rms(&e),
-                test,
-            });
-            fits.push((robot_c, problem_c, e));
+            models.push((robot_c, problem_c, parameters));
         }
+        let starts: Vec<(&Robot<f64, N, VCAP>, &Problem)> =
+            models.iter().map(|(r, p, _)| (r, p)).collect();
+        let held_out = refit_errors_each(&starts, data, &folds, cfg.refit_iterations)?;
+        let tested: Vec<Tested> = families
+            .iter()
+            .zip(&models)
+            .zip(&held_out)
+            .map(|((c, (_, _, parameters)), e)| Tested {
+                candidate: *c,
+                parameters: *parameters,
+                validation_rms_mm: rms(e),
+                test: paired_improvement(&errors, e),
+            })
+            .collect();
+        let mut fits: Vec<_> = models
+            .into_iter()
+            .zip(held_out)
+            .map(|((r, p, _), e)| (r, p, e))
+            .collect();
         let chosen = choose(
             &tested,
             &fits.iter().map(|f| f.2.as_slice()).collect::<Vec<_>>(),
@@ -491,6 +506,7 @@ pub fn diagnose<const N: usize>(
     } else {
         fit(&current, &problem, data, cfg.refit_iterations)?
     };
+    let effective_parameters = final_fit.effective_parameters(&problem, data);
     let n = data.len();
     let final_rms = rms(&errors);
     // The noise floor, in the held-out RMS sense (√3 σ).
@@ -501,7 +517,7 @@ pub fn diagnose<const N: usize>(
             let (s, nu) = held_out_noise(errors.iter().sum(), &inflation);
             // The Satterthwaite ν leaves out the covariances between folds (optimistic): it
             // is capped at the residual's degrees of freedom, 3n − p_eff.
-            let residual_dof = (3 * n) as f64 - final_fit.effective_parameters;
+            let residual_dof = (3 * n) as f64 - effective_parameters;
             (
                 3f64.sqrt() * s,
                 nu.min(residual_dof.max(1.0)),
@@ -537,7 +553,7 @@ pub fn diagnose<const N: usize>(
         noise_dof: dof,
         alpha: cfg.alpha,
         fit_rms_mm: (final_fit.ssr / n as f64).sqrt(),
-        effective_parameters: final_fit.effective_parameters,
+        effective_parameters,
         rounds,
         stop_reason,
         folds,

@@ -7,6 +7,7 @@ pub mod cli;
 pub mod coupling_hint;
 pub mod cross_validation;
 pub mod data;
+pub mod dense;
 pub mod diagnose;
 pub mod global;
 pub mod identify;

@@ -16,10 +16,11 @@
 //! `Π` the table penalty, scaled by the table's own mean diagonal of `JᵀJ` so that it is light
 //! whatever the number of poses.
 
+use crate::dense::{cholesky, cholesky_inverse};
 use kinecal::effects::EffectKind;
 use kinecal::param::{apply_delta, value, Param};
 use kinecal::{ForwardKinematics, Measurement, Robot};
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{Cholesky, DMatrix, DVector, Dyn, Vector3};
 
 /// Strength of the table penalty, relative to the mean diagonal of the table's block of `JᵀJ`.
 ///
@@ -53,6 +54,9 @@ pub struct Problem {
     pub params: Vec<Param>,
     /// [`Param::scale`] of each parameter (mm per unit).
     pub scale: Vec<f64>,
+    /// `1 / scale`: a pose's columns are scaled by multiplication (divisions would be the
+    /// slowest part of the inner loop of every pass over the poses).
+    inv_scale: Vec<f64>,
     /// For effect value `k` of the robot: its index in `params` (None: held).
     effect_index: Vec<Option<usize>>,
     /// Indices in `params` of the non-effect parameters.
@@ -115,10 +119,12 @@ impl Problem {
                 );
             }
         }
-        let scale = list.iter().map(|p| p.scale(reach)).collect();
+        let scale: Vec<f64> = list.iter().map(|p| p.scale(reach)).collect();
+        let inv_scale = scale.iter().map(|s| 1.0 / s).collect();
         Ok(Self {
             params: list,
             scale,
+            inv_scale,
             effect_index,
             geometric,
             tables,
@@ -169,7 +175,7 @@ impl Problem {
         let r = m.point - fk.compute(robot, &m.q);
         for &i in &self.geometric {
             if let Ok(c) = fk.column(robot, self.params[i]) {
-                cols.push((i, c / self.scale[i]));
+                cols.push((i, c * self.inv_scale[i]));
             }
         }
         let effects = robot.effects();
@@ -187,14 +193,14 @@ impl Problem {
                         continue;
                     }
                     if let Some(Some(i)) = self.effect_index.get(first + kk) {
-                        cols.push((*i, jc * (wk / self.scale[*i])));
+                        cols.push((*i, jc * (wk * self.inv_scale[*i])));
                     }
                 }
             } else {
                 for k in first..first + e.len as usize {
                     if let Some(Some(i)) = self.effect_index.get(k) {
                         if let Ok(c) = fk.column(robot, Param::Effect(k as u16)) {
-                            cols.push((*i, c / self.scale[*i]));
+                            cols.push((*i, c * self.inv_scale[*i]));
                         }
                     }
                 }
@@ -252,20 +258,17 @@ impl Normal {
         }
     }
 
-    /// Adds one pose.
-    pub fn add(&mut self, r: &Vector3<f64>, cols: &[(usize, Vector3<f64>)]) {
-        self.ssr += r.norm_squared();
-        self.poses += 1;
-        for (x, (i, ci)) in cols.iter().enumerate() {
-            self.g[*i] += ci.dot(r);
-            for (j, cj) in &cols[..=x] {
-                let v = ci.dot(cj);
-                self.a[(*i, *j)] += v;
-                if i != j {
-                    self.a[(*j, *i)] += v;
-                }
-            }
+    /// The normal equations of the union of disjoint sets of poses (`p` parameters), from
+    /// those of each set.
+    pub fn sum<'a>(p: usize, parts: impl IntoIterator<Item = &'a Normal>) -> Normal {
+        let mut total = Normal::zeros(p);
+        for n in parts {
+            total.a += &n.a;
+            total.g += &n.g;
+            total.ssr += n.ssr;
+            total.poses += n.poses;
         }
+        total
     }
 
     /// `self − other` (training = all − held-out fold).
@@ -284,14 +287,100 @@ impl Normal {
         robot: &Robot<f64, N, V>,
         data: &[Measurement<f64, N>],
     ) -> Normal {
-        let mut n = Normal::zeros(problem.len());
-        let mut fk = ForwardKinematics::new();
-        let mut cols = Vec::with_capacity(problem.len());
-        for m in data {
-            let r = problem.pose_rows(&mut fk, robot, m, &mut cols);
-            n.add(&r, &cols);
+        let mut sums = NormalSums::new(problem.len());
+        for_each_pose_rows(problem, robot, data, |r, cols| sums.add(r, cols));
+        sums.finish()
+    }
+}
+
+/// `Jᵀr` and the sum of squared residuals of `robot` over `data`: [`Normal::of`] without
+/// `JᵀJ` (the same sums, in the same order), for about half the cost.
+pub fn gradient<const N: usize, const V: usize>(
+    problem: &Problem,
+    robot: &Robot<f64, N, V>,
+    data: &[Measurement<f64, N>],
+) -> (DVector<f64>, f64) {
+    let mut g = DVector::zeros(problem.len());
+    let mut ssr = 0.0;
+    for_each_pose_rows(problem, robot, data, |r, cols| {
+        ssr += r.norm_squared();
+        for (i, c) in cols {
+            g[*i] += c.dot(r);
         }
-        n
+    });
+    (g, ssr)
+}
+
+/// Calls `f` with the residual and the non-zero scaled columns ([`Problem::pose_rows`]) of
+/// every pose of `data`, in order.
+fn for_each_pose_rows<const N: usize, const V: usize>(
+    problem: &Problem,
+    robot: &Robot<f64, N, V>,
+    data: &[Measurement<f64, N>],
+    mut f: impl FnMut(&Vector3<f64>, &[(usize, Vector3<f64>)]),
+) {
+    let mut fk = ForwardKinematics::new();
+    let mut cols = Vec::with_capacity(problem.len());
+    for m in data {
+        let r = problem.pose_rows(&mut fk, robot, m, &mut cols);
+        f(&r, &cols);
+    }
+}
+
+/// [`Normal`] being accumulated pose by pose.
+///
+/// This is the inner loop of every fit: a pose excites a few dozen of up to ~500 columns, and
+/// each pair of them is one update. `JᵀJ` is symmetric, so only one triangle is accumulated
+/// and it is mirrored once by [`Self::finish`]. The triangle kept is the upper one of a flat
+/// column-major buffer: the columns of a pose mostly come in increasing index order, so the
+/// updates of one column's pairs land next to each other in memory. Every entry receives the same
+/// additions in the same order as a full-matrix accumulation would give it, so the sums are
+/// the same to the last bit.
+#[derive(Clone, Debug)]
+pub struct NormalSums {
+    p: usize,
+    /// Column-major `p × p`; only entries `(row ≤ column)` are written.
+    upper: Vec<f64>,
+    g: Vec<f64>,
+    ssr: f64,
+    poses: usize,
+}
+
+impl NormalSums {
+    /// Empty sums for `p` parameters.
+    pub fn new(p: usize) -> Self {
+        Self {
+            p,
+            upper: vec![0.0; p * p],
+            g: vec![0.0; p],
+            ssr: 0.0,
+            poses: 0,
+        }
+    }
+
+    /// Adds one pose: its residual `r` and its non-zero columns (distinct indices).
+    pub fn add(&mut self, r: &Vector3<f64>, cols: &[(usize, Vector3<f64>)]) {
+        self.ssr += r.norm_squared();
+        self.poses += 1;
+        for (x, (i, ci)) in cols.iter().enumerate() {
+            self.g[*i] += ci.dot(r);
+            for (j, cj) in &cols[..=x] {
+                let (row, col) = if j <= i { (*j, *i) } else { (*i, *j) };
+                self.upper[col * self.p + row] += ci.dot(cj);
+            }
+        }
+    }
+
+    /// The normal equations (the upper triangle mirrored into the lower one).
+    pub fn finish(self) -> Normal {
+        let mut a = DMatrix::from_vec(self.p, self.p, self.upper);
+        a.fill_lower_triangle_with_upper_triangle();
+        Normal {
+            a,
+            g: DVector::from_vec(self.g),
+            ssr: self.ssr,
+            poses: self.poses,
+        }
     }
 }
 
@@ -311,28 +400,47 @@ pub fn add_tiny_ridge(h: &mut DMatrix<f64>) {
     }
 }
 
-/// Solves `(A + Π + λ·diag + μ) δ = g − Π x` by Cholesky (`λ` the Levenberg damping, `μ` the
-/// tiny ridge of [`add_tiny_ridge`]).
-pub fn solve_penalised(
-    a: &DMatrix<f64>,
-    pen: &DMatrix<f64>,
-    g: &DVector<f64>,
-    x: &DVector<f64>,
-    damping: f64,
-) -> Option<DVector<f64>> {
-    let p = a.nrows();
-    if p == 0 {
-        return Some(DVector::zeros(0));
+/// `H = JᵀJ + Π` of one linearisation point, with the Cholesky factor of its damped form
+/// for the damping last used: steps from the same `H` and damping with a fresh gradient cost
+/// two triangular solves, not a factorisation.
+struct Curvature {
+    h: DMatrix<f64>,
+    factor: Option<(f64, Cholesky<f64, Dyn>)>,
+}
+
+impl Curvature {
+    fn new(a: &DMatrix<f64>, pen: &DMatrix<f64>) -> Self {
+        Self {
+            h: a + pen,
+            factor: None,
+        }
     }
-    let mut h = a + pen;
-    for i in 0..p {
-        h[(i, i)] *= 1.0 + damping;
+
+    /// Solves `(H + λ·diag H + μ) δ = rhs` (`λ` the Levenberg damping, `μ` the tiny ridge of
+    /// [`add_tiny_ridge`]); `None` when not positive definite or not finite.
+    fn solve(&mut self, damping: f64, rhs: &DVector<f64>) -> Option<DVector<f64>> {
+        let p = self.h.nrows();
+        if p == 0 {
+            return Some(DVector::zeros(0));
+        }
+        if self.factor.as_ref().is_none_or(|(d, _)| *d != damping) {
+            let mut h = self.h.clone();
+            for i in 0..p {
+                h[(i, i)] *= 1.0 + damping;
+            }
+            add_tiny_ridge(&mut h);
+            self.factor = Some((damping, cholesky(h)?));
+        }
+        let (_, factor) = self.factor.as_ref()?;
+        let d = factor.solve(rhs);
+        d.iter().all(|v| v.is_finite()).then_some(d)
     }
-    add_tiny_ridge(&mut h);
-    let rhs = g - pen * x;
-    let chol = h.cholesky()?;
-    let d = chol.solve(&rhs);
-    d.iter().all(|v| v.is_finite()).then_some(d)
+
+    /// The decrease of the penalised cost that the linearised model predicts for the step
+    /// `δ` solved for `rhs = g − Π x`: `2 δᵀ rhs − δᵀ H δ`.
+    fn predicted_reduction(&self, step: &DVector<f64>, rhs: &DVector<f64>) -> f64 {
+        2.0 * step.dot(rhs) - step.dot(&(&self.h * step))
+    }
 }
 
 /// Result of a penalised fit.
@@ -343,16 +451,69 @@ pub struct FitOutcome<const N: usize, const V: usize> {
     pub ssr: f64,
     /// Accepted steps.
     pub iterations: u32,
-    /// Effective number of parameters, `tr((JᵀJ + Π)⁻¹ JᵀJ)`: the degrees of freedom the fit
-    /// used (= the parameter count without penalty).
-    pub effective_parameters: f64,
+    /// The penalty `Π` the fit used (scaled units; fixed at the start).
+    pub penalty: DMatrix<f64>,
 }
+
+impl<const N: usize, const V: usize> FitOutcome<N, V> {
+    /// Effective number of parameters, `tr((JᵀJ + Π)⁻¹ JᵀJ)` at the solution: the degrees of
+    /// freedom the fit used (= the parameter count without penalty). `problem` and `data` must
+    /// be the fit's. Computed on demand (one pass over the poses and an O(p³) inverse) because
+    /// only the final model's report needs it.
+    pub fn effective_parameters(&self, problem: &Problem, data: &[Measurement<f64, N>]) -> f64 {
+        effective_parameters(&Normal::of(problem, &self.robot, data).a, &self.penalty)
+    }
+}
+
+/// At most this many rejected steps in a row end a fit.
+const MAX_REJECTS: u32 = 12;
+/// A step whose predicted decrease is below this fraction of the cost is not tried: the fit
+/// has converged (the cost's rounding could not even tell whether it helped).
+const NEGLIGIBLE_REDUCTION: f64 = 1e-12;
+/// An accepted step whose actual decrease is below this fraction of the predicted one shows
+/// that the curvature `JᵀJ` in use no longer describes the cost: it is formed again.
+const WELL_PREDICTED: f64 = 0.5;
+/// An accepted step that gains more than this fraction of what the step before it gained
+/// shows slow convergence (the curvature in use is too far from the current one): it is
+/// formed again.
+const SLOW_CONVERGENCE: f64 = 0.1;
 
 /// Penalised Levenberg–Marquardt from `start` over `data` (at most `max_iterations` steps).
 pub fn fit<const N: usize, const V: usize>(
     start: &Robot<f64, N, V>,
     problem: &Problem,
     data: &[Measurement<f64, N>],
+    max_iterations: u32,
+) -> anyhow::Result<FitOutcome<N, V>> {
+    fit_from(
+        start,
+        problem,
+        data,
+        Normal::of(problem, start, data),
+        max_iterations,
+    )
+}
+
+/// [`fit`] with the normal equations at `start` already known (`normal`, as
+/// [`Normal::of`]`(problem, start, data)` would give them, up to rounding): the fold fits of
+/// one model all start from the same robot, so one pass over all poses gives every fold's
+/// starting point as a sum of the other folds' own.
+///
+/// The refits start next to their solution and the model is nearly linear in its parameters
+/// (a fit typically takes one large step and one or two tiny ones), so the curvature `JᵀJ`
+/// is kept from the start, and with it the factor of the damped system, for as long as it
+/// serves: a step then costs one pass for the cost and the gradient `Jᵀr` at the trial point
+/// (no `JᵀJ`) and two triangular solves. `JᵀJ` is formed again at the current point when a
+/// step is rejected, gains less than half what it predicted, or gains more than a tenth of
+/// what the step before it gained (slow convergence). Whatever curvature is used, the fixed
+/// point is the stationary point of the penalised cost; the fit stops when the next step would
+/// gain less than [`NEGLIGIBLE_REDUCTION`] of the cost, or an accepted one gained less than
+/// 1e-10 of it.
+pub fn fit_from<const N: usize, const V: usize>(
+    start: &Robot<f64, N, V>,
+    problem: &Problem,
+    data: &[Measurement<f64, N>],
+    normal: Normal,
     max_iterations: u32,
 ) -> anyhow::Result<FitOutcome<N, V>> {
     anyhow::ensure!(
@@ -362,21 +523,31 @@ pub fn fit<const N: usize, const V: usize>(
         problem.len()
     );
     let mut robot = start.clone();
-    let mut normal = Normal::of(problem, &robot, data);
-    let diag = normal.a.diagonal();
-    let pen = problem.penalty_matrix(&diag);
+    let pen = problem.penalty_matrix(&normal.a.diagonal());
     let mut x = problem.scaled_values(&robot);
-    let mut cost = normal.ssr + x.dot(&(&pen * &x));
+    let Normal {
+        a, mut g, mut ssr, ..
+    } = normal;
+    let mut cost = ssr + x.dot(&(&pen * &x));
+    let mut curvature = Curvature::new(&a, &pen);
+    // Whether `curvature` was formed at the current point.
+    let mut current = true;
+    let mut last_gain = f64::INFINITY;
     let set = kinecal_set(problem)?;
     let mut lambda = 1e-6;
     let mut iterations = 0;
     let mut rejects = 0;
-    while iterations < max_iterations && rejects < 12 {
-        let Some(step) = solve_penalised(&normal.a, &pen, &normal.g, &x, lambda) else {
+    while iterations < max_iterations && rejects < MAX_REJECTS {
+        let rhs = &g - &pen * &x;
+        let Some(step) = curvature.solve(lambda, &rhs) else {
             lambda = (lambda * 10.0).max(1e-6);
             rejects += 1;
             continue;
         };
+        let predicted = curvature.predicted_reduction(&step, &rhs);
+        if predicted.is_nan() || predicted < NEGLIGIBLE_REDUCTION * cost {
+            break;
+        }
         let delta: Vec<f64> = step
             .iter()
             .zip(&problem.scale)
@@ -388,32 +559,43 @@ pub fn fit<const N: usize, const V: usize>(
             rejects += 1;
             continue;
         }
-        let cand_normal = Normal::of(problem, &cand, data);
+        let (cand_g, cand_ssr) = gradient(problem, &cand, data);
         let cand_x = &x + &step;
-        let cand_cost = cand_normal.ssr + cand_x.dot(&(&pen * &cand_x));
+        let cand_cost = cand_ssr + cand_x.dot(&(&pen * &cand_x));
         if cand_cost.is_finite() && cand_cost <= cost {
-            let rel = (cost - cand_cost) / cost.max(f64::MIN_POSITIVE);
+            let gain = cost - cand_cost;
+            let rel = gain / cost.max(f64::MIN_POSITIVE);
             robot = cand;
-            normal = cand_normal;
             x = cand_x;
+            g = cand_g;
+            ssr = cand_ssr;
             cost = cand_cost;
-            lambda = (lambda / 3.0).max(1e-12);
             iterations += 1;
             rejects = 0;
-            if rel < 1e-10 || step.norm() < 1e-10 {
+            current = false;
+            if rel < 1e-10 || step.norm() < 1e-10 || iterations >= max_iterations {
                 break;
             }
+            if gain < WELL_PREDICTED * predicted || gain > SLOW_CONVERGENCE * last_gain {
+                curvature = Curvature::new(&Normal::of(problem, &robot, data).a, &pen);
+                current = true;
+                lambda = (lambda / 3.0).max(1e-12);
+            }
+            last_gain = gain;
         } else {
             lambda = (lambda * 4.0).max(1e-6);
             rejects += 1;
+            if !current {
+                curvature = Curvature::new(&Normal::of(problem, &robot, data).a, &pen);
+                current = true;
+            }
         }
     }
-    let effective_parameters = effective_parameters(&normal.a, &pen);
     Ok(FitOutcome {
         robot,
-        ssr: normal.ssr,
+        ssr,
         iterations,
-        effective_parameters,
+        penalty: pen,
     })
 }
 
@@ -426,8 +608,9 @@ pub fn effective_parameters(a: &DMatrix<f64>, pen: &DMatrix<f64>) -> f64 {
     }
     let mut h = a + pen;
     add_tiny_ridge(&mut h);
-    match h.cholesky() {
-        Some(c) => c.solve(a).trace(),
+    // tr(H⁻¹ A) = Σ (H⁻¹)_ij A_ij, both symmetric.
+    match cholesky(h).as_ref().and_then(cholesky_inverse) {
+        Some(h_inv) => h_inv.component_mul(a).sum(),
         None => p as f64,
     }
 }

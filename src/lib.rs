@@ -18,7 +18,8 @@
 //! - **Data**: [`Measurement`] and the streaming [`csv`] reader over `embedded_io::Read`.
 //! - **Identification** (steppers: a bounded slice of work per `step()`, snapshots over
 //!   `embedded_io` via [`snapshot`]): [`lm`] (streaming Levenberg–Marquardt with identifiability
-//!   analysis), [`fitness`] (the objective of the global searches), [`pso`], [`bpnn`] and
+//!   analysis; its storage in [`lm_storage`], chosen by the caller; its passes over the data
+//!   spread over the caller's workers with [`lm_pass`]), [`fitness`] (the objective of the global searches), [`pso`], [`bpnn`] and
 //!   [`bpnn_pso`] (Gao et al. 2018).
 //! - **Compensation**: [`compensate`] (damped Newton on the identified model, typed safety errors,
 //!   a trajectory tracker).

@@ -27,7 +27,7 @@
 //! forth. A tiny ridge on the accumulated update keeps nearly dependent directions bounded.
 
 use crate::linalg::{cholesky, cholesky_solve, pivoted_cholesky_preferring, Flat, LinalgError};
-use crate::lm_pass::{accumulate_pose, clear_normal_equations, Columns, NormalSums};
+use crate::lm_pass::{accumulate_pose, clear_normal_equations, split_parts, Columns};
 pub use crate::lm_pass::{Pass, PassKind, PassPart};
 use crate::lm_storage::storage_fits;
 pub use crate::lm_storage::{FixedLm, LmParts, LmPartsRef, LmStorage};
@@ -422,22 +422,7 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
     /// Adds one pose's residual and scaled Jacobian to the normal equations.
     fn accumulate(&mut self, m: &Measurement<T, N>) {
         let full = self.full_columns();
-        let p = self.st.parts();
-        let columns = Columns {
-            params: p.params,
-            scale: p.scale,
-            active: p.active,
-            full,
-        };
-        let mut sums = NormalSums {
-            stride: p.stride,
-            jtj: p.jtj,
-            jtr: p.jtr,
-            cx: p.cx,
-            cy: p.cy,
-            cz: p.cz,
-            nz: p.nz,
-        };
+        let (columns, mut sums) = split_parts(self.st.parts(), full);
         let robot = if self.phase == Phase::Evaluate {
             &self.candidate
         } else {

@@ -18,7 +18,7 @@
 //! [`Levenberg::step`]: crate::lm::Levenberg::step
 
 use crate::lm::LmError;
-use crate::lm_storage::LmStorage;
+use crate::lm_storage::{LmParts, LmStorage};
 use crate::param::Param;
 use crate::{ForwardKinematics, Measurement, Real, Robot};
 use nalgebra::Vector3;
@@ -110,16 +110,7 @@ impl<T: Real, const N: usize, const V: usize> Pass<'_, T, N, V> {
             let p = part.storage.parts();
             clear_normal_equations(p.jtj, p.jtr, p.stride, n);
         }
-        let p = part.storage.parts();
-        let mut sums = NormalSums {
-            stride: p.stride,
-            jtj: p.jtj,
-            jtr: p.jtr,
-            cx: p.cx,
-            cy: p.cy,
-            cz: p.cz,
-            nz: p.nz,
-        };
+        let (_, mut sums) = split_parts(part.storage.parts(), self.columns.full);
         for m in poses {
             part.cost += accumulate_pose(fk, self.robot, m, &self.columns, &mut sums);
         }
@@ -165,6 +156,27 @@ pub(crate) struct NormalSums<'a, T> {
     pub cy: &'a mut [T],
     pub cz: &'a mut [T],
     pub nz: &'a mut [usize],
+}
+
+/// A storage's arrays as what one pose reads (the parameters, scales, estimated set) and where
+/// it adds (the normal equations and their per-pose scratch).
+pub(crate) fn split_parts<T>(p: LmParts<'_, T>, full: bool) -> (Columns<'_, T>, NormalSums<'_, T>) {
+    let columns = Columns {
+        params: p.params,
+        scale: p.scale,
+        active: p.active,
+        full,
+    };
+    let sums = NormalSums {
+        stride: p.stride,
+        jtj: p.jtj,
+        jtr: p.jtr,
+        cx: p.cx,
+        cy: p.cy,
+        cz: p.cz,
+        nz: p.nz,
+    };
+    (columns, sums)
 }
 
 /// The parameters, their scales, which are estimated, and whether held columns enter in full:

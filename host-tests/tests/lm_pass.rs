@@ -3,52 +3,30 @@
 //! misuse refused with a typed error.
 
 use kinecal::lm::{Levenberg, LmConfig, LmError, PassKind, PassPart};
-use kinecal::param::{apply_delta, Param, ParamSet};
+use kinecal::param::{Param, ParamSet};
 use kinecal::{ForwardKinematics, Measurement, Robot};
+use kinecal_host::sim;
 use kinecal_host::vec_lm::VecLm;
-use nalgebra::Vector3;
-use rand::{RngExt, SeedableRng};
-use rand_distr::{Distribution, Normal};
+use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 type Lm = Levenberg<f64, 6, 64, VecLm<f64>>;
 
-/// The ER20 stand-in, its base placed off the tracker's origin (base unknown: 6 base
-/// parameters, some confounded and held), a perturbed truth, and noisy poses of it.
+/// The ER20 stand-in with the base estimated too (6 base parameters, some confounded and
+/// held), a perturbed truth ([`sim::perturb_geometry`]), and noisy poses of it.
 fn problem(n: usize, seed: u64) -> (Robot<f64, 6, 64>, Vec<Param>, Vec<Measurement<f64, 6>>) {
-    let nominal = kinecal_host::sim::er20_c10().with_capacity::<64>().unwrap();
-    let set = ParamSet::<64>::full(6, true).unwrap();
+    let nominal = sim::er20_c10().with_capacity::<64>().unwrap();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
-    let mut truth = nominal.clone();
-    let delta: Vec<f64> = set
+    let truth = sim::perturb_geometry(&nominal, &sim::GeomErrors::default(), &mut rng);
+    let configs = sim::random_configurations(&nominal, n, &mut rng);
+    let points = sim::measure(&truth, &configs, 0.01, &mut rng);
+    let data = configs
         .iter()
-        .map(|p| {
-            if p.is_length() {
-                rng.random_range(-0.8..0.8)
-            } else {
-                rng.random_range(-0.1f64..0.1).to_radians()
-            }
-        })
+        .zip(points)
+        .map(|(q, point)| Measurement { q: *q, point })
         .collect();
-    apply_delta(&mut truth, &set, &delta).unwrap();
-    let noise = Normal::new(0.0, 0.01).unwrap();
-    let mut fk = ForwardKinematics::new();
-    let data = (0..n)
-        .map(|_| {
-            let q: [f64; 6] =
-                core::array::from_fn(|_| rng.random_range(-170f64..170.0).to_radians());
-            let e = Vector3::new(
-                noise.sample(&mut rng),
-                noise.sample(&mut rng),
-                noise.sample(&mut rng),
-            );
-            Measurement {
-                q,
-                point: fk.compute(&truth, &q) + e,
-            }
-        })
-        .collect();
-    (nominal, set.to_vec(), data)
+    let params = ParamSet::<64>::full(6, true).unwrap().to_vec();
+    (nominal, params, data)
 }
 
 fn solver(start: &Robot<f64, 6, 64>, params: &[Param]) -> Lm {

@@ -11,9 +11,9 @@
 //! columns and the joint Jacobian are derivatives with respect to readings (the chain rule
 //! through the couplings, [`ForwardKinematics::reading_column`]).
 
-use crate::coupling::Couplings;
-use crate::param::{Param, ParamError};
-use crate::robot::RowTrig;
+use crate::model::coupling::Couplings;
+use crate::model::param::{Param, ParamError};
+use crate::model::robot::RowTrig;
 use crate::{Frame, Joint, Real, Robot};
 use nalgebra::Vector3;
 

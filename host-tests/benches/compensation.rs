@@ -5,8 +5,8 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use kinecal::compensate::{compensate, Config, Target, Tracker};
-use kinecal::effects::EffectKind;
-use kinecal::param::{apply_delta, ParamSet};
+use kinecal::model::effects::EffectKind;
+use kinecal::model::param::{apply_delta, ParamSet};
 use kinecal::{ForwardKinematics, Frame, Joint, Real, Robot};
 use nalgebra::Vector3;
 use std::hint::black_box;

@@ -4,7 +4,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use kinecal::forward::ForwardKinematics;
-use kinecal::param::ParamSet;
+use kinecal::model::param::ParamSet;
 use kinecal::{Frame, Joint, Real, Robot};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};

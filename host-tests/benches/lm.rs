@@ -2,8 +2,8 @@
 //! the 24-parameter MDH set and the full set (+ tool), in f64 and f32.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use kinecal::lm::{FixedLevenberg, LmConfig};
-use kinecal::param::{apply_delta, ParamSet};
+use kinecal::identify::lm::{FixedLevenberg, LmConfig};
+use kinecal::model::param::{apply_delta, ParamSet};
 use kinecal::{ForwardKinematics, Measurement, Real, Robot};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};

@@ -3,11 +3,11 @@
 //! Issue 3 asks for the paper's 404 iterations in under 1 s: < 2.5 ms per iteration.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use kinecal::bpnn::{Bpnn, BpnnConfig};
-use kinecal::bpnn_pso::Mdh24Net;
-use kinecal::fitness::{JointTrig, PositionFitness};
-use kinecal::param::{apply_delta, ParamSet};
-use kinecal::pso::{Pso, PsoConfig};
+use kinecal::identify::bpnn::{Bpnn, BpnnConfig};
+use kinecal::identify::bpnn_pso::Mdh24Net;
+use kinecal::identify::fitness::{JointTrig, PositionFitness};
+use kinecal::identify::pso::{Pso, PsoConfig};
+use kinecal::model::param::{apply_delta, ParamSet};
 use kinecal::{ForwardKinematics, Frame, Joint, Measurement, Real, Robot};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};

@@ -1,7 +1,7 @@
 //! Side-by-side identification on the same files: the `levenberg-marquardt` crate (MINPACK's
 //! algorithm in Rust) with an analytic Jacobian built from [`ForwardKinematics::column`], against
 //! kinecal's own Levenberg–Marquardt, as `kinecal identify --method lm` runs it
-//! ([`kinecal_host::identify::fit_lm`]) and bare ([`kinecal::lm::Levenberg::run`]).
+//! ([`kinecal_host::identify::fit_lm`]) and bare ([`kinecal::identify::lm::Levenberg::run`]).
 //!
 //! ```text
 //! cargo build --release -p kinecal-host --example lm_compare
@@ -17,14 +17,14 @@
 //! JSON object.
 //!
 //! The crate's parameters are the changes from the start, applied with
-//! [`kinecal::param::apply_delta`] (so the three base rotation entries are a rotation vector
+//! [`kinecal::model::param::apply_delta`] (so the three base rotation entries are a rotation vector
 //! `w`, base rotation `Exp(w)·R0`); its Jacobian is exact there: the columns of the base rotation
 //! are mapped through the left Jacobian of SO(3). A central-difference check of that Jacobian is
 //! part of the output (`jacobian_check_max_rel_error`).
 
 use clap::Parser;
-use kinecal::lm::{Levenberg, LmConfig};
-use kinecal::param::{apply_delta, Param, ParamSet};
+use kinecal::identify::lm::{Levenberg, LmConfig};
+use kinecal::model::param::{apply_delta, Param, ParamSet};
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use kinecal_host::identify::{fit_lm, pose_errors, ErrorStats};
 use kinecal_host::robot_file::load_robot;
@@ -174,7 +174,7 @@ fn run_n<const N: usize>(args: &Args) -> anyhow::Result<serde_json::Value> {
     // (c) The library's solver alone (no report), same parameters and configuration.
     let (med, min, (robot, progress)) = timed(args.reps, || bare_lm(&start, &params, &ident))?;
     methods.push(json!({
-        "method": "kinecal::lm::Levenberg::run (library solve only)",
+        "method": "kinecal::identify::lm::Levenberg::run (library solve only)",
         "validation_rms_mm": held_out(&robot),
         "identification_rms_mm": ident_rms(&robot),
         "iterations": progress.iteration,
@@ -203,7 +203,7 @@ fn run_n<const N: usize>(args: &Args) -> anyhow::Result<serde_json::Value> {
     }))
 }
 
-type LmOut<const N: usize> = (Robot<f64, N, VCAP>, kinecal::lm::LmProgress<f64>);
+type LmOut<const N: usize> = (Robot<f64, N, VCAP>, kinecal::identify::lm::LmProgress<f64>);
 
 /// The solver `fit_lm` runs (same storage, same configuration), without its report.
 fn bare_lm<const N: usize>(
@@ -246,7 +246,7 @@ impl<'a, const N: usize> Problem<'a, N> {
         params: &[Param],
         data: &'a [Measurement<f64, N>],
     ) -> anyhow::Result<Self> {
-        kinecal::param::check_params(params, start).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        kinecal::model::param::check_params(params, start).map_err(|e| anyhow::anyhow!("{e:?}"))?;
         let rot = [Param::BaseRx, Param::BaseRy, Param::BaseRz]
             .map(|p| params.iter().position(|q| *q == p));
         let s: Vec<f64> = params

@@ -21,8 +21,8 @@
 
 use crate::numfmt::sig;
 use crate::robot_file::AXIS_TILT;
-use kinecal::effects::EffectKind;
-use kinecal::param::Param;
+use kinecal::model::effects::EffectKind;
+use kinecal::model::param::Param;
 use kinecal::{ForwardKinematics, Joint, Measurement, Robot};
 
 /// What kind of correction a candidate adds.

@@ -20,7 +20,7 @@ use crate::penalised_fit::{
     TablePenalty,
 };
 use crate::significance::pose_groups;
-use kinecal::effects::{Effect, EffectKind};
+use kinecal::model::effects::{Effect, EffectKind};
 use kinecal::{ForwardKinematics, Measurement, Param, Robot};
 use nalgebra::{DMatrix, DVector, Vector3};
 use rand::seq::SliceRandom;

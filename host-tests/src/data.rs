@@ -1,10 +1,10 @@
 //! Measurement CSV files (interfaces.md §3) on the desktop: the library's streaming
-//! [`kinecal::csv::CsvReader`] over a file, errors turned into one line
+//! [`kinecal::io::csv::CsvReader`] over a file, errors turned into one line
 //! `FILE:LINE:COLUMN: description`, and a writer.
 
 use anyhow::anyhow;
 use embedded_io_adapters::std::FromStd;
-use kinecal::csv::{CsvError, CsvErrorKind, CsvReader};
+use kinecal::io::csv::{CsvError, CsvErrorKind, CsvReader};
 use kinecal::{Measurement, Real};
 use std::fmt::Write as _;
 use std::io::{BufRead, BufReader, Read, Seek};

@@ -35,8 +35,8 @@ use crate::significance::{
     held_out_noise, noise_floor_interval, paired_improvement, repeat_noise, PairedTest,
 };
 use crate::VCAP;
-use kinecal::lm::LmConfig;
-use kinecal::param::{Param, ParamSet};
+use kinecal::identify::lm::LmConfig;
+use kinecal::model::param::{Param, ParamSet};
 use kinecal::{Measurement, Robot};
 use std::time::Instant;
 

@@ -3,12 +3,12 @@
 
 use crate::cli::identify::Method;
 use crate::identify::{fit_lm, Fit};
-use kinecal::bpnn::BpnnConfig;
-use kinecal::bpnn_pso::{self, Mdh24Net};
-use kinecal::fitness::PositionFitness;
-use kinecal::lm::LmConfig;
-use kinecal::param::{apply_delta, Param, ParamSet};
-use kinecal::pso::{Pso, PsoConfig};
+use kinecal::identify::bpnn::BpnnConfig;
+use kinecal::identify::bpnn_pso::{self, Mdh24Net};
+use kinecal::identify::fitness::PositionFitness;
+use kinecal::identify::lm::LmConfig;
+use kinecal::identify::pso::{Pso, PsoConfig};
+use kinecal::model::param::{apply_delta, Param, ParamSet};
 use kinecal::{Measurement, Robot};
 
 /// Swarm size of the paper (§3.1).
@@ -173,7 +173,7 @@ pub fn identify<const N: usize, const V: usize>(
 }
 
 /// Trains the paper's 24 → 12 → 24 network on a finished 6-joint PSO run (each particle's
-/// initial position → its final personal best; see `kinecal::bpnn_pso`).
+/// initial position → its final personal best; see `kinecal::identify::bpnn_pso`).
 pub fn train_bpnn<const N: usize, const V: usize>(
     run: &SwarmRun<N, V>,
     seed: u64,

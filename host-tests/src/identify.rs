@@ -2,8 +2,8 @@
 //! before and after in the units and keys of interfaces.md §4.
 
 use crate::vec_lm::VecLm;
-use kinecal::lm::{Levenberg, LmConfig, LmStop};
-use kinecal::param::{value, Param};
+use kinecal::identify::lm::{Levenberg, LmConfig, LmStop};
+use kinecal::model::param::{value, Param};
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use serde::Serialize;
 use std::collections::BTreeMap;

@@ -1,5 +1,5 @@
 //! Both cores for the passes over many poses: the library's Levenberg–Marquardt passes
-//! ([`kinecal::lm_pass`]) and per-pose evaluations, spread over scoped threads.
+//! ([`kinecal::identify::lm_pass`]) and per-pose evaluations, spread over scoped threads.
 //!
 //! Large data are always cut into the same [`PARTS`] contiguous parts, whatever the number of
 //! threads, and the parts are summed in order: a result does not depend on the machine's core
@@ -7,7 +7,7 @@
 //! (starting threads would cost more than it saves), exactly as the library's own `step` does.
 
 use crate::vec_lm::VecLm;
-use kinecal::lm::{Levenberg, LmError, LmProgress, PassPart};
+use kinecal::identify::lm::{Levenberg, LmError, LmProgress, PassPart};
 use kinecal::{ForwardKinematics, Measurement};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;

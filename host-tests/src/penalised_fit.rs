@@ -1,7 +1,7 @@
 //! Penalised Levenberg–Marquardt on dense (heap) normal equations: the refits of the
 //! discrepancy search.
 //!
-//! The library's [`kinecal::lm::Levenberg`] fits the geometry from the nominal model (robust
+//! The library's [`kinecal::identify::lm::Levenberg`] fits the geometry from the nominal model (robust
 //! damping, identifiability analysis). Once effects join the model, two things need more than
 //! it offers: correction tables need a penalty on their knot values (a light ridge towards zero
 //! and a second-difference smoothness term: a knot that few poses excite must not run off, and
@@ -17,8 +17,8 @@
 //! whatever the number of poses.
 
 use crate::dense::{cholesky, cholesky_inverse};
-use kinecal::effects::EffectKind;
-use kinecal::param::{apply_delta, value, Param};
+use kinecal::model::effects::EffectKind;
+use kinecal::model::param::{apply_delta, value, Param};
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn, Vector3};
 

@@ -6,8 +6,8 @@
 //! analytic Jacobian): the cross-check tests compare the two. Slow on purpose.
 
 use crate::robot_file::{RobotFile, AXIS_TILT};
-use kinecal::effects::EffectKind;
-use kinecal::param::Param;
+use kinecal::model::effects::EffectKind;
+use kinecal::model::param::Param;
 use kinecal::Robot;
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix4, Rotation3, Vector3, Vector4};
 

@@ -12,7 +12,7 @@ use crate::candidates::{Candidate, CandidateKind};
 use crate::diagnose::{distinct_figures, Diagnosis, Found};
 use crate::VCAP;
 use anyhow::anyhow;
-use kinecal::param::Param;
+use kinecal::model::param::Param;
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};

@@ -13,8 +13,8 @@
 
 use crate::{refused, VCAP};
 use anyhow::{anyhow, Context};
-use kinecal::coupling::MAX_COUPLINGS;
-use kinecal::effects::{EffectKind, MAX_EFFECTS};
+use kinecal::model::coupling::MAX_COUPLINGS;
+use kinecal::model::effects::{EffectKind, MAX_EFFECTS};
 use kinecal::{Frame, Joint, Robot};
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};

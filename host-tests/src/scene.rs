@@ -25,8 +25,8 @@
 
 use crate::robot_file::line_column;
 use anyhow::anyhow;
-use kinecal::capsule::Capsule;
-use kinecal::scene::{Scene, Tracker};
+use kinecal::planning::capsule::Capsule;
+use kinecal::planning::cell::{Scene, Tracker};
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;

@@ -9,8 +9,8 @@
 use crate::data::{quantize_deg, Dataset, Record};
 use crate::VCAP;
 use anyhow::{anyhow, bail};
-use kinecal::effects::EffectKind;
 use kinecal::forward::ForwardKinematics;
+use kinecal::model::effects::EffectKind;
 use kinecal::{Joint, Robot};
 use nalgebra::Vector3;
 use rand::{Rng, RngExt, SeedableRng};

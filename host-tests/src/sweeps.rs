@@ -11,7 +11,7 @@
 use crate::data::{quantize_deg, Dataset, Record};
 use crate::sim::{measure, Streams};
 use anyhow::{bail, Result};
-use kinecal::sweep_frames::Sweep;
+use kinecal::frames::circle_point::Sweep;
 use kinecal::{ForwardKinematics, Robot};
 use nalgebra::Vector3;
 

@@ -2,9 +2,9 @@
 //! problem (the parameter count) on the heap, so that a model with per-joint tables (600+
 //! parameters, a 3 MB normal matrix) needs neither a big stack nor a worst-case capacity.
 
-use kinecal::lm::{LmParts, LmPartsRef, LmStorage};
-use kinecal::lm_storage::{LM_INDEX_VECTORS, LM_VECTORS};
-use kinecal::param::Param;
+use kinecal::identify::lm::{LmParts, LmPartsRef, LmStorage};
+use kinecal::identify::lm_storage::{LM_INDEX_VECTORS, LM_VECTORS};
+use kinecal::model::param::Param;
 use kinecal::Real;
 
 /// [`LmStorage`] in `Vec`s sized for exactly the parameters of the run.
@@ -34,7 +34,7 @@ impl<T: Real> VecLm<T> {
 }
 
 impl<T: Real> VecLm<T> {
-    /// Storage for one part of a pass over `params` ([`kinecal::lm::PassPart`]): only what a
+    /// Storage for one part of a pass over `params` ([`kinecal::identify::lm::PassPart`]): only what a
     /// pass writes (no scratch matrix), half the memory of [`VecLm::new`].
     pub fn for_pass(params: &[Param]) -> Self {
         let mut s = Self::new(params);

@@ -1,6 +1,6 @@
 //! The fixed-size back-propagation network.
 
-use kinecal::bpnn::{hidden_size, Activation, Bpnn, BpnnConfig, BpnnError, DEFAULT_A};
+use kinecal::identify::bpnn::{hidden_size, Activation, Bpnn, BpnnConfig, BpnnError, DEFAULT_A};
 
 /// A smooth map of [−1, 1]² with outputs of different size and offset.
 fn smooth(x: &[f64; 2]) -> [f64; 2] {

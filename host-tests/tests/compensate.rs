@@ -4,10 +4,10 @@
 //! (simulate → identify with LM → compensate) meets the accuracy.
 
 use kinecal::compensate::{compensate, CompensateError, Config, Solution, Status, Target, Tracker};
-use kinecal::effects::EffectKind;
-use kinecal::frame::orientation_error;
-use kinecal::lm::{FixedLevenberg, LmConfig};
-use kinecal::param::{apply_delta, ParamSet};
+use kinecal::identify::lm::{FixedLevenberg, LmConfig};
+use kinecal::model::effects::EffectKind;
+use kinecal::model::frame::orientation_error;
+use kinecal::model::param::{apply_delta, ParamSet};
 use kinecal::{ForwardKinematics, Frame, Joint, Measurement, Real, Robot};
 use nalgebra::{DMatrix, Vector3};
 use proptest::prelude::*;

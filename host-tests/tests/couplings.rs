@@ -6,14 +6,14 @@
 //! hint).
 
 use kinecal::compensate::{compensate, Config, Target};
-use kinecal::coupling::{CouplingError, Couplings};
-use kinecal::fitness::{JointTrig, Objective, PositionFitness};
 use kinecal::forward::ForwardKinematics;
-use kinecal::information::{scaled_rows, PoseRows};
-use kinecal::lm::{FixedLevenberg, Levenberg, LmConfig};
-use kinecal::param::{Param, ParamSet};
-use kinecal::scene::{Scene, Tracker};
-use kinecal::sweep_frames::{base_from_sweeps, FramesError};
+use kinecal::frames::circle_point::{base_from_sweeps, FramesError};
+use kinecal::identify::fitness::{JointTrig, Objective, PositionFitness};
+use kinecal::identify::lm::{FixedLevenberg, Levenberg, LmConfig};
+use kinecal::model::coupling::{CouplingError, Couplings};
+use kinecal::model::param::{Param, ParamSet};
+use kinecal::planning::cell::{Scene, Tracker};
+use kinecal::planning::information::{scaled_rows, PoseRows};
 use kinecal::{Measurement, Robot, RobotError};
 use kinecal_host::data::{self, Dataset};
 use kinecal_host::reference::RefRobot;
@@ -290,7 +290,7 @@ fn couplings_are_validated_and_kept_by_cast_capacity_and_clone() {
     // At most MAX_COUPLINGS, whatever the number of joints.
     let mut r7: Robot<f64, 7, VCAP> = parse(ARM7).to_robot().unwrap();
     r7.clear_couplings();
-    for j in 1..=kinecal::coupling::MAX_COUPLINGS {
+    for j in 1..=kinecal::model::coupling::MAX_COUPLINGS {
         r7.set_coupling(j, 0, 0.5).unwrap();
     }
     let full = r7.clone();
@@ -345,7 +345,7 @@ fn pso_fitness_cache_and_lm_with_snapshots_honour_couplings() {
     let delta: Vec<f64> = (0..set.len())
         .map(|k| 1e-3 * ((k * 7 % 11) as f64 - 5.0))
         .collect();
-    kinecal::param::apply_delta(&mut truth, &set, &delta).unwrap();
+    kinecal::model::param::apply_delta(&mut truth, &set, &delta).unwrap();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(8);
     let data = measure(&truth, &f, 60, &mut rng);
     // The same data in model angles, for the uncoupled model.
@@ -383,7 +383,7 @@ fn pso_fitness_cache_and_lm_with_snapshots_honour_couplings() {
 
     // LM: coupled model on readings = uncoupled model on model angles; a snapshot at every
     // step resumes bit-identically (the couplings survive the restore).
-    use kinecal::snapshot::Snapshot;
+    use kinecal::io::snapshot::Snapshot;
     let mut a = FixedLevenberg::<f64, 6, VCAP, 64>::fixed(
         nominal.clone(),
         set.clone(),
@@ -398,12 +398,12 @@ fn pso_fitness_cache_and_lm_with_snapshots_honour_couplings() {
     assert_eq!(a.robot().couplings(), nominal.couplings());
     for p in set.as_slice() {
         let (x, y) = (
-            kinecal::param::value(a.robot(), *p).unwrap(),
-            kinecal::param::value(b.robot(), *p).unwrap(),
+            kinecal::model::param::value(a.robot(), *p).unwrap(),
+            kinecal::model::param::value(b.robot(), *p).unwrap(),
         );
         assert!((x - y).abs() <= 1e-9, "{}: {x} vs {y}", p.name(a.robot()));
     }
-    let rms = kinecal::lm::rms_error(a.robot(), &data);
+    let rms = kinecal::identify::lm::rms_error(a.robot(), &data);
     assert!(rms < 1e-4, "rms {rms} {:?}", a.progress());
     let mut lm = FixedLevenberg::<f64, 6, VCAP, 64>::fixed(
         nominal.clone(),
@@ -434,7 +434,7 @@ fn pso_fitness_cache_and_lm_with_snapshots_honour_couplings() {
     let kept = other.robot().clone();
     assert_eq!(
         other.restore(&mut buf.as_slice()),
-        Err(kinecal::snapshot::SnapshotError::Shape)
+        Err(kinecal::io::snapshot::SnapshotError::Shape)
     );
     assert_eq!(other.robot(), &kept);
 }
@@ -455,12 +455,12 @@ fn planning_candidates_of_a_coupled_robot() {
     let mut fk = ForwardKinematics::new();
     let mut found = 0;
     for _ in 0..400 {
-        let Some(c) = kinecal::pose_pool::draw::<f64, 6, VCAP, 32, 4, 2, _>(
+        let Some(c) = kinecal::planning::pose_pool::draw::<f64, 6, VCAP, 32, 4, 2, _>(
             &mut rng,
             &coupled,
             &scene,
             params.as_slice(),
-            &kinecal::pose_pool::Sampling::default(),
+            &kinecal::planning::pose_pool::Sampling::default(),
             &mut fk,
         ) else {
             continue;

@@ -1,7 +1,7 @@
 //! Measurement CSV parsing: every malformed-input class gives the right error kind, line and
 //! column; the accepted variations (comments, blank lines, CRLF, extra columns, any order) work.
 
-use kinecal::csv::{CsvError, CsvErrorKind};
+use kinecal::io::csv::{CsvError, CsvErrorKind};
 use kinecal_host::data::{self, Dataset, Record, LINE_CAPACITY};
 use proptest::prelude::*;
 
@@ -324,7 +324,7 @@ proptest! {
 }
 
 mod decimal {
-    use kinecal::csv::parse_decimal;
+    use kinecal::io::csv::parse_decimal;
     use proptest::prelude::*;
 
     #[test]

@@ -2,7 +2,7 @@
 //! test's false-alarm rate, the folds, the linearised screen against full refits, the
 //! penalised table fit, and `kinecal diagnose` end to end (JSON keys, model file, plots).
 
-use kinecal::param::{Param, ParamSet};
+use kinecal::model::param::{Param, ParamSet};
 use kinecal::{Measurement, Robot};
 use kinecal_host::candidates::{catalogue, Candidate, CandidateKind, CatalogueConfig};
 use kinecal_host::cli::diagnose::{run, Args};

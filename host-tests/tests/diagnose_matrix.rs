@@ -233,7 +233,7 @@ pub fn unexplained<const N: usize>(
 ) -> f64 {
     let data = sim(l, poses, 0.0, seed, effects);
     let (fitted, _) = fit_geometry(&l.nominal, l.base_known, &[], &data).unwrap();
-    kinecal::lm::rms_error(&fitted, &data)
+    kinecal::identify::lm::rms_error(&fitted, &data)
 }
 
 /// The data of a case: each hidden effect scaled so that what the geometry cannot absorb has an

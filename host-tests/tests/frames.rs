@@ -1,12 +1,12 @@
 //! Base and tool frames from single-joint sweeps (issue 8): circle fit, common normal, joint
 //! axes, base pose and tool distances against known truth, and the `frames` subcommand.
 
-use kinecal::circle::{fit_circle, CircleError};
-use kinecal::frame::orientation_error;
-use kinecal::sweep_frames::{
+use kinecal::frames::circle::{fit_circle, CircleError};
+use kinecal::frames::circle_point::{
     base_from_sweeps, common_normal, joint_axis, tool_from_sweeps, AxialMethod, FramesError, Line,
     Sweep,
 };
+use kinecal::model::frame::orientation_error;
 use kinecal::{Frame, Joint, Robot};
 use kinecal_host::data;
 use kinecal_host::sweeps::{default_rest, sweep_data, SweepSet};
@@ -557,7 +557,7 @@ fn tool_case<const N: usize>(
     rest: [f64; N],
     sweeps: &[usize],
     noise: f64,
-) -> kinecal::sweep_frames::ToolEstimate<f64> {
+) -> kinecal::frames::circle_point::ToolEstimate<f64> {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(17);
     let truth: Robot<f64, N, 0> = robot(rows, tool, random_base(&mut rng));
     let data = sweep_data(&truth, &rest, sweeps, 24, 360.0, noise, 4).unwrap();

@@ -1,7 +1,7 @@
 //! Levenberg–Marquardt identification against known truth.
 
-use kinecal::lm::{rms_error, FixedLevenberg, Levenberg, LmConfig, LmStop};
-use kinecal::param::{apply_delta, Param, ParamSet};
+use kinecal::identify::lm::{rms_error, FixedLevenberg, Levenberg, LmConfig, LmStop};
+use kinecal::model::param::{apply_delta, Param, ParamSet};
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
@@ -120,8 +120,8 @@ fn redundant_base_and_first_row_are_reported_and_held() {
     );
     for p in &held {
         assert_eq!(
-            kinecal::param::value(lm.robot(), *p),
-            kinecal::param::value(&nominal, *p),
+            kinecal::model::param::value(lm.robot(), *p),
+            kinecal::model::param::value(&nominal, *p),
             "{p:?} moved"
         );
     }
@@ -147,7 +147,7 @@ fn bad_input_is_refused_without_damage() {
 
 #[test]
 fn snapshot_at_every_step_restores_to_a_bit_identical_run() {
-    use kinecal::snapshot::Snapshot;
+    use kinecal::io::snapshot::Snapshot;
     let nominal = er20();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
     let truth = perturbed(&nominal, &mut rng);

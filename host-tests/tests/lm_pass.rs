@@ -1,9 +1,9 @@
-//! Levenberg–Marquardt passes spread over parts (`kinecal::lm_pass`, the host's
+//! Levenberg–Marquardt passes spread over parts (`kinecal::identify::lm_pass`, the host's
 //! `parallel::run_lm`): the same run as one `step` loop up to the order of summation, and every
 //! misuse refused with a typed error.
 
-use kinecal::lm::{Levenberg, LmConfig, LmError, PassKind, PassPart};
-use kinecal::param::{Param, ParamSet};
+use kinecal::identify::lm::{Levenberg, LmConfig, LmError, PassKind, PassPart};
+use kinecal::model::param::{Param, ParamSet};
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use kinecal_host::sim;
 use kinecal_host::vec_lm::VecLm;
@@ -72,7 +72,7 @@ fn model_gap(a: &Lm, b: &Lm, data: &[Measurement<f64, 6>]) -> f64 {
 /// same model. Summation order moves the costs in the 13th digit, which can decide whether one
 /// more tiny step is taken at the end: iteration counts may differ, the outcome may not.
 fn same_outcome(a: &Lm, b: &Lm, data: &[Measurement<f64, 6>]) {
-    use kinecal::lm::LmStop::{Converged, SmallStep};
+    use kinecal::identify::lm::LmStop::{Converged, SmallStep};
     let (pa, pb) = (a.progress(), b.progress());
     assert!(matches!(pa.stopped, Some(Converged | SmallStep)), "{pa:?}");
     assert!(matches!(pb.stopped, Some(Converged | SmallStep)), "{pb:?}");

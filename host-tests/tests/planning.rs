@@ -11,9 +11,9 @@
 //! - the online stepper: its predicted precision falls as it measures its own proposals,
 //!   matches the batch prediction, and it stops at the target.
 
-use kinecal::information::{default_tolerance, scaled_rows, PoseRows};
-use kinecal::online_design::OnlineDesign;
-use kinecal::param::ParamSet;
+use kinecal::model::param::ParamSet;
+use kinecal::planning::information::{default_tolerance, scaled_rows, PoseRows};
+use kinecal::planning::online_design::OnlineDesign;
 use kinecal::Robot;
 use kinecal_host::cli::plan::{self, CriterionArg, HostCandidate, PlanRequest, PCAP};
 use kinecal_host::robot_file::RobotFile;
@@ -461,7 +461,7 @@ fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
                 &mut p2,
                 &basis,
                 &wr,
-                kinecal::planning::Criterion::Kpi,
+                kinecal::planning::selection::Criterion::Kpi,
                 40,
                 30,
                 None,

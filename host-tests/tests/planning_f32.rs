@@ -2,14 +2,16 @@
 //! without panics: the library's planning code is generic and allocation-free, so the same
 //! selection and online stepper run on a Cortex-M4F.
 
-use kinecal::capsule::Capsule;
-use kinecal::information::{default_tolerance, scaled_rows, Covariance, Information, PoseRows};
-use kinecal::observability::criteria;
-use kinecal::online_design::OnlineDesign;
-use kinecal::param::ParamSet;
-use kinecal::planning::{self, Basis, Candidate, Criterion, DesignState, PlanError};
-use kinecal::real::Real;
-use kinecal::scene::{Scene, SceneError, Tracker};
+use kinecal::model::param::ParamSet;
+use kinecal::num::real::Real;
+use kinecal::planning::capsule::Capsule;
+use kinecal::planning::cell::{Scene, SceneError, Tracker};
+use kinecal::planning::information::{
+    default_tolerance, scaled_rows, Covariance, Information, PoseRows,
+};
+use kinecal::planning::observability::criteria;
+use kinecal::planning::online_design::OnlineDesign;
+use kinecal::planning::selection::{self, Basis, Candidate, Criterion, DesignState, PlanError};
 use kinecal::{ForwardKinematics, Frame, Joint, Robot};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
@@ -68,7 +70,7 @@ fn design<T: Real>(qs: &[[f64; 6]], work: &[[f64; 6]], n: usize) -> (Vec<usize>,
     let ridge = basis.per_pose() * T::EPS.sqrt();
     let mut state = DesignState::<T, P, 2>::new(basis.rank(), &w, ridge).unwrap();
     let mut d = vec![0; n];
-    planning::select(&mut state, Criterion::Kpi, &mut pool, &mut d, 20).unwrap();
+    selection::select(&mut state, Criterion::Kpi, &mut pool, &mut d, 20).unwrap();
     (d, basis.rank())
 }
 
@@ -167,7 +169,7 @@ fn bad_input_is_refused_without_panics() {
     let mut pool: Vec<Candidate<f64, 6, P>> = Vec::new();
     let mut d = [0usize; 4];
     assert_eq!(
-        planning::select(&mut state, Criterion::D, &mut pool, &mut d, 5).unwrap_err(),
+        selection::select(&mut state, Criterion::D, &mut pool, &mut d, 5).unwrap_err(),
         PlanError::PoolTooSmall
     );
     let t = Tracker {

@@ -2,8 +2,8 @@
 //! sampling (general, parallel, collinear, crossing and degenerate segments), and the scene's
 //! rules (which capsule pairs are compared, the sign of the incidence angle, the beam).
 
-use kinecal::capsule::{segment_distance, Capsule};
-use kinecal::scene::{Scene, Tracker, Violation};
+use kinecal::planning::capsule::{segment_distance, Capsule};
+use kinecal::planning::cell::{Scene, Tracker, Violation};
 use kinecal::{ForwardKinematics, Frame, Joint, Robot};
 use nalgebra::Vector3;
 use proptest::prelude::*;
@@ -346,7 +346,7 @@ fn neighbouring_bodies_are_not_compared_and_the_beam_ignores_the_reflector_body(
 /// a 7-joint arm (KUKA LBR iiwa-like rows), aiming at random targets about 3 m away.
 #[test]
 fn wrist_aiming_converges_on_a_seven_joint_arm() {
-    use kinecal::pose_pool::{aim_wrist, uniform_configuration};
+    use kinecal::planning::pose_pool::{aim_wrist, uniform_configuration};
     use rand::SeedableRng;
     let rows = [
         Joint::mdh_deg(0.0, 0.0, 0.0, 340.0),

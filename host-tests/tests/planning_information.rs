@@ -4,10 +4,12 @@
 //! redundancies (base against the first joint, the last joint's theta against the tool,
 //! d of the parallel axes 2 and 3).
 
-use kinecal::information::{default_tolerance, scaled_rows, Covariance, Information, PoseRows};
-use kinecal::observability::{criteria, indices};
-use kinecal::param::ParamSet;
-use kinecal::planning::{self, Basis, Candidate, Criterion, DesignState};
+use kinecal::model::param::ParamSet;
+use kinecal::planning::information::{
+    default_tolerance, scaled_rows, Covariance, Information, PoseRows,
+};
+use kinecal::planning::observability::{criteria, indices};
+use kinecal::planning::selection::{self, Basis, Candidate, Criterion, DesignState};
 use kinecal::{ForwardKinematics, Frame, Joint, Robot};
 use nalgebra::{DMatrix, Vector3};
 use rand::{RngExt, SeedableRng};
@@ -231,12 +233,12 @@ fn rank_three_gains_equal_objective_changes_and_reduction_keeps_the_kpi() {
     // D design on the KPI while the D design beats it on D.
     let mut sk = DesignState::<f64, P, 4>::new(basis.rank(), &work, ridge).unwrap();
     let mut design_k = vec![0; 30];
-    let ok = planning::select(&mut sk, Criterion::Kpi, &mut pool, &mut design_k, 20).unwrap();
+    let ok = selection::select(&mut sk, Criterion::Kpi, &mut pool, &mut design_k, 20).unwrap();
     assert!(ok.objective <= ok.greedy_objective * (1.0 + 1e-12));
     assert_eq!(pool.iter().filter(|c| c.selected).count(), 30);
     let mut sd = DesignState::<f64, P, 4>::new(basis.rank(), &work, ridge).unwrap();
     let mut design_d = vec![0; 30];
-    let od = planning::select(&mut sd, Criterion::D, &mut pool, &mut design_d, 20).unwrap();
+    let od = selection::select(&mut sd, Criterion::D, &mut pool, &mut design_d, 20).unwrap();
     assert!(od.objective <= od.greedy_objective + 1e-9);
     assert!(sk.objective(Criterion::Kpi) < sd.objective(Criterion::Kpi));
     assert!(sd.objective(Criterion::D) < sk.objective(Criterion::D));

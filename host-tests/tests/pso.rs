@@ -2,11 +2,11 @@
 
 mod pso_sim;
 
-use kinecal::bpnn::{Bpnn, BpnnConfig};
-use kinecal::bpnn_pso::{self, BpnnPsoError, Mdh24Net, DEFAULT_EPOCHS};
-use kinecal::fitness::{FitnessError, JointTrig, Objective, PositionFitness};
-use kinecal::param::{apply_delta, Param, ParamSet};
-use kinecal::pso::{Pso, PsoConfig, PsoError, PsoStop};
+use kinecal::identify::bpnn::{Bpnn, BpnnConfig};
+use kinecal::identify::bpnn_pso::{self, BpnnPsoError, Mdh24Net, DEFAULT_EPOCHS};
+use kinecal::identify::fitness::{FitnessError, JointTrig, Objective, PositionFitness};
+use kinecal::identify::pso::{Pso, PsoConfig, PsoError, PsoStop};
+use kinecal::model::param::{apply_delta, Param, ParamSet};
 use kinecal::{EffectKind, ForwardKinematics, Frame, Measurement, Robot};
 use nalgebra::Vector3;
 use pso_sim::*;
@@ -449,7 +449,7 @@ fn pso_runs_in_f32() {
 /// happens to converge right to the noise floor, BPNN-PSO needs up to ≈ 0.45 of its iterations),
 /// so the claim is checked over 8 swarm seeds fixed in advance: the total and the median ratio.
 /// The denominator is the iteration at which PSO first reached its final fitness (not its later
-/// stop). `kinecal::bpnn_pso`'s module docs give the ratios for larger drifts, where it fails.
+/// stop). `kinecal::identify::bpnn_pso`'s module docs give the ratios for larger drifts, where it fails.
 #[test]
 fn bpnn_pso_reaches_pso_final_fitness_in_a_quarter_of_the_iterations() {
     main_sized_stack(|| {

@@ -2,9 +2,9 @@
 //! forward kinematics in f64 and f32, the identification Jacobian and the joint Jacobian
 //! against central differences, every effect kind, 6 and 7 joints, tilt and base poses.
 
-use kinecal::effects::EffectKind;
 use kinecal::forward::ForwardKinematics;
-use kinecal::param::Param;
+use kinecal::model::effects::EffectKind;
+use kinecal::model::param::Param;
 use kinecal::{Frame, Joint, Robot};
 use kinecal_host::reference::RefRobot;
 use nalgebra::{Matrix3, Vector3};
@@ -419,7 +419,7 @@ proptest! {
 
     #[test]
     fn sincos_f32_random(x in -4.0 * std::f32::consts::PI..4.0 * std::f32::consts::PI) {
-        let (s, c) = kinecal::trig::sincos_f32(x);
+        let (s, c) = kinecal::num::trig::sincos_f32(x);
         let xd = x as f64;
         prop_assert!((s as f64 - xd.sin()).abs() <= 2e-7 && (c as f64 - xd.cos()).abs() <= 2e-7);
     }
@@ -474,7 +474,7 @@ fn sincos_f32_sweep() {
     let (mut es, mut ec) = (0f64, 0f64);
     for i in 0..=n {
         let x = -lim + 2.0 * lim * (i as f32 / n as f32);
-        let (s, c) = kinecal::trig::sincos_f32(x);
+        let (s, c) = kinecal::num::trig::sincos_f32(x);
         es = es.max((s as f64 - (x as f64).sin()).abs());
         ec = ec.max((c as f64 - (x as f64).cos()).abs());
     }
@@ -486,7 +486,7 @@ fn sincos_f32_sweep() {
             x = f32::from_bits(x.to_bits().wrapping_sub(1));
         }
         for _ in 0..128 {
-            let (s, c) = kinecal::trig::sincos_f32(x);
+            let (s, c) = kinecal::num::trig::sincos_f32(x);
             es = es.max((s as f64 - (x as f64).sin()).abs());
             ec = ec.max((c as f64 - (x as f64).cos()).abs());
             x = f32::from_bits(x.to_bits().wrapping_add(1));
@@ -536,20 +536,20 @@ fn sincos_f64_matches_std_to_an_ulp_or_two() {
     let n = 400_000;
     for i in 0..=n {
         let x = -50.0 + 100.0 * i as f64 / n as f64;
-        let (s, c) = kinecal::trig::sincos_f64(x);
+        let (s, c) = kinecal::num::trig::sincos_f64(x);
         worst = worst.max((s - x.sin()).abs()).max((c - x.cos()).abs());
     }
     for k in -64i32..=64 {
         let x = k as f64 * std::f64::consts::FRAC_PI_4;
         for d in [-2e-16, 0.0, 2e-16] {
-            let (s, c) = kinecal::trig::sincos_f64(x + d);
+            let (s, c) = kinecal::num::trig::sincos_f64(x + d);
             worst = worst
                 .max((s - (x + d).sin()).abs())
                 .max((c - (x + d).cos()).abs());
         }
     }
     assert!(worst < 4.0 * f64::EPSILON, "max error {worst:e}");
-    assert!(kinecal::trig::sincos_f64(f64::NAN).0.is_nan());
-    let (s, c) = kinecal::trig::sincos_f64(1e9);
+    assert!(kinecal::num::trig::sincos_f64(f64::NAN).0.is_nan());
+    let (s, c) = kinecal::num::trig::sincos_f64(1e9);
     assert!((s * s + c * c - 1.0).abs() < 1e-9);
 }

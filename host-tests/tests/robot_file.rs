@@ -1,6 +1,6 @@
 //! The robot TOML file: round trips, and one-line errors with file:line:column.
 
-use kinecal::effects::EffectKind;
+use kinecal::model::effects::EffectKind;
 use kinecal::{Frame, Joint, Robot};
 use kinecal_host::robot_file::{deg_exact, deg_short, line_column, RobotFile};
 use kinecal_host::VCAP;

@@ -3,10 +3,10 @@
 
 mod pso_sim;
 
-use kinecal::bpnn::{Bpnn, BpnnConfig};
-use kinecal::fitness::{Objective, PositionFitness};
-use kinecal::pso::{Pso, PsoConfig};
-use kinecal::snapshot::{
+use kinecal::identify::bpnn::{Bpnn, BpnnConfig};
+use kinecal::identify::fitness::{Objective, PositionFitness};
+use kinecal::identify::pso::{Pso, PsoConfig};
+use kinecal::io::snapshot::{
     crc32, restore_with, save_with, Crc32, Kind, Snapshot, SnapshotError, HEADER_LEN,
 };
 use pso_sim::*;
@@ -315,7 +315,7 @@ fn bpnn_training_continues_bit_identical_after_restore() {
     );
 }
 
-/// The helpers the other steppers (the LM in `kinecal::lm`) build their snapshots from.
+/// The helpers the other steppers (the LM in `kinecal::identify::lm`) build their snapshots from.
 #[test]
 fn container_helpers_round_trip_every_field_type() {
     let mut buf = Vec::new();

@@ -7,7 +7,7 @@
 //!
 //! Stages, each checked against values the host computed in `f64` ([`crate::reference`]):
 //! 1. **Stream**: measurement records arrive as CSV bytes through `embedded_io::Read` (a UART
-//!    FIFO that hands over at most 16 bytes per read) into [`kinecal::csv::CsvReader`].
+//!    FIFO that hands over at most 16 bytes per read) into [`kinecal::io::csv::CsvReader`].
 //! 2. **Kinematics**: `f32` forward kinematics and the identification Jacobian.
 //! 3. **Identify**: the LM stepper in idle slices while the servo holds position; halfway its
 //!    state is saved as a snapshot (as to flash), the run continues, and a fresh solver restored
@@ -28,11 +28,11 @@ use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::{debug, hio, hprintln};
 use heapless::Vec;
 use kinecal::compensate::{compensate, Target, Tracker};
-use kinecal::csv::CsvReader;
-use kinecal::fitness::PositionFitness;
-use kinecal::lm::{rms_error, FixedLm, Levenberg, LmError, LmProgress};
-use kinecal::pso::PsoError;
-use kinecal::snapshot::Snapshot;
+use kinecal::identify::fitness::PositionFitness;
+use kinecal::identify::lm::{rms_error, FixedLm, Levenberg, LmError, LmProgress};
+use kinecal::identify::pso::PsoError;
+use kinecal::io::csv::CsvReader;
+use kinecal::io::snapshot::Snapshot;
 use kinecal::{ForwardKinematics, Param};
 use kinecal::{Frame, Joint, Measurement, Robot};
 use nalgebra::Vector3;
@@ -75,7 +75,7 @@ const SNAPSHOT_BYTES: usize = 8192;
 
 /// The solver with its normal equations in fixed arrays sized for this robot's 24 parameters.
 type Lm = Levenberg<f32, N, 0, FixedLm<f32, P>>;
-type Swarm = kinecal::pso::Pso<f32, SWARM, P, { scenario::PSO_HISTORY }>;
+type Swarm = kinecal::identify::pso::Pso<f32, SWARM, P, { scenario::PSO_HISTORY }>;
 
 /// The model the servo tick compensates with: read every tick, replaced by the idle loop when
 /// an identification finishes (shared with interrupt context on a real controller, hence the
@@ -969,7 +969,7 @@ fn pso_step(
     swarm: &mut Swarm,
     fitness: &mut PositionFitness<'_, f32, N, 0, P>,
     budget: usize,
-) -> Result<kinecal::pso::PsoProgress<f32>, PsoError> {
+) -> Result<kinecal::identify::pso::PsoProgress<f32>, PsoError> {
     swarm.step(fitness, budget)
 }
 
@@ -977,7 +977,7 @@ fn pso_step(
 fn save<S: Snapshot>(
     stepper: &S,
     flash: &mut &mut [u8],
-) -> Result<(), kinecal::snapshot::SnapshotError> {
+) -> Result<(), kinecal::io::snapshot::SnapshotError> {
     stepper.save(flash)
 }
 
@@ -985,7 +985,7 @@ fn save<S: Snapshot>(
 fn restore<S: Snapshot>(
     stepper: &mut S,
     mut flash: &[u8],
-) -> Result<(), kinecal::snapshot::SnapshotError> {
+) -> Result<(), kinecal::io::snapshot::SnapshotError> {
     stepper.restore(&mut flash)
 }
 

@@ -11,11 +11,11 @@
 
 use crate::scenario::{self, ID_POSES, N, P, SWARM, TICKS, VAL_POSES};
 use kinecal::compensate::{Target, Tracker};
-use kinecal::csv::CsvReader;
-use kinecal::fitness::PositionFitness;
-use kinecal::lm::{rms_error, FixedLm, Levenberg};
-use kinecal::param::apply_delta;
-use kinecal::pso::Pso;
+use kinecal::identify::fitness::PositionFitness;
+use kinecal::identify::lm::{rms_error, FixedLm, Levenberg};
+use kinecal::identify::pso::Pso;
+use kinecal::io::csv::CsvReader;
+use kinecal::model::param::apply_delta;
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};

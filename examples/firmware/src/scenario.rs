@@ -2,10 +2,10 @@
 //! must agree on the robot, the parameter set and the solver settings, or the firmware's
 //! comparisons against host-computed values would compare different problems.
 
-use kinecal::bpnn::{Bpnn, BpnnConfig};
-use kinecal::lm::LmConfig;
-use kinecal::param::ParamSet;
-use kinecal::pso::PsoConfig;
+use kinecal::identify::bpnn::{Bpnn, BpnnConfig};
+use kinecal::identify::lm::LmConfig;
+use kinecal::identify::pso::PsoConfig;
+use kinecal::model::param::ParamSet;
 use kinecal::{Frame, Joint, Real, Robot};
 use nalgebra::Vector3;
 
@@ -87,7 +87,8 @@ pub fn pso_config<T: Real>() -> PsoConfig<T, P> {
 }
 
 /// Hidden neurons of the BPNN (the paper's rule: round(√48) + 5).
-pub const HIDDEN: usize = kinecal::bpnn::hidden_size(P, P, kinecal::bpnn::DEFAULT_A);
+pub const HIDDEN: usize =
+    kinecal::identify::bpnn::hidden_size(P, P, kinecal::identify::bpnn::DEFAULT_A);
 pub const BPNN_SEED: u64 = 11;
 pub type Net<T> = Bpnn<T, P, HIDDEN, P>;
 
@@ -131,8 +132,8 @@ pub fn nominal_joints<T: Real>(k: usize) -> [T; N] {
     let t = k as f64 / TICKS as f64;
     core::array::from_fn(|j| {
         let phase = j as f64 * 0.7;
-        let deg =
-            Q_MID_DEG[j] + 1.5 * kinecal::trig::sincos_f64(core::f64::consts::TAU * t + phase).0;
+        let deg = Q_MID_DEG[j]
+            + 1.5 * kinecal::num::trig::sincos_f64(core::f64::consts::TAU * t + phase).0;
         T::of(deg.to_radians())
     })
 }

@@ -1,5 +1,5 @@
 //! `kinecal frames`: base frame and tool distances from single-joint sweeps (the circle-point
-//! method of Gao et al. 2018 §2.2; the definitions are in [`kinecal::sweep_frames`]).
+//! method of Gao et al. 2018 §2.2; the definitions are in [`kinecal::frames::circle_point`]).
 //!
 //! The measurement file has an extra column `sweep` naming the joint (1-based) turned on each
 //! row; rows with an empty cell or 0 there are ignored. Joints 1 and 2 give the base pose,
@@ -10,8 +10,8 @@ use crate::robot_file::{deg_exact, load_robot, BaseSpec, RobotFile};
 use crate::sweeps::{SweepSet, SWEEP_COLUMN};
 use crate::{with_joints, VCAP};
 use anyhow::{anyhow, bail};
-use kinecal::circle::Circle;
-use kinecal::sweep_frames::{
+use kinecal::frames::circle::Circle;
+use kinecal::frames::circle_point::{
     base_from_sweeps, tool_from_sweeps, AxialMethod, FramesError, JointAxis, ToolEstimate,
 };
 use kinecal::Robot;
@@ -100,15 +100,14 @@ fn group<const N: usize>(path: &Path, data: &Dataset<N>) -> anyhow::Result<Sweep
 
 fn explain(e: FramesError, what: &str) -> anyhow::Error {
     let why = match e {
-        FramesError::Circle(kinecal::circle::CircleError::TooFewPoints) => {
+        FramesError::Circle(kinecal::frames::circle::CircleError::TooFewPoints) => {
             "too few points (at least 4 per sweep)".to_string()
         }
-        FramesError::Circle(kinecal::circle::CircleError::Degenerate) => {
+        FramesError::Circle(kinecal::frames::circle::CircleError::Degenerate) => {
             "the points lie on a line or coincide".to_string()
         }
-        FramesError::Circle(kinecal::circle::CircleError::NotFinite) | FramesError::NotFinite => {
-            "non-finite values".to_string()
-        }
+        FramesError::Circle(kinecal::frames::circle::CircleError::NotFinite)
+        | FramesError::NotFinite => "non-finite values".to_string(),
         FramesError::Shape => "inconsistent sweep data".to_string(),
         FramesError::NoRotation => "the swept joint's readings do not change".to_string(),
         FramesError::OtherJointMoved(j) => {

@@ -6,8 +6,8 @@ use crate::identify::{
 use crate::robot_file::{load_robot, RobotFile};
 use crate::{with_joints, VCAP};
 use anyhow::Context;
-use kinecal::lm::LmConfig;
-use kinecal::param::ParamSet;
+use kinecal::identify::lm::LmConfig;
+use kinecal::model::param::ParamSet;
 use kinecal::{Measurement, Robot};
 use serde_json::json;
 use std::path::PathBuf;
@@ -228,7 +228,7 @@ fn stop_text<const N: usize>(
     stall_rms_mm: f64,
 ) -> String {
     use crate::numfmt::sig;
-    use kinecal::lm::LmStop;
+    use kinecal::identify::lm::LmStop;
     let how = match fit.stop {
         Some(LmStop::MaxIterations) => "stopped at its iteration limit before converging",
         Some(LmStop::NoProgress) => "stalled (no step lowered the error any more)",

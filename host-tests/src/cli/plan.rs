@@ -13,7 +13,7 @@
 //! 2. Design: `random` draws uniformly within the limits and keeps feasible poses (the
 //!    experimenter's heuristic); `d`, `o1` (the same optimum: O1 is monotone in det JᵀJ for a
 //!    fixed number of poses), `a` and `kpi` select from the pool by greedy construction and
-//!    Fedorov exchange ([`planning::select`]).
+//!    Fedorov exchange ([`selection::select`]).
 //! 3. Report: predicted by linear error propagation, σ = `--noise-mm` per coordinate:
 //!    `kpi_trace_mm2` = trace of the summed tool-point covariance at the `--work`
 //!    configurations, the A/D/E criteria, the observability indices O1–O5.
@@ -22,11 +22,13 @@ use crate::robot_file::RobotFile;
 use crate::scene::{HostScene, SceneFile};
 use crate::with_joints;
 use anyhow::{anyhow, bail};
-use kinecal::information::{default_tolerance, scaled_rows, Covariance, Information, PoseRows};
-use kinecal::observability::{criteria, indices};
-use kinecal::param::{Param, ParamSet};
-use kinecal::planning::{self, Basis, Candidate, Criterion, DesignState};
-use kinecal::pose_pool::{self, Sampling};
+use kinecal::model::param::{Param, ParamSet};
+use kinecal::planning::information::{
+    default_tolerance, scaled_rows, Covariance, Information, PoseRows,
+};
+use kinecal::planning::observability::{criteria, indices};
+use kinecal::planning::pose_pool::{self, Sampling};
+use kinecal::planning::selection::{self, Basis, Candidate, Criterion, DesignState};
 use kinecal::{ForwardKinematics, Frame, Robot};
 use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -347,7 +349,7 @@ impl<const N: usize, const V: usize> Neighbourhood<'_, N, V> {
 /// How a host design went.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Optimised {
-    pub outcome: planning::Outcome<f64>,
+    pub outcome: selection::Outcome<f64>,
     /// Candidates added near the design by refinement, and the swaps they brought.
     pub added: usize,
     pub refine_swaps: u32,
@@ -374,9 +376,9 @@ pub fn optimise<const N: usize, const V: usize>(
     let mut design = vec![0usize; n];
     let too_small =
         |len: usize| anyhow!("the pool has {len} feasible poses, fewer than the {n} requested");
-    let outcome = planning::select(&mut state, criterion, pool, &mut design, passes).map_err(
+    let outcome = selection::select(&mut state, criterion, pool, &mut design, passes).map_err(
         |e| match e {
-            planning::PlanError::PoolTooSmall => too_small(pool.len()),
+            selection::PlanError::PoolTooSmall => too_small(pool.len()),
             e => anyhow!("design: {e:?}"),
         },
     )?;
@@ -396,13 +398,13 @@ pub fn optimise<const N: usize, const V: usize>(
                     }
                 }
             }
-            let (_, swaps) = planning::exchange(&mut state, criterion, pool, &mut design, passes)
+            let (_, swaps) = selection::exchange(&mut state, criterion, pool, &mut design, passes)
                 .map_err(|e| anyhow!("design: {e:?}"))?;
             refine_swaps += swaps;
             step *= 0.5;
         }
     }
-    let outcome = planning::Outcome {
+    let outcome = selection::Outcome {
         objective: state.objective(criterion),
         ..outcome
     };

@@ -2,7 +2,7 @@
 //! library directly (nominal robot, known parameter errors, random poses, Gaussian noise).
 #![allow(dead_code)]
 
-use kinecal::param::{apply_delta, ParamSet};
+use kinecal::model::param::{apply_delta, ParamSet};
 use kinecal::{ForwardKinematics, Frame, Joint, Measurement, Robot};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};

@@ -29,7 +29,7 @@
 //! suffice).
 
 use crate::forward::ForwardKinematics;
-use crate::frame::{orientation_error, orientation_sin_cos};
+use crate::model::frame::{orientation_error, orientation_sin_cos};
 use crate::{Frame, Real, Robot};
 use nalgebra::Vector3;
 

@@ -34,9 +34,9 @@
 //! does not move on a circle): that is refused with [`FramesError::CoupledJointMoved`]; the
 //! sweep must move the coupled joint's reading by `−ratio ×` the swept joint's change.
 
-use crate::circle::{basis, fit_circle_with, unit, Circle, CircleError};
-use crate::coupling::Couplings;
-use crate::linalg::{cholesky, cholesky_solve, Square};
+use crate::frames::circle::{basis, fit_circle_with, unit, Circle, CircleError};
+use crate::model::coupling::Couplings;
+use crate::num::linalg::{cholesky, cholesky_solve, Square};
 use crate::{ForwardKinematics, Frame, Real, Robot};
 use nalgebra::Vector3;
 

@@ -21,7 +21,7 @@
 // `!(x > y)` is deliberate: it is also true for NaN. Index loops mirror the formulas.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
-use crate::information::{Covariance, PoseRows};
+use crate::planning::information::{Covariance, PoseRows};
 use crate::Real;
 
 /// The five observability indices of a design.

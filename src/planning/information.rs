@@ -18,8 +18,8 @@
 // `!(x > y)` is deliberate: it is also true for NaN. Index loops mirror the formulas.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
-use crate::linalg::{symmetric_eigen, LinalgError, Square};
-use crate::param::{Param, ParamError};
+use crate::model::param::{Param, ParamError};
+use crate::num::linalg::{symmetric_eigen, LinalgError, Square};
 use crate::{ForwardKinematics, Real, Robot};
 
 /// The 3-row Jacobian block of one pose in scaled parameters: `rows[k][j] = ∂p_k/∂x_j`.

@@ -7,7 +7,7 @@
 //! A candidate step is tried with a full pass at the candidate, which accumulates its normal
 //! equations while summing its cost: accepted (the usual case), they are the next iteration's,
 //! so an iteration costs one pass over the data; rejected, the estimate's are accumulated
-//! again. Passes can be spread over workers ([`crate::lm_pass`]).
+//! again. Passes can be spread over workers ([`crate::identify::lm_pass`]).
 //!
 //! Parameters are scaled by [`Param::scale`] (angles × reach) so that a unit step moves the
 //! tool by about a millimetre whatever the parameter; Marquardt's diagonal damping with
@@ -26,12 +26,14 @@
 //! prefers the parameters already estimated, so a confounded pair does not swap back and
 //! forth. A tiny ridge on the accumulated update keeps nearly dependent directions bounded.
 
-use crate::linalg::{cholesky, cholesky_solve, pivoted_cholesky_preferring, Flat, LinalgError};
-use crate::lm_pass::{accumulate_pose, clear_normal_equations, split_parts, Columns};
-pub use crate::lm_pass::{Pass, PassKind, PassPart};
-use crate::lm_storage::storage_fits;
-pub use crate::lm_storage::{FixedLm, LmParts, LmPartsRef, LmStorage};
-use crate::param::{apply_delta, check_params, Param, ParamError};
+use crate::identify::lm_pass::{accumulate_pose, clear_normal_equations, split_parts, Columns};
+pub use crate::identify::lm_pass::{Pass, PassKind, PassPart};
+use crate::identify::lm_storage::storage_fits;
+pub use crate::identify::lm_storage::{FixedLm, LmParts, LmPartsRef, LmStorage};
+use crate::model::param::{apply_delta, check_params, Param, ParamError};
+use crate::num::linalg::{
+    cholesky, cholesky_solve, pivoted_cholesky_preferring, Flat, LinalgError,
+};
 use crate::{ForwardKinematics, Measurement, Real, Robot};
 use nalgebra::Vector3;
 
@@ -134,7 +136,7 @@ enum Phase {
 }
 
 /// The Levenberg–Marquardt stepper for a robot with `N` joints and `V` effect values, over the
-/// caller's storage `S` (the parameters and the normal equations: see [`crate::lm_storage`]).
+/// caller's storage `S` (the parameters and the normal equations: see [`crate::identify::lm_storage`]).
 #[derive(Clone, Debug)]
 pub struct Levenberg<T: Real, const N: usize, const V: usize, S: LmStorage<T>> {
     cfg: LmConfig<T>,
@@ -166,7 +168,7 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
     /// A solver in fixed arrays with room for the `P` parameters of `params`.
     pub fn fixed(
         start: Robot<T, N, V>,
-        params: crate::param::ParamSet<P>,
+        params: crate::model::param::ParamSet<P>,
         cfg: LmConfig<T>,
     ) -> Result<Self, LmError> {
         Self::new(start, FixedLm::new(params), cfg)
@@ -332,7 +334,7 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
     }
 
     /// The pass over the measurements the run needs next, for a caller who spreads it over
-    /// workers ([`crate::lm_pass`]); `None` while the next work is a solve, after the end, or
+    /// workers ([`crate::identify::lm_pass`]); `None` while the next work is a solve, after the end, or
     /// when a [`Self::step`] call left a pass half done.
     pub fn pass(&self) -> Option<Pass<'_, T, N, V>> {
         let kind = match self.phase {
@@ -766,7 +768,7 @@ pub fn rms_error<T: Real, const N: usize, const V: usize>(
 mod snapshot_impl {
     //! Snapshot of the LM state: everything except scratch that the next phase rewrites.
     use super::*;
-    use crate::snapshot::{
+    use crate::io::snapshot::{
         restore_with, save_with, Decoder, Encoder, Kind, Snapshot, SnapshotError,
     };
     use crate::Frame;

@@ -1,4 +1,4 @@
-//! Storage of a [`crate::lm::Levenberg`] run, owned by the caller (as smoltcp's sockets take
+//! Storage of a [`crate::identify::lm::Levenberg`] run, owned by the caller (as smoltcp's sockets take
 //! their buffers): the parameter list, the normal equations and the solver's scratch.
 //!
 //! The solver itself holds only the robot, a workspace and a few scalars. Its `O(P²)` arrays
@@ -7,8 +7,8 @@
 //! sizes them from the problem on the heap (the `kinecal` command line's `VecLm`). A
 //! 600-parameter model then needs no megabyte-sized value on any stack.
 
-use crate::linalg::Square;
-use crate::param::{Param, ParamError, ParamSet};
+use crate::model::param::{Param, ParamError, ParamSet};
+use crate::num::linalg::Square;
 use crate::Real;
 
 /// Number of length-`n` real vectors in [`LmParts`].

@@ -11,9 +11,9 @@
 // `!(x > y)` is deliberate: it is also true for NaN. Index loops mirror the formulas.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
-use crate::information::{scaled_rows, PoseRows};
-use crate::param::ParamSet;
-use crate::planning::{Basis, Candidate, Criterion, DesignState, PlanError};
+use crate::model::param::ParamSet;
+use crate::planning::information::{scaled_rows, PoseRows};
+use crate::planning::selection::{Basis, Candidate, Criterion, DesignState, PlanError};
 use crate::{ForwardKinematics, Real, Robot};
 
 /// Where an online design stands.

@@ -1,4 +1,4 @@
-//! The identification objective shared by the global searches ([`crate::pso`], BPNN-PSO).
+//! The identification objective shared by the global searches ([`crate::identify::pso`], BPNN-PSO).
 //!
 //! A candidate is a vector of parameter *deltas* from a reference robot over a [`ParamSet`]
 //! (the paper's 24 MDH errors, or any other set). Its fitness is the paper's objective (§2.3,
@@ -7,7 +7,7 @@
 //! `f(x) = Σ_k |p_k − FK(reference ⊕ x, q_k)|²`.
 //!
 //! The sum (not the mean) is used so that a PSO fitness and the Levenberg–Marquardt cost
-//! ([`crate::lm::LmProgress::cost`]) are the same number and can share a table; RMS per pose is
+//! ([`crate::identify::lm::LmProgress::cost`]) are the same number and can share a table; RMS per pose is
 //! `sqrt(f / poses)`.
 //!
 //! **Speed.** A swarm evaluates the same poses thousands of times with different geometry. With
@@ -17,8 +17,8 @@
 //! evaluation several times cheaper. Robots with joint-correction effects (whose joint angles
 //! depend on the geometry) always take the general [`ForwardKinematics`] path.
 
-use crate::param::{apply_delta, ParamError, ParamSet};
-use crate::robot::RowTrig;
+use crate::model::param::{apply_delta, ParamError, ParamSet};
+use crate::model::robot::RowTrig;
 use crate::{ForwardKinematics, Frame, Joint, Measurement, Real, Robot};
 
 /// `(sin q_j, cos q_j)` of one pose's model angles (the joint readings through the robot's

@@ -4,7 +4,7 @@
 //! `alphaI aI thetaI dI betaI`, then `tool.x tool.y tool.z`, then the effect values. Angles are
 //! rad and lengths mm inside the library. A [`ParamSet`] is the ordered subset being identified.
 
-use crate::effects::EffectKind;
+use crate::model::effects::EffectKind;
 use crate::{Real, Robot};
 use core::fmt;
 use heapless::Vec;

@@ -14,7 +14,9 @@
 //! [`hidden_size`] rounds the root and adds `a`. We take `a = 5` ([`DEFAULT_A`], the middle of the
 //! range): 24 parameters in and out give `h = 7 + 5 = 12`.
 
-use crate::snapshot::{restore_with, save_with, Decoder, Encoder, Kind, Snapshot, SnapshotError};
+use crate::io::snapshot::{
+    restore_with, save_with, Decoder, Encoder, Kind, Snapshot, SnapshotError,
+};
 use crate::Real;
 use embedded_io::{Read, Write};
 use rand_core::{Rng, SeedableRng};

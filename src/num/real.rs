@@ -6,7 +6,7 @@ use nalgebra::RealField;
 ///
 /// Adds to nalgebra's [`RealField`] the two things calibration code needs everywhere:
 /// exact conversion from the `f64` constants of file formats, and a joint-angle `sin_cos`
-/// that is cheap on an FPU without double precision (see [`crate::trig`]).
+/// that is cheap on an FPU without double precision (see [`crate::num::trig`]).
 pub trait Real: RealField + Copy + Default + core::fmt::Debug + 'static {
     /// Converts an `f64` (rounding to nearest for `f32`).
     fn of(x: f64) -> Self;
@@ -31,7 +31,7 @@ impl Real for f32 {
     }
     #[inline(always)]
     fn sincos(self) -> (Self, Self) {
-        crate::trig::sincos_f32(self)
+        crate::num::trig::sincos_f32(self)
     }
     const EPS: Self = f32::EPSILON;
     #[inline(always)]
@@ -51,7 +51,7 @@ impl Real for f64 {
     }
     #[inline(always)]
     fn sincos(self) -> (Self, Self) {
-        crate::trig::sincos_f64(self)
+        crate::num::trig::sincos_f64(self)
     }
     const EPS: Self = f64::EPSILON;
     #[inline(always)]

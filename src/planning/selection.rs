@@ -3,7 +3,7 @@
 //! KPI design), or by a classical criterion (D, A).
 //!
 //! The paper optimises the poses continuously with SQP; here the poses are *selected* from a
-//! pool of feasible configurations (see [`crate::pose_pool`]), which makes every constraint
+//! pool of feasible configurations (see [`crate::planning::pose_pool`]), which makes every constraint
 //! exact and the code allocation-free: greedy construction, then Fedorov exchange passes
 //! (remove one pose, add the best candidate, keep the swap when it helps) until a pass changes
 //! nothing. Every trial is a rank-3 update of the information matrix, evaluated through the
@@ -23,8 +23,8 @@
 // `!(x > y)` is deliberate: it is also true for NaN. Index loops mirror the formulas.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
-use crate::information::{Information, PoseRows};
-use crate::linalg::{cholesky, symmetric_eigen, LinalgError, Square};
+use crate::num::linalg::{cholesky, symmetric_eigen, LinalgError, Square};
+use crate::planning::information::{Information, PoseRows};
 use crate::Real;
 use heapless::Vec;
 

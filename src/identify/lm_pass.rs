@@ -1,4 +1,4 @@
-//! One pass of a [`crate::lm::Levenberg`] run over the measurements, spread over workers.
+//! One pass of a [`crate::identify::lm::Levenberg`] run over the measurements, spread over workers.
 //!
 //! A run alternates passes over all poses (accumulate the residuals and normal equations at
 //! the estimate or at a candidate step) with solves of `P × P` systems. The passes are
@@ -13,13 +13,13 @@
 //! The library spawns nothing: the caller chooses the workers (host threads, or one core after
 //! another) and owns each part's storage, as it owns the solver's.
 //!
-//! [`Levenberg::pass`]: crate::lm::Levenberg::pass
-//! [`Levenberg::complete_pass`]: crate::lm::Levenberg::complete_pass
-//! [`Levenberg::step`]: crate::lm::Levenberg::step
+//! [`Levenberg::pass`]: crate::identify::lm::Levenberg::pass
+//! [`Levenberg::complete_pass`]: crate::identify::lm::Levenberg::complete_pass
+//! [`Levenberg::step`]: crate::identify::lm::Levenberg::step
 
-use crate::lm::LmError;
-use crate::lm_storage::{LmParts, LmStorage};
-use crate::param::Param;
+use crate::identify::lm::LmError;
+use crate::identify::lm_storage::{LmParts, LmStorage};
+use crate::model::param::Param;
 use crate::{ForwardKinematics, Measurement, Real, Robot};
 use nalgebra::Vector3;
 

@@ -21,13 +21,13 @@
 //!   comparison with plain PSO is like for like. The drawn positions stay in
 //!   [`Pso::initial_positions`], so a BPNN-PSO run can itself train the next network.
 //! - **Network**: [`Bpnn`] with `D` inputs and outputs and the paper's hidden-size rule
-//!   ([`crate::bpnn::hidden_size`], 12 neurons for 24 parameters), trained [`DEFAULT_EPOCHS`]
+//!   ([`crate::identify::bpnn::hidden_size`], 12 neurons for 24 parameters), trained [`DEFAULT_EPOCHS`]
 //!   epochs (the loss stops falling well before).
 //!
 //! ## What it buys, measured
 //!
 //! ER20-C10 stand-in of issue 3, 24 MDH parameters, 50 poses, 10 µm noise, the defaults of
-//! [`crate::pso::PsoConfig::calibration`] (1,000 iterations at most). A factory PSO run trains the
+//! [`crate::identify::pso::PsoConfig::calibration`] (1,000 iterations at most). A factory PSO run trains the
 //! net; after the robot's errors drift, plain PSO and BPNN-PSO identify it again from the same
 //! swarm seeds. Ratio = iterations BPNN-PSO needs to reach plain PSO's final fitness ÷ iterations
 //! PSO needed to first reach it; 3 factory runs × 8 follow-up seeds per row:
@@ -52,16 +52,20 @@
 //! better. The paper's own BPNN-PSO (71 iterations) also stopped at a higher fitness than its
 //! PSO (404 iterations).
 
-use crate::bpnn::{Bpnn, BpnnError};
-use crate::pso::{Pso, PsoError};
+use crate::identify::bpnn::{Bpnn, BpnnError};
+use crate::identify::pso::{Pso, PsoError};
 use crate::Real;
 
 /// Epochs of back-propagation in [`train`] by default.
 pub const DEFAULT_EPOCHS: u32 = 300;
 
 /// The network for the paper's 24 parameters: 24 → 12 → 24.
-pub type Mdh24Net<T> =
-    Bpnn<T, 24, { crate::bpnn::hidden_size(24, 24, crate::bpnn::DEFAULT_A) }, 24>;
+pub type Mdh24Net<T> = Bpnn<
+    T,
+    24,
+    { crate::identify::bpnn::hidden_size(24, 24, crate::identify::bpnn::DEFAULT_A) },
+    24,
+>;
 
 /// Why BPNN-PSO could not train or seed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

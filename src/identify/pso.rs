@@ -1,7 +1,7 @@
 //! Particle swarm optimisation as a sliced stepper (the BPNN-PSO paper, §3.1).
 //!
 //! `S` particles search a box in `D` dimensions for the minimum of an [`Objective`] (for
-//! calibration: [`crate::fitness::PositionFitness`] over parameter deltas). Each iteration moves
+//! calibration: [`crate::identify::fitness::PositionFitness`] over parameter deltas). Each iteration moves
 //! every particle with the paper's update
 //!
 //! `v ← w·v + c1·r1·(pbest − x) + c2·r2·(gbest − x)`, `x ← x + v`
@@ -17,7 +17,7 @@
 //! the range and particles starting at rest (both converged faster than the alternatives tried),
 //! 1,000 iterations at most, and the stagnation stop below. With these coefficients PSO gets from
 //! the nominal model to 10–25× the noise floor in ~400 iterations and to the floor in ~1,500:
-//! the global search is quick, the refinement slow (see [`crate::bpnn_pso`]), so polish with LM.
+//! the global search is quick, the refinement slow (see [`crate::identify::bpnn_pso`]), so polish with LM.
 //!
 //! **Bounds.** Each velocity component is clamped to ±`max_velocity`·(upper − lower) of its
 //! dimension. A position that leaves the box is clamped onto the wall and that velocity
@@ -38,9 +38,11 @@
 //! plots (fitness against iteration) in a fixed buffer of `H` entries; later iterations are not
 //! recorded once it is full.
 
-use crate::fitness::Objective;
-use crate::param::Param;
-use crate::snapshot::{restore_with, save_with, Decoder, Encoder, Kind, Snapshot, SnapshotError};
+use crate::identify::fitness::Objective;
+use crate::io::snapshot::{
+    restore_with, save_with, Decoder, Encoder, Kind, Snapshot, SnapshotError,
+};
+use crate::model::param::Param;
 use crate::Real;
 use embedded_io::{Read, Write};
 use rand_core::{Rng, SeedableRng};

@@ -48,11 +48,11 @@ pub const HEADER_LEN: usize = 20;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u16)]
 pub enum Kind {
-    /// [`crate::pso::Pso`].
+    /// [`crate::identify::pso::Pso`].
     Pso = 1,
-    /// [`crate::bpnn::Bpnn`].
+    /// [`crate::identify::bpnn::Bpnn`].
     Bpnn = 2,
-    /// [`crate::lm::Levenberg`].
+    /// [`crate::identify::lm::Levenberg`].
     Levenberg = 3,
 }
 

@@ -12,10 +12,10 @@
 // `!(x > y)` is deliberate: it is also true for NaN. Index loops mirror the formulas.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
-use crate::information::scaled_rows;
-use crate::param::Param;
-use crate::planning::Candidate;
-use crate::scene::Scene;
+use crate::model::param::Param;
+use crate::planning::cell::Scene;
+use crate::planning::information::scaled_rows;
+use crate::planning::selection::Candidate;
 use crate::{ForwardKinematics, Real, Robot};
 use nalgebra::{Matrix3, Vector3};
 use rand_core::Rng;

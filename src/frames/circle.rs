@@ -8,7 +8,7 @@
 //! The last stage's Jacobian also gives standard deviations, so callers can tell a sweep that is
 //! too short or too noisy from one they can trust.
 
-use crate::linalg::{cholesky, cholesky_solve, symmetric_eigen, Square};
+use crate::num::linalg::{cholesky, cholesky_solve, symmetric_eigen, Square};
 use crate::Real;
 use nalgebra::Vector3;
 

@@ -24,7 +24,7 @@
 // `!(x > y)` is deliberate: it is also true for NaN. Index loops mirror the formulas.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
-use crate::capsule::{segment_distance, Capsule};
+use crate::planning::capsule::{segment_distance, Capsule};
 use crate::{ForwardKinematics, Frame, Real, Robot};
 use heapless::Vec;
 use nalgebra::Vector3;

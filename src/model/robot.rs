@@ -5,8 +5,8 @@
 //! [`crate::ForwardKinematics`]. The constant trigonometry of every row (`alpha`, `beta`) is
 //! cached here, so it is paid once per parameter change, not once per pose.
 
-use crate::coupling::{CouplingError, Couplings};
-use crate::effects::Effects;
+use crate::model::coupling::{CouplingError, Couplings};
+use crate::model::effects::Effects;
 use crate::{Frame, Real};
 use nalgebra::Vector3;
 
@@ -162,7 +162,7 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
     pub fn effects(&self) -> &Effects<T, V> {
         &self.effects
     }
-    /// The joint couplings: readings → model angles (see [`crate::coupling`]).
+    /// The joint couplings: readings → model angles (see [`crate::model::coupling`]).
     pub fn couplings(&self) -> &Couplings<T, N> {
         &self.couplings
     }
@@ -300,7 +300,7 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
     /// too small).
     pub fn with_capacity<const W: usize>(
         &self,
-    ) -> Result<Robot<T, N, W>, crate::effects::EffectError> {
+    ) -> Result<Robot<T, N, W>, crate::model::effects::EffectError> {
         let mut r = Robot {
             base: self.base,
             joints: self.joints,

@@ -13,7 +13,9 @@ use std::hint::black_box;
 
 /// The ER20-C10 stand-in of the demo (joint limits ±170°).
 fn er20() -> Robot<f64, 6, 0> {
-    kinecal_host::sim::er20_c10().with_capacity::<0>().unwrap()
+    kinecal_cli::simulation::er20_c10()
+        .with_capacity::<0>()
+        .unwrap()
 }
 
 fn data() -> (Robot<f64, 6, 0>, Vec<Measurement<f64, 6>>) {

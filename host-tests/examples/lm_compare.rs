@@ -1,7 +1,7 @@
 //! Side-by-side identification on the same files: the `levenberg-marquardt` crate (MINPACK's
 //! algorithm in Rust) with an analytic Jacobian built from [`ForwardKinematics::column`], against
 //! kinecal's own Levenberg–Marquardt, as `kinecal identify --method lm` runs it
-//! ([`kinecal_host::identify::fit_lm`]) and bare ([`kinecal::identify::lm::Levenberg::run`]).
+//! ([`kinecal_cli::calibration::fit_lm`]) and bare ([`kinecal::identify::lm::Levenberg::run`]).
 //!
 //! ```text
 //! cargo build --release -p kinecal-host --example lm_compare
@@ -26,11 +26,11 @@ use clap::Parser;
 use kinecal::identify::lm::{Levenberg, LmConfig};
 use kinecal::model::param::{apply_delta, Param, ParamSet};
 use kinecal::{ForwardKinematics, Measurement, Robot};
-use kinecal_host::identify::{fit_lm, pose_errors, ErrorStats};
-use kinecal_host::robot_file::load_robot;
-use kinecal_host::units::{load_measurements, UnitArgs};
-use kinecal_host::vec_lm::VecLm;
-use kinecal_host::{with_joints, VCAP};
+use kinecal_cli::calibration::vec_lm::VecLm;
+use kinecal_cli::calibration::{fit_lm, pose_errors, ErrorStats};
+use kinecal_cli::formats::robot_file::load_robot;
+use kinecal_cli::formats::units::{load_measurements, UnitArgs};
+use kinecal_cli::{with_joints, VCAP};
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::Vector3;
 use nalgebra034::{storage::Owned, DMatrix, DVector, Dyn};
@@ -73,7 +73,7 @@ fn main() -> anyhow::Result<()> {
 }
 
 fn run(args: &Args) -> anyhow::Result<serde_json::Value> {
-    let n = kinecal_host::robot_file::RobotFile::load(&args.robot)?.joint_count();
+    let n = kinecal_cli::formats::robot_file::RobotFile::load(&args.robot)?.joint_count();
     with_joints!(n, N => run_n::<N>(args))
 }
 
@@ -111,7 +111,7 @@ fn run_n<const N: usize>(args: &Args) -> anyhow::Result<serde_json::Value> {
     let base_unknown = !file.base_known();
     let t0 = Instant::now();
     if base_unknown {
-        let base = kinecal_host::registration::fit_base(&start, &ident)?;
+        let base = kinecal_cli::calibration::registration::fit_base(&start, &ident)?;
         start
             .set_base(base)
             .map_err(|e| anyhow::anyhow!("estimated base pose is invalid: {e:?}"))?;
@@ -160,7 +160,7 @@ fn run_n<const N: usize>(args: &Args) -> anyhow::Result<serde_json::Value> {
         fit_lm(&start, &params, &ident, LmConfig::default())
     })?;
     methods.push(json!({
-        "method": "kinecal_host::identify::fit_lm (what identify times)",
+        "method": "kinecal_cli::calibration::fit_lm (what identify times)",
         "validation_rms_mm": held_out(&fit.robot),
         "identification_rms_mm": ident_rms(&fit.robot),
         "iterations": fit.iterations,

@@ -31,7 +31,7 @@ TARGET=${CARGO_TARGET_DIR:-$ROOT/target}
 VENV=${KINECAL_VENV:-$TARGET/scipy-venv}
 
 if [[ "${NO_BUILD:-0}" != 1 ]]; then
-    cargo build --release -p kinecal-host --bin kinecal --example lm_compare >&2
+    cargo build --release -p kinecal-cli --bin kinecal --example lm_compare >&2
 fi
 K=${KINECAL:-$TARGET/release/kinecal}
 LMC=${LM_COMPARE:-$TARGET/release/examples/lm_compare}
@@ -118,7 +118,7 @@ for pset in ("27", "33"):
     ]
     names = {
         "levenberg-marquardt": "levenberg-marquardt crate, analytic Jacobian",
-        "fit_lm": "kinecal_host::identify::fit_lm",
+        "fit_lm": "kinecal_cli::calibration::fit_lm",
         "Levenberg::run": "kinecal::lm::Levenberg::run (library solve)",
     }
     lib = None

@@ -30,7 +30,7 @@ PARAM_POSES=${PARAM_POSES:-10000}
 UR10_DATA=${UR10_DATA:-$ROOT/../shared/data/ur10}
 
 if [[ "${NO_BUILD:-0}" != 1 ]]; then
-    cargo build --release -p kinecal-host --bin kinecal >&2
+    cargo build --release -p kinecal-cli --bin kinecal >&2
 fi
 K=${KINECAL:-$TARGET/release/kinecal}
 [[ -x "$K" ]] || { echo "missing $K (build it or unset NO_BUILD)" >&2; exit 1; }

@@ -5,10 +5,10 @@
 //! It shares nothing with the library's kinematics (no `Frame`, no cached trigonometry, no
 //! analytic Jacobian): the cross-check tests compare the two. Slow on purpose.
 
-use crate::robot_file::{RobotFile, AXIS_TILT};
 use kinecal::model::effects::EffectKind;
 use kinecal::model::param::Param;
 use kinecal::Robot;
+use kinecal_cli::formats::robot_file::{RobotFile, AXIS_TILT};
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix4, Rotation3, Vector3, Vector4};
 
 /// One MDH row with tilt (rad, mm).

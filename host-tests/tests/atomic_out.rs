@@ -1,9 +1,9 @@
-//! Output files are written atomically (`kinecal_host::atomic::write_atomic`): whatever
+//! Output files are written atomically (`kinecal_cli::output::atomic::write_atomic`): whatever
 //! happens to the writer — an error halfway through, `kill -9` at any moment — the target is
 //! the previous complete file or the complete new one, never a torn one.
 
-use kinecal_host::atomic::write_atomic;
-use kinecal_host::robot_file::RobotFile;
+use kinecal_cli::formats::robot_file::RobotFile;
+use kinecal_cli::output::atomic::write_atomic;
 use rand::{RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use std::path::Path;

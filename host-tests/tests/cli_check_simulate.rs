@@ -2,9 +2,9 @@
 //! nominal error (fitting the base when unknown), and every malformed file gives a non-zero
 //! exit with one line naming file, line and column.
 
-use kinecal_host::data;
+use kinecal_cli::formats::measurements;
+use kinecal_cli::formats::robot_file::RobotFile;
 use kinecal_host::reference::RefRobot;
-use kinecal_host::robot_file::RobotFile;
 use nalgebra::Vector3;
 use std::path::Path;
 use std::process::Output;
@@ -39,7 +39,7 @@ fn simulate_matches<const N: usize>(
     let mut args = vec!["--truth", s(&truth)];
     args.extend_from_slice(extra);
     simulate(robot, Some(200), Some(0.0), Some(11), &args, &out_csv);
-    let ds = data::load::<N>(&out_csv).unwrap();
+    let ds = measurements::load::<N>(&out_csv).unwrap();
     assert_eq!(ds.len(), 200);
     let r = reference(&truth);
     let mut worst = 0f64;
@@ -288,7 +288,7 @@ fn the_noise_level_does_not_move_the_poses() {
         let csv = dir.path().join("d.csv");
         let extra: &[&str] = if geom { &["--geom-errors"] } else { &[] };
         simulate(&robot, Some(20), Some(noise), Some(9), extra, &csv);
-        data::load::<6>(&csv).unwrap()
+        measurements::load::<6>(&csv).unwrap()
     };
     let (a, b, c) = (read(0.0, false), read(0.1, false), read(0.0, true));
     for ((x, y), z) in a.records.iter().zip(&b.records).zip(&c.records) {
@@ -384,7 +384,7 @@ fn malformed_files_fail_with_one_located_line() {
         (
             format!("{head}\n{data_line}{}\n", " ".repeat(5000)),
             2,
-            data::LINE_CAPACITY + 1,
+            measurements::LINE_CAPACITY + 1,
         ),
         (String::new(), 1, 1),
     ];
@@ -403,7 +403,7 @@ fn malformed_files_fail_with_one_located_line() {
 #[test]
 fn registration_recovers_a_rigid_motion() {
     use kinecal::Frame;
-    use kinecal_host::registration::fit_rigid;
+    use kinecal_cli::calibration::registration::fit_rigid;
     let truth = Frame::from_xyz_rpy([1500.0, -2500.0, 400.0], [0.3, -0.2, 2.5]);
     let a: Vec<Vector3<f64>> = (0..20)
         .map(|i| {
@@ -432,7 +432,7 @@ fn registration_recovers_a_rigid_motion() {
 
 #[test]
 fn effect_arguments() {
-    use kinecal_host::sim::EffectArg;
+    use kinecal_cli::simulation::EffectArg;
     let e: EffectArg = "joint-cyclic:3:1e-4,-2e-4:2".parse().unwrap();
     assert_eq!(
         (e.kind.as_str(), e.joint, e.values.clone(), e.order),
@@ -474,14 +474,14 @@ fn effect_arguments() {
 /// Random configurations are uniform within the limits and written without loss.
 #[test]
 fn configurations_within_limits() {
-    use kinecal_host::sim::{random_configurations, Streams};
+    use kinecal_cli::simulation::{random_configurations, Streams};
     let file = RobotFile::parse(ER20, "er20").unwrap();
     let r = file.to_robot::<6>().unwrap();
     let qs = random_configurations(&r, 5000, &mut Streams::new(1).configs);
     for q in &qs {
         assert!(r.within_limits(q));
         for x in q {
-            assert_eq!(data::quantize_deg(x.to_degrees()).to_radians(), *x);
+            assert_eq!(measurements::quantize_deg(x.to_degrees()).to_radians(), *x);
         }
     }
     // Mean of joint 2 (limits −150..90) near −30°.

@@ -1035,8 +1035,8 @@ fn end_to_end() {
 /// row), the output read back: every `ok` row's command puts the model on its target.
 #[test]
 fn command_line_writes_commands_that_reach_the_targets() {
-    use kinecal_host::cli::compensate::{run, Args};
-    use kinecal_host::robot_file::RobotFile;
+    use kinecal_cli::commands::compensate::{run, Args};
+    use kinecal_cli::formats::robot_file::RobotFile;
     use std::fmt::Write as _;
     let dir = tempfile::tempdir().unwrap();
     let mut rng = Rng::seed_from_u64(81);

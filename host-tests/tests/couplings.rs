@@ -15,11 +15,11 @@ use kinecal::model::param::{Param, ParamSet};
 use kinecal::planning::cell::{Scene, Tracker};
 use kinecal::planning::information::{scaled_rows, PoseRows};
 use kinecal::{Measurement, Robot, RobotError};
-use kinecal_host::data::{self, Dataset};
+use kinecal_cli::formats::measurements::{self, Dataset};
+use kinecal_cli::formats::robot_file::{deg_exact, RobotFile};
+use kinecal_cli::simulation::sweeps::{sweep_data, SweepSet};
+use kinecal_cli::VCAP;
 use kinecal_host::reference::RefRobot;
-use kinecal_host::robot_file::{deg_exact, RobotFile};
-use kinecal_host::sweeps::{sweep_data, SweepSet};
-use kinecal_host::VCAP;
 use nalgebra::{Matrix3, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -494,7 +494,7 @@ fn planning_candidates_of_a_coupled_robot() {
 fn frames_from_sweeps_of_a_coupled_robot() {
     let f = parse(&fanuc_text());
     let robot: Robot<f64, 6, VCAP> = f.to_robot().unwrap();
-    let rest = kinecal_host::sweeps::default_rest(&robot);
+    let rest = kinecal_cli::simulation::sweeps::default_rest(&robot);
     let ds = sweep_data(&robot, &rest, &[1, 2, 5, 6], 24, 360.0, 0.0, 1).unwrap();
     // During the J2 sweep J3's reading moves opposite, so q3 stays put.
     let sweeps = SweepSet::<6>::from_dataset(&ds).unwrap().unwrap();
@@ -551,13 +551,13 @@ fn cli_frames_accepts_simulated_coupled_sweeps_and_refuses_dragged_ones() {
         assert!((a - b).abs() < 1e-3, "base {xyz:?} vs {want:?}");
     }
     // The same J2 sweep with J3's reading held fixed: refused, exit 2, one line saying why.
-    let mut ds: Dataset<6> = data::load(&sweeps).unwrap();
+    let mut ds: Dataset<6> = measurements::load(&sweeps).unwrap();
     let rest3 = ds.records[0].q_deg[2];
     for r in ds.records.iter_mut().filter(|r| r.extra[0] == 2.0) {
         r.q_deg[2] = rest3;
     }
     let dragged = dir.path().join("dragged.csv");
-    data::write(&dragged, &ds).unwrap();
+    measurements::write(&dragged, &ds).unwrap();
     let out = kinecal(&["frames", "--robot", s(&robot), "--data", s(&dragged)]);
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
@@ -698,12 +698,12 @@ fn identify_equivalence<const N: usize>(text: &str, tag: &str, exact: bool) {
         &["--geom-errors"],
         &id,
     );
-    let mut ds = data::load::<N>(&id).unwrap();
+    let mut ds = measurements::load::<N>(&id).unwrap();
     if exact {
         ds.records
             .retain(|r| exact_model_deg(&f, &r.q_deg).is_some());
         assert!(ds.len() >= 100, "{} exact rows", ds.len());
-        data::write(&id, &ds).unwrap();
+        measurements::write(&id, &ds).unwrap();
     }
     let id_m = dir.path().join("id_m.csv");
     preconvert(&f, &ds, &id_m, exact);

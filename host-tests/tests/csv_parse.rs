@@ -2,13 +2,13 @@
 //! column; the accepted variations (comments, blank lines, CRLF, extra columns, any order) work.
 
 use kinecal::io::csv::{CsvError, CsvErrorKind};
-use kinecal_host::data::{self, Dataset, Record, LINE_CAPACITY};
+use kinecal_cli::formats::measurements::{self, Dataset, Record, LINE_CAPACITY};
 use proptest::prelude::*;
 
 const HEAD6: &str = "q1,q2,q3,q4,q5,q6,x,y,z";
 
 fn read6(text: &str) -> Result<Dataset<6>, CsvError> {
-    data::read_records::<6, _>(text.as_bytes())
+    measurements::read_records::<6, _>(text.as_bytes())
 }
 
 /// Kind, line and column of the error `text` must give.
@@ -23,7 +23,10 @@ fn load_message(text: &[u8]) -> (u32, u32, String) {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("d.csv");
     std::fs::write(&p, text).unwrap();
-    let msg = format!("{:#}", data::load::<6>(&p).expect_err("must be refused"));
+    let msg = format!(
+        "{:#}",
+        measurements::load::<6>(&p).expect_err("must be refused")
+    );
     assert!(!msg.contains('\n'), "one line: {msg}");
     let rest = msg
         .strip_prefix(&format!("{}:", p.display()))
@@ -64,7 +67,10 @@ fn missing_column() {
         (e.kind, e.line, e.which),
         (CsvErrorKind::MissingColumn, 1, 5)
     );
-    assert_eq!(data::required_column_name(e.which as usize, 6), "q6");
+    assert_eq!(
+        measurements::required_column_name(e.which as usize, 6),
+        "q6"
+    );
     let e = read6("# comment\n\nq1,q2,q3,q4,q5,q6,x,y\n").unwrap_err();
     assert_eq!(
         (e.kind, e.line, e.which),
@@ -130,7 +136,7 @@ fn short_line() {
         (CsvErrorKind::ShortLine, 3, 4)
     );
     // Required columns after an extra one: the first missing required one is named.
-    let e = data::read_records::<2, _>("q1,temp,q2,x,y,z\n1,20\n".as_bytes()).unwrap_err();
+    let e = measurements::read_records::<2, _>("q1,temp,q2,x,y,z\n1,20\n".as_bytes()).unwrap_err();
     assert_eq!((e.kind, e.line, e.column), (CsvErrorKind::ShortLine, 2, 3));
     let (line, col, msg) = load_message(format!("{HEAD6}\n1,2,3,4,5,6,7,8\n").as_bytes());
     assert_eq!((line, col), (2, 9));
@@ -154,9 +160,9 @@ fn too_many_joints() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("d.csv");
     std::fs::write(&p, "# seven joints\n\nz,q7,x,q1,q2,q3,q4,q5,q6,y\n").unwrap();
-    assert_eq!(data::joint_count(&p).unwrap(), 7);
+    assert_eq!(measurements::joint_count(&p).unwrap(), 7);
     std::fs::write(&p, "x,y,z\n").unwrap();
-    assert!(data::joint_count(&p).is_err());
+    assert!(measurements::joint_count(&p).is_err());
 }
 
 #[test]
@@ -201,8 +207,9 @@ fn duplicate_column() {
 
 #[test]
 fn not_utf8() {
-    let e = data::read_records::<6, _>(&b"q1,q2,q3,q4,q5,q6,x,y,z\n1,2,3,4,5,\xff,7,8,9\n"[..])
-        .unwrap_err();
+    let e =
+        measurements::read_records::<6, _>(&b"q1,q2,q3,q4,q5,q6,x,y,z\n1,2,3,4,5,\xff,7,8,9\n"[..])
+            .unwrap_err();
     assert_eq!((e.kind, e.line), (CsvErrorKind::NotText, 2));
 }
 
@@ -257,7 +264,7 @@ fn byte_order_mark_is_skipped() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("d.csv");
     std::fs::write(&p, format!("\u{feff}{HEAD6}\n1,2,3,4,5,6,7,8,9\n")).unwrap();
-    assert_eq!(data::load::<6>(&p).unwrap().len(), 1);
+    assert_eq!(measurements::load::<6>(&p).unwrap().len(), 1);
 }
 
 #[test]
@@ -267,8 +274,8 @@ fn the_ur10_file_loads() {
     if !p.exists() {
         return; // the shared data is outside the repository
     }
-    assert_eq!(data::joint_count(&p).unwrap(), 6);
-    let d = data::load::<6>(&p).unwrap();
+    assert_eq!(measurements::joint_count(&p).unwrap(), 6);
+    let d = measurements::load::<6>(&p).unwrap();
     assert_eq!(d.len(), 2773);
     assert_eq!(d.extra_names, vec!["temp_c"]);
     assert_eq!(d.records[0].xyz_mm, [383.97123, -3240.75620, 201.72621]);
@@ -293,13 +300,13 @@ proptest! {
             records: recs.iter().map(|(q, p, t)| Record { q_deg: *q, xyz_mm: *p, extra: vec![*t], line: 0 }).collect(),
             extra_names: vec!["temp_c".into()],
         };
-        let back = read6(&data::to_csv_string(&ds)).unwrap();
+        let back = read6(&measurements::to_csv_string(&ds)).unwrap();
         prop_assert_eq!(back.len(), ds.len());
         prop_assert_eq!(&back.extra_names, &ds.extra_names);
         for (a, b) in ds.records.iter().zip(&back.records) {
             for (x, y) in a.q_deg.iter().zip(b.q_deg) {
                 prop_assert!((x - y).abs() <= 5.1e-7);
-                prop_assert_eq!(data::quantize_deg(*x), y);
+                prop_assert_eq!(measurements::quantize_deg(*x), y);
             }
             for (x, y) in a.xyz_mm.iter().zip(b.xyz_mm) {
                 prop_assert!((x - y).abs() <= 5.1e-9 + 1e-15 * x.abs());
@@ -316,7 +323,7 @@ proptest! {
     ], 0..600), header in prop::sample::select(vec![HEAD6, "x,y,z,q1,q2,q3,q4,q5,q6,t", "q1,q2"])) {
         let mut text = format!("{header}\n").into_bytes();
         text.extend(body);
-        match data::read_records::<6, _>(&text[..]) {
+        match measurements::read_records::<6, _>(&text[..]) {
             Ok(d) => for r in d.records { prop_assert!(r.q_deg.iter().chain(&r.xyz_mm).all(|v| v.is_finite())) },
             Err(e) => prop_assert!(e.line >= 1),
         }
@@ -402,8 +409,8 @@ fn big_file(rows: usize) -> String {
 #[test]
 fn a_large_file_read_in_parts_equals_one_reader() {
     let text = big_file(30_000);
-    assert!(text.len() > data::PARALLEL_MIN_BYTES);
-    let parts = data::read_bytes::<6>(text.as_bytes()).unwrap();
+    assert!(text.len() > measurements::PARALLEL_MIN_BYTES);
+    let parts = measurements::read_bytes::<6>(text.as_bytes()).unwrap();
     let whole = read6(&text).unwrap();
     assert_eq!(parts.records.len(), 30_000);
     assert_eq!(parts, whole, "records, extra columns and line numbers");
@@ -419,7 +426,7 @@ fn an_error_deep_in_a_large_file_names_its_line() {
         let bad = lines[k].replacen(',', ",x", 1);
         lines[k] = &bad;
         let damaged: String = lines.concat();
-        let e = data::read_bytes::<6>(damaged.as_bytes()).expect_err("refused");
+        let e = measurements::read_bytes::<6>(damaged.as_bytes()).expect_err("refused");
         let one = read6(&damaged).expect_err("refused");
         assert_eq!(e, one);
         assert_eq!(e.line as usize, k + 1, "1-based line of the damaged row");

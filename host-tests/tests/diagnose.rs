@@ -4,16 +4,20 @@
 
 use kinecal::model::param::{Param, ParamSet};
 use kinecal::{Measurement, Robot};
-use kinecal_host::candidates::{catalogue, Candidate, CandidateKind, CatalogueConfig};
-use kinecal_host::cli::diagnose::{run, Args};
-use kinecal_host::cross_validation::{candidate_columns, refit_errors, rms, Folds, Linearised};
-use kinecal_host::data;
-use kinecal_host::diagnose::fit_geometry;
-use kinecal_host::penalised_fit::{fit, squared_errors, Problem, TablePenalty};
-use kinecal_host::robot_file::RobotFile;
-use kinecal_host::significance::{incomplete_beta, paired_improvement, repeat_noise, student_t_sf};
-use kinecal_host::sim::{simulate, EffectArg, GeomErrors, Simulation};
-use kinecal_host::VCAP;
+use kinecal_cli::commands::diagnose::{run, Args};
+use kinecal_cli::diagnose::candidates::{catalogue, Candidate, CandidateKind, CatalogueConfig};
+use kinecal_cli::diagnose::cross_validation::{
+    candidate_columns, refit_errors, rms, Folds, Linearised,
+};
+use kinecal_cli::diagnose::fit_geometry;
+use kinecal_cli::diagnose::penalised_fit::{fit, squared_errors, Problem, TablePenalty};
+use kinecal_cli::diagnose::significance::{
+    incomplete_beta, paired_improvement, repeat_noise, student_t_sf,
+};
+use kinecal_cli::formats::measurements;
+use kinecal_cli::formats::robot_file::RobotFile;
+use kinecal_cli::simulation::{simulate, EffectArg, GeomErrors, Simulation};
+use kinecal_cli::VCAP;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -276,16 +280,16 @@ fn noise_floor_comes_from_repeated_poses() {
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(99);
         let configs: Vec<[f64; 6]> = d[..20].iter().map(|m| m.q).collect();
         for _ in 0..2 {
-            let points = kinecal_host::sim::measure(&truth, &configs, sigma, &mut rng);
+            let points = kinecal_cli::simulation::measure(&truth, &configs, sigma, &mut rng);
             for (q, p) in configs.iter().zip(points) {
                 d.push(Measurement { q: *q, point: p });
             }
         }
         let r =
-            kinecal_host::diagnose::diagnose(&er20(), true, &[], &d, &Default::default()).unwrap();
+            kinecal_cli::diagnose::diagnose(&er20(), true, &[], &d, &Default::default()).unwrap();
         assert_eq!(
             r.noise_source,
-            kinecal_host::diagnose::NoiseSource::RepeatedPoses
+            kinecal_cli::diagnose::NoiseSource::RepeatedPoses
         );
         let floor = 3f64.sqrt() * sigma;
         assert!(
@@ -313,7 +317,7 @@ fn write_case(dir: &std::path::Path, effects: Vec<EffectArg>, seed: u64) -> (Pat
     };
     let (_, ds) = simulate(&er20(), &s).unwrap();
     let data = dir.join("d.csv");
-    data::write(&data, &ds).unwrap();
+    measurements::write(&data, &ds).unwrap();
     (data_dir().join("er20.toml"), data)
 }
 
@@ -390,7 +394,7 @@ fn diagnose_command_names_the_effect_writes_the_model_and_plots() {
         assert_eq!(model.effects[0].kind, "joint-compliance");
         assert_eq!(model.effects[0].joint, 2);
         let robot = model.to_robot::<6>().unwrap();
-        let d = kinecal_host::data::load::<6>(&data)
+        let d = kinecal_cli::formats::measurements::load::<6>(&data)
             .unwrap()
             .measurements::<f64>();
         let fit_rms = (squared_errors(&robot, &d).iter().sum::<f64>() / d.len() as f64).sqrt();
@@ -440,7 +444,7 @@ fn diagnose_command_refuses_bad_input_with_a_reason() {
         };
         let (_, ds) = simulate(&er20(), &s).unwrap();
         let data = tmp.path().join("few.csv");
-        data::write(&data, &ds).unwrap();
+        measurements::write(&data, &ds).unwrap();
         let e = run(&args(data_dir().join("er20.toml"), data), true)
             .unwrap_err()
             .to_string();
@@ -517,8 +521,8 @@ fn nothing_hidden(
 }
 
 /// `diagnose` of `arm`'s nominal model on `ident`, with the default configuration.
-fn diagnose_arm(arm: &Arm, ident: &[Measurement<f64, 6>]) -> kinecal_host::diagnose::Diagnosis<6> {
-    kinecal_host::diagnose::diagnose(
+fn diagnose_arm(arm: &Arm, ident: &[Measurement<f64, 6>]) -> kinecal_cli::diagnose::Diagnosis<6> {
+    kinecal_cli::diagnose::diagnose(
         &arm.nominal,
         arm.base_known,
         &[],
@@ -556,7 +560,7 @@ fn noise_floor_never_exceeds_the_held_out_rms_on_few_poses() {
                     d.found.len()
                 );
                 eprintln!("{line}");
-                assert_eq!(d.noise_source, kinecal_host::diagnose::NoiseSource::HeldOut);
+                assert_eq!(d.noise_source, kinecal_cli::diagnose::NoiseSource::HeldOut);
                 assert!(
                     d.noise_floor_mm.is_finite() && d.noise_floor_mm > 0.0,
                     "{line}"
@@ -615,7 +619,7 @@ fn noise_floor_is_the_noise_level_on_many_poses() {
 /// Chi-square quantiles of the interval against tables.
 #[test]
 fn chi_square_quantiles_match_tables() {
-    use kinecal_host::significance::{chi_square_quantile, normal_quantile};
+    use kinecal_cli::diagnose::significance::{chi_square_quantile, normal_quantile};
     assert!((normal_quantile(0.975) - 1.959_964).abs() < 1e-6);
     assert!((normal_quantile(0.025) + 1.959_964).abs() < 1e-6);
     assert!((normal_quantile(0.5)).abs() < 1e-12);
@@ -634,7 +638,7 @@ fn chi_square_quantiles_match_tables() {
 /// Figures that differ print differently; equal ones alike; never `inf` or `NaN`.
 #[test]
 fn figures_that_differ_print_differently() {
-    use kinecal_host::diagnose::distinct_figures;
+    use kinecal_cli::diagnose::distinct_figures;
     assert_eq!(distinct_figures([0.0178, 0.0174]), ["0.0178", "0.0174"]);
     let [a, b] = distinct_figures([0.29720, 0.29724]);
     assert_ne!(a, b);
@@ -658,7 +662,7 @@ fn shows(printed: &(String, f64), value: f64) -> bool {
 }
 
 fn kinecal(argv: &[&str]) -> String {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_kinecal"))
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
         .args(argv)
         .output()
         .unwrap();
@@ -689,7 +693,8 @@ fn nothing_added_reports_one_fit_and_a_floor_below_the_held_out_errors() {
                 configs.push(m.q);
                 points.push(m.point);
             }
-            data::write(&path, &kinecal_host::sim::dataset(&configs, &points)).unwrap();
+            measurements::write(&path, &kinecal_cli::simulation::dataset(&configs, &points))
+                .unwrap();
             let robot = data_dir().join(format!("{}.toml", arm.name));
             let argv = [
                 "diagnose",

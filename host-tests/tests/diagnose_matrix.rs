@@ -16,10 +16,10 @@
 //! cases with these seeds; `KINECAL_MATRIX_VERBOSE=1` prints every case's JSON report.)
 
 use kinecal::{Frame, Measurement, Robot};
-use kinecal_host::diagnose::{diagnose, fit_geometry, Config, Diagnosis};
-use kinecal_host::robot_file::RobotFile;
-use kinecal_host::sim::{simulate, EffectArg, GeomErrors, Simulation};
-use kinecal_host::VCAP;
+use kinecal_cli::diagnose::{diagnose, fit_geometry, Config, Diagnosis};
+use kinecal_cli::formats::robot_file::RobotFile;
+use kinecal_cli::simulation::{simulate, EffectArg, GeomErrors, Simulation};
+use kinecal_cli::VCAP;
 use rand::{RngExt, SeedableRng};
 use rand_distr::StandardNormal;
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -274,7 +274,7 @@ pub fn named<const N: usize>(d: &Diagnosis<N>) -> Vec<Hidden> {
         .iter()
         .map(|f| {
             let arg = match f.candidate.kind {
-                kinecal_host::candidates::CandidateKind::Cyclic(n) => n as usize,
+                kinecal_cli::diagnose::candidates::CandidateKind::Cyclic(n) => n as usize,
                 _ => 0,
             };
             Hidden {
@@ -308,7 +308,7 @@ pub fn run_case<const N: usize>(l: &Loaded<N>, poses: usize, c: &Case) -> Outcom
     let d = diagnose(&l.nominal, l.base_known, &[], &data, &Config::default()).unwrap();
     let seconds = t.elapsed().as_secs_f64();
     if std::env::var("KINECAL_MATRIX_VERBOSE").is_ok() {
-        let r = kinecal_host::cli::diagnose::report(&d);
+        let r = kinecal_cli::commands::diagnose::report(&d);
         eprintln!("{}", serde_json::to_string_pretty(&r).unwrap());
     }
     let found = named(&d);

@@ -8,8 +8,8 @@ use kinecal::frames::circle_point::{
 };
 use kinecal::model::frame::orientation_error;
 use kinecal::{Frame, Joint, Robot};
-use kinecal_host::data;
-use kinecal_host::sweeps::{default_rest, sweep_data, SweepSet};
+use kinecal_cli::formats::measurements;
+use kinecal_cli::simulation::sweeps::{default_rest, sweep_data, SweepSet};
 use nalgebra::{Rotation3, Unit, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
@@ -649,8 +649,8 @@ fn frames_args(
     robot: &std::path::Path,
     data: &std::path::Path,
     out: Option<std::path::PathBuf>,
-) -> kinecal_host::cli::frames::Args {
-    kinecal_host::cli::frames::Args {
+) -> kinecal_cli::commands::frames::Args {
+    kinecal_cli::commands::frames::Args {
         robot: robot.to_path_buf(),
         data: data.to_path_buf(),
         out,
@@ -676,11 +676,13 @@ fn frames_command_reports_the_base_and_writes_it_into_the_robot_file() {
     )
     .unwrap();
     let csv = dir.path().join("sweeps.csv");
-    data::write(&csv, &data).unwrap();
+    measurements::write(&csv, &data).unwrap();
     let out = dir.path().join("r2.toml");
-    let v =
-        kinecal_host::cli::frames::run(&frames_args(&robot_path, &csv, Some(out.clone())), true)
-            .unwrap();
+    let v = kinecal_cli::commands::frames::run(
+        &frames_args(&robot_path, &csv, Some(out.clone())),
+        true,
+    )
+    .unwrap();
     let xyz: Vec<f64> = serde_json::from_value(v["base"]["xyz_mm"].clone()).unwrap();
     let rpy: Vec<f64> = serde_json::from_value(v["base"]["rpy_deg"].clone()).unwrap();
     let found = Frame::from_xyz_rpy(
@@ -700,7 +702,7 @@ fn frames_command_reports_the_base_and_writes_it_into_the_robot_file() {
     assert!(circles.iter().all(|c| c["radius_mm"].is_number()));
     assert!(circles[0]["rms_mm"].as_f64().unwrap() < 0.05);
     // The written robot file has the same base and reads back.
-    let (_, r2) = kinecal_host::robot_file::load_robot::<6>(&out).unwrap();
+    let (_, r2) = kinecal_cli::formats::robot_file::load_robot::<6>(&out).unwrap();
     let (mm2, deg2) = frame_error(r2.base(), &found);
     assert!(mm2 < 1e-9 && deg2 < 1e-9);
     assert_eq!(r2.joints()[1].a, 170.0);
@@ -711,10 +713,10 @@ fn frames_command_warns_about_short_or_noisy_sweeps_and_names_bad_cells() {
     let dir = tempfile::tempdir().unwrap();
     let robot_path = write_robot(dir.path(), &UR10, UR10_TOOL);
     let truth: Robot<f64, 6, 0> = robot(&UR10, UR10_TOOL, Frame::identity());
-    let run = |data: &data::Dataset<6>, name: &str| {
+    let run = |data: &measurements::Dataset<6>, name: &str| {
         let csv = dir.path().join(name);
-        data::write(&csv, data).unwrap();
-        kinecal_host::cli::frames::run(&frames_args(&robot_path, &csv, None), true)
+        measurements::write(&csv, data).unwrap();
+        kinecal_cli::commands::frames::run(&frames_args(&robot_path, &csv, None), true)
     };
     let warnings = |v: &serde_json::Value| {
         v["warnings"]
@@ -770,8 +772,8 @@ fn frames_binary_prints_one_json_object() {
     let truth: Robot<f64, 6, 0> = robot(&UR10, UR10_TOOL, random_base(&mut rng));
     let data = sweep_data(&truth, &[0.0; 6], &[1, 2, 5, 6], 24, 360.0, 0.02, 2).unwrap();
     let csv = dir.path().join("s.csv");
-    data::write(&csv, &data).unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_kinecal"))
+    measurements::write(&csv, &data).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
         .args([
             "frames",
             "--robot",
@@ -819,8 +821,8 @@ fn identify_from_the_sweep_base_converges_as_well_as_from_registration() {
 }
 
 fn identify_case() {
-    use kinecal_host::cli::identify::{run, Args};
-    use kinecal_host::sim::{
+    use kinecal_cli::commands::identify::{run, Args};
+    use kinecal_cli::simulation::{
         dataset, measure, perturb_geometry, random_configurations, GeomErrors, Streams,
     };
     let dir = tempfile::tempdir().unwrap();
@@ -843,9 +845,9 @@ fn identify_case() {
         )
         .unwrap();
         let sweep_csv = dir.path().join("sweeps.csv");
-        data::write(&sweep_csv, &sweeps).unwrap();
+        measurements::write(&sweep_csv, &sweeps).unwrap();
         let with_base = dir.path().join("with_base.toml");
-        kinecal_host::cli::frames::run(
+        kinecal_cli::commands::frames::run(
             &frames_args(&robot_path, &sweep_csv, Some(with_base.clone())),
             true,
         )
@@ -855,7 +857,7 @@ fn identify_case() {
             let q = random_configurations(&truth, n, &mut streams.configs);
             let p = measure(&truth, &q, sigma, &mut streams.noise);
             let path = dir.path().join(name);
-            data::write(&path, &dataset(&q, &p)).unwrap();
+            measurements::write(&path, &dataset(&q, &p)).unwrap();
             path
         };
         let ident = write("ident.csv", 50, &mut streams);

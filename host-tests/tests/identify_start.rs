@@ -3,7 +3,7 @@
 //! because identifiability is re-decided as the model moves. Also: a run that cannot converge
 //! says so with exit status 3, and `--fix`/`--free` change what is estimated.
 
-use kinecal_host::robot_file::RobotFile;
+use kinecal_cli::formats::robot_file::RobotFile;
 use std::path::Path;
 
 mod common;

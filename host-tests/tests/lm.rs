@@ -10,7 +10,9 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 
 /// The ER20-C10 stand-in of the demo (joint limits ±170°).
 fn er20() -> Robot<f64, 6, 64> {
-    kinecal_host::sim::er20_c10().with_capacity::<64>().unwrap()
+    kinecal_cli::simulation::er20_c10()
+        .with_capacity::<64>()
+        .unwrap()
 }
 
 fn perturbed(nominal: &Robot<f64, 6, 64>, rng: &mut Xoshiro256PlusPlus) -> Robot<f64, 6, 64> {

@@ -5,21 +5,22 @@
 use kinecal::identify::lm::{Levenberg, LmConfig, LmError, PassKind, PassPart};
 use kinecal::model::param::{Param, ParamSet};
 use kinecal::{ForwardKinematics, Measurement, Robot};
-use kinecal_host::sim;
-use kinecal_host::vec_lm::VecLm;
+use kinecal_cli::calibration::vec_lm::VecLm;
+use kinecal_cli::simulation;
 use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 type Lm = Levenberg<f64, 6, 64, VecLm<f64>>;
 
 /// The ER20 stand-in with the base estimated too (6 base parameters, some confounded and
-/// held), a perturbed truth ([`sim::perturb_geometry`]), and noisy poses of it.
+/// held), a perturbed truth ([`simulation::perturb_geometry`]), and noisy poses of it.
 fn problem(n: usize, seed: u64) -> (Robot<f64, 6, 64>, Vec<Param>, Vec<Measurement<f64, 6>>) {
-    let nominal = sim::er20_c10().with_capacity::<64>().unwrap();
+    let nominal = simulation::er20_c10().with_capacity::<64>().unwrap();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
-    let truth = sim::perturb_geometry(&nominal, &sim::GeomErrors::default(), &mut rng);
-    let configs = sim::random_configurations(&nominal, n, &mut rng);
-    let points = sim::measure(&truth, &configs, 0.01, &mut rng);
+    let truth =
+        simulation::perturb_geometry(&nominal, &simulation::GeomErrors::default(), &mut rng);
+    let configs = simulation::random_configurations(&nominal, n, &mut rng);
+    let points = simulation::measure(&truth, &configs, 0.01, &mut rng);
     let data = configs
         .iter()
         .zip(points)
@@ -109,13 +110,14 @@ fn a_run_in_parts_is_the_run_of_step() {
 
 #[test]
 fn the_host_runs_large_data_in_parts_with_the_same_outcome() {
-    let n = kinecal_host::parallel::PARALLEL_MIN_POSES + 1000;
+    let n = kinecal_cli::calibration::parallel::PARALLEL_MIN_POSES + 1000;
     let (start, params, data) = problem(n, 4);
     let mut whole = solver(&start, &params);
     let end = whole.run(&data).unwrap();
     let mut host = solver(&start, &params);
     let mut calls = 0;
-    let p = kinecal_host::parallel::run_lm(&mut host, &data, |_, _| calls += 1).unwrap();
+    let p =
+        kinecal_cli::calibration::parallel::run_lm(&mut host, &data, |_, _| calls += 1).unwrap();
     assert!(end.stopped.is_some());
     assert!(
         calls >= p.evaluations as usize,

@@ -15,9 +15,9 @@ use kinecal::model::param::ParamSet;
 use kinecal::planning::information::{default_tolerance, scaled_rows, PoseRows};
 use kinecal::planning::online_design::OnlineDesign;
 use kinecal::Robot;
-use kinecal_host::cli::plan::{self, CriterionArg, HostCandidate, PlanRequest, PCAP};
-use kinecal_host::robot_file::RobotFile;
-use kinecal_host::scene::SceneFile;
+use kinecal_cli::commands::plan::{self, CriterionArg, HostCandidate, PlanRequest, PCAP};
+use kinecal_cli::formats::cell::SceneFile;
+use kinecal_cli::formats::robot_file::RobotFile;
 use nalgebra::{DMatrix, Matrix4, Vector3, Vector4};
 use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -28,7 +28,7 @@ fn cell_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/cell")
 }
 
-fn load() -> (RobotFile, Robot<f64, 6, { kinecal_host::VCAP }>, SceneFile) {
+fn load() -> (RobotFile, Robot<f64, 6, { kinecal_cli::VCAP }>, SceneFile) {
     let file = RobotFile::load(&cell_dir().join("robot.toml")).unwrap();
     let robot = file.to_robot::<6>().unwrap();
     let scene = SceneFile::load(&cell_dir().join("scene.toml"), 6).unwrap();
@@ -227,7 +227,7 @@ fn independent_violation(
 // Independent KPI: dense Jacobian, SVD pseudo-inverse.
 
 fn dense_kpi(
-    robot: &Robot<f64, 6, { kinecal_host::VCAP }>,
+    robot: &Robot<f64, 6, { kinecal_cli::VCAP }>,
     poses: &[[f64; 6]],
     work: &[[f64; 6]],
     sigma: f64,
@@ -358,7 +358,7 @@ fn plan_command_accepts_negative_work_values_and_writes_csv_and_json() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("p.csv");
     let cell = cell_dir();
-    let output = Command::new(env!("CARGO_BIN_EXE_kinecal"))
+    let output = Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
         .args(["plan", "--robot"])
         .arg(cell.join("robot.toml"))
         .arg("--scene")
@@ -403,7 +403,7 @@ fn plan_command_accepts_negative_work_values_and_writes_csv_and_json() {
     }
     assert_eq!(rows, 25);
     // A malformed work configuration is a one-line error.
-    let bad = Command::new(env!("CARGO_BIN_EXE_kinecal"))
+    let bad = Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
         .args(["plan", "--robot"])
         .arg(cell.join("robot.toml"))
         .arg("--scene")
@@ -457,7 +457,7 @@ fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
                 .iter()
                 .map(|g| basis.reduce(g))
                 .collect();
-            let (d, _) = plan::optimise::<6, { kinecal_host::VCAP }>(
+            let (d, _) = plan::optimise::<6, { kinecal_cli::VCAP }>(
                 &mut p2,
                 &basis,
                 &wr,
@@ -475,7 +475,7 @@ fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
         };
         let worst40 = k40.tool_std_mm.iter().cloned().fold(0.0, f64::max);
         let target = worst40 * 1.1;
-        let mut online = OnlineDesign::<f64, 6, { kinecal_host::VCAP }, PCAP, 4>::new(
+        let mut online = OnlineDesign::<f64, 6, { kinecal_cli::VCAP }, PCAP, 4>::new(
             robot.clone(),
             params.clone(),
             basis.clone(),
@@ -541,7 +541,7 @@ fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
 #[test]
 fn example_scene_file_is_the_studys_cell_and_round_trips() {
     let (_, _, scene) = load();
-    let built = kinecal_host::cli::study::example_scene_file().unwrap();
+    let built = kinecal_cli::commands::study::example_scene_file().unwrap();
     assert_eq!(
         scene, built,
         "examples/cell/scene.toml differs from study::cell(780, 760)"
@@ -574,7 +574,7 @@ fn plans_without_collision_avoidance_report_their_collisions() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("p.csv");
     let cell = cell_dir();
-    let output = Command::new(env!("CARGO_BIN_EXE_kinecal"))
+    let output = Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
         .args(["plan", "--robot"])
         .arg(cell.join("robot.toml"))
         .arg("--scene")

@@ -9,7 +9,7 @@ use std::process::Command;
 fn small_study_reproduces_the_papers_claims() {
     let dir = tempfile::tempdir().unwrap();
     let svg = dir.path().join("study.svg");
-    let out = Command::new(env!("CARGO_BIN_EXE_kinecal"))
+    let out = Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
         .args([
             "study",
             "--upper-arm-mm",

@@ -2,8 +2,8 @@
 
 use kinecal::model::effects::EffectKind;
 use kinecal::{Frame, Joint, Robot};
-use kinecal_host::robot_file::{deg_exact, deg_short, line_column, RobotFile};
-use kinecal_host::VCAP;
+use kinecal_cli::formats::robot_file::{deg_exact, deg_short, line_column, RobotFile};
+use kinecal_cli::VCAP;
 use nalgebra::Vector3;
 use proptest::prelude::*;
 
@@ -487,7 +487,7 @@ fn out_writes_limits_as_given_and_reads_back_exactly() {
     std::fs::write(&robot, &text).unwrap();
     let data = dir.path().join("d.csv");
     let model = dir.path().join("m.toml");
-    let bin = env!("CARGO_BIN_EXE_kinecal");
+    let bin = env!("CARGO_BIN_EXE_kinecal-under-test");
     let run = |args: &[&str]| {
         let o = std::process::Command::new(bin).args(args).output().unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));

@@ -24,7 +24,7 @@ pub const LBR7_PLACED: &str = include_str!("../data/lbr7_placed.toml");
 
 /// The `kinecal` binary of this build.
 pub fn bin() -> &'static str {
-    env!("CARGO_BIN_EXE_kinecal")
+    env!("CARGO_BIN_EXE_kinecal-under-test")
 }
 
 /// Runs `kinecal` with `args`; the exit status is the caller's to check.

@@ -1,0 +1,142 @@
+//! The `check` hint for a missing `[[couplings]]` table.
+//!
+//! FANUC arms (and most palletisers) report J3 from the horizontal: the model angle is
+//! `q3 = J3 + J2`. Fed to a robot file without that coupling, such data look like a robot that
+//! is tens of millimetres off everywhere. [`detect`] tries the likely couplings, each joint
+//! read relative to the one before it (`q_j = r_j ± r_{j−1}`), places each candidate like
+//! `check` places the nominal model (point-set registration when the file has no `[base]`),
+//! and reports the candidate that explains the data far better than the file as written.
+
+use crate::calibration::registration::fit_base;
+use crate::calibration::{pose_errors, ErrorStats};
+use crate::formats::robot_file::RobotFile;
+use crate::output::numfmt::sig;
+use kinecal::{Measurement, Robot};
+use serde_json::{json, Value};
+
+/// A candidate must bring the RMS below this fraction of the nominal RMS to be reported.
+pub const MAX_FRACTION: f64 = 0.25;
+/// ... and gain at least this much (mm): a nominal model already within a millimetre or so of
+/// the data has no coupling missing.
+pub const MIN_GAIN_MM: f64 = 1.0;
+/// Poses used (evenly spread over the file): the hint must stay cheap on large files.
+pub const MAX_POSES: usize = 4000;
+
+/// A coupling that explains the data far better than the robot file as written.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CouplingHint {
+    /// 1-based joint whose reading looks relative.
+    pub joint: usize,
+    /// 1-based joint it looks relative to.
+    pub from: usize,
+    /// `q_joint = reading_joint + ratio · reading_from`.
+    pub ratio: f64,
+    /// RMS (mm) of the nominal model with that coupling.
+    pub rms_mm: f64,
+    /// RMS (mm) of the nominal model as written.
+    pub nominal_rms_mm: f64,
+}
+
+impl CouplingHint {
+    /// The one-line warning `kinecal check` prints.
+    pub fn message(&self) -> String {
+        let (j, f) = (self.joint, self.from);
+        let sign = if self.ratio < 0.0 { '-' } else { '+' };
+        let what = if j == 3 && f == 2 {
+            "J3 looks measured from the horizontal".to_string()
+        } else {
+            format!("J{j} looks measured relative to J{f}")
+        };
+        format!(
+            "hint: {what} (a coupling q{j} = J{j} {sign} J{f} explains the data: {} mm vs {} mm); add [[couplings]] joint = {j}, from = {f}, ratio = {:?}",
+            sig(self.rms_mm, 3),
+            sig(self.nominal_rms_mm, 3),
+            self.ratio
+        )
+    }
+
+    /// The JSON object of `check`'s `coupling_hint` key.
+    pub fn to_json(&self) -> Value {
+        json!({
+            "joint": self.joint,
+            "from": self.from,
+            "ratio": self.ratio,
+            "rms_mm": self.rms_mm,
+            "nominal_rms_mm": self.nominal_rms_mm,
+            "message": self.message(),
+        })
+    }
+}
+
+/// RMS (mm) of `robot` on `data`, with the base fitted to the data first when `fit` is set.
+fn rms_placed<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    data: &[Measurement<f64, N>],
+    fit: bool,
+) -> Option<f64> {
+    let mut r = robot.clone();
+    if fit {
+        let base = fit_base(&r, data).ok()?;
+        r.set_base(base).ok()?;
+    }
+    let rms = ErrorStats::of(&pose_errors(&r, data))?.rms_mm;
+    rms.is_finite().then_some(rms)
+}
+
+/// The coupling (joint `j` from `j − 1`, ratio ±1) that explains `data` far better than
+/// `robot` (which must have no couplings) does: at most [`MAX_FRACTION`] of its RMS and at
+/// least [`MIN_GAIN_MM`] better. `fit_base` = place each model by registration (the file has
+/// no `[base]`), as `check` does.
+pub fn detect<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    data: &[Measurement<f64, N>],
+    fit_base: bool,
+) -> Option<CouplingHint> {
+    if !robot.couplings().is_empty() || data.len() < 6 {
+        return None;
+    }
+    let stride = data.len().div_ceil(MAX_POSES).max(1);
+    let sample: Vec<Measurement<f64, N>> = data.iter().step_by(stride).cloned().collect();
+    let nominal = rms_placed(robot, &sample, fit_base)?;
+    let mut best: Option<CouplingHint> = None;
+    for j in 1..N {
+        for ratio in [1.0, -1.0] {
+            let mut r = robot.clone();
+            if r.set_coupling(j, j - 1, ratio).is_err() {
+                continue;
+            }
+            let Some(rms) = rms_placed(&r, &sample, fit_base) else {
+                continue;
+            };
+            if best.as_ref().is_none_or(|b| rms < b.rms_mm) {
+                best = Some(CouplingHint {
+                    joint: j + 1,
+                    from: j,
+                    ratio,
+                    rms_mm: rms,
+                    nominal_rms_mm: nominal,
+                });
+            }
+        }
+    }
+    best.filter(|b| b.rms_mm <= MAX_FRACTION * nominal && nominal - b.rms_mm >= MIN_GAIN_MM)
+}
+
+/// `kinecal check`'s hint: for a robot file without `[[couplings]]`, looks for a missing one,
+/// prints the warning line to stderr and returns the JSON value of the `coupling_hint` key
+/// (the hint's object, or null).
+pub fn check_hint<const N: usize>(file: &RobotFile, data: &[Measurement<f64, N>]) -> Value {
+    if !file.couplings.is_empty() {
+        return Value::Null;
+    }
+    let Ok(robot) = file.to_robot::<N>() else {
+        return Value::Null;
+    };
+    match detect(&robot, data, !file.base_known()) {
+        Some(h) => {
+            eprintln!("{}", h.message());
+            h.to_json()
+        }
+        None => Value::Null,
+    }
+}

@@ -1,0 +1,381 @@
+//! Identification on the desktop: split the data, start the base, run a method, report errors
+//! before and after in the units and keys of interfaces.md §4.
+
+pub mod coupling_hint;
+pub mod parallel;
+pub mod pso_search;
+pub mod registration;
+pub mod vec_lm;
+
+use crate::calibration::vec_lm::VecLm;
+use kinecal::identify::lm::{Levenberg, LmConfig, LmStop};
+use kinecal::model::param::{value, Param};
+use kinecal::{ForwardKinematics, Measurement, Robot};
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Position errors of a model over one data set.
+#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+pub struct ErrorStats {
+    pub rms_mm: f64,
+    pub mean_mm: f64,
+    pub max_mm: f64,
+}
+
+impl ErrorStats {
+    pub fn of(errors: &[f64]) -> Option<Self> {
+        if errors.is_empty() {
+            return None;
+        }
+        let n = errors.len() as f64;
+        Some(Self {
+            rms_mm: (errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt(),
+            mean_mm: errors.iter().sum::<f64>() / n,
+            max_mm: errors.iter().cloned().fold(0.0, f64::max),
+        })
+    }
+}
+
+/// Per-pose 3-D position errors (mm) of `robot` on `data`.
+pub fn pose_errors<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    data: &[Measurement<f64, N>],
+) -> Vec<f64> {
+    crate::calibration::parallel::map_parts(data, |part| {
+        let mut fk = ForwardKinematics::new();
+        part.iter()
+            .map(|m| (m.point - fk.compute(robot, &m.q)).norm())
+            .collect::<Vec<f64>>()
+    })
+    .concat()
+}
+
+/// The `before`/`after` object of the identify report.
+#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+pub struct Residuals {
+    pub identification_rms_mm: f64,
+    pub validation_rms_mm: Option<f64>,
+    pub validation_mean_mm: Option<f64>,
+    pub validation_max_mm: Option<f64>,
+}
+
+impl Residuals {
+    pub fn of<const N: usize, const V: usize>(
+        robot: &Robot<f64, N, V>,
+        ident: &[Measurement<f64, N>],
+        valid: &[Measurement<f64, N>],
+    ) -> Self {
+        let i = ErrorStats::of(&pose_errors(robot, ident));
+        let v = ErrorStats::of(&pose_errors(robot, valid));
+        Self {
+            identification_rms_mm: i.map_or(0.0, |s| s.rms_mm),
+            validation_rms_mm: v.map(|s| s.rms_mm),
+            validation_mean_mm: v.map(|s| s.mean_mm),
+            validation_max_mm: v.map(|s| s.max_mm),
+        }
+    }
+}
+
+/// Splits poses into identification and held-out sets: `holdout` < 1 is the held-out fraction,
+/// ≥ 1 the held-out count; the held-out poses are the last ones of the file (measurement order,
+/// so a drift over the session shows up as a validation error instead of being averaged away).
+pub fn split_holdout<T: Clone>(all: &[T], holdout: f64) -> anyhow::Result<(Vec<T>, Vec<T>)> {
+    let n = all.len();
+    let k = if holdout < 1.0 {
+        (holdout * n as f64).round() as usize
+    } else {
+        holdout as usize
+    };
+    anyhow::ensure!(
+        holdout >= 0.0 && holdout.is_finite() && k < n,
+        "--holdout {holdout} leaves no poses to identify from ({n} poses)"
+    );
+    Ok((all[..n - k].to_vec(), all[n - k..].to_vec()))
+}
+
+/// Named parameter values in file units (degrees for angles, mm for lengths, raw for effects).
+pub fn named_values<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    params: &[Param],
+) -> BTreeMap<String, f64> {
+    params
+        .iter()
+        .filter_map(|p| {
+            let v = value(robot, *p)?;
+            let v = match p {
+                Param::Effect(_) => v,
+                p if p.is_length() => v,
+                _ => v.to_degrees(),
+            };
+            Some((p.name(robot).to_string(), v))
+        })
+        .collect()
+}
+
+/// Outcome of one identification run.
+#[derive(Clone, Debug)]
+pub struct Fit<const N: usize, const V: usize> {
+    pub robot: Robot<f64, N, V>,
+    pub iterations: u32,
+    pub evaluations: u64,
+    pub unidentifiable: Vec<String>,
+    /// Best objective value (sum of squared errors, mm²) per iteration, when the method has one.
+    pub history: Vec<f64>,
+    /// Why the local solver stopped (`None` for a method without one, such as PSO alone).
+    pub stop: Option<LmStop>,
+    /// What was held at its start value, and with which estimated parameters it is confounded.
+    pub held: Vec<Held>,
+    /// 1-σ of each estimated parameter in file units (mm, degrees, raw for effect values),
+    /// from the covariance `s²(JᵀJ)⁻¹` with `s²` the residual variance per coordinate.
+    pub sigma: BTreeMap<String, f64>,
+}
+
+impl<const N: usize, const V: usize> Fit<N, V> {
+    /// A fit with no solver diagnostics (global methods).
+    pub fn plain(
+        robot: Robot<f64, N, V>,
+        iterations: u32,
+        evaluations: u64,
+        history: Vec<f64>,
+    ) -> Self {
+        Self {
+            robot,
+            iterations,
+            evaluations,
+            unidentifiable: Vec::new(),
+            history,
+            stop: None,
+            held: Vec::new(),
+            sigma: BTreeMap::new(),
+        }
+    }
+
+    /// True when the local solver ended at a minimum (cost or step below tolerance), false when
+    /// it hit its iteration limit or could not make progress.
+    pub fn solver_converged(&self) -> bool {
+        !matches!(self.stop, Some(LmStop::MaxIterations | LmStop::NoProgress))
+    }
+}
+
+/// A parameter the data could not determine, and why.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Held {
+    pub name: String,
+    /// Estimated parameters whose combination reproduces its effect on the measured points,
+    /// strongest first (empty when no pose moves the point with it at all).
+    pub confounded_with: Vec<String>,
+}
+
+/// Levenberg–Marquardt from `start` over `params`, its normal equations on the heap sized
+/// for exactly these parameters ([`VecLm`]).
+pub fn fit_lm<const N: usize, const V: usize>(
+    start: &Robot<f64, N, V>,
+    params: &[Param],
+    data: &[Measurement<f64, N>],
+    cfg: LmConfig<f64>,
+) -> anyhow::Result<Fit<N, V>> {
+    let mut lm = Box::new(
+        Levenberg::new(start.clone(), VecLm::new(params), cfg)
+            .map_err(|e| anyhow::anyhow!("identification setup: {e:?}"))?,
+    );
+    let mut history = Vec::new();
+    let p = crate::calibration::parallel::run_lm(&mut lm, data, |lm, p| {
+        if lm.analysed() && history.last() != Some(&p.cost) {
+            history.push(p.cost);
+        }
+    })
+    .map_err(|e| anyhow::anyhow!("identification: {e:?}"))?;
+    let (held, sigma) = identifiability_report(&lm, data.len(), p.cost);
+    Ok(Fit {
+        robot: lm.robot().clone(),
+        iterations: p.iteration,
+        evaluations: p.evaluations as u64,
+        unidentifiable: lm
+            .unidentifiable()
+            .map(|q| q.name(lm.robot()).to_string())
+            .collect(),
+        history,
+        stop: p.stopped,
+        held,
+        sigma,
+    })
+}
+
+/// Reads the solver's last normal matrix: for each held parameter the estimated ones it is
+/// confounded with (coefficients of its normalised column on theirs), and the 1-σ of each
+/// estimated parameter.
+fn identifiability_report<const N: usize, const V: usize>(
+    lm: &Levenberg<f64, N, V, VecLm<f64>>,
+    n_poses: usize,
+    cost: f64,
+) -> (Vec<Held>, BTreeMap<String, f64>) {
+    use nalgebra::{DMatrix, DVector};
+    let params = lm.params();
+    let n = params.len();
+    let jtj = |i: usize, j: usize| lm.normal_matrix(i, j);
+    let robot = lm.robot();
+    let active: Vec<usize> = (0..n).filter(|&k| lm.is_active(k)).collect();
+    let m = active.len();
+    let a = DMatrix::from_fn(m, m, |i, j| jtj(active[i], active[j]));
+    let mut sigma = BTreeMap::new();
+    let dof = (3 * n_poses).saturating_sub(m);
+    let chol = a.clone().cholesky();
+    if let (Some(ch), true) = (&chol, dof > 0) {
+        let s2 = cost / dof as f64;
+        let inv = ch.inverse();
+        for (i, &k) in active.iter().enumerate() {
+            let sd = (s2 * inv[(i, i)]).max(0.0).sqrt() / lm.scale(k);
+            let sd = match params[k] {
+                Param::Effect(_) => sd,
+                p if p.is_length() => sd,
+                _ => sd.to_degrees(),
+            };
+            sigma.insert(params[k].name(robot).to_string(), sd);
+        }
+    }
+    // Correlation-normalised: the coefficients then compare columns of different units.
+    let d: Vec<f64> = (0..n).map(|k| jtj(k, k).max(0.0).sqrt()).collect();
+    let corr = |i: usize, j: usize| {
+        if d[i] > 0.0 && d[j] > 0.0 {
+            jtj(i, j) / (d[i] * d[j])
+        } else {
+            0.0
+        }
+    };
+    let r = DMatrix::from_fn(m, m, |i, j| corr(active[i], active[j]));
+    let rchol = r.cholesky();
+    let dmax = d.iter().cloned().fold(0.0, f64::max);
+    let held = (0..n)
+        .filter(|&k| !lm.is_active(k))
+        .map(|k| {
+            let mut with = Vec::new();
+            if d[k] > dmax * 1e-8 {
+                if let Some(ch) = &rchol {
+                    let b = DVector::from_fn(m, |i, _| corr(active[i], k));
+                    let c = ch.solve(&b);
+                    let big = c.iter().fold(0.0f64, |x, v| x.max(v.abs()));
+                    let mut terms: Vec<(f64, usize)> = c
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, v)| v.abs() >= 0.2 * big && v.abs() > 1e-6)
+                        .map(|(i, v)| (v.abs(), active[i]))
+                        .collect();
+                    terms.sort_by(|x, y| y.0.total_cmp(&x.0));
+                    with = terms
+                        .iter()
+                        .take(4)
+                        .map(|(_, j)| params[*j].name(robot).to_string())
+                        .collect();
+                }
+            }
+            Held {
+                name: params[k].name(robot).to_string(),
+                confounded_with: with,
+            }
+        })
+        .collect();
+    (held, sigma)
+}
+
+/// An effect to add to the model before identification (`--effect KIND:JOINT[:ARG]`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct EffectRequest {
+    /// An id of interfaces.md §2 (`joint-compliance`, `joint-cyclic`, `joint-scale`,
+    /// `axis-tilt`, `joint-table`).
+    pub kind: String,
+    /// 0-based joint.
+    pub joint: usize,
+    /// Harmonic order (cyclic, default 1) or knot spacing in degrees (table, default 3.6).
+    pub arg: Option<f64>,
+}
+
+impl std::str::FromStr for EffectRequest {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> anyhow::Result<Self> {
+        let mut it = s.split(':');
+        let kind = it.next().unwrap_or_default().to_string();
+        let joint: usize = it
+            .next()
+            .ok_or_else(|| anyhow::anyhow!("--effect {s}: expected KIND:JOINT[:ARG]"))?
+            .parse()
+            .map_err(|_| anyhow::anyhow!("--effect {s}: JOINT must be a joint number (1-based)"))?;
+        let arg = match it.next() {
+            Some(a) => Some(
+                a.parse::<f64>()
+                    .map_err(|_| anyhow::anyhow!("--effect {s}: ARG must be a number"))?,
+            ),
+            None => None,
+        };
+        anyhow::ensure!(
+            it.next().is_none(),
+            "--effect {s}: expected KIND:JOINT[:ARG]"
+        );
+        anyhow::ensure!(joint >= 1, "--effect {s}: joints are numbered from 1");
+        anyhow::ensure!(
+            kind == "axis-tilt" || kinecal::EffectKind::from_id(&kind).is_some(),
+            "--effect {s}: unknown effect '{kind}' (joint-compliance, joint-cyclic, joint-scale, axis-tilt, joint-table)"
+        );
+        Ok(Self {
+            kind,
+            joint: joint - 1,
+            arg,
+        })
+    }
+}
+
+/// Adds `req` to `robot` with zero values and returns the parameters it makes free.
+/// Tables span the joint range the data covers (`q_range_rad`), knots every `arg` degrees.
+pub fn add_effect<const N: usize, const V: usize>(
+    robot: &mut Robot<f64, N, V>,
+    req: &EffectRequest,
+    q_range_rad: (f64, f64),
+) -> anyhow::Result<Vec<Param>> {
+    anyhow::ensure!(
+        req.joint < N,
+        "effect on joint {} but the robot has {N} joints",
+        req.joint + 1
+    );
+    if req.kind == "axis-tilt" {
+        return Ok(vec![Param::Beta(req.joint as u8)]);
+    }
+    let kind = kinecal::EffectKind::from_id(&req.kind)
+        .ok_or_else(|| anyhow::anyhow!("unknown effect '{}'", req.kind))?;
+    let first = robot.effects().values().len();
+    let (order, start, step, len) = match kind {
+        kinecal::EffectKind::Cyclic => {
+            let n = req.arg.unwrap_or(1.0);
+            anyhow::ensure!(
+                n >= 1.0 && n.fract() == 0.0 && n < 65536.0,
+                "joint-cyclic order must be a whole number ≥ 1"
+            );
+            (n as u16, 0.0, 0.0, 2)
+        }
+        kinecal::EffectKind::Table => {
+            let step = req.arg.unwrap_or(3.6).to_radians();
+            anyhow::ensure!(
+                step > 0.0 && step.is_finite(),
+                "joint-table step must be positive"
+            );
+            let (lo, hi) = q_range_rad;
+            anyhow::ensure!(
+                lo.is_finite() && hi.is_finite() && hi >= lo,
+                "joint-table on joint {}: no joint range",
+                req.joint + 1
+            );
+            let start = (lo / step).floor() * step;
+            let knots = (((hi - start) / step).ceil() as usize + 1).max(2);
+            (0, start, step, knots)
+        }
+        _ => (0, 0.0, 0.0, 1),
+    };
+    let zeros = vec![0.0; len];
+    robot
+        .effects_mut()
+        .push(kind, req.joint, N, order, start, step, &zeros)
+        .map_err(|e| {
+            anyhow::anyhow!("cannot add {} on joint {}: {e:?}", req.kind, req.joint + 1)
+        })?;
+    Ok((first..first + len)
+        .map(|k| Param::Effect(k as u16))
+        .collect())
+}

@@ -1,0 +1,73 @@
+//! Point-set registration (Kabsch): the base pose that best maps the model's points onto the
+//! measured ones. `check` reports the nominal error with it, and identification starts the base
+//! here when the robot file has no `[base]`.
+
+use anyhow::{anyhow, bail};
+use kinecal::forward::ForwardKinematics;
+use kinecal::{Frame, Measurement, Robot};
+use nalgebra::{Matrix3, Vector3};
+
+/// The rigid transform `(R, t)` minimising `Σ |R·a_i + t − b_i|²` (Kabsch/Umeyama without
+/// scale, reflections excluded), as a frame: `b ≈ frame.point(a)`. Fails for fewer than three
+/// points, non-finite input, or points on a line (rotation about it undetermined).
+pub fn fit_rigid(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> anyhow::Result<Frame<f64>> {
+    if a.len() != b.len() {
+        bail!(
+            "point-set registration: {} model points but {} measured points",
+            a.len(),
+            b.len()
+        );
+    }
+    if a.len() < 3 {
+        bail!(
+            "point-set registration needs at least 3 points, got {}",
+            a.len()
+        );
+    }
+    if a.iter().chain(b).any(|p| !p.iter().all(|c| c.is_finite())) {
+        bail!("point-set registration: non-finite point");
+    }
+    let n = a.len() as f64;
+    let ca = a.iter().sum::<Vector3<f64>>() / n;
+    let cb = b.iter().sum::<Vector3<f64>>() / n;
+    let mut h = Matrix3::zeros();
+    for (pa, pb) in a.iter().zip(b) {
+        h += (pa - ca) * (pb - cb).transpose();
+    }
+    let svd = h.svd(true, true);
+    let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
+        bail!("point-set registration: SVD failed");
+    };
+    let mut s = svd.singular_values.as_slice().to_vec();
+    s.sort_by(|x, y| y.total_cmp(x));
+    if s[1] <= 1e-9 * s[0] || s[0] == 0.0 {
+        bail!("point-set registration: the points lie on a line (need configurations spread in space)");
+    }
+    let v = vt.transpose();
+    let d = (v * u.transpose()).determinant().signum();
+    let r = v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * u.transpose();
+    let t = cb - r * ca;
+    let mut f = Frame::from_parts(&r, t);
+    f.orthonormalize();
+    Ok(f)
+}
+
+/// The base pose that places `robot` (its own base ignored) best onto the measurements.
+pub fn fit_base<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    data: &[Measurement<f64, N>],
+) -> anyhow::Result<Frame<f64>> {
+    let mut placed = robot.clone();
+    placed
+        .set_base(Frame::identity())
+        .map_err(|e| anyhow!("{e:?}"))?;
+    let model: Vec<Vector3<f64>> = crate::calibration::parallel::map_parts(data, |part| {
+        let mut fk = ForwardKinematics::<f64, N>::new();
+        part.iter()
+            .map(|m| fk.compute(&placed, &m.q))
+            .collect::<Vec<_>>()
+    })
+    .concat();
+    let measured: Vec<Vector3<f64>> = data.iter().map(|m| m.point).collect();
+    fit_rigid(&model, &measured)
+}

@@ -1,0 +1,490 @@
+//! `kinecal identify`: fits the model to measurements and reports residuals before and after.
+
+use crate::calibration::{
+    add_effect, fit_lm, named_values, split_holdout, EffectRequest, Fit, Residuals,
+};
+use crate::formats::robot_file::{load_robot, RobotFile};
+use crate::{with_joints, VCAP};
+use anyhow::Context;
+use kinecal::identify::lm::LmConfig;
+use kinecal::model::param::ParamSet;
+use kinecal::{Measurement, Robot};
+use serde_json::json;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Identification method.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Levenberg–Marquardt from the nominal model.
+    Lm,
+    /// Particle swarm over the 24 MDH deltas (Gao et al. 2018 §3.1).
+    Pso,
+    /// PSO seeded by a BP network trained on a previous PSO run of the same robot (§3.2).
+    #[value(name = "bpnn-pso")]
+    BpnnPso,
+    /// Global PSO search, then an LM polish of the full parameter set.
+    #[value(name = "pso+lm")]
+    PsoLm,
+}
+
+impl Method {
+    pub fn id(self) -> &'static str {
+        match self {
+            Method::Lm => "lm",
+            Method::Pso => "pso",
+            Method::BpnnPso => "bpnn-pso",
+            Method::PsoLm => "pso+lm",
+        }
+    }
+}
+
+/// Arguments of `kinecal identify` (see interfaces.md §4).
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Robot description (TOML); without `[base]` the base pose is estimated too.
+    #[arg(long)]
+    pub robot: PathBuf,
+    /// Measurements (CSV: q1…qN, x, y, z).
+    #[arg(long)]
+    pub data: PathBuf,
+    #[arg(long, value_enum, default_value = "lm")]
+    pub method: Method,
+    /// Hold out the last poses for validation: a fraction (< 1) or a count (≥ 1).
+    #[arg(long, conflicts_with = "validate")]
+    pub holdout: Option<f64>,
+    /// Validate on a separate measurement file.
+    #[arg(long)]
+    pub validate: Option<PathBuf>,
+    /// Add a joint correction to the model: KIND:JOINT[:ARG] (ARG: cyclic order, or table knot
+    /// spacing in degrees, default 3.6). Repeatable.
+    #[arg(long = "effect")]
+    pub effects: Vec<EffectRequest>,
+    /// Seed of the stochastic methods.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Write the identified model (robot TOML; written atomically, never over an input).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Hold these parameters at their file values (names as printed: d6, theta1, tool.z,
+    /// base.rz, …). Repeatable, or comma-separated.
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub fix: Vec<String>,
+    /// Estimate these parameters too (for example base.x… when `[base]` is given but not
+    /// trusted, or beta3 for a tilt). Repeatable, or comma-separated.
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub free: Vec<String>,
+    /// A length parameter that moves further than this from its file value is reported as
+    /// suspicious (a manufacturing tolerance; JSON `suspicious`).
+    #[arg(long, default_value_t = 20.0)]
+    pub tolerance_mm: f64,
+    /// The same for angle parameters, degrees.
+    #[arg(long, default_value_t = 2.0)]
+    pub tolerance_deg: f64,
+    /// A fit whose identification RMS stays above this has stalled far above any tracker's
+    /// noise: reported as not converged (exit 3).
+    #[arg(long, default_value_t = 5.0)]
+    pub stall_rms_mm: f64,
+    /// Units of the data and --validate files (never second-guessed when given).
+    #[command(flatten)]
+    pub units: crate::formats::units::UnitArgs,
+}
+
+pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
+    crate::output::atomic::refuse_model_over_inputs(
+        args.out.as_deref(),
+        &args.robot,
+        &args.data,
+        args.validate.as_deref(),
+    )?;
+    let n = RobotFile::load(&args.robot)?.joint_count();
+    with_joints!(n, N => run_n::<N>(args, json))
+}
+
+fn run_n<const N: usize>(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
+    let (file, mut nominal) = load_robot::<N>(&args.robot)?;
+    let load = |p: &std::path::Path| {
+        crate::formats::units::load_measurements(p, &args.units, &nominal, file.base_known())
+            .map(|d| d.measurements::<f64>())
+    };
+    let all = load(&args.data)?;
+    let (ident, valid) = match (&args.validate, args.holdout) {
+        (Some(v), _) => (all, load(v)?),
+        (None, Some(h)) => split_holdout(&all, h)?,
+        (None, None) => (all, Vec::new()),
+    };
+    anyhow::ensure!(
+        !ident.is_empty(),
+        "{}: no measurements",
+        args.data.display()
+    );
+    let base_unknown = !file.base_known();
+    if base_unknown {
+        let base = crate::calibration::registration::fit_base(&nominal, &ident)
+            .context("estimating the base pose")?;
+        nominal
+            .set_base(base)
+            .map_err(|e| anyhow::anyhow!("estimated base pose is invalid: {e:?}"))?;
+    }
+    // Effects requested on the command line join the model with zero values.
+    let mut extra = Vec::new();
+    for t in file.tilt_joints() {
+        extra.push(kinecal::Param::Beta(t as u8));
+    }
+    for req in &args.effects {
+        let range = joint_range(&ident, req.joint);
+        extra.extend(add_effect(&mut nominal, req, range)?);
+    }
+    let mut params: Vec<kinecal::Param> = ParamSet::<64>::full(N, base_unknown)
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?
+        .as_slice()
+        .to_vec();
+    params.extend(existing_effect_params(&nominal, &params));
+    params.extend(extra.iter().copied());
+    apply_fix_free(&mut params, &args.fix, &args.free, N)?;
+    let before = Residuals::of(&nominal, &ident, &valid);
+    let t0 = Instant::now();
+    let fit = match args.method {
+        Method::Lm => fit_lm(&nominal, &params, &ident, LmConfig::default())?,
+        m => crate::calibration::pso_search::identify(m, &nominal, &params, &ident, args.seed)?,
+    };
+    let seconds = t0.elapsed().as_secs_f64();
+    let after = Residuals::of(&fit.robot, &ident, &valid);
+    let out = match &args.out {
+        Some(out) => {
+            let f = RobotFile::from_robot(
+                &format!("{} (identified)", file.name),
+                &fit.robot,
+                true,
+                &file.tilt_joints(),
+            );
+            f.save(out)?;
+            Some(out.display().to_string())
+        }
+        None => None,
+    };
+    let changes = changes(&nominal, &fit, &params, base_unknown);
+    let suspicious: Vec<String> = changes
+        .iter()
+        .filter(|c| c.beyond_tolerance(args.tolerance_mm, args.tolerance_deg))
+        .map(|c| c.name.clone())
+        .collect();
+    let stalled = after.identification_rms_mm > args.stall_rms_mm;
+    let converged = fit.solver_converged() && !stalled && after.identification_rms_mm.is_finite();
+    let verdict = Verdict {
+        converged,
+        stop: stop_text(
+            &fit,
+            after.identification_rms_mm,
+            stalled,
+            args.stall_rms_mm,
+        ),
+        suspicious,
+        out,
+    };
+    let report = report(
+        args.method,
+        &file,
+        &fit,
+        &ident,
+        &valid,
+        before,
+        after,
+        seconds,
+        &changes,
+        &verdict,
+    );
+    if !json {
+        print_human(&report, &changes, &verdict, &fit);
+    }
+    if !verdict.suspicious.is_empty() {
+        eprintln!(
+            "warning: {} moved further than a manufacturing tolerance explains: check the units, \
+             the tool point and the robot file (--tolerance-mm/--tolerance-deg set the limit)",
+            verdict.suspicious.join(", ")
+        );
+    }
+    if !verdict.converged {
+        eprintln!(
+            "error: the fit {}; these numbers are not a calibration (exit 3)",
+            verdict.stop
+        );
+    }
+    Ok(report)
+}
+
+/// The verdict on a run: whether its numbers can be taken as a calibration.
+struct Verdict {
+    converged: bool,
+    stop: String,
+    suspicious: Vec<String>,
+    out: Option<String>,
+}
+
+fn stop_text<const N: usize>(
+    fit: &Fit<N, VCAP>,
+    rms_mm: f64,
+    stalled: bool,
+    stall_rms_mm: f64,
+) -> String {
+    use crate::output::numfmt::sig;
+    use kinecal::identify::lm::LmStop;
+    let how = match fit.stop {
+        Some(LmStop::MaxIterations) => "stopped at its iteration limit before converging",
+        Some(LmStop::NoProgress) => "stalled (no step lowered the error any more)",
+        Some(_) => "converged",
+        None => "finished its iterations",
+    };
+    if stalled {
+        format!(
+            "{how} at an RMS error of {} mm, above {} mm: far above any tracker's noise, so the \
+             model or the data are wrong (units, a coupled joint, the tool, the base)",
+            sig(rms_mm, 4),
+            sig(stall_rms_mm, 3)
+        )
+    } else {
+        how.to_string()
+    }
+}
+
+/// Applies `--fix` and `--free` to the parameter list (names as printed, geometric only).
+fn apply_fix_free(
+    params: &mut Vec<kinecal::Param>,
+    fix: &[String],
+    free: &[String],
+    n: usize,
+) -> anyhow::Result<()> {
+    let parse = |flag: &str, name: &str| -> anyhow::Result<kinecal::Param> {
+        let p = kinecal::Param::parse(name.trim()).filter(|p| p.joint().is_none_or(|j| j < n));
+        match p {
+            Some(p) => Ok(p),
+            None => crate::refuse!(
+                "{flag} {name}: not a parameter of this {n}-joint robot (names: base.x … base.rz, \
+                 alpha1, a1, theta1, d1, beta1 … d{n}, tool.x, tool.y, tool.z)"
+            ),
+        }
+    };
+    for name in free {
+        let p = parse("--free", name)?;
+        if !params.contains(&p) {
+            params.push(p);
+        }
+    }
+    for name in fix {
+        let p = parse("--fix", name)?;
+        params.retain(|q| *q != p);
+    }
+    let mut seen = std::collections::HashSet::new();
+    params.retain(|p| seen.insert(*p));
+    Ok(())
+}
+
+/// One estimated parameter: file value, calibrated value, change and 1-σ (file units).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Change {
+    #[serde(skip)]
+    pub name: String,
+    #[serde(skip)]
+    pub length: bool,
+    /// Not compared with a tolerance (base estimated from the data, effect values).
+    #[serde(skip)]
+    pub free_start: bool,
+    pub nominal: f64,
+    pub calibrated: f64,
+    pub change: f64,
+    pub sigma: Option<f64>,
+}
+
+impl Change {
+    fn beyond_tolerance(&self, mm: f64, deg: f64) -> bool {
+        !self.free_start && self.change.abs() > if self.length { mm } else { deg }
+    }
+}
+
+/// What every estimated parameter did, in the order of the parameter list.
+fn changes<const N: usize>(
+    start: &Robot<f64, N, VCAP>,
+    fit: &Fit<N, VCAP>,
+    params: &[kinecal::Param],
+    base_unknown: bool,
+) -> Vec<Change> {
+    let from = named_values(start, params);
+    let to = named_values(&fit.robot, params);
+    params
+        .iter()
+        .filter_map(|p| {
+            let name = p.name(&fit.robot).to_string();
+            let (a, b) = (*from.get(&name)?, *to.get(&name)?);
+            Some(Change {
+                sigma: fit.sigma.get(&name).copied(),
+                length: p.is_length(),
+                free_start: matches!(p, kinecal::Param::Effect(_)) || (p.is_base() && base_unknown),
+                nominal: a,
+                calibrated: b,
+                change: b - a,
+                name,
+            })
+        })
+        .collect()
+}
+
+/// Parameters of effects the model file already carries (identified along with the geometry).
+fn existing_effect_params<const N: usize>(
+    robot: &Robot<f64, N, VCAP>,
+    have: &[kinecal::Param],
+) -> Vec<kinecal::Param> {
+    (0..robot.effects().values().len())
+        .map(|k| kinecal::Param::Effect(k as u16))
+        .filter(|p| !have.contains(p))
+        .collect()
+}
+
+/// (min, max) of joint `j` over the data, rad.
+pub fn joint_range<const N: usize>(data: &[Measurement<f64, N>], j: usize) -> (f64, f64) {
+    data.iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
+            (lo.min(m.q[j]), hi.max(m.q[j]))
+        })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn report<const N: usize>(
+    method: Method,
+    file: &RobotFile,
+    fit: &Fit<N, VCAP>,
+    ident: &[Measurement<f64, N>],
+    valid: &[Measurement<f64, N>],
+    before: Residuals,
+    after: Residuals,
+    seconds: f64,
+    changes: &[Change],
+    verdict: &Verdict,
+) -> serde_json::Value {
+    let mut params: Vec<kinecal::Param> = ParamSet::<64>::full(N, true)
+        .map(|s| s.as_slice().to_vec())
+        .unwrap_or_default();
+    params.extend(
+        (0..N as u8)
+            .map(kinecal::Param::Beta)
+            .filter(|p| file.tilt_joints().contains(&(p.joint().unwrap_or(99)))),
+    );
+    params
+        .extend((0..fit.robot.effects().values().len()).map(|k| kinecal::Param::Effect(k as u16)));
+    let changes: serde_json::Map<String, serde_json::Value> =
+        changes.iter().map(|c| (c.name.clone(), json!(c))).collect();
+    let held: serde_json::Map<String, serde_json::Value> = fit
+        .held
+        .iter()
+        .map(|h| {
+            (
+                h.name.clone(),
+                json!({"confounded_with": h.confounded_with}),
+            )
+        })
+        .collect();
+    json!({
+        "method": method.id(),
+        "n_identification": ident.len(),
+        "n_validation": valid.len(),
+        "before": before,
+        "after": after,
+        "iterations": fit.iterations,
+        "evaluations": fit.evaluations,
+        "seconds": seconds,
+        "parameters": named_values(&fit.robot, &params),
+        "unidentifiable": fit.unidentifiable,
+        "held": held,
+        "changes": changes,
+        "converged": verdict.converged,
+        "stop": verdict.stop,
+        "suspicious": verdict.suspicious,
+        "out": verdict.out,
+        "fitness_history": fit.history,
+    })
+}
+
+fn print_human<const N: usize>(
+    r: &serde_json::Value,
+    changes: &[Change],
+    verdict: &Verdict,
+    fit: &Fit<N, VCAP>,
+) {
+    use crate::output::numfmt::sig;
+    let f = |v: &serde_json::Value| v.as_f64().map_or("-".to_string(), |x| sig(x, 4));
+    println!(
+        "method {}: {} identification poses, {} validation poses",
+        r["method"].as_str().unwrap_or(""),
+        r["n_identification"],
+        r["n_validation"]
+    );
+    println!(
+        "{:>8} {:>16} {:>16} {:>16} {:>16}",
+        "", "ident RMS mm", "valid RMS mm", "valid mean mm", "valid max mm"
+    );
+    for k in ["before", "after"] {
+        let o = &r[k];
+        println!(
+            "{:>8} {:>16} {:>16} {:>16} {:>16}",
+            k,
+            f(&o["identification_rms_mm"]),
+            f(&o["validation_rms_mm"]),
+            f(&o["validation_mean_mm"]),
+            f(&o["validation_max_mm"])
+        );
+    }
+    println!(
+        "{} iterations, {} evaluations, {} s: {}",
+        r["iterations"],
+        r["evaluations"],
+        sig(r["seconds"].as_f64().unwrap_or(0.0), 3),
+        verdict.stop
+    );
+    let moved: Vec<&Change> = changes.iter().filter(|c| c.change != 0.0).collect();
+    if !moved.is_empty() {
+        println!();
+        println!(
+            "{:<16} {:>14} {:>14} {:>12} {:>10}",
+            "parameter", "file", "calibrated", "change", "1-σ"
+        );
+        for c in moved {
+            let unit = if c.free_start && !c.length && c.name.contains('[') {
+                ""
+            } else if c.length {
+                " mm"
+            } else {
+                " °"
+            };
+            let flag = if verdict.suspicious.contains(&c.name) {
+                "  <- suspicious"
+            } else {
+                ""
+            };
+            println!(
+                "{:<16} {:>14} {:>14} {:>12} {:>10}{unit}{flag}",
+                c.name,
+                sig(c.nominal, 7),
+                sig(c.calibrated, 7),
+                sig(c.change, 3),
+                c.sigma.map_or("-".into(), |s| sig(s, 2)),
+            );
+        }
+    }
+    if !fit.held.is_empty() {
+        println!();
+        println!("held at their file values (the data cannot determine them):");
+        for h in &fit.held {
+            if h.confounded_with.is_empty() {
+                println!("  {:<14} no pose moves the measured point with it", h.name);
+            } else {
+                println!(
+                    "  {:<14} confounded with {}",
+                    h.name,
+                    h.confounded_with.join(", ")
+                );
+            }
+        }
+    }
+    if let Some(out) = &verdict.out {
+        println!("wrote the identified model to {out}");
+    }
+}

@@ -1,0 +1,767 @@
+//! `kinecal plan`: measurement pose selection (optimum experimental design, Jost et al. 2017).
+//!
+//! Plans are made in the robot base frame with the base at identity: the scene is given there,
+//! and the identified base pose (the tracker's placement) only rotates the tool-point
+//! covariance, whose trace is what the criteria use. The identified set is the default full
+//! set (base pose, alpha/a/theta/d of every joint, tool point); its structural redundancies
+//! are dropped by [`Basis`].
+//!
+//! 1. Pool: `--pool` feasible configurations, 80 % drawn with the wrist aimed at the tracker
+//!    and 20 % uniformly within the limits ([`pose_pool::draw`]). Poses closer than 0.1 mm to
+//!    a collision or within 0.001° of the incidence limit are dropped, so the rounding of the
+//!    written joint values cannot make a planned pose infeasible.
+//! 2. Design: `random` draws uniformly within the limits and keeps feasible poses (the
+//!    experimenter's heuristic); `d`, `o1` (the same optimum: O1 is monotone in det JᵀJ for a
+//!    fixed number of poses), `a` and `kpi` select from the pool by greedy construction and
+//!    Fedorov exchange ([`selection::select`]).
+//! 3. Report: predicted by linear error propagation, σ = `--noise-mm` per coordinate:
+//!    `kpi_trace_mm2` = trace of the summed tool-point covariance at the `--work`
+//!    configurations, the A/D/E criteria, the observability indices O1–O5.
+
+use crate::formats::cell::{HostScene, SceneFile};
+use crate::formats::robot_file::RobotFile;
+use crate::with_joints;
+use anyhow::{anyhow, bail};
+use kinecal::model::param::{Param, ParamSet};
+use kinecal::planning::information::{
+    default_tolerance, scaled_rows, Covariance, Information, PoseRows,
+};
+use kinecal::planning::observability::{criteria, indices};
+use kinecal::planning::pose_pool::{self, Sampling};
+use kinecal::planning::selection::{self, Basis, Candidate, Criterion, DesignState};
+use kinecal::{ForwardKinematics, Frame, Robot};
+use rand::SeedableRng;
+use rand_xoshiro::Xoshiro256PlusPlus;
+use serde_json::json;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Parameter capacity of host plans (full set of a 7-joint arm: 6 + 28 + 3 = 37).
+pub const PCAP: usize = 40;
+/// Capacity of working configurations.
+pub const WCAP: usize = 16;
+/// Clearance (mm) and incidence (rad) margins kept by every planned pose.
+pub const CLEARANCE_MARGIN_MM: f64 = 0.1;
+pub const INCIDENCE_MARGIN_RAD: f64 = 0.001 * std::f64::consts::PI / 180.0;
+
+/// Jacobian rows of host plans.
+pub type PoseRowsHost = PoseRows<f64, PCAP>;
+
+/// A pool candidate of a host plan.
+pub type HostCandidate<const N: usize> = Candidate<f64, N, PCAP>;
+
+/// The design criteria of the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CriterionArg {
+    Random,
+    D,
+    O1,
+    A,
+    Kpi,
+}
+
+impl CriterionArg {
+    pub fn name(self) -> &'static str {
+        match self {
+            CriterionArg::Random => "random",
+            CriterionArg::D => "d",
+            CriterionArg::O1 => "o1",
+            CriterionArg::A => "a",
+            CriterionArg::Kpi => "kpi",
+        }
+    }
+    /// The optimiser's criterion (`None` for random).
+    pub fn criterion(self) -> Option<Criterion> {
+        match self {
+            CriterionArg::Random => None,
+            CriterionArg::D | CriterionArg::O1 => Some(Criterion::D),
+            CriterionArg::A => Some(Criterion::A),
+            CriterionArg::Kpi => Some(Criterion::Kpi),
+        }
+    }
+}
+
+/// Arguments of `kinecal plan` (see interfaces.md §4).
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Robot description (TOML); its `[base]`, if any, is not used (plans are in the base frame).
+    #[arg(long)]
+    pub robot: PathBuf,
+    /// Measurement cell (TOML, robot base frame): tracker, floor, link capsules, obstacles.
+    #[arg(long)]
+    pub scene: PathBuf,
+    /// Number of measurement poses to plan.
+    #[arg(long)]
+    pub poses: usize,
+    /// Design criterion.
+    #[arg(long, value_enum)]
+    pub criterion: CriterionArg,
+    /// A working configuration q1,…,qN in degrees (repeatable; negative values are fine,
+    /// e.g. `--work=-20,-80,120,10,-30,45`).
+    #[arg(
+        long = "work",
+        value_name = "Q1,…,QN",
+        allow_hyphen_values = true,
+        required = true
+    )]
+    pub work: Vec<String>,
+    /// Random seed (pool and random designs).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Measurement noise, standard deviation per axis (mm), for the predicted covariances.
+    #[arg(long, default_value_t = 0.01)]
+    pub noise_mm: f64,
+    /// Output CSV of the planned poses (q1…qN in degrees, plus incidence_deg, clearance_mm).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Number of feasible candidate poses to select from.
+    #[arg(long, default_value_t = 3000)]
+    pub pool: usize,
+    /// Ignore collisions, floor and beam (joint limits and incidence only), as the paper's
+    /// designs "without collision avoidance".
+    #[arg(long)]
+    pub no_collisions: bool,
+    /// Most Fedorov exchange passes.
+    #[arg(long, default_value_t = 30)]
+    pub passes: u32,
+    /// Skip the local refinement (poses near the selected ones added to the pool, then more
+    /// exchange passes).
+    #[arg(long)]
+    pub no_refine: bool,
+}
+
+/// Parses `q1,…,qN` (degrees) into radians.
+pub fn parse_configuration<const N: usize>(text: &str) -> anyhow::Result<[f64; N]> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if parts.len() != N {
+        bail!(
+            "--work `{text}`: expected {N} comma-separated joint values (degrees), got {}",
+            parts.len()
+        );
+    }
+    let mut q = [0.0; N];
+    for (i, (qi, p)) in q.iter_mut().zip(&parts).enumerate() {
+        let v: f64 = p
+            .parse()
+            .map_err(|_| anyhow!("--work `{text}`: value {} (`{p}`) is not a number", i + 1))?;
+        if !v.is_finite() {
+            bail!("--work `{text}`: value {} is not finite", i + 1);
+        }
+        *qi = v.to_radians();
+    }
+    Ok(q)
+}
+
+/// The parameters a plan is made for: the default full set with the base pose unknown.
+pub fn plan_params(n: usize) -> anyhow::Result<ParamSet<PCAP>> {
+    ParamSet::<PCAP>::full(n, true).map_err(|e| anyhow!("parameter set: {e:?}"))
+}
+
+/// The robot in its own base frame (base at identity), as plans use it.
+pub fn in_base_frame<const N: usize, const V: usize>(robot: &Robot<f64, N, V>) -> Robot<f64, N, V> {
+    let mut r = robot.clone();
+    // Identity is always finite.
+    let _ = r.set_base(Frame::identity());
+    r
+}
+
+fn keeps_margins<const N: usize>(
+    c: &HostCandidate<N>,
+    scene: &HostScene,
+    collisions: bool,
+) -> bool {
+    c.incidence <= scene.tracker().max_incidence - INCIDENCE_MARGIN_RAD
+        && (!collisions || c.clearance >= CLEARANCE_MARGIN_MM)
+}
+
+/// A pool of feasible candidates and how many draws it took.
+pub struct Pool<const N: usize> {
+    pub candidates: Vec<HostCandidate<N>>,
+    pub draws: u64,
+}
+
+/// Draws until `size` feasible candidates (with margins) are found or `max_draws` is reached.
+pub fn build_pool<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    scene: &HostScene,
+    params: &[Param],
+    size: usize,
+    collisions: bool,
+    rng: &mut Xoshiro256PlusPlus,
+    max_draws: u64,
+) -> Pool<N> {
+    let sampling = Sampling {
+        aimed_fraction: 0.8,
+        cone_fraction: 0.97,
+        collisions,
+    };
+    let mut fk = ForwardKinematics::new();
+    let mut candidates = Vec::with_capacity(size);
+    let mut draws = 0;
+    while candidates.len() < size && draws < max_draws {
+        draws += 1;
+        if let Some(c) = pose_pool::draw::<f64, N, V, PCAP, _, _, _>(
+            rng, robot, scene, params, &sampling, &mut fk,
+        ) {
+            if keeps_margins(&c, scene, collisions) {
+                candidates.push(c);
+            }
+        }
+    }
+    Pool { candidates, draws }
+}
+
+/// Uniformly random feasible configurations (rejection sampling within the limits): the
+/// experimenter's heuristic. Returns the configurations and the number of draws.
+pub fn random_design<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    scene: &HostScene,
+    params: &[Param],
+    n: usize,
+    collisions: bool,
+    rng: &mut Xoshiro256PlusPlus,
+    max_draws: u64,
+) -> anyhow::Result<(Vec<HostCandidate<N>>, u64)> {
+    let mut fk = ForwardKinematics::new();
+    let mut out = Vec::with_capacity(n);
+    let mut draws = 0;
+    while out.len() < n {
+        if draws >= max_draws {
+            bail!(
+                "only {} of {n} random poses were feasible after {draws} draws: check the scene",
+                out.len()
+            );
+        }
+        draws += 1;
+        let q = pose_pool::uniform_configuration(rng, robot);
+        if let Some(c) = pose_pool::candidate::<f64, N, V, PCAP, _, _>(
+            robot, scene, params, &q, collisions, &mut fk,
+        ) {
+            if keeps_margins(&c, scene, collisions) {
+                out.push(c);
+            }
+        }
+    }
+    Ok((out, draws))
+}
+
+/// Scaled Jacobian rows of the tool point at each working configuration.
+pub fn work_rows<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    params: &[Param],
+    work: &[[f64; N]],
+) -> anyhow::Result<Vec<PoseRows<f64, PCAP>>> {
+    let mut fk = ForwardKinematics::new();
+    work.iter()
+        .map(|q| {
+            fk.compute(robot, q);
+            let mut g = [[0.0; PCAP]; 3];
+            scaled_rows(robot, &fk, params, &mut g).map_err(|e| anyhow!("Jacobian: {e:?}"))?;
+            Ok(g)
+        })
+        .collect()
+}
+
+/// The identifiable basis of a pool (from its full-parameter rows).
+pub fn pool_basis<const N: usize>(
+    pool: &[HostCandidate<N>],
+    n_params: usize,
+) -> anyhow::Result<Basis<f64, PCAP>> {
+    let mut info = Information::<f64, PCAP>::new(n_params).map_err(|e| anyhow!("{e:?}"))?;
+    for c in pool {
+        info.add_pose(&c.rows)
+            .map_err(|e| anyhow!("pool information: {e:?}"))?;
+    }
+    Basis::new(&info, default_tolerance()).map_err(|e| anyhow!("identifiable subspace: {e:?}"))
+}
+
+/// Local refinement of a selected design (the discrete counterpart of the paper's continuous
+/// SQP polish): poses near the selected ones join the pool, then more exchange passes; the
+/// neighbourhood shrinks each round.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Refinement {
+    pub rounds: u32,
+    /// New candidates tried around each selected pose per round.
+    pub neighbours: usize,
+    /// Half-width of the joint perturbation in the first round (rad).
+    pub step: f64,
+}
+
+impl Default for Refinement {
+    fn default() -> Self {
+        Self {
+            rounds: 3,
+            neighbours: 6,
+            step: 6f64.to_radians(),
+        }
+    }
+}
+
+/// What is needed to make new feasible candidates near a pose.
+pub struct Neighbourhood<'a, const N: usize, const V: usize> {
+    pub robot: &'a Robot<f64, N, V>,
+    pub scene: &'a HostScene,
+    pub params: &'a [Param],
+    pub collisions: bool,
+}
+
+impl<const N: usize, const V: usize> Neighbourhood<'_, N, V> {
+    /// A feasible candidate (full rows) near `q`: every joint moved by up to ±`step`, and
+    /// half of the time the wrist re-aimed at the tracker (within the incidence cone).
+    pub fn near(
+        &self,
+        q: &[f64; N],
+        step: f64,
+        rng: &mut Xoshiro256PlusPlus,
+        fk: &mut ForwardKinematics<f64, N>,
+    ) -> Option<HostCandidate<N>> {
+        let mut x = *q;
+        for (xi, j) in x.iter_mut().zip(self.robot.joints()) {
+            let u: f64 = pose_pool::uniform(rng);
+            *xi = (*xi + step * (2.0 * u - 1.0)).clamp(j.lower, j.upper);
+        }
+        if pose_pool::uniform::<f64, _>(rng) < 0.5 {
+            fk.compute(self.robot, &x);
+            let tracker = fk.base.point(&self.scene.tracker().position);
+            let target = pose_pool::aim_target(
+                rng,
+                &tracker,
+                &fk.point,
+                self.scene.tracker().max_incidence * 0.97,
+            );
+            if !pose_pool::aim_wrist(self.robot, fk, &mut x, &target, 1e-4) {
+                return None;
+            }
+        }
+        let c = pose_pool::candidate::<f64, N, V, PCAP, _, _>(
+            self.robot,
+            self.scene,
+            self.params,
+            &x,
+            self.collisions,
+            fk,
+        )?;
+        keeps_margins(&c, self.scene, self.collisions).then_some(c)
+    }
+}
+
+/// How a host design went.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Optimised {
+    pub outcome: selection::Outcome<f64>,
+    /// Candidates added near the design by refinement, and the swaps they brought.
+    pub added: usize,
+    pub refine_swaps: u32,
+}
+
+/// Selects `n` poses from `pool` (rows already reduced by `basis`) for `criterion`, then,
+/// with `refine`, grows the pool near the design and exchanges again. Returns the pool
+/// indices (the pool may have grown).
+#[allow(clippy::too_many_arguments)]
+pub fn optimise<const N: usize, const V: usize>(
+    pool: &mut Vec<HostCandidate<N>>,
+    basis: &Basis<f64, PCAP>,
+    work_reduced: &[PoseRows<f64, PCAP>],
+    criterion: Criterion,
+    n: usize,
+    passes: u32,
+    refine: Option<(&Neighbourhood<N, V>, &Refinement, &mut Xoshiro256PlusPlus)>,
+) -> anyhow::Result<(Vec<usize>, Optimised)> {
+    let ridge = basis.per_pose() * 1e-8;
+    let mut state = Box::new(
+        DesignState::<f64, PCAP, WCAP>::new(basis.rank(), work_reduced, ridge)
+            .map_err(|e| anyhow!("design: {e:?}"))?,
+    );
+    let mut design = vec![0usize; n];
+    let too_small =
+        |len: usize| anyhow!("the pool has {len} feasible poses, fewer than the {n} requested");
+    let outcome = selection::select(&mut state, criterion, pool, &mut design, passes).map_err(
+        |e| match e {
+            selection::PlanError::PoolTooSmall => too_small(pool.len()),
+            e => anyhow!("design: {e:?}"),
+        },
+    )?;
+    let mut added = 0;
+    let mut refine_swaps = 0;
+    if let Some((hood, r, rng)) = refine {
+        let mut fk = ForwardKinematics::new();
+        let mut step = r.step;
+        for _ in 0..r.rounds {
+            let around: Vec<[f64; N]> = design.iter().map(|i| pool[*i].q).collect();
+            for q in &around {
+                for _ in 0..r.neighbours {
+                    if let Some(mut c) = hood.near(q, step, rng, &mut fk) {
+                        c.rows = basis.reduce(&c.rows);
+                        pool.push(c);
+                        added += 1;
+                    }
+                }
+            }
+            let (_, swaps) = selection::exchange(&mut state, criterion, pool, &mut design, passes)
+                .map_err(|e| anyhow!("design: {e:?}"))?;
+            refine_swaps += swaps;
+            step *= 0.5;
+        }
+    }
+    let outcome = selection::Outcome {
+        objective: state.objective(criterion),
+        ..outcome
+    };
+    Ok((
+        design,
+        Optimised {
+            outcome,
+            added,
+            refine_swaps,
+        },
+    ))
+}
+
+/// What linear error propagation predicts for a design.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Evaluation {
+    /// σ²·trace Σ_s C_s (mm²).
+    pub kpi_trace_mm2: f64,
+    /// √trace C_s per working configuration (mm).
+    pub tool_std_mm: Vec<f64>,
+    pub a: f64,
+    pub d: f64,
+    pub e: f64,
+    pub o: [f64; 5],
+    /// Identifiable directions the design determines.
+    pub rank: usize,
+}
+
+/// Predicted covariances of a design, computed from scratch (full parameter set, eigen
+/// pseudo-inverse) rather than from the optimiser's reduced coordinates.
+pub fn evaluate<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    params: &[Param],
+    poses: &[[f64; N]],
+    work: &[[f64; N]],
+    sigma: f64,
+) -> anyhow::Result<Evaluation> {
+    let mut info =
+        Box::new(Information::<f64, PCAP>::new(params.len()).map_err(|e| anyhow!("{e:?}"))?);
+    let mut fk = ForwardKinematics::new();
+    for q in poses {
+        fk.compute(robot, q);
+        let mut g = [[0.0; PCAP]; 3];
+        scaled_rows(robot, &fk, params, &mut g).map_err(|e| anyhow!("Jacobian: {e:?}"))?;
+        info.add_pose(&g)
+            .map_err(|e| anyhow!("information: {e:?}"))?;
+    }
+    let cov = Box::new(
+        Covariance::new(&info, sigma, default_tolerance())
+            .map_err(|e| anyhow!("covariance: {e:?}"))?,
+    );
+    let w = work_rows(robot, params, work)?;
+    let c = criteria(&cov, &w);
+    let ix = indices(&cov, poses.len());
+    Ok(Evaluation {
+        kpi_trace_mm2: c.kpi,
+        tool_std_mm: w
+            .iter()
+            .map(|g| cov.tool_variance(g).max(0.0).sqrt())
+            .collect(),
+        a: c.a,
+        d: c.d,
+        e: c.e,
+        o: [ix.o1, ix.o2, ix.o3, ix.o4, ix.o5],
+        rank: cov.rank(),
+    })
+}
+
+/// A finished plan.
+pub struct Plan<const N: usize> {
+    pub poses: Vec<HostCandidate<N>>,
+    pub evaluation: Evaluation,
+    pub pool_size: usize,
+    pub draws: u64,
+    pub passes: u32,
+    pub exchanges: u32,
+    pub basis_rank: usize,
+}
+
+/// Everything a plan needs besides the robot.
+pub struct PlanRequest<'a, const N: usize> {
+    pub scene: &'a HostScene,
+    pub criterion: CriterionArg,
+    pub poses: usize,
+    pub work: &'a [[f64; N]],
+    pub sigma: f64,
+    pub pool: usize,
+    pub collisions: bool,
+    pub passes: u32,
+    pub seed: u64,
+    /// Polish the design by local refinement ([`Refinement`]).
+    pub refine: bool,
+}
+
+/// Plans `req.poses` poses for `robot` (any base: it is set to identity).
+pub fn plan<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    req: &PlanRequest<N>,
+) -> anyhow::Result<Plan<N>> {
+    if req.poses == 0 {
+        bail!("--poses must be at least 1");
+    }
+    if req.work.is_empty() || req.work.len() > WCAP {
+        bail!(
+            "give 1 to {WCAP} working configurations (--work), got {}",
+            req.work.len()
+        );
+    }
+    if !(req.sigma.is_finite() && req.sigma > 0.0) {
+        bail!("--noise-mm must be a positive number, got {}", req.sigma);
+    }
+    let robot = in_base_frame(robot);
+    let params = plan_params(N)?;
+    let params = params.as_slice();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(req.seed);
+    let max_draws = 2_000_000 + 2_000 * req.pool.max(req.poses) as u64;
+    let (poses, draws, pool_size, passes, exchanges, basis_rank) = match req.criterion.criterion() {
+        None => {
+            let (poses, draws) = random_design(
+                &robot,
+                req.scene,
+                params,
+                req.poses,
+                req.collisions,
+                &mut rng,
+                max_draws,
+            )?;
+            (poses, draws, 0, 0, 0, 0)
+        }
+        Some(criterion) => {
+            let size = req.pool.max(req.poses);
+            let mut pool = build_pool(
+                &robot,
+                req.scene,
+                params,
+                size,
+                req.collisions,
+                &mut rng,
+                max_draws,
+            );
+            if pool.candidates.len() < req.poses {
+                bail!(
+                    "only {} feasible poses found in {} draws, fewer than the {} requested: check the scene",
+                    pool.candidates.len(),
+                    pool.draws,
+                    req.poses
+                );
+            }
+            let basis = pool_basis(&pool.candidates, params.len())?;
+            basis.reduce_pool(&mut pool.candidates);
+            let work: Vec<PoseRows<f64, PCAP>> = work_rows(&robot, params, req.work)?
+                .iter()
+                .map(|g| basis.reduce(g))
+                .collect();
+            let hood = Neighbourhood {
+                robot: &robot,
+                scene: req.scene,
+                params,
+                collisions: req.collisions,
+            };
+            let refinement = Refinement::default();
+            let refine = req.refine.then_some((&hood, &refinement, &mut rng));
+            let (design, opt) = optimise(
+                &mut pool.candidates,
+                &basis,
+                &work,
+                criterion,
+                req.poses,
+                req.passes,
+                refine,
+            )?;
+            let mut fk = ForwardKinematics::new();
+            let mut chosen = Vec::with_capacity(design.len());
+            for i in design {
+                // Recompute full rows for the report (the pool holds reduced ones).
+                let c = pose_pool::candidate::<f64, N, V, PCAP, _, _>(
+                    &robot,
+                    req.scene,
+                    params,
+                    &pool.candidates[i].q,
+                    req.collisions,
+                    &mut fk,
+                )
+                .ok_or_else(|| anyhow!("internal: a pool pose is no longer feasible"))?;
+                chosen.push(c);
+            }
+            (
+                chosen,
+                pool.draws,
+                pool.candidates.len(),
+                opt.outcome.passes,
+                opt.outcome.exchanges + opt.refine_swaps,
+                basis.rank(),
+            )
+        }
+    };
+    let qs: Vec<[f64; N]> = poses.iter().map(|c| c.q).collect();
+    let evaluation = evaluate(&robot, params, &qs, req.work, req.sigma)?;
+    Ok(Plan {
+        poses,
+        evaluation,
+        pool_size,
+        draws,
+        passes,
+        exchanges,
+        basis_rank,
+    })
+}
+
+/// The CSV text of planned poses: `q1…qN` (degrees, 9 decimals), incidence, clearance.
+pub fn poses_csv<const N: usize>(poses: &[HostCandidate<N>]) -> String {
+    let mut s = String::new();
+    for i in 1..=N {
+        let _ = write!(s, "q{i},");
+    }
+    s.push_str("incidence_deg,clearance_mm\n");
+    for c in poses {
+        for q in c.q {
+            let _ = write!(s, "{:.9},", q.to_degrees());
+        }
+        let clearance = if c.clearance.is_finite() && c.clearance < 1e300 {
+            format!("{:.3}", c.clearance)
+        } else {
+            "inf".into()
+        };
+        let _ = writeln!(s, "{:.6},{clearance}", c.incidence.to_degrees());
+    }
+    s
+}
+
+fn run_n<const N: usize>(
+    args: &Args,
+    file: &RobotFile,
+    json: bool,
+) -> anyhow::Result<serde_json::Value> {
+    let robot = file
+        .to_robot::<N>()
+        .map_err(|e| anyhow!("{}: {e}", args.robot.display()))?;
+    let scene = SceneFile::load(&args.scene, N)?.to_scene()?;
+    let work = args
+        .work
+        .iter()
+        .map(|w| parse_configuration::<N>(w))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    for (k, q) in work.iter().enumerate() {
+        if !robot.within_limits(q) {
+            eprintln!(
+                "kinecal plan: warning: working configuration {} is outside the joint limits",
+                k + 1
+            );
+        }
+    }
+    let start = Instant::now();
+    let req = PlanRequest {
+        scene: &scene,
+        criterion: args.criterion,
+        poses: args.poses,
+        work: &work,
+        sigma: args.noise_mm,
+        pool: args.pool,
+        collisions: !args.no_collisions,
+        passes: args.passes,
+        seed: args.seed,
+        refine: !args.no_refine,
+    };
+    let p = plan(&robot, &req)?;
+    let seconds = start.elapsed().as_secs_f64();
+    // Signed clearance in the full cell, also for plans made without collision avoidance
+    // (negative: the pose collides).
+    let base_robot = in_base_frame(&robot);
+    let mut fk = ForwardKinematics::new();
+    let clearances: Vec<f64> = p
+        .poses
+        .iter()
+        .map(|c| {
+            fk.compute(&base_robot, &c.q);
+            scene.clearance(&fk)
+        })
+        .collect();
+    let min_clearance = clearances.iter().cloned().fold(f64::INFINITY, f64::min);
+    let colliding = clearances.iter().filter(|c| **c <= 0.0).count();
+    let mut written = p.poses.clone();
+    for (c, cl) in written.iter_mut().zip(&clearances) {
+        c.clearance = *cl;
+    }
+    crate::output::atomic::write_atomic(&args.out, poses_csv(&written).as_bytes())
+        .map_err(|e| anyhow!("{}: cannot write: {e}", args.out.display()))?;
+    let max_incidence = p
+        .poses
+        .iter()
+        .map(|c| c.incidence.to_degrees())
+        .fold(0.0, f64::max);
+    let ev = &p.evaluation;
+    if !json {
+        println!(
+            "{} poses ({} design) written to {}",
+            p.poses.len(),
+            args.criterion.name(),
+            args.out.display()
+        );
+        println!(
+            "predicted TCP covariance trace {:.4e} mm² (σ = {} mm); TCP std per working configuration: {}",
+            ev.kpi_trace_mm2,
+            args.noise_mm,
+            ev.tool_std_mm.iter().map(|s| format!("{:.4} mm", s)).collect::<Vec<_>>().join(", ")
+        );
+        println!(
+            "A {:.4e}  D {:.4e}  E {:.4e} (mm², scaled parameters); identifiable directions {}",
+            ev.a, ev.d, ev.e, ev.rank
+        );
+        println!(
+            "O1 {:.4}  O2 {:.4}  O3 {:.4}  O4 {:.4}  O5 {:.4}",
+            ev.o[0], ev.o[1], ev.o[2], ev.o[3], ev.o[4]
+        );
+        println!(
+            "min clearance {} mm, max incidence {:.2}°; pool {} feasible of {} draws; {} exchange passes, {} swaps; {:.2} s",
+            if args.no_collisions { format!("{min_clearance:.1} ({colliding} colliding poses: collisions not avoided)") } else { format!("{min_clearance:.1}") },
+            max_incidence,
+            p.pool_size,
+            p.draws,
+            p.passes,
+            p.exchanges,
+            seconds
+        );
+    }
+    Ok(json!({
+        "criterion": args.criterion.name(),
+        "poses": p.poses.len(),
+        "kpi_trace_mm2": ev.kpi_trace_mm2,
+        "tool_std_mm": ev.tool_std_mm,
+        "min_clearance_mm": min_clearance,
+        "colliding_poses": colliding,
+        "max_incidence_deg": max_incidence,
+        "noise_mm": args.noise_mm,
+        "criteria": { "a": ev.a, "d": ev.d, "e": ev.e },
+        "observability": { "o1": ev.o[0], "o2": ev.o[1], "o3": ev.o[2], "o4": ev.o[3], "o5": ev.o[4] },
+        "identifiable_directions": ev.rank,
+        "collision_avoidance": !args.no_collisions,
+        "pool": p.pool_size,
+        "draws": p.draws,
+        "exchange_passes": p.passes,
+        "exchanges": p.exchanges,
+        "seconds": seconds,
+        "out": args.out.display().to_string(),
+    }))
+}
+
+/// Runs the subcommand; returns the JSON report (printed when `--json` is given).
+pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
+    crate::output::atomic::refuse_overwriting_inputs(
+        "--out",
+        &args.out,
+        &[
+            ("robot", args.robot.as_path()),
+            ("scene", args.scene.as_path()),
+        ],
+    )?;
+    let file = RobotFile::load(&args.robot)?;
+    with_joints!(file.joint_count(), N => run_n::<N>(args, &file, json))
+}

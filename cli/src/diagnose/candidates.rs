@@ -1,0 +1,368 @@
+//! The candidate catalogue of the discrepancy search: every effect of interfaces.md §2 on
+//! every joint where it can mean something, and how each is added to a model, read back and
+//! said in words.
+//!
+//! Choices (and why):
+//! - `joint-cyclic` of orders 1..=K (K = 3 by default): gear and encoder eccentricities show up
+//!   once or a few times per turn; higher orders are possible but the table covers them.
+//! - `axis-tilt` only where the tilt is a missing parameter: for a joint whose axis is nominally
+//!   parallel to the previous one (|alpha| within 2° of 0° or 180°), and for joint 1 when the
+//!   base is known and joint 1's axis is parallel to the base z axis. Elsewhere the modified DH
+//!   row already describes any axis direction, so beta would duplicate alpha/theta/d.
+//! - `joint-compliance` only where the lever arm is not identically zero (joint 1 of an upright
+//!   arm turns about the gravity direction and feels no moment).
+//! - `joint-table` with knots on a grid of `M` equal intervals over the joint's limits, trimmed
+//!   to the range the data cover. A table's resolution is part of the model choice: every grid
+//!   with `M` = 2…24 and a ladder of finer ones (30 … 200) is offered as long as the data have
+//!   at least 4 poses per knot interval and the table at least 4 knots; cross-validation picks.
+//!   Grids anchored at the lower limit line up with tables written that way (`kinecal simulate`
+//!   and the robot file's default `start_deg`); a misplaced knot would leave a kink unmodelled.
+//!   On the UR10 (limits ±360°) `M` = 200 gives the 3.6° knots of the findings.
+
+use crate::formats::robot_file::AXIS_TILT;
+use crate::output::numfmt::sig;
+use kinecal::model::effects::EffectKind;
+use kinecal::model::param::Param;
+use kinecal::{ForwardKinematics, Joint, Measurement, Robot};
+
+/// What kind of correction a candidate adds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CandidateKind {
+    /// `k · τ_j`.
+    Compliance,
+    /// `a·sin(n q_j) + b·cos(n q_j)` of the given order `n`.
+    Cyclic(u16),
+    /// `s · q_j`.
+    Scale,
+    /// The joint's `beta` becomes free.
+    Tilt,
+    /// Piecewise-linear in `q_j`: first knot at `start` (rad), spacing `step` (rad).
+    Table { start: f64, step: f64, knots: usize },
+}
+
+/// One candidate: a kind on a joint (0-based).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Candidate {
+    pub kind: CandidateKind,
+    pub joint: usize,
+}
+
+/// How large the catalogue is.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CatalogueConfig {
+    /// Cyclic orders 1..=this.
+    pub max_cyclic_order: u16,
+    /// Table grids: numbers of equal intervals over the joint's limits.
+    pub table_intervals: Vec<u32>,
+    /// A table grid is offered only when the data have at least this many poses per interval
+    /// of the range they cover…
+    pub min_poses_per_interval: f64,
+    /// …and the table has at least this many knots over that range (fewer is little more than
+    /// an offset and a scale).
+    pub min_knots: usize,
+    /// Axes within this angle (degrees) of parallel count as parallel (for `axis-tilt`).
+    pub parallel_tolerance_deg: f64,
+}
+
+impl Default for CatalogueConfig {
+    fn default() -> Self {
+        Self {
+            max_cyclic_order: 3,
+            table_intervals: (2..=24)
+                .chain([30, 36, 40, 48, 60, 72, 90, 100, 120, 150, 180, 200])
+                .collect(),
+            min_poses_per_interval: 4.0,
+            min_knots: 4,
+            parallel_tolerance_deg: 2.0,
+        }
+    }
+}
+
+impl Candidate {
+    /// The effect id of interfaces.md §2.
+    pub fn id(&self) -> &'static str {
+        match self.kind {
+            CandidateKind::Compliance => "joint-compliance",
+            CandidateKind::Cyclic(_) => "joint-cyclic",
+            CandidateKind::Scale => "joint-scale",
+            CandidateKind::Tilt => AXIS_TILT,
+            CandidateKind::Table { .. } => "joint-table",
+        }
+    }
+
+    /// The library's effect kind (`None` for axis-tilt, which is geometric).
+    pub fn effect_kind(&self) -> Option<EffectKind> {
+        match self.kind {
+            CandidateKind::Compliance => Some(EffectKind::Compliance),
+            CandidateKind::Cyclic(_) => Some(EffectKind::Cyclic),
+            CandidateKind::Scale => Some(EffectKind::Scale),
+            CandidateKind::Tilt => None,
+            CandidateKind::Table { .. } => Some(EffectKind::Table),
+        }
+    }
+
+    /// Short label: `joint-cyclic order 2 on joint 3`, `joint-table every 3.6° on joint 1`.
+    pub fn label(&self) -> String {
+        let j = self.joint + 1;
+        match self.kind {
+            CandidateKind::Cyclic(n) => format!("joint-cyclic order {n} on joint {j}"),
+            CandidateKind::Table { step, knots, .. } => {
+                format!(
+                    "joint-table every {}° ({knots} knots) on joint {j}",
+                    round_sig(step.to_degrees(), 4)
+                )
+            }
+            _ => format!("{} on joint {j}", self.id()),
+        }
+    }
+
+    /// True when `other` is the same effect (tables of any grid are the same effect).
+    pub fn same_effect(&self, other: &Candidate) -> bool {
+        self.joint == other.joint
+            && match (self.kind, other.kind) {
+                (CandidateKind::Cyclic(a), CandidateKind::Cyclic(b)) => a == b,
+                (CandidateKind::Table { .. }, CandidateKind::Table { .. }) => true,
+                (a, b) => core::mem::discriminant(&a) == core::mem::discriminant(&b),
+            }
+    }
+
+    /// True when `robot` already carries this effect (or a table on the joint, or a free tilt
+    /// listed in `free_tilt`).
+    pub fn present_in<const N: usize, const V: usize>(
+        &self,
+        robot: &Robot<f64, N, V>,
+        free_tilt: &[usize],
+    ) -> bool {
+        match (self.kind, self.effect_kind()) {
+            (CandidateKind::Tilt, _) => free_tilt.contains(&self.joint),
+            (CandidateKind::Cyclic(n), Some(k)) => robot.effects().find(k, self.joint, n).is_some(),
+            (_, Some(k)) => robot.effects().find(k, self.joint, 1).is_some(),
+            _ => false,
+        }
+    }
+
+    /// Adds the candidate to `robot` with zero values; returns the parameters it makes free.
+    pub fn add_to<const N: usize, const V: usize>(
+        &self,
+        robot: &mut Robot<f64, N, V>,
+    ) -> anyhow::Result<Vec<Param>> {
+        anyhow::ensure!(self.joint < N, "joint {} does not exist", self.joint + 1);
+        let (order, start, step, len) = match self.kind {
+            CandidateKind::Tilt => return Ok(vec![Param::Beta(self.joint as u8)]),
+            CandidateKind::Cyclic(n) => (n, 0.0, 0.0, 2),
+            CandidateKind::Table { start, step, knots } => (1, start, step, knots),
+            _ => (1, 0.0, 0.0, 1),
+        };
+        let kind = self
+            .effect_kind()
+            .ok_or_else(|| anyhow::anyhow!("no effect kind"))?;
+        let first = robot.effects().values().len();
+        robot
+            .effects_mut()
+            .push(kind, self.joint, N, order, start, step, &vec![0.0; len])
+            .map_err(|e| anyhow::anyhow!("cannot add {}: {e:?}", self.label()))?;
+        Ok((first..first + len)
+            .map(|k| Param::Effect(k as u16))
+            .collect())
+    }
+
+    /// The candidate's values in `robot` (in the units of the robot file: rad, rad per m,
+    /// dimensionless; axis-tilt: `[beta]` in rad).
+    pub fn values<const N: usize, const V: usize>(&self, robot: &Robot<f64, N, V>) -> Vec<f64> {
+        match (self.kind, self.effect_kind()) {
+            (CandidateKind::Tilt, _) => {
+                vec![robot.joints().get(self.joint).map_or(0.0, |j| j.beta)]
+            }
+            (kind, Some(k)) => {
+                let order = if let CandidateKind::Cyclic(n) = kind {
+                    n
+                } else {
+                    1
+                };
+                robot
+                    .effects()
+                    .find(k, self.joint, order)
+                    .map(|i| robot.effects().values_of(i).to_vec())
+                    .unwrap_or_default()
+            }
+            _ => Vec::new(),
+        }
+    }
+
+    /// The joint correction (rad) the candidate's `values` give at reading `q` (rad) and lever
+    /// arm `tau` (m); axis-tilt gives 0 (it is not a joint-angle error).
+    pub fn correction(&self, values: &[f64], q: f64, tau: f64) -> f64 {
+        let v = |i: usize| values.get(i).copied().unwrap_or(0.0);
+        match self.kind {
+            CandidateKind::Compliance => v(0) * tau,
+            CandidateKind::Scale => v(0) * q,
+            CandidateKind::Cyclic(n) => {
+                let (s, c) = (q * n as f64).sin_cos();
+                v(0) * s + v(1) * c
+            }
+            CandidateKind::Tilt => 0.0,
+            CandidateKind::Table { start, step, knots } => {
+                if knots < 2 || values.len() < knots {
+                    return 0.0;
+                }
+                let u = ((q - start) / step).clamp(0.0, (knots - 1) as f64);
+                let k = (u.floor() as usize).min(knots - 2);
+                let w = u - k as f64;
+                v(k) * (1.0 - w) + v(k + 1) * w
+            }
+        }
+    }
+
+    /// What the effect means, in words a technician understands (without the numbers of the
+    /// search): "joint 2 deflects under load (compliance 2.0e-4 rad per m of lever arm)".
+    pub fn meaning(&self, values: &[f64]) -> String {
+        let j = self.joint + 1;
+        let v0 = values.first().copied().unwrap_or(0.0);
+        match self.kind {
+            CandidateKind::Compliance => format!(
+                "joint {j} deflects under load (compliance {} rad per m of lever arm)",
+                if v0.is_finite() { format!("{v0:.1e}") } else { "-".into() }
+            ),
+            CandidateKind::Scale => format!(
+                "joint {j} turns {} than its reading says (scale error {} ppm: gear ratio or encoder resolution slightly off)",
+                if v0 >= 0.0 { "further" } else { "less far" },
+                if v0.is_finite() { format!("{}{}", if v0 >= 0.0 { "+" } else { "" }, sig(v0 * 1e6, 3)) } else { "-".into() }
+            ),
+            CandidateKind::Cyclic(n) => {
+                let amp = (v0 * v0 + values.get(1).map_or(0.0, |b| b * b)).sqrt();
+                let times = match n {
+                    1 => "once per turn (an eccentric gear or encoder)".to_string(),
+                    2 => "twice per turn".to_string(),
+                    n => format!("{n} times per turn"),
+                };
+                format!("joint {j} has an angle error of ±{} that repeats {times}", fmt_deg(amp))
+            }
+            CandidateKind::Tilt => {
+                let parent = if self.joint == 0 { "the base's vertical".to_string() } else { format!("joint {}'s axis", self.joint) };
+                format!("joint {j}'s axis is tilted by {} out of parallel with {parent}", fmt_deg(v0.abs()))
+            }
+            CandidateKind::Table { step, knots, .. } => {
+                let rms = (values.iter().map(|v| v * v).sum::<f64>() / values.len().max(1) as f64).sqrt();
+                let peak = values.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                format!(
+                    "joint {j} has an angle error that changes over a few degrees of travel ({} RMS, peak {}; a correction table with {knots} knots every {}°: gear transmission error)",
+                    fmt_deg(rms),
+                    fmt_deg(peak),
+                    round_sig(step.to_degrees(), 4)
+                )
+            }
+        }
+    }
+}
+
+/// A length in mm for sentences: three significant digits (`-` when not finite). To print
+/// two figures that must be told apart, use [`crate::diagnose::distinct_figures`].
+pub fn fmt_mm(x: f64) -> String {
+    sig(x, 3)
+}
+
+/// An angle given in rad as degrees with three significant digits (`-` when not finite).
+pub fn fmt_deg(rad: f64) -> String {
+    format!("{}°", sig(rad.to_degrees(), 3))
+}
+
+fn round_sig(x: f64, digits: i32) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let m = 10f64.powi(digits - 1 - x.abs().log10().floor() as i32);
+    (x * m).round() / m
+}
+
+/// True when row `j`'s axis is (nominally) parallel to the previous axis.
+fn parallel(joint: &Joint<f64>, tol_deg: f64) -> bool {
+    joint.alpha.sin().abs() < tol_deg.to_radians().sin()
+}
+
+/// Every candidate for `robot` and `data` (see the module doc for what is left out and why).
+pub fn catalogue<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    base_known: bool,
+    data: &[Measurement<f64, N>],
+    cfg: &CatalogueConfig,
+) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    if data.is_empty() {
+        return out;
+    }
+    let mut lo = [f64::INFINITY; N];
+    let mut hi = [f64::NEG_INFINITY; N];
+    let mut tau_max = [0.0f64; N];
+    let mut fk = ForwardKinematics::new();
+    for m in data {
+        fk.compute(robot, &m.q);
+        let tau = fk.lever_arms();
+        for j in 0..N {
+            lo[j] = lo[j].min(m.q[j]);
+            hi[j] = hi[j].max(m.q[j]);
+            tau_max[j] = tau_max[j].max(tau[j].abs());
+        }
+    }
+    for (j, row) in robot.joints().iter().enumerate() {
+        let moved = hi[j] - lo[j] > 1e-3;
+        if tau_max[j] > 1e-6 {
+            out.push(Candidate {
+                kind: CandidateKind::Compliance,
+                joint: j,
+            });
+        }
+        if moved {
+            for n in 1..=cfg.max_cyclic_order {
+                out.push(Candidate {
+                    kind: CandidateKind::Cyclic(n),
+                    joint: j,
+                });
+            }
+            out.push(Candidate {
+                kind: CandidateKind::Scale,
+                joint: j,
+            });
+        }
+        let tilt_ok = if j == 0 {
+            base_known && parallel(row, cfg.parallel_tolerance_deg)
+        } else {
+            parallel(row, cfg.parallel_tolerance_deg)
+        };
+        if tilt_ok {
+            out.push(Candidate {
+                kind: CandidateKind::Tilt,
+                joint: j,
+            });
+        }
+        if moved {
+            let mut grids: Vec<(f64, f64, usize)> = Vec::new();
+            for &m in &cfg.table_intervals {
+                if m == 0 {
+                    continue;
+                }
+                let step = (row.upper - row.lower) / m as f64;
+                if step.is_nan() || step <= 0.0 {
+                    continue;
+                }
+                let k0 = ((lo[j] - row.lower) / step + 1e-9).floor();
+                let k1 = ((hi[j] - row.lower) / step - 1e-9).ceil();
+                let knots = ((k1 - k0) as usize + 1).max(2);
+                let intervals = (knots - 1) as f64;
+                if data.len() as f64 / intervals >= cfg.min_poses_per_interval
+                    && knots >= cfg.min_knots
+                {
+                    grids.push((step, row.lower + k0 * step, knots));
+                }
+            }
+            grids.sort_by(|a, b| a.0.total_cmp(&b.0));
+            grids.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-12);
+            for (step, start, knots) in grids {
+                out.push(Candidate {
+                    kind: CandidateKind::Table { start, step, knots },
+                    joint: j,
+                });
+            }
+        }
+    }
+    out
+}

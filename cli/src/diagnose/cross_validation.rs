@@ -1,0 +1,586 @@
+//! Deterministic k-fold cross-validation of a model, by full refits and by one linearised
+//! step (the cheap screen of the discrepancy search).
+//!
+//! Folds are drawn once per search from the seed: the poses (grouped so that repeats of one
+//! configuration share a fold) are shuffled by Xoshiro256++ and dealt out round-robin. Every
+//! comparison in a search uses the same folds, so per-pose held-out errors of two models can be
+//! paired.
+//!
+//! The screen linearises at the current full-data solution: for fold `f` the training normal
+//! equations are the totals minus the fold's own, the candidate's columns are appended by a
+//! Schur complement on the factor of the current model's (factored once per fold and round),
+//! and the held-out residuals are predicted as `r_i − J_i δ`. At the solution the linearisation
+//! is accurate to second order, so the screen ranks candidates like the refits do at a fraction
+//! of the cost; only the best few are refitted.
+
+use crate::calibration::parallel;
+use crate::diagnose::dense::{cholesky, cholesky_inverse, LowerFactor};
+use crate::diagnose::penalised_fit::{
+    add_table_penalty, add_tiny_ridge, fit_from, squared_errors, Normal, NormalSums, Problem,
+    TablePenalty,
+};
+use crate::diagnose::significance::pose_groups;
+use kinecal::model::effects::{Effect, EffectKind};
+use kinecal::{ForwardKinematics, Measurement, Param, Robot};
+use nalgebra::{DMatrix, DVector, Vector3};
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+/// Assignment of every pose to one of `k` folds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Folds {
+    pub k: usize,
+    /// Fold of each pose.
+    pub of: Vec<usize>,
+}
+
+impl Folds {
+    /// Deterministic folds for `data` (groups of identical readings stay together).
+    pub fn new<const N: usize>(data: &[Measurement<f64, N>], k: usize, seed: u64) -> Self {
+        let groups = pose_groups(data);
+        let n_groups = groups.iter().copied().max().map_or(0, |g| g + 1);
+        let k = k.clamp(2, n_groups.max(2));
+        let mut order: Vec<usize> = (0..n_groups).collect();
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x6b69_6e65_6361_6c00);
+        order.shuffle(&mut rng);
+        let mut fold_of_group = vec![0; n_groups];
+        for (pos, g) in order.iter().enumerate() {
+            fold_of_group[*g] = pos % k;
+        }
+        Self {
+            k,
+            of: groups.iter().map(|g| fold_of_group[*g]).collect(),
+        }
+    }
+
+    /// Indices of the poses in fold `f` (held out) and of the others (training).
+    pub fn split(&self, f: usize) -> (Vec<usize>, Vec<usize>) {
+        let test = (0..self.of.len()).filter(|i| self.of[*i] == f).collect();
+        let train = (0..self.of.len()).filter(|i| self.of[*i] != f).collect();
+        (test, train)
+    }
+}
+
+/// The poses at `idx`.
+pub fn subset<const N: usize>(
+    data: &[Measurement<f64, N>],
+    idx: &[usize],
+) -> Vec<Measurement<f64, N>> {
+    idx.iter().map(|&i| data[i]).collect()
+}
+
+/// Held-out squared error (mm²) of every pose: for each fold, `problem` is refitted from
+/// `start` on the other folds and the fold's poses are predicted.
+pub fn refit_errors<const N: usize, const V: usize>(
+    start: &Robot<f64, N, V>,
+    problem: &Problem,
+    data: &[Measurement<f64, N>],
+    folds: &Folds,
+    max_iterations: u32,
+) -> anyhow::Result<Vec<f64>> {
+    let mut out = refit_errors_each(&[(start, problem)], data, folds, max_iterations)?;
+    Ok(out.swap_remove(0))
+}
+
+/// [`refit_errors`] of several models (start and parameter set) at once: their fold fits are
+/// independent, so all of them are spread over the cores together ([`parallel::map_each`]).
+///
+/// The fold fits of one model all start from the same robot: each fold's own normal equations
+/// at the start are formed once, and a fit's starting point is the sum over the other folds
+/// (one pass over the poses per model instead of one over 80 % of them per fold).
+pub fn refit_errors_each<const N: usize, const V: usize>(
+    models: &[(&Robot<f64, N, V>, &Problem)],
+    data: &[Measurement<f64, N>],
+    folds: &Folds,
+    max_iterations: u32,
+) -> anyhow::Result<Vec<Vec<f64>>> {
+    let splits: Vec<(Vec<usize>, Vec<usize>)> = (0..folds.k)
+        .map(|f| folds.split(f))
+        .filter(|(test, _)| !test.is_empty())
+        .collect();
+    // (model, split) of every fold fit.
+    let refits: Vec<(usize, usize)> = (0..models.len())
+        .flat_map(|m| (0..splits.len()).map(move |s| (m, s)))
+        .collect();
+    let own: Vec<Normal> = parallel::map_each(&refits, |&(m, s)| {
+        let (start, problem) = models[m];
+        Normal::of(problem, start, &subset(data, &splits[s].0))
+    });
+    let held_out = parallel::map_each(&refits, |&(m, s)| -> anyhow::Result<Vec<f64>> {
+        let (start, problem) = models[m];
+        let (test, train) = &splits[s];
+        let others = refits
+            .iter()
+            .zip(&own)
+            .filter(|((om, os), _)| *om == m && *os != s)
+            .map(|(_, n)| n);
+        let normal = Normal::sum(problem.len(), others);
+        let fitted = fit_from(start, problem, &subset(data, train), normal, max_iterations)?;
+        Ok(squared_errors(&fitted.robot, &subset(data, test)))
+    });
+    let mut out = vec![vec![0.0; data.len()]; models.len()];
+    for (&(m, s), e) in refits.iter().zip(held_out) {
+        for (i, v) in splits[s].0.iter().zip(e?) {
+            out[m][*i] = v;
+        }
+    }
+    Ok(out)
+}
+
+/// Root of the mean of squared errors.
+pub fn rms(sq: &[f64]) -> f64 {
+    if sq.is_empty() {
+        0.0
+    } else {
+        (sq.iter().sum::<f64>() / sq.len() as f64).sqrt()
+    }
+}
+
+/// The sparse scaled columns `(column index, ∂p/∂x)` of every pose, pose after pose in one
+/// buffer: the screen builds one set per candidate, and a vector per pose would cost thousands
+/// of allocations each time.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PoseColumns {
+    /// Pose `i`'s columns are `entries[offsets[i]..offsets[i + 1]]`.
+    offsets: Vec<usize>,
+    entries: Vec<(usize, Vector3<f64>)>,
+}
+
+impl PoseColumns {
+    /// No pose yet, room for `poses` poses with `entries` columns in all.
+    pub fn with_capacity(poses: usize, entries: usize) -> Self {
+        let mut offsets = Vec::with_capacity(poses + 1);
+        offsets.push(0);
+        Self {
+            offsets,
+            entries: Vec::with_capacity(entries),
+        }
+    }
+
+    /// `poses` poses without columns.
+    pub fn empty(poses: usize) -> Self {
+        Self {
+            offsets: vec![0; poses + 1],
+            entries: Vec::new(),
+        }
+    }
+
+    /// Appends the next pose, with these columns.
+    pub fn push_pose(&mut self, columns: impl IntoIterator<Item = (usize, Vector3<f64>)>) {
+        self.entries.extend(columns);
+        self.offsets.push(self.entries.len());
+    }
+
+    /// The number of poses.
+    pub fn poses(&self) -> usize {
+        self.offsets.len() - 1
+    }
+
+    /// The columns of pose `i`.
+    pub fn pose(&self, i: usize) -> &[(usize, Vector3<f64>)] {
+        &self.entries[self.offsets[i]..self.offsets[i + 1]]
+    }
+}
+
+/// Cholesky factor `L` of one fold's penalised training matrix and `L⁻¹(g − Π x)`.
+type FoldFactor = (LowerFactor, DVector<f64>);
+
+/// The current model linearised at its full-data solution, with per-fold factors.
+#[derive(Debug)]
+pub struct Linearised {
+    /// The poses of each fold, in increasing order.
+    fold_poses: Vec<Vec<usize>>,
+    residuals: Vec<Vector3<f64>>,
+    columns: PoseColumns,
+    /// Per fold: factor of the penalised training matrix and `L⁻¹(g − Π x)`.
+    factors: Vec<Option<FoldFactor>>,
+    p: usize,
+}
+
+impl Linearised {
+    pub fn new<const N: usize, const V: usize>(
+        robot: &Robot<f64, N, V>,
+        problem: &Problem,
+        data: &[Measurement<f64, N>],
+        folds: &Folds,
+    ) -> Self {
+        let p = problem.len();
+        let FoldSums {
+            fold_poses,
+            residuals,
+            columns,
+            per_fold,
+            total,
+        } = fold_sums(robot, problem, data, folds);
+        let x = problem.scaled_values(robot);
+        let factors = parallel::map_each(&per_fold, |nf| {
+            let tr = total.minus(nf);
+            let pen = problem.penalty_matrix(&tr.a.diagonal());
+            let mut h = &tr.a + &pen;
+            add_tiny_ridge(&mut h);
+            let rhs = &tr.g - &pen * &x;
+            let l = LowerFactor::new(cholesky(h)?.unpack_dirty())?;
+            let z = l.l().solve_lower_triangular(&rhs)?;
+            Some((l, z))
+        });
+        Self {
+            fold_poses,
+            residuals,
+            columns,
+            factors,
+            p,
+        }
+    }
+
+    /// Held-out squared errors of the current model itself (linearised refits).
+    pub fn baseline(&self) -> Vec<f64> {
+        self.screen(&PoseColumns::empty(self.residuals.len()), 0, None)
+    }
+
+    /// Held-out squared errors with `m` extra columns (`extra.pose(i)`: pose `i`'s non-zero
+    /// ones, indices `0..m`); `table`: the extra columns are a table's knots, penalised like
+    /// this.
+    pub fn screen(&self, extra: &PoseColumns, m: usize, table: Option<TablePenalty>) -> Vec<f64> {
+        let n = self.residuals.len();
+        debug_assert_eq!(extra.poses(), n, "one set of columns per pose");
+        let p = self.p;
+        // Per-fold blocks: B = Jᵀ C (p × m), D = Cᵀ C (m × m), e = Cᵀ r.
+        let k = self.fold_poses.len();
+        let mut b = vec![DMatrix::<f64>::zeros(p, m); k];
+        let mut d = vec![DMatrix::<f64>::zeros(m, m); k];
+        let mut e = vec![DVector::<f64>::zeros(m); k];
+        // Fold by fold, so that only one fold's blocks are being written at a time.
+        for (f, poses) in self.fold_poses.iter().enumerate() {
+            let (bf, df, ef) = (b[f].as_mut_slice(), &mut d[f], &mut e[f]);
+            for &i in poses {
+                let cols = extra.pose(i);
+                let r = &self.residuals[i];
+                for (x, (ci, cv)) in cols.iter().enumerate() {
+                    ef[*ci] += cv.dot(r);
+                    for (cj, cw) in &cols[..=x] {
+                        let v = cv.dot(cw);
+                        df[(*ci, *cj)] += v;
+                        if ci != cj {
+                            df[(*cj, *ci)] += v;
+                        }
+                    }
+                    let bc = &mut bf[ci * p..(ci + 1) * p];
+                    for (gj, gv) in self.columns.pose(i) {
+                        bc[*gj] += gv.dot(cv);
+                    }
+                }
+            }
+        }
+        let (bt, dt, et) = (sum(&b), sum(&d), sum(&e));
+        let mut out = vec![f64::INFINITY; n];
+        for (f, ((mut btr, mut dtr), mut etr)) in b.into_iter().zip(d).zip(e).enumerate() {
+            let Some((factor, z)) = &self.factors[f] else {
+                continue;
+            };
+            // The training blocks: totals minus the fold's own (in place).
+            btr.zip_apply(&bt, |own, total| *own = total - *own);
+            dtr.zip_apply(&dt, |own, total| *own = total - *own);
+            etr.zip_apply(&et, |own, total| *own = total - *own);
+            if let (Some(tp), true) = (table, m > 0) {
+                let idx: Vec<usize> = (0..m).collect();
+                let diag = dtr.diagonal();
+                let mut pen = DMatrix::zeros(m, m);
+                add_table_penalty(&mut pen, &idx, &diag, tp);
+                dtr += pen;
+            }
+            let l = factor.l();
+            let (dp, dc) = if m > 0 {
+                // y = L⁻¹ B (in place), then the Schur complement D − yᵀy.
+                let mut y = btr;
+                factor.solve_in_place(&mut y);
+                let yt = y.transpose();
+                let mut s = dtr;
+                s.gemm(-1.0, &yt, &y, 1.0);
+                add_tiny_ridge(&mut s);
+                let mut rhs = etr;
+                rhs.gemv(-1.0, &yt, z, 1.0);
+                let Some(sc) = cholesky(s) else { continue };
+                let dc = sc.solve(&rhs);
+                let mut t = z.clone();
+                t.gemv(-1.0, &y, &dc, 1.0);
+                if !l.tr_solve_lower_triangular_mut(&mut t) {
+                    continue;
+                }
+                (t, dc)
+            } else {
+                let Some(dp) = l.tr_solve_lower_triangular(z) else {
+                    continue;
+                };
+                (dp, DVector::zeros(0))
+            };
+            for &i in &self.fold_poses[f] {
+                let mut pred = self.residuals[i];
+                for (j, c) in self.columns.pose(i) {
+                    pred -= c * dp[*j];
+                }
+                for (j, c) in extra.pose(i) {
+                    pred -= c * dc[*j];
+                }
+                out[i] = pred.norm_squared();
+            }
+        }
+        out
+    }
+}
+
+fn sum<R: nalgebra::Dim, C: nalgebra::Dim>(
+    v: &[nalgebra::OMatrix<f64, R, C>],
+) -> nalgebra::OMatrix<f64, R, C>
+where
+    nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<R, C>,
+{
+    let mut s = v[0].clone();
+    for x in &v[1..] {
+        s += x;
+    }
+    s
+}
+
+/// The scaled columns of `params` at every pose of `data` for `robot` (for a candidate: the
+/// robot with the candidate added at zero values, so the points are the current model's).
+pub fn candidate_columns<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    params: &[Param],
+    data: &[Measurement<f64, N>],
+) -> PoseColumns {
+    PoseKinematics::new(robot, data).columns(robot, params)
+}
+
+/// The forward kinematics of every pose at one model, computed once for the whole screen of a
+/// round.
+///
+/// A candidate joins the model at zero values, so the candidate robot's frames and points are
+/// the model's own: only its Jacobian columns are new, and [`ForwardKinematics::column`] reads
+/// them off the frames (plus the candidate's effect definition). The frames are computed with
+/// the lever arms (a zero compliance term is added when the model has none, which changes no
+/// angle), so that a compliance candidate's columns can be read off them too.
+#[derive(Clone, Debug)]
+pub struct PoseKinematics<const N: usize> {
+    poses: Vec<ForwardKinematics<f64, N>>,
+}
+
+impl<const N: usize> PoseKinematics<N> {
+    pub fn new<const V: usize>(robot: &Robot<f64, N, V>, data: &[Measurement<f64, N>]) -> Self {
+        let probe = with_lever_arms(robot);
+        let mut fk = ForwardKinematics::new();
+        let poses = data
+            .iter()
+            .map(|m| {
+                fk.compute(&probe, &m.q);
+                fk
+            })
+            .collect();
+        Self { poses }
+    }
+
+    /// The non-zero scaled columns of `params` at every pose for `robot`: the model the frames
+    /// were computed for, possibly with a candidate added at zero values.
+    pub fn columns<const V: usize>(
+        &self,
+        robot: &Robot<f64, N, V>,
+        params: &[Param],
+    ) -> PoseColumns {
+        let reach = robot.reach();
+        let scale: Vec<f64> = params.iter().map(|p| p.scale(reach)).collect();
+        let table = table_of(robot, params);
+        let per_pose = if table.is_some() { 2 } else { params.len() };
+        let mut out = PoseColumns::with_capacity(self.poses.len(), per_pose * self.poses.len());
+        for fk in &self.poses {
+            match table {
+                Some(e) => out.push_pose(table_columns(fk, robot, e, &scale)),
+                None => out.push_pose(
+                    params
+                        .iter()
+                        .enumerate()
+                        .filter_map(|(k, p)| non_zero(k, fk.column(robot, *p).ok()? / scale[k])),
+                ),
+            }
+        }
+        out
+    }
+}
+
+/// `robot` with the lever arms in its forward kinematics: itself when a compliance term needs
+/// them, otherwise with a zero compliance term on the first joint. (When there is no room for
+/// one, no compliance candidate fits either, so no column needs them.)
+fn with_lever_arms<const N: usize, const V: usize>(robot: &Robot<f64, N, V>) -> Robot<f64, N, V> {
+    let mut probe = robot.clone();
+    if N > 0 && !robot.effects().needs_lever_arms() {
+        let _ = probe
+            .effects_mut()
+            .push(EffectKind::Compliance, 0, N, 1, 0.0, 0.0, &[0.0]);
+    }
+    probe
+}
+
+/// The table of `robot` whose knots are exactly `params` (in order), if they are one.
+fn table_of<'r, const N: usize, const V: usize>(
+    robot: &'r Robot<f64, N, V>,
+    params: &[Param],
+) -> Option<&'r Effect<f64>> {
+    let Some(Param::Effect(first)) = params.first() else {
+        return None;
+    };
+    let e = robot
+        .effects()
+        .iter()
+        .find(|e| e.kind == EffectKind::Table && e.first == *first)?;
+    let knots = (e.first..e.first + e.len).map(Param::Effect);
+    (knots.eq(params.iter().copied()) && (e.joint as usize) < N).then_some(e)
+}
+
+/// The non-zero scaled columns of table `e`'s knots (`scale` per knot) at one pose: only the
+/// two knots around the reading can be non-zero, so they are computed as
+/// [`ForwardKinematics::column`] would (`∂p/∂r'_j · φ_k`) without asking it for every knot of a
+/// table of up to 200.
+fn table_columns<'a, const N: usize, const V: usize>(
+    fk: &ForwardKinematics<f64, N>,
+    robot: &Robot<f64, N, V>,
+    e: &Effect<f64>,
+    scale: &'a [f64],
+) -> impl Iterator<Item = (usize, Vector3<f64>)> + 'a {
+    let j = e.joint as usize;
+    let (seg, w) = e.segment(fk.q[j]);
+    let jc = fk.reading_column(robot, j);
+    [(seg, 1.0 - w), (seg + 1, w)]
+        .into_iter()
+        .filter_map(move |(k, phi)| non_zero(k, jc * phi / scale[k]))
+}
+
+/// `(k, c)` unless the column `c` is zero (a pose that does not excite the parameter).
+fn non_zero(k: usize, c: Vector3<f64>) -> Option<(usize, Vector3<f64>)> {
+    (c.norm_squared() > 0.0).then_some((k, c))
+}
+
+/// How much the fold fits' own estimation error inflates the held-out errors.
+///
+/// With the model linearised at its full-data solution and noise of variance σ² per
+/// coordinate, the held-out residuals of fold `f` are `r_f = y_f − J_f δ̂_f`, where the training
+/// fit `δ̂_f = H_f⁻¹ (J_Tᵀ y_T − Π x)` (`A_f = J_TᵀJ_T`, `H_f = A_f + Π_f` plus the tiny ridge,
+/// exactly the factor the screen and the refits use) has covariance `σ² C_f`,
+/// `C_f = H_f⁻¹ A_f H_f⁻¹`. So `Cov(r_f) = σ² (I + B_f)` with `B_f = J_f C_f J_fᵀ` (positive
+/// semi-definite): every held-out squared error carries the noise of its own pose **plus** the
+/// error of a fit made without it. With few poses per fold and many parameters that second part
+/// is large (24 poses, 5 folds, ~25 parameters: the held-out mean squared error is ~1.5–2× the
+/// noise's), which is why a held-out RMS is an upward-biased estimate of the noise.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FoldInflation {
+    /// Held-out coordinates (3 per pose).
+    pub coordinates: usize,
+    /// `Σ_f tr B_f`: what the fold fits add to `E[Σ |r_i|²] / σ²` beyond `coordinates`.
+    pub trace: f64,
+    /// `Σ_f tr B_f²` (for the degrees of freedom of the estimate).
+    pub trace_squared: f64,
+}
+
+/// Every pose's residual and sparse columns at `robot`, the normal equations of each fold, and
+/// their total.
+struct FoldSums {
+    /// The poses of each fold, in increasing order.
+    fold_poses: Vec<Vec<usize>>,
+    residuals: Vec<Vector3<f64>>,
+    columns: PoseColumns,
+    per_fold: Vec<Normal>,
+    total: Normal,
+}
+
+/// [`FoldSums`], one job per fold ([`parallel::map_each`]): a fold's sums add its poses in order, as
+/// one pass over all poses would.
+fn fold_sums<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    problem: &Problem,
+    data: &[Measurement<f64, N>],
+    folds: &Folds,
+) -> FoldSums {
+    let p = problem.len();
+    let fold_poses: Vec<Vec<usize>> = (0..folds.k).map(|f| folds.split(f).0).collect();
+    let parts = parallel::map_each(&fold_poses, |poses| {
+        let mut fk = ForwardKinematics::new();
+        let mut sums = NormalSums::new(p);
+        let mut rows = Vec::with_capacity(poses.len());
+        let mut cols = Vec::new();
+        for &i in poses {
+            let r = problem.pose_rows(&mut fk, robot, &data[i], &mut cols);
+            sums.add(&r, &cols);
+            rows.push((r, cols.clone()));
+        }
+        (sums.finish(), rows)
+    });
+    let mut per_pose = vec![(Vector3::zeros(), Vec::new()); data.len()];
+    let mut per_fold = Vec::with_capacity(folds.k);
+    for (poses, (normal, rows)) in fold_poses.iter().zip(parts) {
+        for (&i, row) in poses.iter().zip(rows) {
+            per_pose[i] = row;
+        }
+        per_fold.push(normal);
+    }
+    let entries = per_pose.iter().map(|(_, c)| c.len()).sum();
+    let mut columns = PoseColumns::with_capacity(data.len(), entries);
+    let mut residuals = Vec::with_capacity(data.len());
+    for (r, c) in per_pose {
+        residuals.push(r);
+        columns.push_pose(c);
+    }
+    let total = Normal::sum(p, &per_fold);
+    FoldSums {
+        fold_poses,
+        residuals,
+        columns,
+        per_fold,
+        total,
+    }
+}
+
+/// [`FoldInflation`] of `problem` at `robot` for these folds (see there).
+///
+/// Only the traces of `B_f = J_f C_f J_fᵀ` are needed, and with `N_f = J_fᵀJ_f` (the held-out
+/// fold's own normal matrix) they are traces of `p × p` products: `tr B_f = tr(C_f N_f)` and
+/// `tr B_f² = tr((C_f N_f)²)`, instead of forming `B_f` over the fold's `3 n_f` coordinates.
+/// The folds are independent and computed in parallel ([`parallel::map_each`]).
+pub fn fold_inflation<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    problem: &Problem,
+    data: &[Measurement<f64, N>],
+    folds: &Folds,
+) -> FoldInflation {
+    let FoldSums {
+        per_fold, total, ..
+    } = fold_sums(robot, problem, data, folds);
+    let traces = parallel::map_each(&per_fold, |nf| fold_traces(problem, &total.a, nf));
+    let mut out = FoldInflation {
+        coordinates: 3 * data.len(),
+        trace: 0.0,
+        trace_squared: 0.0,
+    };
+    for (trace, trace_squared) in traces.into_iter().flatten() {
+        out.trace += trace.max(0.0);
+        out.trace_squared += trace_squared;
+    }
+    out
+}
+
+/// `(tr B_f, tr B_f²)` of the fold whose own normal equations are `nf` (`total`: the normal
+/// matrix of all poses). `None` for an empty fold, and for a fold whose training matrix
+/// cannot be factored: it adds nothing, and the estimate then falls back towards the plain
+/// held-out mean squared error (its upper end).
+fn fold_traces(problem: &Problem, total: &DMatrix<f64>, nf: &Normal) -> Option<(f64, f64)> {
+    if nf.poses == 0 || problem.is_empty() {
+        return None;
+    }
+    let a = total - &nf.a;
+    let pen = problem.penalty_matrix(&a.diagonal());
+    let mut h = &a + &pen;
+    add_tiny_ridge(&mut h);
+    // `C_f = H⁻¹ A H⁻¹` by products with the explicit inverse.
+    let h_inv = cholesky_inverse(&cholesky(h)?)?;
+    let cn = &h_inv * &a * &h_inv * &nf.a;
+    let trace = cn.trace();
+    let trace_squared = cn.component_mul(&cn.transpose()).sum();
+    (trace.is_finite() && trace_squared.is_finite()).then_some((trace, trace_squared))
+}

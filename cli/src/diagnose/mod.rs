@@ -1,0 +1,570 @@
+//! The discrepancy workflow: fit the geometry, find where model and data disagree, name the
+//! missing effect, add it, and show with held-out poses that the gap shrank.
+//!
+//! 1. **Geometry.** The base is started by point-set registration when unknown, then base +
+//!    MDH rows + tool are fitted by the library's Levenberg–Marquardt; parameters the data
+//!    cannot determine are held (its identifiability analysis).
+//! 2. **Rounds.** With deterministic k-fold cross-validation (k = 5): every candidate of the
+//!    catalogue ([`crate::diagnose::candidates`]) is screened by one linearised step from the current
+//!    solution ([`crate::diagnose::cross_validation::Linearised`]); the best few (3 effect families)
+//!    are refitted fold by fold ([`crate::diagnose::penalised_fit`]); a refit is added only if its
+//!    per-pose held-out improvement passes the one-sided paired t test at `α / m` (Bonferroni
+//!    over the `m` candidates screened in the round, α = 5 %; see [`crate::diagnose::significance`])
+//!    and is not negligible (at least 1 % of the held-out mean squared error); of those, the
+//!    simplest one within one standard error of the best is added ([`choose`]). The screen's
+//!    candidates and the refits' folds are independent jobs, spread over the cores
+//!    ([`crate::calibration::parallel::map_each`]); no result depends on how they were scheduled.
+//! 3. **Stop** when nothing passes, when the held-out RMS reaches the noise floor estimated from
+//!    repeated poses (if the data have any), or after `max_effects` additions.
+//! 4. **Noise floor**: repeated poses, else the final model's cross-validated held-out errors
+//!    with the fold fits' share taken out ([`crate::diagnose::significance::held_out_noise`]); never above
+//!    the final held-out RMS (a floor the model already beats on unseen poses is no floor).
+//!
+//! One fit per parameter set: the model the baseline held-out RMS is of ([`Diagnosis::
+//! baseline_model`]) is fitted once, and when nothing is added it *is* the final model.
+
+pub mod candidates;
+pub mod cross_validation;
+pub mod dense;
+pub mod penalised_fit;
+pub mod residual_plots;
+pub mod significance;
+
+use crate::calibration::fit_lm;
+use crate::calibration::parallel;
+use crate::diagnose::candidates::{catalogue, Candidate, CandidateKind, CatalogueConfig};
+use crate::diagnose::cross_validation::{
+    fold_inflation, refit_errors, refit_errors_each, rms, Folds, Linearised, PoseKinematics,
+};
+use crate::diagnose::penalised_fit::{fit, Problem, TablePenalty};
+use crate::diagnose::significance::{
+    held_out_noise, noise_floor_interval, paired_improvement, repeat_noise, PairedTest,
+};
+use crate::output::numfmt::sig;
+use crate::VCAP;
+use kinecal::identify::lm::LmConfig;
+use kinecal::model::param::{Param, ParamSet};
+use kinecal::{Measurement, Robot};
+use std::time::Instant;
+
+/// Settings of the search; the defaults are the ones the test matrix was run with.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Config {
+    /// Cross-validation folds.
+    pub folds: usize,
+    /// Family-wise false-alarm rate per round (Bonferroni over the candidates screened).
+    pub alpha: f64,
+    pub catalogue: CatalogueConfig,
+    /// How many of the best screened candidates are refitted fold by fold.
+    pub refit_best: usize,
+    /// At most this many effects are added.
+    pub max_effects: usize,
+    /// Seed of the folds.
+    pub seed: u64,
+    pub penalty: TablePenalty,
+    /// Iteration limit of each refit.
+    pub refit_iterations: u32,
+    /// With a noise floor from repeated poses: stop once the held-out RMS is within this factor.
+    pub floor_tolerance: f64,
+    /// Besides being significant, an addition must cut the held-out mean squared error by at
+    /// least this fraction: a real but negligible gain (a parameter that moves the predictions
+    /// by nanometres) is not worth a model term.
+    pub min_improvement: f64,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Self {
+            folds: 5,
+            alpha: 0.05,
+            catalogue: CatalogueConfig::default(),
+            refit_best: 3,
+            max_effects: 12,
+            seed: 0,
+            penalty: TablePenalty::default(),
+            refit_iterations: 20,
+            floor_tolerance: 1.05,
+            min_improvement: 0.01,
+        }
+    }
+}
+
+/// One candidate after the screen of a round.
+#[derive(Clone, Debug)]
+pub struct Screened {
+    pub candidate: Candidate,
+    /// Held-out RMS predicted by the linearised step (mm).
+    pub linear_rms_mm: f64,
+}
+
+/// One candidate refitted fold by fold and tested.
+#[derive(Clone, Debug)]
+pub struct Tested {
+    pub candidate: Candidate,
+    /// Number of parameters the candidate adds.
+    pub parameters: usize,
+    pub validation_rms_mm: f64,
+    pub test: PairedTest,
+}
+
+/// What happened in one round.
+#[derive(Clone, Debug)]
+pub struct Round {
+    /// Held-out RMS of the model the round started from (mm).
+    pub start_rms_mm: f64,
+    pub screened: Vec<Screened>,
+    pub tested: Vec<Tested>,
+    /// `α / m`.
+    pub threshold: f64,
+    /// Index into `tested` of the one added.
+    pub chosen: Option<usize>,
+    pub seconds: f64,
+}
+
+/// An effect the search added.
+#[derive(Clone, Debug)]
+pub struct Found<const N: usize> {
+    pub candidate: Candidate,
+    /// Held-out RMS before and after adding it (mm).
+    pub before_rms_mm: f64,
+    pub validation_rms_mm: f64,
+    pub test: PairedTest,
+    /// The p-value threshold it passed (`α / m`) and `m`.
+    pub threshold: f64,
+    pub candidates_compared: usize,
+    /// The full-data fits without and with it (for plots).
+    pub before: Robot<f64, N, VCAP>,
+    pub after: Robot<f64, N, VCAP>,
+}
+
+/// Where the noise floor estimate comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NoiseSource {
+    /// Scatter of repeated poses (identical joint readings).
+    RepeatedPoses,
+    /// The final model's cross-validated held-out errors less the fold fits' share.
+    HeldOut,
+}
+
+/// The outcome of the workflow.
+#[derive(Clone, Debug)]
+pub struct Diagnosis<const N: usize> {
+    /// Geometry fitted to all poses by the library's LM (base when unknown, rows, tool): where
+    /// the search starts from.
+    pub geometric: Robot<f64, N, VCAP>,
+    /// The starting parameter set (geometry without the held parameters, plus the nominal
+    /// model's own effects) fitted to all poses by the search's fit: the model
+    /// `baseline_validation_rms_mm` is of. When nothing is added, `model` is this very fit.
+    pub baseline_model: Robot<f64, N, VCAP>,
+    /// Geometric parameters the data cannot determine (held at nominal).
+    pub unidentifiable: Vec<Param>,
+    pub baseline_validation_rms_mm: f64,
+    /// Per-pose held-out squared errors of the geometric model and of the final one (mm²).
+    pub baseline_errors: Vec<f64>,
+    pub final_errors: Vec<f64>,
+    pub found: Vec<Found<N>>,
+    pub final_validation_rms_mm: f64,
+    /// The extended model, fitted to all poses.
+    pub model: Robot<f64, N, VCAP>,
+    /// Joints (0-based) whose `beta` is free in the model (axis-tilt).
+    pub free_tilt: Vec<usize>,
+    /// Noise floor in the held-out RMS sense, `√3 σ` (mm), and per-coordinate σ; never above
+    /// `final_validation_rms_mm`.
+    pub noise_floor_mm: f64,
+    pub noise_sigma_mm: f64,
+    pub noise_source: NoiseSource,
+    /// Approximate 95 % interval of the noise floor (mm) and the degrees of freedom behind it.
+    pub noise_floor_interval_mm: [f64; 2],
+    pub noise_dof: f64,
+    /// Family-wise false-alarm rate of each round.
+    pub alpha: f64,
+    /// Residual RMS of the final model on all poses (mm) and its effective parameter count.
+    pub fit_rms_mm: f64,
+    pub effective_parameters: f64,
+    pub rounds: Vec<Round>,
+    pub stop_reason: String,
+    pub folds: Folds,
+    pub geometry_seconds: f64,
+    pub seconds: f64,
+}
+
+impl<const N: usize> Found<N> {
+    /// One sentence: what is missing, how much it helps, how sure.
+    pub fn sentence(&self, noise_floor_mm: f64) -> String {
+        let values = self.candidate.values(&self.after);
+        let [before, after, floor] =
+            distinct_figures([self.before_rms_mm, self.validation_rms_mm, noise_floor_mm]);
+        let alpha = self.threshold * self.candidates_compared as f64;
+        format!(
+            "{}: held-out RMS {before} → {after} mm, {} (one-sided paired t test p = {}, below the {} % family-wise threshold {} over {} candidates)",
+            self.candidate.meaning(&values),
+            floor_phrase(noise_floor_mm, &floor),
+            sig(self.test.p, 2),
+            percent(alpha),
+            sig(self.threshold, 2),
+            self.candidates_compared
+        )
+    }
+}
+
+/// Figures for one sentence, with significant digits (at least 3, at most 9): as many as it
+/// takes for figures that differ to print differently ("0.0178 → 0.0174", not "0.018 → 0.018";
+/// "0.29720 → 0.29724"), all with the same number of digits; a figure that is not finite
+/// prints as `-`.
+pub fn distinct_figures<const K: usize>(x: [f64; K]) -> [String; K] {
+    let mut digits = 3;
+    while digits < 9 {
+        let s = x.map(|v| sig(v, digits));
+        let clash = (0..K).any(|i| {
+            (0..i).any(|j| x[i].is_finite() && x[j].is_finite() && x[i] != x[j] && s[i] == s[j])
+        });
+        if !clash {
+            return s;
+        }
+        digits += 1;
+    }
+    x.map(|v| sig(v, digits))
+}
+
+/// A rate as a percentage without trailing zeros ("5", "2.5").
+pub fn percent(rate: f64) -> String {
+    let s = sig(100.0 * rate, 3);
+    if s.contains('.') && !s.contains('e') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+/// "noise floor 0.0346 mm", or what stands for it when no floor could be estimated.
+pub fn floor_phrase(floor_mm: f64, text: &str) -> String {
+    if floor_mm.is_finite() {
+        format!("noise floor {text} mm")
+    } else {
+        "noise floor not estimated".to_string()
+    }
+}
+
+impl<const N: usize> Diagnosis<N> {
+    /// Held-out poses outside the search (a holdout or validation file) reached
+    /// `held_out_rms_mm` with the final model: a noise floor above it is contradicted by those
+    /// poses (their errors are noise plus the model's), so it is lowered to it. Returns whether
+    /// it was.
+    pub fn cap_noise_floor(&mut self, held_out_rms_mm: f64) -> bool {
+        if !(held_out_rms_mm.is_finite() && self.noise_floor_mm > held_out_rms_mm) {
+            return false;
+        }
+        self.noise_floor_mm = held_out_rms_mm;
+        self.noise_sigma_mm = held_out_rms_mm / 3f64.sqrt();
+        self.noise_floor_interval_mm[0] = self.noise_floor_interval_mm[0].min(held_out_rms_mm);
+        true
+    }
+}
+
+/// Which tested candidate to add: among those that pass the test (p ≤ `threshold`, mean gain
+/// ≥ `min_gain` mm²), the one with the fewest parameters whose held-out mean squared error is
+/// within one standard error of the best one's (the "one-standard-error rule" of Hastie,
+/// Tibshirani & Friedman, §7.10: the standard error of the best model's cross-validated error).
+/// A table can imitate a scale error or a once-per-turn error; when the data cannot tell them
+/// apart, the simpler effect is the better name. Ties go to the lower held-out error.
+pub fn choose(
+    tested: &[Tested],
+    errors: &[&[f64]],
+    threshold: f64,
+    min_gain: f64,
+) -> Option<usize> {
+    let ok: Vec<usize> = (0..tested.len())
+        .filter(|&i| tested[i].test.p <= threshold && tested[i].test.mean >= min_gain)
+        .collect();
+    let best = *ok.iter().min_by(|a, b| {
+        tested[**a]
+            .validation_rms_mm
+            .total_cmp(&tested[**b].validation_rms_mm)
+    })?;
+    let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len().max(1) as f64;
+    let eb = errors[best];
+    let mb = mean(eb);
+    let se = (eb.iter().map(|x| (x - mb) * (x - mb)).sum::<f64>()
+        / (eb.len().max(2) - 1) as f64
+        / eb.len().max(1) as f64)
+        .sqrt();
+    ok.into_iter()
+        .filter(|&i| mean(errors[i]) <= mb + se)
+        .min_by(|a, b| {
+            tested[*a].parameters.cmp(&tested[*b].parameters).then(
+                tested[*a]
+                    .validation_rms_mm
+                    .total_cmp(&tested[*b].validation_rms_mm),
+            )
+        })
+}
+
+/// Fits the geometry: base started by registration when unknown, then LM over base (when
+/// unknown), rows, tool and the betas of `free_tilt`. Returns the robot and the held parameters.
+pub fn fit_geometry<const N: usize>(
+    nominal: &Robot<f64, N, VCAP>,
+    base_known: bool,
+    free_tilt: &[usize],
+    data: &[Measurement<f64, N>],
+) -> anyhow::Result<(Robot<f64, N, VCAP>, Vec<Param>)> {
+    let mut start = nominal.clone();
+    if !base_known {
+        let base = crate::calibration::registration::fit_base(nominal, data)?;
+        start
+            .set_base(base)
+            .map_err(|e| anyhow::anyhow!("base registration: {e:?}"))?;
+    }
+    let mut params: Vec<Param> = ParamSet::<64>::full(N, !base_known)
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?
+        .as_slice()
+        .to_vec();
+    for j in free_tilt {
+        params.push(Param::Beta(*j as u8));
+    }
+    let fitted = fit_lm(&start, &params, data, LmConfig::default())?;
+    let held: Vec<Param> = params
+        .iter()
+        .copied()
+        .filter(|p| {
+            fitted
+                .unidentifiable
+                .contains(&p.name(&fitted.robot).to_string())
+        })
+        .collect();
+    Ok((fitted.robot, held))
+}
+
+/// Runs the whole workflow on `data` for the `nominal` model (its effects, if any, are kept
+/// and refitted; `free_tilt` are joints whose beta is already free).
+pub fn diagnose<const N: usize>(
+    nominal: &Robot<f64, N, VCAP>,
+    base_known: bool,
+    free_tilt: &[usize],
+    data: &[Measurement<f64, N>],
+    cfg: &Config,
+) -> anyhow::Result<Diagnosis<N>> {
+    let t0 = Instant::now();
+    anyhow::ensure!(
+        data.len() >= 2 * cfg.folds.max(2),
+        "{} poses are too few for {}-fold cross-validation",
+        data.len(),
+        cfg.folds
+    );
+    let (geometric, held) = fit_geometry(nominal, base_known, free_tilt, data)?;
+    let geometry_seconds = t0.elapsed().as_secs_f64();
+    let mut params: Vec<Param> = ParamSet::<64>::full(N, !base_known)
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?
+        .as_slice()
+        .to_vec();
+    params.extend(free_tilt.iter().map(|j| Param::Beta(*j as u8)));
+    params.retain(|p| !held.contains(p));
+    params.extend((0..geometric.effects().values().len()).map(|k| Param::Effect(k as u16)));
+    let mut problem = Problem::new(&geometric, &params, cfg.penalty)?;
+    // The one fit of the starting parameter set: the baseline's model, and the final model
+    // when nothing is added.
+    let mut current_fit = fit(&geometric, &problem, data, cfg.refit_iterations)?;
+    let baseline_model = current_fit.robot.clone();
+    let mut current = current_fit.robot.clone();
+    let folds = Folds::new(data, cfg.folds, cfg.seed);
+    let baseline_errors = refit_errors(&current, &problem, data, &folds, cfg.refit_iterations)?;
+    let baseline_rms = rms(&baseline_errors);
+    let repeat = repeat_noise(data);
+    let mut errors = baseline_errors.clone();
+    let mut free_tilt: Vec<usize> = free_tilt.to_vec();
+    let mut found: Vec<Found<N>> = Vec::new();
+    let mut rounds = Vec::new();
+    let stop_reason;
+    loop {
+        let cur_rms = rms(&errors);
+        if let Some((sigma, _)) = repeat {
+            if cur_rms <= cfg.floor_tolerance * 3f64.sqrt() * sigma {
+                stop_reason = format!(
+                    "the held-out RMS {} mm reached the noise floor of the repeated poses ({} mm)",
+                    sig(cur_rms, 4),
+                    sig(3f64.sqrt() * sigma, 4)
+                );
+                break;
+            }
+        }
+        if found.len() >= cfg.max_effects {
+            stop_reason = format!("{} effects added (the limit)", found.len());
+            break;
+        }
+        let tr = Instant::now();
+        let cands: Vec<Candidate> = catalogue(&current, base_known, data, &cfg.catalogue)
+            .into_iter()
+            .filter(|c| {
+                !c.present_in(&current, &free_tilt)
+                    && !found.iter().any(|f| f.candidate.same_effect(c))
+            })
+            .collect();
+        if cands.is_empty() {
+            stop_reason = "no candidate left".into();
+            break;
+        }
+        let lin = Linearised::new(&current, &problem, data, &folds);
+        let lin_base = rms(&lin.baseline());
+        let kinematics = PoseKinematics::new(&current, data);
+        let mut screened: Vec<Screened> = parallel::map_each(&cands, |c| {
+            let mut robot_c = current.clone();
+            // A candidate the model has no room for (effect capacity) is not compared.
+            let extra = c.add_to(&mut robot_c).ok()?;
+            let cols = kinematics.columns(&robot_c, &extra);
+            let table = matches!(c.kind, CandidateKind::Table { .. }).then_some(cfg.penalty);
+            let e = lin.screen(&cols, extra.len(), table);
+            Some(Screened {
+                candidate: *c,
+                linear_rms_mm: rms(&e),
+            })
+        })
+        .into_iter()
+        .flatten()
+        .collect();
+        screened.sort_by(|a, b| a.linear_rms_mm.total_cmp(&b.linear_rms_mm));
+        let m = screened.len();
+        let threshold = cfg.alpha / m as f64;
+        // Refit the best member of each of the best few families (one effect kind on one joint:
+        // the grids of a table are one family), so that a simple effect is not crowded out by
+        // several resolutions of a table that contains it.
+        let mut families: Vec<Candidate> = Vec::new();
+        for s in screened.iter().filter(|s| s.linear_rms_mm < lin_base) {
+            if families.len() >= cfg.refit_best {
+                break;
+            }
+            if !families.iter().any(|f| f.same_effect(&s.candidate)) {
+                families.push(s.candidate);
+            }
+        }
+        // The families' fold refits are independent: all of them at once, over the cores.
+        let mut models = Vec::with_capacity(families.len());
+        for c in &families {
+            let mut robot_c = current.clone();
+            let extra = c.add_to(&mut robot_c)?;
+            let parameters = extra.len();
+            let mut p = problem.params.clone();
+            p.extend(extra);
+            let problem_c = Problem::new(&robot_c, &p, cfg.penalty)?;
+            models.push((robot_c, problem_c, parameters));
+        }
+        let starts: Vec<(&Robot<f64, N, VCAP>, &Problem)> =
+            models.iter().map(|(r, p, _)| (r, p)).collect();
+        let held_out = refit_errors_each(&starts, data, &folds, cfg.refit_iterations)?;
+        let tested: Vec<Tested> = families
+            .iter()
+            .zip(&models)
+            .zip(&held_out)
+            .map(|((c, (_, _, parameters)), e)| Tested {
+                candidate: *c,
+                parameters: *parameters,
+                validation_rms_mm: rms(e),
+                test: paired_improvement(&errors, e),
+            })
+            .collect();
+        let mut fits: Vec<_> = models
+            .into_iter()
+            .zip(held_out)
+            .map(|((r, p, _), e)| (r, p, e))
+            .collect();
+        let chosen = choose(
+            &tested,
+            &fits.iter().map(|f| f.2.as_slice()).collect::<Vec<_>>(),
+            threshold,
+            cfg.min_improvement * cur_rms * cur_rms,
+        );
+        rounds.push(Round {
+            start_rms_mm: cur_rms,
+            screened,
+            tested: tested.clone(),
+            threshold,
+            chosen,
+            seconds: tr.elapsed().as_secs_f64(),
+        });
+        let Some(i) = chosen else {
+            stop_reason = "no remaining candidate improves the held-out error significantly".into();
+            break;
+        };
+        let (robot_c, problem_c, e) = fits.swap_remove(i);
+        let after_fit = fit(&robot_c, &problem_c, data, cfg.refit_iterations)?;
+        let after = after_fit.robot.clone();
+        let t = &tested[i];
+        if t.candidate.kind == CandidateKind::Tilt {
+            free_tilt.push(t.candidate.joint);
+        }
+        found.push(Found {
+            candidate: t.candidate,
+            before_rms_mm: cur_rms,
+            validation_rms_mm: t.validation_rms_mm,
+            test: t.test,
+            threshold,
+            candidates_compared: m,
+            before: current.clone(),
+            after: after.clone(),
+        });
+        current = after;
+        current_fit = after_fit;
+        problem = problem_c;
+        errors = e;
+    }
+    // The final model: with nothing added, the baseline's own fit (not a second fit of the
+    // same parameters); with effects added, the last fit continued to convergence (a model
+    // with a new parameter set, so no figure of the same set is reported for it elsewhere).
+    let final_fit = if found.is_empty() {
+        current_fit
+    } else {
+        fit(&current, &problem, data, cfg.refit_iterations)?
+    };
+    let effective_parameters = final_fit.effective_parameters(&problem, data);
+    let n = data.len();
+    let final_rms = rms(&errors);
+    // The noise floor, in the held-out RMS sense (√3 σ).
+    let (floor, dof, noise_source) = match repeat {
+        Some((s, dof)) => (3f64.sqrt() * s, dof as f64, NoiseSource::RepeatedPoses),
+        None => {
+            let inflation = fold_inflation(&final_fit.robot, &problem, data, &folds);
+            let (s, nu) = held_out_noise(errors.iter().sum(), &inflation);
+            // The Satterthwaite ν leaves out the covariances between folds (optimistic): it
+            // is capped at the residual's degrees of freedom, 3n − p_eff.
+            let residual_dof = (3 * n) as f64 - effective_parameters;
+            (
+                3f64.sqrt() * s,
+                nu.min(residual_dof.max(1.0)),
+                NoiseSource::HeldOut,
+            )
+        }
+    };
+    let mut interval = noise_floor_interval(floor, dof);
+    // Held-out errors are noise plus a fit's error: the floor cannot lie above what the final
+    // model reaches on poses it did not see. (By construction for the held-out estimate; for
+    // repeated poses a cap when their scatter happens to exceed it.)
+    let noise_floor_mm = if floor.is_finite() && floor > final_rms {
+        interval[0] = interval[0].min(final_rms);
+        final_rms
+    } else {
+        floor
+    };
+    Ok(Diagnosis {
+        geometric,
+        baseline_model,
+        unidentifiable: held,
+        baseline_validation_rms_mm: baseline_rms,
+        baseline_errors,
+        final_validation_rms_mm: final_rms,
+        final_errors: errors,
+        found,
+        model: final_fit.robot,
+        free_tilt,
+        noise_floor_mm,
+        noise_sigma_mm: noise_floor_mm / 3f64.sqrt(),
+        noise_source,
+        noise_floor_interval_mm: interval,
+        noise_dof: dof,
+        alpha: cfg.alpha,
+        fit_rms_mm: (final_fit.ssr / n as f64).sqrt(),
+        effective_parameters,
+        rounds,
+        stop_reason,
+        folds,
+        geometry_seconds,
+        seconds: t0.elapsed().as_secs_f64(),
+    })
+}

@@ -1,0 +1,382 @@
+//! Measurement CSV files (interfaces.md §3) on the desktop: the library's streaming
+//! [`kinecal::io::csv::CsvReader`] over a file, errors turned into one line
+//! `FILE:LINE:COLUMN: description`, and a writer.
+
+use anyhow::anyhow;
+use embedded_io_adapters::std::FromStd;
+use kinecal::io::csv::{CsvError, CsvErrorKind, CsvReader};
+use kinecal::{Measurement, Real};
+use std::fmt::Write as _;
+use std::io::{BufRead, BufReader, Read, Seek};
+use std::path::Path;
+
+/// Longest line accepted, bytes (the UR10 files use ~110).
+pub const LINE_CAPACITY: usize = 4096;
+/// Most extra columns carried by name (more are ignored).
+pub const MAX_EXTRA: usize = 16;
+/// Decimals written for joint readings (degrees); [`quantize_deg`] rounds to them.
+pub const Q_DECIMALS: usize = 6;
+/// Decimals written for measured points (millimetres).
+pub const XYZ_DECIMALS: usize = 8;
+
+/// One measured pose in file units.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Record<const N: usize> {
+    pub q_deg: [f64; N],
+    pub xyz_mm: [f64; 3],
+    /// Values of the extra columns, in the order of [`Dataset::extra_names`] (NaN = empty cell).
+    pub extra: Vec<f64>,
+    /// Line of the file (0 for records made in memory).
+    pub line: u32,
+}
+
+impl<const N: usize> Record<N> {
+    /// A record without extra columns.
+    pub fn new(q_deg: [f64; N], xyz_mm: [f64; 3]) -> Self {
+        Self {
+            q_deg,
+            xyz_mm,
+            extra: Vec::new(),
+            line: 0,
+        }
+    }
+
+    /// In library units (rad, mm).
+    pub fn measurement<T: Real>(&self) -> Measurement<T, N> {
+        Measurement::from_deg(&self.q_deg, &self.xyz_mm)
+    }
+}
+
+/// The records of one file.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct Dataset<const N: usize> {
+    pub records: Vec<Record<N>>,
+    pub extra_names: Vec<String>,
+}
+
+impl<const N: usize> Dataset<N> {
+    pub fn len(&self) -> usize {
+        self.records.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.records.is_empty()
+    }
+
+    /// All records in library units (rad, mm).
+    pub fn measurements<T: Real>(&self) -> Vec<Measurement<T, N>> {
+        self.records.iter().map(|r| r.measurement()).collect()
+    }
+
+    /// The values of an extra column, if the file has it.
+    pub fn extra(&self, name: &str) -> Option<Vec<f64>> {
+        let k = self.extra_names.iter().position(|n| n == name)?;
+        Some(
+            self.records
+                .iter()
+                .map(|r| r.extra.get(k).copied().unwrap_or(f64::NAN))
+                .collect(),
+        )
+    }
+
+    /// `(min, max)` of every joint reading, degrees (`(inf, -inf)` when empty).
+    pub fn joint_ranges_deg(&self) -> [(f64, f64); N] {
+        let mut r = [(f64::INFINITY, f64::NEG_INFINITY); N];
+        for rec in &self.records {
+            for (m, q) in r.iter_mut().zip(rec.q_deg) {
+                m.0 = m.0.min(q);
+                m.1 = m.1.max(q);
+            }
+        }
+        r
+    }
+}
+
+/// Rounds a joint reading to the decimals the writer keeps, so that a model evaluated at the
+/// rounded value matches what a reader of the file will evaluate.
+pub fn quantize_deg(q: f64) -> f64 {
+    let s = 10f64.powi(Q_DECIMALS as i32);
+    (q * s).round() / s
+}
+
+/// The name of required column `which` of a `MissingColumn` error (`q1`…`qN`, `x`, `y`, `z`).
+pub fn required_column_name(which: usize, n: usize) -> String {
+    if which < n {
+        format!("q{}", which + 1)
+    } else {
+        ["x", "y", "z"].get(which - n).unwrap_or(&"?").to_string()
+    }
+}
+
+/// Reads all records from a byte stream with the library reader.
+pub fn read_records<const N: usize, R: Read>(reader: R) -> Result<Dataset<N>, CsvError> {
+    let mut csv: CsvReader<FromStd<R>, N, LINE_CAPACITY, MAX_EXTRA> =
+        CsvReader::new(FromStd::new(reader))?;
+    let extra_names = csv.extra_names().iter().map(|s| s.to_string()).collect();
+    let mut records = Vec::new();
+    while let Some(r) = csv.next_record() {
+        let r = r?;
+        records.push(Record {
+            q_deg: r.q_deg,
+            xyz_mm: r.xyz_mm,
+            extra: r.extra.iter().copied().collect(),
+            line: r.line,
+        });
+    }
+    Ok(Dataset {
+        records,
+        extra_names,
+    })
+}
+
+/// One-line description of a CSV error: `ORIGIN:LINE:COLUMN: what (column NAME: 'cell')`.
+/// `text_line` is the offending line's text when available, `header` the header's cells.
+pub fn describe_error(
+    origin: &str,
+    e: &CsvError,
+    n: usize,
+    header: Option<&[String]>,
+    text_line: Option<&str>,
+) -> String {
+    let line = e.line.max(1);
+    let mut col = e.column as usize;
+    let mut msg = e.kind.describe().to_string();
+    match e.kind {
+        CsvErrorKind::MissingColumn => {
+            let name = required_column_name(e.which as usize, n);
+            msg = format!("missing required column `{name}` (the header needs q1..q{n}, x, y, z)");
+            col = 1;
+        }
+        CsvErrorKind::LineTooLong => {
+            msg = format!("line longer than {LINE_CAPACITY} bytes");
+            col = LINE_CAPACITY + 1;
+        }
+        CsvErrorKind::TooManyJoints => {
+            let name = header
+                .and_then(|h| h.get(col.wrapping_sub(1)))
+                .cloned()
+                .unwrap_or_default();
+            msg = format!("joint column `{name}` beyond the robot's {n} joints");
+        }
+        _ => {
+            if col > 0 {
+                if let Some(name) = header.and_then(|h| h.get(col - 1)) {
+                    msg.push_str(&format!(" in column `{name}`"));
+                }
+                if let Some(cell) = text_line.and_then(|t| t.split(',').nth(col - 1)) {
+                    let cell = cell.trim();
+                    if !cell.is_empty() && cell.len() <= 40 {
+                        msg.push_str(&format!(": '{cell}'"));
+                    }
+                }
+            }
+        }
+    }
+    format!("{origin}:{line}:{}: {msg}", col.max(1))
+}
+
+/// Opens a file positioned after a UTF-8 byte-order mark, if it has one (spreadsheets write it).
+fn open_skipping_bom(path: &Path) -> std::io::Result<std::fs::File> {
+    let mut f = std::fs::File::open(path)?;
+    let mut bom = [0u8; 3];
+    let n = f.read(&mut bom)?;
+    if !(n == 3 && bom == [0xEF, 0xBB, 0xBF]) {
+        f.rewind()?;
+    }
+    Ok(f)
+}
+
+/// The header cells (first line that is neither blank nor a comment) and the text of line
+/// `want` (1-based), read with std for error messages.
+fn context_lines(path: &Path, want: u32) -> (Option<Vec<String>>, Option<String>) {
+    let Ok(f) = open_skipping_bom(path) else {
+        return (None, None);
+    };
+    let mut header = None;
+    let mut wanted = None;
+    for (i, l) in BufReader::new(f).split(b'\n').enumerate() {
+        let Ok(l) = l else { break };
+        let text = String::from_utf8_lossy(&l)
+            .trim_end_matches('\r')
+            .to_string();
+        let t = text.trim();
+        if header.is_none() && !t.is_empty() && !t.starts_with('#') {
+            header = Some(
+                text.split(',')
+                    .map(|c| c.trim().trim_matches('"').to_string())
+                    .collect(),
+            );
+        }
+        if i + 1 == want as usize {
+            wanted = Some(text);
+        }
+        if header.is_some() && (i + 1) as u32 >= want {
+            break;
+        }
+    }
+    (header, wanted)
+}
+
+/// Loads a measurement file for an `N`-joint robot, values as written (no unit conversion:
+/// the commands load through [`crate::formats::units`]). Errors are one line naming the file, line and
+/// column; malformed content is [`crate::Refused`] (exit status 2), an unreadable file is not.
+pub fn load<const N: usize>(path: &Path) -> anyhow::Result<Dataset<N>> {
+    let origin = path.display().to_string();
+    let mut bytes = std::fs::read(path).map_err(|e| anyhow!("{origin}: cannot read: {e}"))?;
+    if bytes.starts_with(&[0xEF, 0xBB, 0xBF]) {
+        bytes.drain(..3);
+    }
+    // Malformed content is refused input (exit status 2, interfaces.md §4).
+    read_bytes::<N>(&bytes).map_err(|e| {
+        let (header, text) = context_lines(path, e.line);
+        crate::refused(describe_error(
+            &origin,
+            &e,
+            N,
+            header.as_deref(),
+            text.as_deref(),
+        ))
+    })
+}
+
+/// Files larger than this are parsed in parts on several threads.
+pub const PARALLEL_MIN_BYTES: usize = 1 << 20;
+
+/// Reads all records of a whole file in memory: large files in [`crate::calibration::parallel::PARTS`]
+/// parts cut at line ends, each read by the library reader after the file's header lines, on
+/// several threads. Records, line numbers and the first error are those of one reader over the
+/// whole file.
+pub fn read_bytes<const N: usize>(bytes: &[u8]) -> Result<Dataset<N>, CsvError> {
+    let Some(body_start) = header_end(bytes).filter(|_| bytes.len() >= PARALLEL_MIN_BYTES) else {
+        return read_records::<N, _>(bytes);
+    };
+    let (prefix, body) = bytes.split_at(body_start);
+    let parts = split_at_lines(body, crate::calibration::parallel::PARTS);
+    let read = crate::calibration::parallel::map_each(&parts, |part| {
+        let lines = part.iter().filter(|b| **b == b'\n').count() as u32;
+        (read_records::<N, _>(prefix.chain(*part)), lines)
+    });
+    let mut out = Dataset::default();
+    let mut before = 0u32;
+    for (ds, lines) in read {
+        // A part's reader numbers the prefix's lines too, as the whole file's reader does.
+        let ds = ds.map_err(|e| CsvError {
+            line: e.line.saturating_add(before),
+            ..e
+        })?;
+        out.extra_names = ds.extra_names;
+        out.records.extend(ds.records.into_iter().map(|r| Record {
+            line: r.line.saturating_add(before),
+            ..r
+        }));
+        before = before.saturating_add(lines);
+    }
+    Ok(out)
+}
+
+/// The index just after the header line (the first line neither blank nor a comment, as the
+/// library reader decides), `None` when there is no complete one.
+fn header_end(bytes: &[u8]) -> Option<usize> {
+    let mut start = 0;
+    while let Some(len) = bytes[start..].iter().position(|b| *b == b'\n') {
+        let t = bytes[start..start + len].trim_ascii();
+        start += len + 1;
+        if !(t.is_empty() || t[0] == b'#') {
+            return Some(start);
+        }
+    }
+    None
+}
+
+/// `bytes` cut into at most `parts` pieces of similar size, each ending at a line end (the
+/// last at the end of `bytes`).
+fn split_at_lines(bytes: &[u8], parts: usize) -> Vec<&[u8]> {
+    let target = bytes.len().div_ceil(parts.max(1)).max(1);
+    let mut out = Vec::with_capacity(parts);
+    let mut rest = bytes;
+    while !rest.is_empty() {
+        let cut = if rest.len() <= target {
+            rest.len()
+        } else {
+            rest[target..]
+                .iter()
+                .position(|b| *b == b'\n')
+                .map_or(rest.len(), |k| target + k + 1)
+        };
+        let (head, tail) = rest.split_at(cut);
+        out.push(head);
+        rest = tail;
+    }
+    out
+}
+
+/// The joint count a measurement file is for: the largest `K` of its `qK` columns.
+pub fn joint_count(path: &Path) -> anyhow::Result<usize> {
+    let origin = path.display().to_string();
+    let f = open_skipping_bom(path).map_err(|e| anyhow!("{origin}: cannot read: {e}"))?;
+    for (i, l) in BufReader::new(f).split(b'\n').enumerate() {
+        let l = l.map_err(|e| anyhow!("{origin}:{}:1: cannot read: {e}", i + 1))?;
+        let text = String::from_utf8_lossy(&l);
+        let t = text.trim();
+        if t.is_empty() || t.starts_with('#') {
+            continue;
+        }
+        let n = t
+            .split(',')
+            .filter_map(|c| {
+                c.trim()
+                    .trim_matches('"')
+                    .strip_prefix('q')
+                    .and_then(|k| k.parse::<usize>().ok())
+            })
+            .max()
+            .unwrap_or(0);
+        if n == 0 {
+            return Err(crate::refused(format!(
+                "{origin}:{}:1: the header has no joint columns q1, q2, …",
+                i + 1
+            )));
+        }
+        return Ok(n);
+    }
+    Err(crate::refused(format!(
+        "{origin}:1:1: {}",
+        CsvErrorKind::Empty.describe()
+    )))
+}
+
+/// The CSV text of a dataset: header `q1..qN,x,y,z[,extra…]`, joint readings with
+/// [`Q_DECIMALS`] and points with [`XYZ_DECIMALS`] decimals, extra values exactly.
+pub fn to_csv_string<const N: usize>(data: &Dataset<N>) -> String {
+    let mut s = String::new();
+    let mut head: Vec<String> = (1..=N).map(|i| format!("q{i}")).collect();
+    head.extend(["x", "y", "z"].map(String::from));
+    head.extend(data.extra_names.iter().cloned());
+    s.push_str(&head.join(","));
+    s.push('\n');
+    for r in &data.records {
+        for q in r.q_deg {
+            let _ = write!(s, "{q:.Q_DECIMALS$},");
+        }
+        let [x, y, z] = r.xyz_mm;
+        let _ = write!(
+            s,
+            "{x:.XYZ_DECIMALS$},{y:.XYZ_DECIMALS$},{z:.XYZ_DECIMALS$}"
+        );
+        for k in 0..data.extra_names.len() {
+            let v = r.extra.get(k).copied().unwrap_or(f64::NAN);
+            if v.is_finite() {
+                let _ = write!(s, ",{v}");
+            } else {
+                s.push(',');
+            }
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// Writes a measurement file (see [`to_csv_string`]).
+pub fn write<const N: usize>(path: &Path, data: &Dataset<N>) -> anyhow::Result<()> {
+    crate::output::atomic::write_atomic(path, to_csv_string(data).as_bytes())
+        .map_err(|e| anyhow!("{}: cannot write: {e}", path.display()))
+}

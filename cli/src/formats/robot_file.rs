@@ -1,0 +1,686 @@
+//! The robot description file (interfaces.md §3): TOML in, TOML out, and conversion to and
+//! from the library's [`Robot`].
+//!
+//! Units in the file are degrees and millimetres; the library works in radians. Angles are
+//! written as the shortest decimal that reads back as the *same* `f64` radians (see
+//! [`deg_short`]): the user's `-60.0` comes back as `-60.0`, and an identified model survives a
+//! write/read cycle bit for bit (the base orientation, stored as roll/pitch/yaw, to rounding).
+//!
+//! Every loading error is one line `FILE:LINE:COLUMN: what is wrong`, pointing at the offending
+//! table when the problem is a value rather than the syntax; it makes the command line exit
+//! with status 2 (input refused, [`crate::refused`]). Files are written atomically
+//! ([`crate::output::atomic::write_atomic`]).
+
+use crate::{refused, VCAP};
+use anyhow::{anyhow, Context};
+use kinecal::model::coupling::MAX_COUPLINGS;
+use kinecal::model::effects::{EffectKind, MAX_EFFECTS};
+use kinecal::{Frame, Joint, Robot};
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+use std::ops::Range;
+use std::path::Path;
+use toml::Spanned;
+
+/// Effect id of the Hayati tilt: geometric, so it lives in the joint's `beta`, not in the
+/// library's effect list.
+pub const AXIS_TILT: &str = "axis-tilt";
+
+/// A whole robot file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RobotFile {
+    #[serde(default)]
+    pub name: String,
+    pub joints: Vec<JointSpec>,
+    pub tool: ToolSpec,
+    /// Absent = the base pose is unknown and has to be estimated from data.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base: Option<BaseSpec>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub effects: Vec<EffectSpec>,
+    /// `[[couplings]]`: joints read relative to another (interfaces.md §3).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub couplings: Vec<CouplingSpec>,
+}
+
+/// One `[[joints]]` table: the modified DH row of interfaces.md §1.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointSpec {
+    pub alpha_deg: f64,
+    pub a_mm: f64,
+    pub theta_deg: f64,
+    pub d_mm: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub beta_deg: Option<f64>,
+    /// `[lower, upper]`; absent = ±180°.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub limits_deg: Option<[f64; 2]>,
+}
+
+/// `[tool]`: the measured point in the flange frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolSpec {
+    pub xyz_mm: [f64; 3],
+}
+
+/// `[base]`: the robot base in the measurement frame (fixed-axis roll, pitch, yaw).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BaseSpec {
+    pub xyz_mm: [f64; 3],
+    #[serde(default)]
+    pub rpy_deg: [f64; 3],
+}
+
+/// One `[[effects]]` table (interfaces.md §2).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EffectSpec {
+    /// `joint-scale`, `joint-cyclic`, `joint-compliance`, `joint-table` or `axis-tilt`.
+    pub kind: String,
+    /// 1-based joint number.
+    pub joint: usize,
+    /// scale: `[s]`; cyclic: `[a, b]` (rad); compliance: `[k]` (rad per m); table: knot values
+    /// (rad), lowest knot first; axis-tilt: `[]` or `[beta]` (rad, overrides `beta_deg`).
+    #[serde(default)]
+    pub values: Vec<f64>,
+    /// Harmonic order (joint-cyclic only, default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub order: Option<u16>,
+    /// Knot spacing (joint-table only, required there).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub step_deg: Option<f64>,
+    /// Position of the lowest knot (joint-table only; default: the joint's lower limit).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_deg: Option<f64>,
+}
+
+/// One `[[couplings]]` table: the model angle of `joint` is its reading plus `ratio` times the
+/// reading of `from` (FANUC J3 measured from the horizontal: `joint = 3, from = 2, ratio = 1`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CouplingSpec {
+    /// 1-based joint whose reading is relative.
+    pub joint: usize,
+    /// 1-based joint whose reading it is relative to.
+    pub from: usize,
+    /// `q_joint = reading_joint + ratio · reading_from` (degrees per degree).
+    pub ratio: f64,
+}
+
+/// The same file with the position of every table, for error messages. Unknown keys are
+/// refused everywhere: a misspelt `[[joints]]` must not silently drop a joint.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFile {
+    #[serde(default)]
+    name: String,
+    joints: Spanned<Vec<Spanned<JointSpec>>>,
+    tool: Spanned<ToolSpec>,
+    #[serde(default)]
+    base: Option<Spanned<BaseSpec>>,
+    #[serde(default)]
+    effects: Vec<Spanned<EffectSpec>>,
+    #[serde(default)]
+    couplings: Vec<Spanned<CouplingSpec>>,
+}
+
+/// Where a validation problem is (indices are 0-based positions in the file's lists).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Place {
+    File,
+    Joints,
+    Joint(usize),
+    Tool,
+    Base,
+    Effect(usize),
+    Coupling(usize),
+}
+
+/// A value problem found by [`RobotFile::validate`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Issue {
+    pub place: Place,
+    pub message: String,
+}
+
+/// 1-based line and column (in characters) of a byte offset.
+pub fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(text.len());
+    let mut cut = offset;
+    while !text.is_char_boundary(cut) {
+        cut -= 1;
+    }
+    let before = &text[..cut];
+    let line = before.matches('\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    let column = before[line_start..].chars().count() + 1;
+    (line, column)
+}
+
+/// Degrees of an angle in radians, chosen among the nearest `f64`s so that
+/// `deg_exact(r).to_radians() == r` whenever such a value exists (it almost always does).
+pub fn deg_exact(rad: f64) -> f64 {
+    let d0 = rad.to_degrees();
+    if !d0.is_finite() || d0.to_radians() == rad {
+        return d0;
+    }
+    let step = |x: f64, up: bool| -> f64 {
+        // Next representable value towards +inf (up) or -inf.
+        if x == 0.0 {
+            return if up {
+                f64::from_bits(1)
+            } else {
+                -f64::from_bits(1)
+            };
+        }
+        let b = x.to_bits();
+        let away = (x > 0.0) == up;
+        f64::from_bits(if away { b + 1 } else { b - 1 })
+    };
+    let (mut lo, mut hi) = (d0, d0);
+    for _ in 0..8 {
+        lo = step(lo, false);
+        hi = step(hi, true);
+        if lo.to_radians() == rad {
+            return lo;
+        }
+        if hi.to_radians() == rad {
+            return hi;
+        }
+    }
+    d0
+}
+
+/// Degrees of an angle in radians as the user would write them: the `f64` with the shortest
+/// decimal form among those `d` with `d.to_radians() == rad` (so `(-60f64).to_radians()` gives
+/// back `-60.0`, not `-59.99999999999999`), trying increasing precision. Keeps the guarantee of
+/// [`deg_exact`] (which it falls back on): the value reads back as the same radians.
+pub fn deg_short(rad: f64) -> f64 {
+    let d0 = deg_exact(rad);
+    if !d0.is_finite() || d0 == 0.0 {
+        return d0;
+    }
+    for digits in 1..=17usize {
+        // The nearest `digits`-significant-digit decimal, and its neighbours one unit of the
+        // last digit either side (the set of exact values is a few ulps wide, so the shortest
+        // decimal in it is one of these).
+        let text = format!("{:.*e}", digits - 1, d0);
+        let Some((mantissa, exp)) = text.split_once('e') else {
+            continue;
+        };
+        let (Ok(m), Ok(e)) = (mantissa.parse::<f64>(), exp.parse::<i32>()) else {
+            continue;
+        };
+        let unit = 10f64.powi(digits as i32 - 1);
+        let m_int = (m * unit).round();
+        let mut best: Option<f64> = None;
+        for k in [0.0, -1.0, 1.0] {
+            let cand: Option<f64> = format!("{}e{}", m_int + k, e - (digits as i32 - 1))
+                .parse()
+                .ok();
+            if let Some(c) = cand {
+                if c.to_radians() == rad && best.is_none_or(|b| (c - d0).abs() < (b - d0).abs()) {
+                    best = Some(c);
+                }
+            }
+        }
+        if let Some(b) = best {
+            return b;
+        }
+    }
+    d0
+}
+
+/// Roll, pitch, yaw (degrees) of a base pose as the user would write them: the shortest
+/// decimals (same number of significant digits for the three) from which
+/// [`Frame::from_xyz_rpy`] rebuilds exactly this rotation, so a `[base]` read from a file is
+/// written back as given (`1.0`, not `0.9999999999999998`). Falls back on [`deg_short`] of
+/// each angle (an identified base's rotation, which no short decimals reproduce).
+pub fn rpy_deg_short(base: &Frame<f64>) -> [f64; 3] {
+    let rpy = base.rpy();
+    let fallback = rpy.map(deg_short);
+    if !fallback.iter().all(|v| v.is_finite()) {
+        return fallback;
+    }
+    let xyz = [base.o.x, base.o.y, base.o.z];
+    let same = |deg: [f64; 3]| {
+        let f = Frame::from_xyz_rpy(xyz, deg.map(f64::to_radians));
+        f.x == base.x && f.y == base.y && f.z == base.z
+    };
+    for digits in 1..=17usize {
+        let cand = fallback.map(|d| {
+            if d == 0.0 {
+                0.0
+            } else {
+                format!("{:.*e}", digits - 1, d).parse().unwrap_or(d)
+            }
+        });
+        if same(cand) {
+            return cand;
+        }
+    }
+    fallback
+}
+
+fn finite(xs: &[f64]) -> bool {
+    xs.iter().all(|x| x.is_finite())
+}
+
+impl RobotFile {
+    /// Number of joints (rows).
+    pub fn joint_count(&self) -> usize {
+        self.joints.len()
+    }
+
+    /// True when the file has a `[base]` table (otherwise the base must be estimated).
+    pub fn base_known(&self) -> bool {
+        self.base.is_some()
+    }
+
+    /// Joints (0-based) marked `axis-tilt` in `[[effects]]`: their `beta` is a free parameter.
+    pub fn tilt_joints(&self) -> Vec<usize> {
+        let mut v: Vec<usize> = self
+            .effects
+            .iter()
+            .filter(|e| e.kind == AXIS_TILT)
+            .map(|e| e.joint.saturating_sub(1))
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    }
+
+    /// Joint limits in degrees (±180 when the file gives none).
+    pub fn limits_deg(&self, joint: usize) -> [f64; 2] {
+        self.joints
+            .get(joint)
+            .and_then(|j| j.limits_deg)
+            .unwrap_or([-180.0, 180.0])
+    }
+
+    /// Checks every value: finite numbers, `lower < upper`, 2 to 8 joints, effects on existing
+    /// joints with the right number of values.
+    pub fn validate(&self) -> Result<(), Issue> {
+        let issue = |place, message: String| Err(Issue { place, message });
+        let n = self.joints.len();
+        if !(2..=8).contains(&n) {
+            return issue(
+                Place::Joints,
+                format!("the robot has {n} joints; 2 to 8 are supported"),
+            );
+        }
+        for (i, j) in self.joints.iter().enumerate() {
+            let p = Place::Joint(i);
+            if !finite(&[
+                j.alpha_deg,
+                j.a_mm,
+                j.theta_deg,
+                j.d_mm,
+                j.beta_deg.unwrap_or(0.0),
+            ]) {
+                return issue(
+                    p,
+                    format!("joint {}: parameters must be finite numbers", i + 1),
+                );
+            }
+            if let Some([lo, hi]) = j.limits_deg {
+                if !finite(&[lo, hi]) || lo >= hi {
+                    return issue(p, format!("joint {}: limits_deg must be finite with lower < upper, got [{lo}, {hi}]", i + 1));
+                }
+            }
+        }
+        if !finite(&self.tool.xyz_mm) {
+            return issue(Place::Tool, "tool: xyz_mm must be finite numbers".into());
+        }
+        if let Some(b) = &self.base {
+            if !finite(&b.xyz_mm) || !finite(&b.rpy_deg) {
+                return issue(
+                    Place::Base,
+                    "base: xyz_mm and rpy_deg must be finite numbers".into(),
+                );
+            }
+        }
+        let mut total = 0usize;
+        let mut seen: Vec<(String, usize, u16)> = Vec::new();
+        for (i, e) in self.effects.iter().enumerate() {
+            let p = Place::Effect(i);
+            let what = format!("effect `{}` on joint {}", e.kind, e.joint);
+            if e.joint < 1 || e.joint > n {
+                return issue(p, format!("{what}: joint must be 1 to {n}"));
+            }
+            if !finite(&e.values) {
+                return issue(p, format!("{what}: values must be finite numbers"));
+            }
+            let count_ok = match e.kind.as_str() {
+                "joint-scale" | "joint-compliance" => e.values.len() == 1,
+                "joint-cyclic" => e.values.len() == 2,
+                "joint-table" => e.values.len() >= 2,
+                AXIS_TILT => e.values.len() <= 1,
+                other => {
+                    return issue(
+                        p,
+                        format!(
+                            "unknown effect kind `{other}` (expected joint-scale, joint-cyclic, joint-compliance, joint-table or axis-tilt)"
+                        ),
+                    )
+                }
+            };
+            if !count_ok {
+                let want = match e.kind.as_str() {
+                    "joint-cyclic" => "2 values [a, b]",
+                    "joint-table" => "at least 2 knot values",
+                    AXIS_TILT => "no value or 1 value [beta]",
+                    _ => "1 value",
+                };
+                return issue(
+                    p,
+                    format!("{what}: expected {want}, got {}", e.values.len()),
+                );
+            }
+            if e.order.is_some() && e.kind != "joint-cyclic" {
+                return issue(p, format!("{what}: `order` applies to joint-cyclic only"));
+            }
+            if e.order == Some(0) {
+                return issue(p, format!("{what}: order must be at least 1"));
+            }
+            if e.kind == "joint-table" {
+                match e.step_deg {
+                    Some(s) if s.is_finite() && s > 0.0 => {}
+                    Some(s) => {
+                        return issue(
+                            p,
+                            format!("{what}: step_deg must be a positive number, got {s}"),
+                        )
+                    }
+                    None => {
+                        return issue(p, format!("{what}: step_deg is required for joint-table"))
+                    }
+                }
+                if e.start_deg.is_some_and(|s| !s.is_finite()) {
+                    return issue(p, format!("{what}: start_deg must be finite"));
+                }
+            } else if e.step_deg.is_some() || e.start_deg.is_some() {
+                return issue(
+                    p,
+                    format!("{what}: step_deg/start_deg apply to joint-table only"),
+                );
+            }
+            let key = (e.kind.clone(), e.joint, e.order.unwrap_or(1));
+            if seen.contains(&key) {
+                return issue(p, format!("{what}: the same effect is given twice"));
+            }
+            seen.push(key);
+            if e.kind != AXIS_TILT {
+                total += e.values.len();
+            }
+        }
+        for (i, c) in self.couplings.iter().enumerate() {
+            let p = Place::Coupling(i);
+            let what = format!("coupling of joint {} from joint {}", c.joint, c.from);
+            if i >= MAX_COUPLINGS {
+                return issue(
+                    p,
+                    format!("{what}: at most {MAX_COUPLINGS} couplings are supported"),
+                );
+            }
+            if c.joint < 1 || c.joint > n || c.from < 1 || c.from > n {
+                return issue(p, format!("{what}: joint and from must be 1 to {n}"));
+            }
+            if c.joint == c.from {
+                return issue(p, format!("{what}: a joint cannot be coupled to itself"));
+            }
+            if !c.ratio.is_finite() {
+                return issue(p, format!("{what}: ratio must be a finite number"));
+            }
+            let earlier = &self.couplings[..i];
+            if earlier.iter().any(|o| o.joint == c.joint) {
+                return issue(p, format!("{what}: joint {} is coupled twice", c.joint));
+            }
+            let chained = self
+                .couplings
+                .iter()
+                .enumerate()
+                .any(|(k, o)| k != i && (o.joint == c.from || o.from == c.joint));
+            if chained {
+                return issue(
+                    p,
+                    format!("{what}: chained couplings are not supported (a coupled joint cannot be the `from` of another coupling)"),
+                );
+            }
+        }
+        let n_eff = self.effects.iter().filter(|e| e.kind != AXIS_TILT).count();
+        if n_eff > MAX_EFFECTS || total > VCAP {
+            return issue(
+                Place::File,
+                format!("too many effects: {n_eff} effects with {total} values (at most {MAX_EFFECTS} and {VCAP})"),
+            );
+        }
+        Ok(())
+    }
+
+    /// Parses and validates the text of a robot file; `origin` names it in error messages.
+    pub fn parse(text: &str, origin: &str) -> anyhow::Result<RobotFile> {
+        let at = |span: Option<Range<usize>>| match span {
+            Some(s) => {
+                let (l, c) = line_column(text, s.start);
+                format!("{origin}:{l}:{c}")
+            }
+            None => format!("{origin}:1:1"),
+        };
+        let raw: RawFile = toml::from_str(text).map_err(|e| {
+            refused(format!(
+                "{}: {}",
+                at(e.span()),
+                e.message().trim().replace('\n', " ")
+            ))
+        })?;
+        let file = RobotFile {
+            name: raw.name,
+            joints: raw
+                .joints
+                .get_ref()
+                .iter()
+                .map(|j| j.get_ref().clone())
+                .collect(),
+            tool: raw.tool.get_ref().clone(),
+            base: raw.base.as_ref().map(|b| b.get_ref().clone()),
+            effects: raw.effects.iter().map(|e| e.get_ref().clone()).collect(),
+            couplings: raw.couplings.iter().map(|c| c.get_ref().clone()).collect(),
+        };
+        if let Err(issue) = file.validate() {
+            let span = match issue.place {
+                Place::File => None,
+                Place::Joints => Some(raw.joints.span()),
+                Place::Joint(i) => raw.joints.get_ref().get(i).map(|j| j.span()),
+                Place::Tool => Some(raw.tool.span()),
+                Place::Base => raw.base.as_ref().map(|b| b.span()),
+                Place::Effect(i) => raw.effects.get(i).map(|e| e.span()),
+                Place::Coupling(i) => raw.couplings.get(i).map(|c| c.span()),
+            };
+            return Err(refused(format!("{}: {}", at(span), issue.message)));
+        }
+        Ok(file)
+    }
+
+    /// Reads, parses and validates a robot file.
+    pub fn load(path: &Path) -> anyhow::Result<RobotFile> {
+        let origin = path.display().to_string();
+        let bytes =
+            std::fs::read(path).map_err(|e| refused(format!("{origin}: cannot read: {e}")))?;
+        let text = match std::str::from_utf8(&bytes) {
+            Ok(t) => t,
+            Err(e) => {
+                let valid = std::str::from_utf8(&bytes[..e.valid_up_to()]).unwrap_or("");
+                let (l, c) = line_column(valid, valid.len());
+                return Err(refused(format!("{origin}:{l}:{c}: not UTF-8 text")));
+            }
+        };
+        Self::parse(text, &origin)
+    }
+
+    /// The TOML text of this file.
+    pub fn to_toml(&self) -> anyhow::Result<String> {
+        toml::to_string(self).context("cannot format the robot file")
+    }
+
+    /// Writes the file atomically: a reader (or a crash) sees the old file or the whole new one.
+    pub fn save(&self, path: &Path) -> anyhow::Result<()> {
+        let text = self.to_toml()?;
+        crate::output::atomic::write_atomic(path, text.as_bytes())
+            .map_err(|e| anyhow!("{}: cannot write: {e}", path.display()))
+    }
+
+    /// The library model (base = identity when the file has no `[base]`; see [`Self::base_known`]).
+    pub fn to_robot<const N: usize>(&self) -> anyhow::Result<Robot<f64, N, VCAP>> {
+        self.validate().map_err(|i| anyhow!("{}", i.message))?;
+        if self.joints.len() != N {
+            return Err(anyhow!(
+                "the robot file has {} joints, expected {N}",
+                self.joints.len()
+            ));
+        }
+        let mut tilt = [None; N];
+        for e in self.effects.iter().filter(|e| e.kind == AXIS_TILT) {
+            if let Some(v) = e.values.first() {
+                tilt[e.joint - 1] = Some(*v);
+            }
+        }
+        let joints: [Joint<f64>; N] = std::array::from_fn(|i| {
+            let j = &self.joints[i];
+            let [lo, hi] = j.limits_deg.unwrap_or([-180.0, 180.0]);
+            Joint {
+                alpha: j.alpha_deg.to_radians(),
+                a: j.a_mm,
+                theta: j.theta_deg.to_radians(),
+                d: j.d_mm,
+                beta: tilt[i].unwrap_or_else(|| j.beta_deg.unwrap_or(0.0).to_radians()),
+                lower: lo.to_radians(),
+                upper: hi.to_radians(),
+            }
+        });
+        let base = match &self.base {
+            Some(b) => Frame::from_xyz_rpy(b.xyz_mm, b.rpy_deg.map(f64::to_radians)),
+            None => Frame::identity(),
+        };
+        let tool = Vector3::from(self.tool.xyz_mm);
+        let mut robot =
+            Robot::new(base, joints, tool).map_err(|e| anyhow!("invalid robot: {e:?}"))?;
+        for e in self.effects.iter().filter(|e| e.kind != AXIS_TILT) {
+            let kind = EffectKind::from_id(&e.kind)
+                .ok_or_else(|| anyhow!("unknown effect kind `{}`", e.kind))?;
+            let j = e.joint - 1;
+            let (start, step) = if kind == EffectKind::Table {
+                let start = e.start_deg.unwrap_or(self.limits_deg(j)[0]);
+                (start.to_radians(), e.step_deg.unwrap_or(0.0).to_radians())
+            } else {
+                (0.0, 0.0)
+            };
+            robot
+                .effects_mut()
+                .push(kind, j, N, e.order.unwrap_or(1), start, step, &e.values)
+                .map_err(|err| anyhow!("effect `{}` on joint {}: {err:?}", e.kind, e.joint))?;
+        }
+        for c in &self.couplings {
+            robot
+                .set_coupling(c.joint - 1, c.from - 1, c.ratio)
+                .map_err(|err| {
+                    anyhow!(
+                        "coupling of joint {} from joint {}: {err:?}",
+                        c.joint,
+                        c.from
+                    )
+                })?;
+        }
+        Ok(robot)
+    }
+
+    /// The file of a library model. `base_known` = write `[base]`; `tilt` (0-based joints) are
+    /// written as `axis-tilt` effects carrying their `beta` in rad, so a re-identification
+    /// knows to free them. Angles are written with [`deg_short`], so they read back exactly.
+    /// The robot's couplings become `[[couplings]]`.
+    pub fn from_robot<const N: usize, const V: usize>(
+        name: &str,
+        robot: &Robot<f64, N, V>,
+        base_known: bool,
+        tilt: &[usize],
+    ) -> RobotFile {
+        let joints = robot
+            .joints()
+            .iter()
+            .map(|j| JointSpec {
+                alpha_deg: deg_short(j.alpha),
+                a_mm: j.a,
+                theta_deg: deg_short(j.theta),
+                d_mm: j.d,
+                beta_deg: if j.beta != 0.0 {
+                    Some(deg_short(j.beta))
+                } else {
+                    None
+                },
+                limits_deg: Some([deg_short(j.lower), deg_short(j.upper)]),
+            })
+            .collect();
+        let base = base_known.then(|| {
+            let b = robot.base();
+            BaseSpec {
+                xyz_mm: [b.o.x, b.o.y, b.o.z],
+                rpy_deg: rpy_deg_short(b),
+            }
+        });
+        let mut effects: Vec<EffectSpec> = Vec::new();
+        for (i, e) in robot.effects().iter().enumerate() {
+            let table = e.kind == EffectKind::Table;
+            effects.push(EffectSpec {
+                kind: e.kind.id().to_string(),
+                joint: e.joint as usize + 1,
+                values: robot.effects().values_of(i).to_vec(),
+                order: (e.kind == EffectKind::Cyclic).then_some(e.order),
+                step_deg: table.then(|| deg_short(e.step)),
+                start_deg: table.then(|| deg_short(e.start)),
+            });
+        }
+        let mut tilt: Vec<usize> = tilt.iter().copied().filter(|j| *j < N).collect();
+        tilt.sort_unstable();
+        tilt.dedup();
+        for j in tilt {
+            effects.push(EffectSpec {
+                kind: AXIS_TILT.to_string(),
+                joint: j + 1,
+                values: vec![robot.joints()[j].beta],
+                order: None,
+                step_deg: None,
+                start_deg: None,
+            });
+        }
+        RobotFile {
+            name: name.to_string(),
+            joints,
+            tool: ToolSpec {
+                xyz_mm: [robot.tool().x, robot.tool().y, robot.tool().z],
+            },
+            base,
+            effects,
+            couplings: robot
+                .couplings()
+                .iter()
+                .map(|(joint, from, ratio)| CouplingSpec {
+                    joint: joint + 1,
+                    from: from + 1,
+                    ratio,
+                })
+                .collect(),
+        }
+    }
+}
+
+/// Loads a robot file and builds the `N`-joint model; also says whether `[base]` was given.
+pub fn load_robot<const N: usize>(path: &Path) -> anyhow::Result<(RobotFile, Robot<f64, N, VCAP>)> {
+    let file = RobotFile::load(path)?;
+    let robot = file
+        .to_robot::<N>()
+        .map_err(|e| refused(format!("{}: {e}", path.display())))?;
+    Ok((file, robot))
+}

@@ -1,0 +1,340 @@
+//! Simulated measurements: random configurations, a "true" robot made from a nominal one by
+//! geometric errors and joint corrections, and tracker readings with Gaussian noise.
+//!
+//! Used by `kinecal simulate` and by every command or test that needs data with a known truth
+//! (identify, diagnose, compensate, plan's Monte Carlo). Deterministic for a seed: the seed
+//! gives three independent Xoshiro streams (configurations, errors, noise), so switching
+//! `--geom-errors` or the noise level does not change the poses.
+
+pub mod sweeps;
+
+use crate::formats::measurements::{quantize_deg, Dataset, Record};
+use crate::VCAP;
+use anyhow::{anyhow, bail};
+use kinecal::forward::ForwardKinematics;
+use kinecal::model::effects::EffectKind;
+use kinecal::{Joint, Robot};
+use nalgebra::Vector3;
+use rand::{Rng, RngExt, SeedableRng};
+use rand_distr::StandardNormal;
+use rand_xoshiro::Xoshiro256PlusPlus;
+use std::str::FromStr;
+
+/// The three random streams of a seed.
+#[derive(Clone, Debug)]
+pub struct Streams {
+    /// Joint configurations.
+    pub configs: Xoshiro256PlusPlus,
+    /// Geometric errors of the true robot.
+    pub errors: Xoshiro256PlusPlus,
+    /// Measurement noise.
+    pub noise: Xoshiro256PlusPlus,
+}
+
+impl Streams {
+    /// Non-overlapping streams of one seed (Xoshiro jumps of 2^128 draws).
+    pub fn new(seed: u64) -> Self {
+        let configs = Xoshiro256PlusPlus::seed_from_u64(seed);
+        let mut errors = configs.clone();
+        errors.jump();
+        let mut noise = errors.clone();
+        noise.jump();
+        Self {
+            configs,
+            errors,
+            noise,
+        }
+    }
+}
+
+/// Size of the uniform geometric errors of `--geom-errors` (the values by default).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GeomErrors {
+    /// alpha and theta: ±this many degrees.
+    pub angle_deg: f64,
+    /// a and d: ±this many millimetres.
+    pub length_mm: f64,
+    /// Each tool coordinate: ±this many millimetres.
+    pub tool_mm: f64,
+}
+
+impl Default for GeomErrors {
+    fn default() -> Self {
+        Self {
+            angle_deg: 0.1,
+            length_mm: 0.8,
+            tool_mm: 0.5,
+        }
+    }
+}
+
+/// Random configurations (rad), uniform within each joint's limits. Each reading is a whole
+/// number of 1e-6° (what the CSV writer keeps), so data written and read back reproduce the
+/// model exactly.
+pub fn random_configurations<const N: usize, const V: usize, R: Rng>(
+    robot: &Robot<f64, N, V>,
+    n: usize,
+    rng: &mut R,
+) -> Vec<[f64; N]> {
+    let q = 10f64.powi(crate::formats::measurements::Q_DECIMALS as i32);
+    (0..n)
+        .map(|_| {
+            std::array::from_fn(|i| {
+                let j = &robot.joints()[i];
+                let (lo, hi) = (j.lower.to_degrees(), j.upper.to_degrees());
+                let (qlo, qhi) = ((lo * q).ceil() / q, (hi * q).floor() / q);
+                let v: f64 = rng.random_range(lo..=hi);
+                quantize_deg(v)
+                    .clamp(qlo.min(qhi), qhi.max(qlo))
+                    .to_radians()
+            })
+        })
+        .collect()
+}
+
+/// A copy of `robot` with uniform errors on alpha, theta (±angle), a, d (±length) of every
+/// joint and on the tool point (±tool). Base, tilt and effects are kept.
+pub fn perturb_geometry<const N: usize, const V: usize, R: Rng>(
+    robot: &Robot<f64, N, V>,
+    e: &GeomErrors,
+    rng: &mut R,
+) -> Robot<f64, N, V> {
+    let mut out = robot.clone();
+    let mut u = |w: f64| {
+        if w > 0.0 {
+            rng.random_range(-w..=w)
+        } else {
+            0.0
+        }
+    };
+    let ang = e.angle_deg.to_radians();
+    for i in 0..N {
+        let j = robot.joints()[i];
+        let nj = Joint {
+            alpha: j.alpha + u(ang),
+            a: j.a + u(e.length_mm),
+            theta: j.theta + u(ang),
+            d: j.d + u(e.length_mm),
+            ..j
+        };
+        // Finite inputs plus bounded errors stay finite.
+        let _ = out.set_joint(i, nj);
+    }
+    let t = robot.tool();
+    let _ = out.set_tool(Vector3::new(
+        t.x + u(e.tool_mm),
+        t.y + u(e.tool_mm),
+        t.z + u(e.tool_mm),
+    ));
+    out
+}
+
+/// One `--effect KIND:JOINT:V1[,V2…][:ORDER]` (joint 1-based on the command line, 0-based here).
+#[derive(Clone, Debug, PartialEq)]
+pub struct EffectArg {
+    /// An effect id of interfaces.md §2, `axis-tilt` included.
+    pub kind: String,
+    pub joint: usize,
+    pub values: Vec<f64>,
+    /// Harmonic order for `joint-cyclic` (1 if not given).
+    pub order: u16,
+}
+
+impl FromStr for EffectArg {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let parts: Vec<&str> = s.split(':').collect();
+        if parts.len() < 3 || parts.len() > 4 {
+            return Err(format!(
+                "`--effect {s}`: expected KIND:JOINT:V1[,V2…][:ORDER]"
+            ));
+        }
+        let kind = parts[0].trim();
+        if EffectKind::from_id(kind).is_none() && kind != crate::formats::robot_file::AXIS_TILT {
+            return Err(format!(
+                "`--effect {s}`: unknown kind `{kind}` (joint-scale, joint-cyclic, joint-compliance, joint-table, axis-tilt)"
+            ));
+        }
+        let joint: usize = parts[1]
+            .trim()
+            .parse()
+            .map_err(|_| format!("`--effect {s}`: joint `{}` is not a number", parts[1]))?;
+        if joint == 0 {
+            return Err(format!("`--effect {s}`: joints are numbered from 1"));
+        }
+        let values = parts[2]
+            .split(',')
+            .map(|v| v.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
+            .collect::<Option<Vec<f64>>>()
+            .ok_or_else(|| {
+                format!(
+                    "`--effect {s}`: values `{}` must be finite numbers separated by commas",
+                    parts[2]
+                )
+            })?;
+        let order = match parts.get(3) {
+            Some(o) => {
+                if kind != "joint-cyclic" {
+                    return Err(format!(
+                        "`--effect {s}`: an order applies to joint-cyclic only"
+                    ));
+                }
+                o.trim()
+                    .parse::<u16>()
+                    .ok()
+                    .filter(|n| *n >= 1)
+                    .ok_or_else(|| format!("`--effect {s}`: order `{o}` must be an integer ≥ 1"))?
+            }
+            None => 1,
+        };
+        let want = match kind {
+            "joint-scale" | "joint-compliance" | "axis-tilt" => values.len() == 1,
+            "joint-cyclic" => values.len() == 2,
+            _ => values.len() >= 2,
+        };
+        if !want {
+            return Err(format!(
+                "`--effect {s}`: wrong number of values (scale, compliance, axis-tilt: 1; cyclic: a,b; table: ≥ 2 knots)"
+            ));
+        }
+        Ok(EffectArg {
+            kind: kind.to_string(),
+            joint: joint - 1,
+            values,
+            order,
+        })
+    }
+}
+
+/// Adds a correction to `robot`. Units: joint-scale dimensionless; joint-cyclic a, b in rad;
+/// joint-compliance rad per metre of lever arm; axis-tilt sets the joint's beta (rad);
+/// joint-table values are knot corrections (rad) spread evenly over the joint's range, lowest
+/// limit first.
+pub fn add_effect<const N: usize, const V: usize>(
+    robot: &mut Robot<f64, N, V>,
+    e: &EffectArg,
+) -> anyhow::Result<()> {
+    let Some(j) = robot.joint(e.joint).copied() else {
+        bail!(
+            "effect {} on joint {}: the robot has {N} joints",
+            e.kind,
+            e.joint + 1
+        );
+    };
+    if e.kind == crate::formats::robot_file::AXIS_TILT {
+        let beta = e.values.first().copied().unwrap_or(0.0);
+        return robot
+            .set_joint(e.joint, Joint { beta, ..j })
+            .map_err(|err| anyhow!("axis-tilt on joint {}: {err:?}", e.joint + 1));
+    }
+    let kind =
+        EffectKind::from_id(&e.kind).ok_or_else(|| anyhow!("unknown effect kind `{}`", e.kind))?;
+    let (start, step) = match kind {
+        EffectKind::Table => (
+            j.lower,
+            (j.upper - j.lower) / (e.values.len().max(2) - 1) as f64,
+        ),
+        _ => (0.0, 0.0),
+    };
+    robot
+        .effects_mut()
+        .push(kind, e.joint, N, e.order, start, step, &e.values)
+        .map(|_| ())
+        .map_err(|err| anyhow!("effect {} on joint {}: {err:?}", e.kind, e.joint + 1))
+}
+
+/// Measured points of `robot` at `configs` (rad) with Gaussian noise of `sigma_mm` per axis.
+pub fn measure<const N: usize, const V: usize, R: Rng>(
+    robot: &Robot<f64, N, V>,
+    configs: &[[f64; N]],
+    sigma_mm: f64,
+    rng: &mut R,
+) -> Vec<Vector3<f64>> {
+    let mut fk = ForwardKinematics::<f64, N>::new();
+    configs
+        .iter()
+        .map(|q| {
+            let p = fk.compute(robot, q);
+            if sigma_mm > 0.0 {
+                let n: [f64; 3] = std::array::from_fn(|_| rng.sample::<f64, _>(StandardNormal));
+                p + Vector3::from(n) * sigma_mm
+            } else {
+                p
+            }
+        })
+        .collect()
+}
+
+/// A dataset in file units from configurations (rad) and points (mm).
+pub fn dataset<const N: usize>(configs: &[[f64; N]], points: &[Vector3<f64>]) -> Dataset<N> {
+    let records = configs
+        .iter()
+        .zip(points)
+        .map(|(q, p)| Record::new(q.map(|x| quantize_deg(x.to_degrees())), [p.x, p.y, p.z]))
+        .collect();
+    Dataset {
+        records,
+        extra_names: Vec::new(),
+    }
+}
+
+/// Everything `kinecal simulate` varies.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Simulation {
+    pub poses: usize,
+    pub noise_mm: f64,
+    pub seed: u64,
+    /// Geometric errors of the true robot (`None` = the true geometry is the nominal one).
+    pub geom_errors: Option<GeomErrors>,
+    /// Corrections added to the true robot after the geometric errors.
+    pub effects: Vec<EffectArg>,
+}
+
+/// The true robot and its measurements. The true robot is `nominal` with the geometric
+/// errors and then the effects applied; the configurations are drawn within its limits.
+pub fn simulate<const N: usize>(
+    nominal: &Robot<f64, N, VCAP>,
+    sim: &Simulation,
+) -> anyhow::Result<(Robot<f64, N, VCAP>, Dataset<N>)> {
+    if !(sim.noise_mm.is_finite() && sim.noise_mm >= 0.0) {
+        bail!(
+            "the noise level must be a finite number ≥ 0, got {}",
+            sim.noise_mm
+        );
+    }
+    let mut rng = Streams::new(sim.seed);
+    let mut truth = match &sim.geom_errors {
+        Some(e) => perturb_geometry(nominal, e, &mut rng.errors),
+        None => nominal.clone(),
+    };
+    for e in &sim.effects {
+        add_effect(&mut truth, e)?;
+    }
+    let configs = random_configurations(&truth, sim.poses, &mut rng.configs);
+    let points = measure(&truth, &configs, sim.noise_mm, &mut rng.noise);
+    Ok((truth, dataset(&configs, &points)))
+}
+
+/// The ER20-C10 stand-in (rows alpha°, a mm, theta°, d mm; tool 100 mm along the flange z).
+pub fn er20_c10() -> kinecal::Robot<f64, 6, { crate::VCAP }> {
+    let rows = [
+        (0.0, 0.0, 0.0, 504.0),
+        (-90.0, 170.0, -90.0, 0.0),
+        (0.0, 780.0, 0.0, 0.0),
+        (-90.0, 140.0, 0.0, 760.0),
+        (90.0, 0.0, 0.0, 0.0),
+        (-90.0, 0.0, 0.0, 125.0),
+    ];
+    let mut joints = rows.map(|(al, a, th, d)| kinecal::Joint::mdh_deg(al, a, th, d));
+    for j in joints.iter_mut() {
+        j.lower = (-170f64).to_radians();
+        j.upper = 170f64.to_radians();
+    }
+    // Cannot fail: finite constants.
+    kinecal::Robot::new(
+        kinecal::Frame::identity(),
+        joints,
+        nalgebra::Vector3::new(0.0, 0.0, 100.0),
+    )
+    .expect("built-in robot")
+}

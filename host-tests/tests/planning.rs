@@ -15,9 +15,9 @@ use kinecal::model::param::ParamSet;
 use kinecal::planning::information::{default_tolerance, scaled_rows, PoseRows};
 use kinecal::planning::online_design::OnlineDesign;
 use kinecal::Robot;
-use kinecal_cli::commands::plan::{self, CriterionArg, HostCandidate, PlanRequest, PCAP};
 use kinecal_cli::formats::cell::SceneFile;
 use kinecal_cli::formats::robot_file::RobotFile;
+use kinecal_cli::plan::design::{self, CriterionArg, HostCandidate, PlanRequest, PCAP};
 use nalgebra::{DMatrix, Matrix4, Vector3, Vector4};
 use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -232,7 +232,7 @@ fn dense_kpi(
     work: &[[f64; 6]],
     sigma: f64,
 ) -> f64 {
-    let robot = plan::in_base_frame(robot);
+    let robot = design::in_base_frame(robot);
     let params = ParamSet::<PCAP>::full(6, true).unwrap();
     let n = params.len();
     let rows = |q: &[f64; 6]| -> PoseRows<f64, PCAP> {
@@ -281,7 +281,7 @@ fn plan_with(criterion: CriterionArg, collisions: bool, seed: u64) -> (Vec<[f64;
             seed,
             refine: true,
         };
-        let p = plan::plan(&robot, &req).unwrap();
+        let p = design::plan(&robot, &req).unwrap();
         (
             p.poses.iter().map(|c| c.q).collect(),
             p.evaluation.kpi_trace_mm2,
@@ -432,10 +432,10 @@ fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
     main_sized_stack(|| {
         let (_, robot, scene_file) = load();
         let scene = scene_file.to_scene().unwrap();
-        let robot = plan::in_base_frame(&robot);
-        let params = plan::plan_params(6).unwrap();
+        let robot = design::in_base_frame(&robot);
+        let params = design::plan_params(6).unwrap();
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
-        let mut pool = plan::build_pool(
+        let mut pool = design::build_pool(
             &robot,
             &scene,
             params.as_slice(),
@@ -445,19 +445,19 @@ fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
             1_000_000,
         )
         .candidates;
-        let basis = plan::pool_basis(&pool, params.len()).unwrap();
+        let basis = design::pool_basis(&pool, params.len()).unwrap();
         basis.reduce_pool(&mut pool);
         let w = work();
         let sigma = 0.01;
         // Target: what a 40-pose KPI design reaches, plus 10 %.
         let (_, k40) = {
             let mut p2: Vec<HostCandidate<6>> = pool.clone();
-            let wr: Vec<_> = plan::work_rows(&robot, params.as_slice(), &w)
+            let wr: Vec<_> = design::work_rows(&robot, params.as_slice(), &w)
                 .unwrap()
                 .iter()
                 .map(|g| basis.reduce(g))
                 .collect();
-            let (d, _) = plan::optimise::<6, { kinecal_cli::VCAP }>(
+            let (d, _) = design::optimise::<6, { kinecal_cli::VCAP }>(
                 &mut p2,
                 &basis,
                 &wr,
@@ -470,7 +470,7 @@ fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
             let qs: Vec<[f64; 6]> = d.iter().map(|i| p2[*i].q).collect();
             (
                 qs.clone(),
-                plan::evaluate(&robot, params.as_slice(), &qs, &w, sigma).unwrap(),
+                design::evaluate(&robot, params.as_slice(), &qs, &w, sigma).unwrap(),
             )
         };
         let worst40 = k40.tool_std_mm.iter().cloned().fold(0.0, f64::max);
@@ -502,7 +502,7 @@ fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
                 );
                 last = status.worst_std;
                 // Agrees with the batch prediction from scratch.
-                let ev = plan::evaluate(&robot, params.as_slice(), &measured, &w, sigma).unwrap();
+                let ev = design::evaluate(&robot, params.as_slice(), &measured, &w, sigma).unwrap();
                 for (a, b) in std.iter().zip(&ev.tool_std_mm) {
                     assert!((a - b).abs() <= 1e-4 * b, "online {a} vs batch {b}");
                 }
@@ -541,7 +541,7 @@ fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
 #[test]
 fn example_scene_file_is_the_studys_cell_and_round_trips() {
     let (_, _, scene) = load();
-    let built = kinecal_cli::commands::study::example_scene_file().unwrap();
+    let built = kinecal_cli::plan::study::example_scene_file().unwrap();
     assert_eq!(
         scene, built,
         "examples/cell/scene.toml differs from study::cell(780, 760)"

@@ -6,8 +6,8 @@
 //! 15 %). Checked for the KPI design and for random feasible poses (a different geometry of
 //! the information matrix), on the example cell.
 
-use kinecal_cli::commands::plan::CriterionArg;
-use kinecal_cli::commands::study::{arm, cell, monte_carlo};
+use kinecal_cli::plan::design::CriterionArg;
+use kinecal_cli::plan::study::{arm, cell, monte_carlo};
 
 fn run(criterion: CriterionArg, runs: usize, seed: u64) -> (f64, f64, f64) {
     std::thread::Builder::new()

@@ -2,6 +2,7 @@
 //! before and after in the units and keys of interfaces.md §4.
 
 pub mod coupling_hint;
+pub mod method;
 pub mod parallel;
 pub mod pso_search;
 pub mod registration;

@@ -1,8 +1,8 @@
 //! Global identification methods on the desktop: PSO, BPNN-PSO and PSO followed by an LM
 //! polish, over the paper's MDH set (alpha, a, theta, d of every joint; base and tool fixed).
 
+use crate::calibration::method::Method;
 use crate::calibration::{fit_lm, Fit};
-use crate::commands::identify::Method;
 use kinecal::identify::bpnn::BpnnConfig;
 use kinecal::identify::bpnn_pso::{self, Mdh24Net};
 use kinecal::identify::fitness::PositionFitness;

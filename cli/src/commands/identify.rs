@@ -1,5 +1,6 @@
 //! `kinecal identify`: fits the model to measurements and reports residuals before and after.
 
+use crate::calibration::method::Method;
 use crate::calibration::{
     add_effect, fit_lm, named_values, split_holdout, EffectRequest, Fit, Residuals,
 };
@@ -12,32 +13,6 @@ use kinecal::{Measurement, Robot};
 use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;
-
-/// Identification method.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Method {
-    /// Levenberg–Marquardt from the nominal model.
-    Lm,
-    /// Particle swarm over the 24 MDH deltas (Gao et al. 2018 §3.1).
-    Pso,
-    /// PSO seeded by a BP network trained on a previous PSO run of the same robot (§3.2).
-    #[value(name = "bpnn-pso")]
-    BpnnPso,
-    /// Global PSO search, then an LM polish of the full parameter set.
-    #[value(name = "pso+lm")]
-    PsoLm,
-}
-
-impl Method {
-    pub fn id(self) -> &'static str {
-        match self {
-            Method::Lm => "lm",
-            Method::Pso => "pso",
-            Method::BpnnPso => "bpnn-pso",
-            Method::PsoLm => "pso+lm",
-        }
-    }
-}
 
 /// Arguments of `kinecal identify` (see interfaces.md §4).
 #[derive(clap::Args, Debug)]

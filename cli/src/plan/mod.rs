@@ -1,4 +1,6 @@
-//! Measurement planning on the desktop: the study figure (the pools and designs follow the
-//! library's [`kinecal::planning`]).
+//! Measurement planning on the desktop, over the library's [`kinecal::planning`]: pools and
+//! designs ([`design`]), the planning study of Jost et al. 2017 ([`study`]) and its figure.
 
+pub mod design;
+pub mod study;
 pub mod study_figure;

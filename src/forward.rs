@@ -5,11 +5,47 @@
 //! [`ForwardKinematics::compute`] fills every joint frame, the measured point and the lever arms,
 //! and the Jacobians are then read off those frames without another pass.
 //!
-//! Order of operations (interfaces.md §2–3): joint readings `r` → the joint corrections act on
-//! the readings, `r' = r + dq(r)` → the couplings map `r'` to model angles → geometry. So the
-//! geometric parameters' Jacobian columns are those of the model angles, while the effect
-//! columns and the joint Jacobian are derivatives with respect to readings (the chain rule
-//! through the couplings, [`ForwardKinematics::reading_column`]).
+//! Order of operations (`docs/formats.md#effects` and `#couplings`): joint readings `r` → the
+//! joint corrections act on the readings, `r' = r + dq(r)` → the couplings map `r'` to model
+//! angles → geometry. So the geometric parameters' Jacobian columns are those of the model
+//! angles, while the effect columns and the joint Jacobian are derivatives with respect to
+//! readings (the chain rule through the couplings, [`ForwardKinematics::reading_column`]).
+//!
+//! ```
+//! use kinecal::forward::{point, ForwardKinematics};
+//! use kinecal::model::param::Param;
+//! use kinecal::{Frame, Joint, Robot};
+//! use nalgebra::Vector3;
+//!
+//! let rows = [
+//!     Joint::mdh_deg(0.0, 0.0, 0.0, 400.0),
+//!     Joint::mdh_deg(90.0, 100.0, 0.0, 0.0),
+//!     Joint::mdh_deg(0.0, 500.0, 0.0, 0.0),
+//! ];
+//! let tool = Vector3::new(300.0, 0.0, 0.0);
+//! let robot: Robot<f64, 3> = Robot::new(Frame::identity(), rows, tool).unwrap();
+//! let mut fk = ForwardKinematics::new();
+//!
+//! // Zero pose: up d1 = 400, out along x by a2 + a3 + tool_x = 100 + 500 + 300.
+//! let p = fk.compute(&robot, &[0.0; 3]);
+//! assert!((p - Vector3::new(900.0, 0.0, 400.0)).norm() < 1e-9);
+//!
+//! // Joint 2 at +90° (readings in rad) points the upper arm straight up.
+//! let p = fk.compute(&robot, &[0.0, 90f64.to_radians(), 0.0]);
+//! assert!((p - Vector3::new(100.0, 0.0, 1200.0)).norm() < 1e-9);
+//!
+//! // Derivatives read off the same pass: d1 moves the point along the base z axis,
+//! // joint 1 (vertical) moves it sideways by its distance from the axis.
+//! let mut cols = [Vector3::zeros(); 2];
+//! fk.identification_jacobian(&robot, &[Param::D(0), Param::ToolX], &mut cols).unwrap();
+//! assert!((cols[0] - Vector3::z()).norm() < 1e-12);
+//! assert!((fk.joint_column(0) - Vector3::new(0.0, 100.0, 0.0)).norm() < 1e-9);
+//!
+//! // The base pose places everything in the measurement frame (a tracker 2 m away).
+//! let mut placed = robot.clone();
+//! placed.set_base(Frame::from_xyz_rpy([2000.0, 0.0, 0.0], [0.0; 3])).unwrap();
+//! assert!((point(&placed, &[0.0; 3]) - Vector3::new(2900.0, 0.0, 400.0)).norm() < 1e-9);
+//! ```
 
 use crate::model::coupling::Couplings;
 use crate::model::param::{Param, ParamError};
@@ -75,6 +111,7 @@ fn advance<T: Real>(f: &Frame<T>, j: &Joint<T>, t: &RowTrig<T>, q: T) -> Frame<T
 }
 
 impl<T: Real, const N: usize> ForwardKinematics<T, N> {
+    /// A zeroed workspace (identity frames); [`Self::compute`] fills it.
     pub fn new() -> Self {
         Self::default()
     }

@@ -11,7 +11,8 @@
 //!   fixed storage).
 //! - [`model`] — **the constant description** (Pinocchio's `Model`): [`Frame`], [`Joint`] (modified
 //!   DH + Hayati tilt), [`Robot`] (base pose, rows, tool point, [`Effects`] = the non-geometric
-//!   joint corrections of interfaces.md §2, [`Couplings`] = joints read relative to another),
+//!   joint corrections of `docs/formats.md#effects`, [`Couplings`] = joints read relative to
+//!   another),
 //!   [`model::param`] (named parameters, the identified subset, updates).
 //! - [`forward`] — **kinematics** (the scratch workspace, Pinocchio's `Data`): [`ForwardKinematics`]
 //!   with its derivatives beside it (identification Jacobian, joint Jacobian).
@@ -37,6 +38,10 @@
 //! Each layer uses only the layers listed before it (`scripts/module_graph.py` checks this).
 //!
 //! Units: millimetres and radians inside the library; degrees only at file boundaries.
+//!
+//! File formats, the command line and a walkthrough on real UR10 data are in the repository's
+//! `docs/` folder (`docs/README.md`; `docs/formats.md`, `docs/walkthrough.md`,
+//! `docs/architecture.md`).
 
 #![no_std]
 #![forbid(unsafe_code)]
@@ -45,6 +50,7 @@
 // `!(x > 0)` is deliberate throughout: a NaN must fail the test, not pass it.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 #![warn(missing_debug_implementations)]
+#![warn(missing_docs)]
 
 pub mod compensate;
 pub mod forward;

@@ -25,13 +25,14 @@ pub struct Config<T: Real> {
     /// Per-joint bound on |command − seed| (rad): the largest correction the controller
     /// accepts. Default 2° (0.0349 rad).
     pub max_step: T,
-    /// Length scale (mm per rad) that makes orientation error comparable to position error
-    /// in pose targets; `None` uses [`Robot::reach`], the scale identification uses. Default None.
+    /// Length scale (mm per rad) that makes orientation error comparable to position error in pose
+    /// targets; `None` uses [`Robot::reach`](crate::Robot::reach), the scale identification uses.
+    /// Default None.
     pub orientation_scale: Option<T>,
-    /// Singular when the scaled Jacobian's conditioning σ_h (see [`Solution::sigma`]) falls
-    /// below `singular · reach` (mm/rad). Default 0.01: at a 2 m reach, 20 mm/rad, i.e. a
-    /// 1 mm correction would need ~3° along the weakest direction. About 1–2° from a
-    /// wrist singularity for pose targets.
+    /// Singular when the scaled Jacobian's conditioning σ_h (see
+    /// [`Solution::sigma`](super::Solution::sigma)) falls below `singular · reach` (mm/rad).
+    /// Default 0.01: at a 2 m reach, 20 mm/rad, i.e. a 1 mm correction would need ~3° along the
+    /// weakest direction. About 1–2° from a wrist singularity for pose targets.
     pub singular: T,
 }
 

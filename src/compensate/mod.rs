@@ -1,12 +1,13 @@
 //! Online compensation: the joint command that brings the *identified* robot to a target.
 //!
-//! The controller knows where it wants the tool (a point in the measurement frame, or a full
-//! tool pose) and has a joint vector near the answer: its nominal inverse kinematics, or the
-//! previous cycle's command. [`compensate`] runs a fixed, small number of damped Newton
+//! The controller knows where it wants the tool (a point in the measurement frame, or a full tool
+//! pose) and has a joint vector near the answer: its nominal inverse kinematics, or the previous
+//! cycle's command. [`compensate`] runs a fixed, small number of damped Newton
 //! (Levenberg–Marquardt) steps on the identified model from that seed. Because
-//! [`ForwardKinematics::compute`] applies the joint corrections and the joint Jacobian (as
-//! [`ForwardKinematics::joint_jacobian`] has it) carries their slope, compliance, cyclic, scale
-//! and table effects are inverted along with the geometry.
+//! [`ForwardKinematics::compute`](crate::ForwardKinematics::compute) applies the joint corrections
+//! and the joint Jacobian (as
+//! [`ForwardKinematics::joint_jacobian`](crate::ForwardKinematics::joint_jacobian) has it) carries
+//! their slope, compliance, cyclic, scale and table effects are inverted along with the geometry.
 //!
 //! Seeds, commands and joint limits are the controller's own *readings*: with joint couplings
 //! (FANUC J3 read from the horizontal, [`crate::Couplings`]) the forward kinematics maps them
@@ -27,6 +28,40 @@
 //! wandering in the noise. [`Tracker`] is the streaming form for trajectories: it keeps the
 //! previous correction and starts the next cycle from it (usually one or two steps then
 //! suffice).
+//!
+//! ```
+//! use kinecal::compensate::{compensate, Config, Status, Target};
+//! use kinecal::forward::point;
+//! use kinecal::{Frame, Joint, Robot};
+//! use nalgebra::Vector3;
+//!
+//! let rows = [
+//!     Joint::mdh_deg(0.0, 0.0, 0.0, 400.0),
+//!     Joint::mdh_deg(90.0, 100.0, 0.0, 0.0),
+//!     Joint::mdh_deg(0.0, 500.0, 0.0, 0.0),
+//! ];
+//! // The identified model: joint 2 is 0.3° off its nominal zero.
+//! let mut rows_real = rows;
+//! rows_real[1].theta += 0.3f64.to_radians();
+//! let tool = Vector3::new(300.0, 0.0, 0.0);
+//! let identified: Robot<f64, 3> = Robot::new(Frame::identity(), rows_real, tool).unwrap();
+//! let nominal: Robot<f64, 3> = Robot::new(Frame::identity(), rows, tool).unwrap();
+//!
+//! // The controller's command for a target, by its nominal model (its own IK, say).
+//! let q_nominal = [0.2, 0.6, -0.9];
+//! let target = Target::Point(point(&nominal, &q_nominal));
+//! // Sent as is, the identified robot misses the target by about 4 mm.
+//! assert!((point(&identified, &q_nominal) - target.point()).norm() > 2.0);
+//!
+//! // The corrected command, seeded with the nominal one.
+//! let r = compensate(&identified, &target, &q_nominal, &Config::default());
+//! assert_eq!(Status::of(&r), Status::Ok);
+//! let sol = r.unwrap();
+//! assert!(sol.position_error < 1e-3); // mm
+//! assert!((point(&identified, &sol.q) - target.point()).norm() < 1e-3);
+//! // Here the correction is the offset itself: joint 2 turns 0.3° less.
+//! assert!((sol.q[1] - (q_nominal[1] - 0.3f64.to_radians())).abs() < 1e-6);
+//! ```
 
 /// `$body` for `$j` = 0, …, 5: the firmware's unroll threshold keeps LLVM from unrolling an
 /// outer loop whose inner loops' bounds depend on it; written out, every bound is a constant

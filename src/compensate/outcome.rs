@@ -25,10 +25,16 @@ pub struct Solution<T: Real, const N: usize> {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Status {
+    /// The target is met within [`Config::accept`](super::Config::accept) at a well-conditioned
+    /// pose.
     Ok,
+    /// [`CompensateError::Singular`].
     Singular,
+    /// [`CompensateError::Unreachable`].
     Unreachable,
+    /// [`CompensateError::Limited`].
     Limited,
+    /// [`CompensateError::InvalidInput`].
     Invalid,
 }
 
@@ -57,10 +63,11 @@ impl Status {
 /// is finite and inside the step box around the seed.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum CompensateError<T: Real, const N: usize> {
-    /// A target, seed or configuration value is NaN, infinite or out of range, the target is
-    /// more than [`FAR`] × reach from the base (a unit or frame mistake, not a target), a pose
-    /// target was given to a robot with fewer than six joints, or [`Tracker::follow`] has no previous
-    /// command. Nothing was computed: hold the previous command.
+    /// A target, seed or configuration value is NaN, infinite or out of range, the target is more
+    /// than [`FAR`](super::FAR) × reach from the base (a unit or frame mistake, not a target), a
+    /// pose target was given to a robot with fewer than six joints, or
+    /// [`Tracker::follow`](super::Tracker::follow) has no previous command. Nothing was computed:
+    /// hold the previous command.
     InvalidInput,
     /// The Jacobian at the answer is (nearly) rank-deficient (σ_h below the threshold): a
     /// wrist, shoulder or elbow singularity, or the edge of the workspace. The target may even
@@ -87,6 +94,7 @@ impl<T: Real, const N: usize> CompensateError<T, N> {
         }
     }
 
+    /// The status class of this error.
     pub fn status(&self) -> Status {
         match self {
             CompensateError::InvalidInput => Status::Invalid,

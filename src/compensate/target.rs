@@ -4,8 +4,8 @@ use super::finite::all_finite;
 use crate::{Frame, Real};
 use nalgebra::Vector3;
 
-/// Targets farther than this many reaches ([`Robot::reach`]) from the base are refused as
-/// invalid input rather than iterated on.
+/// Targets farther than this many reaches ([`Robot::reach`](crate::Robot::reach)) from the base are
+/// refused as invalid input rather than iterated on.
 pub const FAR: f64 = 1000.0;
 
 /// Where the tool should go, in the measurement frame (mm).
@@ -14,7 +14,8 @@ pub enum Target<T: Real> {
     /// Only the measured point (3 equations): any robot.
     Point(Vector3<T>),
     /// Point (the frame's origin) and tool orientation (the flange axes, as in
-    /// [`ForwardKinematics::tool_pose`]): 6 equations, robots with six or more joints.
+    /// [`ForwardKinematics::tool_pose`](crate::ForwardKinematics::tool_pose)): 6 equations, robots
+    /// with six or more joints.
     Pose(Frame<T>),
 }
 

@@ -18,6 +18,7 @@ pub struct Tracker<T: Real, const N: usize> {
 }
 
 impl<T: Real, const N: usize> Tracker<T, N> {
+    /// A tracker with no trajectory yet: begin with [`Tracker::start`] or [`Tracker::next`].
     pub fn new(config: Config<T>) -> Self {
         Self {
             config,

@@ -7,6 +7,29 @@
 //! on the true geometric distances, which removes the bias and refines the plane as well.
 //! The last stage's Jacobian also gives standard deviations, so callers can tell a sweep that is
 //! too short or too noisy from one they can trust.
+//!
+//! ```
+//! use kinecal::frames::circle::fit_circle;
+//! use nalgebra::Vector3;
+//!
+//! // A reflector 250 mm from a joint axis through (1000, -200, 300) along z, turned over
+//! // 100° in 10° steps (a short arc: the Kåsa stage alone would be biased on noisy data).
+//! let points: Vec<Vector3<f64>> = (0..=10)
+//!     .map(|k| {
+//!         let t = (10.0 * k as f64).to_radians();
+//!         Vector3::new(1000.0 + 250.0 * t.cos(), -200.0 + 250.0 * t.sin(), 300.0)
+//!     })
+//!     .collect();
+//! let c = fit_circle(&points).unwrap();
+//! assert!((c.centre - Vector3::new(1000.0, -200.0, 300.0)).norm() < 1e-6);
+//! assert!((c.radius - 250.0).abs() < 1e-6);
+//! assert!((c.normal.z.abs() - 1.0).abs() < 1e-9); // the axis, up to its sign
+//! assert!(c.rms < 1e-6);
+//! assert_eq!(c.points, 11);
+//!
+//! // Three points cannot give a noise estimate.
+//! assert!(fit_circle(&points[..3]).is_err());
+//! ```
 
 use crate::num::linalg::{cholesky, cholesky_solve, symmetric_eigen, Square};
 use crate::Real;
@@ -31,9 +54,11 @@ pub enum CircleError {
 /// A circle in space with the quality of its fit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Circle<T: Real> {
+    /// Centre of the circle (mm).
     pub centre: Vector3<T>,
     /// Unit normal of the circle's plane; its sign is arbitrary here (a joint axis orients it).
     pub normal: Vector3<T>,
+    /// Radius (mm).
     pub radius: T,
     /// RMS geometric distance of the points from the circle (mm).
     pub rms: T,

@@ -7,7 +7,8 @@
 //! order and the nominal first rows, and it puts identification within a fraction of a
 //! millimetre of the answer.
 //!
-//! **What "the base" means here.** The model is `p = B·T_1(q_1)·…·tool` (interfaces.md §1).
+//! **What "the base" means here.** The model is `p = B·T_1(q_1)·…·tool`
+//! (`docs/formats.md#kinematic-model`).
 //! [`base_from_sweeps`] returns the `B` for which the *nominal* rows put joint 1's and joint 2's
 //! axes where the sweeps found them. It registers the pair of axis lines: the axis-1 line, the
 //! foot on it of the common normal with axis 2, and the common normal's direction (nominal
@@ -76,7 +77,9 @@ impl From<CircleError> for FramesError {
 /// An infinite straight line: a point on it and a unit direction.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Line<T: Real> {
+    /// A point on the line (mm).
     pub point: Vector3<T>,
+    /// Unit direction.
     pub direction: Vector3<T>,
 }
 
@@ -245,6 +248,7 @@ fn axis_with<T: Real, P: Fn(usize) -> Vector3<T>, Q: Fn(usize) -> T>(
 /// The records of one single-joint sweep: `joint` (0-based) turned, the others stayed put.
 #[derive(Clone, Copy, Debug)]
 pub struct Sweep<'a, T: Real, const N: usize> {
+    /// The joint that turned (0-based).
     pub joint: usize,
     /// Measured points (mm, measurement frame).
     pub points: &'a [Vector3<T>],
@@ -342,7 +346,9 @@ impl<'a, T: Real, const N: usize> Sweep<'a, T, N> {
 pub struct BaseEstimate<T: Real> {
     /// `B`: the robot base in the measurement frame, as the model's `[base]` means it.
     pub base: Frame<T>,
+    /// Joint 1's axis, from its sweep.
     pub axis1: JointAxis<T>,
+    /// Joint 2's axis, from its sweep.
     pub axis2: JointAxis<T>,
     /// Common normal of the measured axes 1 and 2.
     pub common_normal: CommonNormal<T>,
@@ -468,6 +474,7 @@ pub struct ToolEstimate<T: Real> {
     /// Position of the point along the flange axis from the foot of the common normal with the
     /// wrist axis: `d_N + tool_z` of the model (mm).
     pub axial: T,
+    /// How `axial` was obtained.
     pub method: AxialMethod,
     /// The wrist axis.
     pub wrist: JointAxis<T>,

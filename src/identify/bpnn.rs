@@ -59,6 +59,7 @@ pub struct BpnnConfig<T: Real> {
     pub momentum: T,
     /// Samples per update (≥ 1).
     pub batch: u32,
+    /// Activation function of the hidden layer.
     pub activation: Activation,
 }
 
@@ -217,6 +218,7 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
         })
     }
 
+    /// The training settings in use.
     pub fn config(&self) -> &BpnnConfig<T> {
         &self.cfg
     }

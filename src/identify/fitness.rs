@@ -16,6 +16,43 @@
 //! `theta` by the angle-addition formulas: no trigonometry per pose, which makes an `f64`
 //! evaluation several times cheaper. Robots with joint-correction effects (whose joint angles
 //! depend on the geometry) always take the general [`ForwardKinematics`] path.
+//!
+//! ```
+//! use kinecal::forward::point;
+//! use kinecal::identify::fitness::{Objective, PositionFitness};
+//! use kinecal::model::param::{Param, ParamSet};
+//! use kinecal::{Frame, Joint, Measurement, Robot};
+//! use nalgebra::Vector3;
+//!
+//! let rows = [
+//!     Joint::mdh_deg(0.0, 0.0, 0.0, 400.0),
+//!     Joint::mdh_deg(90.0, 100.0, 0.0, 0.0),
+//!     Joint::mdh_deg(0.0, 500.0, 0.0, 0.0),
+//! ];
+//! let nominal: Robot<f64, 3> =
+//!     Robot::new(Frame::identity(), rows, Vector3::new(300.0, 0.0, 0.0)).unwrap();
+//! // The real arm's first row is 0.5 mm taller: every point sits 0.5 mm higher.
+//! let mut real = nominal.clone();
+//! let mut row = real.joints()[0];
+//! row.d += 0.5;
+//! real.set_joint(0, row).unwrap();
+//! let data: Vec<Measurement<f64, 3>> = (0..10)
+//!     .map(|k| {
+//!         let q = [0.3 * k as f64, 0.1 * k as f64, -0.2 * k as f64];
+//!         Measurement { q, point: point(&real, &q) }
+//!     })
+//!     .collect();
+//!
+//! let params: ParamSet<12> = ParamSet::mdh(3).unwrap(); // alpha, a, theta, d per joint
+//! let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
+//! let zero = [0.0; 12];
+//! assert!((f.fitness(&zero) - 10.0 * 0.25).abs() < 1e-9); // Σ |0.5 mm|² over 10 poses
+//!
+//! let mut x = [0.0; 12];
+//! x[params.position(Param::D(0)).unwrap()] = 0.5; // the candidate: d1 + 0.5 mm
+//! assert!(f.fitness(&x) < 1e-18);
+//! assert_eq!(f.robot(&x).unwrap().joints()[0].d, 400.5);
+//! ```
 
 use crate::model::param::{apply_delta, ParamError, ParamSet};
 use crate::model::robot::RowTrig;
@@ -118,12 +155,15 @@ impl<'a, T: Real, const N: usize, const V: usize, const P: usize> PositionFitnes
         Ok(f)
     }
 
+    /// The robot the deltas are applied to.
     pub fn reference(&self) -> &Robot<T, N, V> {
         self.reference
     }
+    /// The parameters the candidate's components change, in order.
     pub fn params(&self) -> &ParamSet<P> {
         self.params
     }
+    /// The poses the fitness sums over.
     pub fn measurements(&self) -> &[Measurement<T, N>] {
         self.data
     }

@@ -37,6 +37,45 @@
 //! **History.** The global best after the initial swarm and after each iteration is kept for
 //! plots (fitness against iteration) in a fixed buffer of `H` entries; later iterations are not
 //! recorded once it is full.
+//!
+//! A swarm run in slices, saved half-way and resumed in another swarm, ends exactly where an
+//! uninterrupted run ends:
+//!
+//! ```
+//! use kinecal::identify::fitness::Objective;
+//! use kinecal::identify::pso::{Pso, PsoConfig};
+//! use kinecal::io::snapshot::Snapshot;
+//!
+//! /// `(x − 1)² + (y + 2)²`, smallest at (1, −2).
+//! struct Bowl;
+//! impl Objective<f64> for Bowl {
+//!     fn dimension(&self) -> usize { 2 }
+//!     fn fitness(&mut self, x: &[f64]) -> f64 { (x[0] - 1.0).powi(2) + (x[1] + 2.0).powi(2) }
+//! }
+//!
+//! let mut cfg = PsoConfig::new([-5.0, -5.0], [5.0, 5.0]).unwrap();
+//! cfg.max_iterations = 200;
+//! let mut a: Pso<f64, 20, 2> = Pso::new(cfg, 7).unwrap();
+//! let mut b = a.clone();
+//! a.run(&mut Bowl).unwrap();
+//!
+//! // The same swarm, 15 evaluations per slice, saved after 105 evaluations.
+//! for _ in 0..7 {
+//!     b.step(&mut Bowl, 15).unwrap();
+//! }
+//! let mut buf = [0u8; 64 * 1024];
+//! let mut w = &mut buf[..];
+//! b.save(&mut w).unwrap();
+//! let len = 64 * 1024 - w.len(); // bytes written
+//! assert_eq!(&buf[..4], b"KCSN");
+//! let mut c: Pso<f64, 20, 2> = Pso::new(cfg, 99).unwrap(); // any swarm of the same shape
+//! c.restore(&mut &buf[..len]).unwrap();
+//! while !c.is_finished() {
+//!     c.step(&mut Bowl, 15).unwrap();
+//! }
+//! assert_eq!(c.best_position(), a.best_position()); // bit-identical
+//! assert!((a.best_position()[0] - 1.0).abs() < 1e-3 && (a.best_position()[1] + 2.0).abs() < 1e-3);
+//! ```
 
 use crate::identify::fitness::Objective;
 use crate::io::snapshot::{
@@ -326,6 +365,7 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
         Ok(())
     }
 
+    /// The settings the swarm was built with.
     pub fn config(&self) -> &PsoConfig<T, D> {
         &self.cfg
     }
@@ -337,12 +377,15 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
     pub fn best_position(&self) -> &[T; D] {
         &self.global
     }
+    /// Fitness of [`Pso::best_position`] (+∞ before any evaluation).
     pub fn best_fitness(&self) -> T {
         self.global_fitness
     }
+    /// Every particle's current position.
     pub fn positions(&self) -> &[[T; D]; S] {
         &self.position
     }
+    /// Every particle's current velocity.
     pub fn velocities(&self) -> &[[T; D]; S] {
         &self.velocity
     }
@@ -350,6 +393,7 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
     pub fn personal_bests(&self) -> &[[T; D]; S] {
         &self.best
     }
+    /// Fitness of each particle's best position so far.
     pub fn personal_best_fitness(&self) -> &[T; S] {
         &self.best_fitness
     }
@@ -368,6 +412,7 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
             .position(|f| *f <= fitness)
             .map(|k| k as u32)
     }
+    /// Iteration, evaluations, best fitness and, once finished, why it stopped.
     pub fn progress(&self) -> PsoProgress<T> {
         PsoProgress {
             iteration: self.iteration,
@@ -379,6 +424,7 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
             },
         }
     }
+    /// True once a stopping rule has fired: further [`Pso::step`] calls do nothing.
     pub fn is_finished(&self) -> bool {
         matches!(self.phase, Phase::Done(_))
     }

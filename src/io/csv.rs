@@ -1,9 +1,37 @@
-//! Measurement CSV records (interfaces.md §3) from any `embedded_io::Read`: a UART on the
-//! controller, a file on the desktop.
+//! Measurement CSV records (`docs/formats.md#measurement-csv`) from any `embedded_io::Read`: a
+//! UART on the controller, a file on the desktop.
 //!
 //! Fixed line buffer of `L` bytes, header → column map, up to `X` extra columns carried by name,
 //! `#` comments and blank lines skipped. Every error carries the 1-based line and column so a
 //! technician can find the bad cell; after an error the reader continues with the next line.
+//!
+//! ```
+//! use kinecal::io::csv::{CsvErrorKind, CsvReader};
+//!
+//! let file = b"# tracker export, 2 joints\n\
+//!              q1,q2,x,y,z,temp_c\n\
+//!              10.0,-20.0,1500.25,-30.5,400.0,21.7\n\
+//!              \n\
+//!              0,90,812.0,0,1000,\n\
+//!              0,abc,812.0,0,1000,21.8\n";
+//! // 2 joints, lines up to 128 bytes, up to 4 extra columns; `&[u8]` is an `embedded_io::Read`.
+//! let mut csv = CsvReader::<_, 2, 128, 4>::new(&file[..]).unwrap();
+//! assert_eq!(csv.extra_names()[0].as_str(), "temp_c");
+//!
+//! let r = csv.next_record().unwrap().unwrap();
+//! assert_eq!((r.line, r.q_deg, r.xyz_mm), (3, [10.0, -20.0], [1500.25, -30.5, 400.0]));
+//! assert_eq!(r.extra[0], 21.7);
+//! let m = r.measurement::<f32>(); // library units: rad, mm
+//! assert_eq!(m.q[1], (-20f64).to_radians() as f32);
+//!
+//! let r = csv.next_record().unwrap().unwrap(); // the blank line was skipped
+//! assert_eq!(r.line, 5);
+//! assert!(r.extra[0].is_nan()); // an empty extra cell
+//!
+//! let e = csv.next_record().unwrap().unwrap_err();
+//! assert_eq!((e.kind, e.line, e.column), (CsvErrorKind::NotANumber, 6, 2));
+//! assert!(csv.next_record().is_none());
+//! ```
 
 use crate::Measurement;
 use crate::Real;
@@ -39,6 +67,7 @@ pub enum CsvErrorKind {
 }
 
 impl CsvErrorKind {
+    /// A short English description, for error messages.
     pub fn describe(self) -> &'static str {
         match self {
             CsvErrorKind::Io => "read error",
@@ -60,6 +89,7 @@ impl CsvErrorKind {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct CsvError {
+    /// What went wrong.
     pub kind: CsvErrorKind,
     /// 1-based line number (0 when the file has none).
     pub line: u32,
@@ -77,8 +107,12 @@ pub const MAX_COLUMNS: usize = 64;
 /// One record, in file units (degrees, millimetres), with the extra columns' values.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Record<const N: usize, const X: usize> {
+    /// Joint readings `q1`…`qN` as written (degrees by the file convention).
     pub q_deg: [f64; N],
+    /// Measured point `x`, `y`, `z` as written (millimetres by the file convention).
     pub xyz_mm: [f64; 3],
+    /// Values of the extra columns, in the order of [`CsvReader::extra_names`];
+    /// NaN for an empty or non-numeric cell.
     pub extra: Vec<f64, X>,
     /// Line of the file this record came from.
     pub line: u32,

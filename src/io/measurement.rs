@@ -6,7 +6,9 @@ use nalgebra::Vector3;
 /// Joint readings `q` (rad) and the measured point (mm, measurement frame).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Measurement<T: Real, const N: usize> {
+    /// Joint readings, rad (as the controller reports them, before couplings).
     pub q: [T; N],
+    /// Measured point, mm, in the measurement frame.
     pub point: Vector3<T>,
 }
 

@@ -140,6 +140,7 @@ impl Default for Crc32 {
 }
 
 impl Crc32 {
+    /// A checksum over no bytes yet.
     pub const fn new() -> Self {
         Crc32(0xFFFF_FFFF)
     }
@@ -185,18 +186,23 @@ impl<W: Write> Encoder<'_, W> {
         }
         Ok(())
     }
+    /// One byte.
     pub fn u8(&mut self, v: u8) -> Result<(), SnapshotError> {
         self.bytes(&[v])
     }
+    /// A bool as one byte, 0 or 1.
     pub fn bool(&mut self, v: bool) -> Result<(), SnapshotError> {
         self.u8(v as u8)
     }
+    /// A u16, little-endian.
     pub fn u16(&mut self, v: u16) -> Result<(), SnapshotError> {
         self.bytes(&v.to_le_bytes())
     }
+    /// A u32, little-endian.
     pub fn u32(&mut self, v: u32) -> Result<(), SnapshotError> {
         self.bytes(&v.to_le_bytes())
     }
+    /// A u64, little-endian.
     pub fn u64(&mut self, v: u64) -> Result<(), SnapshotError> {
         self.bytes(&v.to_le_bytes())
     }
@@ -254,6 +260,7 @@ impl<R: Read> Decoder<'_, R> {
         self.bytes(&mut b)?;
         Ok(b)
     }
+    /// One byte.
     pub fn u8(&mut self) -> Result<u8, SnapshotError> {
         Ok(self.array::<1>()?[0])
     }
@@ -265,12 +272,15 @@ impl<R: Read> Decoder<'_, R> {
             _ => Err(SnapshotError::Invalid),
         }
     }
+    /// A little-endian u16.
     pub fn u16(&mut self) -> Result<u16, SnapshotError> {
         Ok(u16::from_le_bytes(self.array()?))
     }
+    /// A little-endian u32.
     pub fn u32(&mut self) -> Result<u32, SnapshotError> {
         Ok(u32::from_le_bytes(self.array()?))
     }
+    /// A little-endian u64.
     pub fn u64(&mut self) -> Result<u64, SnapshotError> {
         Ok(u64::from_le_bytes(self.array()?))
     }
@@ -306,12 +316,14 @@ impl<R: Read> Decoder<'_, R> {
             Err(SnapshotError::Invalid)
         }
     }
+    /// Fills `out` with reals written by [`Encoder::reals`] (not checked for finiteness).
     pub fn reals<T: Real>(&mut self, out: &mut [T]) -> Result<(), SnapshotError> {
         out.iter_mut().try_for_each(|x| {
             *x = self.real()?;
             Ok(())
         })
     }
+    /// Fills `out` row after row, as [`Encoder::real_rows`] wrote them.
     pub fn real_rows<T: Real, const D: usize>(
         &mut self,
         out: &mut [[T; D]],

@@ -1,5 +1,5 @@
-//! Joint couplings (interfaces.md §3 `[[couplings]]`): a joint whose controller reading is
-//! measured relative to another joint.
+//! Joint couplings (`[[couplings]]`, `docs/formats.md#couplings`): a joint whose controller
+//! reading is measured relative to another joint.
 //!
 //! FANUC arms (and most palletisers) report J3 from the horizontal, so the model angle of the
 //! MDH chain is `q3 = reading3 + ratio · reading2` with `ratio = 1`. A [`Couplings`] value holds

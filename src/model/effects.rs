@@ -1,4 +1,4 @@
-//! Non-geometric joint corrections (interfaces.md §2): what a plain MDH model misses.
+//! Non-geometric joint corrections (`docs/formats.md#effects`): what a plain MDH model misses.
 //!
 //! Each effect adds `dq_j = Σ_k v_k · φ_k(q)` to a joint reading before the geometry is applied.
 //! The model is linear in its values `v_k`, so identification needs only the basis `φ_k` (the
@@ -11,7 +11,7 @@ use heapless::Vec;
 /// How many effects one model can carry.
 pub const MAX_EFFECTS: usize = 32;
 
-/// The kinds of joint correction of interfaces.md §2.
+/// The kinds of joint correction (`docs/formats.md#effects`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum EffectKind {
@@ -36,7 +36,7 @@ impl EffectKind {
         }
     }
 
-    /// Parses an identifier of interfaces.md §2 (`axis-tilt` is not a joint correction).
+    /// Parses an effect id of `docs/formats.md#effects` (`axis-tilt` is not a joint correction).
     pub fn from_id(s: &str) -> Option<Self> {
         Some(match s {
             "joint-scale" => EffectKind::Scale,
@@ -51,6 +51,7 @@ impl EffectKind {
 /// One correction on one joint; its values live in [`Effects::values`] from `first` on.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Effect<T: Real> {
+    /// What correction this is.
     pub kind: EffectKind,
     /// 0-based joint index.
     pub joint: u8,
@@ -125,15 +126,19 @@ impl<T: Real, const V: usize> Default for Effects<T, V> {
 }
 
 impl<T: Real, const V: usize> Effects<T, V> {
+    /// The effects, in the order they were added.
     pub fn iter(&self) -> impl Iterator<Item = &Effect<T>> {
         self.list.iter()
     }
+    /// Number of effects (not values).
     pub fn len(&self) -> usize {
         self.list.len()
     }
+    /// True when the model has no joint correction.
     pub fn is_empty(&self) -> bool {
         self.list.is_empty()
     }
+    /// Effect `i`, `None` beyond the last.
     pub fn get(&self, i: usize) -> Option<&Effect<T>> {
         self.list.get(i)
     }

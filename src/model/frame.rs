@@ -7,9 +7,13 @@ use nalgebra::{Matrix3, Vector3};
 /// rotation, `o` the origin. Kept as axes because every Jacobian column is built from them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Frame<T: Real> {
+    /// Unit x axis, in the parent frame.
     pub x: Vector3<T>,
+    /// Unit y axis, in the parent frame.
     pub y: Vector3<T>,
+    /// Unit z axis, in the parent frame.
     pub z: Vector3<T>,
+    /// Origin, in the parent frame (mm).
     pub o: Vector3<T>,
 }
 
@@ -20,6 +24,7 @@ impl<T: Real> Default for Frame<T> {
 }
 
 impl<T: Real> Frame<T> {
+    /// The parent frame itself: no rotation, origin at zero.
     pub fn identity() -> Self {
         Self {
             x: Vector3::x(),

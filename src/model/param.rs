@@ -1,8 +1,9 @@
 //! Named model parameters, the identified subset, and the updates identification applies.
 //!
-//! Layout (interfaces.md §1): `base.x base.y base.z base.rx base.ry base.rz`, then per joint
-//! `alphaI aI thetaI dI betaI`, then `tool.x tool.y tool.z`, then the effect values. Angles are
-//! rad and lengths mm inside the library. A [`ParamSet`] is the ordered subset being identified.
+//! Layout (`docs/formats.md#kinematic-model`): `base.x base.y base.z base.rx base.ry base.rz`,
+//! then per joint `alphaI aI thetaI dI betaI`, then `tool.x tool.y tool.z`, then the effect
+//! values. Angles are rad and lengths mm inside the library. A [`ParamSet`] is the ordered
+//! subset being identified.
 
 use crate::model::effects::EffectKind;
 use crate::{Real, Robot};
@@ -14,22 +15,34 @@ use nalgebra::Vector3;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Param {
+    /// Base origin x in the measurement frame, mm.
     BaseX,
+    /// Base origin y in the measurement frame, mm.
     BaseY,
+    /// Base origin z in the measurement frame, mm.
     BaseZ,
     /// Base rotation about the measurement frame's x axis (identification updates it as a
     /// small rotation about the base origin; the model file stores roll/pitch/yaw).
     BaseRx,
+    /// Base rotation about the measurement frame's y axis (as [`Param::BaseRx`]).
     BaseRy,
+    /// Base rotation about the measurement frame's z axis (as [`Param::BaseRx`]).
     BaseRz,
-    /// Row parameters of joint `i` (0-based).
+    /// `alpha` of joint `i` (0-based, as in every row parameter), rad.
     Alpha(u8),
+    /// `a` of joint `i`, mm.
     A(u8),
+    /// `theta` (angle offset) of joint `i`, rad.
     Theta(u8),
+    /// `d` of joint `i`, mm.
     D(u8),
+    /// `beta` (Hayati tilt) of joint `i`, rad.
     Beta(u8),
+    /// Tool point x in the flange frame, mm.
     ToolX,
+    /// Tool point y in the flange frame, mm.
     ToolY,
+    /// Tool point z in the flange frame, mm.
     ToolZ,
     /// Value `k` of the model's effect list (see [`crate::Effects::values`]).
     Effect(u16),
@@ -205,21 +218,27 @@ pub struct ParamSet<const P: usize> {
 }
 
 impl<const P: usize> ParamSet<P> {
+    /// An empty set.
     pub fn new() -> Self {
         Self { items: Vec::new() }
     }
+    /// The parameters in column order.
     pub fn as_slice(&self) -> &[Param] {
         &self.items
     }
+    /// Number of parameters.
     pub fn len(&self) -> usize {
         self.items.len()
     }
+    /// True when the set has no parameter.
     pub fn is_empty(&self) -> bool {
         self.items.is_empty()
     }
+    /// True when `p` is in the set.
     pub fn contains(&self, p: Param) -> bool {
         self.items.contains(&p)
     }
+    /// Column index of `p`, if it is in the set.
     pub fn position(&self, p: Param) -> Option<usize> {
         self.items.iter().position(|x| *x == p)
     }

@@ -14,13 +14,19 @@ use nalgebra::Vector3;
 /// `T_i(q) = Rx(alpha)·Tx(a)·Ry(beta)·Rz(theta + q)·Tz(d)`. Angles in rad, lengths in mm.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Joint<T: Real> {
+    /// Twist about the previous frame's x axis (Craig's `alpha_{i-1}`), rad.
     pub alpha: T,
+    /// Length along the previous frame's x axis (Craig's `a_{i-1}`), mm.
     pub a: T,
+    /// Offset added to the joint angle `q`, rad.
     pub theta: T,
+    /// Offset along the joint axis z, mm.
     pub d: T,
+    /// Hayati tilt about the y axis after `a`, rad (0 in a plain MDH row).
     pub beta: T,
-    /// Joint limits (rad), `lower < upper`.
+    /// Lower joint limit (rad); `lower < upper`.
     pub lower: T,
+    /// Upper joint limit (rad).
     pub upper: T,
 }
 
@@ -147,18 +153,23 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
         self.reach = if s > T::zero() { s } else { T::one() };
     }
 
+    /// The base pose: robot base frame in the measurement frame.
     pub fn base(&self) -> &Frame<T> {
         &self.base
     }
+    /// The MDH rows, base to flange.
     pub fn joints(&self) -> &[Joint<T>; N] {
         &self.joints
     }
+    /// Row `i` (0-based), `None` beyond the last joint.
     pub fn joint(&self, i: usize) -> Option<&Joint<T>> {
         self.joints.get(i)
     }
+    /// The measured point in the flange frame (mm).
     pub fn tool(&self) -> &Vector3<T> {
         &self.tool
     }
+    /// The non-geometric joint corrections and their values.
     pub fn effects(&self) -> &Effects<T, V> {
         &self.effects
     }

@@ -16,8 +16,11 @@ use nalgebra::Vector3;
 /// closest points `p0 + s·(p1 − p0)` and `q0 + t·(q1 − q0)`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Closest<T: Real> {
+    /// Distance between the closest points (mm).
     pub distance: T,
+    /// Parameter of the closest point on the first segment.
     pub s: T,
+    /// Parameter of the closest point on the second segment.
     pub t: T,
 }
 
@@ -93,12 +96,16 @@ pub fn segment_distance<T: Real>(
 /// A capsule: all points within `radius` of the segment `[a, b]` (mm).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Capsule<T: Real> {
+    /// One end of the segment.
     pub a: Vector3<T>,
+    /// The other end of the segment.
     pub b: Vector3<T>,
+    /// Radius around the segment (≥ 0).
     pub radius: T,
 }
 
 impl<T: Real> Capsule<T> {
+    /// The capsule of radius `radius` around `[a, b]` (not checked: see [`Capsule::is_valid`]).
     pub fn new(a: Vector3<T>, b: Vector3<T>, radius: T) -> Self {
         Self { a, b, radius }
     }

@@ -33,7 +33,9 @@ use nalgebra::Vector3;
 /// `T_i`, so it moves with joint `i`); the end points are given in that frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LinkCapsule<T: Real> {
+    /// The robot frame it is fixed to (0 = base, `i` = joint `i`).
     pub frame: u8,
+    /// The capsule, in that frame (mm).
     pub capsule: Capsule<T>,
 }
 
@@ -64,21 +66,46 @@ pub enum SceneError {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Violation {
     /// Joint `joint` (0-based) is outside its limits, or a reading is not finite.
-    Limits { joint: u8 },
+    Limits {
+        /// The joint (0-based).
+        joint: u8,
+    },
     /// The reflector does not face the tracker closely enough (or sits on the tracker).
     Incidence,
     /// Link capsule `link` reaches below the floor.
-    Floor { link: u8 },
+    Floor {
+        /// Index of the link capsule.
+        link: u8,
+    },
     /// Link capsules `first` and `second` (of non-neighbouring bodies) touch.
-    SelfCollision { first: u8, second: u8 },
+    SelfCollision {
+        /// Index of one link capsule.
+        first: u8,
+        /// Index of the other link capsule.
+        second: u8,
+    },
     /// Link capsule `link` touches obstacle `obstacle`.
-    Obstacle { link: u8, obstacle: u8 },
+    Obstacle {
+        /// Index of the link capsule.
+        link: u8,
+        /// Index of the obstacle.
+        obstacle: u8,
+    },
     /// Link capsule `link` cuts the beam.
-    BeamLink { link: u8 },
+    BeamLink {
+        /// Index of the link capsule.
+        link: u8,
+    },
     /// Obstacle `obstacle` cuts the beam.
-    BeamObstacle { obstacle: u8 },
+    BeamObstacle {
+        /// Index of the obstacle.
+        obstacle: u8,
+    },
     /// A link capsule names a frame the robot does not have.
-    UnknownFrame { link: u8 },
+    UnknownFrame {
+        /// Index of the link capsule.
+        link: u8,
+    },
 }
 
 /// What the scene says about one configuration.
@@ -94,6 +121,7 @@ pub struct Assessment<T: Real> {
 }
 
 impl<T: Real> Assessment<T> {
+    /// True when no check failed.
     pub fn feasible(&self) -> bool {
         self.violation.is_none()
     }
@@ -133,15 +161,19 @@ impl<T: Real, const C: usize, const O: usize> Scene<T, C, O> {
         })
     }
 
+    /// The tracker.
     pub fn tracker(&self) -> &Tracker<T> {
         &self.tracker
     }
+    /// Height of the floor plane (mm, robot base frame), if the cell has one.
     pub fn floor_z(&self) -> Option<T> {
         self.floor_z
     }
+    /// The capsules fixed to the robot, in the order added.
     pub fn link_capsules(&self) -> &[LinkCapsule<T>] {
         &self.links
     }
+    /// The obstacles (robot base frame), in the order added.
     pub fn obstacles(&self) -> &[Capsule<T>] {
         &self.obstacles
     }

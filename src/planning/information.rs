@@ -14,6 +14,44 @@
 //! directions are structural (the same for every pose), so they do not move any measured
 //! point, and the covariance of the tool point at a working configuration, `C_s = J_s C J_sᵀ`,
 //! does not depend on how they are handled.
+//!
+//! ```
+//! use kinecal::forward::ForwardKinematics;
+//! use kinecal::model::param::Param;
+//! use kinecal::planning::information::{
+//!     default_tolerance, scaled_rows, Covariance, Information, PoseRows,
+//! };
+//! use kinecal::planning::observability::indices;
+//! use kinecal::{Frame, Joint, Robot};
+//! use nalgebra::Vector3;
+//!
+//! let rows = [
+//!     Joint::mdh_deg(0.0, 0.0, 0.0, 400.0),
+//!     Joint::mdh_deg(90.0, 100.0, 0.0, 0.0),
+//!     Joint::mdh_deg(0.0, 500.0, 0.0, 0.0),
+//! ];
+//! let robot: Robot<f64, 3> =
+//!     Robot::new(Frame::identity(), rows, Vector3::new(300.0, 0.0, 0.0)).unwrap();
+//!
+//! // d1 and base.z move the point the same way in every pose: only their sum is identifiable.
+//! let params = [Param::D(0), Param::BaseZ, Param::A(2), Param::Theta(1)];
+//! let mut info: Information<f64, 4> = Information::new(params.len()).unwrap();
+//! let mut fk = ForwardKinematics::new();
+//! let mut g: PoseRows<f64, 4> = [[0.0; 4]; 3];
+//! for k in 0..8 {
+//!     let q = [0.4 * k as f64, 0.2 + 0.15 * k as f64, -0.3 * k as f64];
+//!     fk.compute(&robot, &q);
+//!     scaled_rows(&robot, &fk, &params, &mut g).unwrap();
+//!     info.add_pose(&g).unwrap();
+//! }
+//! // Tracker noise 0.01 mm per coordinate.
+//! let cov = Covariance::new(&info, 0.01, default_tolerance()).unwrap();
+//! assert_eq!((cov.dim(), cov.rank()), (4, 3));
+//!
+//! // Observability indices of these 8 poses (see [`crate::planning::observability`]).
+//! let o = indices(&cov, info.poses());
+//! assert!(o.o2 >= 1.0 && o.o3 > 0.0);
+//! ```
 
 // `!(x > y)` is deliberate: it is also true for NaN. Index loops mirror the formulas.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
@@ -73,6 +111,7 @@ impl<T: Real, const P: usize> Information<T, P> {
         })
     }
 
+    /// Number of parameters `n` (the matrix is `n × n` in the top-left of its storage).
     pub fn dim(&self) -> usize {
         self.n
     }
@@ -80,6 +119,7 @@ impl<T: Real, const P: usize> Information<T, P> {
     pub fn poses(&self) -> usize {
         self.poses
     }
+    /// The accumulated `Σ GᵀG`; only the top-left `dim() × dim()` block is used.
     pub fn matrix(&self) -> &Square<T, P> {
         &self.m
     }

@@ -27,10 +27,15 @@ use crate::Real;
 /// The five observability indices of a design.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Indices<T: Real> {
+    /// Borm & Menq: `(σ_1⋯σ_m)^(1/m) / √n`; larger is better.
     pub o1: T,
+    /// Driels & Pathre: the condition number `σ_1 / σ_m`; smaller is better.
     pub o2: T,
+    /// Nahvi et al.: the smallest singular value `σ_m`; larger is better.
     pub o3: T,
+    /// Nahvi & Hollerbach (noise amplification): `σ_m² / σ_1`; larger is better.
     pub o4: T,
+    /// Sun & Hollerbach: `1 / Σ 1/σ_i`; larger is better.
     pub o5: T,
 }
 

@@ -69,6 +69,7 @@ impl From<LinalgError> for PlanError {
 pub struct Candidate<T: Real, const N: usize, const P: usize> {
     /// Joint readings (rad).
     pub q: [T; N],
+    /// The pose's three rows of the scaled identification Jacobian.
     pub rows: PoseRows<T, P>,
     /// Angle of incidence (rad) at this pose.
     pub incidence: T,
@@ -221,9 +222,11 @@ impl<T: Real, const P: usize, const S: usize> DesignState<T, P, S> {
         Ok(s)
     }
 
+    /// Number of poses in the design.
     pub fn poses(&self) -> usize {
         self.poses
     }
+    /// Number of identifiable coordinates `r`.
     pub fn rank(&self) -> usize {
         self.r
     }
@@ -504,6 +507,7 @@ pub struct Outcome<T: Real> {
     pub exchanges: u32,
     /// Objective after greedy construction and at the end ([`DesignState::objective`]).
     pub greedy_objective: T,
+    /// Objective at the end.
     pub objective: T,
 }
 

@@ -120,7 +120,12 @@ fn capsule(a: [f64; 3], b: [f64; 3], r: f64) -> Capsule<f64> {
 impl SceneFile {
     /// Parses and validates the text of a scene for a robot with `joints` joints; `origin`
     /// names the file in error messages.
+    /// Every error is refused input (exit status 2).
     pub fn parse(text: &str, origin: &str, joints: usize) -> anyhow::Result<SceneFile> {
+        Self::parse_checked(text, origin, joints).map_err(|e| crate::refused(format!("{e:#}")))
+    }
+
+    fn parse_checked(text: &str, origin: &str, joints: usize) -> anyhow::Result<SceneFile> {
         let at = |span: Option<Range<usize>>| {
             let (l, c) = span.map_or((1, 1), |s| line_column(text, s.start));
             format!("{origin}:{l}:{c}")
@@ -226,7 +231,8 @@ impl SceneFile {
     pub fn load(path: &Path, joints: usize) -> anyhow::Result<SceneFile> {
         let origin = path.display().to_string();
         let text =
-            std::fs::read_to_string(path).map_err(|e| anyhow!("{origin}: cannot read: {e}"))?;
+            std::fs::read_to_string(path)
+                .map_err(|e| crate::refused(format!("{origin}: cannot read: {e}")))?;
         Self::parse(&text, &origin, joints)
     }
 
@@ -236,7 +242,13 @@ impl SceneFile {
     }
 
     /// The library scene.
+    /// Errors are refused input (exit status 2): the file describes no valid cell.
     pub fn to_scene(&self) -> anyhow::Result<HostScene> {
+        self.build_scene()
+            .map_err(|e| crate::refused(format!("{e:#}")))
+    }
+
+    fn build_scene(&self) -> anyhow::Result<HostScene> {
         let t = &self.tracker;
         let tracker = Tracker {
             position: Vector3::from(t.xyz_mm),

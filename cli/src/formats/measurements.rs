@@ -221,7 +221,10 @@ fn context_lines(path: &Path, want: u32) -> (Option<Vec<String>>, Option<String>
 /// column; malformed content is [`crate::Refused`] (exit status 2), an unreadable file is not.
 pub fn load<const N: usize>(path: &Path) -> anyhow::Result<Dataset<N>> {
     let origin = path.display().to_string();
-    let mut bytes = std::fs::read(path).map_err(|e| anyhow!("{origin}: cannot read: {e}"))?;
+    // An input that cannot be read is refused like a malformed one (exit status 2): the user
+    // must fix the path or the file.
+    let mut bytes =
+        std::fs::read(path).map_err(|e| crate::refused(format!("{origin}: cannot read: {e}")))?;
     if bytes.starts_with(&[0xEF, 0xBB, 0xBF]) {
         bytes.drain(..3);
     }

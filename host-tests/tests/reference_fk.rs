@@ -496,6 +496,33 @@ fn sincos_f32_sweep() {
     assert!(es <= 2e-7 && ec <= 2e-7, "sin {es:e}, cos {ec:e}");
 }
 
+/// Any finite angle, however far outside a joint range, gives a sine and cosine in [−1, 1]
+/// (issue 15: beyond ~6.6e6 rad they were ±inf), those of the angle 0 there (documented as
+/// not accurate), and NaN only for non-finite input.
+#[test]
+fn sincos_f32_is_bounded_for_every_finite_input() {
+    let mut bits: u32 = 0x4ac0_0000; // 6.3e6, just below the fast path's limit
+    let mut checked = 0;
+    while f32::from_bits(bits).is_finite() {
+        for x in [f32::from_bits(bits), -f32::from_bits(bits)] {
+            let (s, c) = kinecal::num::trig::sincos_f32(x);
+            assert!(s.abs() <= 1.0 && c.abs() <= 1.0, "x = {x:e}: ({s}, {c})");
+            if x.abs() > 7.0e6 {
+                assert_eq!((s, c), (0.0, 1.0), "x = {x:e}");
+            }
+            checked += 1;
+        }
+        bits += 0x0001_3579; // a few thousand magnitudes up to f32::MAX
+    }
+    assert!(checked > 1000);
+    let (s, c) = kinecal::num::trig::sincos_f32(f32::MAX);
+    assert!(s.abs() <= 1.0 && c.abs() <= 1.0);
+    for x in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        let (s, c) = kinecal::num::trig::sincos_f32(x);
+        assert!(s.is_nan() && c.is_nan(), "{x}");
+    }
+}
+
 /// The worst f32 error over many random 2-m robots at growing distances from the tracker,
 /// printed for the README.
 #[test]

@@ -14,17 +14,21 @@ const DP1: f32 = 1.570_312_5;
 const DP2: f32 = 4.837_512_969_970_703_1e-4;
 const DP3: f32 = 7.549_789_948_768_648e-8;
 
-/// `(sin x, cos x)` in `f32`. Non-finite input gives NaN, like `sinf`.
+/// `(sin x, cos x)` in `f32`. Non-finite input gives NaN, like `sinf`; every finite input gives
+/// values in [−1, 1]. Beyond |x| ≈ 6.6e6 rad, far outside any joint range, the result is that of
+/// the angle 0: bounded, not accurate (an `f32` holds such an angle only to a few radians, and
+/// a robot model refuses such joint values before they get here).
 #[inline]
 pub fn sincos_f32(x: f32) -> (f32, f32) {
     // Round to nearest quadrant without libm: add and subtract 1.5·2^23 (valid for |x·2/π| < 2^22).
     let t = x * FRAC_2_PI;
-    let k = if t.abs() < 4_194_304.0 {
+    let (x, k) = if t.abs() < 4_194_304.0 {
         const MAGIC: f32 = 12_582_912.0;
-        (t + MAGIC) - MAGIC
+        (x, (t + MAGIC) - MAGIC)
     } else {
-        // Far outside any joint range: give up accuracy, not safety.
-        0.0
+        // Far outside any joint range: the angle 0 (bounded values; `x − x` keeps NaN and
+        // turns ±∞ into NaN).
+        (x - x, 0.0)
     };
     let r = ((x - k * DP1) - k * DP2) - k * DP3;
     let z = r * r;

@@ -9,18 +9,24 @@
 //! - [`plan`]: measurement planning on the desktop (pools, designs, the study figure).
 //! - [`simulation`]: simulated robots, measurements and sweeps with a known truth.
 //! - [`output`]: atomic file writes, numbers for people, SVG charts.
+//! - [`compensation`]: joint commands that bring an identified robot to target points.
+//! - [`reports`]: every command's report as a typed value (JSON and human text from the same
+//!   fields).
 //! - [`commands`]: one thin module per subcommand; `main.rs` parses the command line.
 
 pub mod calibration;
 pub mod commands;
+pub mod compensation;
 pub mod diagnose;
 pub mod formats;
+pub mod frames;
 pub mod output;
 pub mod plan;
+pub mod reports;
 pub mod simulation;
 
 /// Input that kinecal refuses (malformed, or implausible in the units assumed): the command
-/// exits with status 2 and the one-line reason (interfaces.md §4). Wrap the reason with
+/// exits with status 2 and the one-line reason (docs/formats.md). Wrap the reason with
 /// [`refused`] or the [`refuse!`] macro; `main` finds it anywhere in an error's chain.
 #[derive(Debug)]
 pub struct Refused(pub String);

@@ -4,7 +4,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use kinecal::identify::bpnn::{Bpnn, BpnnConfig};
-use kinecal::identify::bpnn_pso::Mdh24Net;
+use kinecal::identify::bpnn_pso::MdhSeedNet;
 use kinecal::identify::fitness::{JointTrig, PositionFitness};
 use kinecal::identify::pso::{Pso, PsoConfig};
 use kinecal::model::param::{apply_delta, ParamSet};
@@ -92,7 +92,7 @@ fn bench(c: &mut Criterion) {
         .iter()
         .map(|x| core::array::from_fn(|k| 0.1 * x[k] + 0.01 * x[(k + 1) % 24]))
         .collect();
-    let mut net: Mdh24Net<f64> = Bpnn::new(BpnnConfig::default(), 0).unwrap();
+    let mut net: MdhSeedNet<f64> = Bpnn::new(BpnnConfig::default(), 0).unwrap();
     net.fit_ranges(&xs, &ys).unwrap();
     c.bench_function("bpnn train_epoch 200 pairs 24-12-24 f64", |b| {
         b.iter(|| black_box(net.train_epoch(&xs, &ys).unwrap()))

@@ -26,6 +26,18 @@ fn one_line_error(out: &Output, file: &Path) -> (usize, usize, String) {
     (l, c, lines[0].to_string())
 }
 
+/// A failed command's stdout: nothing, or with `--json` exactly `{"error": REASON}` with the
+/// reason of the `kinecal: REASON` line on stderr.
+fn assert_stdout_of_failure(out: &Output, json: bool, stderr_line: &str) {
+    if !json {
+        assert!(out.stdout.is_empty());
+        return;
+    }
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let reason = stderr_line.strip_prefix("kinecal: ").unwrap();
+    assert_eq!(v, serde_json::json!({ "error": reason }));
+}
+
 /// Simulates noise-free data from `robot` (with `extra` arguments) and compares every
 /// measured point with `reference` evaluated at the file's joint readings.
 fn simulate_matches<const N: usize>(
@@ -364,7 +376,7 @@ fn malformed_files_fail_with_one_located_line() {
             let out = kinecal(&args);
             let (l, _, msg) = one_line_error(&out, &bad);
             assert_eq!(l, *line, "{msg}");
-            assert!(out.stdout.is_empty());
+            assert_stdout_of_failure(&out, args[0] == "--json", &msg);
         }
     }
 

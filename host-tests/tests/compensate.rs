@@ -1035,7 +1035,7 @@ fn end_to_end() {
 /// row), the output read back: every `ok` row's command puts the model on its target.
 #[test]
 fn command_line_writes_commands_that_reach_the_targets() {
-    use kinecal_cli::commands::compensate::{run, Args};
+    use kinecal_cli::compensation::{run, Job};
     use kinecal_cli::formats::robot_file::RobotFile;
     use std::fmt::Write as _;
     let dir = tempfile::tempdir().unwrap();
@@ -1094,19 +1094,9 @@ fn command_line_writes_commands_that_reach_the_targets() {
         let t_path = dir.path().join("targets.csv");
         std::fs::write(&t_path, csv).unwrap();
         let out = dir.path().join("q.csv");
-        let args = Args {
-            model: model_path.clone(),
-            targets: t_path.clone(),
-            out: out.clone(),
-            iterations: 8,
-            max_step_deg: 2.0,
-            accept_mm: 0.01,
-            stream: false,
-            f32: false,
-            units: Default::default(),
-        };
-        let j = run(&args, true).unwrap();
-        assert_eq!(j["targets"], 32);
+        let job = Job::new(&model_path, &t_path, &out);
+        let j = run(&job).unwrap();
+        assert_eq!(j.targets, 32);
         let text = std::fs::read_to_string(&out).unwrap();
         let mut lines = text.lines();
         let head: Vec<&str> = lines.next().unwrap().split(',').collect();
@@ -1133,24 +1123,16 @@ fn command_line_writes_commands_that_reach_the_targets() {
         }
         let ok = statuses.iter().filter(|s| *s == "ok").count();
         assert!(ok >= 30 - 1, "{statuses:?}");
-        assert_eq!(j["ok"], ok);
-        assert_eq!(j["failed"], 32 - ok);
+        assert_eq!(j.ok, ok);
+        assert_eq!(j.failed, 32 - ok);
 
         // Streaming the same rows and the f32 path give the same statuses for the ok rows.
         for (stream, f32) in [(true, false), (false, true)] {
-            let j2 = run(
-                &Args {
-                    stream,
-                    f32,
-                    targets: t_path.clone(),
-                    out: out.clone(),
-                    model: model_path.clone(),
-                    ..args
-                },
-                true,
-            )
-            .unwrap();
-            assert_eq!(j2["ok"], j["ok"], "stream={stream} f32={f32}");
+            let mut job = job.clone();
+            job.settings.stream = stream;
+            job.settings.f32 = f32;
+            let j2 = run(&job).unwrap();
+            assert_eq!(j2.ok, j.ok, "stream={stream} f32={f32}");
         }
     }
 
@@ -1161,27 +1143,17 @@ fn command_line_writes_commands_that_reach_the_targets() {
         "q1,q2,q3,q4,q5,q6,x,y,z,rx,ry\n0,0,0,0,0,0,1,2,3,4,5\n",
     )
     .unwrap();
-    let args = Args {
-        model: model_path.clone(),
-        targets: bad.clone(),
-        out: dir.path().join("q.csv"),
-        iterations: 8,
-        max_step_deg: 2.0,
-        accept_mm: 0.01,
-        stream: false,
-        f32: false,
-        units: Default::default(),
-    };
-    let e = run(&args, true).unwrap_err().to_string();
+    let job = Job::new(&model_path, &bad, dir.path().join("q.csv"));
+    let e = run(&job).unwrap_err().to_string();
     assert!(e.contains("bad.csv:1:") && e.contains("rz"), "{e}");
     std::fs::write(
         &bad,
         "q1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz\n0,0,0,0,0,0,1,2,3,4,5,6\n0,0,0,0,0,0,1,2,3,4,,6\n",
     )
     .unwrap();
-    let e = run(&args, true).unwrap_err().to_string();
+    let e = run(&job).unwrap_err().to_string();
     assert!(e.contains("bad.csv:3:11") && e.contains("ry"), "{e}");
     std::fs::write(&bad, "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,zero,1,2,3\n").unwrap();
-    let e = run(&args, true).unwrap_err().to_string();
+    let e = run(&job).unwrap_err().to_string();
     assert!(e.contains("bad.csv:2:6"), "{e}");
 }

@@ -356,7 +356,7 @@ fn diagnose_command_names_the_effect_writes_the_model_and_plots() {
         let mut a = args(robot, data.clone());
         a.out = Some(tmp.path().join("m.toml"));
         a.plots = Some(tmp.path().join("plots"));
-        let r = run(&a, true).unwrap();
+        let r = run(&a).unwrap().to_value();
         for key in [
             "baseline_validation_rms_mm",
             "found",
@@ -419,7 +419,7 @@ fn diagnose_command_names_nothing_when_nothing_is_missing() {
     main_sized_stack(|| {
         let tmp = tempfile::tempdir().unwrap();
         let (robot, data) = write_case(tmp.path(), Vec::new(), 8);
-        let r = run(&args(robot, data), true).unwrap();
+        let r = run(&args(robot, data)).unwrap().to_value();
         assert_eq!(r["found"].as_array().unwrap().len(), 0, "{r:#}");
         let base = r["baseline_validation_rms_mm"].as_f64().unwrap();
         assert_eq!(base, r["final_validation_rms_mm"].as_f64().unwrap());
@@ -445,13 +445,13 @@ fn diagnose_command_refuses_bad_input_with_a_reason() {
         let (_, ds) = simulate(&er20(), &s).unwrap();
         let data = tmp.path().join("few.csv");
         measurements::write(&data, &ds).unwrap();
-        let e = run(&args(data_dir().join("er20.toml"), data), true)
+        let e = run(&args(data_dir().join("er20.toml"), data))
             .unwrap_err()
             .to_string();
         assert!(e.contains("too few"), "{e}");
         let mut a = args(data_dir().join("er20.toml"), tmp.path().join("missing.csv"));
         a.folds = 5;
-        let e = run(&a, true).unwrap_err().to_string();
+        let e = run(&a).unwrap_err().to_string();
         assert!(e.contains("missing.csv"), "{e}");
     });
 }
@@ -705,7 +705,7 @@ fn nothing_added_reports_one_fit_and_a_floor_below_the_held_out_errors() {
                 "--holdout",
                 "6",
             ];
-            let r = run(&parse_args(&argv[1..]), true).unwrap();
+            let r = run(&parse_args(&argv[1..])).unwrap().to_value();
             assert_eq!(r["poses"], 24);
             assert_eq!(r["found"].as_array().unwrap().len(), 0, "{r:#}");
             let base = r["baseline_validation_rms_mm"].as_f64().unwrap();
@@ -771,7 +771,7 @@ fn human_output_shows_small_differences() {
             "--data",
             data.to_str().unwrap(),
         ];
-        let r = run(&parse_args(&argv[1..]), true).unwrap();
+        let r = run(&parse_args(&argv[1..])).unwrap().to_value();
         assert_eq!(r["found"].as_array().unwrap().len(), 1, "{r:#}");
         let base = r["baseline_validation_rms_mm"].as_f64().unwrap();
         let fin = r["final_validation_rms_mm"].as_f64().unwrap();
@@ -802,7 +802,7 @@ fn human_output_shows_small_differences() {
         // With held-out poses: "held-out poses (20): starting model refitted X mm → extended
         // model Y mm".
         let argv = [&argv[..], &["--holdout", "20"]].concat();
-        let r = run(&parse_args(&argv[1..]), true).unwrap();
+        let r = run(&parse_args(&argv[1..])).unwrap().to_value();
         let hg = r["holdout"]["geometric_rms_mm"].as_f64().unwrap();
         let hf = r["holdout"]["final_rms_mm"].as_f64().unwrap();
         assert!(r["noise_floor_mm"].as_f64().unwrap() <= hf);

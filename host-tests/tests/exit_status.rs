@@ -84,3 +84,31 @@ fn malformed_or_invalid_cell_files_are_refused() {
     ]);
     assert_refused(&out, "absent_scene.toml");
 }
+
+/// A reader that closes the pipe early (`kinecal check … | head -0`) ends the program quietly
+/// with its usual status, text or JSON: no panic message, no backtrace.
+#[test]
+fn a_closed_stdout_pipe_ends_quietly() {
+    use std::process::{Command, Stdio};
+    let dir = tempfile::tempdir().unwrap();
+    let robot = write(dir.path(), "robot.toml", ER20_PLACED);
+    let data = dir.path().join("data.csv");
+    common::simulate(&robot, Some(30), Some(0.01), Some(1), &[], &data);
+    for json in [false, true] {
+        let mut cmd = Command::new(common::bin());
+        cmd.args(["check", "--robot", s(&robot), "--data", s(&data)]);
+        if json {
+            cmd.arg("--json");
+        }
+        let mut child = cmd
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take()); // the reader is gone before the report is written
+        let out = child.wait_with_output().unwrap();
+        let err = stderr(&out);
+        assert!(!err.contains("panicked"), "json {json}: {err}");
+        assert_eq!(out.status.code(), Some(0), "json {json}: {err}");
+    }
+}

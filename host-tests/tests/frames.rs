@@ -645,17 +645,13 @@ fn write_robot(dir: &std::path::Path, rows: &Rows, tool: [f64; 3]) -> std::path:
     p
 }
 
-fn frames_args(
+/// `kinecal frames` without the command line: the application function behind it.
+fn find_frames(
     robot: &std::path::Path,
     data: &std::path::Path,
-    out: Option<std::path::PathBuf>,
-) -> kinecal_cli::commands::frames::Args {
-    kinecal_cli::commands::frames::Args {
-        robot: robot.to_path_buf(),
-        data: data.to_path_buf(),
-        out,
-        units: Default::default(),
-    }
+    out: Option<&std::path::Path>,
+) -> anyhow::Result<kinecal_cli::reports::FramesReport> {
+    kinecal_cli::frames::from_files(robot, data, &Default::default(), out)
 }
 
 #[test]
@@ -678,29 +674,18 @@ fn frames_command_reports_the_base_and_writes_it_into_the_robot_file() {
     let csv = dir.path().join("sweeps.csv");
     measurements::write(&csv, &data).unwrap();
     let out = dir.path().join("r2.toml");
-    let v = kinecal_cli::commands::frames::run(
-        &frames_args(&robot_path, &csv, Some(out.clone())),
-        true,
-    )
-    .unwrap();
-    let xyz: Vec<f64> = serde_json::from_value(v["base"]["xyz_mm"].clone()).unwrap();
-    let rpy: Vec<f64> = serde_json::from_value(v["base"]["rpy_deg"].clone()).unwrap();
-    let found = Frame::from_xyz_rpy(
-        [xyz[0], xyz[1], xyz[2]],
-        [rpy[0], rpy[1], rpy[2]].map(f64::to_radians),
-    );
+    let v = find_frames(&robot_path, &csv, Some(&out)).unwrap();
+    let found = Frame::from_xyz_rpy(v.base.xyz_mm, v.base.rpy_deg.map(f64::to_radians));
     let (mm, deg) = frame_error(&found, &base);
-    println!(
-        "frames (JSON): base error {mm:.4} mm, {deg:.5}°; tool {} / {}",
-        v["tool_radial_mm"], v["tool_axial_mm"]
-    );
+    let (radial, axial) = (v.tool_radial_mm.unwrap(), v.tool_axial_mm.unwrap());
+    println!("frames: base error {mm:.4} mm, {deg:.5}°; tool {radial} / {axial}");
     assert!(mm < 0.1 && deg < 0.01);
-    assert!((v["tool_axial_mm"].as_f64().unwrap() - 225.0).abs() < 0.05);
-    assert!(v["tool_radial_mm"].as_f64().unwrap() < 0.05);
-    let circles = v["circles"].as_array().unwrap();
-    assert_eq!(circles.len(), 4);
-    assert!(circles.iter().all(|c| c["radius_mm"].is_number()));
-    assert!(circles[0]["rms_mm"].as_f64().unwrap() < 0.05);
+    assert!((axial - 225.0).abs() < 0.05);
+    assert!(radial < 0.05);
+    assert_eq!(v.circles.len(), 4);
+    assert!(v.circles.iter().all(|c| c.radius_mm().is_finite()));
+    assert!(v.circles[0].rms_mm().unwrap() < 0.05);
+    assert_eq!(v.out, Some(out.display().to_string()));
     // The written robot file has the same base and reads back.
     let (_, r2) = kinecal_cli::formats::robot_file::load_robot::<6>(&out).unwrap();
     let (mm2, deg2) = frame_error(r2.base(), &found);
@@ -716,16 +701,9 @@ fn frames_command_warns_about_short_or_noisy_sweeps_and_names_bad_cells() {
     let run = |data: &measurements::Dataset<6>, name: &str| {
         let csv = dir.path().join(name);
         measurements::write(&csv, data).unwrap();
-        kinecal_cli::commands::frames::run(&frames_args(&robot_path, &csv, None), true)
+        find_frames(&robot_path, &csv, None)
     };
-    let warnings = |v: &serde_json::Value| {
-        v["warnings"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|w| w.as_str().unwrap().to_string())
-            .collect::<Vec<_>>()
-    };
+    let warnings = |v: &kinecal_cli::reports::FramesReport| v.warnings.clone();
     let good = sweep_data(&truth, &[0.0; 6], &[1, 2, 5, 6], 24, 360.0, 0.015, 1).unwrap();
     let w = warnings(&run(&good, "good.csv").unwrap());
     assert!(
@@ -821,7 +799,6 @@ fn identify_from_the_sweep_base_converges_as_well_as_from_registration() {
 }
 
 fn identify_case() {
-    use kinecal_cli::commands::identify::{run, Args};
     use kinecal_cli::simulation::{
         dataset, measure, perturb_geometry, random_configurations, GeomErrors, Streams,
     };
@@ -847,11 +824,7 @@ fn identify_case() {
         let sweep_csv = dir.path().join("sweeps.csv");
         measurements::write(&sweep_csv, &sweeps).unwrap();
         let with_base = dir.path().join("with_base.toml");
-        kinecal_cli::commands::frames::run(
-            &frames_args(&robot_path, &sweep_csv, Some(with_base.clone())),
-            true,
-        )
-        .unwrap();
+        find_frames(&robot_path, &sweep_csv, Some(&with_base)).unwrap();
         // 50 identification and 50 validation poses.
         let write = |name: &str, n: usize, streams: &mut Streams| {
             let q = random_configurations(&truth, n, &mut streams.configs);
@@ -863,29 +836,30 @@ fn identify_case() {
         let ident = write("ident.csv", 50, &mut streams);
         let valid = write("valid.csv", 50, &mut streams);
         let fit = |robot: &std::path::Path| {
-            // Parsed like the command line, so options added to `identify` keep their defaults.
-            use clap::Parser;
-            #[derive(clap::Parser)]
-            struct Cmd {
-                #[command(flatten)]
-                args: Args,
-            }
-            let args = Cmd::try_parse_from([
-                "identify",
-                "--robot",
-                robot.to_str().unwrap(),
-                "--data",
-                ident.to_str().unwrap(),
-                "--method",
-                "lm",
-                "--validate",
-                valid.to_str().unwrap(),
-                "--seed",
-                "1",
-            ])
-            .unwrap()
-            .args;
-            let v = run(&args, true).unwrap();
+            // `kinecal identify` end to end, so options added to it keep their defaults.
+            let out = std::process::Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
+                .args([
+                    "identify",
+                    "--robot",
+                    robot.to_str().unwrap(),
+                    "--data",
+                    ident.to_str().unwrap(),
+                    "--method",
+                    "lm",
+                    "--validate",
+                    valid.to_str().unwrap(),
+                    "--seed",
+                    "1",
+                    "--json",
+                ])
+                .output()
+                .unwrap();
+            assert!(
+                out.status.success(),
+                "{}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
             (
                 v["after"]["validation_rms_mm"].as_f64().unwrap(),
                 v["before"]["validation_rms_mm"].as_f64().unwrap(),

@@ -15,7 +15,7 @@ use kinecal::model::param::ParamSet;
 use kinecal::planning::information::{default_tolerance, scaled_rows, PoseRows};
 use kinecal::planning::online_design::OnlineDesign;
 use kinecal::Robot;
-use kinecal_cli::formats::cell::SceneFile;
+use kinecal_cli::formats::cell_file::SceneFile;
 use kinecal_cli::formats::robot_file::RobotFile;
 use kinecal_cli::plan::design::{self, CriterionArg, HostCandidate, PlanRequest, PCAP};
 use nalgebra::{DMatrix, Matrix4, Vector3, Vector4};

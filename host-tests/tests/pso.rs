@@ -3,7 +3,7 @@
 mod pso_sim;
 
 use kinecal::identify::bpnn::{Bpnn, BpnnConfig};
-use kinecal::identify::bpnn_pso::{self, BpnnPsoError, Mdh24Net, DEFAULT_EPOCHS};
+use kinecal::identify::bpnn_pso::{self, BpnnPsoError, MdhSeedNet, DEFAULT_EPOCHS};
 use kinecal::identify::fitness::{FitnessError, JointTrig, Objective, PositionFitness};
 use kinecal::identify::pso::{Pso, PsoConfig, PsoError, PsoStop};
 use kinecal::model::param::{apply_delta, Param, ParamSet};
@@ -464,7 +464,7 @@ fn bpnn_pso_reaches_pso_final_fitness_in_a_quarter_of_the_iterations() {
         let mut f =
             PositionFitness::with_cache(&nominal, &params, &factory_data, &mut cache).unwrap();
         let mut factory = Box::new(Swarm::new(cfg, 0).unwrap());
-        let mut net: Mdh24Net<f64> = Bpnn::new(BpnnConfig::default(), 0).unwrap();
+        let mut net: MdhSeedNet<f64> = Bpnn::new(BpnnConfig::default(), 0).unwrap();
         assert_eq!(
             bpnn_pso::train(&mut net, &factory, 1).unwrap_err(),
             BpnnPsoError::NotFinished

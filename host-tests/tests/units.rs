@@ -115,12 +115,17 @@ fn convert(path: &Path, v: Variant) -> PathBuf {
     p
 }
 
-/// Asserts a refusal: exit 2, nothing on stdout, one stderr line naming `file` and `flags`
+/// Asserts a refusal: exit 2, nothing on stdout (with `--json`: the error object), one stderr line naming `file` and `flags`
 /// (and not the flag of a unit that is right).
 fn assert_refused(out: &Output, file: &Path, v: Variant, what: &str) {
     let err = stderr(out);
     assert_eq!(out.status.code(), Some(2), "{what}: exit 2 expected: {err}");
-    assert!(out.stdout.is_empty(), "{what}: nothing on stdout");
+    // Nothing on stdout, or with --json exactly {"error": <the stderr line's reason>}.
+    if !out.stdout.is_empty() {
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let reason = err.trim_end().strip_prefix("kinecal: ").unwrap();
+        assert_eq!(v, serde_json::json!({ "error": reason }), "{what}");
+    }
     assert_eq!(err.lines().count(), 1, "{what}: one line: {err}");
     let name = file.display().to_string();
     assert!(err.contains(&name), "{what}: names {name}: {err}");

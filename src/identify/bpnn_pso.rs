@@ -59,8 +59,9 @@ use crate::Real;
 /// Epochs of back-propagation in [`train`] by default.
 pub const DEFAULT_EPOCHS: u32 = 300;
 
-/// The network for the paper's 24 parameters: 24 → 12 → 24.
-pub type Mdh24Net<T> = Bpnn<
+/// The network that seeds BPNN-PSO's swarm: the paper's 24 MDH errors in, the predicted ones
+/// out (24 → 12 → 24).
+pub type MdhSeedNet<T> = Bpnn<
     T,
     24,
     { crate::identify::bpnn::hidden_size(24, 24, crate::identify::bpnn::DEFAULT_A) },

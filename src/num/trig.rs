@@ -28,7 +28,9 @@ pub fn sincos_f32(x: f32) -> (f32, f32) {
     } else {
         // Far outside any joint range: the angle 0 (bounded values; `x − x` keeps NaN and
         // turns ±∞ into NaN).
-        (x - x, 0.0)
+        #[allow(clippy::eq_op)]
+        let zero_or_nan = x - x;
+        (zero_or_nan, 0.0)
     };
     let r = ((x - k * DP1) - k * DP2) - k * DP3;
     let z = r * r;

@@ -4,7 +4,7 @@
 use crate::calibration::method::Method;
 use crate::calibration::{fit_lm, Fit};
 use kinecal::identify::bpnn::BpnnConfig;
-use kinecal::identify::bpnn_pso::{self, Mdh24Net};
+use kinecal::identify::bpnn_pso::{self, MdhSeedNet};
 use kinecal::identify::fitness::PositionFitness;
 use kinecal::identify::lm::LmConfig;
 use kinecal::identify::pso::{Pso, PsoConfig};
@@ -177,13 +177,13 @@ pub fn identify<const N: usize, const V: usize>(
 pub fn train_bpnn<const N: usize, const V: usize>(
     run: &SwarmRun<N, V>,
     seed: u64,
-) -> anyhow::Result<Box<Mdh24Net<f64>>> {
+) -> anyhow::Result<Box<MdhSeedNet<f64>>> {
     anyhow::ensure!(
         N == 6 && run.initial.len() == SWARM,
         "BPNN-PSO is built for the 24 MDH parameters of a 6-joint arm"
     );
     let mut net = Box::new(
-        Mdh24Net::<f64>::new(BpnnConfig::default(), seed).map_err(|e| anyhow::anyhow!("{e:?}"))?,
+        MdhSeedNet::<f64>::new(BpnnConfig::default(), seed).map_err(|e| anyhow::anyhow!("{e:?}"))?,
     );
     let to24 = |v: &Vec<f64>| -> anyhow::Result<[f64; 24]> {
         v.as_slice()
@@ -212,7 +212,7 @@ pub fn train_bpnn<const N: usize, const V: usize>(
 /// BPNN-PSO: a fresh swarm (same draws as plain PSO with this seed) whose particles start at
 /// the network's predictions, then the unchanged PSO.
 pub fn bpnn_pso_mdh<const N: usize, const V: usize>(
-    net: &Mdh24Net<f64>,
+    net: &MdhSeedNet<f64>,
     start: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
     seed: u64,

@@ -8,6 +8,7 @@
 use crate::calibration::pso_search::{bpnn_pso_mdh, pso_mdh, train_bpnn};
 use crate::calibration::{fit_lm, pose_errors, ErrorStats, Fit};
 use crate::output::plots;
+use crate::reports::demo::{DemoErrors, DemoReport, Drift, MethodRow};
 use crate::simulation::er20_c10;
 use crate::VCAP;
 use kinecal::identify::fitness::PositionFitness;
@@ -18,7 +19,6 @@ use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use rand_xoshiro::Xoshiro256PlusPlus;
-use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -80,7 +80,8 @@ fn measure(
         .collect()
 }
 
-pub fn run(args: &Args, json_out: bool) -> anyhow::Result<serde_json::Value> {
+/// Runs the simulation: writes the figures and returns the comparison.
+pub fn run(args: &Args) -> anyhow::Result<DemoReport> {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(args.seed);
     let nominal = er20_c10();
     let set = ParamSet::<24>::mdh(6).map_err(|e| anyhow::anyhow!("{e:?}"))?;
@@ -122,11 +123,13 @@ pub fn run(args: &Args, json_out: bool) -> anyhow::Result<serde_json::Value> {
     let before = ErrorStats::of(&pose_errors(&nominal, &valid)).expect("50 poses");
     let before_ident = ErrorStats::of(&pose_errors(&nominal, &ident)).expect("50 poses");
 
-    let mut record = |name: &str,
-                      fit: Fit<6, VCAP>,
-                      seconds: f64,
-                      extra: serde_json::Value|
-     -> f64 {
+    /// What only some methods report.
+    #[derive(Default)]
+    struct Extra {
+        iterations_to_final: Option<usize>,
+        iterations_to_pso_final: Option<Option<usize>>,
+    }
+    let mut record = |name: &str, fit: Fit<6, VCAP>, seconds: f64, extra: Extra| -> f64 {
         let mut fitness = PositionFitness::new(&fit.robot, &set, &ident).expect("valid data");
         let best = fitness.of_robot(&fit.robot);
         let after = ErrorStats::of(&pose_errors(&fit.robot, &valid)).expect("50 poses");
@@ -142,19 +145,17 @@ pub fn run(args: &Args, json_out: bool) -> anyhow::Result<serde_json::Value> {
             ));
         }
         errors.push((format!("after {name}"), pose_errors(&fit.robot, &valid)));
-        let mut row = json!({
-            "method": name,
-            "iterations": fit.iterations,
-            "evaluations": fit.evaluations,
-            "best_fitness": best,
-            "seconds": seconds,
-            "before": {"identification_rms_mm": before_ident.rms_mm, "validation_rms_mm": before.rms_mm, "validation_mean_mm": before.mean_mm, "validation_max_mm": before.max_mm},
-            "after": {"identification_rms_mm": after_ident.rms_mm, "validation_rms_mm": after.rms_mm, "validation_mean_mm": after.mean_mm, "validation_max_mm": after.max_mm},
+        rows.push(MethodRow {
+            method: name.to_string(),
+            iterations: fit.iterations,
+            evaluations: fit.evaluations,
+            best_fitness: best,
+            seconds,
+            before: DemoErrors::of(&before_ident, &before),
+            after: DemoErrors::of(&after_ident, &after),
+            iterations_to_final: extra.iterations_to_final,
+            iterations_to_pso_final: extra.iterations_to_pso_final,
         });
-        if let (Some(o), Some(e)) = (row.as_object_mut(), extra.as_object()) {
-            o.extend(e.clone());
-        }
-        rows.push(row);
         best
     };
 
@@ -172,7 +173,10 @@ pub fn run(args: &Args, json_out: bool) -> anyhow::Result<serde_json::Value> {
         "pso",
         pso.fit,
         pso_seconds,
-        json!({"iterations_to_final": pso_reach}),
+        Extra {
+            iterations_to_final: Some(pso_reach),
+            ..Extra::default()
+        },
     );
 
     let t = Instant::now();
@@ -183,12 +187,15 @@ pub fn run(args: &Args, json_out: bool) -> anyhow::Result<serde_json::Value> {
         "bpnn-pso",
         hybrid.fit,
         hybrid_seconds,
-        json!({"iterations_to_pso_final": hybrid_reach}),
+        Extra {
+            iterations_to_pso_final: Some(hybrid_reach),
+            ..Extra::default()
+        },
     );
 
     let t = Instant::now();
     let lm = fit_lm(&nominal, set.as_slice(), &ident, LmConfig::default())?;
-    record("lm", lm, t.elapsed().as_secs_f64(), json!({}));
+    record("lm", lm, t.elapsed().as_secs_f64(), Extra::default());
 
     let t = Instant::now();
     let first = pso_mdh(&nominal, &ident, swarm_seed, args.max_iterations, None)?;
@@ -203,7 +210,12 @@ pub fn run(args: &Args, json_out: bool) -> anyhow::Result<serde_json::Value> {
     let mut h = first.fit.history.clone();
     h.extend(polished.history.iter().copied());
     polished.history = h;
-    record("pso+lm", polished, t.elapsed().as_secs_f64(), json!({}));
+    record(
+        "pso+lm",
+        polished,
+        t.elapsed().as_secs_f64(),
+        Extra::default(),
+    );
 
     std::fs::create_dir_all(&args.out_dir)
         .map_err(|e| anyhow::anyhow!("{}: {e}", args.out_dir.display()))?;
@@ -228,62 +240,19 @@ pub fn run(args: &Args, json_out: bool) -> anyhow::Result<serde_json::Value> {
     )?;
 
     let ratio = hybrid_reach.map(|h| h as f64 / pso_reach.max(1) as f64);
-    let report = json!({
-        "robot": "ER20-C10 stand-in",
-        "noise_mm": sigma,
-        "n_identification": ident.len(),
-        "n_validation": valid.len(),
-        "factory_pso_iterations": factory_run.fit.iterations,
-        "drift": {"angle_deg": args.drift_deg, "length_mm": args.drift_mm, "validation_rms_mm": ErrorStats::of(&pose_errors(&factory, &valid)).map(|s| s.rms_mm)},
-        "methods": rows,
-        "bpnn_pso_iteration_ratio": ratio,
-        "figures": [fit_svg.display().to_string(), err_svg.display().to_string()],
-    });
-    if !json_out {
-        print_table(&report);
-    }
-    Ok(report)
-}
-
-fn print_table(r: &serde_json::Value) {
-    println!("BPNN-PSO paper simulation (ER20-C10 stand-in, 50 + 50 poses, 10 µm noise)");
-    println!(
-        "drift since the factory identification: ±{}°, ±{} mm ({:.3} mm RMS at the tool)",
-        r["drift"]["angle_deg"],
-        r["drift"]["length_mm"],
-        r["drift"]["validation_rms_mm"].as_f64().unwrap_or(f64::NAN)
-    );
-    println!(
-        "{:<9} {:>6} {:>13} {:>9} {:>12} {:>12} {:>12} {:>12}",
-        "method",
-        "iter",
-        "best fitness",
-        "seconds",
-        "before RMS",
-        "after RMS",
-        "after mean",
-        "after max"
-    );
-    for m in r["methods"].as_array().into_iter().flatten() {
-        let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
-        println!(
-            "{:<9} {:>6} {:>13.4e} {:>9.3} {:>12.4} {:>12.4} {:>12.4} {:>12.4}",
-            m["method"].as_str().unwrap_or(""),
-            m["iterations"],
-            f(&m["best_fitness"]),
-            f(&m["seconds"]),
-            f(&m["before"]["validation_rms_mm"]),
-            f(&m["after"]["validation_rms_mm"]),
-            f(&m["after"]["validation_mean_mm"]),
-            f(&m["after"]["validation_max_mm"]),
-        );
-    }
-    if let Some(x) = r["bpnn_pso_iteration_ratio"].as_f64() {
-        println!("BPNN-PSO reached PSO's final fitness in {:.0} % of PSO's iterations (paper: 71 / 404 = 18 %)", 100.0 * x);
-    } else {
-        println!("BPNN-PSO did not reach PSO's final fitness");
-    }
-    for f in r["figures"].as_array().into_iter().flatten() {
-        println!("figure: {}", f.as_str().unwrap_or(""));
-    }
+    Ok(DemoReport {
+        robot: "ER20-C10 stand-in".to_string(),
+        noise_mm: sigma,
+        n_identification: ident.len(),
+        n_validation: valid.len(),
+        factory_pso_iterations: factory_run.fit.iterations,
+        drift: Drift {
+            angle_deg: args.drift_deg,
+            length_mm: args.drift_mm,
+            validation_rms_mm: ErrorStats::of(&pose_errors(&factory, &valid)).map(|s| s.rms_mm),
+        },
+        methods: rows,
+        bpnn_pso_iteration_ratio: ratio,
+        figures: vec![fit_svg.display().to_string(), err_svg.display().to_string()],
+    })
 }

@@ -1,28 +1,27 @@
 //! `kinecal identify`: fits the model to measurements and reports residuals before and after.
 
+use super::inputs::InputArgs;
 use crate::calibration::method::Method;
 use crate::calibration::{
     add_effect, fit_lm, named_values, split_holdout, EffectRequest, Fit, Residuals,
 };
 use crate::formats::robot_file::{load_robot, RobotFile};
+use crate::reports::identify::{Change, IdentifyReport};
 use crate::{with_joints, VCAP};
 use anyhow::Context;
 use kinecal::identify::lm::LmConfig;
 use kinecal::model::param::ParamSet;
 use kinecal::{Measurement, Robot};
-use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;
 
-/// Arguments of `kinecal identify` (see interfaces.md §4).
+/// Arguments of `kinecal identify` (docs/formats.md, docs/walkthrough.md).
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Robot description (TOML); without `[base]` the base pose is estimated too.
-    #[arg(long)]
-    pub robot: PathBuf,
-    /// Measurements (CSV: q1…qN, x, y, z).
-    #[arg(long)]
-    pub data: PathBuf,
+    /// Robot file, measurements (and the `--validate` file's) units.
+    #[command(flatten)]
+    pub input: InputArgs,
+    /// Identification method.
     #[arg(long, value_enum, default_value = "lm")]
     pub method: Method,
     /// Hold out the last poses for validation: a fraction (< 1) or a count (≥ 1).
@@ -60,29 +59,29 @@ pub struct Args {
     /// noise: reported as not converged (exit 3).
     #[arg(long, default_value_t = 5.0)]
     pub stall_rms_mm: f64,
-    /// Units of the data and --validate files (never second-guessed when given).
-    #[command(flatten)]
-    pub units: crate::formats::units::UnitArgs,
 }
 
-pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
+/// Runs the subcommand: fits the model (and writes it with `--out`); the report's
+/// `converged` says whether the numbers are a calibration.
+pub fn run(args: &Args) -> anyhow::Result<IdentifyReport> {
     crate::output::atomic::refuse_model_over_inputs(
         args.out.as_deref(),
-        &args.robot,
-        &args.data,
+        &args.input.robot,
+        &args.input.data,
         args.validate.as_deref(),
     )?;
-    let n = RobotFile::load(&args.robot)?.joint_count();
-    with_joints!(n, N => run_n::<N>(args, json))
+    let n = RobotFile::load(&args.input.robot)?.joint_count();
+    with_joints!(n, N => run_with_joints::<N>(args))
 }
 
-fn run_n<const N: usize>(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
-    let (file, mut nominal) = load_robot::<N>(&args.robot)?;
+fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport> {
+    let input = &args.input;
+    let (file, mut nominal) = load_robot::<N>(&input.robot)?;
     let load = |p: &std::path::Path| {
-        crate::formats::units::load_measurements(p, &args.units, &nominal, file.base_known())
+        crate::formats::units::load_measurements(p, &input.units, &nominal, file.base_known())
             .map(|d| d.measurements::<f64>())
     };
-    let all = load(&args.data)?;
+    let all = load(&input.data)?;
     let (ident, valid) = match (&args.validate, args.holdout) {
         (Some(v), _) => (all, load(v)?),
         (None, Some(h)) => split_holdout(&all, h)?,
@@ -91,7 +90,7 @@ fn run_n<const N: usize>(args: &Args, json: bool) -> anyhow::Result<serde_json::
     anyhow::ensure!(
         !ident.is_empty(),
         "{}: no measurements",
-        args.data.display()
+        input.data.display()
     );
     let base_unknown = !file.base_known();
     if base_unknown {
@@ -161,17 +160,12 @@ fn run_n<const N: usize>(args: &Args, json: bool) -> anyhow::Result<serde_json::
         args.method,
         &file,
         &fit,
-        &ident,
-        &valid,
-        before,
-        after,
+        (&ident, &valid),
+        (before, after),
         seconds,
-        &changes,
+        changes,
         &verdict,
     );
-    if !json {
-        print_human(&report, &changes, &verdict, &fit);
-    }
     if !verdict.suspicious.is_empty() {
         eprintln!(
             "warning: {} moved further than a manufacturing tolerance explains: check the units, \
@@ -254,28 +248,6 @@ fn apply_fix_free(
     Ok(())
 }
 
-/// One estimated parameter: file value, calibrated value, change and 1-σ (file units).
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct Change {
-    #[serde(skip)]
-    pub name: String,
-    #[serde(skip)]
-    pub length: bool,
-    /// Not compared with a tolerance (base estimated from the data, effect values).
-    #[serde(skip)]
-    pub free_start: bool,
-    pub nominal: f64,
-    pub calibrated: f64,
-    pub change: f64,
-    pub sigma: Option<f64>,
-}
-
-impl Change {
-    fn beyond_tolerance(&self, mm: f64, deg: f64) -> bool {
-        !self.free_start && self.change.abs() > if self.length { mm } else { deg }
-    }
-}
-
 /// What every estimated parameter did, in the order of the parameter list.
 fn changes<const N: usize>(
     start: &Robot<f64, N, VCAP>,
@@ -322,19 +294,18 @@ pub fn joint_range<const N: usize>(data: &[Measurement<f64, N>], j: usize) -> (f
         })
 }
 
+/// The report of a finished fit.
 #[allow(clippy::too_many_arguments)]
 fn report<const N: usize>(
     method: Method,
     file: &RobotFile,
     fit: &Fit<N, VCAP>,
-    ident: &[Measurement<f64, N>],
-    valid: &[Measurement<f64, N>],
-    before: Residuals,
-    after: Residuals,
+    (ident, valid): (&[Measurement<f64, N>], &[Measurement<f64, N>]),
+    (before, after): (Residuals, Residuals),
     seconds: f64,
-    changes: &[Change],
+    changes: Vec<Change>,
     verdict: &Verdict,
-) -> serde_json::Value {
+) -> IdentifyReport {
     let mut params: Vec<kinecal::Param> = ParamSet::<64>::full(N, true)
         .map(|s| s.as_slice().to_vec())
         .unwrap_or_default();
@@ -345,121 +316,23 @@ fn report<const N: usize>(
     );
     params
         .extend((0..fit.robot.effects().values().len()).map(|k| kinecal::Param::Effect(k as u16)));
-    let changes: serde_json::Map<String, serde_json::Value> =
-        changes.iter().map(|c| (c.name.clone(), json!(c))).collect();
-    let held: serde_json::Map<String, serde_json::Value> = fit
-        .held
-        .iter()
-        .map(|h| {
-            (
-                h.name.clone(),
-                json!({"confounded_with": h.confounded_with}),
-            )
-        })
-        .collect();
-    json!({
-        "method": method.id(),
-        "n_identification": ident.len(),
-        "n_validation": valid.len(),
-        "before": before,
-        "after": after,
-        "iterations": fit.iterations,
-        "evaluations": fit.evaluations,
-        "seconds": seconds,
-        "parameters": named_values(&fit.robot, &params),
-        "unidentifiable": fit.unidentifiable,
-        "held": held,
-        "changes": changes,
-        "converged": verdict.converged,
-        "stop": verdict.stop,
-        "suspicious": verdict.suspicious,
-        "out": verdict.out,
-        "fitness_history": fit.history,
-    })
-}
-
-fn print_human<const N: usize>(
-    r: &serde_json::Value,
-    changes: &[Change],
-    verdict: &Verdict,
-    fit: &Fit<N, VCAP>,
-) {
-    use crate::output::numfmt::sig;
-    let f = |v: &serde_json::Value| v.as_f64().map_or("-".to_string(), |x| sig(x, 4));
-    println!(
-        "method {}: {} identification poses, {} validation poses",
-        r["method"].as_str().unwrap_or(""),
-        r["n_identification"],
-        r["n_validation"]
-    );
-    println!(
-        "{:>8} {:>16} {:>16} {:>16} {:>16}",
-        "", "ident RMS mm", "valid RMS mm", "valid mean mm", "valid max mm"
-    );
-    for k in ["before", "after"] {
-        let o = &r[k];
-        println!(
-            "{:>8} {:>16} {:>16} {:>16} {:>16}",
-            k,
-            f(&o["identification_rms_mm"]),
-            f(&o["validation_rms_mm"]),
-            f(&o["validation_mean_mm"]),
-            f(&o["validation_max_mm"])
-        );
-    }
-    println!(
-        "{} iterations, {} evaluations, {} s: {}",
-        r["iterations"],
-        r["evaluations"],
-        sig(r["seconds"].as_f64().unwrap_or(0.0), 3),
-        verdict.stop
-    );
-    let moved: Vec<&Change> = changes.iter().filter(|c| c.change != 0.0).collect();
-    if !moved.is_empty() {
-        println!();
-        println!(
-            "{:<16} {:>14} {:>14} {:>12} {:>10}",
-            "parameter", "file", "calibrated", "change", "1-σ"
-        );
-        for c in moved {
-            let unit = if c.free_start && !c.length && c.name.contains('[') {
-                ""
-            } else if c.length {
-                " mm"
-            } else {
-                " °"
-            };
-            let flag = if verdict.suspicious.contains(&c.name) {
-                "  <- suspicious"
-            } else {
-                ""
-            };
-            println!(
-                "{:<16} {:>14} {:>14} {:>12} {:>10}{unit}{flag}",
-                c.name,
-                sig(c.nominal, 7),
-                sig(c.calibrated, 7),
-                sig(c.change, 3),
-                c.sigma.map_or("-".into(), |s| sig(s, 2)),
-            );
-        }
-    }
-    if !fit.held.is_empty() {
-        println!();
-        println!("held at their file values (the data cannot determine them):");
-        for h in &fit.held {
-            if h.confounded_with.is_empty() {
-                println!("  {:<14} no pose moves the measured point with it", h.name);
-            } else {
-                println!(
-                    "  {:<14} confounded with {}",
-                    h.name,
-                    h.confounded_with.join(", ")
-                );
-            }
-        }
-    }
-    if let Some(out) = &verdict.out {
-        println!("wrote the identified model to {out}");
+    IdentifyReport {
+        method: method.id().to_string(),
+        n_identification: ident.len(),
+        n_validation: valid.len(),
+        before,
+        after,
+        iterations: fit.iterations,
+        evaluations: fit.evaluations,
+        seconds,
+        parameters: named_values(&fit.robot, &params),
+        unidentifiable: fit.unidentifiable.clone(),
+        held: fit.held.clone(),
+        changes,
+        converged: verdict.converged,
+        stop: verdict.stop.clone(),
+        suspicious: verdict.suspicious.clone(),
+        out: verdict.out.clone(),
+        fitness_history: fit.history.clone(),
     }
 }

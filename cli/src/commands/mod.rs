@@ -1,4 +1,8 @@
 //! The `kinecal` subcommands, one module each, and [`main`]: the command line itself.
+//!
+//! Each module holds its clap arguments and a `run` that returns the command's typed report
+//! ([`crate::reports`]); `main` prints the report as text or, with `--json`, as one JSON
+//! object, and sets the exit status (docs/formats.md).
 
 pub mod check;
 pub mod compensate;
@@ -6,10 +10,12 @@ pub mod demo;
 pub mod diagnose;
 pub mod frames;
 pub mod identify;
+pub mod inputs;
 pub mod plan;
 pub mod simulate;
 pub mod study;
 
+use crate::reports::{ErrorReport, Report};
 use clap::{Parser, Subcommand};
 
 #[derive(Parser, Debug)]
@@ -48,47 +54,80 @@ enum Command {
     Study(study::Args),
 }
 
-fn dispatch(cli: Cli) -> anyhow::Result<serde_json::Value> {
-    let j = cli.json;
+fn boxed<R: Report + 'static>(r: anyhow::Result<R>) -> anyhow::Result<Box<dyn Report>> {
+    r.map(|r| Box::new(r) as Box<dyn Report>)
+}
+
+fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
     match &cli.command {
-        Command::Check(a) => check::run(a, j),
-        Command::Demo(a) => demo::run(a, j),
-        Command::Simulate(a) => simulate::run(a, j),
-        Command::Identify(a) => identify::run(a, j),
-        Command::Diagnose(a) => diagnose::run(a, j),
-        Command::Frames(a) => frames::run(a, j),
-        Command::Compensate(a) => compensate::run(a, j),
-        Command::Plan(a) => plan::run(a, j),
-        Command::Study(a) => study::run(a, j),
+        Command::Check(a) => boxed(check::run(a)),
+        Command::Demo(a) => boxed(demo::run(a)),
+        Command::Simulate(a) => boxed(simulate::run(a)),
+        Command::Identify(a) => boxed(identify::run(a)),
+        Command::Diagnose(a) => boxed(diagnose::run(a)),
+        Command::Frames(a) => boxed(frames::run(a)),
+        Command::Compensate(a) => boxed(compensate::run(a)),
+        Command::Plan(a) => boxed(plan::run(a)),
+        Command::Study(a) => boxed(study::run(a)),
     }
 }
 
-/// The `kinecal` command line: parses the arguments, runs the command, prints and exits with
-/// the status of interfaces.md §4.
+fn print_json(v: &serde_json::Value) {
+    let text = serde_json::to_string_pretty(v).unwrap_or_else(|_| "{}".into());
+    print_stdout(&format!("{text}\n"));
+}
+
+/// Writes `text` to stdout. A reader that closed the pipe early (`kinecal … | head`) ends the
+/// program quietly with the status it would have had; another write error is reported on
+/// stderr with status 1 (no panic either way).
+fn print_stdout(text: &str) {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            eprintln!("kinecal: cannot write the report to stdout: {e}");
+            std::process::exit(1);
+        }
+    }
+}
+
+/// The `kinecal` command line: parses the arguments, runs the command, prints its report
+/// (text, or one JSON object with `--json`) and exits with status 0, 1 (error), 2 (input
+/// refused) or 3 (the result must not be taken as calibrated; the report is still printed).
+/// A failing command prints `kinecal: <reason>` on stderr and, with `--json`,
+/// `{"error": "<reason>"}` on stdout.
 pub fn main() {
     let cli = Cli::parse();
-    let json = cli.json;
     // Storage is sized from the problem on the heap (the solver's normal equations included):
     // the main thread's ordinary stack is enough.
-    let result = dispatch(cli);
-    match result {
-        Ok(v) => {
-            if json {
-                println!(
-                    "{}",
-                    serde_json::to_string_pretty(&v).unwrap_or_else(|_| "{}".into())
-                );
+    match dispatch(&cli) {
+        Ok(report) => {
+            if cli.json {
+                print_json(&report.to_json());
+            } else {
+                print_stdout(&report.to_string());
             }
-            // A result that must not be taken as calibrated (interfaces.md §4: exit 3).
-            if v.get("converged") == Some(&serde_json::Value::Bool(false)) {
+            if !report.converged() {
                 std::process::exit(crate::EXIT_NOT_CONVERGED);
             }
         }
         Err(e) => {
-            let msg = format!("{e:#}").replace('\n', " ");
-            eprintln!("kinecal: {msg}");
-            let refused = e.chain().any(|c| c.is::<crate::Refused>());
-            std::process::exit(if refused { crate::EXIT_REFUSED } else { 1 });
+            let error = ErrorReport::of(&e);
+            eprintln!("{error}");
+            if cli.json {
+                print_json(&crate::reports::json_value(&error));
+            }
+            std::process::exit(exit_status(&e));
         }
+    }
+}
+
+/// The exit status of a failed command: 2 when the input was refused
+/// ([`crate::Refused`] anywhere in the chain), 1 otherwise.
+pub fn exit_status(e: &anyhow::Error) -> i32 {
+    if e.chain().any(|c| c.is::<crate::Refused>()) {
+        crate::EXIT_REFUSED
+    } else {
+        1
     }
 }

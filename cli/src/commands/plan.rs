@@ -18,16 +18,17 @@
 //!    `kpi_trace_mm2` = trace of the summed tool-point covariance at the `--work`
 //!    configurations, the A/D/E criteria, the observability indices O1–O5.
 
-use crate::formats::cell::SceneFile;
+use crate::formats::cell_file::SceneFile;
 use crate::formats::robot_file::RobotFile;
 use crate::plan::design::*;
+use crate::reports::plan::{Criteria, PlanReport};
 use crate::with_joints;
 use anyhow::anyhow;
 use kinecal::ForwardKinematics;
-use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;
 
+/// Arguments of `kinecal plan` (docs/formats.md for the scene file).
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Robot description (TOML); its `[base]`, if any, is not used (plans are in the base frame).
@@ -76,11 +77,7 @@ pub struct Args {
     pub no_refine: bool,
 }
 
-fn run_n<const N: usize>(
-    args: &Args,
-    file: &RobotFile,
-    json: bool,
-) -> anyhow::Result<serde_json::Value> {
+fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Result<PlanReport> {
     let robot = file
         .to_robot::<N>()
         .map_err(|e| anyhow!("{}: {e}", args.robot.display()))?;
@@ -139,62 +136,34 @@ fn run_n<const N: usize>(
         .map(|c| c.incidence.to_degrees())
         .fold(0.0, f64::max);
     let ev = &p.evaluation;
-    if !json {
-        println!(
-            "{} poses ({} design) written to {}",
-            p.poses.len(),
-            args.criterion.name(),
-            args.out.display()
-        );
-        println!(
-            "predicted TCP covariance trace {:.4e} mm² (σ = {} mm); TCP std per working configuration: {}",
-            ev.kpi_trace_mm2,
-            args.noise_mm,
-            ev.tool_std_mm.iter().map(|s| format!("{:.4} mm", s)).collect::<Vec<_>>().join(", ")
-        );
-        println!(
-            "A {:.4e}  D {:.4e}  E {:.4e} (mm², scaled parameters); identifiable directions {}",
-            ev.a, ev.d, ev.e, ev.rank
-        );
-        println!(
-            "O1 {:.4}  O2 {:.4}  O3 {:.4}  O4 {:.4}  O5 {:.4}",
-            ev.o[0], ev.o[1], ev.o[2], ev.o[3], ev.o[4]
-        );
-        println!(
-            "min clearance {} mm, max incidence {:.2}°; pool {} feasible of {} draws; {} exchange passes, {} swaps; {:.2} s",
-            if args.no_collisions { format!("{min_clearance:.1} ({colliding} colliding poses: collisions not avoided)") } else { format!("{min_clearance:.1}") },
-            max_incidence,
-            p.pool_size,
-            p.draws,
-            p.passes,
-            p.exchanges,
-            seconds
-        );
-    }
-    Ok(json!({
-        "criterion": args.criterion.name(),
-        "poses": p.poses.len(),
-        "kpi_trace_mm2": ev.kpi_trace_mm2,
-        "tool_std_mm": ev.tool_std_mm,
-        "min_clearance_mm": min_clearance,
-        "colliding_poses": colliding,
-        "max_incidence_deg": max_incidence,
-        "noise_mm": args.noise_mm,
-        "criteria": { "a": ev.a, "d": ev.d, "e": ev.e },
-        "observability": { "o1": ev.o[0], "o2": ev.o[1], "o3": ev.o[2], "o4": ev.o[3], "o5": ev.o[4] },
-        "identifiable_directions": ev.rank,
-        "collision_avoidance": !args.no_collisions,
-        "pool": p.pool_size,
-        "draws": p.draws,
-        "exchange_passes": p.passes,
-        "exchanges": p.exchanges,
-        "seconds": seconds,
-        "out": args.out.display().to_string(),
-    }))
+    Ok(PlanReport {
+        criterion: args.criterion.name().to_string(),
+        poses: p.poses.len(),
+        kpi_trace_mm2: ev.kpi_trace_mm2,
+        tool_std_mm: ev.tool_std_mm.clone(),
+        min_clearance_mm: min_clearance,
+        colliding_poses: colliding,
+        max_incidence_deg: max_incidence,
+        noise_mm: args.noise_mm,
+        criteria: Criteria {
+            a: ev.a,
+            d: ev.d,
+            e: ev.e,
+        },
+        observability: ev.o.into(),
+        identifiable_directions: ev.rank,
+        collision_avoidance: !args.no_collisions,
+        pool: p.pool_size,
+        draws: p.draws,
+        exchange_passes: p.passes,
+        exchanges: p.exchanges,
+        seconds,
+        out: args.out.display().to_string(),
+    })
 }
 
-/// Runs the subcommand; returns the JSON report (printed when `--json` is given).
-pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
+/// Runs the subcommand: writes the planned poses and returns their predicted accuracy.
+pub fn run(args: &Args) -> anyhow::Result<PlanReport> {
     crate::output::atomic::refuse_overwriting_inputs(
         "--out",
         &args.out,
@@ -204,5 +173,5 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
         ],
     )?;
     let file = RobotFile::load(&args.robot)?;
-    with_joints!(file.joint_count(), N => run_n::<N>(args, &file, json))
+    with_joints!(file.joint_count(), N => plan_with_joints::<N>(args, &file))
 }

@@ -1,4 +1,4 @@
-//! `kinecal simulate`: measurement data from a robot with known errors (interfaces.md §4).
+//! `kinecal simulate`: measurement data from a robot with known errors (docs/formats.md).
 //!
 //! The true robot is the file's model, with `--geom-errors` (uniform: alpha/theta ±0.1°,
 //! a/d ±0.8 mm, tool ±0.5 mm per coordinate) and then each `--effect` applied. `--effect`
@@ -8,13 +8,13 @@
 
 use crate::formats::measurements;
 use crate::formats::robot_file::{RobotFile, AXIS_TILT};
+use crate::reports::simulate::{SimulateReport, SimulatedEffect};
 use crate::simulation::{self, EffectArg, GeomErrors, Simulation};
 use crate::with_joints;
 use anyhow::{anyhow, bail};
-use serde_json::json;
 use std::path::PathBuf;
 
-/// Arguments of `kinecal simulate` (see interfaces.md §4).
+/// Arguments of `kinecal simulate` (docs/formats.md).
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Nominal robot (TOML); without `[base]` the base is the measurement frame (identity).
@@ -62,12 +62,11 @@ pub struct Args {
     pub rest: Vec<f64>,
 }
 
-fn simulate_n<const N: usize>(
+fn simulate_with_joints<const N: usize>(
     args: &Args,
     file: &RobotFile,
     effects: Vec<EffectArg>,
-    json: bool,
-) -> anyhow::Result<serde_json::Value> {
+) -> anyhow::Result<SimulateReport> {
     let nominal = file
         .to_robot::<N>()
         .map_err(|e| anyhow!("{}: {e}", args.robot.display()))?;
@@ -115,45 +114,34 @@ fn simulate_n<const N: usize>(
         );
         RobotFile::from_robot(&file.name, &truth, true, &tilt).save(t)?;
     }
-    if !json {
-        println!(
-            "wrote {} poses of a {N}-joint robot to {} (seed {}, noise {} mm{}{})",
-            ds.len(),
-            args.out.display(),
-            args.seed,
-            args.noise_mm,
-            if args.geom_errors {
-                ", geometric errors"
-            } else {
-                ""
-            },
-            if effects.is_empty() {
-                String::new()
-            } else {
-                format!(", {} effect(s)", effects.len())
-            }
-        );
-        if let Some(t) = &args.truth {
-            println!("true model written to {}", t.display());
+    Ok(SimulateReport {
+        poses: ds.len(),
+        seed: args.seed,
+        out: args.out.display().to_string(),
+        truth: args.truth.as_ref().map(|t| t.display().to_string()),
+        joints: N,
+        noise_mm: args.noise_mm,
+        geom_errors: args.geom_errors,
+        effects: effects
+            .iter()
+            .map(|e| SimulatedEffect {
+                effect: e.kind.clone(),
+                joint: e.joint + 1,
+                values: e.values.clone(),
+                order: e.order,
+            })
+            .collect(),
+        base: if file.base_known() {
+            "file"
+        } else {
+            "identity (robot file has no [base])"
         }
-    }
-    Ok(json!({
-        "poses": ds.len(),
-        "seed": args.seed,
-        "out": args.out.display().to_string(),
-        "truth": args.truth.as_ref().map(|t| t.display().to_string()),
-        "joints": N,
-        "noise_mm": args.noise_mm,
-        "geom_errors": args.geom_errors,
-        "effects": effects.iter().map(|e| json!({
-            "effect": e.kind, "joint": e.joint + 1, "values": e.values, "order": e.order,
-        })).collect::<Vec<_>>(),
-        "base": if file.base_known() { "file" } else { "identity (robot file has no [base])" },
-    }))
+        .to_string(),
+    })
 }
 
-/// Runs the subcommand; returns the JSON report (printed when `--json` is given).
-pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
+/// Runs the subcommand: writes the files and returns what was written.
+pub fn run(args: &Args) -> anyhow::Result<SimulateReport> {
     let file = RobotFile::load(&args.robot)?;
     if !(args.noise_mm.is_finite() && args.noise_mm >= 0.0) {
         bail!(
@@ -185,5 +173,5 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
             );
         }
     }
-    with_joints!(file.joint_count(), N => simulate_n::<N>(args, &file, effects.clone(), json))
+    with_joints!(file.joint_count(), N => simulate_with_joints::<N>(args, &file, effects.clone()))
 }

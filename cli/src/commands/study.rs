@@ -24,8 +24,11 @@
 //! compared with the plan's prediction σ²·trace C_s.
 
 use crate::plan::design::{self, CriterionArg};
+use crate::reports::study::{
+    ArmDesigns, ArmDesignsWithout, ArmRow, DesignStats, Designs, MonteCarloReport, SettingRow,
+    StudyReport,
+};
 use anyhow::{anyhow, bail};
-use serde_json::json;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -101,8 +104,8 @@ fn parse_range(text: &str, what: &str) -> anyhow::Result<Vec<f64>> {
     Ok((0..n).map(|i| lo + step * i as f64).collect())
 }
 
-/// Runs the subcommand; returns the JSON report (printed when `--json` is given).
-pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
+/// Runs the subcommand: the study's table (and figure with `--svg`).
+pub fn run(args: &Args) -> anyhow::Result<StudyReport> {
     let settings = StudySettings {
         poses: args.poses,
         pool: args.pool,
@@ -163,81 +166,47 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
     let study_seconds = start.elapsed().as_secs_f64();
 
     let mut table = Vec::new();
-    let mut text = String::new();
-    text.push_str(&format!(
-        "{} arms × {} poses, σ = {} mm, working configuration {}°\n",
-        results.len(),
-        args.poses,
-        args.noise_mm,
-        args.work
-    ));
-    text.push_str("setting                      design   mean TCP trace (mm²)   min        max        KPI improvement mean [min, max]\n");
-    for (k, name) in ["with collision avoidance", "without collision avoidance"]
-        .iter()
-        .enumerate()
-    {
+    for k in 0..2 {
         let kpi: Vec<f64> = results.iter().map(|r| r.settings[k].kpi).collect();
-        let mut designs = serde_json::Map::new();
-        for (design, vals) in [
-            (
-                "random",
-                results
-                    .iter()
-                    .map(|r| r.settings[k].random)
-                    .collect::<Vec<_>>(),
-            ),
-            ("d_o1", results.iter().map(|r| r.settings[k].d).collect()),
-            ("kpi", kpi.clone()),
-        ] {
+        let design = |vals: Vec<f64>, is_kpi: bool| {
             let (mean, min, max) = stats(&vals);
             let imp: Vec<f64> = vals.iter().zip(&kpi).map(|(o, k)| 1.0 - k / o).collect();
             let (im, imin, imax) = stats(&imp);
-            let imp_text = if design == "kpi" {
-                String::new()
-            } else {
-                format!(
-                    "{:5.1} % [{:.1}, {:.1}]",
-                    100.0 * im,
-                    100.0 * imin,
-                    100.0 * imax
-                )
-            };
-            text.push_str(&format!(
-                "{name:28} {design:8} {mean:12.4e}          {min:.3e}  {max:.3e}  {imp_text}\n"
-            ));
-            designs.insert(
-                design.to_string(),
-                json!({ "mean_kpi_trace_mm2": mean, "min_kpi_trace_mm2": min, "max_kpi_trace_mm2": max,
-                        "kpi_improvement_mean": if design == "kpi" { serde_json::Value::Null } else { json!(im) },
-                        "kpi_improvement_min": if design == "kpi" { serde_json::Value::Null } else { json!(imin) },
-                        "kpi_improvement_max": if design == "kpi" { serde_json::Value::Null } else { json!(imax) } }),
-            );
-        }
-        let colliding = if k == 1 {
-            Some(
-                stats(
-                    &results
-                        .iter()
-                        .map(|r| r.settings[1].colliding)
-                        .collect::<Vec<_>>(),
-                )
-                .0,
-            )
-        } else {
-            None
+            let not_kpi = |x: f64| (!is_kpi).then_some(x);
+            DesignStats {
+                mean_kpi_trace_mm2: mean,
+                min_kpi_trace_mm2: min,
+                max_kpi_trace_mm2: max,
+                kpi_improvement_mean: not_kpi(im),
+                kpi_improvement_min: not_kpi(imin),
+                kpi_improvement_max: not_kpi(imax),
+            }
         };
-        if let Some(c) = colliding {
-            text.push_str(&format!("  (designs planned without collision avoidance: {:.0} % of their poses collide in the full cell)\n", 100.0 * c));
-        }
-        table.push(json!({ "collision_avoidance": k == 0, "designs": designs, "colliding_share": colliding }));
+        let designs = Designs {
+            random: design(
+                results.iter().map(|r| r.settings[k].random).collect(),
+                false,
+            ),
+            d_o1: design(results.iter().map(|r| r.settings[k].d).collect(), false),
+            kpi: design(kpi.clone(), true),
+        };
+        let colliding_share = (k == 1).then(|| {
+            stats(
+                &results
+                    .iter()
+                    .map(|r| r.settings[1].colliding)
+                    .collect::<Vec<_>>(),
+            )
+            .0
+        });
+        table.push(SettingRow {
+            collision_avoidance: k == 0,
+            designs,
+            colliding_share,
+        });
     }
-    text.push_str(&format!(
-        "study: {:.1} s on {} threads\n",
-        study_seconds,
-        args.threads.clamp(1, 64)
-    ));
 
-    let mc = if args.monte_carlo > 0 {
+    let monte_carlo = if args.monte_carlo > 0 {
         let robot = arm(780.0, 760.0)?;
         let scene = cell(780.0, 760.0)?;
         let m = monte_carlo(
@@ -251,20 +220,14 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
             args.monte_carlo,
             args.seed,
         )?;
-        text.push_str(&format!(
-            "Monte Carlo ({} runs of simulate + LM identify, example arm, KPI design): predicted TCP trace {:.4e} mm², \
-             sample covariance trace {:.4e} mm² (ratio {:.3}), mean squared error {:.4e} mm²; {:.1} s\n",
-            m.runs,
-            m.predicted_trace_mm2,
-            m.empirical_trace_mm2,
-            m.ratio(),
-            m.empirical_mse_mm2,
-            m.seconds
-        ));
-        Some(
-            json!({ "runs": m.runs, "predicted_trace_mm2": m.predicted_trace_mm2, "empirical_trace_mm2": m.empirical_trace_mm2,
-                     "ratio": m.ratio(), "empirical_mse_mm2": m.empirical_mse_mm2, "seconds": m.seconds }),
-        )
+        Some(MonteCarloReport {
+            runs: m.runs,
+            predicted_trace_mm2: m.predicted_trace_mm2,
+            empirical_trace_mm2: m.empirical_trace_mm2,
+            ratio: m.ratio(),
+            empirical_mse_mm2: m.empirical_mse_mm2,
+            seconds: m.seconds,
+        })
     } else {
         None
     };
@@ -308,28 +271,38 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<serde_json::Value> {
             ),
             &series,
         )?;
-        text.push_str(&format!("figure written to {}\n", path.display()));
     }
-    if !json {
-        print!("{text}");
-    }
-    let arms_json: Vec<serde_json::Value> = results
+    let per_arm = results
         .iter()
         .map(|r| {
-            json!({ "upper_arm_mm": r.upper, "forearm_mm": r.forearm,
-                    "with": { "random": r.settings[0].random, "d_o1": r.settings[0].d, "kpi": r.settings[0].kpi },
-                    "without": { "random": r.settings[1].random, "d_o1": r.settings[1].d, "kpi": r.settings[1].kpi,
-                                 "colliding_share": r.settings[1].colliding } })
+            let (w, wo) = (&r.settings[0], &r.settings[1]);
+            ArmRow {
+                upper_arm_mm: r.upper,
+                forearm_mm: r.forearm,
+                with: ArmDesigns {
+                    random: w.random,
+                    d_o1: w.d,
+                    kpi: w.kpi,
+                },
+                without: ArmDesignsWithout {
+                    random: wo.random,
+                    d_o1: wo.d,
+                    kpi: wo.kpi,
+                    colliding_share: wo.colliding,
+                },
+            }
         })
         .collect();
-    Ok(json!({
-        "arms": results.len(),
-        "poses": args.poses,
-        "noise_mm": args.noise_mm,
-        "work_deg": args.work,
-        "table": table,
-        "monte_carlo": mc,
-        "per_arm": arms_json,
-        "seconds": study_seconds,
-    }))
+    Ok(StudyReport {
+        arms: results.len(),
+        poses: args.poses,
+        noise_mm: args.noise_mm,
+        work_deg: args.work.clone(),
+        table,
+        monte_carlo,
+        per_arm,
+        seconds: study_seconds,
+        threads: args.threads.clamp(1, 64),
+        figure: args.svg.as_ref().map(|p| p.display().to_string()),
+    })
 }

@@ -1,7 +1,7 @@
 //! The files users bring and get, each with its schema and unit checks: the robot description
 //! (TOML), measurements (CSV), the measurement cell of `plan` (TOML) and the units at the door.
 
-pub mod cell;
+pub mod cell_file;
 pub mod measurements;
 pub mod robot_file;
 pub mod units;

@@ -5,7 +5,7 @@
 //! Plans are made in the robot base frame with the base at identity; see the `plan` command
 //! for the steps and the report.
 
-use crate::formats::cell::HostScene;
+use crate::formats::cell_file::HostScene;
 use anyhow::{anyhow, bail};
 use kinecal::model::param::{Param, ParamSet};
 use kinecal::planning::information::{
@@ -63,8 +63,6 @@ impl CriterionArg {
         }
     }
 }
-
-/// Arguments of `kinecal plan` (see interfaces.md §4).
 
 /// Parses `q1,…,qN` (degrees) into radians.
 pub fn parse_configuration<const N: usize>(text: &str) -> anyhow::Result<[f64; N]> {

@@ -3,7 +3,7 @@
 //! Carlo check of the predicted tool-point covariance.
 
 use crate::calibration::fit_lm;
-use crate::formats::cell::{HostScene, SceneFile};
+use crate::formats::cell_file::{HostScene, SceneFile};
 use crate::plan::design::{
     self, optimise, CriterionArg, HostCandidate, Neighbourhood, PoseRowsHost, Refinement,
 };
@@ -331,18 +331,18 @@ pub fn example_scene_file() -> anyhow::Result<SceneFile> {
     let s = cell(780.0, 760.0)?;
     let v3 = |v: &Vector3<f64>| [v.x, v.y, v.z];
     Ok(SceneFile {
-        tracker: crate::formats::cell::TrackerSpec {
+        tracker: crate::formats::cell_file::TrackerSpec {
             xyz_mm: v3(&s.tracker().position),
             max_incidence_deg: (s.tracker().max_incidence.to_degrees() * 1e9).round() / 1e9,
             beam_radius_mm: s.tracker().beam_radius,
         },
         floor: s
             .floor_z()
-            .map(|z| crate::formats::cell::FloorSpec { z_mm: z }),
+            .map(|z| crate::formats::cell_file::FloorSpec { z_mm: z }),
         link_capsules: s
             .link_capsules()
             .iter()
-            .map(|l| crate::formats::cell::LinkCapsuleSpec {
+            .map(|l| crate::formats::cell_file::LinkCapsuleSpec {
                 frame: l.frame as usize,
                 a_mm: v3(&l.capsule.a),
                 b_mm: v3(&l.capsule.b),
@@ -352,7 +352,7 @@ pub fn example_scene_file() -> anyhow::Result<SceneFile> {
         obstacles: s
             .obstacles()
             .iter()
-            .map(|o| crate::formats::cell::ObstacleSpec {
+            .map(|o| crate::formats::cell_file::ObstacleSpec {
                 a_mm: v3(&o.a),
                 b_mm: v3(&o.b),
                 radius_mm: o.radius,

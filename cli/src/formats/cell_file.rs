@@ -230,9 +230,8 @@ impl SceneFile {
     /// Reads and validates a scene file for a robot with `joints` joints.
     pub fn load(path: &Path, joints: usize) -> anyhow::Result<SceneFile> {
         let origin = path.display().to_string();
-        let text =
-            std::fs::read_to_string(path)
-                .map_err(|e| crate::refused(format!("{origin}: cannot read: {e}")))?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| crate::refused(format!("{origin}: cannot read: {e}")))?;
         Self::parse(&text, &origin, joints)
     }
 

@@ -1,0 +1,119 @@
+//! The report of `kinecal check`.
+
+use super::{plain_report, FrameReport};
+use crate::calibration::coupling_hint::CouplingHint;
+use crate::output::numfmt::sig;
+use serde::Serialize;
+use std::fmt;
+
+/// `kinecal check`: the files, what the data cover and the nominal model's error.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CheckReport {
+    /// Robot file path.
+    pub robot: String,
+    /// Measurement file path.
+    pub data: String,
+    /// The robot's name in its file.
+    pub name: String,
+    pub joints: usize,
+    pub poses: usize,
+    /// Columns besides q1…qN, x, y, z.
+    pub extra_columns: Vec<String>,
+    /// Per joint, the lowest and highest reading (degrees).
+    pub joint_ranges_deg: Vec<[f64; 2]>,
+    /// Poses with a reading outside the joint limits the robot file states.
+    pub outside_limits: usize,
+    /// The robot file has no `[base]`: the base was fitted to the data.
+    pub base_fitted: bool,
+    pub base: FrameReport,
+    pub nominal_rms_mm: f64,
+    pub nominal_mean_mm: f64,
+    pub nominal_max_mm: f64,
+    /// A `[[couplings]]` entry that would explain the data far better (robot files without
+    /// couplings only).
+    pub coupling_hint: Option<CouplingHintReport>,
+    /// The joint limits the robot file states (degrees), per joint (text only).
+    #[serde(skip)]
+    pub limits_deg: Vec<Option<[f64; 2]>>,
+}
+
+/// The `coupling_hint` object.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CouplingHintReport {
+    pub joint: usize,
+    pub from: usize,
+    pub ratio: f64,
+    pub rms_mm: f64,
+    pub nominal_rms_mm: f64,
+    /// The one-line warning (also printed on stderr).
+    pub message: String,
+}
+
+impl From<&CouplingHint> for CouplingHintReport {
+    fn from(h: &CouplingHint) -> Self {
+        Self {
+            joint: h.joint,
+            from: h.from,
+            ratio: h.ratio,
+            rms_mm: h.rms_mm,
+            nominal_rms_mm: h.nominal_rms_mm,
+            message: h.message(),
+        }
+    }
+}
+
+plain_report!(CheckReport);
+
+impl fmt::Display for CheckReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "robot  {}: \"{}\", {} joints, {}",
+            self.robot,
+            self.name,
+            self.joints,
+            if self.base_fitted {
+                "no [base]: base fitted to the data"
+            } else {
+                "base from the file"
+            }
+        )?;
+        let extra = if self.extra_columns.is_empty() {
+            String::new()
+        } else {
+            format!(", extra columns: {}", self.extra_columns.join(", "))
+        };
+        writeln!(f, "data   {}: {} poses{extra}", self.data, self.poses)?;
+        writeln!(f, "joint ranges covered (deg):")?;
+        for (i, [lo, hi]) in self.joint_ranges_deg.iter().enumerate() {
+            let limits = match self.limits_deg.get(i).copied().flatten() {
+                Some([llo, lhi]) => format!("limits {} .. {}", sig(llo, 6), sig(lhi, 6)),
+                None => "no limits in the robot file".to_string(),
+            };
+            writeln!(f, "  q{}: {lo:9.3} .. {hi:9.3}   ({limits})", i + 1)?;
+        }
+        if self.outside_limits > 0 {
+            writeln!(
+                f,
+                "warning: {} of {} poses have readings outside the joint limits of the robot file",
+                self.outside_limits, self.poses
+            )?;
+        }
+        if self.base_fitted {
+            // Coordinates: fixed decimals (an absolute resolution), unlike the error figures.
+            let (xyz, rpy) = (self.base.xyz_mm, self.base.rpy_deg);
+            writeln!(
+                f,
+                "fitted base: xyz_mm = [{:.3}, {:.3}, {:.3}], rpy_deg = [{:.4}, {:.4}, {:.4}]",
+                xyz[0], xyz[1], xyz[2], rpy[0], rpy[1], rpy[2]
+            )?;
+        }
+        writeln!(
+            f,
+            "nominal model error: RMS {} mm, mean {} mm, max {} mm",
+            sig(self.nominal_rms_mm, 3),
+            sig(self.nominal_mean_mm, 3),
+            sig(self.nominal_max_mm, 3)
+        )
+    }
+}

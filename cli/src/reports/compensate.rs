@@ -1,0 +1,91 @@
+//! The report of `kinecal compensate` ([`crate::compensation`]).
+
+use super::plain_report;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::fmt;
+
+/// `kinecal compensate`: how the targets went and what was written.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CompensateReport {
+    /// Target rows.
+    pub targets: usize,
+    /// Rows with status `ok`, and the others.
+    pub ok: usize,
+    pub failed: usize,
+    /// Rows per status (`ok`, `singular`, `unreachable`, `limited`, `invalid`).
+    pub status: BTreeMap<String, usize>,
+    /// Rows with an orientation (rx, ry, rz), and without.
+    pub pose_targets: usize,
+    pub point_targets: usize,
+    /// RMS of the model's remaining error at the commands of the `ok` rows (mm); `None`
+    /// without such rows.
+    pub model_error_rms_mm: Option<f64>,
+    /// |command − seed| over every joint of every row (degrees).
+    pub correction_rms_deg: f64,
+    pub correction_max_deg: f64,
+    /// `f64`, or `f32` as the controller computes.
+    pub precision: String,
+    /// Rows were a trajectory (each warm-started from the previous one).
+    pub stream: bool,
+    pub seconds: f64,
+    pub microseconds_per_target: f64,
+    /// The joint-command file written.
+    pub out: String,
+    /// The model's robot file, its name, joints and effects (text only).
+    #[serde(skip)]
+    pub model: String,
+    #[serde(skip)]
+    pub model_name: String,
+    #[serde(skip)]
+    pub joints: usize,
+    #[serde(skip)]
+    pub effects: usize,
+    /// The model file has a `[base]` (otherwise the targets are in the robot base frame).
+    #[serde(skip)]
+    pub base_known: bool,
+    /// The targets file (text only).
+    #[serde(skip)]
+    pub targets_file: String,
+}
+
+plain_report!(CompensateReport);
+
+impl fmt::Display for CompensateReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "model    {}: \"{}\", {} joints, {} effects",
+            self.model, self.model_name, self.joints, self.effects
+        )?;
+        writeln!(
+            f,
+            "targets  {}: {} ({} poses, {} points){}",
+            self.targets_file,
+            self.targets,
+            self.pose_targets,
+            self.point_targets,
+            if self.stream { ", streamed" } else { "" }
+        )?;
+        let list: Vec<String> = self
+            .status
+            .iter()
+            .map(|(k, v)| format!("{k} {v}"))
+            .collect();
+        writeln!(f, "status   {}", list.join(", "))?;
+        if let Some(rms) = self.model_error_rms_mm {
+            writeln!(f, "model error at the commands (ok rows): RMS {rms:.2e} mm")?;
+        }
+        writeln!(
+            f,
+            "corrections |command − seed|: RMS {:.4}°, max {:.4}°",
+            self.correction_rms_deg, self.correction_max_deg
+        )?;
+        writeln!(
+            f,
+            "{:.2} µs per target ({})",
+            self.microseconds_per_target, self.precision
+        )?;
+        writeln!(f, "wrote {}", self.out)
+    }
+}

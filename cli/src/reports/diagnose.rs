@@ -1,0 +1,351 @@
+//! The report of `kinecal diagnose`, built from a [`Diagnosis`] ([`DiagnoseReport::of`]).
+
+use crate::diagnose::candidates::CandidateKind;
+use crate::diagnose::{distinct_figures, floor_phrase, percent, Diagnosis, NoiseSource};
+use crate::output::numfmt::sig;
+use serde::Serialize;
+use std::fmt;
+
+/// A geometric fit whose held-out RMS stays above this (mm) has not found the robot: nothing
+/// is diagnosed from it (the default of `--stall-rms-mm`).
+pub const DEFAULT_STALL_RMS_MM: f64 = 5.0;
+
+/// `kinecal diagnose`: what is missing from the model, how sure, and the search behind it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DiagnoseReport {
+    /// Cross-validated held-out RMS of the starting (geometric) model (mm).
+    pub baseline_validation_rms_mm: f64,
+    /// The effects added, in the order added (empty: nothing significant is missing).
+    pub found: Vec<FoundEffect>,
+    pub final_validation_rms_mm: f64,
+    /// Measurement noise in the held-out RMS sense (mm).
+    pub noise_floor_mm: f64,
+    pub noise_floor_source: String,
+    pub noise_floor_interval_mm: [f64; 2],
+    pub noise_floor_dof: f64,
+    pub noise_sigma_mm: f64,
+    /// The headline.
+    pub summary: String,
+    /// One sentence per effect found.
+    pub sentences: Vec<String>,
+    pub folds: usize,
+    pub fit_rms_mm: f64,
+    pub effective_parameters: f64,
+    /// Geometric parameters the data cannot determine.
+    pub unidentifiable: Vec<String>,
+    pub stop_reason: String,
+    pub rounds: Vec<RoundReport>,
+    pub geometry_seconds: f64,
+    pub seconds: f64,
+    /// Poses searched (without the held-out ones).
+    pub poses: usize,
+    /// The geometric model fits the data (`false`: nothing is diagnosed, exit 3).
+    pub converged: bool,
+    /// Errors on the poses kept out of the whole search (`--holdout`, `--validate`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub holdout: Option<HoldoutReport>,
+    /// The extended model's robot file, when written.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub out: Option<String>,
+    /// SVG files written.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plots: Option<Vec<String>>,
+    /// Where the noise floor comes from (the text's wording).
+    #[serde(skip)]
+    pub noise_source: NoiseSource,
+    /// The family-wise false-alarm rate of each round.
+    #[serde(skip)]
+    pub alpha: f64,
+}
+
+/// One effect the search added.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FoundEffect {
+    /// The effect id (docs/formats.md), `axis-tilt` included.
+    pub effect: String,
+    /// 1-based.
+    pub joint: usize,
+    pub values: Vec<f64>,
+    /// Held-out RMS after adding it (mm).
+    pub validation_rms_mm: f64,
+    pub before_validation_rms_mm: f64,
+    pub p_value: f64,
+    pub p_threshold: f64,
+    pub candidates_compared: usize,
+    pub sentence: String,
+    /// Joint-cyclic: the harmonic order.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub order: Option<u16>,
+    /// Joint-table: knot spacing and first knot (degrees), knot count.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub step_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub start_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub knots: Option<usize>,
+}
+
+/// One round of the search.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RoundReport {
+    pub start_validation_rms_mm: f64,
+    /// Candidates screened.
+    pub candidates: usize,
+    pub p_threshold: f64,
+    /// The five best of the linearised screen.
+    pub screen_best: Vec<Screened>,
+    pub refitted: Vec<Refitted>,
+    /// The candidate added (null: none).
+    pub added: Option<String>,
+    pub seconds: f64,
+}
+
+/// A candidate of the screen.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Screened {
+    pub candidate: String,
+    pub linearised_validation_rms_mm: f64,
+}
+
+/// A candidate refitted fold by fold and tested.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Refitted {
+    pub candidate: String,
+    pub validation_rms_mm: f64,
+    pub p_value: f64,
+}
+
+/// Errors on the poses kept out of the whole search.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct HoldoutReport {
+    pub poses: usize,
+    /// The starting model as the search fitted it (mm).
+    pub geometric_rms_mm: f64,
+    /// The final model (mm).
+    pub final_rms_mm: f64,
+    /// The noise floor was lowered to `final_rms_mm`.
+    pub noise_floor_capped: bool,
+}
+
+impl DiagnoseReport {
+    /// The report of `d`, judged with the default `--stall-rms-mm`
+    /// ([`DEFAULT_STALL_RMS_MM`]); no held-out poses, nothing written.
+    pub fn of<const N: usize>(d: &Diagnosis<N>) -> Self {
+        Self::with_stall_limit(d, DEFAULT_STALL_RMS_MM)
+    }
+
+    /// The report of `d`; the geometric fit counts as converged when its held-out RMS is at
+    /// most `stall_rms_mm`.
+    pub fn with_stall_limit<const N: usize>(d: &Diagnosis<N>, stall_rms_mm: f64) -> Self {
+        let found = d
+            .found
+            .iter()
+            .map(|f| {
+                let c = &f.candidate;
+                let (mut order, mut step_deg, mut start_deg, mut knots) = (None, None, None, None);
+                match c.kind {
+                    CandidateKind::Cyclic(n) => order = Some(n),
+                    CandidateKind::Table {
+                        start,
+                        step,
+                        knots: k,
+                    } => {
+                        step_deg = Some(step.to_degrees());
+                        start_deg = Some(start.to_degrees());
+                        knots = Some(k);
+                    }
+                    _ => {}
+                }
+                FoundEffect {
+                    effect: c.id().to_string(),
+                    joint: c.joint + 1,
+                    values: c.values(&d.model),
+                    validation_rms_mm: f.validation_rms_mm,
+                    before_validation_rms_mm: f.before_rms_mm,
+                    p_value: f.test.p,
+                    p_threshold: f.threshold,
+                    candidates_compared: f.candidates_compared,
+                    sentence: f.sentence(d.noise_floor_mm),
+                    order,
+                    step_deg,
+                    start_deg,
+                    knots,
+                }
+            })
+            .collect();
+        let rounds = d
+            .rounds
+            .iter()
+            .map(|r| RoundReport {
+                start_validation_rms_mm: r.start_rms_mm,
+                candidates: r.screened.len(),
+                p_threshold: r.threshold,
+                screen_best: r
+                    .screened
+                    .iter()
+                    .take(5)
+                    .map(|s| Screened {
+                        candidate: s.candidate.label(),
+                        linearised_validation_rms_mm: s.linear_rms_mm,
+                    })
+                    .collect(),
+                refitted: r
+                    .tested
+                    .iter()
+                    .map(|t| Refitted {
+                        candidate: t.candidate.label(),
+                        validation_rms_mm: t.validation_rms_mm,
+                        p_value: t.test.p,
+                    })
+                    .collect(),
+                added: r.chosen.map(|i| r.tested[i].candidate.label()),
+                seconds: r.seconds,
+            })
+            .collect();
+        Self {
+            baseline_validation_rms_mm: d.baseline_validation_rms_mm,
+            found,
+            final_validation_rms_mm: d.final_validation_rms_mm,
+            noise_floor_mm: d.noise_floor_mm,
+            noise_floor_source: match d.noise_source {
+                NoiseSource::RepeatedPoses => "repeated poses",
+                NoiseSource::HeldOut => "held-out errors of the final model less the fold fits' share, sum |r|^2 / (3n + sum tr B_f)",
+            }
+            .to_string(),
+            noise_floor_interval_mm: d.noise_floor_interval_mm,
+            noise_floor_dof: d.noise_dof,
+            noise_sigma_mm: d.noise_sigma_mm,
+            summary: summary(d),
+            sentences: d
+                .found
+                .iter()
+                .map(|f| f.sentence(d.noise_floor_mm))
+                .collect(),
+            folds: d.folds.k,
+            fit_rms_mm: d.fit_rms_mm,
+            effective_parameters: d.effective_parameters,
+            unidentifiable: d
+                .unidentifiable
+                .iter()
+                .map(|p| p.name(&d.geometric).to_string())
+                .collect(),
+            stop_reason: d.stop_reason.clone(),
+            rounds,
+            geometry_seconds: d.geometry_seconds,
+            seconds: d.seconds,
+            poses: d.folds.of.len(),
+            converged: d.baseline_validation_rms_mm.is_finite()
+                && d.baseline_validation_rms_mm <= stall_rms_mm,
+            holdout: None,
+            out: None,
+            plots: None,
+            noise_source: d.noise_source,
+            alpha: d.alpha,
+        }
+    }
+
+    /// The report as `serde_json` sees it (what `--json` prints).
+    pub fn to_value(&self) -> serde_json::Value {
+        super::json_value(self)
+    }
+}
+
+/// The headline: what is missing, or that nothing is.
+pub fn summary<const N: usize>(d: &Diagnosis<N>) -> String {
+    let [base, fin, floor] = distinct_figures([
+        d.baseline_validation_rms_mm,
+        d.final_validation_rms_mm,
+        d.noise_floor_mm,
+    ]);
+    let floor = floor_phrase(d.noise_floor_mm, &floor);
+    if d.found.is_empty() {
+        // Why nothing was added: the test found nothing, or the search did not get to test.
+        let why = if d.rounds.is_empty() {
+            format!("no candidate was tested: {}", d.stop_reason)
+        } else {
+            format!(
+                "no candidate improved the held-out error at the {} % family-wise level",
+                percent(d.alpha)
+            )
+        };
+        format!("Nothing significant is missing from the model: held-out RMS {base} mm, {floor} ({why}).")
+    } else {
+        format!(
+            "{} effect(s) missing from the model: held-out RMS {base} → {fin} mm, {floor}.",
+            d.found.len(),
+        )
+    }
+}
+
+impl super::Report for DiagnoseReport {
+    fn to_json(&self) -> serde_json::Value {
+        self.to_value()
+    }
+    fn converged(&self) -> bool {
+        self.converged
+    }
+}
+
+impl fmt::Display for DiagnoseReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "{} poses, {}-fold cross-validation",
+            self.poses, self.folds
+        )?;
+        if !self.converged {
+            return writeln!(
+                f,
+                "The geometric model does not fit these data (held-out RMS {} mm): nothing can be \
+                 diagnosed until the units, couplings, tool or base are right.",
+                sig(self.baseline_validation_rms_mm, 4)
+            );
+        }
+        writeln!(f, "{}", self.summary)?;
+        for (k, s) in self.sentences.iter().enumerate() {
+            writeln!(f, "  {}. {s}", k + 1)?;
+        }
+        if self.noise_floor_mm.is_finite() {
+            let iv = self.noise_floor_interval_mm;
+            let [floor, lo, hi] = distinct_figures([self.noise_floor_mm, iv[0], iv[1]]);
+            let interval = if iv.iter().all(|x| x.is_finite()) {
+                format!(" (approximately 95 % within {lo}–{hi} mm)")
+            } else {
+                String::new()
+            };
+            let source = match self.noise_source {
+                NoiseSource::RepeatedPoses => "from the scatter of the repeated poses",
+                NoiseSource::HeldOut => {
+                    "from the held-out errors less what the fold fits add to them (it also holds whatever the model still misses)"
+                }
+            };
+            writeln!(f, "noise floor {floor} mm{interval}, {source}")?;
+        }
+        writeln!(f, "stopped: {}", self.stop_reason)?;
+        if let Some(h) = &self.holdout {
+            if self.found.is_empty() {
+                // One model: nothing was added to the starting model as refitted.
+                writeln!(
+                    f,
+                    "held-out poses ({}): {} mm with the starting model refitted (nothing added)",
+                    h.poses,
+                    sig(h.geometric_rms_mm, 4)
+                )?;
+            } else {
+                let [g, fin] = distinct_figures([h.geometric_rms_mm, h.final_rms_mm]);
+                writeln!(
+                    f,
+                    "held-out poses ({}): starting model refitted {g} mm → extended model {fin} mm",
+                    h.poses
+                )?;
+            }
+            if h.noise_floor_capped {
+                writeln!(
+                    f,
+                    "  (the noise floor above is lowered to the RMS these poses reached: their errors are the noise plus the model's, so the noise is no larger)"
+                )?;
+            }
+        }
+        writeln!(f, "{:.2} s", self.seconds)
+    }
+}

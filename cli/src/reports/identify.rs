@@ -1,0 +1,195 @@
+//! The report of `kinecal identify`.
+
+use crate::calibration::{Held, Residuals};
+use crate::output::numfmt::sig;
+use serde::ser::SerializeMap;
+use serde::{Serialize, Serializer};
+use std::collections::BTreeMap;
+use std::fmt;
+
+/// `kinecal identify`: residuals before and after, the parameters and the verdict.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct IdentifyReport {
+    /// `lm`, `pso`, `bpnn-pso` or `pso+lm`.
+    pub method: String,
+    pub n_identification: usize,
+    pub n_validation: usize,
+    pub before: Residuals,
+    pub after: Residuals,
+    pub iterations: u32,
+    /// Model evaluations of all poses.
+    pub evaluations: u64,
+    pub seconds: f64,
+    /// Every parameter of the identified model by name (mm, degrees, raw for effect values).
+    pub parameters: BTreeMap<String, f64>,
+    /// Names of parameters the data cannot determine.
+    pub unidentifiable: Vec<String>,
+    /// Held at their file values, and what they are confounded with (JSON: name → object).
+    #[serde(serialize_with = "held_by_name")]
+    pub held: Vec<Held>,
+    /// What every estimated parameter did, in the order of the parameter list (JSON: name →
+    /// object).
+    #[serde(serialize_with = "changes_by_name")]
+    pub changes: Vec<Change>,
+    /// The numbers may be taken as a calibration (`false`: exit 3).
+    pub converged: bool,
+    /// How the fit ended, in words.
+    pub stop: String,
+    /// Parameters that moved further from their file value than a manufacturing tolerance.
+    pub suspicious: Vec<String>,
+    /// The identified model's robot file, when written.
+    pub out: Option<String>,
+    /// Best objective (mm²) per iteration, for methods that have one.
+    pub fitness_history: Vec<f64>,
+}
+
+/// One estimated parameter: file value, calibrated value, change and 1-σ (file units).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Change {
+    #[serde(skip)]
+    pub name: String,
+    #[serde(skip)]
+    pub length: bool,
+    /// Not compared with a tolerance (base estimated from the data, effect values).
+    #[serde(skip)]
+    pub free_start: bool,
+    pub nominal: f64,
+    pub calibrated: f64,
+    pub change: f64,
+    pub sigma: Option<f64>,
+}
+
+impl Change {
+    /// Moved further than `mm` (lengths) or `deg` (angles) from the file value.
+    pub fn beyond_tolerance(&self, mm: f64, deg: f64) -> bool {
+        !self.free_start && self.change.abs() > if self.length { mm } else { deg }
+    }
+}
+
+fn held_by_name<S: Serializer>(held: &[Held], s: S) -> Result<S::Ok, S::Error> {
+    #[derive(Serialize)]
+    struct Entry<'a> {
+        confounded_with: &'a [String],
+    }
+    let mut m = s.serialize_map(Some(held.len()))?;
+    for h in held {
+        m.serialize_entry(
+            &h.name,
+            &Entry {
+                confounded_with: &h.confounded_with,
+            },
+        )?;
+    }
+    m.end()
+}
+
+fn changes_by_name<S: Serializer>(changes: &[Change], s: S) -> Result<S::Ok, S::Error> {
+    let mut m = s.serialize_map(Some(changes.len()))?;
+    for c in changes {
+        m.serialize_entry(&c.name, c)?;
+    }
+    m.end()
+}
+
+impl super::Report for IdentifyReport {
+    fn to_json(&self) -> serde_json::Value {
+        super::json_value(self)
+    }
+    fn converged(&self) -> bool {
+        self.converged
+    }
+}
+
+impl fmt::Display for IdentifyReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let g = |v: Option<f64>| v.map_or("-".to_string(), |x| sig(x, 4));
+        writeln!(
+            f,
+            "method {}: {} identification poses, {} validation poses",
+            self.method, self.n_identification, self.n_validation
+        )?;
+        writeln!(
+            f,
+            "{:>8} {:>16} {:>16} {:>16} {:>16}",
+            "", "ident RMS mm", "valid RMS mm", "valid mean mm", "valid max mm"
+        )?;
+        for (k, r) in [("before", &self.before), ("after", &self.after)] {
+            writeln!(
+                f,
+                "{:>8} {:>16} {:>16} {:>16} {:>16}",
+                k,
+                g(Some(r.identification_rms_mm).filter(|x| x.is_finite())),
+                g(r.validation_rms_mm),
+                g(r.validation_mean_mm),
+                g(r.validation_max_mm)
+            )?;
+        }
+        writeln!(
+            f,
+            "{} iterations, {} evaluations, {} s: {}",
+            self.iterations,
+            self.evaluations,
+            sig(self.seconds, 3),
+            self.stop
+        )?;
+        let moved: Vec<&Change> = self.changes.iter().filter(|c| c.change != 0.0).collect();
+        if !moved.is_empty() {
+            writeln!(f)?;
+            writeln!(
+                f,
+                "{:<16} {:>14} {:>14} {:>12} {:>10}",
+                "parameter", "file", "calibrated", "change", "1-σ"
+            )?;
+            for c in moved {
+                let unit = if c.free_start && !c.length && c.name.contains('[') {
+                    ""
+                } else if c.length {
+                    " mm"
+                } else {
+                    " °"
+                };
+                let flag = if self.suspicious.contains(&c.name) {
+                    "  <- suspicious"
+                } else {
+                    ""
+                };
+                writeln!(
+                    f,
+                    "{:<16} {:>14} {:>14} {:>12} {:>10}{unit}{flag}",
+                    c.name,
+                    sig(c.nominal, 7),
+                    sig(c.calibrated, 7),
+                    sig(c.change, 3),
+                    c.sigma.map_or("-".into(), |s| sig(s, 2)),
+                )?;
+            }
+        }
+        if !self.held.is_empty() {
+            writeln!(f)?;
+            writeln!(
+                f,
+                "held at their file values (the data cannot determine them):"
+            )?;
+            for h in &self.held {
+                if h.confounded_with.is_empty() {
+                    writeln!(
+                        f,
+                        "  {:<14} no pose moves the measured point with it",
+                        h.name
+                    )?;
+                } else {
+                    writeln!(
+                        f,
+                        "  {:<14} confounded with {}",
+                        h.name,
+                        h.confounded_with.join(", ")
+                    )?;
+                }
+            }
+        }
+        if let Some(out) = &self.out {
+            writeln!(f, "wrote the identified model to {out}")?;
+        }
+        Ok(())
+    }
+}

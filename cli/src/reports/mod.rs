@@ -1,0 +1,100 @@
+//! The reports of the `kinecal` subcommands as typed values: one struct per command, built
+//! from the application's results, that serialises to the command's `--json` object (the keys
+//! of docs/formats.md) and renders the human text (`Display`) from the very same fields.
+//!
+//! A command's `run` returns its report; `main` prints it as text, or as one JSON object with
+//! `--json` ([`Report::to_json`]), and takes the exit status from [`Report::converged`]
+//! (`false`: exit 3, the numbers must not be taken as a calibration). A failing command prints
+//! [`ErrorReport`] with `--json`.
+//!
+//! Tests build and inspect a report without running a command: for example
+//! [`diagnose::DiagnoseReport::of`] from a [`crate::diagnose::Diagnosis`].
+
+pub mod check;
+pub mod compensate;
+pub mod demo;
+pub mod diagnose;
+pub mod frames;
+pub mod identify;
+pub mod plan;
+pub mod simulate;
+pub mod study;
+
+pub use check::CheckReport;
+pub use compensate::CompensateReport;
+pub use demo::DemoReport;
+pub use diagnose::DiagnoseReport;
+pub use frames::FramesReport;
+pub use identify::IdentifyReport;
+pub use plan::PlanReport;
+pub use simulate::SimulateReport;
+pub use study::StudyReport;
+
+use serde::Serialize;
+use std::fmt;
+
+/// What `main` needs of every command's report.
+pub trait Report: fmt::Display {
+    /// The `--json` object. Its keys are sorted (a `serde_json::Map`), as the command line has
+    /// always printed them.
+    fn to_json(&self) -> serde_json::Value;
+    /// Whether the result may be taken as calibrated; `false` makes the command exit with
+    /// status 3 ([`crate::EXIT_NOT_CONVERGED`]) after printing the report.
+    fn converged(&self) -> bool {
+        true
+    }
+}
+
+/// The JSON value of a serialisable report (`null` if it cannot be represented, which no
+/// report of this module does: their maps have string keys).
+pub fn json_value<T: Serialize>(report: &T) -> serde_json::Value {
+    serde_json::to_value(report).unwrap_or(serde_json::Value::Null)
+}
+
+/// Implements [`Report`] for report structs that are always "converged".
+macro_rules! plain_report {
+    ($($t:ty),*) => {
+        $(impl $crate::reports::Report for $t {
+            fn to_json(&self) -> serde_json::Value {
+                $crate::reports::json_value(self)
+            }
+        })*
+    };
+}
+pub(crate) use plain_report;
+
+/// The `--json` object of a failing command: `{"error": "<the one-line reason>"}`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct ErrorReport {
+    pub error: String,
+}
+
+impl ErrorReport {
+    /// The report of `e`: its whole chain on one line, as `kinecal: …` on stderr shows it.
+    pub fn of(e: &anyhow::Error) -> Self {
+        Self { error: one_line(e) }
+    }
+}
+
+impl fmt::Display for ErrorReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "kinecal: {}", self.error)
+    }
+}
+
+/// An error's whole chain (`outer: inner: …`) on one line.
+pub fn one_line(e: &anyhow::Error) -> String {
+    format!("{e:#}").replace('\n', " ")
+}
+
+/// A path as reports show it.
+pub(crate) fn path_text(p: &std::path::Path) -> String {
+    p.display().to_string()
+}
+
+/// A frame as reports give it: position (mm) and fixed-axis roll, pitch, yaw (degrees).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct FrameReport {
+    pub xyz_mm: [f64; 3],
+    pub rpy_deg: [f64; 3],
+}

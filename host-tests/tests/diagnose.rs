@@ -10,7 +10,8 @@ use kinecal_cli::diagnose::cross_validation::{
     candidate_columns, refit_errors, rms, Folds, Linearised,
 };
 use kinecal_cli::diagnose::fit_geometry;
-use kinecal_cli::diagnose::penalised_fit::{fit, squared_errors, Problem, TablePenalty};
+use kinecal_cli::diagnose::linear::{squared_errors, Problem, TablePenalty};
+use kinecal_cli::diagnose::refit::fit;
 use kinecal_cli::diagnose::significance::{
     incomplete_beta, paired_improvement, repeat_noise, student_t_sf,
 };

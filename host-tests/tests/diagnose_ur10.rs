@@ -8,7 +8,7 @@
 //! issue asks for at most 0.45× the geometric fit's.
 
 use kinecal_cli::diagnose::candidates::CandidateKind;
-use kinecal_cli::diagnose::penalised_fit::squared_errors;
+use kinecal_cli::diagnose::linear::squared_errors;
 use kinecal_cli::diagnose::{diagnose, Config};
 use kinecal_cli::formats::measurements;
 use kinecal_cli::formats::robot_file::load_robot;

@@ -25,15 +25,27 @@
 //! run only ends when a re-analysis at the final model confirms the held set. Re-analysis
 //! prefers the parameters already estimated, so a confounded pair does not swap back and
 //! forth. A tiny ridge on the accumulated update keeps nearly dependent directions bounded.
+//!
+//! **Penalties and subsets.** A run may minimise `Σ|r_i|² + uᵀΠu` instead, `Π` a caller-given
+//! quadratic penalty (a prior) on the scaled parameters ([`crate::identify::lm_penalty`]:
+//! ridges and smoothness terms, e.g. on the knots of correction tables) in a second
+//! caller-owned value ([`Levenberg::with_penalty`]); the penalty enters the normal equations,
+//! the identifiability analysis (a direction the penalty determines is determined) and the
+//! cost that accepts steps. The caller chooses the parameters (the storage's list), may hold
+//! some of them at their start values ([`Levenberg::hold`]), and may turn the analysis off
+//! (`max_analyses = 0`: every parameter not held is estimated, as a refit of a known parameter
+//! set wants). A run starts from any model: the nominal one, or a previous fit.
 
 use crate::identify::lm_pass::{accumulate_pose, clear_normal_equations, split_parts, Columns};
 pub use crate::identify::lm_pass::{Pass, PassKind, PassPart};
+use crate::identify::lm_penalty::check_penalty;
+pub use crate::identify::lm_penalty::{
+    FixedPenalty, LmPenalty, NoPenalty, PenaltyError, PenaltyParts, PenaltyPartsRef, PenaltyTerm,
+};
 use crate::identify::lm_storage::storage_fits;
 pub use crate::identify::lm_storage::{FixedLm, LmParts, LmPartsRef, LmStorage};
-use crate::model::param::{apply_delta, check_params, Param, ParamError};
-use crate::num::linalg::{
-    cholesky, cholesky_solve, pivoted_cholesky_preferring, Flat, LinalgError,
-};
+use crate::model::param::{apply_delta, check_params, value, Param, ParamError};
+use crate::num::linalg::{pivoted_cholesky_preferring, Flat, LinalgError};
 use crate::{ForwardKinematics, Measurement, Real, Robot};
 use nalgebra::Vector3;
 
@@ -53,12 +65,21 @@ pub struct LmConfig<T: Real> {
     /// Initial damping relative to the diagonal.
     pub initial_damping: T,
     /// Most identifiability analyses in one run (the first one included); 1 decides once, at
-    /// the starting model.
+    /// the starting model; 0 makes none: every parameter the caller does not hold is
+    /// estimated (a refit of a parameter set known to be determined, or made so by a penalty).
     pub max_analyses: u8,
     /// Relative pivot a held parameter needs to join on a re-analysis (stricter than
     /// `rank_tolerance`): moving off the nominal geometry turns exact dependencies (d of
     /// parallel axes) into near ones, which the data still cannot determine.
     pub activation_tolerance: T,
+    /// Keep the curvature `JᵀJ` while steps succeed: a candidate's pass then sums only `Jᵀr`
+    /// and the cost (about half the work of a pass with many parameters), and the next step
+    /// is solved with the `JᵀJ` of an earlier point. It is formed afresh (a full pass at the
+    /// estimate) after a rejected step and after a step that gained less than half of what it
+    /// promised. The fixed point is the same; for refits that start next to their solution
+    /// (nearly linear) it saves most of the work. Re-analyses of identifiability are only
+    /// triggered by full passes. Default off.
+    pub keep_curvature: bool,
 }
 
 impl<T: Real> Default for LmConfig<T> {
@@ -72,6 +93,7 @@ impl<T: Real> Default for LmConfig<T> {
             initial_damping: T::of(1e-3),
             max_analyses: 8,
             activation_tolerance: T::of(1e-4),
+            keep_curvature: false,
         }
     }
 }
@@ -91,6 +113,10 @@ pub enum LmError {
     /// Parts handed to [`Levenberg::complete_pass`] are not of the pending pass, do not cover
     /// the data once, or hold other parameters; or no pass is pending.
     PassMismatch,
+    /// The penalty does not fit the parameters, or holds a negative or non-finite number.
+    Penalty(PenaltyError),
+    /// [`Levenberg::hold`] after the run started.
+    Started,
 }
 
 /// Why the solver stopped.
@@ -110,6 +136,7 @@ pub enum LmStop {
 /// Where a run stands after a [`Levenberg::step`] call.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LmProgress<T: Real> {
+    /// Accepted and rejected steps so far.
     pub iteration: u32,
     /// Full passes over all poses so far (model evaluations of all poses).
     pub evaluations: u32,
@@ -132,17 +159,27 @@ enum Phase {
     Confirm(LmStop),
     /// Accumulating every column again at the current model, to re-decide identifiability.
     Reanalyse,
+    /// Finished, for this reason.
     Done(LmStop),
 }
 
 /// The Levenberg–Marquardt stepper for a robot with `N` joints and `V` effect values, over the
-/// caller's storage `S` (the parameters and the normal equations: see [`crate::identify::lm_storage`]).
+/// caller's storage `S` (the parameters and the normal equations: see
+/// [`crate::identify::lm_storage`]) and penalty `Q` (none by default: see
+/// [`crate::identify::lm_penalty`]).
 #[derive(Clone, Debug)]
-pub struct Levenberg<T: Real, const N: usize, const V: usize, S: LmStorage<T>> {
+pub struct Levenberg<
+    T: Real,
+    const N: usize,
+    const V: usize,
+    S: LmStorage<T>,
+    Q: LmPenalty<T> = NoPenalty,
+> {
     cfg: LmConfig<T>,
     robot: Robot<T, N, V>,
     candidate: Robot<T, N, V>,
     st: S,
+    pen: Q,
     analysed: bool,
     /// Identifiability analyses done so far.
     analyses: u8,
@@ -151,6 +188,10 @@ pub struct Levenberg<T: Real, const N: usize, const V: usize, S: LmStorage<T>> {
     cand_cost: T,
     lambda: T,
     nu: T,
+    /// `work` holds the factor of the damped system of the current `JᵀJ`, damping and active
+    /// set (kept curvature only; not in snapshots: a restored run factors again, to the same
+    /// numbers).
+    factored: bool,
     predicted: T,
     next: usize,
     n_poses: usize,
@@ -176,9 +217,26 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
 }
 
 impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V, S> {
-    /// A solver starting from `start`, estimating the parameters of `storage` (all must exist
-    /// in the robot, and the storage must have room for them).
-    pub fn new(start: Robot<T, N, V>, mut storage: S, cfg: LmConfig<T>) -> Result<Self, LmError> {
+    /// A solver starting from `start` (the nominal model or any other, e.g. a previous fit),
+    /// estimating the parameters of `storage` (all must exist in the robot, and the storage
+    /// must have room for them).
+    pub fn new(start: Robot<T, N, V>, storage: S, cfg: LmConfig<T>) -> Result<Self, LmError> {
+        Self::with_penalty(start, storage, NoPenalty, cfg)
+    }
+}
+
+impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>, Q: LmPenalty<T>>
+    Levenberg<T, N, V, S, Q>
+{
+    /// [`Levenberg::new`] minimising `Σ|r_i|² + uᵀΠu` with the caller's `penalty` (see
+    /// [`crate::identify::lm_penalty`]); its terms must lie within the parameter list, its
+    /// arrays have room for it, its weights and priors be finite (weights ≥ 0).
+    pub fn with_penalty(
+        start: Robot<T, N, V>,
+        mut storage: S,
+        mut penalty: Q,
+        cfg: LmConfig<T>,
+    ) -> Result<Self, LmError> {
         check_params(storage.params(), &start).map_err(LmError::Params)?;
         if !storage_fits(&mut storage) {
             return Err(LmError::Params(ParamError::Shape));
@@ -192,12 +250,25 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
             p.jtr[k] = T::zero();
             p.analysed_diag[k] = T::zero();
             p.active[k] = true;
+            p.held[k] = false;
+        }
+        if let Some(q) = penalty.parts() {
+            check_penalty(&q, p.params).map_err(LmError::Penalty)?;
+            for (k, param) in p.params.iter().enumerate() {
+                let x = value(&start, *param).unwrap_or(T::zero());
+                q.offset[k] = (x - q.prior[k]) * p.scale[k];
+                if !q.offset[k].finite() {
+                    return Err(LmError::Penalty(PenaltyError::NonFinite));
+                }
+            }
+            q.weights[..q.terms.len()].fill(T::one());
         }
         Ok(Self {
             cfg,
             candidate: start.clone(),
             robot: start,
             st: storage,
+            pen: penalty,
             analysed: false,
             analyses: 0,
             cost: T::zero(),
@@ -205,6 +276,7 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
             cand_cost: T::zero(),
             lambda: cfg.initial_damping,
             nu: T::of(2.0),
+            factored: false,
             predicted: T::zero(),
             next: 0,
             n_poses: 0,
@@ -215,6 +287,45 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
         })
     }
 
+    /// Holds parameter `p` (one of [`Levenberg::params`]) at its start value: it is never
+    /// estimated, whatever the identifiability analysis finds. Only before the first pass
+    /// ([`LmError::Started`] after it); a parameter not in the list is refused.
+    pub fn hold(&mut self, p: Param) -> Result<(), LmError> {
+        if self.evaluations != 0 || self.next != 0 {
+            return Err(LmError::Started);
+        }
+        let k = self
+            .st
+            .params()
+            .iter()
+            .position(|q| *q == p)
+            .ok_or(LmError::Params(ParamError::OutOfRange))?;
+        let parts = self.st.parts();
+        parts.held[k] = true;
+        parts.active[k] = false;
+        Ok(())
+    }
+
+    /// True when the caller holds parameter `k` (position in [`Levenberg::params`]).
+    pub fn is_held(&self, k: usize) -> bool {
+        self.st.parts_ref().held.get(k).copied().unwrap_or(false)
+    }
+
+    /// The penalty `uᵀΠu` (mm²) at the current estimate (0 without a penalty; its weights are
+    /// resolved at the end of the first pass).
+    pub fn penalty(&self) -> T {
+        let Some(q) = self.pen.parts_ref() else {
+            return T::zero();
+        };
+        let total = self.st.parts_ref().total;
+        q.value(|k| q.offset[k] + total[k])
+    }
+
+    /// The penalty's arrays (`None` without a penalty): its terms and their resolved weights.
+    pub fn penalty_parts(&self) -> Option<PenaltyPartsRef<'_, T>> {
+        self.pen.parts_ref()
+    }
+
     /// The current estimate.
     pub fn robot(&self) -> &Robot<T, N, V> {
         &self.robot
@@ -223,14 +334,15 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
     pub fn params(&self) -> &[Param] {
         self.st.params()
     }
-    /// Parameters found unidentifiable (held at their start values); empty before the first pass.
+    /// Parameters found unidentifiable (held at their start values; not those the caller
+    /// holds); empty before the first pass.
     pub fn unidentifiable(&self) -> impl Iterator<Item = Param> + '_ {
-        let active = self.st.parts_ref().active;
+        let p = self.st.parts_ref();
         self.st
             .params()
             .iter()
-            .zip(active.iter())
-            .filter(|(_, a)| !**a)
+            .zip(p.active.iter().zip(p.held.iter()))
+            .filter(|(_, (a, h))| !**a && !**h)
             .map(|(p, _)| *p)
     }
     /// True once identifiability has been analysed (after the first full pass).
@@ -267,6 +379,7 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
             .copied()
             .unwrap_or(T::one())
     }
+    /// Where the run stands.
     pub fn progress(&self) -> LmProgress<T> {
         LmProgress {
             iteration: self.iteration,
@@ -359,23 +472,32 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
                 scale: p.scale,
                 active: p.active,
                 full: self.full_columns(),
+                gradient_only: self.gradient_only(),
             },
         })
     }
 
     /// Ends the pending pass with the workers' `parts` (every measurement in exactly one part,
-    /// each part filled by [`Pass::accumulate`] in this pass), summed in slice order, and
+    /// each part filled by [`Pass::accumulate`] in this pass), summed in their order, and
     /// moves the run on as [`Self::step`] would at the end of the pass.
-    pub fn complete_pass<P: LmStorage<T>>(
-        &mut self,
-        parts: &[PassPart<T, P>],
-    ) -> Result<LmProgress<T>, LmError> {
+    ///
+    /// The parts may come from another solver in the same state (same start, parameters and
+    /// pass): the first passes of cross-validation fits from one model are sums of the folds'
+    /// own parts, accumulated once.
+    pub fn complete_pass<'p, P, I>(&mut self, parts: I) -> Result<LmProgress<T>, LmError>
+    where
+        P: LmStorage<T> + 'p,
+        T: 'p,
+        I: IntoIterator<Item = &'p PassPart<T, P>>,
+        I::IntoIter: Clone,
+    {
         if self.pass().is_none() {
             return Err(LmError::PassMismatch);
         }
+        let parts = parts.into_iter();
         let n = self.st.params().len();
         let mut poses = 0usize;
-        for part in parts {
+        for part in parts.clone() {
             if part.id != Some(self.evaluations) || part.storage.params() != self.st.params() {
                 return Err(LmError::PassMismatch);
             }
@@ -389,15 +511,18 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
         } else if poses != self.n_poses {
             return Err(LmError::DataChanged);
         }
-        let cost = parts.iter().fold(T::zero(), |c, part| c + part.cost);
+        let cost = parts.clone().fold(T::zero(), |c, part| c + part.cost);
         self.clear_normal_equations();
+        let gradient_only = self.gradient_only();
         let p = self.st.parts();
         for part in parts {
             let q = part.storage.parts_ref();
             for i in 0..n {
-                let row = &mut p.jtj[i * p.stride..i * p.stride + i + 1];
-                for (v, w) in row.iter_mut().zip(&q.jtj[i * q.stride..]) {
-                    *v += *w;
+                if !gradient_only {
+                    let row = &mut p.jtj[i * p.stride..i * p.stride + i + 1];
+                    for (v, w) in row.iter_mut().zip(&q.jtj[i * q.stride..]) {
+                        *v += *w;
+                    }
                 }
                 p.jtr[i] += q.jtr[i];
             }
@@ -409,9 +534,19 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
 
     fn clear_normal_equations(&mut self) {
         let n = self.st.params().len();
+        let gradient_only = self.gradient_only();
         let p = self.st.parts();
-        clear_normal_equations(p.jtj, p.jtr, p.stride, n);
+        if gradient_only {
+            p.jtr[..n].fill(T::zero());
+        } else {
+            clear_normal_equations(p.jtj, p.jtr, p.stride, n);
+        }
         self.acc_cost = T::zero();
+    }
+
+    /// A pass that sums only `Jᵀr` and the cost: a candidate's, when the curvature is kept.
+    fn gradient_only(&self) -> bool {
+        self.cfg.keep_curvature && self.phase == Phase::Evaluate
     }
 
     /// Held columns enter the normal equations in full on the passes that decide
@@ -424,7 +559,8 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
     /// Adds one pose's residual and scaled Jacobian to the normal equations.
     fn accumulate(&mut self, m: &Measurement<T, N>) {
         let full = self.full_columns();
-        let (columns, mut sums) = split_parts(self.st.parts(), full);
+        let gradient_only = self.gradient_only();
+        let (columns, mut sums) = split_parts(self.st.parts(), full, gradient_only);
         let robot = if self.phase == Phase::Evaluate {
             &self.candidate
         } else {
@@ -446,9 +582,30 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
 
     /// The end of a pass that accumulated the normal equations at the estimate.
     fn end_accumulate(&mut self) {
+        self.factored = false;
+        if self.evaluations == 0 {
+            self.resolve_penalty();
+        }
         self.next = 0;
         self.evaluations += 1;
         self.cost = self.acc_cost;
+        if self.cfg.max_analyses == 0 {
+            // No analysis: every parameter the caller does not hold is estimated.
+            if !self.analysed {
+                let p = self.st.parts();
+                let n = p.params.len();
+                for k in 0..n {
+                    p.active[k] = !p.held[k];
+                    p.analysed_diag[k] = p.jtj[k * p.stride + k];
+                }
+                self.analysed = true;
+            }
+            self.phase = match self.phase {
+                Phase::Confirm(stop) => Phase::Done(stop),
+                _ => Phase::Solve,
+            };
+            return;
+        }
         self.phase = match self.phase {
             Phase::Confirm(stop) => {
                 if self.analyse() {
@@ -474,9 +631,37 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
     /// The end of a pass at the candidate (its cost, and its normal equations in place of the
     /// estimate's): accept or reject it.
     fn end_evaluate(&mut self) {
+        if !self.cfg.keep_curvature {
+            self.factored = false;
+        }
         self.next = 0;
         self.evaluations += 1;
         self.decide();
+    }
+
+    /// Resolves the penalty's relative weights from the first pass's normal matrix.
+    fn resolve_penalty(&mut self) {
+        let Some(q) = self.pen.parts() else {
+            return;
+        };
+        let p = self.st.parts_ref();
+        for (t, w) in q.terms.iter().zip(q.weights.iter_mut()) {
+            *w = t.weight(|k| p.jtj[k * p.stride + k]);
+        }
+    }
+
+    /// The penalty's `Π` entry `(i, j)` (solver positions, weights applied).
+    fn penalty_entry(q: &PenaltyPartsRef<'_, T>, i: usize, j: usize) -> T {
+        let mut v = T::zero();
+        for (t, w) in q.terms.iter().zip(q.weights) {
+            if i >= t.first && j >= t.first {
+                let (a, b) = (i - t.first, j - t.first);
+                if a < t.len && b < t.len {
+                    v += *w * t.entry(a, b);
+                }
+            }
+        }
+        v
     }
 
     /// True when a held parameter's column has grown well beyond its size at the last
@@ -493,6 +678,7 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
         (0..n).any(|k| {
             let d = diag(k);
             !p.active[k]
+                && !p.held[k]
                 && d > dmax * self.cfg.rank_tolerance * self.cfg.rank_tolerance
                 && d > T::of(4.0) * p.analysed_diag[k]
         })
@@ -503,7 +689,8 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
     /// stop when nothing is held or no analysis is left.
     fn finish(&mut self, stop: LmStop) {
         let n = self.st.params().len();
-        let held = self.st.parts_ref().active[..n].iter().any(|a| !*a);
+        let p = self.st.parts_ref();
+        let held = (0..n).any(|k| !p.active[k] && !p.held[k]);
         if !held || self.analyses >= self.cfg.max_analyses {
             self.phase = Phase::Done(stop);
         } else {
@@ -518,18 +705,35 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
         let n = self.st.params().len();
         let first = !self.analysed;
         let cfg = self.cfg;
+        let pen = self.pen.parts_ref();
         let p = self.st.parts();
         let s = p.stride;
         // The diagonal goes to analysed_diag (kept for the growth test).
         for i in 0..n {
             p.analysed_diag[i] = p.jtj[i * s + i];
         }
-        let d = &*p.analysed_diag;
+        // With a penalty, the penalised normal matrix decides (a direction the penalty
+        // determines is determined); its diagonal goes to `delta` (scratch).
+        let d: &[T] = match &pen {
+            Some(q) => {
+                for i in 0..n {
+                    p.delta[i] = p.jtj[i * s + i] + Self::penalty_entry(q, i, i);
+                }
+                p.delta
+            }
+            None => p.analysed_diag,
+        };
         let dmax = d[..n].iter().fold(T::zero(), |a, b| a.max(*b));
         for i in 0..n {
             for j in 0..=i {
+                let mut h = p.jtj[i * s + j];
+                if let Some(q) = &pen {
+                    if i.abs_diff(j) <= 2 {
+                        h += Self::penalty_entry(q, i, j);
+                    }
+                }
                 let v = if d[i] > T::zero() && d[j] > T::zero() {
-                    p.jtj[i * s + j] / (d[i] * d[j]).sqrt()
+                    h / (d[i] * d[j]).sqrt()
                 } else {
                     T::zero()
                 };
@@ -558,8 +762,9 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
             .unwrap_or(0);
         p.active[..n].fill(false);
         for &k in p.order[..rank].iter() {
-            // A column with no information at all (relative to the strongest) is dropped too.
-            if d[k] > dmax * T::EPS {
+            // A column with no information at all (relative to the strongest) is dropped too,
+            // and the caller's held ones stay held.
+            if d[k] > dmax * T::EPS && !p.held[k] {
                 p.active[k] = true;
             }
         }
@@ -574,6 +779,7 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
         let n = self.st.params().len();
         let cfg = self.cfg;
         let lambda = self.lambda;
+        let mut pen = self.pen.parts();
         let p = self.st.parts();
         let s = p.stride;
         // Compact the active parameters into the leading block of `work`.
@@ -595,42 +801,102 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
         }
         mean_diag /= T::of(m as f64);
         let mu = cfg.ridge * mean_diag;
-        let mut lambda = lambda;
-        let outcome = loop {
-            for a in 0..m {
-                let ka = idx[a];
-                for b in 0..=a {
-                    p.work[a * s + b] = p.jtj[ka * s + idx[b]];
+        // With a penalty: `Π u` at the estimate, `Π`'s diagonal (the penalty's scratch), `uᵀΠu`,
+        // and the position of every active parameter in the compacted block (`order`).
+        let mut pen_cost = T::zero();
+        if let Some(q) = &mut pen {
+            let (offset, total) = (&*q.offset, &*p.total);
+            let u = |k: usize| offset[k] + total[k];
+            q.scratch[..n].fill(T::zero());
+            q.diagonal[..n].fill(T::zero());
+            for (t, w) in q.terms.iter().zip(q.weights.iter()) {
+                for i in 0..t.len {
+                    let k = t.first + i;
+                    q.scratch[k] += *w * t.product(i, u);
+                    q.diagonal[k] += *w * t.entry(i, i);
                 }
-                let diag = p.jtj[ka * s + ka];
-                p.work[a * s + a] = diag + lambda * diag.max(mean_diag * T::EPS) + mu;
-                p.g[a] = p.jtr[ka] - mu * p.total[ka];
+            }
+            for k in 0..n {
+                pen_cost += u(k) * q.scratch[k];
+            }
+            for (a, &k) in idx.iter().enumerate() {
+                p.order[k] = a;
+            }
+        }
+        // The damping's diagonal: `JᵀJ`'s, plus `Π`'s with a penalty.
+        let damping_diag = |k: usize| match &pen {
+            Some(q) => p.jtj[k * s + k] + q.diagonal[k],
+            None => p.jtj[k * s + k],
+        };
+        let mut lambda = lambda;
+        // With the curvature kept and already factored, a step costs two triangular solves.
+        let reused = self.factored && {
+            for a in 0..m {
+                p.g[a] = p.jtr[idx[a]] - mu * p.total[idx[a]];
+                if let Some(q) = &pen {
+                    p.g[a] -= q.scratch[idx[a]];
+                }
             }
             p.x[..m].copy_from_slice(&p.g[..m]);
-            let ok = Flat::new(&mut *p.work, s).and_then(|mut w| {
-                cholesky(&mut w, m)?;
-                cholesky_solve(&w, m, &mut p.x[..m])
-            });
-            match ok {
-                Ok(()) if p.x[..m].iter().all(|v| v.finite()) => break Some(()),
-                Ok(()) | Err(LinalgError::NotPositiveDefinite) | Err(LinalgError::Size) => {
-                    // Not solvable at this damping: damp harder and retry, up to a limit.
-                    lambda *= T::of(10.0);
-                    if !(lambda < T::of(1e16)) {
-                        break None;
+            S::resolve_work(p.work, s, p.x, m).is_ok() && p.x[..m].iter().all(|v| v.finite())
+        };
+        let outcome = if reused {
+            Some(())
+        } else {
+            loop {
+                for a in 0..m {
+                    let ka = idx[a];
+                    for b in 0..=a {
+                        p.work[a * s + b] = p.jtj[ka * s + idx[b]];
+                    }
+                    let diag = damping_diag(ka);
+                    p.work[a * s + a] = diag + lambda * diag.max(mean_diag * T::EPS) + mu;
+                    p.g[a] = p.jtr[ka] - mu * p.total[ka];
+                }
+                if let Some(q) = &pen {
+                    for a in 0..m {
+                        p.g[a] -= q.scratch[idx[a]];
+                    }
+                    // Off-diagonal penalty entries between active parameters (a band of width 2
+                    // within each term).
+                    for (t, w) in q.terms.iter().zip(q.weights.iter()) {
+                        for i in 1..t.len {
+                            let ki = t.first + i;
+                            if !p.active[ki] {
+                                continue;
+                            }
+                            for j in i.saturating_sub(2)..i {
+                                let kj = t.first + j;
+                                if p.active[kj] {
+                                    p.work[p.order[ki] * s + p.order[kj]] += *w * t.entry(i, j);
+                                }
+                            }
+                        }
+                    }
+                }
+                p.x[..m].copy_from_slice(&p.g[..m]);
+                match S::solve_work(p.work, s, p.x, m) {
+                    Ok(()) if p.x[..m].iter().all(|v| v.finite()) => break Some(()),
+                    Ok(()) | Err(LinalgError::NotPositiveDefinite) | Err(LinalgError::Size) => {
+                        // Not solvable at this damping: damp harder and retry, up to a limit.
+                        lambda *= T::of(10.0);
+                        if !(lambda < T::of(1e16)) {
+                            break None;
+                        }
                     }
                 }
             }
         };
+        self.factored = cfg.keep_curvature && outcome.is_some();
         self.lambda = lambda;
         if outcome.is_none() {
             self.phase = Phase::Done(LmStop::NoProgress);
             return;
         }
-        // Predicted reduction of the (ridged) cost: xᵀ(2g − A x) = xᵀ(g + λ D x + … ).
+        // Predicted reduction of the (ridged, penalised) cost: xᵀ(2g − A x) = xᵀ(g + λ D x).
         let mut pred = T::zero();
         for a in 0..m {
-            let diag = p.jtj[idx[a] * s + idx[a]];
+            let diag = damping_diag(idx[a]);
             pred += p.x[a] * (p.g[a] + (lambda * diag.max(mean_diag * T::EPS)) * p.x[a]);
         }
         self.predicted = pred;
@@ -647,7 +913,7 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
         // Lightly damped (λ ≤ 1: at least about half the Gauss–Newton reduction), a step that
         // promises less than the cost tolerance is not worth a pass over the data: converged.
         // (Without this a run spends its last passes on steps that change the 13th digit.)
-        if lambda <= T::one() && pred <= cfg.cost_tolerance * self.cost {
+        if lambda <= T::one() && pred <= cfg.cost_tolerance * (self.cost + pen_cost) {
             self.finish(LmStop::Converged);
             return;
         }
@@ -669,6 +935,7 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
     /// (`then`: `Solve` when they are still in place, `Accumulate` after a candidate's pass
     /// replaced them).
     fn reject(&mut self, then: Phase) {
+        self.factored = false;
         self.lambda *= self.nu;
         self.nu *= T::of(2.0);
         self.iteration += 1;
@@ -711,8 +978,13 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
             let t = p.total[k] + p.step[k];
             ridge_new += t * t;
         }
-        let old = self.cost + mu * ridge_old;
-        let new = self.cand_cost + mu * ridge_new;
+        let mut old = self.cost + mu * ridge_old;
+        let mut new = self.cand_cost + mu * ridge_new;
+        if let Some(q) = self.pen.parts_ref() {
+            let (total, step) = (&*p.total, &*p.step);
+            old += q.value(|k| q.offset[k] + total[k]);
+            new += q.value(|k| q.offset[k] + total[k] + step[k]);
+        }
         let actual = old - new;
         let rho = if self.predicted > T::zero() {
             actual / self.predicted
@@ -727,13 +999,27 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>> Levenberg<T, N, V
             let rel = actual / old.max(T::EPS);
             self.cost = self.cand_cost;
             let t = T::of(2.0) * rho - T::one();
-            self.lambda *= T::of(1.0 / 3.0).max(T::one() - t * t * t);
+            // (A kept factor stays valid only at the same damping: it changes when the
+            // curvature is formed again.)
+            let refresh = self.cfg.keep_curvature && rho < T::of(0.5);
+            if !self.cfg.keep_curvature || refresh {
+                self.lambda *= T::of(1.0 / 3.0).max(T::one() - t * t * t);
+                self.factored = false;
+            }
             self.nu = T::of(2.0);
             self.iteration += 1;
             if rel < self.cfg.cost_tolerance {
                 self.finish(LmStop::Converged);
             } else if self.iteration >= self.cfg.max_iterations {
                 self.phase = Phase::Done(LmStop::MaxIterations);
+            } else if self.cfg.keep_curvature {
+                // The candidate's pass left its gradient; the curvature is an earlier point's,
+                // formed afresh when it predicted the step poorly.
+                self.phase = if refresh {
+                    Phase::Accumulate
+                } else {
+                    Phase::Solve
+                };
             } else {
                 // The candidate's pass left its normal equations: the next solve's. (A held
                 // column that grew needs the full ones first.)
@@ -870,10 +1156,24 @@ mod snapshot_impl {
         Ok(())
     }
 
+    /// True when the solver has state beyond the plain run's: a penalty or parameters the
+    /// caller holds. Its snapshot then carries a tail after the plain fields (the plain
+    /// layout is unchanged, so plain snapshots stay compatible); a snapshot restores only into
+    /// a solver with the same holds and penalty shape.
+    fn extended<T: Real, S: LmStorage<T>, Q: LmPenalty<T>>(st: &S, pen: &Q) -> bool {
+        let p = st.parts_ref();
+        pen.parts_ref().is_some() || p.held[..p.params.len()].iter().any(|h| *h)
+    }
+
     /// A snapshot holds the parameter list, not the storage's capacity: it restores into any
     /// storage with room for the same parameters (fixed arrays or a host's heap).
-    impl<T: Real, const N: usize, const V: usize, S: LmStorage<T> + Clone> Snapshot
-        for Levenberg<T, N, V, S>
+    impl<
+            T: Real,
+            const N: usize,
+            const V: usize,
+            S: LmStorage<T> + Clone,
+            Q: LmPenalty<T> + Clone,
+        > Snapshot for Levenberg<T, N, V, S, Q>
     {
         fn save<W: Write>(&self, w: &mut W) -> Result<(), SnapshotError> {
             let p = self.st.parts_ref();
@@ -924,7 +1224,18 @@ mod snapshot_impl {
                 e.u8(ph)?;
                 e.u8(stop)?;
                 e.u32(self.iteration)?;
-                e.u32(self.evaluations)
+                e.u32(self.evaluations)?;
+                if extended(&self.st, &self.pen) {
+                    for k in 0..n {
+                        e.bool(p.held[k])?;
+                    }
+                    if let Some(q) = self.pen.parts_ref() {
+                        e.usize(q.terms.len())?;
+                        e.reals(&q.weights[..q.terms.len()])?;
+                        e.reals(&q.offset[..n])?;
+                    }
+                }
+                Ok(())
             })
         }
 
@@ -984,8 +1295,29 @@ mod snapshot_impl {
                 };
                 s.iteration = d.u32()?;
                 s.evaluations = d.u32()?;
+                s.factored = false;
                 if s.next > s.n_poses || bad_scale {
                     return Err(SnapshotError::Invalid);
+                }
+                if extended(&s.st, &s.pen) {
+                    let p = s.st.parts();
+                    for k in 0..n {
+                        if d.bool()? != p.held[k] {
+                            return Err(SnapshotError::Shape);
+                        }
+                    }
+                    if let Some(q) = s.pen.parts() {
+                        let terms = q.terms.len();
+                        d.expect_shape(terms)?;
+                        d.reals(&mut q.weights[..terms])?;
+                        d.reals(&mut q.offset[..n])?;
+                        let ok = |x: &T| x.finite() && !(*x < T::zero());
+                        if !q.weights[..terms].iter().all(ok)
+                            || !q.offset[..n].iter().all(|x| x.finite())
+                        {
+                            return Err(SnapshotError::Invalid);
+                        }
+                    }
                 }
                 Ok(s)
             })?;

@@ -19,6 +19,7 @@
 
 use crate::identify::lm::LmError;
 use crate::identify::lm_storage::{LmParts, LmStorage};
+use crate::model::effects::{Effect, EffectKind};
 use crate::model::param::Param;
 use crate::{ForwardKinematics, Measurement, Real, Robot};
 use nalgebra::Vector3;
@@ -79,12 +80,23 @@ impl<T: Real, S: LmStorage<T>> PassPart<T, S> {
     pub fn cost(&self) -> T {
         self.cost
     }
+
+    /// The part's storage: its normal equations `JᵀJ` (lower triangle) and `Jᵀr` of the
+    /// scaled columns over the poses accumulated in its pass (`parts_ref().jtj`, `.jtr`).
+    pub fn storage(&self) -> &S {
+        &self.storage
+    }
 }
 
 impl<T: Real, const N: usize, const V: usize> Pass<'_, T, N, V> {
     /// What this pass computes.
     pub fn kind(&self) -> PassKind {
         self.kind
+    }
+
+    /// The model this pass evaluates (the estimate, or the candidate).
+    pub fn robot(&self) -> &Robot<T, N, V> {
+        self.robot
     }
 
     /// Adds `poses` (a slice of the run's measurements; every pose in exactly one part) to
@@ -108,9 +120,17 @@ impl<T: Real, const N: usize, const V: usize> Pass<'_, T, N, V> {
             part.cost = T::zero();
             part.poses = 0;
             let p = part.storage.parts();
-            clear_normal_equations(p.jtj, p.jtr, p.stride, n);
+            if self.columns.gradient_only {
+                p.jtr[..n].fill(T::zero());
+            } else {
+                clear_normal_equations(p.jtj, p.jtr, p.stride, n);
+            }
         }
-        let (_, mut sums) = split_parts(part.storage.parts(), self.columns.full);
+        let (_, mut sums) = split_parts(
+            part.storage.parts(),
+            self.columns.full,
+            self.columns.gradient_only,
+        );
         for m in poses {
             part.cost += accumulate_pose(fk, self.robot, m, &self.columns, &mut sums);
         }
@@ -160,12 +180,17 @@ pub(crate) struct NormalSums<'a, T> {
 
 /// A storage's arrays as what one pose reads (the parameters, scales, estimated set) and where
 /// it adds (the normal equations and their per-pose scratch).
-pub(crate) fn split_parts<T>(p: LmParts<'_, T>, full: bool) -> (Columns<'_, T>, NormalSums<'_, T>) {
+pub(crate) fn split_parts<T>(
+    p: LmParts<'_, T>,
+    full: bool,
+    gradient_only: bool,
+) -> (Columns<'_, T>, NormalSums<'_, T>) {
     let columns = Columns {
         params: p.params,
         scale: p.scale,
         active: p.active,
         full,
+        gradient_only,
     };
     let sums = NormalSums {
         stride: p.stride,
@@ -187,6 +212,8 @@ pub(crate) struct Columns<'a, T> {
     pub scale: &'a [T],
     pub active: &'a [bool],
     pub full: bool,
+    /// Only `Jᵀr` (and the cost): `JᵀJ` is left as it is (a solver keeping its curvature).
+    pub gradient_only: bool,
 }
 
 /// Adds one pose's residual and scaled Jacobian to `out` and returns its squared residual.
@@ -203,36 +230,62 @@ pub(crate) fn accumulate_pose<T: Real, const N: usize, const V: usize>(
     out: &mut NormalSums<'_, T>,
 ) -> T {
     let r = m.point - fk.compute(robot, &m.q);
+    // A gradient-only pass leaves `JᵀJ` alone: no held column's diagonal either.
+    let set = &Columns {
+        full: set.full || set.gradient_only,
+        ..*set
+    };
     let Columns {
         params,
         scale,
         active,
         full,
+        gradient_only,
     } = *set;
     let n = params.len();
     let s = out.stride;
     // Column k is (cx[k], cy[k], cz[k]) (zero when it does not enter); `nz`: the entering
-    // non-zero ones.
-    let mut k_nz = 0;
-    for k in 0..n {
-        // Parameters were checked against the robot at construction: a column always exists.
-        let mut c = fk
-            .column(robot, params[k])
-            .unwrap_or_else(|_| Vector3::zeros())
-            / scale[k];
-        if !active[k] && !full {
-            out.jtj[k * s + k] += c.norm_squared();
-            c = Vector3::zeros();
-        } else if c.x != T::zero() || c.y != T::zero() || c.z != T::zero() {
-            out.nz[k_nz] = k;
-            k_nz += 1;
+    // non-zero ones. Tables (only a robot with room for effects can have one) touch two knots
+    // of many: their columns are set apart.
+    let with_tables = V > 0 && robot.effects().iter().any(|e| e.kind == EffectKind::Table);
+    let k_nz = if with_tables {
+        columns_with_tables(fk, robot, set, out)
+    } else {
+        let mut k_nz = 0;
+        for k in 0..n {
+            // Parameters were checked against the robot at construction: a column always exists.
+            let mut c = fk
+                .column(robot, params[k])
+                .unwrap_or_else(|_| Vector3::zeros())
+                / scale[k];
+            if !active[k] && !full {
+                out.jtj[k * s + k] += c.norm_squared();
+                c = Vector3::zeros();
+            } else if c.x != T::zero() || c.y != T::zero() || c.z != T::zero() {
+                out.nz[k_nz] = k;
+                k_nz += 1;
+            }
+            (out.cx[k], out.cy[k], out.cz[k]) = (c.x, c.y, c.z);
         }
-        (out.cx[k], out.cy[k], out.cz[k]) = (c.x, c.y, c.z);
-    }
+        k_nz
+    };
     let (cx, cy, cz, nz) = (&out.cx[..n], &out.cy[..n], &out.cz[..n], &out.nz[..k_nz]);
+    if gradient_only {
+        for &i in nz {
+            out.jtr[i] += Vector3::new(cx[i], cy[i], cz[i]).dot(&r);
+        }
+        return r.norm_squared();
+    }
     // Most columns enter (the geometric case): whole contiguous rows, zero columns adding
     // nothing. Few (tables touch two knots of many): only the pairs that do.
     let dense = 2 * k_nz >= n;
+    // Sparse (a model with effects, where tables touch few of many columns): how many of the
+    // entering columns are `0, 1, 2, …` (a contiguous leading run: the geometric columns).
+    let lead = if dense || V == 0 {
+        0
+    } else {
+        nz.iter().enumerate().take_while(|(a, j)| *a == **j).count()
+    };
     for (a, &i) in nz.iter().enumerate() {
         let (xi, yi, zi) = (cx[i], cy[i], cz[i]);
         out.jtr[i] += Vector3::new(xi, yi, zi).dot(&r);
@@ -243,11 +296,161 @@ pub(crate) fn accumulate_pose<T: Real, const N: usize, const V: usize>(
                 *v += xi * *x + yi * *y + zi * *z;
             }
         } else {
-            // nz is increasing, so every j ≤ i: the lower triangle.
-            for &j in &nz[..=a] {
+            // nz is increasing, so every j ≤ i: the lower triangle. Its leading run `0..lead`
+            // (the geometric columns, which every pose excites) as one contiguous row.
+            let head = lead.min(a + 1);
+            let cols = cx[..head].iter().zip(&cy[..head]).zip(&cz[..head]);
+            for (v, ((x, y), z)) in row[..head].iter_mut().zip(cols) {
+                *v += xi * *x + yi * *y + zi * *z;
+            }
+            for &j in &nz[head..=a] {
                 row[j] += xi * cx[j] + yi * cy[j] + zi * cz[j];
             }
         }
     }
     r.norm_squared()
+}
+
+/// One pose's columns (as in [`accumulate_pose`]) of a robot with correction tables: a table
+/// whose knots are consecutive in the parameter list (the usual order) is handled as a run:
+/// its columns zeroed at once and only the two knots around the reading computed (one
+/// segment look-up per table and pose instead of one per knot). Returns the number of
+/// entering non-zero columns (in `out.nz`, increasing).
+#[inline(never)]
+fn columns_with_tables<T: Real, const N: usize, const V: usize>(
+    fk: &ForwardKinematics<T, N>,
+    robot: &Robot<T, N, V>,
+    set: &Columns<'_, T>,
+    out: &mut NormalSums<'_, T>,
+) -> usize {
+    let Columns {
+        params,
+        scale,
+        active,
+        full,
+        ..
+    } = *set;
+    let n = params.len();
+    let s = out.stride;
+    let mut k_nz = 0;
+    // Column `k` is `c` (already scaled).
+    let mut enter = |out: &mut NormalSums<'_, T>, k: usize, mut c: Vector3<T>| {
+        if !active[k] && !full {
+            out.jtj[k * s + k] += c.norm_squared();
+            c = Vector3::zeros();
+        } else if c.x != T::zero() || c.y != T::zero() || c.z != T::zero() {
+            out.nz[k_nz] = k;
+            k_nz += 1;
+        }
+        (out.cx[k], out.cy[k], out.cz[k]) = (c.x, c.y, c.z);
+    };
+    let mut tables = TableCache::new();
+    let mut k = 0;
+    while k < n {
+        if let Param::Effect(v) = params[k] {
+            if let Some(e) = table_run_at(robot, params, k, v) {
+                let (len, j) = (e.len as usize, e.joint as usize);
+                out.cx[k..k + len].fill(T::zero());
+                out.cy[k..k + len].fill(T::zero());
+                out.cz[k..k + len].fill(T::zero());
+                let (seg, w) = e.segment(fk.q[j]);
+                let jc = fk.reading_column(robot, j);
+                for (i, phi) in [(seg, T::one() - w), (seg + 1, w)] {
+                    if phi != T::zero() && i < len {
+                        enter(out, k + i, jc * phi / scale[k + i]);
+                    }
+                }
+                k += len;
+                continue;
+            }
+        }
+        // Parameters were checked against the robot at construction: a column always exists.
+        let c = match params[k] {
+            Param::Effect(v) => tables.column(fk, robot, v),
+            _ => None,
+        };
+        let c = c.unwrap_or_else(|| {
+            fk.column(robot, params[k])
+                .unwrap_or_else(|_| Vector3::zeros())
+        });
+        enter(out, k, c / scale[k]);
+        k += 1;
+    }
+    k_nz
+}
+
+/// The table whose first knot is effect value `v` = `params[k]`, when all its knots follow in
+/// order from position `k` (and its joint exists).
+#[inline]
+fn table_run_at<'r, T: Real, const N: usize, const V: usize>(
+    robot: &'r Robot<T, N, V>,
+    params: &[Param],
+    k: usize,
+    v: u16,
+) -> Option<&'r Effect<T>> {
+    let e = robot
+        .effects()
+        .iter()
+        .find(|e| e.kind == EffectKind::Table && e.first == v)?;
+    let len = e.len as usize;
+    let run = params.get(k..k + len)?;
+    let consecutive = run
+        .iter()
+        .enumerate()
+        .all(|(i, p)| *p == Param::Effect(v.wrapping_add(i as u16)));
+    (consecutive && (e.joint as usize) < N && len >= 2).then_some(e)
+}
+
+/// The table segment of the last table looked up at one pose: consecutive knots of a table
+/// (the usual parameter order) find it without a search.
+struct TableCache<T: Real> {
+    /// Value indices `first .. first + len` of the table, the lower knot of the pose's segment
+    /// (value index), the upper knot's weight and `∂p/∂r'_j`.
+    hit: Option<(usize, usize, usize, T, Vector3<T>)>,
+}
+
+impl<T: Real> TableCache<T> {
+    fn new() -> Self {
+        Self { hit: None }
+    }
+
+    /// The column of effect value `v` when it is a table knot (`None`: not a table's): what
+    /// [`ForwardKinematics::column`] gives, `∂p/∂r'_j · φ_v`.
+    #[inline]
+    fn column<const N: usize, const V: usize>(
+        &mut self,
+        fk: &ForwardKinematics<T, N>,
+        robot: &Robot<T, N, V>,
+        v: u16,
+    ) -> Option<Vector3<T>> {
+        let v = v as usize;
+        let inside = |first: usize, len: usize| first <= v && v < first + len;
+        if !self.hit.is_some_and(|(f, l, ..)| inside(f, l)) {
+            let e: &Effect<T> = robot.effects().iter().find(|e| {
+                e.kind == EffectKind::Table && inside(e.first as usize, e.len as usize)
+            })?;
+            let j = e.joint as usize;
+            if j >= N {
+                return None;
+            }
+            let (seg, w) = e.segment(fk.q[j]);
+            let first = e.first as usize;
+            self.hit = Some((
+                first,
+                e.len as usize,
+                first + seg,
+                w,
+                fk.reading_column(robot, j),
+            ));
+        }
+        let (_, _, lower, w, jc) = self.hit?;
+        let phi = if v == lower {
+            T::one() - w
+        } else if v == lower + 1 {
+            w
+        } else {
+            T::zero()
+        };
+        Some(jc * phi)
+    }
 }

@@ -8,13 +8,15 @@
 //! 600-parameter model then needs no megabyte-sized value on any stack.
 
 use crate::model::param::{Param, ParamError, ParamSet};
-use crate::num::linalg::Square;
+use crate::num::linalg::{cholesky, cholesky_solve, Flat, LinalgError, Square};
 use crate::Real;
 
 /// Number of length-`n` real vectors in [`LmParts`].
 pub const LM_VECTORS: usize = 11;
 /// Number of length-`n` index vectors in [`LmParts`].
 pub const LM_INDEX_VECTORS: usize = 3;
+/// Number of length-`n` flag vectors in [`LmParts`] (`active`, `before`, `held`).
+pub const LM_FLAG_VECTORS: usize = 3;
 
 /// The solver's arrays, each with room for the `n` parameters of the run; the two matrices are
 /// row-major with row stride `stride ≥ n` (element `(i, j)` at `i * stride + j`).
@@ -22,6 +24,7 @@ pub const LM_INDEX_VECTORS: usize = 3;
 pub struct LmParts<'a, T> {
     /// The parameters being estimated (`n = params.len()`).
     pub params: &'a [Param],
+    /// Row stride of the two matrices (`≥ n`).
     pub stride: usize,
     /// Normal matrix `JᵀJ` of the scaled columns (lower triangle kept).
     pub jtj: &'a mut [T],
@@ -37,36 +40,57 @@ pub struct LmParts<'a, T> {
     pub scale: &'a mut [T],
     /// Diagonal of `JᵀJ` at the last identifiability analysis.
     pub analysed_diag: &'a mut [T],
-    /// Scratch vectors of a solve.
+    /// Right-hand side of a solve (scratch).
     pub g: &'a mut [T],
+    /// Solution of a solve (scratch; [`LmStorage::solve_work`] solves in place here).
     pub x: &'a mut [T],
+    /// The step in parameter units (scratch).
     pub delta: &'a mut [T],
     /// One pose's scaled columns by coordinate (column `k` is `(cx[k], cy[k], cz[k])`): rows
-    /// of `JᵀJ` are then updated from contiguous arrays, which vectorises.
+    /// of `JᵀJ` are then updated from contiguous arrays, which vectorises. `x` parts.
     pub cx: &'a mut [T],
+    /// `y` parts of one pose's scaled columns.
     pub cy: &'a mut [T],
+    /// `z` parts of one pose's scaled columns.
     pub cz: &'a mut [T],
-    /// Indices of those columns; of the active parameters; the pivot order.
+    /// Indices of one pose's non-zero columns.
     pub nz: &'a mut [usize],
+    /// Indices of the active parameters (a solve's compacted order).
     pub idx: &'a mut [usize],
+    /// The pivot order of an analysis (scratch; a solve's position of each parameter).
     pub order: &'a mut [usize],
-    /// `active[k]`: parameter k is estimated (false: held); `before`: scratch of the analysis.
+    /// `active[k]`: parameter k is estimated (false: held, by the caller or the analysis).
     pub active: &'a mut [bool],
+    /// Scratch of the analysis.
     pub before: &'a mut [bool],
+    /// `held[k]`: the caller holds parameter k at its start value
+    /// ([`crate::identify::lm::Levenberg::hold`]).
+    pub held: &'a mut [bool],
 }
 
-/// Read-only view of the parts a report or a snapshot needs.
+/// Read-only view of the parts a report or a snapshot needs (fields as in [`LmParts`]).
 #[derive(Debug, Clone, Copy)]
 pub struct LmPartsRef<'a, T> {
+    /// The parameters being estimated.
     pub params: &'a [Param],
+    /// Row stride of `jtj`.
     pub stride: usize,
+    /// Normal matrix `JᵀJ` of the scaled columns (lower triangle).
     pub jtj: &'a [T],
+    /// `Jᵀr`.
     pub jtr: &'a [T],
+    /// The last candidate step (scaled).
     pub step: &'a [T],
+    /// Accumulated scaled update since the start.
     pub total: &'a [T],
+    /// Column scale of each parameter.
     pub scale: &'a [T],
+    /// Diagonal of `JᵀJ` at the last identifiability analysis.
     pub analysed_diag: &'a [T],
+    /// Which parameters are estimated.
     pub active: &'a [bool],
+    /// Which parameters the caller holds.
+    pub held: &'a [bool],
 }
 
 /// Caller-owned storage of one identification run: the parameters it estimates and room for
@@ -80,6 +104,30 @@ pub trait LmStorage<T: Real> {
     fn parts(&mut self) -> LmParts<'_, T>;
     /// The arrays for reading.
     fn parts_ref(&self) -> LmPartsRef<'_, T>;
+    /// Factors the leading `m × m` block of `work` (row-major with row stride `stride`, lower
+    /// triangle read; symmetric positive definite) by Cholesky and solves for `x[..m]` in
+    /// place (`x` holds the right-hand side on entry). The default is the library's
+    /// [`cholesky`]; a host may override it with a faster kernel for large `m`, as long as it
+    /// solves the same system (the solver checks that `x` is finite).
+    fn solve_work(work: &mut [T], stride: usize, x: &mut [T], m: usize) -> Result<(), LinalgError> {
+        let x = x.get_mut(..m).ok_or(LinalgError::Size)?;
+        Flat::new(work, stride).and_then(|mut w| {
+            cholesky(&mut w, m)?;
+            cholesky_solve(&w, m, x)
+        })
+    }
+
+    /// Solves for `x[..m]` in place with the factor [`LmStorage::solve_work`] left in `work`
+    /// (its lower triangle must hold `L` of `L·Lᵀ`, as the library's [`cholesky`] leaves it).
+    fn resolve_work(
+        work: &mut [T],
+        stride: usize,
+        x: &mut [T],
+        m: usize,
+    ) -> Result<(), LinalgError> {
+        let x = x.get_mut(..m).ok_or(LinalgError::Size)?;
+        Flat::new(work, stride).and_then(|w| cholesky_solve(&w, m, x))
+    }
 }
 
 /// [`LmStorage`] in fixed arrays with room for `P` parameters (firmware, small host problems).
@@ -90,7 +138,7 @@ pub struct FixedLm<T: Real, const P: usize> {
     work: Square<T, P>,
     vectors: [[T; P]; LM_VECTORS],
     indices: [[usize; P]; LM_INDEX_VECTORS],
-    flags: [[bool; P]; 2],
+    flags: [[bool; P]; LM_FLAG_VECTORS],
 }
 
 impl<T: Real, const P: usize> FixedLm<T, P> {
@@ -102,7 +150,7 @@ impl<T: Real, const P: usize> FixedLm<T, P> {
             work: [[T::zero(); P]; P],
             vectors: [[T::zero(); P]; LM_VECTORS],
             indices: [[0; P]; LM_INDEX_VECTORS],
-            flags: [[false; P]; 2],
+            flags: [[false; P]; LM_FLAG_VECTORS],
         }
     }
 
@@ -120,7 +168,7 @@ impl<T: Real, const P: usize> LmStorage<T> for FixedLm<T, P> {
     fn parts(&mut self) -> LmParts<'_, T> {
         let [jtr, step, total, scale, analysed_diag, g, x, delta, cx, cy, cz] = &mut self.vectors;
         let [nz, idx, order] = &mut self.indices;
-        let [active, before] = &mut self.flags;
+        let [active, before, held] = &mut self.flags;
         LmParts {
             params: self.params.as_slice(),
             stride: P,
@@ -142,6 +190,7 @@ impl<T: Real, const P: usize> LmStorage<T> for FixedLm<T, P> {
             order,
             active,
             before,
+            held,
         }
     }
 
@@ -157,6 +206,7 @@ impl<T: Real, const P: usize> LmStorage<T> for FixedLm<T, P> {
             scale,
             analysed_diag,
             active: &self.flags[0],
+            held: &self.flags[2],
         }
     }
 }
@@ -182,6 +232,7 @@ pub(crate) fn storage_fits<T: Real, S: LmStorage<T>>(st: &mut S) -> bool {
         p.order.len(),
         p.active.len(),
         p.before.len(),
+        p.held.len(),
     ];
     let matrix = p.stride.checked_mul(p.stride);
     p.stride >= n

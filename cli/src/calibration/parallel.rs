@@ -7,7 +7,7 @@
 //! (starting threads would cost more than it saves), exactly as the library's own `step` does.
 
 use crate::calibration::vec_lm::VecLm;
-use kinecal::identify::lm::{Levenberg, LmError, LmProgress, PassPart};
+use kinecal::identify::lm::{Levenberg, LmError, LmPenalty, LmProgress, PassPart};
 use kinecal::{ForwardKinematics, Measurement};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -92,12 +92,13 @@ pub fn pass_parts(params: usize) -> usize {
     (PART_MATRIX_BYTES / matrix).clamp(2, PARTS)
 }
 
-/// Runs `lm` over `data` to the end, its passes over the poses on [`workers`] threads when
-/// there are many poses; `on_progress` sees the progress after every call into the solver.
-pub fn run_lm<const N: usize, const V: usize>(
-    lm: &mut Levenberg<f64, N, V, VecLm<f64>>,
+/// Runs `lm` (with or without a penalty) over `data` to the end, its passes over the poses on
+/// [`workers`] threads when there are many poses; `on_progress` sees the progress after every
+/// call into the solver.
+pub fn run_lm<const N: usize, const V: usize, Q: LmPenalty<f64>>(
+    lm: &mut Levenberg<f64, N, V, VecLm<f64>, Q>,
     data: &[Measurement<f64, N>],
-    mut on_progress: impl FnMut(&Levenberg<f64, N, V, VecLm<f64>>, &LmProgress<f64>),
+    mut on_progress: impl FnMut(&Levenberg<f64, N, V, VecLm<f64>, Q>, &LmProgress<f64>),
 ) -> Result<LmProgress<f64>, LmError> {
     // In parts whenever the data are large, even on one core: the sums then do not depend on
     // the machine.

@@ -2,10 +2,18 @@
 //! problem (the parameter count) on the heap, so that a model with per-joint tables (600+
 //! parameters, a 3 MB normal matrix) needs neither a big stack nor a worst-case capacity.
 
-use kinecal::identify::lm::{LmParts, LmPartsRef, LmStorage};
-use kinecal::identify::lm_storage::{LM_INDEX_VECTORS, LM_VECTORS};
+use kinecal::identify::lm::{
+    LmParts, LmPartsRef, LmPenalty, LmStorage, PenaltyParts, PenaltyPartsRef, PenaltyTerm,
+};
+use kinecal::identify::lm_storage::{LM_FLAG_VECTORS, LM_INDEX_VECTORS, LM_VECTORS};
 use kinecal::model::param::Param;
+use kinecal::num::linalg::LinalgError;
 use kinecal::Real;
+use nalgebra::{DMatrix, DVector};
+
+/// From this many active parameters on, [`VecLm`] solves with the blocked factorisation of
+/// [`crate::diagnose::dense`] (matrix products) instead of the library's row-by-row one.
+pub const BLOCKED_SOLVE_MIN: usize = 96;
 
 /// [`LmStorage`] in `Vec`s sized for exactly the parameters of the run.
 #[derive(Clone, Debug)]
@@ -28,7 +36,7 @@ impl<T: Real> VecLm<T> {
             work: vec![T::zero(); n * n],
             vectors: vec![T::zero(); LM_VECTORS * n],
             indices: vec![0; LM_INDEX_VECTORS * n],
-            flags: vec![false; 2 * n],
+            flags: vec![false; LM_FLAG_VECTORS * n],
         }
     }
 }
@@ -54,7 +62,8 @@ impl<T: Real> LmStorage<T> for VecLm<T> {
         let mut ix = self.indices.chunks_exact_mut(n.max(1));
         let mut next_ix = || ix.next().unwrap_or(&mut []);
         let (nz, idx, order) = (next_ix(), next_ix(), next_ix());
-        let (active, before) = self.flags.split_at_mut(n);
+        let (active, rest) = self.flags.split_at_mut(n);
+        let (before, held) = rest.split_at_mut(n);
         LmParts {
             params: &self.params,
             stride: n,
@@ -76,6 +85,7 @@ impl<T: Real> LmStorage<T> for VecLm<T> {
             order,
             active,
             before,
+            held,
         }
     }
 
@@ -92,6 +102,106 @@ impl<T: Real> LmStorage<T> for VecLm<T> {
             scale: v(3),
             analysed_diag: v(4),
             active: &self.flags[..n],
+            held: self.flags.get(2 * n..3 * n).unwrap_or(&[]),
         }
+    }
+
+    /// Large systems (the hundreds of table knots of `diagnose`'s models) by blocks, in `f64`;
+    /// small ones (and `f32`) by the library's kernel.
+    fn solve_work(work: &mut [T], stride: usize, x: &mut [T], m: usize) -> Result<(), LinalgError> {
+        if m < BLOCKED_SOLVE_MIN || m > stride || x.len() < m || core::mem::size_of::<T>() != 8 {
+            return default_solve::<T>(work, stride, x, m);
+        }
+        // Row-major lower triangle → a column-major matrix whose lower triangle is read.
+        let h = DMatrix::from_fn(m, m, |i, j| {
+            if i >= j {
+                work[i * stride + j].to_f64()
+            } else {
+                0.0
+            }
+        });
+        let chol = crate::diagnose::dense::cholesky(h).ok_or(LinalgError::NotPositiveDefinite)?;
+        let rhs = DVector::from_iterator(m, x[..m].iter().map(|v| v.to_f64()));
+        let sol = chol.solve(&rhs);
+        // The factor back into `work`, as the library's kernel leaves it (for resolves).
+        let l = chol.l_dirty();
+        for i in 0..m {
+            for j in 0..=i {
+                work[i * stride + j] = T::of(l[(i, j)]);
+            }
+        }
+        for (v, s) in x.iter_mut().zip(sol.iter()) {
+            *v = T::of(*s);
+        }
+        Ok(())
+    }
+}
+
+/// The library's default [`LmStorage::solve_work`] (the trait's provided method, reached
+/// through a storage that does not override it).
+fn default_solve<T: Real>(
+    work: &mut [T],
+    stride: usize,
+    x: &mut [T],
+    m: usize,
+) -> Result<(), LinalgError> {
+    <kinecal::identify::lm::FixedLm<T, 0> as LmStorage<T>>::solve_work(work, stride, x, m)
+}
+
+/// [`LmPenalty`] on the heap: the terms, a prior per parameter (zero unless set) and the
+/// solver's arrays, sized for `n` parameters.
+#[derive(Clone, Debug)]
+pub struct VecPenalty<T: Real> {
+    terms: Vec<PenaltyTerm<T>>,
+    prior: Vec<T>,
+    weights: Vec<T>,
+    offset: Vec<T>,
+    scratch: Vec<T>,
+    diagonal: Vec<T>,
+}
+
+impl<T: Real> VecPenalty<T> {
+    /// `terms` on a solver with `n` parameters, every prior zero (pull towards zero).
+    pub fn new(n: usize, terms: Vec<PenaltyTerm<T>>) -> Self {
+        let k = terms.len();
+        Self {
+            terms,
+            prior: vec![T::zero(); n],
+            weights: vec![T::one(); k],
+            offset: vec![T::zero(); n],
+            scratch: vec![T::zero(); n],
+            diagonal: vec![T::zero(); n],
+        }
+    }
+
+    /// The prior of every parameter (parameter units), for writing.
+    pub fn prior_mut(&mut self) -> &mut [T] {
+        &mut self.prior
+    }
+
+    /// The terms.
+    pub fn terms(&self) -> &[PenaltyTerm<T>] {
+        &self.terms
+    }
+}
+
+impl<T: Real> LmPenalty<T> for VecPenalty<T> {
+    fn parts(&mut self) -> Option<PenaltyParts<'_, T>> {
+        Some(PenaltyParts {
+            terms: &self.terms,
+            prior: &self.prior,
+            weights: &mut self.weights,
+            offset: &mut self.offset,
+            scratch: &mut self.scratch,
+            diagonal: &mut self.diagonal,
+        })
+    }
+    fn parts_ref(&self) -> Option<PenaltyPartsRef<'_, T>> {
+        Some(PenaltyPartsRef {
+            terms: &self.terms,
+            prior: &self.prior,
+            weights: &self.weights,
+            offset: &self.offset,
+        })
     }
 }

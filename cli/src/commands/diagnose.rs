@@ -4,7 +4,7 @@
 
 use super::inputs::InputArgs;
 use crate::calibration::split_holdout;
-use crate::diagnose::penalised_fit::squared_errors;
+use crate::diagnose::linear::squared_errors;
 use crate::diagnose::{diagnose, Config, Diagnosis};
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::output::numfmt::sig;

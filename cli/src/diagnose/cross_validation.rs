@@ -15,10 +15,10 @@
 
 use crate::calibration::parallel;
 use crate::diagnose::dense::{cholesky, cholesky_inverse, LowerFactor};
-use crate::diagnose::penalised_fit::{
-    add_table_penalty, add_tiny_ridge, fit_from, squared_errors, Normal, NormalSums, Problem,
-    TablePenalty,
+use crate::diagnose::linear::{
+    add_table_penalty, add_tiny_ridge, Normal, NormalSums, Problem, TablePenalty,
 };
+use crate::diagnose::refit::fold_errors;
 use crate::diagnose::significance::pose_groups;
 use kinecal::model::effects::{Effect, EffectKind};
 use kinecal::{ForwardKinematics, Measurement, Param, Robot};
@@ -84,48 +84,15 @@ pub fn refit_errors<const N: usize, const V: usize>(
 }
 
 /// [`refit_errors`] of several models (start and parameter set) at once: their fold fits are
-/// independent, so all of them are spread over the cores together ([`parallel::map_each`]).
-///
-/// The fold fits of one model all start from the same robot: each fold's own normal equations
-/// at the start are formed once, and a fit's starting point is the sum over the other folds
-/// (one pass over the poses per model instead of one over 80 % of them per fold).
+/// independent, so all of them are spread over the cores together (the library's
+/// Levenberg–Marquardt, [`crate::diagnose::refit::fold_errors`]).
 pub fn refit_errors_each<const N: usize, const V: usize>(
     models: &[(&Robot<f64, N, V>, &Problem)],
     data: &[Measurement<f64, N>],
     folds: &Folds,
     max_iterations: u32,
 ) -> anyhow::Result<Vec<Vec<f64>>> {
-    let splits: Vec<(Vec<usize>, Vec<usize>)> = (0..folds.k)
-        .map(|f| folds.split(f))
-        .filter(|(test, _)| !test.is_empty())
-        .collect();
-    // (model, split) of every fold fit.
-    let refits: Vec<(usize, usize)> = (0..models.len())
-        .flat_map(|m| (0..splits.len()).map(move |s| (m, s)))
-        .collect();
-    let own: Vec<Normal> = parallel::map_each(&refits, |&(m, s)| {
-        let (start, problem) = models[m];
-        Normal::of(problem, start, &subset(data, &splits[s].0))
-    });
-    let held_out = parallel::map_each(&refits, |&(m, s)| -> anyhow::Result<Vec<f64>> {
-        let (start, problem) = models[m];
-        let (test, train) = &splits[s];
-        let others = refits
-            .iter()
-            .zip(&own)
-            .filter(|((om, os), _)| *om == m && *os != s)
-            .map(|(_, n)| n);
-        let normal = Normal::sum(problem.len(), others);
-        let fitted = fit_from(start, problem, &subset(data, train), normal, max_iterations)?;
-        Ok(squared_errors(&fitted.robot, &subset(data, test)))
-    });
-    let mut out = vec![vec![0.0; data.len()]; models.len()];
-    for (&(m, s), e) in refits.iter().zip(held_out) {
-        for (i, v) in splits[s].0.iter().zip(e?) {
-            out[m][*i] = v;
-        }
-    }
-    Ok(out)
+    fold_errors(models, data, folds, max_iterations)
 }
 
 /// Root of the mean of squared errors.
@@ -283,10 +250,9 @@ impl Linearised {
             dtr.zip_apply(&dt, |own, total| *own = total - *own);
             etr.zip_apply(&et, |own, total| *own = total - *own);
             if let (Some(tp), true) = (table, m > 0) {
-                let idx: Vec<usize> = (0..m).collect();
                 let diag = dtr.diagonal();
                 let mut pen = DMatrix::zeros(m, m);
-                add_table_penalty(&mut pen, &idx, &diag, tp);
+                add_table_penalty(&mut pen, m, &diag, tp);
                 dtr += pen;
             }
             let l = factor.l();

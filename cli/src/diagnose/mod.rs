@@ -7,7 +7,8 @@
 //! 2. **Rounds.** With deterministic k-fold cross-validation (k = 5): every candidate of the
 //!    catalogue ([`crate::diagnose::candidates`]) is screened by one linearised step from the current
 //!    solution ([`crate::diagnose::cross_validation::Linearised`]); the best few (3 effect families)
-//!    are refitted fold by fold ([`crate::diagnose::penalised_fit`]); a refit is added only if its
+//!    are refitted fold by fold by the library's Levenberg–Marquardt with a penalty on table
+//!    knots ([`crate::diagnose::refit`]); a refit is added only if its
 //!    per-pose held-out improvement passes the one-sided paired t test at `α / m` (Bonferroni
 //!    over the `m` candidates screened in the round, α = 5 %; see [`crate::diagnose::significance`])
 //!    and is not negligible (at least 1 % of the held-out mean squared error); of those, the
@@ -26,7 +27,8 @@
 pub mod candidates;
 pub mod cross_validation;
 pub mod dense;
-pub mod penalised_fit;
+pub mod linear;
+pub mod refit;
 pub mod residual_plots;
 pub mod significance;
 
@@ -36,7 +38,8 @@ use crate::diagnose::candidates::{catalogue, Candidate, CandidateKind, Catalogue
 use crate::diagnose::cross_validation::{
     fold_inflation, refit_errors, refit_errors_each, rms, Folds, Linearised, PoseKinematics,
 };
-use crate::diagnose::penalised_fit::{fit, Problem, TablePenalty};
+use crate::diagnose::linear::{Problem, TablePenalty};
+use crate::diagnose::refit::fit;
 use crate::diagnose::significance::{
     held_out_noise, noise_floor_interval, paired_improvement, repeat_noise, PairedTest,
 };

@@ -1,26 +1,26 @@
-//! Penalised Levenberg–Marquardt on dense (heap) normal equations: the refits of the
-//! discrepancy search.
+//! The refits' problem and the linear algebra the discrepancy search does around them.
 //!
-//! The library's [`kinecal::identify::lm::Levenberg`] fits the geometry from the nominal model (robust
-//! damping, identifiability analysis). Once effects join the model, two things need more than
-//! it offers: correction tables need a penalty on their knot values (a light ridge towards zero
-//! and a second-difference smoothness term: a knot that few poses excite must not run off, and
-//! a table's constant part must go to the joint's `theta`, which is free), and the search runs
-//! hundreds of short refits from a nearby solution on subsets of the poses. Here the normal
-//! equations live on the heap (models with six 3.6° tables have ~500 parameters), only the
-//! columns a pose excites are accumulated (a table touches two knots), and the cost minimised is
+//! [`Problem`] is a parameter set of a refit: which parameters are free, their scales
+//! ([`Param::scale`]: 1 mm at the tool per unit) and the penalty on the knots of correction
+//! tables ([`TablePenalty`]), expressed as the library's penalty terms
+//! ([`kinecal::identify::lm_penalty`]). The refits themselves are the library's
+//! Levenberg–Marquardt ([`crate::diagnose::refit`]); what is here serves the screen and the
+//! noise estimate, which work on normal equations directly: every pose's residual and sparse
+//! scaled columns ([`Problem::pose_rows`]), their normal-equation sums per fold ([`Normal`],
+//! [`NormalSums`]), the penalty matrix `Π` for a normal matrix ([`Problem::penalty_matrix`],
+//! the same `Π` the library's run uses), the effective number of parameters of a penalised fit
+//! and per-pose squared errors.
 //!
-//! `Σ |r_i|² + xᵀ Π x`,
-//!
-//! `x` being the parameters in scaled units ([`Param::scale`]: 1 mm at the tool per unit) and
-//! `Π` the table penalty, scaled by the table's own mean diagonal of `JᵀJ` so that it is light
-//! whatever the number of poses.
+//! The cost a refit minimises is `Σ |r_i|² + xᵀ Π x`, `x` being the parameters in scaled
+//! units and `Π` the table penalty, scaled by the table's own mean diagonal of `JᵀJ` so that
+//! it is light whatever the number of poses.
 
 use crate::diagnose::dense::{cholesky, cholesky_inverse};
+use kinecal::identify::lm::PenaltyTerm;
 use kinecal::model::effects::EffectKind;
-use kinecal::model::param::{apply_delta, value, Param};
+use kinecal::model::param::{value, Param};
 use kinecal::{ForwardKinematics, Measurement, Robot};
-use nalgebra::{Cholesky, DMatrix, DVector, Dyn, Vector3};
+use nalgebra::{DMatrix, DVector, Vector3};
 
 /// Strength of the table penalty, relative to the mean diagonal of the table's block of `JᵀJ`.
 ///
@@ -51,6 +51,7 @@ impl Default for TablePenalty {
 /// The free parameters of a fit and how they are scaled and penalised.
 #[derive(Clone, Debug)]
 pub struct Problem {
+    /// The free parameters, in the order of the normal equations.
     pub params: Vec<Param>,
     /// [`Param::scale`] of each parameter (mm per unit).
     pub scale: Vec<f64>,
@@ -61,14 +62,15 @@ pub struct Problem {
     effect_index: Vec<Option<usize>>,
     /// Indices in `params` of the non-effect parameters.
     geometric: Vec<usize>,
-    /// Knot indices in `params` of every table, lowest knot first.
+    /// Knot indices in `params` of every table, lowest knot first (consecutive).
     pub tables: Vec<Vec<usize>>,
+    /// Strength of the penalty on every table.
     pub penalty: TablePenalty,
 }
 
 impl Problem {
     /// The parameters `params` of `robot` (duplicates ignored). Tables must be free as a whole
-    /// or held as a whole.
+    /// or held as a whole, their knots in consecutive order in `params`.
     pub fn new<const N: usize, const V: usize>(
         robot: &Robot<f64, N, V>,
         params: &[Param],
@@ -111,7 +113,12 @@ impl Problem {
                 .map(|k| effect_index[k as usize])
                 .collect();
             if idx.iter().all(Option::is_some) {
-                tables.push(idx.into_iter().flatten().collect());
+                let knots: Vec<usize> = idx.into_iter().flatten().collect();
+                anyhow::ensure!(
+                    knots.windows(2).all(|w| w[1] == w[0] + 1),
+                    "a table's knots must be consecutive in the parameter list"
+                );
+                tables.push(knots);
             } else {
                 anyhow::ensure!(
                     idx.iter().all(Option::is_none),
@@ -132,11 +139,23 @@ impl Problem {
         })
     }
 
+    /// The number of free parameters.
     pub fn len(&self) -> usize {
         self.params.len()
     }
+    /// True when nothing is free.
     pub fn is_empty(&self) -> bool {
         self.params.is_empty()
+    }
+
+    /// The table penalty as the library's terms: one relative term per table, on its knots'
+    /// positions in `params`.
+    pub fn penalty_terms(&self) -> Vec<PenaltyTerm<f64>> {
+        self.tables
+            .iter()
+            .filter(|t| !t.is_empty())
+            .map(|t| table_term(t[0], t.len(), self.penalty))
+            .collect()
     }
 
     /// Current values of the parameters in scaled units (the base rotation counts as zero:
@@ -154,11 +173,12 @@ impl Problem {
         )
     }
 
-    /// The penalty matrix `Π` (scaled units) for a normal matrix whose diagonal is `diag`.
+    /// The penalty matrix `Π` (scaled units) for a normal matrix whose diagonal is `diag`:
+    /// the one a library run resolves at its first pass.
     pub fn penalty_matrix(&self, diag: &DVector<f64>) -> DMatrix<f64> {
         let mut pen = DMatrix::zeros(self.len(), self.len());
-        for t in &self.tables {
-            add_table_penalty(&mut pen, t, diag, self.penalty);
+        for t in self.penalty_terms() {
+            add_term(&mut pen, &t, diag);
         }
         pen
     }
@@ -210,45 +230,45 @@ impl Problem {
     }
 }
 
-/// Adds `w·(ridge·I + smoothness·DᵀD)` on the knots `t` (indices into the matrix), `w` the mean
-/// of `diag` over the knots.
-pub fn add_table_penalty(
-    pen: &mut DMatrix<f64>,
-    t: &[usize],
-    diag: &DVector<f64>,
-    p: TablePenalty,
-) {
-    if t.is_empty() {
-        return;
-    }
-    let w = t.iter().map(|&i| diag[i]).sum::<f64>() / t.len() as f64;
-    let w = if w > 0.0 && w.is_finite() { w } else { 1.0 };
-    for &i in t {
-        pen[(i, i)] += w * p.ridge;
-    }
-    if t.len() >= 3 && p.smoothness > 0.0 {
-        for k in 1..t.len() - 1 {
-            let idx = [t[k - 1], t[k], t[k + 1]];
-            let c = [1.0, -2.0, 1.0];
-            for a in 0..3 {
-                for b in 0..3 {
-                    pen[(idx[a], idx[b])] += w * p.smoothness * c[a] * c[b];
-                }
-            }
+/// The library's penalty term of a table whose `len` knots start at position `first`.
+pub fn table_term(first: usize, len: usize, p: TablePenalty) -> PenaltyTerm<f64> {
+    PenaltyTerm::relative(first, len, p.ridge, p.smoothness)
+}
+
+/// Adds the term `t`, weighted as the library weighs it for a normal matrix whose diagonal is
+/// `diag`, to `pen`.
+fn add_term(pen: &mut DMatrix<f64>, t: &PenaltyTerm<f64>, diag: &DVector<f64>) {
+    let w = t.weight(|k| diag[k]);
+    for i in 0..t.len {
+        for j in i.saturating_sub(2)..(i + 3).min(t.len) {
+            pen[(t.first + i, t.first + j)] += w * t.entry(i, j);
         }
+    }
+}
+
+/// Adds `w·(ridge·I + smoothness·DᵀD)` on the `m` leading rows and columns of `pen` (a
+/// candidate table's knots), `w` the mean of `diag` over them: the library's term.
+pub fn add_table_penalty(pen: &mut DMatrix<f64>, m: usize, diag: &DVector<f64>, p: TablePenalty) {
+    if m > 0 {
+        add_term(pen, &table_term(0, m, p), diag);
     }
 }
 
 /// Normal equations `JᵀJ`, `Jᵀr` and the sum of squared residuals over some poses.
 #[derive(Clone, Debug)]
 pub struct Normal {
+    /// `JᵀJ` (scaled columns).
     pub a: DMatrix<f64>,
+    /// `Jᵀr`.
     pub g: DVector<f64>,
+    /// Sum of squared residuals (mm²).
     pub ssr: f64,
+    /// Number of poses summed.
     pub poses: usize,
 }
 
 impl Normal {
+    /// Empty sums for `p` parameters.
     pub fn zeros(p: usize) -> Self {
         Self {
             a: DMatrix::zeros(p, p),
@@ -291,24 +311,6 @@ impl Normal {
         for_each_pose_rows(problem, robot, data, |r, cols| sums.add(r, cols));
         sums.finish()
     }
-}
-
-/// `Jᵀr` and the sum of squared residuals of `robot` over `data`: [`Normal::of`] without
-/// `JᵀJ` (the same sums, in the same order), for about half the cost.
-pub fn gradient<const N: usize, const V: usize>(
-    problem: &Problem,
-    robot: &Robot<f64, N, V>,
-    data: &[Measurement<f64, N>],
-) -> (DVector<f64>, f64) {
-    let mut g = DVector::zeros(problem.len());
-    let mut ssr = 0.0;
-    for_each_pose_rows(problem, robot, data, |r, cols| {
-        ssr += r.norm_squared();
-        for (i, c) in cols {
-            g[*i] += c.dot(r);
-        }
-    });
-    (g, ssr)
 }
 
 /// Calls `f` with the residual and the non-zero scaled columns ([`Problem::pose_rows`]) of
@@ -400,205 +402,6 @@ pub fn add_tiny_ridge(h: &mut DMatrix<f64>) {
     }
 }
 
-/// `H = JᵀJ + Π` of one linearisation point, with the Cholesky factor of its damped form
-/// for the damping last used: steps from the same `H` and damping with a fresh gradient cost
-/// two triangular solves, not a factorisation.
-struct Curvature {
-    h: DMatrix<f64>,
-    factor: Option<(f64, Cholesky<f64, Dyn>)>,
-}
-
-impl Curvature {
-    fn new(a: &DMatrix<f64>, pen: &DMatrix<f64>) -> Self {
-        Self {
-            h: a + pen,
-            factor: None,
-        }
-    }
-
-    /// Solves `(H + λ·diag H + μ) δ = rhs` (`λ` the Levenberg damping, `μ` the tiny ridge of
-    /// [`add_tiny_ridge`]); `None` when not positive definite or not finite.
-    fn solve(&mut self, damping: f64, rhs: &DVector<f64>) -> Option<DVector<f64>> {
-        let p = self.h.nrows();
-        if p == 0 {
-            return Some(DVector::zeros(0));
-        }
-        if self.factor.as_ref().is_none_or(|(d, _)| *d != damping) {
-            let mut h = self.h.clone();
-            for i in 0..p {
-                h[(i, i)] *= 1.0 + damping;
-            }
-            add_tiny_ridge(&mut h);
-            self.factor = Some((damping, cholesky(h)?));
-        }
-        let (_, factor) = self.factor.as_ref()?;
-        let d = factor.solve(rhs);
-        d.iter().all(|v| v.is_finite()).then_some(d)
-    }
-
-    /// The decrease of the penalised cost that the linearised model predicts for the step
-    /// `δ` solved for `rhs = g − Π x`: `2 δᵀ rhs − δᵀ H δ`.
-    fn predicted_reduction(&self, step: &DVector<f64>, rhs: &DVector<f64>) -> f64 {
-        2.0 * step.dot(rhs) - step.dot(&(&self.h * step))
-    }
-}
-
-/// Result of a penalised fit.
-#[derive(Clone, Debug)]
-pub struct FitOutcome<const N: usize, const V: usize> {
-    pub robot: Robot<f64, N, V>,
-    /// Sum of squared residuals (mm²) at the solution.
-    pub ssr: f64,
-    /// Accepted steps.
-    pub iterations: u32,
-    /// The penalty `Π` the fit used (scaled units; fixed at the start).
-    pub penalty: DMatrix<f64>,
-}
-
-impl<const N: usize, const V: usize> FitOutcome<N, V> {
-    /// Effective number of parameters, `tr((JᵀJ + Π)⁻¹ JᵀJ)` at the solution: the degrees of
-    /// freedom the fit used (= the parameter count without penalty). `problem` and `data` must
-    /// be the fit's. Computed on demand (one pass over the poses and an O(p³) inverse) because
-    /// only the final model's report needs it.
-    pub fn effective_parameters(&self, problem: &Problem, data: &[Measurement<f64, N>]) -> f64 {
-        effective_parameters(&Normal::of(problem, &self.robot, data).a, &self.penalty)
-    }
-}
-
-/// At most this many rejected steps in a row end a fit.
-const MAX_REJECTS: u32 = 12;
-/// A step whose predicted decrease is below this fraction of the cost is not tried: the fit
-/// has converged (the cost's rounding could not even tell whether it helped).
-const NEGLIGIBLE_REDUCTION: f64 = 1e-12;
-/// An accepted step whose actual decrease is below this fraction of the predicted one shows
-/// that the curvature `JᵀJ` in use no longer describes the cost: it is formed again.
-const WELL_PREDICTED: f64 = 0.5;
-/// An accepted step that gains more than this fraction of what the step before it gained
-/// shows slow convergence (the curvature in use is too far from the current one): it is
-/// formed again.
-const SLOW_CONVERGENCE: f64 = 0.1;
-
-/// Penalised Levenberg–Marquardt from `start` over `data` (at most `max_iterations` steps).
-pub fn fit<const N: usize, const V: usize>(
-    start: &Robot<f64, N, V>,
-    problem: &Problem,
-    data: &[Measurement<f64, N>],
-    max_iterations: u32,
-) -> anyhow::Result<FitOutcome<N, V>> {
-    fit_from(
-        start,
-        problem,
-        data,
-        Normal::of(problem, start, data),
-        max_iterations,
-    )
-}
-
-/// [`fit`] with the normal equations at `start` already known (`normal`, as
-/// [`Normal::of`]`(problem, start, data)` would give them, up to rounding): the fold fits of
-/// one model all start from the same robot, so one pass over all poses gives every fold's
-/// starting point as a sum of the other folds' own.
-///
-/// The refits start next to their solution and the model is nearly linear in its parameters
-/// (a fit typically takes one large step and one or two tiny ones), so the curvature `JᵀJ`
-/// is kept from the start, and with it the factor of the damped system, for as long as it
-/// serves: a step then costs one pass for the cost and the gradient `Jᵀr` at the trial point
-/// (no `JᵀJ`) and two triangular solves. `JᵀJ` is formed again at the current point when a
-/// step is rejected, gains less than half what it predicted, or gains more than a tenth of
-/// what the step before it gained (slow convergence). Whatever curvature is used, the fixed
-/// point is the stationary point of the penalised cost; the fit stops when the next step would
-/// gain less than [`NEGLIGIBLE_REDUCTION`] of the cost, or an accepted one gained less than
-/// 1e-10 of it.
-pub fn fit_from<const N: usize, const V: usize>(
-    start: &Robot<f64, N, V>,
-    problem: &Problem,
-    data: &[Measurement<f64, N>],
-    normal: Normal,
-    max_iterations: u32,
-) -> anyhow::Result<FitOutcome<N, V>> {
-    anyhow::ensure!(
-        3 * data.len() > problem.len(),
-        "{} poses cannot determine {} parameters",
-        data.len(),
-        problem.len()
-    );
-    let mut robot = start.clone();
-    let pen = problem.penalty_matrix(&normal.a.diagonal());
-    let mut x = problem.scaled_values(&robot);
-    let Normal {
-        a, mut g, mut ssr, ..
-    } = normal;
-    let mut cost = ssr + x.dot(&(&pen * &x));
-    let mut curvature = Curvature::new(&a, &pen);
-    // Whether `curvature` was formed at the current point.
-    let mut current = true;
-    let mut last_gain = f64::INFINITY;
-    let set = kinecal_set(problem)?;
-    let mut lambda = 1e-6;
-    let mut iterations = 0;
-    let mut rejects = 0;
-    while iterations < max_iterations && rejects < MAX_REJECTS {
-        let rhs = &g - &pen * &x;
-        let Some(step) = curvature.solve(lambda, &rhs) else {
-            lambda = (lambda * 10.0).max(1e-6);
-            rejects += 1;
-            continue;
-        };
-        let predicted = curvature.predicted_reduction(&step, &rhs);
-        if predicted.is_nan() || predicted < NEGLIGIBLE_REDUCTION * cost {
-            break;
-        }
-        let delta: Vec<f64> = step
-            .iter()
-            .zip(&problem.scale)
-            .map(|(d, s)| d / s)
-            .collect();
-        let mut cand = robot.clone();
-        if apply_delta(&mut cand, &set, &delta).is_err() {
-            lambda = (lambda * 10.0).max(1e-6);
-            rejects += 1;
-            continue;
-        }
-        let (cand_g, cand_ssr) = gradient(problem, &cand, data);
-        let cand_x = &x + &step;
-        let cand_cost = cand_ssr + cand_x.dot(&(&pen * &cand_x));
-        if cand_cost.is_finite() && cand_cost <= cost {
-            let gain = cost - cand_cost;
-            let rel = gain / cost.max(f64::MIN_POSITIVE);
-            robot = cand;
-            x = cand_x;
-            g = cand_g;
-            ssr = cand_ssr;
-            cost = cand_cost;
-            iterations += 1;
-            rejects = 0;
-            current = false;
-            if rel < 1e-10 || step.norm() < 1e-10 || iterations >= max_iterations {
-                break;
-            }
-            if gain < WELL_PREDICTED * predicted || gain > SLOW_CONVERGENCE * last_gain {
-                curvature = Curvature::new(&Normal::of(problem, &robot, data).a, &pen);
-                current = true;
-                lambda = (lambda / 3.0).max(1e-12);
-            }
-            last_gain = gain;
-        } else {
-            lambda = (lambda * 4.0).max(1e-6);
-            rejects += 1;
-            if !current {
-                curvature = Curvature::new(&Normal::of(problem, &robot, data).a, &pen);
-                current = true;
-            }
-        }
-    }
-    Ok(FitOutcome {
-        robot,
-        ssr,
-        iterations,
-        penalty: pen,
-    })
-}
-
 /// `tr((A + Π)⁻¹ A)`: the degrees of freedom a penalised fit uses (directions no pose
 /// excites count zero).
 pub fn effective_parameters(a: &DMatrix<f64>, pen: &DMatrix<f64>) -> f64 {
@@ -613,16 +416,6 @@ pub fn effective_parameters(a: &DMatrix<f64>, pen: &DMatrix<f64>) -> f64 {
         Some(h_inv) => h_inv.component_mul(a).sum(),
         None => p as f64,
     }
-}
-
-/// The library's parameter-set type for [`apply_delta`] (capacity for any host model).
-fn kinecal_set(problem: &Problem) -> anyhow::Result<kinecal::ParamSet<{ crate::VCAP + 64 }>> {
-    let mut s = kinecal::ParamSet::new();
-    for p in &problem.params {
-        s.push(*p)
-            .map_err(|e| anyhow::anyhow!("parameter set: {e:?}"))?;
-    }
-    Ok(s)
 }
 
 /// Squared 3-D position error (mm²) of every pose.

@@ -1,22 +1,27 @@
 //! kinecal on the desktop: the `kinecal` command line and the application behind it.
 //!
-//! - [`formats`]: the files users bring and get (robot TOML, measurement CSV, the measurement
-//!   cell of `plan`) with their schema and unit checks.
+//! Layers, bottom to top (each uses only those before it; `scripts/module_graph.py` checks):
+//!
+//! - this file: [`Refused`] input (exit status 2), the exit statuses, [`with_joints!`];
+//! - [`output`]: atomic file writes, numbers for people, SVG charts;
+//! - [`compute`]: both cores, the LM's storage on the heap, dense factorisations, registration;
+//! - [`formats`]: the files users bring and get (robot TOML, measurement CSV, the cell file of
+//!   `plan`) with their schema and unit checks;
+//! - [`simulation`]: simulated robots, measurements and sweeps with a known truth;
 //! - [`calibration`]: identification of a model from measurements (split, base start, LM, PSO,
-//!   BPNN-PSO, errors before and after), with the host's storage and both cores.
+//!   BPNN-PSO, errors before and after);
 //! - [`diagnose`]: the discrepancy workflow (find, name, add the missing effect, show the
-//!   held-out gap shrink).
-//! - [`plan`]: measurement planning on the desktop (pools, designs, the study figure).
-//! - [`simulation`]: simulated robots, measurements and sweeps with a known truth.
-//! - [`output`]: atomic file writes, numbers for people, SVG charts.
-//! - [`compensation`]: joint commands that bring an identified robot to target points.
-//! - [`reports`]: every command's report as a typed value (JSON and human text from the same
-//!   fields).
-//! - [`commands`]: one thin module per subcommand; `main.rs` parses the command line.
+//!   held-out gap shrink);
+//! - [`plan`]: measurement planning on the desktop (pools, designs, the study);
+//! - [`reports`]: every command's report as a typed value (JSON and text from the same fields);
+//! - [`frames`] and [`compensation`]: the circle-point frames and corrected joint commands from
+//!   files;
+//! - [`commands`]: one thin module per subcommand; `main.rs` calls [`commands::main`].
 
 pub mod calibration;
 pub mod commands;
 pub mod compensation;
+pub mod compute;
 pub mod diagnose;
 pub mod formats;
 pub mod frames;

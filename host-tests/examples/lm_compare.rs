@@ -26,8 +26,8 @@ use clap::Parser;
 use kinecal::identify::lm::{Levenberg, LmConfig};
 use kinecal::model::param::{apply_delta, Param, ParamSet};
 use kinecal::{ForwardKinematics, Measurement, Robot};
-use kinecal_cli::calibration::vec_lm::VecLm;
 use kinecal_cli::calibration::{fit_lm, pose_errors, ErrorStats};
+use kinecal_cli::compute::vec_lm::VecLm;
 use kinecal_cli::formats::robot_file::load_robot;
 use kinecal_cli::formats::units::{load_measurements, UnitArgs};
 use kinecal_cli::{with_joints, VCAP};
@@ -111,7 +111,7 @@ fn run_n<const N: usize>(args: &Args) -> anyhow::Result<serde_json::Value> {
     let base_unknown = !file.base_known();
     let t0 = Instant::now();
     if base_unknown {
-        let base = kinecal_cli::calibration::registration::fit_base(&start, &ident)?;
+        let base = kinecal_cli::compute::registration::fit_base(&start, &ident)?;
         start
             .set_base(base)
             .map_err(|e| anyhow::anyhow!("estimated base pose is invalid: {e:?}"))?;

@@ -415,7 +415,7 @@ fn malformed_files_fail_with_one_located_line() {
 #[test]
 fn registration_recovers_a_rigid_motion() {
     use kinecal::Frame;
-    use kinecal_cli::calibration::registration::fit_rigid;
+    use kinecal_cli::compute::registration::fit_rigid;
     let truth = Frame::from_xyz_rpy([1500.0, -2500.0, 400.0], [0.3, -0.2, 2.5]);
     let a: Vec<Vector3<f64>> = (0..20)
         .map(|i| {

@@ -5,7 +5,7 @@
 use kinecal::identify::lm::{Levenberg, LmConfig, LmError, PassKind, PassPart};
 use kinecal::model::param::{Param, ParamSet};
 use kinecal::{ForwardKinematics, Measurement, Robot};
-use kinecal_cli::calibration::vec_lm::VecLm;
+use kinecal_cli::compute::vec_lm::VecLm;
 use kinecal_cli::simulation;
 use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -110,14 +110,13 @@ fn a_run_in_parts_is_the_run_of_step() {
 
 #[test]
 fn the_host_runs_large_data_in_parts_with_the_same_outcome() {
-    let n = kinecal_cli::calibration::parallel::PARALLEL_MIN_POSES + 1000;
+    let n = kinecal_cli::compute::parallel::PARALLEL_MIN_POSES + 1000;
     let (start, params, data) = problem(n, 4);
     let mut whole = solver(&start, &params);
     let end = whole.run(&data).unwrap();
     let mut host = solver(&start, &params);
     let mut calls = 0;
-    let p =
-        kinecal_cli::calibration::parallel::run_lm(&mut host, &data, |_, _| calls += 1).unwrap();
+    let p = kinecal_cli::compute::parallel::run_lm(&mut host, &data, |_, _| calls += 1).unwrap();
     assert!(end.stopped.is_some());
     assert!(
         calls >= p.evaluations as usize,

@@ -11,7 +11,7 @@ use kinecal::io::snapshot::Snapshot;
 use kinecal::model::effects::EffectKind;
 use kinecal::model::param::{apply_delta, value, Param, ParamSet};
 use kinecal::{ForwardKinematics, Measurement, Robot};
-use kinecal_cli::calibration::vec_lm::{VecLm, VecPenalty};
+use kinecal_cli::compute::vec_lm::{VecLm, VecPenalty};
 use kinecal_cli::simulation;
 use nalgebra::{DMatrix, DVector, Vector3};
 use rand::SeedableRng;

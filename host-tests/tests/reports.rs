@@ -2,11 +2,11 @@
 //! serialisation, the text and the JSON of one report show the same numbers, and a failing
 //! command prints `{"error": …}` with `--json`, with the exit status of the failure.
 
-use kinecal_cli::frames;
 use kinecal_cli::compensation::{self, Job};
 use kinecal_cli::diagnose::{diagnose, Config};
 use kinecal_cli::formats::measurements;
 use kinecal_cli::formats::robot_file::load_robot;
+use kinecal_cli::frames;
 use kinecal_cli::output::numfmt::sig;
 use kinecal_cli::reports::{DiagnoseReport, Report};
 use kinecal_cli::simulation::sweeps::sweep_data;

@@ -42,6 +42,7 @@ use crate::identify::lm_penalty::check_penalty;
 pub use crate::identify::lm_penalty::{
     FixedPenalty, LmPenalty, NoPenalty, PenaltyError, PenaltyParts, PenaltyPartsRef, PenaltyTerm,
 };
+pub use crate::identify::lm_status::{LmError, LmProgress, LmStop};
 use crate::identify::lm_storage::storage_fits;
 pub use crate::identify::lm_storage::{FixedLm, LmParts, LmPartsRef, LmStorage};
 use crate::model::param::{apply_delta, check_params, value, Param, ParamError};
@@ -96,54 +97,6 @@ impl<T: Real> Default for LmConfig<T> {
             keep_curvature: false,
         }
     }
-}
-
-/// Why the solver refused a call.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum LmError {
-    /// No measurements, or fewer residuals than active parameters.
-    TooFewMeasurements,
-    /// The measurement slice changed length between calls.
-    DataChanged,
-    /// A measurement holds NaN or infinity.
-    NonFiniteMeasurement,
-    /// The parameter set does not fit the robot or the capacity.
-    Params(ParamError),
-    /// Parts handed to [`Levenberg::complete_pass`] are not of the pending pass, do not cover
-    /// the data once, or hold other parameters; or no pass is pending.
-    PassMismatch,
-    /// The penalty does not fit the parameters, or holds a negative or non-finite number.
-    Penalty(PenaltyError),
-    /// [`Levenberg::hold`] after the run started.
-    Started,
-}
-
-/// Why the solver stopped.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum LmStop {
-    /// The cost stopped decreasing (relative change below tolerance).
-    Converged,
-    /// The step became negligibly small.
-    SmallStep,
-    /// The iteration limit was reached.
-    MaxIterations,
-    /// No step could lower the cost even with very strong damping.
-    NoProgress,
-}
-
-/// Where a run stands after a [`Levenberg::step`] call.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LmProgress<T: Real> {
-    /// Accepted and rejected steps so far.
-    pub iteration: u32,
-    /// Full passes over all poses so far (model evaluations of all poses).
-    pub evaluations: u32,
-    /// Sum of squared residuals (mm²) at the current estimate (after the first pass).
-    pub cost: T,
-    /// `Some` once the run has finished.
-    pub stopped: Option<LmStop>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -17,7 +17,7 @@
 //! [`Levenberg::complete_pass`]: crate::identify::lm::Levenberg::complete_pass
 //! [`Levenberg::step`]: crate::identify::lm::Levenberg::step
 
-use crate::identify::lm::LmError;
+use crate::identify::lm_status::LmError;
 use crate::identify::lm_storage::{LmParts, LmStorage};
 use crate::model::effects::{Effect, EffectKind};
 use crate::model::param::Param;

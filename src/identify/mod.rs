@@ -10,5 +10,6 @@ pub mod fitness;
 pub mod lm;
 pub mod lm_pass;
 pub mod lm_penalty;
+pub mod lm_status;
 pub mod lm_storage;
 pub mod pso;

@@ -7,8 +7,8 @@
 //! `check` places the nominal model (point-set registration when the file has no `[base]`),
 //! and reports the candidate that explains the data far better than the file as written.
 
-use crate::calibration::registration::fit_base;
 use crate::calibration::{pose_errors, ErrorStats};
+use crate::compute::registration::fit_base;
 use crate::formats::robot_file::RobotFile;
 use crate::output::numfmt::sig;
 use kinecal::{Measurement, Robot};

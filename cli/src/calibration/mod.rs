@@ -3,12 +3,9 @@
 
 pub mod coupling_hint;
 pub mod method;
-pub mod parallel;
 pub mod pso_search;
-pub mod registration;
-pub mod vec_lm;
 
-use crate::calibration::vec_lm::VecLm;
+use crate::compute::vec_lm::VecLm;
 use kinecal::identify::lm::{Levenberg, LmConfig, LmStop};
 use kinecal::model::param::{value, Param};
 use kinecal::{ForwardKinematics, Measurement, Robot};
@@ -42,7 +39,7 @@ pub fn pose_errors<const N: usize, const V: usize>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
 ) -> Vec<f64> {
-    crate::calibration::parallel::map_parts(data, |part| {
+    crate::compute::parallel::map_parts(data, |part| {
         let mut fk = ForwardKinematics::new();
         part.iter()
             .map(|m| (m.point - fk.compute(robot, &m.q)).norm())
@@ -180,7 +177,7 @@ pub fn fit_lm<const N: usize, const V: usize>(
             .map_err(|e| anyhow::anyhow!("identification setup: {e:?}"))?,
     );
     let mut history = Vec::new();
-    let p = crate::calibration::parallel::run_lm(&mut lm, data, |lm, p| {
+    let p = crate::compute::parallel::run_lm(&mut lm, data, |lm, p| {
         if lm.analysed() && history.last() != Some(&p.cost) {
             history.push(p.cost);
         }

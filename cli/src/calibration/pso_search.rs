@@ -183,7 +183,8 @@ pub fn train_bpnn<const N: usize, const V: usize>(
         "BPNN-PSO is built for the 24 MDH parameters of a 6-joint arm"
     );
     let mut net = Box::new(
-        MdhSeedNet::<f64>::new(BpnnConfig::default(), seed).map_err(|e| anyhow::anyhow!("{e:?}"))?,
+        MdhSeedNet::<f64>::new(BpnnConfig::default(), seed)
+            .map_err(|e| anyhow::anyhow!("{e:?}"))?,
     );
     let to24 = |v: &Vec<f64>| -> anyhow::Result<[f64; 24]> {
         v.as_slice()

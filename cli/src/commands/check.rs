@@ -2,14 +2,14 @@
 //! nominal model is from the data (docs/formats.md, docs/walkthrough.md).
 //!
 //! When the robot file has no `[base]`, the base pose is first fitted by point-set
-//! registration ([`crate::calibration::registration::fit_rigid`], Kabsch without scale) of the
+//! registration ([`crate::compute::registration::fit_rigid`], Kabsch without scale) of the
 //! nominal points to the measured ones: the best rigid placement of the nominal robot, which
 //! is also how `identify` starts.
 
 use super::inputs::InputArgs;
 use crate::calibration::coupling_hint;
-use crate::calibration::registration::fit_base;
 use crate::calibration::{pose_errors, ErrorStats};
+use crate::compute::registration::fit_base;
 use crate::formats::robot_file::RobotFile;
 use crate::formats::units::load_measurements;
 use crate::reports::check::{CheckReport, CouplingHintReport};

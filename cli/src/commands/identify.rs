@@ -94,7 +94,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
     );
     let base_unknown = !file.base_known();
     if base_unknown {
-        let base = crate::calibration::registration::fit_base(&nominal, &ident)
+        let base = crate::compute::registration::fit_base(&nominal, &ident)
             .context("estimating the base pose")?;
         nominal
             .set_base(base)

@@ -4,7 +4,7 @@
 //! and the identified base pose (the tracker's placement) only rotates the tool-point
 //! covariance, whose trace is what the criteria use. The identified set is the default full
 //! set (base pose, alpha/a/theta/d of every joint, tool point); its structural redundancies
-//! are dropped by [`Basis`].
+//! are dropped by [`Basis`](kinecal::planning::selection::Basis).
 //!
 //! 1. Pool: `--pool` feasible configurations, 80 % drawn with the wrist aimed at the tracker
 //!    and 20 % uniformly within the limits ([`pose_pool::draw`]). Poses closer than 0.1 mm to

@@ -13,62 +13,16 @@
 //! is accurate to second order, so the screen ranks candidates like the refits do at a fraction
 //! of the cost; only the best few are refitted.
 
-use crate::calibration::parallel;
-use crate::diagnose::dense::{cholesky, cholesky_inverse, LowerFactor};
+use crate::compute::dense::{cholesky, cholesky_inverse, LowerFactor};
+use crate::compute::parallel;
+pub use crate::diagnose::folds::{subset, Folds};
 use crate::diagnose::linear::{
     add_table_penalty, add_tiny_ridge, Normal, NormalSums, Problem, TablePenalty,
 };
 use crate::diagnose::refit::fold_errors;
-use crate::diagnose::significance::pose_groups;
 use kinecal::model::effects::{Effect, EffectKind};
 use kinecal::{ForwardKinematics, Measurement, Param, Robot};
 use nalgebra::{DMatrix, DVector, Vector3};
-use rand::seq::SliceRandom;
-use rand::SeedableRng;
-use rand_xoshiro::Xoshiro256PlusPlus;
-
-/// Assignment of every pose to one of `k` folds.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Folds {
-    pub k: usize,
-    /// Fold of each pose.
-    pub of: Vec<usize>,
-}
-
-impl Folds {
-    /// Deterministic folds for `data` (groups of identical readings stay together).
-    pub fn new<const N: usize>(data: &[Measurement<f64, N>], k: usize, seed: u64) -> Self {
-        let groups = pose_groups(data);
-        let n_groups = groups.iter().copied().max().map_or(0, |g| g + 1);
-        let k = k.clamp(2, n_groups.max(2));
-        let mut order: Vec<usize> = (0..n_groups).collect();
-        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x6b69_6e65_6361_6c00);
-        order.shuffle(&mut rng);
-        let mut fold_of_group = vec![0; n_groups];
-        for (pos, g) in order.iter().enumerate() {
-            fold_of_group[*g] = pos % k;
-        }
-        Self {
-            k,
-            of: groups.iter().map(|g| fold_of_group[*g]).collect(),
-        }
-    }
-
-    /// Indices of the poses in fold `f` (held out) and of the others (training).
-    pub fn split(&self, f: usize) -> (Vec<usize>, Vec<usize>) {
-        let test = (0..self.of.len()).filter(|i| self.of[*i] == f).collect();
-        let train = (0..self.of.len()).filter(|i| self.of[*i] != f).collect();
-        (test, train)
-    }
-}
-
-/// The poses at `idx`.
-pub fn subset<const N: usize>(
-    data: &[Measurement<f64, N>],
-    idx: &[usize],
-) -> Vec<Measurement<f64, N>> {
-    idx.iter().map(|&i| data[i]).collect()
-}
 
 /// Held-out squared error (mm²) of every pose: for each fold, `problem` is refitted from
 /// `start` on the other folds and the fold's poses are predicted.

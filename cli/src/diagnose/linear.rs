@@ -15,7 +15,7 @@
 //! units and `Π` the table penalty, scaled by the table's own mean diagonal of `JᵀJ` so that
 //! it is light whatever the number of poses.
 
-use crate::diagnose::dense::{cholesky, cholesky_inverse};
+use crate::compute::dense::{cholesky, cholesky_inverse};
 use kinecal::identify::lm::PenaltyTerm;
 use kinecal::model::effects::EffectKind;
 use kinecal::model::param::{value, Param};

@@ -14,7 +14,7 @@
 //!    and is not negligible (at least 1 % of the held-out mean squared error); of those, the
 //!    simplest one within one standard error of the best is added ([`choose`]). The screen's
 //!    candidates and the refits' folds are independent jobs, spread over the cores
-//!    ([`crate::calibration::parallel::map_each`]); no result depends on how they were scheduled.
+//!    ([`crate::compute::parallel::map_each`]); no result depends on how they were scheduled.
 //! 3. **Stop** when nothing passes, when the held-out RMS reaches the noise floor estimated from
 //!    repeated poses (if the data have any), or after `max_effects` additions.
 //! 4. **Noise floor**: repeated poses, else the final model's cross-validated held-out errors
@@ -26,14 +26,14 @@
 
 pub mod candidates;
 pub mod cross_validation;
-pub mod dense;
+pub mod folds;
 pub mod linear;
 pub mod refit;
 pub mod residual_plots;
 pub mod significance;
 
 use crate::calibration::fit_lm;
-use crate::calibration::parallel;
+use crate::compute::parallel;
 use crate::diagnose::candidates::{catalogue, Candidate, CandidateKind, CatalogueConfig};
 use crate::diagnose::cross_validation::{
     fold_inflation, refit_errors, refit_errors_each, rms, Folds, Linearised, PoseKinematics,
@@ -312,7 +312,7 @@ pub fn fit_geometry<const N: usize>(
 ) -> anyhow::Result<(Robot<f64, N, VCAP>, Vec<Param>)> {
     let mut start = nominal.clone();
     if !base_known {
-        let base = crate::calibration::registration::fit_base(nominal, data)?;
+        let base = crate::compute::registration::fit_base(nominal, data)?;
         start
             .set_base(base)
             .map_err(|e| anyhow::anyhow!("base registration: {e:?}"))?;

@@ -329,15 +329,3 @@ pub fn residual_noise(ssr: f64, poses: usize, effective_parameters: f64) -> f64 
         f64::NAN
     }
 }
-
-/// Group poses for cross-validation: poses with identical joint readings get the same id
-/// (a repeated pose must not be predicted from its own twin).
-pub fn pose_groups<const N: usize>(data: &[Measurement<f64, N>]) -> Vec<usize> {
-    let mut ids: std::collections::HashMap<[u64; N], usize> = std::collections::HashMap::new();
-    data.iter()
-        .map(|m| {
-            let next = ids.len();
-            *ids.entry(m.q.map(f64::to_bits)).or_insert(next)
-        })
-        .collect()
-}

@@ -244,7 +244,7 @@ pub fn load<const N: usize>(path: &Path) -> anyhow::Result<Dataset<N>> {
 /// Files larger than this are parsed in parts on several threads.
 pub const PARALLEL_MIN_BYTES: usize = 1 << 20;
 
-/// Reads all records of a whole file in memory: large files in [`crate::calibration::parallel::PARTS`]
+/// Reads all records of a whole file in memory: large files in [`crate::compute::parallel::PARTS`]
 /// parts cut at line ends, each read by the library reader after the file's header lines, on
 /// several threads. Records, line numbers and the first error are those of one reader over the
 /// whole file.
@@ -253,8 +253,8 @@ pub fn read_bytes<const N: usize>(bytes: &[u8]) -> Result<Dataset<N>, CsvError> 
         return read_records::<N, _>(bytes);
     };
     let (prefix, body) = bytes.split_at(body_start);
-    let parts = split_at_lines(body, crate::calibration::parallel::PARTS);
-    let read = crate::calibration::parallel::map_each(&parts, |part| {
+    let parts = split_at_lines(body, crate::compute::parallel::PARTS);
+    let read = crate::compute::parallel::map_each(&parts, |part| {
         let lines = part.iter().filter(|b| **b == b'\n').count() as u32;
         (read_records::<N, _>(prefix.chain(*part)), lines)
     });

@@ -14,7 +14,7 @@
 //!   joint readings. With a known base (`[base]` in the robot file, or the model's base frame
 //!   for `compensate` targets, whose seeds must nearly reach them) the points are compared as
 //!   they are; without one, after the best rigid placement of the model
-//!   ([`crate::calibration::registration::fit_rigid`], which fails — "no evidence" — for fewer than three
+//!   ([`crate::compute::registration::fit_rigid`], which fails — "no evidence" — for fewer than three
 //!   points or points on a line). Hypotheses are compared by the RMS *relative* to the scale
 //!   of the comparison: the reach with a known base; with a fitted base the larger RMS spread
 //!   of the measured and of the model points about their centroids, because two tiny clusters
@@ -47,7 +47,7 @@
 //! joint columns `q1`…`qN`, the position `x`, `y`, `z` and the unit-less orientation of targets
 //! (`rx`, `ry`, `rz`) follow the flags. Reports and robot files are always in mm and degrees.
 
-use crate::calibration::registration::fit_rigid;
+use crate::compute::registration::fit_rigid;
 use crate::formats::measurements::{self, Dataset, Record};
 use crate::output::numfmt::sig;
 use kinecal::forward::ForwardKinematics;

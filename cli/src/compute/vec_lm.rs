@@ -12,7 +12,7 @@ use kinecal::Real;
 use nalgebra::{DMatrix, DVector};
 
 /// From this many active parameters on, [`VecLm`] solves with the blocked factorisation of
-/// [`crate::diagnose::dense`] (matrix products) instead of the library's row-by-row one.
+/// [`crate::compute::dense`] (matrix products) instead of the library's row-by-row one.
 pub const BLOCKED_SOLVE_MIN: usize = 96;
 
 /// [`LmStorage`] in `Vec`s sized for exactly the parameters of the run.
@@ -120,7 +120,7 @@ impl<T: Real> LmStorage<T> for VecLm<T> {
                 0.0
             }
         });
-        let chol = crate::diagnose::dense::cholesky(h).ok_or(LinalgError::NotPositiveDefinite)?;
+        let chol = crate::compute::dense::cholesky(h).ok_or(LinalgError::NotPositiveDefinite)?;
         let rhs = DVector::from_iterator(m, x[..m].iter().map(|v| v.to_f64()));
         let sol = chol.solve(&rhs);
         // The factor back into `work`, as the library's kernel leaves it (for resolves).

@@ -6,7 +6,7 @@
 //! count. Below [`PARALLEL_MIN_POSES`] everything runs on the calling thread in one piece
 //! (starting threads would cost more than it saves), exactly as the library's own `step` does.
 
-use crate::calibration::vec_lm::VecLm;
+use crate::compute::vec_lm::VecLm;
 use kinecal::identify::lm::{Levenberg, LmError, LmPenalty, LmProgress, PassPart};
 use kinecal::{ForwardKinematics, Measurement};
 use std::sync::atomic::{AtomicUsize, Ordering};

@@ -61,7 +61,7 @@ pub fn fit_base<const N: usize, const V: usize>(
     placed
         .set_base(Frame::identity())
         .map_err(|e| anyhow!("{e:?}"))?;
-    let model: Vec<Vector3<f64>> = crate::calibration::parallel::map_parts(data, |part| {
+    let model: Vec<Vector3<f64>> = crate::compute::parallel::map_parts(data, |part| {
         let mut fk = ForwardKinematics::<f64, N>::new();
         part.iter()
             .map(|m| fk.compute(&placed, &m.q))

@@ -1,0 +1,9 @@
+//! The desktop's computing kit under every application module: both cores for passes over many
+//! poses ([`parallel`]), the library LM's storage sized from the problem on the heap
+//! ([`vec_lm`]), dense factorisations arranged as matrix products ([`dense`]) and point-set
+//! registration ([`registration`]).
+
+pub mod dense;
+pub mod parallel;
+pub mod registration;
+pub mod vec_lm;

@@ -1,0 +1,54 @@
+//! Where a [`crate::identify::lm::Levenberg`] run stands and why it stopped or refused a call:
+//! the types its callers (and its passes, [`crate::identify::lm_pass`]) share.
+
+use crate::identify::lm_penalty::PenaltyError;
+use crate::model::param::ParamError;
+use crate::Real;
+
+/// Why the solver refused a call.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LmError {
+    /// No measurements, or fewer residuals than active parameters.
+    TooFewMeasurements,
+    /// The measurement slice changed length between calls.
+    DataChanged,
+    /// A measurement holds NaN or infinity.
+    NonFiniteMeasurement,
+    /// The parameter set does not fit the robot or the capacity.
+    Params(ParamError),
+    /// Parts handed to [`Levenberg::complete_pass`](crate::identify::lm::Levenberg::complete_pass) are not of the pending pass, do not cover
+    /// the data once, or hold other parameters; or no pass is pending.
+    PassMismatch,
+    /// The penalty does not fit the parameters, or holds a negative or non-finite number.
+    Penalty(PenaltyError),
+    /// [`Levenberg::hold`](crate::identify::lm::Levenberg::hold) after the run started.
+    Started,
+}
+
+/// Why the solver stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LmStop {
+    /// The cost stopped decreasing (relative change below tolerance).
+    Converged,
+    /// The step became negligibly small.
+    SmallStep,
+    /// The iteration limit was reached.
+    MaxIterations,
+    /// No step could lower the cost even with very strong damping.
+    NoProgress,
+}
+
+/// Where a run stands after a [`Levenberg::step`](crate::identify::lm::Levenberg::step) call.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LmProgress<T: Real> {
+    /// Accepted and rejected steps so far.
+    pub iteration: u32,
+    /// Full passes over all poses so far (model evaluations of all poses).
+    pub evaluations: u32,
+    /// Sum of squared residuals (mm²) at the current estimate (after the first pass).
+    pub cost: T,
+    /// `Some` once the run has finished.
+    pub stopped: Option<LmStop>,
+}

@@ -32,16 +32,16 @@ fn unreadable_inputs_are_refused_naming_the_file() {
     assert_refused(&out, "no_such_robot.toml");
 }
 
-fn plan_with_scene(dir: &Path, scene_text: &str) -> std::process::Output {
+/// `kinecal plan` with the cell file `scene`.
+fn plan_with_scene_file(dir: &Path, scene: &Path) -> std::process::Output {
     let robot = write(dir, "robot.toml", ER20_PLACED);
-    let scene = write(dir, "scene.toml", scene_text);
     let out = dir.join("plan.csv");
     kinecal(&[
         "plan",
         "--robot",
         s(&robot),
         "--scene",
-        s(&scene),
+        s(scene),
         "--poses",
         "10",
         "--criterion",
@@ -51,6 +51,11 @@ fn plan_with_scene(dir: &Path, scene_text: &str) -> std::process::Output {
         "--out",
         s(&out),
     ])
+}
+
+/// `kinecal plan` with a cell file holding `scene_text`.
+fn plan_with_scene(dir: &Path, scene_text: &str) -> std::process::Output {
+    plan_with_scene_file(dir, &write(dir, "scene.toml", scene_text))
 }
 
 #[test]
@@ -66,22 +71,7 @@ fn malformed_or_invalid_cell_files_are_refused() {
     );
     assert_refused(&out, "max_incidence_deg");
     // Missing file.
-    let robot = write(dir.path(), "robot.toml", ER20_PLACED);
-    let out = kinecal(&[
-        "plan",
-        "--robot",
-        s(&robot),
-        "--scene",
-        s(&dir.path().join("absent_scene.toml")),
-        "--poses",
-        "10",
-        "--criterion",
-        "d",
-        "--work",
-        "0,30,10,0,-40,0",
-        "--out",
-        s(&dir.path().join("plan.csv")),
-    ]);
+    let out = plan_with_scene_file(dir.path(), &dir.path().join("absent_scene.toml"));
     assert_refused(&out, "absent_scene.toml");
 }
 

@@ -17,15 +17,7 @@ type Lm = Levenberg<f64, 6, 64, VecLm<f64>>;
 fn problem(n: usize, seed: u64) -> (Robot<f64, 6, 64>, Vec<Param>, Vec<Measurement<f64, 6>>) {
     let nominal = simulation::er20_c10().with_capacity::<64>().unwrap();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
-    let truth =
-        simulation::perturb_geometry(&nominal, &simulation::GeomErrors::default(), &mut rng);
-    let configs = simulation::random_configurations(&nominal, n, &mut rng);
-    let points = simulation::measure(&truth, &configs, 0.01, &mut rng);
-    let data = configs
-        .iter()
-        .zip(points)
-        .map(|(q, point)| Measurement { q: *q, point })
-        .collect();
+    let (_, data) = simulation::perturbed_measurements(&nominal, n, 0.01, &mut rng);
     let params = ParamSet::<64>::full(6, true).unwrap().to_vec();
     (nominal, params, data)
 }

@@ -23,18 +23,8 @@ fn er20() -> Robot<f64, 6, 64> {
 
 /// Noisy poses of a perturbed ER20 (the truth).
 fn poses(n: usize, seed: u64) -> (Robot<f64, 6, 64>, Vec<Measurement<f64, 6>>) {
-    let nominal = er20();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
-    let truth =
-        simulation::perturb_geometry(&nominal, &simulation::GeomErrors::default(), &mut rng);
-    let configs = simulation::random_configurations(&nominal, n, &mut rng);
-    let points = simulation::measure(&truth, &configs, 0.01, &mut rng);
-    let data = configs
-        .iter()
-        .zip(points)
-        .map(|(q, point)| Measurement { q: *q, point })
-        .collect();
-    (truth, data)
+    simulation::perturbed_measurements(&er20(), n, 0.01, &mut rng)
 }
 
 /// Base and tool translations: the model is exactly affine in them (the tool point is a

@@ -13,7 +13,7 @@ use crate::VCAP;
 use anyhow::{anyhow, bail};
 use kinecal::forward::ForwardKinematics;
 use kinecal::model::effects::EffectKind;
-use kinecal::{Joint, Robot};
+use kinecal::{Joint, Measurement, Robot};
 use nalgebra::Vector3;
 use rand::{Rng, RngExt, SeedableRng};
 use rand_distr::StandardNormal;
@@ -263,6 +263,26 @@ pub fn measure<const N: usize, const V: usize, R: Rng>(
             }
         })
         .collect()
+}
+
+/// A robot with default geometric errors ([`GeomErrors::default`]) made from `nominal`, and `n`
+/// measurements of it at random configurations with Gaussian noise of `sigma_mm` per axis:
+/// `(truth, measurements)`.
+pub fn perturbed_measurements<const N: usize, const V: usize, R: Rng>(
+    nominal: &Robot<f64, N, V>,
+    n: usize,
+    sigma_mm: f64,
+    rng: &mut R,
+) -> (Robot<f64, N, V>, Vec<Measurement<f64, N>>) {
+    let truth = perturb_geometry(nominal, &GeomErrors::default(), rng);
+    let configs = random_configurations(nominal, n, rng);
+    let points = measure(&truth, &configs, sigma_mm, rng);
+    let data = configs
+        .iter()
+        .zip(points)
+        .map(|(q, point)| Measurement { q: *q, point })
+        .collect();
+    (truth, data)
 }
 
 /// A dataset in file units from configurations (rad) and points (mm).

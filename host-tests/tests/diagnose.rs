@@ -54,6 +54,42 @@ fn effect(kind: &str, joint: usize, values: &[f64], order: u16) -> EffectArg {
     }
 }
 
+/// The progress callback sees the stages in the order they run: the geometry, the baseline,
+/// then per round a screen of the candidates and a refit of the best families, as many rounds
+/// as the result reports; the result equals that of `diagnose`.
+#[test]
+fn progress_reports_every_stage_in_order() {
+    main_sized_stack(|| {
+        use kinecal_cli::diagnose::{diagnose_with_progress, Progress};
+        let (_, d) = simulated(vec![effect("joint-compliance", 2, &[3e-4], 1)], 0.01, 7, 80);
+        let mut seen = Vec::new();
+        let r = diagnose_with_progress(&er20(), true, &[], &d, &Default::default(), &mut |p| {
+            seen.push(p)
+        })
+        .unwrap();
+        assert_eq!(seen[..2], [Progress::Geometry, Progress::Baseline]);
+        let mut round = 0;
+        for pair in seen[2..].chunks(2) {
+            round += 1;
+            match pair {
+                [Progress::Screen {
+                    round: a,
+                    candidates,
+                }, Progress::Refit { round: b, families }] => {
+                    assert_eq!((*a, *b), (round, round));
+                    assert!(*candidates > 0 && *families > 0 && families <= candidates);
+                }
+                [Progress::Screen { round: a, .. }] => assert_eq!(*a, round),
+                other => panic!("unexpected stages {other:?}"),
+            }
+        }
+        assert!(round >= r.found.len().max(1), "{seen:?}");
+        let plain =
+            kinecal_cli::diagnose::diagnose(&er20(), true, &[], &d, &Default::default()).unwrap();
+        assert_eq!(plain.final_validation_rms_mm, r.final_validation_rms_mm);
+    });
+}
+
 fn simulated(
     effects: Vec<EffectArg>,
     noise: f64,

@@ -5,7 +5,7 @@
 use super::inputs::InputArgs;
 use crate::calibration::split_holdout;
 use crate::diagnose::linear::squared_errors;
-use crate::diagnose::{diagnose, Config, Diagnosis};
+use crate::diagnose::{diagnose_with_progress, Config, Diagnosis, Progress};
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::output::numfmt::sig;
 use crate::reports::diagnose::{DiagnoseReport, HoldoutReport};
@@ -119,17 +119,25 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
     };
     cfg.catalogue.max_cyclic_order = args.max_order;
     let stages = Stages::start();
-    stages.stage(&format!(
-        "fitting the geometry and searching for missing effects ({} poses, {}-fold cross-validation)",
-        search.len(),
-        cfg.folds
-    ));
-    let mut d = diagnose(
+    let (poses, folds) = (search.len(), cfg.folds);
+    let mut d = diagnose_with_progress(
         &nominal,
         file.base_known(),
         &file.tilt_joints(),
         &search,
         &cfg,
+        &mut |p| {
+            stages.stage(&match p {
+                Progress::Geometry => format!("fitting the geometry ({poses} poses)"),
+                Progress::Baseline => format!("held-out errors of the geometry ({folds} folds)"),
+                Progress::Screen { round, candidates } => {
+                    format!("round {round}: screening {candidates} candidates")
+                }
+                Progress::Refit { round, families } => {
+                    format!("round {round}: refitting the best {families} in {folds} folds")
+                }
+            })
+        },
     )?;
     let holdout = if held.is_empty() {
         None

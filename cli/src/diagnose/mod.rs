@@ -337,6 +337,29 @@ pub fn fit_geometry<const N: usize>(
     Ok((fitted.robot, held))
 }
 
+/// Where the search is, for a progress display ([`diagnose_with_progress`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Progress {
+    /// Fitting the geometry (base start, LM with identifiability analysis).
+    Geometry,
+    /// The starting model's held-out errors (one refit per fold).
+    Baseline,
+    /// Round `round` (1-based) screens `candidates` candidates by one linearised step each.
+    Screen {
+        /// The round, from 1.
+        round: usize,
+        /// Candidates screened.
+        candidates: usize,
+    },
+    /// Round `round` refits the best `families` candidates in every fold.
+    Refit {
+        /// The round, from 1.
+        round: usize,
+        /// Candidates refitted (one per family).
+        families: usize,
+    },
+}
+
 /// Runs the whole workflow on `data` for the `nominal` model (its effects, if any, are kept
 /// and refitted; `free_tilt` are joints whose beta is already free).
 pub fn diagnose<const N: usize>(
@@ -346,6 +369,18 @@ pub fn diagnose<const N: usize>(
     data: &[Measurement<f64, N>],
     cfg: &Config,
 ) -> anyhow::Result<Diagnosis<N>> {
+    diagnose_with_progress(nominal, base_known, free_tilt, data, cfg, &mut |_| {})
+}
+
+/// [`diagnose`], telling `on_progress` where the search is before each stage.
+pub fn diagnose_with_progress<const N: usize>(
+    nominal: &Robot<f64, N, VCAP>,
+    base_known: bool,
+    free_tilt: &[usize],
+    data: &[Measurement<f64, N>],
+    cfg: &Config,
+    on_progress: &mut dyn FnMut(Progress),
+) -> anyhow::Result<Diagnosis<N>> {
     let t0 = Instant::now();
     anyhow::ensure!(
         data.len() >= 2 * cfg.folds.max(2),
@@ -353,6 +388,7 @@ pub fn diagnose<const N: usize>(
         data.len(),
         cfg.folds
     );
+    on_progress(Progress::Geometry);
     let (geometric, held) = fit_geometry(nominal, base_known, free_tilt, data)?;
     let geometry_seconds = t0.elapsed().as_secs_f64();
     let mut params: Vec<Param> = ParamSet::<64>::full(N, !base_known)
@@ -369,6 +405,7 @@ pub fn diagnose<const N: usize>(
     let baseline_model = current_fit.robot.clone();
     let mut current = current_fit.robot.clone();
     let folds = Folds::new(data, cfg.folds, cfg.seed);
+    on_progress(Progress::Baseline);
     let baseline_errors = refit_errors(&current, &problem, data, &folds, cfg.refit_iterations)?;
     let baseline_rms = rms(&baseline_errors);
     let repeat = repeat_noise(data);
@@ -405,6 +442,10 @@ pub fn diagnose<const N: usize>(
             stop_reason = "no candidate left".into();
             break;
         }
+        on_progress(Progress::Screen {
+            round: rounds.len() + 1,
+            candidates: cands.len(),
+        });
         let lin = Linearised::new(&current, &problem, data, &folds);
         let lin_base = rms(&lin.baseline());
         let kinematics = PoseKinematics::new(&current, data);
@@ -451,6 +492,10 @@ pub fn diagnose<const N: usize>(
         }
         let starts: Vec<(&Robot<f64, N, VCAP>, &Problem)> =
             models.iter().map(|(r, p, _)| (r, p)).collect();
+        on_progress(Progress::Refit {
+            round: rounds.len() + 1,
+            families: starts.len(),
+        });
         let held_out = refit_errors_each(&starts, data, &folds, cfg.refit_iterations)?;
         let tested: Vec<Tested> = families
             .iter()

@@ -1,6 +1,6 @@
 //! Levenberg–Marquardt identification against known truth.
 
-use kinecal::identify::lm::{rms_error, FixedLevenberg, Levenberg, LmConfig, LmStop};
+use kinecal::identify::lm::{rms_error, FixedLevenberg, Levenberg, LmConfig, LmError, LmStop};
 use kinecal::model::param::{apply_delta, Param, ParamSet};
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use nalgebra::Vector3;
@@ -145,6 +145,62 @@ fn bad_input_is_refused_without_damage() {
     assert!(
         FixedLevenberg::<f64, 6, 64, 64>::fixed(nominal, bad_set, LmConfig::default()).is_err()
     );
+}
+
+/// Settings that cannot run are refused at construction (issue 15: a damping of zero or below
+/// never grows, so the "damp harder and retry" loop of a failed step never ended).
+#[test]
+fn settings_that_cannot_run_are_refused() {
+    let set = ParamSet::<64>::full(6, false).unwrap();
+    let ok = LmConfig::<f64>::default();
+    assert!(ok.is_valid() && LmConfig::<f32>::default().is_valid());
+    let bad = [
+        LmConfig {
+            initial_damping: 0.0,
+            ..ok
+        },
+        LmConfig {
+            initial_damping: -1.0,
+            ..ok
+        },
+        LmConfig {
+            initial_damping: f64::NAN,
+            ..ok
+        },
+        LmConfig {
+            initial_damping: f64::INFINITY,
+            ..ok
+        },
+        LmConfig {
+            rank_tolerance: 0.0,
+            ..ok
+        },
+        LmConfig {
+            rank_tolerance: 1.0,
+            ..ok
+        },
+        LmConfig {
+            cost_tolerance: -1e-9,
+            ..ok
+        },
+        LmConfig {
+            step_tolerance: f64::NAN,
+            ..ok
+        },
+        LmConfig {
+            ridge: f64::INFINITY,
+            ..ok
+        },
+        LmConfig {
+            activation_tolerance: -1.0,
+            ..ok
+        },
+    ];
+    for cfg in bad {
+        assert!(!cfg.is_valid(), "{cfg:?}");
+        let e = Levenberg::fixed(er20(), set.clone(), cfg).err();
+        assert_eq!(e, Some(LmError::Config), "{cfg:?}");
+    }
 }
 
 #[test]

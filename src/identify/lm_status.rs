@@ -9,6 +9,9 @@ use crate::Real;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum LmError {
+    /// The settings cannot run ([`LmConfig::is_valid`](crate::identify::lm::LmConfig::is_valid)):
+    /// a damping that is not above zero, a non-finite number, a tolerance out of range.
+    Config,
     /// No measurements, or fewer residuals than active parameters.
     TooFewMeasurements,
     /// The measurement slice changed length between calls.

@@ -83,6 +83,23 @@ pub struct LmConfig<T: Real> {
     pub keep_curvature: bool,
 }
 
+impl<T: Real> LmConfig<T> {
+    /// Whether the settings can run: every number finite, the initial damping above zero (a
+    /// zero or negative damping never grows, so a failed step would be retried forever), the
+    /// rank tolerance in (0, 1), the other tolerances and the ridge at least zero.
+    pub fn is_valid(&self) -> bool {
+        let finite_non_negative = |x: T| x.finite() && x >= T::zero();
+        self.initial_damping.finite()
+            && self.initial_damping > T::zero()
+            && self.rank_tolerance > T::zero()
+            && self.rank_tolerance < T::one()
+            && finite_non_negative(self.cost_tolerance)
+            && finite_non_negative(self.step_tolerance)
+            && finite_non_negative(self.ridge)
+            && finite_non_negative(self.activation_tolerance)
+    }
+}
+
 impl<T: Real> Default for LmConfig<T> {
     fn default() -> Self {
         Self {
@@ -190,6 +207,9 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>, Q: LmPenalty<T>>
         mut penalty: Q,
         cfg: LmConfig<T>,
     ) -> Result<Self, LmError> {
+        if !cfg.is_valid() {
+            return Err(LmError::Config);
+        }
         check_params(storage.params(), &start).map_err(LmError::Params)?;
         if !storage_fits(&mut storage) {
             return Err(LmError::Params(ParamError::Shape));

@@ -229,14 +229,11 @@ fn identify_text_and_json_agree_on_the_rms() {
     assert_eq!(v["n_validation"], 15);
 }
 
-/// The same report, in-process: `frames`' text shows the base and tool of its JSON.
-#[test]
-fn frames_text_and_json_are_the_same_report() {
-    let dir = tempfile::tempdir().unwrap();
-    let robot_path = data_file("er20_placed.toml");
-    let (_, robot) = load_robot::<6>(&robot_path).unwrap();
+/// Sweeps of joints 1, 2, 5 and 6 of the robot file `robot`, written to `dir/sw.csv`.
+fn write_sweeps(robot: &std::path::Path, dir: &std::path::Path) -> std::path::PathBuf {
+    let (_, nominal) = load_robot::<6>(robot).unwrap();
     let sweeps = sweep_data(
-        &robot,
+        &nominal,
         &[20.0, 10.0, -10.0, 0.0, 20.0, 0.0],
         &[1, 2, 5, 6],
         24,
@@ -245,8 +242,17 @@ fn frames_text_and_json_are_the_same_report() {
         3,
     )
     .unwrap();
-    let csv = dir.path().join("sw.csv");
+    let csv = dir.join("sw.csv");
     measurements::write(&csv, &sweeps).unwrap();
+    csv
+}
+
+/// The same report, in-process: `frames`' text shows the base and tool of its JSON.
+#[test]
+fn frames_text_and_json_are_the_same_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot_path = data_file("er20_placed.toml");
+    let csv = write_sweeps(&robot_path, dir.path());
     let r = frames::from_files(&robot_path, &csv, &Default::default(), None).unwrap();
     let text = r.to_string();
     let json = r.to_json();
@@ -278,19 +284,7 @@ fn command_json_is_the_typed_report() {
         let (robot, data, truth) = simulated(dir.path());
 
         // frames
-        let (_, nominal) = load_robot::<6>(&robot).unwrap();
-        let sweeps = sweep_data(
-            &nominal,
-            &[20.0, 10.0, -10.0, 0.0, 20.0, 0.0],
-            &[1, 2, 5, 6],
-            24,
-            360.0,
-            0.002,
-            3,
-        )
-        .unwrap();
-        let csv = dir.path().join("sw.csv");
-        measurements::write(&csv, &sweeps).unwrap();
+        let csv = write_sweeps(&robot, dir.path());
         let typed = frames::from_files(&robot, &csv, &Default::default(), None).unwrap();
         let cli = one_object(&kinecal(&[
             "frames",

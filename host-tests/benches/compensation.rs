@@ -114,7 +114,7 @@ fn trajectory<T: Real>(r: &Robot<T, 6, V>, six: bool) -> Vec<(Target<T>, [T; 6])
 }
 
 fn bench_scalar<T: Real>(c: &mut Criterion, name: &str) {
-    let r: Robot<T, 6, V> = model().cast();
+    let r: Robot<T, 6, V> = model().cast().unwrap();
     let cfg = Config::<T>::default();
     let mut g = c.benchmark_group(format!("compensate_{name}"));
     for six in [true, false] {

@@ -66,7 +66,7 @@ fn solve<T: Real, const P: usize>(
 
 fn bench(c: &mut Criterion) {
     let (nominal, ms) = data();
-    let nominal32 = nominal.cast::<f32>();
+    let nominal32 = nominal.cast::<f32>().unwrap();
     let ms32: Vec<Measurement<f32, 6>> = ms
         .iter()
         .map(|m| Measurement {

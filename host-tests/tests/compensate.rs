@@ -734,7 +734,7 @@ fn f32_agrees_with_f64_within_a_micrometre() {
     let mut rng = Rng::seed_from_u64(51);
     let mut truth = with_geometry_errors(&er20(), &mut rng);
     add_effects(&mut truth, Fx::All, &mut rng);
-    let t32: Robot<f32, 6, V> = truth.cast();
+    let t32: Robot<f32, 6, V> = truth.cast().unwrap();
     let (c64, c32) = (Config::<f64>::default(), Config::<f32>::default());
     let (mut worst, mut worst_w) = (0.0f64, 0.0f64);
     for six in [false, true] {
@@ -750,7 +750,7 @@ fn f32_agrees_with_f64_within_a_micrometre() {
             let s64 = compensate(&truth, &target, &seed, &c64).unwrap();
             let target32 = match target {
                 Target::Point(p) => Target::Point(p.cast::<f32>()),
-                Target::Pose(f) => Target::Pose(f.cast()),
+                Target::Pose(f) => Target::Pose(f.cast().unwrap()),
             };
             let s32 = compensate(&t32, &target32, &seed.map(|v| v as f32), &c32).unwrap();
             let q32 = s32.q.map(|v| v as f64);
@@ -977,7 +977,7 @@ fn end_to_end() {
         );
         let p = lm.run(&data).unwrap();
         let identified = lm.robot().clone();
-        let id32: Robot<f32, 6, V> = identified.cast();
+        let id32: Robot<f32, 6, V> = identified.cast().unwrap();
 
         let cfg = Config::default();
         let (mut before, mut nominal_err, mut after, mut after32) =

@@ -268,7 +268,7 @@ fn couplings_are_validated_and_kept_by_cast_capacity_and_clone() {
     );
     r.remove_coupling(4);
     assert_eq!(r, before);
-    let r32: Robot<f32, 6, VCAP> = r.cast();
+    let r32: Robot<f32, 6, VCAP> = r.cast().unwrap();
     assert_eq!(r32.couplings().get(2), Some((1, 1.0f32)));
     let r64: Robot<f64, 6, 64> = r.with_capacity::<64>().unwrap();
     assert_eq!(r64.couplings(), r.couplings());

@@ -301,11 +301,11 @@ fn f32_base_frame_is_close_to_f64() {
         points: &p32[1],
         q: &q32[1],
     };
-    let r32: Robot<f32, 6, 0> = truth.cast();
+    let r32: Robot<f32, 6, 0> = truth.cast().unwrap();
     let est = base_from_sweeps(&r32, &s1, &s2).unwrap();
     let est64 = base_from_sweeps(&truth, &set.get(0).unwrap(), &set.get(1).unwrap()).unwrap();
-    let (mm, deg) = frame_error(&est.base.cast::<f64>(), &est64.base);
-    let (tmm, tdeg) = frame_error(&est.base.cast::<f64>(), truth.base());
+    let (mm, deg) = frame_error(&est.base.cast::<f64>().unwrap(), &est64.base);
+    let (tmm, tdeg) = frame_error(&est.base.cast::<f64>().unwrap(), truth.base());
     println!("f32 vs f64 base: {mm:.4} mm, {deg:.5}°; f32 vs truth: {tmm:.4} mm, {tdeg:.5}°");
     assert!(mm < 0.02 && deg < 0.002, "{mm} mm {deg}°");
     assert!(tmm < 0.1 && tdeg < 0.01, "{tmm} mm {tdeg}°");

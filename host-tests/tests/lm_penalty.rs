@@ -201,7 +201,7 @@ fn f32_and_fixed_storage_reach_the_same_penalised_optimum() {
         ..LmConfig::default()
     };
     let storage = FixedLm::<f32, 8>::from_slice(&LINEAR).unwrap();
-    let start32: Robot<f32, 6, 64> = start.cast();
+    let start32: Robot<f32, 6, 64> = start.cast().unwrap();
     let mut lm = Levenberg::with_penalty(start32, storage, pen, cfg).unwrap();
     lm.run(&data32).unwrap();
     for (k, param) in LINEAR.iter().enumerate() {

@@ -42,7 +42,7 @@ fn rows<T: Real>(r: &Robot<T, 6, 0>, params: &ParamSet<P>, q: &[T; 6]) -> PoseRo
 /// Pool → identifiable basis → KPI selection, in scalar T; returns the chosen pool indices
 /// and the basis rank.
 fn design<T: Real>(qs: &[[f64; 6]], work: &[[f64; 6]], n: usize) -> (Vec<usize>, usize) {
-    let r: Robot<T, 6, 0> = robot().cast();
+    let r: Robot<T, 6, 0> = robot().cast().unwrap();
     let params = ParamSet::<P>::full(6, true).unwrap();
     let mut pool: Vec<Candidate<T, 6, P>> = qs
         .iter()
@@ -109,7 +109,7 @@ fn f32_selection_and_online_stepper_match_f64() {
             assert!(k32 <= 1.05 * k64 && k64 <= 1.05 * k32);
 
             // The online stepper in f32 predicts what f64 linear algebra predicts.
-            let r32: Robot<f32, 6, 0> = robot().cast();
+            let r32: Robot<f32, 6, 0> = robot().cast().unwrap();
             let params = ParamSet::<P>::full(6, true).unwrap();
             let mut info = Information::<f32, P>::new(params.len()).unwrap();
             for q in &qs {

@@ -414,7 +414,7 @@ fn pso_runs_in_f32() {
         let nominal = er20_nominal();
         let truth = with_delta(&nominal, &er20_errors());
         let data64 = poses(&truth, 50, 0.01, 1);
-        let nominal32: Robot<f32, 6> = nominal.cast();
+        let nominal32: Robot<f32, 6> = nominal.cast().unwrap();
         let data: Vec<Measurement<f32, 6>> = data64
             .iter()
             .map(|m| Measurement {

@@ -284,13 +284,13 @@ fn check_joint_jacobian<const N: usize>(
 /// reference at the f32-rounded inputs (what the f32 computation was given).
 fn f32_error<const N: usize>(d: &Desc, q: &[f64]) -> (f64, f64) {
     let r = robot::<N>(d);
-    let r32: Robot<f32, N, V> = r.cast();
+    let r32: Robot<f32, N, V> = r.cast().unwrap();
     let q32: [f32; N] = std::array::from_fn(|i| q[i] as f32);
     let p = ForwardKinematics::<f32, N>::new().compute(&r32, &q32);
     let p = Vector3::new(p.x as f64, p.y as f64, p.z as f64);
     let total = (p - RefRobot::from_robot(&r).point(q)).norm();
     let q_rounded: Vec<f64> = q32.iter().map(|x| *x as f64).collect();
-    let arithmetic = (p - RefRobot::from_robot(&r32.cast::<f64>()).point(&q_rounded)).norm();
+    let arithmetic = (p - RefRobot::from_robot(&r32.cast::<f64>().unwrap()).point(&q_rounded)).norm();
     (total, arithmetic)
 }
 

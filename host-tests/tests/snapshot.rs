@@ -101,7 +101,7 @@ fn paper_sized_swarm_round_trips_in_f32_and_f64() {
         b.run(&mut f).unwrap();
         assert_eq!(bytes(&*a), bytes(&*b));
 
-        let n32: kinecal::Robot<f32, 6> = nominal.cast();
+        let n32: kinecal::Robot<f32, 6> = nominal.cast().unwrap();
         let d32: Vec<kinecal::Measurement<f32, 6>> = data
             .iter()
             .map(|m| kinecal::Measurement {

@@ -20,6 +20,10 @@ use core::ops::{AddAssign, Mul};
 /// differential wrist); the storage does not grow with the number of joints.
 pub const MAX_COUPLINGS: usize = 4;
 
+/// Largest magnitude of a coupling ratio (rad per rad): real couplings are about 1 (FANUC J3,
+/// differential wrists); the bound keeps model angles finite in `f32`.
+pub const MAX_RATIO: f64 = 1e3;
+
 /// Why a coupling was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -28,7 +32,7 @@ pub enum CouplingError {
     SameJoint,
     /// `joint` or `from` is not a joint of the robot.
     OutOfRange,
-    /// The ratio is NaN or infinite.
+    /// The ratio is NaN, infinite, or beyond ±[`MAX_RATIO`].
     NotFinite,
     /// The joint is already coupled.
     Twice,
@@ -126,7 +130,8 @@ impl<T: Real, const N: usize> Couplings<T, N> {
         if joint == from {
             return Err(CouplingError::SameJoint);
         }
-        if !ratio.finite() {
+        // `!(|r| <= bound)`: NaN fails too.
+        if !(ratio.abs() <= T::of(MAX_RATIO)) {
             return Err(CouplingError::NotFinite);
         }
         // One pass: `joint` coupled already, or a chain either way.
@@ -224,13 +229,18 @@ impl<T: Real, const N: usize> Couplings<T, N> {
         }
     }
 
-    /// The same couplings in another scalar type.
-    pub fn cast<U: Real>(&self) -> Couplings<U, N> {
-        Couplings {
+    /// The same couplings in another scalar type; [`CouplingError::NotFinite`] when a ratio
+    /// is not finite in `U` or beyond ±[`MAX_RATIO`] there.
+    pub fn cast<U: Real>(&self) -> Result<Couplings<U, N>, CouplingError> {
+        let ratio = self.ratio.map(|r| U::of(r.to_f64()));
+        if ratio.iter().any(|r| !(r.abs() <= U::of(MAX_RATIO))) {
+            return Err(CouplingError::NotFinite);
+        }
+        Ok(Couplings {
             joint: self.joint,
             from: self.from,
-            ratio: self.ratio.map(|r| U::of(r.to_f64())),
+            ratio,
             count: self.count,
-        }
+        })
     }
 }

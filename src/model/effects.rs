@@ -68,6 +68,11 @@ pub struct Effect<T: Real> {
 }
 
 impl<T: Real> Effect<T> {
+    /// Indices of its values in [`Effects::values`] (computed in `usize`: no overflow).
+    pub fn range(&self) -> core::ops::Range<usize> {
+        self.first as usize..self.first as usize + self.len as usize
+    }
+
     /// Knot position `k` of a table, rad.
     pub fn knot(&self, k: usize) -> T {
         self.start + self.step * T::of(k as f64)
@@ -95,37 +100,56 @@ impl<T: Real> Effect<T> {
     }
 }
 
+/// Most values one effect list holds, whatever its capacity `V` (value indices are `u16`).
+pub const MAX_VALUES: usize = u16::MAX as usize;
+
 /// Error when building or changing the effect list.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum EffectError {
-    /// More effects than [`MAX_EFFECTS`] or more values than the model's capacity `V`.
+    /// More effects than [`MAX_EFFECTS`], or more values than the model's capacity `V` or
+    /// than [`MAX_VALUES`].
     Capacity,
-    /// Joint index outside the robot.
+    /// Joint index outside the robot (the list's own robot, and the `n_joints` given).
     Joint,
-    /// Wrong number of values, a zero order, a non-positive or non-finite step.
+    /// Wrong number of values, a zero order, a non-positive step, or a value, start or step
+    /// that is not finite or beyond ±[`crate::model::robot::MAX_ANGLE`].
     Shape,
 }
 
-/// The list of effects of a model and their values (capacity `V` values in all).
+/// The list of effects of a model and their values (capacity `V` values in all, at most
+/// [`MAX_VALUES`] used whatever `V`).
+///
+/// A list belongs to a robot and accepts joints of that robot only: get it with
+/// [`crate::Robot::effects_mut`]. A list made with [`Default`] belongs to no robot and refuses
+/// every effect ([`EffectError::Joint`]); [`Effects::for_joints`] makes one for `n` joints.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Effects<T: Real, const V: usize> {
     list: Vec<Effect<T>, MAX_EFFECTS>,
     values: [T; V],
     used: usize,
+    joints: usize,
 }
 
 impl<T: Real, const V: usize> Default for Effects<T, V> {
     fn default() -> Self {
-        Self {
-            list: Vec::new(),
-            values: [T::zero(); V],
-            used: 0,
-        }
+        Self::for_joints(0)
     }
 }
 
 impl<T: Real, const V: usize> Effects<T, V> {
+    /// An empty list for a robot of `n` joints (at most 256 are addressable).
+    pub fn for_joints(n: usize) -> Self {
+        Self {
+            list: Vec::new(),
+            values: [T::zero(); V],
+            used: 0,
+            joints: n,
+        }
+    }
+    pub(crate) fn set_joints(&mut self, n: usize) {
+        self.joints = n;
+    }
     /// The effects, in the order they were added.
     pub fn iter(&self) -> impl Iterator<Item = &Effect<T>> {
         self.list.iter()
@@ -149,7 +173,7 @@ impl<T: Real, const V: usize> Effects<T, V> {
     /// Values of effect `i`.
     pub fn values_of(&self, i: usize) -> &[T] {
         match self.list.get(i) {
-            Some(e) => &self.values[e.first as usize..(e.first + e.len) as usize],
+            Some(e) => self.values.get(e.range()).unwrap_or(&[]),
             None => &[],
         }
     }
@@ -169,8 +193,10 @@ impl<T: Real, const V: usize> Effects<T, V> {
         })
     }
 
-    /// Appends an effect with its values; `n_joints` checks the joint index. On error nothing
-    /// changes. `start`/`step` matter for tables only, `order` for cyclic only.
+    /// Appends an effect with its values; the joint must be below `n_joints` and below the
+    /// list's own robot's joint count. Every value, `start` and `step` must be finite and within
+    /// ±[`crate::model::robot::MAX_ANGLE`]. On error nothing changes. `start`/`step` matter for
+    /// tables only, `order` for cyclic only.
     #[allow(clippy::too_many_arguments)]
     pub fn push(
         &mut self,
@@ -182,20 +208,20 @@ impl<T: Real, const V: usize> Effects<T, V> {
         step: T,
         values: &[T],
     ) -> Result<usize, EffectError> {
-        if joint >= n_joints {
+        if joint >= n_joints.min(self.joints) || joint > u8::MAX as usize {
             return Err(EffectError::Joint);
         }
         let ok_len = match kind {
             EffectKind::Scale | EffectKind::Compliance => values.len() == 1,
             EffectKind::Cyclic => values.len() == 2 && order >= 1,
-            EffectKind::Table => {
-                values.len() >= 2 && step > T::zero() && step.finite() && start.finite()
-            }
+            EffectKind::Table => values.len() >= 2 && step > T::zero(),
         };
-        if !ok_len || values.iter().any(|v| !v.finite()) {
+        let bound = T::of(crate::model::robot::MAX_ANGLE);
+        // `!(|v| <= bound)`: NaN fails too.
+        if !ok_len || [start, step].iter().chain(values).any(|v| !(v.abs() <= bound)) {
             return Err(EffectError::Shape);
         }
-        if self.list.is_full() || self.used + values.len() > V || values.len() > u16::MAX as usize {
+        if self.list.is_full() || self.used + values.len() > V.min(MAX_VALUES) {
             return Err(EffectError::Capacity);
         }
         let e = Effect {
@@ -223,7 +249,9 @@ impl<T: Real, const V: usize> Effects<T, V> {
             if j >= N {
                 continue;
             }
-            let v = &self.values[e.first as usize..(e.first + e.len) as usize];
+            let Some(v) = self.values.get(e.range()) else {
+                continue;
+            };
             dq[j] += match e.kind {
                 EffectKind::Scale => v[0] * q[j],
                 EffectKind::Compliance => v[0] * tau[j],
@@ -249,7 +277,9 @@ impl<T: Real, const V: usize> Effects<T, V> {
             if j >= N {
                 continue;
             }
-            let v = &self.values[e.first as usize..(e.first + e.len) as usize];
+            let Some(v) = self.values.get(e.range()) else {
+                continue;
+            };
             g[j] += match e.kind {
                 EffectKind::Scale => v[0],
                 EffectKind::Compliance => T::zero(),
@@ -279,7 +309,7 @@ impl<T: Real, const V: usize> Effects<T, V> {
         let e = self
             .list
             .iter()
-            .find(|e| (e.first as usize) <= k && k < (e.first + e.len) as usize)?;
+            .find(|e| e.range().contains(&k))?;
         let j = e.joint as usize;
         if j >= N {
             return None;

@@ -3,6 +3,11 @@
 use crate::Real;
 use nalgebra::{Matrix3, Vector3};
 
+/// How far a frame's axes may be from orthonormal and right-handed for [`Frame::is_rotation`]:
+/// on `|x|² − 1`, `|y|² − 1`, `x·y` and each component of `x × y − z`. Loose enough for axes
+/// rounded to `f32` or written with six digits, tight enough to refuse a scaled or sheared frame.
+pub const ROTATION_TOLERANCE: f64 = 1e-4;
+
 /// A right-handed frame expressed in a parent frame: `x`, `y`, `z` are the columns of the
 /// rotation, `o` the origin. Kept as axes because every Jacobian column is built from them.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -153,8 +158,35 @@ impl<T: Real> Frame<T> {
         self.y = self.z.cross(&self.x);
     }
 
-    /// Casts to another scalar type.
-    pub fn cast<U: Real>(&self) -> Frame<U> {
+    /// True when the axes are finite, orthonormal and right-handed (a rotation, `det = +1`)
+    /// within [`ROTATION_TOLERANCE`]; NaN or infinite axes give false.
+    pub fn is_rotation(&self) -> bool {
+        let tol = T::of(ROTATION_TOLERANCE);
+        let h = self.x.cross(&self.y) - self.z;
+        [
+            self.x.norm_squared() - T::one(),
+            self.y.norm_squared() - T::one(),
+            self.x.dot(&self.y),
+            h.x,
+            h.y,
+            h.z,
+        ]
+        .iter()
+        .all(|e| e.abs() <= tol)
+    }
+
+    /// Casts to another scalar type; `None` when a component is not finite in `U` (an `f64`
+    /// origin beyond `f32`'s range, or a non-finite frame).
+    pub fn cast<U: Real>(&self) -> Option<Frame<U>> {
+        let f = self.cast_unchecked::<U>();
+        [f.x, f.y, f.z, f.o]
+            .iter()
+            .all(|v| v.iter().all(|c| c.finite()))
+            .then_some(f)
+    }
+
+    /// Casts without checking (the caller checks the result).
+    pub(crate) fn cast_unchecked<U: Real>(&self) -> Frame<U> {
         let c = |v: &Vector3<T>| {
             Vector3::new(
                 U::of(v.x.to_f64()),

@@ -6,6 +6,7 @@
 //! subset being identified.
 
 use crate::model::effects::EffectKind;
+use crate::model::robot::{MAX_ANGLE, MAX_LENGTH};
 use crate::{Real, Robot};
 use core::fmt;
 use heapless::Vec;
@@ -175,13 +176,13 @@ impl<T: Real, const N: usize, const V: usize> fmt::Display for ParamName<'_, T, 
                 let eff = self.robot.and_then(|r| {
                     r.effects()
                         .iter()
-                        .find(|e| (e.first as usize) <= k && k < (e.first + e.len) as usize)
+                        .find(|e| e.range().contains(&k))
                 });
                 match eff {
                     None => write!(f, "effect[{k}]"),
                     Some(e) => {
                         let i = k - e.first as usize;
-                        let j = e.joint + 1;
+                        let j = e.joint as usize + 1;
                         match e.kind {
                             EffectKind::Cyclic => write!(
                                 f,
@@ -207,7 +208,9 @@ pub enum ParamError {
     Capacity,
     /// A parameter refers to a joint or effect value the robot does not have.
     OutOfRange,
-    /// The update vector's length differs from the set's, or holds NaN/inf.
+    /// The update vector's length differs from the set's, holds NaN/inf, or would take a
+    /// value beyond the robot's bounds ([`crate::model::robot::MAX_LENGTH`],
+    /// [`crate::model::robot::MAX_ANGLE`]).
     Shape,
 }
 
@@ -257,9 +260,12 @@ impl<const P: usize> ParamSet<P> {
     }
 
     /// The BPNN-PSO paper's 24-style set: alpha, a, theta, d of every joint (base and tool fixed).
+    /// More than 255 joints is [`ParamError::OutOfRange`].
     pub fn mdh(n: usize) -> Result<Self, ParamError> {
         let mut s = Self::new();
-        for i in 0..n as u8 {
+        // Joint indices are `u8`: more joints cannot be named (not truncated).
+        let n = u8::try_from(n).map_err(|_| ParamError::OutOfRange)?;
+        for i in 0..n {
             for p in [Param::Alpha(i), Param::A(i), Param::Theta(i), Param::D(i)] {
                 s.push(p)?;
             }
@@ -373,6 +379,22 @@ pub fn apply_delta<T: Real, const N: usize, const V: usize>(
         return Err(ParamError::Shape);
     }
     check_params(set, robot)?;
+    // Every updated value must stay one the robot accepts (the base rotation stays a rotation
+    // by construction): checked before anything changes.
+    for (p, d) in set.iter().zip(delta) {
+        let bound = if p.is_length() {
+            MAX_LENGTH
+        } else {
+            MAX_ANGLE
+        };
+        let after = match *p {
+            Param::BaseRx | Param::BaseRy | Param::BaseRz => T::zero(),
+            p => value(robot, p).unwrap_or(T::zero()) + *d,
+        };
+        if !(after.abs() <= T::of(bound)) {
+            return Err(ParamError::Shape);
+        }
+    }
     let mut w = Vector3::zeros();
     let mut dt = Vector3::zeros();
     {

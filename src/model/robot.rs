@@ -6,9 +6,32 @@
 //! cached here, so it is paid once per parameter change, not once per pose.
 
 use crate::model::coupling::{CouplingError, Couplings};
-use crate::model::effects::Effects;
+use crate::model::effects::{EffectError, Effects};
 use crate::{Frame, Real};
 use nalgebra::Vector3;
+
+/// Largest magnitude of a length a robot model accepts (mm): 1 km. Applies to the rows' `a` and
+/// `d`, the tool point and the base origin (each coordinate).
+pub const MAX_LENGTH: f64 = 1e6;
+
+/// Largest magnitude of an angle a robot model accepts (rad): about 1,600 turns, where the `f32`
+/// joint trigonometry is still exact in its range reduction. Applies to `alpha`, `theta`,
+/// `beta` and the joint limits (and to effect values and table knots, see [`Effects::push`]).
+pub const MAX_ANGLE: f64 = 1e4;
+
+/// `Ok` when every value is finite ([`RobotError::NotFinite`]) and at most `bound` in
+/// magnitude ([`RobotError::OutOfRange`]).
+pub(crate) fn check_bounded<T: Real>(values: &[T], bound: f64) -> Result<(), RobotError> {
+    for v in values {
+        if !v.finite() {
+            return Err(RobotError::NotFinite);
+        }
+        if v.abs() > T::of(bound) {
+            return Err(RobotError::OutOfRange);
+        }
+    }
+    Ok(())
+}
 
 /// One joint's modified Denavit–Hartenberg row (Craig) plus the Hayati tilt `beta`:
 /// `T_i(q) = Rx(alpha)·Tx(a)·Ry(beta)·Rz(theta + q)·Tz(d)`. Angles in rad, lengths in mm.
@@ -54,13 +77,30 @@ impl<T: Real> Joint<T> {
         )
     }
 
-    fn valid(&self) -> bool {
-        [
-            self.alpha, self.a, self.theta, self.d, self.beta, self.lower, self.upper,
-        ]
-        .iter()
-        .all(|v| v.finite())
-            && self.lower < self.upper
+    /// `Ok` when the row is one a robot can have: every value finite, angles within
+    /// ±[`MAX_ANGLE`], lengths within ±[`MAX_LENGTH`], and `lower < upper`.
+    pub fn check(&self) -> Result<(), RobotError> {
+        check_bounded(
+            &[self.alpha, self.theta, self.beta, self.lower, self.upper],
+            MAX_ANGLE,
+        )?;
+        check_bounded(&[self.a, self.d], MAX_LENGTH)?;
+        if self.lower < self.upper {
+            Ok(())
+        } else {
+            Err(RobotError::NotFinite)
+        }
+    }
+}
+
+/// `Ok` when `base` is a pose a robot base can have: finite, origin within ±[`MAX_LENGTH`] and
+/// axes forming a rotation ([`Frame::is_rotation`]).
+fn check_base<T: Real>(base: &Frame<T>) -> Result<(), RobotError> {
+    check_bounded(base.o.as_slice(), MAX_LENGTH)?;
+    if base.is_rotation() {
+        Ok(())
+    } else {
+        Err(RobotError::NotRotation)
     }
 }
 
@@ -80,13 +120,26 @@ pub(crate) struct RowTrig<T: Real> {
 pub enum RobotError {
     /// A parameter is NaN or infinite, or a joint's limits are not `lower < upper`.
     NotFinite,
+    /// A length beyond ±[`MAX_LENGTH`] or an angle beyond ±[`MAX_ANGLE`].
+    OutOfRange,
+    /// The base axes are not a rotation (not orthonormal and right-handed within
+    /// [`crate::model::frame::ROTATION_TOLERANCE`]).
+    NotRotation,
     /// A joint coupling was refused (see [`Couplings::add`]).
     BadCoupling(CouplingError),
+    /// A joint correction was refused (see [`Effects::push`]).
+    BadEffect(EffectError),
 }
 
 impl From<CouplingError> for RobotError {
     fn from(e: CouplingError) -> Self {
         RobotError::BadCoupling(e)
+    }
+}
+
+impl From<EffectError> for RobotError {
+    fn from(e: EffectError) -> Self {
+        RobotError::BadEffect(e)
     }
 }
 
@@ -107,24 +160,27 @@ pub struct Robot<T: Real, const N: usize, const V: usize = 0> {
 
 impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
     /// A robot from its base pose (measurement frame ← base), rows and tool point (flange frame).
+    ///
+    /// Refused ([`RobotError`]) unless every value is finite and within what a robot can be:
+    /// lengths (rows' `a`, `d`, tool point, base origin) within ±[`MAX_LENGTH`] (1 km), angles
+    /// (`alpha`, `theta`, `beta`, limits) within ±[`MAX_ANGLE`], `lower < upper` in every row,
+    /// and the base axes a rotation ([`Frame::is_rotation`]). Such a robot's forward
+    /// kinematics are finite in `f32` and `f64`.
     pub fn new(
         base: Frame<T>,
         joints: [Joint<T>; N],
         tool: Vector3<T>,
     ) -> Result<Self, RobotError> {
-        let ok = joints.iter().all(Joint::valid)
-            && tool.iter().all(|v| v.finite())
-            && [base.x, base.y, base.z, base.o]
-                .iter()
-                .all(|v| v.iter().all(|c| c.finite()));
-        if !ok {
-            return Err(RobotError::NotFinite);
+        for j in joints.iter() {
+            j.check()?;
         }
+        check_bounded(tool.as_slice(), MAX_LENGTH)?;
+        check_base(&base)?;
         let mut r = Self {
             base,
             joints,
             tool,
-            effects: Effects::default(),
+            effects: Effects::for_joints(N),
             couplings: Couplings::default(),
             trig: [RowTrig::default(); N],
             reach: T::one(),
@@ -181,33 +237,28 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
         &self.trig
     }
 
-    /// Replaces the base pose.
+    /// Replaces the base pose (checked as in [`Robot::new`]); on error the robot is unchanged.
     pub fn set_base(&mut self, base: Frame<T>) -> Result<(), RobotError> {
-        if ![base.x, base.y, base.z, base.o]
-            .iter()
-            .all(|v| v.iter().all(|c| c.finite()))
-        {
-            return Err(RobotError::NotFinite);
-        }
+        check_base(&base)?;
         self.base = base;
         Ok(())
     }
 
-    /// Replaces one row; on error the robot is unchanged.
+    /// Replaces one row (checked as in [`Robot::new`]; an index beyond the last joint is
+    /// [`RobotError::OutOfRange`]); on error the robot is unchanged.
     pub fn set_joint(&mut self, i: usize, j: Joint<T>) -> Result<(), RobotError> {
-        if !j.valid() || i >= N {
-            return Err(RobotError::NotFinite);
-        }
-        self.joints[i] = j;
+        j.check()?;
+        let Some(row) = self.joints.get_mut(i) else {
+            return Err(RobotError::OutOfRange);
+        };
+        *row = j;
         self.refresh();
         Ok(())
     }
 
-    /// Replaces the tool point.
+    /// Replaces the tool point (checked as in [`Robot::new`]); on error the robot is unchanged.
     pub fn set_tool(&mut self, tool: Vector3<T>) -> Result<(), RobotError> {
-        if !tool.iter().all(|v| v.finite()) {
-            return Err(RobotError::NotFinite);
-        }
+        check_bounded(tool.as_slice(), MAX_LENGTH)?;
         self.tool = tool;
         self.refresh();
         Ok(())
@@ -230,9 +281,22 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
         self.couplings.clear();
     }
 
-    /// The effect list, to add corrections (see [`Effects::push`]).
+    /// The effect list, to add corrections (see [`Effects::push`]; the list refuses joints
+    /// beyond this robot's `N`).
     pub fn effects_mut(&mut self) -> &mut Effects<T, V> {
+        self.effects.set_joints(N);
         &mut self.effects
+    }
+
+    /// `Ok` when the whole model is one [`Robot::new`] and [`Effects::push`] would accept (after
+    /// the model was changed in place, e.g. decoded from a snapshot).
+    pub(crate) fn check(&self) -> Result<(), RobotError> {
+        for j in self.joints.iter() {
+            j.check()?;
+        }
+        check_bounded(self.tool.as_slice(), MAX_LENGTH)?;
+        check_base(&self.base)?;
+        check_bounded(self.effects.values(), MAX_ANGLE)
     }
 
     #[allow(clippy::type_complexity)]
@@ -265,8 +329,10 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
             .all(|(q, j)| *q >= j.lower && *q <= j.upper)
     }
 
-    /// The same robot in another scalar type (effects and couplings included).
-    pub fn cast<U: Real>(&self) -> Robot<U, N, V> {
+    /// The same robot in another scalar type (effects and couplings included), checked as in
+    /// [`Robot::new`]: a value that does not fit `U` (a table step that rounds to zero, say)
+    /// is an error, never an infinite or degenerate model.
+    pub fn cast<U: Real>(&self) -> Result<Robot<U, N, V>, RobotError> {
         let c = |x: T| U::of(x.to_f64());
         let joints = self.joints.map(|j| Joint {
             alpha: c(j.alpha),
@@ -277,24 +343,19 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
             lower: c(j.lower),
             upper: c(j.upper),
         });
-        let mut r = Robot {
-            base: self.base.cast(),
+        let mut r = Robot::new(
+            self.base.cast_unchecked(),
             joints,
-            tool: Vector3::new(c(self.tool.x), c(self.tool.y), c(self.tool.z)),
-            effects: Effects::default(),
-            couplings: self.couplings.cast(),
-            trig: [RowTrig::default(); N],
-            reach: U::one(),
-        };
-        r.refresh();
+            Vector3::new(c(self.tool.x), c(self.tool.y), c(self.tool.z)),
+        )?;
+        r.couplings = self.couplings.cast()?;
         for (i, e) in self.effects.iter().enumerate() {
             let mut vals = [U::zero(); V];
             let src = self.effects.values_of(i);
             for (d, s) in vals.iter_mut().zip(src) {
                 *d = c(*s);
             }
-            // Same capacity, same shapes: cannot fail.
-            let _ = r.effects.push(
+            r.effects.push(
                 e.kind,
                 e.joint as usize,
                 N,
@@ -302,9 +363,9 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
                 c(e.start),
                 c(e.step),
                 &vals[..src.len()],
-            );
+            )?;
         }
-        r
+        Ok(r)
     }
 
     /// The same geometry, effects and couplings with a different value capacity `W` (fails if
@@ -316,7 +377,7 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
             base: self.base,
             joints: self.joints,
             tool: self.tool,
-            effects: Effects::default(),
+            effects: Effects::for_joints(N),
             couplings: self.couplings,
             trig: self.trig,
             reach: self.reach,

@@ -134,7 +134,9 @@ fn compensate_with_joints<const N: usize>(
     }
     let started = Instant::now();
     let results = if settings.f32 {
-        let r32: Robot<f32, N, { crate::VCAP }> = robot.cast();
+        let r32: Robot<f32, N, { crate::VCAP }> = robot
+            .cast()
+            .map_err(|e| anyhow!("the model does not fit f32: {e:?}"))?;
         let c32 = Config::<f32> {
             iterations: cfg.iterations,
             max_step: cfg.max_step as f32,

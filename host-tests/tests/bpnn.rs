@@ -173,7 +173,7 @@ fn bad_input_is_refused_and_divergence_undone() {
 
     // A step size far too large blows the weights up: the epoch is undone.
     net.set_config(BpnnConfig {
-        learning_rate: 1e200,
+        learning_rate: kinecal::identify::bpnn::MAX_LEARNING_RATE,
         ..BpnnConfig::default()
     })
     .unwrap();

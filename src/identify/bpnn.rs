@@ -40,6 +40,10 @@ pub const fn hidden_size(inputs: usize, outputs: usize, a: usize) -> usize {
     r + a
 }
 
+/// Largest learning rate a configuration accepts: steps of normalised size far beyond 1 only
+/// diverge, and a rate near `f64::MAX` overflows the first update to ∞ − ∞ = NaN.
+pub const MAX_LEARNING_RATE: f64 = 1e6;
+
 /// Hidden-layer activation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -81,11 +85,12 @@ impl<T: Real> Default for BpnnConfig<T> {
 pub enum BpnnError {
     /// `I`, `H` or `O` is zero.
     Empty,
-    /// Learning rate not positive, momentum outside [0, 1), or batch zero.
+    /// Learning rate not in (0, [`MAX_LEARNING_RATE`]], momentum outside [0, 1), or batch zero.
     Config,
     /// No samples, or inputs and targets differ in count.
     Shape,
-    /// A sample or range holds NaN or infinity, or a range has `lo > hi`.
+    /// A sample or range holds NaN or infinity, a range has `lo > hi`, or its span `hi − lo`
+    /// is not finite (`±1e308` in `f64`, say).
     NonFinite,
     /// The weights became non-finite during the epoch (learning rate too large); the net was
     /// put back as it was before the epoch.
@@ -149,10 +154,12 @@ impl<T: Real, const K: usize> Range<T, K> {
     fn from_bounds(lo: &[T; K], hi: &[T; K]) -> Result<Self, BpnnError> {
         let mut r = Self::unit();
         for k in 0..K {
-            if !(lo[k].finite() && hi[k].finite() && lo[k] <= hi[k]) {
+            let span = hi[k] - lo[k];
+            // A finite span implies finite bounds; NaN fails.
+            if !(span.finite() && lo[k] <= hi[k]) {
                 return Err(BpnnError::NonFinite);
             }
-            let half = (hi[k] - lo[k]) * T::of(0.5);
+            let half = span * T::of(0.5);
             r.mid[k] = lo[k] + half;
             r.half[k] = if half > T::zero() { half } else { T::one() };
         }
@@ -474,7 +481,7 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Snapshot for Bpnn<
 }
 
 fn check_config<T: Real>(cfg: &BpnnConfig<T>) -> Result<(), BpnnError> {
-    let ok = cfg.learning_rate.finite()
+    let ok = cfg.learning_rate <= T::of(MAX_LEARNING_RATE)
         && cfg.learning_rate > T::zero()
         && cfg.momentum.finite()
         && cfg.momentum >= T::zero()

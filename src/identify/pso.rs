@@ -124,7 +124,8 @@ pub struct PsoConfig<T: Real, const D: usize> {
 pub enum PsoError {
     /// `S` or `D` is zero.
     Empty,
-    /// A bound is not finite or `lower >= upper`.
+    /// A bound is not finite, `lower >= upper`, or a span `upper − lower` too wide for `T`
+    /// (times the velocity factors it overflows: `±1e308` in `f64`, say).
     Bounds,
     /// A coefficient or tolerance is negative or not finite.
     Coefficient,
@@ -211,15 +212,17 @@ impl<T: Real, const D: usize> PsoConfig<T, D> {
         if D == 0 {
             return Err(PsoError::Empty);
         }
-        if !self
-            .lower
-            .iter()
-            .zip(self.upper.iter())
-            .all(|(l, u)| l.finite() && u.finite() && l < u)
-        {
+        let nonneg = |v: T| v.finite() && v >= T::zero();
+        // The largest velocity update of a dimension is at most span · k · (max_velocity + 1)
+        // (coefficients ≥ 0 checked below): finite spans and that product keep every velocity
+        // and position finite in `T`.
+        let k = self.inertia + self.cognitive + self.social + self.initial_velocity + T::one();
+        let fits = |l: &T, u: &T| {
+            l < u && l.finite() && u.finite() && ((*u - *l) * k * (self.max_velocity + T::one())).finite()
+        };
+        if !self.lower.iter().zip(self.upper.iter()).all(|(l, u)| fits(l, u)) {
             return Err(PsoError::Bounds);
         }
-        let nonneg = |v: T| v.finite() && v >= T::zero();
         let ok = nonneg(self.inertia)
             && nonneg(self.cognitive)
             && nonneg(self.social)
@@ -325,7 +328,8 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
         self.rng = Xoshiro256PlusPlus::seed_from_u64(seed);
         for (x, v) in self.position.iter_mut().zip(self.velocity.iter_mut()) {
             for ((xd, lo), hi) in x.iter_mut().zip(cfg.lower.iter()).zip(cfg.upper.iter()) {
-                *xd = *lo + unit::<T>(&mut self.rng) * (*hi - *lo);
+                // (`min`: the sum may round above the upper bound.)
+                *xd = (*lo + unit::<T>(&mut self.rng) * (*hi - *lo)).min(*hi);
             }
             for (vd, vm) in v.iter_mut().zip(self.vmax.iter()) {
                 *vd =
@@ -410,7 +414,7 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
         self.history
             .iter()
             .position(|f| *f <= fitness)
-            .map(|k| k as u32)
+            .and_then(|k| u32::try_from(k).ok())
     }
     /// Iteration, evaluations, best fitness and, once finished, why it stopped.
     pub fn progress(&self) -> PsoProgress<T> {
@@ -452,7 +456,7 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
             }
             let f = problem.fitness(&self.position[i]);
             let f = if f.finite() { f } else { T::of(f64::INFINITY) };
-            self.evaluations += 1;
+            self.evaluations = self.evaluations.saturating_add(1);
             left -= 1;
             if f < self.best_fitness[i] {
                 self.best_fitness[i] = f;
@@ -646,13 +650,21 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
             let v: T = d.real()?;
             self.history.push(v).map_err(|_| SnapshotError::Invalid)?;
         }
-        let rows_finite = |a: &[[T; D]; S]| a.iter().all(|r| r.iter().all(|v| v.finite()));
+        // Positions inside the box and velocities within their limits (the initial ones within
+        // `initial_velocity` times them); NaN fails both.
+        let (lo, hi, vm) = (&self.cfg.lower, &self.cfg.upper, &self.vmax);
+        let f = self.cfg.initial_velocity.max(T::one());
+        let inside = |x: &[T; D]| (0..D).all(|d| x[d] >= lo[d] && x[d] <= hi[d]);
+        let rows_inside = |a: &[[T; D]; S]| a.iter().all(inside);
         let ok = self.next < S
-            && rows_finite(&self.position)
-            && rows_finite(&self.velocity)
-            && rows_finite(&self.best)
-            && rows_finite(&self.initial)
-            && self.global.iter().all(|v| v.finite())
+            && rows_inside(&self.position)
+            && self
+                .velocity
+                .iter()
+                .all(|v| (0..D).all(|d| v[d].abs() <= vm[d] * f))
+            && rows_inside(&self.best)
+            && rows_inside(&self.initial)
+            && inside(&self.global)
             && !self.best_fitness.iter().any(|f| is_nan(*f))
             && !is_nan(self.global_fitness)
             && !is_nan(self.reference)

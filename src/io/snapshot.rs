@@ -389,7 +389,9 @@ where
 
 /// Reads and checks a snapshot of `kind` for scalar `T`, decoding the payload with `payload`
 /// into a value of the caller's choice (a temporary copy of the stepper). The value is returned
-/// only when the payload was consumed exactly and its CRC matched.
+/// only when the payload was consumed exactly and its CRC matched. When `payload` refuses the
+/// state ([`SnapshotError::Invalid`]) the rest of the payload is read: a CRC mismatch then
+/// reports [`SnapshotError::Checksum`] (corruption), a match [`SnapshotError::Invalid`].
 pub fn restore_with<T: Real, R: Read, X, F>(
     r: &mut R,
     kind: Kind,
@@ -424,7 +426,23 @@ where
         crc: Crc32::new(),
         left: len,
     };
-    let value = payload(&mut dec)?;
+    let value = match payload(&mut dec) {
+        // A state no stepper can be in: from a corrupted payload (a checksum error) when the
+        // rest of it does not match the CRC, else a CRC-valid but invalid snapshot.
+        Err(SnapshotError::Invalid) => {
+            let mut b = [0u8; 16];
+            while dec.left > 0 {
+                let n = (dec.left as usize).min(b.len());
+                dec.bytes(&mut b[..n])?;
+            }
+            return Err(if dec.crc.value() != crc {
+                SnapshotError::Checksum
+            } else {
+                SnapshotError::Invalid
+            });
+        }
+        v => v?,
+    };
     if dec.left != 0 {
         return Err(SnapshotError::Length);
     }

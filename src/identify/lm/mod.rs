@@ -560,7 +560,7 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>, Q: LmPenalty<T>>
             self.resolve_penalty();
         }
         self.next = 0;
-        self.evaluations += 1;
+        self.evaluations = self.evaluations.saturating_add(1);
         self.cost = self.acc_cost;
         if self.cfg.max_analyses == 0 {
             // No analysis: every parameter the caller does not hold is estimated.
@@ -608,7 +608,7 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>, Q: LmPenalty<T>>
             self.factored = false;
         }
         self.next = 0;
-        self.evaluations += 1;
+        self.evaluations = self.evaluations.saturating_add(1);
         self.decide();
     }
 
@@ -911,7 +911,7 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>, Q: LmPenalty<T>>
         self.factored = false;
         self.lambda *= self.nu;
         self.nu *= T::of(2.0);
-        self.iteration += 1;
+        self.iteration = self.iteration.saturating_add(1);
         if !(self.lambda < T::of(1e16)) {
             self.phase = Phase::Done(LmStop::NoProgress);
         } else if self.iteration >= self.cfg.max_iterations {
@@ -980,7 +980,7 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>, Q: LmPenalty<T>>
                 self.factored = false;
             }
             self.nu = T::of(2.0);
-            self.iteration += 1;
+            self.iteration = self.iteration.saturating_add(1);
             if rel < self.cfg.cost_tolerance {
                 self.finish(LmStop::Converged);
             } else if self.iteration >= self.cfg.max_iterations {

@@ -101,7 +101,13 @@ fn get_robot<T: Real, R: Read, const N: usize, const V: usize>(
     *js = joints;
     *tool = Vector3::new(t[0], t[1], t[2]);
     r.refresh();
-    Ok(())
+    // A model `Robot::new` would refuse (NaN, beyond the bounds, a base that is no rotation).
+    r.check().map_err(|_| SnapshotError::Invalid)
+}
+
+/// True when every value is finite.
+fn all_finite<T: Real>(v: &[T]) -> bool {
+    v.iter().all(|x| x.finite())
 }
 
 /// True when the solver has state beyond the plain run's: a penalty or parameters the
@@ -239,7 +245,24 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T> + Clone, Q: LmPena
             s.iteration = d.u32()?;
             s.evaluations = d.u32()?;
             s.factored = false;
-            if s.next > s.n_poses || bad_scale {
+            // Costs may be +∞ (a candidate off the data) but not NaN or negative; the damping
+            // must be one the solver can reach (> 0, finite), the arrays finite.
+            let p = s.st.parts_ref();
+            let ok = !bad_scale
+                && s.next <= s.n_poses
+                && [s.cost, s.acc_cost, s.cand_cost].iter().all(|c| *c >= T::zero())
+                && s.lambda > T::zero()
+                && s.lambda.finite()
+                && s.nu >= T::one()
+                && s.nu.finite()
+                && !s.predicted.to_f64().is_nan()
+                && all_finite(&p.analysed_diag[..n])
+                && all_finite(&p.scale[..n])
+                && all_finite(&p.total[..n])
+                && all_finite(&p.jtr[..n])
+                && all_finite(&p.step[..n])
+                && (0..n).all(|i| all_finite(&p.jtj[i * st..i * st + n]));
+            if !ok {
                 return Err(SnapshotError::Invalid);
             }
             if extended(&s.st, &s.pen) {

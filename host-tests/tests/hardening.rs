@@ -179,7 +179,8 @@ fn effects_refuse_joints_beyond_the_robot_and_u16_indices() {
         .spawn(|| {
             let mut e = Box::new(Effects::<f64, 70_000>::for_joints(2));
             let vals = vec![0.0; 40_000];
-            e.push(EffectKind::Table, 0, 2, 1, 0.0, 1e-3, &vals).unwrap();
+            e.push(EffectKind::Table, 0, 2, 1, 0.0, 1e-3, &vals)
+                .unwrap();
             assert_eq!(
                 e.push(EffectKind::Table, 1, 2, 1, 0.0, 1e-3, &vals),
                 Err(EffectError::Capacity)
@@ -389,7 +390,9 @@ fn pso_counters_saturate_and_the_run_stops() {
 
 #[test]
 fn bpnn_restore_checks_the_weights() {
-    let xs: Vec<[f64; 2]> = (0..20).map(|k| [k as f64 * 0.1, 1.0 - k as f64 * 0.05]).collect();
+    let xs: Vec<[f64; 2]> = (0..20)
+        .map(|k| [k as f64 * 0.1, 1.0 - k as f64 * 0.05])
+        .collect();
     let ys: Vec<[f64; 1]> = xs.iter().map(|x| [x[0] * x[1]]).collect();
     let mut net = Bpnn::<f64, 2, 4, 1>::new(BpnnConfig::default(), 3).unwrap();
     net.fit_ranges(&xs, &ys).unwrap();

@@ -290,7 +290,8 @@ fn f32_error<const N: usize>(d: &Desc, q: &[f64]) -> (f64, f64) {
     let p = Vector3::new(p.x as f64, p.y as f64, p.z as f64);
     let total = (p - RefRobot::from_robot(&r).point(q)).norm();
     let q_rounded: Vec<f64> = q32.iter().map(|x| *x as f64).collect();
-    let arithmetic = (p - RefRobot::from_robot(&r32.cast::<f64>().unwrap()).point(&q_rounded)).norm();
+    let arithmetic =
+        (p - RefRobot::from_robot(&r32.cast::<f64>().unwrap()).point(&q_rounded)).norm();
     (total, arithmetic)
 }
 

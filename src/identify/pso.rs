@@ -218,9 +218,17 @@ impl<T: Real, const D: usize> PsoConfig<T, D> {
         // and position finite in `T`.
         let k = self.inertia + self.cognitive + self.social + self.initial_velocity + T::one();
         let fits = |l: &T, u: &T| {
-            l < u && l.finite() && u.finite() && ((*u - *l) * k * (self.max_velocity + T::one())).finite()
+            l < u
+                && l.finite()
+                && u.finite()
+                && ((*u - *l) * k * (self.max_velocity + T::one())).finite()
         };
-        if !self.lower.iter().zip(self.upper.iter()).all(|(l, u)| fits(l, u)) {
+        if !self
+            .lower
+            .iter()
+            .zip(self.upper.iter())
+            .all(|(l, u)| fits(l, u))
+        {
             return Err(PsoError::Bounds);
         }
         let ok = nonneg(self.inertia)

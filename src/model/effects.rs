@@ -218,7 +218,12 @@ impl<T: Real, const V: usize> Effects<T, V> {
         };
         let bound = T::of(crate::model::robot::MAX_ANGLE);
         // `!(|v| <= bound)`: NaN fails too.
-        if !ok_len || [start, step].iter().chain(values).any(|v| !(v.abs() <= bound)) {
+        if !ok_len
+            || [start, step]
+                .iter()
+                .chain(values)
+                .any(|v| !(v.abs() <= bound))
+        {
             return Err(EffectError::Shape);
         }
         if self.list.is_full() || self.used + values.len() > V.min(MAX_VALUES) {
@@ -306,10 +311,7 @@ impl<T: Real, const V: usize> Effects<T, V> {
     /// Basis function `φ` of value `k` (global value index) at readings `q`, lever arms `tau`:
     /// `∂dq_joint/∂v_k`. Returns the joint it acts on.
     pub fn basis<const N: usize>(&self, k: usize, q: &[T; N], tau: &[T; N]) -> Option<(usize, T)> {
-        let e = self
-            .list
-            .iter()
-            .find(|e| e.range().contains(&k))?;
+        let e = self.list.iter().find(|e| e.range().contains(&k))?;
         let j = e.joint as usize;
         if j >= N {
             return None;

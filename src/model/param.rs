@@ -173,11 +173,9 @@ impl<T: Real, const N: usize, const V: usize> fmt::Display for ParamName<'_, T, 
             Param::ToolZ => f.write_str("tool.z"),
             Param::Effect(k) => {
                 let k = k as usize;
-                let eff = self.robot.and_then(|r| {
-                    r.effects()
-                        .iter()
-                        .find(|e| e.range().contains(&k))
-                });
+                let eff = self
+                    .robot
+                    .and_then(|r| r.effects().iter().find(|e| e.range().contains(&k)));
                 match eff {
                     None => write!(f, "effect[{k}]"),
                     Some(e) => {
@@ -382,11 +380,7 @@ pub fn apply_delta<T: Real, const N: usize, const V: usize>(
     // Every updated value must stay one the robot accepts (the base rotation stays a rotation
     // by construction): checked before anything changes.
     for (p, d) in set.iter().zip(delta) {
-        let bound = if p.is_length() {
-            MAX_LENGTH
-        } else {
-            MAX_ANGLE
-        };
+        let bound = if p.is_length() { MAX_LENGTH } else { MAX_ANGLE };
         let after = match *p {
             Param::BaseRx | Param::BaseRy | Param::BaseRz => T::zero(),
             p => value(robot, p).unwrap_or(T::zero()) + *d,

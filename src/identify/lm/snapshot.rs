@@ -250,7 +250,9 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T> + Clone, Q: LmPena
             let p = s.st.parts_ref();
             let ok = !bad_scale
                 && s.next <= s.n_poses
-                && [s.cost, s.acc_cost, s.cand_cost].iter().all(|c| *c >= T::zero())
+                && [s.cost, s.acc_cost, s.cand_cost]
+                    .iter()
+                    .all(|c| *c >= T::zero())
                 && s.lambda > T::zero()
                 && s.lambda.finite()
                 && s.nu >= T::one()

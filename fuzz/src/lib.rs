@@ -302,3 +302,49 @@ pub fn ulps(a: f64, b: f64) -> u64 {
     };
     (key(a) as i128 - key(b) as i128).unsigned_abs() as u64
 }
+
+/// An `embedded_io::Write` into a `Vec<u8>`.
+#[derive(Debug, Default)]
+pub struct VecWriter(pub Vec<u8>);
+
+impl embedded_io::ErrorType for VecWriter {
+    type Error = core::convert::Infallible;
+}
+
+impl embedded_io::Write for VecWriter {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
+        self.0.extend_from_slice(buf);
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> Result<(), Self::Error> {
+        Ok(())
+    }
+}
+
+/// `n` measurements of `robot` at readings spread over the joint range (deterministic).
+pub fn simulate<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    n: usize,
+) -> Vec<kinecal::Measurement<f64, N>> {
+    (0..n)
+        .map(|k| {
+            let q: [f64; N] =
+                std::array::from_fn(|j| ((k * 7 + j * 3) % 11) as f64 * 0.37 - 1.8 + 0.01 * j as f64);
+            kinecal::Measurement { q, point: kinecal::forward::point(robot, &q) }
+        })
+        .collect()
+}
+
+/// The same robot with every row slightly changed (an "identified" robot).
+pub fn perturbed<const N: usize, const V: usize>(robot: &Robot<f64, N, V>) -> Robot<f64, N, V> {
+    let mut r = robot.clone();
+    for i in 0..N {
+        let mut j = *r.joint(i).unwrap();
+        j.a += 0.3 * (i as f64 + 1.0);
+        j.d -= 0.2;
+        j.theta += 0.002;
+        j.alpha -= 0.001;
+        r.set_joint(i, j).unwrap();
+    }
+    r
+}

@@ -106,6 +106,14 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
         extra.push(kinecal::Param::Beta(t as u8));
     }
     for req in &args.effects {
+        if req.joint >= N {
+            crate::refuse!(
+                "--effect {}:{}: {} has {N} joints (number them 1 to {N})",
+                req.kind,
+                req.joint + 1,
+                input.robot.display()
+            );
+        }
         let range = joint_range(&ident, req.joint);
         extra.extend(add_effect(&mut nominal, req, range)?);
     }

@@ -84,10 +84,11 @@ pub fn split_holdout<T: Clone>(all: &[T], holdout: f64) -> anyhow::Result<(Vec<T
     } else {
         holdout as usize
     };
-    anyhow::ensure!(
-        holdout >= 0.0 && holdout.is_finite() && k < n,
-        "--holdout {holdout} leaves no poses to identify from ({n} poses)"
-    );
+    if !(holdout >= 0.0 && holdout.is_finite() && k < n) {
+        crate::refuse!(
+            "--holdout {holdout} leaves no poses to identify from ({n} poses): hold out fewer"
+        );
+    }
     Ok((all[..n - k].to_vec(), all[n - k..].to_vec()))
 }
 

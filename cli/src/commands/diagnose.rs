@@ -97,6 +97,12 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
         crate::formats::units::load_measurements(p, &input.units, &nominal, file.base_known())
             .map(|d| d.measurements::<f64>())
     };
+    if let Some(dir) = args.plots.as_deref().filter(|d| d.exists() && !d.is_dir()) {
+        crate::refuse!(
+            "--plots {}: names a file, not a directory: give a directory for the SVG plots",
+            dir.display()
+        );
+    }
     let all = super::inputs::some_rows(load(&input.data)?, &input.data)?;
     let (search, held) = match (&args.validate, args.holdout) {
         (Some(v), _) => (all, super::inputs::some_rows(load(v)?, v)?),

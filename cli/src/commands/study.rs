@@ -109,7 +109,7 @@ fn parse_range(text: &str, what: &str) -> anyhow::Result<Vec<f64>> {
     }
     // Counted in f64 first: a tiny step must not wrap the count.
     let n_f = ((hi - lo) / step + 1e-9).floor() + 1.0;
-    if !(n_f <= 1000.0) {
+    if n_f.is_nan() || n_f > 1000.0 {
         crate::refuse!("{what} `{text}`: more than 1000 values: use a larger STEP");
     }
     let n = n_f as usize;

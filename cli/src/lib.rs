@@ -66,6 +66,81 @@ pub const EXIT_REFUSED: i32 = 2;
 /// Effect-value capacity of host-side models: room for per-joint tables on every joint.
 pub const VCAP: usize = 2048;
 
+// Limits on numbers from the command line and the robot file that size work or storage, or
+// that no robot can have (docs/formats.md, "Limits"). Input beyond them is refused (exit 2)
+// before anything is allocated or computed.
+
+/// Largest length in a robot file (link lengths and offsets, tool, base position): 100 m.
+pub const MAX_LENGTH_MM: f64 = 100_000.0;
+/// Largest magnitude of a DH angle (alpha, theta, beta) or a base angle in a robot file.
+pub const MAX_ANGLE_DEG: f64 = 720.0;
+/// Largest magnitude of a joint limit in a robot file (ten turns).
+pub const MAX_JOINT_LIMIT_DEG: f64 = 3600.0;
+/// Largest magnitude of an effect value in a robot file or on `simulate --effect` (scale,
+/// rad, rad per metre): a correction of more than a radian is not a calibration effect.
+pub const MAX_EFFECT_VALUE: f64 = 1.0;
+/// Largest magnitude of a coupling ratio (degrees per degree).
+pub const MAX_COUPLING_RATIO: f64 = 10.0;
+/// Smallest knot spacing of a joint table (degrees).
+pub const MIN_TABLE_STEP_DEG: f64 = 0.1;
+/// Most knots of one joint table.
+pub const MAX_TABLE_KNOTS: usize = 1024;
+/// Highest harmonic order of a joint-cyclic effect.
+pub const MAX_CYCLIC_ORDER: u16 = 64;
+/// Most poses `simulate` writes.
+pub const MAX_SIMULATED_POSES: usize = 1_000_000;
+/// Most points of one simulated sweep.
+pub const MAX_SWEEP_POINTS: usize = 100_000;
+/// Most poses `plan` selects (the exchange passes grow with poses × pool).
+pub const MAX_PLAN_POSES: usize = 2_000;
+/// Largest candidate pool of `plan` and `study`.
+pub const MAX_POOL: usize = 100_000;
+/// Most exchange passes of `plan` and `study`.
+pub const MAX_PASSES: u32 = 1_000;
+/// Largest noise standard deviation (mm) of `simulate`, `plan` and `study`.
+pub const MAX_NOISE_MM: f64 = 1_000.0;
+/// Largest magnitude of a joint reading given on the command line (degrees).
+pub const MAX_JOINT_READING_DEG: f64 = 3600.0;
+
+/// A number for an error message: `1e308`, not 309 digits.
+pub fn number_text(x: f64) -> String {
+    if x.is_finite() && x != 0.0 && !(1e-4..1e6).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
+/// Refuses (exit 2) a count outside `min..=max`, naming the flag and the limit.
+pub fn check_count(flag: &str, n: usize, min: usize, max: usize) -> anyhow::Result<()> {
+    if n < min || n > max {
+        refuse!("{flag} {n}: must be {min} to {max} (docs/formats.md, \"Limits\")");
+    }
+    Ok(())
+}
+
+/// Refuses (exit 2) a number that is not finite or lies outside `min..=max`.
+pub fn check_number(flag: &str, x: f64, min: f64, max: f64) -> anyhow::Result<()> {
+    if !(x.is_finite() && x >= min && x <= max) {
+        refuse!(
+            "{flag} {}: must be a finite number from {min} to {max}",
+            number_text(x)
+        );
+    }
+    Ok(())
+}
+
+/// Refuses (exit 2) a number that is not finite and strictly positive (at most `max`).
+pub fn check_positive(flag: &str, x: f64, max: f64) -> anyhow::Result<()> {
+    if !(x.is_finite() && x > 0.0 && x <= max) {
+        refuse!(
+            "{flag} {}: must be a finite number > 0 and at most {max}",
+            number_text(x)
+        );
+    }
+    Ok(())
+}
+
 /// Runs `$body` with a const `N` equal to the runtime joint count `$n` (2..=8 supported),
 /// or evaluates to an error for other counts.
 #[macro_export]

@@ -84,10 +84,11 @@ pub fn split_holdout<T: Clone>(all: &[T], holdout: f64) -> anyhow::Result<(Vec<T
     } else {
         holdout as usize
     };
-    anyhow::ensure!(
-        holdout >= 0.0 && holdout.is_finite() && k < n,
-        "--holdout {holdout} leaves no poses to identify from ({n} poses)"
-    );
+    if !(holdout >= 0.0 && holdout.is_finite() && k < n) {
+        crate::refuse!(
+            "--holdout {holdout} leaves no poses to identify from ({n} poses): hold out fewer"
+        );
+    }
     Ok((all[..n - k].to_vec(), all[n - k..].to_vec()))
 }
 
@@ -313,6 +314,21 @@ impl std::str::FromStr for EffectRequest {
             kind == "axis-tilt" || kinecal::EffectKind::from_id(&kind).is_some(),
             "--effect {s}: unknown effect '{kind}' (joint-compliance, joint-cyclic, joint-scale, axis-tilt, joint-table)"
         );
+        if let Some(a) = arg {
+            match kind.as_str() {
+                "joint-cyclic" => anyhow::ensure!(
+                    a.fract() == 0.0 && (1.0..=f64::from(crate::MAX_CYCLIC_ORDER)).contains(&a),
+                    "--effect {s}: the order of joint-cyclic must be a whole number from 1 to {}",
+                    crate::MAX_CYCLIC_ORDER
+                ),
+                "joint-table" => anyhow::ensure!(
+                    a.is_finite() && (crate::MIN_TABLE_STEP_DEG..=360.0).contains(&a),
+                    "--effect {s}: the knot spacing of joint-table must be {} to 360 degrees",
+                    crate::MIN_TABLE_STEP_DEG
+                ),
+                _ => anyhow::bail!("--effect {s}: only joint-cyclic (order) and joint-table (knot spacing) take an ARG"),
+            }
+        }
         Ok(Self {
             kind,
             joint: joint - 1,
@@ -328,11 +344,13 @@ pub fn add_effect<const N: usize, const V: usize>(
     req: &EffectRequest,
     q_range_rad: (f64, f64),
 ) -> anyhow::Result<Vec<Param>> {
-    anyhow::ensure!(
-        req.joint < N,
-        "effect on joint {} but the robot has {N} joints",
-        req.joint + 1
-    );
+    if req.joint >= N {
+        crate::refuse!(
+            "--effect {}:{}: the robot has {N} joints (number them 1 to {N})",
+            req.kind,
+            req.joint + 1
+        );
+    }
     if req.kind == "axis-tilt" {
         return Ok(vec![Param::Beta(req.joint as u8)]);
     }
@@ -342,27 +360,50 @@ pub fn add_effect<const N: usize, const V: usize>(
     let (order, start, step, len) = match kind {
         kinecal::EffectKind::Cyclic => {
             let n = req.arg.unwrap_or(1.0);
-            anyhow::ensure!(
-                n >= 1.0 && n.fract() == 0.0 && n < 65536.0,
-                "joint-cyclic order must be a whole number ≥ 1"
-            );
+            if !(n.fract() == 0.0 && (1.0..=f64::from(crate::MAX_CYCLIC_ORDER)).contains(&n)) {
+                crate::refuse!(
+                    "--effect joint-cyclic:{}:{n}: the order must be a whole number from 1 to {}",
+                    req.joint + 1,
+                    crate::MAX_CYCLIC_ORDER
+                );
+            }
             (n as u16, 0.0, 0.0, 2)
         }
         kinecal::EffectKind::Table => {
-            let step = req.arg.unwrap_or(3.6).to_radians();
-            anyhow::ensure!(
-                step > 0.0 && step.is_finite(),
-                "joint-table step must be positive"
-            );
+            let step_deg = req.arg.unwrap_or(3.6);
+            if !(step_deg.is_finite() && (crate::MIN_TABLE_STEP_DEG..=360.0).contains(&step_deg)) {
+                crate::refuse!(
+                    "--effect joint-table:{}:{step_deg}: the knot spacing must be {} to 360 degrees",
+                    req.joint + 1,
+                    crate::MIN_TABLE_STEP_DEG
+                );
+            }
+            let step = step_deg.to_radians();
             let (lo, hi) = q_range_rad;
-            anyhow::ensure!(
-                lo.is_finite() && hi.is_finite() && hi >= lo,
-                "joint-table on joint {}: no joint range",
-                req.joint + 1
-            );
+            if !(lo.is_finite() && hi.is_finite() && hi >= lo) {
+                crate::refuse!(
+                    "--effect joint-table:{}: the data give no range of joint {}",
+                    req.joint + 1,
+                    req.joint + 1
+                );
+            }
             let start = (lo / step).floor() * step;
-            let knots = (((hi - start) / step).ceil() as usize + 1).max(2);
-            (0, start, step, knots)
+            // Counted in f64 before any allocation: a tiny step over a wide range must not
+            // size a vector (or wrap a usize).
+            let knots_f = ((hi - start) / step).ceil() + 1.0;
+            let have = robot.effects().values().len();
+            let room = crate::MAX_TABLE_KNOTS.min(crate::VCAP.saturating_sub(have));
+            if !(knots_f.is_finite() && knots_f <= room as f64) {
+                crate::refuse!(
+                    "--effect joint-table:{}:{step_deg}: {:.0} knots over the {:.1}° the data cover; \
+                     at most {room} fit (a table has at most {} knots): use a wider spacing",
+                    req.joint + 1,
+                    knots_f,
+                    (hi - lo).to_degrees(),
+                    crate::MAX_TABLE_KNOTS
+                );
+            }
+            (0, start, step, (knots_f as usize).max(2))
         }
         _ => (0, 0.0, 0.0, 1),
     };
@@ -371,7 +412,11 @@ pub fn add_effect<const N: usize, const V: usize>(
         .effects_mut()
         .push(kind, req.joint, N, order, start, step, &zeros)
         .map_err(|e| {
-            anyhow::anyhow!("cannot add {} on joint {}: {e:?}", req.kind, req.joint + 1)
+            crate::refused(format!(
+                "--effect {}:{}: cannot add it to the model ({e:?}): too many effects",
+                req.kind,
+                req.joint + 1
+            ))
         })?;
     Ok((first..first + len)
         .map(|k| Param::Effect(k as u16))

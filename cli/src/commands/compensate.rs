@@ -74,5 +74,11 @@ pub fn run(args: &Args) -> anyhow::Result<CompensateReport> {
             args.model.display()
         );
     }
+    if r.failed > 0 {
+        eprintln!(
+            "error: {} of {} targets were not reached within --accept-mm (their rows keep the seed with a failure status; exit 3)",
+            r.failed, r.targets
+        );
+    }
     Ok(r)
 }

@@ -97,19 +97,37 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
         crate::formats::units::load_measurements(p, &input.units, &nominal, file.base_known())
             .map(|d| d.measurements::<f64>())
     };
-    let all = load(&input.data)?;
-    anyhow::ensure!(!all.is_empty(), "{}: no measurements", input.data.display());
+    if let Some(dir) = args.plots.as_deref().filter(|d| d.exists() && !d.is_dir()) {
+        crate::refuse!(
+            "--plots {}: names a file, not a directory: give a directory for the SVG plots",
+            dir.display()
+        );
+    }
+    let all = super::inputs::some_rows(load(&input.data)?, &input.data)?;
     let (search, held) = match (&args.validate, args.holdout) {
-        (Some(v), _) => (all, load(v)?),
-        (None, Some(h)) => split_holdout(&all, h)?,
+        (Some(v), _) => (all, super::inputs::some_rows(load(v)?, v)?),
+        (None, Some(h)) => {
+            if !(h.is_finite() && h > 0.0) {
+                crate::refuse!(
+                    "--holdout {h}: give a fraction (0 < F < 1) or a count of poses (≥ 1)"
+                );
+            }
+            split_holdout(&all, h)?
+        }
         (None, None) => (all, Vec::new()),
     };
-    anyhow::ensure!(args.folds >= 2, "--folds must be at least 2");
-    anyhow::ensure!(
-        args.alpha > 0.0 && args.alpha < 1.0,
-        "--alpha must be between 0 and 1"
-    );
-    anyhow::ensure!(args.max_order >= 1, "--max-order must be at least 1");
+    crate::check_count("--folds", args.folds, 2, search.len().max(2))?;
+    if !(args.alpha > 0.0 && args.alpha < 1.0) {
+        crate::refuse!("--alpha {}: must be between 0 and 1", args.alpha);
+    }
+    crate::check_count(
+        "--max-order",
+        usize::from(args.max_order),
+        1,
+        usize::from(crate::MAX_CYCLIC_ORDER),
+    )?;
+    crate::check_count("--max-effects", args.max_effects, 0, 64)?;
+    crate::check_positive("--stall-rms-mm", args.stall_rms_mm, 1e6)?;
     let mut cfg = Config {
         folds: args.folds,
         alpha: args.alpha,

@@ -81,17 +81,32 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
         crate::formats::units::load_measurements(p, &input.units, &nominal, file.base_known())
             .map(|d| d.measurements::<f64>())
     };
-    let all = load(&input.data)?;
+    let all = super::inputs::some_rows(load(&input.data)?, &input.data)?;
     let (ident, valid) = match (&args.validate, args.holdout) {
-        (Some(v), _) => (all, load(v)?),
-        (None, Some(h)) => split_holdout(&all, h)?,
+        (Some(v), _) => (all, super::inputs::some_rows(load(v)?, v)?),
+        (None, Some(h)) => {
+            if !(h.is_finite() && h > 0.0) {
+                crate::refuse!(
+                    "--holdout {h}: give a fraction (0 < F < 1) or a count of poses (≥ 1)"
+                );
+            }
+            split_holdout(&all, h)?
+        }
         (None, None) => (all, Vec::new()),
     };
-    anyhow::ensure!(
-        !ident.is_empty(),
-        "{}: no measurements",
-        input.data.display()
-    );
+    if ident.is_empty() {
+        crate::refuse!(
+            "{}: --holdout leaves no poses to identify from: hold out fewer",
+            input.data.display()
+        );
+    }
+    for (flag, v) in [
+        ("--tolerance-mm", args.tolerance_mm),
+        ("--tolerance-deg", args.tolerance_deg),
+        ("--stall-rms-mm", args.stall_rms_mm),
+    ] {
+        crate::check_positive(flag, v, 1e6)?;
+    }
     let base_unknown = !file.base_known();
     if base_unknown {
         let base = crate::compute::registration::fit_base(&nominal, &ident)
@@ -106,6 +121,14 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
         extra.push(kinecal::Param::Beta(t as u8));
     }
     for req in &args.effects {
+        if req.joint >= N {
+            crate::refuse!(
+                "--effect {}:{}: {} has {N} joints (number them 1 to {N})",
+                req.kind,
+                req.joint + 1,
+                input.robot.display()
+            );
+        }
         let range = joint_range(&ident, req.joint);
         extra.extend(add_effect(&mut nominal, req, range)?);
     }
@@ -116,6 +139,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
     params.extend(existing_effect_params(&nominal, &params));
     params.extend(extra.iter().copied());
     apply_fix_free(&mut params, &args.fix, &args.free, N)?;
+    enough_poses(ident.len(), params.len(), base_unknown, &input.data)?;
     let before = Residuals::of(&nominal, &ident, &valid);
     let t0 = Instant::now();
     let fit = match args.method {
@@ -214,6 +238,31 @@ fn stop_text<const N: usize>(
     } else {
         how.to_string()
     }
+}
+
+/// Refuses (exit 2), for every method, data that cannot determine the model: each pose gives
+/// three equations, so `n` poses determine at most `3n` parameters; a base fitted by
+/// registration needs at least 3 poses.
+fn enough_poses(
+    poses: usize,
+    params: usize,
+    base_unknown: bool,
+    data: &std::path::Path,
+) -> anyhow::Result<()> {
+    let need = params.div_ceil(3).max(if base_unknown { 3 } else { 1 });
+    if poses < need {
+        crate::refuse!(
+            "{}: {poses} poses to identify {params} parameters from; at least {need} are needed \
+             (3 equations per pose{}): measure more poses, or hold parameters with --fix",
+            data.display(),
+            if base_unknown {
+                ", and 3 poses for the base estimate"
+            } else {
+                ""
+            }
+        );
+    }
+    Ok(())
 }
 
 /// Applies `--fix` and `--free` to the parameter list (names as printed, geometric only).

@@ -30,3 +30,15 @@ impl InputArgs {
         }
     }
 }
+
+/// `rows` when there is at least one; a file with a header and no rows is refused (exit 2)
+/// naming it, wherever a command reads measurements.
+pub fn some_rows<T>(rows: Vec<T>, path: &std::path::Path) -> anyhow::Result<Vec<T>> {
+    if rows.is_empty() {
+        crate::refuse!(
+            "{}: no measurement rows (only a header?): give a file with measured poses",
+            path.display()
+        );
+    }
+    Ok(rows)
+}

@@ -98,9 +98,25 @@ fn print_stdout(text: &str) {
 /// `{"error": "<reason>"}` on stdout.
 pub fn main() {
     let cli = Cli::parse();
+    quiet_panics(cli.json);
     // Storage is sized from the problem on the heap (the solver's normal equations included):
     // the main thread's ordinary stack is enough.
     match dispatch(&cli) {
+        Ok(report) if report.non_finite().is_some() => {
+            let field = report.non_finite().unwrap_or_default();
+            let error = ErrorReport {
+                error: format!(
+                    "the result is not a finite number ({field}): the inputs are out of any \
+                     plausible range for a calibration; check the magnitudes and units of the \
+                     robot file and the data"
+                ),
+            };
+            eprintln!("{error}");
+            if cli.json {
+                print_json(&crate::reports::json_value(&error));
+            }
+            std::process::exit(1);
+        }
         Ok(report) => {
             if cli.json {
                 print_json(&report.to_json());
@@ -120,6 +136,34 @@ pub fn main() {
             std::process::exit(exit_status(&e));
         }
     }
+}
+
+/// A last line of defence: a panic (a bug: every input problem is meant to be refused with a
+/// reason first) prints one line `kinecal: internal error: …` (and `{"error": …}` with
+/// `--json`) and exits with status 1, never a backtrace, whatever `RUST_BACKTRACE` says.
+fn quiet_panics(json: bool) {
+    std::panic::set_hook(Box::new(move |info| {
+        let what = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown panic".into());
+        let place = info
+            .location()
+            .map(|l| format!(" at {}:{}", l.file(), l.line()))
+            .unwrap_or_default();
+        let error = ErrorReport {
+            error: format!(
+                "internal error: {what}{place} (a bug: please report it with the command line)"
+            ),
+        };
+        eprintln!("{error}");
+        if json {
+            print_json(&crate::reports::json_value(&error));
+        }
+        std::process::exit(1);
+    }));
 }
 
 /// The exit status of a failed command: 2 when the input was refused

@@ -172,6 +172,16 @@ pub fn run(args: &Args) -> anyhow::Result<PlanReport> {
             ("scene", args.scene.as_path()),
         ],
     )?;
+    // The work grows with poses × pool × passes: all three are bounded before it starts.
+    crate::check_count("--poses", args.poses, 1, crate::MAX_PLAN_POSES)?;
+    crate::check_count("--pool", args.pool, 1, crate::MAX_POOL)?;
+    crate::check_count(
+        "--passes",
+        args.passes as usize,
+        0,
+        crate::MAX_PASSES as usize,
+    )?;
+    crate::check_positive("--noise-mm", args.noise_mm, crate::MAX_NOISE_MM)?;
     let file = RobotFile::load(&args.robot)?;
     with_joints!(file.joint_count(), N => plan_with_joints::<N>(args, &file))
 }

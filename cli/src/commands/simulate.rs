@@ -11,7 +11,7 @@ use crate::formats::robot_file::{RobotFile, AXIS_TILT};
 use crate::reports::simulate::{SimulateReport, SimulatedEffect};
 use crate::simulation::{self, EffectArg, GeomErrors, Simulation};
 use crate::with_joints;
-use anyhow::{anyhow, bail};
+use anyhow::anyhow;
 use std::path::PathBuf;
 
 /// Arguments of `kinecal simulate` (docs/formats.md).
@@ -88,10 +88,12 @@ fn simulate_with_joints<const N: usize>(
         let rest: [f64; N] = if args.rest.is_empty() {
             crate::simulation::sweeps::default_rest(&truth)
         } else {
-            args.rest
-                .as_slice()
-                .try_into()
-                .map_err(|_| anyhow!("--rest needs {N} joint readings, got {}", args.rest.len()))?
+            args.rest.as_slice().try_into().map_err(|_| {
+                crate::refused(format!(
+                    "--rest needs {N} joint readings, got {}",
+                    args.rest.len()
+                ))
+            })?
         };
         ds = crate::simulation::sweeps::sweep_data(
             &truth,
@@ -142,13 +144,6 @@ fn simulate_with_joints<const N: usize>(
 
 /// Runs the subcommand: writes the files and returns what was written.
 pub fn run(args: &Args) -> anyhow::Result<SimulateReport> {
-    let file = RobotFile::load(&args.robot)?;
-    if !(args.noise_mm.is_finite() && args.noise_mm >= 0.0) {
-        bail!(
-            "--noise-mm must be a finite number ≥ 0, got {}",
-            args.noise_mm
-        );
-    }
     use crate::output::atomic::same_file;
     if same_file(&args.out, &args.robot)
         || args
@@ -156,16 +151,42 @@ pub fn run(args: &Args) -> anyhow::Result<SimulateReport> {
             .as_deref()
             .is_some_and(|t| same_file(t, &args.robot) || same_file(t, &args.out))
     {
-        bail!("--out and --truth must not overwrite the robot file or each other");
+        crate::refuse!("--out and --truth must not overwrite the robot file or each other");
+    }
+    let file = RobotFile::load(&args.robot)?;
+    crate::check_number("--noise-mm", args.noise_mm, 0.0, crate::MAX_NOISE_MM)?;
+    crate::check_count("--poses", args.poses, 1, crate::MAX_SIMULATED_POSES)?;
+    if !args.sweeps.is_empty() {
+        crate::check_count(
+            "--sweep-points",
+            args.sweep_points,
+            2,
+            crate::MAX_SWEEP_POINTS,
+        )?;
+        crate::check_positive("--sweep-span-deg", args.sweep_span_deg, 3600.0)?;
+        if args.sweeps.len() > 64 {
+            crate::refuse!("--sweeps: at most 64 sweeps, got {}", args.sweeps.len());
+        }
+        for &j in &args.sweeps {
+            crate::check_count("--sweep", j, 1, file.joint_count())?;
+        }
+        for &q in &args.rest {
+            crate::check_number(
+                "--rest",
+                q,
+                -crate::MAX_JOINT_READING_DEG,
+                crate::MAX_JOINT_READING_DEG,
+            )?;
+        }
     }
     let effects = args
         .effects
         .iter()
-        .map(|s| s.parse::<EffectArg>().map_err(|e| anyhow!(e)))
+        .map(|s| s.parse::<EffectArg>().map_err(crate::refused))
         .collect::<anyhow::Result<Vec<_>>>()?;
     for e in &effects {
         if e.joint >= file.joint_count() {
-            bail!(
+            crate::refuse!(
                 "--effect {}:{}: the robot has {} joints",
                 e.kind,
                 e.joint + 1,

@@ -94,13 +94,25 @@ fn parse_range(text: &str, what: &str) -> anyhow::Result<Vec<f64>> {
     let [lo, hi, step] = p[..] else {
         bail!("{what} `{text}`: expected MIN:MAX:STEP in mm")
     };
-    if !(lo.is_finite() && hi.is_finite() && step > 0.0 && lo <= hi && lo > 0.0) {
-        bail!("{what} `{text}`: need 0 < MIN ≤ MAX and STEP > 0");
+    if !(lo.is_finite()
+        && hi.is_finite()
+        && step.is_finite()
+        && step > 0.0
+        && lo <= hi
+        && lo > 0.0
+        && hi <= crate::MAX_LENGTH_MM)
+    {
+        crate::refuse!(
+            "{what} `{text}`: need 0 < MIN ≤ MAX ≤ {} and a finite STEP > 0",
+            crate::MAX_LENGTH_MM
+        );
     }
-    let n = ((hi - lo) / step + 1e-9).floor() as usize + 1;
-    if n > 1000 {
-        bail!("{what} `{text}`: more than 1000 values");
+    // Counted in f64 first: a tiny step must not wrap the count.
+    let n_f = ((hi - lo) / step + 1e-9).floor() + 1.0;
+    if n_f.is_nan() || n_f > 1000.0 {
+        crate::refuse!("{what} `{text}`: more than 1000 values: use a larger STEP");
     }
+    let n = n_f as usize;
     Ok((0..n).map(|i| lo + step * i as f64).collect())
 }
 
@@ -116,12 +128,18 @@ pub fn run(args: &Args) -> anyhow::Result<StudyReport> {
     };
     let uppers = parse_range(&args.upper_arm_mm, "--upper-arm-mm")?;
     let forearms = parse_range(&args.forearm_mm, "--forearm-mm")?;
-    if args.poses == 0 {
-        bail!("--poses must be at least 1");
-    }
-    if !(args.noise_mm.is_finite() && args.noise_mm > 0.0) {
-        bail!("--noise-mm must be a positive number");
-    }
+    crate::check_count("--poses", args.poses, 1, crate::MAX_PLAN_POSES)?;
+    crate::check_count("--pool", args.pool, 1, crate::MAX_POOL)?;
+    crate::check_count("--random-designs", args.random_designs, 0, 1000)?;
+    crate::check_count(
+        "--passes",
+        args.passes as usize,
+        0,
+        crate::MAX_PASSES as usize,
+    )?;
+    crate::check_count("--monte-carlo", args.monte_carlo, 0, 1_000_000)?;
+    crate::check_count("--threads", args.threads, 1, 256)?;
+    crate::check_positive("--noise-mm", args.noise_mm, crate::MAX_NOISE_MM)?;
     let work = vec![design::parse_configuration::<6>(&args.work)?];
     let arms: Vec<(f64, f64)> = uppers
         .iter()

@@ -115,7 +115,16 @@ fn compensate_with_joints<const N: usize>(
     let robot = file
         .to_robot::<N>()
         .map_err(|e| anyhow!("{}: {e}", args.model.display()))?;
+    crate::check_positive("--max-step-deg", settings.max_step_deg, 180.0)?;
+    crate::check_positive("--accept-mm", settings.accept_mm, 1000.0)?;
+    crate::check_count("--iterations", usize::from(settings.iterations), 1, 255)?;
     let rows = read_targets::<N>(&args.targets, &args.units, &robot)?;
+    if rows.is_empty() {
+        crate::refuse!(
+            "{}: no targets (a header and no rows): give at least one target row",
+            args.targets.display()
+        );
+    }
     let poses = rows.iter().filter(|r| r.rpy.is_some()).count();
     if poses > 0 && N < 6 {
         bail!(
@@ -295,6 +304,34 @@ fn read_targets<const N: usize>(
     };
     let mut rows = Vec::with_capacity(ds.len());
     for r in &ds.records {
+        // Seeds and points a controller could have: a seed of 1e300° would otherwise come back
+        // as the command of a failed target.
+        if let Some((j, q)) = r
+            .q_deg
+            .iter()
+            .enumerate()
+            .find(|(_, q)| !(q.is_finite() && q.abs() <= crate::MAX_JOINT_READING_DEG))
+        {
+            crate::refuse!(
+                "{origin}:{}: seed q{} = {}° is implausible (joint readings are within ±{}°): check the targets file and --angle-unit",
+                r.line,
+                j + 1,
+                crate::number_text(*q),
+                crate::MAX_JOINT_READING_DEG
+            );
+        }
+        if let Some(v) = r
+            .xyz_mm
+            .iter()
+            .find(|v| !(v.is_finite() && v.abs() <= crate::MAX_LENGTH_MM))
+        {
+            crate::refuse!(
+                "{origin}:{}: target coordinate {} mm is implausible (within ±{} mm): check the targets file and --length-unit",
+                r.line,
+                crate::number_text(*v),
+                crate::MAX_LENGTH_MM
+            );
+        }
         let seed: Vec<f64> = r.q_deg.iter().map(|q| q.to_radians()).collect();
         let rpy = match pose {
             None => None,

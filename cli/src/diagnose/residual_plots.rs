@@ -61,42 +61,47 @@ pub fn per_pose_errors(path: &Path, before_sq: &[f64], after_sq: &[f64]) -> anyh
         .max(1e-6)
         * 1.05;
     let rms = |v: &[f64]| (v.iter().sum::<f64>() / v.len().max(1) as f64).sqrt();
-    let root = SVGBackend::new(path, (1000, 500)).into_drawing_area();
-    root.fill(&WHITE).map_err(plot_err)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            "Held-out error of every pose (5-fold cross-validation)",
-            ("sans-serif", 20),
-        )
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(0.0..(b.len().max(1) as f64 + 1.0), 0.0..ymax)
-        .map_err(plot_err)?;
-    chart
-        .configure_mesh()
-        .x_desc("pose (file order)")
-        .y_desc("held-out 3-D error (mm)")
-        .draw()
-        .map_err(plot_err)?;
-    let [rb, ra] = distinct_figures([rms(before_sq), rms(after_sq)]);
-    chart
-        .draw_series(b.iter().map(|p| Circle::new(*p, 2, RED.filled())))
-        .map_err(plot_err)?
-        .label(format!("geometry only: RMS {rb} mm"))
-        .legend(|(x, y)| Circle::new((x, y), 3, RED.filled()));
-    chart
-        .draw_series(a.iter().map(|p| Circle::new(*p, 2, BLUE.filled())))
-        .map_err(plot_err)?
-        .label(format!("with the named effects: RMS {ra} mm"))
-        .legend(|(x, y)| Circle::new((x, y), 3, BLUE.filled()));
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(plot_err)?;
-    root.present().map_err(plot_err)?;
+    // Drawn in memory, then written atomically (never a torn SVG).
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (1000, 500)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                "Held-out error of every pose (5-fold cross-validation)",
+                ("sans-serif", 20),
+            )
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..(b.len().max(1) as f64 + 1.0), 0.0..ymax)
+            .map_err(plot_err)?;
+        chart
+            .configure_mesh()
+            .x_desc("pose (file order)")
+            .y_desc("held-out 3-D error (mm)")
+            .draw()
+            .map_err(plot_err)?;
+        let [rb, ra] = distinct_figures([rms(before_sq), rms(after_sq)]);
+        chart
+            .draw_series(b.iter().map(|p| Circle::new(*p, 2, RED.filled())))
+            .map_err(plot_err)?
+            .label(format!("geometry only: RMS {rb} mm"))
+            .legend(|(x, y)| Circle::new((x, y), 3, RED.filled()));
+        chart
+            .draw_series(a.iter().map(|p| Circle::new(*p, 2, BLUE.filled())))
+            .map_err(plot_err)?
+            .label(format!("with the named effects: RMS {ra} mm"))
+            .legend(|(x, y)| Circle::new((x, y), 3, BLUE.filled()));
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(plot_err)?;
+        root.present().map_err(plot_err)?;
+    }
+    crate::output::plots::save_svg(path, &svg)?;
     Ok(())
 }
 
@@ -176,59 +181,66 @@ pub fn effect_residuals<const N: usize>(
         CandidateKind::Tilt => format!("residual along the tilt of axis {} (mdeg)", j + 1),
         _ => format!("joint {} angle error explaining the residual (mdeg)", j + 1),
     };
-    let root = SVGBackend::new(path, (1000, 560)).into_drawing_area();
-    root.fill(&WHITE).map_err(plot_err)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            {
-                let [before, after] = distinct_figures([f.before_rms_mm, f.validation_rms_mm]);
-                format!("{}: held-out RMS {before} → {after} mm", c.label())
-            },
-            ("sans-serif", 20),
-        )
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d(xmin..xmax, (ymin - pad)..(ymax + pad))
-        .map_err(plot_err)?;
-    chart
-        .configure_mesh()
-        .x_desc(x_desc)
-        .y_desc(y_desc)
-        .draw()
-        .map_err(plot_err)?;
-    chart
-        .draw_series(
-            before
-                .iter()
-                .map(|p| Circle::new(*p, 2, RED.mix(0.7).filled())),
-        )
-        .map_err(plot_err)?
-        .label("before (model without the effect)")
-        .legend(|(x, y)| Circle::new((x, y), 3, RED.filled()));
-    chart
-        .draw_series(
-            after
-                .iter()
-                .map(|p| Circle::new(*p, 2, BLUE.mix(0.7).filled())),
-        )
-        .map_err(plot_err)?
-        .label("after (with the effect)")
-        .legend(|(x, y)| Circle::new((x, y), 3, BLUE.filled()));
-    if !curve.is_empty() {
+    // Drawn in memory, then written atomically (never a torn SVG).
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (1000, 560)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                {
+                    let [before, after] = distinct_figures([f.before_rms_mm, f.validation_rms_mm]);
+                    format!("{}: held-out RMS {before} → {after} mm", c.label())
+                },
+                ("sans-serif", 20),
+            )
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(xmin..xmax, (ymin - pad)..(ymax + pad))
+            .map_err(plot_err)?;
         chart
-            .draw_series(LineSeries::new(curve, BLACK.stroke_width(2)))
+            .configure_mesh()
+            .x_desc(x_desc)
+            .y_desc(y_desc)
+            .draw()
+            .map_err(plot_err)?;
+        chart
+            .draw_series(
+                before
+                    .iter()
+                    .map(|p| Circle::new(*p, 2, RED.mix(0.7).filled())),
+            )
             .map_err(plot_err)?
-            .label("identified correction")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK.stroke_width(2)));
+            .label("before (model without the effect)")
+            .legend(|(x, y)| Circle::new((x, y), 3, RED.filled()));
+        chart
+            .draw_series(
+                after
+                    .iter()
+                    .map(|p| Circle::new(*p, 2, BLUE.mix(0.7).filled())),
+            )
+            .map_err(plot_err)?
+            .label("after (with the effect)")
+            .legend(|(x, y)| Circle::new((x, y), 3, BLUE.filled()));
+        if !curve.is_empty() {
+            chart
+                .draw_series(LineSeries::new(curve, BLACK.stroke_width(2)))
+                .map_err(plot_err)?
+                .label("identified correction")
+                .legend(|(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 16, y)], BLACK.stroke_width(2))
+                });
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(plot_err)?;
+        root.present().map_err(plot_err)?;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(plot_err)?;
-    root.present().map_err(plot_err)?;
+    crate::output::plots::save_svg(path, &svg)?;
     Ok(())
 }
 

@@ -269,6 +269,28 @@ fn finite(xs: &[f64]) -> bool {
     xs.iter().all(|x| x.is_finite())
 }
 
+/// Why a length of the file (mm) is implausible, if it is: beyond ±[`crate::MAX_LENGTH_MM`]
+/// no robot cell is (a file in micrometres or a typo).
+fn implausible_length(key: &str, v: f64) -> Option<String> {
+    (v.abs() > crate::MAX_LENGTH_MM).then(|| {
+        format!(
+            "{key} = {} is implausible: lengths are millimetres within ±{} (100 m)",
+            crate::number_text(v),
+            crate::MAX_LENGTH_MM
+        )
+    })
+}
+
+/// Why an angle of the file (degrees) is implausible, if it is: beyond ±`max`.
+fn implausible_angle(key: &str, v: f64, max: f64) -> Option<String> {
+    (v.abs() > max).then(|| {
+        format!(
+            "{key} = {} is implausible: angles are degrees within ±{max}",
+            crate::number_text(v)
+        )
+    })
+}
+
 impl RobotFile {
     /// Number of joints (rows).
     pub fn joint_count(&self) -> usize {
@@ -326,14 +348,42 @@ impl RobotFile {
                     format!("joint {}: parameters must be finite numbers", i + 1),
                 );
             }
+            for (key, v) in [("a_mm", j.a_mm), ("d_mm", j.d_mm)] {
+                if let Some(m) = implausible_length(key, v) {
+                    return issue(p, format!("joint {}: {m}", i + 1));
+                }
+            }
+            for (key, v) in [
+                ("alpha_deg", j.alpha_deg),
+                ("theta_deg", j.theta_deg),
+                ("beta_deg", j.beta_deg.unwrap_or(0.0)),
+            ] {
+                if let Some(m) = implausible_angle(key, v, crate::MAX_ANGLE_DEG) {
+                    return issue(p, format!("joint {}: {m}", i + 1));
+                }
+            }
             if let Some([lo, hi]) = j.limits_deg {
                 if !finite(&[lo, hi]) || lo >= hi {
                     return issue(p, format!("joint {}: limits_deg must be finite with lower < upper, got [{lo}, {hi}]", i + 1));
+                }
+                for v in [lo, hi] {
+                    if let Some(m) = implausible_angle("limits_deg", v, crate::MAX_JOINT_LIMIT_DEG)
+                    {
+                        return issue(p, format!("joint {}: {m}", i + 1));
+                    }
                 }
             }
         }
         if !finite(&self.tool.xyz_mm) {
             return issue(Place::Tool, "tool: xyz_mm must be finite numbers".into());
+        }
+        if let Some(m) = self
+            .tool
+            .xyz_mm
+            .iter()
+            .find_map(|v| implausible_length("xyz_mm", *v))
+        {
+            return issue(Place::Tool, format!("tool: {m}"));
         }
         if let Some(b) = &self.base {
             if !finite(&b.xyz_mm) || !finite(&b.rpy_deg) {
@@ -341,6 +391,18 @@ impl RobotFile {
                     Place::Base,
                     "base: xyz_mm and rpy_deg must be finite numbers".into(),
                 );
+            }
+            let bad = b
+                .xyz_mm
+                .iter()
+                .find_map(|v| implausible_length("xyz_mm", *v))
+                .or_else(|| {
+                    b.rpy_deg
+                        .iter()
+                        .find_map(|v| implausible_angle("rpy_deg", *v, crate::MAX_ANGLE_DEG))
+                });
+            if let Some(m) = bad {
+                return issue(Place::Base, format!("base: {m}"));
             }
         }
         let mut total = 0usize;
@@ -353,6 +415,28 @@ impl RobotFile {
             }
             if !finite(&e.values) {
                 return issue(p, format!("{what}: values must be finite numbers"));
+            }
+            if let Some(v) = e.values.iter().find(|v| v.abs() > crate::MAX_EFFECT_VALUE) {
+                return issue(
+                    p,
+                    format!(
+                        "{what}: value {} is implausible (effect values are at most {} in magnitude: a scale, radians, or radians per metre)",
+                        crate::number_text(*v),
+                        crate::MAX_EFFECT_VALUE
+                    ),
+                );
+            }
+            if e.kind == "joint-table" && e.values.len() > crate::MAX_TABLE_KNOTS {
+                return issue(
+                    p,
+                    format!("{what}: at most {} knots", crate::MAX_TABLE_KNOTS),
+                );
+            }
+            if e.order.is_some_and(|o| o > crate::MAX_CYCLIC_ORDER) {
+                return issue(
+                    p,
+                    format!("{what}: order must be at most {}", crate::MAX_CYCLIC_ORDER),
+                );
             }
             let count_ok = match e.kind.as_str() {
                 "joint-scale" | "joint-compliance" => e.values.len() == 1,
@@ -388,19 +472,31 @@ impl RobotFile {
             }
             if e.kind == "joint-table" {
                 match e.step_deg {
-                    Some(s) if s.is_finite() && s > 0.0 => {}
+                    Some(s)
+                        if s.is_finite() && (crate::MIN_TABLE_STEP_DEG..=360.0).contains(&s) => {}
                     Some(s) => {
                         return issue(
                             p,
-                            format!("{what}: step_deg must be a positive number, got {s}"),
+                            format!(
+                                "{what}: step_deg must be {} to 360 degrees, got {s}",
+                                crate::MIN_TABLE_STEP_DEG
+                            ),
                         )
                     }
                     None => {
                         return issue(p, format!("{what}: step_deg is required for joint-table"))
                     }
                 }
-                if e.start_deg.is_some_and(|s| !s.is_finite()) {
-                    return issue(p, format!("{what}: start_deg must be finite"));
+                if e.start_deg
+                    .is_some_and(|s| !(s.is_finite() && s.abs() <= crate::MAX_JOINT_LIMIT_DEG))
+                {
+                    return issue(
+                        p,
+                        format!(
+                            "{what}: start_deg must be a finite angle within ±{} degrees",
+                            crate::MAX_JOINT_LIMIT_DEG
+                        ),
+                    );
                 }
             } else if e.step_deg.is_some() || e.start_deg.is_some() {
                 return issue(
@@ -432,8 +528,15 @@ impl RobotFile {
             if c.joint == c.from {
                 return issue(p, format!("{what}: a joint cannot be coupled to itself"));
             }
-            if !c.ratio.is_finite() {
-                return issue(p, format!("{what}: ratio must be a finite number"));
+            if !(c.ratio.is_finite() && c.ratio.abs() <= crate::MAX_COUPLING_RATIO) {
+                return issue(
+                    p,
+                    format!(
+                        "{what}: ratio must be a finite number within ±{}, got {}",
+                        crate::MAX_COUPLING_RATIO,
+                        c.ratio
+                    ),
+                );
             }
             let earlier = &self.couplings[..i];
             if earlier.iter().any(|o| o.joint == c.joint) {

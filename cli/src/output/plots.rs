@@ -7,6 +7,12 @@ fn plot_err<E: std::fmt::Display>(e: E) -> anyhow::Error {
     anyhow::anyhow!("plot: {e}")
 }
 
+/// Writes a drawn SVG to `path` atomically ([`crate::output::atomic::write_atomic`]).
+pub fn save_svg(path: &Path, svg: &str) -> anyhow::Result<()> {
+    crate::output::atomic::write_atomic(path, svg.as_bytes())
+        .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))
+}
+
 const COLOURS: [RGBColor; 6] = [
     RED,
     BLUE,
@@ -43,44 +49,51 @@ pub fn line_chart(
             (a.min(p.1), b.max(p.1))
         });
     let pad = ((y1 - y0) * 0.05).max(1e-9);
-    let root = SVGBackend::new(path, (900, 500)).into_drawing_area();
-    root.fill(&WHITE).map_err(plot_err)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d(x0..x1.max(x0 + 1.0), (y0 - pad)..(y1 + pad))
-        .map_err(plot_err)?;
-    let y_desc = if log_y {
-        format!("log10 {y_label}")
-    } else {
-        y_label.to_string()
-    };
-    chart
-        .configure_mesh()
-        .x_desc(x_label)
-        .y_desc(y_desc)
-        .draw()
-        .map_err(plot_err)?;
-    for (k, (name, s)) in series.iter().enumerate() {
-        let c = COLOURS[k % COLOURS.len()];
+    // Drawn in memory, then written atomically (never a torn SVG).
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (900, 500)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 20))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(x0..x1.max(x0 + 1.0), (y0 - pad)..(y1 + pad))
+            .map_err(plot_err)?;
+        let y_desc = if log_y {
+            format!("log10 {y_label}")
+        } else {
+            y_label.to_string()
+        };
         chart
-            .draw_series(LineSeries::new(
-                s.iter().map(|&(x, y)| (x, tf(y))),
-                c.stroke_width(2),
-            ))
-            .map_err(plot_err)?
-            .label(name.as_str())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc(y_desc)
+            .draw()
+            .map_err(plot_err)?;
+        for (k, (name, s)) in series.iter().enumerate() {
+            let c = COLOURS[k % COLOURS.len()];
+            chart
+                .draw_series(LineSeries::new(
+                    s.iter().map(|&(x, y)| (x, tf(y))),
+                    c.stroke_width(2),
+                ))
+                .map_err(plot_err)?
+                .label(name.as_str())
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
+                });
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(plot_err)?;
+        root.present().map_err(plot_err)?;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(plot_err)?;
-    root.present().map_err(plot_err)?;
+    crate::output::plots::save_svg(path, &svg)?;
     Ok(())
 }
 
@@ -93,41 +106,46 @@ pub fn pose_errors(path: &Path, title: &str, series: &[(String, Vec<f64>)]) -> a
         .max(1e-6)
         * 1.05;
     let n = series.iter().map(|s| s.1.len()).max().unwrap_or(1) as f64;
-    let root = SVGBackend::new(path, (900, 500)).into_drawing_area();
-    root.fill(&WHITE).map_err(plot_err)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d(0.0..n + 1.0, 0.0..ymax)
-        .map_err(plot_err)?;
-    chart
-        .configure_mesh()
-        .x_desc("pose")
-        .y_desc("position error (mm)")
-        .draw()
-        .map_err(plot_err)?;
-    for (k, (name, e)) in series.iter().enumerate() {
-        let c = COLOURS[k % COLOURS.len()];
+    // Drawn in memory, then written atomically (never a torn SVG).
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (900, 500)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 20))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..n + 1.0, 0.0..ymax)
+            .map_err(plot_err)?;
         chart
-            .draw_series(
-                LineSeries::new(
-                    e.iter().enumerate().map(|(i, v)| (i as f64 + 1.0, *v)),
-                    c.stroke_width(1),
+            .configure_mesh()
+            .x_desc("pose")
+            .y_desc("position error (mm)")
+            .draw()
+            .map_err(plot_err)?;
+        for (k, (name, e)) in series.iter().enumerate() {
+            let c = COLOURS[k % COLOURS.len()];
+            chart
+                .draw_series(
+                    LineSeries::new(
+                        e.iter().enumerate().map(|(i, v)| (i as f64 + 1.0, *v)),
+                        c.stroke_width(1),
+                    )
+                    .point_size(3),
                 )
-                .point_size(3),
-            )
-            .map_err(plot_err)?
-            .label(name.as_str())
-            .legend(move |(x, y)| Circle::new((x + 10, y), 3, c.filled()));
+                .map_err(plot_err)?
+                .label(name.as_str())
+                .legend(move |(x, y)| Circle::new((x + 10, y), 3, c.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(plot_err)?;
+        root.present().map_err(plot_err)?;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(plot_err)?;
-    root.present().map_err(plot_err)?;
+    crate::output::plots::save_svg(path, &svg)?;
     Ok(())
 }

@@ -25,50 +25,57 @@ pub fn improvements(path: &Path, title: &str, series: &[(String, Vec<f64>)]) -> 
         .flat_map(|s| s.1.iter().copied())
         .filter(|v| v.is_finite());
     let (lo, hi) = vals.fold((0.0f64, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
-    let root = SVGBackend::new(path, (1000, 520)).into_drawing_area();
-    root.fill(&WHITE).map_err(plot_err)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 20))
-        .margin(14)
-        .x_label_area_size(45)
-        .y_label_area_size(60)
-        .build_cartesian_2d(
-            0.0..(n as f64 + 1.0),
-            (lo - 5.0).min(0.0)..(hi + 10.0).min(100.0),
-        )
-        .map_err(plot_err)?;
-    chart
-        .configure_mesh()
-        .x_desc("manipulator (upper arm 650…1100 mm, forearm 600…1000 mm; forearm varies fastest)")
-        .y_desc("TCP variance improvement of the KPI design (%)")
-        .draw()
-        .map_err(plot_err)?;
-    for (k, (name, v)) in series.iter().enumerate() {
-        let c = COLOURS[k % COLOURS.len()];
-        let filled = k < 2;
-        let style = if filled {
-            c.filled()
-        } else {
-            c.stroke_width(1)
-        };
-        chart
-            .draw_series(
-                v.iter()
-                    .enumerate()
-                    .filter(|(_, y)| y.is_finite())
-                    .map(move |(i, y)| Circle::new((i as f64 + 1.0, *y), 3, style)),
+    // Drawn in memory, then written atomically (never a torn SVG).
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (1000, 520)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 20))
+            .margin(14)
+            .x_label_area_size(45)
+            .y_label_area_size(60)
+            .build_cartesian_2d(
+                0.0..(n as f64 + 1.0),
+                (lo - 5.0).min(0.0)..(hi + 10.0).min(100.0),
             )
-            .map_err(plot_err)?
-            .label(name.as_str())
-            .legend(move |(x, y)| Circle::new((x + 10, y), 4, style));
+            .map_err(plot_err)?;
+        chart
+            .configure_mesh()
+            .x_desc(
+                "manipulator (upper arm 650…1100 mm, forearm 600…1000 mm; forearm varies fastest)",
+            )
+            .y_desc("TCP variance improvement of the KPI design (%)")
+            .draw()
+            .map_err(plot_err)?;
+        for (k, (name, v)) in series.iter().enumerate() {
+            let c = COLOURS[k % COLOURS.len()];
+            let filled = k < 2;
+            let style = if filled {
+                c.filled()
+            } else {
+                c.stroke_width(1)
+            };
+            chart
+                .draw_series(
+                    v.iter()
+                        .enumerate()
+                        .filter(|(_, y)| y.is_finite())
+                        .map(move |(i, y)| Circle::new((i as f64 + 1.0, *y), 3, style)),
+                )
+                .map_err(plot_err)?
+                .label(name.as_str())
+                .legend(move |(x, y)| Circle::new((x + 10, y), 4, style));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(plot_err)?;
+        root.present().map_err(plot_err)?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(plot_err)?;
-    root.present().map_err(plot_err)?;
+    crate::output::plots::save_svg(path, &svg)?;
     Ok(())
 }

@@ -1,6 +1,5 @@
 //! The report of `kinecal compensate` ([`crate::compensation`]).
 
-use super::plain_report;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt;
@@ -49,7 +48,19 @@ pub struct CompensateReport {
     pub targets_file: String,
 }
 
-plain_report!(CompensateReport);
+impl super::Report for CompensateReport {
+    fn to_json(&self) -> serde_json::Value {
+        super::json_value(self)
+    }
+    /// A target the model cannot reach within `--accept-mm` is not a success: its row keeps
+    /// the seed with a failure status, and the command exits 3.
+    fn converged(&self) -> bool {
+        self.failed == 0
+    }
+    fn non_finite(&self) -> Option<String> {
+        super::finite::first_non_finite(self)
+    }
+}
 
 impl fmt::Display for CompensateReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

@@ -284,6 +284,9 @@ impl super::Report for DiagnoseReport {
     fn converged(&self) -> bool {
         self.converged
     }
+    fn non_finite(&self) -> Option<String> {
+        super::finite::first_non_finite(self)
+    }
 }
 
 impl fmt::Display for DiagnoseReport {

@@ -98,6 +98,9 @@ impl super::Report for IdentifyReport {
     fn converged(&self) -> bool {
         self.converged
     }
+    fn non_finite(&self) -> Option<String> {
+        super::finite::first_non_finite(self)
+    }
 }
 
 impl fmt::Display for IdentifyReport {

@@ -14,6 +14,7 @@ pub mod check;
 pub mod compensate;
 pub mod demo;
 pub mod diagnose;
+pub mod finite;
 pub mod frames;
 pub mod identify;
 pub mod plan;
@@ -43,6 +44,10 @@ pub trait Report: fmt::Display {
     fn converged(&self) -> bool {
         true
     }
+    /// The first figure of the report that is not a finite number (`NaN`, ±∞: JSON would
+    /// print `null`), by its path; `main` exits with status 1 instead of printing such a
+    /// report as a result. Implement with [`finite::first_non_finite`].
+    fn non_finite(&self) -> Option<String>;
 }
 
 /// The JSON value of a serialisable report (`null` if it cannot be represented, which no
@@ -57,6 +62,9 @@ macro_rules! plain_report {
         $(impl $crate::reports::Report for $t {
             fn to_json(&self) -> serde_json::Value {
                 $crate::reports::json_value(self)
+            }
+            fn non_finite(&self) -> Option<String> {
+                $crate::reports::finite::first_non_finite(self)
             }
         })*
     };

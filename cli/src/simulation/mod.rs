@@ -187,6 +187,24 @@ impl FromStr for EffectArg {
             }
             None => 1,
         };
+        if let Some(v) = values.iter().find(|v| v.abs() > crate::MAX_EFFECT_VALUE) {
+            return Err(format!(
+                "`--effect {s}`: value {v} is implausible (effect values are at most {} in magnitude: a scale, radians, or radians per metre)",
+                crate::MAX_EFFECT_VALUE
+            ));
+        }
+        if values.len() > crate::MAX_TABLE_KNOTS {
+            return Err(format!(
+                "`--effect {s}`: at most {} knot values",
+                crate::MAX_TABLE_KNOTS
+            ));
+        }
+        if order > crate::MAX_CYCLIC_ORDER {
+            return Err(format!(
+                "`--effect {s}`: the order must be at most {}",
+                crate::MAX_CYCLIC_ORDER
+            ));
+        }
         let want = match kind {
             "joint-scale" | "joint-compliance" | "axis-tilt" => values.len() == 1,
             "joint-cyclic" => values.len() == 2,
@@ -215,7 +233,7 @@ pub fn add_effect<const N: usize, const V: usize>(
     e: &EffectArg,
 ) -> anyhow::Result<()> {
     let Some(j) = robot.joint(e.joint).copied() else {
-        bail!(
+        crate::refuse!(
             "effect {} on joint {}: the robot has {N} joints",
             e.kind,
             e.joint + 1

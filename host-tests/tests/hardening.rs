@@ -1,7 +1,7 @@
 //! Issue 15: input reachable through the public API gets a typed error, never an infinite or
 //! NaN state or a panic, and a refused call leaves valid state valid.
 
-use kinecal::identify::bpnn::{Bpnn, BpnnConfig, BpnnError};
+use kinecal::identify::bpnn::{Bpnn, BpnnConfig, BpnnError, MAX_LEARNING_RATE, MAX_RANGE};
 use kinecal::identify::fitness::Objective;
 use kinecal::identify::lm::{Levenberg, LmConfig, LmStop};
 use kinecal::identify::pso::{Pso, PsoConfig, PsoError, PsoStop};
@@ -240,6 +240,60 @@ fn bpnn_ranges_and_rates_that_overflow_are_refused() {
         );
     }
     assert_eq!(net.config(), &BpnnConfig::default());
+}
+
+/// Fuzz finding (steppers/stays-finite-bpnn-1): an epoch left every weight finite but so
+/// large (≈1e237) that the net's output was ±inf, and `train_epoch` returned `Ok`. Now an epoch
+/// that leaves a weight beyond `MAX_WEIGHT` is undone as `Diverged`, inputs far outside the
+/// range are clamped, and whatever the training, the output stays finite.
+#[test]
+fn bpnn_output_stays_finite_whatever_the_training() {
+    let xs: Vec<[f64; 3]> = (0..12)
+        .map(|k| [k as f64 * 1e3, -(k as f64), (k * k) as f64])
+        .collect();
+    let ys: Vec<[f64; 3]> = (0..12)
+        .map(|k| [1e9 * (k % 3) as f64, -5.0 * k as f64, 0.5])
+        .collect();
+    for lr in [1e-2, 1.0, 1e2, 1e4, MAX_LEARNING_RATE] {
+        let cfg = BpnnConfig {
+            learning_rate: lr,
+            ..BpnnConfig::default()
+        };
+        let mut net = Bpnn::<f64, 3, 4, 3>::new(cfg, 9).unwrap();
+        net.fit_ranges(&xs, &ys).unwrap();
+        let mut diverged = 0;
+        for _ in 0..20 {
+            let before = net.forward(&xs[3]);
+            match net.train_epoch(&xs, &ys) {
+                Ok(loss) => assert!(loss.is_finite(), "lr {lr}: loss {loss}"),
+                Err(BpnnError::Diverged) => {
+                    diverged += 1;
+                    assert_eq!(net.forward(&xs[3]), before, "a diverged epoch is undone");
+                }
+                Err(e) => panic!("lr {lr}: {e:?}"),
+            }
+            for x in xs
+                .iter()
+                .chain([&[1e300, -1e300, 0.0], &[f64::MAX, 0.0, f64::MIN]])
+            {
+                let y = net.forward(x);
+                assert!(y.iter().all(|v| v.is_finite()), "lr {lr}: {x:?} -> {y:?}");
+            }
+        }
+        if lr >= 1e4 {
+            assert!(diverged > 0, "lr {lr} should diverge on this data");
+        }
+    }
+    // Ranges beyond MAX_RANGE are refused (their denormalised output could overflow).
+    let mut net = Bpnn::<f32, 1, 4, 1>::new(BpnnConfig::default(), 1).unwrap();
+    let big = (MAX_RANGE * 10.0) as f32;
+    assert_eq!(
+        net.set_ranges(&[0.0], &[1.0], &[-big], &[big]),
+        Err(BpnnError::NonFinite)
+    );
+    let ok = MAX_RANGE as f32;
+    net.set_ranges(&[-ok], &[ok], &[-ok], &[ok]).unwrap();
+    assert!(net.forward(&[f32::MAX])[0].is_finite());
 }
 
 fn lm_data(truth: &Robot<f64, 6>) -> Vec<Measurement<f64, 6>> {

@@ -44,6 +44,21 @@ pub const fn hidden_size(inputs: usize, outputs: usize, a: usize) -> usize {
 /// diverge, and a rate near `f64::MAX` overflows the first update to ∞ − ∞ = NaN.
 pub const MAX_LEARNING_RATE: f64 = 1e6;
 
+/// Largest magnitude of a weight or bias. The net works in normalised units (inputs and
+/// targets in [−1, 1]), where a trained net's weights are of order 1; an epoch that drives one
+/// beyond this bound (or a momentum beyond twice it) has diverged and is undone
+/// ([`BpnnError::Diverged`]). With inputs clamped ([`MAX_INPUT_SCALE`]) and ranges within
+/// [`MAX_RANGE`], the bound keeps every output finite, in `f32` as in `f64`.
+pub const MAX_WEIGHT: f64 = 1e4;
+
+/// Largest magnitude of a range bound ([`Bpnn::set_ranges`]): readings in mm or radians are
+/// far below it; beyond it the denormalised output could overflow.
+pub const MAX_RANGE: f64 = 1e12;
+
+/// An input far outside its training range is clamped to this many half-ranges from the
+/// range's middle (the net extrapolates no further), so no input overflows the first layer.
+pub const MAX_INPUT_SCALE: f64 = 1e6;
+
 /// Hidden-layer activation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -89,11 +104,11 @@ pub enum BpnnError {
     Config,
     /// No samples, or inputs and targets differ in count.
     Shape,
-    /// A sample or range holds NaN or infinity, a range has `lo > hi`, or its span `hi − lo`
-    /// is not finite (`±1e308` in `f64`, say).
+    /// A sample or range holds NaN or infinity, a range has `lo > hi`, or a bound lies beyond
+    /// ±[`MAX_RANGE`].
     NonFinite,
-    /// The weights became non-finite during the epoch (learning rate too large); the net was
-    /// put back as it was before the epoch.
+    /// A weight left ±[`MAX_WEIGHT`] (or became non-finite) during the epoch (learning rate
+    /// too large); the net was put back as it was before the epoch.
     Diverged,
 }
 
@@ -115,11 +130,13 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Weights<T, I, H, O
             b2: [T::zero(); O],
         }
     }
-    fn finite(&self) -> bool {
-        self.w1.iter().all(|r| r.iter().all(|v| v.finite()))
-            && self.b1.iter().all(|v| v.finite())
-            && self.w2.iter().all(|r| r.iter().all(|v| v.finite()))
-            && self.b2.iter().all(|v| v.finite())
+    /// Every weight and bias finite and within ±`limit` (NaN fails).
+    fn bounded(&self, limit: f64) -> bool {
+        let ok = |v: &T| v.abs() <= T::of(limit);
+        self.w1.iter().all(|r| r.iter().all(ok))
+            && self.b1.iter().all(ok)
+            && self.w2.iter().all(|r| r.iter().all(ok))
+            && self.b2.iter().all(ok)
     }
     fn encode<W: Write>(&self, e: &mut Encoder<'_, W>) -> Result<(), SnapshotError> {
         e.real_rows(&self.w1)?;
@@ -156,7 +173,8 @@ impl<T: Real, const K: usize> Range<T, K> {
         for k in 0..K {
             let span = hi[k] - lo[k];
             // A finite span implies finite bounds; NaN fails.
-            if !(span.finite() && lo[k] <= hi[k]) {
+            let inside = lo[k].abs() <= T::of(MAX_RANGE) && hi[k].abs() <= T::of(MAX_RANGE);
+            if !(inside && span.finite() && lo[k] <= hi[k]) {
                 return Err(BpnnError::NonFinite);
             }
             let half = span * T::of(0.5);
@@ -168,13 +186,14 @@ impl<T: Real, const K: usize> Range<T, K> {
     fn normalise(&self, x: &[T; K]) -> [T; K] {
         let mut n = [T::zero(); K];
         for k in 0..K {
-            n[k] = (x[k] - self.mid[k]) / self.half[k];
+            let m = T::of(MAX_INPUT_SCALE);
+            n[k] = ((x[k] - self.mid[k]) / self.half[k]).max(-m).min(m);
         }
         n
     }
     fn valid(&self) -> bool {
-        self.mid.iter().all(|v| v.finite())
-            && self.half.iter().all(|v| v.finite() && *v > T::zero())
+        let r = T::of(MAX_RANGE);
+        self.mid.iter().all(|v| v.abs() <= r) && self.half.iter().all(|v| *v > T::zero() && *v <= r)
     }
 }
 
@@ -319,7 +338,7 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
                 in_batch = 0;
             }
         }
-        if !self.weights.finite() || !sum.finite() {
+        if !self.weights_bounded() || !sum.finite() {
             self.weights = saved.0;
             self.momentum = saved.1;
             self.rng = saved.2;
@@ -328,6 +347,12 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
         }
         self.epochs = self.epochs.saturating_add(1);
         Ok(sum / T::of((n * O) as f64))
+    }
+
+    /// Weights within ±[`MAX_WEIGHT`] and momentum within twice that: what a trained or
+    /// restored net must satisfy.
+    fn weights_bounded(&self) -> bool {
+        self.weights.bounded(MAX_WEIGHT) && self.momentum.bounded(2.0 * MAX_WEIGHT)
     }
 
     /// Hidden activations into `h`, normalised output returned.
@@ -456,10 +481,7 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
         self.rng = d.rng()?;
         self.epochs = d.u32()?;
         self.grad = Weights::zero();
-        let ok = self.weights.finite()
-            && self.momentum.finite()
-            && self.input.valid()
-            && self.output.valid();
+        let ok = self.weights_bounded() && self.input.valid() && self.output.valid();
         if ok {
             Ok(())
         } else {

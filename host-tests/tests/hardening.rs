@@ -242,6 +242,40 @@ fn bpnn_ranges_and_rates_that_overflow_are_refused() {
     assert_eq!(net.config(), &BpnnConfig::default());
 }
 
+/// Fuzz finding (kinematics/fk-finite-2): a finite reading of 1e308 rad overflowed a
+/// harmonic (`3 · q`) or a coupling (`ratio · q`) to infinity and FK gave NaN. Readings beyond
+/// ±MAX_ANGLE are clamped, so every finite reading gives a finite point; NaN still gives NaN.
+#[test]
+fn fk_is_finite_for_every_finite_reading() {
+    let mut r = robot().with_capacity::<8>().unwrap();
+    r.set_coupling(2, 1, 1e3).unwrap();
+    r.effects_mut()
+        .push(EffectKind::Cyclic, 5, 6, 65_535, 0.0, 0.0, &[1e-3, 2e-3])
+        .unwrap();
+    r.effects_mut()
+        .push(EffectKind::Scale, 1, 6, 1, 0.0, 0.0, &[1e3])
+        .unwrap();
+    let r32 = r.cast::<f32>().unwrap();
+    for x in [1e308, -1e308, f64::MAX, 1e5, -3e38] {
+        let q = [x, x, x, 0.5, -x, x];
+        let p = ForwardKinematics::new().compute(&r, &q);
+        assert!(p.iter().all(|v| v.is_finite()), "{x}: {p:?}");
+        // The same readings in f32, kept finite there (1e308 is +inf in f32).
+        let q32 = q.map(|v| v.clamp(-f32::MAX as f64, f32::MAX as f64) as f32);
+        let p32 = ForwardKinematics::new().compute(&r32, &q32);
+        assert!(p32.iter().all(|v| v.is_finite()), "{x} in f32: {p32:?}");
+    }
+    // Beyond it the reading acts as the bound.
+    let far = [1.0, -0.5, 1e300, 0.2, 0.3, -1e300];
+    let at = [1.0, -0.5, 1e4, 0.2, 0.3, -1e4];
+    assert_eq!(
+        ForwardKinematics::new().compute(&r, &far),
+        ForwardKinematics::new().compute(&r, &at)
+    );
+    let nan = ForwardKinematics::new().compute(&r, &[f64::NAN, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    assert!(nan.iter().any(|v| v.is_nan()));
+}
+
 /// Fuzz finding (steppers/stays-finite-bpnn-1): an epoch left every weight finite but so
 /// large (≈1e237) that the net's output was ±inf, and `train_epoch` returned `Ok`. Now an epoch
 /// that leaves a weight beyond `MAX_WEIGHT` is undone as `Diverged`, inputs far outside the

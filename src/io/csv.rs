@@ -3,7 +3,31 @@
 //!
 //! Fixed line buffer of `L` bytes, header → column map, up to `X` extra columns carried by name,
 //! `#` comments and blank lines skipped. Every error carries the 1-based line and column so a
-//! technician can find the bad cell; after an error the reader continues with the next line.
+//! technician can find the bad cell.
+//!
+//! # After an error
+//!
+//! * **A bad line** (a cell that is not a number, out of range, too many or too few cells, too
+//!   long, not UTF-8) is reported once; the reader continues with the next line.
+//! * **A read error** ([`CsvErrorKind::Io`]) drops the line being read: it is reported for that
+//!   line, the bytes of it already read are thrown away and so is the rest of it (everything up
+//!   to the next newline) — a reader may have lost bytes with its error, so what is left of the
+//!   line is never parsed as a record. Reading then continues with the next line, whose number
+//!   is right when the failing reader lost no newline. The reader does not retry by itself.
+//! * **A reader that keeps failing** — a read fails again before any byte arrived since the
+//!   previous failure — is given up: that failure is reported once as
+//!   [`CsvErrorKind::ReaderFailed`], and from then on [`CsvReader::next_record`] returns `None`,
+//!   as it does after the end of the input (the reader is fused).
+//!
+//! So every record returned is a whole line of the input, parsed, with its right line number
+//! (given a reader that loses no newline), and a reader that fails forever ends the stream.
+//!
+//! # Plausible values
+//!
+//! Joint readings must satisfy `|q| ≤` [`MAX_ABS_JOINT`] and coordinates `|x|, |y|, |z| ≤`
+//! [`MAX_ABS_MM`] (in the units written); NaN and infinities are [`CsvErrorKind::NotFinite`],
+//! finite values beyond these bounds [`CsvErrorKind::OutOfRange`]. Extra columns are carried as
+//! written.
 //!
 //! ```
 //! use kinecal::io::csv::{CsvErrorKind, CsvReader};
@@ -33,6 +57,7 @@
 //! assert!(csv.next_record().is_none());
 //! ```
 
+pub use super::decimal::parse_decimal;
 use crate::Measurement;
 use crate::Real;
 use embedded_io::Read;
@@ -64,6 +89,14 @@ pub enum CsvErrorKind {
     ShortLine,
     /// More columns than the reader can map.
     TooManyColumns,
+    /// A line has more cells than the header has columns; `column` is the first cell beyond
+    /// the header. Often a decimal comma (`79,500064`), which shifts every later cell.
+    ExtraCell,
+    /// A joint reading or coordinate is finite but beyond [`MAX_ABS_JOINT`] or [`MAX_ABS_MM`].
+    OutOfRange,
+    /// The underlying reader failed again before delivering a byte since its previous failure:
+    /// the reader gives up and returns `None` from then on (see the module documentation).
+    ReaderFailed,
 }
 
 impl CsvErrorKind {
@@ -81,6 +114,9 @@ impl CsvErrorKind {
             CsvErrorKind::NotFinite => "NaN or infinite value",
             CsvErrorKind::ShortLine => "line has too few columns",
             CsvErrorKind::TooManyColumns => "too many columns",
+            CsvErrorKind::ExtraCell => "more cells than the header has columns",
+            CsvErrorKind::OutOfRange => "implausible magnitude",
+            CsvErrorKind::ReaderFailed => "read error again: reading stopped",
         }
     }
 }
@@ -103,6 +139,12 @@ pub struct CsvError {
 pub const NAME_LEN: usize = 24;
 /// Most columns a header may have.
 pub const MAX_COLUMNS: usize = 64;
+/// Largest plausible |x|, |y|, |z| of a measured point, in the units written (1 km in mm): a
+/// larger value is [`CsvErrorKind::OutOfRange`].
+pub const MAX_ABS_MM: f64 = 1.0e6;
+/// Largest plausible |joint reading|, in the units written (~278 turns in degrees, 100 m for a
+/// prismatic joint in mm): a larger value is [`CsvErrorKind::OutOfRange`].
+pub const MAX_ABS_JOINT: f64 = 1.0e5;
 
 /// One record, in file units (degrees, millimetres), with the extra columns' values.
 #[derive(Clone, Debug, PartialEq)]
@@ -145,6 +187,12 @@ pub struct CsvReader<R: Read, const N: usize, const L: usize = 512, const X: usi
     slots: Vec<Slot, MAX_COLUMNS>,
     extra_names: Vec<String<NAME_LEN>, X>,
     eof: bool,
+    /// The rest of line `line_no` is being thrown away after a read error.
+    dropping: bool,
+    /// The last read failed (no byte arrived since).
+    failed: bool,
+    /// Given up after [`CsvErrorKind::ReaderFailed`]: `next_record` returns `None`.
+    stopped: bool,
 }
 
 enum LineRead {
@@ -166,6 +214,9 @@ impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L,
             slots: Vec::new(),
             extra_names: Vec::new(),
             eof: false,
+            dropping: false,
+            failed: false,
+            stopped: false,
         };
         let err = |kind, line, column| CsvError {
             kind,
@@ -272,6 +323,9 @@ impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L,
         Ok(())
     }
 
+    /// Refills the chunk: `Ok(false)` at the end of the input. A failed read reports
+    /// [`CsvErrorKind::Io`] for the line being read, or, when the previous read failed too,
+    /// [`CsvErrorKind::ReaderFailed`] and stops the reader.
     fn fill(&mut self) -> Result<bool, CsvError> {
         if self.eof {
             return Ok(false);
@@ -282,21 +336,59 @@ impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L,
                 Ok(false)
             }
             Ok(n) => {
-                self.chunk_len = n;
+                self.chunk_len = n.min(self.chunk.len());
                 self.chunk_pos = 0;
+                self.failed = false;
                 Ok(true)
             }
-            Err(_) => Err(CsvError {
-                kind: CsvErrorKind::Io,
-                line: self.line_no + 1,
-                column: 0,
-                which: 0,
-            }),
+            Err(_) => {
+                let kind = if self.failed {
+                    self.stopped = true;
+                    CsvErrorKind::ReaderFailed
+                } else {
+                    self.failed = true;
+                    CsvErrorKind::Io
+                };
+                // The line being read is dropped (counted now, its rest thrown away later).
+                if !self.dropping {
+                    self.line_no = self.line_no.saturating_add(1);
+                    self.dropping = true;
+                }
+                Err(CsvError {
+                    kind,
+                    line: self.line_no,
+                    column: 0,
+                    which: 0,
+                })
+            }
         }
+    }
+
+    /// Throws away the rest of a line dropped after a read error, through its newline. A
+    /// further failure in it is not reported again unless it is [`CsvErrorKind::ReaderFailed`].
+    fn drop_rest(&mut self) -> Result<(), CsvError> {
+        while self.dropping {
+            if self.chunk_pos >= self.chunk_len {
+                match self.fill() {
+                    Ok(true) => {}
+                    Ok(false) => self.dropping = false,
+                    Err(e) if e.kind == CsvErrorKind::ReaderFailed => return Err(e),
+                    Err(_) => {}
+                }
+                continue;
+            }
+            let b = self.chunk[self.chunk_pos];
+            self.chunk_pos += 1;
+            if b == b'\n' {
+                self.dropping = false;
+            }
+        }
+        Ok(())
     }
 
     /// Reads one line (without the terminator) into the buffer.
     fn read_line(&mut self) -> Result<LineRead, CsvError> {
+        self.drop_rest()?;
         let mut n = 0usize;
         let mut too_long = false;
         let mut any = false;
@@ -331,8 +423,12 @@ impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L,
         })
     }
 
-    /// The next record, `None` at the end of the file.
+    /// The next record or error, `None` at the end of the input and after
+    /// [`CsvErrorKind::ReaderFailed`] (see the module documentation for what follows an error).
     pub fn next_record(&mut self) -> Option<Result<Record<N, X>, CsvError>> {
+        if self.stopped {
+            return None;
+        }
         loop {
             let n = match self.read_line() {
                 Err(e) => return Some(Err(e)),
@@ -370,14 +466,15 @@ impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L,
             extra: Vec::new(),
             line,
         };
+        // A cell beyond the header first: it shifted the cells (a decimal comma, `79,500064`),
+        // so their values would be reported against the wrong columns.
+        let cells = text.bytes().filter(|b| *b == b',').count() + 1;
+        if cells > self.slots.len() {
+            return Err(e(CsvErrorKind::ExtraCell, self.slots.len() + 1));
+        }
         let mut extra = [f64::NAN; X];
-        let mut cells = 0usize;
         for (c, cell) in text.split(',').enumerate() {
-            cells = c + 1;
-            let slot = match self.slots.get(c) {
-                Some(s) => *s,
-                None => break,
-            };
+            let slot = self.slots.get(c).copied().unwrap_or(Slot::Ignored);
             if slot == Slot::Ignored {
                 continue;
             }
@@ -392,11 +489,18 @@ impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L,
                     return Err(e(CsvErrorKind::NotANumber, c + 1));
                 }
             };
+            let bound = match slot {
+                Slot::Joint(_) => MAX_ABS_JOINT,
+                Slot::Xyz(_) => MAX_ABS_MM,
+                _ => f64::INFINITY,
+            };
+            if bound < f64::INFINITY && !v.is_finite() {
+                return Err(e(CsvErrorKind::NotFinite, c + 1));
+            }
+            if v.abs() > bound {
+                return Err(e(CsvErrorKind::OutOfRange, c + 1));
+            }
             match slot {
-                Slot::Joint(j) | Slot::Xyz(j) if !v.is_finite() => {
-                    let _ = j;
-                    return Err(e(CsvErrorKind::NotFinite, c + 1));
-                }
                 Slot::Joint(j) => rec.q_deg[j as usize] = v,
                 Slot::Xyz(k) => rec.xyz_mm[k as usize] = v,
                 Slot::Extra(k) => extra[k as usize] = v,
@@ -432,128 +536,4 @@ fn parse_cell(t: &str) -> Option<f64> {
     {
         t.parse().ok()
     }
-}
-
-/// Exact powers of ten representable in `f64` (Clinger's fast path).
-const POW10: [f64; 23] = [
-    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
-    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
-];
-
-/// Parses a decimal number (`-12.5`, `3e-4`, `nan`, `inf`) without core's float parser, which
-/// costs ~16 KB of flash and ~11k instructions per cell on a Cortex-M4F.
-///
-/// Correctly rounded (identical to `str::parse::<f64>`) whenever the digits fit in 2^53 and the
-/// decimal exponent in ±22, which covers every measurement file written with up to 15
-/// significant digits; otherwise within a few ulp. `nan`/`inf` parse, so the caller can name
-/// them as non-finite instead of "not a number".
-pub fn parse_decimal(s: &str) -> Option<f64> {
-    let b = s.as_bytes();
-    let (neg, mut i) = match b.first() {
-        Some(b'-') => (true, 1),
-        Some(b'+') => (false, 1),
-        _ => (false, 0),
-    };
-    // Bytes, not `&s[i..]`: no char-boundary check, whose panic path costs ~1.7 KB of flash.
-    let rest = b.get(i..).unwrap_or(&[]);
-    let special = if rest.eq_ignore_ascii_case(b"nan") {
-        Some(f64::NAN)
-    } else if rest.eq_ignore_ascii_case(b"inf") || rest.eq_ignore_ascii_case(b"infinity") {
-        Some(f64::INFINITY)
-    } else {
-        None
-    };
-    if let Some(v) = special {
-        return Some(if neg { -v } else { v });
-    }
-    let mut mantissa: u64 = 0;
-    let mut digits = 0u32;
-    let mut exp10: i64 = 0;
-    let mut truncated = false;
-    let mut seen_digit = false;
-    let mut seen_point = false;
-    while i < b.len() {
-        let c = b[i];
-        if c.is_ascii_digit() {
-            seen_digit = true;
-            if mantissa == 0 && c == b'0' {
-                // Leading zeros carry no significance.
-                if seen_point {
-                    exp10 -= 1;
-                }
-            } else if digits < 19 {
-                mantissa = mantissa * 10 + (c - b'0') as u64;
-                digits += 1;
-                if seen_point {
-                    exp10 -= 1;
-                }
-            } else {
-                truncated |= c != b'0';
-                if !seen_point {
-                    exp10 += 1;
-                }
-            }
-        } else if c == b'.' && !seen_point {
-            seen_point = true;
-        } else {
-            break;
-        }
-        i += 1;
-    }
-    if !seen_digit {
-        return None;
-    }
-    if i < b.len() {
-        if b[i] != b'e' && b[i] != b'E' {
-            return None;
-        }
-        i += 1;
-        let (eneg, start) = match b.get(i) {
-            Some(b'-') => (true, i + 1),
-            Some(b'+') => (false, i + 1),
-            _ => (false, i),
-        };
-        if start >= b.len() {
-            return None;
-        }
-        let mut e: i64 = 0;
-        for &c in &b[start..] {
-            if !c.is_ascii_digit() {
-                return None;
-            }
-            e = (e * 10 + (c - b'0') as i64).min(100_000);
-        }
-        exp10 += if eneg { -e } else { e };
-    }
-    let v = if mantissa == 0 {
-        0.0
-    } else if !truncated && mantissa <= (1u64 << 53) && (-22..=22).contains(&exp10) {
-        let m = mantissa as f64;
-        if exp10 >= 0 {
-            m * POW10[exp10 as usize]
-        } else {
-            m / POW10[(-exp10) as usize]
-        }
-    } else if exp10 > 330 {
-        f64::INFINITY
-    } else if exp10 < -360 {
-        0.0
-    } else {
-        let mut v = mantissa as f64;
-        let mut e = exp10;
-        while e > 22 {
-            v *= 1e22;
-            e -= 22;
-        }
-        while e < -22 {
-            v /= 1e22;
-            e += 22;
-        }
-        if e >= 0 {
-            v * POW10[e as usize]
-        } else {
-            v / POW10[(-e) as usize]
-        }
-    };
-    Some(if neg { -v } else { v })
 }

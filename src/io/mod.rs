@@ -2,5 +2,6 @@
 //! `embedded_io::Read`, and the versioned, checksummed snapshots of the steppers.
 
 pub mod csv;
+mod decimal;
 pub mod measurement;
 pub mod snapshot;

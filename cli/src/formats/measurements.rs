@@ -4,7 +4,7 @@
 
 use anyhow::anyhow;
 use embedded_io_adapters::std::FromStd;
-use kinecal::io::csv::{CsvError, CsvErrorKind, CsvReader};
+use kinecal::io::csv::{CsvError, CsvErrorKind, CsvReader, MAX_ABS_JOINT, MAX_ABS_MM};
 use kinecal::{Measurement, Real};
 use std::fmt::Write as _;
 use std::io::{BufRead, BufReader, Read, Seek};
@@ -157,6 +157,19 @@ pub fn describe_error(
                 .unwrap_or_default();
             msg = format!("joint column `{name}` beyond the robot's {n} joints");
         }
+        CsvErrorKind::ExtraCell => {
+            let columns = header.map_or(col.saturating_sub(1), |h| h.len());
+            msg = format!("more cells than the header's {columns} columns");
+            if let Some(cell) = text_line.and_then(|t| t.split(',').nth(col.wrapping_sub(1))) {
+                let cell = cell.trim();
+                if !cell.is_empty() && cell.len() <= 40 {
+                    msg.push_str(&format!(": '{cell}'"));
+                }
+            }
+            if text_line.is_some_and(looks_like_decimal_commas) {
+                msg.push_str(" (looks like a decimal comma: use '.' as the decimal separator)");
+            }
+        }
         _ => {
             if col > 0 {
                 if let Some(name) = header.and_then(|h| h.get(col - 1)) {
@@ -168,10 +181,35 @@ pub fn describe_error(
                         msg.push_str(&format!(": '{cell}'"));
                     }
                 }
+                if e.kind == CsvErrorKind::OutOfRange {
+                    msg.push_str(&format!(
+                        " (joint readings must be within ±{MAX_ABS_JOINT:e}, x, y, z within \
+                         ±{MAX_ABS_MM:e} mm)"
+                    ));
+                }
             }
         }
     }
     format!("{origin}:{line}:{}: {msg}", col.max(1))
+}
+
+/// Whether a line with more cells than its header looks written with decimal commas: no cell
+/// with a decimal point, and two adjacent cells that are an integer and a digits-only fragment
+/// (`79,500064`, `-0,5`).
+fn looks_like_decimal_commas(line: &str) -> bool {
+    if line.contains('.') {
+        return false;
+    }
+    let integer = |c: &str| {
+        let c = c.trim();
+        let d = c.strip_prefix(['-', '+']).unwrap_or(c);
+        !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit())
+    };
+    let cells: Vec<&str> = line.split(',').collect();
+    cells.windows(2).any(|w| {
+        let frac = w[1].trim();
+        integer(w[0]) && !frac.is_empty() && frac.bytes().all(|b| b.is_ascii_digit())
+    })
 }
 
 /// Opens a file positioned after a UTF-8 byte-order mark, if it has one (spreadsheets write it).

@@ -427,20 +427,7 @@ where
         left: len,
     };
     let value = match payload(&mut dec) {
-        // A state no stepper can be in: from a corrupted payload (a checksum error) when the
-        // rest of it does not match the CRC, else a CRC-valid but invalid snapshot.
-        Err(SnapshotError::Invalid) => {
-            let mut b = [0u8; 16];
-            while dec.left > 0 {
-                let n = (dec.left as usize).min(b.len());
-                dec.bytes(&mut b[..n])?;
-            }
-            return Err(if dec.crc.value() != crc {
-                SnapshotError::Checksum
-            } else {
-                SnapshotError::Invalid
-            });
-        }
+        Err(SnapshotError::Invalid) => return Err(refused(&mut dec, crc)),
         v => v?,
     };
     if dec.left != 0 {
@@ -450,4 +437,22 @@ where
         return Err(SnapshotError::Checksum);
     }
     Ok(value)
+}
+
+/// The error of a payload the closure refused ([`SnapshotError::Invalid`]): a state no stepper
+/// can be in. The rest of the payload is read: from a corrupted payload (a checksum error) when
+/// it does not match the CRC `crc`, else a CRC-valid but invalid snapshot.
+fn refused<R: Read>(dec: &mut Decoder<'_, R>, crc: u32) -> SnapshotError {
+    let mut b = [0u8; 16];
+    while dec.left > 0 {
+        let n = (dec.left as usize).min(b.len());
+        if let Err(e) = dec.bytes(&mut b[..n]) {
+            return e;
+        }
+    }
+    if dec.crc.value() != crc {
+        SnapshotError::Checksum
+    } else {
+        SnapshotError::Invalid
+    }
 }

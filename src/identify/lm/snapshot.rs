@@ -105,7 +105,9 @@ fn get_robot<T: Real, R: Read, const N: usize, const V: usize>(
     r.check().map_err(|_| SnapshotError::Invalid)
 }
 
-/// True when every value is finite.
+/// True when every value is finite. Not inlined: the restore checks six arrays with one copy
+/// of the loop.
+#[inline(never)]
 fn all_finite<T: Real>(v: &[T]) -> bool {
     v.iter().all(|x| x.finite())
 }
@@ -218,7 +220,6 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T> + Clone, Q: LmPena
             }
             d.reals(&mut p.jtr[..n])?;
             d.reals(&mut p.step[..n])?;
-            let bad_scale = p.scale[..n].iter().any(|x| !(*x > T::zero()));
             let mut v = [T::zero(); 6];
             d.reals(&mut v)?;
             [s.cost, s.acc_cost, s.cand_cost, s.lambda, s.nu, s.predicted] = v;
@@ -246,10 +247,10 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T> + Clone, Q: LmPena
             s.evaluations = d.u32()?;
             s.factored = false;
             // Costs may be +∞ (a candidate off the data) but not NaN or negative; the damping
-            // must be one the solver can reach (> 0, finite), the arrays finite.
+            // must be one the solver can reach (> 0, finite), the arrays finite, the scales
+            // also > 0.
             let p = s.st.parts_ref();
-            let ok = !bad_scale
-                && s.next <= s.n_poses
+            let ok = s.next <= s.n_poses
                 && [s.cost, s.acc_cost, s.cand_cost]
                     .iter()
                     .all(|c| *c >= T::zero())
@@ -263,7 +264,8 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T> + Clone, Q: LmPena
                 && all_finite(&p.total[..n])
                 && all_finite(&p.jtr[..n])
                 && all_finite(&p.step[..n])
-                && (0..n).all(|i| all_finite(&p.jtj[i * st..i * st + n]));
+                && (0..n).all(|i| all_finite(&p.jtj[i * st..i * st + n]))
+                && p.scale[..n].iter().all(|x| *x > T::zero());
             if !ok {
                 return Err(SnapshotError::Invalid);
             }

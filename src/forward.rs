@@ -135,13 +135,13 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     ///
     /// With a compliance term the lever arms need the pose first, so the chain runs twice;
     /// without one, once. Non-finite readings give non-finite output, never a panic. Finite
-    /// readings beyond ±[`MAX_ANGLE`](crate::model::robot::MAX_ANGLE) (1e4 rad, ~1,600 turns: no
+    /// readings beyond ±[`MAX_ANGLE`](crate::model::bounds::MAX_ANGLE) (1e4 rad, ~1,600 turns: no
     /// joint reads that) are clamped to it, so that every finite reading gives a finite point
     /// (a harmonic or a coupling of 1e308 rad would overflow). A robot without couplings pays
     /// one branch for them.
     pub fn compute<const V: usize>(&mut self, robot: &Robot<T, N, V>, q: &[T; N]) -> Vector3<T> {
         self.base = *robot.base();
-        let limit = T::of(crate::model::robot::MAX_ANGLE);
+        let limit = T::of(crate::model::bounds::MAX_ANGLE);
         let q = &q.map(|x| {
             if x.abs() > limit && x.finite() {
                 limit.copysign(x)

@@ -5,7 +5,8 @@
 //! - `fk-finite`: for an accepted robot and finite readings the point, the tool pose, the joint
 //!   Jacobian and the identification Jacobian (all parameters) are finite;
 //! - `jacobian-matches-fd`: on a moderate robot (lengths ≤ 1e4 mm, readings within ±2π, no
-//!   table effects, which have kinks, and no compliance term, whose lever arms the geometric
+//!   table effects, which have kinks, effect values within ±0.1 and coupling ratios within ±10,
+//!   which multiply the difference step, and no compliance term, whose lever arms the geometric
 //!   columns hold fixed by design: `ForwardKinematics::identification_jacobian`) the joint
 //!   Jacobian and the identification columns of the row, tool and base-origin parameters match
 //!   central finite differences.
@@ -116,7 +117,13 @@ fuzz_target!(|data: &[u8]| {
     invariant!("fk-finite", r.is_ok(), "{r:?}");
     invariant!("fk-finite", cols.iter().all(vec_finite), "identification Jacobian {cols:?}");
 
-    let moderate = robot_magnitude(&robot) <= 1e4 && q.iter().all(|x| x.abs() <= 7.0) && !tables;
+    // A scale effect v or a coupling ratio r multiplies the finite-difference step (the angle
+    // moves by (1 + v)·h): with v ≈ −8,577 the O(h²) error of the central difference reached
+    // 1.2e-5 of the column, a false alarm. Compare where the step stays small.
+    let gains_small = robot.effects().values().iter().all(|v| v.abs() <= 0.1)
+        && (0..N).all(|j| robot.couplings().get(j).is_none_or(|(_, r)| r.abs() <= 10.0));
+    let moderate =
+        robot_magnitude(&robot) <= 1e4 && q.iter().all(|x| x.abs() <= 7.0) && !tables && gains_small;
     if !moderate {
         return;
     }
@@ -129,7 +136,7 @@ fuzz_target!(|data: &[u8]| {
         qp[j] += h;
         qm[j] -= h;
         let fd = (ForwardKinematics::new().compute(&robot, &qp) - ForwardKinematics::new().compute(&robot, &qm)) / (2.0 * h);
-        invariant!("jacobian-matches-fd", (fd - lin[j]).norm() <= tol, "joint {j}: analytic {:?}, fd {fd:?}", lin[j]);
+        invariant!("jacobian-matches-fd", (fd - lin[j]).norm() <= tol, "joint {j}: analytic {:?}, fd {fd:?} at {q:?} of {robot:?}", lin[j]);
     }
     for (k, prm) in params.iter().enumerate() {
         let h = if prm.is_length() { 1e-4 } else { 1e-6 };

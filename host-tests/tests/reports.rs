@@ -98,9 +98,11 @@ fn json_errors_are_one_object_with_the_reason_and_the_status() {
     let dir = tempfile::tempdir().unwrap();
     let (robot, data, _) = simulated(dir.path());
     let missing = dir.path().join("missing.csv");
+    let unwritable = dir.path().join("no-such-dir").join("m.toml");
     // (arguments, exit status): refused input, an unreadable file (refused: the user must fix
-    // it), and an error that is not the input's (exit 1).
-    let cases: [(Vec<&str>, i32); 3] = [
+    // it), an option value outside its range (refused, like clap's own usage errors), and an
+    // error that is not the input's (an output that cannot be written: exit 1).
+    let cases: [(Vec<&str>, i32); 4] = [
         (
             vec![
                 "identify",
@@ -126,6 +128,18 @@ fn json_errors_are_one_object_with_the_reason_and_the_status() {
                 s(&data),
                 "--holdout",
                 "500",
+            ],
+            2,
+        ),
+        (
+            vec![
+                "identify",
+                "--robot",
+                s(&robot),
+                "--data",
+                s(&data),
+                "--out",
+                s(&unwritable),
             ],
             1,
         ),

@@ -481,7 +481,13 @@ fn real_data_in_the_right_units_is_not_refused() {
         let o = kinecal(&["check", "--json", "--robot", s(&robot), "--data", s(&p)]);
         assert_eq!(o.status.code(), Some(0), "{name}: {}", stderr(&o));
         let o = kinecal(&["identify", "--json", "--robot", s(&robot), "--data", s(&p)]);
-        assert_ne!(o.status.code(), Some(2), "{name}: {}", stderr(&o));
+        // Too few poses for the model may be refused (10 poses, 33 parameters), but never for
+        // their units.
+        let why = stderr(&o);
+        if o.status.code() == Some(2) {
+            assert!(why.contains("poses to identify"), "{name}: {why}");
+            assert!(!why.contains("unit"), "{name}: {why}");
+        }
         // The same subset in metres is refused (the check has the power to refuse it).
         if name != "three" {
             let m = convert(&p, Variant::Metres);

@@ -113,7 +113,7 @@ pub enum EffectError {
     /// Joint index outside the robot (the list's own robot, and the `n_joints` given).
     Joint,
     /// Wrong number of values, a zero order, a non-positive step, or a value, start or step
-    /// that is not finite or beyond ±[`crate::model::robot::MAX_ANGLE`].
+    /// that is not finite or beyond ±[`crate::model::bounds::MAX_ANGLE`].
     Shape,
 }
 
@@ -206,7 +206,7 @@ impl<T: Real, const V: usize> Effects<T, V> {
 
     /// Appends an effect with its values; the joint must be below `n_joints` and below the
     /// list's own robot's joint count. Every value, `start` and `step` must be finite and within
-    /// ±[`crate::model::robot::MAX_ANGLE`]. On error nothing changes. `start`/`step` matter for
+    /// ±[`crate::model::bounds::MAX_ANGLE`]. On error nothing changes. `start`/`step` matter for
     /// tables only, `order` for cyclic only.
     #[allow(clippy::too_many_arguments)]
     pub fn push(
@@ -227,7 +227,7 @@ impl<T: Real, const V: usize> Effects<T, V> {
             EffectKind::Cyclic => values.len() == 2 && order >= 1,
             EffectKind::Table => values.len() >= 2 && step > T::zero(),
         };
-        let bound = T::of(crate::model::robot::MAX_ANGLE);
+        let bound = T::of(crate::model::bounds::MAX_ANGLE);
         // `!(|v| <= bound)`: NaN fails too.
         if !ok_len
             || [start, step]

@@ -36,6 +36,7 @@
 //! );
 //! ```
 
+pub mod bounds;
 pub mod coupling;
 pub mod effects;
 pub mod frame;

@@ -5,8 +5,8 @@
 //! values. Angles are rad and lengths mm inside the library. A [`ParamSet`] is the ordered
 //! subset being identified.
 
+use crate::model::bounds::{MAX_ANGLE, MAX_LENGTH};
 use crate::model::effects::EffectKind;
-use crate::model::robot::{MAX_ANGLE, MAX_LENGTH};
 use crate::{Real, Robot};
 use core::fmt;
 use heapless::Vec;
@@ -207,8 +207,8 @@ pub enum ParamError {
     /// A parameter refers to a joint or effect value the robot does not have.
     OutOfRange,
     /// The update vector's length differs from the set's, holds NaN/inf, or would take a
-    /// value beyond the robot's bounds ([`crate::model::robot::MAX_LENGTH`],
-    /// [`crate::model::robot::MAX_ANGLE`]).
+    /// value beyond the robot's bounds ([`crate::model::bounds::MAX_LENGTH`],
+    /// [`crate::model::bounds::MAX_ANGLE`]).
     Shape,
 }
 

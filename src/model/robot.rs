@@ -10,14 +10,7 @@ use crate::model::effects::{EffectError, Effects};
 use crate::{Frame, Real};
 use nalgebra::Vector3;
 
-/// Largest magnitude of a length a robot model accepts (mm): 1 km. Applies to the rows' `a` and
-/// `d`, the tool point and the base origin (each coordinate).
-pub const MAX_LENGTH: f64 = 1e6;
-
-/// Largest magnitude of an angle a robot model accepts (rad): about 1,600 turns, where the `f32`
-/// joint trigonometry is still exact in its range reduction. Applies to `alpha`, `theta`,
-/// `beta` and the joint limits (and to effect values and table knots, see [`Effects::push`]).
-pub const MAX_ANGLE: f64 = 1e4;
+pub use crate::model::bounds::{MAX_ANGLE, MAX_LENGTH};
 
 /// `Ok` when every value is finite ([`RobotError::NotFinite`]) and at most `bound` in
 /// magnitude ([`RobotError::OutOfRange`]); the first value that is not decides the error.

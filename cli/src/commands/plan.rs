@@ -108,7 +108,22 @@ fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Re
         seed: args.seed,
         refine: !args.no_refine,
     };
-    let p = plan(&robot, &req)?;
+    // A spinner with the elapsed time while the design runs (stderr, only on a terminal): the
+    // work is bounded by --poses, --pool and --passes (checked above), but a large design
+    // takes minutes.
+    let bar = indicatif::ProgressBar::new_spinner();
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("plan {spinner} {msg} {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+    );
+    bar.set_message(format!(
+        "choosing {} poses from a pool of {}",
+        args.poses, args.pool
+    ));
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    let p = plan(&robot, &req);
+    bar.finish_and_clear();
+    let p = p?;
     let seconds = start.elapsed().as_secs_f64();
     // Signed clearance in the full cell, also for plans made without collision avoidance
     // (negative: the pose collides).

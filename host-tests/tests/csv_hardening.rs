@@ -528,3 +528,17 @@ proptest! {
         prop_assert_eq!(parse_decimal(&s).map(f64::to_bits), s.parse::<f64>().ok().map(f64::to_bits), "{}", s);
     }
 }
+
+/// Fuzz finding (measurement_file/write-read-round-trip-1): an extra column named `"t "` (a
+/// blank inside the quotes) was read as `t ` and written back as `t `, which then read as `t`:
+/// the names changed in a write → read round trip. Blanks are trimmed after the quotes too.
+#[test]
+fn extra_column_names_survive_a_write_read_round_trip() {
+    use kinecal_cli::formats::measurements::{read_bytes, to_csv_string};
+    let text = "q1,q2,q3,q4,q5,q6,x,y,z,\"temp \",\" load\"\n1,2,3,4,5,6,7,8,9,21.5,3\n";
+    let data = read_bytes::<6>(text.as_bytes()).unwrap();
+    assert_eq!(data.extra_names, ["temp", "load"]);
+    let back = read_bytes::<6>(to_csv_string(&data).as_bytes()).unwrap();
+    assert_eq!(back.extra_names, data.extra_names);
+    assert_eq!(back.records.len(), 1);
+}

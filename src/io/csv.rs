@@ -272,7 +272,9 @@ impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L,
                 column: col,
                 which: 0,
             };
-            let name = cell.trim().trim_matches('"');
+            // Quotes stripped, then blanks again: `"t "` and `t` name the same column, so a
+            // name written back reads back the same (fuzz measurement_file/write-read-round-trip-1).
+            let name = cell.trim().trim_matches('"').trim();
             let slot = if let Some(rest) = name
                 .strip_prefix('q')
                 .filter(|r| !r.is_empty() && r.bytes().all(|b| b.is_ascii_digit()))

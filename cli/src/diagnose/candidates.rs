@@ -11,13 +11,22 @@
 //!   row already describes any axis direction, so beta would duplicate alpha/theta/d.
 //! - `joint-compliance` only where the lever arm is not identically zero (joint 1 of an upright
 //!   arm turns about the gravity direction and feels no moment).
-//! - `joint-table` with knots on a grid of `M` equal intervals over the joint's limits, trimmed
-//!   to the range the data cover. A table's resolution is part of the model choice: every grid
-//!   with `M` = 2…24 and a ladder of finer ones (30 … 200) is offered as long as the data have
-//!   at least 4 poses per knot interval and the table at least 4 knots; cross-validation picks.
-//!   Grids anchored at the lower limit line up with tables written that way (`kinecal simulate`
-//!   and the robot file's default `start_deg`); a misplaced knot would leave a kink unmodelled.
-//!   On the UR10 (limits ±360°) `M` = 200 gives the 3.6° knots of the findings.
+//! - `joint-table`: a piecewise-linear correction whose resolution and knot positions are part
+//!   of the model choice, offered on two ladders and compared by the same cross-validation:
+//!   - *range fractions*: `M` equal intervals over the joint's limits (`M` = 2…24 and a ladder
+//!     of finer ones, 30 … 200), anchored at the lower limit, as `kinecal simulate` and the
+//!     robot file's default `start_deg` write a table; on the UR10 (limits ±360°) `M` = 200
+//!     gives the 3.6° knots of the findings;
+//!   - *fixed pitches* (1°, 2°, 3°, 3.6°, 4° … 90°) with knots on multiples of the pitch: gear
+//!     and encoder errors repeat per motor or gear revolution, so their natural grid is a fixed
+//!     angle, not a fraction of the limits (on a ±185° joint the 36-interval grid is 10.28°
+//!     from −185°, and a 10° table aligned to 0° would keep a kink unmodelled at every knot).
+//!     Every grid is trimmed to the range the data cover and offered only with at least 4 poses
+//!     per knot interval and at least 4 knots. The best grids of each joint then have their
+//!     *phase* chosen too ([`phase_variants`]: the knots shifted by sixteenths of the pitch), so
+//!     a table whose knots sit at 2.5° + k·10° is matched as well. Every grid and phase screened
+//!     counts in the Bonferroni correction of the round, which is what keeps the extra choice
+//!     from raising the false-alarm rate.
 
 use crate::formats::robot_file::AXIS_TILT;
 use crate::output::numfmt::sig;
@@ -54,6 +63,13 @@ pub struct CatalogueConfig {
     pub max_cyclic_order: u16,
     /// Table grids: numbers of equal intervals over the joint's limits.
     pub table_intervals: Vec<u32>,
+    /// Table grids: fixed pitches (degrees), knots on multiples of the pitch.
+    pub table_pitches_deg: Vec<f64>,
+    /// Phases tried for a joint's best table grids: the knots shifted by `k / table_phases` of
+    /// the pitch, `k` = 1 … `table_phases − 1` (0 or 1: no phase search).
+    pub table_phases: u32,
+    /// How many of each joint's best screened grids (distinct pitches) have their phase chosen.
+    pub phase_search_grids: usize,
     /// A table grid is offered only when the data have at least this many poses per interval
     /// of the range they cover…
     pub min_poses_per_interval: f64,
@@ -71,6 +87,12 @@ impl Default for CatalogueConfig {
             table_intervals: (2..=24)
                 .chain([30, 36, 40, 48, 60, 72, 90, 100, 120, 150, 180, 200])
                 .collect(),
+            table_pitches_deg: vec![
+                1.0, 2.0, 3.0, 3.6, 4.0, 4.5, 5.0, 6.0, 7.5, 9.0, 10.0, 12.0, 15.0, 18.0, 20.0,
+                22.5, 30.0, 36.0, 45.0, 60.0, 90.0,
+            ],
+            table_phases: 16,
+            phase_search_grids: 2,
             min_poses_per_interval: 4.0,
             min_knots: 4,
             parallel_tolerance_deg: 2.0,
@@ -106,10 +128,11 @@ impl Candidate {
         let j = self.joint + 1;
         match self.kind {
             CandidateKind::Cyclic(n) => format!("joint-cyclic order {n} on joint {j}"),
-            CandidateKind::Table { step, knots, .. } => {
+            CandidateKind::Table { start, step, knots } => {
                 format!(
-                    "joint-table every {}° ({knots} knots) on joint {j}",
-                    round_sig(step.to_degrees(), 4)
+                    "joint-table every {}° from {}° ({knots} knots) on joint {j}",
+                    round_sig(step.to_degrees(), 4),
+                    round_sig(start.to_degrees(), 6)
                 )
             }
             _ => format!("{} on joint {j}", self.id()),
@@ -290,16 +313,13 @@ pub fn catalogue<const N: usize, const V: usize>(
     if data.is_empty() {
         return out;
     }
-    let mut lo = [f64::INFINITY; N];
-    let mut hi = [f64::NEG_INFINITY; N];
+    let (lo, hi) = coverage(data);
     let mut tau_max = [0.0f64; N];
     let mut fk = ForwardKinematics::new();
     for m in data {
         fk.compute(robot, &m.q);
         let tau = fk.lever_arms();
         for j in 0..N {
-            lo[j] = lo[j].min(m.q[j]);
-            hi[j] = hi[j].max(m.q[j]);
             tau_max[j] = tau_max[j].max(tau[j].abs());
         }
     }
@@ -335,27 +355,24 @@ pub fn catalogue<const N: usize, const V: usize>(
             });
         }
         if moved {
+            let n = data.len();
             let mut grids: Vec<(f64, f64, usize)> = Vec::new();
             for &m in &cfg.table_intervals {
                 if m == 0 {
                     continue;
                 }
                 let step = (row.upper - row.lower) / m as f64;
-                if step.is_nan() || step <= 0.0 {
-                    continue;
-                }
-                let k0 = ((lo[j] - row.lower) / step + 1e-9).floor();
-                let k1 = ((hi[j] - row.lower) / step - 1e-9).ceil();
-                let knots = ((k1 - k0) as usize + 1).max(2);
-                let intervals = (knots - 1) as f64;
-                if data.len() as f64 / intervals >= cfg.min_poses_per_interval
-                    && knots >= cfg.min_knots
-                {
-                    grids.push((step, row.lower + k0 * step, knots));
+                grids.extend(table_grid(row.lower, step, lo[j], hi[j], n, cfg));
+            }
+            for &p in &cfg.table_pitches_deg {
+                // Knots on multiples of the pitch: computed in degrees, so that a knot at
+                // 10° is written back as 10, not 9.999999999999998.
+                if let Some((step, start, knots)) = table_grid_deg(0.0, p, lo[j], hi[j], n, cfg) {
+                    grids.push((step, start, knots));
                 }
             }
-            grids.sort_by(|a, b| a.0.total_cmp(&b.0));
-            grids.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-12);
+            grids.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+            grids.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-12 && (a.1 - b.1).abs() < 1e-12);
             for (step, start, knots) in grids {
                 out.push(Candidate {
                     kind: CandidateKind::Table { start, step, knots },
@@ -365,4 +382,102 @@ pub fn catalogue<const N: usize, const V: usize>(
         }
     }
     out
+}
+
+/// The joint range `data` cover: lowest and highest reading of each joint (rad).
+pub fn coverage<const N: usize>(data: &[Measurement<f64, N>]) -> ([f64; N], [f64; N]) {
+    let mut lo = [f64::INFINITY; N];
+    let mut hi = [f64::NEG_INFINITY; N];
+    for m in data {
+        for j in 0..N {
+            lo[j] = lo[j].min(m.q[j]);
+            hi[j] = hi[j].max(m.q[j]);
+        }
+    }
+    (lo, hi)
+}
+
+/// The grid of spacing `step` (rad) through `anchor` (rad), trimmed to the covered range
+/// `lo..=hi`: `(step, first knot, knots)`, or `None` when `n` poses are too few for it or it
+/// has too few knots.
+fn table_grid(
+    anchor: f64,
+    step: f64,
+    lo: f64,
+    hi: f64,
+    n: usize,
+    cfg: &CatalogueConfig,
+) -> Option<(f64, f64, usize)> {
+    let (k0, knots) = grid_span(anchor, step, lo, hi, n, cfg)?;
+    Some((step, anchor + k0 * step, knots))
+}
+
+/// [`table_grid`] with the anchor and spacing in degrees; the first knot is computed in degrees
+/// (`anchor + k·step`) before it is converted, so that grids on round angles stay round.
+fn table_grid_deg(
+    anchor_deg: f64,
+    step_deg: f64,
+    lo: f64,
+    hi: f64,
+    n: usize,
+    cfg: &CatalogueConfig,
+) -> Option<(f64, f64, usize)> {
+    let step = step_deg.to_radians();
+    let (k0, knots) = grid_span(anchor_deg.to_radians(), step, lo, hi, n, cfg)?;
+    Some((step, (anchor_deg + k0 * step_deg).to_radians(), knots))
+}
+
+/// Index of the first knot (relative to `anchor`) and the number of knots of the grid of
+/// spacing `step` through `anchor` that covers `lo..=hi`, if it is offered.
+fn grid_span(
+    anchor: f64,
+    step: f64,
+    lo: f64,
+    hi: f64,
+    n: usize,
+    cfg: &CatalogueConfig,
+) -> Option<(f64, usize)> {
+    if !(step.is_finite() && step > 0.0 && lo.is_finite() && hi.is_finite() && hi > lo) {
+        return None;
+    }
+    let k0 = ((lo - anchor) / step + 1e-9).floor();
+    let k1 = ((hi - anchor) / step - 1e-9).ceil();
+    let knots_f = k1 - k0 + 1.0;
+    if !(knots_f.is_finite() && knots_f <= crate::MAX_TABLE_KNOTS as f64) {
+        return None;
+    }
+    let knots = (knots_f as usize).max(2);
+    let intervals = (knots - 1) as f64;
+    (n as f64 / intervals >= cfg.min_poses_per_interval && knots >= cfg.min_knots)
+        .then_some((k0, knots))
+}
+
+/// The same table grid with its knots shifted by `k / cfg.table_phases` of the spacing,
+/// `k` = 1 … `table_phases − 1`, each trimmed to the covered range `lo..=hi` of its joint
+/// (rad; see [`coverage`]) and offered under the same rules as the catalogue's grids. Empty for
+/// a candidate that is not a table.
+pub fn phase_variants(
+    c: &Candidate,
+    lo: f64,
+    hi: f64,
+    n: usize,
+    cfg: &CatalogueConfig,
+) -> Vec<Candidate> {
+    let CandidateKind::Table { start, step, .. } = c.kind else {
+        return Vec::new();
+    };
+    let (start_deg, step_deg) = (start.to_degrees(), step.to_degrees());
+    // Round pitches stay round: a 10° grid shifted by a sixteenth starts at 0.625°.
+    let round = |x: f64| (x * 1e9).round() / 1e9;
+    let phases = cfg.table_phases.max(1);
+    (1..phases)
+        .filter_map(|k| {
+            let anchor_deg = round(start_deg + step_deg * k as f64 / phases as f64);
+            let (step, start, knots) = table_grid_deg(anchor_deg, round(step_deg), lo, hi, n, cfg)?;
+            Some(Candidate {
+                kind: CandidateKind::Table { start, step, knots },
+                joint: c.joint,
+            })
+        })
+        .collect()
 }

@@ -34,7 +34,9 @@ pub mod significance;
 
 use crate::calibration::fit_lm;
 use crate::compute::parallel;
-use crate::diagnose::candidates::{catalogue, Candidate, CandidateKind, CatalogueConfig};
+use crate::diagnose::candidates::{
+    catalogue, coverage, phase_variants, Candidate, CandidateKind, CatalogueConfig,
+};
 use crate::diagnose::cross_validation::{
     fold_inflation, refit_errors, refit_errors_each, rms, Folds, Linearised, PoseKinematics,
 };
@@ -302,6 +304,66 @@ pub fn choose(
         })
 }
 
+/// Phase variants ([`phase_variants`]) of the best `phase_search_grids` grids (distinct
+/// spacings) of the joint tables whose family ranks among the best `families` families of the
+/// screen; variants that equal a grid already screened are left out.
+pub fn phase_search<const N: usize>(
+    screened: &[Screened],
+    data: &[Measurement<f64, N>],
+    cfg: &CatalogueConfig,
+    families: usize,
+) -> Vec<Candidate> {
+    let mut order: Vec<&Screened> = screened.iter().collect();
+    order.sort_by(|a, b| a.linear_rms_mm.total_cmp(&b.linear_rms_mm));
+    let mut ranked: Vec<Candidate> = Vec::new();
+    for s in &order {
+        if ranked.len() >= families {
+            break;
+        }
+        if !ranked.iter().any(|f| f.same_effect(&s.candidate)) {
+            ranked.push(s.candidate);
+        }
+    }
+    let (lo, hi) = coverage(data);
+    let mut out: Vec<Candidate> = Vec::new();
+    for family in ranked
+        .iter()
+        .filter(|c| matches!(c.kind, CandidateKind::Table { .. }))
+    {
+        let mut steps: Vec<f64> = Vec::new();
+        for s in order.iter().filter(|s| s.candidate.same_effect(family)) {
+            let CandidateKind::Table { step, .. } = s.candidate.kind else {
+                continue;
+            };
+            if steps.len() >= cfg.phase_search_grids {
+                break;
+            }
+            if steps.iter().any(|t| (t - step).abs() < 1e-12) {
+                continue;
+            }
+            steps.push(step);
+            let j = s.candidate.joint;
+            for v in phase_variants(&s.candidate, lo[j], hi[j], data.len(), cfg) {
+                let seen = |c: &Candidate| match (c.kind, v.kind) {
+                    (
+                        CandidateKind::Table {
+                            start: a, step: p, ..
+                        },
+                        CandidateKind::Table {
+                            start: b, step: q, ..
+                        },
+                    ) => c.joint == v.joint && (a - b).abs() < 1e-12 && (p - q).abs() < 1e-12,
+                    _ => false,
+                };
+                if !screened.iter().any(|s| seen(&s.candidate)) && !out.iter().any(seen) {
+                    out.push(v);
+                }
+            }
+        }
+    }
+    out
+}
+
 /// Fits the geometry: base started by registration when unknown, then LM over base (when
 /// unknown), rows, tool and the betas of `free_tilt`. Returns the robot and the held parameters.
 pub fn fit_geometry<const N: usize>(
@@ -449,7 +511,7 @@ pub fn diagnose_with_progress<const N: usize>(
         let lin = Linearised::new(&current, &problem, data, &folds);
         let lin_base = rms(&lin.baseline());
         let kinematics = PoseKinematics::new(&current, data);
-        let mut screened: Vec<Screened> = parallel::map_each(&cands, |c| {
+        let screen = |c: &Candidate| {
             let mut robot_c = current.clone();
             // A candidate the model has no room for (effect capacity) is not compared.
             let extra = c.add_to(&mut robot_c).ok()?;
@@ -460,10 +522,15 @@ pub fn diagnose_with_progress<const N: usize>(
                 candidate: *c,
                 linear_rms_mm: rms(&e),
             })
-        })
-        .into_iter()
-        .flatten()
-        .collect();
+        };
+        let mut screened: Vec<Screened> = parallel::map_each(&cands, screen)
+            .into_iter()
+            .flatten()
+            .collect();
+        // The knots' phase: the best grids of the most promising tables shifted along the
+        // joint, screened the same way (and counted in m below).
+        let variants = phase_search(&screened, data, &cfg.catalogue, cfg.refit_best + 2);
+        screened.extend(parallel::map_each(&variants, screen).into_iter().flatten());
         screened.sort_by(|a, b| a.linear_rms_mm.total_cmp(&b.linear_rms_mm));
         let m = screened.len();
         let threshold = cfg.alpha / m as f64;

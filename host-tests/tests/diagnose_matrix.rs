@@ -124,6 +124,7 @@ impl Hidden {
             } else {
                 1
             },
+            grid: None,
         }
     }
 }

@@ -8,7 +8,11 @@
 //! `full_matrix` runs diagnose_matrix.toml (the matrix the search was developed on);
 //! `unseen_matrix` runs diagnose_matrix_unseen.toml (robots, joints, amplitudes, noise levels
 //! and seeds the search was never tuned on, a 7-joint arm, and cases with raw effect values as
-//! `kinecal simulate --effect` takes them).
+//! `kinecal simulate --effect` takes them); `grid_matrix` runs diagnose_matrix_grid.toml (joint
+//! tables with knots on a fixed angle pitch aligned to multiples of the pitch or at a phase, as
+//! gear and encoder tables are, on joints whose limits are not multiples of the pitch):
+//!
+//!     KINECAL_MATRIX_THREADS=2 cargo test -p kinecal-host --test diagnose_matrix grid_matrix -- --ignored --nocapture
 //!
 //! (The test profile is optimised: no `--release` needed. `KINECAL_MATRIX_FILE=other.toml` makes
 //! `full_matrix` run another configuration, relative to tests/data or absolute;
@@ -572,6 +576,28 @@ fn fast_subset_names_hidden_effects_exactly() {
     });
 }
 
+/// Joint tables whose knots lie on a fixed angle pitch (robots of diagnose_matrix_grid.toml,
+/// with its poses): a 10° table aligned to 0° on the KR 16's joint 1 (limits ±185°), a 15°
+/// table at a phase of 5° on the 7-joint arm's joint 2 (limits ±120°) and a 10° table at 2.5°
+/// on its joint 1 (±170°), and nothing hidden on the KR 16. Asserted like
+/// `fast_subset_names_hidden_effects_exactly`.
+#[test]
+#[ignore = "issue 16: needs the pitch ladder"]
+fn fast_grid_tables_named_exactly_at_the_floor() {
+    main_sized_stack(|| {
+        let m = load_matrix_file("diagnose_matrix_grid.toml");
+        let kr16 = robot_index(&m, "kr16");
+        let arm7 = robot_index(&m, "arm7");
+        let pick = vec![
+            (kr16, vec!["joint-grid:1:10"], 0.02, 4.0),
+            (arm7, vec!["joint-grid:2:15:5"], 0.02, 6.0),
+            (arm7, vec!["joint-grid:1:10:2.5"], 0.02, 4.0),
+            (kr16, vec![], 0.02, 0.0),
+        ];
+        assert_picks(&m, &pick, 161);
+    });
+}
+
 /// The index of the robot called `name` in `m`.
 pub fn robot_index(m: &Matrix, name: &str) -> usize {
     m.robots
@@ -634,6 +660,13 @@ fn full_matrix() {
 #[ignore = "the full matrix takes minutes: cargo test -p kinecal-host --test diagnose_matrix -- --ignored --nocapture"]
 fn unseen_matrix() {
     main_sized_stack(|| run_matrix("diagnose_matrix_unseen.toml"));
+}
+
+/// Joint tables on fixed angle pitches and phases (issue 16), with null cases.
+#[test]
+#[ignore = "the grid matrix takes a minute or more: KINECAL_MATRIX_THREADS=2 cargo test -p kinecal-host --test diagnose_matrix grid_matrix -- --ignored --nocapture"]
+fn grid_matrix() {
+    main_sized_stack(|| run_matrix("diagnose_matrix_grid.toml"));
 }
 
 /// Runs every case of a matrix file and prints the rates.

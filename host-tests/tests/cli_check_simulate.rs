@@ -140,6 +140,114 @@ fn simulate_applies_effects_as_documented() {
     }
 }
 
+/// A joint table on a fixed angle grid (knots every 10° at a phase of 2.5°, the first one
+/// below the joint's lower limit; not the even spread of `--effect`): a robot file with
+/// `step_deg`/`start_deg` is the truth `simulate --robot` measures, the truth file keeps the
+/// grid, and the library's `EffectArg::grid` makes the same robot.
+#[test]
+fn simulate_honours_a_table_on_a_fixed_angle_grid() {
+    use kinecal_cli::simulation::{self, EffectArg, Simulation};
+    use kinecal_host::reference::RefEffect;
+    let dir = tempfile::tempdir().unwrap();
+    let plain = write(dir.path(), "plain.toml", ER20);
+    let file = RobotFile::load(&plain).unwrap();
+    // Joint 1: limits ±170°; knots at -177.5°, -167.5°, …, 172.5° (36 knots).
+    let (start_deg, step_deg) = (-177.5, 10.0);
+    let knots: Vec<f64> = (0..36).map(|k| 2e-3 * (0.9 * k as f64).sin()).collect();
+    let mut expected = RefRobot::from_file(&file);
+    expected.effects.push(RefEffect::Table {
+        joint: 0,
+        start: f64::to_radians(start_deg),
+        step: f64::to_radians(step_deg),
+        knots: knots.clone(),
+    });
+    let values: Vec<String> = knots.iter().map(|v| format!("{v:e}")).collect();
+    let with_table = write(
+        dir.path(),
+        "table.toml",
+        &format!(
+            "{ER20}\n[[effects]]\nkind = \"joint-table\"\njoint = 1\nstep_deg = {step_deg:?}\nstart_deg = {start_deg:?}\nvalues = [{}]\n",
+            values.join(", ")
+        ),
+    );
+    simulate_matches::<6>(dir.path(), &with_table, &[], |_| expected.clone());
+    let truth = RobotFile::load(&dir.path().join("truth.toml")).unwrap();
+    let table = truth
+        .effects
+        .iter()
+        .find(|e| e.kind == "joint-table")
+        .expect("the truth file keeps the table");
+    assert_eq!(table.joint, 1);
+    assert!(
+        (table.step_deg.unwrap() - step_deg).abs() < 1e-9,
+        "{table:?}"
+    );
+    assert!(
+        (table.start_deg.unwrap() - start_deg).abs() < 1e-9,
+        "{table:?}"
+    );
+    simulate_matches::<6>(dir.path(), &with_table, &[], |t| {
+        RefRobot::from_file(&RobotFile::load(t).unwrap())
+    });
+
+    // The library: the same table as an effect with a knot grid.
+    let nominal = file.to_robot::<6>().unwrap();
+    let grid = EffectArg {
+        kind: "joint-table".into(),
+        joint: 0,
+        values: knots.clone(),
+        order: 1,
+        grid: Some((f64::to_radians(start_deg), f64::to_radians(step_deg))),
+    };
+    let sim = Simulation {
+        poses: 200,
+        noise_mm: 0.0,
+        seed: 5,
+        geom_errors: None,
+        effects: vec![grid.clone()],
+    };
+    let (_, ds) = simulation::simulate(&nominal, &sim).unwrap();
+    let mut worst = 0f64;
+    for rec in &ds.records {
+        let q: Vec<f64> = rec.q_deg.iter().map(|d| d.to_radians()).collect();
+        worst = worst.max((expected.point(&q) - Vector3::from(rec.xyz_mm)).norm());
+    }
+    assert!(worst <= 1e-5, "EffectArg::grid vs reference: {worst:e} mm");
+    // Without a grid the same values spread over the limits: another robot.
+    let spread = Simulation {
+        effects: vec![EffectArg {
+            grid: None,
+            ..grid.clone()
+        }],
+        ..sim.clone()
+    };
+    let (_, ds2) = simulation::simulate(&nominal, &spread).unwrap();
+    assert!(ds2
+        .records
+        .iter()
+        .zip(&ds.records)
+        .any(|(a, b)| { (Vector3::from(a.xyz_mm) - Vector3::from(b.xyz_mm)).norm() > 1e-3 }));
+    // A grid only for tables, with a finite start and a positive step.
+    let mut r = nominal.clone();
+    for bad in [
+        EffectArg {
+            kind: "joint-scale".into(),
+            values: vec![1e-4],
+            ..grid.clone()
+        },
+        EffectArg {
+            grid: Some((0.0, 0.0)),
+            ..grid.clone()
+        },
+        EffectArg {
+            grid: Some((f64::NAN, 0.1)),
+            ..grid.clone()
+        },
+    ] {
+        assert!(simulation::add_effect(&mut r, &bad).is_err(), "{bad:?}");
+    }
+}
+
 #[test]
 fn geometric_errors_stay_within_their_bounds_and_match_the_truth_file() {
     let dir = tempfile::tempdir().unwrap();

@@ -138,6 +138,10 @@ pub struct EffectArg {
     pub values: Vec<f64>,
     /// Harmonic order for `joint-cyclic` (1 if not given).
     pub order: u16,
+    /// `joint-table` only: the knot grid `(start, step)` in rad, knot k at `start + k · step`
+    /// (e.g. a gear table every 10° aligned to 0°). `None`: the knots spread evenly over the
+    /// joint's limits, lowest limit first (what `--effect` gives).
+    pub grid: Option<(f64, f64)>,
 }
 
 impl FromStr for EffectArg {
@@ -220,14 +224,15 @@ impl FromStr for EffectArg {
             joint: joint - 1,
             values,
             order,
+            grid: None,
         })
     }
 }
 
 /// Adds a correction to `robot`. Units: joint-scale dimensionless; joint-cyclic a, b in rad;
 /// joint-compliance rad per metre of lever arm; axis-tilt sets the joint's beta (rad);
-/// joint-table values are knot corrections (rad) spread evenly over the joint's range, lowest
-/// limit first.
+/// joint-table values are knot corrections (rad), lowest knot first, on `e.grid` when given and
+/// otherwise spread evenly over the joint's range from the lowest limit.
 pub fn add_effect<const N: usize, const V: usize>(
     robot: &mut Robot<f64, N, V>,
     e: &EffectArg,
@@ -239,6 +244,13 @@ pub fn add_effect<const N: usize, const V: usize>(
             e.joint + 1
         );
     };
+    if e.grid.is_some() && e.kind != "joint-table" {
+        bail!(
+            "effect {} on joint {}: a knot grid applies to joint-table only",
+            e.kind,
+            e.joint + 1
+        );
+    }
     if e.kind == crate::formats::robot_file::AXIS_TILT {
         let beta = e.values.first().copied().unwrap_or(0.0);
         return robot
@@ -247,8 +259,17 @@ pub fn add_effect<const N: usize, const V: usize>(
     }
     let kind =
         EffectKind::from_id(&e.kind).ok_or_else(|| anyhow!("unknown effect kind `{}`", e.kind))?;
-    let (start, step) = match kind {
-        EffectKind::Table => (
+    let (start, step) = match (kind, e.grid) {
+        (EffectKind::Table, Some((start, step))) => {
+            if !(start.is_finite() && step.is_finite() && step > 0.0) {
+                bail!(
+                    "joint-table on joint {}: the knot grid needs a finite start and a step > 0, got start {start} rad, step {step} rad",
+                    e.joint + 1
+                );
+            }
+            (start, step)
+        }
+        (EffectKind::Table, None) => (
             j.lower,
             (j.upper - j.lower) / (e.values.len().max(2) - 1) as f64,
         ),

@@ -6,7 +6,7 @@
 use kinecal::model::effects::EffectKind;
 use kinecal::{Joint, Measurement, Robot};
 use kinecal_cli::diagnose::candidates::{
-    catalogue, coverage, phase_variants, Candidate, CandidateKind, CatalogueConfig,
+    catalogue, coverage, shifted, Candidate, CandidateKind, CatalogueConfig,
 };
 use kinecal_cli::diagnose::{diagnose, Config};
 use kinecal_cli::formats::robot_file::RobotFile;
@@ -138,13 +138,24 @@ fn pitch_grids_sit_on_multiples_of_the_pitch() {
     assert!(!tables.iter().any(|t| (t.1 - 1.0).abs() < 1e-9));
 }
 
-/// Phase variants shift the knots by sixteenths of the pitch and still cover the data.
+/// Every pitch is offered at quarter phases; `shifted` moves a grid's knots by a fraction of
+/// its pitch and still covers the data.
 #[test]
-fn phase_variants_shift_the_knots_by_sixteenths_of_the_pitch() {
+fn pitches_come_at_four_phases_and_shift_by_fractions_of_the_pitch() {
     let robot = with_limits(0, -185.0, 185.0);
     let data = table_data(&robot, 0, 10.0, 0.0, 0.0, 0.0, 400, 4);
     let (lo, hi) = coverage(&data);
     let cfg = CatalogueConfig::default();
+    let mut phases: Vec<f64> = catalogue(&robot, true, &data, &cfg)
+        .iter()
+        .filter(|c| c.joint == 0 && matches!(c.kind, CandidateKind::Table { step, .. } if (step.to_degrees() - 20.0).abs() < 1e-9))
+        .map(|c| table_of(c).0.rem_euclid(20.0))
+        .collect();
+    phases.sort_by(f64::total_cmp);
+    assert_eq!(phases.len(), 4, "{phases:?}");
+    for (k, p) in phases.iter().enumerate() {
+        assert!((p - 5.0 * k as f64).abs() < 1e-9, "{phases:?}");
+    }
     let c = Candidate {
         kind: CandidateKind::Table {
             start: (-180f64).to_radians(),
@@ -153,28 +164,23 @@ fn phase_variants_shift_the_knots_by_sixteenths_of_the_pitch() {
         },
         joint: 0,
     };
-    let v = phase_variants(&c, lo[0], hi[0], data.len(), &cfg);
-    assert_eq!(v.len(), 15);
-    let mut phases: Vec<f64> = v
-        .iter()
-        .map(|c| {
-            let (start, step, knots) = table_of(c);
-            assert!((step - 10.0).abs() < 1e-12);
-            assert!(start <= lo[0].to_degrees() + 1e-9);
-            assert!(start + (knots - 1) as f64 * step >= hi[0].to_degrees() - 1e-9);
-            start.rem_euclid(10.0)
-        })
-        .collect();
-    phases.sort_by(f64::total_cmp);
-    for (k, p) in phases.iter().enumerate() {
-        assert!((p - 0.625 * (k + 1) as f64).abs() < 1e-9, "{phases:?}");
+    for f in [-0.5, -0.125, 1.0 / 64.0, 0.375] {
+        let v = shifted(&c, f, lo[0], hi[0], data.len(), &cfg).unwrap();
+        let (start, step, knots) = table_of(&v);
+        assert!((step - 10.0).abs() < 1e-12);
+        // Knots at 10·f + k·10 degrees, written round (1e-9).
+        let phase = start.rem_euclid(10.0);
+        assert!((phase - (10.0 * f).rem_euclid(10.0)).abs() < 1e-9, "{f}: {start}");
+        assert_eq!(start, (start * 1e9).round() / 1e9);
+        assert!(start <= lo[0].to_degrees() + 1e-9 && start > lo[0].to_degrees() - 10.0);
+        assert!(start + (knots - 1) as f64 * step >= hi[0].to_degrees() - 1e-9);
     }
     // Not a table: nothing to shift.
     let s = Candidate {
         kind: CandidateKind::Scale,
         joint: 0,
     };
-    assert!(phase_variants(&s, lo[0], hi[0], data.len(), &cfg).is_empty());
+    assert!(shifted(&s, 0.25, lo[0], hi[0], data.len(), &cfg).is_none());
 }
 
 /// The case: a table every 10° aligned to 0° on a ±185° joint (the limits' fractions
@@ -231,7 +237,7 @@ fn a_ten_degree_table_aligned_to_zero_is_found_on_its_grid() {
 }
 
 /// A 15° table whose knots sit at 6° + k·15° on joint 3: the phase search finds a grid within
-/// a sixteenth of the pitch of the truth's, and the held-out RMS reaches the noise floor.
+/// a thirty-second of the pitch of the truth's, and the held-out RMS reaches the noise floor.
 #[test]
 fn a_table_at_a_phase_is_found_near_its_phase() {
     main_sized_stack(|| {
@@ -250,7 +256,7 @@ fn a_table_at_a_phase_is_found_near_its_phase() {
             "{labels:?}"
         );
         let off = (start - 6.0).rem_euclid(step);
-        assert!(off.min(step - off) <= step / 16.0 + 1e-9, "{labels:?}");
+        assert!(off.min(step - off) <= step / 32.0 + 1e-9, "{labels:?}");
         let floor = 3f64.sqrt() * noise;
         assert!(
             d.final_validation_rms_mm <= 1.25 * floor,

@@ -582,7 +582,6 @@ fn fast_subset_names_hidden_effects_exactly() {
 /// on its joint 1 (±170°), and nothing hidden on the KR 16. Asserted like
 /// `fast_subset_names_hidden_effects_exactly`.
 #[test]
-#[ignore = "issue 16: needs the pitch ladder"]
 fn fast_grid_tables_named_exactly_at_the_floor() {
     main_sized_stack(|| {
         let m = load_matrix_file("diagnose_matrix_grid.toml");

@@ -21,12 +21,14 @@
 //!     and encoder errors repeat per motor or gear revolution, so their natural grid is a fixed
 //!     angle, not a fraction of the limits (on a ±185° joint the 36-interval grid is 10.28°
 //!     from −185°, and a 10° table aligned to 0° would keep a kink unmodelled at every knot).
+//!     Each pitch is offered at four phases (knots at multiples of the pitch, and shifted by a
+//!     quarter, a half and three quarters of it); the best grids of the most promising tables
+//!     then have their phase refined by bisection down to 1/64 of the pitch ([`shifted`],
+//!     `diagnose::phase_search`), so a table whose knots sit at 2° + k·5° is matched too.
 //!     Every grid is trimmed to the range the data cover and offered only with at least 4 poses
-//!     per knot interval and at least 4 knots. The best grids of each joint then have their
-//!     *phase* chosen too ([`phase_variants`]: the knots shifted by sixteenths of the pitch), so
-//!     a table whose knots sit at 2.5° + k·10° is matched as well. Every grid and phase screened
-//!     counts in the Bonferroni correction of the round, which is what keeps the extra choice
-//!     from raising the false-alarm rate.
+//!     per knot interval and at least 4 knots. Every grid and phase screened counts in the
+//!     Bonferroni correction of the round, which is what keeps the extra choice from raising
+//!     the false-alarm rate.
 
 use crate::formats::robot_file::AXIS_TILT;
 use crate::output::numfmt::sig;
@@ -65,10 +67,13 @@ pub struct CatalogueConfig {
     pub table_intervals: Vec<u32>,
     /// Table grids: fixed pitches (degrees), knots on multiples of the pitch.
     pub table_pitches_deg: Vec<f64>,
-    /// Phases tried for a joint's best table grids: the knots shifted by `k / table_phases` of
-    /// the pitch, `k` = 1 … `table_phases − 1` (0 or 1: no phase search).
-    pub table_phases: u32,
-    /// How many of each joint's best screened grids (distinct pitches) have their phase chosen.
+    /// Phases offered for every fixed pitch: the knots on multiples of the pitch shifted by
+    /// `k / pitch_phases` of it, `k` = 0 … `pitch_phases − 1`.
+    pub pitch_phases: u32,
+    /// Bisection steps of the phase refinement of the best grids: shifts of ±1/(2·pitch_phases)
+    /// of the pitch, then half that, and so on (0: no refinement).
+    pub phase_levels: u32,
+    /// How many of a promising table's best screened grids (distinct spacings) are refined.
     pub phase_search_grids: usize,
     /// A table grid is offered only when the data have at least this many poses per interval
     /// of the range they cover…
@@ -91,8 +96,9 @@ impl Default for CatalogueConfig {
                 1.0, 2.0, 3.0, 3.6, 4.0, 4.5, 5.0, 6.0, 7.5, 9.0, 10.0, 12.0, 15.0, 18.0, 20.0,
                 22.5, 30.0, 36.0, 45.0, 60.0, 90.0,
             ],
-            table_phases: 16,
-            phase_search_grids: 2,
+            pitch_phases: 4,
+            phase_levels: 4,
+            phase_search_grids: 3,
             min_poses_per_interval: 4.0,
             min_knots: 4,
             parallel_tolerance_deg: 2.0,
@@ -365,10 +371,12 @@ pub fn catalogue<const N: usize, const V: usize>(
                 grids.extend(table_grid(row.lower, step, lo[j], hi[j], n, cfg));
             }
             for &p in &cfg.table_pitches_deg {
-                // Knots on multiples of the pitch: computed in degrees, so that a knot at
-                // 10° is written back as 10, not 9.999999999999998.
-                if let Some((step, start, knots)) = table_grid_deg(0.0, p, lo[j], hi[j], n, cfg) {
-                    grids.push((step, start, knots));
+                // Knots on multiples of the pitch (and shifted by fractions of it): computed
+                // in degrees, so that a knot at 10° is written back as 10, not 9.999999999999998.
+                let phases = cfg.pitch_phases.max(1);
+                for k in 0..phases {
+                    let anchor = p * k as f64 / phases as f64;
+                    grids.extend(table_grid_deg(anchor, p, lo[j], hi[j], n, cfg));
                 }
             }
             grids.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
@@ -424,7 +432,8 @@ fn table_grid_deg(
 ) -> Option<(f64, f64, usize)> {
     let step = step_deg.to_radians();
     let (k0, knots) = grid_span(anchor_deg.to_radians(), step, lo, hi, n, cfg)?;
-    Some((step, (anchor_deg + k0 * step_deg).to_radians(), knots))
+    // `+ 0.0`: a first knot at −0° is written as 0.
+    Some((step, (anchor_deg + k0 * step_deg + 0.0).to_radians(), knots))
 }
 
 /// Index of the first knot (relative to `anchor`) and the number of knots of the grid of
@@ -452,32 +461,28 @@ fn grid_span(
         .then_some((k0, knots))
 }
 
-/// The same table grid with its knots shifted by `k / cfg.table_phases` of the spacing,
-/// `k` = 1 … `table_phases − 1`, each trimmed to the covered range `lo..=hi` of its joint
-/// (rad; see [`coverage`]) and offered under the same rules as the catalogue's grids. Empty for
-/// a candidate that is not a table.
-pub fn phase_variants(
+/// The same table grid with its knots shifted by `fraction` of the spacing, trimmed to the
+/// covered range `lo..=hi` of its joint (rad; see [`coverage`]) and offered under the same rules
+/// as the catalogue's grids. `None` for a candidate that is not a table or a grid not offered.
+pub fn shifted(
     c: &Candidate,
+    fraction: f64,
     lo: f64,
     hi: f64,
     n: usize,
     cfg: &CatalogueConfig,
-) -> Vec<Candidate> {
+) -> Option<Candidate> {
     let CandidateKind::Table { start, step, .. } = c.kind else {
-        return Vec::new();
+        return None;
     };
-    let (start_deg, step_deg) = (start.to_degrees(), step.to_degrees());
-    // Round pitches stay round: a 10° grid shifted by a sixteenth starts at 0.625°.
+    // Degrees rounded to 1e-9: round pitches and phases stay round (10° shifted by 1/8 of it
+    // starts at 1.25°, not 1.2499999999999998°).
     let round = |x: f64| (x * 1e9).round() / 1e9;
-    let phases = cfg.table_phases.max(1);
-    (1..phases)
-        .filter_map(|k| {
-            let anchor_deg = round(start_deg + step_deg * k as f64 / phases as f64);
-            let (step, start, knots) = table_grid_deg(anchor_deg, round(step_deg), lo, hi, n, cfg)?;
-            Some(Candidate {
-                kind: CandidateKind::Table { start, step, knots },
-                joint: c.joint,
-            })
-        })
-        .collect()
+    let step_deg = round(step.to_degrees());
+    let anchor_deg = round(start.to_degrees() + fraction * step_deg);
+    let (step, start, knots) = table_grid_deg(anchor_deg, step_deg, lo, hi, n, cfg)?;
+    Some(Candidate {
+        kind: CandidateKind::Table { start, step, knots },
+        joint: c.joint,
+    })
 }

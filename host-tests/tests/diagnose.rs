@@ -831,8 +831,14 @@ fn human_output_shows_small_differences() {
             nums[2].0, nums[3].0,
             "{summary}: final and floor print alike"
         );
-        // The sentence of the effect: the same figures.
-        let sentence = text.lines().find(|l| l.starts_with("  1. ")).unwrap();
+        // The sentence of the effect (under its explanation): the same figures.
+        assert!(text
+            .lines()
+            .any(|l| l.starts_with("  1. Joint 2 deflects under load")));
+        let sentence = text
+            .lines()
+            .find(|l| l.starts_with("     The search: "))
+            .unwrap();
         assert!(
             sentence.contains(&format!("{} → {} mm", nums[1].0, nums[2].0)),
             "{sentence}"

@@ -339,7 +339,7 @@ fn command_json_is_the_typed_report() {
             &Config::default(),
         )
         .unwrap();
-        let typed = DiagnoseReport::of(&d);
+        let typed = DiagnoseReport::of(&d).with_explanations(&d, &ds);
         let cli = one_object(&kinecal(&[
             "diagnose",
             "--robot",
@@ -359,5 +359,21 @@ fn command_json_is_the_typed_report() {
         }
         assert_eq!(typed.found.len(), 1);
         assert_eq!(typed.found[0].effect, "joint-compliance");
+        // Each finding explained in words (the `explanation` object).
+        let e = &cli["found"][0]["explanation"];
+        for key in [
+            "peak_to_peak_deg",
+            "amplitude_deg",
+            "tool_rms_mm",
+            "tool_max_mm",
+            "period_deg",
+            "most_affected_poses",
+            "most_affected_range_deg",
+            "gap_closed",
+            "text",
+        ] {
+            assert!(e.get(key).is_some(), "missing explanation.{key}");
+        }
+        assert!(e["period_deg"].is_null());
     });
 }

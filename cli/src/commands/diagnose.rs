@@ -163,7 +163,8 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
         stages.stage(&format!("errors on the {} held-out poses", held.len()));
         Some(holdout_report(&mut d, &held))
     };
-    let mut report = DiagnoseReport::with_stall_limit(&d, args.stall_rms_mm);
+    let mut report =
+        DiagnoseReport::with_stall_limit(&d, args.stall_rms_mm).with_explanations(&d, &search);
     report.holdout = holdout;
     report.poses = search.len();
     if !report.converged {

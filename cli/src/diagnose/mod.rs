@@ -26,6 +26,7 @@
 
 pub mod candidates;
 pub mod cross_validation;
+pub mod explain;
 pub mod folds;
 pub mod linear;
 pub mod refit;

@@ -1,8 +1,10 @@
 //! The report of `kinecal diagnose`, built from a [`Diagnosis`] ([`DiagnoseReport::of`]).
 
 use crate::diagnose::candidates::CandidateKind;
+use crate::diagnose::explain::{explain, Explanation};
 use crate::diagnose::{distinct_figures, floor_phrase, percent, Diagnosis, NoiseSource};
 use crate::output::numfmt::sig;
+use kinecal::Measurement;
 use serde::Serialize;
 use std::fmt;
 
@@ -83,6 +85,11 @@ pub struct FoundEffect {
     pub start_deg: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub knots: Option<usize>,
+    /// The finding in a technician's words with its size, period, where it acts and the share
+    /// of the held-out gap it closed ([`crate::diagnose::explain`]); present when the report
+    /// was made with the search's data ([`DiagnoseReport::with_explanations`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub explanation: Option<Explanation>,
 }
 
 /// One round of the search.
@@ -170,6 +177,7 @@ impl DiagnoseReport {
                     step_deg,
                     start_deg,
                     knots,
+                    explanation: None,
                 }
             })
             .collect();
@@ -244,6 +252,22 @@ impl DiagnoseReport {
         }
     }
 
+    /// The report with every finding explained ([`crate::diagnose::explain`]) on `data`, the
+    /// poses the search of `d` ran on (in its row order: pose numbers refer to it). Data of
+    /// another length than the search's leave the findings unexplained.
+    pub fn with_explanations<const N: usize>(
+        mut self,
+        d: &Diagnosis<N>,
+        data: &[Measurement<f64, N>],
+    ) -> Self {
+        if data.len() == d.folds.of.len() {
+            for (r, f) in self.found.iter_mut().zip(&d.found) {
+                r.explanation = Some(explain(f, data, d.noise_floor_mm));
+            }
+        }
+        self
+    }
+
     /// The report as `serde_json` sees it (what `--json` prints).
     pub fn to_value(&self) -> serde_json::Value {
         super::json_value(self)
@@ -306,7 +330,13 @@ impl fmt::Display for DiagnoseReport {
         }
         writeln!(f, "{}", self.summary)?;
         for (k, s) in self.sentences.iter().enumerate() {
-            writeln!(f, "  {}. {s}", k + 1)?;
+            match self.found.get(k).and_then(|e| e.explanation.as_ref()) {
+                Some(e) => {
+                    writeln!(f, "  {}. {}", k + 1, capitalised(&e.text))?;
+                    writeln!(f, "     The search: {s}")?;
+                }
+                None => writeln!(f, "  {}. {s}", k + 1)?,
+            }
         }
         if self.noise_floor_mm.is_finite() {
             let iv = self.noise_floor_interval_mm;
@@ -350,5 +380,14 @@ impl fmt::Display for DiagnoseReport {
             }
         }
         writeln!(f, "{:.2} s", self.seconds)
+    }
+}
+
+/// `text` with its first letter in upper case.
+fn capitalised(text: &str) -> String {
+    let mut c = text.chars();
+    match c.next() {
+        Some(first) => first.to_uppercase().chain(c).collect(),
+        None => String::new(),
     }
 }

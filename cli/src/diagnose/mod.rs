@@ -325,7 +325,10 @@ pub fn phase_search_starts(
         }
     }
     let mut out: Vec<Screened> = Vec::new();
-    for family in ranked.iter().filter(|c| matches!(c.kind, CandidateKind::Table { .. })) {
+    for family in ranked
+        .iter()
+        .filter(|c| matches!(c.kind, CandidateKind::Table { .. }))
+    {
         let mut steps: Vec<f64> = Vec::new();
         for s in order.iter().filter(|s| s.candidate.same_effect(family)) {
             let CandidateKind::Table { step, .. } = s.candidate.kind else {
@@ -347,8 +350,12 @@ pub fn phase_search_starts(
 fn same_grid(a: &Candidate, b: &Candidate) -> bool {
     match (a.kind, b.kind) {
         (
-            CandidateKind::Table { start: s, step: p, .. },
-            CandidateKind::Table { start: t, step: q, .. },
+            CandidateKind::Table {
+                start: s, step: p, ..
+            },
+            CandidateKind::Table {
+                start: t, step: q, ..
+            },
         ) => a.joint == b.joint && (s - t).abs() < 1e-12 && (p - q).abs() < 1e-12,
         _ => false,
     }

@@ -157,8 +157,10 @@ impl DiagnoseReport {
                         step,
                         knots: k,
                     } => {
-                        step_deg = Some(step.to_degrees());
-                        start_deg = Some(start.to_degrees());
+                        // As the robot file writes them: the shortest decimals that read
+                        // back to the same radians (3.6, not 3.6000000000000005).
+                        step_deg = Some(crate::formats::robot_file::deg_short(step));
+                        start_deg = Some(crate::formats::robot_file::deg_short(start));
                         knots = Some(k);
                     }
                     _ => {}

@@ -35,6 +35,7 @@ fn effect(kind: &str, joint: usize, values: &[f64], order: u16) -> EffectArg {
         joint: joint - 1,
         values: values.to_vec(),
         order,
+        grid: None,
     }
 }
 

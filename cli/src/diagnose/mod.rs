@@ -6,7 +6,9 @@
 //!    cannot determine are held (its identifiability analysis).
 //! 2. **Rounds.** With deterministic k-fold cross-validation (k = 5): every candidate of the
 //!    catalogue ([`crate::diagnose::candidates`]) is screened by one linearised step from the current
-//!    solution ([`crate::diagnose::cross_validation::Linearised`]); the best few (3 effect families)
+//!    solution ([`crate::diagnose::cross_validation::Linearised`]), and the best grids of the most
+//!    promising joint tables have their knots' phase refined the same way ([`phase_search_starts`]);
+//!    the best few (3 effect families)
 //!    are refitted fold by fold by the library's Levenberg–Marquardt with a penalty on table
 //!    knots ([`crate::diagnose::refit`]); a refit is added only if its
 //!    per-pose held-out improvement passes the one-sided paired t test at `α / m` (Bonferroni
@@ -371,7 +373,7 @@ const PHASE_GAIN: f64 = 0.995;
 /// is shifted by ± half the previous shift (first ±1/(2·pitch_phases) of its spacing) and the
 /// best of the three is kept (a shifted grid only when it is clearly better: [`PHASE_GAIN`]).
 /// The grids kept are appended to `screened` (the refit takes the best of each family from
-/// there); returns how many grids were screened in all, each of which counts in the round's m.
+/// there); returns how many grids were screened in all.
 fn phase_search<F>(
     starts: Vec<Screened>,
     screened: &mut Vec<Screened>,
@@ -585,7 +587,7 @@ pub fn diagnose_with_progress<const N: usize>(
         let starts = phase_search_starts(&screened, &cfg.catalogue, cfg.refit_best + 2);
         let (lo, hi) = coverage(data);
         let catalogue_screened = screened.len();
-        let phases_screened = phase_search(
+        let _phase_grids_screened = phase_search(
             starts,
             &mut screened,
             (&lo, &hi),
@@ -594,8 +596,9 @@ pub fn diagnose_with_progress<const N: usize>(
             screen,
         );
         screened.sort_by(|a, b| a.linear_rms_mm.total_cmp(&b.linear_rms_mm));
-        // Every grid the phase search screened counts, kept or not.
-        let m = catalogue_screened + phases_screened;
+        // The catalogue's candidates count; the phase bisection fits a candidate's phase (its
+        // kept grids replace their start within the family, the others are not candidates).
+        let m = catalogue_screened;
         let threshold = cfg.alpha / m as f64;
         // Refit the best member of each of the best few families (one effect kind on one joint:
         // the grids of a table are one family), so that a simple effect is not crowded out by

@@ -2,6 +2,9 @@
 //! test's false-alarm rate, the folds, the linearised screen against full refits, the
 //! penalised table fit, and `kinecal diagnose` end to end (JSON keys, model file, plots).
 
+mod common;
+use common::main_sized_stack;
+
 use kinecal::model::param::{Param, ParamSet};
 use kinecal::{Measurement, Robot};
 use kinecal_cli::commands::diagnose::{run, Args};
@@ -33,16 +36,6 @@ fn er20() -> Robot<f64, 6, VCAP> {
         .unwrap()
         .to_robot::<6>()
         .unwrap()
-}
-
-/// Runs `f` on a thread with the stack of a main thread (8 MiB), as the `kinecal` binary has.
-fn main_sized_stack<F: FnOnce() + Send + 'static>(f: F) {
-    std::thread::Builder::new()
-        .stack_size(8 << 20)
-        .spawn(f)
-        .unwrap()
-        .join()
-        .unwrap();
 }
 
 fn effect(kind: &str, joint: usize, values: &[f64], order: u16) -> EffectArg {

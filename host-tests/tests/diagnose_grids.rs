@@ -3,6 +3,9 @@
 //! get their phase chosen, and a table made on such a grid is found on it, to the noise floor,
 //! and written back exactly.
 
+mod common;
+use common::main_sized_stack;
+
 use kinecal::model::effects::EffectKind;
 use kinecal::{Joint, Measurement, Robot};
 use kinecal_cli::diagnose::candidates::{
@@ -36,16 +39,6 @@ fn with_limits(j: usize, lower: f64, upper: f64) -> Robot<f64, 6, VCAP> {
     )
     .unwrap();
     r
-}
-
-/// Runs `f` on a thread with the stack of a main thread (8 MiB), as the `kinecal` binary has.
-fn main_sized_stack<F: FnOnce() + Send + 'static>(f: F) {
-    std::thread::Builder::new()
-        .stack_size(8 << 20)
-        .spawn(f)
-        .unwrap()
-        .join()
-        .unwrap();
 }
 
 /// `x` (degrees) is a multiple of `p` (degrees) up to rounding.

@@ -19,6 +19,9 @@
 //! `KINECAL_MATRIX_THREADS=2` runs two cases at a time; `KINECAL_MATRIX_ONLY=SEED,…` only the
 //! cases with these seeds; `KINECAL_MATRIX_VERBOSE=1` prints every case's JSON report.)
 
+mod common;
+use common::main_sized_stack;
+
 use kinecal::{Frame, Measurement, Robot};
 use kinecal_cli::diagnose::{diagnose, fit_geometry, Config, Diagnosis};
 use kinecal_cli::formats::robot_file::RobotFile;
@@ -402,16 +405,6 @@ pub fn run_case<const N: usize>(l: &Loaded<N>, poses: usize, c: &Case) -> Outcom
         floor_true: 3f64.sqrt() * c.noise_mm,
         seconds,
     }
-}
-
-/// Runs `f` on a thread with the stack of a main thread (8 MiB), as the `kinecal` binary has.
-pub fn main_sized_stack<F: FnOnce() + Send + 'static>(f: F) {
-    std::thread::Builder::new()
-        .stack_size(8 << 20)
-        .spawn(f)
-        .unwrap()
-        .join()
-        .unwrap();
 }
 
 pub fn all_cases(m: &Matrix) -> Vec<Case> {

@@ -11,6 +11,9 @@
 //! - the online stepper: its predicted precision falls as it measures its own proposals,
 //!   matches the batch prediction, and it stops at the target.
 
+mod common;
+use common::main_sized_stack;
+
 use kinecal::model::param::ParamSet;
 use kinecal::planning::information::{default_tolerance, scaled_rows, PoseRows};
 use kinecal::planning::online_design::OnlineDesign;
@@ -42,16 +45,6 @@ const WORK_DEG: [[f64; 6]; 2] = [
 
 fn work() -> Vec<[f64; 6]> {
     WORK_DEG.iter().map(|q| q.map(f64::to_radians)).collect()
-}
-
-/// Runs `f` on a thread with the stack of a main thread (8 MiB), as the `kinecal` binary has.
-fn main_sized_stack<R: Send + 'static>(f: impl FnOnce() -> R + Send + 'static) -> R {
-    std::thread::Builder::new()
-        .stack_size(8 << 20)
-        .spawn(f)
-        .unwrap()
-        .join()
-        .unwrap()
 }
 
 // ---------------------------------------------------------------------------------------

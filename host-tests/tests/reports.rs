@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 
 mod common;
+use common::main_sized_stack;
 use common::{data_file, kinecal, s, simulate, stderr};
 
 /// The keys whose values are wall-clock times.
@@ -81,16 +82,6 @@ fn simulated(dir: &Path) -> (PathBuf, PathBuf, PathBuf) {
         &data,
     );
     (robot, data, truth)
-}
-
-/// Runs on a thread with the stack of a main thread (8 MiB), as the `kinecal` binary has.
-fn main_sized_stack<F: FnOnce() + Send + 'static>(f: F) {
-    std::thread::Builder::new()
-        .stack_size(8 << 20)
-        .spawn(f)
-        .unwrap()
-        .join()
-        .unwrap();
 }
 
 #[test]

@@ -373,7 +373,7 @@ const PHASE_GAIN: f64 = 0.995;
 /// is shifted by ± half the previous shift (first ±1/(2·pitch_phases) of its spacing) and the
 /// best of the three is kept (a shifted grid only when it is clearly better: [`PHASE_GAIN`]).
 /// The grids kept are appended to `screened` (the refit takes the best of each family from
-/// there); returns how many grids were screened in all.
+/// there).
 fn phase_search<F>(
     starts: Vec<Screened>,
     screened: &mut Vec<Screened>,
@@ -381,8 +381,7 @@ fn phase_search<F>(
     n: usize,
     cfg: &CatalogueConfig,
     screen: F,
-) -> usize
-where
+) where
     F: Fn(&Candidate) -> Option<Screened> + Sync,
 {
     let mut best = starts;
@@ -416,7 +415,6 @@ where
         }
         shift /= 2.0;
     }
-    tried.len()
 }
 
 /// Fits the geometry: base started by registration when unknown, then LM over base (when
@@ -587,7 +585,7 @@ pub fn diagnose_with_progress<const N: usize>(
         let starts = phase_search_starts(&screened, &cfg.catalogue, cfg.refit_best + 2);
         let (lo, hi) = coverage(data);
         let catalogue_screened = screened.len();
-        let _phase_grids_screened = phase_search(
+        phase_search(
             starts,
             &mut screened,
             (&lo, &hi),

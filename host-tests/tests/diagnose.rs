@@ -3,7 +3,7 @@
 //! penalised table fit, and `kinecal diagnose` end to end (JSON keys, model file, plots).
 
 mod common;
-use common::main_sized_stack;
+use common::{effect, main_sized_stack};
 
 use kinecal::model::param::{Param, ParamSet};
 use kinecal::{Measurement, Robot};
@@ -36,16 +36,6 @@ fn er20() -> Robot<f64, 6, VCAP> {
         .unwrap()
         .to_robot::<6>()
         .unwrap()
-}
-
-fn effect(kind: &str, joint: usize, values: &[f64], order: u16) -> EffectArg {
-    EffectArg {
-        kind: kind.into(),
-        joint: joint - 1,
-        values: values.to_vec(),
-        order,
-        grid: None,
-    }
 }
 
 /// The progress callback sees the stages in the order they run: the geometry, the baseline,

@@ -2,6 +2,9 @@
 //! size in degrees and at the tool, period, most affected poses, the share of the held-out gap;
 //! and `kinecal diagnose` end to end (the `explanation` object, the text, the plot).
 
+mod common;
+use common::effect;
+
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use kinecal_cli::commands::diagnose::{run, Args};
 use kinecal_cli::diagnose::candidates::{Candidate, CandidateKind};
@@ -27,16 +30,6 @@ fn er20() -> Arm {
         .unwrap()
         .to_robot::<6>()
         .unwrap()
-}
-
-fn effect(kind: &str, joint: usize, values: &[f64], order: u16) -> EffectArg {
-    EffectArg {
-        kind: kind.into(),
-        joint: joint - 1,
-        values: values.to_vec(),
-        order,
-        grid: None,
-    }
 }
 
 fn sim(effects: Vec<EffectArg>, poses: usize, noise_mm: f64, seed: u64) -> Simulation {

@@ -171,3 +171,19 @@ pub fn main_sized_stack<R: Send + 'static>(f: impl FnOnce() -> R + Send + 'stati
         .join()
         .unwrap()
 }
+
+/// A hidden effect for `kinecal_cli::simulation` (joint 1-based; tables spread over the limits).
+pub fn effect(
+    kind: &str,
+    joint: usize,
+    values: &[f64],
+    order: u16,
+) -> kinecal_cli::simulation::EffectArg {
+    kinecal_cli::simulation::EffectArg {
+        kind: kind.into(),
+        joint: joint - 1,
+        values: values.to_vec(),
+        order,
+        grid: None,
+    }
+}

@@ -1,0 +1,147 @@
+//! Forward kinematics (`kc_fk`: the `ForwardKinematics<f32, 6>` workspace) and the
+//! identification Jacobian.
+
+use crate::handle::{self, handle};
+use crate::robot::{kc_param, kc_robot, param_of, rot_of, KC_PARAMS_ALL};
+use crate::{array_mut, array_ref, finite, slice_mut, slice_ref, status, KC_JOINTS};
+use crate::{kc_status, KC_BUFFER_TOO_SMALL, KC_INVALID_ARGUMENT, KC_TOO_MANY_PARAMS};
+use kinecal::{ForwardKinematics, Param};
+use nalgebra::Vector3;
+
+/// Bytes of a [`kc_fk`] (see `KC_ROBOT_SIZE`).
+pub const KC_FK_SIZE: usize = 424;
+
+/// A forward-kinematics workspace (`ForwardKinematics<f32, 6>`): the frames of the last pose
+/// computed, which [`kc_fk_jacobian`] differentiates. Opaque, caller-owned; [`kc_fk_init`].
+#[repr(C, align(8))]
+pub struct kc_fk {
+    _opaque: [u8; KC_FK_SIZE],
+}
+
+handle!(kc_fk, KC_FK_SIZE, ForwardKinematics<f32, 6>, 0x4b43_464b);
+
+// `float *` output arrays are written as `Vector3<f32>` columns: nalgebra's `Matrix` is
+// `repr(C)` over a `repr(transparent)` array, so a `Vector3<f32>` is three contiguous floats.
+const _: () = assert!(
+    core::mem::size_of::<Vector3<f32>>() == 12 && core::mem::align_of::<Vector3<f32>>() == 4
+);
+
+/// Initialises a workspace (identity frames).
+///
+/// # Safety
+/// `w` is NULL or a writable `kc_fk` not otherwise in use.
+#[no_mangle]
+pub unsafe extern "C" fn kc_fk_init(w: *mut kc_fk) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let slot = unsafe { handle::uninit::<kc_fk>(w) }?;
+        handle::init::<kc_fk>(slot, ForwardKinematics::new());
+        Ok(())
+    })())
+}
+
+/// Forward kinematics of `r` at the joint readings `q[KC_JOINTS]` (rad): the measured point
+/// (the tool point, measurement frame, mm) into `xyz_out[3]`. The workspace keeps the pose for
+/// [`kc_fk_jacobian`]. Errors: `KC_NOT_FINITE` (a reading NaN or infinite); on error the
+/// workspace is unchanged.
+///
+/// # Safety
+/// Handles NULL or valid (`w` not otherwise in use); arrays NULL or of their sizes.
+#[no_mangle]
+pub unsafe extern "C" fn kc_fk_point(
+    w: *mut kc_fk,
+    r: *const kc_robot,
+    q: *const f32,
+    xyz_out: *mut f32,
+) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let fk = unsafe { handle::get_mut(w) }?;
+        // SAFETY: the header contract.
+        let robot = unsafe { handle::get(r) }?;
+        // SAFETY: the header contract (KC_JOINTS floats).
+        let q = unsafe { array_ref::<f32, KC_JOINTS>(q) }?;
+        // SAFETY: the header contract (3 floats).
+        let out = unsafe { array_mut::<f32, 3>(xyz_out) }?;
+        finite(q)?;
+        let p = fk.compute(robot, q);
+        *out = [p.x, p.y, p.z];
+        Ok(())
+    })())
+}
+
+/// As [`kc_fk_point`], also the tool orientation (the flange axes in the measurement frame)
+/// as a row-major rotation matrix into `rot_out[9]`: with `xyz_out` the tool pose, usable as
+/// a pose `kc_target`.
+///
+/// # Safety
+/// As [`kc_fk_point`]; `rot_out` is NULL or 9 floats.
+#[no_mangle]
+pub unsafe extern "C" fn kc_fk_pose(
+    w: *mut kc_fk,
+    r: *const kc_robot,
+    q: *const f32,
+    xyz_out: *mut f32,
+    rot_out: *mut f32,
+) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let fk = unsafe { handle::get_mut(w) }?;
+        // SAFETY: the header contract.
+        let robot = unsafe { handle::get(r) }?;
+        // SAFETY: the header contract (KC_JOINTS floats).
+        let q = unsafe { array_ref::<f32, KC_JOINTS>(q) }?;
+        // SAFETY: the header contract (3 floats).
+        let out = unsafe { array_mut::<f32, 3>(xyz_out) }?;
+        // SAFETY: the header contract (9 floats).
+        let rot = unsafe { array_mut::<f32, 9>(rot_out) }?;
+        finite(q)?;
+        fk.compute(robot, q);
+        let f = fk.tool_pose();
+        *out = [f.o.x, f.o.y, f.o.z];
+        *rot = rot_of(&f);
+        Ok(())
+    })())
+}
+
+/// The identification Jacobian at the pose of the last [`kc_fk_point`] / [`kc_fk_pose`] call
+/// on `w` (with the same robot `r`): column `k` (∂ point / ∂ `params[k]`, mm per mm or per rad)
+/// into `out[3*k + axis]`. `n` <= `KC_PARAMS_ALL`; `out_len` >= `3*n` (else
+/// `KC_BUFFER_TOO_SMALL`).
+///
+/// # Safety
+/// Handles NULL or valid; `params` NULL or `n` values; `out` NULL or `out_len` floats.
+#[no_mangle]
+pub unsafe extern "C" fn kc_fk_jacobian(
+    w: *const kc_fk,
+    r: *const kc_robot,
+    params: *const kc_param,
+    n: usize,
+    out: *mut f32,
+    out_len: usize,
+) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let fk = unsafe { handle::get(w) }?;
+        // SAFETY: the header contract.
+        let robot = unsafe { handle::get(r) }?;
+        // SAFETY: the header contract (`n` values).
+        let codes = unsafe { slice_ref(params, n) }?;
+        if n > KC_PARAMS_ALL {
+            return Err(KC_TOO_MANY_PARAMS);
+        }
+        if out_len / 3 < n {
+            return Err(KC_BUFFER_TOO_SMALL);
+        }
+        let mut set = [Param::BaseX; KC_PARAMS_ALL];
+        for (s, c) in set.iter_mut().zip(codes) {
+            *s = param_of(*c)?;
+        }
+        let set = set.get(..n).ok_or(KC_TOO_MANY_PARAMS)?;
+        // SAFETY: the header contract gives `out_len` >= 3n writable floats, and a
+        // `Vector3<f32>` is three floats with the alignment of one (asserted above).
+        let cols = unsafe { slice_mut(out.cast::<Vector3<f32>>(), n) }?;
+        fk.identification_jacobian(robot, set, cols)
+            .map_err(|_| KC_INVALID_ARGUMENT)
+    })())
+}

@@ -1,0 +1,247 @@
+//! # kinecal-ffi: the C ABI of kinecal (issue 17)
+//!
+//! Scalar `float` (the library's `f32`, as on the Cortex-M4F), exactly [`KC_JOINTS`] joints,
+//! library units (millimetres, radians). The header is `include/kinecal.h`, generated from
+//! this crate by cbindgen (`ffi/cbindgen.toml`; the test `c_header` fails when it is stale).
+//!
+//! - No allocation: every handle (`kc_robot`, `kc_fk`, `kc_lm`, `kc_tracker`, `kc_csv`) lives
+//!   in memory the caller owns, declared in C as an opaque byte array aligned to 8 bytes whose
+//!   size is a `#define`; a compile-time assertion below checks that the real Rust value fits,
+//!   on the 64-bit host and on the 32-bit thumb target alike. `*_init` constructs in place.
+//! - Every function returns a [`kc_status`] (0 = [`kc_status::KC_OK`]), checks every pointer
+//!   for NULL (and handles for alignment and initialisation), every length, every float input
+//!   the library would refuse; it never panics and never unwinds. After an error the handles
+//!   are unchanged (a failed `*_init` leaves its handle not initialised).
+//! - The wrappers are thin: no copy of big state, the library call inlined.
+
+#![no_std]
+// The C names: `kc_robot`, `KC_OK`.
+#![allow(non_camel_case_types)]
+// Every `unsafe` operation in an `unsafe fn` sits in its own block with its own SAFETY note.
+#![deny(unsafe_op_in_unsafe_fn)]
+#![deny(clippy::undocumented_unsafe_blocks)]
+#![warn(missing_docs)]
+// `!(x > 0)` is deliberate: a NaN must fail the test.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+// On the host the static library links into programs that bring `std` (and its panic
+// runtime); on bare metal the C firmware has no Rust runtime, so this crate brings the
+// panic handler (no panic is reachable: every index is checked, nothing unwraps).
+#[cfg(not(target_os = "none"))]
+extern crate std;
+
+#[cfg(target_os = "none")]
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    loop {
+        core::hint::spin_loop();
+    }
+}
+
+// In the header's order: status, robots and parameters, kinematics, identification,
+// compensation, CSV.
+mod compensate;
+mod csv;
+mod fk;
+mod handle;
+mod lm;
+mod robot;
+
+// pub use compensate::*;
+// pub use csv::*;
+pub use fk::*;
+pub use lm::*;
+pub use robot::*;
+
+/// Joints of every robot of this ABI.
+pub const KC_JOINTS: usize = 6;
+
+/// What a call did: 0 is success, anything else says why nothing (or, for
+/// [`kc_status::KC_COMPENSATE_FAILED`], only a best-effort result) was produced.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum kc_status {
+    /// Success.
+    KC_OK = 0,
+    /// CSV: no more records.
+    KC_END = 1,
+    /// A required pointer is NULL.
+    KC_NULL_POINTER = 2,
+    /// An argument is out of its range (an index, a code, a length, a setting).
+    KC_INVALID_ARGUMENT = 3,
+    /// The robot description was refused: a length or angle out of range, joint limits not
+    /// `lower < upper`, a base that is not a rotation, or a refused joint coupling.
+    KC_INVALID_ROBOT = 4,
+    /// A float input is NaN or infinite.
+    KC_NOT_FINITE = 5,
+    /// LM: no measurements, or fewer residuals (3 per pose) than parameters.
+    KC_TOO_FEW_MEASUREMENTS = 6,
+    /// LM: the measurement count changed between calls of one run.
+    KC_DATA_CHANGED = 7,
+    /// An output buffer is too small (the size needed is reported where the call says so).
+    KC_BUFFER_TOO_SMALL = 8,
+    /// A snapshot was refused: truncated, corrupted (CRC), of another solver or shape.
+    KC_SNAPSHOT_INVALID = 9,
+    /// Compensation did not meet the target: the `kc_solution` holds the best safe command
+    /// and its `status` says why (singular, unreachable, limited).
+    KC_COMPENSATE_FAILED = 10,
+    /// CSV: a malformed header or record (see `kc_csv_last_error`).
+    KC_CSV_ERROR = 11,
+    /// More parameters than the ABI has room for ([`KC_LM_MAX_PARAMS`]).
+    KC_TOO_MANY_PARAMS = 12,
+    /// The handle was never initialised, or its `*_init` failed.
+    KC_NOT_INITIALIZED = 13,
+    /// A named item (a CSV extra column) does not exist.
+    KC_NOT_FOUND = 14,
+    /// A handle is not aligned to 8 bytes.
+    KC_MISALIGNED = 15,
+}
+
+pub use kc_status::*;
+
+/// Result of the internal checks: the error is the status to return.
+pub(crate) type Kc<T> = Result<T, kc_status>;
+
+/// The status of a result.
+#[inline(always)]
+pub(crate) fn status(r: Kc<()>) -> kc_status {
+    match r {
+        Ok(()) => KC_OK,
+        Err(s) => s,
+    }
+}
+
+/// A static one-line English description of a status code (any value: unknown codes get
+/// "unknown status"). Never NULL.
+#[no_mangle]
+pub extern "C" fn kc_status_message(status: u32) -> *const core::ffi::c_char {
+    let s: &'static core::ffi::CStr = match status {
+        0 => c"ok",
+        1 => c"end of data",
+        2 => c"a required pointer is NULL",
+        3 => c"an argument is out of range",
+        4 => c"the robot description was refused",
+        5 => c"a float input is NaN or infinite",
+        6 => c"too few measurements for the parameters",
+        7 => c"the measurement count changed during the run",
+        8 => c"output buffer too small",
+        9 => c"snapshot refused (truncated, corrupted or of another solver)",
+        10 => c"compensation did not meet the target (see the solution's status)",
+        11 => c"malformed CSV (see kc_csv_last_error)",
+        12 => c"too many parameters",
+        13 => c"handle not initialised",
+        14 => c"not found",
+        15 => c"handle not aligned to 8 bytes",
+        _ => c"unknown status",
+    };
+    s.as_ptr()
+}
+
+/// `true` when every value is finite, by the sum: NaN or ±inf anywhere makes `s - s` NaN.
+/// Values so large that their sum overflows (|v| ≳ 1e37, no robot quantity) are refused too.
+/// About one instruction per value, so checking costs nothing next to the work.
+#[inline(always)]
+#[allow(clippy::eq_op)] // `s - s` is the point: 0 for finite `s`, NaN otherwise.
+pub(crate) fn all_finite(v: &[f32]) -> bool {
+    let s: f32 = v.iter().sum();
+    s - s == 0.0
+}
+
+/// `Err(KC_NOT_FINITE)` unless every value is finite (see [`all_finite`]).
+#[inline(always)]
+pub(crate) fn finite(v: &[f32]) -> Kc<()> {
+    if all_finite(v) {
+        Ok(())
+    } else {
+        Err(KC_NOT_FINITE)
+    }
+}
+
+/// Reads a `[T; M]` the caller passed by pointer (`Err(KC_NULL_POINTER)` for NULL).
+///
+/// # Safety
+/// `p` is NULL or points to `M` readable, initialised `T`.
+#[inline(always)]
+pub(crate) unsafe fn array_ref<'a, T, const M: usize>(p: *const T) -> Kc<&'a [T; M]> {
+    // SAFETY: non-NULL per the check; the caller's contract gives M valid values, and every
+    // bit pattern of the plain-data types used here (f32, f64, u8) is valid.
+    unsafe { p.cast::<[T; M]>().as_ref() }.ok_or(KC_NULL_POINTER)
+}
+
+/// A `&mut [T; M]` over the caller's output array (`Err(KC_NULL_POINTER)` for NULL).
+///
+/// # Safety
+/// `p` is NULL or points to `M` writable `T` that nothing else references during the call.
+#[inline(always)]
+pub(crate) unsafe fn array_mut<'a, T, const M: usize>(p: *mut T) -> Kc<&'a mut [T; M]> {
+    // SAFETY: non-NULL per the check; the caller's contract gives M writable, unaliased
+    // values of a plain-data type (any bits valid).
+    unsafe { p.cast::<[T; M]>().as_mut() }.ok_or(KC_NULL_POINTER)
+}
+
+/// A `&T` from the caller's pointer (`Err(KC_NULL_POINTER)` for NULL).
+///
+/// # Safety
+/// `p` is NULL or points to a valid, initialised `T` (a `#[repr(C)]` plain-data struct).
+#[inline(always)]
+pub(crate) unsafe fn obj_ref<'a, T>(p: *const T) -> Kc<&'a T> {
+    // SAFETY: the caller's contract; NULL is checked.
+    unsafe { p.as_ref() }.ok_or(KC_NULL_POINTER)
+}
+
+/// A `&mut T` for the caller's output struct (`Err(KC_NULL_POINTER)` for NULL).
+///
+/// # Safety
+/// `p` is NULL or points to a writable `T` (plain data) that nothing else references.
+#[inline(always)]
+pub(crate) unsafe fn obj_mut<'a, T>(p: *mut T) -> Kc<&'a mut T> {
+    // SAFETY: the caller's contract; NULL is checked.
+    unsafe { p.as_mut() }.ok_or(KC_NULL_POINTER)
+}
+
+/// A slice over the caller's `n` values: NULL is allowed only for `n == 0`; `n` whose byte
+/// size would not fit an `isize` is `KC_INVALID_ARGUMENT`.
+///
+/// # Safety
+/// `p` is NULL or points to `n` readable, initialised `T` that nothing writes during the call.
+#[inline(always)]
+pub(crate) unsafe fn slice_ref<'a, T>(p: *const T, n: usize) -> Kc<&'a [T]> {
+    if n == 0 {
+        return Ok(&[]);
+    }
+    if p.is_null() {
+        return Err(KC_NULL_POINTER);
+    }
+    if n > isize::MAX as usize / core::mem::size_of::<T>().max(1) {
+        return Err(KC_INVALID_ARGUMENT);
+    }
+    if (p as usize) % core::mem::align_of::<T>() != 0 {
+        return Err(KC_MISALIGNED);
+    }
+    // SAFETY: non-NULL, aligned, the size fits an isize, and the caller's contract gives n
+    // initialised values of a plain-data type not written during the call.
+    Ok(unsafe { core::slice::from_raw_parts(p, n) })
+}
+
+/// As [`slice_ref`], writable.
+///
+/// # Safety
+/// `p` is NULL or points to `n` writable `T` (plain data) that nothing else references.
+#[inline(always)]
+pub(crate) unsafe fn slice_mut<'a, T>(p: *mut T, n: usize) -> Kc<&'a mut [T]> {
+    if n == 0 {
+        return Ok(&mut []);
+    }
+    if p.is_null() {
+        return Err(KC_NULL_POINTER);
+    }
+    if n > isize::MAX as usize / core::mem::size_of::<T>().max(1) {
+        return Err(KC_INVALID_ARGUMENT);
+    }
+    if (p as usize) % core::mem::align_of::<T>() != 0 {
+        return Err(KC_MISALIGNED);
+    }
+    // SAFETY: non-NULL, aligned, the size fits an isize, and the caller's contract gives n
+    // writable values of a plain-data type that nothing else references during the call.
+    Ok(unsafe { core::slice::from_raw_parts_mut(p, n) })
+}

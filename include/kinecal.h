@@ -23,11 +23,27 @@
 // Joints of every robot of this ABI.
 #define KC_JOINTS 6
 
+// Bytes of a [`kc_tracker`] (see `KC_ROBOT_SIZE`).
+#define KC_TRACKER_SIZE 96
+
+// Longest line (bytes) a `kc_csv` reads.
+#define KC_CSV_LINE 256
+
+// Most extra columns a `kc_csv` carries (more are ignored).
+#define KC_CSV_MAX_EXTRAS 8
+
+// Bytes of a [`kc_csv`] (see `KC_ROBOT_SIZE`).
+#define KC_CSV_SIZE 784
+
 // Bytes of a [`kc_fk`] (see `KC_ROBOT_SIZE`).
 #define KC_FK_SIZE 424
 
-// Room for identified parameters in a `kc_lm` (the firmware's 24-parameter MDH set).
+// Room for identified parameters in a `kc_lm`: the 24 of the MDH set (`kc_params_mdh`), as
+// the Rust firmware sizes its solver (same code, same instruction counts, same RAM).
 #define KC_LM_MAX_PARAMS 24
+
+// Bytes of a [`kc_lm`] (see `KC_ROBOT_SIZE`).
+#define KC_LM_SIZE 8776
 
 // Bytes of a [`kc_robot`] (the largest `Robot<f32, 6>` of the supported targets, rounded up
 // to 8; a compile-time assertion checks it fits).
@@ -129,17 +145,223 @@ typedef uint8_t kc_param_kind;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
-// A forward-kinematics workspace (`ForwardKinematics<f32, 6>`): the frames of the last pose
-// computed, which [`kc_fk_jacobian`] differentiates. Opaque, caller-owned; [`kc_fk_init`].
-typedef struct KC_ALIGNED(8) kc_fk {
-  uint8_t _opaque[KC_FK_SIZE];
-} kc_fk;
+// The codes of `kc_target.kind`.
+enum kc_target_kind
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint8_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  // Only the point (3 equations).
+  KC_TARGET_POINT = 0,
+  // Point and tool orientation (6 equations).
+  KC_TARGET_POSE = 1,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum kc_target_kind kc_target_kind;
+#else
+typedef uint8_t kc_target_kind;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+// The outcome class of a compensation (`kc_solution.status`).
+enum kc_solution_status
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint8_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  // The target is met within `accept_mm` at a well-conditioned pose.
+  KC_SOLUTION_OK = 0,
+  // The Jacobian at the answer is (nearly) rank-deficient: a singularity.
+  KC_SOLUTION_SINGULAR = 1,
+  // The residual did not converge, or the target is beyond the arm's reach.
+  KC_SOLUTION_UNREACHABLE = 2,
+  // A joint limit or the step bound stops the joints that would reduce the residual.
+  KC_SOLUTION_LIMITED = 3,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum kc_solution_status kc_solution_status;
+#else
+typedef uint8_t kc_solution_status;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+// Why a run stopped (`kc_lm_progress.stopped`).
+enum kc_lm_stop
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint8_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  // Still running.
+  KC_LM_RUNNING = 0,
+  // The cost stopped decreasing (relative change below tolerance).
+  KC_LM_CONVERGED = 1,
+  // The step became negligibly small.
+  KC_LM_SMALL_STEP = 2,
+  // The iteration limit was reached.
+  KC_LM_MAX_ITERATIONS = 3,
+  // No step could lower the cost even with very strong damping.
+  KC_LM_NO_PROGRESS = 4,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum kc_lm_stop kc_lm_stop;
+#else
+typedef uint8_t kc_lm_stop;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+// The codes of `kc_csv_error.kind` (the library's `CsvErrorKind`).
+enum kc_csv_error_kind
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint8_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  // No error.
+  KC_CSV_NONE = 0,
+  // The read callback failed.
+  KC_CSV_IO = 1,
+  // The input has no header line.
+  KC_CSV_EMPTY = 2,
+  // The header lacks a required column (`q1`..`q6`, `x`, `y`, `z`).
+  KC_CSV_MISSING_COLUMN = 3,
+  // The header names a column twice.
+  KC_CSV_DUPLICATE_COLUMN = 4,
+  // The header has a joint column beyond `q6`.
+  KC_CSV_TOO_MANY_JOINTS = 5,
+  // A line is longer than `KC_CSV_LINE`.
+  KC_CSV_LINE_TOO_LONG = 6,
+  // A line is not UTF-8 text.
+  KC_CSV_NOT_TEXT = 7,
+  // A cell that must be a number is not one.
+  KC_CSV_NOT_A_NUMBER = 8,
+  // A cell is NaN or infinite.
+  KC_CSV_NOT_FINITE = 9,
+  // A line has fewer cells than a required column needs.
+  KC_CSV_SHORT_LINE = 10,
+  // More columns than the reader can map (64).
+  KC_CSV_TOO_MANY_COLUMNS = 11,
+  // A line has more cells than the header (often a decimal comma).
+  KC_CSV_EXTRA_CELL = 12,
+  // A joint reading or coordinate of implausible magnitude.
+  KC_CSV_OUT_OF_RANGE = 13,
+  // The callback failed twice in a row: reading stopped.
+  KC_CSV_READER_FAILED = 14,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum kc_csv_error_kind kc_csv_error_kind;
+#else
+typedef uint8_t kc_csv_error_kind;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+// Tuning of the Newton iteration and of its safety checks (the library's `Config<f32>`).
+typedef struct kc_compensate_config {
+  // Most Newton steps per call (1 ..= 255), each one forward kinematics. Default 8.
+  uint32_t iterations;
+  // Damping floor (mm), >= 0. Default 0.1.
+  float damping_mm;
+  // Stop early once the residual is below this (mm, orientation scaled), >= 0. Default 1e-5.
+  float tolerance_mm;
+  // A residual above this after the iterations is not a success (mm), > 0. Default 0.01.
+  float accept_mm;
+  // Per-joint bound on |command − seed| (rad), > 0. Default 2° (0.0349).
+  float max_step_rad;
+  // Length scale (mm per rad) of orientation errors in pose targets; 0 = the robot's reach
+  // (the default). > 0 otherwise.
+  float orientation_scale_mm;
+  // Singular when the scaled Jacobian's conditioning falls below `singular · reach`, >= 0.
+  // Default 0.01.
+  float singular;
+} kc_compensate_config;
 
 // A robot (`Robot<f32, 6>`): base pose, six MDH rows, tool point, joint couplings. Opaque;
 // caller-owned (a `static` in firmware); [`kc_robot_init`] constructs it.
 typedef struct KC_ALIGNED(8) kc_robot {
   uint8_t _opaque[KC_ROBOT_SIZE];
 } kc_robot;
+
+// Where the tool should go, in the measurement frame.
+typedef struct kc_target {
+  // A `kc_target_kind`.
+  uint8_t kind;
+  // The point, mm.
+  float xyz_mm[3];
+  // Pose targets only: the tool orientation (the flange axes, as `kc_fk_pose` gives them)
+  // as a row-major rotation matrix; must be a rotation within 1e-4.
+  float rot[9];
+} kc_target;
+
+// A joint command and how well it meets the target on the model.
+typedef struct kc_solution {
+  // The joint command (rad): within `max_step_rad` of the seed and inside the joint limits.
+  float q[KC_JOINTS];
+  // |target point − model point at q| (mm).
+  float position_error_mm;
+  // Angle between target and model tool orientation at q (rad); 0 for point targets.
+  float orientation_error_rad;
+  // Conditioning of the scaled Jacobian at q (mm/rad).
+  float sigma;
+  // Newton steps tried.
+  uint32_t iterations;
+  // A `kc_solution_status`.
+  uint8_t status;
+} kc_solution;
+
+// Streaming compensation along a trajectory (`Tracker<f32, 6>`): keeps the previous command
+// and starts each cycle from it. Opaque, caller-owned; [`kc_tracker_init`].
+typedef struct KC_ALIGNED(8) kc_tracker {
+  uint8_t _opaque[KC_TRACKER_SIZE];
+} kc_tracker;
+
+// A streaming CSV reader (`CsvReader<_, 6, KC_CSV_LINE, KC_CSV_MAX_EXTRAS>`). Opaque,
+// caller-owned; [`kc_csv_init`].
+typedef struct KC_ALIGNED(8) kc_csv {
+  uint8_t _opaque[KC_CSV_SIZE];
+} kc_csv;
+
+// The read callback: copies up to `len` bytes of the input into `buf` and returns how many
+// (`0` = end of the input). A value above `len` (e.g. `(size_t)-1`) reports a read error
+// (`KC_CSV_ERROR`, kind `KC_CSV_IO`; a second failure in a row stops the reader).
+typedef size_t (*kc_read_fn)(void *ctx, uint8_t *buf, size_t len);
+
+// One measured pose: joint readings (rad, as the controller reports them) and the point the
+// tracker saw (mm, measurement frame). Same layout as the library's `Measurement<f32, 6>`, so
+// arrays of it are used in place.
+typedef struct kc_measurement {
+  // Joint readings, rad.
+  float q[KC_JOINTS];
+  // Measured point, mm.
+  float xyz_mm[3];
+} kc_measurement;
+
+// One record in file units (f64, as written).
+typedef struct kc_csv_record {
+  // Joint readings `q1`..`q6` as written (degrees).
+  double q_deg[KC_JOINTS];
+  // The point `x`, `y`, `z` as written (mm).
+  double xyz_mm[3];
+  // Line of the input the record came from.
+  uint32_t line;
+} kc_csv_record;
+
+// Where and why the CSV input was refused.
+typedef struct kc_csv_error {
+  // 1-based line (0 when the input has none).
+  uint32_t line;
+  // 1-based column (0 when the error concerns the whole line or header).
+  uint16_t column;
+  // A `kc_csv_error_kind` (`KC_CSV_NONE`: no error so far).
+  uint8_t kind;
+} kc_csv_error;
+
+// A forward-kinematics workspace (`ForwardKinematics<f32, 6>`): the frames of the last pose
+// computed, which [`kc_fk_jacobian`] differentiates. Opaque, caller-owned; [`kc_fk_init`].
+typedef struct KC_ALIGNED(8) kc_fk {
+  uint8_t _opaque[KC_FK_SIZE];
+} kc_fk;
 
 // A model parameter: `kind` is a `kc_param_kind`, `joint` the 0-based joint of the row
 // parameters (`KC_PARAM_ALPHA` … `KC_PARAM_BETA`; 0 for the others).
@@ -149,6 +371,50 @@ typedef struct kc_param {
   // Joint (0-based) of a row parameter.
   uint8_t joint;
 } kc_param;
+
+// The solver settings a firmware sets (the library's `LmConfig<f32>`).
+typedef struct kc_lm_config {
+  // Stop after this many accepted or rejected steps. Default 100.
+  uint32_t max_iterations;
+  // Stop when a step lowers the cost by less than this fraction.
+  float cost_tolerance;
+  // Stop when the scaled step is shorter than this (mm-equivalent).
+  float step_tolerance;
+  // Relative pivot below which a parameter direction counts as unidentifiable, in (0, 1).
+  float rank_tolerance;
+  // Ridge on the accumulated scaled update, relative to the mean diagonal of JᵀJ (>= 0).
+  float ridge;
+  // Initial damping relative to the diagonal (> 0). Default 1e-3.
+  float initial_damping;
+  // Relative pivot a held parameter needs to join on a re-analysis (>= 0).
+  float activation_tolerance;
+  // Most identifiability analyses in one run (0: none, estimate every parameter).
+  // Default 8.
+  uint8_t max_analyses;
+  // Non-zero: keep JᵀJ while steps succeed (cheaper refits). Default 0.
+  uint8_t keep_curvature;
+} kc_lm_config;
+
+// A Levenberg–Marquardt identification (`Levenberg<f32, 6, 0, FixedLm<f32,
+// KC_LM_MAX_PARAMS>>`): a streaming stepper that does a bounded slice of work per
+// [`kc_lm_step`] call, snapshot and restore. Several KB: give it static storage.
+typedef struct KC_ALIGNED(8) kc_lm {
+  uint8_t _opaque[KC_LM_SIZE];
+} kc_lm;
+
+// Where a run stands.
+typedef struct kc_lm_progress {
+  // Accepted and rejected steps so far.
+  uint32_t iteration;
+  // Full passes over all poses so far.
+  uint32_t evaluations;
+  // Sum of squared residuals (mm²) at the current estimate (after the first pass).
+  float cost;
+  // A `kc_lm_stop`: 0 while running.
+  uint8_t stopped;
+  // 1 when the run stopped at a fixed point (`KC_LM_CONVERGED` or `KC_LM_SMALL_STEP`).
+  uint8_t converged;
+} kc_lm_progress;
 
 // One joint's modified Denavit–Hartenberg row (Craig) plus the Hayati tilt `beta`:
 // `T_i(q) = Rx(alpha)·Tx(a)·Ry(beta)·Rz(theta + q)·Tz(d)`, and the joint limits.
@@ -185,6 +451,142 @@ extern "C" {
 // A static one-line English description of a status code (any value: unknown codes get
 // "unknown status"). Never NULL.
 const char *kc_status_message(uint32_t status);
+
+// The library's default settings.
+//
+// # Safety
+// `out` is NULL or a writable `kc_compensate_config`.
+kc_status kc_compensate_config_default(struct kc_compensate_config *out);
+
+// The joint command (from the seed `seed[KC_JOINTS]`, e.g. the nominal inverse kinematics)
+// that brings the model `r` to `target`, with the settings `cfg` (NULL = defaults), into
+// `*out`.
+//
+// `KC_OK`: the target is met. `KC_COMPENSATE_FAILED`: it is not (singular, unreachable,
+// limited: `out->status`); `*out` holds the best safe command (within the step box around the
+// seed). `KC_NOT_FINITE` / `KC_INVALID_ARGUMENT` (NaN, a bad setting, a target more than 1000
+// reaches away, an unknown target kind, a pose matrix that is not a rotation): nothing was
+// computed and `*out` is unchanged: hold the previous command.
+//
+// # Safety
+// Handles and pointers NULL or valid for their types and sizes; `out` writable.
+kc_status kc_compensate(const struct kc_robot *r,
+                        const struct kc_target *target,
+                        const float *seed,
+                        const struct kc_compensate_config *cfg,
+                        struct kc_solution *out);
+
+// A tracker with no trajectory yet and the settings `cfg` (NULL = defaults). Errors:
+// `KC_INVALID_ARGUMENT` / `KC_NOT_FINITE` (settings); on error `t` is unchanged.
+//
+// # Safety
+// `t` NULL or a writable `kc_tracker` not otherwise in use; `cfg` NULL or valid.
+kc_status kc_tracker_init(struct kc_tracker *t, const struct kc_compensate_config *cfg);
+
+// Forgets the trajectory (the next call starts from its seed).
+//
+// # Safety
+// `t` NULL or valid and not otherwise in use.
+kc_status kc_tracker_reset(struct kc_tracker *t);
+
+// One trajectory point: `target` with the controller's nominal inverse kinematics
+// `nominal[KC_JOINTS]` for it. The step box is centred on `nominal`; the iteration starts from
+// the previous correction carried over. Results and errors as [`kc_compensate`]; after
+// `KC_COMPENSATE_FAILED` the tracker continues from the best safe command, after the other
+// errors it is unchanged.
+//
+// # Safety
+// Handles and pointers NULL or valid for their types and sizes; `t` and `out` writable.
+kc_status kc_tracker_next(struct kc_tracker *t,
+                          const struct kc_robot *r,
+                          const struct kc_target *target,
+                          const float *nominal,
+                          struct kc_solution *out);
+
+// Starts a trajectory at the joints' current position `q[KC_JOINTS]`, for
+// [`kc_tracker_follow`]. `KC_NOT_FINITE` on NaN (tracker unchanged).
+//
+// # Safety
+// `t` NULL or valid and not otherwise in use; `q` NULL or KC_JOINTS floats.
+kc_status kc_tracker_start(struct kc_tracker *t, const float *q);
+
+// One trajectory point without a nominal solution: the previous command is the seed, so the
+// joints move at most `max_step_rad` per cycle. Needs [`kc_tracker_start`] or an earlier
+// [`kc_tracker_next`] (else `KC_INVALID_ARGUMENT`). Results as [`kc_compensate`].
+//
+// # Safety
+// As [`kc_tracker_next`].
+kc_status kc_tracker_follow(struct kc_tracker *t,
+                            const struct kc_robot *r,
+                            const struct kc_target *target,
+                            struct kc_solution *out);
+
+// Starts reading: reads the header line through `read(ctx, …)`. Errors: `KC_NULL_POINTER`
+// (`c`, `read`), `KC_CSV_ERROR` (a malformed header: the handle is then initialised but every
+// [`kc_csv_next`] returns `KC_CSV_ERROR`; [`kc_csv_last_error`] says why).
+//
+// # Safety
+// `c` NULL or a writable `kc_csv` not otherwise in use; `read` NULL or a function that honours
+// `kc_read_fn`'s contract with `ctx` for as long as the handle is used.
+kc_status kc_csv_init(struct kc_csv *c, kc_read_fn read, void *ctx);
+
+// The next record in library units (rad, mm) into `*out`, the first `n_extras` extra
+// columns' values into `extras` (NaN for an empty or non-numeric cell; `extras` may be NULL
+// when `n_extras` is 0) and its line into `*line` (may be NULL). `KC_END` at the end of the
+// input; `KC_CSV_ERROR` for a malformed record (skipped: call again for the next one; `*line`
+// is the error's line, [`kc_csv_last_error`] says why).
+//
+// # Safety
+// `c` NULL or valid and not otherwise in use; `out` NULL or writable; `extras` NULL or
+// `n_extras` writable doubles; `line` NULL or writable.
+kc_status kc_csv_next(struct kc_csv *c,
+                      struct kc_measurement *out,
+                      double *extras,
+                      size_t n_extras,
+                      uint32_t *line);
+
+// As [`kc_csv_next`], the record in file units (f64 degrees and millimetres, as written) into
+// `*out` (its `line` included); [`kc_measurement_from_deg`] converts it.
+//
+// # Safety
+// As [`kc_csv_next`].
+kc_status kc_csv_next_raw(struct kc_csv *c,
+                          struct kc_csv_record *out,
+                          double *extras,
+                          size_t n_extras);
+
+// A measurement in library units (rad, mm) from file units (`q_deg[KC_JOINTS]` degrees,
+// `xyz_mm[3]`), rounded to float as the CSV reader does.
+//
+// # Safety
+// Arrays NULL or of their sizes; `out` NULL or writable.
+kc_status kc_measurement_from_deg(const double *q_deg,
+                                  const double *xyz_mm,
+                                  struct kc_measurement *out);
+
+// The number of extra columns carried (at most `KC_CSV_MAX_EXTRAS`) into `*count`.
+//
+// # Safety
+// `c` NULL or valid; `count` NULL or writable.
+kc_status kc_csv_extra_count(const struct kc_csv *c, size_t *count);
+
+// The index (in the `extras` of [`kc_csv_next`]) of the extra column `name` (a NUL-terminated
+// string) into `*index`. `KC_NOT_FOUND` when there is none.
+//
+// # Safety
+// `c` NULL or valid; `name` NULL or a NUL-terminated string; `index` NULL or writable.
+kc_status kc_csv_extra_index(const struct kc_csv *c, const char *name, size_t *index);
+
+// The last error of the reader (its header's, or the last malformed record's) into `*out`;
+// `kind` is `KC_CSV_NONE` when there was none.
+//
+// # Safety
+// `c` NULL or valid; `out` NULL or writable.
+kc_status kc_csv_last_error(const struct kc_csv *c, struct kc_csv_error *out);
+
+// A static English description of a `kc_csv_error_kind` (unknown codes: "unknown CSV error").
+// Never NULL.
+const char *kc_csv_error_message(uint32_t kind);
 
 // Initialises a workspace (identity frames).
 //
@@ -226,6 +628,105 @@ kc_status kc_fk_jacobian(const struct kc_fk *w,
                          size_t n,
                          float *out,
                          size_t out_len);
+
+// The library's default settings (scaled to `float` precision).
+//
+// # Safety
+// `out` is NULL or a writable `kc_lm_config`.
+kc_status kc_lm_config_default(struct kc_lm_config *out);
+
+// Starts an identification in `lm` from the model `start` (copied), estimating the `n`
+// parameters `params` (1 ..= `KC_LM_MAX_PARAMS`, duplicates ignored) with the settings `cfg`
+// (NULL = defaults). The solver is built in place in `lm`.
+//
+// Errors: `KC_NULL_POINTER`, `KC_NOT_INITIALIZED` (`start`), `KC_TOO_MANY_PARAMS`,
+// `KC_INVALID_ARGUMENT` (no parameter, an unknown code or joint, invalid settings),
+// `KC_NOT_FINITE` (a setting). Checked before `lm` is written: on these errors `lm` is
+// unchanged.
+//
+// # Safety
+// Handles NULL or valid (`lm` not otherwise in use); `params` NULL or `n` values; `cfg` NULL or
+// valid.
+kc_status kc_lm_init(struct kc_lm *lm,
+                     const struct kc_robot *start,
+                     const struct kc_param *params,
+                     size_t n,
+                     const struct kc_lm_config *cfg);
+
+// Does at most `budget_poses` poses of work (a solve counts as one and ends the call) over
+// the `n` measurements `data` and reports the progress in `*out`. Pass the same data (same
+// count) on every call of a run. The run is over when `out->stopped` is non-zero.
+//
+// Errors: `KC_TOO_FEW_MEASUREMENTS` (fewer than `n_params / 3` poses), `KC_NOT_FINITE` (a
+// measurement holds NaN or infinity; checked on the first call), `KC_DATA_CHANGED` (another
+// count than on the first call). On error the solver is unchanged.
+//
+// # Safety
+// `lm` NULL or valid and not otherwise in use; `data` NULL or `n` values not written during
+// the call; `out` NULL or writable.
+kc_status kc_lm_step(struct kc_lm *lm,
+                     const struct kc_measurement *data,
+                     size_t n,
+                     size_t budget_poses,
+                     struct kc_lm_progress *out);
+
+// Where the run stands (as the last [`kc_lm_step`] reported it).
+//
+// # Safety
+// `lm` NULL or valid; `out` NULL or writable.
+kc_status kc_lm_get_progress(const struct kc_lm *lm, struct kc_lm_progress *out);
+
+// Copies the current estimate into the robot handle `out` (initialised or not).
+//
+// # Safety
+// `lm` NULL or valid; `out` NULL or a writable `kc_robot` not otherwise in use.
+kc_status kc_lm_robot(const struct kc_lm *lm, struct kc_robot *out);
+
+// The parameters found unidentifiable (held at their start values) into `out[cap]`, their
+// number into `*count` (0 before the first full pass). `KC_BUFFER_TOO_SMALL` (only the count
+// written) when `cap` is smaller; `out` may be NULL when `cap` is 0.
+//
+// # Safety
+// `lm` NULL or valid; `out` NULL or `cap` writable values; `count` NULL or writable.
+kc_status kc_lm_unidentifiable(const struct kc_lm *lm,
+                               struct kc_param *out,
+                               size_t cap,
+                               size_t *count);
+
+// The size in bytes of a snapshot of `lm` now (it depends on the parameter count only).
+//
+// # Safety
+// `lm` NULL or valid; `size` NULL or writable.
+kc_status kc_lm_snapshot_size(const struct kc_lm *lm, size_t *size);
+
+// Writes a snapshot of the solver's complete state into `buf[cap]` (as to a flash page) and
+// its length into `*written`. `KC_BUFFER_TOO_SMALL` when it does not fit: `*written` is then
+// the size needed and `buf` holds a partial, unusable snapshot.
+//
+// # Safety
+// `lm` NULL or valid; `buf` NULL or `cap` writable bytes; `written` NULL or writable.
+kc_status kc_lm_save(const struct kc_lm *lm, uint8_t *buf, size_t cap, size_t *written);
+
+// Replaces the solver's state with the snapshot in `buf[len]` (bytes after the snapshot are
+// ignored). The handle must hold a solver of the same parameter count (e.g. a fresh
+// [`kc_lm_init`] with the same robot and parameters); the run then continues exactly as the
+// saved one would have, bit for bit. `KC_SNAPSHOT_INVALID` for a truncated or corrupted
+// snapshot (CRC), one of another solver, scalar or shape; on error `lm` is unchanged.
+//
+// # Safety
+// `lm` NULL or valid and not otherwise in use; `buf` NULL or `len` readable bytes.
+kc_status kc_lm_restore(struct kc_lm *lm, const uint8_t *buf, size_t len);
+
+// Root-mean-square position error (mm, 3-D distance per pose) of `r` over the `n`
+// measurements `data` into `*rms_mm`. Errors: `KC_TOO_FEW_MEASUREMENTS` (`n` = 0),
+// `KC_NOT_FINITE` (a measurement holds NaN or infinity).
+//
+// # Safety
+// `r` NULL or valid; `data` NULL or `n` values; `rms_mm` NULL or writable.
+kc_status kc_rms_error(const struct kc_robot *r,
+                       const struct kc_measurement *data,
+                       size_t n,
+                       float *rms_mm);
 
 // Builds a robot in `r` from six MDH rows (`rows[KC_JOINTS]`), the base pose (`base`: the
 // robot base frame in the measurement frame; NULL = identity) and the tool point in the

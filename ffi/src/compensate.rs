@@ -1,1 +1,381 @@
-//! (next commit)
+//! Compensation: the joint command that brings the identified robot to a target
+//! (`kc_compensate`), and its streaming form along a trajectory (`kc_tracker`:
+//! `Tracker<f32, 6>`).
+
+use crate::handle::{self, handle};
+use crate::robot::{frame_of, kc_robot};
+use crate::{all_finite, array_ref, obj_mut, obj_ref, status, Kc, KC_JOINTS};
+use crate::{kc_status, KC_COMPENSATE_FAILED, KC_INVALID_ARGUMENT, KC_NOT_FINITE};
+use kinecal::compensate::{compensate, CompensateError, Config, Solution, Status, Target, Tracker};
+use nalgebra::Vector3;
+
+/// The codes of `kc_target.kind`.
+#[repr(u8)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum kc_target_kind {
+    /// Only the point (3 equations).
+    KC_TARGET_POINT = 0,
+    /// Point and tool orientation (6 equations).
+    KC_TARGET_POSE = 1,
+}
+
+/// Where the tool should go, in the measurement frame.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct kc_target {
+    /// A `kc_target_kind`.
+    pub kind: u8,
+    /// The point, mm.
+    pub xyz_mm: [f32; 3],
+    /// Pose targets only: the tool orientation (the flange axes, as `kc_fk_pose` gives them)
+    /// as a row-major rotation matrix; must be a rotation within 1e-4.
+    pub rot: [f32; 9],
+}
+
+/// Tuning of the Newton iteration and of its safety checks (the library's `Config<f32>`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct kc_compensate_config {
+    /// Most Newton steps per call (1 ..= 255), each one forward kinematics. Default 8.
+    pub iterations: u32,
+    /// Damping floor (mm), >= 0. Default 0.1.
+    pub damping_mm: f32,
+    /// Stop early once the residual is below this (mm, orientation scaled), >= 0. Default 1e-5.
+    pub tolerance_mm: f32,
+    /// A residual above this after the iterations is not a success (mm), > 0. Default 0.01.
+    pub accept_mm: f32,
+    /// Per-joint bound on |command − seed| (rad), > 0. Default 2° (0.0349).
+    pub max_step_rad: f32,
+    /// Length scale (mm per rad) of orientation errors in pose targets; 0 = the robot's reach
+    /// (the default). > 0 otherwise.
+    pub orientation_scale_mm: f32,
+    /// Singular when the scaled Jacobian's conditioning falls below `singular · reach`, >= 0.
+    /// Default 0.01.
+    pub singular: f32,
+}
+
+impl From<Config<f32>> for kc_compensate_config {
+    fn from(c: Config<f32>) -> Self {
+        Self {
+            iterations: u32::from(c.iterations),
+            damping_mm: c.damping,
+            tolerance_mm: c.tolerance,
+            accept_mm: c.accept,
+            max_step_rad: c.max_step,
+            orientation_scale_mm: c.orientation_scale.unwrap_or(0.0),
+            singular: c.singular,
+        }
+    }
+}
+
+fn config_of(c: &kc_compensate_config) -> Kc<Config<f32>> {
+    crate::finite(&[
+        c.damping_mm,
+        c.tolerance_mm,
+        c.accept_mm,
+        c.max_step_rad,
+        c.orientation_scale_mm,
+        c.singular,
+    ])?;
+    let iterations = u8::try_from(c.iterations).map_err(|_| KC_INVALID_ARGUMENT)?;
+    if iterations == 0 || c.orientation_scale_mm < 0.0 {
+        return Err(KC_INVALID_ARGUMENT);
+    }
+    let cfg = Config {
+        iterations,
+        damping: c.damping_mm,
+        tolerance: c.tolerance_mm,
+        accept: c.accept_mm,
+        max_step: c.max_step_rad,
+        orientation_scale: if c.orientation_scale_mm == 0.0 {
+            None
+        } else {
+            Some(c.orientation_scale_mm)
+        },
+        singular: c.singular,
+    };
+    if cfg.is_valid() {
+        Ok(cfg)
+    } else {
+        Err(KC_INVALID_ARGUMENT)
+    }
+}
+
+/// The settings of a call: the caller's, or the defaults for NULL.
+///
+/// # Safety
+/// `cfg` is NULL or a valid `kc_compensate_config`.
+#[inline(always)]
+unsafe fn config_or_default(cfg: *const kc_compensate_config) -> Kc<Config<f32>> {
+    if cfg.is_null() {
+        Ok(Config::default())
+    } else {
+        // SAFETY: non-NULL, the caller's contract.
+        config_of(unsafe { obj_ref(cfg) }?)
+    }
+}
+
+/// The library's default settings.
+///
+/// # Safety
+/// `out` is NULL or a writable `kc_compensate_config`.
+#[no_mangle]
+pub unsafe extern "C" fn kc_compensate_config_default(out: *mut kc_compensate_config) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        *unsafe { obj_mut(out) }? = Config::<f32>::default().into();
+        Ok(())
+    })())
+}
+
+/// The outcome class of a compensation (`kc_solution.status`).
+#[repr(u8)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum kc_solution_status {
+    /// The target is met within `accept_mm` at a well-conditioned pose.
+    KC_SOLUTION_OK = 0,
+    /// The Jacobian at the answer is (nearly) rank-deficient: a singularity.
+    KC_SOLUTION_SINGULAR = 1,
+    /// The residual did not converge, or the target is beyond the arm's reach.
+    KC_SOLUTION_UNREACHABLE = 2,
+    /// A joint limit or the step bound stops the joints that would reduce the residual.
+    KC_SOLUTION_LIMITED = 3,
+}
+
+/// A joint command and how well it meets the target on the model.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct kc_solution {
+    /// The joint command (rad): within `max_step_rad` of the seed and inside the joint limits.
+    pub q: [f32; KC_JOINTS],
+    /// |target point − model point at q| (mm).
+    pub position_error_mm: f32,
+    /// Angle between target and model tool orientation at q (rad); 0 for point targets.
+    pub orientation_error_rad: f32,
+    /// Conditioning of the scaled Jacobian at q (mm/rad).
+    pub sigma: f32,
+    /// Newton steps tried.
+    pub iterations: u32,
+    /// A `kc_solution_status`.
+    pub status: u8,
+}
+
+#[inline(always)]
+fn solution_of(s: &Solution<f32, KC_JOINTS>, st: kc_solution_status) -> kc_solution {
+    kc_solution {
+        q: s.q,
+        position_error_mm: s.position_error,
+        orientation_error_rad: s.orientation_error,
+        sigma: s.sigma,
+        iterations: u32::from(s.iterations),
+        status: st as u8,
+    }
+}
+
+/// The library target of a C one: `KC_INVALID_ARGUMENT` for an unknown kind or a pose whose
+/// matrix is not a rotation, `KC_NOT_FINITE` for NaN or infinity.
+#[inline(always)]
+fn target_of(t: &kc_target) -> Kc<Target<f32>> {
+    match t.kind {
+        0 => Ok(Target::Point(Vector3::from(t.xyz_mm))),
+        1 => {
+            let f = frame_of(&t.xyz_mm, &t.rot);
+            if f.is_rotation() {
+                Ok(Target::Pose(f))
+            } else if all_finite(&t.rot) {
+                Err(KC_INVALID_ARGUMENT)
+            } else {
+                Err(KC_NOT_FINITE)
+            }
+        }
+        _ => Err(KC_INVALID_ARGUMENT),
+    }
+}
+
+/// The status of a compensation result, `*out` written when a command was computed.
+#[inline(always)]
+fn finish(
+    r: Result<Solution<f32, KC_JOINTS>, CompensateError<f32, KC_JOINTS>>,
+    out: &mut kc_solution,
+    inputs: &[&[f32]],
+) -> Kc<()> {
+    let (s, st) = match &r {
+        Ok(s) => (s, kc_solution_status::KC_SOLUTION_OK),
+        Err(CompensateError::Singular(s)) => (s, kc_solution_status::KC_SOLUTION_SINGULAR),
+        Err(CompensateError::Unreachable(s)) => (s, kc_solution_status::KC_SOLUTION_UNREACHABLE),
+        Err(CompensateError::Limited(s)) => (s, kc_solution_status::KC_SOLUTION_LIMITED),
+        Err(CompensateError::InvalidInput) => {
+            // Nothing was computed: say whether a NaN or a range caused it.
+            return Err(if inputs.iter().all(|v| all_finite(v)) {
+                KC_INVALID_ARGUMENT
+            } else {
+                KC_NOT_FINITE
+            });
+        }
+    };
+    *out = solution_of(s, st);
+    if matches!(Status::of(&r), Status::Ok) {
+        Ok(())
+    } else {
+        Err(KC_COMPENSATE_FAILED)
+    }
+}
+
+/// The joint command (from the seed `seed[KC_JOINTS]`, e.g. the nominal inverse kinematics)
+/// that brings the model `r` to `target`, with the settings `cfg` (NULL = defaults), into
+/// `*out`.
+///
+/// `KC_OK`: the target is met. `KC_COMPENSATE_FAILED`: it is not (singular, unreachable,
+/// limited: `out->status`); `*out` holds the best safe command (within the step box around the
+/// seed). `KC_NOT_FINITE` / `KC_INVALID_ARGUMENT` (NaN, a bad setting, a target more than 1000
+/// reaches away, an unknown target kind, a pose matrix that is not a rotation): nothing was
+/// computed and `*out` is unchanged: hold the previous command.
+///
+/// # Safety
+/// Handles and pointers NULL or valid for their types and sizes; `out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn kc_compensate(
+    r: *const kc_robot,
+    target: *const kc_target,
+    seed: *const f32,
+    cfg: *const kc_compensate_config,
+    out: *mut kc_solution,
+) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let robot = unsafe { handle::get(r) }?;
+        // SAFETY: the header contract.
+        let t = unsafe { obj_ref(target) }?;
+        // SAFETY: the header contract (KC_JOINTS floats).
+        let seed = unsafe { array_ref::<f32, KC_JOINTS>(seed) }?;
+        // SAFETY: the header contract.
+        let out = unsafe { obj_mut(out) }?;
+        // SAFETY: the header contract.
+        let cfg = unsafe { config_or_default(cfg) }?;
+        let target = target_of(t)?;
+        let r = compensate(robot, &target, seed, &cfg);
+        finish(r, out, &[seed, &t.xyz_mm])
+    })())
+}
+
+/// Bytes of a [`kc_tracker`] (see `KC_ROBOT_SIZE`).
+pub const KC_TRACKER_SIZE: usize = 96;
+
+/// Streaming compensation along a trajectory (`Tracker<f32, 6>`): keeps the previous command
+/// and starts each cycle from it. Opaque, caller-owned; [`kc_tracker_init`].
+#[repr(C, align(8))]
+pub struct kc_tracker {
+    _opaque: [u8; KC_TRACKER_SIZE],
+}
+
+handle!(kc_tracker, KC_TRACKER_SIZE, Tracker<f32, 6>, 0x4b43_5452);
+
+/// A tracker with no trajectory yet and the settings `cfg` (NULL = defaults). Errors:
+/// `KC_INVALID_ARGUMENT` / `KC_NOT_FINITE` (settings); on error `t` is unchanged.
+///
+/// # Safety
+/// `t` NULL or a writable `kc_tracker` not otherwise in use; `cfg` NULL or valid.
+#[no_mangle]
+pub unsafe extern "C" fn kc_tracker_init(
+    t: *mut kc_tracker,
+    cfg: *const kc_compensate_config,
+) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let cfg = unsafe { config_or_default(cfg) }?;
+        // SAFETY: the header contract.
+        let slot = unsafe { handle::uninit::<kc_tracker>(t) }?;
+        handle::init::<kc_tracker>(slot, Tracker::new(cfg));
+        Ok(())
+    })())
+}
+
+/// Forgets the trajectory (the next call starts from its seed).
+///
+/// # Safety
+/// `t` NULL or valid and not otherwise in use.
+#[no_mangle]
+pub unsafe extern "C" fn kc_tracker_reset(t: *mut kc_tracker) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        unsafe { handle::get_mut(t) }?.reset();
+        Ok(())
+    })())
+}
+
+/// One trajectory point: `target` with the controller's nominal inverse kinematics
+/// `nominal[KC_JOINTS]` for it. The step box is centred on `nominal`; the iteration starts from
+/// the previous correction carried over. Results and errors as [`kc_compensate`]; after
+/// `KC_COMPENSATE_FAILED` the tracker continues from the best safe command, after the other
+/// errors it is unchanged.
+///
+/// # Safety
+/// Handles and pointers NULL or valid for their types and sizes; `t` and `out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn kc_tracker_next(
+    t: *mut kc_tracker,
+    r: *const kc_robot,
+    target: *const kc_target,
+    nominal: *const f32,
+    out: *mut kc_solution,
+) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let tracker = unsafe { handle::get_mut(t) }?;
+        // SAFETY: the header contract.
+        let robot = unsafe { handle::get(r) }?;
+        // SAFETY: the header contract.
+        let tg = unsafe { obj_ref(target) }?;
+        // SAFETY: the header contract (KC_JOINTS floats).
+        let nominal = unsafe { array_ref::<f32, KC_JOINTS>(nominal) }?;
+        // SAFETY: the header contract.
+        let out = unsafe { obj_mut(out) }?;
+        let target = target_of(tg)?;
+        let r = tracker.next(robot, &target, nominal);
+        finish(r, out, &[nominal, &tg.xyz_mm])
+    })())
+}
+
+/// Starts a trajectory at the joints' current position `q[KC_JOINTS]`, for
+/// [`kc_tracker_follow`]. `KC_NOT_FINITE` on NaN (tracker unchanged).
+///
+/// # Safety
+/// `t` NULL or valid and not otherwise in use; `q` NULL or KC_JOINTS floats.
+#[no_mangle]
+pub unsafe extern "C" fn kc_tracker_start(t: *mut kc_tracker, q: *const f32) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let tracker = unsafe { handle::get_mut(t) }?;
+        // SAFETY: the header contract (KC_JOINTS floats).
+        let q = unsafe { array_ref::<f32, KC_JOINTS>(q) }?;
+        tracker.start(q).map_err(|_| KC_NOT_FINITE)
+    })())
+}
+
+/// One trajectory point without a nominal solution: the previous command is the seed, so the
+/// joints move at most `max_step_rad` per cycle. Needs [`kc_tracker_start`] or an earlier
+/// [`kc_tracker_next`] (else `KC_INVALID_ARGUMENT`). Results as [`kc_compensate`].
+///
+/// # Safety
+/// As [`kc_tracker_next`].
+#[no_mangle]
+pub unsafe extern "C" fn kc_tracker_follow(
+    t: *mut kc_tracker,
+    r: *const kc_robot,
+    target: *const kc_target,
+    out: *mut kc_solution,
+) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let tracker = unsafe { handle::get_mut(t) }?;
+        // SAFETY: the header contract.
+        let robot = unsafe { handle::get(r) }?;
+        // SAFETY: the header contract.
+        let tg = unsafe { obj_ref(target) }?;
+        // SAFETY: the header contract.
+        let out = unsafe { obj_mut(out) }?;
+        let target = target_of(tg)?;
+        let r = tracker.follow(robot, &target);
+        finish(r, out, &[&tg.xyz_mm])
+    })())
+}

@@ -47,8 +47,8 @@ mod handle;
 mod lm;
 mod robot;
 
-// pub use compensate::*;
-// pub use csv::*;
+pub use compensate::*;
+pub use csv::*;
 pub use fk::*;
 pub use lm::*;
 pub use robot::*;

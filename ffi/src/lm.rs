@@ -1,4 +1,529 @@
-//! (next commit)
+//! Identification: the Levenberg–Marquardt stepper (`kc_lm`: `Levenberg<f32, 6, 0,
+//! FixedLm<f32, 24>>`), its snapshots, and the RMS error of a model over measurements.
 
-/// Room for identified parameters in a `kc_lm` (the firmware's 24-parameter MDH set).
+use crate::handle::{self, handle};
+use crate::robot::{code_of, kc_param, kc_robot, param_of};
+use crate::{
+    kc_status, KC_BUFFER_TOO_SMALL, KC_DATA_CHANGED, KC_INVALID_ARGUMENT, KC_NOT_FINITE,
+    KC_NOT_INITIALIZED, KC_SNAPSHOT_INVALID, KC_TOO_FEW_MEASUREMENTS, KC_TOO_MANY_PARAMS,
+};
+use crate::{obj_mut, obj_ref, slice_mut, slice_ref, status, Kc, KC_JOINTS};
+use core::mem::{align_of, offset_of, size_of};
+use kinecal::identify::lm::{rms_error, FixedLm, Levenberg, LmConfig, LmError, LmProgress, LmStop};
+use kinecal::io::snapshot::{Snapshot, SnapshotError};
+use kinecal::model::param::{ParamError, ParamSet};
+use kinecal::Measurement;
+
+/// Room for identified parameters in a `kc_lm`: the 24 of the MDH set (`kc_params_mdh`), as
+/// the Rust firmware sizes its solver (same code, same instruction counts, same RAM).
 pub const KC_LM_MAX_PARAMS: usize = 24;
+
+/// One measured pose: joint readings (rad, as the controller reports them) and the point the
+/// tracker saw (mm, measurement frame). Same layout as the library's `Measurement<f32, 6>`, so
+/// arrays of it are used in place.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct kc_measurement {
+    /// Joint readings, rad.
+    pub q: [f32; KC_JOINTS],
+    /// Measured point, mm.
+    pub xyz_mm: [f32; 3],
+}
+
+// The C array is read as `&[Measurement<f32, 6>]` without a copy: same size, alignment and
+// field offsets (a `Vector3<f32>` is three floats, see fk.rs), checked here for every target.
+const _: () = assert!(
+    size_of::<kc_measurement>() == size_of::<Measurement<f32, KC_JOINTS>>()
+        && align_of::<kc_measurement>() == align_of::<Measurement<f32, KC_JOINTS>>()
+        && offset_of!(kc_measurement, q) == offset_of!(Measurement<f32, KC_JOINTS>, q)
+        && offset_of!(kc_measurement, xyz_mm) == offset_of!(Measurement<f32, KC_JOINTS>, point)
+        && size_of::<nalgebra::Vector3<f32>>() == 12
+);
+
+/// The caller's measurements as the library's, in place.
+///
+/// # Safety
+/// `data` is NULL or points to `n` readable `kc_measurement` not written during the borrow.
+#[inline(always)]
+unsafe fn measurements<'a>(
+    data: *const kc_measurement,
+    n: usize,
+) -> Kc<&'a [Measurement<f32, KC_JOINTS>]> {
+    // SAFETY: the caller's contract; the layouts are identical (asserted above) and every bit
+    // pattern is a valid `Measurement<f32, 6>` (plain floats).
+    unsafe { slice_ref(data.cast::<Measurement<f32, KC_JOINTS>>(), n) }
+}
+
+/// The solver settings a firmware sets (the library's `LmConfig<f32>`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct kc_lm_config {
+    /// Stop after this many accepted or rejected steps. Default 100.
+    pub max_iterations: u32,
+    /// Stop when a step lowers the cost by less than this fraction.
+    pub cost_tolerance: f32,
+    /// Stop when the scaled step is shorter than this (mm-equivalent).
+    pub step_tolerance: f32,
+    /// Relative pivot below which a parameter direction counts as unidentifiable, in (0, 1).
+    pub rank_tolerance: f32,
+    /// Ridge on the accumulated scaled update, relative to the mean diagonal of JᵀJ (>= 0).
+    pub ridge: f32,
+    /// Initial damping relative to the diagonal (> 0). Default 1e-3.
+    pub initial_damping: f32,
+    /// Relative pivot a held parameter needs to join on a re-analysis (>= 0).
+    pub activation_tolerance: f32,
+    /// Most identifiability analyses in one run (0: none, estimate every parameter).
+    /// Default 8.
+    pub max_analyses: u8,
+    /// Non-zero: keep JᵀJ while steps succeed (cheaper refits). Default 0.
+    pub keep_curvature: u8,
+}
+
+impl From<LmConfig<f32>> for kc_lm_config {
+    fn from(c: LmConfig<f32>) -> Self {
+        Self {
+            max_iterations: c.max_iterations,
+            cost_tolerance: c.cost_tolerance,
+            step_tolerance: c.step_tolerance,
+            rank_tolerance: c.rank_tolerance,
+            ridge: c.ridge,
+            initial_damping: c.initial_damping,
+            activation_tolerance: c.activation_tolerance,
+            max_analyses: c.max_analyses,
+            keep_curvature: u8::from(c.keep_curvature),
+        }
+    }
+}
+
+fn lm_config_of(c: &kc_lm_config) -> Kc<LmConfig<f32>> {
+    let cfg = LmConfig {
+        max_iterations: c.max_iterations,
+        cost_tolerance: c.cost_tolerance,
+        step_tolerance: c.step_tolerance,
+        rank_tolerance: c.rank_tolerance,
+        ridge: c.ridge,
+        initial_damping: c.initial_damping,
+        max_analyses: c.max_analyses,
+        activation_tolerance: c.activation_tolerance,
+        keep_curvature: c.keep_curvature != 0,
+    };
+    crate::finite(&[
+        c.cost_tolerance,
+        c.step_tolerance,
+        c.rank_tolerance,
+        c.ridge,
+        c.initial_damping,
+        c.activation_tolerance,
+    ])?;
+    if cfg.is_valid() {
+        Ok(cfg)
+    } else {
+        Err(KC_INVALID_ARGUMENT)
+    }
+}
+
+/// The library's default settings (scaled to `float` precision).
+///
+/// # Safety
+/// `out` is NULL or a writable `kc_lm_config`.
+#[no_mangle]
+pub unsafe extern "C" fn kc_lm_config_default(out: *mut kc_lm_config) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        *unsafe { obj_mut(out) }? = LmConfig::<f32>::default().into();
+        Ok(())
+    })())
+}
+
+/// Why a run stopped (`kc_lm_progress.stopped`).
+#[repr(u8)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum kc_lm_stop {
+    /// Still running.
+    KC_LM_RUNNING = 0,
+    /// The cost stopped decreasing (relative change below tolerance).
+    KC_LM_CONVERGED = 1,
+    /// The step became negligibly small.
+    KC_LM_SMALL_STEP = 2,
+    /// The iteration limit was reached.
+    KC_LM_MAX_ITERATIONS = 3,
+    /// No step could lower the cost even with very strong damping.
+    KC_LM_NO_PROGRESS = 4,
+}
+
+/// Where a run stands.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct kc_lm_progress {
+    /// Accepted and rejected steps so far.
+    pub iteration: u32,
+    /// Full passes over all poses so far.
+    pub evaluations: u32,
+    /// Sum of squared residuals (mm²) at the current estimate (after the first pass).
+    pub cost: f32,
+    /// A `kc_lm_stop`: 0 while running.
+    pub stopped: u8,
+    /// 1 when the run stopped at a fixed point (`KC_LM_CONVERGED` or `KC_LM_SMALL_STEP`).
+    pub converged: u8,
+}
+
+#[inline(always)]
+fn progress_of(p: &LmProgress<f32>) -> kc_lm_progress {
+    let stopped = match p.stopped {
+        None => kc_lm_stop::KC_LM_RUNNING,
+        Some(LmStop::Converged) => kc_lm_stop::KC_LM_CONVERGED,
+        Some(LmStop::SmallStep) => kc_lm_stop::KC_LM_SMALL_STEP,
+        Some(LmStop::MaxIterations) => kc_lm_stop::KC_LM_MAX_ITERATIONS,
+        Some(LmStop::NoProgress) => kc_lm_stop::KC_LM_NO_PROGRESS,
+    };
+    kc_lm_progress {
+        iteration: p.iteration,
+        evaluations: p.evaluations,
+        cost: p.cost,
+        stopped: stopped as u8,
+        converged: u8::from(matches!(
+            stopped,
+            kc_lm_stop::KC_LM_CONVERGED | kc_lm_stop::KC_LM_SMALL_STEP
+        )),
+    }
+}
+
+/// The solver of a `kc_lm`.
+type Lm = Levenberg<f32, KC_JOINTS, 0, FixedLm<f32, KC_LM_MAX_PARAMS>>;
+
+/// Bytes of a [`kc_lm`] (see `KC_ROBOT_SIZE`).
+pub const KC_LM_SIZE: usize = 8776;
+
+/// A Levenberg–Marquardt identification (`Levenberg<f32, 6, 0, FixedLm<f32,
+/// KC_LM_MAX_PARAMS>>`): a streaming stepper that does a bounded slice of work per
+/// [`kc_lm_step`] call, snapshot and restore. Several KB: give it static storage.
+#[repr(C, align(8))]
+pub struct kc_lm {
+    _opaque: [u8; KC_LM_SIZE],
+}
+
+// The constructor's `Result` is what the handle holds: built straight in place, no stack copy
+// of the solver; an `Err` is never tagged initialised.
+handle!(kc_lm, KC_LM_SIZE, Result<Lm, LmError>, 0x4b43_4c4d);
+
+/// The solver of an initialised handle.
+///
+/// # Safety
+/// As `handle::get`.
+#[inline(always)]
+unsafe fn lm_ref<'a>(lm: *const kc_lm) -> Kc<&'a Lm> {
+    // SAFETY: forwarded contract.
+    match unsafe { handle::get(lm) }? {
+        Ok(s) => Ok(s),
+        Err(_) => Err(KC_NOT_INITIALIZED),
+    }
+}
+
+/// # Safety
+/// As `handle::get_mut`.
+#[inline(always)]
+unsafe fn lm_mut<'a>(lm: *mut kc_lm) -> Kc<&'a mut Lm> {
+    // SAFETY: forwarded contract.
+    match unsafe { handle::get_mut(lm) }? {
+        Ok(s) => Ok(s),
+        Err(_) => Err(KC_NOT_INITIALIZED),
+    }
+}
+
+fn lm_error(e: LmError) -> kc_status {
+    match e {
+        LmError::TooFewMeasurements => KC_TOO_FEW_MEASUREMENTS,
+        LmError::DataChanged => KC_DATA_CHANGED,
+        LmError::NonFiniteMeasurement => KC_NOT_FINITE,
+        LmError::Params(ParamError::Capacity) => KC_TOO_MANY_PARAMS,
+        LmError::Config
+        | LmError::Params(_)
+        | LmError::PassMismatch
+        | LmError::Penalty(_)
+        | LmError::Started => KC_INVALID_ARGUMENT,
+    }
+}
+
+unsafe fn lm_init(
+    lm: *mut kc_lm,
+    start: *const kc_robot,
+    params: *const kc_param,
+    n: usize,
+    cfg: *const kc_lm_config,
+) -> Kc<()> {
+    // SAFETY: the header contract.
+    let robot = unsafe { handle::get(start) }?;
+    // SAFETY: the header contract (`n` values).
+    let codes = unsafe { slice_ref(params, n) }?;
+    if n == 0 {
+        return Err(KC_INVALID_ARGUMENT);
+    }
+    if n > KC_LM_MAX_PARAMS {
+        return Err(KC_TOO_MANY_PARAMS);
+    }
+    let mut set = ParamSet::<KC_LM_MAX_PARAMS>::new();
+    for c in codes {
+        set.push(param_of(*c)?).map_err(|_| KC_TOO_MANY_PARAMS)?;
+    }
+    set.check(robot).map_err(|_| KC_INVALID_ARGUMENT)?;
+    let cfg = if cfg.is_null() {
+        LmConfig::default()
+    } else {
+        // SAFETY: non-NULL: a kc_lm_config per the header.
+        lm_config_of(unsafe { obj_ref(cfg) }?)?
+    };
+    // SAFETY: the header contract; `lm` is not the robot handle (distinct C types).
+    let slot = unsafe { handle::uninit::<kc_lm>(lm) }?;
+    let made = handle::init::<kc_lm>(slot, Levenberg::new(robot.clone(), FixedLm::new(set), cfg));
+    if let Err(e) = made {
+        let e = *e;
+        handle::forget::<kc_lm>(slot);
+        return Err(lm_error(e));
+    }
+    Ok(())
+}
+
+/// Starts an identification in `lm` from the model `start` (copied), estimating the `n`
+/// parameters `params` (1 ..= `KC_LM_MAX_PARAMS`, duplicates ignored) with the settings `cfg`
+/// (NULL = defaults). The solver is built in place in `lm`.
+///
+/// Errors: `KC_NULL_POINTER`, `KC_NOT_INITIALIZED` (`start`), `KC_TOO_MANY_PARAMS`,
+/// `KC_INVALID_ARGUMENT` (no parameter, an unknown code or joint, invalid settings),
+/// `KC_NOT_FINITE` (a setting). Checked before `lm` is written: on these errors `lm` is
+/// unchanged.
+///
+/// # Safety
+/// Handles NULL or valid (`lm` not otherwise in use); `params` NULL or `n` values; `cfg` NULL or
+/// valid.
+#[no_mangle]
+pub unsafe extern "C" fn kc_lm_init(
+    lm: *mut kc_lm,
+    start: *const kc_robot,
+    params: *const kc_param,
+    n: usize,
+    cfg: *const kc_lm_config,
+) -> kc_status {
+    // SAFETY: forwarded contract.
+    status(unsafe { lm_init(lm, start, params, n, cfg) })
+}
+
+/// Does at most `budget_poses` poses of work (a solve counts as one and ends the call) over
+/// the `n` measurements `data` and reports the progress in `*out`. Pass the same data (same
+/// count) on every call of a run. The run is over when `out->stopped` is non-zero.
+///
+/// Errors: `KC_TOO_FEW_MEASUREMENTS` (fewer than `n_params / 3` poses), `KC_NOT_FINITE` (a
+/// measurement holds NaN or infinity; checked on the first call), `KC_DATA_CHANGED` (another
+/// count than on the first call). On error the solver is unchanged.
+///
+/// # Safety
+/// `lm` NULL or valid and not otherwise in use; `data` NULL or `n` values not written during
+/// the call; `out` NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn kc_lm_step(
+    lm: *mut kc_lm,
+    data: *const kc_measurement,
+    n: usize,
+    budget_poses: usize,
+    out: *mut kc_lm_progress,
+) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let lm = unsafe { lm_mut(lm) }?;
+        // SAFETY: the header contract.
+        let data = unsafe { measurements(data, n) }?;
+        // SAFETY: the header contract.
+        let out = unsafe { obj_mut(out) }?;
+        let p = lm.step(data, budget_poses).map_err(lm_error)?;
+        *out = progress_of(&p);
+        Ok(())
+    })())
+}
+
+/// Where the run stands (as the last [`kc_lm_step`] reported it).
+///
+/// # Safety
+/// `lm` NULL or valid; `out` NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn kc_lm_get_progress(
+    lm: *const kc_lm,
+    out: *mut kc_lm_progress,
+) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let lm = unsafe { lm_ref(lm) }?;
+        // SAFETY: the header contract.
+        *unsafe { obj_mut(out) }? = progress_of(&lm.progress());
+        Ok(())
+    })())
+}
+
+/// Copies the current estimate into the robot handle `out` (initialised or not).
+///
+/// # Safety
+/// `lm` NULL or valid; `out` NULL or a writable `kc_robot` not otherwise in use.
+#[no_mangle]
+pub unsafe extern "C" fn kc_lm_robot(lm: *const kc_lm, out: *mut kc_robot) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let lm = unsafe { lm_ref(lm) }?;
+        // SAFETY: the header contract; `out` is a robot handle, not the solver.
+        let slot = unsafe { handle::uninit::<kc_robot>(out) }?;
+        handle::init::<kc_robot>(slot, lm.robot().clone());
+        Ok(())
+    })())
+}
+
+/// The parameters found unidentifiable (held at their start values) into `out[cap]`, their
+/// number into `*count` (0 before the first full pass). `KC_BUFFER_TOO_SMALL` (only the count
+/// written) when `cap` is smaller; `out` may be NULL when `cap` is 0.
+///
+/// # Safety
+/// `lm` NULL or valid; `out` NULL or `cap` writable values; `count` NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn kc_lm_unidentifiable(
+    lm: *const kc_lm,
+    out: *mut kc_param,
+    cap: usize,
+    count: *mut usize,
+) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let lm = unsafe { lm_ref(lm) }?;
+        // SAFETY: the header contract.
+        let count = unsafe { obj_mut(count) }?;
+        // SAFETY: the header contract (`cap` values).
+        let out = unsafe { slice_mut(out, cap) }?;
+        let n = lm.unidentifiable().count();
+        *count = n;
+        if cap < n {
+            return Err(KC_BUFFER_TOO_SMALL);
+        }
+        for (o, p) in out.iter_mut().zip(lm.unidentifiable()) {
+            *o = code_of(p);
+        }
+        Ok(())
+    })())
+}
+
+/// An `embedded_io` writer that only counts (the size of a snapshot).
+struct Count(usize);
+
+impl embedded_io::ErrorType for Count {
+    type Error = core::convert::Infallible;
+}
+
+impl embedded_io::Write for Count {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
+        self.0 = self.0.saturating_add(buf.len());
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> Result<(), Self::Error> {
+        Ok(())
+    }
+}
+
+fn snapshot_size(lm: &Lm) -> Kc<usize> {
+    let mut c = Count(0);
+    lm.save(&mut c).map_err(|_| KC_SNAPSHOT_INVALID)?;
+    Ok(c.0)
+}
+
+/// The size in bytes of a snapshot of `lm` now (it depends on the parameter count only).
+///
+/// # Safety
+/// `lm` NULL or valid; `size` NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn kc_lm_snapshot_size(lm: *const kc_lm, size: *mut usize) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let lm = unsafe { lm_ref(lm) }?;
+        // SAFETY: the header contract.
+        let size = unsafe { obj_mut(size) }?;
+        *size = snapshot_size(lm)?;
+        Ok(())
+    })())
+}
+
+/// Writes a snapshot of the solver's complete state into `buf[cap]` (as to a flash page) and
+/// its length into `*written`. `KC_BUFFER_TOO_SMALL` when it does not fit: `*written` is then
+/// the size needed and `buf` holds a partial, unusable snapshot.
+///
+/// # Safety
+/// `lm` NULL or valid; `buf` NULL or `cap` writable bytes; `written` NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn kc_lm_save(
+    lm: *const kc_lm,
+    buf: *mut u8,
+    cap: usize,
+    written: *mut usize,
+) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let lm = unsafe { lm_ref(lm) }?;
+        // SAFETY: the header contract.
+        let written = unsafe { obj_mut(written) }?;
+        // SAFETY: the header contract (`cap` bytes).
+        let mut w: &mut [u8] = unsafe { slice_mut(buf, cap) }?;
+        match lm.save(&mut w) {
+            Ok(()) => {
+                *written = cap - w.len();
+                Ok(())
+            }
+            Err(SnapshotError::Io) => {
+                *written = snapshot_size(lm)?;
+                Err(KC_BUFFER_TOO_SMALL)
+            }
+            Err(_) => Err(KC_SNAPSHOT_INVALID),
+        }
+    })())
+}
+
+/// Replaces the solver's state with the snapshot in `buf[len]` (bytes after the snapshot are
+/// ignored). The handle must hold a solver of the same parameter count (e.g. a fresh
+/// [`kc_lm_init`] with the same robot and parameters); the run then continues exactly as the
+/// saved one would have, bit for bit. `KC_SNAPSHOT_INVALID` for a truncated or corrupted
+/// snapshot (CRC), one of another solver, scalar or shape; on error `lm` is unchanged.
+///
+/// # Safety
+/// `lm` NULL or valid and not otherwise in use; `buf` NULL or `len` readable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn kc_lm_restore(lm: *mut kc_lm, buf: *const u8, len: usize) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let lm = unsafe { lm_mut(lm) }?;
+        // SAFETY: the header contract (`len` bytes).
+        let mut r: &[u8] = unsafe { slice_ref(buf, len) }?;
+        lm.restore(&mut r).map_err(|_| KC_SNAPSHOT_INVALID)
+    })())
+}
+
+/// Root-mean-square position error (mm, 3-D distance per pose) of `r` over the `n`
+/// measurements `data` into `*rms_mm`. Errors: `KC_TOO_FEW_MEASUREMENTS` (`n` = 0),
+/// `KC_NOT_FINITE` (a measurement holds NaN or infinity).
+///
+/// # Safety
+/// `r` NULL or valid; `data` NULL or `n` values; `rms_mm` NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn kc_rms_error(
+    r: *const kc_robot,
+    data: *const kc_measurement,
+    n: usize,
+    rms_mm: *mut f32,
+) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let robot = unsafe { handle::get(r) }?;
+        // SAFETY: the header contract.
+        let data = unsafe { measurements(data, n) }?;
+        // SAFETY: the header contract.
+        let out = unsafe { obj_mut(rms_mm) }?;
+        if data.is_empty() {
+            return Err(KC_TOO_FEW_MEASUREMENTS);
+        }
+        if !data.iter().all(|m| m.is_finite()) {
+            return Err(KC_NOT_FINITE);
+        }
+        *out = rms_error(robot, data);
+        Ok(())
+    })())
+}

@@ -1,0 +1,22 @@
+//! Compiles the C host test of the C ABI (`ffi/tests/c/host_test.c`, over `include/kinecal.h`)
+//! into a static library; `tests/c_abi.rs` links it with `kinecal-ffi` (which provides the
+//! `kc_*` symbols) and runs it. Strict C: `-std=c99 -Wall -Wextra -Werror -pedantic`.
+
+fn main() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let source = root.join("ffi/tests/c/host_test.c");
+    println!("cargo:rerun-if-changed={}", source.display());
+    println!(
+        "cargo:rerun-if-changed={}",
+        root.join("include/kinecal.h").display()
+    );
+    cc::Build::new()
+        .file(&source)
+        .include(root.join("include"))
+        .std("c99")
+        .flag("-Wall")
+        .flag("-Wextra")
+        .flag("-pedantic")
+        .warnings_into_errors(true)
+        .compile("kc_host_test");
+}

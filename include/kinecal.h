@@ -73,7 +73,8 @@ enum kc_status
   // The robot description was refused: a length or angle out of range, joint limits not
   // `lower < upper`, a base that is not a rotation, or a refused joint coupling.
   KC_INVALID_ROBOT = 4,
-  // A float input is NaN or infinite.
+  // A float input is NaN or infinite (inputs are checked by their sum: magnitudes above
+  // ~1e37, which no robot quantity has, count as infinite too).
   KC_NOT_FINITE = 5,
   // LM: no measurements, or fewer residuals (3 per pose) than parameters.
   KC_TOO_FEW_MEASUREMENTS = 6,

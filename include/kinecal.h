@@ -23,17 +23,12 @@
 // Joints of every robot of this ABI.
 #define KC_JOINTS 6
 
-// Bytes of a [`kc_tracker`] (see `KC_ROBOT_SIZE`).
-#define KC_TRACKER_SIZE 96
+// Bytes of a [`kc_robot`] (the largest `Robot<f32, 6>` of the supported targets, rounded up
+// to 8; a compile-time assertion checks it fits).
+#define KC_ROBOT_SIZE 928
 
-// Longest line (bytes) a `kc_csv` reads.
-#define KC_CSV_LINE 256
-
-// Most extra columns a `kc_csv` carries (more are ignored).
-#define KC_CSV_MAX_EXTRAS 8
-
-// Bytes of a [`kc_csv`] (see `KC_ROBOT_SIZE`).
-#define KC_CSV_SIZE 784
+// Every distinct parameter of a 6-joint robot: 6 base + 5 × 6 row + 3 tool.
+#define KC_PARAMS_ALL 39
 
 // Bytes of a [`kc_fk`] (see `KC_ROBOT_SIZE`).
 #define KC_FK_SIZE 424
@@ -48,12 +43,17 @@
 // Bytes of a [`kc_lm`] (see `KC_ROBOT_SIZE`).
 #define KC_LM_SIZE 8776
 
-// Bytes of a [`kc_robot`] (the largest `Robot<f32, 6>` of the supported targets, rounded up
-// to 8; a compile-time assertion checks it fits).
-#define KC_ROBOT_SIZE 928
+// Bytes of a [`kc_tracker`] (see `KC_ROBOT_SIZE`).
+#define KC_TRACKER_SIZE 96
 
-// Every distinct parameter of a 6-joint robot: 6 base + 5 × 6 row + 3 tool.
-#define KC_PARAMS_ALL 39
+// Longest line (bytes) a `kc_csv` reads.
+#define KC_CSV_LINE 256
+
+// Most extra columns a `kc_csv` carries (more are ignored).
+#define KC_CSV_MAX_EXTRAS 8
+
+// Bytes of a [`kc_csv`] (see `KC_ROBOT_SIZE`).
+#define KC_CSV_SIZE 784
 
 // What a call did: 0 is success, anything else says why nothing (or, for
 // [`kc_status::KC_COMPENSATE_FAILED`], only a best-effort result) was produced.
@@ -261,6 +261,116 @@ typedef uint8_t kc_csv_error_kind;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
+// A robot (`Robot<f32, 6>`): base pose, six MDH rows, tool point, joint couplings. Opaque;
+// caller-owned (a `static` in firmware); [`kc_robot_init`] constructs it.
+typedef struct KC_ALIGNED(8) kc_robot {
+  uint8_t _opaque[KC_ROBOT_SIZE];
+} kc_robot;
+
+// One joint's modified Denavit–Hartenberg row (Craig) plus the Hayati tilt `beta`:
+// `T_i(q) = Rx(alpha)·Tx(a)·Ry(beta)·Rz(theta + q)·Tz(d)`, and the joint limits.
+typedef struct kc_joint_row {
+  // Twist about the previous frame's x axis (Craig's `alpha_{i-1}`), rad.
+  float alpha_rad;
+  // Length along the previous frame's x axis (Craig's `a_{i-1}`), mm.
+  float a_mm;
+  // Offset added to the joint angle, rad.
+  float theta_rad;
+  // Offset along the joint axis z, mm.
+  float d_mm;
+  // Hayati tilt about the y axis after `a`, rad (0 in a plain MDH row).
+  float beta_rad;
+  // Lower joint limit, rad (`lower_rad < upper_rad`).
+  float lower_rad;
+  // Upper joint limit, rad.
+  float upper_rad;
+} kc_joint_row;
+
+// A pose: translation (mm) and fixed-axis roll (x), pitch (y), yaw (z) in rad,
+// `R = Rz(yaw)·Ry(pitch)·Rx(roll)` (the robot file's `rpy_deg` convention, in radians).
+typedef struct kc_frame {
+  // Origin, mm.
+  float xyz_mm[3];
+  // Roll, pitch, yaw, rad.
+  float rpy_rad[3];
+} kc_frame;
+
+// A model parameter: `kind` is a `kc_param_kind`, `joint` the 0-based joint of the row
+// parameters (`KC_PARAM_ALPHA` … `KC_PARAM_BETA`; 0 for the others).
+typedef struct kc_param {
+  // A `kc_param_kind`.
+  uint8_t kind;
+  // Joint (0-based) of a row parameter.
+  uint8_t joint;
+} kc_param;
+
+// A forward-kinematics workspace (`ForwardKinematics<f32, 6>`): the frames of the last pose
+// computed, which [`kc_fk_jacobian`] differentiates. Opaque, caller-owned; [`kc_fk_init`].
+typedef struct KC_ALIGNED(8) kc_fk {
+  uint8_t _opaque[KC_FK_SIZE];
+} kc_fk;
+
+// A parameter set converted once for [`kc_fk_jacobian_set`] (`ParamSet<KC_PARAMS_ALL>`): the
+// per-call conversion of `kc_param` codes in [`kc_fk_jacobian`] costs about a quarter of a
+// 24-column Jacobian on a Cortex-M4F. Opaque, caller-owned; [`kc_param_set_init`].
+typedef struct KC_ALIGNED(8) kc_param_set {
+  uint8_t _opaque[KC_PARAM_SET_SIZE];
+} kc_param_set;
+
+// The solver settings a firmware sets (the library's `LmConfig<f32>`).
+typedef struct kc_lm_config {
+  // Stop after this many accepted or rejected steps. Default 100.
+  uint32_t max_iterations;
+  // Stop when a step lowers the cost by less than this fraction.
+  float cost_tolerance;
+  // Stop when the scaled step is shorter than this (mm-equivalent).
+  float step_tolerance;
+  // Relative pivot below which a parameter direction counts as unidentifiable, in (0, 1).
+  float rank_tolerance;
+  // Ridge on the accumulated scaled update, relative to the mean diagonal of JᵀJ (>= 0).
+  float ridge;
+  // Initial damping relative to the diagonal (> 0). Default 1e-3.
+  float initial_damping;
+  // Relative pivot a held parameter needs to join on a re-analysis (>= 0).
+  float activation_tolerance;
+  // Most identifiability analyses in one run (0: none, estimate every parameter).
+  // Default 8.
+  uint8_t max_analyses;
+  // Non-zero: keep JᵀJ while steps succeed (cheaper refits). Default 0.
+  uint8_t keep_curvature;
+} kc_lm_config;
+
+// A Levenberg–Marquardt identification (`Levenberg<f32, 6, 0, FixedLm<f32,
+// KC_LM_MAX_PARAMS>>`): a streaming stepper that does a bounded slice of work per
+// [`kc_lm_step`] call, snapshot and restore. Several KB: give it static storage.
+typedef struct KC_ALIGNED(8) kc_lm {
+  uint8_t _opaque[KC_LM_SIZE];
+} kc_lm;
+
+// One measured pose: joint readings (rad, as the controller reports them) and the point the
+// tracker saw (mm, measurement frame). Same layout as the library's `Measurement<f32, 6>`, so
+// arrays of it are used in place.
+typedef struct kc_measurement {
+  // Joint readings, rad.
+  float q[KC_JOINTS];
+  // Measured point, mm.
+  float xyz_mm[3];
+} kc_measurement;
+
+// Where a run stands.
+typedef struct kc_lm_progress {
+  // Accepted and rejected steps so far.
+  uint32_t iteration;
+  // Full passes over all poses so far.
+  uint32_t evaluations;
+  // Sum of squared residuals (mm²) at the current estimate (after the first pass).
+  float cost;
+  // A `kc_lm_stop`: 0 while running.
+  uint8_t stopped;
+  // 1 when the run stopped at a fixed point (`KC_LM_CONVERGED` or `KC_LM_SMALL_STEP`).
+  uint8_t converged;
+} kc_lm_progress;
+
 // Tuning of the Newton iteration and of its safety checks (the library's `Config<f32>`).
 typedef struct kc_compensate_config {
   // Most Newton steps per call (1 ..= 255), each one forward kinematics. Default 8.
@@ -280,12 +390,6 @@ typedef struct kc_compensate_config {
   // Default 0.01.
   float singular;
 } kc_compensate_config;
-
-// A robot (`Robot<f32, 6>`): base pose, six MDH rows, tool point, joint couplings. Opaque;
-// caller-owned (a `static` in firmware); [`kc_robot_init`] constructs it.
-typedef struct KC_ALIGNED(8) kc_robot {
-  uint8_t _opaque[KC_ROBOT_SIZE];
-} kc_robot;
 
 // Where the tool should go, in the measurement frame.
 typedef struct kc_target {
@@ -331,16 +435,6 @@ typedef struct KC_ALIGNED(8) kc_csv {
 // (`KC_CSV_ERROR`, kind `KC_CSV_IO`; a second failure in a row stops the reader).
 typedef size_t (*kc_read_fn)(void *ctx, uint8_t *buf, size_t len);
 
-// One measured pose: joint readings (rad, as the controller reports them) and the point the
-// tracker saw (mm, measurement frame). Same layout as the library's `Measurement<f32, 6>`, so
-// arrays of it are used in place.
-typedef struct kc_measurement {
-  // Joint readings, rad.
-  float q[KC_JOINTS];
-  // Measured point, mm.
-  float xyz_mm[3];
-} kc_measurement;
-
 // One record in file units (f64, as written).
 typedef struct kc_csv_record {
   // Joint readings `q1`..`q6` as written (degrees).
@@ -361,100 +455,6 @@ typedef struct kc_csv_error {
   uint8_t kind;
 } kc_csv_error;
 
-// A forward-kinematics workspace (`ForwardKinematics<f32, 6>`): the frames of the last pose
-// computed, which [`kc_fk_jacobian`] differentiates. Opaque, caller-owned; [`kc_fk_init`].
-typedef struct KC_ALIGNED(8) kc_fk {
-  uint8_t _opaque[KC_FK_SIZE];
-} kc_fk;
-
-// A model parameter: `kind` is a `kc_param_kind`, `joint` the 0-based joint of the row
-// parameters (`KC_PARAM_ALPHA` … `KC_PARAM_BETA`; 0 for the others).
-typedef struct kc_param {
-  // A `kc_param_kind`.
-  uint8_t kind;
-  // Joint (0-based) of a row parameter.
-  uint8_t joint;
-} kc_param;
-
-// A parameter set converted once for [`kc_fk_jacobian_set`] (`ParamSet<KC_PARAMS_ALL>`): the
-// per-call conversion of `kc_param` codes in [`kc_fk_jacobian`] costs about a quarter of a
-// 24-column Jacobian on a Cortex-M4F. Opaque, caller-owned; [`kc_param_set_init`].
-typedef struct KC_ALIGNED(8) kc_param_set {
-  uint8_t _opaque[KC_PARAM_SET_SIZE];
-} kc_param_set;
-
-// The solver settings a firmware sets (the library's `LmConfig<f32>`).
-typedef struct kc_lm_config {
-  // Stop after this many accepted or rejected steps. Default 100.
-  uint32_t max_iterations;
-  // Stop when a step lowers the cost by less than this fraction.
-  float cost_tolerance;
-  // Stop when the scaled step is shorter than this (mm-equivalent).
-  float step_tolerance;
-  // Relative pivot below which a parameter direction counts as unidentifiable, in (0, 1).
-  float rank_tolerance;
-  // Ridge on the accumulated scaled update, relative to the mean diagonal of JᵀJ (>= 0).
-  float ridge;
-  // Initial damping relative to the diagonal (> 0). Default 1e-3.
-  float initial_damping;
-  // Relative pivot a held parameter needs to join on a re-analysis (>= 0).
-  float activation_tolerance;
-  // Most identifiability analyses in one run (0: none, estimate every parameter).
-  // Default 8.
-  uint8_t max_analyses;
-  // Non-zero: keep JᵀJ while steps succeed (cheaper refits). Default 0.
-  uint8_t keep_curvature;
-} kc_lm_config;
-
-// A Levenberg–Marquardt identification (`Levenberg<f32, 6, 0, FixedLm<f32,
-// KC_LM_MAX_PARAMS>>`): a streaming stepper that does a bounded slice of work per
-// [`kc_lm_step`] call, snapshot and restore. Several KB: give it static storage.
-typedef struct KC_ALIGNED(8) kc_lm {
-  uint8_t _opaque[KC_LM_SIZE];
-} kc_lm;
-
-// Where a run stands.
-typedef struct kc_lm_progress {
-  // Accepted and rejected steps so far.
-  uint32_t iteration;
-  // Full passes over all poses so far.
-  uint32_t evaluations;
-  // Sum of squared residuals (mm²) at the current estimate (after the first pass).
-  float cost;
-  // A `kc_lm_stop`: 0 while running.
-  uint8_t stopped;
-  // 1 when the run stopped at a fixed point (`KC_LM_CONVERGED` or `KC_LM_SMALL_STEP`).
-  uint8_t converged;
-} kc_lm_progress;
-
-// One joint's modified Denavit–Hartenberg row (Craig) plus the Hayati tilt `beta`:
-// `T_i(q) = Rx(alpha)·Tx(a)·Ry(beta)·Rz(theta + q)·Tz(d)`, and the joint limits.
-typedef struct kc_joint_row {
-  // Twist about the previous frame's x axis (Craig's `alpha_{i-1}`), rad.
-  float alpha_rad;
-  // Length along the previous frame's x axis (Craig's `a_{i-1}`), mm.
-  float a_mm;
-  // Offset added to the joint angle, rad.
-  float theta_rad;
-  // Offset along the joint axis z, mm.
-  float d_mm;
-  // Hayati tilt about the y axis after `a`, rad (0 in a plain MDH row).
-  float beta_rad;
-  // Lower joint limit, rad (`lower_rad < upper_rad`).
-  float lower_rad;
-  // Upper joint limit, rad.
-  float upper_rad;
-} kc_joint_row;
-
-// A pose: translation (mm) and fixed-axis roll (x), pitch (y), yaw (z) in rad,
-// `R = Rz(yaw)·Ry(pitch)·Rx(roll)` (the robot file's `rpy_deg` convention, in radians).
-typedef struct kc_frame {
-  // Origin, mm.
-  float xyz_mm[3];
-  // Roll, pitch, yaw, rad.
-  float rpy_rad[3];
-} kc_frame;
-
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -463,141 +463,89 @@ extern "C" {
 // "unknown status"). Never NULL.
 const char *kc_status_message(uint32_t status);
 
-// The library's default settings.
+// Builds a robot in `r` from six MDH rows (`rows[KC_JOINTS]`), the base pose (`base`: the
+// robot base frame in the measurement frame; NULL = identity) and the tool point in the
+// flange frame (`tool_mm[3]`; NULL = the flange origin). No couplings.
+//
+// Errors: `KC_NULL_POINTER` (`r`, `rows`), `KC_NOT_FINITE` (any value NaN or infinite),
+// `KC_INVALID_ROBOT` (a length beyond ±1 km, an angle beyond ±1e4 rad, `lower >= upper`).
+// On error `r` is unchanged.
 //
 // # Safety
-// `out` is NULL or a writable `kc_compensate_config`.
-kc_status kc_compensate_config_default(struct kc_compensate_config *out);
+// Pointers are NULL or valid for the sizes above; `r` is not otherwise in use during the call.
+kc_status kc_robot_init(struct kc_robot *r,
+                        const struct kc_joint_row *rows,
+                        const struct kc_frame *base,
+                        const float *tool_mm);
 
-// The joint command (from the seed `seed[KC_JOINTS]`, e.g. the nominal inverse kinematics)
-// that brings the model `r` to `target`, with the settings `cfg` (NULL = defaults), into
-// `*out`.
-//
-// `KC_OK`: the target is met. `KC_COMPENSATE_FAILED`: it is not (singular, unreachable,
-// limited: `out->status`); `*out` holds the best safe command (within the step box around the
-// seed). `KC_NOT_FINITE` / `KC_INVALID_ARGUMENT` (NaN, a bad setting, a target more than 1000
-// reaches away, an unknown target kind, a pose matrix that is not a rotation): nothing was
-// computed and `*out` is unchanged: hold the previous command.
+// Copies robot `src` into `dst` (a new handle; `dst` may be initialised or not).
 //
 // # Safety
-// Handles and pointers NULL or valid for their types and sizes; `out` writable.
-kc_status kc_compensate(const struct kc_robot *r,
-                        const struct kc_target *target,
-                        const float *seed,
-                        const struct kc_compensate_config *cfg,
-                        struct kc_solution *out);
+// Both are NULL or valid handles; they do not overlap.
+kc_status kc_robot_copy(struct kc_robot *dst, const struct kc_robot *src);
 
-// A tracker with no trajectory yet and the settings `cfg` (NULL = defaults). Errors:
-// `KC_INVALID_ARGUMENT` / `KC_NOT_FINITE` (settings); on error `t` is unchanged.
+// Replaces row `joint` (0-based) of `r`. Errors: `KC_INVALID_ARGUMENT` (joint >= 6),
+// `KC_NOT_FINITE`, `KC_INVALID_ROBOT` (as in [`kc_robot_init`]); on error `r` is unchanged.
 //
 // # Safety
-// `t` NULL or a writable `kc_tracker` not otherwise in use; `cfg` NULL or valid.
-kc_status kc_tracker_init(struct kc_tracker *t, const struct kc_compensate_config *cfg);
+// `r` is NULL or a valid handle not otherwise in use; `row` is NULL or a valid row.
+kc_status kc_robot_set_row(struct kc_robot *r, uint32_t joint, const struct kc_joint_row *row);
 
-// Forgets the trajectory (the next call starts from its seed).
+// Replaces the base pose of `r` with the translation `xyz_mm[3]` and the row-major rotation
+// matrix `rot[9]`. Errors: `KC_NOT_FINITE`, `KC_INVALID_ROBOT` (`rot` not a rotation: not
+// orthonormal and right-handed within 1e-4; origin beyond ±1 km); on error `r` is unchanged.
 //
 // # Safety
-// `t` NULL or valid and not otherwise in use.
-kc_status kc_tracker_reset(struct kc_tracker *t);
+// `r` is NULL or a valid handle not otherwise in use; the arrays are NULL or of their sizes.
+kc_status kc_robot_set_base(struct kc_robot *r, const float *xyz_mm, const float *rot);
 
-// One trajectory point: `target` with the controller's nominal inverse kinematics
-// `nominal[KC_JOINTS]` for it. The step box is centred on `nominal`; the iteration starts from
-// the previous correction carried over. Results and errors as [`kc_compensate`]; after
-// `KC_COMPENSATE_FAILED` the tracker continues from the best safe command, after the other
-// errors it is unchanged.
+// Replaces the tool point (flange frame, mm) of `r`. Errors: `KC_NOT_FINITE`,
+// `KC_INVALID_ROBOT` (beyond ±1 km); on error `r` is unchanged.
 //
 // # Safety
-// Handles and pointers NULL or valid for their types and sizes; `t` and `out` writable.
-kc_status kc_tracker_next(struct kc_tracker *t,
-                          const struct kc_robot *r,
-                          const struct kc_target *target,
-                          const float *nominal,
-                          struct kc_solution *out);
+// `r` is NULL or a valid handle not otherwise in use; `tool_mm` is NULL or 3 floats.
+kc_status kc_robot_set_tool(struct kc_robot *r, const float *tool_mm);
 
-// Starts a trajectory at the joints' current position `q[KC_JOINTS]`, for
-// [`kc_tracker_follow`]. `KC_NOT_FINITE` on NaN (tracker unchanged).
+// Couples joint `joint` to joint `from` (0-based): the model angle of `joint` is its
+// reading plus `ratio` times the reading of `from` (FANUC J3: `joint` 2, `from` 1, ratio 1).
+// Errors: `KC_NOT_FINITE` (ratio), `KC_INVALID_ROBOT` (an index beyond the joints, the same
+// joint, |ratio| > 1000, a joint coupled twice, a chain, more than 4 couplings); on error
+// `r` is unchanged.
 //
 // # Safety
-// `t` NULL or valid and not otherwise in use; `q` NULL or KC_JOINTS floats.
-kc_status kc_tracker_start(struct kc_tracker *t, const float *q);
+// `r` is NULL or a valid handle not otherwise in use.
+kc_status kc_robot_set_coupling(struct kc_robot *r, uint32_t joint, uint32_t from, float ratio);
 
-// One trajectory point without a nominal solution: the previous command is the seed, so the
-// joints move at most `max_step_rad` per cycle. Needs [`kc_tracker_start`] or an earlier
-// [`kc_tracker_next`] (else `KC_INVALID_ARGUMENT`). Results as [`kc_compensate`].
+// Reads back the rows (`out[KC_JOINTS]`), the base pose (`base_out`, may be NULL; roll,
+// pitch, yaw as [`kc_frame`]) and the tool point (`tool_out[3]`, may be NULL) of `r`.
 //
 // # Safety
-// As [`kc_tracker_next`].
-kc_status kc_tracker_follow(struct kc_tracker *t,
-                            const struct kc_robot *r,
-                            const struct kc_target *target,
-                            struct kc_solution *out);
+// `r` is NULL or a valid handle; the outputs are NULL or of their sizes.
+kc_status kc_robot_rows(const struct kc_robot *r,
+                        struct kc_joint_row *out,
+                        struct kc_frame *base_out,
+                        float *tool_out);
 
-// Starts reading: reads the header line through `read(ctx, …)`. Errors: `KC_NULL_POINTER`
-// (`c`, `read`), `KC_CSV_ERROR` (a malformed header: the handle is then initialised but every
-// [`kc_csv_next`] returns `KC_CSV_ERROR`; [`kc_csv_last_error`] says why).
+// The base rotation of `r` as a row-major matrix (`rot_out[9]`) and its origin (`xyz_out[3]`).
 //
 // # Safety
-// `c` NULL or a writable `kc_csv` not otherwise in use; `read` NULL or a function that honours
-// `kc_read_fn`'s contract with `ctx` for as long as the handle is used.
-kc_status kc_csv_init(struct kc_csv *c, kc_read_fn read, void *ctx);
+// `r` is NULL or a valid handle; the outputs are NULL or of their sizes.
+kc_status kc_robot_base(const struct kc_robot *r, float *xyz_out, float *rot_out);
 
-// The next record in library units (rad, mm) into `*out`, the first `n_extras` extra
-// columns' values into `extras` (NaN for an empty or non-numeric cell; `extras` may be NULL
-// when `n_extras` is 0) and its line into `*line` (may be NULL). `KC_END` at the end of the
-// input; `KC_CSV_ERROR` for a malformed record (skipped: call again for the next one; `*line`
-// is the error's line, [`kc_csv_last_error`] says why).
+// The 24-parameter set of the BPNN-PSO paper: alpha, a, theta, d of every joint, joint by
+// joint, into `out[24]`.
 //
 // # Safety
-// `c` NULL or valid and not otherwise in use; `out` NULL or writable; `extras` NULL or
-// `n_extras` writable doubles; `line` NULL or writable.
-kc_status kc_csv_next(struct kc_csv *c,
-                      struct kc_measurement *out,
-                      double *extras,
-                      size_t n_extras,
-                      uint32_t *line);
+// `out` is NULL or 24 writable `kc_param`.
+kc_status kc_params_mdh(struct kc_param *out);
 
-// As [`kc_csv_next`], the record in file units (f64 degrees and millimetres, as written) into
-// `*out` (its `line` included); [`kc_measurement_from_deg`] converts it.
+// The full default set: the base pose when `base_unknown` is non-zero (6), alpha, a, theta, d
+// of every joint (24) and the tool point (3): 27 or 33 parameters. `*count` receives the
+// length; `KC_BUFFER_TOO_SMALL` (only the count written) when `cap` is smaller.
 //
 // # Safety
-// As [`kc_csv_next`].
-kc_status kc_csv_next_raw(struct kc_csv *c,
-                          struct kc_csv_record *out,
-                          double *extras,
-                          size_t n_extras);
-
-// A measurement in library units (rad, mm) from file units (`q_deg[KC_JOINTS]` degrees,
-// `xyz_mm[3]`), rounded to float as the CSV reader does.
-//
-// # Safety
-// Arrays NULL or of their sizes; `out` NULL or writable.
-kc_status kc_measurement_from_deg(const double *q_deg,
-                                  const double *xyz_mm,
-                                  struct kc_measurement *out);
-
-// The number of extra columns carried (at most `KC_CSV_MAX_EXTRAS`) into `*count`.
-//
-// # Safety
-// `c` NULL or valid; `count` NULL or writable.
-kc_status kc_csv_extra_count(const struct kc_csv *c, size_t *count);
-
-// The index (in the `extras` of [`kc_csv_next`]) of the extra column `name` (a NUL-terminated
-// string) into `*index`. `KC_NOT_FOUND` when there is none.
-//
-// # Safety
-// `c` NULL or valid; `name` NULL or a NUL-terminated string; `index` NULL or writable.
-kc_status kc_csv_extra_index(const struct kc_csv *c, const char *name, size_t *index);
-
-// The last error of the reader (its header's, or the last malformed record's) into `*out`;
-// `kind` is `KC_CSV_NONE` when there was none.
-//
-// # Safety
-// `c` NULL or valid; `out` NULL or writable.
-kc_status kc_csv_last_error(const struct kc_csv *c, struct kc_csv_error *out);
-
-// A static English description of a `kc_csv_error_kind` (unknown codes: "unknown CSV error").
-// Never NULL.
-const char *kc_csv_error_message(uint32_t kind);
+// `out` is NULL or `cap` writable `kc_param`; `count` is NULL or writable.
+kc_status kc_params_full(uint8_t base_unknown, struct kc_param *out, size_t cap, size_t *count);
 
 // Initialises a workspace (identity frames).
 //
@@ -766,89 +714,141 @@ kc_status kc_rms_error(const struct kc_robot *r,
                        size_t n,
                        float *rms_mm);
 
-// Builds a robot in `r` from six MDH rows (`rows[KC_JOINTS]`), the base pose (`base`: the
-// robot base frame in the measurement frame; NULL = identity) and the tool point in the
-// flange frame (`tool_mm[3]`; NULL = the flange origin). No couplings.
-//
-// Errors: `KC_NULL_POINTER` (`r`, `rows`), `KC_NOT_FINITE` (any value NaN or infinite),
-// `KC_INVALID_ROBOT` (a length beyond ±1 km, an angle beyond ±1e4 rad, `lower >= upper`).
-// On error `r` is unchanged.
+// The library's default settings.
 //
 // # Safety
-// Pointers are NULL or valid for the sizes above; `r` is not otherwise in use during the call.
-kc_status kc_robot_init(struct kc_robot *r,
-                        const struct kc_joint_row *rows,
-                        const struct kc_frame *base,
-                        const float *tool_mm);
+// `out` is NULL or a writable `kc_compensate_config`.
+kc_status kc_compensate_config_default(struct kc_compensate_config *out);
 
-// Copies robot `src` into `dst` (a new handle; `dst` may be initialised or not).
+// The joint command (from the seed `seed[KC_JOINTS]`, e.g. the nominal inverse kinematics)
+// that brings the model `r` to `target`, with the settings `cfg` (NULL = defaults), into
+// `*out`.
+//
+// `KC_OK`: the target is met. `KC_COMPENSATE_FAILED`: it is not (singular, unreachable,
+// limited: `out->status`); `*out` holds the best safe command (within the step box around the
+// seed). `KC_NOT_FINITE` / `KC_INVALID_ARGUMENT` (NaN, a bad setting, a target more than 1000
+// reaches away, an unknown target kind, a pose matrix that is not a rotation): nothing was
+// computed and `*out` is unchanged: hold the previous command.
 //
 // # Safety
-// Both are NULL or valid handles; they do not overlap.
-kc_status kc_robot_copy(struct kc_robot *dst, const struct kc_robot *src);
+// Handles and pointers NULL or valid for their types and sizes; `out` writable.
+kc_status kc_compensate(const struct kc_robot *r,
+                        const struct kc_target *target,
+                        const float *seed,
+                        const struct kc_compensate_config *cfg,
+                        struct kc_solution *out);
 
-// Replaces row `joint` (0-based) of `r`. Errors: `KC_INVALID_ARGUMENT` (joint >= 6),
-// `KC_NOT_FINITE`, `KC_INVALID_ROBOT` (as in [`kc_robot_init`]); on error `r` is unchanged.
+// A tracker with no trajectory yet and the settings `cfg` (NULL = defaults). Errors:
+// `KC_INVALID_ARGUMENT` / `KC_NOT_FINITE` (settings); on error `t` is unchanged.
 //
 // # Safety
-// `r` is NULL or a valid handle not otherwise in use; `row` is NULL or a valid row.
-kc_status kc_robot_set_row(struct kc_robot *r, uint32_t joint, const struct kc_joint_row *row);
+// `t` NULL or a writable `kc_tracker` not otherwise in use; `cfg` NULL or valid.
+kc_status kc_tracker_init(struct kc_tracker *t, const struct kc_compensate_config *cfg);
 
-// Replaces the base pose of `r` with the translation `xyz_mm[3]` and the row-major rotation
-// matrix `rot[9]`. Errors: `KC_NOT_FINITE`, `KC_INVALID_ROBOT` (`rot` not a rotation: not
-// orthonormal and right-handed within 1e-4; origin beyond ±1 km); on error `r` is unchanged.
+// Forgets the trajectory (the next call starts from its seed).
 //
 // # Safety
-// `r` is NULL or a valid handle not otherwise in use; the arrays are NULL or of their sizes.
-kc_status kc_robot_set_base(struct kc_robot *r, const float *xyz_mm, const float *rot);
+// `t` NULL or valid and not otherwise in use.
+kc_status kc_tracker_reset(struct kc_tracker *t);
 
-// Replaces the tool point (flange frame, mm) of `r`. Errors: `KC_NOT_FINITE`,
-// `KC_INVALID_ROBOT` (beyond ±1 km); on error `r` is unchanged.
+// One trajectory point: `target` with the controller's nominal inverse kinematics
+// `nominal[KC_JOINTS]` for it. The step box is centred on `nominal`; the iteration starts from
+// the previous correction carried over. Results and errors as [`kc_compensate`]; after
+// `KC_COMPENSATE_FAILED` the tracker continues from the best safe command, after the other
+// errors it is unchanged.
 //
 // # Safety
-// `r` is NULL or a valid handle not otherwise in use; `tool_mm` is NULL or 3 floats.
-kc_status kc_robot_set_tool(struct kc_robot *r, const float *tool_mm);
+// Handles and pointers NULL or valid for their types and sizes; `t` and `out` writable.
+kc_status kc_tracker_next(struct kc_tracker *t,
+                          const struct kc_robot *r,
+                          const struct kc_target *target,
+                          const float *nominal,
+                          struct kc_solution *out);
 
-// Couples joint `joint` to joint `from` (0-based): the model angle of `joint` is its
-// reading plus `ratio` times the reading of `from` (FANUC J3: `joint` 2, `from` 1, ratio 1).
-// Errors: `KC_NOT_FINITE` (ratio), `KC_INVALID_ROBOT` (an index beyond the joints, the same
-// joint, |ratio| > 1000, a joint coupled twice, a chain, more than 4 couplings); on error
-// `r` is unchanged.
+// Starts a trajectory at the joints' current position `q[KC_JOINTS]`, for
+// [`kc_tracker_follow`]. `KC_NOT_FINITE` on NaN (tracker unchanged).
 //
 // # Safety
-// `r` is NULL or a valid handle not otherwise in use.
-kc_status kc_robot_set_coupling(struct kc_robot *r, uint32_t joint, uint32_t from, float ratio);
+// `t` NULL or valid and not otherwise in use; `q` NULL or KC_JOINTS floats.
+kc_status kc_tracker_start(struct kc_tracker *t, const float *q);
 
-// Reads back the rows (`out[KC_JOINTS]`), the base pose (`base_out`, may be NULL; roll,
-// pitch, yaw as [`kc_frame`]) and the tool point (`tool_out[3]`, may be NULL) of `r`.
+// One trajectory point without a nominal solution: the previous command is the seed, so the
+// joints move at most `max_step_rad` per cycle. Needs [`kc_tracker_start`] or an earlier
+// [`kc_tracker_next`] (else `KC_INVALID_ARGUMENT`). Results as [`kc_compensate`].
 //
 // # Safety
-// `r` is NULL or a valid handle; the outputs are NULL or of their sizes.
-kc_status kc_robot_rows(const struct kc_robot *r,
-                        struct kc_joint_row *out,
-                        struct kc_frame *base_out,
-                        float *tool_out);
+// As [`kc_tracker_next`].
+kc_status kc_tracker_follow(struct kc_tracker *t,
+                            const struct kc_robot *r,
+                            const struct kc_target *target,
+                            struct kc_solution *out);
 
-// The base rotation of `r` as a row-major matrix (`rot_out[9]`) and its origin (`xyz_out[3]`).
+// Starts reading: reads the header line through `read(ctx, …)`. Errors: `KC_NULL_POINTER`
+// (`c`, `read`), `KC_CSV_ERROR` (a malformed header: the handle is then initialised but every
+// [`kc_csv_next`] returns `KC_CSV_ERROR`; [`kc_csv_last_error`] says why).
 //
 // # Safety
-// `r` is NULL or a valid handle; the outputs are NULL or of their sizes.
-kc_status kc_robot_base(const struct kc_robot *r, float *xyz_out, float *rot_out);
+// `c` NULL or a writable `kc_csv` not otherwise in use; `read` NULL or a function that honours
+// `kc_read_fn`'s contract with `ctx` for as long as the handle is used.
+kc_status kc_csv_init(struct kc_csv *c, kc_read_fn read, void *ctx);
 
-// The 24-parameter set of the BPNN-PSO paper: alpha, a, theta, d of every joint, joint by
-// joint, into `out[24]`.
+// The next record in library units (rad, mm) into `*out`, the first `n_extras` extra
+// columns' values into `extras` (NaN for an empty or non-numeric cell; `extras` may be NULL
+// when `n_extras` is 0) and its line into `*line` (may be NULL). `KC_END` at the end of the
+// input; `KC_CSV_ERROR` for a malformed record (skipped: call again for the next one; `*line`
+// is the error's line, [`kc_csv_last_error`] says why).
 //
 // # Safety
-// `out` is NULL or 24 writable `kc_param`.
-kc_status kc_params_mdh(struct kc_param *out);
+// `c` NULL or valid and not otherwise in use; `out` NULL or writable; `extras` NULL or
+// `n_extras` writable doubles; `line` NULL or writable.
+kc_status kc_csv_next(struct kc_csv *c,
+                      struct kc_measurement *out,
+                      double *extras,
+                      size_t n_extras,
+                      uint32_t *line);
 
-// The full default set: the base pose when `base_unknown` is non-zero (6), alpha, a, theta, d
-// of every joint (24) and the tool point (3): 27 or 33 parameters. `*count` receives the
-// length; `KC_BUFFER_TOO_SMALL` (only the count written) when `cap` is smaller.
+// As [`kc_csv_next`], the record in file units (f64 degrees and millimetres, as written) into
+// `*out` (its `line` included); [`kc_measurement_from_deg`] converts it.
 //
 // # Safety
-// `out` is NULL or `cap` writable `kc_param`; `count` is NULL or writable.
-kc_status kc_params_full(uint8_t base_unknown, struct kc_param *out, size_t cap, size_t *count);
+// As [`kc_csv_next`].
+kc_status kc_csv_next_raw(struct kc_csv *c,
+                          struct kc_csv_record *out,
+                          double *extras,
+                          size_t n_extras);
+
+// A measurement in library units (rad, mm) from file units (`q_deg[KC_JOINTS]` degrees,
+// `xyz_mm[3]`), rounded to float as the CSV reader does.
+//
+// # Safety
+// Arrays NULL or of their sizes; `out` NULL or writable.
+kc_status kc_measurement_from_deg(const double *q_deg,
+                                  const double *xyz_mm,
+                                  struct kc_measurement *out);
+
+// The number of extra columns carried (at most `KC_CSV_MAX_EXTRAS`) into `*count`.
+//
+// # Safety
+// `c` NULL or valid; `count` NULL or writable.
+kc_status kc_csv_extra_count(const struct kc_csv *c, size_t *count);
+
+// The index (in the `extras` of [`kc_csv_next`]) of the extra column `name` (a NUL-terminated
+// string) into `*index`. `KC_NOT_FOUND` when there is none.
+//
+// # Safety
+// `c` NULL or valid; `name` NULL or a NUL-terminated string; `index` NULL or writable.
+kc_status kc_csv_extra_index(const struct kc_csv *c, const char *name, size_t *index);
+
+// The last error of the reader (its header's, or the last malformed record's) into `*out`;
+// `kind` is `KC_CSV_NONE` when there was none.
+//
+// # Safety
+// `c` NULL or valid; `out` NULL or writable.
+kc_status kc_csv_last_error(const struct kc_csv *c, struct kc_csv_error *out);
+
+// A static English description of a `kc_csv_error_kind` (unknown codes: "unknown CSV error").
+// Never NULL.
+const char *kc_csv_error_message(uint32_t kind);
 
 #ifdef __cplusplus
 }  // extern "C"

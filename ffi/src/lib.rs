@@ -38,14 +38,18 @@ fn panic(_: &core::panic::PanicInfo) -> ! {
     }
 }
 
-// In the header's order: status, robots and parameters, kinematics, identification,
-// compensation, CSV.
-mod compensate;
-mod csv;
-mod fk;
+// In the header's order (one group each: rustfmt sorts `mod` items within a group).
 mod handle;
-mod lm;
+
 mod robot;
+
+mod fk;
+
+mod lm;
+
+mod compensate;
+
+mod csv;
 
 pub use compensate::*;
 pub use csv::*;

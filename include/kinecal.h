@@ -23,27 +23,27 @@
 // Joints of every robot of this ABI.
 #define KC_JOINTS 6
 
-// Bytes of a [`kc_robot`] (the largest `Robot<f32, 6>` of the supported targets, rounded up
+// Bytes of a `kc_robot` (the largest `Robot<f32, 6>` of the supported targets, rounded up
 // to 8; a compile-time assertion checks it fits).
 #define KC_ROBOT_SIZE 928
 
 // Every distinct parameter of a 6-joint robot: 6 base + 5 × 6 row + 3 tool.
 #define KC_PARAMS_ALL 39
 
-// Bytes of a [`kc_fk`] (see `KC_ROBOT_SIZE`).
+// Bytes of a `kc_fk` (see `KC_ROBOT_SIZE`).
 #define KC_FK_SIZE 424
 
-// Bytes of a [`kc_param_set`] (see `KC_ROBOT_SIZE`).
+// Bytes of a `kc_param_set` (see `KC_ROBOT_SIZE`).
 #define KC_PARAM_SET_SIZE 176
 
 // Room for identified parameters in a `kc_lm`: the 24 of the MDH set (`kc_params_mdh`), as
 // the Rust firmware sizes its solver (same code, same instruction counts, same RAM).
 #define KC_LM_MAX_PARAMS 24
 
-// Bytes of a [`kc_lm`] (see `KC_ROBOT_SIZE`).
+// Bytes of a `kc_lm` (see `KC_ROBOT_SIZE`).
 #define KC_LM_SIZE 8776
 
-// Bytes of a [`kc_tracker`] (see `KC_ROBOT_SIZE`).
+// Bytes of a `kc_tracker` (see `KC_ROBOT_SIZE`).
 #define KC_TRACKER_SIZE 96
 
 // Longest line (bytes) a `kc_csv` reads.
@@ -52,11 +52,11 @@
 // Most extra columns a `kc_csv` carries (more are ignored).
 #define KC_CSV_MAX_EXTRAS 8
 
-// Bytes of a [`kc_csv`] (see `KC_ROBOT_SIZE`).
+// Bytes of a `kc_csv` (see `KC_ROBOT_SIZE`).
 #define KC_CSV_SIZE 784
 
 // What a call did: 0 is success, anything else says why nothing (or, for
-// [`kc_status::KC_COMPENSATE_FAILED`], only a best-effort result) was produced.
+// `kc_status::KC_COMPENSATE_FAILED`, only a best-effort result) was produced.
 enum kc_status
 #if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
   : uint32_t
@@ -89,7 +89,7 @@ enum kc_status
   KC_COMPENSATE_FAILED = 10,
   // CSV: a malformed header or record (see `kc_csv_last_error`).
   KC_CSV_ERROR = 11,
-  // More parameters than the ABI has room for ([`KC_LM_MAX_PARAMS`]).
+  // More parameters than the ABI has room for (`KC_LM_MAX_PARAMS`).
   KC_TOO_MANY_PARAMS = 12,
   // The handle was never initialised, or its `*_init` failed.
   KC_NOT_INITIALIZED = 13,
@@ -262,7 +262,7 @@ typedef uint8_t kc_csv_error_kind;
 #endif // __cplusplus
 
 // A robot (`Robot<f32, 6>`): base pose, six MDH rows, tool point, joint couplings. Opaque;
-// caller-owned (a `static` in firmware); [`kc_robot_init`] constructs it.
+// caller-owned (a `static` in firmware); `kc_robot_init` constructs it.
 typedef struct KC_ALIGNED(8) kc_robot {
   uint8_t _opaque[KC_ROBOT_SIZE];
 } kc_robot;
@@ -305,14 +305,14 @@ typedef struct kc_param {
 } kc_param;
 
 // A forward-kinematics workspace (`ForwardKinematics<f32, 6>`): the frames of the last pose
-// computed, which [`kc_fk_jacobian`] differentiates. Opaque, caller-owned; [`kc_fk_init`].
+// computed, which `kc_fk_jacobian` differentiates. Opaque, caller-owned; `kc_fk_init`.
 typedef struct KC_ALIGNED(8) kc_fk {
   uint8_t _opaque[KC_FK_SIZE];
 } kc_fk;
 
-// A parameter set converted once for [`kc_fk_jacobian_set`] (`ParamSet<KC_PARAMS_ALL>`): the
-// per-call conversion of `kc_param` codes in [`kc_fk_jacobian`] costs about a quarter of a
-// 24-column Jacobian on a Cortex-M4F. Opaque, caller-owned; [`kc_param_set_init`].
+// A parameter set converted once for `kc_fk_jacobian_set` (`ParamSet<KC_PARAMS_ALL>`): the
+// per-call conversion of `kc_param` codes in `kc_fk_jacobian` costs about a quarter of a
+// 24-column Jacobian on a Cortex-M4F. Opaque, caller-owned; `kc_param_set_init`.
 typedef struct KC_ALIGNED(8) kc_param_set {
   uint8_t _opaque[KC_PARAM_SET_SIZE];
 } kc_param_set;
@@ -342,7 +342,7 @@ typedef struct kc_lm_config {
 
 // A Levenberg–Marquardt identification (`Levenberg<f32, 6, 0, FixedLm<f32,
 // KC_LM_MAX_PARAMS>>`): a streaming stepper that does a bounded slice of work per
-// [`kc_lm_step`] call, snapshot and restore. Several KB: give it static storage.
+// `kc_lm_step` call, snapshot and restore. Several KB: give it static storage.
 typedef struct KC_ALIGNED(8) kc_lm {
   uint8_t _opaque[KC_LM_SIZE];
 } kc_lm;
@@ -419,13 +419,13 @@ typedef struct kc_solution {
 } kc_solution;
 
 // Streaming compensation along a trajectory (`Tracker<f32, 6>`): keeps the previous command
-// and starts each cycle from it. Opaque, caller-owned; [`kc_tracker_init`].
+// and starts each cycle from it. Opaque, caller-owned; `kc_tracker_init`.
 typedef struct KC_ALIGNED(8) kc_tracker {
   uint8_t _opaque[KC_TRACKER_SIZE];
 } kc_tracker;
 
 // A streaming CSV reader (`CsvReader<_, 6, KC_CSV_LINE, KC_CSV_MAX_EXTRAS>`). Opaque,
-// caller-owned; [`kc_csv_init`].
+// caller-owned; `kc_csv_init`.
 typedef struct KC_ALIGNED(8) kc_csv {
   uint8_t _opaque[KC_CSV_SIZE];
 } kc_csv;
@@ -485,7 +485,7 @@ kc_status kc_robot_init(struct kc_robot *r,
 kc_status kc_robot_copy(struct kc_robot *dst, const struct kc_robot *src);
 
 // Replaces row `joint` (0-based) of `r`. Errors: `KC_INVALID_ARGUMENT` (joint >= 6),
-// `KC_NOT_FINITE`, `KC_INVALID_ROBOT` (as in [`kc_robot_init`]); on error `r` is unchanged.
+// `KC_NOT_FINITE`, `KC_INVALID_ROBOT` (as in `kc_robot_init`); on error `r` is unchanged.
 //
 // # Safety
 // `r` is NULL or a valid handle not otherwise in use; `row` is NULL or a valid row.
@@ -517,7 +517,7 @@ kc_status kc_robot_set_tool(struct kc_robot *r, const float *tool_mm);
 kc_status kc_robot_set_coupling(struct kc_robot *r, uint32_t joint, uint32_t from, float ratio);
 
 // Reads back the rows (`out[KC_JOINTS]`), the base pose (`base_out`, may be NULL; roll,
-// pitch, yaw as [`kc_frame`]) and the tool point (`tool_out[3]`, may be NULL) of `r`.
+// pitch, yaw as `kc_frame`) and the tool point (`tool_out[3]`, may be NULL) of `r`.
 //
 // # Safety
 // `r` is NULL or a valid handle; the outputs are NULL or of their sizes.
@@ -555,30 +555,30 @@ kc_status kc_fk_init(struct kc_fk *w);
 
 // Forward kinematics of `r` at the joint readings `q[KC_JOINTS]` (rad): the measured point
 // (the tool point, measurement frame, mm) into `xyz_out[3]`. The workspace keeps the pose for
-// [`kc_fk_jacobian`]. Errors: `KC_NOT_FINITE` (a reading NaN or infinite); on error the
+// `kc_fk_jacobian`. Errors: `KC_NOT_FINITE` (a reading NaN or infinite); on error the
 // workspace is unchanged.
 //
 // # Safety
 // Handles NULL or valid (`w` not otherwise in use); arrays NULL or of their sizes.
 kc_status kc_fk_point(struct kc_fk *w, const struct kc_robot *r, const float *q, float *xyz_out);
 
-// As [`kc_fk_point`], also the tool orientation (the flange axes in the measurement frame)
+// As `kc_fk_point`, also the tool orientation (the flange axes in the measurement frame)
 // as a row-major rotation matrix into `rot_out[9]`: with `xyz_out` the tool pose, usable as
 // a pose `kc_target`.
 //
 // # Safety
-// As [`kc_fk_point`]; `rot_out` is NULL or 9 floats.
+// As `kc_fk_point`; `rot_out` is NULL or 9 floats.
 kc_status kc_fk_pose(struct kc_fk *w,
                      const struct kc_robot *r,
                      const float *q,
                      float *xyz_out,
                      float *rot_out);
 
-// The identification Jacobian at the pose of the last [`kc_fk_point`] / [`kc_fk_pose`] call
+// The identification Jacobian at the pose of the last `kc_fk_point` / `kc_fk_pose` call
 // on `w` (with the same robot `r`): column `k` (∂ point / ∂ `params[k]`, mm per mm or per rad)
 // into `out[3*k + axis]`. `n` <= `KC_PARAMS_ALL`; `out_len` >= `3*n` (else
 // `KC_BUFFER_TOO_SMALL`). Converts the codes on every call: in a loop use
-// [`kc_fk_jacobian_set`].
+// `kc_fk_jacobian_set`.
 //
 // # Safety
 // Handles NULL or valid; `params` NULL or `n` values; `out` NULL or `out_len` floats.
@@ -603,7 +603,7 @@ kc_status kc_param_set_init(struct kc_param_set *s, const struct kc_param *param
 // `s` NULL or valid; `count` NULL or writable.
 kc_status kc_param_set_len(const struct kc_param_set *s, size_t *count);
 
-// As [`kc_fk_jacobian`] for a converted set: column `k` of the set's parameter `k` into
+// As `kc_fk_jacobian` for a converted set: column `k` of the set's parameter `k` into
 // `out[3*k + axis]`, `out_len` >= 3 × the set's length. No per-call conversion: the cost of
 // the library's Jacobian plus the checks.
 //
@@ -656,7 +656,7 @@ kc_status kc_lm_step(struct kc_lm *lm,
                      size_t budget_poses,
                      struct kc_lm_progress *out);
 
-// Where the run stands (as the last [`kc_lm_step`] reported it).
+// Where the run stands (as the last `kc_lm_step` reported it).
 //
 // # Safety
 // `lm` NULL or valid; `out` NULL or writable.
@@ -695,7 +695,7 @@ kc_status kc_lm_save(const struct kc_lm *lm, uint8_t *buf, size_t cap, size_t *w
 
 // Replaces the solver's state with the snapshot in `buf[len]` (bytes after the snapshot are
 // ignored). The handle must hold a solver of the same parameter count (e.g. a fresh
-// [`kc_lm_init`] with the same robot and parameters); the run then continues exactly as the
+// `kc_lm_init` with the same robot and parameters); the run then continues exactly as the
 // saved one would have, bit for bit. `KC_SNAPSHOT_INVALID` for a truncated or corrupted
 // snapshot (CRC), one of another solver, scalar or shape; on error `lm` is unchanged.
 //
@@ -753,7 +753,7 @@ kc_status kc_tracker_reset(struct kc_tracker *t);
 
 // One trajectory point: `target` with the controller's nominal inverse kinematics
 // `nominal[KC_JOINTS]` for it. The step box is centred on `nominal`; the iteration starts from
-// the previous correction carried over. Results and errors as [`kc_compensate`]; after
+// the previous correction carried over. Results and errors as `kc_compensate`; after
 // `KC_COMPENSATE_FAILED` the tracker continues from the best safe command, after the other
 // errors it is unchanged.
 //
@@ -766,18 +766,18 @@ kc_status kc_tracker_next(struct kc_tracker *t,
                           struct kc_solution *out);
 
 // Starts a trajectory at the joints' current position `q[KC_JOINTS]`, for
-// [`kc_tracker_follow`]. `KC_NOT_FINITE` on NaN (tracker unchanged).
+// `kc_tracker_follow`. `KC_NOT_FINITE` on NaN (tracker unchanged).
 //
 // # Safety
 // `t` NULL or valid and not otherwise in use; `q` NULL or KC_JOINTS floats.
 kc_status kc_tracker_start(struct kc_tracker *t, const float *q);
 
 // One trajectory point without a nominal solution: the previous command is the seed, so the
-// joints move at most `max_step_rad` per cycle. Needs [`kc_tracker_start`] or an earlier
-// [`kc_tracker_next`] (else `KC_INVALID_ARGUMENT`). Results as [`kc_compensate`].
+// joints move at most `max_step_rad` per cycle. Needs `kc_tracker_start` or an earlier
+// `kc_tracker_next` (else `KC_INVALID_ARGUMENT`). Results as `kc_compensate`.
 //
 // # Safety
-// As [`kc_tracker_next`].
+// As `kc_tracker_next`.
 kc_status kc_tracker_follow(struct kc_tracker *t,
                             const struct kc_robot *r,
                             const struct kc_target *target,
@@ -785,7 +785,7 @@ kc_status kc_tracker_follow(struct kc_tracker *t,
 
 // Starts reading: reads the header line through `read(ctx, …)`. Errors: `KC_NULL_POINTER`
 // (`c`, `read`), `KC_CSV_ERROR` (a malformed header: the handle is then initialised but every
-// [`kc_csv_next`] returns `KC_CSV_ERROR`; [`kc_csv_last_error`] says why).
+// `kc_csv_next` returns `KC_CSV_ERROR`; `kc_csv_last_error` says why).
 //
 // # Safety
 // `c` NULL or a writable `kc_csv` not otherwise in use; `read` NULL or a function that honours
@@ -796,7 +796,7 @@ kc_status kc_csv_init(struct kc_csv *c, kc_read_fn read, void *ctx);
 // columns' values into `extras` (NaN for an empty or non-numeric cell; `extras` may be NULL
 // when `n_extras` is 0) and its line into `*line` (may be NULL). `KC_END` at the end of the
 // input; `KC_CSV_ERROR` for a malformed record (skipped: call again for the next one; `*line`
-// is the error's line, [`kc_csv_last_error`] says why).
+// is the error's line, `kc_csv_last_error` says why).
 //
 // # Safety
 // `c` NULL or valid and not otherwise in use; `out` NULL or writable; `extras` NULL or
@@ -807,11 +807,11 @@ kc_status kc_csv_next(struct kc_csv *c,
                       size_t n_extras,
                       uint32_t *line);
 
-// As [`kc_csv_next`], the record in file units (f64 degrees and millimetres, as written) into
-// `*out` (its `line` included); [`kc_measurement_from_deg`] converts it.
+// As `kc_csv_next`, the record in file units (f64 degrees and millimetres, as written) into
+// `*out` (its `line` included); `kc_measurement_from_deg` converts it.
 //
 // # Safety
-// As [`kc_csv_next`].
+// As `kc_csv_next`.
 kc_status kc_csv_next_raw(struct kc_csv *c,
                           struct kc_csv_record *out,
                           double *extras,
@@ -832,7 +832,7 @@ kc_status kc_measurement_from_deg(const double *q_deg,
 // `c` NULL or valid; `count` NULL or writable.
 kc_status kc_csv_extra_count(const struct kc_csv *c, size_t *count);
 
-// The index (in the `extras` of [`kc_csv_next`]) of the extra column `name` (a NUL-terminated
+// The index (in the `extras` of `kc_csv_next`) of the extra column `name` (a NUL-terminated
 // string) into `*index`. `KC_NOT_FOUND` when there is none.
 //
 // # Safety

@@ -15,7 +15,11 @@ fn header_is_current() {
         .expect("cbindgen generates the header");
     let mut generated = Vec::new();
     bindings.write(&mut generated);
-    let generated = String::from_utf8(generated).expect("the header is UTF-8");
+    // Rustdoc's link brackets (`[`kc_fk_point`]`) read as plain code names in C comments.
+    let generated = String::from_utf8(generated)
+        .expect("the header is UTF-8")
+        .replace("[`", "`")
+        .replace("`]", "`");
     let path = crate_dir.join("../include/kinecal.h");
     let current = std::fs::read_to_string(&path).unwrap_or_default();
     if current == generated {

@@ -555,14 +555,16 @@ kc_status kc_fk_init(struct kc_fk *w);
 
 // Forward kinematics of `r` at the joint readings `q[KC_JOINTS]` (rad): the measured point
 // (the tool point, measurement frame, mm) into `xyz_out[3]`. The workspace keeps the pose for
-// `kc_fk_jacobian`. Errors: `KC_NOT_FINITE` (a reading NaN or infinite); on error the
-// workspace is unchanged.
+// `kc_fk_jacobian`. `KC_NOT_FINITE` when a reading is NaN or infinite: checked on the
+// result (the library maps non-finite readings, and only those, to a non-finite point), so it
+// costs 6 instructions instead of 18 on the M4F; `xyz_out` then holds that point and the
+// workspace no pose (compute again before a Jacobian).
 //
 // # Safety
 // Handles NULL or valid (`w` not otherwise in use); arrays NULL or of their sizes.
 kc_status kc_fk_point(struct kc_fk *w, const struct kc_robot *r, const float *q, float *xyz_out);
 
-// As `kc_fk_point`, also the tool orientation (the flange axes in the measurement frame)
+// As `kc_fk_point` (`KC_NOT_FINITE` likewise), also the tool orientation (the flange axes in the measurement frame)
 // as a row-major rotation matrix into `rot_out[9]`: with `xyz_out` the tool pose, usable as
 // a pose `kc_target`.
 //

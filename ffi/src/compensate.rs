@@ -268,7 +268,7 @@ pub struct kc_tracker {
     _opaque: [u8; KC_TRACKER_SIZE],
 }
 
-handle!(kc_tracker, KC_TRACKER_SIZE, Tracker<f32, 6>, 0x4b43_5452);
+handle!(kc_tracker, KC_TRACKER_SIZE, Tracker<f32, 6>, 0x5454_5454);
 
 /// A tracker with no trajectory yet and the settings `cfg` (NULL = defaults). Errors:
 /// `KC_INVALID_ARGUMENT` / `KC_NOT_FINITE` (settings); on error `t` is unchanged.

@@ -82,7 +82,7 @@ pub struct kc_csv {
     _opaque: [u8; KC_CSV_SIZE],
 }
 
-handle!(kc_csv, KC_CSV_SIZE, Csv, 0x4b43_4353);
+handle!(kc_csv, KC_CSV_SIZE, Csv, 0x4343_4343);
 
 /// The codes of `kc_csv_error.kind` (the library's `CsvErrorKind`).
 #[repr(u8)]

@@ -19,13 +19,21 @@ pub struct kc_fk {
     _opaque: [u8; KC_FK_SIZE],
 }
 
-handle!(kc_fk, KC_FK_SIZE, ForwardKinematics<f32, 6>, 0x4b43_464b);
+handle!(kc_fk, KC_FK_SIZE, ForwardKinematics<f32, 6>, 0x4646_4646);
 
 // `float *` output arrays are written as `Vector3<f32>` columns: nalgebra's `Matrix` is
 // `repr(C)` over a `repr(transparent)` array, so a `Vector3<f32>` is three contiguous floats.
 const _: () = assert!(
     core::mem::size_of::<Vector3<f32>>() == 12 && core::mem::align_of::<Vector3<f32>>() == 4
 );
+
+/// Three floats as the library's vector type, in place.
+#[inline(always)]
+fn vec3_mut(a: &mut [f32; 3]) -> &mut Vector3<f32> {
+    // SAFETY: `Vector3<f32>` is `repr(C)` over a `repr(transparent)` `[[f32; 3]; 1]`: the same
+    // size, alignment and bytes as `[f32; 3]` (asserted above), and every bit pattern is valid.
+    unsafe { &mut *(a as *mut [f32; 3]).cast::<Vector3<f32>>() }
+}
 
 /// Initialises a workspace (identity frames).
 ///
@@ -43,8 +51,10 @@ pub unsafe extern "C" fn kc_fk_init(w: *mut kc_fk) -> kc_status {
 
 /// Forward kinematics of `r` at the joint readings `q[KC_JOINTS]` (rad): the measured point
 /// (the tool point, measurement frame, mm) into `xyz_out[3]`. The workspace keeps the pose for
-/// [`kc_fk_jacobian`]. Errors: `KC_NOT_FINITE` (a reading NaN or infinite); on error the
-/// workspace is unchanged.
+/// [`kc_fk_jacobian`]. `KC_NOT_FINITE` when a reading is NaN or infinite: checked on the
+/// result (the library maps non-finite readings, and only those, to a non-finite point), so it
+/// costs 6 instructions instead of 18 on the M4F; `xyz_out` then holds that point and the
+/// workspace no pose (compute again before a Jacobian).
 ///
 /// # Safety
 /// Handles NULL or valid (`w` not otherwise in use); arrays NULL or of their sizes.
@@ -62,16 +72,16 @@ pub unsafe extern "C" fn kc_fk_point(
         let robot = unsafe { handle::get(r) }?;
         // SAFETY: the header contract (KC_JOINTS floats).
         let q = unsafe { array_ref::<f32, KC_JOINTS>(q) }?;
-        // SAFETY: the header contract (3 floats).
+        // SAFETY: the header contract (3 floats): a `Vector3<f32>` is three floats with the
+        // alignment of one (asserted above), so the library writes the point straight there.
         let out = unsafe { array_mut::<f32, 3>(xyz_out) }?;
-        finite(q)?;
-        let p = fk.compute(robot, q);
-        *out = [p.x, p.y, p.z];
-        Ok(())
+        let p = vec3_mut(out);
+        *p = fk.compute(robot, q);
+        finite(p.as_slice())
     })())
 }
 
-/// As [`kc_fk_point`], also the tool orientation (the flange axes in the measurement frame)
+/// As [`kc_fk_point`] (`KC_NOT_FINITE` likewise), also the tool orientation (the flange axes in the measurement frame)
 /// as a row-major rotation matrix into `rot_out[9]`: with `xyz_out` the tool pose, usable as
 /// a pose `kc_target`.
 ///
@@ -96,12 +106,11 @@ pub unsafe extern "C" fn kc_fk_pose(
         let out = unsafe { array_mut::<f32, 3>(xyz_out) }?;
         // SAFETY: the header contract (9 floats).
         let rot = unsafe { array_mut::<f32, 9>(rot_out) }?;
-        finite(q)?;
         fk.compute(robot, q);
         let f = fk.tool_pose();
         *out = [f.o.x, f.o.y, f.o.z];
         *rot = rot_of(&f);
-        Ok(())
+        finite(out)
     })())
 }
 
@@ -156,7 +165,7 @@ handle!(
     kc_param_set,
     KC_PARAM_SET_SIZE,
     ParamSet<KC_PARAMS_ALL>,
-    0x4b43_5053
+    0x5050_5050
 );
 
 /// Converts the `n` codes `params` (at most `KC_PARAMS_ALL`; duplicates dropped, order kept)

@@ -20,7 +20,8 @@ pub(crate) struct Slot<T> {
 pub(crate) trait Handle: Sized {
     /// The library value.
     type Inner;
-    /// The tag of an initialised handle of this type.
+    /// The tag of an initialised handle of this type: a byte repeated four times (a letter
+    /// of the type), which Thumb-2 compares in one instruction (an immediate operand).
     const MAGIC: u32;
 }
 

@@ -204,7 +204,7 @@ pub struct kc_lm {
 
 // The constructor's `Result` is what the handle holds: built straight in place, no stack copy
 // of the solver; an `Err` is never tagged initialised.
-handle!(kc_lm, KC_LM_SIZE, Result<Lm, LmError>, 0x4b43_4c4d);
+handle!(kc_lm, KC_LM_SIZE, Result<Lm, LmError>, 0x4c4c_4c4c);
 
 /// The solver of an initialised handle.
 ///

@@ -50,7 +50,7 @@ pub struct kc_robot {
     _opaque: [u8; KC_ROBOT_SIZE],
 }
 
-handle!(kc_robot, KC_ROBOT_SIZE, Robot<f32, 6>, 0x4b43_5242);
+handle!(kc_robot, KC_ROBOT_SIZE, Robot<f32, 6>, 0x5252_5252);
 
 /// The library row of a C row (finite checked by the caller).
 #[inline(always)]

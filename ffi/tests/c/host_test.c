@@ -211,10 +211,21 @@ static void test_fk(const double *fk_expected, size_t n_expected) {
     for (j = 0; j < 3; j++) CHECK(fabsf((p2[j] - p[j]) / h - jac[3 * 9 + j]) < 2e-3f);
     EXPECT(kc_fk_point(&fk, &nominal, q, p), KC_OK);
   }
-  /* Refusals leave the workspace's pose: the Jacobian is the same after them. */
-  q[4] = NAN;
-  EXPECT(kc_fk_point(&fk, &nominal, q, p), KC_NOT_FINITE);
-  EXPECT(kc_fk_pose(&fk, &nominal, q, p, rot), KC_NOT_FINITE);
+  /* A NaN or infinite reading: KC_NOT_FINITE and a non-finite point (the workspace then holds
+   * no pose: compute again). The other refusals leave the workspace's pose: the Jacobian is
+   * the same after them. */
+  {
+    float q_bad[KC_JOINTS];
+    memcpy(q_bad, q, sizeof q_bad);
+    q_bad[4] = NAN;
+    EXPECT(kc_fk_point(&fk, &nominal, q_bad, p2), KC_NOT_FINITE);
+    CHECK(isnan(p2[0]) || isnan(p2[1]) || isnan(p2[2]));
+    q_bad[4] = -INFINITY;
+    EXPECT(kc_fk_pose(&fk, &nominal, q_bad, p2, rot), KC_NOT_FINITE);
+    q_bad[4] = 1e30f; /* finite but absurd: the library clamps it, a finite point */
+    EXPECT(kc_fk_point(&fk, &nominal, q_bad, p2), KC_OK);
+    EXPECT(kc_fk_point(&fk, &nominal, q, p), KC_OK);
+  }
   EXPECT(kc_fk_point(&fk, &nominal, NULL, p), KC_NULL_POINTER);
   EXPECT(kc_fk_point(&fk, &nominal, q, NULL), KC_NULL_POINTER);
   EXPECT(kc_fk_point(NULL, &nominal, q, p), KC_NULL_POINTER);

@@ -398,7 +398,8 @@ typedef struct kc_target {
   // The point, mm.
   float xyz_mm[3];
   // Pose targets only: the tool orientation (the flange axes, as `kc_fk_pose` gives them)
-  // as a row-major rotation matrix; must be a rotation within 1e-4.
+  // as a row-major rotation matrix (not checked to be one: the command stays within the
+  // step box of the seed whatever the target). Ignored for point targets.
   float rot[9];
 } kc_target;
 
@@ -729,7 +730,7 @@ kc_status kc_compensate_config_default(struct kc_compensate_config *out);
 // `KC_OK`: the target is met. `KC_COMPENSATE_FAILED`: it is not (singular, unreachable,
 // limited: `out->status`); `*out` holds the best safe command (within the step box around the
 // seed). `KC_NOT_FINITE` / `KC_INVALID_ARGUMENT` (NaN, a bad setting, a target more than 1000
-// reaches away, an unknown target kind, a pose matrix that is not a rotation): nothing was
+// reaches away, an unknown target kind, NaN in a pose's matrix): nothing was
 // computed and `*out` is unchanged: hold the previous command.
 //
 // # Safety

@@ -28,7 +28,8 @@ pub struct kc_target {
     /// The point, mm.
     pub xyz_mm: [f32; 3],
     /// Pose targets only: the tool orientation (the flange axes, as `kc_fk_pose` gives them)
-    /// as a row-major rotation matrix; must be a rotation within 1e-4.
+    /// as a row-major rotation matrix (not checked to be one: the command stays within the
+    /// step box of the seed whatever the target). Ignored for point targets.
     pub rot: [f32; 9],
 }
 
@@ -172,23 +173,27 @@ fn solution_of(s: &Solution<f32, KC_JOINTS>, st: kc_solution_status) -> kc_solut
     }
 }
 
-/// The library target of a C one: `KC_INVALID_ARGUMENT` for an unknown kind or a pose whose
-/// matrix is not a rotation, `KC_NOT_FINITE` for NaN or infinity.
+/// The library target of a C one (`KC_INVALID_ARGUMENT` for an unknown kind). A pose's matrix
+/// is not checked to be a rotation (100 instructions a tick on the M4F; the library does not
+/// need it: the command stays in the step box whatever the target); NaN is the library's to
+/// refuse.
 #[inline(always)]
 fn target_of(t: &kc_target) -> Kc<Target<f32>> {
+    const POINT: u8 = kc_target_kind::KC_TARGET_POINT as u8;
+    const POSE: u8 = kc_target_kind::KC_TARGET_POSE as u8;
     match t.kind {
-        0 => Ok(Target::Point(Vector3::from(t.xyz_mm))),
-        1 => {
-            let f = frame_of(&t.xyz_mm, &t.rot);
-            if f.is_rotation() {
-                Ok(Target::Pose(f))
-            } else if all_finite(&t.rot) {
-                Err(KC_INVALID_ARGUMENT)
-            } else {
-                Err(KC_NOT_FINITE)
-            }
-        }
+        POINT => Ok(Target::Point(Vector3::from(t.xyz_mm))),
+        POSE => Ok(Target::Pose(frame_of(&t.xyz_mm, &t.rot))),
         _ => Err(KC_INVALID_ARGUMENT),
+    }
+}
+
+/// The matrix of a pose target (nothing for a point target: its matrix is ignored).
+fn pose_rot(t: &kc_target) -> &[f32] {
+    if t.kind == kc_target_kind::KC_TARGET_POSE as u8 {
+        &t.rot
+    } else {
+        &[]
     }
 }
 
@@ -228,7 +233,7 @@ fn finish(
 /// `KC_OK`: the target is met. `KC_COMPENSATE_FAILED`: it is not (singular, unreachable,
 /// limited: `out->status`); `*out` holds the best safe command (within the step box around the
 /// seed). `KC_NOT_FINITE` / `KC_INVALID_ARGUMENT` (NaN, a bad setting, a target more than 1000
-/// reaches away, an unknown target kind, a pose matrix that is not a rotation): nothing was
+/// reaches away, an unknown target kind, NaN in a pose's matrix): nothing was
 /// computed and `*out` is unchanged: hold the previous command.
 ///
 /// # Safety
@@ -254,7 +259,7 @@ pub unsafe extern "C" fn kc_compensate(
         let cfg = unsafe { config_or_default(cfg) }?;
         let target = target_of(t)?;
         let r = compensate(robot, &target, seed, &cfg);
-        finish(r, out, &[seed, &t.xyz_mm])
+        finish(r, out, &[seed, &t.xyz_mm, pose_rot(t)])
     })())
 }
 
@@ -332,7 +337,7 @@ pub unsafe extern "C" fn kc_tracker_next(
         let out = unsafe { obj_mut(out) }?;
         let target = target_of(tg)?;
         let r = tracker.next(robot, &target, nominal);
-        finish(r, out, &[nominal, &tg.xyz_mm])
+        finish(r, out, &[nominal, &tg.xyz_mm, pose_rot(tg)])
     })())
 }
 
@@ -376,6 +381,6 @@ pub unsafe extern "C" fn kc_tracker_follow(
         let out = unsafe { obj_mut(out) }?;
         let target = target_of(tg)?;
         let r = tracker.follow(robot, &target);
-        finish(r, out, &[&tg.xyz_mm])
+        finish(r, out, &[&tg.xyz_mm, pose_rot(tg)])
     })())
 }

@@ -513,8 +513,6 @@ static void test_compensate(void) {
   EXPECT(kc_compensate(&truth, &bad_t, qn, NULL, &s), KC_INVALID_ARGUMENT);
   bad_t = t;
   bad_t.kind = KC_TARGET_POSE;
-  bad_t.rot[0] = 2.0f;
-  EXPECT(kc_compensate(&truth, &bad_t, qn, NULL, &s), KC_INVALID_ARGUMENT);
   bad_t.rot[0] = NAN;
   EXPECT(kc_compensate(&truth, &bad_t, qn, NULL, &s), KC_NOT_FINITE);
   cfg.iterations = 0;

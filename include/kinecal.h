@@ -38,6 +38,9 @@
 // Bytes of a [`kc_fk`] (see `KC_ROBOT_SIZE`).
 #define KC_FK_SIZE 424
 
+// Bytes of a [`kc_param_set`] (see `KC_ROBOT_SIZE`).
+#define KC_PARAM_SET_SIZE 176
+
 // Room for identified parameters in a `kc_lm`: the 24 of the MDH set (`kc_params_mdh`), as
 // the Rust firmware sizes its solver (same code, same instruction counts, same RAM).
 #define KC_LM_MAX_PARAMS 24
@@ -372,6 +375,13 @@ typedef struct kc_param {
   uint8_t joint;
 } kc_param;
 
+// A parameter set converted once for [`kc_fk_jacobian_set`] (`ParamSet<KC_PARAMS_ALL>`): the
+// per-call conversion of `kc_param` codes in [`kc_fk_jacobian`] costs about a quarter of a
+// 24-column Jacobian on a Cortex-M4F. Opaque, caller-owned; [`kc_param_set_init`].
+typedef struct KC_ALIGNED(8) kc_param_set {
+  uint8_t _opaque[KC_PARAM_SET_SIZE];
+} kc_param_set;
+
 // The solver settings a firmware sets (the library's `LmConfig<f32>`).
 typedef struct kc_lm_config {
   // Stop after this many accepted or rejected steps. Default 100.
@@ -618,7 +628,8 @@ kc_status kc_fk_pose(struct kc_fk *w,
 // The identification Jacobian at the pose of the last [`kc_fk_point`] / [`kc_fk_pose`] call
 // on `w` (with the same robot `r`): column `k` (∂ point / ∂ `params[k]`, mm per mm or per rad)
 // into `out[3*k + axis]`. `n` <= `KC_PARAMS_ALL`; `out_len` >= `3*n` (else
-// `KC_BUFFER_TOO_SMALL`).
+// `KC_BUFFER_TOO_SMALL`). Converts the codes on every call: in a loop use
+// [`kc_fk_jacobian_set`].
 //
 // # Safety
 // Handles NULL or valid; `params` NULL or `n` values; `out` NULL or `out_len` floats.
@@ -628,6 +639,32 @@ kc_status kc_fk_jacobian(const struct kc_fk *w,
                          size_t n,
                          float *out,
                          size_t out_len);
+
+// Converts the `n` codes `params` (at most `KC_PARAMS_ALL`; duplicates dropped, order kept)
+// into the set `s`. Errors: `KC_INVALID_ARGUMENT` (an unknown kind or a joint beyond 5),
+// `KC_TOO_MANY_PARAMS`; on error `s` is unchanged.
+//
+// # Safety
+// `s` NULL or a writable `kc_param_set` not otherwise in use; `params` NULL or `n` values.
+kc_status kc_param_set_init(struct kc_param_set *s, const struct kc_param *params, size_t n);
+
+// The number of parameters in `s` into `*count`.
+//
+// # Safety
+// `s` NULL or valid; `count` NULL or writable.
+kc_status kc_param_set_len(const struct kc_param_set *s, size_t *count);
+
+// As [`kc_fk_jacobian`] for a converted set: column `k` of the set's parameter `k` into
+// `out[3*k + axis]`, `out_len` >= 3 × the set's length. No per-call conversion: the cost of
+// the library's Jacobian plus the checks.
+//
+// # Safety
+// Handles NULL or valid; `out` NULL or `out_len` floats.
+kc_status kc_fk_jacobian_set(const struct kc_fk *w,
+                             const struct kc_robot *r,
+                             const struct kc_param_set *set,
+                             float *out,
+                             size_t out_len);
 
 // The library's default settings (scaled to `float` precision).
 //

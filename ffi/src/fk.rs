@@ -3,8 +3,9 @@
 
 use crate::handle::{self, handle};
 use crate::robot::{kc_param, kc_robot, param_of, rot_of, KC_PARAMS_ALL};
-use crate::{array_mut, array_ref, finite, slice_mut, slice_ref, status, KC_JOINTS};
+use crate::{array_mut, array_ref, finite, slice_mut, slice_ref, status, Kc, KC_JOINTS};
 use crate::{kc_status, KC_BUFFER_TOO_SMALL, KC_INVALID_ARGUMENT, KC_TOO_MANY_PARAMS};
+use kinecal::model::param::ParamSet;
 use kinecal::{ForwardKinematics, Param};
 use nalgebra::Vector3;
 
@@ -107,7 +108,8 @@ pub unsafe extern "C" fn kc_fk_pose(
 /// The identification Jacobian at the pose of the last [`kc_fk_point`] / [`kc_fk_pose`] call
 /// on `w` (with the same robot `r`): column `k` (∂ point / ∂ `params[k]`, mm per mm or per rad)
 /// into `out[3*k + axis]`. `n` <= `KC_PARAMS_ALL`; `out_len` >= `3*n` (else
-/// `KC_BUFFER_TOO_SMALL`).
+/// `KC_BUFFER_TOO_SMALL`). Converts the codes on every call: in a loop use
+/// [`kc_fk_jacobian_set`].
 ///
 /// # Safety
 /// Handles NULL or valid; `params` NULL or `n` values; `out` NULL or `out_len` floats.
@@ -125,23 +127,123 @@ pub unsafe extern "C" fn kc_fk_jacobian(
         let fk = unsafe { handle::get(w) }?;
         // SAFETY: the header contract.
         let robot = unsafe { handle::get(r) }?;
-        // SAFETY: the header contract (`n` values).
-        let codes = unsafe { slice_ref(params, n) }?;
         if n > KC_PARAMS_ALL {
             return Err(KC_TOO_MANY_PARAMS);
         }
-        if out_len / 3 < n {
-            return Err(KC_BUFFER_TOO_SMALL);
-        }
+        // SAFETY: the header contract (`n` values).
+        let codes = unsafe { slice_ref(params, n) }?;
         let mut set = [Param::BaseX; KC_PARAMS_ALL];
         for (s, c) in set.iter_mut().zip(codes) {
             *s = param_of(*c)?;
         }
         let set = set.get(..n).ok_or(KC_TOO_MANY_PARAMS)?;
-        // SAFETY: the header contract gives `out_len` >= 3n writable floats, and a
-        // `Vector3<f32>` is three floats with the alignment of one (asserted above).
-        let cols = unsafe { slice_mut(out.cast::<Vector3<f32>>(), n) }?;
-        fk.identification_jacobian(robot, set, cols)
-            .map_err(|_| KC_INVALID_ARGUMENT)
+        jacobian(fk, robot, set, out, out_len)
     })())
+}
+
+/// Bytes of a [`kc_param_set`] (see `KC_ROBOT_SIZE`).
+pub const KC_PARAM_SET_SIZE: usize = 176;
+
+/// A parameter set converted once for [`kc_fk_jacobian_set`] (`ParamSet<KC_PARAMS_ALL>`): the
+/// per-call conversion of `kc_param` codes in [`kc_fk_jacobian`] costs about a quarter of a
+/// 24-column Jacobian on a Cortex-M4F. Opaque, caller-owned; [`kc_param_set_init`].
+#[repr(C, align(8))]
+pub struct kc_param_set {
+    _opaque: [u8; KC_PARAM_SET_SIZE],
+}
+
+handle!(
+    kc_param_set,
+    KC_PARAM_SET_SIZE,
+    ParamSet<KC_PARAMS_ALL>,
+    0x4b43_5053
+);
+
+/// Converts the `n` codes `params` (at most `KC_PARAMS_ALL`; duplicates dropped, order kept)
+/// into the set `s`. Errors: `KC_INVALID_ARGUMENT` (an unknown kind or a joint beyond 5),
+/// `KC_TOO_MANY_PARAMS`; on error `s` is unchanged.
+///
+/// # Safety
+/// `s` NULL or a writable `kc_param_set` not otherwise in use; `params` NULL or `n` values.
+#[no_mangle]
+pub unsafe extern "C" fn kc_param_set_init(
+    s: *mut kc_param_set,
+    params: *const kc_param,
+    n: usize,
+) -> kc_status {
+    status((|| {
+        if n > KC_PARAMS_ALL {
+            return Err(KC_TOO_MANY_PARAMS);
+        }
+        // SAFETY: the header contract (`n` values).
+        let codes = unsafe { slice_ref(params, n) }?;
+        let mut set = ParamSet::new();
+        for c in codes {
+            set.push(param_of(*c)?).map_err(|_| KC_TOO_MANY_PARAMS)?;
+        }
+        // SAFETY: the header contract.
+        let slot = unsafe { handle::uninit::<kc_param_set>(s) }?;
+        handle::init::<kc_param_set>(slot, set);
+        Ok(())
+    })())
+}
+
+/// The number of parameters in `s` into `*count`.
+///
+/// # Safety
+/// `s` NULL or valid; `count` NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn kc_param_set_len(s: *const kc_param_set, count: *mut usize) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let set = unsafe { handle::get(s) }?;
+        // SAFETY: the header contract.
+        *unsafe { crate::obj_mut(count) }? = set.len();
+        Ok(())
+    })())
+}
+
+/// As [`kc_fk_jacobian`] for a converted set: column `k` of the set's parameter `k` into
+/// `out[3*k + axis]`, `out_len` >= 3 × the set's length. No per-call conversion: the cost of
+/// the library's Jacobian plus the checks.
+///
+/// # Safety
+/// Handles NULL or valid; `out` NULL or `out_len` floats.
+#[no_mangle]
+pub unsafe extern "C" fn kc_fk_jacobian_set(
+    w: *const kc_fk,
+    r: *const kc_robot,
+    set: *const kc_param_set,
+    out: *mut f32,
+    out_len: usize,
+) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let fk = unsafe { handle::get(w) }?;
+        // SAFETY: the header contract.
+        let robot = unsafe { handle::get(r) }?;
+        // SAFETY: the header contract.
+        let set = unsafe { handle::get(set) }?;
+        jacobian(fk, robot, set.as_slice(), out, out_len)
+    })())
+}
+
+/// The Jacobian columns of `set` into the caller's `out_len` floats.
+#[inline(always)]
+fn jacobian(
+    fk: &ForwardKinematics<f32, KC_JOINTS>,
+    robot: &kinecal::Robot<f32, KC_JOINTS>,
+    set: &[Param],
+    out: *mut f32,
+    out_len: usize,
+) -> Kc<()> {
+    let n = set.len();
+    if out_len / 3 < n {
+        return Err(KC_BUFFER_TOO_SMALL);
+    }
+    // SAFETY: the caller's contract gives `out_len` >= 3n writable floats, and a
+    // `Vector3<f32>` is three floats with the alignment of one (asserted above).
+    let cols = unsafe { slice_mut(out.cast::<Vector3<f32>>(), n) }?;
+    fk.identification_jacobian(robot, set, cols)
+        .map_err(|_| KC_INVALID_ARGUMENT)
 }

@@ -245,3 +245,38 @@ pub(crate) unsafe fn slice_mut<'a, T>(p: *mut T, n: usize) -> Kc<&'a mut [T]> {
     // writable values of a plain-data type that nothing else references during the call.
     Ok(unsafe { core::slice::from_raw_parts_mut(p, n) })
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::handle::{Handle, Slot};
+    use core::mem::size_of;
+
+    /// The size of a handle's value rounded up to the handle alignment.
+    fn needed<H: Handle>() -> usize {
+        size_of::<Slot<H::Inner>>().div_ceil(8) * 8
+    }
+
+    /// The `KC_*_SIZE` defines are the 64-bit host's sizes (the largest of the supported
+    /// targets) with no slack: a library change that shrinks a type shows here, one that grows
+    /// it fails the build (the assertions of `handle!`).
+    #[test]
+    #[cfg(target_pointer_width = "64")]
+    fn handle_sizes_are_exact_on_the_64_bit_host() {
+        use crate::*;
+        assert_eq!(needed::<kc_robot>(), KC_ROBOT_SIZE);
+        assert_eq!(needed::<kc_fk>(), KC_FK_SIZE);
+        assert_eq!(needed::<kc_param_set>(), KC_PARAM_SET_SIZE);
+        assert_eq!(needed::<kc_lm>(), KC_LM_SIZE);
+        assert_eq!(needed::<kc_tracker>(), KC_TRACKER_SIZE);
+        assert_eq!(needed::<kc_csv>(), KC_CSV_SIZE);
+    }
+
+    #[test]
+    fn finite_check() {
+        assert!(crate::all_finite(&[0.0, -1.0, 1e30, f32::MIN_POSITIVE]));
+        assert!(!crate::all_finite(&[0.0, f32::NAN]));
+        assert!(!crate::all_finite(&[f32::INFINITY, 1.0]));
+        assert!(!crate::all_finite(&[f32::NEG_INFINITY]));
+        assert!(crate::all_finite(&[]));
+    }
+}

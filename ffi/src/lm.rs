@@ -253,14 +253,14 @@ unsafe fn lm_init(
 ) -> Kc<()> {
     // SAFETY: the header contract.
     let robot = unsafe { handle::get(start) }?;
-    // SAFETY: the header contract (`n` values).
-    let codes = unsafe { slice_ref(params, n) }?;
     if n == 0 {
         return Err(KC_INVALID_ARGUMENT);
     }
     if n > KC_LM_MAX_PARAMS {
         return Err(KC_TOO_MANY_PARAMS);
     }
+    // SAFETY: the header contract (`n` values).
+    let codes = unsafe { slice_ref(params, n) }?;
     let mut set = ParamSet::<KC_LM_MAX_PARAMS>::new();
     for c in codes {
         set.push(param_of(*c)?).map_err(|_| KC_TOO_MANY_PARAMS)?;
@@ -492,9 +492,17 @@ pub unsafe extern "C" fn kc_lm_restore(lm: *mut kc_lm, buf: *const u8, len: usiz
         // SAFETY: the header contract.
         let lm = unsafe { lm_mut(lm) }?;
         // SAFETY: the header contract (`len` bytes).
-        let mut r: &[u8] = unsafe { slice_ref(buf, len) }?;
-        lm.restore(&mut r).map_err(|_| KC_SNAPSHOT_INVALID)
+        let r: &[u8] = unsafe { slice_ref(buf, len) }?;
+        restore(lm, r).map_err(|_| KC_SNAPSHOT_INVALID)
     })())
+}
+
+/// The library's restore, out of line as the Rust firmware calls it: inlined into the
+/// wrapper's closure LLVM keeps a third copy of the solver on the stack (25 KB instead of
+/// 17 KB on the M4F).
+#[inline(never)]
+fn restore(lm: &mut Lm, mut r: &[u8]) -> Result<(), SnapshotError> {
+    lm.restore(&mut r)
 }
 
 /// Root-mean-square position error (mm, 3-D distance per pose) of `r` over the `n`

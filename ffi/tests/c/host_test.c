@@ -231,6 +231,24 @@ static void test_fk(const double *fk_expected, size_t n_expected) {
   EXPECT(kc_fk_jacobian(&fk, &nominal, mdh, 24, jac2, 3 * 24), KC_OK);
   CHECK(memcmp(jac, jac2, sizeof jac) == 0);
 
+  /* The converted set gives the same columns. */
+  {
+    static kc_param_set set, never_set;
+    size_t len = 0;
+    EXPECT(kc_param_set_init(&set, mdh, 24), KC_OK);
+    EXPECT(kc_param_set_len(&set, &len), KC_OK);
+    CHECK(len == 24);
+    memset(jac2, 0, sizeof jac2);
+    EXPECT(kc_fk_jacobian_set(&fk, &nominal, &set, jac2, 3 * 24), KC_OK);
+    CHECK(memcmp(jac, jac2, sizeof jac) == 0);
+    EXPECT(kc_fk_jacobian_set(&fk, &nominal, &set, jac2, 3 * 24 - 1), KC_BUFFER_TOO_SMALL);
+    EXPECT(kc_fk_jacobian_set(&fk, &nominal, &never_set, jac2, 3 * 24), KC_NOT_INITIALIZED);
+    EXPECT(kc_param_set_init(&set, &bad_param, 1), KC_INVALID_ARGUMENT);
+    EXPECT(kc_param_set_init(&set, mdh, KC_PARAMS_ALL + 1), KC_TOO_MANY_PARAMS);
+    EXPECT(kc_param_set_len(&set, &len), KC_OK); /* unchanged by the refusals */
+    CHECK(len == 24);
+  }
+
   {
     kc_param full[KC_PARAMS_ALL];
     size_t count = 0;

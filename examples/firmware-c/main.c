@@ -42,6 +42,8 @@ static kc_csv csv;
 static kc_fk fk;
 static kc_tracker servo_tracker, trajectory_tracker;
 static kc_param params[P];
+/* The same 24 codes converted once, for the Jacobian in loops. */
+static kc_param_set param_set;
 static kc_measurement id[ID_POSES], val[VAL_POSES];
 static size_t n_id, n_val;
 static uint8_t flash[SNAPSHOT_BYTES];
@@ -259,7 +261,7 @@ static void kinematics(void) {
 
     float p[3], cols[P][3];
     must(kc_fk_point(&fk, &nominal, id[0].q, p), "fk");
-    bool ok = kc_fk_jacobian(&fk, &nominal, params, P, &cols[0][0], 3 * P) == KC_OK;
+    bool ok = kc_fk_jacobian_set(&fk, &nominal, &param_set, &cols[0][0], 3 * P) == KC_OK;
     worst = 0.0f;
     for (int k = 0; k < P; k++) {
         static const float zero[3] = {0, 0, 0};
@@ -585,7 +587,6 @@ static void report(const char *name, float insns) {
 
 static float bench_q[N], bench_p[3], bench_cols[P][3];
 static kc_target bench_target;
-static kc_compensate_config bench_cfg;
 static kc_solution bench_sol;
 
 static void bench_fk(void *ctx) {
@@ -595,12 +596,12 @@ static void bench_fk(void *ctx) {
 
 static void bench_jacobian(void *ctx) {
     (void)ctx;
-    (void)kc_fk_jacobian(&fk, &nominal, params, P, &bench_cols[0][0], 3 * P);
+    (void)kc_fk_jacobian_set(&fk, &nominal, &param_set, &bench_cols[0][0], 3 * P);
 }
 
 static void bench_compensate(void *ctx) {
     (void)ctx;
-    (void)kc_compensate(&model, &bench_target, REF_NOMINAL_JOINTS[0], &bench_cfg, &bench_sol);
+    (void)kc_compensate(&model, &bench_target, REF_NOMINAL_JOINTS[0], 0, &bench_sol);
 }
 
 static void benches(void) {
@@ -612,8 +613,8 @@ static void benches(void) {
     /* One 6-D target from the nominal seed (a cold start), with the identified model. */
     bench_target.kind = KC_TARGET_POSE;
     must(kc_fk_pose(&fk, &nominal, REF_NOMINAL_JOINTS[0], bench_target.xyz_mm, bench_target.rot), "fk pose");
-    must(kc_compensate_config_default(&bench_cfg), "compensate config");
-    if (kc_compensate(&model, &bench_target, REF_NOMINAL_JOINTS[0], &bench_cfg, &bench_sol) == KC_OK) {
+    /* NULL settings: the library defaults, as the Rust firmware's Config::default(). */
+    if (kc_compensate(&model, &bench_target, REF_NOMINAL_JOINTS[0], 0, &bench_sol) == KC_OK) {
         p_str("compensate: cold start from the nominal seed, ");
         p_u32(bench_sol.iterations);
         p_str(" Newton steps");
@@ -637,6 +638,7 @@ int main(void) {
     must(kc_robot_copy(&coupled, &nominal), "robot copy");
     must(kc_robot_set_coupling(&coupled, 2, 1, 1.0f), "coupling");
     must(kc_params_mdh(params), "params");
+    must(kc_param_set_init(&param_set, params, P), "param set");
     must(kc_fk_init(&fk), "fk init");
     /* At boot the controller runs on the nominal model. */
     must(kc_robot_copy(&model, &nominal), "model");

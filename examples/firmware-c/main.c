@@ -282,7 +282,7 @@ static void kinematics(void) {
 
 /* The servo tick while background work runs: holds a pose, compensated every period with
    whatever model MODEL holds at that moment. */
-struct servo {
+static struct servo {
     kc_target target;
     float nominal_q[N];
     uint32_t worst, faults;

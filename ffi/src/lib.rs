@@ -33,8 +33,13 @@ extern crate std;
 #[cfg(target_os = "none")]
 #[panic_handler]
 fn panic(_: &core::panic::PanicInfo) -> ! {
+    // The wrappers have no panic paths and the library refuses bad input with errors, so this
+    // is a library bug: trap (a permanently undefined instruction raises a UsageFault, escalated
+    // to the firmware's HardFault handler), so the controller's fault handling sees it instead
+    // of a core spinning silently.
     loop {
-        core::hint::spin_loop();
+        // SAFETY: `udf` only raises the fault; it touches no memory.
+        unsafe { core::arch::asm!("udf #0") };
     }
 }
 

@@ -14,6 +14,8 @@ fn main() {
         .file(&source)
         .include(root.join("include"))
         .std("c99")
+        // The header's `kc_lm_full` (host-tests builds kinecal-ffi with its `lm-full` feature).
+        .define("KC_LM_FULL", None)
         .flag("-Wall")
         .flag("-Wextra")
         .flag("-pedantic")

@@ -43,6 +43,18 @@
 // Bytes of a `kc_lm` (see `KC_ROBOT_SIZE`).
 #define KC_LM_SIZE 8776
 
+#if defined(KC_LM_FULL)
+// Room for identified parameters in a `kc_lm_full`: every geometric parameter of a 6-joint
+// arm (`KC_PARAMS_ALL`: 6 base, 5 × 6 row, 3 tool), for a firmware that also fits the base
+// pose and the tool point (`kc_params_full`).
+#define KC_LM_FULL_MAX_PARAMS 39
+#endif
+
+#if defined(KC_LM_FULL)
+// Bytes of a `kc_lm_full` (see `KC_ROBOT_SIZE`).
+#define KC_LM_FULL_SIZE 17472
+#endif
+
 // Bytes of a `kc_tracker` (see `KC_ROBOT_SIZE`).
 #define KC_TRACKER_SIZE 96
 
@@ -342,7 +354,8 @@ typedef struct kc_lm_config {
 
 // A Levenberg–Marquardt identification (`Levenberg<f32, 6, 0, FixedLm<f32,
 // KC_LM_MAX_PARAMS>>`): a streaming stepper that does a bounded slice of work per
-// `kc_lm_step` call, snapshot and restore. Several KB: give it static storage.
+// `kc_lm_step` call, snapshot and restore. Several KB: give it static storage. Room for
+// `KC_LM_MAX_PARAMS` parameters (the MDH set); `kc_lm_full` takes the base and the tool too.
 typedef struct KC_ALIGNED(8) kc_lm {
   uint8_t _opaque[KC_LM_SIZE];
 } kc_lm;
@@ -370,6 +383,17 @@ typedef struct kc_lm_progress {
   // 1 when the run stopped at a fixed point (`KC_LM_CONVERGED` or `KC_LM_SMALL_STEP`).
   uint8_t converged;
 } kc_lm_progress;
+
+#if defined(KC_LM_FULL)
+// As `kc_lm` with room for `KC_LM_FULL_MAX_PARAMS` parameters (twice the memory; the
+// `kc_lm_full_*` functions are those of `kc_lm`). Only in a static library built with the
+// cargo feature `lm-full` (and C code compiled with `-DKC_LM_FULL`): a second solver in the
+// library changes how LLVM inlines the shared solver code, and on the M4F a plain `kc_lm`
+// then spends ~12 % more instructions per pose (7,967 against 7,097).
+typedef struct KC_ALIGNED(8) kc_lm_full {
+  uint8_t _opaque[KC_LM_FULL_SIZE];
+} kc_lm_full;
+#endif
 
 // Tuning of the Newton iteration and of its safety checks (the library's `Config<f32>`).
 typedef struct kc_compensate_config {
@@ -705,6 +729,81 @@ kc_status kc_lm_save(const struct kc_lm *lm, uint8_t *buf, size_t cap, size_t *w
 // # Safety
 // `lm` NULL or valid and not otherwise in use; `buf` NULL or `len` readable bytes.
 kc_status kc_lm_restore(struct kc_lm *lm, const uint8_t *buf, size_t len);
+
+#if defined(KC_LM_FULL)
+// `kc_lm_init` for a `kc_lm_full`.
+//
+// # Safety
+// As `kc_lm_init`.
+kc_status kc_lm_full_init(struct kc_lm_full *lm,
+                          const struct kc_robot *start,
+                          const struct kc_param *params,
+                          size_t n,
+                          const struct kc_lm_config *cfg);
+#endif
+
+#if defined(KC_LM_FULL)
+// `kc_lm_step` for a `kc_lm_full`.
+//
+// # Safety
+// As `kc_lm_step`.
+kc_status kc_lm_full_step(struct kc_lm_full *lm,
+                          const struct kc_measurement *data,
+                          size_t n,
+                          size_t budget_poses,
+                          struct kc_lm_progress *out);
+#endif
+
+#if defined(KC_LM_FULL)
+// `kc_lm_get_progress` for a `kc_lm_full`.
+//
+// # Safety
+// As `kc_lm_get_progress`.
+kc_status kc_lm_full_get_progress(const struct kc_lm_full *lm, struct kc_lm_progress *out);
+#endif
+
+#if defined(KC_LM_FULL)
+// `kc_lm_robot` for a `kc_lm_full`.
+//
+// # Safety
+// As `kc_lm_robot`.
+kc_status kc_lm_full_robot(const struct kc_lm_full *lm, struct kc_robot *out);
+#endif
+
+#if defined(KC_LM_FULL)
+// `kc_lm_unidentifiable` for a `kc_lm_full`.
+//
+// # Safety
+// As `kc_lm_unidentifiable`.
+kc_status kc_lm_full_unidentifiable(const struct kc_lm_full *lm,
+                                    struct kc_param *out,
+                                    size_t cap,
+                                    size_t *count);
+#endif
+
+#if defined(KC_LM_FULL)
+// `kc_lm_snapshot_size` for a `kc_lm_full`.
+//
+// # Safety
+// As `kc_lm_snapshot_size`.
+kc_status kc_lm_full_snapshot_size(const struct kc_lm_full *lm, size_t *size);
+#endif
+
+#if defined(KC_LM_FULL)
+// `kc_lm_save` for a `kc_lm_full`.
+//
+// # Safety
+// As `kc_lm_save`.
+kc_status kc_lm_full_save(const struct kc_lm_full *lm, uint8_t *buf, size_t cap, size_t *written);
+#endif
+
+#if defined(KC_LM_FULL)
+// `kc_lm_restore` for a `kc_lm_full`.
+//
+// # Safety
+// As `kc_lm_restore`.
+kc_status kc_lm_full_restore(struct kc_lm_full *lm, const uint8_t *buf, size_t len);
+#endif
 
 // Root-mean-square position error (mm, 3-D distance per pose) of `r` over the `n`
 // measurements `data` into `*rms_mm`. Errors: `KC_TOO_FEW_MEASUREMENTS` (`n` = 0),

@@ -4,7 +4,7 @@
 //! library units (millimetres, radians). The header is `include/kinecal.h`, generated from
 //! this crate by cbindgen (`ffi/cbindgen.toml`; the test `c_header` fails when it is stale).
 //!
-//! - No allocation: every handle (`kc_robot`, `kc_fk`, `kc_lm`, `kc_tracker`, `kc_csv`) lives
+//! - No allocation: every handle (`kc_robot`, `kc_fk`, `kc_lm`, `kc_lm_full`, `kc_tracker`, `kc_csv`) lives
 //!   in memory the caller owns, declared in C as an opaque byte array aligned to 8 bytes whose
 //!   size is a `#define`; a compile-time assertion below checks that the real Rust value fits,
 //!   on the 64-bit host and on the 32-bit thumb target alike. `*_init` constructs in place.
@@ -277,6 +277,8 @@ mod tests {
         assert_eq!(needed::<kc_fk>(), KC_FK_SIZE);
         assert_eq!(needed::<kc_param_set>(), KC_PARAM_SET_SIZE);
         assert_eq!(needed::<kc_lm>(), KC_LM_SIZE);
+        #[cfg(feature = "lm-full")]
+        assert_eq!(needed::<kc_lm_full>(), KC_LM_FULL_SIZE);
         assert_eq!(needed::<kc_tracker>(), KC_TRACKER_SIZE);
         assert_eq!(needed::<kc_csv>(), KC_CSV_SIZE);
     }

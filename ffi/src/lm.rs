@@ -188,30 +188,68 @@ fn progress_of(p: &LmProgress<f32>) -> kc_lm_progress {
     }
 }
 
-/// The solver of a `kc_lm`.
-type Lm = Levenberg<f32, KC_JOINTS, 0, FixedLm<f32, KC_LM_MAX_PARAMS>>;
+/// The solver of a handle with room for `P` parameters.
+type Lm<const P: usize> = Levenberg<f32, KC_JOINTS, 0, FixedLm<f32, P>>;
+
+/// A solver handle: its constructor's `Result` is what it holds.
+trait Solver<const P: usize>: handle::Handle<Inner = Result<Lm<P>, LmError>> {}
+impl<const P: usize, H: handle::Handle<Inner = Result<Lm<P>, LmError>>> Solver<P> for H {}
 
 /// Bytes of a [`kc_lm`] (see `KC_ROBOT_SIZE`).
 pub const KC_LM_SIZE: usize = 8776;
 
 /// A Levenberg–Marquardt identification (`Levenberg<f32, 6, 0, FixedLm<f32,
 /// KC_LM_MAX_PARAMS>>`): a streaming stepper that does a bounded slice of work per
-/// [`kc_lm_step`] call, snapshot and restore. Several KB: give it static storage.
+/// [`kc_lm_step`] call, snapshot and restore. Several KB: give it static storage. Room for
+/// `KC_LM_MAX_PARAMS` parameters (the MDH set); [`kc_lm_full`] takes the base and the tool too.
 #[repr(C, align(8))]
 pub struct kc_lm {
     _opaque: [u8; KC_LM_SIZE],
 }
 
-// The constructor's `Result` is what the handle holds: built straight in place, no stack copy
-// of the solver; an `Err` is never tagged initialised.
-handle!(kc_lm, KC_LM_SIZE, Result<Lm, LmError>, 0x4c4c_4c4c);
+// Built straight in place, no stack copy of the solver; an `Err` is never tagged initialised.
+handle!(
+    kc_lm,
+    KC_LM_SIZE,
+    Result<Lm<KC_LM_MAX_PARAMS>, LmError>,
+    0x4c4c_4c4c
+);
+
+/// Room for identified parameters in a `kc_lm_full`: every geometric parameter of a 6-joint
+/// arm (`KC_PARAMS_ALL`: 6 base, 5 × 6 row, 3 tool), for a firmware that also fits the base
+/// pose and the tool point (`kc_params_full`).
+#[cfg(feature = "lm-full")]
+pub const KC_LM_FULL_MAX_PARAMS: usize = 39;
+
+/// Bytes of a [`kc_lm_full`] (see `KC_ROBOT_SIZE`).
+#[cfg(feature = "lm-full")]
+pub const KC_LM_FULL_SIZE: usize = 17472;
+
+/// As [`kc_lm`] with room for `KC_LM_FULL_MAX_PARAMS` parameters (twice the memory; the
+/// `kc_lm_full_*` functions are those of `kc_lm`). Only in a static library built with the
+/// cargo feature `lm-full` (and C code compiled with `-DKC_LM_FULL`): a second solver in the
+/// library changes how LLVM inlines the shared solver code, and on the M4F a plain `kc_lm`
+/// then spends ~12 % more instructions per pose (7,967 against 7,097).
+#[cfg(feature = "lm-full")]
+#[repr(C, align(8))]
+pub struct kc_lm_full {
+    _opaque: [u8; KC_LM_FULL_SIZE],
+}
+
+#[cfg(feature = "lm-full")]
+handle!(
+    kc_lm_full,
+    KC_LM_FULL_SIZE,
+    Result<Lm<KC_LM_FULL_MAX_PARAMS>, LmError>,
+    0x4c4d_4c46
+);
 
 /// The solver of an initialised handle.
 ///
 /// # Safety
 /// As `handle::get`.
 #[inline(always)]
-unsafe fn lm_ref<'a>(lm: *const kc_lm) -> Kc<&'a Lm> {
+unsafe fn lm_ref<'a, H: Solver<P>, const P: usize>(lm: *const H) -> Kc<&'a Lm<P>> {
     // SAFETY: forwarded contract.
     match unsafe { handle::get(lm) }? {
         Ok(s) => Ok(s),
@@ -222,7 +260,7 @@ unsafe fn lm_ref<'a>(lm: *const kc_lm) -> Kc<&'a Lm> {
 /// # Safety
 /// As `handle::get_mut`.
 #[inline(always)]
-unsafe fn lm_mut<'a>(lm: *mut kc_lm) -> Kc<&'a mut Lm> {
+unsafe fn lm_mut<'a, H: Solver<P>, const P: usize>(lm: *mut H) -> Kc<&'a mut Lm<P>> {
     // SAFETY: forwarded contract.
     match unsafe { handle::get_mut(lm) }? {
         Ok(s) => Ok(s),
@@ -244,8 +282,10 @@ fn lm_error(e: LmError) -> kc_status {
     }
 }
 
-unsafe fn lm_init(
-    lm: *mut kc_lm,
+/// # Safety
+/// As [`kc_lm_init`].
+unsafe fn lm_init<H: Solver<P>, const P: usize>(
+    lm: *mut H,
     start: *const kc_robot,
     params: *const kc_param,
     n: usize,
@@ -256,12 +296,12 @@ unsafe fn lm_init(
     if n == 0 {
         return Err(KC_INVALID_ARGUMENT);
     }
-    if n > KC_LM_MAX_PARAMS {
+    if n > P {
         return Err(KC_TOO_MANY_PARAMS);
     }
     // SAFETY: the header contract (`n` values).
     let codes = unsafe { slice_ref(params, n) }?;
-    let mut set = ParamSet::<KC_LM_MAX_PARAMS>::new();
+    let mut set = ParamSet::<P>::new();
     for c in codes {
         set.push(param_of(*c)?).map_err(|_| KC_TOO_MANY_PARAMS)?;
     }
@@ -273,14 +313,180 @@ unsafe fn lm_init(
         lm_config_of(unsafe { obj_ref(cfg) }?)?
     };
     // SAFETY: the header contract; `lm` is not the robot handle (distinct C types).
-    let slot = unsafe { handle::uninit::<kc_lm>(lm) }?;
-    let made = handle::init::<kc_lm>(slot, Levenberg::new(robot.clone(), FixedLm::new(set), cfg));
+    let slot = unsafe { handle::uninit::<H>(lm) }?;
+    let made = handle::init::<H>(slot, Levenberg::new(robot.clone(), FixedLm::new(set), cfg));
     if let Err(e) = made {
         let e = *e;
-        handle::forget::<kc_lm>(slot);
+        handle::forget::<H>(slot);
         return Err(lm_error(e));
     }
     Ok(())
+}
+
+/// # Safety
+/// As [`kc_lm_step`].
+#[inline(always)]
+unsafe fn lm_step<H: Solver<P>, const P: usize>(
+    lm: *mut H,
+    data: *const kc_measurement,
+    n: usize,
+    budget_poses: usize,
+    out: *mut kc_lm_progress,
+) -> Kc<()> {
+    // SAFETY: the header contract.
+    let lm = unsafe { lm_mut(lm) }?;
+    // SAFETY: the header contract.
+    let data = unsafe { measurements(data, n) }?;
+    // SAFETY: the header contract.
+    let out = unsafe { obj_mut(out) }?;
+    let p = step(lm, data, budget_poses).map_err(lm_error)?;
+    *out = progress_of(&p);
+    Ok(())
+}
+
+/// The stepper's call, kept out of line: inlined into [`kc_lm_step`] under the firmware's
+/// inlining limits, LLVM compiled the identifiability analysis of the first solve ~5 % slower
+/// (the C firmware's first idle slice went over its two-period limit, 202,760 instructions
+/// against 192,160 in the Rust firmware; 197,400 out of line).
+#[inline(never)]
+fn step<const P: usize>(
+    lm: &mut Lm<P>,
+    data: &[Measurement<f32, KC_JOINTS>],
+    budget: usize,
+) -> Result<LmProgress<f32>, LmError> {
+    lm.step(data, budget)
+}
+
+/// # Safety
+/// As [`kc_lm_get_progress`].
+unsafe fn lm_progress<H: Solver<P>, const P: usize>(
+    lm: *const H,
+    out: *mut kc_lm_progress,
+) -> Kc<()> {
+    // SAFETY: the header contract.
+    let lm = unsafe { lm_ref(lm) }?;
+    // SAFETY: the header contract.
+    *unsafe { obj_mut(out) }? = progress_of(&lm.progress());
+    Ok(())
+}
+
+/// # Safety
+/// As [`kc_lm_robot`].
+unsafe fn lm_robot<H: Solver<P>, const P: usize>(lm: *const H, out: *mut kc_robot) -> Kc<()> {
+    // SAFETY: the header contract.
+    let lm = unsafe { lm_ref(lm) }?;
+    // SAFETY: the header contract; `out` is a robot handle, not the solver.
+    let slot = unsafe { handle::uninit::<kc_robot>(out) }?;
+    handle::init::<kc_robot>(slot, lm.robot().clone());
+    Ok(())
+}
+
+/// # Safety
+/// As [`kc_lm_unidentifiable`].
+unsafe fn lm_unidentifiable<H: Solver<P>, const P: usize>(
+    lm: *const H,
+    out: *mut kc_param,
+    cap: usize,
+    count: *mut usize,
+) -> Kc<()> {
+    // SAFETY: the header contract.
+    let lm = unsafe { lm_ref(lm) }?;
+    // SAFETY: the header contract.
+    let count = unsafe { obj_mut(count) }?;
+    // SAFETY: the header contract (`cap` values).
+    let out = unsafe { slice_mut(out, cap) }?;
+    let n = lm.unidentifiable().count();
+    *count = n;
+    if cap < n {
+        return Err(KC_BUFFER_TOO_SMALL);
+    }
+    for (o, p) in out.iter_mut().zip(lm.unidentifiable()) {
+        *o = code_of(p);
+    }
+    Ok(())
+}
+
+/// An `embedded_io` writer that only counts (the size of a snapshot).
+struct Count(usize);
+
+impl embedded_io::ErrorType for Count {
+    type Error = core::convert::Infallible;
+}
+
+impl embedded_io::Write for Count {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
+        self.0 = self.0.saturating_add(buf.len());
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> Result<(), Self::Error> {
+        Ok(())
+    }
+}
+
+fn snapshot_size<const P: usize>(lm: &Lm<P>) -> Kc<usize> {
+    let mut c = Count(0);
+    lm.save(&mut c).map_err(|_| KC_SNAPSHOT_INVALID)?;
+    Ok(c.0)
+}
+
+/// # Safety
+/// As [`kc_lm_snapshot_size`].
+unsafe fn lm_snapshot_size<H: Solver<P>, const P: usize>(lm: *const H, size: *mut usize) -> Kc<()> {
+    // SAFETY: the header contract.
+    let lm = unsafe { lm_ref(lm) }?;
+    // SAFETY: the header contract.
+    let size = unsafe { obj_mut(size) }?;
+    *size = snapshot_size(lm)?;
+    Ok(())
+}
+
+/// # Safety
+/// As [`kc_lm_save`].
+unsafe fn lm_save<H: Solver<P>, const P: usize>(
+    lm: *const H,
+    buf: *mut u8,
+    cap: usize,
+    written: *mut usize,
+) -> Kc<()> {
+    // SAFETY: the header contract.
+    let lm = unsafe { lm_ref(lm) }?;
+    // SAFETY: the header contract.
+    let written = unsafe { obj_mut(written) }?;
+    // SAFETY: the header contract (`cap` bytes).
+    let mut w: &mut [u8] = unsafe { slice_mut(buf, cap) }?;
+    match lm.save(&mut w) {
+        Ok(()) => {
+            *written = cap - w.len();
+            Ok(())
+        }
+        Err(SnapshotError::Io) => {
+            *written = snapshot_size(lm)?;
+            Err(KC_BUFFER_TOO_SMALL)
+        }
+        Err(_) => Err(KC_SNAPSHOT_INVALID),
+    }
+}
+
+/// # Safety
+/// As [`kc_lm_restore`].
+unsafe fn lm_restore<H: Solver<P>, const P: usize>(
+    lm: *mut H,
+    buf: *const u8,
+    len: usize,
+) -> Kc<()> {
+    // SAFETY: the header contract.
+    let lm = unsafe { lm_mut(lm) }?;
+    // SAFETY: the header contract (`len` bytes).
+    let r: &[u8] = unsafe { slice_ref(buf, len) }?;
+    restore(lm, r).map_err(|_| KC_SNAPSHOT_INVALID)
+}
+
+/// The library's restore, out of line as the Rust firmware calls it: inlined into the
+/// wrapper's closure LLVM keeps a third copy of the solver on the stack (25 KB instead of
+/// 17 KB on the M4F).
+#[inline(never)]
+fn restore<const P: usize>(lm: &mut Lm<P>, mut r: &[u8]) -> Result<(), SnapshotError> {
+    lm.restore(&mut r)
 }
 
 /// Starts an identification in `lm` from the model `start` (copied), estimating the `n`
@@ -326,30 +532,8 @@ pub unsafe extern "C" fn kc_lm_step(
     budget_poses: usize,
     out: *mut kc_lm_progress,
 ) -> kc_status {
-    status((|| {
-        // SAFETY: the header contract.
-        let lm = unsafe { lm_mut(lm) }?;
-        // SAFETY: the header contract.
-        let data = unsafe { measurements(data, n) }?;
-        // SAFETY: the header contract.
-        let out = unsafe { obj_mut(out) }?;
-        let p = step(lm, data, budget_poses).map_err(lm_error)?;
-        *out = progress_of(&p);
-        Ok(())
-    })())
-}
-
-/// The stepper's call, kept out of line: inlined into [`kc_lm_step`] under the firmware's
-/// inlining limits, LLVM compiled the identifiability analysis of the first solve ~5 % slower
-/// (the C firmware's first idle slice went over its two-period limit, 202,760 instructions
-/// against 192,160 in the Rust firmware; 197,400 out of line).
-#[inline(never)]
-fn step(
-    lm: &mut Lm,
-    data: &[Measurement<f32, KC_JOINTS>],
-    budget: usize,
-) -> Result<LmProgress<f32>, LmError> {
-    lm.step(data, budget)
+    // SAFETY: forwarded contract.
+    status(unsafe { lm_step(lm, data, n, budget_poses, out) })
 }
 
 /// Where the run stands (as the last [`kc_lm_step`] reported it).
@@ -361,13 +545,8 @@ pub unsafe extern "C" fn kc_lm_get_progress(
     lm: *const kc_lm,
     out: *mut kc_lm_progress,
 ) -> kc_status {
-    status((|| {
-        // SAFETY: the header contract.
-        let lm = unsafe { lm_ref(lm) }?;
-        // SAFETY: the header contract.
-        *unsafe { obj_mut(out) }? = progress_of(&lm.progress());
-        Ok(())
-    })())
+    // SAFETY: forwarded contract.
+    status(unsafe { lm_progress(lm, out) })
 }
 
 /// Copies the current estimate into the robot handle `out` (initialised or not).
@@ -376,14 +555,8 @@ pub unsafe extern "C" fn kc_lm_get_progress(
 /// `lm` NULL or valid; `out` NULL or a writable `kc_robot` not otherwise in use.
 #[no_mangle]
 pub unsafe extern "C" fn kc_lm_robot(lm: *const kc_lm, out: *mut kc_robot) -> kc_status {
-    status((|| {
-        // SAFETY: the header contract.
-        let lm = unsafe { lm_ref(lm) }?;
-        // SAFETY: the header contract; `out` is a robot handle, not the solver.
-        let slot = unsafe { handle::uninit::<kc_robot>(out) }?;
-        handle::init::<kc_robot>(slot, lm.robot().clone());
-        Ok(())
-    })())
+    // SAFETY: forwarded contract.
+    status(unsafe { lm_robot(lm, out) })
 }
 
 /// The parameters found unidentifiable (held at their start values) into `out[cap]`, their
@@ -399,46 +572,8 @@ pub unsafe extern "C" fn kc_lm_unidentifiable(
     cap: usize,
     count: *mut usize,
 ) -> kc_status {
-    status((|| {
-        // SAFETY: the header contract.
-        let lm = unsafe { lm_ref(lm) }?;
-        // SAFETY: the header contract.
-        let count = unsafe { obj_mut(count) }?;
-        // SAFETY: the header contract (`cap` values).
-        let out = unsafe { slice_mut(out, cap) }?;
-        let n = lm.unidentifiable().count();
-        *count = n;
-        if cap < n {
-            return Err(KC_BUFFER_TOO_SMALL);
-        }
-        for (o, p) in out.iter_mut().zip(lm.unidentifiable()) {
-            *o = code_of(p);
-        }
-        Ok(())
-    })())
-}
-
-/// An `embedded_io` writer that only counts (the size of a snapshot).
-struct Count(usize);
-
-impl embedded_io::ErrorType for Count {
-    type Error = core::convert::Infallible;
-}
-
-impl embedded_io::Write for Count {
-    fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
-        self.0 = self.0.saturating_add(buf.len());
-        Ok(buf.len())
-    }
-    fn flush(&mut self) -> Result<(), Self::Error> {
-        Ok(())
-    }
-}
-
-fn snapshot_size(lm: &Lm) -> Kc<usize> {
-    let mut c = Count(0);
-    lm.save(&mut c).map_err(|_| KC_SNAPSHOT_INVALID)?;
-    Ok(c.0)
+    // SAFETY: forwarded contract.
+    status(unsafe { lm_unidentifiable(lm, out, cap, count) })
 }
 
 /// The size in bytes of a snapshot of `lm` now (it depends on the parameter count only).
@@ -447,14 +582,8 @@ fn snapshot_size(lm: &Lm) -> Kc<usize> {
 /// `lm` NULL or valid; `size` NULL or writable.
 #[no_mangle]
 pub unsafe extern "C" fn kc_lm_snapshot_size(lm: *const kc_lm, size: *mut usize) -> kc_status {
-    status((|| {
-        // SAFETY: the header contract.
-        let lm = unsafe { lm_ref(lm) }?;
-        // SAFETY: the header contract.
-        let size = unsafe { obj_mut(size) }?;
-        *size = snapshot_size(lm)?;
-        Ok(())
-    })())
+    // SAFETY: forwarded contract.
+    status(unsafe { lm_snapshot_size(lm, size) })
 }
 
 /// Writes a snapshot of the solver's complete state into `buf[cap]` (as to a flash page) and
@@ -470,25 +599,8 @@ pub unsafe extern "C" fn kc_lm_save(
     cap: usize,
     written: *mut usize,
 ) -> kc_status {
-    status((|| {
-        // SAFETY: the header contract.
-        let lm = unsafe { lm_ref(lm) }?;
-        // SAFETY: the header contract.
-        let written = unsafe { obj_mut(written) }?;
-        // SAFETY: the header contract (`cap` bytes).
-        let mut w: &mut [u8] = unsafe { slice_mut(buf, cap) }?;
-        match lm.save(&mut w) {
-            Ok(()) => {
-                *written = cap - w.len();
-                Ok(())
-            }
-            Err(SnapshotError::Io) => {
-                *written = snapshot_size(lm)?;
-                Err(KC_BUFFER_TOO_SMALL)
-            }
-            Err(_) => Err(KC_SNAPSHOT_INVALID),
-        }
-    })())
+    // SAFETY: forwarded contract.
+    status(unsafe { lm_save(lm, buf, cap, written) })
 }
 
 /// Replaces the solver's state with the snapshot in `buf[len]` (bytes after the snapshot are
@@ -501,21 +613,128 @@ pub unsafe extern "C" fn kc_lm_save(
 /// `lm` NULL or valid and not otherwise in use; `buf` NULL or `len` readable bytes.
 #[no_mangle]
 pub unsafe extern "C" fn kc_lm_restore(lm: *mut kc_lm, buf: *const u8, len: usize) -> kc_status {
-    status((|| {
-        // SAFETY: the header contract.
-        let lm = unsafe { lm_mut(lm) }?;
-        // SAFETY: the header contract (`len` bytes).
-        let r: &[u8] = unsafe { slice_ref(buf, len) }?;
-        restore(lm, r).map_err(|_| KC_SNAPSHOT_INVALID)
-    })())
+    // SAFETY: forwarded contract.
+    status(unsafe { lm_restore(lm, buf, len) })
 }
 
-/// The library's restore, out of line as the Rust firmware calls it: inlined into the
-/// wrapper's closure LLVM keeps a third copy of the solver on the stack (25 KB instead of
-/// 17 KB on the M4F).
-#[inline(never)]
-fn restore(lm: &mut Lm, mut r: &[u8]) -> Result<(), SnapshotError> {
-    lm.restore(&mut r)
+/// [`kc_lm_init`] for a [`kc_lm_full`].
+///
+/// # Safety
+/// As [`kc_lm_init`].
+#[cfg(feature = "lm-full")]
+#[no_mangle]
+pub unsafe extern "C" fn kc_lm_full_init(
+    lm: *mut kc_lm_full,
+    start: *const kc_robot,
+    params: *const kc_param,
+    n: usize,
+    cfg: *const kc_lm_config,
+) -> kc_status {
+    // SAFETY: forwarded contract.
+    status(unsafe { lm_init(lm, start, params, n, cfg) })
+}
+
+/// [`kc_lm_step`] for a [`kc_lm_full`].
+///
+/// # Safety
+/// As [`kc_lm_step`].
+#[cfg(feature = "lm-full")]
+#[no_mangle]
+pub unsafe extern "C" fn kc_lm_full_step(
+    lm: *mut kc_lm_full,
+    data: *const kc_measurement,
+    n: usize,
+    budget_poses: usize,
+    out: *mut kc_lm_progress,
+) -> kc_status {
+    // SAFETY: forwarded contract.
+    status(unsafe { lm_step(lm, data, n, budget_poses, out) })
+}
+
+/// [`kc_lm_get_progress`] for a [`kc_lm_full`].
+///
+/// # Safety
+/// As [`kc_lm_get_progress`].
+#[cfg(feature = "lm-full")]
+#[no_mangle]
+pub unsafe extern "C" fn kc_lm_full_get_progress(
+    lm: *const kc_lm_full,
+    out: *mut kc_lm_progress,
+) -> kc_status {
+    // SAFETY: forwarded contract.
+    status(unsafe { lm_progress(lm, out) })
+}
+
+/// [`kc_lm_robot`] for a [`kc_lm_full`].
+///
+/// # Safety
+/// As [`kc_lm_robot`].
+#[cfg(feature = "lm-full")]
+#[no_mangle]
+pub unsafe extern "C" fn kc_lm_full_robot(lm: *const kc_lm_full, out: *mut kc_robot) -> kc_status {
+    // SAFETY: forwarded contract.
+    status(unsafe { lm_robot(lm, out) })
+}
+
+/// [`kc_lm_unidentifiable`] for a [`kc_lm_full`].
+///
+/// # Safety
+/// As [`kc_lm_unidentifiable`].
+#[cfg(feature = "lm-full")]
+#[no_mangle]
+pub unsafe extern "C" fn kc_lm_full_unidentifiable(
+    lm: *const kc_lm_full,
+    out: *mut kc_param,
+    cap: usize,
+    count: *mut usize,
+) -> kc_status {
+    // SAFETY: forwarded contract.
+    status(unsafe { lm_unidentifiable(lm, out, cap, count) })
+}
+
+/// [`kc_lm_snapshot_size`] for a [`kc_lm_full`].
+///
+/// # Safety
+/// As [`kc_lm_snapshot_size`].
+#[cfg(feature = "lm-full")]
+#[no_mangle]
+pub unsafe extern "C" fn kc_lm_full_snapshot_size(
+    lm: *const kc_lm_full,
+    size: *mut usize,
+) -> kc_status {
+    // SAFETY: forwarded contract.
+    status(unsafe { lm_snapshot_size(lm, size) })
+}
+
+/// [`kc_lm_save`] for a [`kc_lm_full`].
+///
+/// # Safety
+/// As [`kc_lm_save`].
+#[cfg(feature = "lm-full")]
+#[no_mangle]
+pub unsafe extern "C" fn kc_lm_full_save(
+    lm: *const kc_lm_full,
+    buf: *mut u8,
+    cap: usize,
+    written: *mut usize,
+) -> kc_status {
+    // SAFETY: forwarded contract.
+    status(unsafe { lm_save(lm, buf, cap, written) })
+}
+
+/// [`kc_lm_restore`] for a [`kc_lm_full`].
+///
+/// # Safety
+/// As [`kc_lm_restore`].
+#[cfg(feature = "lm-full")]
+#[no_mangle]
+pub unsafe extern "C" fn kc_lm_full_restore(
+    lm: *mut kc_lm_full,
+    buf: *const u8,
+    len: usize,
+) -> kc_status {
+    // SAFETY: forwarded contract.
+    status(unsafe { lm_restore(lm, buf, len) })
 }
 
 /// Root-mean-square position error (mm, 3-D distance per pose) of `r` over the `n`

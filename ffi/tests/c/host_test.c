@@ -315,7 +315,7 @@ static int run_lm(kc_lm *l, kc_lm_progress *end, uint8_t *snap, size_t *snap_len
 }
 
 static void test_lm(void) {
-  kc_param mdh[24], unid[24], too_many[25];
+  kc_param mdh[24], unid[24], too_many[KC_LM_MAX_PARAMS + 1];
   kc_lm_progress end, end2, p;
   kc_lm_config cfg;
   kc_joint_row got[KC_JOINTS], want[KC_JOINTS], got2[KC_JOINTS];
@@ -443,9 +443,8 @@ static void test_lm(void) {
 
   /* Init refusals (checked before the handle is written: lm2 keeps its finished run). */
   memset(too_many, 0, sizeof too_many);
-  for (i = 0; i < 24; i++) too_many[i] = mdh[i];
-  too_many[24].kind = KC_PARAM_TOOL_X;
-  EXPECT(kc_lm_init(&lm2, &nominal, too_many, 25, NULL), KC_TOO_MANY_PARAMS);
+  for (i = 0; i < KC_LM_MAX_PARAMS + 1; i++) too_many[i] = mdh[i % 24];
+  EXPECT(kc_lm_init(&lm2, &nominal, too_many, KC_LM_MAX_PARAMS + 1, NULL), KC_TOO_MANY_PARAMS);
   EXPECT(kc_lm_init(&lm2, &nominal, mdh, 0, NULL), KC_INVALID_ARGUMENT);
   too_many[3].kind = 77;
   EXPECT(kc_lm_init(&lm2, &nominal, too_many, 24, NULL), KC_INVALID_ARGUMENT);
@@ -459,6 +458,102 @@ static void test_lm(void) {
   EXPECT(kc_lm_init(&lm2, NULL, mdh, 24, NULL), KC_NULL_POINTER);
   EXPECT(kc_lm_get_progress(&lm2, &p), KC_OK);
   CHECK(memcmp(&p, &end, sizeof p) == 0);
+}
+
+/* The firmware's usual case: the data are in the tracker's frame, whose pose (and the tool
+ * point) is known only roughly. LM over the full set (base, rows, tool: 33 parameters) from the
+ * rough values recovers the base and the tool where they are identifiable, and predicts
+ * held-out poses. */
+static void test_lm_full(void) {
+  static kc_robot start, true_cell, fitted;
+  static kc_lm_full full_lm;
+  static kc_lm mdh_lm;
+  static kc_measurement id[N_ID], val[N_VAL];
+  kc_joint_row rows[KC_JOINTS];
+  kc_param full[KC_PARAMS_ALL];
+  const kc_frame base_true = {{1500.0f, -300.0f, 200.0f}, {0.004f, -0.003f, 0.7f}};
+  const kc_frame base_guess = {{1497.0f, -298.0f, 203.5f}, {0.0f, 0.0f, 0.69f}};
+  const float tool_guess[3] = {41.0f, 29.2f, 121.0f};
+  float base_got[3], rot_got[9], rot_true[9], tool_got[3], rms = 0, worst = 0, pm[3];
+  float xyz_true[3];
+  kc_lm_progress end, end24;
+  size_t count = 0, i;
+
+  EXPECT(kc_robot_rows(&truth, rows, NULL, NULL), KC_OK);
+  EXPECT(kc_robot_init(&true_cell, rows, &base_true, TOOL), KC_OK);
+  for (i = 0; i < N_ID; i++) {
+    random_q(id[i].q);
+    EXPECT(kc_fk_point(&fk, &true_cell, id[i].q, id[i].xyz_mm), KC_OK);
+  }
+  for (i = 0; i < N_VAL; i++) {
+    random_q(val[i].q);
+    EXPECT(kc_fk_point(&fk, &true_cell, val[i].q, val[i].xyz_mm), KC_OK);
+  }
+  rows_of(ROWS, rows);
+  EXPECT(kc_robot_init(&start, rows, &base_guess, tool_guess), KC_OK);
+  EXPECT(kc_params_full(1, full, KC_PARAMS_ALL, &count), KC_OK);
+  CHECK(count == 33 && count > KC_LM_MAX_PARAMS && count <= KC_LM_FULL_MAX_PARAMS);
+  EXPECT(kc_lm_init(&mdh_lm, &start, full, count, NULL), KC_TOO_MANY_PARAMS);
+  EXPECT(kc_lm_full_init(&full_lm, &start, full, count, NULL), KC_OK);
+  for (i = 0; i < 100000; i++) {
+    EXPECT(kc_lm_full_step(&full_lm, id, N_ID, 5, &end), KC_OK);
+    if (end.stopped != KC_LM_RUNNING) break;
+  }
+  CHECK(end.converged == 1);
+  {
+    /* Its snapshot restores into a fresh kc_lm_full, not into a kc_lm. */
+    static kc_lm_full again;
+    static uint8_t snap[16384];
+    size_t len = 0;
+    kc_lm_progress p2;
+    EXPECT(kc_lm_full_save(&full_lm, snap, sizeof snap, &len), KC_OK);
+    EXPECT(kc_lm_full_init(&again, &start, full, count, NULL), KC_OK);
+    EXPECT(kc_lm_full_restore(&again, snap, len), KC_OK);
+    EXPECT(kc_lm_full_get_progress(&again, &p2), KC_OK);
+    CHECK(p2.iteration == end.iteration && p2.evaluations == end.evaluations &&
+          p2.cost == end.cost && p2.stopped == end.stopped && p2.converged == end.converged);
+    if (p2.iteration != end.iteration || p2.cost != end.cost || p2.stopped != end.stopped)
+      fprintf(stderr, "c: restored %u %g %u, ran %u %g %u\n", (unsigned)p2.iteration, (double)p2.cost,
+              (unsigned)p2.stopped, (unsigned)end.iteration, (double)end.cost, (unsigned)end.stopped);
+    EXPECT(kc_lm_restore(&mdh_lm, snap, len), KC_NOT_INITIALIZED);
+  }
+  EXPECT(kc_lm_full_robot(&full_lm, &fitted), KC_OK);
+  EXPECT(kc_rms_error(&fitted, id, N_ID, &rms), KC_OK);
+  CHECK(rms < 1e-2f);
+  for (i = 0; i < N_VAL; i++) {
+    EXPECT(kc_fk_point(&fk, &fitted, val[i].q, pm), KC_OK);
+    if (dist3(pm, val[i].xyz_mm) > worst) worst = dist3(pm, val[i].xyz_mm);
+  }
+  CHECK(worst < 2e-2f);
+  /* The same data and start without the base and tool parameters (the 24 of the MDH set):
+   * the rows cannot absorb a base off by millimetres, so held-out poses stay far off. */
+  {
+    kc_param mdh[24];
+    float worst24 = 0;
+    EXPECT(kc_params_mdh(mdh), KC_OK);
+    EXPECT(kc_lm_init(&mdh_lm, &start, mdh, 24, NULL), KC_OK);
+    for (i = 0; i < 100000; i++) {
+      EXPECT(kc_lm_step(&mdh_lm, id, N_ID, 5, &end24), KC_OK);
+      if (end24.stopped != KC_LM_RUNNING) break;
+    }
+    EXPECT(kc_lm_robot(&mdh_lm, &scratch), KC_OK);
+    for (i = 0; i < N_VAL; i++) {
+      EXPECT(kc_fk_point(&fk, &scratch, val[i].q, pm), KC_OK);
+      if (dist3(pm, val[i].xyz_mm) > worst24) worst24 = dist3(pm, val[i].xyz_mm);
+    }
+    CHECK(worst24 > 50.0f * worst);
+    fprintf(stderr, "c: the 24 MDH parameters alone: held-out worst %.3g mm\n", (double)worst24);
+  }
+  EXPECT(kc_robot_base(&fitted, base_got, rot_got), KC_OK);
+  EXPECT(kc_robot_init(&scratch, rows, &base_true, TOOL), KC_OK);
+  EXPECT(kc_robot_base(&scratch, xyz_true, rot_true), KC_OK);
+  EXPECT(kc_robot_rows(&fitted, rows, NULL, tool_got), KC_OK);
+  fprintf(stderr,
+          "c: LM over %u parameters (base unknown): %u iterations, rms %.3g mm, held-out worst "
+          "%.3g mm, base origin off by (%.3g, %.3g, %.3g) mm\n",
+          (unsigned)count, (unsigned)end.iteration, (double)rms, (double)worst,
+          (double)(base_got[0] - xyz_true[0]), (double)(base_got[1] - xyz_true[1]),
+          (double)(base_got[2] - xyz_true[2]));
 }
 
 /* Compensation on the true robot of targets the nominal model plans. */
@@ -695,6 +790,7 @@ int kc_host_test_main(const double *fk_expected, size_t n_expected) {
   test_robot();
   test_fk(fk_expected, n_expected);
   test_lm();
+  test_lm_full();
   test_compensate();
   test_tracker();
   test_csv();

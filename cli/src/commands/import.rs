@@ -22,7 +22,7 @@ pub struct Args {
     #[arg(long)]
     pub tip_link: Option<String>,
     /// Tool point in the tip link's frame, millimetres (`x,y,z`; default 0,0,0).
-    #[arg(long, value_delimiter = ',', num_args = 3, allow_hyphen_values = true)]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub tool_xyz_mm: Option<Vec<f64>>,
     /// Robot file (TOML) to write.
     #[arg(long)]

@@ -15,12 +15,13 @@ use rand::{RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use std::path::{Path, PathBuf};
 
-/// The four public URDFs: (folder, file).
-const URDFS: [(&str, &str); 4] = [
-    ("abb_irb140", "irb140.urdf"),
-    ("kuka_kr16_2", "kr16_2.urdf"),
-    ("kuka_lbr_iiwa_14", "lbr_iiwa_14_r820.urdf"),
-    ("franka_panda", "panda_arm.urdf"),
+/// The five public URDFs: (folder, file, import options).
+const URDFS: [(&str, &str, &[&str]); 5] = [
+    ("abb_irb140", "irb140.urdf", &[]),
+    ("kuka_kr16_2", "kr16_2.urdf", &[]),
+    ("kuka_lbr_iiwa_14", "lbr_iiwa_14_r820.urdf", &[]),
+    ("franka_panda", "panda_arm.urdf", &[]),
+    ("ur10", "ur10_robot.urdf", &["--tip-link", "tool0"]),
 ];
 
 fn urdf_path(dir: &str, file: &str) -> PathBuf {
@@ -179,9 +180,11 @@ fn import(dir: &Path, urdf: &Path, extra: &[&str]) -> (PathBuf, RobotFile) {
 }
 
 /// The chain's end links the import chose (from its JSON report).
-fn chain_links(urdf: &Path, dir: &Path) -> (String, String) {
+fn chain_links(urdf: &Path, dir: &Path, extra: &[&str]) -> (String, String) {
     let out = dir.join("links.toml");
-    let o = kinecal_ok(&["import", "--urdf", s(urdf), "--out", s(&out), "--json"]);
+    let mut args = vec!["import", "--urdf", s(urdf), "--out", s(&out), "--json"];
+    args.extend_from_slice(extra);
+    let o = kinecal_ok(&args);
     let v = common::json_of(&o);
     (
         v["base_link"].as_str().unwrap().to_string(),
@@ -192,12 +195,14 @@ fn chain_links(urdf: &Path, dir: &Path) -> (String, String) {
 #[test]
 fn imported_robots_reproduce_the_urdf_forward_kinematics() {
     let tool = [12.5, -7.25, 40.0];
-    for (folder, file) in URDFS {
+    for (folder, file, extra) in URDFS {
         let dir = tempfile::tempdir().unwrap();
         let path = urdf_path(folder, file);
         let text = std::fs::read_to_string(&path).unwrap();
-        let (base, tip) = chain_links(&path, dir.path());
-        let (_, robot) = import(dir.path(), &path, &["--tool-xyz-mm", "12.5,-7.25,40"]);
+        let (base, tip) = chain_links(&path, dir.path(), extra);
+        let mut args = vec!["--tool-xyz-mm", "12.5,-7.25,40"];
+        args.extend_from_slice(extra);
+        let (_, robot) = import(dir.path(), &path, &args);
         let chain = RefChain::new(&text, &base, &tip);
         assert_eq!(chain.movable().len(), robot.joints.len(), "{file}");
         // The URDF's limits carried over (degrees).
@@ -235,11 +240,11 @@ fn with_base(model: &RobotFile, nominal: &RobotFile) -> RobotFile {
 
 #[test]
 fn calibrated_model_exported_to_urdf_reproduces_its_forward_kinematics() {
-    for (folder, file) in [URDFS[1], URDFS[2]] {
+    for (folder, file, extra) in [URDFS[1], URDFS[2], URDFS[4]] {
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();
         let path = urdf_path(folder, file);
-        let (robot_path, nominal) = import(d, &path, &[]);
+        let (robot_path, nominal) = import(d, &path, extra);
         let data = d.join("meas.csv");
         let truth = d.join("truth.toml");
         common::simulate(
@@ -271,7 +276,7 @@ fn calibrated_model_exported_to_urdf_reproduces_its_forward_kinematics() {
             "{file}: the identified model differs from the nominal one"
         );
         let exported = d.join("exported.urdf");
-        kinecal_ok(&[
+        let mut args = vec![
             "export",
             "--model",
             s(&model_path),
@@ -279,9 +284,11 @@ fn calibrated_model_exported_to_urdf_reproduces_its_forward_kinematics() {
             s(&path),
             "--out",
             s(&exported),
-        ]);
+        ];
+        args.extend_from_slice(extra);
+        kinecal_ok(&args);
         let text = std::fs::read_to_string(&exported).unwrap();
-        let (base, _) = chain_links(&path, d);
+        let (base, _) = chain_links(&path, d, extra);
         let chain = RefChain::new(&text, &base, "kinecal_tool");
         let in_base = with_base(&model, &nominal);
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
@@ -356,6 +363,12 @@ fn refusals_name_the_joint_or_link() {
         &[],
     );
     assert!(e.contains("expand it first: xacro"), "{e}");
+    let ur10 = std::fs::read_to_string(urdf_path("ur10", "ur10_robot.urdf")).unwrap();
+    let e = refused(&ur10, &[]);
+    assert!(
+        e.contains("ee_link") && e.contains("tool0") && e.contains("--tip-link"),
+        "{e}"
+    );
     let e = refused(&kr16, &["--tip-link", "no_such_link"]);
     assert!(e.contains("no_such_link"), "{e}");
     let e = refused(&kr16, &["--base-link", "link_4", "--tip-link", "link_2"]);
@@ -400,11 +413,11 @@ fn untouched_part(text: &str) -> (Vec<String>, usize) {
 
 #[test]
 fn export_leaves_everything_else_untouched() {
-    for (folder, file) in URDFS {
+    for (folder, file, extra) in URDFS {
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();
         let path = urdf_path(folder, file);
-        let (robot_path, mut model) = import(d, &path, &[]);
+        let (robot_path, mut model) = import(d, &path, extra);
         let original = std::fs::read_to_string(&path).unwrap();
         // A changed model: every length and angle moved a little, a tool point added.
         for j in &mut model.joints {
@@ -417,7 +430,7 @@ fn export_leaves_everything_else_untouched() {
         let model_path = d.join("model.toml");
         model.save(&model_path).unwrap();
         let exported = d.join("out.urdf");
-        kinecal_ok(&[
+        let mut args = vec![
             "export",
             "--model",
             s(&model_path),
@@ -425,7 +438,9 @@ fn export_leaves_everything_else_untouched() {
             s(&path),
             "--out",
             s(&exported),
-        ]);
+        ];
+        args.extend_from_slice(extra);
+        kinecal_ok(&args);
         let text = std::fs::read_to_string(&exported).unwrap();
         assert!(text.contains(r#"<link name="kinecal_tool"/>"#));
         let (a, n_a) = untouched_part(&original);
@@ -461,7 +476,7 @@ fn export_leaves_everything_else_untouched() {
         );
         // The nominal model exported gives back the original origins' numbers.
         let same = d.join("same.urdf");
-        kinecal_ok(&[
+        let mut args = vec![
             "export",
             "--model",
             s(&robot_path),
@@ -469,7 +484,9 @@ fn export_leaves_everything_else_untouched() {
             s(&path),
             "--out",
             s(&same),
-        ]);
+        ];
+        args.extend_from_slice(extra);
+        kinecal_ok(&args);
         let ours = urdf_rs::read_from_string(&std::fs::read_to_string(&same).unwrap()).unwrap();
         let theirs = urdf_rs::read_from_string(&original).unwrap();
         for j in &theirs.joints {

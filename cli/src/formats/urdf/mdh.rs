@@ -14,7 +14,7 @@
 //! joints inside the chain fold into these constant transforms.
 
 use super::chain::Chain;
-use super::parse::UrdfJoint;
+use super::parse::{rpy_of, UrdfJoint};
 use crate::formats::robot_file::{deg_short, BaseSpec, JointSpec, RobotFile, ToolSpec};
 use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
@@ -38,11 +38,11 @@ pub struct Imported {
     pub joint_names: Vec<String>,
 }
 
-/// `v` on the 1e-6 grid when it is within 1e-9 of it (URDF decimals such as 0.675 m or
-/// 3.22885911619 rad come back from the frame algebra with a few ulps of noise); -0 as 0.
-fn snap(v: f64) -> f64 {
+/// `v` on the 1e-6 grid when it is within `window` of it; -0 as 0. The frame algebra leaves
+/// a few ulps of noise on URDF decimals (0.675 m comes back as 674.9999999999999 mm).
+fn snap_within(v: f64, window: f64) -> f64 {
     let r = (v * 1e6).round() / 1e6;
-    let v = if (v - r).abs() < 1e-9 { r } else { v };
+    let v = if (v - r).abs() < window { r } else { v };
     if v == 0.0 {
         0.0
     } else {
@@ -50,10 +50,21 @@ fn snap(v: f64) -> f64 {
     }
 }
 
-/// Degrees of `rad`, snapped (see [`snap`]): what the file holds (the frames are rebuilt from
-/// these values, so the snap costs no exactness).
+/// A length (mm) snapped within 1e-9 mm.
+fn snap(v: f64) -> f64 {
+    snap_within(v, 1e-9)
+}
+
+/// Degrees of `rad` snapped within 1e-11° (2e-13 rad: below 1e-9 mm at a 2 m lever; the
+/// frames are rebuilt from the values written, so only that tilt of an axis is lost).
 fn deg(rad: f64) -> f64 {
-    snap(deg_short(rad))
+    snap_within(deg_short(rad), 1e-11)
+}
+
+/// A joint limit in degrees, snapped within 1e-9° (`3.22885911619` rad reads as 185°): limits
+/// bound the poses, they do not enter the kinematics.
+fn limit_deg(rad: f64) -> f64 {
+    snap_within(deg_short(rad), 1e-9)
 }
 
 /// A URDF origin in millimetres.
@@ -160,7 +171,7 @@ pub fn import(chain: &Chain, tool_mm: [f64; 3], name: &str) -> Imported {
     let x0 = perpendicular(Vector3::x(), z1, Vector3::y());
     let f0 = frame(o0, x0, z1);
     // The base as the file will hold it (snapped), and frame 0 rebuilt from it.
-    let (br, bp, by) = f0.rotation.euler_angles();
+    let [br, bp, by] = rpy_of(&f0.rotation);
     let base = BaseSpec {
         xyz_mm: [
             snap(f0.translation.x),
@@ -248,7 +259,7 @@ pub fn import(chain: &Chain, tool_mm: [f64; 3], name: &str) -> Imported {
             d_mm: d,
             beta_deg: (beta_deg != 0.0).then_some(beta_deg),
             limits_deg: match (j.kind.as_str(), j.limits) {
-                ("revolute", Some([lo, hi])) if lo < hi => Some([deg(lo), deg(hi)]),
+                ("revolute", Some([lo, hi])) if lo < hi => Some([limit_deg(lo), limit_deg(hi)]),
                 _ => None,
             },
         });
@@ -256,7 +267,7 @@ pub fn import(chain: &Chain, tool_mm: [f64; 3], name: &str) -> Imported {
     let tip_in_last_link = links[n - 1].inverse() * tip;
     let tool = f.inverse() * tip;
     let point = tool.transform_point(&Point3::from(tool_mm));
-    let (r, p, y) = tool.rotation.euler_angles();
+    let [r, p, y] = rpy_of(&tool.rotation);
     let file = RobotFile {
         name: name.to_string(),
         joints,

@@ -74,6 +74,25 @@ pub fn origin_transform(xyz: [f64; 3], rpy: [f64; 3]) -> Isometry3<f64> {
     )
 }
 
+/// Roll, pitch, yaw of a rotation (R = Rz(yaw)·Ry(pitch)·Rx(roll)) that rebuild it to
+/// rounding even next to pitch = ±90° (URDFs write `1.570796325`): roll from the last row,
+/// then yaw from the second column of R·Rx(-roll) = Rz(yaw)·Ry(pitch), whose column is
+/// (-sin yaw, cos yaw, 0), then pitch; each step is well conditioned, unlike the usual
+/// formulas whose roll and yaw lose half the digits there.
+pub fn rpy_of(q: &UnitQuaternion<f64>) -> [f64; 3] {
+    let r = q.to_rotation_matrix().into_inner();
+    let roll = if r[(2, 1)].abs() + r[(2, 2)].abs() > 1e-300 {
+        r[(2, 1)].atan2(r[(2, 2)])
+    } else {
+        0.0
+    };
+    let m = r * nalgebra::Rotation3::from_euler_angles(-roll, 0.0, 0.0).into_inner();
+    let yaw = (-m[(0, 1)]).atan2(m[(1, 1)]);
+    let n = nalgebra::Rotation3::from_euler_angles(0.0, 0.0, -yaw).into_inner() * m;
+    let pitch = n[(0, 2)].atan2(n[(0, 0)]);
+    [roll, pitch, yaw]
+}
+
 fn numbers(path: &str, what: &str, text: &str) -> anyhow::Result<[f64; 3]> {
     let v: Vec<f64> = text
         .split_whitespace()

@@ -9,7 +9,7 @@
 //! calibrated `[base]` is where the tracker saw the robot, not part of the robot.
 
 use super::mdh::{row_transform, Imported};
-use super::parse::Urdf;
+use super::parse::{rpy_of, Urdf};
 use crate::formats::robot_file::RobotFile;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 
@@ -36,8 +36,7 @@ fn triple(v: [f64; 3]) -> String {
 /// `xyz` (metres) and `rpy` (radians) of a transform in millimetres.
 fn xyz_rpy(t: &Isometry3<f64>) -> (String, String) {
     let v = t.translation.vector / 1000.0;
-    let (r, p, y) = t.rotation.euler_angles();
-    (triple([v.x, v.y, v.z]), triple([r, p, y]))
+    (triple([v.x, v.y, v.z]), triple(rpy_of(&t.rotation)))
 }
 
 /// The calibrated joint origins (millimetres), base first, for `model` on the chain that

@@ -266,6 +266,13 @@ fn calibrated_model_exported_to_urdf_reproduces_its_forward_kinematics() {
             s(&model_path),
         ]);
         let model = RobotFile::load(&model_path).unwrap();
+        // [tool] rpy_deg is carried through simulate --truth and identify --out.
+        assert!(nominal.tool.rpy_deg.is_some());
+        assert_eq!(model.tool.rpy_deg, nominal.tool.rpy_deg, "{file}");
+        assert_eq!(
+            RobotFile::load(&truth).unwrap().tool.rpy_deg,
+            nominal.tool.rpy_deg
+        );
         let moved = model
             .joints
             .iter()
@@ -275,6 +282,12 @@ fn calibrated_model_exported_to_urdf_reproduces_its_forward_kinematics() {
             moved,
             "{file}: the identified model differs from the nominal one"
         );
+        // A Hayati tilt on joint 3 as well (beta of a nominally parallel pair): the exported
+        // origins must carry it too.
+        let mut model = model;
+        model.joints[2].beta_deg = Some(0.03);
+        let model_path = d.join("model_tilted.toml");
+        model.save(&model_path).unwrap();
         let exported = d.join("exported.urdf");
         let mut args = vec![
             "export",

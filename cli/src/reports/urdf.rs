@@ -71,6 +71,11 @@ impl fmt::Display for ExportReport {
                 self.out,
                 self.joints_rewritten.join(", ")
             )?;
+            writeln!(
+                f,
+                "the URDF keeps its nominal base: the calibrated [base] is where the tracker saw \
+                 the robot, not part of it"
+            )?;
         } else {
             writeln!(f, "wrote {} ({} parameters)", self.out, self.rows)?;
         }

@@ -376,6 +376,12 @@ fn refusals_name_the_joint_or_link() {
         &[],
     );
     assert!(e.contains("expand it first: xacro"), "{e}");
+    // Without the namespace declared (an XML error), still named a xacro file.
+    let e = refused(
+        r#"<robot name="r"><xacro:include filename="arm.xacro"/></robot>"#,
+        &[],
+    );
+    assert!(e.contains("expand it first: xacro"), "{e}");
     let ur10 = std::fs::read_to_string(urdf_path("ur10", "ur10_robot.urdf")).unwrap();
     let e = refused(&ur10, &[]);
     assert!(

@@ -120,19 +120,25 @@ impl Urdf {
     /// Parses the text of a URDF file (`path` names it in messages). A file with `xacro:`
     /// elements is refused: it has to be expanded first.
     pub fn parse(text: &str, path: &str) -> anyhow::Result<Urdf> {
-        let doc = roxmltree::Document::parse(text)
-            .map_err(|e| refused(format!("{path}: not well-formed XML: {e}")))?;
+        let stem = path.strip_suffix(".xacro").unwrap_or(path);
+        let stem = stem.strip_suffix(".urdf").unwrap_or(stem);
+        let expand = format!("expand it first: xacro {stem}.urdf.xacro > {stem}.urdf");
+        let doc = roxmltree::Document::parse(text).map_err(|e| {
+            if text.contains("<xacro:") || text.contains("${") {
+                // An undeclared `xacro:` prefix is an XML error: still a xacro file.
+                refused(format!("{path}: this is a xacro file ({e}); {expand}"))
+            } else {
+                refused(format!("{path}: not well-formed XML: {e}"))
+            }
+        })?;
         if let Some(x) = doc.descendants().find(|n| {
             n.is_element()
                 && n.tag_name()
                     .namespace()
                     .is_some_and(|ns| ns.contains("xacro"))
         }) {
-            let stem = path.strip_suffix(".xacro").unwrap_or(path);
-            let stem = stem.strip_suffix(".urdf").unwrap_or(stem);
             crate::refuse!(
-                "{path}: xacro element <xacro:{}> found: this is a xacro file; expand it first: \
-                 xacro {stem}.urdf.xacro > {stem}.urdf",
+                "{path}: xacro element <xacro:{}> found: this is a xacro file; {expand}",
                 x.tag_name().name()
             );
         }

@@ -462,6 +462,26 @@ fn export_leaves_everything_else_untouched() {
         kinecal_ok(&args);
         let text = std::fs::read_to_string(&exported).unwrap();
         assert!(text.contains(r#"<link name="kinecal_tool"/>"#));
+        // Exporting into an exported file again would give two kinecal_tool links: refused.
+        let (_, tip) = chain_links(&path, d, extra);
+        let again = d.join("again.urdf");
+        let o = kinecal(&[
+            "export",
+            "--model",
+            s(&model_path),
+            "--urdf",
+            s(&exported),
+            "--tip-link",
+            &tip,
+            "--out",
+            s(&again),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(
+            stderr(&o).contains("already has a link 'kinecal_tool'"),
+            "{}",
+            stderr(&o)
+        );
         let (a, n_a) = untouched_part(&original);
         let (b, n_b) = untouched_part(&text);
         assert_eq!(n_a, n_b, "{file}");

@@ -107,6 +107,16 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
                 crate::refuse!("export --format urdf needs --urdf F.urdf (the file the model was imported from)");
             };
             let (text, urdf, imp, tip) = nominal_import(path)?;
+            if urdf.links.iter().any(|l| l == splice::TOOL_LINK)
+                || urdf.joints.iter().any(|j| j.name == splice::TOOL_JOINT)
+            {
+                crate::refuse!(
+                    "{}: already has a link '{}' (written by an earlier export?): export into \
+                     the original URDF",
+                    path.display(),
+                    splice::TOOL_LINK
+                );
+            }
             let dropped = dropped(&model);
             for d in &dropped {
                 eprintln!("warning: not exported: {d}");

@@ -180,12 +180,13 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
         );
     }
     if let Some(out) = &args.out {
-        let f = RobotFile::from_robot(
+        let mut f = RobotFile::from_robot(
             &format!("{} (diagnosed)", file.name),
             &d.model,
             true,
             &d.free_tilt,
         );
+        f.tool.rpy_deg = file.tool.rpy_deg;
         f.save(out)?;
         report.out = Some(out.display().to_string());
     }

@@ -150,12 +150,14 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
     let after = Residuals::of(&fit.robot, &ident, &valid);
     let out = match &args.out {
         Some(out) => {
-            let f = RobotFile::from_robot(
+            let mut f = RobotFile::from_robot(
                 &format!("{} (identified)", file.name),
                 &fit.robot,
                 true,
                 &file.tilt_joints(),
             );
+            // Not identified (yet): the measured frame's orientation is carried over.
+            f.tool.rpy_deg = file.tool.rpy_deg;
             f.save(out)?;
             Some(out.display().to_string())
         }

@@ -8,8 +8,10 @@ pub mod check;
 pub mod compensate;
 pub mod demo;
 pub mod diagnose;
+pub mod export;
 pub mod frames;
 pub mod identify;
+pub mod import;
 pub mod inputs;
 pub mod plan;
 pub mod simulate;
@@ -52,6 +54,10 @@ enum Command {
     Plan(plan::Args),
     /// The planning study of Jost et al. 2017: KPI vs random vs D-optimal over 90 manipulators.
     Study(study::Args),
+    /// A URDF's serial chain as an MDH robot file (`import --urdf F.urdf --out R.toml`).
+    Import(import::Args),
+    /// A calibrated model into the robot's URDF, or as a table of DH parameters.
+    Export(export::Args),
 }
 
 fn boxed<R: Report + 'static>(r: anyhow::Result<R>) -> anyhow::Result<Box<dyn Report>> {
@@ -69,6 +75,8 @@ fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
         Command::Compensate(a) => boxed(compensate::run(a)),
         Command::Plan(a) => boxed(plan::run(a)),
         Command::Study(a) => boxed(study::run(a)),
+        Command::Import(a) => boxed(import::run(a)),
+        Command::Export(a) => boxed(export::run(a, cli.json)),
     }
 }
 

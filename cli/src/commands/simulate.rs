@@ -114,7 +114,9 @@ fn simulate_with_joints<const N: usize>(
                 .filter(|e| e.kind == AXIS_TILT)
                 .map(|e| e.joint),
         );
-        RobotFile::from_robot(&file.name, &truth, true, &tilt).save(t)?;
+        let mut f = RobotFile::from_robot(&file.name, &truth, true, &tilt);
+        f.tool.rpy_deg = file.tool.rpy_deg;
+        f.save(t)?;
     }
     Ok(SimulateReport {
         poses: ds.len(),

@@ -2,6 +2,8 @@
 //! (TOML), measurements (CSV), the measurement cell of `plan` (TOML) and the units at the door.
 
 pub mod cell_file;
+pub mod dh_table;
 pub mod measurements;
 pub mod robot_file;
 pub mod units;
+pub mod urdf;

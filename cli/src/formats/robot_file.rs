@@ -63,6 +63,11 @@ pub struct JointSpec {
 #[serde(deny_unknown_fields)]
 pub struct ToolSpec {
     pub xyz_mm: [f64; 3],
+    /// Orientation of the measured frame in the flange frame (fixed-axis roll, pitch, yaw;
+    /// interfaces.md §3). Read, kept and written back; identification does not use it yet
+    /// (`kinecal import --urdf` writes the tip link's orientation here).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rpy_deg: Option<[f64; 3]>,
 }
 
 /// `[base]`: the robot base in the measurement frame (fixed-axis roll, pitch, yaw).
@@ -373,6 +378,18 @@ impl RobotFile {
                     }
                 }
             }
+        }
+        if !self.tool.rpy_deg.is_none_or(|r| finite(&r)) {
+            return issue(Place::Tool, "tool: rpy_deg must be finite numbers".into());
+        }
+        if let Some(m) = self
+            .tool
+            .rpy_deg
+            .iter()
+            .flatten()
+            .find_map(|v| implausible_angle("rpy_deg", *v, crate::MAX_ANGLE_DEG))
+        {
+            return issue(Place::Tool, format!("tool: {m}"));
         }
         if !finite(&self.tool.xyz_mm) {
             return issue(Place::Tool, "tool: xyz_mm must be finite numbers".into());
@@ -763,6 +780,7 @@ impl RobotFile {
             joints,
             tool: ToolSpec {
                 xyz_mm: [robot.tool().x, robot.tool().y, robot.tool().z],
+                rpy_deg: None,
             },
             base,
             effects,

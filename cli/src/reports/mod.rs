@@ -20,6 +20,7 @@ pub mod identify;
 pub mod plan;
 pub mod simulate;
 pub mod study;
+pub mod urdf;
 
 pub use check::CheckReport;
 pub use compensate::CompensateReport;
@@ -30,6 +31,7 @@ pub use identify::IdentifyReport;
 pub use plan::PlanReport;
 pub use simulate::SimulateReport;
 pub use study::StudyReport;
+pub use urdf::{ExportReport, ImportReport};
 
 use serde::Serialize;
 use std::fmt;

@@ -778,3 +778,61 @@ fn random_geometry_with_fixed_joints_and_odd_axes_is_imported_exactly() {
     }
     eprintln!("random URDFs: worst point difference {worst_all:.3e} mm");
 }
+
+/// A model of another robot (or of the same one in another MDH convention) cannot be spliced
+/// into a URDF or tabulated against a nominal: its rows are far from the import's. Refused
+/// (exit 2) naming the row, not written as a confident URDF.
+#[test]
+fn export_refuses_a_model_of_another_robot() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let kr16 = urdf_path("kuka_kr16_2", "kr16_2.urdf");
+    let abb = urdf_path("abb_irb140", "irb140.urdf");
+    let (kr16_robot, _) = import(d, &kr16, &[]);
+    let kr16_model = d.join("kr16.toml");
+    std::fs::copy(&kr16_robot, &kr16_model).unwrap();
+    let out = d.join("out.urdf");
+    let o = kinecal(&[
+        "export",
+        "--model",
+        s(&kr16_model),
+        "--urdf",
+        s(&abb),
+        "--out",
+        s(&out),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("not a calibration of") && e.contains("in the model"),
+        "{e}"
+    );
+    assert!(!out.exists());
+    // The same against a nominal robot file for the table.
+    let abb_robot = d.join("abb.toml");
+    kinecal_ok(&["import", "--urdf", s(&abb), "--out", s(&abb_robot)]);
+    let table = d.join("t.csv");
+    let o = kinecal(&[
+        "export",
+        "--model",
+        s(&kr16_model),
+        "--format",
+        "dh-table",
+        "--robot",
+        s(&abb_robot),
+        "--out",
+        s(&table),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(!table.exists());
+    // Its own URDF, with a calibration's few tenths of a millimetre: accepted.
+    kinecal_ok(&[
+        "export",
+        "--model",
+        s(&kr16_model),
+        "--urdf",
+        s(&kr16),
+        "--out",
+        s(&out),
+    ]);
+}

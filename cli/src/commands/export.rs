@@ -46,6 +46,49 @@ pub struct Args {
     /// File to write (a URDF; for dh-table .csv, or .json for JSON).
     #[arg(long)]
     pub out: PathBuf,
+    /// A model row further than this from the nominal (the URDF's import, or --robot) is
+    /// taken for a model of another robot or convention and refused (a manufacturing
+    /// tolerance, as in `identify`).
+    #[arg(long, default_value_t = 20.0)]
+    pub tolerance_mm: f64,
+    /// The same for angles, degrees.
+    #[arg(long, default_value_t = 2.0)]
+    pub tolerance_deg: f64,
+}
+
+/// The first row value of `model` further than the tolerances from `nominal`, described:
+/// a calibration moves rows by millimetres and tenths of a degree, so a larger difference
+/// means the model was made for another robot (or another MDH convention) than this file.
+fn mismatch(model: &RobotFile, nominal: &RobotFile, tol_mm: f64, tol_deg: f64) -> Option<String> {
+    let wrap = |d: f64| (d + 180.0).rem_euclid(360.0) - 180.0;
+    for (i, (m, n)) in model.joints.iter().zip(&nominal.joints).enumerate() {
+        let rows = [
+            ("alpha", m.alpha_deg, n.alpha_deg, true),
+            ("a", m.a_mm, n.a_mm, false),
+            ("theta", m.theta_deg, n.theta_deg, true),
+            ("d", m.d_mm, n.d_mm, false),
+            (
+                "beta",
+                m.beta_deg.unwrap_or(0.0),
+                n.beta_deg.unwrap_or(0.0),
+                true,
+            ),
+        ];
+        for (name, mv, nv, angle) in rows {
+            let (diff, tol, unit) = if angle {
+                (wrap(mv - nv).abs(), tol_deg, "°")
+            } else {
+                ((mv - nv).abs(), tol_mm, " mm")
+            };
+            if diff > tol || diff.is_nan() {
+                return Some(format!(
+                    "{name}{} is {mv:.3}{unit} in the model and {nv:.3}{unit} in the nominal",
+                    i + 1
+                ));
+            }
+        }
+    }
+    None
 }
 
 /// What a URDF cannot hold, named; each is also warned about on stderr.
@@ -80,7 +123,26 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
         inputs.push(("robot", r.as_path()));
     }
     refuse_overwriting_inputs("--out", &args.out, &inputs)?;
+    for (flag, v) in [
+        ("--tolerance-mm", args.tolerance_mm),
+        ("--tolerance-deg", args.tolerance_deg),
+    ] {
+        crate::check_positive(flag, v, 1e6)?;
+    }
     let model = RobotFile::load(&args.model)?;
+    let check_match = |nominal: &RobotFile, source: &std::path::Path| -> anyhow::Result<()> {
+        if let Some(what) = mismatch(&model, nominal, args.tolerance_mm, args.tolerance_deg) {
+            crate::refuse!(
+                "{}: not a calibration of {}: {what} (further apart than --tolerance-mm {} / \
+                 --tolerance-deg {}): export the model into the file it was imported from",
+                args.model.display(),
+                source.display(),
+                args.tolerance_mm,
+                args.tolerance_deg
+            );
+        }
+        Ok(())
+    };
     let nominal_import = |path: &PathBuf| -> anyhow::Result<_> {
         let (text, urdf) = read_urdf(path)?;
         let (imp, _, tip, _) = import_chain(
@@ -99,6 +161,7 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
                 imp.file.joints.len()
             );
         }
+        check_match(&imp.file, path)?;
         Ok((text, urdf, imp, tip))
     };
     match args.format {
@@ -144,6 +207,7 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
                             model.joints.len()
                         );
                     }
+                    check_match(&f, r)?;
                     Some(f)
                 }
                 (None, Some(u)) => Some(nominal_import(u)?.2.file),

@@ -179,6 +179,21 @@ fn import(dir: &Path, urdf: &Path, extra: &[&str]) -> (PathBuf, RobotFile) {
     (out, f)
 }
 
+/// `kinecal export --model MODEL --urdf URDF --out OUT EXTRA…`, which must succeed.
+fn export_urdf(model: &Path, urdf: &Path, out: &Path, extra: &[&str]) {
+    let mut args = vec![
+        "export",
+        "--model",
+        s(model),
+        "--urdf",
+        s(urdf),
+        "--out",
+        s(out),
+    ];
+    args.extend_from_slice(extra);
+    kinecal_ok(&args);
+}
+
 /// The chain's end links the import chose (from its JSON report).
 fn chain_links(urdf: &Path, dir: &Path, extra: &[&str]) -> (String, String) {
     let out = dir.join("links.toml");
@@ -289,17 +304,7 @@ fn calibrated_model_exported_to_urdf_reproduces_its_forward_kinematics() {
         let model_path = d.join("model_tilted.toml");
         model.save(&model_path).unwrap();
         let exported = d.join("exported.urdf");
-        let mut args = vec![
-            "export",
-            "--model",
-            s(&model_path),
-            "--urdf",
-            s(&path),
-            "--out",
-            s(&exported),
-        ];
-        args.extend_from_slice(extra);
-        kinecal_ok(&args);
+        export_urdf(&model_path, &path, &exported, extra);
         let text = std::fs::read_to_string(&exported).unwrap();
         let (base, _) = chain_links(&path, d, extra);
         let chain = RefChain::new(&text, &base, "kinecal_tool");
@@ -449,17 +454,7 @@ fn export_leaves_everything_else_untouched() {
         let model_path = d.join("model.toml");
         model.save(&model_path).unwrap();
         let exported = d.join("out.urdf");
-        let mut args = vec![
-            "export",
-            "--model",
-            s(&model_path),
-            "--urdf",
-            s(&path),
-            "--out",
-            s(&exported),
-        ];
-        args.extend_from_slice(extra);
-        kinecal_ok(&args);
+        export_urdf(&model_path, &path, &exported, extra);
         let text = std::fs::read_to_string(&exported).unwrap();
         assert!(text.contains(r#"<link name="kinecal_tool"/>"#));
         // Exporting into an exported file again would give two kinecal_tool links: refused.

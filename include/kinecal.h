@@ -25,13 +25,13 @@
 
 // Bytes of a `kc_robot` (the largest `Robot<f32, 6>` of the supported targets, rounded up
 // to 8; a compile-time assertion checks it fits).
-#define KC_ROBOT_SIZE 928
+#define KC_ROBOT_SIZE 1016
 
 // Every distinct parameter of a 6-joint robot: 6 base + 5 × 6 row + 3 tool.
 #define KC_PARAMS_ALL 39
 
 // Bytes of a `kc_fk` (see `KC_ROBOT_SIZE`).
-#define KC_FK_SIZE 424
+#define KC_FK_SIZE 432
 
 // Bytes of a `kc_param_set` (see `KC_ROBOT_SIZE`).
 #define KC_PARAM_SET_SIZE 176
@@ -41,7 +41,7 @@
 #define KC_LM_MAX_PARAMS 24
 
 // Bytes of a `kc_lm` (see `KC_ROBOT_SIZE`).
-#define KC_LM_SIZE 8776
+#define KC_LM_SIZE 8952
 
 #if defined(KC_LM_FULL)
 // Room for identified parameters in a `kc_lm_full`: every geometric parameter of a 6-joint
@@ -52,7 +52,7 @@
 
 #if defined(KC_LM_FULL)
 // Bytes of a `kc_lm_full` (see `KC_ROBOT_SIZE`).
-#define KC_LM_FULL_SIZE 17472
+#define KC_LM_FULL_SIZE 17648
 #endif
 
 // Bytes of a `kc_tracker` (see `KC_ROBOT_SIZE`).
@@ -361,8 +361,8 @@ typedef struct KC_ALIGNED(8) kc_lm {
 } kc_lm;
 
 // One measured pose: joint readings (rad, as the controller reports them) and the point the
-// tracker saw (mm, measurement frame). Same layout as the library's `Measurement<f32, 6>`, so
-// arrays of it are used in place.
+// tracker saw (mm, measurement frame): a plain position observation of the first tool point,
+// read by the solver in place.
 typedef struct kc_measurement {
   // Joint readings, rad.
   float q[KC_JOINTS];

@@ -62,6 +62,8 @@ pub struct ForwardKinematics<T: Real, const N: usize> {
     pub base: Frame<T>,
     /// The measured point `p(q)`, mm, measurement frame.
     pub point: Vector3<T>,
+    /// Which of the robot's tool points `point` is (0: [`Robot::tool`]).
+    pub tool: u8,
     /// Joint readings as given.
     pub q: [T; N],
     /// Angles applied to the geometry (model angles): readings plus the model's joint
@@ -78,6 +80,7 @@ impl<T: Real, const N: usize> Default for ForwardKinematics<T, N> {
             frames: [Frame::identity(); N],
             base: Frame::identity(),
             point: Vector3::zeros(),
+            tool: 0,
             q: [T::zero(); N],
             q_geometric: [T::zero(); N],
             tau: [T::zero(); N],
@@ -116,7 +119,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
         Self::default()
     }
 
-    fn chain<const V: usize>(&mut self, robot: &Robot<T, N, V>, q: &[T; N]) {
+    fn chain<const V: usize>(&mut self, robot: &Robot<T, N, V>, q: &[T; N], tool: &Vector3<T>) {
         // Origins are accumulated relative to the base origin and shifted once at the end:
         // with the robot metres away from the tracker, summing in absolute coordinates
         // rounds every step at the large magnitude (f32: 1.1 µm worst case at 3 m, vs 0.7 µm).
@@ -128,7 +131,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
             self.frames[i] = f;
             self.frames[i].o += b;
         }
-        self.point = if N > 0 { f.point(robot.tool()) + b } else { b };
+        self.point = if N > 0 { f.point(tool) + b } else { b };
     }
 
     /// Evaluates the chain at joint readings `q` and returns the measured point.
@@ -140,6 +143,31 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     /// (a harmonic or a coupling of 1e308 rad would overflow). A robot without couplings pays
     /// one branch for them.
     pub fn compute<const V: usize>(&mut self, robot: &Robot<T, N, V>, q: &[T; N]) -> Vector3<T> {
+        self.evaluate(robot, q, robot.tool(), 0)
+    }
+
+    /// [`Self::compute`] for tool point `k` (0 is [`Robot::tool`]; a further reflector of a
+    /// robot with several, [`Robot::tool_point`]); `None` (workspace unchanged) when the robot
+    /// has no point `k`.
+    pub fn compute_point<const V: usize>(
+        &mut self,
+        robot: &Robot<T, N, V>,
+        q: &[T; N],
+        k: usize,
+    ) -> Option<Vector3<T>> {
+        let tool = *robot.tool_point(k)?;
+        Some(self.evaluate(robot, q, &tool, k as u8))
+    }
+
+    #[inline(always)]
+    fn evaluate<const V: usize>(
+        &mut self,
+        robot: &Robot<T, N, V>,
+        q: &[T; N],
+        tool: &Vector3<T>,
+        k: u8,
+    ) -> Vector3<T> {
+        self.tool = k;
         self.base = *robot.base();
         let limit = T::of(crate::model::bounds::MAX_ANGLE);
         let q = &q.map(|x| {
@@ -162,7 +190,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
                     self.couple_angles(robot.couplings());
                 }
                 let q0 = self.q_geometric;
-                self.chain(robot, &q0);
+                self.chain(robot, &q0, tool);
                 self.tau = self.lever_arms();
             } else {
                 self.tau = [T::zero(); N];
@@ -176,7 +204,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
             self.couple_angles(robot.couplings());
         }
         let qg = self.q_geometric;
-        self.chain(robot, &qg);
+        self.chain(robot, &qg, tool);
         self.point
     }
 
@@ -186,11 +214,27 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
         self.q_geometric = couplings.to_model(&self.q_geometric);
     }
 
-    /// The tool pose: the flange orientation with the origin at the measured point.
-    pub fn tool_pose(&self) -> Frame<T> {
+    /// The flange orientation with the origin at the measured point.
+    pub fn flange_pose(&self) -> Frame<T> {
         let mut f = if N > 0 { self.frames[N - 1] } else { self.base };
         f.o = self.point;
         f
+    }
+
+    /// The tool pose: the measured frame's orientation (the flange axes times
+    /// [`Robot::tool_axes`]) with the origin at the measured point.
+    pub fn tool_pose<const V: usize>(&self, robot: &Robot<T, N, V>) -> Frame<T> {
+        let f = self.flange_pose();
+        if robot.tool_axes_identity() {
+            return f;
+        }
+        let a = robot.tool_axes();
+        Frame {
+            x: f.direction(&a.x),
+            y: f.direction(&a.y),
+            z: f.direction(&a.z),
+            o: f.o,
+        }
     }
 
     /// Lever arms τ_j = ((z_j × (p − o_j)) · g) / 1000 (m), g = −z of the robot base frame.
@@ -318,6 +362,9 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
                 if N == 0 {
                     return Err(ParamError::OutOfRange);
                 }
+                if self.tool != 0 {
+                    return Ok(Vector3::zeros());
+                }
                 let f = &self.frames[N - 1];
                 match p {
                     Param::ToolX => f.x,
@@ -325,8 +372,108 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
                     _ => f.z,
                 }
             }
+            Param::ToolPoint(k, a) => self.point_column(robot, k, a)?,
+            // The measured frame's orientation does not move its points.
+            Param::ToolRx | Param::ToolRy | Param::ToolRz => Vector3::zeros(),
             Param::Effect(k) => self.effect_column(robot, k)?,
         })
+    }
+
+    /// The column of coordinate `a` of tool point `k` ≥ 1: the flange axis when the point
+    /// computed is `k`, zero for the others. Out of line (robots with one point never come).
+    #[inline(never)]
+    fn point_column<const V: usize>(
+        &self,
+        robot: &Robot<T, N, V>,
+        k: u8,
+        a: u8,
+    ) -> Result<Vector3<T>, ParamError> {
+        if N == 0 || k == 0 || k as usize >= robot.tool_point_count() || a > 2 {
+            return Err(ParamError::OutOfRange);
+        }
+        if self.tool != k {
+            return Ok(Vector3::zeros());
+        }
+        let f = &self.frames[N - 1];
+        Ok([f.x, f.y, f.z][a as usize])
+    }
+
+    /// One column of the orientation's identification Jacobian at the last computed pose: the
+    /// rotation vector (in the measurement frame) the measured frame turns by per unit of
+    /// `param` (per rad of an angle, per mm of a length: zero for every length). Beside
+    /// [`Self::column`], for 6-D observations.
+    pub fn rotation_column<const V: usize>(
+        &self,
+        robot: &Robot<T, N, V>,
+        p: Param,
+    ) -> Result<Vector3<T>, ParamError> {
+        let joint = |i: u8| -> Result<usize, ParamError> {
+            let i = i as usize;
+            if i < N {
+                Ok(i)
+            } else {
+                Err(ParamError::OutOfRange)
+            }
+        };
+        Ok(match p {
+            Param::BaseX | Param::BaseY | Param::BaseZ => Vector3::zeros(),
+            Param::BaseRx => Vector3::x(),
+            Param::BaseRy => Vector3::y(),
+            Param::BaseRz => Vector3::z(),
+            Param::Alpha(i) => self.previous(joint(i)?).x,
+            Param::A(i) | Param::D(i) => {
+                joint(i)?;
+                Vector3::zeros()
+            }
+            Param::Beta(i) => {
+                let i = joint(i)?;
+                let f = self.previous(i);
+                let t = &robot.trig()[i];
+                f.y * t.ca + f.z * t.sa
+            }
+            Param::Theta(i) => self.frames[joint(i)?].z,
+            Param::ToolX | Param::ToolY | Param::ToolZ | Param::ToolPoint(..) => {
+                self.column(robot, p)?;
+                Vector3::zeros()
+            }
+            Param::ToolRx | Param::ToolRy | Param::ToolRz => {
+                if N == 0 {
+                    return Err(ParamError::OutOfRange);
+                }
+                let f = &self.frames[N - 1];
+                match p {
+                    Param::ToolRx => f.x,
+                    Param::ToolRy => f.y,
+                    _ => f.z,
+                }
+            }
+            Param::Effect(k) => {
+                let (j, phi) = robot
+                    .effects()
+                    .basis(k as usize, &self.q, &self.tau)
+                    .ok_or(ParamError::OutOfRange)?;
+                self.reading_rotation_column(robot, j) * phi
+            }
+        })
+    }
+
+    /// The rotation column of the corrected reading `r'_j` (see [`Self::reading_column`]):
+    /// `z_j` plus, for every joint `k` coupled from `j`, `ratio_k · z_k`.
+    pub fn reading_rotation_column<const V: usize>(
+        &self,
+        robot: &Robot<T, N, V>,
+        j: usize,
+    ) -> Vector3<T> {
+        let couplings = robot.couplings();
+        let mut c = self.frames[j].z;
+        for i in 0..couplings.len() {
+            if let Some((k, f, ratio)) = couplings.entry(i) {
+                if f == j {
+                    c += self.frames[k].z * ratio;
+                }
+            }
+        }
+        c
     }
 
     /// The column of effect value `k`: `∂p/∂r'_j · φ_k` (the correction acts on the reading of

@@ -62,7 +62,7 @@ pub mod num;
 pub mod planning;
 
 pub use forward::ForwardKinematics;
-pub use io::measurement::Measurement;
+pub use io::measurement::{Measurement, Observation};
 pub use model::coupling::{CouplingError, Couplings};
 pub use model::effects::{Effect, EffectKind, Effects};
 pub use model::frame::Frame;

@@ -10,7 +10,7 @@ use kinecal::{ForwardKinematics, Param};
 use nalgebra::Vector3;
 
 /// Bytes of a [`kc_fk`] (see `KC_ROBOT_SIZE`).
-pub const KC_FK_SIZE: usize = 424;
+pub const KC_FK_SIZE: usize = 432;
 
 /// A forward-kinematics workspace (`ForwardKinematics<f32, 6>`): the frames of the last pose
 /// computed, which [`kc_fk_jacobian`] differentiates. Opaque, caller-owned; [`kc_fk_init`].
@@ -107,7 +107,7 @@ pub unsafe extern "C" fn kc_fk_pose(
         // SAFETY: the header contract (9 floats).
         let rot = unsafe { array_mut::<f32, 9>(rot_out) }?;
         fk.compute(robot, q);
-        let f = fk.tool_pose();
+        let f = fk.flange_pose();
         *out = [f.o.x, f.o.y, f.o.z];
         *rot = rot_of(&f);
         finite(out)

@@ -8,19 +8,19 @@ use crate::{
     KC_NOT_INITIALIZED, KC_SNAPSHOT_INVALID, KC_TOO_FEW_MEASUREMENTS, KC_TOO_MANY_PARAMS,
 };
 use crate::{obj_mut, obj_ref, slice_mut, slice_ref, status, Kc, KC_JOINTS};
-use core::mem::{align_of, offset_of, size_of};
 use kinecal::identify::lm::{rms_error, FixedLm, Levenberg, LmConfig, LmError, LmProgress, LmStop};
 use kinecal::io::snapshot::{Snapshot, SnapshotError};
 use kinecal::model::param::{ParamError, ParamSet};
-use kinecal::Measurement;
+use kinecal::Observation;
+use nalgebra::Vector3;
 
 /// Room for identified parameters in a `kc_lm`: the 24 of the MDH set (`kc_params_mdh`), as
 /// the Rust firmware sizes its solver (same code, same instruction counts, same RAM).
 pub const KC_LM_MAX_PARAMS: usize = 24;
 
 /// One measured pose: joint readings (rad, as the controller reports them) and the point the
-/// tracker saw (mm, measurement frame). Same layout as the library's `Measurement<f32, 6>`, so
-/// arrays of it are used in place.
+/// tracker saw (mm, measurement frame): a plain position observation of the first tool point,
+/// read by the solver in place.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct kc_measurement {
@@ -30,28 +30,28 @@ pub struct kc_measurement {
     pub xyz_mm: [f32; 3],
 }
 
-// The C array is read as `&[Measurement<f32, 6>]` without a copy: same size, alignment and
-// field offsets (a `Vector3<f32>` is three floats, see fk.rs), checked here for every target.
-const _: () = assert!(
-    size_of::<kc_measurement>() == size_of::<Measurement<f32, KC_JOINTS>>()
-        && align_of::<kc_measurement>() == align_of::<Measurement<f32, KC_JOINTS>>()
-        && offset_of!(kc_measurement, q) == offset_of!(Measurement<f32, KC_JOINTS>, q)
-        && offset_of!(kc_measurement, xyz_mm) == offset_of!(Measurement<f32, KC_JOINTS>, point)
-        && size_of::<nalgebra::Vector3<f32>>() == 12
-);
+impl Observation<f32, KC_JOINTS> for kc_measurement {
+    #[inline(always)]
+    fn q(&self) -> &[f32; KC_JOINTS] {
+        &self.q
+    }
+    #[inline(always)]
+    fn point(&self) -> Vector3<f32> {
+        Vector3::new(self.xyz_mm[0], self.xyz_mm[1], self.xyz_mm[2])
+    }
+    fn is_valid(&self) -> bool {
+        self.q.iter().chain(&self.xyz_mm).all(|v| v.is_finite())
+    }
+}
 
-/// The caller's measurements as the library's, in place.
+/// The caller's measurements, in place.
 ///
 /// # Safety
 /// `data` is NULL or points to `n` readable `kc_measurement` not written during the borrow.
 #[inline(always)]
-unsafe fn measurements<'a>(
-    data: *const kc_measurement,
-    n: usize,
-) -> Kc<&'a [Measurement<f32, KC_JOINTS>]> {
-    // SAFETY: the caller's contract; the layouts are identical (asserted above) and every bit
-    // pattern is a valid `Measurement<f32, 6>` (plain floats).
-    unsafe { slice_ref(data.cast::<Measurement<f32, KC_JOINTS>>(), n) }
+unsafe fn measurements<'a>(data: *const kc_measurement, n: usize) -> Kc<&'a [kc_measurement]> {
+    // SAFETY: the caller's contract.
+    unsafe { slice_ref(data, n) }
 }
 
 /// The solver settings a firmware sets (the library's `LmConfig<f32>`).
@@ -189,14 +189,14 @@ fn progress_of(p: &LmProgress<f32>) -> kc_lm_progress {
 }
 
 /// The solver of a handle with room for `P` parameters.
-type Lm<const P: usize> = Levenberg<f32, KC_JOINTS, 0, FixedLm<f32, P>>;
+pub(crate) type Lm<const P: usize> = Levenberg<f32, KC_JOINTS, 0, FixedLm<f32, P>>;
 
 /// A solver handle: its constructor's `Result` is what it holds.
 trait Solver<const P: usize>: handle::Handle<Inner = Result<Lm<P>, LmError>> {}
 impl<const P: usize, H: handle::Handle<Inner = Result<Lm<P>, LmError>>> Solver<P> for H {}
 
 /// Bytes of a [`kc_lm`] (see `KC_ROBOT_SIZE`).
-pub const KC_LM_SIZE: usize = 8776;
+pub const KC_LM_SIZE: usize = 8952;
 
 /// A Levenberg–Marquardt identification (`Levenberg<f32, 6, 0, FixedLm<f32,
 /// KC_LM_MAX_PARAMS>>`): a streaming stepper that does a bounded slice of work per
@@ -223,7 +223,7 @@ pub const KC_LM_FULL_MAX_PARAMS: usize = 39;
 
 /// Bytes of a [`kc_lm_full`] (see `KC_ROBOT_SIZE`).
 #[cfg(feature = "lm-full")]
-pub const KC_LM_FULL_SIZE: usize = 17472;
+pub const KC_LM_FULL_SIZE: usize = 17648;
 
 /// As [`kc_lm`] with room for `KC_LM_FULL_MAX_PARAMS` parameters (twice the memory; the
 /// `kc_lm_full_*` functions are those of `kc_lm`). Only in a static library built with the
@@ -273,6 +273,8 @@ fn lm_error(e: LmError) -> kc_status {
         LmError::TooFewMeasurements => KC_TOO_FEW_MEASUREMENTS,
         LmError::DataChanged => KC_DATA_CHANGED,
         LmError::NonFiniteMeasurement => KC_NOT_FINITE,
+        // A kc_measurement is always of the first point.
+        LmError::UnknownToolPoint => KC_INVALID_ARGUMENT,
         LmError::Params(ParamError::Capacity) => KC_TOO_MANY_PARAMS,
         LmError::Config
         | LmError::Params(_)
@@ -351,7 +353,7 @@ unsafe fn lm_step<H: Solver<P>, const P: usize>(
 #[inline(never)]
 fn step<const P: usize>(
     lm: &mut Lm<P>,
-    data: &[Measurement<f32, KC_JOINTS>],
+    data: &[kc_measurement],
     budget: usize,
 ) -> Result<LmProgress<f32>, LmError> {
     lm.step(data, budget)
@@ -760,7 +762,7 @@ pub unsafe extern "C" fn kc_rms_error(
         if data.is_empty() {
             return Err(KC_TOO_FEW_MEASUREMENTS);
         }
-        if !data.iter().all(|m| m.is_finite()) {
+        if !data.iter().all(|m| m.is_valid()) {
             return Err(KC_NOT_FINITE);
         }
         *out = rms_error(robot, data);

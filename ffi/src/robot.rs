@@ -41,7 +41,7 @@ pub struct kc_frame {
 
 /// Bytes of a [`kc_robot`] (the largest `Robot<f32, 6>` of the supported targets, rounded up
 /// to 8; a compile-time assertion checks it fits).
-pub const KC_ROBOT_SIZE: usize = 928;
+pub const KC_ROBOT_SIZE: usize = 1016;
 
 /// A robot (`Robot<f32, 6>`): base pose, six MDH rows, tool point, joint couplings. Opaque;
 /// caller-owned (a `static` in firmware); [`kc_robot_init`] constructs it.
@@ -448,6 +448,8 @@ pub(crate) fn code_of(p: Param) -> kc_param {
         Param::ToolX => (11, 0),
         Param::ToolY => (12, 0),
         Param::ToolZ => (13, 0),
+        // Not in this ABI (one tool point, no tool orientation): as effects.
+        Param::ToolPoint(..) | Param::ToolRx | Param::ToolRy | Param::ToolRz => (255, 0),
         Param::Effect(_) => (255, 0),
     };
     kc_param { kind, joint }

@@ -94,7 +94,7 @@ fn forward_kinematics_and_jacobian_are_the_library_s_bit_for_bit() {
     }
     for q in poses(20, 1) {
         let want = fk.compute(&robot, &q);
-        let pose = fk.tool_pose();
+        let pose = fk.flange_pose();
         let mut cols = [Vector3::zeros(); 24];
         fk.identification_jacobian(&robot, set.as_slice(), &mut cols)
             .expect("jacobian");
@@ -145,6 +145,7 @@ fn an_lm_run_is_the_library_s_step_by_step() {
         .map(|q| Measurement {
             q,
             point: fk.compute(&truth, &q),
+            ..Default::default()
         })
         .collect();
     let c_data: Vec<kc_measurement> = data
@@ -217,7 +218,7 @@ fn compensation_and_tracking_are_the_library_s_bit_for_bit() {
     assert_eq!(unsafe { kc_tracker_init(&mut *t, std::ptr::null()) }, KC_OK);
     for (k, q) in poses(10, 3).into_iter().enumerate() {
         fk.compute(&nominal, &q);
-        let pose = fk.tool_pose();
+        let pose = fk.flange_pose();
         let target = if k % 2 == 0 {
             Target::Pose(pose)
         } else {

@@ -45,7 +45,7 @@ fn degenerate(u: &mut Unstructured) -> Vec<Measurement<f64, N>> {
         if !p.iter().all(|x| x.is_finite()) {
             p = Vector3::new(k as f64, 0.0, 0.0);
         }
-        out.push(Measurement { q, point: p });
+        out.push(Measurement::new(q, p));
     }
     out
 }

@@ -330,7 +330,7 @@ pub fn simulate<const N: usize, const V: usize>(
         .map(|k| {
             let q: [f64; N] =
                 std::array::from_fn(|j| ((k * 7 + j * 3) % 11) as f64 * 0.37 - 1.8 + 0.01 * j as f64);
-            kinecal::Measurement { q, point: kinecal::forward::point(robot, &q) }
+            kinecal::Measurement { q, point: kinecal::forward::point(robot, &q), ..Default::default() }
         })
         .collect()
 }

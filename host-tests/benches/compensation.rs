@@ -79,7 +79,7 @@ fn cases<T: Real>(r: &Robot<T, 6, V>, six: bool) -> Vec<(Target<T>, [T; 6])> {
             ];
             let qt = q.map(T::of);
             fk.compute(r, &qt);
-            let f = fk.tool_pose();
+            let f = fk.flange_pose();
             let target = if six {
                 Target::Pose(f)
             } else {
@@ -102,7 +102,7 @@ fn trajectory<T: Real>(r: &Robot<T, 6, V>, six: bool) -> Vec<(Target<T>, [T; 6])
             let t = k as f64 * 1e-4;
             let q: [f64; 6] = [t - 1.0, 0.2 + 0.1 * t, 0.1 - 0.2 * t, 0.5 + t, 0.8, t];
             fk.compute(r, &q.map(T::of));
-            let f = fk.tool_pose();
+            let f = fk.flange_pose();
             let target = if six {
                 Target::Pose(f)
             } else {

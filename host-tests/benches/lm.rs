@@ -47,7 +47,7 @@ fn data() -> (Robot<f64, 6, 0>, Vec<Measurement<f64, 6>>) {
                     noise.sample(&mut rng),
                     noise.sample(&mut rng),
                 );
-            Measurement { q, point: p }
+            Measurement::new(q, p)
         })
         .collect();
     (nominal, ms)
@@ -69,10 +69,7 @@ fn bench(c: &mut Criterion) {
     let nominal32 = nominal.cast::<f32>().unwrap();
     let ms32: Vec<Measurement<f32, 6>> = ms
         .iter()
-        .map(|m| Measurement {
-            q: m.q.map(|v| v as f32),
-            point: m.point.cast(),
-        })
+        .map(|m| Measurement::new(m.q.map(|v| v as f32), m.point.cast()))
         .collect();
     let mdh = ParamSet::<24>::mdh(6).unwrap();
     let full = ParamSet::<27>::full(6, false).unwrap();

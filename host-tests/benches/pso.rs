@@ -50,10 +50,7 @@ fn data<T: Real>(params: &ParamSet<24>) -> Vec<Measurement<T, 6>> {
         .map(|_| {
             let q: [f64; 6] = core::array::from_fn(|_| rng.random_range(-2.5..2.5));
             let p = fk.compute(&truth, &q);
-            Measurement {
-                q: q.map(T::of),
-                point: p.map(T::of),
-            }
+            Measurement::new(q.map(T::of), p.map(T::of))
         })
         .collect()
 }

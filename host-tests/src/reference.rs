@@ -73,6 +73,10 @@ pub struct RefRobot {
     pub base: Matrix4<f64>,
     pub joints: Vec<RefJoint>,
     pub tool: Vector3<f64>,
+    /// Further tool points (reflectors 2, 3, …), flange frame.
+    pub more_tools: Vec<Vector3<f64>>,
+    /// Orientation of the measured frame in the flange frame (`[tool] rpy_deg`).
+    pub tool_axes: Matrix3<f64>,
     /// In the order of the library's effect list (its value numbering follows this order).
     pub effects: Vec<RefEffect>,
     /// Joint couplings: model angles = C · (corrected readings), C = I + Σ ratio·e_joint·e_fromᵀ.
@@ -211,10 +215,18 @@ impl RefRobot {
                 ratio: c.ratio,
             })
             .collect();
+        let tool_axes = match f.tool.rpy_deg {
+            Some(rpy) => pose_xyz_rpy([0.0; 3], rpy.map(f64::to_radians))
+                .fixed_view::<3, 3>(0, 0)
+                .into_owned(),
+            None => Matrix3::identity(),
+        };
         RefRobot {
             base,
             joints,
             tool: Vector3::from(f.tool.xyz_mm),
+            more_tools: Vec::new(),
+            tool_axes,
             effects,
             couplings,
         }
@@ -270,10 +282,15 @@ impl RefRobot {
             .iter()
             .map(|(joint, from, ratio)| RefCoupling { joint, from, ratio })
             .collect();
+        let a = r.tool_axes();
         RefRobot {
             base,
             joints,
             tool: *r.tool(),
+            more_tools: (1..r.tool_point_count())
+                .filter_map(|k| r.tool_point(k).copied())
+                .collect(),
+            tool_axes: Matrix3::from_columns(&[a.x, a.y, a.z]),
             effects,
             couplings,
         }
@@ -381,9 +398,24 @@ impl RefRobot {
         (self.flange(q) * Vector4::new(self.tool.x, self.tool.y, self.tool.z, 1.0)).xyz()
     }
 
-    /// The flange (= tool) orientation in the measurement frame.
-    pub fn tool_rotation(&self, q: &[f64]) -> Matrix3<f64> {
+    /// Tool point `k` (0: `tool`, then `more_tools`) at `q`, mm, measurement frame.
+    pub fn point_at(&self, q: &[f64], k: usize) -> Vector3<f64> {
+        let t = if k == 0 {
+            self.tool
+        } else {
+            self.more_tools[k - 1]
+        };
+        (self.flange(q) * Vector4::new(t.x, t.y, t.z, 1.0)).xyz()
+    }
+
+    /// The flange orientation in the measurement frame.
+    pub fn flange_rotation(&self, q: &[f64]) -> Matrix3<f64> {
         self.flange(q).fixed_view::<3, 3>(0, 0).into_owned()
+    }
+
+    /// The measured frame's orientation in the measurement frame: flange · tool axes.
+    pub fn tool_rotation(&self, q: &[f64]) -> Matrix3<f64> {
+        self.flange_rotation(q) * self.tool_axes
     }
 
     /// The model value behind a library effect value number `k`.
@@ -416,6 +448,16 @@ impl RefRobot {
             Param::ToolX => r.tool.x += h,
             Param::ToolY => r.tool.y += h,
             Param::ToolZ => r.tool.z += h,
+            Param::ToolPoint(k, a) => r.more_tools[k as usize - 1][a as usize] += h,
+            // Rotation-vector steps in the flange frame: R_tool ← exp(h·axis)·R_tool.
+            Param::ToolRx | Param::ToolRy | Param::ToolRz => {
+                let axis = match p {
+                    Param::ToolRx => Vector3::x(),
+                    Param::ToolRy => Vector3::y(),
+                    _ => Vector3::z(),
+                };
+                r.tool_axes = Rotation3::from_scaled_axis(axis * h).into_inner() * r.tool_axes;
+            }
             Param::Effect(k) => {
                 if let Some(v) = r.effect_value_mut(k as usize) {
                     *v += h;

@@ -166,7 +166,7 @@ fn perturb<const N: usize>(q: &[f64; N], sigma_deg: f64, rng: &mut Rng) -> [f64;
 fn pose<T: Real, const N: usize, const W: usize>(r: &Robot<T, N, W>, q: &[T; N]) -> Frame<T> {
     let mut fk = ForwardKinematics::new();
     fk.compute(r, q);
-    fk.tool_pose()
+    fk.flange_pose()
 }
 
 /// Position (mm) and orientation (rad) error of the robot's tool at `q` against `target`.
@@ -967,6 +967,7 @@ fn end_to_end() {
                         noise.sample(&mut rng),
                         noise.sample(&mut rng),
                     ),
+                    ..Default::default()
                 }
             })
             .collect();

@@ -101,10 +101,10 @@ fn fk_checks<const N: usize>(text: &str, seed: u64) {
             (pc - pu).norm() <= 1e-9,
             "coupled {pc} vs uncoupled at model angles {pu}"
         );
-        assert!((rotation(&a.tool_pose()) - rotation(&b.tool_pose())).norm() <= 1e-12);
+        assert!((rotation(&a.flange_pose()) - rotation(&b.flange_pose())).norm() <= 1e-12);
         let pr = reference.point(&r);
         assert!((pc - pr).norm() <= 1e-9, "library {pc} vs reference {pr}");
-        assert!((rotation(&a.tool_pose()) - reference.tool_rotation(&r)).norm() <= 1e-12);
+        assert!((rotation(&a.flange_pose()) - reference.tool_rotation(&r)).norm() <= 1e-12);
         assert_eq!(a.q, arr::<N>(&r), "fk.q stays the readings");
         // The couplings matter here: the uncoupled model at the readings is elsewhere.
         moved = moved.max((b.compute(&plain, &arr::<N>(&r)) - pc).norm());
@@ -331,6 +331,7 @@ fn measure<const N: usize>(
             Measurement {
                 q,
                 point: fk.compute(robot, &q),
+                ..Default::default()
             }
         })
         .collect()
@@ -355,6 +356,7 @@ fn pso_fitness_cache_and_lm_with_snapshots_honour_couplings() {
         .map(|m| Measurement {
             q: arr::<6>(&to_model(&f, &m.q)),
             point: m.point,
+            ..Default::default()
         })
         .collect();
 
@@ -472,7 +474,7 @@ fn planning_candidates_of_a_coupled_robot() {
         check.compute(&coupled, &c.q);
         assert!(scene.check(&coupled, &check, true).feasible());
         let beam = (coupled.base().point(&tracker.position) - check.point).normalize();
-        assert!(check.tool_pose().z.dot(&beam) >= 30f64.to_radians().cos() - 1e-9);
+        assert!(check.flange_pose().z.dot(&beam) >= 30f64.to_radians().cos() - 1e-9);
         // Its Jacobian rows are the uncoupled model's at the model angles.
         let mut plain_fk = ForwardKinematics::new();
         plain_fk.compute(&plain, &arr::<6>(&to_model(&f, &c.q)));
@@ -800,7 +802,7 @@ fn compensate_returns_commands_in_the_controllers_readings() {
         fk.compute(&robot, &arr::<6>(&rad));
         let at = compensate(
             &robot,
-            &Target::Pose(fk.tool_pose()),
+            &Target::Pose(fk.flange_pose()),
             &arr::<6>(&rad),
             &Config::default(),
         );

@@ -303,7 +303,7 @@ fn noise_floor_comes_from_repeated_poses() {
         for _ in 0..2 {
             let points = kinecal_cli::simulation::measure(&truth, &configs, sigma, &mut rng);
             for (q, p) in configs.iter().zip(points) {
-                d.push(Measurement { q: *q, point: p });
+                d.push(Measurement::new(*q, p));
             }
         }
         let r =

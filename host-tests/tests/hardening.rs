@@ -339,6 +339,7 @@ fn lm_data(truth: &Robot<f64, 6>) -> Vec<Measurement<f64, 6>> {
             Measurement {
                 q,
                 point: fk.compute(truth, &q),
+                ..Default::default()
             }
         })
         .collect()

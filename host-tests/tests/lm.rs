@@ -47,7 +47,7 @@ fn measure(
                 core::array::from_fn(|_| rng.random_range(-170f64..170.0).to_radians());
             let p = fk.compute(robot, &q);
             let e = Vector3::new(noise.sample(rng), noise.sample(rng), noise.sample(rng));
-            Measurement { q, point: p + e }
+            Measurement::new(q, p + e)
         })
         .collect()
 }
@@ -135,7 +135,7 @@ fn bad_input_is_refused_without_damage() {
     let nominal = er20();
     let set = ParamSet::<64>::full(6, false).unwrap();
     let mut lm = Levenberg::fixed(nominal.clone(), set, LmConfig::default()).unwrap();
-    assert!(lm.step(&[], 10).is_err());
+    assert!(lm.step::<Measurement<f64, 6>>(&[], 10).is_err());
     let mut bad = vec![Measurement::<f64, 6>::default(); 20];
     bad[3].point.x = f64::NAN;
     assert!(lm.step(&bad, 10).is_err());

@@ -172,10 +172,7 @@ fn f32_and_fixed_storage_reach_the_same_penalised_optimum() {
     let (_, data) = poses(60, 4);
     let data32: Vec<Measurement<f32, 6>> = data
         .iter()
-        .map(|m| Measurement {
-            q: m.q.map(|v| v as f32),
-            point: m.point.cast::<f32>(),
-        })
+        .map(|m| Measurement::new(m.q.map(|v| v as f32), m.point.cast::<f32>()))
         .collect();
     let start = er20();
     let weights = (2e3, 0.05, 0.2);

@@ -88,6 +88,7 @@ fn effects_take_the_general_path() {
             .map(|m| Measurement {
                 q: m.q,
                 point: fk.compute(&r, &m.q),
+                ..Default::default()
             })
             .collect::<Vec<_>>()
     };
@@ -417,10 +418,7 @@ fn pso_runs_in_f32() {
         let nominal32: Robot<f32, 6> = nominal.cast().unwrap();
         let data: Vec<Measurement<f32, 6>> = data64
             .iter()
-            .map(|m| Measurement {
-                q: m.q.map(|v| v as f32),
-                point: m.point.map(|v| v as f32),
-            })
+            .map(|m| Measurement::new(m.q.map(|v| v as f32), m.point.map(|v| v as f32)))
             .collect();
         let params = mdh24();
         let mut cache = vec![[(0.0f32, 0.0f32); 6]; 50];

@@ -188,7 +188,7 @@ fn check_fk_f64<const N: usize>(d: &Desc, q: &[f64], effects: &[Eff]) -> Result<
     );
     // The tool orientation and every joint frame.
     let rr = reference.tool_rotation(q);
-    prop_assert!((frame_rotation(&fk.tool_pose()) - rr).norm() <= 1e-12);
+    prop_assert!((frame_rotation(&fk.tool_pose(&r)) - rr).norm() <= 1e-12);
     let qg = reference.corrected(q);
     let frames = reference.frames_in_base(&qg);
     for (i, f) in frames.iter().enumerate() {

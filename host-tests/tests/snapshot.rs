@@ -104,10 +104,7 @@ fn paper_sized_swarm_round_trips_in_f32_and_f64() {
         let n32: kinecal::Robot<f32, 6> = nominal.cast().unwrap();
         let d32: Vec<kinecal::Measurement<f32, 6>> = data
             .iter()
-            .map(|m| kinecal::Measurement {
-                q: m.q.map(|v| v as f32),
-                point: m.point.map(|v| v as f32),
-            })
+            .map(|m| kinecal::Measurement::new(m.q.map(|v| v as f32), m.point.map(|v| v as f32)))
             .collect();
         let mut g = PositionFitness::new(&n32, &params, &d32).unwrap();
         let mut c32 = PsoConfig::<f32, 24>::calibration(params.as_slice()).unwrap();

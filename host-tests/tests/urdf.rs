@@ -148,16 +148,15 @@ fn angle_between(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
 
 /// The library's (f64) point and frame orientation (flange · tool rpy) at `q` (radians).
 fn library_pose(file: &RobotFile, q: &[f64]) -> (Vector3<f64>, Matrix3<f64>) {
-    let rpy = file.tool.rpy_deg.unwrap_or([0.0; 3]).map(f64::to_radians);
-    let tool_r = rot_z(rpy[2]) * rot_y(rpy[1]) * rot_x(rpy[0]);
     let r: anyhow::Result<(Vector3<f64>, Matrix3<f64>)> = with_joints!(file.joints.len(), N => {
         let robot = file.to_robot::<N>().unwrap();
         let mut qa = [0.0; N];
         qa.copy_from_slice(q);
         let mut fk = ForwardKinematics::<f64, N>::new();
         let p = fk.compute(&robot, &qa);
-        let frame = fk.tool_pose();
-        Ok((p, frame.rotation() * tool_r))
+        // The robot carries `[tool] rpy_deg` as its tool axes.
+        let frame = fk.tool_pose(&robot);
+        Ok((p, frame.rotation()))
     });
     r.unwrap()
 }

@@ -124,7 +124,7 @@ pub(super) fn evaluate_into<T: Real, const N: usize, const V: usize>(
         // The residual is sin(θ)·axis: zero exactly where θ·axis is, with the same Jacobian to
         // first order, and free of atan2 and sqrt. Past 90° it would shrink again, so there
         // the exact rotation vector takes over.
-        let tool = fk.tool_pose();
+        let tool = fk.tool_pose(robot);
         let (v, c) = orientation_sin_cos(f, &tool);
         let w = if c > T::zero() {
             v

@@ -39,7 +39,7 @@
 //! let data: Vec<Measurement<f64, 3>> = (0..10)
 //!     .map(|k| {
 //!         let q = [0.3 * k as f64, 0.1 * k as f64, -0.2 * k as f64];
-//!         Measurement { q, point: point(&real, &q) }
+//!         Measurement::new(q, point(&real, &q))
 //!     })
 //!     .collect();
 //!
@@ -54,6 +54,7 @@
 //! assert_eq!(f.robot(&x).unwrap().joints()[0].d, 400.5);
 //! ```
 
+use crate::identify::lm_pass::observation_cost;
 use crate::model::param::{apply_delta, ParamError, ParamSet};
 use crate::model::robot::RowTrig;
 use crate::{ForwardKinematics, Frame, Joint, Measurement, Real, Robot};
@@ -84,6 +85,8 @@ pub enum FitnessError {
     Params(ParamError),
     /// The trigonometry cache has fewer entries than there are measurements.
     CacheTooSmall,
+    /// A measurement names a tool point the robot does not have.
+    UnknownToolPoint,
 }
 
 /// Sum of squared position errors (mm²) of `reference ⊕ x` over a set of measurements.
@@ -115,6 +118,12 @@ impl<'a, T: Real, const N: usize, const V: usize, const P: usize> PositionFitnes
         }
         if data.iter().any(|m| !m.is_finite()) {
             return Err(FitnessError::NonFiniteMeasurement);
+        }
+        if data
+            .iter()
+            .any(|m| m.tool as usize >= reference.tool_point_count())
+        {
+            return Err(FitnessError::UnknownToolPoint);
         }
         Ok(Self {
             reference,
@@ -149,7 +158,11 @@ impl<'a, T: Real, const N: usize, const V: usize, const P: usize> PositionFitnes
                 *cj = q.sincos();
             }
         }
-        if reference.effects().is_empty() {
+        // The fast path computes the first point's position: plain observations only.
+        let plain = data
+            .iter()
+            .all(|m| m.tool == 0 && m.orientation.is_none() && m.unweighted());
+        if reference.effects().is_empty() && plain {
             f.cache = Some(cache);
         }
         Ok(f)
@@ -175,13 +188,10 @@ impl<'a, T: Real, const N: usize, const V: usize, const P: usize> PositionFitnes
         Ok(r)
     }
 
-    /// Sum of squared position errors (mm²) of `robot` over the measurements.
+    /// Sum of squared (weighted) residuals of `robot` over the measurements: mm² for plain
+    /// position data, the Levenberg–Marquardt cost in general.
     pub fn of_robot(&mut self, robot: &Robot<T, N, V>) -> T {
-        let mut s = T::zero();
-        for m in self.data {
-            s += (m.point - self.fk.compute(robot, &m.q)).norm_squared();
-        }
-        s
+        cost(&mut self.fk, robot, self.data)
     }
 }
 
@@ -201,12 +211,22 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Objective<T>
         if let Some(cache) = self.cache {
             return sum_cached(&self.work, self.data, cache);
         }
-        let mut s = T::zero();
-        for m in self.data {
-            s += (m.point - self.fk.compute(&self.work, &m.q)).norm_squared();
-        }
-        s
+        cost(&mut self.fk, &self.work, self.data)
     }
+}
+
+/// Σ of the observations' weighted squared residuals ([`observation_cost`]).
+fn cost<T: Real, const N: usize, const V: usize>(
+    fk: &mut ForwardKinematics<T, N>,
+    robot: &Robot<T, N, V>,
+    data: &[Measurement<T, N>],
+) -> T {
+    let mut s = T::zero();
+    for m in data {
+        // Tool points were checked at construction.
+        s += observation_cost(fk, robot, m).unwrap_or(T::of(f64::INFINITY));
+    }
+    s
 }
 
 /// The fast path: forward kinematics of the measured point only, with the joint angle's sine

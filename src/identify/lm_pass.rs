@@ -19,9 +19,11 @@
 
 use crate::identify::lm_status::LmError;
 use crate::identify::lm_storage::{LmParts, LmStorage};
+use crate::io::measurement::Observation;
 use crate::model::effects::{Effect, EffectKind};
+use crate::model::frame::orientation_error;
 use crate::model::param::Param;
-use crate::{ForwardKinematics, Measurement, Real, Robot};
+use crate::{ForwardKinematics, Real, Robot};
 use nalgebra::Vector3;
 
 /// What a pass computes.
@@ -102,18 +104,16 @@ impl<T: Real, const N: usize, const V: usize> Pass<'_, T, N, V> {
     /// Adds `poses` (a slice of the run's measurements; every pose in exactly one part) to
     /// `part`, starting it afresh when it last served another pass. `fk` is the worker's own
     /// scratch.
-    pub fn accumulate<S: LmStorage<T>>(
+    pub fn accumulate<S: LmStorage<T>, M: Observation<T, N>>(
         &self,
         fk: &mut ForwardKinematics<T, N>,
-        poses: &[Measurement<T, N>],
+        poses: &[M],
         part: &mut PassPart<T, S>,
     ) -> Result<(), LmError> {
         if part.storage.params() != self.columns.params || !part_fits(&mut part.storage) {
             return Err(LmError::PassMismatch);
         }
-        if poses.iter().any(|m| !m.is_finite()) {
-            return Err(LmError::NonFiniteMeasurement);
-        }
+        crate::identify::lm::check_observations(self.robot, poses)?;
         let n = self.columns.params.len();
         if part.id != Some(self.id) {
             part.id = Some(self.id);
@@ -216,20 +216,141 @@ pub(crate) struct Columns<'a, T> {
     pub gradient_only: bool,
 }
 
-/// Adds one pose's residual and scaled Jacobian to `out` and returns its squared residual.
+/// Which rows of an observation a block of the Jacobian is: the point's three coordinates,
+/// or the three components of the orientation error (6-D observations).
+pub(crate) trait Rows {
+    /// `∂(rows)/∂param` at the last computed pose.
+    fn column<T: Real, const N: usize, const V: usize>(
+        fk: &ForwardKinematics<T, N>,
+        robot: &Robot<T, N, V>,
+        p: Param,
+    ) -> Vector3<T>;
+    /// `∂(rows)/∂r'_j`, the corrected reading of joint `j` (what a joint correction adds to).
+    fn reading<T: Real, const N: usize, const V: usize>(
+        fk: &ForwardKinematics<T, N>,
+        robot: &Robot<T, N, V>,
+        j: usize,
+    ) -> Vector3<T>;
+}
+
+/// The point's rows.
+pub(crate) struct PointRows;
+/// The orientation's rows.
+pub(crate) struct OrientationRows;
+
+impl Rows for PointRows {
+    #[inline(always)]
+    fn column<T: Real, const N: usize, const V: usize>(
+        fk: &ForwardKinematics<T, N>,
+        robot: &Robot<T, N, V>,
+        p: Param,
+    ) -> Vector3<T> {
+        // Parameters were checked against the robot at construction: a column always exists.
+        fk.column(robot, p).unwrap_or_else(|_| Vector3::zeros())
+    }
+    #[inline(always)]
+    fn reading<T: Real, const N: usize, const V: usize>(
+        fk: &ForwardKinematics<T, N>,
+        robot: &Robot<T, N, V>,
+        j: usize,
+    ) -> Vector3<T> {
+        fk.reading_column(robot, j)
+    }
+}
+
+impl Rows for OrientationRows {
+    #[inline(always)]
+    fn column<T: Real, const N: usize, const V: usize>(
+        fk: &ForwardKinematics<T, N>,
+        robot: &Robot<T, N, V>,
+        p: Param,
+    ) -> Vector3<T> {
+        fk.rotation_column(robot, p)
+            .unwrap_or_else(|_| Vector3::zeros())
+    }
+    #[inline(always)]
+    fn reading<T: Real, const N: usize, const V: usize>(
+        fk: &ForwardKinematics<T, N>,
+        robot: &Robot<T, N, V>,
+        j: usize,
+    ) -> Vector3<T> {
+        fk.reading_rotation_column(robot, j)
+    }
+}
+
+/// The weighted residual of one observation at `robot` and its squared norm (the observation's
+/// share of the cost): the point's `w ⊙ (p_m − p)` and, for a 6-D observation, the orientation
+/// error's rotation vector times its weight. `fk` holds the pose afterwards. `None` when the
+/// robot has no tool point `m.tool`.
+#[inline(always)]
+pub(crate) fn residual<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
+    fk: &mut ForwardKinematics<T, N>,
+    robot: &Robot<T, N, V>,
+    m: &M,
+) -> Option<(Vector3<T>, Option<Vector3<T>>)> {
+    let p = if m.tool() == 0 {
+        fk.compute(robot, m.q())
+    } else {
+        fk.compute_point(robot, m.q(), m.tool())?
+    };
+    let mut r = m.point() - p;
+    if let Some(w) = m.weight() {
+        r = r.component_mul(&w);
+    }
+    let rot = m
+        .orientation()
+        .map(|(o, w)| orientation_error(o, &fk.tool_pose(robot)) * w);
+    Some((r, rot))
+}
+
+/// The weighted squared residual of one observation (see [`residual`]); `None` when the
+/// robot has no tool point `m.tool`.
+pub fn observation_cost<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
+    fk: &mut ForwardKinematics<T, N>,
+    robot: &Robot<T, N, V>,
+    m: &M,
+) -> Option<T> {
+    let (r, rot) = residual(fk, robot, m)?;
+    Some(r.norm_squared() + rot.map_or(T::zero(), |v| v.norm_squared()))
+}
+
+/// Adds one observation's residual and scaled Jacobian to `out` and returns its squared
+/// (weighted) residual: the point's rows, then for a 6-D observation the orientation's.
+pub(crate) fn accumulate_pose<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
+    fk: &mut ForwardKinematics<T, N>,
+    robot: &Robot<T, N, V>,
+    m: &M,
+    set: &Columns<'_, T>,
+    out: &mut NormalSums<'_, T>,
+) -> T {
+    // The pass checked that the robot has the observation's point.
+    let Some((r, rot)) = residual(fk, robot, m) else {
+        return T::zero();
+    };
+    let mut cost = accumulate_rows::<PointRows, T, N, V>(fk, robot, r, m.weight(), set, out);
+    if let (Some(rr), Some((_, w))) = (rot, m.orientation()) {
+        let w = Some(Vector3::repeat(w));
+        cost += accumulate_rows::<OrientationRows, T, N, V>(fk, robot, rr, w, set, out);
+    }
+    cost
+}
+
+/// Adds three rows (residual `r`, already weighted; columns from `R`, weighted by `weight`)
+/// to `out` and returns `|r|²`.
 ///
 /// Held columns join fully only on the passes that decide identifiability; otherwise just
 /// their diagonal, which tells when the model has moved to where the data see them. When few
 /// columns are non-zero at this pose (tables touch two knots of many) only their pairs are
 /// updated: `O(k²)` for `k` of them instead of `O(P²)`.
-pub(crate) fn accumulate_pose<T: Real, const N: usize, const V: usize>(
-    fk: &mut ForwardKinematics<T, N>,
+#[inline(always)]
+fn accumulate_rows<R: Rows, T: Real, const N: usize, const V: usize>(
+    fk: &ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
-    m: &Measurement<T, N>,
+    r: Vector3<T>,
+    weight: Option<Vector3<T>>,
     set: &Columns<'_, T>,
     out: &mut NormalSums<'_, T>,
 ) -> T {
-    let r = m.point - fk.compute(robot, &m.q);
     // A gradient-only pass leaves `JᵀJ` alone: no held column's diagonal either.
     let set = &Columns {
         full: set.full || set.gradient_only,
@@ -249,15 +370,14 @@ pub(crate) fn accumulate_pose<T: Real, const N: usize, const V: usize>(
     // of many: their columns are set apart.
     let with_tables = V > 0 && robot.effects().iter().any(|e| e.kind == EffectKind::Table);
     let k_nz = if with_tables {
-        columns_with_tables(fk, robot, set, out)
+        columns_with_tables::<R, T, N, V>(fk, robot, set, weight, out)
     } else {
         let mut k_nz = 0;
         for k in 0..n {
-            // Parameters were checked against the robot at construction: a column always exists.
-            let mut c = fk
-                .column(robot, params[k])
-                .unwrap_or_else(|_| Vector3::zeros())
-                / scale[k];
+            let mut c = R::column(fk, robot, params[k]) / scale[k];
+            if let Some(w) = weight {
+                c = c.component_mul(&w);
+            }
             if !active[k] && !full {
                 out.jtj[k * s + k] += c.norm_squared();
                 c = Vector3::zeros();
@@ -317,10 +437,11 @@ pub(crate) fn accumulate_pose<T: Real, const N: usize, const V: usize>(
 /// segment look-up per table and pose instead of one per knot). Returns the number of
 /// entering non-zero columns (in `out.nz`, increasing).
 #[inline(never)]
-fn columns_with_tables<T: Real, const N: usize, const V: usize>(
+fn columns_with_tables<R: Rows, T: Real, const N: usize, const V: usize>(
     fk: &ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
     set: &Columns<'_, T>,
+    weight: Option<Vector3<T>>,
     out: &mut NormalSums<'_, T>,
 ) -> usize {
     let Columns {
@@ -335,6 +456,9 @@ fn columns_with_tables<T: Real, const N: usize, const V: usize>(
     let mut k_nz = 0;
     // Column `k` is `c` (already scaled).
     let mut enter = |out: &mut NormalSums<'_, T>, k: usize, mut c: Vector3<T>| {
+        if let Some(w) = weight {
+            c = c.component_mul(&w);
+        }
         if !active[k] && !full {
             out.jtj[k * s + k] += c.norm_squared();
             c = Vector3::zeros();
@@ -354,7 +478,7 @@ fn columns_with_tables<T: Real, const N: usize, const V: usize>(
                 out.cy[k..k + len].fill(T::zero());
                 out.cz[k..k + len].fill(T::zero());
                 let (seg, w) = e.segment(fk.q[j]);
-                let jc = fk.reading_column(robot, j);
+                let jc = R::reading(fk, robot, j);
                 for (i, phi) in [(seg, T::one() - w), (seg + 1, w)] {
                     if phi != T::zero() && i < len {
                         enter(out, k + i, jc * phi / scale[k + i]);
@@ -366,13 +490,10 @@ fn columns_with_tables<T: Real, const N: usize, const V: usize>(
         }
         // Parameters were checked against the robot at construction: a column always exists.
         let c = match params[k] {
-            Param::Effect(v) => tables.column(fk, robot, v),
+            Param::Effect(v) => tables.column::<R, N, V>(fk, robot, v),
             _ => None,
         };
-        let c = c.unwrap_or_else(|| {
-            fk.column(robot, params[k])
-                .unwrap_or_else(|_| Vector3::zeros())
-        });
+        let c = c.unwrap_or_else(|| R::column(fk, robot, params[k]));
         enter(out, k, c / scale[k]);
         k += 1;
     }
@@ -417,7 +538,7 @@ impl<T: Real> TableCache<T> {
     /// The column of effect value `v` when it is a table knot (`None`: not a table's): what
     /// [`ForwardKinematics::column`] gives, `∂p/∂r'_j · φ_v`.
     #[inline]
-    fn column<const N: usize, const V: usize>(
+    fn column<R: Rows, const N: usize, const V: usize>(
         &mut self,
         fk: &ForwardKinematics<T, N>,
         robot: &Robot<T, N, V>,
@@ -440,7 +561,7 @@ impl<T: Real> TableCache<T> {
                 e.len as usize,
                 first + seg,
                 w,
-                fk.reading_column(robot, j),
+                R::reading(fk, robot, j),
             ));
         }
         let (_, _, lower, w, jc) = self.hit?;

@@ -16,8 +16,11 @@ pub enum LmError {
     TooFewMeasurements,
     /// The measurement slice changed length between calls.
     DataChanged,
-    /// A measurement holds NaN or infinity.
+    /// A measurement holds NaN or infinity (or a negative weight, or an orientation that is
+    /// no rotation).
     NonFiniteMeasurement,
+    /// A measurement names a tool point the robot does not have.
+    UnknownToolPoint,
     /// The parameter set does not fit the robot or the capacity.
     Params(ParamError),
     /// Parts handed to [`Levenberg::complete_pass`](crate::identify::lm::Levenberg::complete_pass) are not of the pending pass, do not cover

@@ -42,3 +42,4 @@ pub mod effects;
 pub mod frame;
 pub mod param;
 pub mod robot;
+pub mod tool;

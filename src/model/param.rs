@@ -45,6 +45,16 @@ pub enum Param {
     ToolY,
     /// Tool point z in the flange frame, mm.
     ToolZ,
+    /// Coordinate `axis` (0 x, 1 y, 2 z) of tool point `k` ≥ 1 (a further reflector; point 0
+    /// is [`Param::ToolX`]…), flange frame, mm.
+    ToolPoint(u8, u8),
+    /// Rotation of the measured frame about the flange's x axis (identification updates it as
+    /// a small rotation in the flange frame; the model file stores roll/pitch/yaw), rad.
+    ToolRx,
+    /// Rotation of the measured frame about the flange's y axis (as [`Param::ToolRx`]).
+    ToolRy,
+    /// Rotation of the measured frame about the flange's z axis (as [`Param::ToolRx`]).
+    ToolRz,
     /// Value `k` of the model's effect list (see [`crate::Effects::values`]).
     Effect(u16),
 }
@@ -62,7 +72,14 @@ impl Param {
                 | Param::ToolX
                 | Param::ToolY
                 | Param::ToolZ
+                | Param::ToolPoint(..)
         )
+    }
+
+    /// True for the three parameters of the measured frame's orientation (seen only by 6-D
+    /// observations).
+    pub fn is_tool_rotation(self) -> bool {
+        matches!(self, Param::ToolRx | Param::ToolRy | Param::ToolRz)
     }
 
     /// True for the six parameters of the base pose.
@@ -78,9 +95,23 @@ impl Param {
         )
     }
 
-    /// True for the three coordinates of the tool point.
+    /// True for the coordinates of a tool point (any of them).
     pub fn is_tool(self) -> bool {
-        matches!(self, Param::ToolX | Param::ToolY | Param::ToolZ)
+        matches!(
+            self,
+            Param::ToolX | Param::ToolY | Param::ToolZ | Param::ToolPoint(..)
+        )
+    }
+
+    /// Tool point `k` and axis of a point coordinate.
+    pub fn tool_point(self) -> Option<(usize, usize)> {
+        match self {
+            Param::ToolX => Some((0, 0)),
+            Param::ToolY => Some((0, 1)),
+            Param::ToolZ => Some((0, 2)),
+            Param::ToolPoint(k, a) => Some((k as usize, a as usize)),
+            _ => None,
+        }
     }
 
     /// Scale that makes a unit step comparable to 1 mm at the tool: 1 for lengths, the robot's
@@ -126,6 +157,18 @@ impl Param {
             "tool.x" => Param::ToolX,
             "tool.y" => Param::ToolY,
             "tool.z" => Param::ToolZ,
+            "tool.rx" => Param::ToolRx,
+            "tool.ry" => Param::ToolRy,
+            "tool.rz" => Param::ToolRz,
+            _ if s.starts_with("tool") => {
+                let (k, axis) = s[4..].split_once('.')?;
+                let k: u8 = k.parse().ok()?;
+                let axis = ["x", "y", "z"].iter().position(|a| *a == axis)? as u8;
+                if k < 2 {
+                    return None;
+                }
+                Param::ToolPoint(k - 1, axis)
+            }
             _ => {
                 let split = s.find(|c: char| c.is_ascii_digit())?;
                 let (head, num) = s.split_at(split);
@@ -171,6 +214,15 @@ impl<T: Real, const N: usize, const V: usize> fmt::Display for ParamName<'_, T, 
             Param::ToolX => f.write_str("tool.x"),
             Param::ToolY => f.write_str("tool.y"),
             Param::ToolZ => f.write_str("tool.z"),
+            Param::ToolPoint(k, a) => write!(
+                f,
+                "tool{}.{}",
+                k as usize + 1,
+                ["x", "y", "z"].get(a as usize).unwrap_or(&"?")
+            ),
+            Param::ToolRx => f.write_str("tool.rx"),
+            Param::ToolRy => f.write_str("tool.ry"),
+            Param::ToolRz => f.write_str("tool.rz"),
             Param::Effect(k) => {
                 let k = k as usize;
                 let eff = self
@@ -331,6 +383,7 @@ pub fn check_params<T: Real, const N: usize, const V: usize>(
     for p in params {
         let ok = match *p {
             Param::Effect(k) => (k as usize) < nv,
+            Param::ToolPoint(k, a) => k >= 1 && (k as usize) < robot.tool_point_count() && a < 3,
             p => p.joint().is_none_or(|j| j < N),
         };
         if !ok {
@@ -349,6 +402,9 @@ pub fn value<T: Real, const N: usize, const V: usize>(
         Param::BaseRx => Some(robot.base().rpy()[0]),
         Param::BaseRy => Some(robot.base().rpy()[1]),
         Param::BaseRz => Some(robot.base().rpy()[2]),
+        Param::ToolRx => Some(robot.tool_axes().rpy()[0]),
+        Param::ToolRy => Some(robot.tool_axes().rpy()[1]),
+        Param::ToolRz => Some(robot.tool_axes().rpy()[2]),
         p => stored(robot, p),
     }
 }
@@ -362,6 +418,8 @@ fn stored<T: Real, const N: usize, const V: usize>(robot: &Robot<T, N, V>, p: Pa
         Param::BaseY => robot.base().o.y,
         Param::BaseZ => robot.base().o.z,
         Param::BaseRx | Param::BaseRy | Param::BaseRz => return None,
+        Param::ToolRx | Param::ToolRy | Param::ToolRz => return None,
+        Param::ToolPoint(k, a) => *robot.tool_point(k as usize)?.get(a as usize)?,
         Param::Alpha(i) => j(i)?.alpha,
         Param::A(i) => j(i)?.a,
         Param::Theta(i) => j(i)?.theta,
@@ -399,6 +457,7 @@ pub fn apply_delta<T: Real, const N: usize, const V: usize>(
         }
     }
     let mut w = Vector3::zeros();
+    let mut wt = Vector3::zeros();
     let mut dt = Vector3::zeros();
     {
         let (base, joints, tool, effects) = robot.parts_mut();
@@ -419,11 +478,25 @@ pub fn apply_delta<T: Real, const N: usize, const V: usize>(
                 Param::ToolX => tool.x += d,
                 Param::ToolY => tool.y += d,
                 Param::ToolZ => tool.z += d,
+                Param::ToolRx => wt.x += d,
+                Param::ToolRy => wt.y += d,
+                Param::ToolRz => wt.z += d,
+                // Checked above: the point exists, the axis is 0..3.
+                Param::ToolPoint(..) => {}
                 Param::Effect(k) => effects.values_mut()[k as usize] += d,
             }
         }
         base.o += dt;
         base.rotate_in_parent(&w);
+    }
+    {
+        let extra = robot.tool_extra_mut();
+        for (p, d) in set.iter().zip(delta) {
+            if let Param::ToolPoint(k, a) = *p {
+                extra.more[k as usize - 1][a as usize] += *d;
+            }
+        }
+        extra.axes.rotate_in_parent(&wt);
     }
     robot.refresh();
     Ok(())

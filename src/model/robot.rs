@@ -7,6 +7,7 @@
 
 use crate::model::coupling::{CouplingError, Couplings};
 use crate::model::effects::{EffectError, Effects};
+use crate::model::tool::{ToolExtra, MAX_TOOL_POINTS};
 use crate::{Frame, Real};
 use nalgebra::Vector3;
 
@@ -161,6 +162,8 @@ pub struct Robot<T: Real, const N: usize, const V: usize = 0> {
     /// Joints read relative to another (FANUC J3); empty for most arms. Last, so that the
     /// hot fields keep their offsets (an `f32` load reaches 1020 bytes on a Cortex-M4F).
     couplings: Couplings<T, N>,
+    /// Further tool points and the measured frame's orientation (after the hot fields too).
+    extra: ToolExtra<T>,
 }
 
 impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
@@ -185,6 +188,7 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
             couplings: Couplings::default(),
             trig: [RowTrig::default(); N],
             reach: T::one(),
+            extra: ToolExtra::default(),
         };
         r.refresh();
         Ok(r)
@@ -203,6 +207,7 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
                 tilted: j.beta != T::zero(),
             };
         }
+        self.extra.identity = self.extra.axes == Frame::identity();
         let mut s = self.tool.norm();
         for j in self.joints.iter() {
             s += j.a.abs() + j.d.abs();
@@ -225,6 +230,28 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
     /// The measured point in the flange frame (mm).
     pub fn tool(&self) -> &Vector3<T> {
         &self.tool
+    }
+    /// Number of measured points on the tool (reflectors), the first ([`Robot::tool`]) included.
+    pub fn tool_point_count(&self) -> usize {
+        self.extra.count as usize
+    }
+    /// Tool point `k` (flange frame, mm; 0 is [`Robot::tool`]), `None` beyond the last.
+    pub fn tool_point(&self, k: usize) -> Option<&Vector3<T>> {
+        match k {
+            0 => Some(&self.tool),
+            k if k < self.tool_point_count() => self.extra.more.get(k - 1),
+            _ => None,
+        }
+    }
+    /// Orientation of the measured frame in the flange frame (the tool frame a 6-DoF probe
+    /// reports; identity unless set). Its origin is zero: the points carry the positions.
+    pub fn tool_axes(&self) -> &Frame<T> {
+        &self.extra.axes
+    }
+    /// True when [`Robot::tool_axes`] is the identity (the measured frame is the flange's).
+    #[inline(always)]
+    pub fn tool_axes_identity(&self) -> bool {
+        self.extra.identity
     }
     /// The non-geometric joint corrections and their values.
     pub fn effects(&self) -> &Effects<T, V> {
@@ -265,6 +292,45 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
         Ok(())
     }
 
+    /// Replaces tool point `k`, or adds it when `k` is the current count (checked as in
+    /// [`Robot::new`]; beyond the count or [`MAX_TOOL_POINTS`] is [`RobotError::OutOfRange`]).
+    /// On error the robot is unchanged.
+    pub fn set_tool_point(&mut self, k: usize, p: Vector3<T>) -> Result<(), RobotError> {
+        if k == 0 {
+            return self.set_tool(p);
+        }
+        let count = self.tool_point_count();
+        if k > count || k >= MAX_TOOL_POINTS {
+            return Err(RobotError::OutOfRange);
+        }
+        check_bounded(p.as_slice(), T::of(MAX_LENGTH))?;
+        self.extra.more[k - 1] = p;
+        if k == count {
+            self.extra.count += 1;
+        }
+        Ok(())
+    }
+
+    /// Sets the orientation of the measured frame in the flange frame (its origin is ignored);
+    /// axes that are not a rotation are [`RobotError::NotRotation`], non-finite ones
+    /// [`RobotError::NotFinite`]. On error the robot is unchanged.
+    pub fn set_tool_axes(&mut self, axes: Frame<T>) -> Result<(), RobotError> {
+        let mut a = axes;
+        a.o = Vector3::zeros();
+        if [a.x, a.y, a.z]
+            .iter()
+            .any(|v| v.iter().any(|c| !c.finite()))
+        {
+            return Err(RobotError::NotFinite);
+        }
+        if !a.is_rotation() {
+            return Err(RobotError::NotRotation);
+        }
+        self.extra.axes = a;
+        self.extra.identity = a == Frame::identity();
+        Ok(())
+    }
+
     /// Couples `joint` to `from` (0-based): the model angle of `joint` is its reading plus
     /// `ratio` times the reading of `from`. On error the robot is unchanged.
     pub fn set_coupling(&mut self, joint: usize, from: usize, ratio: T) -> Result<(), RobotError> {
@@ -293,7 +359,14 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
     /// the model was changed in place, e.g. decoded from a snapshot).
     pub(crate) fn check(&self) -> Result<(), RobotError> {
         check_geometry(&self.base, &self.joints, &self.tool)?;
+        if !self.extra.is_valid() {
+            return Err(RobotError::OutOfRange);
+        }
         check_bounded(self.effects.values(), T::of(MAX_ANGLE))
+    }
+
+    pub(crate) fn tool_extra_mut(&mut self) -> &mut ToolExtra<T> {
+        &mut self.extra
     }
 
     #[allow(clippy::type_complexity)]
@@ -346,6 +419,10 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
             Vector3::new(c(self.tool.x), c(self.tool.y), c(self.tool.z)),
         )?;
         r.couplings = self.couplings.cast()?;
+        r.extra = self.extra.cast();
+        if !r.extra.is_valid() {
+            return Err(RobotError::OutOfRange);
+        }
         for (i, e) in self.effects.iter().enumerate() {
             let mut vals = [U::zero(); V];
             let src = self.effects.values_of(i);
@@ -378,6 +455,7 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
             couplings: self.couplings,
             trig: self.trig,
             reach: self.reach,
+            extra: self.extra,
         };
         for (i, e) in self.effects.iter().enumerate() {
             r.effects.push(

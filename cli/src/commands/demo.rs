@@ -75,6 +75,7 @@ fn measure(
             Measurement {
                 q,
                 point: p + Vector3::new(noise.sample(rng), noise.sample(rng), noise.sample(rng)),
+                ..Default::default()
             }
         })
         .collect()

@@ -293,7 +293,7 @@ pub fn monte_carlo<const V: usize>(
         let data: Vec<Measurement<f64, 6>> = qs
             .iter()
             .zip(&points)
-            .map(|(q, p)| Measurement { q: *q, point: *p })
+            .map(|(q, p)| Measurement::new(*q, *p))
             .collect();
         let fit = fit_lm(&nominal, params.as_slice(), &data, cfg)?;
         for (s, q) in work.iter().enumerate() {

@@ -319,7 +319,7 @@ pub fn perturbed_measurements<const N: usize, const V: usize, R: Rng>(
     let data = configs
         .iter()
         .zip(points)
-        .map(|(q, point)| Measurement { q: *q, point })
+        .map(|(q, point)| Measurement::new(*q, point))
         .collect();
     (truth, data)
 }

@@ -292,7 +292,7 @@ impl Servo {
         let nominal = scenario::nominal_joints::<f32>(0);
         let mut fk = ForwardKinematics::new();
         fk_f32(&mut fk, &scenario::nominal::<f32>(), &nominal);
-        let target = Target::Pose(fk.tool_pose());
+        let target = Target::Pose(fk.flange_pose());
         Self {
             tracker: Tracker::new(scenario::compensation()),
             target,
@@ -758,7 +758,7 @@ fn trajectory(counter: &mut Counter, checks: &mut Checks) {
         // The interpolator's output for this tick: nominal joints and the pose they give.
         let qn = scenario::nominal_joints::<f32>(k);
         fk_f32(&mut fk, &nominal, &qn);
-        let target = Target::Pose(fk.tool_pose());
+        let target = Target::Pose(fk.flange_pose());
         let (r, insns) = counter.insns_of(|| {
             irq::free(|cs| {
                 MODEL
@@ -877,7 +877,7 @@ fn benches(counter: &mut Counter, id: &[Measurement<f32, N>], stateful: &Statefu
         irq::free(|cs| MODEL.borrow(cs).borrow().clone()).unwrap_or_else(|| fail("no model"));
     let qn = scenario::nominal_joints::<f32>(0);
     fk_f32(&mut fk, &robot, &qn);
-    let target = Target::Pose(fk.tool_pose());
+    let target = Target::Pose(fk.flange_pose());
     let cfg = scenario::compensation();
     if let Ok(s) = compensate_f32(&model, &target, &qn, &cfg) {
         hprintln!(

@@ -203,7 +203,7 @@ fn reference(csv: &[u8], truth: &Robot<f64, N>) -> (String, String) {
     for k in 0..TICKS {
         let qn = scenario::nominal_joints::<f64>(k);
         fk.compute(&nominal, &qn);
-        let target = Target::Pose(fk.tool_pose());
+        let target = Target::Pose(fk.flange_pose());
         let s = tracker
             .next(&model, &target, &qn)
             .expect("trajectory point compensates");

@@ -104,7 +104,7 @@ pub fn poses(
                 noise.sample(&mut rng),
                 noise.sample(&mut rng),
             );
-            Measurement { q, point }
+            Measurement::new(q, point)
         })
         .collect()
 }

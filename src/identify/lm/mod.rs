@@ -45,9 +45,10 @@ pub use crate::identify::lm_penalty::{
 pub use crate::identify::lm_status::{LmError, LmProgress, LmStop};
 use crate::identify::lm_storage::storage_fits;
 pub use crate::identify::lm_storage::{FixedLm, LmParts, LmPartsRef, LmStorage};
+use crate::io::measurement::Observation;
 use crate::model::param::{apply_delta, check_params, value, Param, ParamError};
 use crate::num::linalg::{pivoted_cholesky_preferring, Flat, LinalgError};
-use crate::{ForwardKinematics, Measurement, Real, Robot};
+use crate::{ForwardKinematics, Real, Robot};
 use nalgebra::Vector3;
 
 /// Settings of the solver; [`LmConfig::default`] suits laser-tracker data.
@@ -367,18 +368,16 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>, Q: LmPenalty<T>>
 
     /// Does at most `budget` poses of work (a solve counts as one unit and ends the call) and
     /// returns the progress. `data` must be the same slice on every call of a run.
-    pub fn step(
+    pub fn step<M: Observation<T, N>>(
         &mut self,
-        data: &[Measurement<T, N>],
+        data: &[M],
         budget: usize,
     ) -> Result<LmProgress<T>, LmError> {
         if self.n_poses == 0 {
             if data.is_empty() || 3 * data.len() < self.st.params().len() {
                 return Err(LmError::TooFewMeasurements);
             }
-            if data.iter().any(|m| !m.is_finite()) {
-                return Err(LmError::NonFiniteMeasurement);
-            }
+            check_observations(&self.robot, data)?;
             self.n_poses = data.len();
         } else if data.len() != self.n_poses {
             return Err(LmError::DataChanged);
@@ -410,7 +409,7 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>, Q: LmPenalty<T>>
     }
 
     /// Runs to the end in one call (desktop use).
-    pub fn run(&mut self, data: &[Measurement<T, N>]) -> Result<LmProgress<T>, LmError> {
+    pub fn run<M: Observation<T, N>>(&mut self, data: &[M]) -> Result<LmProgress<T>, LmError> {
         loop {
             let p = self.step(data, usize::MAX)?;
             if p.stopped.is_some() {
@@ -530,7 +529,7 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>, Q: LmPenalty<T>>
     }
 
     /// Adds one pose's residual and scaled Jacobian to the normal equations.
-    fn accumulate(&mut self, m: &Measurement<T, N>) {
+    fn accumulate<M: Observation<T, N>>(&mut self, m: &M) {
         let full = self.full_columns();
         let gradient_only = self.gradient_only();
         let (columns, mut sums) = split_parts(self.st.parts(), full, gradient_only);
@@ -1008,10 +1007,24 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>, Q: LmPenalty<T>>
     }
 }
 
-/// Root-mean-square position error (mm) of `robot` over `data` (3-D distance per pose).
-pub fn rms_error<T: Real, const N: usize, const V: usize>(
+/// `Ok` when every observation is finite and names a tool point of `robot`.
+pub(crate) fn check_observations<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
     robot: &Robot<T, N, V>,
-    data: &[Measurement<T, N>],
+    data: &[M],
+) -> Result<(), LmError> {
+    if data.iter().any(|m| !m.is_valid()) {
+        return Err(LmError::NonFiniteMeasurement);
+    }
+    if data.iter().any(|m| m.tool() >= robot.tool_point_count()) {
+        return Err(LmError::UnknownToolPoint);
+    }
+    Ok(())
+}
+
+/// Root-mean-square position error (mm) of `robot` over `data` (3-D distance per pose).
+pub fn rms_error<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
+    robot: &Robot<T, N, V>,
+    data: &[M],
 ) -> T {
     if data.is_empty() {
         return T::zero();
@@ -1019,9 +1032,34 @@ pub fn rms_error<T: Real, const N: usize, const V: usize>(
     let mut fk = ForwardKinematics::new();
     let mut s = T::zero();
     for m in data {
-        s += (m.point - fk.compute(robot, &m.q)).norm_squared();
+        // An observation of a point the robot does not have has no error: NaN, not a number.
+        let p = fk
+            .compute_point(robot, m.q(), m.tool())
+            .unwrap_or(Vector3::repeat(T::of(f64::NAN)));
+        s += (m.point() - p).norm_squared();
     }
     (s / T::of(data.len() as f64)).sqrt()
+}
+
+/// Root-mean-square orientation error (rad, the angle between measured and model tool frame)
+/// of `robot` over the 6-D observations in `data`; `None` when there are none.
+pub fn rms_orientation_error<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
+    robot: &Robot<T, N, V>,
+    data: &[M],
+) -> Option<T> {
+    let mut fk = ForwardKinematics::new();
+    let (mut s, mut n) = (T::zero(), 0usize);
+    for m in data {
+        let Some((o, _)) = m.orientation() else {
+            continue;
+        };
+        if fk.compute_point(robot, m.q(), m.tool()).is_none() {
+            return Some(T::of(f64::NAN));
+        }
+        s += crate::model::frame::orientation_error(o, &fk.tool_pose(robot)).norm_squared();
+        n += 1;
+    }
+    (n > 0).then(|| (s / T::of(n as f64)).sqrt())
 }
 
 mod snapshot;

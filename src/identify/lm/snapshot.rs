@@ -25,6 +25,10 @@ fn param_tag(p: Param) -> (u8, u16) {
         Param::ToolY => (12, 0),
         Param::ToolZ => (13, 0),
         Param::Effect(k) => (14, k),
+        Param::ToolPoint(k, a) => (15, (k as u16) * 3 + a as u16),
+        Param::ToolRx => (16, 0),
+        Param::ToolRy => (17, 0),
+        Param::ToolRz => (18, 0),
     }
 }
 
@@ -48,7 +52,19 @@ fn put_robot<T: Real, W: Write, const N: usize, const V: usize>(
         e.reals(&[ratio])?;
     }
     e.usize(r.effects().values().len())?;
-    e.reals(r.effects().values())
+    e.reals(r.effects().values())?;
+    // The tool's further points (their number is constant) and the measured frame's axes.
+    e.usize(r.tool_point_count())?;
+    for k in 1..r.tool_point_count() {
+        if let Some(p) = r.tool_point(k) {
+            e.reals(p.as_slice())?;
+        }
+    }
+    let a = r.tool_axes();
+    for v in [a.x, a.y, a.z] {
+        e.reals(v.as_slice())?;
+    }
+    Ok(())
 }
 
 /// Reads a robot into `r`, whose effect list must have the same shape.
@@ -95,11 +111,38 @@ fn get_robot<T: Real, R: Read, const N: usize, const V: usize>(
         }
     }
     d.expect_shape(r.effects().values().len())?;
+    let mut values = [T::zero(); V];
+    let nv = r.effects().values().len();
+    d.reals(&mut values[..nv])?;
+    let count = r.tool_point_count();
+    d.expect_shape(count)?;
+    let mut more = [Vector3::<T>::zeros(); crate::model::tool::MAX_TOOL_POINTS];
+    for p in more.iter_mut().take(count).skip(1) {
+        let mut v = [T::zero(); 3];
+        d.reals(&mut v)?;
+        *p = Vector3::new(v[0], v[1], v[2]);
+    }
+    let mut tool_axes = [Vector3::<T>::zeros(); 3];
+    for a in tool_axes.iter_mut() {
+        let mut v = [T::zero(); 3];
+        d.reals(&mut v)?;
+        *a = Vector3::new(v[0], v[1], v[2]);
+    }
     let (b, js, tool, eff) = r.parts_mut();
-    d.reals(eff.values_mut())?;
+    eff.values_mut().copy_from_slice(&values[..nv]);
     *b = base;
     *js = joints;
     *tool = Vector3::new(t[0], t[1], t[2]);
+    let extra = r.tool_extra_mut();
+    for k in 1..count {
+        extra.more[k - 1] = more[k];
+    }
+    extra.axes = Frame {
+        x: tool_axes[0],
+        y: tool_axes[1],
+        z: tool_axes[2],
+        o: Vector3::zeros(),
+    };
     r.refresh();
     // A model `Robot::new` would refuse (NaN, beyond the bounds, a base that is no rotation).
     r.check().map_err(|_| SnapshotError::Invalid)

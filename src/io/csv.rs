@@ -193,6 +193,8 @@ pub struct CsvReader<R: Read, const N: usize, const L: usize = 512, const X: usi
     failed: bool,
     /// Given up after [`CsvErrorKind::ReaderFailed`]: `next_record` returns `None`.
     stopped: bool,
+    /// The header names points `x_NAME`… (several reflectors) instead of `x`, `y`, `z`.
+    named_points: bool,
 }
 
 enum LineRead {
@@ -217,6 +219,7 @@ impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L,
             dropping: false,
             failed: false,
             stopped: false,
+            named_points: false,
         };
         let err = |kind, line, column| CsvError {
             kind,
@@ -242,6 +245,13 @@ impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L,
     /// Names of the extra columns carried, in the order of [`Record::extra`].
     pub fn extra_names(&self) -> &[String<NAME_LEN>] {
         &self.extra_names
+    }
+
+    /// True when the file names its points `x_NAME`, `y_NAME`, `z_NAME` (several reflectors)
+    /// instead of `x`, `y`, `z`: records then carry NaN as [`Record::xyz_mm`] and the points
+    /// among their extra columns.
+    pub fn named_points(&self) -> bool {
+        self.named_points
     }
 
     /// Index in [`Record::extra`] of the named extra column.
@@ -310,10 +320,18 @@ impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L,
                 .push(slot)
                 .map_err(|_| e(CsvErrorKind::TooManyColumns))?;
         }
-        let missing = seen_q
-            .iter()
-            .position(|s| !s)
-            .or_else(|| seen_xyz.iter().position(|s| !s).map(|k| N + k));
+        // Several reflectors (interfaces.md §3): `x_NAME`, `y_NAME`, `z_NAME` instead of
+        // `x`, `y`, `z`, carried as extra columns; the record's point is then NaN.
+        let named_points = seen_xyz == [false; 3]
+            && self.extra_names.iter().any(|n| n.starts_with("x_"));
+        self.named_points = named_points;
+        let missing = seen_q.iter().position(|s| !s).or_else(|| {
+            if named_points {
+                None
+            } else {
+                seen_xyz.iter().position(|s| !s).map(|k| N + k)
+            }
+        });
         if let Some(w) = missing {
             return Err(CsvError {
                 kind: CsvErrorKind::MissingColumn,
@@ -464,7 +482,11 @@ impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L,
             core::str::from_utf8(&self.line[..n]).map_err(|_| e(CsvErrorKind::NotText, 0))?;
         let mut rec = Record {
             q_deg: [0.0; N],
-            xyz_mm: [0.0; 3],
+            xyz_mm: if self.named_points {
+                [f64::NAN; 3]
+            } else {
+                [0.0; 3]
+            },
             extra: Vec::new(),
             line,
         };

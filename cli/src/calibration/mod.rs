@@ -4,6 +4,7 @@
 pub mod coupling_hint;
 pub mod method;
 pub mod pso_search;
+pub mod weights;
 
 use crate::compute::vec_lm::VecLm;
 use kinecal::identify::lm::{Levenberg, LmConfig, LmStop};
@@ -42,10 +43,40 @@ pub fn pose_errors<const N: usize, const V: usize>(
     crate::compute::parallel::map_parts(data, |part| {
         let mut fk = ForwardKinematics::new();
         part.iter()
-            .map(|m| (m.point - fk.compute(robot, &m.q)).norm())
+            .map(|m| match fk.compute_point(robot, &m.q, m.tool as usize) {
+                Some(p) => (m.point - p).norm(),
+                None => f64::NAN,
+            })
             .collect::<Vec<f64>>()
     })
     .concat()
+}
+
+/// Per-observation orientation errors (degrees: the angle between measured and model tool
+/// frame) of `robot` on the 6-D observations of `data`.
+pub fn orientation_errors_deg<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    data: &[Measurement<f64, N>],
+) -> Vec<f64> {
+    let mut fk = ForwardKinematics::new();
+    data.iter()
+        .filter_map(|m| {
+            let o = m.orientation.as_ref()?;
+            fk.compute_point(robot, &m.q, m.tool as usize)?;
+            Some(
+                kinecal::model::frame::orientation_error(o, &fk.tool_pose(robot))
+                    .norm()
+                    .to_degrees(),
+            )
+        })
+        .collect()
+}
+
+/// Residual rows of `data`: three per point, three more per orientation.
+pub fn residual_rows<const N: usize>(data: &[Measurement<f64, N>]) -> usize {
+    data.iter()
+        .map(|m| if m.orientation.is_some() { 6 } else { 3 })
+        .sum()
 }
 
 /// The `before`/`after` object of the identify report.
@@ -55,6 +86,11 @@ pub struct Residuals {
     pub validation_rms_mm: Option<f64>,
     pub validation_mean_mm: Option<f64>,
     pub validation_max_mm: Option<f64>,
+    /// Orientation RMS (degrees) of 6-D observations, when there are any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub identification_rms_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub validation_rms_deg: Option<f64>,
 }
 
 impl Residuals {
@@ -65,11 +101,15 @@ impl Residuals {
     ) -> Self {
         let i = ErrorStats::of(&pose_errors(robot, ident));
         let v = ErrorStats::of(&pose_errors(robot, valid));
+        let io = ErrorStats::of(&orientation_errors_deg(robot, ident));
+        let vo = ErrorStats::of(&orientation_errors_deg(robot, valid));
         Self {
             identification_rms_mm: i.map_or(0.0, |s| s.rms_mm),
             validation_rms_mm: v.map(|s| s.rms_mm),
             validation_mean_mm: v.map(|s| s.mean_mm),
             validation_max_mm: v.map(|s| s.max_mm),
+            identification_rms_deg: io.map(|s| s.rms_mm),
+            validation_rms_deg: vo.map(|s| s.rms_mm),
         }
     }
 }
@@ -125,8 +165,11 @@ pub struct Fit<const N: usize, const V: usize> {
     /// What was held at its start value, and with which estimated parameters it is confounded.
     pub held: Vec<Held>,
     /// 1-σ of each estimated parameter in file units (mm, degrees, raw for effect values),
-    /// from the covariance `s²(JᵀJ)⁻¹` with `s²` the residual variance per coordinate.
+    /// from the covariance `s²(JᵀWJ)⁻¹` with `s²` the (weighted) residual variance per row.
     pub sigma: BTreeMap<String, f64>,
+    /// Weighted cost per degree of freedom (residual rows − estimated parameters): with the
+    /// file's σ as weights, the χ² consistency figure (≈ 1 when the σ fit the residuals).
+    pub chi2_per_dof: Option<f64>,
 }
 
 impl<const N: usize, const V: usize> Fit<N, V> {
@@ -146,6 +189,7 @@ impl<const N: usize, const V: usize> Fit<N, V> {
             stop: None,
             held: Vec::new(),
             sigma: BTreeMap::new(),
+            chi2_per_dof: None,
         }
     }
 
@@ -184,7 +228,8 @@ pub fn fit_lm<const N: usize, const V: usize>(
         }
     })
     .map_err(|e| anyhow::anyhow!("identification: {e:?}"))?;
-    let (held, sigma) = identifiability_report(&lm, data.len(), p.cost);
+    let rows = residual_rows(data);
+    let (held, sigma, chi2_per_dof) = identifiability_report(&lm, rows, p.cost);
     Ok(Fit {
         robot: lm.robot().clone(),
         iterations: p.iteration,
@@ -197,6 +242,7 @@ pub fn fit_lm<const N: usize, const V: usize>(
         stop: p.stopped,
         held,
         sigma,
+        chi2_per_dof,
     })
 }
 
@@ -205,9 +251,9 @@ pub fn fit_lm<const N: usize, const V: usize>(
 /// estimated parameter.
 fn identifiability_report<const N: usize, const V: usize>(
     lm: &Levenberg<f64, N, V, VecLm<f64>>,
-    n_poses: usize,
+    rows: usize,
     cost: f64,
-) -> (Vec<Held>, BTreeMap<String, f64>) {
+) -> (Vec<Held>, BTreeMap<String, f64>, Option<f64>) {
     use nalgebra::{DMatrix, DVector};
     let params = lm.params();
     let n = params.len();
@@ -217,7 +263,8 @@ fn identifiability_report<const N: usize, const V: usize>(
     let m = active.len();
     let a = DMatrix::from_fn(m, m, |i, j| jtj(active[i], active[j]));
     let mut sigma = BTreeMap::new();
-    let dof = (3 * n_poses).saturating_sub(m);
+    let dof = rows.saturating_sub(m);
+    let chi2_per_dof = (dof > 0).then(|| cost / dof as f64);
     let chol = a.clone().cholesky();
     if let (Some(ch), true) = (&chol, dof > 0) {
         let s2 = cost / dof as f64;
@@ -273,7 +320,7 @@ fn identifiability_report<const N: usize, const V: usize>(
             }
         })
         .collect();
-    (held, sigma)
+    (held, sigma, chi2_per_dof)
 }
 
 /// An effect to add to the model before identification (`--effect KIND:JOINT[:ARG]`).

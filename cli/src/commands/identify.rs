@@ -3,10 +3,12 @@
 use super::inputs::InputArgs;
 use crate::calibration::method::Method;
 use crate::calibration::{
-    add_effect, fit_lm, named_values, split_holdout, EffectRequest, Fit, Residuals,
+    add_effect, fit_lm, named_values, split_holdout, weights, EffectRequest, Fit, Residuals,
 };
 use crate::formats::robot_file::{load_robot, RobotFile};
-use crate::reports::identify::{Change, IdentifyReport};
+use crate::formats::observations::{flatten, observe, ObservationArgs, Observed};
+use crate::reports::identify::{Change, IdentifyReport, ObservationSummary, PointResiduals};
+use std::collections::BTreeMap;
 use crate::{with_joints, VCAP};
 use anyhow::Context;
 use kinecal::identify::lm::LmConfig;
@@ -59,6 +61,9 @@ pub struct Args {
     /// noise: reported as not converged (exit 3).
     #[arg(long, default_value_t = 5.0)]
     pub stall_rms_mm: f64,
+    /// Orientation and σ columns: how they are used.
+    #[command(flatten)]
+    pub obs: ObservationArgs,
 }
 
 /// Runs the subcommand: fits the model (and writes it with `--out`); the report's
@@ -77,13 +82,19 @@ pub fn run(args: &Args) -> anyhow::Result<IdentifyReport> {
 fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport> {
     let input = &args.input;
     let (file, mut nominal) = load_robot::<N>(&input.robot)?;
-    let load = |p: &std::path::Path| {
-        crate::formats::units::load_measurements(p, &input.units, &nominal, file.base_known())
-            .map(|d| d.measurements::<f64>())
+    let load = |p: &std::path::Path| -> anyhow::Result<Observed<N>> {
+        let ds = crate::formats::units::load_measurements(
+            p,
+            &input.units,
+            &nominal,
+            file.base_known(),
+        )?;
+        observe(&ds, &file, &args.obs, &p.display().to_string())
     };
-    let all = super::inputs::some_rows(load(&input.data)?, &input.data)?;
+    let observed = load(&input.data)?;
+    let all = super::inputs::some_rows(observed.poses.clone(), &input.data)?;
     let (ident, valid) = match (&args.validate, args.holdout) {
-        (Some(v), _) => (all, super::inputs::some_rows(load(v)?, v)?),
+        (Some(v), _) => (all, super::inputs::some_rows(load(v)?.poses, v)?),
         (None, Some(h)) => {
             if !(h.is_finite() && h > 0.0) {
                 crate::refuse!(
@@ -94,6 +105,8 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
         }
         (None, None) => (all, Vec::new()),
     };
+    let (ident_poses, valid_poses) = (ident.len(), valid.len());
+    let (ident, valid) = (flatten(&ident), flatten(&valid));
     if ident.is_empty() {
         crate::refuse!(
             "{}: --holdout leaves no poses to identify from: hold out fewer",
@@ -114,6 +127,16 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
         nominal
             .set_base(base)
             .map_err(|e| anyhow::anyhow!("estimated base pose is invalid: {e:?}"))?;
+    }
+    // 6-D data and no `[tool] rpy_deg`: the measured frame's orientation is unknown; started
+    // from the data as the base is (and then compared with no tolerance).
+    let tool_axes_unknown = observed.six_d && file.tool.rpy_deg.is_none();
+    if tool_axes_unknown {
+        if let Some(axes) = crate::compute::registration::fit_tool_axes(&nominal, &ident) {
+            nominal
+                .set_tool_axes(axes)
+                .map_err(|e| anyhow::anyhow!("estimated tool orientation is invalid: {e:?}"))?;
+        }
     }
     // Effects requested on the command line join the model with zero values.
     let mut extra = Vec::new();
@@ -138,32 +161,80 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
         .to_vec();
     params.extend(existing_effect_params(&nominal, &params));
     params.extend(extra.iter().copied());
+    // What only 6-D observations see (the rotation about the tool axis, theta of the last
+    // joint against the tool point) is in the full set or joins here; the identifiability
+    // analysis holds what the data cannot determine.
+    if observed.six_d {
+        params.extend([
+            kinecal::Param::ToolRx,
+            kinecal::Param::ToolRy,
+            kinecal::Param::ToolRz,
+        ]);
+    }
+    for k in 1..nominal.tool_point_count() {
+        params.extend((0..3).map(|a| kinecal::Param::ToolPoint(k as u8, a)));
+    }
     apply_fix_free(&mut params, &args.fix, &args.free, N)?;
     enough_poses(ident.len(), params.len(), base_unknown, &input.data)?;
     let before = Residuals::of(&nominal, &ident, &valid);
     let t0 = Instant::now();
-    let fit = match args.method {
-        Method::Lm => fit_lm(&nominal, &params, &ident, LmConfig::default())?,
-        m => crate::calibration::pso_search::identify(m, &nominal, &params, &ident, args.seed)?,
+    let run_method = |data: &[Measurement<f64, N>]| match args.method {
+        Method::Lm => fit_lm(&nominal, &params, data, LmConfig::default()),
+        m => crate::calibration::pso_search::identify(m, &nominal, &params, data, args.seed),
     };
+    let mut ident = ident;
+    let stated = weights::stated(&ident, observed.sigma);
+    let mut fit = run_method(&ident)?;
+    // 6-D or σ-weighted data: error floors for what the model cannot explain, refitted until
+    // they settle (crate::calibration::weights); not when the user set the weighting.
+    let balance = (observed.six_d && args.obs.deg_weight_mm.is_none() && !observed.sigma)
+        || (observed.sigma && !args.obs.sigma_as_stated);
+    let mut floors: Option<weights::Floors> = None;
+    if balance {
+        for _ in 0..4 {
+            let estimated = params.len().saturating_sub(fit.unidentifiable.len());
+            let f = weights::floors(&fit.robot, &ident, &stated, estimated);
+            let settled = floors.is_some_and(|o| {
+                let close = |a: f64, b: f64| (a - b).abs() <= 0.01 * a.abs().max(b.abs());
+                close(o.point_mm, f.point_mm) && close(o.orientation_rad, f.orientation_rad)
+            });
+            floors = Some(f);
+            if settled {
+                break;
+            }
+            weights::apply(&mut ident, &stated, &f);
+            fit = run_method(&ident)?;
+        }
+    }
     let seconds = t0.elapsed().as_secs_f64();
     let after = Residuals::of(&fit.robot, &ident, &valid);
+    let per_point = per_point(&observed.names, (&nominal, &fit.robot), (&ident, &valid));
+    let estimated = params.len().saturating_sub(fit.unidentifiable.len());
+    let chi2_per_dof = if observed.sigma {
+        weights::chi2_per_dof(&fit.robot, &ident, &stated, estimated)
+    } else {
+        None
+    };
     let out = match &args.out {
         Some(out) => {
-            let mut f = RobotFile::from_robot(
+            let f = RobotFile::from_robot(
                 &format!("{} (identified)", file.name),
                 &fit.robot,
                 true,
                 &file.tilt_joints(),
-            );
-            // Not identified (yet): the measured frame's orientation is carried over.
-            f.tool.rpy_deg = file.tool.rpy_deg;
+            )
+            .with_tool_names(&observed.names);
             f.save(out)?;
             Some(out.display().to_string())
         }
         None => None,
     };
-    let changes = changes(&nominal, &fit, &params, base_unknown);
+    let mut changes = changes(&nominal, &fit, &params, base_unknown);
+    for c in changes.iter_mut() {
+        if tool_axes_unknown && c.name.starts_with("tool.r") {
+            c.free_start = true;
+        }
+    }
     let suspicious: Vec<String> = changes
         .iter()
         .filter(|c| c.beyond_tolerance(args.tolerance_mm, args.tolerance_deg))
@@ -182,16 +253,44 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
         suspicious,
         out,
     };
-    let report = report(
+    let mut report = report(
         args.method,
         &file,
         &fit,
-        (&ident, &valid),
+        (ident_poses, valid_poses),
         (before, after),
         seconds,
         changes,
         &verdict,
     );
+    report.per_point = per_point;
+    report.chi2_per_dof = chi2_per_dof;
+    report.observations = Some(ObservationSummary {
+        six_d: observed.six_d,
+        sigma: observed.sigma,
+        points: observed.names.len().max(1),
+        identification_observations: ident.len(),
+        deg_weight_mm: args.obs.deg_weight_mm,
+        floor_mm: floors.map(|f| f.point_mm),
+        floor_deg: floors
+            .filter(|_| observed.six_d)
+            .map(|f| f.orientation_rad.to_degrees()),
+    });
+    if let Some(c) = chi2_per_dof {
+        if !(0.25..=4.0).contains(&c) {
+            eprintln!(
+                "warning: χ²/dof = {} with the file's σ: the residuals are {}× what the stated \
+                 uncertainties explain ({}); the fit added an error floor (JSON `observations`)",
+                crate::output::numfmt::sig(c, 3),
+                crate::output::numfmt::sig(c.sqrt(), 3),
+                if c > 1.0 {
+                    "the model misses an effect (kinecal diagnose) or the σ are too small"
+                } else {
+                    "the σ are too large"
+                }
+            );
+        }
+    }
     if !verdict.suspicious.is_empty() {
         eprintln!(
             "warning: {} moved further than a manufacturing tolerance explains: check the units, \
@@ -351,7 +450,7 @@ fn report<const N: usize>(
     method: Method,
     file: &RobotFile,
     fit: &Fit<N, VCAP>,
-    (ident, valid): (&[Measurement<f64, N>], &[Measurement<f64, N>]),
+    (ident, valid): (usize, usize),
     (before, after): (Residuals, Residuals),
     seconds: f64,
     changes: Vec<Change>,
@@ -367,10 +466,20 @@ fn report<const N: usize>(
     );
     params
         .extend((0..fit.robot.effects().values().len()).map(|k| kinecal::Param::Effect(k as u16)));
+    if !fit.robot.tool_axes_identity() {
+        params.extend([
+            kinecal::Param::ToolRx,
+            kinecal::Param::ToolRy,
+            kinecal::Param::ToolRz,
+        ]);
+    }
+    for k in 1..fit.robot.tool_point_count() {
+        params.extend((0..3).map(|a| kinecal::Param::ToolPoint(k as u8, a)));
+    }
     IdentifyReport {
         method: method.id().to_string(),
-        n_identification: ident.len(),
-        n_validation: valid.len(),
+        n_identification: ident,
+        n_validation: valid,
         before,
         after,
         iterations: fit.iterations,
@@ -385,5 +494,40 @@ fn report<const N: usize>(
         suspicious: verdict.suspicious.clone(),
         out: verdict.out.clone(),
         fitness_history: fit.history.clone(),
+        per_point: None,
+        chi2_per_dof: None,
+        observations: None,
     }
+}
+
+/// Before and after per named point (several reflectors), `None` with one point.
+fn per_point<const N: usize>(
+    names: &[String],
+    (nominal, fitted): (&Robot<f64, N, VCAP>, &Robot<f64, N, VCAP>),
+    (ident, valid): (&[Measurement<f64, N>], &[Measurement<f64, N>]),
+) -> Option<BTreeMap<String, PointResiduals>> {
+    if names.len() < 2 {
+        return None;
+    }
+    let of = |data: &[Measurement<f64, N>], k: usize| -> Vec<Measurement<f64, N>> {
+        data.iter().filter(|m| m.tool as usize == k).copied().collect()
+    };
+    Some(
+        names
+            .iter()
+            .enumerate()
+            .map(|(k, n)| {
+                let (i, v) = (of(ident, k), of(valid, k));
+                (
+                    n.clone(),
+                    PointResiduals {
+                        n_identification: i.len(),
+                        n_validation: v.len(),
+                        before: Residuals::of(nominal, &i, &v),
+                        after: Residuals::of(fitted, &i, &v),
+                    },
+                )
+            })
+            .collect(),
+    )
 }

@@ -64,10 +64,44 @@ pub fn fit_base<const N: usize, const V: usize>(
     let model: Vec<Vector3<f64>> = crate::compute::parallel::map_parts(data, |part| {
         let mut fk = ForwardKinematics::<f64, N>::new();
         part.iter()
-            .map(|m| fk.compute(&placed, &m.q))
+            .map(|m| {
+                fk.compute_point(&placed, &m.q, m.tool as usize)
+                    .unwrap_or(Vector3::repeat(f64::NAN))
+            })
             .collect::<Vec<_>>()
     })
     .concat();
     let measured: Vec<Vector3<f64>> = data.iter().map(|m| m.point).collect();
     fit_rigid(&model, &measured)
+}
+
+/// The measured frame's orientation in the flange frame that best explains 6-D observations
+/// (the rotation nearest, in the Frobenius sense, to the mean of `R_flangeᵀ · R_measured`;
+/// SVD projection): the start of identification when the robot file gives no `[tool]
+/// rpy_deg`, as [`fit_base`] starts an unknown base. `None` without orientations.
+pub fn fit_tool_axes<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    data: &[Measurement<f64, N>],
+) -> Option<Frame<f64>> {
+    let mut fk = ForwardKinematics::<f64, N>::new();
+    let mut sum = nalgebra::Matrix3::zeros();
+    let mut n = 0;
+    for m in data {
+        let Some(o) = &m.orientation else { continue };
+        fk.compute_point(robot, &m.q, m.tool as usize)?;
+        sum += fk.flange_pose().rotation().transpose() * o.rotation();
+        n += 1;
+    }
+    if n == 0 {
+        return None;
+    }
+    let svd = sum.svd(true, true);
+    let (u, vt) = (svd.u?, svd.v_t?);
+    let mut d = nalgebra::Matrix3::identity();
+    if (u * vt).determinant() < 0.0 {
+        d[(2, 2)] = -1.0;
+    }
+    let r = u * d * vt;
+    let f = Frame::from_parts(&r, Vector3::zeros());
+    f.is_rotation().then_some(f)
 }

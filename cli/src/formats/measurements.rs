@@ -13,7 +13,7 @@ use std::path::Path;
 /// Longest line accepted, bytes (the UR10 files use ~110).
 pub const LINE_CAPACITY: usize = 4096;
 /// Most extra columns carried by name (more are ignored).
-pub const MAX_EXTRA: usize = 16;
+pub const MAX_EXTRA: usize = 40;
 /// Decimals written for joint readings (degrees); [`quantize_deg`] rounds to them.
 pub const Q_DECIMALS: usize = 6;
 /// Decimals written for measured points (millimetres).

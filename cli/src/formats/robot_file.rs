@@ -15,6 +15,7 @@ use crate::{refused, VCAP};
 use anyhow::{anyhow, Context};
 use kinecal::model::coupling::MAX_COUPLINGS;
 use kinecal::model::effects::{EffectKind, MAX_EFFECTS};
+use kinecal::model::tool::MAX_TOOL_POINTS;
 use kinecal::{Frame, Joint, Robot};
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
@@ -32,7 +33,11 @@ pub struct RobotFile {
     #[serde(default)]
     pub name: String,
     pub joints: Vec<JointSpec>,
+    /// `[tool]`, or the first of `[[tools]]` (its point; no orientation).
     pub tool: ToolSpec,
+    /// `[[tools]]`: several named reflectors measured in the same pose (empty with `[tool]`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub tools: Vec<NamedToolSpec>,
     /// Absent = the base pose is unknown and has to be estimated from data.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub base: Option<BaseSpec>,
@@ -64,10 +69,37 @@ pub struct JointSpec {
 pub struct ToolSpec {
     pub xyz_mm: [f64; 3],
     /// Orientation of the measured frame in the flange frame (fixed-axis roll, pitch, yaw;
-    /// interfaces.md §3). Read, kept and written back; identification does not use it yet
+    /// interfaces.md §3): what 6-D observations (`rx_deg`, `ry_deg`, `rz_deg`) measure, and
+    /// what identification fits as `tool.rx`, `tool.ry`, `tool.rz` when they are present
     /// (`kinecal import --urdf` writes the tip link's orientation here).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rpy_deg: Option<[f64; 3]>,
+}
+
+/// One `[[tools]]` table: a named reflector (letters, digits, `_`) and its point in the flange
+/// frame; the measurement file has `x_NAME`, `y_NAME`, `z_NAME` for it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NamedToolSpec {
+    pub name: String,
+    pub xyz_mm: [f64; 3],
+}
+
+/// What [`RobotFile::to_toml`] writes: `[tool]` or `[[tools]]`, never both.
+#[derive(Serialize)]
+struct OutFile<'a> {
+    name: &'a str,
+    joints: &'a [JointSpec],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    tool: Option<&'a ToolSpec>,
+    #[serde(skip_serializing_if = "<[NamedToolSpec]>::is_empty")]
+    tools: &'a [NamedToolSpec],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    base: Option<&'a BaseSpec>,
+    #[serde(skip_serializing_if = "<[EffectSpec]>::is_empty")]
+    effects: &'a [EffectSpec],
+    #[serde(skip_serializing_if = "<[CouplingSpec]>::is_empty")]
+    couplings: &'a [CouplingSpec],
 }
 
 /// `[base]`: the robot base in the measurement frame (fixed-axis roll, pitch, yaw).
@@ -123,7 +155,10 @@ struct RawFile {
     #[serde(default)]
     name: String,
     joints: Spanned<Vec<Spanned<JointSpec>>>,
-    tool: Spanned<ToolSpec>,
+    #[serde(default)]
+    tool: Option<Spanned<ToolSpec>>,
+    #[serde(default)]
+    tools: Vec<Spanned<NamedToolSpec>>,
     #[serde(default)]
     base: Option<Spanned<BaseSpec>>,
     #[serde(default)]
@@ -139,6 +174,7 @@ pub enum Place {
     Joints,
     Joint(usize),
     Tool,
+    Tools(usize),
     Base,
     Effect(usize),
     Coupling(usize),
@@ -402,6 +438,32 @@ impl RobotFile {
         {
             return issue(Place::Tool, format!("tool: {m}"));
         }
+        if self.tools.len() > MAX_TOOL_POINTS {
+            return issue(
+                Place::Tools(MAX_TOOL_POINTS),
+                format!(
+                    "{} [[tools]]: at most {MAX_TOOL_POINTS} reflectors per tool are supported",
+                    self.tools.len()
+                ),
+            );
+        }
+        for (i, t) in self.tools.iter().enumerate() {
+            let p = Place::Tools(i);
+            let name_ok = !t.name.is_empty()
+                && t.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+            if !name_ok {
+                return issue(p, format!("tools: name `{}` must be letters, digits or `_`", t.name));
+            }
+            if self.tools[..i].iter().any(|o| o.name == t.name) {
+                return issue(p, format!("tools: name `{}` is given twice", t.name));
+            }
+            if !finite(&t.xyz_mm) {
+                return issue(p, format!("tools `{}`: xyz_mm must be finite numbers", t.name));
+            }
+            if let Some(m) = t.xyz_mm.iter().find_map(|v| implausible_length("xyz_mm", *v)) {
+                return issue(p, format!("tools `{}`: {m}", t.name));
+            }
+        }
         if let Some(b) = &self.base {
             if !finite(&b.xyz_mm) || !finite(&b.rpy_deg) {
                 return issue(
@@ -597,6 +659,25 @@ impl RobotFile {
                 e.message().trim().replace('\n', " ")
             ))
         })?;
+        let tool = match (&raw.tool, raw.tools.first()) {
+            (Some(_), Some(t)) => {
+                return Err(refused(format!(
+                    "{}: give either [tool] or [[tools]], not both",
+                    at(Some(t.span()))
+                )))
+            }
+            (None, None) => {
+                return Err(refused(format!(
+                    "{}: missing [tool] (or [[tools]] for several reflectors)",
+                    at(None)
+                )))
+            }
+            (Some(t), None) => t.get_ref().clone(),
+            (None, Some(t)) => ToolSpec {
+                xyz_mm: t.get_ref().xyz_mm,
+                rpy_deg: None,
+            },
+        };
         let file = RobotFile {
             name: raw.name,
             joints: raw
@@ -605,7 +686,8 @@ impl RobotFile {
                 .iter()
                 .map(|j| j.get_ref().clone())
                 .collect(),
-            tool: raw.tool.get_ref().clone(),
+            tool,
+            tools: raw.tools.iter().map(|t| t.get_ref().clone()).collect(),
             base: raw.base.as_ref().map(|b| b.get_ref().clone()),
             effects: raw.effects.iter().map(|e| e.get_ref().clone()).collect(),
             couplings: raw.couplings.iter().map(|c| c.get_ref().clone()).collect(),
@@ -615,7 +697,12 @@ impl RobotFile {
                 Place::File => None,
                 Place::Joints => Some(raw.joints.span()),
                 Place::Joint(i) => raw.joints.get_ref().get(i).map(|j| j.span()),
-                Place::Tool => Some(raw.tool.span()),
+                Place::Tool => raw
+                    .tool
+                    .as_ref()
+                    .map(|t| t.span())
+                    .or_else(|| raw.tools.first().map(|t| t.span())),
+                Place::Tools(i) => raw.tools.get(i).map(|t| t.span()),
                 Place::Base => raw.base.as_ref().map(|b| b.span()),
                 Place::Effect(i) => raw.effects.get(i).map(|e| e.span()),
                 Place::Coupling(i) => raw.couplings.get(i).map(|c| c.span()),
@@ -643,7 +730,38 @@ impl RobotFile {
 
     /// The TOML text of this file.
     pub fn to_toml(&self) -> anyhow::Result<String> {
-        toml::to_string(self).context("cannot format the robot file")
+        let out = OutFile {
+            name: &self.name,
+            joints: &self.joints,
+            tool: self.tools.is_empty().then_some(&self.tool),
+            tools: &self.tools,
+            base: self.base.as_ref(),
+            effects: &self.effects,
+            couplings: &self.couplings,
+        };
+        toml::to_string(&out).context("cannot format the robot file")
+    }
+
+    /// Names of the measured points: the `[[tools]]` names, or none for one `[tool]`.
+    pub fn tool_names(&self) -> Vec<String> {
+        self.tools.iter().map(|t| t.name.clone()).collect()
+    }
+
+    /// This file's tool names put on a model file written from a robot with as many points
+    /// (identify's output keeps the input's `[[tools]]`).
+    pub fn with_tool_names(mut self, names: &[String]) -> RobotFile {
+        if names.len() > 1 && names.len() == self.tools.len().max(1) {
+            if self.tools.is_empty() {
+                self.tools = vec![NamedToolSpec {
+                    name: names[0].clone(),
+                    xyz_mm: self.tool.xyz_mm,
+                }];
+            }
+            for (t, n) in self.tools.iter_mut().zip(names) {
+                t.name = n.clone();
+            }
+        }
+        self
     }
 
     /// Writes the file atomically: a reader (or a crash) sees the old file or the whole new one.
@@ -688,6 +806,16 @@ impl RobotFile {
         let tool = Vector3::from(self.tool.xyz_mm);
         let mut robot =
             Robot::new(base, joints, tool).map_err(|e| anyhow!("invalid robot: {e:?}"))?;
+        for (k, t) in self.tools.iter().enumerate().skip(1) {
+            robot
+                .set_tool_point(k, Vector3::from(t.xyz_mm))
+                .map_err(|e| anyhow!("tools `{}`: {e:?}", t.name))?;
+        }
+        if let Some(rpy) = self.tool.rpy_deg {
+            robot
+                .set_tool_axes(Frame::from_xyz_rpy([0.0; 3], rpy.map(f64::to_radians)))
+                .map_err(|e| anyhow!("tool rpy_deg: {e:?}"))?;
+        }
         for e in self.effects.iter().filter(|e| e.kind != AXIS_TILT) {
             let kind = EffectKind::from_id(&e.kind)
                 .ok_or_else(|| anyhow!("unknown effect kind `{}`", e.kind))?;
@@ -775,13 +903,31 @@ impl RobotFile {
                 start_deg: None,
             });
         }
+        let points: Vec<[f64; 3]> = (0..robot.tool_point_count())
+            .filter_map(|k| robot.tool_point(k).map(|p| [p.x, p.y, p.z]))
+            .collect();
+        // Points beyond the first are named `p2`, `p3`, … unless the caller names them
+        // ([`RobotFile::with_tool_names`]).
+        let tools = if points.len() > 1 {
+            points
+                .iter()
+                .enumerate()
+                .map(|(k, p)| NamedToolSpec {
+                    name: format!("p{}", k + 1),
+                    xyz_mm: *p,
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         RobotFile {
             name: name.to_string(),
             joints,
             tool: ToolSpec {
                 xyz_mm: [robot.tool().x, robot.tool().y, robot.tool().z],
-                rpy_deg: None,
+                rpy_deg: (!robot.tool_axes_identity()).then(|| rpy_deg_short(robot.tool_axes())),
             },
+            tools,
             base,
             effects,
             couplings: robot

@@ -652,7 +652,23 @@ pub fn deg_of_rad(x: f64) -> f64 {
 /// Converts raw file values (in `units`) to millimetres and degrees, in place.
 pub fn convert<const N: usize>(ds: &mut Dataset<N>, units: &UnitArgs) {
     let (l, a) = (units.length(), units.angle());
+    // Several reflectors' points (`x_NAME`…) are positions like `x`, `y`, `z`; columns named
+    // with their unit (`sx_mm`, `rx_deg`) are always in it.
+    let named: Vec<usize> = ds
+        .extra_names
+        .iter()
+        .enumerate()
+        .filter(|(_, n)| ["x_", "y_", "z_"].iter().any(|p| n.starts_with(p)))
+        .map(|(k, _)| k)
+        .collect();
     for r in &mut ds.records {
+        if l == LengthUnit::M {
+            for &k in &named {
+                if let Some(v) = r.extra.get_mut(k) {
+                    *v = mm_of_m(*v);
+                }
+            }
+        }
         if a == AngleUnit::Rad {
             r.q_deg = r.q_deg.map(deg_of_rad);
         }

@@ -41,6 +41,48 @@ pub struct IdentifyReport {
     pub out: Option<String>,
     /// Best objective (mm²) per iteration, for methods that have one.
     pub fitness_history: Vec<f64>,
+    /// Several reflectors: `before`/`after` per point name (the report's are totals).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub per_point: Option<BTreeMap<String, PointResiduals>>,
+    /// With the file's σ as weights: weighted cost per degree of freedom (≈ 1 when the stated
+    /// σ fit the residuals).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub chi2_per_dof: Option<f64>,
+    /// What the observations were (6-D, weighted, how many points).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub observations: Option<ObservationSummary>,
+}
+
+/// One reflector's residuals (`per_point`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PointResiduals {
+    pub n_identification: usize,
+    pub n_validation: usize,
+    pub before: Residuals,
+    pub after: Residuals,
+}
+
+/// The kind of observations a fit used.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ObservationSummary {
+    /// Orientation observed (`rx_deg`, `ry_deg`, `rz_deg`).
+    pub six_d: bool,
+    /// Weighted by the file's σ columns.
+    pub sigma: bool,
+    /// Measured points per pose (reflectors).
+    pub points: usize,
+    /// Observations (points seen) among the identification poses.
+    pub identification_observations: usize,
+    /// Millimetres a degree of orientation error weighs, when set with `--deg-weight-mm`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub deg_weight_mm: Option<f64>,
+    /// Error floor added to each point coordinate's σ (mm): what the model cannot explain
+    /// (crate::calibration::weights); 0 when the stated σ explain the residuals.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub floor_mm: Option<f64>,
+    /// The same for each orientation component (degrees).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub floor_deg: Option<f64>,
 }
 
 /// One estimated parameter: file value, calibrated value, change and 1-σ (file units).
@@ -127,6 +169,39 @@ impl fmt::Display for IdentifyReport {
                 g(r.validation_max_mm)
             )?;
         }
+        if self.after.identification_rms_deg.is_some() {
+            for (k, r) in [("before", &self.before), ("after", &self.after)] {
+                writeln!(
+                    f,
+                    "{:>8} {:>16} {:>16}   (orientation, degrees)",
+                    k,
+                    g(r.identification_rms_deg),
+                    g(r.validation_rms_deg)
+                )?;
+            }
+        }
+        if let Some(pp) = &self.per_point {
+            for (name, p) in pp {
+                writeln!(
+                    f,
+                    "{:>8} {:>16} {:>16}   point {name}: {} + {} observations, before {} / {} mm",
+                    "after",
+                    g(Some(p.after.identification_rms_mm)),
+                    g(p.after.validation_rms_mm),
+                    p.n_identification,
+                    p.n_validation,
+                    g(Some(p.before.identification_rms_mm)),
+                    g(p.before.validation_rms_mm),
+                )?;
+            }
+        }
+        if let Some(c) = self.chi2_per_dof {
+            writeln!(
+                f,
+                "χ²/dof with the file's σ: {} (≈ 1 when the σ explain the residuals)",
+                sig(c, 3)
+            )?;
+        }
         writeln!(
             f,
             "{} iterations, {} evaluations, {} s: {}",
@@ -177,7 +252,7 @@ impl fmt::Display for IdentifyReport {
                 if h.confounded_with.is_empty() {
                     writeln!(
                         f,
-                        "  {:<14} no pose moves the measured point with it",
+                        "  {:<14} no observation moves with it",
                         h.name
                     )?;
                 } else {

@@ -275,6 +275,7 @@ pub fn import(chain: &Chain, tool_mm: [f64; 3], name: &str) -> Imported {
             xyz_mm: [snap(point.x), snap(point.y), snap(point.z)],
             rpy_deg: Some([deg(r), deg(p), deg(y)]),
         },
+        tools: Vec::new(),
         base: Some(base),
         effects: Vec::new(),
         couplings: Vec::new(),

@@ -1,0 +1,158 @@
+//! Weights of 6-D and σ-weighted observations: the stated σ plus what the model cannot explain.
+//!
+//! A tracker's σ describe its noise; a robot model that misses an effect (joint-angle errors
+//! the geometry cannot express, say) leaves residuals many times larger, and then weighting
+//! by the stated σ alone is arbitrary: a reading with a small σ pulls the fit harder although
+//! its residual is mostly model error. So each group of residual rows (the points'
+//! coordinates; the orientations) gets an error floor `s_g`, the effective uncertainty of a
+//! row is `√(σ² + s_g²)`, and `s_g` is the smallest value for which the group's weighted
+//! squares match its degrees of freedom (variance-component estimation with an additive
+//! component, as geodesy combines heterogeneous observations). When the stated σ explain the
+//! residuals, `s_g = 0` and the weights are the σ's; without σ columns, `s_g` is the group's
+//! RMS per row, which balances millimetres against degrees by what each group scatters.
+//! A few rounds of fit → floors → weights → refit (from the previous fit) settle it.
+
+use kinecal::model::frame::orientation_error;
+use kinecal::{ForwardKinematics, Measurement, Robot};
+use nalgebra::Vector3;
+
+/// The stated 1-σ of one observation (0 where the file gives none).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stated {
+    pub point_mm: Vector3<f64>,
+    pub orientation_rad: f64,
+}
+
+/// The stated σ of each observation, read back from its weights (`w = 1/σ`; a unit weight
+/// without σ columns is σ = 0: no stated uncertainty).
+pub fn stated<const N: usize>(data: &[Measurement<f64, N>], sigma: bool) -> Vec<Stated> {
+    data.iter()
+        .map(|m| Stated {
+            point_mm: if sigma {
+                m.weight.map(|w| 1.0 / w)
+            } else {
+                Vector3::zeros()
+            },
+            orientation_rad: if sigma && m.orientation.is_some() {
+                1.0 / m.orientation_weight
+            } else {
+                0.0
+            },
+        })
+        .collect()
+}
+
+/// The floors found, and the χ² of the stated σ.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Floors {
+    /// Error floor of a point coordinate, mm.
+    pub point_mm: f64,
+    /// Error floor of an orientation component, rad (0 without orientations).
+    pub orientation_rad: f64,
+}
+
+/// The smallest `s² ≥ 0` with `Σ r²/(σ² + s²) ≤ dof` (bisection: the sum falls with `s²`).
+fn floor_squared(r2: &[(f64, f64)], dof: f64) -> f64 {
+    if r2.is_empty() || dof <= 0.0 {
+        return 0.0;
+    }
+    let chi = |s2: f64| -> f64 {
+        r2.iter()
+            .map(|(r, v)| if v + s2 > 0.0 { r / (v + s2) } else { 0.0 })
+            .sum()
+    };
+    if r2.iter().all(|(_, v)| *v > 0.0) && chi(0.0) <= dof {
+        return 0.0;
+    }
+    let (mut lo, mut hi) = (0.0, r2.iter().map(|(r, _)| r).sum::<f64>() / dof);
+    for _ in 0..80 {
+        let mid = 0.5 * (lo + hi);
+        if chi(mid) > dof {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    hi
+}
+
+/// The residual rows of `data` at `robot`, grouped: each point coordinate's and each
+/// orientation component's squared residual with its stated variance.
+#[allow(clippy::type_complexity)]
+fn rows<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    data: &[Measurement<f64, N>],
+    stated: &[Stated],
+) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
+    let mut fk = ForwardKinematics::new();
+    let (mut pos, mut rot) = (Vec::new(), Vec::new());
+    for (m, s) in data.iter().zip(stated) {
+        let Some(p) = fk.compute_point(robot, &m.q, m.tool as usize) else {
+            continue;
+        };
+        let r = m.point - p;
+        for a in 0..3 {
+            pos.push((r[a] * r[a], s.point_mm[a] * s.point_mm[a]));
+        }
+        if let Some(o) = &m.orientation {
+            let e = orientation_error(o, &fk.tool_pose(robot));
+            let v = s.orientation_rad * s.orientation_rad;
+            for a in 0..3 {
+                rot.push((e[a] * e[a], v));
+            }
+        }
+    }
+    (pos, rot)
+}
+
+/// The floors at `robot` for `params` estimated parameters (shared among the groups by
+/// their number of rows).
+pub fn floors<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    data: &[Measurement<f64, N>],
+    stated: &[Stated],
+    params: usize,
+) -> Floors {
+    let (pos, rot) = rows(robot, data, stated);
+    let total = (pos.len() + rot.len()) as f64;
+    let dof = |n: usize| n as f64 - params as f64 * n as f64 / total;
+    Floors {
+        point_mm: floor_squared(&pos, dof(pos.len())).sqrt(),
+        orientation_rad: floor_squared(&rot, dof(rot.len())).sqrt(),
+    }
+}
+
+/// Sets every observation's weights to `1/√(σ² + s²)` for the floors `f`.
+pub fn apply<const N: usize>(data: &mut [Measurement<f64, N>], stated: &[Stated], f: &Floors) {
+    for (m, s) in data.iter_mut().zip(stated) {
+        m.weight = s
+            .point_mm
+            .map(|sd| 1.0 / (sd * sd + f.point_mm * f.point_mm).sqrt());
+        if m.orientation.is_some() {
+            let v = s.orientation_rad * s.orientation_rad + f.orientation_rad * f.orientation_rad;
+            m.orientation_weight = 1.0 / v.sqrt();
+        }
+        if !m.weight.iter().all(|w| w.is_finite()) {
+            m.weight = Vector3::repeat(1.0);
+        }
+        if !m.orientation_weight.is_finite() {
+            m.orientation_weight = 0.0;
+        }
+    }
+}
+
+/// χ² per degree of freedom of the stated σ at `robot` (`None` without σ).
+pub fn chi2_per_dof<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    data: &[Measurement<f64, N>],
+    stated: &[Stated],
+    params: usize,
+) -> Option<f64> {
+    let (pos, rot) = rows(robot, data, stated);
+    let all: Vec<(f64, f64)> = pos.into_iter().chain(rot).collect();
+    if all.iter().any(|(_, v)| *v <= 0.0) || all.len() <= params {
+        return None;
+    }
+    let chi: f64 = all.iter().map(|(r, v)| r / v).sum();
+    Some(chi / (all.len() - params) as f64)
+}

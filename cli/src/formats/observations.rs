@@ -1,0 +1,265 @@
+//! What a measurement file observed in each pose (interfaces.md §3): the point (`x`, `y`, `z`),
+//! or several reflectors' points (`x_NAME`, `y_NAME`, `z_NAME`, an empty cell where one was
+//! not seen), the probe's orientation (`rx_deg`, `ry_deg`, `rz_deg`) and the tracker's 1-σ
+//! (`sx_mm`, `sy_mm`, `sz_mm`, `srot_deg`), turned into the library's weighted observations.
+//!
+//! **Weights** (docs/formats.md "Observations"): with σ columns every residual is divided by
+//! its σ (a χ² with one unit per reading); without them positions count in millimetres and
+//! orientations in degrees times `--deg-weight-mm` (default 17.45: a degree weighs the arc it
+//! moves a point 1 m away). A file with σ for some rows and not others is refused, as is a
+//! file with orientations and position σ but no `srot_deg`: the two kinds of residual would be
+//! in different units.
+
+use crate::formats::measurements::Dataset;
+use crate::formats::robot_file::RobotFile;
+use kinecal::{Frame, Measurement};
+use nalgebra::Vector3;
+
+/// Mm per degree that the default weighting gives an orientation residual: the arc a degree
+/// moves a point 1 m away.
+pub const DEFAULT_DEG_WEIGHT_MM: f64 = 1000.0 * std::f64::consts::PI / 180.0;
+
+/// How orientation and σ columns are used (`identify`, `diagnose`, `check`).
+#[derive(clap::Args, Debug, Clone, PartialEq)]
+pub struct ObservationArgs {
+    /// Weight of an orientation residual without σ columns: millimetres per degree. Without
+    /// it, the weighting is found from the data (each kind of residual by its own scatter).
+    #[arg(long)]
+    pub deg_weight_mm: Option<f64>,
+    /// Weigh by the file's σ exactly as stated, without the error floor that the fit adds when
+    /// the residuals are larger than the σ explain.
+    #[arg(long)]
+    pub sigma_as_stated: bool,
+    /// Use positions only, even when the file has rx_deg, ry_deg, rz_deg.
+    #[arg(long)]
+    pub positions_only: bool,
+    /// Weigh every reading the same, even when the file has sx_mm, sy_mm, sz_mm, srot_deg.
+    #[arg(long)]
+    pub ignore_sigma: bool,
+}
+
+impl Default for ObservationArgs {
+    fn default() -> Self {
+        Self {
+            deg_weight_mm: None,
+            sigma_as_stated: false,
+            positions_only: false,
+            ignore_sigma: false,
+        }
+    }
+}
+
+/// One measured pose: its observations (one per reflector seen) and its line in the file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pose<const N: usize> {
+    pub line: u32,
+    pub observations: Vec<Measurement<f64, N>>,
+}
+
+/// The poses of a file and what kind of observations they are.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Observed<const N: usize> {
+    pub poses: Vec<Pose<N>>,
+    /// Point names (`[[tools]]`), empty for one `[tool]`.
+    pub names: Vec<String>,
+    /// Orientation observed (6-D).
+    pub six_d: bool,
+    /// Weighted by the file's σ (residuals in units of σ).
+    pub sigma: bool,
+}
+
+/// Flattens poses into the observation list the solvers take.
+pub fn flatten<const N: usize>(poses: &[Pose<N>]) -> Vec<Measurement<f64, N>> {
+    poses
+        .iter()
+        .flat_map(|p| p.observations.iter().copied())
+        .collect()
+}
+
+impl<const N: usize> Observed<N> {
+    /// Every observation, pose after pose.
+    pub fn all(&self) -> Vec<Measurement<f64, N>> {
+        flatten(&self.poses)
+    }
+
+    /// True when every observation is a plain position of the first point, unweighted.
+    pub fn plain(&self) -> bool {
+        self.names.len() <= 1 && !self.six_d && !self.sigma
+    }
+}
+
+/// Column index of `name` in the dataset's extra columns.
+fn col<const N: usize>(ds: &Dataset<N>, name: &str) -> Option<usize> {
+    ds.extra_names.iter().position(|n| n == name)
+}
+
+/// The observations of `ds` (already in mm and degrees) for the robot `file`. Refused (exit 2)
+/// with a one-line reason naming the file, line and column for what cannot be right.
+pub fn observe<const N: usize>(
+    ds: &Dataset<N>,
+    file: &RobotFile,
+    args: &ObservationArgs,
+    origin: &str,
+) -> anyhow::Result<Observed<N>> {
+    let deg_weight_mm = args.deg_weight_mm.unwrap_or(DEFAULT_DEG_WEIGHT_MM);
+    if !(deg_weight_mm.is_finite() && deg_weight_mm > 0.0 && deg_weight_mm <= 1e6) {
+        crate::refuse!(
+            "--deg-weight-mm {deg_weight_mm}: give a positive number of millimetres per degree"
+        );
+    }
+    let names = file.tool_names();
+    let rot = ["rx_deg", "ry_deg", "rz_deg"].map(|c| col(ds, c));
+    let six_d = rot.iter().any(Option::is_some) && !args.positions_only;
+    if six_d && rot.iter().any(Option::is_none) {
+        crate::refuse!("{origin}: orientation needs all of rx_deg, ry_deg, rz_deg");
+    }
+    let sig = ["sx_mm", "sy_mm", "sz_mm"].map(|c| col(ds, c));
+    let srot = col(ds, "srot_deg");
+    let has_sig = sig.iter().any(Option::is_some) && !args.ignore_sigma;
+    if has_sig && sig.iter().any(Option::is_none) {
+        crate::refuse!("{origin}: position uncertainty needs all of sx_mm, sy_mm, sz_mm");
+    }
+    if six_d && has_sig && srot.is_none() {
+        crate::refuse!(
+            "{origin}: sx_mm, sy_mm, sz_mm but no srot_deg for the orientation: add it, or give \
+             --ignore-sigma (or --positions-only)"
+        );
+    }
+    if six_d && names.len() > 1 {
+        crate::refuse!(
+            "{origin}: rx_deg, ry_deg, rz_deg with several [[tools]]: the orientation is of one \
+             measured frame; give one [tool] with its rpy_deg, or --positions-only"
+        );
+    }
+    let named = names.len() > 1;
+    let points: Vec<[usize; 3]> = if named {
+        let mut v = Vec::new();
+        for n in &names {
+            let c = ["x", "y", "z"].map(|a| col(ds, &format!("{a}_{n}")));
+            match c {
+                [Some(x), Some(y), Some(z)] => v.push([x, y, z]),
+                _ => crate::refuse!(
+                    "{origin}: the robot file names the reflector `{n}` but the file lacks \
+                     x_{n}, y_{n} or z_{n}"
+                ),
+            }
+        }
+        v
+    } else {
+        Vec::new()
+    };
+    let first_nan = ds.records.iter().any(|r| r.xyz_mm.iter().any(|v| v.is_nan()));
+    if !named && first_nan {
+        crate::refuse!(
+            "{origin}: the file has no x, y, z (x_NAME… columns?): name the reflectors with \
+             [[tools]] in the robot file"
+        );
+    }
+    let mut poses = Vec::with_capacity(ds.records.len());
+    for r in &ds.records {
+        let at = |c: &str| format!("{origin}:{}: {c}", r.line);
+        let get = |k: usize| r.extra.get(k).copied().unwrap_or(f64::NAN);
+        let weight = if has_sig {
+            let s = sig.map(|c| c.map_or(f64::NAN, get));
+            if let Some(k) = s.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+                crate::refuse!(
+                    "{}: a 1-σ must be a positive number, got {} (or give --ignore-sigma)",
+                    at(["sx_mm", "sy_mm", "sz_mm"][k]),
+                    s[k]
+                );
+            }
+            Vector3::new(1.0 / s[0], 1.0 / s[1], 1.0 / s[2])
+        } else {
+            Vector3::repeat(1.0)
+        };
+        let orientation = if six_d {
+            let a = rot.map(|c| c.map_or(f64::NAN, get));
+            if let Some(k) = a.iter().position(|v| !v.is_finite() || v.abs() > 1e4) {
+                crate::refuse!(
+                    "{}: not an angle in degrees: {}",
+                    at(["rx_deg", "ry_deg", "rz_deg"][k]),
+                    a[k]
+                );
+            }
+            let w = if has_sig {
+                let s = srot.map_or(f64::NAN, get);
+                if !(s.is_finite() && s > 0.0) {
+                    crate::refuse!(
+                        "{}: a 1-σ must be a positive number, got {s} (or give --ignore-sigma)",
+                        at("srot_deg")
+                    );
+                }
+                1.0 / s.to_radians()
+            } else {
+                deg_weight_mm.to_degrees()
+            };
+            Some((
+                Frame::from_xyz_rpy([0.0; 3], a.map(f64::to_radians)),
+                w,
+            ))
+        } else {
+            None
+        };
+        let q = r.q_deg.map(f64::to_radians);
+        let mut obs = Vec::new();
+        if named {
+            for (k, c) in points.iter().enumerate() {
+                let p = c.map(get);
+                let seen = p.iter().filter(|v| v.is_finite()).count();
+                if seen == 0 {
+                    continue;
+                }
+                if seen < 3 {
+                    crate::refuse!(
+                        "{}: reflector `{}` has some coordinates and not others: leave all three \
+                         cells empty where it was not seen",
+                        at(&format!("x_{}", names[k])),
+                        names[k]
+                    );
+                }
+                if let Some(v) = p.iter().find(|v| v.abs() > 1e6) {
+                    crate::refuse!(
+                        "{}: {v} is not a position in millimetres",
+                        at(&format!("x_{}", names[k]))
+                    );
+                }
+                let mut m = Measurement::new(q, Vector3::from(p));
+                m.tool = k as u8;
+                m.weight = weight;
+                obs.push(m);
+            }
+        } else {
+            let mut m = Measurement::new(q, Vector3::from(r.xyz_mm));
+            m.weight = weight;
+            if let Some((o, w)) = orientation {
+                m.orientation = Some(o);
+                m.orientation_weight = w;
+            }
+            obs.push(m);
+        }
+        poses.push(Pose {
+            line: r.line,
+            observations: obs,
+        });
+    }
+    if named {
+        for (k, n) in names.iter().enumerate() {
+            if !poses
+                .iter()
+                .any(|p| p.observations.iter().any(|m| m.tool as usize == k))
+            {
+                crate::refuse!(
+                    "{origin}: reflector `{n}` was never seen (x_{n} empty on every row): \
+                     remove it from [[tools]]"
+                );
+            }
+        }
+        poses.retain(|p| !p.observations.is_empty());
+    }
+    Ok(Observed {
+        poses,
+        names,
+        six_d,
+        sigma: has_sig,
+    })
+}

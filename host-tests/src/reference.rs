@@ -692,6 +692,7 @@ pub fn ref_fit(start: &RefRobot, params: &[Param], data: &[RefObservation]) -> R
             .iter()
             .copied()
             .collect();
+        singular_values.sort_by(|a, b| b.total_cmp(a));
         let jtj = js.transpose() * &js;
         let g = js.transpose() * &r;
         let mut accepted = false;

@@ -323,11 +323,37 @@ fn six_d_set() -> ParamSet<P> {
     s
 }
 
-fn fit(nominal: &Robot<f64, 6, V>, set: &ParamSet<P>, data: &[Measurement<f64, 6>]) -> Lm {
-    let mut lm = Levenberg::fixed(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
-    lm.hold(Param::ToolRz).unwrap();
+/// The library's fit of `data` over `set` from `nominal`, holding `hold`.
+fn fit_with(
+    nominal: &Robot<f64, 6, V>,
+    set: &ParamSet<P>,
+    data: &[Measurement<f64, 6>],
+    cfg: LmConfig<f64>,
+    hold: &[Param],
+) -> Lm {
+    let mut lm = Levenberg::fixed(nominal.clone(), set.clone(), cfg).unwrap();
+    for p in hold {
+        lm.hold(*p).unwrap();
+    }
     lm.run(data).unwrap();
     lm
+}
+
+fn fit(nominal: &Robot<f64, 6, V>, set: &ParamSet<P>, data: &[Measurement<f64, 6>]) -> Lm {
+    fit_with(nominal, set, data, LmConfig::default(), &[Param::ToolRz])
+}
+
+/// Settings that run to the exact least-squares minimum: no ridge (the default keeps 1e-9 of
+/// the mean curvature on the total step, pulling weak directions towards the start), and
+/// stopping only when a step promises less than 1e-15 of the cost (the default: 1e-10, which
+/// leaves up to a few 1e-7 mm on the table).
+fn exact() -> LmConfig<f64> {
+    LmConfig {
+        ridge: 0.0,
+        cost_tolerance: 1e-15,
+        step_tolerance: 1e-13,
+        ..LmConfig::default()
+    }
 }
 
 /// `Rz(theta6)·R_tool`: where the measured frame sits relative to joint 6's axis at reading 0
@@ -436,30 +462,51 @@ fn six_d_data_recover_theta6_and_tool_orientation() {
     );
     assert!(rms_error(lp.robot(), &points) < 2.0 * SIGMA);
 
-    // The reference solver on the same data and parameters, from the same start.
+    // The reference solver on the same data and parameters, from the same start. Models are
+    // compared by their predictions at the data's and at held-out poses (the held tool.rz
+    // leaves theta6 and the tool axes free to trade a rotation about z6 between them, to second
+    // order of the steps: 1.6e-6 rad here, different for every path), and by
+    // Rz(theta6)·R_tool, which that trade leaves alone.
     let rf = ref_fit(&RefRobot::from_robot(&nominal), &params, &data_ref);
-    let (dp, dr) = prediction_gap(&fitted, &rf.robot, &poses, 1);
-    let (vp, vr) = prediction_gap(&fitted, &rf.robot, &valid, 1);
     let lib_cost = library_cost(lm.robot(), &data);
-    let ref_cost_of_lib = fitted.cost(&data_ref);
     let sv = &rf.singular_values;
     eprintln!(
-        "reference: {} steps, cost {:.9} vs library {:.9} (reference's residuals at the library's \
-         model {:.9}); predictions differ by {dp:.1e} mm {dr:.1e} rad (held-out {vp:.1e} mm \
-         {vr:.1e} rad); condition {:.1e}; theta6 {:.1e} rad apart",
+        "reference: {} steps, cost {:.9}, library {:.9}, reference's residuals at the library's \
+         model {:.9}; condition of the scaled Jacobian {:.1e}",
         rf.iterations,
         rf.cost,
         lib_cost,
-        ref_cost_of_lib,
+        fitted.cost(&data_ref),
         sv[0] / sv[sv.len() - 1],
-        (rf.robot.joints[5].theta - fitted.joints[5].theta).abs()
     );
     // The reference's residuals take the orientation error's angle from acos of the trace,
     // ~1e-11 rad off at these angles (5e-8 of σ_rot per row): its cost is good to ~1e-7.
-    assert!((lib_cost - ref_cost_of_lib).abs() < 2e-7 * lib_cost);
+    assert!((lib_cost - fitted.cost(&data_ref)).abs() < 2e-7 * lib_cost);
     assert!((lib_cost - rf.cost).abs() < 2e-7 * lib_cost);
-    assert!(dp < 1e-6 && vp < 1e-6, "{dp} {vp}");
-    assert!(dr < 1e-9 && vr < 1e-9, "{dr} {vr}");
+    // Default settings (tolerances: 1e-6 mm, 1e-9 rad), then run to the exact minimum
+    // (1e-7 mm, 1e-11 rad): see `exact`.
+    let exact_fit = fit_with(&nominal, &set, &data, exact(), &[Param::ToolRz]);
+    assert_eq!(active(&exact_fit), params);
+    for (what, lib, tol_p, tol_r) in [
+        ("default", fitted.clone(), 1e-6, 1e-9),
+        (
+            "exact",
+            RefRobot::from_robot(exact_fit.robot()),
+            1e-7,
+            1e-11,
+        ),
+    ] {
+        let (dp, dr) = prediction_gap(&lib, &rf.robot, &poses, 1);
+        let (vp, vr) = prediction_gap(&lib, &rf.robot, &valid, 1);
+        let dl = angle_between(&last_link_rotation(&lib), &last_link_rotation(&rf.robot));
+        eprintln!(
+            "  library ({what}) vs reference: predictions {dp:.1e} mm {dr:.1e} rad (held-out \
+             {vp:.1e} mm {vr:.1e} rad), Rz(theta6)·R_tool {dl:.1e} rad, theta6 {:.1e} rad",
+            (rf.robot.joints[5].theta - lib.joints[5].theta).abs()
+        );
+        assert!(dp.max(vp) < tol_p, "{what}: {dp} {vp} mm");
+        assert!(dr.max(vr).max(dl) < tol_r, "{what}: {dr} {vr} {dl} rad");
+    }
 
     // χ²: with the true σ, cost / (rows − parameters) is χ² over its degrees of freedom,
     // mean 1, standard deviation √(2/ν) (0.09 for ν = 300 − 30); 4 of them either way.
@@ -467,4 +514,217 @@ fn six_d_data_recover_theta6_and_tool_orientation() {
     let chi = lib_cost / nu;
     eprintln!("χ²/ν = {chi:.3} (ν = {nu})");
     assert!((chi - 1.0).abs() < 4.0 * (2.0 / nu).sqrt(), "{chi}");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Several reflectors.
+
+/// Three reflectors on the tool, each missing in about a fifth of the poses (every pose sees at
+/// least one), unweighted: the fit finds all three and the geometry, and agrees with the
+/// reference solver.
+#[test]
+fn three_reflectors_with_gaps_are_all_recovered() {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
+    let tools = [
+        Vector3::new(0.0, 0.0, 109.0),
+        Vector3::new(70.0, 0.0, 100.0),
+        Vector3::new(-30.0, 55.0, 95.0),
+    ];
+    let mut nominal = ur10(tools[0]);
+    nominal.set_tool_point(1, tools[1]).unwrap();
+    nominal.set_tool_point(2, tools[2]).unwrap();
+    let mut set = ParamSet::<P>::full(6, true).unwrap();
+    for k in 1..3u8 {
+        for a in 0..3u8 {
+            set.push(Param::ToolPoint(k, a)).unwrap();
+        }
+    }
+    let truth = truth_of(&nominal, &set, &[], &mut rng);
+    let reference_truth = RefRobot::from_robot(&truth);
+    let poses: Vec<[f64; 6]> = (0..60).map(|_| random_q(&mut rng)).collect();
+    let mut data = Vec::new();
+    let mut missing = [0usize; 3];
+    for q in &poses {
+        let mut seen: Vec<usize> = (0..3).filter(|_| rng.random_bool(0.8)).collect();
+        if seen.is_empty() {
+            seen.push(rng.random_range(0..3));
+        }
+        for (k, m) in missing.iter_mut().enumerate() {
+            if !seen.contains(&k) {
+                *m += 1;
+            }
+        }
+        for k in seen {
+            let mut m = observe(&reference_truth, *q, k, SIGMA, false, &normals(&mut rng));
+            m.weight = Vector3::repeat(1.0);
+            data.push(m);
+        }
+    }
+    let valid: Vec<[f64; 6]> = (0..50).map(|_| random_q(&mut rng)).collect();
+
+    let mut lm = Levenberg::fixed(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
+    lm.run(&data).unwrap();
+    let held: Vec<Param> = lm.unidentifiable().collect();
+    let fitted = RefRobot::from_robot(lm.robot());
+    let per_point: Vec<f64> = (0..3)
+        .map(|k| {
+            let s: f64 = valid
+                .iter()
+                .map(|q| (fitted.point_at(q, k) - reference_truth.point_at(q, k)).norm_squared())
+                .sum();
+            (s / valid.len() as f64).sqrt()
+        })
+        .collect();
+    let nominal_ref = RefRobot::from_robot(&nominal);
+    let before: f64 = valid
+        .iter()
+        .map(|q| (nominal_ref.point_at(q, 1) - reference_truth.point_at(q, 1)).norm())
+        .fold(0.0, f64::max);
+    let dist = |r: &RefRobot, i: usize, j: usize| (r.tool_point(i) - r.tool_point(j)).norm();
+    let dist_err = [(0, 1), (0, 2), (1, 2)]
+        .iter()
+        .map(|(i, j)| (dist(&fitted, *i, *j) - dist(&reference_truth, *i, *j)).abs())
+        .fold(0.0, f64::max);
+    eprintln!(
+        "3 points: {} observations, missing {missing:?} of {} poses; held {held:?}; held-out RMS \
+         per point {per_point:.4?} mm (nominal's worst {before:.2} mm); inter-point distances \
+         off by {dist_err:.1e} mm; fit RMS {:.4} mm",
+        data.len(),
+        poses.len(),
+        rms_error(lm.robot(), &data)
+    );
+    for m in missing {
+        assert!((6..=20).contains(&m), "{missing:?}");
+    }
+    assert!(before > 1.0);
+    for e in &per_point {
+        assert!(*e < SIGMA, "{per_point:?}");
+    }
+    assert!(dist_err < 0.01);
+    // Nothing of the points themselves is held (theta6 or a point coordinate may be: turning
+    // all three about joint 6's axis is the same as turning joint 6's zero).
+    let point_coords_held = held.iter().filter(|p| p.is_tool()).count();
+    assert!(point_coords_held <= 2, "{held:?}");
+
+    // The reference solver, same data and parameters, same start.
+    let params = active(&lm);
+    let data_ref: Vec<RefObservation> = data.iter().map(to_ref).collect();
+    let rf = ref_fit(&nominal_ref, &params, &data_ref);
+    let lib_cost = library_cost(lm.robot(), &data);
+    eprintln!(
+        "reference: {} steps, cost {:.12}, library {:.12}",
+        rf.iterations, rf.cost, lib_cost
+    );
+    assert!((lib_cost - rf.cost).abs() < 1e-9 * lib_cost);
+    let exact_fit = Levenberg::fixed(nominal.clone(), set.clone(), exact())
+        .and_then(|mut l| l.run(&data).map(|_| l))
+        .unwrap();
+    assert_eq!(active(&exact_fit), params);
+    for (what, lib, tol) in [
+        ("default", fitted.clone(), 1e-6),
+        ("exact", RefRobot::from_robot(exact_fit.robot()), 1e-7),
+    ] {
+        let (dp, _) = prediction_gap(&lib, &rf.robot, &poses, 3);
+        let (vp, _) = prediction_gap(&lib, &rf.robot, &valid, 3);
+        eprintln!("  library ({what}) vs reference: {dp:.1e} mm (held-out {vp:.1e} mm)");
+        assert!(dp.max(vp) < tol, "{what}: {dp} {vp}");
+    }
+    // Unweighted: cost / σ² over the degrees of freedom is χ²/ν.
+    let nu = (rows(&data) - params.len()) as f64;
+    let chi = lib_cost / (SIGMA * SIGMA) / nu;
+    eprintln!("χ²/ν = {chi:.3} (ν = {nu})");
+    assert!((chi - 1.0).abs() < 4.0 * (2.0 / nu).sqrt(), "{chi}");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Weights.
+
+/// Held-out RMS (mm, noise-free poses) of the fit of `data` over the full set, base unknown.
+fn held_out(
+    nominal: &Robot<f64, 6, V>,
+    data: &[Measurement<f64, 6>],
+    valid: &[Measurement<f64, 6>],
+) -> (f64, f64, usize) {
+    let set = ParamSet::<P>::full(6, true).unwrap();
+    let mut lm = Levenberg::fixed(nominal.clone(), set, LmConfig::default()).unwrap();
+    lm.run(data).unwrap();
+    let p = (0..lm.params().len()).filter(|k| lm.is_active(*k)).count();
+    (
+        rms_error(lm.robot(), valid),
+        library_cost(lm.robot(), data),
+        p,
+    )
+}
+
+/// 5 % of the readings with 10× the noise, weighted by 1/σ (σ as the tracker reports it),
+/// identify as well as data without them; unweighted, clearly worse.
+#[test]
+fn weights_discount_noisy_readings() {
+    let nominal = ur10(Vector3::new(0.0, 0.0, 109.0));
+    let set = ParamSet::<P>::full(6, true).unwrap();
+    let (mut sc, mut sw, mut su) = (0.0, 0.0, 0.0);
+    for seed in 0..8u64 {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(100 + seed);
+        let truth = RefRobot::from_robot(&truth_of(&nominal, &set, &[], &mut rng));
+        let n = 100;
+        let poses: Vec<[f64; 6]> = (0..n).map(|_| random_q(&mut rng)).collect();
+        let mut bad = vec![false; n];
+        let mut count = 0;
+        while count < n / 20 {
+            let i = rng.random_range(0..n);
+            if !bad[i] {
+                bad[i] = true;
+                count += 1;
+            }
+        }
+        let noise: Vec<[f64; 6]> = (0..n).map(|_| normals(&mut rng)).collect();
+        // The same draws: the clean set's reading i is σ·e_i, a noisy one 10σ·e_i.
+        let clean: Vec<Measurement<f64, 6>> = (0..n)
+            .map(|i| observe(&truth, poses[i], 0, SIGMA, false, &noise[i]))
+            .collect();
+        let weighted: Vec<Measurement<f64, 6>> = (0..n)
+            .map(|i| {
+                let s = if bad[i] { 10.0 * SIGMA } else { SIGMA };
+                observe(&truth, poses[i], 0, s, false, &noise[i])
+            })
+            .collect();
+        let unweighted: Vec<Measurement<f64, 6>> = weighted
+            .iter()
+            .map(|m| Measurement {
+                weight: Vector3::repeat(1.0 / SIGMA),
+                ..*m
+            })
+            .collect();
+        let valid: Vec<Measurement<f64, 6>> = (0..200)
+            .map(|_| observe(&truth, random_q(&mut rng), 0, SIGMA, false, &[0.0; 6]))
+            .collect();
+        let (c, _, _) = held_out(&nominal, &clean, &valid);
+        let (w, w_cost, p) = held_out(&nominal, &weighted, &valid);
+        let (u, _, _) = held_out(&nominal, &unweighted, &valid);
+        let nu = (3 * n - p) as f64;
+        eprintln!(
+            "seed {seed}: held-out RMS clean {c:.4} mm, weighted {w:.4} ({:.2}×), unweighted {u:.4} \
+             ({:.2}×); weighted χ²/ν {:.3}",
+            w / c,
+            u / c,
+            w_cost / nu
+        );
+        // One fit's held-out RMS is itself a noisy number (seed 3: 1.17× the clean fit's).
+        assert!(w < 1.3 * c && u > w, "seed {seed}");
+        // With the true σ the weighted cost is χ² with ν degrees of freedom: within 4√(2/ν).
+        assert!(
+            (w_cost / nu - 1.0).abs() < 4.0 * (2.0 / nu).sqrt(),
+            "seed {seed}"
+        );
+        sc += c * c;
+        sw += w * w;
+        su += u * u;
+    }
+    // Over the eight seeds: the noisy readings weighted by 1/σ cost what their lost information
+    // predicts (95 % of the readings: √(1/0.95) = 1.03× the clean RMS); unweighted, their
+    // variance is spread over all (0.95 + 0.05·100 = 5.95 times: ~2.4×).
+    let (w, u) = ((sw / sc).sqrt(), (su / sc).sqrt());
+    eprintln!("over all seeds: weighted {w:.3}× the clean held-out RMS, unweighted {u:.3}×");
+    assert!(w < 1.2, "{w}");
+    assert!(u > 1.5 * w, "{u} vs {w}");
 }

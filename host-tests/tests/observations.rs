@@ -363,9 +363,10 @@ fn last_link_rotation(r: &RefRobot) -> Matrix3<f64> {
 }
 
 /// 6-D data (0.02 mm, 0.005°, weighted 1/σ) determine theta6 and the tool orientation; the
-/// same poses' points alone do not (the tool point is on joint 6's axis, so theta6 does not
-/// move it, and no point moves with the tool axes). The library's fit and the reference
-/// solver's agree.
+/// same poses' points alone do not (no point moves with the tool axes, and turning joint 6's
+/// zero only turns the tool point about joint 6's axis, which the tool point's x and y do as
+/// well; at the nominal point, on that axis, it moves nothing). The library's fit and the
+/// reference solver's agree, and the cost over its degrees of freedom is χ².
 #[test]
 fn six_d_data_recover_theta6_and_tool_orientation() {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(6);
@@ -443,8 +444,9 @@ fn six_d_data_recover_theta6_and_tool_orientation() {
     // Held-out poses, noise-free: better than one reading.
     assert!(gap_p < SIGMA && gap_r < sigma_rot(), "{gap_p} {gap_r}");
 
-    // Positions alone: tool.rx/ry and theta6 have no column at all (held at nominal, 0.25° and
-    // 0.15° from the truth), and the rest still fits the points.
+    // Positions alone: tool.rx/ry have no column, theta6 none at the start (held at nominal,
+    // 0.25° and 0.15° from the truth, and kept held as the model moves: from then on it only
+    // repeats tool.x/y), and the rest still fits the points.
     let lp = fit(&nominal, &set, &points);
     let held_p: Vec<Param> = lp.unidentifiable().collect();
     eprintln!("positions only: held {held_p:?}");
@@ -472,12 +474,14 @@ fn six_d_data_recover_theta6_and_tool_orientation() {
     let sv = &rf.singular_values;
     eprintln!(
         "reference: {} steps, cost {:.9}, library {:.9}, reference's residuals at the library's \
-         model {:.9}; condition of the scaled Jacobian {:.1e}",
+         model {:.9}; {} singular values of the scaled Jacobian, {:.2e} .. {:.2e}",
         rf.iterations,
         rf.cost,
         lib_cost,
         fitted.cost(&data_ref),
-        sv[0] / sv[sv.len() - 1],
+        sv.len(),
+        sv[sv.len() - 1],
+        sv[0],
     );
     // The reference's residuals take the orientation error's angle from acos of the trace,
     // ~1e-11 rad off at these angles (5e-8 of σ_rot per row): its cost is good to ~1e-7.

@@ -470,6 +470,29 @@ fn six_d_data_recover_theta6_and_tool_orientation() {
     // order of the steps: 1.6e-6 rad here, different for every path), and by
     // Rz(theta6)·R_tool, which that trade leaves alone.
     let rf = ref_fit(&RefRobot::from_robot(&nominal), &params, &data_ref);
+    // The reference solver itself: noise-free data of the library's fit (a model of the
+    // family the held parameters allow: the truth is not, as its alpha3/alpha4 moves make
+    // the axes d3, d4 slide along not quite parallel) are fitted back from nominal. Not to
+    // rounding: nalgebra's angle is acos((trace − 1)/2), and next to zero acos(1 − 1.1e-16)
+    // is 1.5e-8 rad, so orientation residuals below ~1e-8 rad are lost: it stops 2e-8 mm and
+    // 3e-10 rad off (with an atan2 angle instead: 6e-13 mm). With noise, angles ~1e-4 rad,
+    // the same acos is good to ~1e-11 rad.
+    let exact_data: Vec<RefObservation> = poses
+        .iter()
+        .map(|q| to_ref(&observe(&fitted, *q, 0, SIGMA, true, &[0.0; 6])))
+        .collect();
+    let rf0 = ref_fit(&RefRobot::from_robot(&nominal), &params, &exact_data);
+    let (tp, tr) = prediction_gap(&rf0.robot, &fitted, &valid, 1);
+    eprintln!(
+        "reference on noise-free data: cost {:.1e}, held-out predictions off the model by \
+         {tp:.1e} mm {tr:.1e} rad",
+        rf0.cost
+    );
+    assert!(
+        rf0.cost < 1e-8 && tp < 1e-6 && tr < 1e-8,
+        "{} {tp} {tr}",
+        rf0.cost
+    );
     let lib_cost = library_cost(lm.robot(), &data);
     let sv = &rf.singular_values;
     eprintln!(

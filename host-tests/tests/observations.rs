@@ -98,9 +98,10 @@ fn truth_of(
     t
 }
 
-/// An observation of tool point `k` at `q`, made by the reference model of `truth`: the point
-/// with N(0, σ) noise per coordinate, weights 1/σ; with `six_d`, the tool frame's orientation
-/// turned by a rotation vector of N(0, σ_rot) components, weight 1/σ_rot.
+/// An observation of tool point `k` at `q`, made by the reference model of `truth` from six
+/// standard normal draws `noise`: the point moved by σ·noise[0..3], weights 1/σ; with
+/// `six_d`, the tool frame's orientation turned by the rotation vector σ_rot·noise[3..6],
+/// weight 1/σ_rot.
 fn observe(
     truth: &RefRobot,
     q: [f64; 6],

@@ -508,3 +508,232 @@ impl RefRobot {
         w / (2.0 * h)
     }
 }
+
+/// One observation for the reference solver: joint readings (rad), which tool point
+/// (0: `tool`, then `more_tools`), the measured point (mm) with its per-coordinate weights, and
+/// for a 6-D observation the measured orientation of the tool frame with its weight (per rad).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RefObservation {
+    pub q: Vec<f64>,
+    pub tool: usize,
+    pub point: Vector3<f64>,
+    pub weight: Vector3<f64>,
+    pub orientation: Option<Matrix3<f64>>,
+    pub orientation_weight: f64,
+}
+
+/// Rotation vector of `measured · predictedᵀ` by nalgebra's logarithm (`acos` of the trace for
+/// the angle, the skew part for the axis). The angle's error is the trace's rounding over
+/// sin θ: with the rotations' own rounding (~1e-15 off orthogonal after a chain of products)
+/// about 1e-11 rad at θ = 1e-4, and below ~1e-8 rad the angle is lost (`acos(1)`): fine for
+/// residuals of noisy orientations, not for telling two nearly equal rotations apart (see
+/// [`small_angle`]). When rounding puts the trace above 3 (`acos` NaN), the skew part itself.
+pub fn rotation_residual(measured: &Matrix3<f64>, predicted: &Matrix3<f64>) -> Vector3<f64> {
+    let r = measured * predicted.transpose();
+    let v = Rotation3::from_matrix_unchecked(r).scaled_axis();
+    if v.iter().all(|x| x.is_finite()) {
+        v
+    } else {
+        Vector3::new(
+            r[(2, 1)] - r[(1, 2)],
+            r[(0, 2)] - r[(2, 0)],
+            r[(1, 0)] - r[(0, 1)],
+        ) * 0.5
+    }
+}
+
+/// The angle (rad) between two nearly equal rotations, from the skew part of `a·bᵀ`
+/// (`asin |v|`: good to rounding, ~1e-16, at any small angle; valid below π/2).
+pub fn small_angle(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
+    let r = a * b.transpose();
+    let v = Vector3::new(
+        r[(2, 1)] - r[(1, 2)],
+        r[(0, 2)] - r[(2, 0)],
+        r[(1, 0)] - r[(0, 1)],
+    ) * 0.5;
+    v.norm().min(1.0).asin()
+}
+
+/// The result of [`ref_fit`].
+#[derive(Clone, Debug)]
+pub struct RefFit {
+    pub robot: RefRobot,
+    /// Σ of squared weighted residuals at `robot`.
+    pub cost: f64,
+    /// Accepted steps.
+    pub iterations: usize,
+    /// Singular values of the column-scaled Jacobian at the end, largest first (the smallest
+    /// over the largest says how well the parameters are determined).
+    pub singular_values: Vec<f64>,
+}
+
+impl RefRobot {
+    /// Tool point `k` in the flange frame.
+    pub fn tool_point(&self, k: usize) -> Vector3<f64> {
+        if k == 0 {
+            self.tool
+        } else {
+            self.more_tools[k - 1]
+        }
+    }
+
+    /// The weighted residual rows of one observation, appended to `out`: `w ⊙ (p_m − p)`, then
+    /// for a 6-D observation `w_rot · log(R_m · R(q)ᵀ)`.
+    pub fn residual_into(&self, m: &RefObservation, out: &mut Vec<f64>) {
+        let f = self.flange(&m.q);
+        let t = self.tool_point(m.tool);
+        let p = (f * Vector4::new(t.x, t.y, t.z, 1.0)).xyz();
+        let r = (m.point - p).component_mul(&m.weight);
+        out.extend(r.iter());
+        if let Some(rm) = &m.orientation {
+            let rp = f.fixed_view::<3, 3>(0, 0).into_owned() * self.tool_axes;
+            let v = rotation_residual(rm, &rp) * m.orientation_weight;
+            out.extend(v.iter());
+        }
+    }
+
+    /// Every observation's weighted residual rows, in order.
+    pub fn residuals(&self, data: &[RefObservation]) -> DVector<f64> {
+        let mut out = Vec::with_capacity(6 * data.len());
+        for m in data {
+            self.residual_into(m, &mut out);
+        }
+        DVector::from_vec(out)
+    }
+
+    /// Σ of squared weighted residuals.
+    pub fn cost(&self, data: &[RefObservation]) -> f64 {
+        self.residuals(data).norm_squared()
+    }
+
+    /// `∂p_k/∂param` of tool point `k` by the five-point central difference (steps as
+    /// [`Self::dp_dparam`]).
+    pub fn dp_dparam_at(&self, q: &[f64], p: Param, k: usize) -> Vector3<f64> {
+        let h = if p.is_length() { 1.0 } else { 1e-3 };
+        let f = |s: f64| self.perturbed(p, s * h).point_at(q, k);
+        (f(-2.0) - f(2.0) + (f(1.0) - f(-1.0)) * 8.0) / (12.0 * h)
+    }
+
+    /// The rotation vector the tool frame turns by per unit `param`, by central differences of
+    /// `R(param + h)·R(param − h)ᵀ` (h = 1e-4; lengths too, where it is zero).
+    pub fn dr_dparam(&self, q: &[f64], p: Param) -> Vector3<f64> {
+        let h = 1e-4;
+        let r = self.perturbed(p, h).tool_rotation(q)
+            * self.perturbed(p, -h).tool_rotation(q).transpose();
+        // The small rotation's logarithm from its skew part (as `dr_dq`).
+        let v = Vector3::new(
+            r[(2, 1)] - r[(1, 2)],
+            r[(0, 2)] - r[(2, 0)],
+            r[(1, 0)] - r[(0, 1)],
+        ) * 0.5;
+        let s = v.norm();
+        let w = if s > 0.0 { v * (s.asin() / s) } else { v };
+        w / (2.0 * h)
+    }
+
+    /// A copy with every parameter of `params` moved by its entry of `delta`, one after the
+    /// other through [`Self::perturbed`].
+    pub fn stepped(&self, params: &[Param], delta: &[f64]) -> RefRobot {
+        let mut r = self.clone();
+        for (p, d) in params.iter().zip(delta) {
+            r = r.perturbed(*p, *d);
+        }
+        r
+    }
+
+    /// Jacobian of [`Self::residuals`] by five-point central differences of the residuals
+    /// themselves: step 1 mm for lengths (the residual is affine in each), 1e-3 for angles and
+    /// effect values (truncation O(h⁴)).
+    pub fn residual_jacobian(&self, params: &[Param], data: &[RefObservation]) -> DMatrix<f64> {
+        let m = self.residuals(data).len();
+        let mut j = DMatrix::zeros(m, params.len());
+        for (c, p) in params.iter().enumerate() {
+            let h = if p.is_length() { 1.0 } else { 1e-3 };
+            let f = |s: f64| self.perturbed(*p, s * h).residuals(data);
+            let col = (f(-2.0) - f(2.0) + (f(1.0) - f(-1.0)) * 8.0) / (12.0 * h);
+            j.set_column(c, &col);
+        }
+        j
+    }
+}
+
+/// The reference solver: weighted least squares over `params` from `start`, Levenberg–
+/// Marquardt on the dense normal equations of [`RefRobot::residual_jacobian`] (columns scaled
+/// to unit norm, damping `λ·I` on the scaled system, solved by SVD), stopping when a step
+/// changes the residual by less than 1e-9 of its norm (or after 200 steps).
+pub fn ref_fit(start: &RefRobot, params: &[Param], data: &[RefObservation]) -> RefFit {
+    let n = params.len();
+    let mut robot = start.clone();
+    let mut r = robot.residuals(data);
+    let mut cost = r.norm_squared();
+    let mut lambda = 1e-3;
+    let mut iterations = 0;
+    let mut singular_values = Vec::new();
+    for _ in 0..200 {
+        let j = robot.residual_jacobian(params, data);
+        let scale: Vec<f64> = (0..n)
+            .map(|c| {
+                let s = j.column(c).norm();
+                if s > 0.0 {
+                    1.0 / s
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        let mut js = j.clone();
+        for (c, s) in scale.iter().enumerate() {
+            js.column_mut(c).scale_mut(*s);
+        }
+        singular_values = js
+            .clone()
+            .svd(false, false)
+            .singular_values
+            .iter()
+            .copied()
+            .collect();
+        singular_values.sort_by(|a, b| b.total_cmp(a));
+        let jtj = js.transpose() * &js;
+        let g = js.transpose() * &r;
+        let mut accepted = false;
+        let mut tiny = false;
+        while lambda < 1e12 {
+            let a = &jtj + DMatrix::identity(n, n) * lambda;
+            let u = a.svd(true, true).solve(&(-&g), 0.0).expect("svd solve");
+            let change = (&js * &u).norm();
+            let delta: Vec<f64> = u.iter().zip(&scale).map(|(u, s)| u * s).collect();
+            let cand = robot.stepped(params, &delta);
+            let rc = cand.residuals(data);
+            let cc = rc.norm_squared();
+            if change <= 1e-9 * cost.sqrt() {
+                // Converged: take the last (tiny) step when it does not raise the cost.
+                if cc <= cost {
+                    robot = cand;
+                    r = rc;
+                    cost = cc;
+                }
+                tiny = true;
+                break;
+            }
+            if cc < cost {
+                robot = cand;
+                r = rc;
+                cost = cc;
+                lambda = (lambda * 0.1).max(1e-15);
+                accepted = true;
+                iterations += 1;
+                break;
+            }
+            lambda *= 10.0;
+        }
+        if tiny || !accepted {
+            break;
+        }
+    }
+    RefFit {
+        robot,
+        cost,
+        iterations,
+        singular_values,
+    }
+}

@@ -134,9 +134,8 @@ fn get_robot<T: Real, R: Read, const N: usize, const V: usize>(
     *js = joints;
     *tool = Vector3::new(t[0], t[1], t[2]);
     let extra = r.tool_extra_mut();
-    for k in 1..count {
-        extra.more[k - 1] = more[k];
-    }
+    // (`count` ≥ 1: a robot always has its first point.)
+    extra.more[..count - 1].copy_from_slice(&more[1..count]);
     extra.axes = Frame {
         x: tool_axes[0],
         y: tool_axes[1],

@@ -33,6 +33,7 @@ use kinecal::identify::lm::{rms_error, FixedLm, Levenberg, LmError, LmProgress};
 use kinecal::identify::pso::PsoError;
 use kinecal::io::csv::CsvReader;
 use kinecal::io::snapshot::Snapshot;
+use kinecal::model::frame::orientation_error;
 use kinecal::{ForwardKinematics, Param};
 use kinecal::{Frame, Joint, Measurement, Robot};
 use nalgebra::Vector3;
@@ -47,6 +48,8 @@ static COUPLED_FK: [[f32; 3]; 4] = to_f32(&host::COUPLED_FK);
 static JACOBIAN: [[f32; 3]; P] = to_f32(&host::JACOBIAN);
 static TRUE_ROWS: [[f32; 4]; N] = to_f32(&host::TRUE_ROWS);
 static COMMANDS: [[f32; N]; TICKS] = to_f32(&host::COMMANDS);
+static POSE6D_VALUES: [[f32; P]; 1] = to_f32(&[host::POSE6D_VALUES]);
+static POSE6D_AXES: [[f32; 3]; 3] = to_f32(&host::POSE6D_AXES);
 
 const fn to_f32<const R: usize, const C: usize>(a: &[[f64; C]; R]) -> [[f32; C]; R] {
     let mut out = [[0.0; C]; R];
@@ -82,9 +85,18 @@ type Swarm = kinecal::identify::pso::Pso<f32, SWARM, P, { scenario::PSO_HISTORY 
 /// critical-section mutex).
 static MODEL: Mutex<RefCell<Option<Robot<f32, N>>>> = Mutex::new(RefCell::new(None));
 
+/// Static slots the stages use in turn: the snapshot's "flash page", and one LM solver (8.6 KB)
+/// for every run (the first identification, its resumed twin, the probe's).
+struct Shared {
+    flash: &'static mut [u8; SNAPSHOT_BYTES],
+    lm: &'static mut MaybeUninit<Result<Lm, LmError>>,
+}
+
 /// Costs measured inside the stages, where the steppers run (see [`Counter::per_call_once`]).
 struct Stateful {
     lm_pose: f32,
+    lm_pose6d: f32,
+    lm_point_multi: f32,
     pso_particle: f32,
 }
 
@@ -237,11 +249,16 @@ fn main() -> ! {
 
     let id = slot!(Vec<Measurement<f32, N>, ID_POSES>).write(Vec::new());
     let val = slot!(Vec<Measurement<f32, N>, VAL_POSES>).write(Vec::new());
-    let flash = slot!([u8; SNAPSHOT_BYTES]).write([0; SNAPSHOT_BYTES]);
+    let mut shared = Shared {
+        flash: slot!([u8; SNAPSHOT_BYTES]).write([0; SNAPSHOT_BYTES]),
+        lm: slot!(Result<Lm, LmError>),
+    };
     stream(&mut counter, &mut checks, id, val);
     kinematics(&mut checks, id);
     let mut stateful = Stateful {
         lm_pose: f32::NAN,
+        lm_pose6d: f32::NAN,
+        lm_point_multi: f32::NAN,
         pso_particle: f32::NAN,
     };
     identify(
@@ -249,9 +266,19 @@ fn main() -> ! {
         &mut checks,
         &mut stateful,
         &mut servo,
+        &mut shared,
         id,
         val,
-        flash,
+    );
+    // The held-out poses are done with: their storage takes the probe's observations.
+    probe(
+        &mut counter,
+        &mut checks,
+        &mut stateful,
+        &mut servo,
+        shared.lm,
+        id,
+        val,
     );
     search(
         &mut counter,
@@ -259,7 +286,7 @@ fn main() -> ! {
         &mut stateful,
         &mut servo,
         id,
-        flash,
+        shared.flash,
     );
     let net = predict(&mut checks);
     trajectory(&mut counter, &mut checks);
@@ -528,11 +555,12 @@ fn identify(
     checks: &mut Checks,
     bench: &mut Stateful,
     servo: &mut Servo,
+    shared: &mut Shared,
     id: &[Measurement<f32, N>],
     val: &[Measurement<f32, N>],
-    flash: &mut [u8; SNAPSHOT_BYTES],
 ) {
-    let lm = place(slot!(Result<Lm, LmError>), new_lm);
+    let Shared { flash, lm: lm_slot } = shared;
+    let lm = place(&mut **lm_slot, new_lm);
     // One pose into the normal equations (poses 2..=49 of the first pass; the first call also
     // validates the data, the 50th also analyses identifiability). The run continues from here.
     let _ = lm_step(lm, id, 1);
@@ -602,7 +630,8 @@ fn identify(
     // Power lost at the snapshot: a fresh solver restored from flash runs to the end again.
     let (len, at) = saved.unwrap_or_else(|| fail("LM finished before its snapshot"));
     let first = lm.progress();
-    let lm = place(slot!(Result<Lm, LmError>), new_lm);
+    // The same slot: the first solver is done with (its end and model are kept).
+    let lm = place(&mut **lm_slot, new_lm);
     let restored = restore(lm, &flash[..len]);
     let mut steps = 0u32;
     let end = loop {
@@ -618,6 +647,125 @@ fn identify(
         format_args!("{len}-byte snapshot at iteration {at}, restored into a fresh solver: {:?}, same end: {}", restored, end == Some(first)),
     );
     irq::free(|cs| *MODEL.borrow(cs).borrow_mut() = Some(model));
+}
+
+/// Stage 3b (issue 18): the tool as a 6-DoF probe with two further reflectors. Observations of
+/// a known error of the probe and the wrist (weighted 6-D observations of reflector 1, position
+/// observations of reflectors 2 and 3, computed here from the truth at the first
+/// identification poses) in the held-out poses' storage; LM from the nominal probe must find
+/// the host's `f64` values, the probe's orientation included.
+#[inline(never)]
+fn probe(
+    counter: &mut Counter,
+    checks: &mut Checks,
+    bench: &mut Stateful,
+    servo: &mut Servo,
+    lm_slot: &mut MaybeUninit<Result<Lm, LmError>>,
+    id: &[Measurement<f32, N>],
+    data: &mut Vec<Measurement<f32, N>, VAL_POSES>,
+) {
+    const SIX_D: usize = scenario::POSE6D_POSES;
+    const ALL: usize = SIX_D + scenario::POINT_OBS;
+    const _: () = assert!(ALL <= VAL_POSES);
+    data.clear();
+    scenario::pose6d_observations(
+        &scenario::probe_truth(),
+        |i| id[i].q,
+        |m| {
+            let _ = data.push(m);
+        },
+    );
+    let lm = place(lm_slot, || {
+        Levenberg::new(
+            scenario::nominal_probe(),
+            FixedLm::new(scenario::pose6d_params()),
+            scenario::lm_config(),
+        )
+    });
+    // Accumulation pass at the nominal probe: 6-D observations 2..=8, then reflector
+    // observations 9..=19 (the first call also validates the data, the last also analyses
+    // identifiability). The run continues from here.
+    let _ = lm_step(lm, data, 1);
+    bench.lm_pose6d = counter.per_call_once(SIX_D as u32 - 1, || {
+        let _ = black_box(lm_step(black_box(&mut *lm), data, 1));
+    });
+    bench.lm_point_multi = counter.per_call_once((ALL - SIX_D) as u32 - 1, || {
+        let _ = black_box(lm_step(black_box(&mut *lm), data, 1));
+    });
+    // The rest in idle slices while the servo holds its pose.
+    let mut end = None;
+    let idle = Idle::run(counter, servo, 10_000, || {
+        match lm_step(lm, data, LM_SLICE) {
+            Ok(p) if p.stopped.is_some() => {
+                end = Some(p);
+                Work::Done
+            }
+            Ok(_) => Work::Step,
+            Err(_) => Work::Done,
+        }
+    });
+    // Largest differences from the host's values: lengths (mm), angles (rad), and the angle
+    // between the identified probe frames (rad).
+    let robot = lm.robot();
+    let (mut mm, mut rad) = (0.0f32, 0.0f32);
+    for (p, want) in scenario::pose6d_params()
+        .iter()
+        .zip(POSE6D_VALUES[0].iter())
+    {
+        let Some(got) = stored_value(robot, *p) else {
+            continue;
+        };
+        let e = (got - want).abs();
+        if p.is_length() {
+            mm = mm.max(e);
+        } else {
+            rad = rad.max(e);
+        }
+    }
+    let [x, y, z] = POSE6D_AXES.map(Vector3::from);
+    let want = Frame {
+        x,
+        y,
+        z,
+        o: Vector3::zeros(),
+    };
+    let axes = orientation_error(robot.tool_axes(), &want).norm();
+    let p = end.unwrap_or_else(|| lm.progress());
+    hprintln!(
+        "probe: LM {:?} after {} iterations (host f64: {}), {} 6-D and {} reflector observations",
+        p.stopped,
+        p.iteration,
+        host::POSE6D_ITERATIONS,
+        SIX_D,
+        ALL - SIX_D
+    );
+    idle.report("probe", checks);
+    checks.check(
+        "lm.probe_6d",
+        end.is_some() && mm <= 2e-3 && rad <= 2e-6 && axes <= 2e-6,
+        format_args!(
+            "24 parameters from the nominal probe vs host f64: within {} µm, {} µrad, probe frame (tool.rx/ry/rz) within {} µrad",
+            fx(mm * 1e3, 3),
+            fx(rad * 1e6, 3),
+            fx(axes * 1e6, 3)
+        ),
+    );
+}
+
+/// A reflector coordinate or row value of `robot` (`None` for the probe frame's angles, which
+/// are compared as a frame: their roll/pitch/yaw would link 6 KB of inverse trigonometry).
+fn stored_value(robot: &Robot<f32, N>, p: Param) -> Option<f32> {
+    if let Some((k, axis)) = p.tool_point() {
+        return robot.tool_point(k).map(|v| v[axis]);
+    }
+    let j = robot.joints().get(p.joint()?)?;
+    match p {
+        Param::Alpha(_) => Some(j.alpha),
+        Param::A(_) => Some(j.a),
+        Param::Theta(_) => Some(j.theta),
+        Param::D(_) => Some(j.d),
+        _ => None,
+    }
 }
 
 fn new_lm() -> Result<Lm, LmError> {
@@ -896,6 +1044,8 @@ fn benches(counter: &mut Counter, id: &[Measurement<f32, N>], stateful: &Statefu
     report("compensate_f32", n);
 
     report("lm_pose_f32", stateful.lm_pose);
+    report("lm_pose6d_f32", stateful.lm_pose6d);
+    report("lm_point_multi_f32", stateful.lm_point_multi);
     report("pso_particle_f32", stateful.pso_particle);
 
     let x = scenario::net_input::<f32>();

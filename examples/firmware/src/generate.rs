@@ -16,7 +16,7 @@ use kinecal::identify::fitness::PositionFitness;
 use kinecal::identify::lm::{rms_error, FixedLm, Levenberg};
 use kinecal::identify::pso::Pso;
 use kinecal::io::csv::CsvReader;
-use kinecal::model::param::apply_delta;
+use kinecal::model::param::{apply_delta, value};
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
@@ -209,6 +209,36 @@ fn reference(csv: &[u8], truth: &Robot<f64, N>) -> (String, String) {
             .expect("trajectory point compensates");
         commands.push(s.q);
     }
+    // Issue 18: the probe's 6-D and multi-reflector run from the nominal probe, on
+    // observations of its truth at the first identification poses.
+    let truth6 = scenario::probe_truth::<f64>();
+    let mut obs = Vec::new();
+    scenario::pose6d_observations(&truth6, |i| id[i].q, |m| obs.push(m));
+    assert_eq!(
+        obs.len(),
+        VAL_POSES,
+        "the 6-D run fills the held-out poses' storage"
+    );
+    let set6 = scenario::pose6d_params();
+    let mut lm6 = Levenberg::<f64, N, 0, _>::new(
+        scenario::nominal_probe(),
+        FixedLm::<f64, P>::new(set6.clone()),
+        scenario::lm_config(),
+    )
+    .expect("solver");
+    let progress6 = lm6.run(&obs).expect("6-D LM runs");
+    let values6: Vec<f64> = set6
+        .iter()
+        .map(|p| value(lm6.robot(), *p).expect("a value"))
+        .collect();
+    for (p, v) in set6.iter().zip(&values6) {
+        let want = value(&truth6, *p).expect("a value");
+        assert!(
+            (v - want).abs() < 1e-6,
+            "6-D run: {p:?} = {v}, truth {want}"
+        );
+    }
+
     let rows: Vec<[f64; 4]> = truth
         .joints()
         .iter()
@@ -303,6 +333,27 @@ fn reference(csv: &[u8], truth: &Robot<f64, N>) -> (String, String) {
         o,
         "pub const COMMANDS: [[f64; {N}]; {TICKS}] = {};",
         arrn(&commands)
+    );
+
+    let _ = writeln!(
+        o,
+        "/// The probe's 6-D run (issue 18): iterations, identified values of `scenario::pose6d_params()` (rad, mm)."
+    );
+    let _ = writeln!(
+        o,
+        "pub const POSE6D_ITERATIONS: u32 = {};",
+        progress6.iteration
+    );
+    let _ = writeln!(o, "pub const POSE6D_VALUES: [f64; {P}] = {:?};", values6);
+    let a = lm6.robot().tool_axes();
+    let _ = writeln!(
+        o,
+        "/// The identified probe frame's axes (x, y, z) in the flange frame."
+    );
+    let _ = writeln!(
+        o,
+        "pub const POSE6D_AXES: [[f64; 3]; 3] = {};",
+        arr3(&[a.x.into(), a.y.into(), a.z.into()])
     );
 
     let rms = [

@@ -5,8 +5,8 @@
 use kinecal::identify::bpnn::{Bpnn, BpnnConfig};
 use kinecal::identify::lm::LmConfig;
 use kinecal::identify::pso::PsoConfig;
-use kinecal::model::param::ParamSet;
-use kinecal::{Frame, Joint, Real, Robot};
+use kinecal::model::param::{Param, ParamSet};
+use kinecal::{Frame, Joint, Measurement, Real, Robot};
 use nalgebra::Vector3;
 
 /// Joints of the arm.
@@ -141,4 +141,115 @@ pub fn nominal_joints<T: Real>(k: usize) -> [T; N] {
 /// Compensation settings of the servo loop: library defaults.
 pub fn compensation<T: Real>() -> kinecal::compensate::Config<T> {
     kinecal::compensate::Config::default()
+}
+
+/// Issue 18: the tool as a 6-DoF probe with two further reflectors. Reflectors 2 and 3 in the
+/// flange frame, mm (reflector 1 is [`TOOL_MM`]).
+pub const TOOL_POINTS_MM: [[f64; 3]; 2] = [[-60.0, 30.0, 110.0], [10.0, -70.0, 100.0]];
+/// Orientation of the probe's frame in the flange frame (roll, pitch, yaw), deg.
+pub const TOOL_AXES_RPY_DEG: [f64; 3] = [0.0, 0.0, 30.0];
+/// Poses of the 6-D run: the first identification poses' joint readings.
+pub const POSE6D_POSES: usize = 8;
+/// Reflector observations (reflectors 2 and 3, alternately) at the first poses: a reflector is
+/// not seen in every pose. The 6-D run's observations fill the held-out poses' storage.
+pub const POINT_OBS: usize = 12;
+/// Weights of the tracker's coordinates (1/σ relative to x, y: z is twice as uncertain) and of
+/// the orientation residual (mm per rad: 1 mrad weighs as 0.5 mm).
+pub const WEIGHT: [f64; 3] = [1.0, 1.0, 0.5];
+pub const ORIENTATION_WEIGHT: f64 = 500.0;
+
+/// The nominal arm with the probe: three reflectors and the probe frame's axes.
+#[inline(never)]
+pub fn nominal_probe<T: Real>() -> Robot<T, N> {
+    let mut r = nominal::<T>();
+    let v = |p: [f64; 3]| Vector3::new(T::of(p[0]), T::of(p[1]), T::of(p[2]));
+    let rpy = TOOL_AXES_RPY_DEG.map(|d| T::of(d.to_radians()));
+    let ok = r.set_tool_point(1, v(TOOL_POINTS_MM[0])).is_ok()
+        && r.set_tool_point(2, v(TOOL_POINTS_MM[1])).is_ok()
+        && r.set_tool_axes(Frame::from_xyz_rpy([T::zero(); 3], rpy))
+            .is_ok();
+    if !ok {
+        unreachable!("finite points within bounds, a rotation");
+    }
+    r
+}
+
+/// The 6-D run's 24 parameters: the probe (orientation, the three reflectors) and the wrist's
+/// rows (joints 3, 4, 5; joint 6's theta and d would repeat the probe's pose).
+pub fn pose6d_params() -> ParamSet<P> {
+    let mut s = ParamSet::new();
+    let tool = [
+        Param::ToolRx,
+        Param::ToolRy,
+        Param::ToolRz,
+        Param::ToolX,
+        Param::ToolY,
+        Param::ToolZ,
+    ];
+    let points = (1..3u8).flat_map(|k| (0..3u8).map(move |a| Param::ToolPoint(k, a)));
+    let rows = (2..5u8).flat_map(|i| [Param::Alpha(i), Param::A(i), Param::Theta(i), Param::D(i)]);
+    for p in tool.into_iter().chain(points).chain(rows) {
+        if s.push(p).is_err() {
+            unreachable!("24 parameters fit a set of 24");
+        }
+    }
+    s
+}
+
+/// The known error the 6-D run must find, in the order of [`pose6d_params`] (rad, mm): the
+/// probe's frame off by tenths of a degree, its reflectors by up to 1.2 mm, the wrist rows by
+/// 0.05° and 0.3 mm.
+#[rustfmt::skip]
+pub const POSE6D_DELTA: [f64; P] = {
+    const D: f64 = core::f64::consts::PI / 180.0;
+    [
+        0.3 * D, -0.2 * D, 0.5 * D,           // probe axes (tool.rx/ry/rz)
+        0.8, -0.5, 1.2,                       // reflector 1 (tool.x/y/z)
+        -0.6, 0.4, 0.9,                       // reflector 2 (tool2.*)
+        0.7, 0.3, -0.8,                       // reflector 3 (tool3.*)
+        0.05 * D, 0.3, -0.05 * D, 0.2,        // joint 3: alpha, a, theta, d
+        -0.04 * D, -0.25, 0.06 * D, -0.3,     // joint 4
+        0.05 * D, 0.2, -0.03 * D, 0.25,       // joint 5
+    ]
+};
+
+/// The probe robot with [`POSE6D_DELTA`] applied: the truth the 6-D observations come from.
+pub fn probe_truth<T: Real>() -> Robot<T, N> {
+    let mut r = nominal_probe::<T>();
+    let d = POSE6D_DELTA.map(T::of);
+    match kinecal::model::param::apply_delta(&mut r, &pose6d_params(), &d) {
+        Ok(()) => r,
+        Err(_) => unreachable!("small finite deltas"),
+    }
+}
+
+/// The 6-D run's observations of `truth` at the joint readings `q` (noise-free, weighted):
+/// first a 6-D observation of reflector 1 with the probe's orientation at each of
+/// [`POSE6D_POSES`] poses, then [`POINT_OBS`] position observations of reflectors 2 and 3.
+pub fn pose6d_observations<T: Real>(
+    truth: &Robot<T, N>,
+    q: impl Fn(usize) -> [T; N],
+    mut push: impl FnMut(Measurement<T, N>),
+) {
+    let mut fk = kinecal::ForwardKinematics::<T, N>::new();
+    let weight = Vector3::new(T::of(WEIGHT[0]), T::of(WEIGHT[1]), T::of(WEIGHT[2]));
+    for i in 0..POSE6D_POSES {
+        let qi = q(i);
+        let p = fk.compute(truth, &qi);
+        let mut m = Measurement::new(qi, p);
+        m.weight = weight;
+        m.orientation = Some(fk.tool_pose(truth));
+        m.orientation_weight = T::of(ORIENTATION_WEIGHT);
+        push(m);
+    }
+    for i in 0..POINT_OBS {
+        let (qi, k) = (q(i / 2), 1 + i % 2);
+        let Some(p) = fk.compute_point(truth, &qi, k) else {
+            unreachable!("the truth has three reflectors");
+        };
+        let mut m = Measurement::new(qi, p);
+        m.tool = k as u8;
+        m.weight = weight;
+        push(m);
+    }
 }

@@ -65,7 +65,7 @@
 #define KC_CSV_MAX_EXTRAS 8
 
 // Bytes of a `kc_csv` (see `KC_ROBOT_SIZE`).
-#define KC_CSV_SIZE 784
+#define KC_CSV_SIZE 792
 
 // What a call did: 0 is success, anything else says why nothing (or, for
 // `kc_status::KC_COMPENSATE_FAILED`, only a best-effort result) was produced.

@@ -73,7 +73,7 @@ pub(crate) struct Csv {
 }
 
 /// Bytes of a [`kc_csv`] (see `KC_ROBOT_SIZE`).
-pub const KC_CSV_SIZE: usize = 784;
+pub const KC_CSV_SIZE: usize = 792;
 
 /// A streaming CSV reader (`CsvReader<_, 6, KC_CSV_LINE, KC_CSV_MAX_EXTRAS>`). Opaque,
 /// caller-owned; [`kc_csv_init`].

@@ -322,8 +322,8 @@ impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L,
         }
         // Several reflectors (interfaces.md §3): `x_NAME`, `y_NAME`, `z_NAME` instead of
         // `x`, `y`, `z`, carried as extra columns; the record's point is then NaN.
-        let named_points = seen_xyz == [false; 3]
-            && self.extra_names.iter().any(|n| n.starts_with("x_"));
+        let named_points =
+            seen_xyz == [false; 3] && self.extra_names.iter().any(|n| n.starts_with("x_"));
         self.named_points = named_points;
         let missing = seen_q.iter().position(|s| !s).or_else(|| {
             if named_points {

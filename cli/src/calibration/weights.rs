@@ -156,3 +156,70 @@ pub fn chi2_per_dof<const N: usize, const V: usize>(
     let chi: f64 = all.iter().map(|(r, v)| r / v).sum();
     Some(chi / (all.len() - params) as f64)
 }
+
+/// Multiplies the orientation weight of every 6-D observation by `c`.
+pub fn scale_orientation<const N: usize>(data: &mut [Measurement<f64, N>], c: f64) {
+    for m in data.iter_mut().filter(|m| m.orientation.is_some()) {
+        m.orientation_weight *= c;
+    }
+}
+
+/// Factors of the balanced orientation weight that [`choose_orientation_factor`] compares.
+pub const ORIENTATION_FACTORS: [f64; 3] = [1.0, 0.25, 0.0625];
+
+/// The factor of the balanced orientation weight under which the fit predicts *positions* best
+/// in a `folds`-fold cross-validation over the identification poses (`pose_of[i]`: the pose
+/// of observation `i`; each fold is a contiguous run of poses, held out whole), with the
+/// cross-validated position RMS of each factor.
+///
+/// Why: a model that misses an effect (joint-angle errors, say) shows it in positions and
+/// orientations differently, and then the variance balance can pull the shared parameters
+/// away from what predicts positions, which is what compensation serves. The held-out poses
+/// are never used: only the identification poses are cut into folds. An exact tie goes to the
+/// larger factor (more weight on what the probe measured).
+pub fn choose_orientation_factor<const N: usize, const V: usize, F>(
+    data: &[Measurement<f64, N>],
+    pose_of: &[usize],
+    folds: usize,
+    mut fit: F,
+) -> anyhow::Result<(f64, Vec<(f64, f64)>)>
+where
+    F: FnMut(&[Measurement<f64, N>]) -> anyhow::Result<Robot<f64, N, V>>,
+{
+    let poses = pose_of.last().map_or(0, |p| p + 1);
+    let folds = folds.min(poses);
+    let mut scores = Vec::new();
+    for &c in &ORIENTATION_FACTORS {
+        let mut scaled = data.to_vec();
+        scale_orientation(&mut scaled, c);
+        let (mut ss, mut n) = (0.0, 0usize);
+        for k in 0..folds {
+            let (lo, hi) = (k * poses / folds, (k + 1) * poses / folds);
+            let held = |i: usize| (lo..hi).contains(&pose_of[i]);
+            let train: Vec<Measurement<f64, N>> = scaled
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| !held(*i))
+                .map(|(_, m)| *m)
+                .collect();
+            let test: Vec<Measurement<f64, N>> = scaled
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| held(*i))
+                .map(|(_, m)| *m)
+                .collect();
+            let robot = fit(&train)?;
+            for e in crate::calibration::pose_errors(&robot, &test) {
+                ss += e * e;
+                n += 1;
+            }
+        }
+        scores.push((c, (ss / n.max(1) as f64).sqrt()));
+    }
+    let best = scores.iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
+    let c = scores
+        .iter()
+        .find(|s| s.1 <= best * (1.0 + 1e-9))
+        .map_or(1.0, |s| s.0);
+    Ok((c, scores))
+}

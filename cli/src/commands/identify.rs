@@ -5,15 +5,15 @@ use crate::calibration::method::Method;
 use crate::calibration::{
     add_effect, fit_lm, named_values, split_holdout, weights, EffectRequest, Fit, Residuals,
 };
-use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::formats::observations::{flatten, observe, ObservationArgs, Observed};
+use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::reports::identify::{Change, IdentifyReport, ObservationSummary, PointResiduals};
-use std::collections::BTreeMap;
 use crate::{with_joints, VCAP};
 use anyhow::Context;
 use kinecal::identify::lm::LmConfig;
 use kinecal::model::param::ParamSet;
 use kinecal::{Measurement, Robot};
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -83,12 +83,8 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
     let input = &args.input;
     let (file, mut nominal) = load_robot::<N>(&input.robot)?;
     let load = |p: &std::path::Path| -> anyhow::Result<Observed<N>> {
-        let ds = crate::formats::units::load_measurements(
-            p,
-            &input.units,
-            &nominal,
-            file.base_known(),
-        )?;
+        let ds =
+            crate::formats::units::load_measurements(p, &input.units, &nominal, file.base_known())?;
         observe(&ds, &file, &args.obs, &p.display().to_string())
     };
     let observed = load(&input.data)?;
@@ -106,6 +102,11 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
         (None, None) => (all, Vec::new()),
     };
     let (ident_poses, valid_poses) = (ident.len(), valid.len());
+    let pose_of: Vec<usize> = ident
+        .iter()
+        .enumerate()
+        .flat_map(|(k, p)| std::iter::repeat_n(k, p.observations.len()))
+        .collect();
     let (ident, valid) = (flatten(&ident), flatten(&valid));
     if ident.is_empty() {
         crate::refuse!(
@@ -206,6 +207,19 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
             fit = run_method(&ident)?;
         }
     }
+    // 6-D with the weighting left to the data: how much the orientations weigh against the
+    // positions is chosen by cross-validating position prediction over the identification
+    // poses (calibration::weights::choose_orientation_factor).
+    let mut orientation_cv = None;
+    if observed.six_d && args.obs.deg_weight_mm.is_none() && ident_poses >= 20 {
+        let (c, scores) =
+            weights::choose_orientation_factor(&ident, &pose_of, 5, |d| Ok(run_method(d)?.robot))?;
+        if c != 1.0 {
+            weights::scale_orientation(&mut ident, c);
+            fit = run_method(&ident)?;
+        }
+        orientation_cv = Some((c, scores));
+    }
     let seconds = t0.elapsed().as_secs_f64();
     let after = Residuals::of(&fit.robot, &ident, &valid);
     let per_point = per_point(&observed.names, (&nominal, &fit.robot), (&ident, &valid));
@@ -224,6 +238,11 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
                 &file.tilt_joints(),
             )
             .with_tool_names(&observed.names);
+            // An identity `rpy_deg` written in the input stays written.
+            let mut f = f;
+            if f.tool.rpy_deg.is_none() {
+                f.tool.rpy_deg = file.tool.rpy_deg;
+            }
             f.save(out)?;
             Some(out.display().to_string())
         }
@@ -275,6 +294,10 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
         floor_deg: floors
             .filter(|_| observed.six_d)
             .map(|f| f.orientation_rad.to_degrees()),
+        orientation_factor: orientation_cv.as_ref().map(|c| c.0),
+        orientation_cv_rms_mm: orientation_cv
+            .as_ref()
+            .map(|c| c.1.iter().map(|(f, r)| (format!("{f}"), *r)).collect()),
     });
     if let Some(c) = chi2_per_dof {
         if !(0.25..=4.0).contains(&c) {
@@ -510,7 +533,10 @@ fn per_point<const N: usize>(
         return None;
     }
     let of = |data: &[Measurement<f64, N>], k: usize| -> Vec<Measurement<f64, N>> {
-        data.iter().filter(|m| m.tool as usize == k).copied().collect()
+        data.iter()
+            .filter(|m| m.tool as usize == k)
+            .copied()
+            .collect()
     };
     Some(
         names

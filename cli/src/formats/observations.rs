@@ -148,7 +148,10 @@ pub fn observe<const N: usize>(
     } else {
         Vec::new()
     };
-    let first_nan = ds.records.iter().any(|r| r.xyz_mm.iter().any(|v| v.is_nan()));
+    let first_nan = ds
+        .records
+        .iter()
+        .any(|r| r.xyz_mm.iter().any(|v| v.is_nan()));
     if !named && first_nan {
         crate::refuse!(
             "{origin}: the file has no x, y, z (x_NAME… columns?): name the reflectors with \
@@ -193,10 +196,7 @@ pub fn observe<const N: usize>(
             } else {
                 deg_weight_mm.to_degrees()
             };
-            Some((
-                Frame::from_xyz_rpy([0.0; 3], a.map(f64::to_radians)),
-                w,
-            ))
+            Some((Frame::from_xyz_rpy([0.0; 3], a.map(f64::to_radians)), w))
         } else {
             None
         };

@@ -450,17 +450,29 @@ impl RobotFile {
         for (i, t) in self.tools.iter().enumerate() {
             let p = Place::Tools(i);
             let name_ok = !t.name.is_empty()
-                && t.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+                && t.name
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '_');
             if !name_ok {
-                return issue(p, format!("tools: name `{}` must be letters, digits or `_`", t.name));
+                return issue(
+                    p,
+                    format!("tools: name `{}` must be letters, digits or `_`", t.name),
+                );
             }
             if self.tools[..i].iter().any(|o| o.name == t.name) {
                 return issue(p, format!("tools: name `{}` is given twice", t.name));
             }
             if !finite(&t.xyz_mm) {
-                return issue(p, format!("tools `{}`: xyz_mm must be finite numbers", t.name));
+                return issue(
+                    p,
+                    format!("tools `{}`: xyz_mm must be finite numbers", t.name),
+                );
             }
-            if let Some(m) = t.xyz_mm.iter().find_map(|v| implausible_length("xyz_mm", *v)) {
+            if let Some(m) = t
+                .xyz_mm
+                .iter()
+                .find_map(|v| implausible_length("xyz_mm", *v))
+            {
                 return issue(p, format!("tools `{}`: {m}", t.name));
             }
         }

@@ -83,6 +83,13 @@ pub struct ObservationSummary {
     /// The same for each orientation component (degrees).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub floor_deg: Option<f64>,
+    /// Factor on the balanced orientation weight, chosen by cross-validating position
+    /// prediction over the identification poses (6-D without `--deg-weight-mm`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_factor: Option<f64>,
+    /// Cross-validated position RMS (mm) per factor compared.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_cv_rms_mm: Option<BTreeMap<String, f64>>,
 }
 
 /// One estimated parameter: file value, calibrated value, change and 1-σ (file units).
@@ -250,11 +257,7 @@ impl fmt::Display for IdentifyReport {
             )?;
             for h in &self.held {
                 if h.confounded_with.is_empty() {
-                    writeln!(
-                        f,
-                        "  {:<14} no observation moves with it",
-                        h.name
-                    )?;
+                    writeln!(f, "  {:<14} no observation moves with it", h.name)?;
                 } else {
                     writeln!(
                         f,

@@ -37,7 +37,14 @@ fn check_with_joints<const N: usize>(
     if ds.is_empty() {
         crate::refuse!("{}: no measurements after the header", data_path.display());
     }
-    let meas = ds.measurements::<f64>();
+    // Several reflectors: every point seen, each against its own tool point.
+    let meas = crate::formats::observations::observe(
+        &ds,
+        file,
+        &crate::formats::observations::ObservationArgs::default(),
+        &data_path.display().to_string(),
+    )?
+    .all();
     // Only limits the robot file states are checked: without them nothing is known to violate.
     let stated: Vec<(usize, [f64; 2])> = file
         .joints

@@ -93,9 +93,45 @@ impl Drop for Stages {
 fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport> {
     let input = &args.input;
     let (file, nominal) = load_robot::<N>(&input.robot)?;
-    let load = |p: &std::path::Path| {
-        crate::formats::units::load_measurements(p, &input.units, &nominal, file.base_known())
-            .map(|d| d.measurements::<f64>())
+    // The discrepancy analysis (its linear screening and cross-validation) reads one position
+    // residual per pose, unweighted: orientation and σ columns are read and left aside (said
+    // on stderr); several reflectors are refused.
+    let unit_model = &nominal;
+    let load = |p: &std::path::Path| -> anyhow::Result<Vec<kinecal::Measurement<f64, N>>> {
+        let ds = crate::formats::units::load_measurements(
+            p,
+            &input.units,
+            unit_model,
+            file.base_known(),
+        )?;
+        let o = crate::formats::observations::observe(
+            &ds,
+            &file,
+            &crate::formats::observations::ObservationArgs {
+                positions_only: true,
+                ignore_sigma: true,
+                ..Default::default()
+            },
+            &p.display().to_string(),
+        )?;
+        let extra = ["rx_deg", "sx_mm"]
+            .iter()
+            .any(|c| ds.extra_names.iter().any(|n| n == c));
+        if extra {
+            eprintln!(
+                "note: {}: diagnose uses the positions, unweighted; the orientation and σ \
+                 columns are used by identify",
+                p.display()
+            );
+        }
+        if o.names.len() > 1 {
+            crate::refuse!(
+                "{}: diagnose reads one measured point per pose; give a robot file with one \
+                 [tool] (the reflector whose columns are x, y, z) or use identify",
+                p.display()
+            );
+        }
+        Ok(o.all())
     };
     if let Some(dir) = args.plots.as_deref().filter(|d| d.exists() && !d.is_dir()) {
         crate::refuse!(

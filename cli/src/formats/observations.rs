@@ -20,7 +20,7 @@ use nalgebra::Vector3;
 pub const DEFAULT_DEG_WEIGHT_MM: f64 = 1000.0 * std::f64::consts::PI / 180.0;
 
 /// How orientation and σ columns are used (`identify`, `diagnose`, `check`).
-#[derive(clap::Args, Debug, Clone, PartialEq)]
+#[derive(clap::Args, Debug, Clone, PartialEq, Default)]
 pub struct ObservationArgs {
     /// Weight of an orientation residual without σ columns: millimetres per degree. Without
     /// it, the weighting is found from the data (each kind of residual by its own scatter).
@@ -36,17 +36,6 @@ pub struct ObservationArgs {
     /// Weigh every reading the same, even when the file has sx_mm, sy_mm, sz_mm, srot_deg.
     #[arg(long)]
     pub ignore_sigma: bool,
-}
-
-impl Default for ObservationArgs {
-    fn default() -> Self {
-        Self {
-            deg_weight_mm: None,
-            sigma_as_stated: false,
-            positions_only: false,
-            ignore_sigma: false,
-        }
-    }
 }
 
 /// One measured pose: its observations (one per reflector seen) and its line in the file.

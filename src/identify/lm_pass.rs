@@ -113,7 +113,7 @@ impl<T: Real, const N: usize, const V: usize> Pass<'_, T, N, V> {
         if part.storage.params() != self.columns.params || !part_fits(&mut part.storage) {
             return Err(LmError::PassMismatch);
         }
-        crate::identify::lm::check_observations(self.robot, poses)?;
+        check_observations(self.robot, poses)?;
         let n = self.columns.params.len();
         if part.id != Some(self.id) {
             part.id = Some(self.id);
@@ -574,4 +574,18 @@ impl<T: Real> TableCache<T> {
         };
         Some(jc * phi)
     }
+}
+
+/// `Ok` when every observation is finite and names a tool point of `robot`.
+pub(crate) fn check_observations<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
+    robot: &Robot<T, N, V>,
+    data: &[M],
+) -> Result<(), LmError> {
+    if data.iter().any(|m| !m.is_valid()) {
+        return Err(LmError::NonFiniteMeasurement);
+    }
+    if data.iter().any(|m| m.tool() >= robot.tool_point_count()) {
+        return Err(LmError::UnknownToolPoint);
+    }
+    Ok(())
 }

@@ -36,7 +36,9 @@
 //! (`max_analyses = 0`: every parameter not held is estimated, as a refit of a known parameter
 //! set wants). A run starts from any model: the nominal one, or a previous fit.
 
-use crate::identify::lm_pass::{accumulate_pose, clear_normal_equations, split_parts, Columns};
+use crate::identify::lm_pass::{
+    accumulate_pose, check_observations, clear_normal_equations, split_parts, Columns,
+};
 pub use crate::identify::lm_pass::{Pass, PassKind, PassPart};
 use crate::identify::lm_penalty::check_penalty;
 pub use crate::identify::lm_penalty::{
@@ -1005,20 +1007,6 @@ impl<T: Real, const N: usize, const V: usize, S: LmStorage<T>, Q: LmPenalty<T>>
             self.reject(Phase::Accumulate);
         }
     }
-}
-
-/// `Ok` when every observation is finite and names a tool point of `robot`.
-pub(crate) fn check_observations<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
-    robot: &Robot<T, N, V>,
-    data: &[M],
-) -> Result<(), LmError> {
-    if data.iter().any(|m| !m.is_valid()) {
-        return Err(LmError::NonFiniteMeasurement);
-    }
-    if data.iter().any(|m| m.tool() >= robot.tool_point_count()) {
-        return Err(LmError::UnknownToolPoint);
-    }
-    Ok(())
 }
 
 /// Root-mean-square position error (mm) of `robot` over `data` (3-D distance per pose).

@@ -10,13 +10,16 @@
 //!   than libm's on an M4F), [`num::linalg`] (Cholesky, rank-revealing Cholesky, Jacobi eigen on
 //!   fixed storage).
 //! - [`model`] — **the constant description** (Pinocchio's `Model`): [`Frame`], [`Joint`] (modified
-//!   DH + Hayati tilt), [`Robot`] (base pose, rows, tool point, [`Effects`] = the non-geometric
+//!   DH + Hayati tilt), [`Robot`] (base pose, rows, tool points and the measured frame's orientation
+//!   ([`model::tool`]), [`Effects`] = the non-geometric
 //!   joint corrections of `docs/formats.md#effects`, [`Couplings`] = joints read relative to
 //!   another),
 //!   [`model::param`] (named parameters, the identified subset, updates).
 //! - [`forward`] — **kinematics** (the scratch workspace, Pinocchio's `Data`): [`ForwardKinematics`]
 //!   with its derivatives beside it (identification Jacobian, joint Jacobian).
-//! - [`io`] — **data**: [`Measurement`], the streaming [`io::csv`] reader over
+//! - [`io`] — **data**: [`Measurement`] (a point, its weights, optionally the tool frame's
+//!   orientation and which reflector; the [`Observation`] trait lets a caller keep a smaller
+//!   type), the streaming [`io::csv`] reader over
 //!   `embedded_io::Read`, and [`io::snapshot`] (stepper state over `embedded_io`).
 //! - [`identify`] — **identification** (steppers: a bounded slice of work per `step()`,
 //!   snapshot/resume): [`identify::lm`] (streaming Levenberg–Marquardt with identifiability

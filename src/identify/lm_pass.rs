@@ -303,7 +303,8 @@ pub(crate) fn residual<T: Real, const N: usize, const V: usize, M: Observation<T
     Some((r, rot))
 }
 
-/// The weighted squared residual of one observation (see [`residual`]); `None` when the
+/// The weighted squared residual of one observation (the module documentation of
+/// [`crate::io::measurement`] gives it); `None` when the
 /// robot has no tool point `m.tool`.
 pub fn observation_cost<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
     fk: &mut ForwardKinematics<T, N>,

@@ -52,7 +52,7 @@ fuzz_target!(|data: &[u8]| {
         2 => {
             let mut fk = kinecal::ForwardKinematics::new();
             fk.compute(&robot, &q_true);
-            Target::Pose(fk.tool_pose())
+            Target::Pose(fk.flange_pose())
         }
         _ => {
             let mut f = Frame::from_xyz_rpy([any_f64(&mut u, 0.0, 1e3), any_f64(&mut u, 0.0, 1e3), any_f64(&mut u, 0.0, 1e3)], [near(&mut u, 0.0, 3.0), near(&mut u, 0.0, 3.0), near(&mut u, 0.0, 3.0)]);

@@ -107,7 +107,7 @@ fuzz_target!(|data: &[u8]| {
     let mut fk = ForwardKinematics::<f64, N>::new();
     let p = fk.compute(&robot, &q);
     invariant!("fk-finite", vec_finite(&p), "point {p:?} at {q:?} of {robot:?}");
-    let pose = fk.tool_pose();
+    let pose = fk.tool_pose(&robot);
     invariant!("fk-finite", [pose.x, pose.y, pose.z, pose.o].iter().all(vec_finite), "pose {pose:?}");
     let (lin, ang) = fk.joint_jacobian(&robot);
     invariant!("fk-finite", lin.iter().chain(ang.iter()).all(vec_finite), "joint Jacobian {lin:?} {ang:?}");

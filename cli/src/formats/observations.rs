@@ -38,10 +38,9 @@ pub struct ObservationArgs {
     pub ignore_sigma: bool,
 }
 
-/// One measured pose: its observations (one per reflector seen) and its line in the file.
+/// One measured pose: its observations (one per reflector seen).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Pose<const N: usize> {
-    pub line: u32,
     pub observations: Vec<Measurement<f64, N>>,
 }
 
@@ -69,11 +68,6 @@ impl<const N: usize> Observed<N> {
     /// Every observation, pose after pose.
     pub fn all(&self) -> Vec<Measurement<f64, N>> {
         flatten(&self.poses)
-    }
-
-    /// True when every observation is a plain position of the first point, unweighted.
-    pub fn plain(&self) -> bool {
-        self.names.len() <= 1 && !self.six_d && !self.sigma
     }
 }
 
@@ -226,10 +220,7 @@ pub fn observe<const N: usize>(
             }
             obs.push(m);
         }
-        poses.push(Pose {
-            line: r.line,
-            observations: obs,
-        });
+        poses.push(Pose { observations: obs });
     }
     if named {
         for (k, n) in names.iter().enumerate() {

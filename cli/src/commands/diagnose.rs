@@ -5,10 +5,14 @@
 use super::inputs::InputArgs;
 use crate::calibration::split_holdout;
 use crate::diagnose::linear::squared_errors;
+use crate::diagnose::observations::{fit_all_observations, FullFit, Weighting};
 use crate::diagnose::{diagnose_with_progress, Config, Diagnosis, Progress};
+use crate::formats::observations::{flatten, observe, ObservationArgs, Observed, Pose};
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::output::numfmt::sig;
+use crate::reports::diagnose::ObservationsReport;
 use crate::reports::diagnose::{DiagnoseReport, HoldoutReport};
+use crate::reports::identify::PointResiduals;
 use crate::with_joints;
 use std::path::PathBuf;
 
@@ -50,6 +54,10 @@ pub struct Args {
     /// coupled joint, the tool, the base): nothing is diagnosed from it and the command exits 3.
     #[arg(long, default_value_t = crate::reports::diagnose::DEFAULT_STALL_RMS_MM)]
     pub stall_rms_mm: f64,
+    /// Orientation and σ columns: how the final fit to all observations uses them (the search
+    /// reads the first reflector's positions, unweighted).
+    #[command(flatten)]
+    pub obs: ObservationArgs,
 }
 
 /// Runs the subcommand: the diagnosis (and the extended model and plots when asked for);
@@ -93,45 +101,14 @@ impl Drop for Stages {
 fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport> {
     let input = &args.input;
     let (file, nominal) = load_robot::<N>(&input.robot)?;
-    // The discrepancy analysis (its linear screening and cross-validation) reads one position
-    // residual per pose, unweighted: orientation and σ columns are read and left aside (said
-    // on stderr); several reflectors are refused.
-    let unit_model = &nominal;
-    let load = |p: &std::path::Path| -> anyhow::Result<Vec<kinecal::Measurement<f64, N>>> {
-        let ds = crate::formats::units::load_measurements(
-            p,
-            &input.units,
-            unit_model,
-            file.base_known(),
-        )?;
-        let o = crate::formats::observations::observe(
-            &ds,
-            &file,
-            &crate::formats::observations::ObservationArgs {
-                positions_only: true,
-                ignore_sigma: true,
-                ..Default::default()
-            },
-            &p.display().to_string(),
-        )?;
-        let extra = ["rx_deg", "sx_mm"]
-            .iter()
-            .any(|c| ds.extra_names.iter().any(|n| n == c));
-        if extra {
-            eprintln!(
-                "note: {}: diagnose uses the positions, unweighted; the orientation and σ \
-                 columns are used by identify",
-                p.display()
-            );
-        }
-        if o.names.len() > 1 {
-            crate::refuse!(
-                "{}: diagnose reads one measured point per pose; give a robot file with one \
-                 [tool] (the reflector whose columns are x, y, z) or use identify",
-                p.display()
-            );
-        }
-        Ok(o.all())
+    // The search (its linear screening, cross-validation and paired test) reads one position
+    // residual per pose, unweighted: the first reflector's point. Orientations, σ and further
+    // reflectors are used when the named effects are fitted to all observations
+    // (crate::diagnose::observations).
+    let load = |p: &std::path::Path| -> anyhow::Result<Observed<N>> {
+        let ds =
+            crate::formats::units::load_measurements(p, &input.units, &nominal, file.base_known())?;
+        observe(&ds, &file, &args.obs, &p.display().to_string())
     };
     if let Some(dir) = args.plots.as_deref().filter(|d| d.exists() && !d.is_dir()) {
         crate::refuse!(
@@ -139,9 +116,10 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
             dir.display()
         );
     }
-    let all = super::inputs::some_rows(load(&input.data)?, &input.data)?;
-    let (search, held) = match (&args.validate, args.holdout) {
-        (Some(v), _) => (all, super::inputs::some_rows(load(v)?, v)?),
+    let observed = load(&input.data)?;
+    let all = super::inputs::some_rows(observed.poses.clone(), &input.data)?;
+    let (search_poses, held_poses) = match (&args.validate, args.holdout) {
+        (Some(v), _) => (all, super::inputs::some_rows(load(v)?.poses, v)?),
         (None, Some(h)) => {
             if !(h.is_finite() && h > 0.0) {
                 crate::refuse!(
@@ -152,6 +130,39 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
         }
         (None, None) => (all, Vec::new()),
     };
+    let full = observed.six_d || observed.sigma || observed.names.len() > 1;
+    if full {
+        eprintln!(
+            "note: {}: the search for missing effects reads {}, unweighted; what it names is \
+             then fitted to all observations ({}), and that model is the one reported under \
+             `observations` and written by --out",
+            input.data.display(),
+            match observed.names.first() {
+                Some(n) if observed.names.len() > 1 => format!("the positions of reflector {n}"),
+                _ => "the positions".to_string(),
+            },
+            [
+                observed.six_d.then_some("orientations"),
+                observed.sigma.then_some("the stated σ"),
+                (observed.names.len() > 1).then_some("every reflector"),
+            ]
+            .into_iter()
+            .flatten()
+            .collect::<Vec<_>>()
+            .join(", ")
+        );
+    }
+    let search = first_points(&search_poses);
+    let held = first_points(&held_poses);
+    if search.len() < search_poses.len() {
+        eprintln!(
+            "note: {}: {} of {} poses have no {} point and are left out of the search",
+            input.data.display(),
+            search_poses.len() - search.len(),
+            search_poses.len(),
+            observed.names.first().map_or("measured", String::as_str)
+        );
+    }
     crate::check_count("--folds", args.folds, 2, search.len().max(2))?;
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
         crate::refuse!("--alpha {}: must be between 0 and 1", args.alpha);
@@ -203,6 +214,21 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
         DiagnoseReport::with_stall_limit(&d, args.stall_rms_mm).with_explanations(&d, &search);
     report.holdout = holdout;
     report.poses = search.len();
+    let full_fit = if full && report.converged {
+        stages.stage("fitting the model to all observations");
+        let fitted = all_observations(
+            &d,
+            &file,
+            &observed,
+            &args.obs,
+            &cfg,
+            (&search_poses, &held_poses),
+        )?;
+        report.observations = Some(fitted.1);
+        Some(fitted.0)
+    } else {
+        None
+    };
     if !report.converged {
         // A geometric model that cannot reach the data is not "missing an effect": the data
         // or the model are wrong, and a noise floor of metres is no finding (exit 3).
@@ -216,13 +242,17 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
         );
     }
     if let Some(out) = &args.out {
+        let model = full_fit.as_ref().map_or(&d.model, |f| &f.model);
         let mut f = RobotFile::from_robot(
             &format!("{} (diagnosed)", file.name),
-            &d.model,
+            model,
             true,
             &d.free_tilt,
-        );
-        f.tool.rpy_deg = file.tool.rpy_deg;
+        )
+        .with_tool_names(&observed.names);
+        if f.tool.rpy_deg.is_none() {
+            f.tool.rpy_deg = file.tool.rpy_deg;
+        }
         f.save(out)?;
         report.out = Some(out.display().to_string());
     }
@@ -232,6 +262,77 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
         report.plots = Some(files.iter().map(|p| p.display().to_string()).collect());
     }
     Ok(report)
+}
+
+/// The first reflector's position in every pose that saw it, unweighted: what the search reads.
+fn first_points<const N: usize>(poses: &[Pose<N>]) -> Vec<kinecal::Measurement<f64, N>> {
+    poses
+        .iter()
+        .filter_map(|p| p.observations.iter().find(|m| m.tool == 0))
+        .map(|m| kinecal::Measurement::new(m.q, m.point))
+        .collect()
+}
+
+/// The geometry and `d`'s extended model fitted to all observations of the searched poses
+/// (`poses.0`), with their errors there and on the held-out poses (`poses.1`).
+fn all_observations<const N: usize>(
+    d: &Diagnosis<N>,
+    file: &RobotFile,
+    observed: &Observed<N>,
+    obs: &ObservationArgs,
+    cfg: &Config,
+    poses: (&[Pose<N>], &[Pose<N>]),
+) -> anyhow::Result<(FullFit<N>, ObservationsReport)> {
+    let pose_of: Vec<usize> = poses
+        .0
+        .iter()
+        .enumerate()
+        .flat_map(|(k, p)| std::iter::repeat_n(k, p.observations.len()))
+        .collect();
+    let (data, held) = (flatten(poses.0), flatten(poses.1));
+    let w = Weighting {
+        six_d: observed.six_d,
+        sigma: observed.sigma,
+        deg_weight_set: obs.deg_weight_mm.is_some(),
+        sigma_as_stated: obs.sigma_as_stated,
+    };
+    let tool_axes_unknown = observed.six_d && file.tool.rpy_deg.is_none();
+    let fitted = fit_all_observations(
+        d,
+        &data,
+        &pose_of,
+        w,
+        file.base_known(),
+        tool_axes_unknown,
+        cfg,
+    )?;
+    let (before, after) = fitted.residuals(&held);
+    let report = ObservationsReport {
+        six_d: observed.six_d,
+        sigma: observed.sigma,
+        points: observed.names.len().max(1),
+        observations: data.len(),
+        before,
+        after,
+        per_point: PointResiduals::per_point(
+            &observed.names,
+            (&fitted.geometric, &fitted.model),
+            (&fitted.weighted, &held),
+        ),
+        unidentifiable: fitted.unidentifiable.clone(),
+        chi2_per_dof: fitted.chi2_per_dof,
+        floor_mm: fitted.floors.map(|f| f.point_mm),
+        floor_deg: fitted
+            .floors
+            .filter(|_| observed.six_d)
+            .map(|f| f.orientation_rad.to_degrees()),
+        orientation_factor: fitted.orientation_factor.as_ref().map(|c| c.0),
+        orientation_cv_rms_mm: fitted
+            .orientation_factor
+            .as_ref()
+            .map(|c| c.1.iter().map(|(f, r)| (format!("{f}"), *r)).collect()),
+    };
+    Ok((fitted, report))
 }
 
 /// The errors of the starting model as the search fitted it (the same fit as the final model

@@ -13,7 +13,6 @@ use anyhow::Context;
 use kinecal::identify::lm::LmConfig;
 use kinecal::model::param::ParamSet;
 use kinecal::{Measurement, Robot};
-use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -222,7 +221,8 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
     }
     let seconds = t0.elapsed().as_secs_f64();
     let after = Residuals::of(&fit.robot, &ident, &valid);
-    let per_point = per_point(&observed.names, (&nominal, &fit.robot), (&ident, &valid));
+    let per_point =
+        PointResiduals::per_point(&observed.names, (&nominal, &fit.robot), (&ident, &valid));
     let estimated = params.len().saturating_sub(fit.unidentifiable.len());
     let chi2_per_dof = if observed.sigma {
         weights::chi2_per_dof(&fit.robot, &ident, &stated, estimated)
@@ -521,39 +521,4 @@ fn report<const N: usize>(
         chi2_per_dof: None,
         observations: None,
     }
-}
-
-/// Before and after per named point (several reflectors), `None` with one point.
-fn per_point<const N: usize>(
-    names: &[String],
-    (nominal, fitted): (&Robot<f64, N, VCAP>, &Robot<f64, N, VCAP>),
-    (ident, valid): (&[Measurement<f64, N>], &[Measurement<f64, N>]),
-) -> Option<BTreeMap<String, PointResiduals>> {
-    if names.len() < 2 {
-        return None;
-    }
-    let of = |data: &[Measurement<f64, N>], k: usize| -> Vec<Measurement<f64, N>> {
-        data.iter()
-            .filter(|m| m.tool as usize == k)
-            .copied()
-            .collect()
-    };
-    Some(
-        names
-            .iter()
-            .enumerate()
-            .map(|(k, n)| {
-                let (i, v) = (of(ident, k), of(valid, k));
-                (
-                    n.clone(),
-                    PointResiduals {
-                        n_identification: i.len(),
-                        n_validation: v.len(),
-                        before: Residuals::of(nominal, &i, &v),
-                        after: Residuals::of(fitted, &i, &v),
-                    },
-                )
-            })
-            .collect(),
-    )
 }

@@ -1,11 +1,14 @@
 //! The report of `kinecal diagnose`, built from a [`Diagnosis`] ([`DiagnoseReport::of`]).
 
+use crate::calibration::Residuals;
 use crate::diagnose::candidates::CandidateKind;
 use crate::diagnose::explain::{explain, Explanation};
 use crate::diagnose::{distinct_figures, floor_phrase, percent, Diagnosis, NoiseSource};
 use crate::output::numfmt::sig;
+use crate::reports::identify::PointResiduals;
 use kinecal::Measurement;
 use serde::Serialize;
+use std::collections::BTreeMap;
 use std::fmt;
 
 /// A geometric fit whose held-out RMS stays above this (mm) has not found the robot: nothing
@@ -46,6 +49,10 @@ pub struct DiagnoseReport {
     /// Errors on the poses kept out of the whole search (`--holdout`, `--validate`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub holdout: Option<HoldoutReport>,
+    /// With 6-D, σ-weighted or several-reflector data: the geometry and the extended model
+    /// fitted to all observations (the model `--out` writes; crate::diagnose::observations).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub observations: Option<ObservationsReport>,
     /// The extended model's robot file, when written.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub out: Option<String>,
@@ -120,6 +127,42 @@ pub struct Refitted {
     pub candidate: String,
     pub validation_rms_mm: f64,
     pub p_value: f64,
+}
+
+/// The geometry and the extended model fitted to all observations of the searched poses
+/// (orientations, the stated σ, every reflector), with their errors there and on the held-out
+/// poses: `before` the geometry, `after` the extended model (the keys of `identify`'s).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ObservationsReport {
+    /// Orientation observed (`rx_deg`, `ry_deg`, `rz_deg`).
+    pub six_d: bool,
+    /// Weighted by the file's σ columns.
+    pub sigma: bool,
+    /// Measured points per pose (reflectors).
+    pub points: usize,
+    /// Observations (points seen) among the searched poses.
+    pub observations: usize,
+    pub before: Residuals,
+    pub after: Residuals,
+    /// With several reflectors: `before`/`after` per reflector name.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub per_point: Option<BTreeMap<String, PointResiduals>>,
+    /// Geometric parameters all observations cannot determine.
+    pub unidentifiable: Vec<String>,
+    /// χ² per degree of freedom of the stated σ at the extended model (≈ 1 when they fit).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub chi2_per_dof: Option<f64>,
+    /// Error floor added to each point coordinate's σ (mm) and orientation component's (°).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub floor_mm: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub floor_deg: Option<f64>,
+    /// Factor of the balanced orientation weight chosen by cross-validating positions, and
+    /// each factor's cross-validated position RMS (mm).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_factor: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_cv_rms_mm: Option<BTreeMap<String, f64>>,
 }
 
 /// Errors on the poses kept out of the whole search.
@@ -247,6 +290,7 @@ impl DiagnoseReport {
             converged: d.baseline_validation_rms_mm.is_finite()
                 && d.baseline_validation_rms_mm <= stall_rms_mm,
             holdout: None,
+            observations: None,
             out: None,
             plots: None,
             noise_source: d.noise_source,
@@ -381,7 +425,52 @@ impl fmt::Display for DiagnoseReport {
                 )?;
             }
         }
+        if let Some(o) = &self.observations {
+            writeln!(f, "{o}")?;
+        }
         writeln!(f, "{:.2} s", self.seconds)
+    }
+}
+
+impl fmt::Display for ObservationsReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut kinds = Vec::new();
+        if self.six_d {
+            kinds.push("orientations".to_string());
+        }
+        if self.sigma {
+            kinds.push("the stated σ".to_string());
+        }
+        if self.points > 1 {
+            kinds.push(format!("{} reflectors", self.points));
+        }
+        write!(
+            f,
+            "fitted to all {} observations ({}): geometry {} mm → extended model {} mm",
+            self.observations,
+            kinds.join(", "),
+            sig(self.before.identification_rms_mm, 4),
+            sig(self.after.identification_rms_mm, 4)
+        )?;
+        if let (Some(b), Some(a)) = (
+            self.before.identification_rms_deg,
+            self.after.identification_rms_deg,
+        ) {
+            write!(f, ", {}° → {}°", sig(b, 4), sig(a, 4))?;
+        }
+        if let (Some(b), Some(a)) = (self.before.validation_rms_mm, self.after.validation_rms_mm) {
+            write!(f, "; held out {} mm → {} mm", sig(b, 4), sig(a, 4))?;
+            if let (Some(b), Some(a)) = (
+                self.before.validation_rms_deg,
+                self.after.validation_rms_deg,
+            ) {
+                write!(f, ", {}° → {}°", sig(b, 4), sig(a, 4))?;
+            }
+        }
+        if let Some(c) = self.chi2_per_dof {
+            write!(f, "; χ²/dof {}", sig(c, 3))?;
+        }
+        Ok(())
     }
 }
 

@@ -2,6 +2,7 @@
 
 use crate::calibration::{Held, Residuals};
 use crate::output::numfmt::sig;
+use kinecal::{Measurement, Robot};
 use serde::ser::SerializeMap;
 use serde::{Serialize, Serializer};
 use std::collections::BTreeMap;
@@ -60,6 +61,44 @@ pub struct PointResiduals {
     pub n_validation: usize,
     pub before: Residuals,
     pub after: Residuals,
+}
+
+impl PointResiduals {
+    /// Each reflector's `before` (`models.0`) and `after` (`models.1`) on the identification and
+    /// held-out observations (`None` with one point).
+    pub fn per_point<const N: usize, const V: usize>(
+        names: &[String],
+        models: (&Robot<f64, N, V>, &Robot<f64, N, V>),
+        (ident, valid): (&[Measurement<f64, N>], &[Measurement<f64, N>]),
+    ) -> Option<BTreeMap<String, PointResiduals>> {
+        if names.len() < 2 {
+            return None;
+        }
+        let of = |data: &[Measurement<f64, N>], k: usize| -> Vec<Measurement<f64, N>> {
+            data.iter()
+                .filter(|m| m.tool as usize == k)
+                .copied()
+                .collect()
+        };
+        Some(
+            names
+                .iter()
+                .enumerate()
+                .map(|(k, n)| {
+                    let (i, v) = (of(ident, k), of(valid, k));
+                    (
+                        n.clone(),
+                        PointResiduals {
+                            n_identification: i.len(),
+                            n_validation: v.len(),
+                            before: Residuals::of(models.0, &i, &v),
+                            after: Residuals::of(models.1, &i, &v),
+                        },
+                    )
+                })
+                .collect(),
+        )
+    }
 }
 
 /// The kind of observations a fit used.

@@ -1,0 +1,188 @@
+//! The diagnosed model fitted to everything the file observed: 6-D poses, the tracker's σ and
+//! several reflectors (interfaces.md §3).
+//!
+//! The search ([`super::diagnose`]) screens, cross-validates and tests on one position
+//! residual per pose (the first reflector's point, unweighted): its linearised screen and its
+//! paired test are built on per-pose squared distances in millimetres. What it names is then
+//! fitted here to all observations as `identify` fits them, so that the model `diagnose`
+//! writes uses the orientation (theta of the last joint, the tool axes), the weights and every
+//! reflector:
+//!
+//! 1. the geometry's identifiability is decided again on all observations (6-D data determine
+//!    what positions alone hold, theta6 against the tool point);
+//! 2. weights: each residual by its stated σ plus an error floor for what the model cannot
+//!    explain ([`crate::calibration::weights`]), refitted until the floors settle; with 6-D
+//!    data and no `--deg-weight-mm`, the orientation weight that predicts positions best in a
+//!    5-fold cross-validation over the searched poses;
+//! 3. the geometry alone and the extended model (the search's parameter set, its tables
+//!    penalised as in the search) are fitted with the same weights, so their errors compare.
+
+use crate::calibration::{fit_lm, weights, Residuals};
+use crate::diagnose::linear::Problem;
+use crate::diagnose::refit::fit;
+use crate::diagnose::{Config, Diagnosis};
+use crate::VCAP;
+use kinecal::identify::lm::LmConfig;
+use kinecal::model::param::{Param, ParamSet};
+use kinecal::{Measurement, Robot};
+
+/// How the file's observations are weighted (`identify`'s flags, [`crate::formats::
+/// observations::ObservationArgs`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Weighting {
+    /// Orientation observed.
+    pub six_d: bool,
+    /// The file's σ columns weight the residuals.
+    pub sigma: bool,
+    /// `--deg-weight-mm` was given: the orientation weight is the user's.
+    pub deg_weight_set: bool,
+    /// `--sigma-as-stated`: no error floors.
+    pub sigma_as_stated: bool,
+}
+
+/// The geometry and the extended model fitted to all observations.
+#[derive(Clone, Debug)]
+pub struct FullFit<const N: usize> {
+    /// The geometry (the nominal model's effects at their file values) on all observations.
+    pub geometric: Robot<f64, N, VCAP>,
+    /// The extended model on all observations: what `diagnose --out` writes.
+    pub model: Robot<f64, N, VCAP>,
+    /// Geometric parameters all observations cannot determine (held at nominal).
+    pub unidentifiable: Vec<String>,
+    /// The observations with the weights the fits used.
+    pub weighted: Vec<Measurement<f64, N>>,
+    /// Error floors added to the stated σ.
+    pub floors: Option<weights::Floors>,
+    /// The orientation weight's factor and each factor's cross-validated position RMS (mm).
+    pub orientation_factor: Option<(f64, Vec<(f64, f64)>)>,
+    /// χ² per degree of freedom of the stated σ at the extended model.
+    pub chi2_per_dof: Option<f64>,
+    /// Iterations of the extended model's last fit.
+    pub iterations: u32,
+}
+
+impl<const N: usize> FullFit<N> {
+    /// Errors of the geometry (`before`) and the extended model (`after`) on the searched
+    /// observations and on `held` ones.
+    pub fn residuals(&self, held: &[Measurement<f64, N>]) -> (Residuals, Residuals) {
+        (
+            Residuals::of(&self.geometric, &self.weighted, held),
+            Residuals::of(&self.model, &self.weighted, held),
+        )
+    }
+}
+
+/// Parameters only several points or an orientation determine: the further points' offsets
+/// and, with 6-D data, the tool axes.
+fn observation_params<const N: usize>(robot: &Robot<f64, N, VCAP>, six_d: bool) -> Vec<Param> {
+    let mut out = Vec::new();
+    if six_d {
+        out.extend([Param::ToolRx, Param::ToolRy, Param::ToolRz]);
+    }
+    for k in 1..robot.tool_point_count() {
+        out.extend((0..3).map(|a| Param::ToolPoint(k as u8, a)));
+    }
+    out
+}
+
+/// Fits the geometry and `d`'s extended model to `data` (all observations of the searched
+/// poses; `pose_of[i]` is the pose of observation `i`), weighted as `w` says.
+/// `tool_axes_unknown`: the robot file gives no `[tool] rpy_deg`, so the tool axes are started
+/// from the data (as `identify` does).
+pub fn fit_all_observations<const N: usize>(
+    d: &Diagnosis<N>,
+    data: &[Measurement<f64, N>],
+    pose_of: &[usize],
+    w: Weighting,
+    base_known: bool,
+    tool_axes_unknown: bool,
+    cfg: &Config,
+) -> anyhow::Result<FullFit<N>> {
+    let (penalty, iterations) = (cfg.penalty, cfg.refit_iterations);
+    let mut start_geo = d.baseline_model.clone();
+    let mut start_ext = d.model.clone();
+    if w.six_d && tool_axes_unknown {
+        if let Some(axes) = crate::compute::registration::fit_tool_axes(&start_ext, data) {
+            for r in [&mut start_geo, &mut start_ext] {
+                r.set_tool_axes(axes)
+                    .map_err(|e| anyhow::anyhow!("estimated tool orientation is invalid: {e:?}"))?;
+            }
+        }
+    }
+    let extra = observation_params(&start_ext, w.six_d);
+    // 1. Which geometric parameters all observations determine.
+    let mut geometric: Vec<Param> = ParamSet::<64>::full(N, !base_known)
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?
+        .as_slice()
+        .to_vec();
+    geometric.extend(d.free_tilt.iter().map(|j| Param::Beta(*j as u8)));
+    geometric.extend(extra.iter().copied());
+    let mut weighted = data.to_vec();
+    let stated = weights::stated(&weighted, w.sigma);
+    let analysis = fit_lm(&start_geo, &geometric, &weighted, LmConfig::default())?;
+    let unidentifiable = analysis.unidentifiable.clone();
+    geometric.retain(|p| {
+        !unidentifiable
+            .iter()
+            .any(|n| *n == p.name(&analysis.robot).to_string())
+    });
+    // The extended model's parameters: that geometry plus every effect value, in the model's
+    // order (a table's knots consecutive, as the search's problems have them).
+    let mut params = geometric.clone();
+    params.extend(
+        d.params
+            .iter()
+            .copied()
+            .filter(|p| matches!(p, Param::Effect(_))),
+    );
+    let problem = Problem::new(&start_ext, &params, penalty)?;
+    let run = |data: &[Measurement<f64, N>]| fit(&start_ext, &problem, data, iterations);
+    let mut ext = run(&weighted)?;
+    // 2. Error floors and the orientation weight (calibration::weights), as identify does.
+    let balance = (w.six_d && !w.deg_weight_set && !w.sigma) || (w.sigma && !w.sigma_as_stated);
+    let estimated = params.len();
+    let mut floors: Option<weights::Floors> = None;
+    if balance {
+        for _ in 0..4 {
+            let f = weights::floors(&ext.robot, &weighted, &stated, estimated);
+            let settled = floors.is_some_and(|o| {
+                let close = |a: f64, b: f64| (a - b).abs() <= 0.01 * a.abs().max(b.abs());
+                close(o.point_mm, f.point_mm) && close(o.orientation_rad, f.orientation_rad)
+            });
+            floors = Some(f);
+            if settled {
+                break;
+            }
+            weights::apply(&mut weighted, &stated, &f);
+            ext = run(&weighted)?;
+        }
+    }
+    let poses = pose_of.last().map_or(0, |p| p + 1);
+    let mut orientation_factor = None;
+    if w.six_d && !w.deg_weight_set && poses >= 20 {
+        let (c, scores) =
+            weights::choose_orientation_factor(&weighted, pose_of, 5, |d| Ok(run(d)?.robot))?;
+        if c != 1.0 {
+            weights::scale_orientation(&mut weighted, c);
+            ext = run(&weighted)?;
+        }
+        orientation_factor = Some((c, scores));
+    }
+    // 3. The geometry with the same weights, for the comparison.
+    let geo = fit_lm(&start_geo, &geometric, &weighted, LmConfig::default())?;
+    let chi2_per_dof = if w.sigma {
+        weights::chi2_per_dof(&ext.robot, &weighted, &stated, estimated)
+    } else {
+        None
+    };
+    Ok(FullFit {
+        geometric: geo.robot,
+        model: ext.robot,
+        unidentifiable,
+        weighted,
+        floors,
+        orientation_factor,
+        chi2_per_dof,
+        iterations: ext.iterations,
+    })
+}

@@ -85,6 +85,31 @@ fn load(
     (path, robot)
 }
 
+/// `diagnose --holdout 100 --json --out MODEL` on `data`: succeeds and names the hidden
+/// joint-2 error ([`HIDDEN`]); returns the JSON.
+fn diagnose_names_the_hidden_error(
+    nominal: &std::path::Path,
+    data: &std::path::Path,
+    model: &std::path::Path,
+) -> serde_json::Value {
+    let out = run_on(
+        "diagnose",
+        nominal,
+        data,
+        &["--holdout", "100", "--json", "--out", s(model)],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let j = json_of(&out);
+    let found = j["found"].as_array().unwrap();
+    assert!(
+        found
+            .iter()
+            .any(|f| f["effect"] == "joint-cyclic" && f["joint"] == 2),
+        "{found:?}"
+    );
+    j
+}
+
 /// 6-D data with σ columns from a robot with a hidden joint-2 error, a turned tool frame and
 /// theta offsets: diagnose names the error from positions, and its model (fitted to positions
 /// and orientations, weighted by σ) predicts the held-out orientations and positions at the
@@ -129,22 +154,11 @@ fn six_d_diagnose_fits_the_named_effect_to_orientations() {
             rpy[2]
         );
     }
-    let data = write(dir.path(), "data.csv", &csv);
     let model = dir.path().join("model.toml");
-    let out = run_on(
-        "diagnose",
+    let j = diagnose_names_the_hidden_error(
         &nominal_path,
-        &data,
-        &["--holdout", "100", "--json", "--out", s(&model)],
-    );
-    assert!(out.status.success(), "{}", stderr(&out));
-    let j = json_of(&out);
-    let found = j["found"].as_array().unwrap();
-    assert!(
-        found
-            .iter()
-            .any(|f| f["effect"] == "joint-cyclic" && f["joint"] == 2),
-        "{found:?}"
+        &write(dir.path(), "data.csv", &csv),
+        &model,
     );
     let o = &j["observations"];
     assert_eq!(o["six_d"], true);
@@ -236,22 +250,11 @@ fn diagnose_fits_every_reflector() {
         }
         csv += "\n";
     }
-    let data = write(dir.path(), "data.csv", &csv);
     let model = dir.path().join("model.toml");
-    let out = run_on(
-        "diagnose",
+    let j = diagnose_names_the_hidden_error(
         &nominal_path,
-        &data,
-        &["--holdout", "100", "--json", "--out", s(&model)],
-    );
-    assert!(out.status.success(), "{}", stderr(&out));
-    let j = json_of(&out);
-    let found = j["found"].as_array().unwrap();
-    assert!(
-        found
-            .iter()
-            .any(|f| f["effect"] == "joint-cyclic" && f["joint"] == 2),
-        "{found:?}"
+        &write(dir.path(), "data.csv", &csv),
+        &model,
     );
     let o = &j["observations"];
     assert_eq!(o["points"], 3);

@@ -613,3 +613,66 @@ fn plans_without_collision_avoidance_report_their_collisions() {
     );
     assert!(v["min_clearance_mm"].as_f64().unwrap() <= 0.0);
 }
+
+/// `plan --noise-from D.csv` takes the noise from a tracker file's stated σ: the RMS of its
+/// `sx_mm, sy_mm, sz_mm`. The KPI design does not depend on σ (it scales every covariance),
+/// so the plan equals `--noise-mm` at that RMS, and the predicted trace grows with σ²; a file
+/// without σ columns is refused.
+#[test]
+fn plan_takes_the_noise_from_the_trackers_stated_sigma() {
+    let dir = tempfile::tempdir().unwrap();
+    let cell = cell_dir();
+    let plan = |noise: &[&str]| {
+        let out = dir.path().join("p.csv");
+        let o = Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
+            .args(["plan", "--robot"])
+            .arg(cell.join("robot.toml"))
+            .arg("--scene")
+            .arg(cell.join("scene.toml"))
+            .args([
+                "--poses",
+                "12",
+                "--criterion",
+                "kpi",
+                "--work=-20,30,30,0,-60,0",
+            ])
+            .args(["--pool", "300", "--passes", "3", "--no-refine", "--json"])
+            .args(noise)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let v: Option<serde_json::Value> = serde_json::from_slice(&o.stdout).ok();
+        (
+            o.status.code(),
+            v,
+            String::from_utf8_lossy(&o.stderr).to_string(),
+        )
+    };
+    // σ of 0.01, 0.02 and 0.03 mm on alternate rows: RMS √((0.01² + 0.02² + 0.03²)/3).
+    let mut csv = String::from("q1,q2,q3,q4,q5,q6,x,y,z,sx_mm,sy_mm,sz_mm\n");
+    for k in 0..30 {
+        csv += &format!("{k},0,0,0,0,0,1000,0,500,0.01,0.02,0.03\n");
+    }
+    let sigma_file = dir.path().join("sigma.csv");
+    std::fs::write(&sigma_file, &csv).unwrap();
+    let rms = ((0.01f64.powi(2) + 0.02f64.powi(2) + 0.03f64.powi(2)) / 3.0).sqrt();
+    let (code, from_file, err) = plan(&["--noise-from", sigma_file.to_str().unwrap()]);
+    assert_eq!(code, Some(0), "{err}");
+    let from_file = from_file.unwrap();
+    let (_, given, _) = plan(&["--noise-mm", &format!("{rms}")]);
+    let given = given.unwrap();
+    let (_, tenfold, _) = plan(&["--noise-mm", &format!("{}", 10.0 * rms)]);
+    let tenfold = tenfold.unwrap();
+    let trace = |v: &serde_json::Value| v["kpi_trace_mm2"].as_f64().unwrap();
+    assert!((from_file["noise_mm"].as_f64().unwrap() - rms).abs() < 1e-12);
+    assert!((trace(&from_file) - trace(&given)).abs() <= 1e-9 * trace(&given));
+    let ratio = trace(&tenfold) / trace(&given);
+    assert!((ratio - 100.0).abs() < 1e-6, "{ratio}");
+    // No σ columns: refused (exit 2) with what to do.
+    let plain = dir.path().join("plain.csv");
+    std::fs::write(&plain, "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1,2,3\n").unwrap();
+    let (code, _, err) = plan(&["--noise-from", plain.to_str().unwrap()]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("sx_mm") && err.contains("--noise-mm"), "{err}");
+}

@@ -14,7 +14,8 @@
 //!    experimenter's heuristic); `d`, `o1` (the same optimum: O1 is monotone in det JᵀJ for a
 //!    fixed number of poses), `a` and `kpi` select from the pool by greedy construction and
 //!    Fedorov exchange ([`selection::select`]).
-//! 3. Report: predicted by linear error propagation, σ = `--noise-mm` per coordinate:
+//! 3. Report: predicted by linear error propagation, σ = `--noise-mm` per coordinate (or the
+//!    RMS of a tracker file's stated σ, `--noise-from`):
 //!    `kpi_trace_mm2` = trace of the summed tool-point covariance at the `--work`
 //!    configurations, the A/D/E criteria, the observability indices O1–O5.
 
@@ -58,6 +59,10 @@ pub struct Args {
     /// Measurement noise, standard deviation per axis (mm), for the predicted covariances.
     #[arg(long, default_value_t = 0.01)]
     pub noise_mm: f64,
+    /// Take the noise from a tracker file's stated uncertainties instead: the RMS of its
+    /// `sx_mm`, `sy_mm`, `sz_mm` over all rows and coordinates (interfaces.md §3).
+    #[arg(long, value_name = "D.csv", conflicts_with = "noise_mm")]
+    pub noise_from: Option<PathBuf>,
     /// Output CSV of the planned poses (q1…qN in degrees, plus incidence_deg, clearance_mm).
     #[arg(long)]
     pub out: PathBuf,
@@ -75,6 +80,33 @@ pub struct Args {
     /// exchange passes).
     #[arg(long)]
     pub no_refine: bool,
+}
+
+/// The RMS of the stated 1-σ (`sx_mm`, `sy_mm`, `sz_mm`) of every row of the measurement file
+/// `path` (mm): the tracker's noise as it reports it, for the predicted covariances.
+fn stated_noise_mm<const N: usize>(path: &std::path::Path) -> anyhow::Result<f64> {
+    let ds = crate::formats::measurements::load::<N>(path)?;
+    let cols: Vec<Vec<f64>> = ["sx_mm", "sy_mm", "sz_mm"]
+        .iter()
+        .filter_map(|c| ds.extra(c))
+        .collect();
+    if cols.len() != 3 || ds.is_empty() {
+        crate::refuse!(
+            "--noise-from {}: needs the columns sx_mm, sy_mm, sz_mm (the tracker's 1-σ per \
+             coordinate): give --noise-mm instead",
+            path.display()
+        );
+    }
+    let values: Vec<f64> = cols.concat();
+    if let Some(bad) = values.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
+        crate::refuse!(
+            "--noise-from {}: a stated σ of {bad} mm: every σ must be a positive number",
+            path.display()
+        );
+    }
+    let rms = (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt();
+    crate::check_positive("--noise-from (the RMS of its σ)", rms, crate::MAX_NOISE_MM)?;
+    Ok(rms)
 }
 
 fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Result<PlanReport> {
@@ -95,13 +127,17 @@ fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Re
             );
         }
     }
+    let sigma = match &args.noise_from {
+        Some(p) => stated_noise_mm::<N>(p)?,
+        None => args.noise_mm,
+    };
     let start = Instant::now();
     let req = PlanRequest {
         scene: &scene,
         criterion: args.criterion,
         poses: args.poses,
         work: &work,
-        sigma: args.noise_mm,
+        sigma,
         pool: args.pool,
         collisions: !args.no_collisions,
         passes: args.passes,
@@ -159,7 +195,7 @@ fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Re
         min_clearance_mm: min_clearance,
         colliding_poses: colliding,
         max_incidence_deg: max_incidence,
-        noise_mm: args.noise_mm,
+        noise_mm: sigma,
         criteria: Criteria {
             a: ev.a,
             d: ev.d,

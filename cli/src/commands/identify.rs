@@ -13,7 +13,6 @@ use anyhow::Context;
 use kinecal::identify::lm::LmConfig;
 use kinecal::model::param::ParamSet;
 use kinecal::{Measurement, Robot};
-use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -185,44 +184,22 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
     };
     let mut ident = ident;
     let stated = weights::stated(&ident, observed.sigma);
-    let mut fit = run_method(&ident)?;
     // 6-D or σ-weighted data: error floors for what the model cannot explain, refitted until
-    // they settle (crate::calibration::weights); not when the user set the weighting.
-    let balance = (observed.six_d && args.obs.deg_weight_mm.is_none() && !observed.sigma)
-        || (observed.sigma && !args.obs.sigma_as_stated);
-    let mut floors: Option<weights::Floors> = None;
-    if balance {
-        for _ in 0..4 {
-            let estimated = params.len().saturating_sub(fit.unidentifiable.len());
-            let f = weights::floors(&fit.robot, &ident, &stated, estimated);
-            let settled = floors.is_some_and(|o| {
-                let close = |a: f64, b: f64| (a - b).abs() <= 0.01 * a.abs().max(b.abs());
-                close(o.point_mm, f.point_mm) && close(o.orientation_rad, f.orientation_rad)
-            });
-            floors = Some(f);
-            if settled {
-                break;
-            }
-            weights::apply(&mut ident, &stated, &f);
-            fit = run_method(&ident)?;
-        }
-    }
-    // 6-D with the weighting left to the data: how much the orientations weigh against the
-    // positions is chosen by cross-validating position prediction over the identification
-    // poses (calibration::weights::choose_orientation_factor).
-    let mut orientation_cv = None;
-    if observed.six_d && args.obs.deg_weight_mm.is_none() && ident_poses >= 20 {
-        let (c, scores) =
-            weights::choose_orientation_factor(&ident, &pose_of, 5, |d| Ok(run_method(d)?.robot))?;
-        if c != 1.0 {
-            weights::scale_orientation(&mut ident, c);
-            fit = run_method(&ident)?;
-        }
-        orientation_cv = Some((c, scores));
-    }
+    // they settle; not when the user set the weighting. 6-D with the weighting left to the
+    // data: how much the orientations weigh against the positions is chosen by
+    // cross-validating position prediction over the identification poses
+    // (crate::calibration::weights::weighted_fit).
+    let how = weights::Weighting {
+        balance: (observed.six_d && args.obs.deg_weight_mm.is_none() && !observed.sigma)
+            || (observed.sigma && !args.obs.sigma_as_stated),
+        orientation_cv: observed.six_d && args.obs.deg_weight_mm.is_none() && ident_poses >= 20,
+        params: params.len(),
+    };
+    let (fit, weighted) = weights::weighted_fit(&mut ident, &pose_of, &stated, how, run_method)?;
+    let (floors, orientation_cv) = (weighted.floors, weighted.orientation_cv);
     let seconds = t0.elapsed().as_secs_f64();
     let after = Residuals::of(&fit.robot, &ident, &valid);
-    let per_point = per_point(&observed.names, (&nominal, &fit.robot), (&ident, &valid));
+    let per_point = PointResiduals::per_point(&observed.names, (&nominal, &fit.robot), (&ident, &valid));
     let estimated = params.len().saturating_sub(fit.unidentifiable.len());
     let chi2_per_dof = if observed.sigma {
         weights::chi2_per_dof(&fit.robot, &ident, &stated, estimated)
@@ -390,7 +367,7 @@ fn enough_poses(
 }
 
 /// Applies `--fix` and `--free` to the parameter list (names as printed, geometric only).
-fn apply_fix_free(
+pub(crate) fn apply_fix_free(
     params: &mut Vec<kinecal::Param>,
     fix: &[String],
     free: &[String],
@@ -479,26 +456,7 @@ fn report<const N: usize>(
     changes: Vec<Change>,
     verdict: &Verdict,
 ) -> IdentifyReport {
-    let mut params: Vec<kinecal::Param> = ParamSet::<64>::full(N, true)
-        .map(|s| s.as_slice().to_vec())
-        .unwrap_or_default();
-    params.extend(
-        (0..N as u8)
-            .map(kinecal::Param::Beta)
-            .filter(|p| file.tilt_joints().contains(&(p.joint().unwrap_or(99)))),
-    );
-    params
-        .extend((0..fit.robot.effects().values().len()).map(|k| kinecal::Param::Effect(k as u16)));
-    if !fit.robot.tool_axes_identity() {
-        params.extend([
-            kinecal::Param::ToolRx,
-            kinecal::Param::ToolRy,
-            kinecal::Param::ToolRz,
-        ]);
-    }
-    for k in 1..fit.robot.tool_point_count() {
-        params.extend((0..3).map(|a| kinecal::Param::ToolPoint(k as u8, a)));
-    }
+    let params = crate::calibration::model_params(&fit.robot, &file.tilt_joints());
     IdentifyReport {
         method: method.id().to_string(),
         n_identification: ident,
@@ -521,39 +479,4 @@ fn report<const N: usize>(
         chi2_per_dof: None,
         observations: None,
     }
-}
-
-/// Before and after per named point (several reflectors), `None` with one point.
-fn per_point<const N: usize>(
-    names: &[String],
-    (nominal, fitted): (&Robot<f64, N, VCAP>, &Robot<f64, N, VCAP>),
-    (ident, valid): (&[Measurement<f64, N>], &[Measurement<f64, N>]),
-) -> Option<BTreeMap<String, PointResiduals>> {
-    if names.len() < 2 {
-        return None;
-    }
-    let of = |data: &[Measurement<f64, N>], k: usize| -> Vec<Measurement<f64, N>> {
-        data.iter()
-            .filter(|m| m.tool as usize == k)
-            .copied()
-            .collect()
-    };
-    Some(
-        names
-            .iter()
-            .enumerate()
-            .map(|(k, n)| {
-                let (i, v) = (of(ident, k), of(valid, k));
-                (
-                    n.clone(),
-                    PointResiduals {
-                        n_identification: i.len(),
-                        n_validation: v.len(),
-                        before: Residuals::of(nominal, &i, &v),
-                        after: Residuals::of(fitted, &i, &v),
-                    },
-                )
-            })
-            .collect(),
-    )
 }

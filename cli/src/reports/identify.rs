@@ -62,6 +62,43 @@ pub struct PointResiduals {
     pub after: Residuals,
 }
 
+impl PointResiduals {
+    /// Before and after per named point (several reflectors), `None` with one point.
+    pub fn per_point<const N: usize, const V: usize>(
+        names: &[String],
+        (nominal, fitted): (&kinecal::Robot<f64, N, V>, &kinecal::Robot<f64, N, V>),
+        (ident, valid): (&[kinecal::Measurement<f64, N>], &[kinecal::Measurement<f64, N>]),
+    ) -> Option<BTreeMap<String, PointResiduals>> {
+        if names.len() < 2 {
+            return None;
+        }
+        let of = |data: &[kinecal::Measurement<f64, N>], k: usize| {
+            data.iter()
+                .filter(|m| m.tool as usize == k)
+                .copied()
+                .collect::<Vec<_>>()
+        };
+        Some(
+            names
+                .iter()
+                .enumerate()
+                .map(|(k, n)| {
+                    let (i, v) = (of(ident, k), of(valid, k));
+                    (
+                        n.clone(),
+                        PointResiduals {
+                            n_identification: i.len(),
+                            n_validation: v.len(),
+                            before: Residuals::of(nominal, &i, &v),
+                            after: Residuals::of(fitted, &i, &v),
+                        },
+                    )
+                })
+                .collect(),
+        )
+    }
+}
+
 /// The kind of observations a fit used.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ObservationSummary {

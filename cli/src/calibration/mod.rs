@@ -309,7 +309,12 @@ fn identifiability_report<const N: usize, const V: usize>(
     lm: &Levenberg<f64, N, V, VecLm<f64>>,
     rows: usize,
     cost: f64,
-) -> (Vec<Held>, BTreeMap<String, f64>, Option<f64>, Vec<Correlation>) {
+) -> (
+    Vec<Held>,
+    BTreeMap<String, f64>,
+    Option<f64>,
+    Vec<Correlation>,
+) {
     use nalgebra::{DMatrix, DVector};
     let params = lm.params();
     let n = params.len();

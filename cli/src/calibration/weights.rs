@@ -237,6 +237,25 @@ pub struct Weighting {
     pub params: usize,
 }
 
+impl Weighting {
+    /// The weighting `identify` uses for `poses` identification poses of 6-D and/or
+    /// σ-weighted rows under the observation flags `obs`, estimating `params` parameters.
+    pub fn of(
+        six_d: bool,
+        sigma: bool,
+        obs: &crate::formats::observations::ObservationArgs,
+        poses: usize,
+        params: usize,
+    ) -> Self {
+        Self {
+            balance: (six_d && obs.deg_weight_mm.is_none() && !sigma)
+                || (sigma && !obs.sigma_as_stated),
+            orientation_cv: six_d && obs.deg_weight_mm.is_none() && poses >= 20,
+            params,
+        }
+    }
+}
+
 /// What [`weighted_fit`] settled on.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Weighted {

@@ -3,13 +3,12 @@
 use super::inputs::InputArgs;
 use crate::calibration::method::Method;
 use crate::calibration::{
-    add_effect, fit_lm, named_values, split_holdout, weights, EffectRequest, Fit, Residuals,
+    add_effect, fit_lm, named_values, weights, EffectRequest, Fit, Residuals,
 };
-use crate::formats::observations::{flatten, observe, ObservationArgs, Observed};
+use crate::formats::observations::ObservationArgs;
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::reports::identify::{Change, IdentifyReport, ObservationSummary, PointResiduals};
 use crate::{with_joints, VCAP};
-use anyhow::Context;
 use kinecal::identify::lm::LmConfig;
 use kinecal::model::param::ParamSet;
 use kinecal::{Measurement, Robot};
@@ -81,38 +80,21 @@ pub fn run(args: &Args) -> anyhow::Result<IdentifyReport> {
 fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport> {
     let input = &args.input;
     let (file, mut nominal) = load_robot::<N>(&input.robot)?;
-    let load = |p: &std::path::Path| -> anyhow::Result<Observed<N>> {
-        let ds =
-            crate::formats::units::load_measurements(p, &input.units, &nominal, file.base_known())?;
-        observe(&ds, &file, &args.obs, &p.display().to_string())
-    };
-    let observed = load(&input.data)?;
-    let all = super::inputs::some_rows(observed.poses.clone(), &input.data)?;
-    let (ident, valid) = match (&args.validate, args.holdout) {
-        (Some(v), _) => (all, super::inputs::some_rows(load(v)?.poses, v)?),
-        (None, Some(h)) => {
-            if !(h.is_finite() && h > 0.0) {
-                crate::refuse!(
-                    "--holdout {h}: give a fraction (0 < F < 1) or a count of poses (≥ 1)"
-                );
-            }
-            split_holdout(&all, h)?
-        }
-        (None, None) => (all, Vec::new()),
-    };
-    let (ident_poses, valid_poses) = (ident.len(), valid.len());
-    let pose_of: Vec<usize> = ident
-        .iter()
-        .enumerate()
-        .flat_map(|(k, p)| std::iter::repeat_n(k, p.observations.len()))
-        .collect();
-    let (ident, valid) = (flatten(&ident), flatten(&valid));
-    if ident.is_empty() {
-        crate::refuse!(
-            "{}: --holdout leaves no poses to identify from: hold out fewer",
-            input.data.display()
-        );
-    }
+    let super::inputs::Split {
+        observed,
+        ident,
+        valid,
+        ident_poses,
+        valid_poses,
+        pose_of,
+    } = super::inputs::load_split(
+        input,
+        &file,
+        &nominal,
+        &args.obs,
+        args.validate.as_deref(),
+        args.holdout,
+    )?;
     for (flag, v) in [
         ("--tolerance-mm", args.tolerance_mm),
         ("--tolerance-deg", args.tolerance_deg),
@@ -121,23 +103,10 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
         crate::check_positive(flag, v, 1e6)?;
     }
     let base_unknown = !file.base_known();
-    if base_unknown {
-        let base = crate::compute::registration::fit_base(&nominal, &ident)
-            .context("estimating the base pose")?;
-        nominal
-            .set_base(base)
-            .map_err(|e| anyhow::anyhow!("estimated base pose is invalid: {e:?}"))?;
-    }
     // 6-D data and no `[tool] rpy_deg`: the measured frame's orientation is unknown; started
     // from the data as the base is (and then compared with no tolerance).
-    let tool_axes_unknown = observed.six_d && file.tool.rpy_deg.is_none();
-    if tool_axes_unknown {
-        if let Some(axes) = crate::compute::registration::fit_tool_axes(&nominal, &ident) {
-            nominal
-                .set_tool_axes(axes)
-                .map_err(|e| anyhow::anyhow!("estimated tool orientation is invalid: {e:?}"))?;
-        }
-    }
+    let tool_axes_unknown =
+        super::inputs::place_nominal(&mut nominal, &file, &ident, observed.six_d)?;
     // Effects requested on the command line join the model with zero values.
     let mut extra = Vec::new();
     for t in file.tilt_joints() {
@@ -189,17 +158,19 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
     // data: how much the orientations weigh against the positions is chosen by
     // cross-validating position prediction over the identification poses
     // (crate::calibration::weights::weighted_fit).
-    let how = weights::Weighting {
-        balance: (observed.six_d && args.obs.deg_weight_mm.is_none() && !observed.sigma)
-            || (observed.sigma && !args.obs.sigma_as_stated),
-        orientation_cv: observed.six_d && args.obs.deg_weight_mm.is_none() && ident_poses >= 20,
-        params: params.len(),
-    };
+    let how = weights::Weighting::of(
+        observed.six_d,
+        observed.sigma,
+        &args.obs,
+        ident_poses,
+        params.len(),
+    );
     let (fit, weighted) = weights::weighted_fit(&mut ident, &pose_of, &stated, how, run_method)?;
     let (floors, orientation_cv) = (weighted.floors, weighted.orientation_cv);
     let seconds = t0.elapsed().as_secs_f64();
     let after = Residuals::of(&fit.robot, &ident, &valid);
-    let per_point = PointResiduals::per_point(&observed.names, (&nominal, &fit.robot), (&ident, &valid));
+    let per_point =
+        PointResiduals::per_point(&observed.names, (&nominal, &fit.robot), (&ident, &valid));
     let estimated = params.len().saturating_sub(fit.unidentifiable.len());
     let chi2_per_dof = if observed.sigma {
         weights::chi2_per_dof(&fit.robot, &ident, &stated, estimated)

@@ -67,7 +67,10 @@ impl PointResiduals {
     pub fn per_point<const N: usize, const V: usize>(
         names: &[String],
         (nominal, fitted): (&kinecal::Robot<f64, N, V>, &kinecal::Robot<f64, N, V>),
-        (ident, valid): (&[kinecal::Measurement<f64, N>], &[kinecal::Measurement<f64, N>]),
+        (ident, valid): (
+            &[kinecal::Measurement<f64, N>],
+            &[kinecal::Measurement<f64, N>],
+        ),
     ) -> Option<BTreeMap<String, PointResiduals>> {
         if names.len() < 2 {
             return None;

@@ -479,4 +479,15 @@ fn refuses_what_does_not_belong_together() {
     let o = report(&model, &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(out.exists());
+    // A model of this robot that misses the data by centimetres (d2 off by 60 mm) is not a
+    // calibration of them: the page is written and says so, exit 3.
+    let mut m: toml::Value = toml::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    let d2 = &mut m["joints"][1]["d_mm"];
+    let v = d2.as_float().or(d2.as_integer().map(|i| i as f64)).unwrap();
+    *d2 = toml::Value::Float(v + 60.0);
+    let off = write(tmp.path(), "off.toml", &toml::to_string(&m).unwrap());
+    let o = report(&off, &[]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    let doc = Html::parse_document(&std::fs::read_to_string(&out).unwrap());
+    assert_eq!(text(&doc, "#verdict"), "not a calibration of these data");
 }

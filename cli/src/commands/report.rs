@@ -110,7 +110,7 @@ fn same_robot<const N: usize>(
     }
     for (j, (a, b)) in robot.joints().iter().zip(model.joints()).enumerate() {
         for (name, d) in [("a", b.a - a.a), ("d", b.d - a.d)] {
-            if !(d.abs() <= 100.0) {
+            if d.is_nan() || d.abs() > 100.0 {
                 return refuse(format!(
                     "{name}{} differs by {} mm",
                     j + 1,
@@ -120,7 +120,7 @@ fn same_robot<const N: usize>(
         }
         for (name, d) in [("alpha", b.alpha - a.alpha), ("theta", b.theta - a.theta)] {
             let d = wrap(d).to_degrees();
-            if !(d.abs() <= 10.0) {
+            if d.is_nan() || d.abs() > 10.0 {
                 return refuse(format!(
                     "{name}{} differs by {}°",
                     j + 1,

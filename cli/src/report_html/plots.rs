@@ -169,6 +169,14 @@ pub fn error_vs_joints(q_deg: &[Vec<f64>], after: &[f64]) -> anyhow::Result<Stri
     Ok(inline(svg))
 }
 
+/// A view of the workspace: title, axis descriptions and the projection of a point.
+type View = (
+    &'static str,
+    &'static str,
+    &'static str,
+    fn(&[f64; 3]) -> (f64, f64),
+);
+
 /// Where the error is large: the measured points in the robot's base frame from above (x, y)
 /// and from the side (radius from the first axis, z), coloured by the error (mm) from dark
 /// (small) to yellow (large).
@@ -181,7 +189,7 @@ pub fn workspace(points: &[[f64; 3]], errors: &[f64]) -> anyhow::Result<String> 
         root.fill(&WHITE).map_err(err)?;
         let (plots, bar) = root.split_horizontally(780);
         let panels = plots.split_evenly((1, 2));
-        let views: [(&str, &str, &str, fn(&[f64; 3]) -> (f64, f64)); 2] = [
+        let views: [View; 2] = [
             ("from above", "x (mm)", "y (mm)", |p| (p[0], p[1])),
             ("from the side", "radius from axis 1 (mm)", "z (mm)", |p| {
                 (p[0].hypot(p[1]), p[2])

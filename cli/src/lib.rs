@@ -14,6 +14,7 @@
 //!   held-out gap shrink);
 //! - [`plan`]: measurement planning on the desktop (pools, designs, the study);
 //! - [`reports`]: every command's report as a typed value (JSON and text from the same fields);
+//! - [`report_html`]: the calibration report, one self-contained HTML page (`report`, `demo`);
 //! - [`frames`] and [`compensation`]: the circle-point frames and corrected joint commands from
 //!   files;
 //! - [`commands`]: one thin module per subcommand; `main.rs` calls [`commands::main`].
@@ -27,6 +28,7 @@ pub mod formats;
 pub mod frames;
 pub mod output;
 pub mod plan;
+pub mod report_html;
 pub mod reports;
 pub mod simulation;
 

@@ -35,21 +35,60 @@ impl ErrorStats {
     }
 }
 
-/// Per-pose 3-D position errors (mm) of `robot` on `data`.
+/// Per-pose 3-D position errors (mm) of `robot` on `data`: the lengths of
+/// [`pose_error_vectors`].
 pub fn pose_errors<const N: usize, const V: usize>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
 ) -> Vec<f64> {
+    pose_error_vectors(robot, data)
+        .iter()
+        .map(|e| e.norm())
+        .collect()
+}
+
+/// Per-pose position errors, measured − model (mm, measurement frame), of `robot` on `data`;
+/// NaN where the model cannot be evaluated.
+pub fn pose_error_vectors<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    data: &[Measurement<f64, N>],
+) -> Vec<nalgebra::Vector3<f64>> {
     crate::compute::parallel::map_parts(data, |part| {
         let mut fk = ForwardKinematics::new();
         part.iter()
             .map(|m| match fk.compute_point(robot, &m.q, m.tool as usize) {
-                Some(p) => (m.point - p).norm(),
-                None => f64::NAN,
+                Some(p) => m.point - p,
+                None => nalgebra::Vector3::repeat(f64::NAN),
             })
-            .collect::<Vec<f64>>()
+            .collect::<Vec<_>>()
     })
     .concat()
+}
+
+/// Every parameter of a model by name, in report order: base, the MDH rows, the tool point,
+/// the tilts of `tilt_joints` (0-based), effect values, the tool orientation (when not the
+/// identity) and further tool points. The `parameters` of `identify`'s report and the rows
+/// of `report`'s parameter table.
+pub fn model_params<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    tilt_joints: &[usize],
+) -> Vec<Param> {
+    let mut params: Vec<Param> = kinecal::ParamSet::<64>::full(N, true)
+        .map(|s| s.as_slice().to_vec())
+        .unwrap_or_default();
+    params.extend(
+        (0..N as u8)
+            .map(Param::Beta)
+            .filter(|p| tilt_joints.contains(&(p.joint().unwrap_or(99)))),
+    );
+    params.extend((0..robot.effects().values().len()).map(|k| Param::Effect(k as u16)));
+    if !robot.tool_axes_identity() {
+        params.extend([Param::ToolRx, Param::ToolRy, Param::ToolRz]);
+    }
+    for k in 1..robot.tool_point_count() {
+        params.extend((0..3).map(|a| Param::ToolPoint(k as u8, a)));
+    }
+    params
 }
 
 /// Per-observation orientation errors (degrees: the angle between measured and model tool
@@ -170,6 +209,20 @@ pub struct Fit<const N: usize, const V: usize> {
     /// Weighted cost per degree of freedom (residual rows − estimated parameters): with the
     /// file's σ as weights, the χ² consistency figure (≈ 1 when the σ fit the residuals).
     pub chi2_per_dof: Option<f64>,
+    /// The strongest correlations between estimated parameters, from the same covariance,
+    /// largest |r| first (at most [`MAX_CORRELATIONS`]).
+    pub correlations: Vec<Correlation>,
+}
+
+/// How many correlations a [`Fit`] keeps.
+pub const MAX_CORRELATIONS: usize = 12;
+
+/// The correlation coefficient of two estimated parameters' estimates.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Correlation {
+    pub a: String,
+    pub b: String,
+    pub r: f64,
 }
 
 impl<const N: usize, const V: usize> Fit<N, V> {
@@ -190,6 +243,7 @@ impl<const N: usize, const V: usize> Fit<N, V> {
             held: Vec::new(),
             sigma: BTreeMap::new(),
             chi2_per_dof: None,
+            correlations: Vec::new(),
         }
     }
 
@@ -229,7 +283,7 @@ pub fn fit_lm<const N: usize, const V: usize>(
     })
     .map_err(|e| anyhow::anyhow!("identification: {e:?}"))?;
     let rows = residual_rows(data);
-    let (held, sigma, chi2_per_dof) = identifiability_report(&lm, rows, p.cost);
+    let (held, sigma, chi2_per_dof, correlations) = identifiability_report(&lm, rows, p.cost);
     Ok(Fit {
         robot: lm.robot().clone(),
         iterations: p.iteration,
@@ -243,17 +297,24 @@ pub fn fit_lm<const N: usize, const V: usize>(
         held,
         sigma,
         chi2_per_dof,
+        correlations,
     })
 }
 
 /// Reads the solver's last normal matrix: for each held parameter the estimated ones it is
-/// confounded with (coefficients of its normalised column on theirs), and the 1-σ of each
-/// estimated parameter.
+/// confounded with (coefficients of its normalised column on theirs), the 1-σ of each
+/// estimated parameter and the strongest correlations of their estimates.
+#[allow(clippy::type_complexity)]
 fn identifiability_report<const N: usize, const V: usize>(
     lm: &Levenberg<f64, N, V, VecLm<f64>>,
     rows: usize,
     cost: f64,
-) -> (Vec<Held>, BTreeMap<String, f64>, Option<f64>) {
+) -> (
+    Vec<Held>,
+    BTreeMap<String, f64>,
+    Option<f64>,
+    Vec<Correlation>,
+) {
     use nalgebra::{DMatrix, DVector};
     let params = lm.params();
     let n = params.len();
@@ -263,6 +324,7 @@ fn identifiability_report<const N: usize, const V: usize>(
     let m = active.len();
     let a = DMatrix::from_fn(m, m, |i, j| jtj(active[i], active[j]));
     let mut sigma = BTreeMap::new();
+    let mut correlations = Vec::new();
     let dof = rows.saturating_sub(m);
     let chi2_per_dof = (dof > 0).then(|| cost / dof as f64);
     let chol = a.clone().cholesky();
@@ -278,6 +340,20 @@ fn identifiability_report<const N: usize, const V: usize>(
             };
             sigma.insert(params[k].name(robot).to_string(), sd);
         }
+        for i in 0..m {
+            for j in 0..i {
+                let r = inv[(i, j)] / (inv[(i, i)] * inv[(j, j)]).sqrt();
+                if r.is_finite() {
+                    correlations.push(Correlation {
+                        a: params[active[j]].name(robot).to_string(),
+                        b: params[active[i]].name(robot).to_string(),
+                        r,
+                    });
+                }
+            }
+        }
+        correlations.sort_by(|x, y| y.r.abs().total_cmp(&x.r.abs()));
+        correlations.truncate(MAX_CORRELATIONS);
     }
     // Correlation-normalised: the coefficients then compare columns of different units.
     let d: Vec<f64> = (0..n).map(|k| jtj(k, k).max(0.0).sqrt()).collect();
@@ -320,7 +396,7 @@ fn identifiability_report<const N: usize, const V: usize>(
             }
         })
         .collect();
-    (held, sigma, chi2_per_dof)
+    (held, sigma, chi2_per_dof, correlations)
 }
 
 /// An effect to add to the model before identification (`--effect KIND:JOINT[:ARG]`).

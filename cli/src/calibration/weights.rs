@@ -223,3 +223,87 @@ where
         .map_or(1.0, |s| s.0);
     Ok((c, scores))
 }
+
+/// How [`weighted_fit`] weighs the observations (what the caller decided from its flags).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Weighting {
+    /// Error floors for what the model cannot explain (6-D or σ-weighted data, the weighting
+    /// left to the data), refitted until they settle.
+    pub balance: bool,
+    /// Choose the orientation factor by cross-validation (6-D, no `--deg-weight-mm`, ≥ 20
+    /// poses).
+    pub orientation_cv: bool,
+    /// Parameters the caller estimates (the floors' degrees of freedom).
+    pub params: usize,
+}
+
+impl Weighting {
+    /// The weighting `identify` uses for `poses` identification poses of 6-D and/or
+    /// σ-weighted rows under the observation flags `obs`, estimating `params` parameters.
+    pub fn of(
+        six_d: bool,
+        sigma: bool,
+        obs: &crate::formats::observations::ObservationArgs,
+        poses: usize,
+        params: usize,
+    ) -> Self {
+        Self {
+            balance: (six_d && obs.deg_weight_mm.is_none() && !sigma)
+                || (sigma && !obs.sigma_as_stated),
+            orientation_cv: six_d && obs.deg_weight_mm.is_none() && poses >= 20,
+            params,
+        }
+    }
+}
+
+/// What [`weighted_fit`] settled on.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Weighted {
+    pub floors: Option<Floors>,
+    /// The orientation factor chosen and the cross-validated position RMS of each factor.
+    pub orientation_cv: Option<(f64, Vec<(f64, f64)>)>,
+}
+
+/// The fit `run` makes of `data` with the weighting of `how`: a first fit, then (balance) the
+/// error floors at the fit applied and refitted until they settle (at most four rounds), then
+/// (orientation_cv) the orientation factor of [`choose_orientation_factor`] applied and
+/// refitted. `data`'s weights are left as the final fit used them. `identify` fits from the
+/// file's model; `report` runs the same from the identified model to read its covariance.
+pub fn weighted_fit<const N: usize, const V: usize, F>(
+    data: &mut [Measurement<f64, N>],
+    pose_of: &[usize],
+    stated: &[Stated],
+    how: Weighting,
+    run: F,
+) -> anyhow::Result<(crate::calibration::Fit<N, V>, Weighted)>
+where
+    F: Fn(&[Measurement<f64, N>]) -> anyhow::Result<crate::calibration::Fit<N, V>>,
+{
+    let mut fit = run(data)?;
+    let mut out = Weighted::default();
+    if how.balance {
+        for _ in 0..4 {
+            let estimated = how.params.saturating_sub(fit.unidentifiable.len());
+            let f = floors(&fit.robot, data, stated, estimated);
+            let settled = out.floors.is_some_and(|o| {
+                let close = |a: f64, b: f64| (a - b).abs() <= 0.01 * a.abs().max(b.abs());
+                close(o.point_mm, f.point_mm) && close(o.orientation_rad, f.orientation_rad)
+            });
+            out.floors = Some(f);
+            if settled {
+                break;
+            }
+            apply(data, stated, &f);
+            fit = run(data)?;
+        }
+    }
+    if how.orientation_cv {
+        let (c, scores) = choose_orientation_factor(data, pose_of, 5, |d| Ok(run(d)?.robot))?;
+        if c != 1.0 {
+            scale_orientation(data, c);
+            fit = run(data)?;
+        }
+        out.orientation_cv = Some((c, scores));
+    }
+    Ok((fit, out))
+}

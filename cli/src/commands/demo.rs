@@ -184,6 +184,7 @@ pub fn run(args: &Args) -> anyhow::Result<DemoReport> {
     let hybrid = bpnn_pso_mdh(&net, &nominal, &ident, swarm_seed, args.max_iterations)?;
     let hybrid_seconds = t.elapsed().as_secs_f64();
     let hybrid_reach = hybrid.fit.history.iter().position(|f| *f <= pso_final);
+    let hybrid_robot = hybrid.fit.robot.clone();
     record(
         "bpnn-pso",
         hybrid.fit,
@@ -239,6 +240,52 @@ pub fn run(args: &Args) -> anyhow::Result<DemoReport> {
         "Position error on the 50 validation poses",
         &errors,
     )?;
+
+    // The calibration report of the paper's method (BPNN-PSO) on these poses.
+    let page = args.out_dir.join("report.html");
+    let built = crate::report_html::build(crate::report_html::Inputs {
+        robot_name: "ER20-C10 stand-in (kinecal demo)".into(),
+        model_name: "identified by BPNN-PSO (follow-up identification)".into(),
+        sources: crate::report_html::Sources {
+            files: vec![(
+                "data".into(),
+                format!(
+                    "kinecal demo --seed {}: {} identification and {} validation poses, \
+                     {} mm tracker noise",
+                    args.seed,
+                    ident.len(),
+                    valid.len(),
+                    sigma
+                ),
+            )],
+            units: "millimetres and degrees".into(),
+        },
+        nominal: &nominal,
+        base_fitted: false,
+        model: &hybrid_robot,
+        start: &nominal,
+        all_params: crate::calibration::model_params(&hybrid_robot, &[]),
+        estimated: set.as_slice().to_vec(),
+        ident: ident.clone(),
+        valid: valid.clone(),
+        pose_of: (0..ident.len()).collect(),
+        ident_poses: ident.len(),
+        valid_poses: valid.len(),
+        names: Vec::new(),
+        six_d: false,
+        sigma: false,
+        weighting: crate::calibration::weights::Weighting {
+            balance: false,
+            orientation_cv: false,
+            params: set.as_slice().len(),
+        },
+        limits_deg: vec![None; 6],
+        stall_rms_mm: 5.0,
+        diagnose: None,
+    })?;
+    crate::output::atomic::write_atomic(&page, built.html.as_bytes())
+        .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", page.display()))?;
+    eprintln!("wrote the calibration report {}", page.display());
 
     let ratio = hybrid_reach.map(|h| h as f64 / pso_reach.max(1) as f64);
     Ok(DemoReport {

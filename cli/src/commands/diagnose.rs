@@ -5,7 +5,7 @@
 use super::inputs::InputArgs;
 use crate::calibration::split_holdout;
 use crate::diagnose::linear::squared_errors;
-use crate::diagnose::observations::{fit_all_observations, FullFit, Weighting};
+use crate::diagnose::observations::{fit_all_observations, FullFit, Observations};
 use crate::diagnose::{diagnose_with_progress, Config, Diagnosis, Progress};
 use crate::formats::observations::{flatten, observe, ObservationArgs, Observed, Pose};
 use crate::formats::robot_file::{load_robot, RobotFile};
@@ -290,11 +290,10 @@ fn all_observations<const N: usize>(
         .flat_map(|(k, p)| std::iter::repeat_n(k, p.observations.len()))
         .collect();
     let (data, held) = (flatten(poses.0), flatten(poses.1));
-    let w = Weighting {
+    let w = Observations {
         six_d: observed.six_d,
         sigma: observed.sigma,
-        deg_weight_set: obs.deg_weight_mm.is_some(),
-        sigma_as_stated: obs.sigma_as_stated,
+        obs,
     };
     let tool_axes_unknown = observed.six_d && file.tool.rpy_deg.is_none();
     let fitted = fit_all_observations(

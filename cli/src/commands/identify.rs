@@ -3,13 +3,12 @@
 use super::inputs::InputArgs;
 use crate::calibration::method::Method;
 use crate::calibration::{
-    add_effect, fit_lm, named_values, split_holdout, weights, EffectRequest, Fit, Residuals,
+    add_effect, fit_lm, named_values, weights, EffectRequest, Fit, Residuals,
 };
-use crate::formats::observations::{flatten, observe, ObservationArgs, Observed};
+use crate::formats::observations::ObservationArgs;
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::reports::identify::{Change, IdentifyReport, ObservationSummary, PointResiduals};
 use crate::{with_joints, VCAP};
-use anyhow::Context;
 use kinecal::identify::lm::LmConfig;
 use kinecal::model::param::ParamSet;
 use kinecal::{Measurement, Robot};
@@ -81,38 +80,21 @@ pub fn run(args: &Args) -> anyhow::Result<IdentifyReport> {
 fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport> {
     let input = &args.input;
     let (file, mut nominal) = load_robot::<N>(&input.robot)?;
-    let load = |p: &std::path::Path| -> anyhow::Result<Observed<N>> {
-        let ds =
-            crate::formats::units::load_measurements(p, &input.units, &nominal, file.base_known())?;
-        observe(&ds, &file, &args.obs, &p.display().to_string())
-    };
-    let observed = load(&input.data)?;
-    let all = super::inputs::some_rows(observed.poses.clone(), &input.data)?;
-    let (ident, valid) = match (&args.validate, args.holdout) {
-        (Some(v), _) => (all, super::inputs::some_rows(load(v)?.poses, v)?),
-        (None, Some(h)) => {
-            if !(h.is_finite() && h > 0.0) {
-                crate::refuse!(
-                    "--holdout {h}: give a fraction (0 < F < 1) or a count of poses (≥ 1)"
-                );
-            }
-            split_holdout(&all, h)?
-        }
-        (None, None) => (all, Vec::new()),
-    };
-    let (ident_poses, valid_poses) = (ident.len(), valid.len());
-    let pose_of: Vec<usize> = ident
-        .iter()
-        .enumerate()
-        .flat_map(|(k, p)| std::iter::repeat_n(k, p.observations.len()))
-        .collect();
-    let (ident, valid) = (flatten(&ident), flatten(&valid));
-    if ident.is_empty() {
-        crate::refuse!(
-            "{}: --holdout leaves no poses to identify from: hold out fewer",
-            input.data.display()
-        );
-    }
+    let super::inputs::Split {
+        observed,
+        ident,
+        valid,
+        ident_poses,
+        valid_poses,
+        pose_of,
+    } = super::inputs::load_split(
+        input,
+        &file,
+        &nominal,
+        &args.obs,
+        args.validate.as_deref(),
+        args.holdout,
+    )?;
     for (flag, v) in [
         ("--tolerance-mm", args.tolerance_mm),
         ("--tolerance-deg", args.tolerance_deg),
@@ -121,23 +103,10 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
         crate::check_positive(flag, v, 1e6)?;
     }
     let base_unknown = !file.base_known();
-    if base_unknown {
-        let base = crate::compute::registration::fit_base(&nominal, &ident)
-            .context("estimating the base pose")?;
-        nominal
-            .set_base(base)
-            .map_err(|e| anyhow::anyhow!("estimated base pose is invalid: {e:?}"))?;
-    }
     // 6-D data and no `[tool] rpy_deg`: the measured frame's orientation is unknown; started
     // from the data as the base is (and then compared with no tolerance).
-    let tool_axes_unknown = observed.six_d && file.tool.rpy_deg.is_none();
-    if tool_axes_unknown {
-        if let Some(axes) = crate::compute::registration::fit_tool_axes(&nominal, &ident) {
-            nominal
-                .set_tool_axes(axes)
-                .map_err(|e| anyhow::anyhow!("estimated tool orientation is invalid: {e:?}"))?;
-        }
-    }
+    let tool_axes_unknown =
+        super::inputs::place_nominal(&mut nominal, &file, &ident, observed.six_d)?;
     // Effects requested on the command line join the model with zero values.
     let mut extra = Vec::new();
     for t in file.tilt_joints() {
@@ -184,41 +153,20 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
     };
     let mut ident = ident;
     let stated = weights::stated(&ident, observed.sigma);
-    let mut fit = run_method(&ident)?;
     // 6-D or σ-weighted data: error floors for what the model cannot explain, refitted until
-    // they settle (crate::calibration::weights); not when the user set the weighting.
-    let balance = (observed.six_d && args.obs.deg_weight_mm.is_none() && !observed.sigma)
-        || (observed.sigma && !args.obs.sigma_as_stated);
-    let mut floors: Option<weights::Floors> = None;
-    if balance {
-        for _ in 0..4 {
-            let estimated = params.len().saturating_sub(fit.unidentifiable.len());
-            let f = weights::floors(&fit.robot, &ident, &stated, estimated);
-            let settled = floors.is_some_and(|o| {
-                let close = |a: f64, b: f64| (a - b).abs() <= 0.01 * a.abs().max(b.abs());
-                close(o.point_mm, f.point_mm) && close(o.orientation_rad, f.orientation_rad)
-            });
-            floors = Some(f);
-            if settled {
-                break;
-            }
-            weights::apply(&mut ident, &stated, &f);
-            fit = run_method(&ident)?;
-        }
-    }
-    // 6-D with the weighting left to the data: how much the orientations weigh against the
-    // positions is chosen by cross-validating position prediction over the identification
-    // poses (calibration::weights::choose_orientation_factor).
-    let mut orientation_cv = None;
-    if observed.six_d && args.obs.deg_weight_mm.is_none() && ident_poses >= 20 {
-        let (c, scores) =
-            weights::choose_orientation_factor(&ident, &pose_of, 5, |d| Ok(run_method(d)?.robot))?;
-        if c != 1.0 {
-            weights::scale_orientation(&mut ident, c);
-            fit = run_method(&ident)?;
-        }
-        orientation_cv = Some((c, scores));
-    }
+    // they settle; not when the user set the weighting. 6-D with the weighting left to the
+    // data: how much the orientations weigh against the positions is chosen by
+    // cross-validating position prediction over the identification poses
+    // (crate::calibration::weights::weighted_fit).
+    let how = weights::Weighting::of(
+        observed.six_d,
+        observed.sigma,
+        &args.obs,
+        ident_poses,
+        params.len(),
+    );
+    let (fit, weighted) = weights::weighted_fit(&mut ident, &pose_of, &stated, how, run_method)?;
+    let (floors, orientation_cv) = (weighted.floors, weighted.orientation_cv);
     let seconds = t0.elapsed().as_secs_f64();
     let after = Residuals::of(&fit.robot, &ident, &valid);
     let per_point =
@@ -390,7 +338,7 @@ fn enough_poses(
 }
 
 /// Applies `--fix` and `--free` to the parameter list (names as printed, geometric only).
-fn apply_fix_free(
+pub(crate) fn apply_fix_free(
     params: &mut Vec<kinecal::Param>,
     fix: &[String],
     free: &[String],
@@ -479,26 +427,7 @@ fn report<const N: usize>(
     changes: Vec<Change>,
     verdict: &Verdict,
 ) -> IdentifyReport {
-    let mut params: Vec<kinecal::Param> = ParamSet::<64>::full(N, true)
-        .map(|s| s.as_slice().to_vec())
-        .unwrap_or_default();
-    params.extend(
-        (0..N as u8)
-            .map(kinecal::Param::Beta)
-            .filter(|p| file.tilt_joints().contains(&(p.joint().unwrap_or(99)))),
-    );
-    params
-        .extend((0..fit.robot.effects().values().len()).map(|k| kinecal::Param::Effect(k as u16)));
-    if !fit.robot.tool_axes_identity() {
-        params.extend([
-            kinecal::Param::ToolRx,
-            kinecal::Param::ToolRy,
-            kinecal::Param::ToolRz,
-        ]);
-    }
-    for k in 1..fit.robot.tool_point_count() {
-        params.extend((0..3).map(|a| kinecal::Param::ToolPoint(k as u8, a)));
-    }
+    let params = crate::calibration::model_params(&fit.robot, &file.tilt_joints());
     IdentifyReport {
         method: method.id().to_string(),
         n_identification: ident,

@@ -42,3 +42,99 @@ pub fn some_rows<T>(rows: Vec<T>, path: &std::path::Path) -> anyhow::Result<Vec<
     }
     Ok(rows)
 }
+
+/// The identification and held-out observations of the data file (and `--validate` file or
+/// `--holdout` split), as `identify` fits them and `report` judges them.
+pub struct Split<const N: usize> {
+    /// Every pose of the data file, with what they observe (names, 6-D, σ).
+    pub observed: crate::formats::observations::Observed<N>,
+    pub ident: Vec<kinecal::Measurement<f64, N>>,
+    pub valid: Vec<kinecal::Measurement<f64, N>>,
+    pub ident_poses: usize,
+    pub valid_poses: usize,
+    /// The pose of each identification observation.
+    pub pose_of: Vec<usize>,
+}
+
+/// Loads the data (and `validate`) in the units of `input` and splits them: the validation
+/// file's poses are held out, or the last poses by `holdout` (a fraction < 1 or a count);
+/// refuses (exit 2) empty files and a split that leaves nothing to identify from.
+pub fn load_split<const N: usize>(
+    input: &InputArgs,
+    file: &crate::formats::robot_file::RobotFile,
+    nominal: &kinecal::Robot<f64, N, { crate::VCAP }>,
+    obs: &crate::formats::observations::ObservationArgs,
+    validate: Option<&std::path::Path>,
+    holdout: Option<f64>,
+) -> anyhow::Result<Split<N>> {
+    use crate::formats::observations::{flatten, observe, Observed};
+    let load = |p: &std::path::Path| -> anyhow::Result<Observed<N>> {
+        let ds =
+            crate::formats::units::load_measurements(p, &input.units, nominal, file.base_known())?;
+        observe(&ds, file, obs, &p.display().to_string())
+    };
+    let observed = load(&input.data)?;
+    let all = some_rows(observed.poses.clone(), &input.data)?;
+    let (ident, valid) = match (validate, holdout) {
+        (Some(v), _) => (all, some_rows(load(v)?.poses, v)?),
+        (None, Some(h)) => {
+            if !(h.is_finite() && h > 0.0) {
+                crate::refuse!(
+                    "--holdout {h}: give a fraction (0 < F < 1) or a count of poses (≥ 1)"
+                );
+            }
+            crate::calibration::split_holdout(&all, h)?
+        }
+        (None, None) => (all, Vec::new()),
+    };
+    let (ident_poses, valid_poses) = (ident.len(), valid.len());
+    let pose_of: Vec<usize> = ident
+        .iter()
+        .enumerate()
+        .flat_map(|(k, p)| std::iter::repeat_n(k, p.observations.len()))
+        .collect();
+    let (ident, valid) = (flatten(&ident), flatten(&valid));
+    if ident.is_empty() {
+        crate::refuse!(
+            "{}: --holdout leaves no poses to identify from: hold out fewer",
+            input.data.display()
+        );
+    }
+    Ok(Split {
+        observed,
+        ident,
+        valid,
+        ident_poses,
+        valid_poses,
+        pose_of,
+    })
+}
+
+/// Places the nominal robot where identification starts: its base fitted to the
+/// identification observations (point-set registration) when the robot file has no `[base]`,
+/// and for 6-D data without `[tool] rpy_deg` the measured frame's orientation started from the
+/// data. Returns whether the tool orientation was unknown.
+pub fn place_nominal<const N: usize>(
+    nominal: &mut kinecal::Robot<f64, N, { crate::VCAP }>,
+    file: &crate::formats::robot_file::RobotFile,
+    ident: &[kinecal::Measurement<f64, N>],
+    six_d: bool,
+) -> anyhow::Result<bool> {
+    use anyhow::Context;
+    if !file.base_known() {
+        let base = crate::compute::registration::fit_base(nominal, ident)
+            .context("estimating the base pose")?;
+        nominal
+            .set_base(base)
+            .map_err(|e| anyhow::anyhow!("estimated base pose is invalid: {e:?}"))?;
+    }
+    let tool_axes_unknown = six_d && file.tool.rpy_deg.is_none();
+    if tool_axes_unknown {
+        if let Some(axes) = crate::compute::registration::fit_tool_axes(nominal, ident) {
+            nominal
+                .set_tool_axes(axes)
+                .map_err(|e| anyhow::anyhow!("estimated tool orientation is invalid: {e:?}"))?;
+        }
+    }
+    Ok(tool_axes_unknown)
+}

@@ -14,6 +14,7 @@ pub mod identify;
 pub mod import;
 pub mod inputs;
 pub mod plan;
+pub mod report;
 pub mod simulate;
 pub mod study;
 
@@ -58,6 +59,9 @@ enum Command {
     Import(import::Args),
     /// A calibrated model into the robot's URDF, or as a table of DH parameters.
     Export(export::Args),
+    /// The calibration report: one self-contained HTML page (before/after, parameters,
+    /// findings).
+    Report(report::Args),
 }
 
 fn boxed<R: Report + 'static>(r: anyhow::Result<R>) -> anyhow::Result<Box<dyn Report>> {
@@ -77,6 +81,7 @@ fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
         Command::Study(a) => boxed(study::run(a)),
         Command::Import(a) => boxed(import::run(a)),
         Command::Export(a) => boxed(export::run(a, cli.json)),
+        Command::Report(a) => boxed(report::run(a)),
     }
 }
 

@@ -17,27 +17,26 @@
 //! 3. the geometry alone and the extended model (the search's parameter set, its tables
 //!    penalised as in the search) are fitted with the same weights, so their errors compare.
 
-use crate::calibration::{fit_lm, weights, Residuals};
+use crate::calibration::weights::{self, weighted_fit, Weighting};
+use crate::calibration::{fit_lm, Fit, Residuals};
 use crate::diagnose::linear::Problem;
 use crate::diagnose::refit::fit;
 use crate::diagnose::{Config, Diagnosis};
+use crate::formats::observations::ObservationArgs;
 use crate::VCAP;
 use kinecal::identify::lm::LmConfig;
 use kinecal::model::param::{Param, ParamSet};
 use kinecal::{Measurement, Robot};
 
-/// How the file's observations are weighted (`identify`'s flags, [`crate::formats::
-/// observations::ObservationArgs`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Weighting {
+/// What the file observed and how the user asked it to be weighed.
+#[derive(Clone, Copy, Debug)]
+pub struct Observations<'a> {
     /// Orientation observed.
     pub six_d: bool,
     /// The file's σ columns weight the residuals.
     pub sigma: bool,
-    /// `--deg-weight-mm` was given: the orientation weight is the user's.
-    pub deg_weight_set: bool,
-    /// `--sigma-as-stated`: no error floors.
-    pub sigma_as_stated: bool,
+    /// The weighting flags (`--deg-weight-mm`, `--sigma-as-stated`, …).
+    pub obs: &'a ObservationArgs,
 }
 
 /// The geometry and the extended model fitted to all observations.
@@ -93,7 +92,7 @@ pub fn fit_all_observations<const N: usize>(
     d: &Diagnosis<N>,
     data: &[Measurement<f64, N>],
     pose_of: &[usize],
-    w: Weighting,
+    w: Observations,
     base_known: bool,
     tool_axes_unknown: bool,
     cfg: &Config,
@@ -136,42 +135,18 @@ pub fn fit_all_observations<const N: usize>(
             .filter(|p| matches!(p, Param::Effect(_))),
     );
     let problem = Problem::new(&start_ext, &params, penalty)?;
-    let run = |data: &[Measurement<f64, N>]| fit(&start_ext, &problem, data, iterations);
-    let mut ext = run(&weighted)?;
-    // 2. Error floors and the orientation weight (calibration::weights), as identify does.
-    let balance = (w.six_d && !w.deg_weight_set && !w.sigma) || (w.sigma && !w.sigma_as_stated);
-    let estimated = params.len();
-    let mut floors: Option<weights::Floors> = None;
-    if balance {
-        for _ in 0..4 {
-            let f = weights::floors(&ext.robot, &weighted, &stated, estimated);
-            let settled = floors.is_some_and(|o| {
-                let close = |a: f64, b: f64| (a - b).abs() <= 0.01 * a.abs().max(b.abs());
-                close(o.point_mm, f.point_mm) && close(o.orientation_rad, f.orientation_rad)
-            });
-            floors = Some(f);
-            if settled {
-                break;
-            }
-            weights::apply(&mut weighted, &stated, &f);
-            ext = run(&weighted)?;
-        }
-    }
+    let run = |data: &[Measurement<f64, N>]| {
+        let o = fit(&start_ext, &problem, data, iterations)?;
+        Ok(Fit::plain(o.robot, o.iterations, 0, Vec::new()))
+    };
+    // 2. Error floors and the orientation weight, as identify weighs (calibration::weights).
     let poses = pose_of.last().map_or(0, |p| p + 1);
-    let mut orientation_factor = None;
-    if w.six_d && !w.deg_weight_set && poses >= 20 {
-        let (c, scores) =
-            weights::choose_orientation_factor(&weighted, pose_of, 5, |d| Ok(run(d)?.robot))?;
-        if c != 1.0 {
-            weights::scale_orientation(&mut weighted, c);
-            ext = run(&weighted)?;
-        }
-        orientation_factor = Some((c, scores));
-    }
+    let how = Weighting::of(w.six_d, w.sigma, w.obs, poses, params.len());
+    let (ext, weighted_how) = weighted_fit(&mut weighted, pose_of, &stated, how, run)?;
     // 3. The geometry with the same weights, for the comparison.
     let geo = fit_lm(&start_geo, &geometric, &weighted, LmConfig::default())?;
     let chi2_per_dof = if w.sigma {
-        weights::chi2_per_dof(&ext.robot, &weighted, &stated, estimated)
+        weights::chi2_per_dof(&ext.robot, &weighted, &stated, params.len())
     } else {
         None
     };
@@ -180,8 +155,8 @@ pub fn fit_all_observations<const N: usize>(
         model: ext.robot,
         unidentifiable,
         weighted,
-        floors,
-        orientation_factor,
+        floors: weighted_how.floors,
+        orientation_factor: weighted_how.orientation_cv,
         chi2_per_dof,
         iterations: ext.iterations,
     })

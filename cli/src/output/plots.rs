@@ -31,13 +31,29 @@ pub fn line_chart(
     series: &[(String, Vec<(f64, f64)>)],
     log_y: bool,
 ) -> anyhow::Result<()> {
+    // Drawn in memory, then written atomically (never a torn SVG).
+    let svg = line_chart_svg(title, x_label, y_label, series, log_y, (900, 500))
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    crate::output::plots::save_svg(path, &svg)?;
+    Ok(())
+}
+
+/// [`line_chart`] as SVG text of `size` pixels (for inlining in a page).
+pub fn line_chart_svg(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[(String, Vec<(f64, f64)>)],
+    log_y: bool,
+    size: (u32, u32),
+) -> anyhow::Result<String> {
     let tf = |y: f64| if log_y { y.max(1e-300).log10() } else { y };
     let pts: Vec<(f64, f64)> = series
         .iter()
         .flat_map(|s| s.1.iter().map(|&(x, y)| (x, tf(y))))
         .filter(|p| p.0.is_finite() && p.1.is_finite())
         .collect();
-    anyhow::ensure!(!pts.is_empty(), "plot {}: no data", path.display());
+    anyhow::ensure!(!pts.is_empty(), "plot {title}: no data");
     let (x0, x1) = pts
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
@@ -49,10 +65,9 @@ pub fn line_chart(
             (a.min(p.1), b.max(p.1))
         });
     let pad = ((y1 - y0) * 0.05).max(1e-9);
-    // Drawn in memory, then written atomically (never a torn SVG).
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (900, 500)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
         root.fill(&WHITE).map_err(plot_err)?;
         let mut chart = ChartBuilder::on(&root)
             .caption(title, ("sans-serif", 20))
@@ -93,8 +108,7 @@ pub fn line_chart(
             .map_err(plot_err)?;
         root.present().map_err(plot_err)?;
     }
-    crate::output::plots::save_svg(path, &svg)?;
-    Ok(())
+    Ok(svg)
 }
 
 /// Per-pose position errors (mm) of several models on the same poses, as points.

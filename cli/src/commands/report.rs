@@ -1,0 +1,281 @@
+//! `kinecal report`: the calibration report, one self-contained HTML page
+//! ([`crate::report_html`]), from the robot file, the model `identify --out` wrote, the
+//! identification data and optionally held-out data and a diagnose JSON.
+
+use super::inputs::InputArgs;
+use crate::calibration::{model_params, weights};
+use crate::formats::observations::ObservationArgs;
+use crate::formats::robot_file::{load_robot, RobotFile};
+use crate::report_html::summary::ReportSummary;
+use crate::report_html::{build, findings, Inputs, Sources};
+use crate::{with_joints, VCAP};
+use kinecal::model::param::ParamSet;
+use kinecal::{Param, Robot};
+use std::path::{Path, PathBuf};
+
+/// Arguments of `kinecal report` (docs/formats.md).
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Robot file (the nominal model), identification data and their units.
+    #[command(flatten)]
+    pub input: InputArgs,
+    /// The identified model (`identify --robot R --data D --out M`).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Held-out measurements: figures on poses the model never saw.
+    #[arg(long)]
+    pub validate: Option<PathBuf>,
+    /// Hold out the last poses of the data, as `identify --holdout` did: a fraction (< 1) or a
+    /// count (≥ 1).
+    #[arg(long, conflicts_with = "validate")]
+    pub holdout: Option<f64>,
+    /// The JSON of `kinecal diagnose --json` on these data: its findings and their plots.
+    #[arg(long)]
+    pub diagnose: Option<PathBuf>,
+    /// The page to write (HTML; written atomically, never over an input).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// The parameters `identify` was told to hold (`--fix`), for the 1-σ and the table.
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub fix: Vec<String>,
+    /// The parameters `identify` was told to add (`--free`).
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub free: Vec<String>,
+    /// A model that misses the identification poses by more than this RMS (mm) is not a
+    /// calibration of these data (exit 3).
+    #[arg(long, default_value_t = 5.0)]
+    pub stall_rms_mm: f64,
+    /// Orientation and σ columns: how they are used (as given to `identify`).
+    #[command(flatten)]
+    pub obs: ObservationArgs,
+}
+
+/// Runs the subcommand: writes the page and returns its summary.
+pub fn run(args: &Args) -> anyhow::Result<ReportSummary> {
+    let input = &args.input;
+    let mut inputs = vec![
+        ("robot", input.robot.as_path()),
+        ("data", input.data.as_path()),
+        ("model", args.model.as_path()),
+    ];
+    if let Some(v) = &args.validate {
+        inputs.push(("validation", v));
+    }
+    if let Some(d) = &args.diagnose {
+        inputs.push(("diagnose", d));
+    }
+    crate::output::atomic::refuse_overwriting_inputs("--out", &args.out, &inputs)?;
+    crate::check_positive("--stall-rms-mm", args.stall_rms_mm, 1e6)?;
+    let n = RobotFile::load(&input.robot)?.joint_count();
+    let m = RobotFile::load(&args.model)?.joint_count();
+    if m != n {
+        crate::refuse!(
+            "{}: a model of a {m}-joint robot, but {} has {n} joints: give the model that \
+             `kinecal identify --robot {} --out M.toml` wrote",
+            args.model.display(),
+            input.robot.display(),
+            input.robot.display()
+        );
+    }
+    let mut summary = with_joints!(n, N => run_with_joints::<N>(args))?;
+    summary.out = Some(args.out.display().to_string());
+    Ok(summary)
+}
+
+/// Refuses (exit 2) a model whose geometry is far from the robot file's: not an identified
+/// model of this robot (lengths beyond 100 mm, angles beyond 10°, or other tool points).
+fn same_robot<const N: usize>(
+    robot: &Robot<f64, N, VCAP>,
+    model: &Robot<f64, N, VCAP>,
+    paths: (&Path, &Path),
+) -> anyhow::Result<()> {
+    let wrap = |a: f64| {
+        (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
+    };
+    let refuse = |what: String| -> anyhow::Result<()> {
+        crate::refuse!(
+            "{}: not an identified model of {} ({what}): give the model that `kinecal identify \
+             --robot {} --out M.toml` wrote",
+            paths.1.display(),
+            paths.0.display(),
+            paths.0.display()
+        )
+    };
+    if robot.tool_point_count() != model.tool_point_count() {
+        return refuse(format!(
+            "{} tool points against {}",
+            model.tool_point_count(),
+            robot.tool_point_count()
+        ));
+    }
+    for (j, (a, b)) in robot.joints().iter().zip(model.joints()).enumerate() {
+        for (name, d) in [("a", b.a - a.a), ("d", b.d - a.d)] {
+            if d.is_nan() || d.abs() > 100.0 {
+                return refuse(format!(
+                    "{name}{} differs by {} mm",
+                    j + 1,
+                    crate::number_text(d)
+                ));
+            }
+        }
+        for (name, d) in [("alpha", b.alpha - a.alpha), ("theta", b.theta - a.theta)] {
+            let d = wrap(d).to_degrees();
+            if d.is_nan() || d.abs() > 10.0 {
+                return refuse(format!(
+                    "{name}{} differs by {}°",
+                    j + 1,
+                    crate::number_text(d)
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn units_text(args: &Args) -> String {
+    use crate::formats::units::{AngleUnit, LengthUnit};
+    let u = &args.input.units;
+    format!(
+        "positions read as {}, joint readings as {}{}",
+        match u.length_unit {
+            Some(LengthUnit::M) => "metres (--length-unit m)",
+            Some(LengthUnit::Mm) => "millimetres (--length-unit mm)",
+            None => "millimetres",
+        },
+        match u.angle_unit {
+            Some(AngleUnit::Rad) => "radians (--angle-unit rad)",
+            Some(AngleUnit::Deg) => "degrees (--angle-unit deg)",
+            None => "degrees",
+        },
+        "; the report is in millimetres and degrees"
+    )
+}
+
+fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary> {
+    let input = &args.input;
+    let (file, mut nominal) = load_robot::<N>(&input.robot)?;
+    let (model_file, model) = load_robot::<N>(&args.model)?;
+    same_robot(&nominal, &model, (&input.robot, &args.model))?;
+    let obs = &args.obs;
+    let split = super::inputs::load_split(
+        input,
+        &file,
+        &nominal,
+        obs,
+        args.validate.as_deref(),
+        args.holdout,
+    )?;
+    let observed = &split.observed;
+    // "Before" is the nominal robot placed as identify and check place it.
+    let base_unknown = !file.base_known();
+    super::inputs::place_nominal(&mut nominal, &file, &split.ident, observed.six_d)?;
+    // The parameters identify estimated: its default set, the model's effects and tilts.
+    let mut tilts = file.tilt_joints();
+    tilts.extend(model_file.tilt_joints());
+    tilts.extend((0..N).filter(|&j| model.joints()[j].beta != 0.0));
+    tilts.sort_unstable();
+    tilts.dedup();
+    let mut estimated: Vec<Param> = ParamSet::<64>::full(N, base_unknown)
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?
+        .as_slice()
+        .to_vec();
+    estimated.extend(tilts.iter().map(|&j| Param::Beta(j as u8)));
+    estimated.extend((0..model.effects().values().len()).map(|k| Param::Effect(k as u16)));
+    if observed.six_d {
+        estimated.extend([Param::ToolRx, Param::ToolRy, Param::ToolRz]);
+    }
+    for k in 1..model.tool_point_count() {
+        estimated.extend((0..3).map(|a| Param::ToolPoint(k as u8, a)));
+    }
+    super::identify::apply_fix_free(&mut estimated, &args.fix, &args.free, N)?;
+    let weighting = weights::Weighting::of(
+        observed.six_d,
+        observed.sigma,
+        obs,
+        split.ident_poses,
+        estimated.len(),
+    );
+    let diagnose = match &args.diagnose {
+        Some(p) => Some((findings::load(p)?, p.display().to_string())),
+        None => None,
+    };
+    let mut files = vec![
+        ("robot file".to_string(), input.robot.display().to_string()),
+        (
+            "identified model".to_string(),
+            args.model.display().to_string(),
+        ),
+        (
+            "identification data".to_string(),
+            input.data.display().to_string(),
+        ),
+    ];
+    match (&args.validate, args.holdout) {
+        (Some(v), _) => files.push(("held-out data".into(), v.display().to_string())),
+        (None, Some(h)) => files.push((
+            "held-out data".into(),
+            format!(
+                "the last {} poses of the data (--holdout {h})",
+                split.valid_poses
+            ),
+        )),
+        _ => {}
+    }
+    if let Some(d) = &args.diagnose {
+        files.push(("diagnose findings".into(), d.display().to_string()));
+    }
+    let all_params = model_params(&model, &tilts);
+    // identify's start: the placed nominal robot with the effects it added at zero.
+    let mut start = nominal.clone();
+    for e in model.effects().iter().skip(nominal.effects().len()) {
+        start
+            .effects_mut()
+            .push(
+                e.kind,
+                e.joint as usize,
+                N,
+                e.order,
+                e.start,
+                e.step,
+                &vec![0.0; e.len as usize],
+            )
+            .map_err(|err| anyhow::anyhow!("{}: effect: {err:?}", args.model.display()))?;
+    }
+    let built = build(Inputs {
+        robot_name: file.name.clone(),
+        model_name: model_file.name.clone(),
+        sources: Sources {
+            files,
+            units: units_text(args),
+        },
+        nominal: &nominal,
+        base_fitted: base_unknown,
+        model: &model,
+        start: &start,
+        all_params,
+        estimated,
+        names: observed.names.clone(),
+        six_d: observed.six_d,
+        sigma: observed.sigma,
+        weighting,
+        limits_deg: file.joints.iter().map(|j| j.limits_deg).collect(),
+        stall_rms_mm: args.stall_rms_mm,
+        diagnose,
+        ident: split.ident,
+        valid: split.valid,
+        pose_of: split.pose_of,
+        ident_poses: split.ident_poses,
+        valid_poses: split.valid_poses,
+    })?;
+    crate::output::atomic::write_atomic(&args.out, built.html.as_bytes())
+        .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", args.out.display()))?;
+    if !built.summary.converged {
+        eprintln!(
+            "error: {} misses the identification poses by {} mm RMS: not a calibration of \
+             these data (exit 3; the page says so)",
+            args.model.display(),
+            crate::output::numfmt::sig(built.summary.after.identification_rms_mm, 4)
+        );
+    }
+    Ok(built.summary)
+}

@@ -1,0 +1,111 @@
+//! Accuracy statistics of one model on one set of poses: per axis (the signed component of
+//! measured − model) and in total (the distance), RMS, mean, largest and 95th percentile.
+//!
+//! The totals come from [`crate::calibration::ErrorStats`] over
+//! [`crate::calibration::pose_errors`], the very functions `identify` reports with, so the
+//! report's RMS, mean and largest error equal `identify`'s.
+
+use crate::calibration::{pose_error_vectors, ErrorStats};
+use kinecal::{Measurement, Robot};
+use nalgebra::Vector3;
+use serde::Serialize;
+
+/// Statistics of one quantity over the poses (mm).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Figures {
+    pub rms: f64,
+    /// Mean of the signed value (per axis) or of the distance (total).
+    pub mean: f64,
+    /// Largest magnitude.
+    pub max: f64,
+    /// 95th percentile of the magnitude.
+    pub p95: f64,
+}
+
+/// The statistics of one model on one set: x, y, z and the distance.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct SetFigures {
+    pub poses: usize,
+    pub x: Figures,
+    pub y: Figures,
+    pub z: Figures,
+    pub total: Figures,
+}
+
+/// The `p`-quantile (0 ≤ p ≤ 1) of `values`, linear between order statistics (the default of
+/// NumPy and R's type 7); NaN when empty.
+pub fn quantile(values: &[f64], p: f64) -> f64 {
+    let mut v: Vec<f64> = values.iter().copied().filter(|x| !x.is_nan()).collect();
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let h = (v.len() - 1) as f64 * p.clamp(0.0, 1.0);
+    let (lo, hi) = (h.floor() as usize, h.ceil() as usize);
+    v[lo] + (h - lo as f64) * (v[hi] - v[lo])
+}
+
+fn axis(values: &[f64]) -> Figures {
+    let n = values.len().max(1) as f64;
+    let abs: Vec<f64> = values.iter().map(|v| v.abs()).collect();
+    Figures {
+        rms: (values.iter().map(|v| v * v).sum::<f64>() / n).sqrt(),
+        mean: values.iter().sum::<f64>() / n,
+        max: abs.iter().copied().fold(0.0, f64::max),
+        p95: quantile(&abs, 0.95),
+    }
+}
+
+impl SetFigures {
+    /// The figures of error vectors (measured − model); `None` for no poses.
+    pub fn of_vectors(errors: &[Vector3<f64>]) -> Option<Self> {
+        let dist: Vec<f64> = errors.iter().map(|e| e.norm()).collect();
+        let t = ErrorStats::of(&dist)?;
+        let comp = |a: usize| axis(&errors.iter().map(|e| e[a]).collect::<Vec<_>>());
+        Some(Self {
+            poses: errors.len(),
+            x: comp(0),
+            y: comp(1),
+            z: comp(2),
+            total: Figures {
+                rms: t.rms_mm,
+                mean: t.mean_mm,
+                max: t.max_mm,
+                p95: quantile(&dist, 0.95),
+            },
+        })
+    }
+
+    /// The figures of `robot` on `data`, with the error vectors (measured − model).
+    pub fn of<const N: usize, const V: usize>(
+        robot: &Robot<f64, N, V>,
+        data: &[Measurement<f64, N>],
+    ) -> (Option<Self>, Vec<Vector3<f64>>) {
+        let e = pose_error_vectors(robot, data);
+        (Self::of_vectors(&e), e)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantiles_follow_numpy() {
+        let v = [1.0, 2.0, 3.0, 4.0, 5.0];
+        assert_eq!(quantile(&v, 0.5), 3.0);
+        assert!((quantile(&v, 0.95) - 4.8).abs() < 1e-12);
+        assert!(quantile(&[], 0.5).is_nan());
+    }
+
+    #[test]
+    fn per_axis_and_total() {
+        let e = [Vector3::new(3.0, 0.0, -4.0), Vector3::new(-3.0, 0.0, 4.0)];
+        let f = SetFigures::of_vectors(&e).unwrap();
+        assert_eq!(f.total.rms, 5.0);
+        assert_eq!(f.total.max, 5.0);
+        assert_eq!(f.x.mean, 0.0);
+        assert_eq!(f.x.rms, 3.0);
+        assert_eq!(f.z.max, 4.0);
+    }
+}

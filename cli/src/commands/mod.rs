@@ -111,14 +111,9 @@ pub fn main() {
     // the main thread's ordinary stack is enough.
     match dispatch(&cli) {
         Ok(report) if report.non_finite().is_some() => {
-            let field = report.non_finite().unwrap_or_default();
-            let error = ErrorReport {
-                error: format!(
-                    "the result is not a finite number ({field}): the inputs are out of any \
-                     plausible range for a calibration; check the magnitudes and units of the \
-                     robot file and the data"
-                ),
-            };
+            let error = non_finite_error(report.as_ref()).unwrap_or(ErrorReport {
+                error: String::new(),
+            });
             eprintln!("{error}");
             if cli.json {
                 print_json(&crate::reports::json_value(&error));
@@ -144,6 +139,19 @@ pub fn main() {
             std::process::exit(exit_status(&e));
         }
     }
+}
+
+/// The error that replaces a report with a figure that is not a finite number (the command
+/// exits with status 1), `None` when every figure is finite.
+pub fn non_finite_error(report: &dyn Report) -> Option<ErrorReport> {
+    let field = report.non_finite()?;
+    Some(ErrorReport {
+        error: format!(
+            "the result is not a finite number ({field}): the inputs are out of any plausible \
+             range for a calibration; check the magnitudes and units of the robot file and the \
+             data"
+        ),
+    })
 }
 
 /// A last line of defence: a panic (a bug: every input problem is meant to be refused with a

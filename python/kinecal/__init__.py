@@ -356,7 +356,18 @@ class _Files:
             for p, label in self.labels.items():
                 message = message.replace(p, label)
             raise type(e)(message) from None
-        return json.loads(text), converged
+        return self._relabel(json.loads(text)), converged
+
+    def _relabel(self, value: Any) -> Any:
+        """The report with the temporary paths in its strings replaced by their labels."""
+        if isinstance(value, dict):
+            return {k: self._relabel(v) for k, v in value.items()}
+        if isinstance(value, list):
+            return [self._relabel(v) for v in value]
+        if isinstance(value, str):
+            for p, label in self.labels.items():
+                value = value.replace(p, label)
+        return value
 
     def close(self) -> None:
         self._dir.cleanup()

@@ -69,7 +69,7 @@ def ur10() -> Path:
 CELL = REPO / "examples" / "cell"
 
 # Keys whose values differ between two runs or name files.
-VOLATILE = {"seconds", "out", "plots", "robot", "data", "validate", "model", "targets", "scene"}
+VOLATILE = {"seconds", "out", "plots", "robot", "data", "validate", "model", "targets", "scene", "truth"}
 
 
 def assert_same(a, b, path="", tol=1e-9):

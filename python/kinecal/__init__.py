@@ -385,6 +385,12 @@ def _read_rows(path: str) -> Tuple[List[str], List[List[str]]]:
     return rows[0], rows[1:]
 
 
+def _joints_of(head: List[str], rows: List[List[str]], n: int) -> np.ndarray:
+    """The (rows, n) joint columns q1…qn of a CSV read by ``_read_rows``."""
+    k = [head.index(f"q{j + 1}") for j in range(n)]
+    return np.array([[float(r[c]) for c in k] for r in rows]).reshape(-1, n)
+
+
 def _warn_not_converged(converged: bool, what: str) -> None:
     if not converged:
         warnings.warn(what, NotConvergedWarning, stacklevel=3)
@@ -462,12 +468,10 @@ def compensate(
         ))[1:]
         report, converged = f.run(argv)
         head, rows = _read_rows(out)
-    n = model.joints
-    q = np.array([[float(r[head.index(f"q{j + 1}")]) for j in range(n)] for r in rows]).reshape(-1, n)
     col = lambda name: np.array([float(r[head.index(name)]) for r in rows])  # noqa: E731
     status = [r[head.index("status")] for r in rows]
-    return CommandResult(report, converged, q=q, status=status,
-                         error_mm=col("error_mm"), error_deg=col("error_deg"))
+    return CommandResult(report, converged, q=_joints_of(head, rows, model.joints),
+                         status=status, error_mm=col("error_mm"), error_deg=col("error_deg"))
 
 
 def frames(
@@ -520,9 +524,7 @@ def plan(
                                no_collisions=no_collisions, no_refine=no_refine))[1:]
         report, converged = f.run(argv)
         head, rows = _read_rows(out)
-    n = robot.joints
-    q = np.array([[float(r[head.index(f"q{j + 1}")]) for j in range(n)] for r in rows]).reshape(-1, n)
-    return CommandResult(report, converged, q=q)
+    return CommandResult(report, converged, q=_joints_of(head, rows, robot.joints))
 
 
 def simulate(

@@ -5,12 +5,10 @@
 use crate::data::{dataset, Arrays};
 use crate::robot::{model, Robot};
 use crate::{error, py_err, refused};
-use clap::{FromArgMatches, Parser, Subcommand};
+use clap::Parser;
 use kinecal_cli::commands::identify as identify_cmd;
 use kinecal_cli::commands::identify::{Identified, Inputs};
-use kinecal_cli::commands::{
-    check, compensate, diagnose, frames, non_finite_error, plan, simulate,
-};
+use kinecal_cli::commands::{dispatch, non_finite_error, Cli, Command};
 use kinecal_cli::formats::observations::observe;
 use kinecal_cli::formats::units::{accept, FileKind};
 use kinecal_cli::reports::Report;
@@ -18,46 +16,22 @@ use kinecal_cli::with_joints;
 use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 
-/// The subcommands Python calls, with the command line's arguments.
-#[derive(Parser, Debug)]
-#[command(name = "kinecal")]
-struct Cli {
-    #[command(subcommand)]
-    command: Command,
-}
-
-#[derive(Subcommand, Debug)]
-enum Command {
-    Check(check::Args),
-    Simulate(simulate::Args),
-    Identify(identify_cmd::Args),
-    Diagnose(diagnose::Args),
-    Frames(frames::Args),
-    Compensate(compensate::Args),
-    Plan(plan::Args),
-}
-
 /// `argv` (without the program name) parsed as the command line parses it; a bad argument
-/// is refused with clap's first line (`error: …`).
-fn parse(argv: &[String]) -> PyResult<Command> {
+/// is refused with clap's first line (`error: …` without `error: `).
+fn parse(argv: &[String]) -> PyResult<Cli> {
     let words = std::iter::once("kinecal".to_string()).chain(argv.iter().cloned());
-    let matches = <Cli as clap::CommandFactory>::command()
-        .try_get_matches_from(words)
-        .map_err(|e| {
-            let text = e.to_string();
-            let line = text.lines().next().unwrap_or("bad arguments");
-            refused(line.trim_start_matches("error: ").to_string())
-        })?;
-    Cli::from_arg_matches(&matches)
-        .map(|c| c.command)
-        .map_err(|e| refused(e.to_string()))
+    Cli::try_parse_from(words).map_err(|e| {
+        let text = e.to_string();
+        let line = text.lines().next().unwrap_or("bad arguments");
+        refused(line.trim_start_matches("error: ").to_string())
+    })
 }
 
 /// The JSON text of a report and whether it may be taken as calibrated; a report with a
 /// figure that is not finite is an error, as on the command line.
-fn finish<R: Report>(r: anyhow::Result<R>) -> PyResult<(String, bool)> {
+fn finish(r: anyhow::Result<Box<dyn Report>>) -> PyResult<(String, bool)> {
     let r = r.map_err(py_err)?;
-    if let Some(e) = non_finite_error(&r) {
+    if let Some(e) = non_finite_error(r.as_ref()) {
         return Err(error("KinecalError", e.error));
     }
     let text = serde_json::to_string(&r.to_json()).map_err(|e| py_err(e.into()))?;
@@ -65,19 +39,11 @@ fn finish<R: Report>(r: anyhow::Result<R>) -> PyResult<(String, bool)> {
 }
 
 /// Runs the subcommand `argv` (e.g. `["diagnose", "--robot", R, "--data", D]`) on files,
-/// exactly as `kinecal … --json` does; returns `(json_text, converged)`.
+/// exactly as `kinecal … --json` does ([`dispatch`]); returns `(json_text, converged)`.
 #[pyfunction]
 pub fn run(py: Python<'_>, argv: Vec<String>) -> PyResult<(String, bool)> {
-    let command = parse(&argv)?;
-    py.detach(|| match &command {
-        Command::Check(a) => finish(check::run(a)),
-        Command::Simulate(a) => finish(simulate::run(a)),
-        Command::Identify(a) => finish(identify_cmd::run(a)),
-        Command::Diagnose(a) => finish(diagnose::run(a)),
-        Command::Frames(a) => finish(frames::run(a)),
-        Command::Compensate(a) => finish(compensate::run(a)),
-        Command::Plan(a) => finish(plan::run(a)),
-    })
+    let cli = parse(&argv)?;
+    py.detach(|| finish(dispatch(&cli)))
 }
 
 /// One measurement set from Python: `(q, xyz, extra_names, extra)`.
@@ -148,7 +114,7 @@ pub fn identify(
     data: Set<'_>,
     validate: Option<Set<'_>>,
 ) -> PyResult<(String, String, bool)> {
-    let Command::Identify(args) = parse(&argv)? else {
+    let Command::Identify(args) = parse(&argv)?.command else {
         return Err(refused("identify: argv must start with `identify`".into()));
     };
     let data = arrays(&data);
@@ -158,7 +124,7 @@ pub fn identify(
         let r: anyhow::Result<PyResult<(String, String, bool)>> = with_joints!(n, N => Ok(
             identify_n::<N>(robot, &args, &data, validate.as_ref()).and_then(|d| {
                 let model = d.model.to_toml().map_err(py_err)?;
-                let (json, converged) = finish(Ok(d.report))?;
+                let (json, converged) = finish(Ok(Box::new(d.report)))?;
                 Ok((json, model, converged))
             })
         ));

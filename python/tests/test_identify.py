@@ -56,7 +56,7 @@ def test_ur10_effects_and_fix(ur10, cli):
     robot = kinecal.Robot.from_file(ur10 / "robot.toml")
     d = kinecal.read_csv(ur10 / "ur10_random_poses.csv")
     res = kinecal.identify(robot, d.q, d.xyz, holdout=1773, effects=["joint-table:2"],
-                           fix=["tool.x"])
+                           fix=["tool.x"], warn=False)
     _, ref = cli("identify", "--robot", ur10 / "robot.toml", "--data",
                  ur10 / "ur10_random_poses.csv", "--holdout", 1773, "--effect", "joint-table:2",
                  "--fix", "tool.x", expect=0)

@@ -20,22 +20,25 @@ pub mod study;
 use crate::reports::{ErrorReport, Report};
 use clap::{Parser, Subcommand};
 
+/// The command line: `--json` and one subcommand (also parsed by the Python package, which
+/// runs subcommands through [`dispatch`]).
 #[derive(Parser, Debug)]
 #[command(
     name = "kinecal",
     version,
     about = "Kinematic calibration of serial robot arms"
 )]
-struct Cli {
+pub struct Cli {
     /// Print exactly one JSON object on stdout (logs and progress go to stderr).
     #[arg(long, global = true)]
-    json: bool,
+    pub json: bool,
     #[command(subcommand)]
-    command: Command,
+    pub command: Command,
 }
 
+/// The subcommands with their arguments.
 #[derive(Subcommand, Debug)]
-enum Command {
+pub enum Command {
     /// Validate a robot file and a measurement file; nominal RMS error.
     Check(check::Args),
     /// The BPNN-PSO paper's simulation end to end on built-in data.
@@ -64,7 +67,8 @@ fn boxed<R: Report + 'static>(r: anyhow::Result<R>) -> anyhow::Result<Box<dyn Re
     r.map(|r| Box::new(r) as Box<dyn Report>)
 }
 
-fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
+/// Runs the subcommand of `cli` and returns its report (nothing printed but its warnings).
+pub fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
     match &cli.command {
         Command::Check(a) => boxed(check::run(a)),
         Command::Demo(a) => boxed(demo::run(a)),

@@ -100,6 +100,9 @@ pub fn dataset<const N: usize>(a: &Arrays<'_>, origin: &str) -> PyResult<Dataset
     })
 }
 
+/// `(q, xyz, extra_names, extra)` in Rust.
+type Owned = (Array2<f64>, Array2<f64>, Vec<String>, Array2<f64>);
+
 type Columns<'py> = (
     Bound<'py, PyArray2<f64>>,
     Bound<'py, PyArray2<f64>>,
@@ -132,7 +135,7 @@ pub fn read_csv<'py>(
         Some(n) => n,
         None => measurements::joint_count(&path).map_err(py_err)?,
     };
-    let r: anyhow::Result<(Array2<f64>, Array2<f64>, Vec<String>, Array2<f64>)> = with_joints!(n, N => {
+    let r: anyhow::Result<Owned> = with_joints!(n, N => {
         measurements::load::<N>(&path).map(|ds| {
             let (q, xyz, extra) = arrays_of(&ds);
             (q, xyz, ds.extra_names.clone(), extra)

@@ -5,7 +5,7 @@ use crate::calibration::method::Method;
 use crate::calibration::{
     add_effect, fit_lm, named_values, weights, EffectRequest, Fit, Residuals,
 };
-use crate::formats::observations::ObservationArgs;
+use crate::formats::observations::{observe, ObservationArgs, Observed};
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::reports::identify::{Change, IdentifyReport, ObservationSummary, PointResiduals};
 use crate::{with_joints, VCAP};
@@ -79,7 +79,71 @@ pub fn run(args: &Args) -> anyhow::Result<IdentifyReport> {
 
 fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport> {
     let input = &args.input;
-    let (file, mut nominal) = load_robot::<N>(&input.robot)?;
+    let (file, nominal) = load_robot::<N>(&input.robot)?;
+    let load = |p: &std::path::Path| -> anyhow::Result<Observed<N>> {
+        let ds =
+            crate::formats::units::load_measurements(p, &input.units, &nominal, file.base_known())?;
+        observe(&ds, &file, &args.obs, &p.display().to_string())
+    };
+    let observed = load(&input.data)?;
+    super::inputs::some_rows(observed.poses.clone(), &input.data)?;
+    let validate = match &args.validate {
+        Some(v) => Some((load(v)?, v.display().to_string())),
+        None => None,
+    };
+    let inputs = Inputs {
+        file,
+        nominal,
+        observed,
+        robot_origin: input.robot.display().to_string(),
+        data_origin: input.data.display().to_string(),
+        validate,
+    };
+    let mut done = identify(args, inputs)?;
+    if let Some(out) = &args.out {
+        done.model.save(out)?;
+        done.report.out = Some(out.display().to_string());
+    }
+    warn(&done.report);
+    Ok(done.report)
+}
+
+/// What [`identify`] fits, in memory: the robot file and its model, the observations (already
+/// in mm and degrees, through [`crate::formats::units`] and [`observe`]) and, optionally, the
+/// observations to validate on; each named as error messages name it (a path, or what the
+/// caller calls it).
+pub struct Inputs<const N: usize> {
+    pub file: RobotFile,
+    pub nominal: Robot<f64, N, VCAP>,
+    pub observed: Observed<N>,
+    pub robot_origin: String,
+    pub data_origin: String,
+    /// The `--validate` observations and their name.
+    pub validate: Option<(Observed<N>, String)>,
+}
+
+/// The result of [`identify`]: the report (`out` unset) and the identified model, as a robot
+/// file (what `--out` writes) and as the library's model.
+pub struct Identified<const N: usize> {
+    pub report: IdentifyReport,
+    pub model: RobotFile,
+    pub robot: Robot<f64, N, VCAP>,
+}
+
+/// `kinecal identify` in memory: fits the model of `inputs` with the options of `args` (its
+/// paths, `--validate` and `--out` are not read: the data are in `inputs`), exactly as the
+/// command does. Refused input is a [`crate::Refused`] error; a fit that did not converge is
+/// `report.converged == false`. Prints nothing (the command prints the warnings, [`warn`]).
+pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Result<Identified<N>> {
+    let Inputs {
+        file,
+        mut nominal,
+        observed,
+        robot_origin,
+        data_origin,
+        validate,
+    } = inputs;
+    let data_path = std::path::Path::new(&data_origin);
     let super::inputs::Split {
         observed,
         ident,
@@ -87,14 +151,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
         ident_poses,
         valid_poses,
         pose_of,
-    } = super::inputs::load_split(
-        input,
-        &file,
-        &nominal,
-        &args.obs,
-        args.validate.as_deref(),
-        args.holdout,
-    )?;
+    } = super::inputs::split_observed(observed, validate, args.holdout, &data_origin)?;
     for (flag, v) in [
         ("--tolerance-mm", args.tolerance_mm),
         ("--tolerance-deg", args.tolerance_deg),
@@ -115,10 +172,9 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
     for req in &args.effects {
         if req.joint >= N {
             crate::refuse!(
-                "--effect {}:{}: {} has {N} joints (number them 1 to {N})",
+                "--effect {}:{}: {robot_origin} has {N} joints (number them 1 to {N})",
                 req.kind,
-                req.joint + 1,
-                input.robot.display()
+                req.joint + 1
             );
         }
         let range = joint_range(&ident, req.joint);
@@ -144,7 +200,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
         params.extend((0..3).map(|a| kinecal::Param::ToolPoint(k as u8, a)));
     }
     apply_fix_free(&mut params, &args.fix, &args.free, N)?;
-    enough_poses(ident.len(), params.len(), base_unknown, &input.data)?;
+    enough_poses(ident.len(), params.len(), base_unknown, data_path)?;
     let before = Residuals::of(&nominal, &ident, &valid);
     let t0 = Instant::now();
     let run_method = |data: &[Measurement<f64, N>]| match args.method {
@@ -177,24 +233,19 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
     } else {
         None
     };
-    let out = match &args.out {
-        Some(out) => {
-            let f = RobotFile::from_robot(
-                &format!("{} (identified)", file.name),
-                &fit.robot,
-                true,
-                &file.tilt_joints(),
-            )
-            .with_tool_names(&observed.names);
-            // An identity `rpy_deg` written in the input stays written.
-            let mut f = f;
-            if f.tool.rpy_deg.is_none() {
-                f.tool.rpy_deg = file.tool.rpy_deg;
-            }
-            f.save(out)?;
-            Some(out.display().to_string())
+    let model = {
+        let mut f = RobotFile::from_robot(
+            &format!("{} (identified)", file.name),
+            &fit.robot,
+            true,
+            &file.tilt_joints(),
+        )
+        .with_tool_names(&observed.names);
+        // An identity `rpy_deg` written in the input stays written.
+        if f.tool.rpy_deg.is_none() {
+            f.tool.rpy_deg = file.tool.rpy_deg;
         }
-        None => None,
+        f
     };
     let mut changes = changes(&nominal, &fit, &params, base_unknown);
     for c in changes.iter_mut() {
@@ -218,7 +269,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
             args.stall_rms_mm,
         ),
         suspicious,
-        out,
+        out: None,
     };
     let mut report = report(
         args.method,
@@ -247,7 +298,17 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
             .as_ref()
             .map(|c| c.1.iter().map(|(f, r)| (format!("{f}"), *r)).collect()),
     });
-    if let Some(c) = chi2_per_dof {
+    Ok(Identified {
+        report,
+        model,
+        robot: fit.robot,
+    })
+}
+
+/// The warnings of a finished fit on stderr: χ²/dof far from 1, suspicious parameters, not
+/// converged.
+pub fn warn(report: &IdentifyReport) {
+    if let Some(c) = report.chi2_per_dof {
         if !(0.25..=4.0).contains(&c) {
             eprintln!(
                 "warning: χ²/dof = {} with the file's σ: the residuals are {}× what the stated \
@@ -262,20 +323,19 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
             );
         }
     }
-    if !verdict.suspicious.is_empty() {
+    if !report.suspicious.is_empty() {
         eprintln!(
             "warning: {} moved further than a manufacturing tolerance explains: check the units, \
              the tool point and the robot file (--tolerance-mm/--tolerance-deg set the limit)",
-            verdict.suspicious.join(", ")
+            report.suspicious.join(", ")
         );
     }
-    if !verdict.converged {
+    if !report.converged {
         eprintln!(
             "error: the fit {}; these numbers are not a calibration (exit 3)",
-            verdict.stop
+            report.stop
         );
     }
-    Ok(report)
 }
 
 /// The verdict on a run: whether its numbers can be taken as a calibration.

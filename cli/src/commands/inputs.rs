@@ -67,16 +67,39 @@ pub fn load_split<const N: usize>(
     validate: Option<&std::path::Path>,
     holdout: Option<f64>,
 ) -> anyhow::Result<Split<N>> {
-    use crate::formats::observations::{flatten, observe, Observed};
+    use crate::formats::observations::{observe, Observed};
     let load = |p: &std::path::Path| -> anyhow::Result<Observed<N>> {
         let ds =
             crate::formats::units::load_measurements(p, &input.units, nominal, file.base_known())?;
         observe(&ds, file, obs, &p.display().to_string())
     };
     let observed = load(&input.data)?;
-    let all = some_rows(observed.poses.clone(), &input.data)?;
+    some_rows(observed.poses.clone(), &input.data)?;
+    let validate = match validate {
+        Some(v) => Some((load(v)?, v.display().to_string())),
+        None => None,
+    };
+    split_observed(
+        observed,
+        validate,
+        holdout,
+        &input.data.display().to_string(),
+    )
+}
+
+/// Splits the poses of `observed` (named `data_origin` in messages): `validate`'s poses are
+/// held out, or the last poses by `holdout` (a fraction < 1 or a count); refuses (exit 2)
+/// empty data and a split that leaves nothing to identify from.
+pub fn split_observed<const N: usize>(
+    observed: crate::formats::observations::Observed<N>,
+    validate: Option<(crate::formats::observations::Observed<N>, String)>,
+    holdout: Option<f64>,
+    data_origin: &str,
+) -> anyhow::Result<Split<N>> {
+    use crate::formats::observations::flatten;
+    let all = some_rows(observed.poses.clone(), std::path::Path::new(data_origin))?;
     let (ident, valid) = match (validate, holdout) {
-        (Some(v), _) => (all, some_rows(load(v)?.poses, v)?),
+        (Some((v, origin)), _) => (all, some_rows(v.poses, std::path::Path::new(&origin))?),
         (None, Some(h)) => {
             if !(h.is_finite() && h > 0.0) {
                 crate::refuse!(
@@ -95,10 +118,7 @@ pub fn load_split<const N: usize>(
         .collect();
     let (ident, valid) = (flatten(&ident), flatten(&valid));
     if ident.is_empty() {
-        crate::refuse!(
-            "{}: --holdout leaves no poses to identify from: hold out fewer",
-            input.data.display()
-        );
+        crate::refuse!("{data_origin}: --holdout leaves no poses to identify from: hold out fewer");
     }
     Ok(Split {
         observed,

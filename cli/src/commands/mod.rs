@@ -21,22 +21,25 @@ pub mod study;
 use crate::reports::{ErrorReport, Report};
 use clap::{Parser, Subcommand};
 
+/// The command line: `--json` and one subcommand (also parsed by the Python package, which
+/// runs subcommands through [`dispatch`]).
 #[derive(Parser, Debug)]
 #[command(
     name = "kinecal",
     version,
     about = "Kinematic calibration of serial robot arms"
 )]
-struct Cli {
+pub struct Cli {
     /// Print exactly one JSON object on stdout (logs and progress go to stderr).
     #[arg(long, global = true)]
-    json: bool,
+    pub json: bool,
     #[command(subcommand)]
-    command: Command,
+    pub command: Command,
 }
 
+/// The subcommands with their arguments.
 #[derive(Subcommand, Debug)]
-enum Command {
+pub enum Command {
     /// Validate a robot file and a measurement file; nominal RMS error.
     Check(check::Args),
     /// The BPNN-PSO paper's simulation end to end on built-in data.
@@ -68,7 +71,8 @@ fn boxed<R: Report + 'static>(r: anyhow::Result<R>) -> anyhow::Result<Box<dyn Re
     r.map(|r| Box::new(r) as Box<dyn Report>)
 }
 
-fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
+/// Runs the subcommand of `cli` and returns its report (nothing printed but its warnings).
+pub fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
     match &cli.command {
         Command::Check(a) => boxed(check::run(a)),
         Command::Demo(a) => boxed(demo::run(a)),
@@ -116,14 +120,9 @@ pub fn main() {
     // the main thread's ordinary stack is enough.
     match dispatch(&cli) {
         Ok(report) if report.non_finite().is_some() => {
-            let field = report.non_finite().unwrap_or_default();
-            let error = ErrorReport {
-                error: format!(
-                    "the result is not a finite number ({field}): the inputs are out of any \
-                     plausible range for a calibration; check the magnitudes and units of the \
-                     robot file and the data"
-                ),
-            };
+            let error = non_finite_error(report.as_ref()).unwrap_or(ErrorReport {
+                error: String::new(),
+            });
             eprintln!("{error}");
             if cli.json {
                 print_json(&crate::reports::json_value(&error));
@@ -149,6 +148,19 @@ pub fn main() {
             std::process::exit(exit_status(&e));
         }
     }
+}
+
+/// The error that replaces a report with a figure that is not a finite number (the command
+/// exits with status 1), `None` when every figure is finite.
+pub fn non_finite_error(report: &dyn Report) -> Option<ErrorReport> {
+    let field = report.non_finite()?;
+    Some(ErrorReport {
+        error: format!(
+            "the result is not a finite number ({field}): the inputs are out of any plausible \
+             range for a calibration; check the magnitudes and units of the robot file and the \
+             data"
+        ),
+    })
 }
 
 /// A last line of defence: a panic (a bug: every input problem is meant to be refused with a

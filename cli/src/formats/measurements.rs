@@ -388,6 +388,22 @@ pub fn joint_count(path: &Path) -> anyhow::Result<usize> {
 /// The CSV text of a dataset: header `q1..qN,x,y,z[,extra…]`, joint readings with
 /// [`Q_DECIMALS`] and points with [`XYZ_DECIMALS`] decimals, extra values exactly.
 pub fn to_csv_string<const N: usize>(data: &Dataset<N>) -> String {
+    csv_text(
+        data,
+        |s, q| write!(s, "{q:.Q_DECIMALS$}"),
+        |s, v| write!(s, "{v:.XYZ_DECIMALS$}"),
+    )
+}
+
+/// The CSV text of a dataset with every number exactly as it is (the shortest decimal that
+/// reads back to the same `f64`): a file that gives the very numbers of data made in memory.
+pub fn to_exact_csv_string<const N: usize>(data: &Dataset<N>) -> String {
+    csv_text(data, |s, q| write!(s, "{q}"), |s, v| write!(s, "{v}"))
+}
+
+type Put = fn(&mut String, f64) -> std::fmt::Result;
+
+fn csv_text<const N: usize>(data: &Dataset<N>, q_text: Put, xyz_text: Put) -> String {
     let mut s = String::new();
     let mut head: Vec<String> = (1..=N).map(|i| format!("q{i}")).collect();
     head.extend(["x", "y", "z"].map(String::from));
@@ -396,13 +412,15 @@ pub fn to_csv_string<const N: usize>(data: &Dataset<N>) -> String {
     s.push('\n');
     for r in &data.records {
         for q in r.q_deg {
-            let _ = write!(s, "{q:.Q_DECIMALS$},");
+            let _ = q_text(&mut s, q);
+            s.push(',');
         }
-        let [x, y, z] = r.xyz_mm;
-        let _ = write!(
-            s,
-            "{x:.XYZ_DECIMALS$},{y:.XYZ_DECIMALS$},{z:.XYZ_DECIMALS$}"
-        );
+        for (k, v) in r.xyz_mm.iter().enumerate() {
+            if k > 0 {
+                s.push(',');
+            }
+            let _ = xyz_text(&mut s, *v);
+        }
         for k in 0..data.extra_names.len() {
             let v = r.extra.get(k).copied().unwrap_or(f64::NAN);
             if v.is_finite() {

@@ -688,9 +688,30 @@ pub fn load_as<const N: usize, const V: usize>(
     base_known: bool,
     kind: FileKind,
 ) -> anyhow::Result<Dataset<N>> {
-    let mut ds = measurements::load::<N>(path)?;
+    let ds = measurements::load::<N>(path)?;
+    accept(
+        ds,
+        &path.display().to_string(),
+        units,
+        nominal,
+        base_known,
+        kind,
+    )
+}
+
+/// The plausibility check and conversion of [`load_as`] for records already read (or made
+/// in memory, e.g. from arrays): refused (exit 2) naming `origin` when the units look wrong;
+/// the records come back in millimetres and degrees.
+pub fn accept<const N: usize, const V: usize>(
+    mut ds: Dataset<N>,
+    origin: &str,
+    units: &UnitArgs,
+    nominal: &Robot<f64, N, V>,
+    base_known: bool,
+    kind: FileKind,
+) -> anyhow::Result<Dataset<N>> {
     if let Some(s) = suspect(&ds.records, units, nominal, base_known) {
-        return Err(crate::refused(s.message(&path.display().to_string(), kind)));
+        return Err(crate::refused(s.message(origin, kind)));
     }
     convert(&mut ds, units);
     Ok(ds)

@@ -1,0 +1,573 @@
+"""kinecal from Python: kinematic calibration of robot arms, numpy in, numpy out.
+
+The numbers are the ``kinecal`` command line's: every function calls the application the
+subcommand calls (``identify`` on arrays in memory, the others on files written exactly), with
+the command line's defaults and its one-line reasons on errors.
+
+>>> import kinecal
+>>> robot = kinecal.Robot.from_file("robot.toml")              # doctest: +SKIP
+>>> data = kinecal.read_csv("ur10_random_poses.csv")           # doctest: +SKIP
+>>> result = kinecal.identify(robot, data.q[:1000], data.xyz[:1000],
+...                           validate=(data.q[1000:], data.xyz[1000:]))  # doctest: +SKIP
+>>> result.after["validation_rms_mm"]                          # doctest: +SKIP
+
+Units: millimetres and degrees, as in the files (``length_unit="m"``, ``angle_unit="rad"`` for
+other data; without them, data that look like other units are refused with the command line's
+reason, as :class:`RefusedError`).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import tempfile
+import warnings
+from dataclasses import dataclass, field
+from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _native
+from ._errors import KinecalError, NotConvergedWarning, RefusedError
+
+Robot = _native.Robot
+
+__all__ = [
+    "Robot",
+    "Measurements",
+    "IdentifyResult",
+    "CommandResult",
+    "identify",
+    "diagnose",
+    "compensate",
+    "frames",
+    "plan",
+    "simulate",
+    "check",
+    "read_csv",
+    "write_csv",
+    "KinecalError",
+    "RefusedError",
+    "NotConvergedWarning",
+]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+# --------------------------------------------------------------------------------------------
+# Measurement sets
+
+
+@dataclass
+class Measurements:
+    """A measurement set as a file holds it: joint readings ``q`` (n, N), measured points
+    ``xyz`` (n, 3) and further columns by name (``temp_c``, ``rx_deg``, ``sx_mm``, ``sweep``,
+    ``x_NAME`` …; NaN = empty cell), in the file's units."""
+
+    q: np.ndarray
+    xyz: np.ndarray
+    columns: Dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return int(np.shape(self.q)[0])
+
+    def __getitem__(self, rows: Any) -> "Measurements":
+        """The rows ``rows`` (a slice, index array or mask) of every column."""
+        return Measurements(
+            np.asarray(self.q)[rows],
+            np.asarray(self.xyz)[rows],
+            {k: np.asarray(v)[rows] for k, v in self.columns.items()},
+        )
+
+    def write(self, path: PathLike) -> None:
+        """Writes the measurement CSV file (every number exactly; atomically)."""
+        write_csv(path, self.q, self.xyz, self.columns)
+
+
+def read_csv(path: PathLike, joints: Optional[int] = None) -> Measurements:
+    """Reads a measurement CSV file (docs/formats.md) as written, no unit conversion.
+
+    ``joints`` defaults to the largest ``qK`` of the header. A malformed file raises
+    :class:`RefusedError` with the command line's ``FILE:LINE:COLUMN: reason``."""
+    q, xyz, names, extra = _native.read_csv(os.fspath(path), joints)
+    return Measurements(q, xyz, {n: extra[:, k].copy() for k, n in enumerate(names)})
+
+
+def _columns(columns: Optional[Mapping[str, Any]], n: int) -> Tuple[List[str], Optional[np.ndarray]]:
+    if not columns:
+        return [], None
+    names = list(columns)
+    cols = []
+    for name in names:
+        c = np.asarray(columns[name], dtype=np.float64)
+        if c.shape != (n,):
+            raise RefusedError(f"column {name}: shape {c.shape}; give one value per pose ({n},)")
+        cols.append(c)
+    return names, np.ascontiguousarray(np.stack(cols, axis=1))
+
+
+def _set(q: Any, xyz: Any, columns: Optional[Mapping[str, Any]] = None, what: str = "data"):
+    """(q, xyz, extra_names, extra) for the native functions, 2-D float64 arrays."""
+    q = np.asarray(q, dtype=np.float64)
+    xyz = np.asarray(xyz, dtype=np.float64)
+    if q.ndim == 1:
+        q = q.reshape(1, -1)
+    if xyz.ndim == 1:
+        xyz = xyz.reshape(1, -1)
+    if q.ndim != 2:
+        raise RefusedError(f"{what}: q has shape {q.shape}; give (n, N): one row per pose")
+    if xyz.ndim != 2:
+        raise RefusedError(f"{what}: xyz has shape {xyz.shape}; give (n, 3): one row per pose")
+    names, extra = _columns(columns, q.shape[0])
+    return np.ascontiguousarray(q), np.ascontiguousarray(xyz), names, extra
+
+
+def write_csv(path: PathLike, q: Any, xyz: Any, columns: Optional[Mapping[str, Any]] = None) -> None:
+    """Writes a measurement CSV file atomically: ``q1…qN, x, y, z`` and ``columns`` (name →
+    (n,) values, NaN = empty cell), every number exactly (it reads back to the same values)."""
+    q, xyz, names, extra = _set(q, xyz, columns)
+    _native.write_csv(os.fspath(path), q, xyz, names, extra)
+
+
+def _as_set(data: Any, what: str):
+    """A measurement set given as Measurements, (q, xyz) or (q, xyz, columns)."""
+    if isinstance(data, Measurements):
+        return _set(data.q, data.xyz, data.columns, what)
+    if isinstance(data, (tuple, list)) and len(data) in (2, 3):
+        return _set(*data, what=what) if len(data) == 2 else _set(data[0], data[1], data[2], what)
+    raise RefusedError(f"{what}: give Measurements, (q, xyz) or (q, xyz, columns)")
+
+
+# --------------------------------------------------------------------------------------------
+# Arguments as on the command line
+
+
+def _flag(name: str) -> str:
+    return "--" + name.replace("_", "-")
+
+
+def _argv(command: str, options: Mapping[str, Any]) -> List[str]:
+    """The command line of ``command`` with ``options``: None = the command line's default,
+    True = a switch, lists = the flag repeated, floats written exactly (``repr``)."""
+    argv = [command]
+    for name, value in options.items():
+        if value is None or value is False:
+            continue
+        if value is True:
+            argv.append(_flag(name))
+        elif isinstance(value, (list, tuple)):
+            for v in value:
+                argv.append(f"{_flag(name)}={_text(v)}")
+        else:
+            argv.append(f"{_flag(name)}={_text(value)}")
+    return argv
+
+
+def _text(v: Any) -> str:
+    if isinstance(v, float):
+        return repr(v)
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return ",".join(_text(float(x)) for x in v)
+    return str(v)
+
+
+# --------------------------------------------------------------------------------------------
+# identify
+
+
+class IdentifyResult:
+    """The result of :func:`identify`: the fields of ``kinecal identify --json`` and the
+    calibrated robot.
+
+    ``before`` / ``after``: dicts with ``identification_rms_mm``, ``validation_rms_mm``,
+    ``validation_mean_mm``, ``validation_max_mm`` (…); ``parameters``: name → value (mm,
+    degrees); ``unidentifiable``, ``suspicious``: names; ``converged``: whether the numbers may
+    be taken as a calibration; ``robot``: the identified :class:`Robot` (what ``--out``
+    writes); ``json``: the whole report as a dict."""
+
+    def __init__(self, report: Dict[str, Any], robot: Robot, converged: bool):
+        self.json: Dict[str, Any] = report
+        self.robot: Robot = robot
+        self.converged: bool = converged
+
+    def __getattr__(self, name: str) -> Any:
+        try:
+            return self.__dict__["json"][name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+    @property
+    def before(self) -> Dict[str, float]:
+        return self.json["before"]
+
+    @property
+    def after(self) -> Dict[str, float]:
+        return self.json["after"]
+
+    @property
+    def parameters(self) -> Dict[str, float]:
+        return self.json["parameters"]
+
+    @property
+    def unidentifiable(self) -> List[str]:
+        return self.json["unidentifiable"]
+
+    @property
+    def suspicious(self) -> List[str]:
+        return self.json["suspicious"]
+
+    def to_json(self, indent: Optional[int] = 2) -> str:
+        """The report as JSON text (the keys of ``kinecal identify --json``)."""
+        return json.dumps(self.json, indent=indent, sort_keys=True)
+
+    def __repr__(self) -> str:
+        b, a = self.before, self.after
+        return (
+            f"IdentifyResult(method={self.json['method']!r}, converged={self.converged}, "
+            f"identification_rms_mm {b['identification_rms_mm']:.4g} -> "
+            f"{a['identification_rms_mm']:.4g}, validation_rms_mm "
+            f"{b['validation_rms_mm']} -> {a['validation_rms_mm']})"
+        )
+
+
+def identify(
+    robot: Robot,
+    q: Any,
+    xyz: Any,
+    *,
+    columns: Optional[Mapping[str, Any]] = None,
+    method: str = "lm",
+    holdout: Optional[float] = None,
+    validate: Any = None,
+    effects: Iterable[str] = (),
+    seed: Optional[int] = None,
+    fix: Iterable[str] = (),
+    free: Iterable[str] = (),
+    tolerance_mm: Optional[float] = None,
+    tolerance_deg: Optional[float] = None,
+    stall_rms_mm: Optional[float] = None,
+    length_unit: Optional[str] = None,
+    angle_unit: Optional[str] = None,
+    deg_weight_mm: Optional[float] = None,
+    sigma_as_stated: bool = False,
+    positions_only: bool = False,
+    ignore_sigma: bool = False,
+    warn: bool = True,
+) -> IdentifyResult:
+    """Fits the model of ``robot`` to the measurements (``kinecal identify``).
+
+    ``q`` (n, N) joint readings, ``xyz`` (n, 3) measured points, ``columns`` further columns
+    by name (``rx_deg``…, ``sx_mm``…, ``x_NAME``…); ``method``: ``lm``, ``pso``, ``bpnn-pso``
+    or ``pso+lm``; ``holdout``: hold out the last poses (fraction < 1 or count);
+    ``validate``: a separate measurement set (``(q, xyz)``, ``(q, xyz, columns)`` or
+    :class:`Measurements`); ``effects``: ``"KIND:JOINT[:ARG]"`` as ``--effect``; the other
+    options as the command line's flags (None = its default). Refused input raises
+    :class:`RefusedError`; a fit that did not converge returns ``converged=False`` (and warns
+    with :class:`NotConvergedWarning` unless ``warn=False``)."""
+    data = _set(q, xyz, columns)
+    val = None if validate is None else _as_set(validate, "validate")
+    argv = ["identify", "--robot", "robot", "--data", "data"]
+    if val is not None:
+        argv += ["--validate", "validate"]
+    argv += _argv("", dict(
+        method=method, holdout=holdout, effect=list(effects), seed=seed,
+        fix=list(fix), free=list(free), tolerance_mm=tolerance_mm,
+        tolerance_deg=tolerance_deg, stall_rms_mm=stall_rms_mm, length_unit=length_unit,
+        angle_unit=angle_unit, deg_weight_mm=deg_weight_mm, sigma_as_stated=sigma_as_stated,
+        positions_only=positions_only, ignore_sigma=ignore_sigma,
+    ))[1:]
+    text, model, converged = _native.identify(robot, argv, data, val)
+    result = IdentifyResult(json.loads(text), Robot.from_toml(model, "identified model"), converged)
+    if warn:
+        if result.suspicious:
+            warnings.warn(
+                f"{', '.join(result.suspicious)} moved further than a manufacturing tolerance "
+                "explains: check the units, the tool point and the robot file",
+                UserWarning,
+                stacklevel=2,
+            )
+        if not converged:
+            warnings.warn(
+                f"the fit {result.json.get('stop')}; these numbers are not a calibration",
+                NotConvergedWarning,
+                stacklevel=2,
+            )
+    return result
+
+
+# --------------------------------------------------------------------------------------------
+# The commands that work on files: diagnose, compensate, frames, plan, simulate, check
+
+
+class CommandResult:
+    """The result of a subcommand: ``json`` (its ``--json`` object as a dict; keys also as
+    attributes), ``converged``, and what it wrote (``robot``, ``q``, ``measurements`` …)."""
+
+    def __init__(self, report: Dict[str, Any], converged: bool, **outputs: Any):
+        self.json = report
+        self.converged = converged
+        for k, v in outputs.items():
+            setattr(self, k, v)
+
+    def __getattr__(self, name: str) -> Any:
+        try:
+            return self.__dict__["json"][name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+    def to_json(self, indent: Optional[int] = 2) -> str:
+        return json.dumps(self.json, indent=indent, sort_keys=True)
+
+    def __repr__(self) -> str:
+        keys = ", ".join(sorted(self.json)[:8])
+        return f"CommandResult(converged={self.converged}, keys=[{keys}, …])"
+
+
+class _Files:
+    """A temporary folder for the files a command reads and writes; error messages name the
+    files by ``label`` instead of their temporary paths."""
+
+    def __init__(self) -> None:
+        self._dir = tempfile.TemporaryDirectory(prefix="kinecal-")
+        self.labels: Dict[str, str] = {}
+
+    def path(self, name: str, label: str) -> str:
+        p = os.path.join(self._dir.name, name)
+        self.labels[p] = label
+        return p
+
+    def robot(self, robot: Robot, label: str = "robot") -> str:
+        p = self.path(f"{label}.toml", label)
+        robot.save(p)
+        return p
+
+    def data(self, data: Any, label: str) -> str:
+        q, xyz, names, extra = _as_set(data, label)
+        p = self.path(f"{label}.csv", label)
+        _native.write_csv(p, q, xyz, names, extra)
+        return p
+
+    def run(self, argv: List[str]) -> Tuple[Dict[str, Any], bool]:
+        try:
+            text, converged = _native.run(argv)
+        except KinecalError as e:
+            message = str(e)
+            for p, label in self.labels.items():
+                message = message.replace(p, label)
+            raise type(e)(message) from None
+        return self._relabel(json.loads(text)), converged
+
+    def _relabel(self, value: Any) -> Any:
+        """The report with the temporary paths in its strings replaced by their labels."""
+        if isinstance(value, dict):
+            return {k: self._relabel(v) for k, v in value.items()}
+        if isinstance(value, list):
+            return [self._relabel(v) for v in value]
+        if isinstance(value, str):
+            for p, label in self.labels.items():
+                value = value.replace(p, label)
+        return value
+
+    def close(self) -> None:
+        self._dir.cleanup()
+
+    def __enter__(self) -> "_Files":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+def _read_rows(path: str) -> Tuple[List[str], List[List[str]]]:
+    with open(path, newline="") as f:
+        rows = [r for r in csv.reader(f) if r and not r[0].startswith("#")]
+    return rows[0], rows[1:]
+
+
+def _joints_of(head: List[str], rows: List[List[str]], n: int) -> np.ndarray:
+    """The (rows, n) joint columns q1…qn of a CSV read by ``_read_rows``."""
+    k = [head.index(f"q{j + 1}") for j in range(n)]
+    return np.array([[float(r[c]) for c in k] for r in rows]).reshape(-1, n)
+
+
+def _warn_not_converged(converged: bool, what: str) -> None:
+    if not converged:
+        warnings.warn(what, NotConvergedWarning, stacklevel=3)
+
+
+def diagnose(
+    robot: Robot,
+    q: Any,
+    xyz: Any,
+    *,
+    columns: Optional[Mapping[str, Any]] = None,
+    validate: Any = None,
+    holdout: Optional[float] = None,
+    seed: Optional[int] = None,
+    folds: Optional[int] = None,
+    alpha: Optional[float] = None,
+    max_order: Optional[int] = None,
+    max_effects: Optional[int] = None,
+    stall_rms_mm: Optional[float] = None,
+    length_unit: Optional[str] = None,
+    angle_unit: Optional[str] = None,
+    plots: Optional[PathLike] = None,
+    warn: bool = True,
+) -> CommandResult:
+    """The discrepancy workflow (``kinecal diagnose``): fits the geometry, names the missing
+    effects, adds them. Returns the report (``baseline_validation_rms_mm``, ``found``,
+    ``final_validation_rms_mm``, ``noise_floor_mm`` …) and ``robot``, the extended model."""
+    with _Files() as f:
+        argv = ["diagnose", "--robot", f.robot(robot), "--data", f.data((q, xyz, columns or {}), "data")]
+        if validate is not None:
+            argv += ["--validate", f.data(validate, "validate")]
+        out = f.path("model.toml", "model")
+        argv += ["--out", out]
+        argv += _argv("", dict(
+            holdout=holdout, seed=seed, folds=folds, alpha=alpha, max_order=max_order,
+            max_effects=max_effects, stall_rms_mm=stall_rms_mm, length_unit=length_unit,
+            angle_unit=angle_unit, plots=None if plots is None else os.fspath(plots),
+        ))[1:]
+        report, converged = f.run(argv)
+        model = Robot.from_file(out) if os.path.exists(out) else None
+    if warn:
+        _warn_not_converged(converged, "diagnose: the geometric model does not fit the data")
+    return CommandResult(report, converged, robot=model)
+
+
+def compensate(
+    model: Robot,
+    q_seed: Any,
+    xyz: Any,
+    rpy_deg: Any = None,
+    *,
+    iterations: Optional[int] = None,
+    max_step_deg: Optional[float] = None,
+    accept_mm: Optional[float] = None,
+    stream: bool = False,
+    f32: bool = False,
+    length_unit: Optional[str] = None,
+    angle_unit: Optional[str] = None,
+) -> CommandResult:
+    """Corrected joint commands (``kinecal compensate``) that bring ``model`` to the targets
+    ``xyz`` (n, 3) (and orientations ``rpy_deg`` (n, 3)) from the controller's seeds
+    ``q_seed`` (n, N). Returns the report and ``q`` (n, N, in the seeds' angle unit),
+    ``status`` (list of str), ``error_mm``, ``error_deg`` (n,)."""
+    columns = {}
+    if rpy_deg is not None:
+        r = np.asarray(rpy_deg, dtype=np.float64).reshape(-1, 3)
+        columns = {"rx": r[:, 0], "ry": r[:, 1], "rz": r[:, 2]}
+    with _Files() as f:
+        out = f.path("commands.csv", "commands")
+        argv = ["compensate", "--model", f.robot(model, "model"),
+                "--targets", f.data((q_seed, xyz, columns), "targets"), "--out", out]
+        argv += _argv("", dict(
+            iterations=iterations, max_step_deg=max_step_deg, accept_mm=accept_mm,
+            stream=stream, f32=f32, length_unit=length_unit, angle_unit=angle_unit,
+        ))[1:]
+        report, converged = f.run(argv)
+        head, rows = _read_rows(out)
+    col = lambda name: np.array([float(r[head.index(name)]) for r in rows])  # noqa: E731
+    status = [r[head.index("status")] for r in rows]
+    return CommandResult(report, converged, q=_joints_of(head, rows, model.joints),
+                         status=status, error_mm=col("error_mm"), error_deg=col("error_deg"))
+
+
+def frames(
+    robot: Robot,
+    q: Any,
+    xyz: Any,
+    sweep: Any,
+    *,
+    length_unit: Optional[str] = None,
+    angle_unit: Optional[str] = None,
+) -> CommandResult:
+    """Base frame and tool distances from single-joint sweeps (``kinecal frames``): ``sweep``
+    (n,) names the joint (1-based) turned on each row (0 = ignored). Returns the report
+    (``base``, ``tool_radial_mm``, ``tool_axial_mm``, ``circles``) and ``robot`` with
+    ``[base]`` set to the pose found."""
+    with _Files() as f:
+        out = f.path("framed.toml", "framed")
+        argv = ["frames", "--robot", f.robot(robot),
+                "--data", f.data((q, xyz, {"sweep": sweep}), "sweeps"), "--out", out]
+        argv += _argv("", dict(length_unit=length_unit, angle_unit=angle_unit))[1:]
+        report, converged = f.run(argv)
+        framed = Robot.from_file(out) if os.path.exists(out) else None
+    return CommandResult(report, converged, robot=framed)
+
+
+def plan(
+    robot: Robot,
+    scene: PathLike,
+    poses: int,
+    criterion: str,
+    work: Sequence[Sequence[float]],
+    *,
+    seed: Optional[int] = None,
+    noise_mm: Optional[float] = None,
+    pool: Optional[int] = None,
+    passes: Optional[int] = None,
+    no_collisions: bool = False,
+    no_refine: bool = False,
+) -> CommandResult:
+    """Measurement pose selection (``kinecal plan``) in the cell ``scene`` (a cell TOML file):
+    ``criterion`` ``random``, ``d``, ``o1``, ``a`` or ``kpi``; ``work``: working
+    configurations (degrees). Returns the report (``criterion``, ``poses``, ``kpi_trace_mm2``,
+    ``min_clearance_mm``, ``max_incidence_deg`` …) and ``q`` (poses, N) in degrees."""
+    with _Files() as f:
+        out = f.path("plan.csv", "plan")
+        argv = ["plan", "--robot", f.robot(robot), "--scene", os.fspath(scene),
+                f"--poses={int(poses)}", f"--criterion={criterion}", "--out", out]
+        argv += [f"--work={_text(list(w))}" for w in work]
+        argv += _argv("", dict(seed=seed, noise_mm=noise_mm, pool=pool, passes=passes,
+                               no_collisions=no_collisions, no_refine=no_refine))[1:]
+        report, converged = f.run(argv)
+        head, rows = _read_rows(out)
+    return CommandResult(report, converged, q=_joints_of(head, rows, robot.joints))
+
+
+def simulate(
+    robot: Robot,
+    poses: Optional[int] = None,
+    *,
+    noise_mm: Optional[float] = None,
+    seed: Optional[int] = None,
+    geom_errors: bool = False,
+    effects: Iterable[str] = (),
+    sweeps: Optional[Sequence[int]] = None,
+    sweep_points: Optional[int] = None,
+    sweep_span_deg: Optional[float] = None,
+) -> CommandResult:
+    """Measurement data from a robot with known errors (``kinecal simulate``). Returns the
+    report, ``measurements`` (:class:`Measurements`) and ``truth`` (the true :class:`Robot`)."""
+    with _Files() as f:
+        out, truth = f.path("sim.csv", "simulated"), f.path("truth.toml", "truth")
+        argv = ["simulate", "--robot", f.robot(robot), "--out", out, "--truth", truth]
+        argv += _argv("", dict(
+            poses=poses, noise_mm=noise_mm, seed=seed, geom_errors=geom_errors,
+            effect=list(effects), sweep_points=sweep_points, sweep_span_deg=sweep_span_deg,
+            sweeps=None if sweeps is None else ",".join(str(int(s)) for s in sweeps),
+        ))[1:]
+        report, converged = f.run(argv)
+        data = read_csv(out, robot.joints)
+        true_robot = Robot.from_file(truth)
+    return CommandResult(report, converged, measurements=data, truth=true_robot)
+
+
+def check(
+    robot: Robot,
+    q: Any,
+    xyz: Any,
+    *,
+    columns: Optional[Mapping[str, Any]] = None,
+    length_unit: Optional[str] = None,
+    angle_unit: Optional[str] = None,
+) -> CommandResult:
+    """Validates a measurement set for ``robot`` (``kinecal check``): ``poses``,
+    ``nominal_rms_mm`` (base fitted when the robot has none), joint ranges."""
+    with _Files() as f:
+        argv = ["check", "--robot", f.robot(robot), "--data", f.data((q, xyz, columns or {}), "data")]
+        argv += _argv("", dict(length_unit=length_unit, angle_unit=angle_unit))[1:]
+        report, converged = f.run(argv)
+    return CommandResult(report, converged)

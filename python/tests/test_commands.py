@@ -1,0 +1,111 @@
+"""diagnose, compensate, frames, plan and simulate from Python equal the CLI's JSON (and
+output files) on the same inputs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import kinecal
+from conftest import CELL, assert_same
+
+
+@pytest.fixture(scope="module")
+def cell():
+    return kinecal.Robot.from_file(CELL / "robot.toml")
+
+
+@pytest.fixture(scope="module")
+def sim(cli, tmp_path_factory):
+    """300 poses of the cell robot with geometric errors and a cyclic error on joint 2."""
+    d = tmp_path_factory.mktemp("sim")
+    _, rep = cli("simulate", "--robot", CELL / "robot.toml", "--poses", 300, "--noise-mm", 0.005,
+                 "--seed", 11, "--geom-errors", "--effect", "joint-cyclic:2:0.0005,-0.0004",
+                 "--out", d / "sim.csv", "--truth", d / "truth.toml", expect=0)
+    return d, rep
+
+
+def test_simulate_equals_cli(cell, sim):
+    """simulate() writes the same measurements and truth as the CLI with the same seed."""
+    d, rep = sim
+    res = kinecal.simulate(cell, 300, noise_mm=0.005, seed=11, geom_errors=True,
+                           effects=["joint-cyclic:2:0.0005,-0.0004"])
+    assert_same(res.json, rep)
+    ref = kinecal.read_csv(d / "sim.csv")
+    np.testing.assert_array_equal(res.measurements.q, ref.q)
+    np.testing.assert_array_equal(res.measurements.xyz, ref.xyz)
+    assert res.truth == kinecal.Robot.from_file(d / "truth.toml")
+
+
+def test_diagnose_equals_cli(cell, sim, cli, tmp_path):
+    """The discrepancy workflow on arrays equals `kinecal diagnose --json` on the file, finds
+    the simulated cyclic error on joint 2, and its extended model equals --out's."""
+    d, _ = sim
+    data = kinecal.read_csv(d / "sim.csv")
+    res = kinecal.diagnose(cell, data.q, data.xyz, holdout=60)
+    code, ref = cli("diagnose", "--robot", CELL / "robot.toml", "--data", d / "sim.csv",
+                    "--holdout", 60, "--out", tmp_path / "ext.toml")
+    assert code == 0
+    assert_same(res.json, ref)
+    found = [(f["effect"], f["joint"]) for f in res.found]
+    assert ("joint-cyclic", 2) in found
+    assert res.final_validation_rms_mm < res.baseline_validation_rms_mm
+    assert res.robot == kinecal.Robot.from_file(tmp_path / "ext.toml")
+
+
+def test_compensate_equals_cli(sim, cli, tmp_path):
+    """Corrected commands for targets from the true robot: the JSON, the commands, the status
+    and the errors equal the CLI's output file."""
+    d, _ = sim
+    truth = kinecal.Robot.from_file(d / "truth.toml")
+    rng = np.random.default_rng(8)
+    seeds = rng.uniform(-60, 60, size=(40, truth.joints))
+    targets = truth.fk(seeds) + rng.normal(0, 0.3, size=(40, 3))
+    kinecal.write_csv(tmp_path / "t.csv", seeds, targets)
+    res = kinecal.compensate(truth, seeds, targets)
+    code, ref = cli("compensate", "--model", d / "truth.toml", "--targets", tmp_path / "t.csv",
+                    "--out", tmp_path / "q.csv")
+    assert code == 0, ref
+    assert_same(res.json, ref)
+    import csv
+
+    with open(tmp_path / "q.csv") as f:
+        rows = list(csv.DictReader(f))
+    np.testing.assert_array_equal(
+        res.q, np.array([[float(r[f"q{j + 1}"]) for j in range(truth.joints)] for r in rows]))
+    assert res.status == [r["status"] for r in rows]
+    np.testing.assert_array_equal(res.error_mm, [float(r["error_mm"]) for r in rows])
+    # The commands bring the model to the targets.
+    assert np.abs(truth.fk(res.q) - targets).max() < 0.01
+
+
+def test_frames_equals_cli(cell, cli, tmp_path):
+    """Base frame from simulated sweeps: JSON and the framed robot equal the CLI's."""
+    cli("simulate", "--robot", CELL / "robot.toml", "--sweeps", "1,2,5,6", "--noise-mm", 0.002,
+        "--seed", 4, "--out", tmp_path / "s.csv", expect=0)
+    s = kinecal.read_csv(tmp_path / "s.csv")
+    res = kinecal.frames(cell, s.q, s.xyz, s.columns["sweep"])
+    code, ref = cli("frames", "--robot", CELL / "robot.toml", "--data", tmp_path / "s.csv",
+                    "--out", tmp_path / "framed.toml")
+    assert code == 0
+    assert_same(res.json, ref)
+    assert res.robot == kinecal.Robot.from_file(tmp_path / "framed.toml")
+    assert set(res.json) >= {"base", "tool_radial_mm", "tool_axial_mm", "circles"}
+
+
+def test_plan_equals_cli(cell, cli, tmp_path):
+    """A small D-optimal plan: JSON and the planned poses equal the CLI's."""
+    work = [[0, -60, 90, 0, 30, 0], [20, -80, 120, 10, -30, 45]]
+    res = kinecal.plan(cell, CELL / "scene.toml", 12, "d", work, pool=300, passes=5, seed=2)
+    code, ref = cli("plan", "--robot", CELL / "robot.toml", "--scene", CELL / "scene.toml",
+                    "--poses", 12, "--criterion", "d", "--work=0,-60,90,0,30,0",
+                    "--work=20,-80,120,10,-30,45", "--pool", 300, "--passes", 5, "--seed", 2,
+                    "--out", tmp_path / "p.csv")
+    assert code == 0, ref
+    assert_same(res.json, ref)
+    import csv
+
+    with open(tmp_path / "p.csv") as f:
+        rows = list(csv.DictReader(f))
+    np.testing.assert_array_equal(res.q, [[float(r[f"q{j}"]) for j in range(1, 7)] for r in rows])
+    assert res.q.shape == (12, 6)

@@ -12,7 +12,7 @@ use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::output::numfmt::sig;
 use crate::reports::diagnose::ObservationsReport;
 use crate::reports::diagnose::{DiagnoseReport, HoldoutReport};
-use crate::reports::identify::PointResiduals;
+use crate::reports::identify::{ObservationSummary, PointResiduals};
 use crate::with_joints;
 use std::path::PathBuf;
 
@@ -307,10 +307,12 @@ fn all_observations<const N: usize>(
     )?;
     let (before, after) = fitted.residuals(&held);
     let report = ObservationsReport {
-        six_d: observed.six_d,
-        sigma: observed.sigma,
-        points: observed.names.len().max(1),
-        observations: data.len(),
+        summary: ObservationSummary::new(
+            observed,
+            data.len(),
+            obs.deg_weight_mm,
+            &fitted.weighting,
+        ),
         before,
         after,
         per_point: PointResiduals::per_point(
@@ -320,16 +322,6 @@ fn all_observations<const N: usize>(
         ),
         unidentifiable: fitted.unidentifiable.clone(),
         chi2_per_dof: fitted.chi2_per_dof,
-        floor_mm: fitted.floors.map(|f| f.point_mm),
-        floor_deg: fitted
-            .floors
-            .filter(|_| observed.six_d)
-            .map(|f| f.orientation_rad.to_degrees()),
-        orientation_factor: fitted.orientation_factor.as_ref().map(|c| c.0),
-        orientation_cv_rms_mm: fitted
-            .orientation_factor
-            .as_ref()
-            .map(|c| c.1.iter().map(|(f, r)| (format!("{f}"), *r)).collect()),
     };
     Ok((fitted, report))
 }

@@ -222,7 +222,6 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
         params.len(),
     );
     let (fit, weighted) = weights::weighted_fit(&mut ident, &pose_of, &stated, how, run_method)?;
-    let (floors, orientation_cv) = (weighted.floors, weighted.orientation_cv);
     let seconds = t0.elapsed().as_secs_f64();
     let after = Residuals::of(&fit.robot, &ident, &valid);
     let per_point =
@@ -283,21 +282,12 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
     );
     report.per_point = per_point;
     report.chi2_per_dof = chi2_per_dof;
-    report.observations = Some(ObservationSummary {
-        six_d: observed.six_d,
-        sigma: observed.sigma,
-        points: observed.names.len().max(1),
-        identification_observations: ident.len(),
-        deg_weight_mm: args.obs.deg_weight_mm,
-        floor_mm: floors.map(|f| f.point_mm),
-        floor_deg: floors
-            .filter(|_| observed.six_d)
-            .map(|f| f.orientation_rad.to_degrees()),
-        orientation_factor: orientation_cv.as_ref().map(|c| c.0),
-        orientation_cv_rms_mm: orientation_cv
-            .as_ref()
-            .map(|c| c.1.iter().map(|(f, r)| (format!("{f}"), *r)).collect()),
-    });
+    report.observations = Some(ObservationSummary::new(
+        &observed,
+        ident.len(),
+        args.obs.deg_weight_mm,
+        &weighted,
+    ));
     Ok(Identified {
         report,
         model,

@@ -50,10 +50,8 @@ pub struct FullFit<const N: usize> {
     pub unidentifiable: Vec<String>,
     /// The observations with the weights the fits used.
     pub weighted: Vec<Measurement<f64, N>>,
-    /// Error floors added to the stated σ.
-    pub floors: Option<weights::Floors>,
-    /// The orientation weight's factor and each factor's cross-validated position RMS (mm).
-    pub orientation_factor: Option<(f64, Vec<(f64, f64)>)>,
+    /// The error floors and the orientation factor the weighting settled on.
+    pub weighting: weights::Weighted,
     /// χ² per degree of freedom of the stated σ at the extended model.
     pub chi2_per_dof: Option<f64>,
     /// Iterations of the extended model's last fit.
@@ -155,8 +153,7 @@ pub fn fit_all_observations<const N: usize>(
         model: ext.robot,
         unidentifiable,
         weighted,
-        floors: weighted_how.floors,
-        orientation_factor: weighted_how.orientation_cv,
+        weighting: weighted_how,
         chi2_per_dof,
         iterations: ext.iterations,
     })

@@ -5,7 +5,7 @@ use crate::diagnose::candidates::CandidateKind;
 use crate::diagnose::explain::{explain, Explanation};
 use crate::diagnose::{distinct_figures, floor_phrase, percent, Diagnosis, NoiseSource};
 use crate::output::numfmt::sig;
-use crate::reports::identify::PointResiduals;
+use crate::reports::identify::{ObservationSummary, PointResiduals};
 use kinecal::Measurement;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -134,14 +134,9 @@ pub struct Refitted {
 /// poses: `before` the geometry, `after` the extended model (the keys of `identify`'s).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ObservationsReport {
-    /// Orientation observed (`rx_deg`, `ry_deg`, `rz_deg`).
-    pub six_d: bool,
-    /// Weighted by the file's σ columns.
-    pub sigma: bool,
-    /// Measured points per pose (reflectors).
-    pub points: usize,
-    /// Observations (points seen) among the searched poses.
-    pub observations: usize,
+    /// What the observations were and how they were weighted (`identify`'s `observations`).
+    #[serde(flatten)]
+    pub summary: ObservationSummary,
     pub before: Residuals,
     pub after: Residuals,
     /// With several reflectors: `before`/`after` per reflector name.
@@ -152,17 +147,6 @@ pub struct ObservationsReport {
     /// χ² per degree of freedom of the stated σ at the extended model (≈ 1 when they fit).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub chi2_per_dof: Option<f64>,
-    /// Error floor added to each point coordinate's σ (mm) and orientation component's (°).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub floor_mm: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub floor_deg: Option<f64>,
-    /// Factor of the balanced orientation weight chosen by cross-validating positions, and
-    /// each factor's cross-validated position RMS (mm).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub orientation_factor: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub orientation_cv_rms_mm: Option<BTreeMap<String, f64>>,
 }
 
 /// Errors on the poses kept out of the whole search.
@@ -435,19 +419,20 @@ impl fmt::Display for DiagnoseReport {
 impl fmt::Display for ObservationsReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let mut kinds = Vec::new();
-        if self.six_d {
+        let o = &self.summary;
+        if o.six_d {
             kinds.push("orientations".to_string());
         }
-        if self.sigma {
+        if o.sigma {
             kinds.push("the stated σ".to_string());
         }
-        if self.points > 1 {
-            kinds.push(format!("{} reflectors", self.points));
+        if o.points > 1 {
+            kinds.push(format!("{} reflectors", o.points));
         }
         write!(
             f,
             "fitted to all {} observations ({}): geometry {} mm → extended model {} mm",
-            self.observations,
+            o.identification_observations,
             kinds.join(", "),
             sig(self.before.identification_rms_mm, 4),
             sig(self.after.identification_rms_mm, 4)

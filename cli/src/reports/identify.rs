@@ -1,6 +1,8 @@
 //! The report of `kinecal identify`.
 
+use crate::calibration::weights::Weighted;
 use crate::calibration::{Held, Residuals};
+use crate::formats::observations::Observed;
 use crate::output::numfmt::sig;
 use kinecal::{Measurement, Robot};
 use serde::ser::SerializeMap;
@@ -129,6 +131,35 @@ pub struct ObservationSummary {
     /// Cross-validated position RMS (mm) per factor compared.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub orientation_cv_rms_mm: Option<BTreeMap<String, f64>>,
+}
+
+impl ObservationSummary {
+    /// What a fit over `observations` observations of `observed` used: the file's kind, the
+    /// user's `--deg-weight-mm` and what the weighting settled on (`w`).
+    pub fn new<const N: usize>(
+        observed: &Observed<N>,
+        observations: usize,
+        deg_weight_mm: Option<f64>,
+        w: &Weighted,
+    ) -> Self {
+        Self {
+            six_d: observed.six_d,
+            sigma: observed.sigma,
+            points: observed.names.len().max(1),
+            identification_observations: observations,
+            deg_weight_mm,
+            floor_mm: w.floors.map(|f| f.point_mm),
+            floor_deg: w
+                .floors
+                .filter(|_| observed.six_d)
+                .map(|f| f.orientation_rad.to_degrees()),
+            orientation_factor: w.orientation_cv.as_ref().map(|c| c.0),
+            orientation_cv_rms_mm: w
+                .orientation_cv
+                .as_ref()
+                .map(|c| c.1.iter().map(|(f, r)| (format!("{f}"), *r)).collect()),
+        }
+    }
 }
 
 /// One estimated parameter: file value, calibrated value, change and 1-σ (file units).

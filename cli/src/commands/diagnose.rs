@@ -3,11 +3,10 @@
 //! held-out gap shrink.
 
 use super::inputs::InputArgs;
-use crate::calibration::split_holdout;
 use crate::diagnose::linear::squared_errors;
 use crate::diagnose::observations::{fit_all_observations, FullFit, Observations};
 use crate::diagnose::{diagnose_with_progress, Config, Diagnosis, Progress};
-use crate::formats::observations::{flatten, observe, ObservationArgs, Observed, Pose};
+use crate::formats::observations::{flatten, observe, pose_of, ObservationArgs, Observed, Pose};
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::output::numfmt::sig;
 use crate::reports::diagnose::ObservationsReport;
@@ -118,18 +117,11 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
     }
     let observed = load(&input.data)?;
     let all = super::inputs::some_rows(observed.poses.clone(), &input.data)?;
-    let (search_poses, held_poses) = match (&args.validate, args.holdout) {
-        (Some(v), _) => (all, super::inputs::some_rows(load(v)?.poses, v)?),
-        (None, Some(h)) => {
-            if !(h.is_finite() && h > 0.0) {
-                crate::refuse!(
-                    "--holdout {h}: give a fraction (0 < F < 1) or a count of poses (≥ 1)"
-                );
-            }
-            split_holdout(&all, h)?
-        }
-        (None, None) => (all, Vec::new()),
+    let validate = match &args.validate {
+        Some(v) => Some(super::inputs::some_rows(load(v)?.poses, v)?),
+        None => None,
     };
+    let (search_poses, held_poses) = super::inputs::split_poses(all, validate, args.holdout)?;
     let full = observed.six_d || observed.sigma || observed.names.len() > 1;
     if full {
         eprintln!(
@@ -283,12 +275,7 @@ fn all_observations<const N: usize>(
     cfg: &Config,
     poses: (&[Pose<N>], &[Pose<N>]),
 ) -> anyhow::Result<(FullFit<N>, ObservationsReport)> {
-    let pose_of: Vec<usize> = poses
-        .0
-        .iter()
-        .enumerate()
-        .flat_map(|(k, p)| std::iter::repeat_n(k, p.observations.len()))
-        .collect();
+    let pose_of = pose_of(poses.0);
     let (data, held) = (flatten(poses.0), flatten(poses.1));
     let w = Observations {
         six_d: observed.six_d,

@@ -96,26 +96,15 @@ pub fn split_observed<const N: usize>(
     holdout: Option<f64>,
     data_origin: &str,
 ) -> anyhow::Result<Split<N>> {
-    use crate::formats::observations::flatten;
+    use crate::formats::observations::{flatten, pose_of};
     let all = some_rows(observed.poses.clone(), std::path::Path::new(data_origin))?;
-    let (ident, valid) = match (validate, holdout) {
-        (Some((v, origin)), _) => (all, some_rows(v.poses, std::path::Path::new(&origin))?),
-        (None, Some(h)) => {
-            if !(h.is_finite() && h > 0.0) {
-                crate::refuse!(
-                    "--holdout {h}: give a fraction (0 < F < 1) or a count of poses (≥ 1)"
-                );
-            }
-            crate::calibration::split_holdout(&all, h)?
-        }
-        (None, None) => (all, Vec::new()),
+    let validate = match validate {
+        Some((v, origin)) => Some(some_rows(v.poses, std::path::Path::new(&origin))?),
+        None => None,
     };
+    let (ident, valid) = split_poses(all, validate, holdout)?;
     let (ident_poses, valid_poses) = (ident.len(), valid.len());
-    let pose_of: Vec<usize> = ident
-        .iter()
-        .enumerate()
-        .flat_map(|(k, p)| std::iter::repeat_n(k, p.observations.len()))
-        .collect();
+    let pose_of = pose_of(&ident);
     let (ident, valid) = (flatten(&ident), flatten(&valid));
     if ident.is_empty() {
         crate::refuse!("{data_origin}: --holdout leaves no poses to identify from: hold out fewer");
@@ -128,6 +117,27 @@ pub fn split_observed<const N: usize>(
         valid_poses,
         pose_of,
     })
+}
+
+/// Identification and held-out poses: all of `all` against the `validate` file's poses, or the
+/// last of `all` by `holdout` (a fraction < 1 or a count ≥ 1), or all and none.
+pub fn split_poses<T: Clone>(
+    all: Vec<T>,
+    validate: Option<Vec<T>>,
+    holdout: Option<f64>,
+) -> anyhow::Result<(Vec<T>, Vec<T>)> {
+    match (validate, holdout) {
+        (Some(v), _) => Ok((all, v)),
+        (None, Some(h)) => {
+            if !(h.is_finite() && h > 0.0) {
+                crate::refuse!(
+                    "--holdout {h}: give a fraction (0 < F < 1) or a count of poses (≥ 1)"
+                );
+            }
+            crate::calibration::split_holdout(&all, h)
+        }
+        (None, None) => Ok((all, Vec::new())),
+    }
 }
 
 /// Places the nominal robot where identification starts: its base fitted to the

@@ -167,9 +167,8 @@ pub struct Diagnosis<const N: usize> {
     pub baseline_model: Robot<f64, N, VCAP>,
     /// Geometric parameters the data cannot determine (held at nominal).
     pub unidentifiable: Vec<Param>,
-    /// The starting parameter set (geometry without the held parameters, the nominal model's
-    /// effects) and the final one (with the effects added), in the refits' order.
-    pub start_params: Vec<Param>,
+    /// The final parameter set (geometry without the held parameters, the nominal model's
+    /// effects and those added), in the refits' order.
     pub params: Vec<Param>,
     pub baseline_validation_rms_mm: f64,
     /// Per-pose held-out squared errors of the geometric model and of the final one (mm²).
@@ -518,7 +517,6 @@ pub fn diagnose_with_progress<const N: usize>(
     params.extend(free_tilt.iter().map(|j| Param::Beta(*j as u8)));
     params.retain(|p| !held.contains(p));
     params.extend((0..geometric.effects().values().len()).map(|k| Param::Effect(k as u16)));
-    let start_params = params.clone();
     let mut problem = Problem::new(&geometric, &params, cfg.penalty)?;
     // The one fit of the starting parameter set: the baseline's model, and the final model
     // when nothing is added.
@@ -731,7 +729,6 @@ pub fn diagnose_with_progress<const N: usize>(
         geometric,
         baseline_model,
         unidentifiable: held,
-        start_params,
         params: problem.params.clone(),
         baseline_validation_rms_mm: baseline_rms,
         baseline_errors,

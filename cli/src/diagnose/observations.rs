@@ -54,8 +54,6 @@ pub struct FullFit<const N: usize> {
     pub weighting: weights::Weighted,
     /// χ² per degree of freedom of the stated σ at the extended model.
     pub chi2_per_dof: Option<f64>,
-    /// Iterations of the extended model's last fit.
-    pub iterations: u32,
 }
 
 impl<const N: usize> FullFit<N> {
@@ -155,6 +153,5 @@ pub fn fit_all_observations<const N: usize>(
         weighted,
         weighting: weighted_how,
         chi2_per_dof,
-        iterations: ext.iterations,
     })
 }

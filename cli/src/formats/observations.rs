@@ -64,6 +64,15 @@ pub fn flatten<const N: usize>(poses: &[Pose<N>]) -> Vec<Measurement<f64, N>> {
         .collect()
 }
 
+/// The pose (index into `poses`) of every observation of [`flatten`]`(poses)`.
+pub fn pose_of<const N: usize>(poses: &[Pose<N>]) -> Vec<usize> {
+    poses
+        .iter()
+        .enumerate()
+        .flat_map(|(k, p)| std::iter::repeat_n(k, p.observations.len()))
+        .collect()
+}
+
 impl<const N: usize> Observed<N> {
     /// Every observation, pose after pose.
     pub fn all(&self) -> Vec<Measurement<f64, N>> {

@@ -137,6 +137,14 @@ pub struct CsvError {
 
 /// Longest extra-column name carried.
 pub const NAME_LEN: usize = 24;
+
+/// The column a header cell names: quotes and blanks stripped from both ends, in any mix,
+/// until neither is left, so `"t "`, `t"" ` and `t` name the same column and a name written
+/// back reads back the same (fuzz measurement_file/write-read-round-trip-1 and -2). Every
+/// reader of a header uses this.
+pub fn column_name(cell: &str) -> &str {
+    cell.trim_matches(|c: char| c == '"' || c.is_whitespace())
+}
 /// Most columns a header may have.
 pub const MAX_COLUMNS: usize = 64;
 /// Largest plausible |x|, |y|, |z| of a measured point, in the units written (1 km in mm): a
@@ -282,9 +290,7 @@ impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L,
                 column: col,
                 which: 0,
             };
-            // Quotes stripped, then blanks again: `"t "` and `t` name the same column, so a
-            // name written back reads back the same (fuzz measurement_file/write-read-round-trip-1).
-            let name = cell.trim().trim_matches('"').trim();
+            let name = column_name(cell);
             let slot = if let Some(rest) = name
                 .strip_prefix('q')
                 .filter(|r| !r.is_empty() && r.bytes().all(|b| b.is_ascii_digit()))

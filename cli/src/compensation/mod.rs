@@ -362,7 +362,7 @@ fn header(path: &Path) -> (usize, Vec<String>) {
             return (
                 i + 1,
                 t.split(',')
-                    .map(|c| c.trim().trim_matches('"').to_string())
+                    .map(|c| kinecal::io::csv::column_name(c).to_string())
                     .collect(),
             );
         }

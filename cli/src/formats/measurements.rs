@@ -4,7 +4,7 @@
 
 use anyhow::anyhow;
 use embedded_io_adapters::std::FromStd;
-use kinecal::io::csv::{CsvError, CsvErrorKind, CsvReader, MAX_ABS_JOINT, MAX_ABS_MM};
+use kinecal::io::csv::{column_name, CsvError, CsvErrorKind, CsvReader, MAX_ABS_JOINT, MAX_ABS_MM};
 use kinecal::{Measurement, Real};
 use std::fmt::Write as _;
 use std::io::{BufRead, BufReader, Read, Seek};
@@ -240,7 +240,7 @@ fn context_lines(path: &Path, want: u32) -> (Option<Vec<String>>, Option<String>
         if header.is_none() && !t.is_empty() && !t.starts_with('#') {
             header = Some(
                 text.split(',')
-                    .map(|c| c.trim().trim_matches('"').to_string())
+                    .map(|c| column_name(c).to_string())
                     .collect(),
             );
         }
@@ -364,8 +364,7 @@ pub fn joint_count(path: &Path) -> anyhow::Result<usize> {
         let n = t
             .split(',')
             .filter_map(|c| {
-                c.trim()
-                    .trim_matches('"')
+                column_name(c)
                     .strip_prefix('q')
                     .and_then(|k| k.parse::<usize>().ok())
             })

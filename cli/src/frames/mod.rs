@@ -65,7 +65,7 @@ fn header_column(path: &Path, name: &str) -> Option<usize> {
         }
         return t
             .split(',')
-            .position(|c| c.trim().trim_matches('"') == name)
+            .position(|c| kinecal::io::csv::column_name(c) == name)
             .map(|i| i + 1);
     }
     None

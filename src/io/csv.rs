@@ -137,14 +137,6 @@ pub struct CsvError {
 
 /// Longest extra-column name carried.
 pub const NAME_LEN: usize = 24;
-
-/// The column a header cell names: quotes and blanks stripped from both ends, in any mix,
-/// until neither is left, so `"t "`, `t"" ` and `t` name the same column and a name written
-/// back reads back the same (fuzz measurement_file/write-read-round-trip-1 and -2). Every
-/// reader of a header uses this.
-pub fn column_name(cell: &str) -> &str {
-    cell.trim_matches(|c: char| c == '"' || c.is_whitespace())
-}
 /// Most columns a header may have.
 pub const MAX_COLUMNS: usize = 64;
 /// Largest plausible |x|, |y|, |z| of a measured point, in the units written (1 km in mm): a
@@ -153,6 +145,14 @@ pub const MAX_ABS_MM: f64 = 1.0e6;
 /// Largest plausible |joint reading|, in the units written (~278 turns in degrees, 100 m for a
 /// prismatic joint in mm): a larger value is [`CsvErrorKind::OutOfRange`].
 pub const MAX_ABS_JOINT: f64 = 1.0e5;
+
+/// The column a header cell names: quotes and blanks stripped from both ends, in any mix,
+/// until neither is left, so `"t "`, `t"" ` and `t` name the same column and a name written
+/// back reads back the same (fuzz measurement_file/write-read-round-trip-1 and -2). Every
+/// reader of a header uses this.
+pub fn column_name(cell: &str) -> &str {
+    cell.trim_matches(|c: char| c == '"' || c.is_whitespace())
+}
 
 /// One record, in file units (degrees, millimetres), with the extra columns' values.
 #[derive(Clone, Debug, PartialEq)]

@@ -272,6 +272,7 @@ impl Robot {
             base,
             effects: Vec::new(),
             couplings: Vec::new(),
+            prior: None,
         };
         // Through the text, so the checks and their messages are the file's.
         let text = file.to_toml().map_err(py_err)?;

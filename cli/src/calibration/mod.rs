@@ -1,9 +1,13 @@
 //! Identification on the desktop: split the data, start the base, run a method, report errors
 //! before and after in the units and keys of interfaces.md §4.
 
+pub mod acceptance;
 pub mod coupling_hint;
 pub mod method;
+pub mod prior;
 pub mod pso_search;
+pub mod residual_table;
+pub mod selection;
 pub mod weights;
 
 use crate::compute::vec_lm::VecLm;
@@ -153,22 +157,92 @@ impl Residuals {
     }
 }
 
-/// Splits poses into identification and held-out sets: `holdout` < 1 is the held-out fraction,
-/// ≥ 1 the held-out count; the held-out poses are the last ones of the file (measurement order,
-/// so a drift over the session shows up as a validation error instead of being averaged away).
-pub fn split_holdout<T: Clone>(all: &[T], holdout: f64) -> anyhow::Result<(Vec<T>, Vec<T>)> {
-    let n = all.len();
-    let k = if holdout < 1.0 {
-        (holdout * n as f64).round() as usize
-    } else {
-        holdout as usize
-    };
-    if !(holdout >= 0.0 && holdout.is_finite() && k < n) {
-        crate::refuse!(
-            "--holdout {holdout} leaves no poses to identify from ({n} poses): hold out fewer"
-        );
+/// Which poses `--holdout` keeps out of the fit (`--split`): the last ones of the file (the
+/// default: measurement order, so a drift over the session shows up as a held-out error
+/// instead of being averaged away), a random choice (`--seed`), or every K-th pose.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SplitKind {
+    #[default]
+    Last,
+    Random,
+    /// Poses K, 2K, 3K, … (1-based) are held out.
+    Every(usize),
+}
+
+impl std::str::FromStr for SplitKind {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> anyhow::Result<Self> {
+        match s {
+            "last" => Ok(Self::Last),
+            "random" => Ok(Self::Random),
+            _ => match s.strip_prefix("every:").map(str::parse::<usize>) {
+                Some(Ok(k)) if k >= 2 => Ok(Self::Every(k)),
+                _ => anyhow::bail!(
+                    "--split {s}: give last, random or every:K (K ≥ 2: every K-th pose held out)"
+                ),
+            },
+        }
     }
-    Ok((all[..n - k].to_vec(), all[n - k..].to_vec()))
+}
+
+/// Which of `n` poses are held out: `holdout` < 1 is the held-out fraction, ≥ 1 the held-out
+/// count, chosen by `split` (`seed` for `random`); `every:K` holds out every K-th pose and
+/// needs no `holdout`. Refused (exit 2) when nothing would be left to identify from.
+pub fn held_out_mask(
+    n: usize,
+    holdout: Option<f64>,
+    split: SplitKind,
+    seed: u64,
+) -> anyhow::Result<Vec<bool>> {
+    let count = |h: f64| -> anyhow::Result<usize> {
+        if !(h.is_finite() && h > 0.0) {
+            crate::refuse!("--holdout {h}: give a fraction (0 < F < 1) or a count of poses (≥ 1)");
+        }
+        let k = if h < 1.0 {
+            (h * n as f64).round() as usize
+        } else {
+            h as usize
+        };
+        if k >= n {
+            crate::refuse!(
+                "--holdout {h} leaves no poses to identify from ({n} poses): hold out fewer"
+            );
+        }
+        Ok(k)
+    };
+    let mut mask = vec![false; n];
+    match (split, holdout) {
+        (SplitKind::Every(k), h) => {
+            if let Some(h) = h {
+                count(h)?;
+            }
+            for (i, m) in mask.iter_mut().enumerate() {
+                *m = (i + 1) % k == 0;
+            }
+            if n < k {
+                crate::refuse!(
+                    "--split every:{k}: the data have {n} poses, so none would be held out: \
+                     use a smaller K"
+                );
+            }
+        }
+        (_, None) => {}
+        (SplitKind::Last, Some(h)) => {
+            let k = count(h)?;
+            mask[n - k..].iter_mut().for_each(|m| *m = true);
+        }
+        (SplitKind::Random, Some(h)) => {
+            use rand::seq::SliceRandom;
+            use rand::SeedableRng;
+            let k = count(h)?;
+            let mut order: Vec<usize> = (0..n).collect();
+            order.shuffle(&mut rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed));
+            for &i in &order[..k] {
+                mask[i] = true;
+            }
+        }
+    }
+    Ok(mask)
 }
 
 /// Named parameter values in file units (degrees for angles, mm for lengths, raw for effects).
@@ -212,6 +286,9 @@ pub struct Fit<const N: usize, const V: usize> {
     /// The strongest correlations between estimated parameters, from the same covariance,
     /// largest |r| first (at most [`MAX_CORRELATIONS`]).
     pub correlations: Vec<Correlation>,
+    /// What the prior did to each parameter it acts on (empty without one:
+    /// [`prior::refit`]).
+    pub prior: BTreeMap<String, prior::Share>,
 }
 
 /// How many correlations a [`Fit`] keeps.
@@ -244,6 +321,7 @@ impl<const N: usize, const V: usize> Fit<N, V> {
             sigma: BTreeMap::new(),
             chi2_per_dof: None,
             correlations: Vec::new(),
+            prior: BTreeMap::new(),
         }
     }
 
@@ -261,7 +339,20 @@ pub struct Held {
     /// Estimated parameters whose combination reproduces its effect on the measured points,
     /// strongest first (empty when no pose moves the point with it at all).
     pub confounded_with: Vec<String>,
+    /// The estimated parameters reproduce its effect exactly (to 1e-6 of its column), or no
+    /// pose moves the point with it: no data of this kind can ever tell them apart (as opposed
+    /// to data that barely do).
+    #[serde(skip)]
+    pub exact: bool,
+    /// Each estimated parameter's change that stands in for a unit change of this one (scaled
+    /// units, 1 mm at the tool), by name: how much of its manufacturing tolerance they absorb.
+    #[serde(skip)]
+    pub stand_ins: Vec<(String, f64)>,
 }
+
+/// Below this share of its column left unexplained by the estimated parameters, a held
+/// parameter is exactly confounded with them ([`Held::exact`]).
+pub const EXACT_CONFOUNDING: f64 = 1e-6;
 
 /// Levenberg–Marquardt from `start` over `params`, its normal equations on the heap sized
 /// for exactly these parameters ([`VecLm`]).
@@ -298,6 +389,7 @@ pub fn fit_lm<const N: usize, const V: usize>(
         sigma,
         chi2_per_dof,
         correlations,
+        prior: BTreeMap::new(),
     })
 }
 
@@ -371,10 +463,23 @@ fn identifiability_report<const N: usize, const V: usize>(
         .filter(|&k| !lm.is_active(k))
         .map(|k| {
             let mut with = Vec::new();
+            let mut stand_ins = Vec::new();
+            let mut exact = true;
             if d[k] > dmax * 1e-8 {
                 if let Some(ch) = &rchol {
                     let b = DVector::from_fn(m, |i, _| corr(active[i], k));
                     let c = ch.solve(&b);
+                    // 1 − R² of the held column on the estimated ones.
+                    exact = 1.0 - b.dot(&c) < EXACT_CONFOUNDING;
+                    stand_ins = c
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, v)| v.abs() > 1e-9)
+                        .map(|(i, v)| {
+                            let j = active[i];
+                            (params[j].name(robot).to_string(), v * d[k] / d[j])
+                        })
+                        .collect();
                     let big = c.iter().fold(0.0f64, |x, v| x.max(v.abs()));
                     let mut terms: Vec<(f64, usize)> = c
                         .iter()
@@ -388,11 +493,15 @@ fn identifiability_report<const N: usize, const V: usize>(
                         .take(4)
                         .map(|(_, j)| params[*j].name(robot).to_string())
                         .collect();
+                } else {
+                    exact = false;
                 }
             }
             Held {
                 name: params[k].name(robot).to_string(),
                 confounded_with: with,
+                exact,
+                stand_ins,
             }
         })
         .collect();

@@ -30,10 +30,10 @@ pub struct Args {
     /// Write SVG plots (residuals against each named effect, per-pose errors) into this folder.
     #[arg(long)]
     pub plots: Option<PathBuf>,
-    /// Also keep the last poses out of the whole search and report the errors on them: a
-    /// fraction (< 1) or a count (≥ 1).
-    #[arg(long, conflicts_with = "validate")]
-    pub holdout: Option<f64>,
+    /// Also keep poses out of the whole search and report the errors on them: `--holdout` a
+    /// fraction (< 1) or a count (≥ 1), `--split` which ones (last, random, every:K).
+    #[command(flatten)]
+    pub holdout: super::inputs::HoldoutArgs,
     /// Also report the errors on a separate measurement file.
     #[arg(long)]
     pub validate: Option<PathBuf>,
@@ -121,7 +121,8 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
         Some(v) => Some(super::inputs::some_rows(load(v)?.poses, v)?),
         None => None,
     };
-    let (search_poses, held_poses) = super::inputs::split_poses(all, validate, args.holdout)?;
+    let (search_poses, held_poses) =
+        super::inputs::split_poses(all, validate, (&args.holdout, args.seed))?;
     let full = observed.six_d || observed.sigma || observed.names.len() > 1;
     if full {
         eprintln!(
@@ -200,10 +201,31 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
         None
     } else {
         stages.stage(&format!("errors on the {} held-out poses", held.len()));
-        Some(holdout_report(&mut d, &held))
+        // The starting model: the nominal robot placed as identify places it.
+        let mut start = nominal.clone();
+        super::inputs::place_nominal(&mut start, &file, &search, false)?;
+        Some(holdout_report(&mut d, &start, &held))
     };
     let mut report =
         DiagnoseReport::with_stall_limit(&d, args.stall_rms_mm).with_explanations(&d, &search);
+    if let Some(h) = &holdout {
+        let rms = |sq: Vec<f64>| (sq.iter().sum::<f64>() / sq.len().max(1) as f64).sqrt();
+        report.acceptance = crate::calibration::acceptance::judge(
+            (
+                Some(h.start_rms_mm),
+                Some(h.final_rms_mm),
+                rms(squared_errors(&d.model, &search)),
+            ),
+            &search,
+            &held,
+            Vec::new(),
+        );
+        report.held_out_worse = report.acceptance.as_ref().map(|a| a.held_out_worse);
+        if let Some(m) = report.acceptance.as_ref().and_then(|a| a.message.as_ref()) {
+            let worse = report.held_out_worse == Some(true);
+            eprintln!("{}: {m}", if worse { "error" } else { "warning" });
+        }
+    }
     report.holdout = holdout;
     report.poses = search.len();
     let full_fit = if full && report.converged {
@@ -313,19 +335,23 @@ fn all_observations<const N: usize>(
     Ok((fitted, report))
 }
 
-/// The errors of the starting model as the search fitted it (the same fit as the final model
-/// when nothing is added) and of the final model on the `held` poses; lowers `d`'s noise floor
+/// The errors of the nominal robot `start` (placed as identify places it), of the starting
+/// model as the search fitted it (the same fit as the final model when nothing is added) and
+/// of the final model on the `held` poses; lowers `d`'s noise floor
 /// to the final model's RMS there when it is above it.
 fn holdout_report<const N: usize>(
     d: &mut Diagnosis<N>,
+    start: &kinecal::Robot<f64, N, { crate::VCAP }>,
     held: &[kinecal::Measurement<f64, N>],
 ) -> HoldoutReport {
     let rms = |sq: Vec<f64>| (sq.iter().sum::<f64>() / sq.len() as f64).sqrt();
+    let start_rms_mm = rms(squared_errors(start, held));
     let geometric_rms_mm = rms(squared_errors(&d.baseline_model, held));
     let final_rms_mm = rms(squared_errors(&d.model, held));
     let noise_floor_capped = d.cap_noise_floor(final_rms_mm);
     HoldoutReport {
         poses: held.len(),
+        start_rms_mm,
         geometric_rms_mm,
         final_rms_mm,
         noise_floor_capped,

@@ -2,6 +2,7 @@
 
 use super::inputs::InputArgs;
 use crate::calibration::method::Method;
+use crate::calibration::selection::Selection;
 use crate::calibration::{
     add_effect, fit_lm, named_values, weights, EffectRequest, Fit, Residuals,
 };
@@ -24,9 +25,10 @@ pub struct Args {
     /// Identification method.
     #[arg(long, value_enum, default_value = "lm")]
     pub method: Method,
-    /// Hold out the last poses for validation: a fraction (< 1) or a count (≥ 1).
-    #[arg(long, conflicts_with = "validate")]
-    pub holdout: Option<f64>,
+    /// Held-out poses: `--holdout` a fraction (< 1) or a count (≥ 1), `--split` which ones
+    /// (last, random, every:K).
+    #[command(flatten)]
+    pub holdout: super::inputs::HoldoutArgs,
     /// Validate on a separate measurement file.
     #[arg(long)]
     pub validate: Option<PathBuf>,
@@ -40,14 +42,28 @@ pub struct Args {
     /// Write the identified model (robot TOML; written atomically, never over an input).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Hold these parameters at their file values (names as printed: d6, theta1, tool.z,
-    /// base.rz, …). Repeatable, or comma-separated.
+    /// Hold these parameters at their file values: names as printed (d6, theta1, tool.z,
+    /// base.rz, joint-table1[0], …) or groups (base, tool, geometry, theta, effects,
+    /// joint-table2, …). Repeatable, or comma-separated.
     #[arg(long, value_delimiter = ',', num_args = 1..)]
     pub fix: Vec<String>,
-    /// Estimate these parameters too (for example base.x… when `[base]` is given but not
-    /// trusted, or beta3 for a tilt). Repeatable, or comma-separated.
+    /// Estimate these parameters too (for example base when `[base]` is given but not
+    /// trusted, or beta3 for a tilt); names or groups as for --fix.
     #[arg(long, value_delimiter = ',', num_args = 1..)]
     pub free: Vec<String>,
+    /// Estimate only these parameters (names or groups as for --fix) and hold everything
+    /// else: a quick re-calibration (`--only base,theta2,theta3` after a re-mastering).
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub only: Vec<String>,
+    /// The prior on every parameter's change: `off`, or KIND=SIGMA over the robot file's
+    /// `[prior]` and the defaults (length_mm 5, angle_deg 0.5, tool_mm 10, tool_deg 2,
+    /// base_mm 10, base_deg 1, effect 0 = off). Comma-separated.
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub prior: Vec<String>,
+    /// Write each pose's residual (identification and held-out; per axis, with the pose index
+    /// and its line in the file) to this CSV.
+    #[arg(long)]
+    pub residuals: Option<PathBuf>,
     /// A length parameter that moves further than this from its file value is reported as
     /// suspicious (a manufacturing tolerance; JSON `suspicious`).
     #[arg(long, default_value_t = 20.0)]
@@ -67,12 +83,14 @@ pub struct Args {
 /// Runs the subcommand: fits the model (and writes it with `--out`); the report's
 /// `converged` says whether the numbers are a calibration.
 pub fn run(args: &Args) -> anyhow::Result<IdentifyReport> {
-    crate::output::atomic::refuse_model_over_inputs(
-        args.out.as_deref(),
-        &args.input.robot,
-        &args.input.data,
-        args.validate.as_deref(),
-    )?;
+    for out in [args.out.as_deref(), args.residuals.as_deref()] {
+        crate::output::atomic::refuse_model_over_inputs(
+            out,
+            &args.input.robot,
+            &args.input.data,
+            args.validate.as_deref(),
+        )?;
+    }
     let n = RobotFile::load(&args.input.robot)?.joint_count();
     with_joints!(n, N => run_with_joints::<N>(args))
 }
@@ -100,9 +118,23 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
         validate,
     };
     let mut done = identify(args, inputs)?;
+    if let Some(path) = &args.residuals {
+        crate::output::atomic::write_atomic(path, done.residuals.to_csv().as_bytes()).map_err(
+            |e| crate::refused(format!("--residuals {}: cannot write: {e}", path.display())),
+        )?;
+    }
     if let Some(out) = &args.out {
-        done.model.save(out)?;
-        done.report.out = Some(out.display().to_string());
+        if done.report.held_out_worse == Some(true) {
+            // Not a calibration: nothing a later step could mistake for one is written.
+            eprintln!(
+                "note: {} not written: the model predicts the held-out poses worse than the \
+                 model it started from",
+                out.display()
+            );
+        } else {
+            done.model.save(out)?;
+            done.report.out = Some(out.display().to_string());
+        }
     }
     warn(&done.report);
     Ok(done.report)
@@ -128,6 +160,8 @@ pub struct Identified<const N: usize> {
     pub report: IdentifyReport,
     pub model: RobotFile,
     pub robot: Robot<f64, N, VCAP>,
+    /// Each pose's residual (what `--residuals` writes).
+    pub residuals: crate::calibration::residual_table::ResidualTable,
 }
 
 /// `kinecal identify` in memory: fits the model of `inputs` with the options of `args` (its
@@ -151,7 +185,14 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
         ident_poses,
         valid_poses,
         pose_of,
-    } = super::inputs::split_observed(observed, validate, args.holdout, &data_origin)?;
+        ident_set,
+        valid_set,
+    } = super::inputs::split_observed(
+        observed,
+        validate,
+        (&args.holdout, args.seed),
+        &data_origin,
+    )?;
     for (flag, v) in [
         ("--tolerance-mm", args.tolerance_mm),
         ("--tolerance-deg", args.tolerance_deg),
@@ -199,12 +240,35 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
     for k in 1..nominal.tool_point_count() {
         params.extend((0..3).map(|a| kinecal::Param::ToolPoint(k as u8, a)));
     }
-    apply_fix_free(&mut params, &args.fix, &args.free, N)?;
+    crate::calibration::selection::apply(
+        &mut params,
+        &nominal,
+        &Selection {
+            only: &args.only,
+            free: &args.free,
+            fix: &args.fix,
+        },
+    )?;
     enough_poses(ident.len(), params.len(), base_unknown, data_path)?;
     let before = Residuals::of(&nominal, &ident, &valid);
+    // The prior: the robot file's `[prior]` (or the defaults) with `--prior` over it; none on
+    // what does not start from a file value.
+    let prior = file.prior.unwrap_or_default().with_overrides(&args.prior)?;
+    let free_start = |p: kinecal::Param| {
+        (p.is_base() && base_unknown)
+            || (p.is_tool_rotation() && tool_axes_unknown)
+            || extra.contains(&p) && matches!(p, kinecal::Param::Effect(_))
+    };
+    let prior_sigma: Vec<Option<f64>> = params
+        .iter()
+        .map(|&p| prior.sigma(p, free_start(p)))
+        .collect();
     let t0 = Instant::now();
     let run_method = |data: &[Measurement<f64, N>]| match args.method {
-        Method::Lm => fit_lm(&nominal, &params, data, LmConfig::default()),
+        Method::Lm => {
+            let fit = fit_lm(&nominal, &params, data, LmConfig::default())?;
+            crate::calibration::prior::refit(&nominal, &params, &prior_sigma, data, fit)
+        }
         m => crate::calibration::pso_search::identify(m, &nominal, &params, data, args.seed),
     };
     let mut ident = ident;
@@ -240,10 +304,11 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
             &file.tilt_joints(),
         )
         .with_tool_names(&observed.names);
-        // An identity `rpy_deg` written in the input stays written.
+        // An identity `rpy_deg` written in the input stays written, and so does `[prior]`.
         if f.tool.rpy_deg.is_none() {
             f.tool.rpy_deg = file.tool.rpy_deg;
         }
+        f.prior = file.prior;
         f
     };
     let mut changes = changes(&nominal, &fit, &params, base_unknown);
@@ -288,10 +353,35 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
         args.obs.deg_weight_mm,
         &weighted,
     ));
+    // Judged on the held-out poses against the model the fit started from.
+    let weak: Vec<String> = report
+        .changes
+        .iter()
+        .filter(|c| c.barely_determined(args.tolerance_mm, args.tolerance_deg))
+        .map(|c| c.name.clone())
+        .collect();
+    report.acceptance = crate::calibration::acceptance::judge(
+        (
+            before.validation_rms_mm,
+            after.validation_rms_mm,
+            after.identification_rms_mm,
+        ),
+        &ident,
+        &valid,
+        weak,
+    );
+    report.held_out_worse = report.acceptance.as_ref().map(|a| a.held_out_worse);
+    let residuals = crate::calibration::residual_table::ResidualTable::of(
+        (&nominal, &fit.robot),
+        (&ident_set, &valid_set),
+        args.validate.is_some(),
+        &observed.names,
+    );
     Ok(Identified {
         report,
         model,
         robot: fit.robot,
+        residuals,
     })
 }
 
@@ -319,6 +409,14 @@ pub fn warn(report: &IdentifyReport) {
              the tool point and the robot file (--tolerance-mm/--tolerance-deg set the limit)",
             report.suspicious.join(", ")
         );
+    }
+    if let Some(m) = report.acceptance.as_ref().and_then(|a| a.message.as_ref()) {
+        let level = if report.held_out_worse == Some(true) {
+            "error"
+        } else {
+            "warning"
+        };
+        eprintln!("{level}: {m}");
     }
     if !report.converged {
         eprintln!(
@@ -387,38 +485,6 @@ fn enough_poses(
     Ok(())
 }
 
-/// Applies `--fix` and `--free` to the parameter list (names as printed, geometric only).
-pub(crate) fn apply_fix_free(
-    params: &mut Vec<kinecal::Param>,
-    fix: &[String],
-    free: &[String],
-    n: usize,
-) -> anyhow::Result<()> {
-    let parse = |flag: &str, name: &str| -> anyhow::Result<kinecal::Param> {
-        let p = kinecal::Param::parse(name.trim()).filter(|p| p.joint().is_none_or(|j| j < n));
-        match p {
-            Some(p) => Ok(p),
-            None => crate::refuse!(
-                "{flag} {name}: not a parameter of this {n}-joint robot (names: base.x … base.rz, \
-                 alpha1, a1, theta1, d1, beta1 … d{n}, tool.x, tool.y, tool.z)"
-            ),
-        }
-    };
-    for name in free {
-        let p = parse("--free", name)?;
-        if !params.contains(&p) {
-            params.push(p);
-        }
-    }
-    for name in fix {
-        let p = parse("--fix", name)?;
-        params.retain(|q| *q != p);
-    }
-    let mut seen = std::collections::HashSet::new();
-    params.retain(|p| seen.insert(*p));
-    Ok(())
-}
-
 /// What every estimated parameter did, in the order of the parameter list.
 fn changes<const N: usize>(
     start: &Robot<f64, N, VCAP>,
@@ -433,8 +499,12 @@ fn changes<const N: usize>(
         .filter_map(|p| {
             let name = p.name(&fit.robot).to_string();
             let (a, b) = (*from.get(&name)?, *to.get(&name)?);
+            let share = fit.prior.get(&name);
             Some(Change {
                 sigma: fit.sigma.get(&name).copied(),
+                data_sigma: share.map_or(fit.sigma.get(&name).copied(), |s| s.data_sigma),
+                prior_sigma: share.map(|s| s.prior_sigma),
+                data_share: share.map(|s| s.data_share),
                 length: p.is_length(),
                 free_start: matches!(p, kinecal::Param::Effect(_)) || (p.is_base() && base_unknown),
                 nominal: a,
@@ -499,5 +569,7 @@ fn report<const N: usize>(
         per_point: None,
         chi2_per_dof: None,
         observations: None,
+        held_out_worse: None,
+        acceptance: None,
     }
 }

@@ -43,6 +43,44 @@ pub fn some_rows<T>(rows: Vec<T>, path: &std::path::Path) -> anyhow::Result<Vec<
     Ok(rows)
 }
 
+/// `--holdout F` and `--split last|random|every:K`: which poses of the data file are kept out
+/// of the fit (`--seed` of the command picks the random ones).
+#[derive(clap::Args, Debug, Clone, Copy, PartialEq, Default)]
+pub struct HoldoutArgs {
+    /// Hold out poses for validation: a fraction (< 1) or a count (≥ 1), chosen by --split.
+    #[arg(long, conflicts_with = "validate")]
+    pub holdout: Option<f64>,
+    /// Which poses --holdout keeps out: `last` (the last ones of the file), `random` (by
+    /// --seed) or `every:K` (every K-th pose; needs no --holdout).
+    #[arg(long, default_value = "last", conflicts_with = "validate")]
+    pub split: crate::calibration::SplitKind,
+}
+
+impl HoldoutArgs {
+    /// The last poses by `holdout` (as before `--split`).
+    pub fn last(holdout: Option<f64>) -> Self {
+        Self {
+            holdout,
+            split: crate::calibration::SplitKind::Last,
+        }
+    }
+
+    /// Whether any pose of the data file is held out.
+    pub fn holds_out(&self) -> bool {
+        self.holdout.is_some() || matches!(self.split, crate::calibration::SplitKind::Every(_))
+    }
+
+    /// The held-out poses in words (`the last 316 poses`, `every 5th pose`, `316 random poses`).
+    pub fn describe(&self, held: usize) -> String {
+        use crate::calibration::SplitKind;
+        match self.split {
+            SplitKind::Last => format!("the last {held} poses"),
+            SplitKind::Random => format!("{held} poses chosen at random"),
+            SplitKind::Every(k) => format!("every {k}th pose ({held} poses)"),
+        }
+    }
+}
+
 /// The identification and held-out observations of the data file (and `--validate` file or
 /// `--holdout` split), as `identify` fits them and `report` judges them.
 pub struct Split<const N: usize> {
@@ -54,18 +92,22 @@ pub struct Split<const N: usize> {
     pub valid_poses: usize,
     /// The pose of each identification observation.
     pub pose_of: Vec<usize>,
+    /// The identification and held-out poses themselves (held out: of the `--validate` file
+    /// when there is one), each with its line in its file.
+    pub ident_set: Vec<crate::formats::observations::Pose<N>>,
+    pub valid_set: Vec<crate::formats::observations::Pose<N>>,
 }
 
 /// Loads the data (and `validate`) in the units of `input` and splits them: the validation
-/// file's poses are held out, or the last poses by `holdout` (a fraction < 1 or a count);
-/// refuses (exit 2) empty files and a split that leaves nothing to identify from.
+/// file's poses are held out, or those `holdout` chooses; refuses (exit 2) empty files and a
+/// split that leaves nothing to identify from.
 pub fn load_split<const N: usize>(
     input: &InputArgs,
     file: &crate::formats::robot_file::RobotFile,
     nominal: &kinecal::Robot<f64, N, { crate::VCAP }>,
     obs: &crate::formats::observations::ObservationArgs,
     validate: Option<&std::path::Path>,
-    holdout: Option<f64>,
+    holdout: (&HoldoutArgs, u64),
 ) -> anyhow::Result<Split<N>> {
     use crate::formats::observations::{observe, Observed};
     let load = |p: &std::path::Path| -> anyhow::Result<Observed<N>> {
@@ -88,12 +130,12 @@ pub fn load_split<const N: usize>(
 }
 
 /// Splits the poses of `observed` (named `data_origin` in messages): `validate`'s poses are
-/// held out, or the last poses by `holdout` (a fraction < 1 or a count); refuses (exit 2)
-/// empty data and a split that leaves nothing to identify from.
+/// held out, or those `holdout` chooses (with the command's seed); refuses (exit 2) empty
+/// data and a split that leaves nothing to identify from.
 pub fn split_observed<const N: usize>(
     observed: crate::formats::observations::Observed<N>,
     validate: Option<(crate::formats::observations::Observed<N>, String)>,
-    holdout: Option<f64>,
+    holdout: (&HoldoutArgs, u64),
     data_origin: &str,
 ) -> anyhow::Result<Split<N>> {
     use crate::formats::observations::{flatten, pose_of};
@@ -102,10 +144,10 @@ pub fn split_observed<const N: usize>(
         Some((v, origin)) => Some(some_rows(v.poses, std::path::Path::new(&origin))?),
         None => None,
     };
-    let (ident, valid) = split_poses(all, validate, holdout)?;
-    let (ident_poses, valid_poses) = (ident.len(), valid.len());
-    let pose_of = pose_of(&ident);
-    let (ident, valid) = (flatten(&ident), flatten(&valid));
+    let (ident_set, valid_set) = split_poses(all, validate, holdout)?;
+    let (ident_poses, valid_poses) = (ident_set.len(), valid_set.len());
+    let pose_of = pose_of(&ident_set);
+    let (ident, valid) = (flatten(&ident_set), flatten(&valid_set));
     if ident.is_empty() {
         crate::refuse!("{data_origin}: --holdout leaves no poses to identify from: hold out fewer");
     }
@@ -116,28 +158,31 @@ pub fn split_observed<const N: usize>(
         ident_poses,
         valid_poses,
         pose_of,
+        ident_set,
+        valid_set,
     })
 }
 
-/// Identification and held-out poses: all of `all` against the `validate` file's poses, or the
-/// last of `all` by `holdout` (a fraction < 1 or a count ≥ 1), or all and none.
+/// Identification and held-out poses: all of `all` against the `validate` file's poses, or
+/// `all` split by `holdout` (`--holdout`, `--split`, and the command's seed), or all and none.
 pub fn split_poses<T: Clone>(
     all: Vec<T>,
     validate: Option<Vec<T>>,
-    holdout: Option<f64>,
+    (holdout, seed): (&HoldoutArgs, u64),
 ) -> anyhow::Result<(Vec<T>, Vec<T>)> {
-    match (validate, holdout) {
-        (Some(v), _) => Ok((all, v)),
-        (None, Some(h)) => {
-            if !(h.is_finite() && h > 0.0) {
-                crate::refuse!(
-                    "--holdout {h}: give a fraction (0 < F < 1) or a count of poses (≥ 1)"
-                );
-            }
-            crate::calibration::split_holdout(&all, h)
-        }
-        (None, None) => Ok((all, Vec::new())),
+    if let Some(v) = validate {
+        return Ok((all, v));
     }
+    let mask = crate::calibration::held_out_mask(all.len(), holdout.holdout, holdout.split, seed)?;
+    let (mut ident, mut valid) = (Vec::new(), Vec::new());
+    for (p, held) in all.into_iter().zip(mask) {
+        if held {
+            valid.push(p);
+        } else {
+            ident.push(p);
+        }
+    }
+    Ok((ident, valid))
 }
 
 /// Places the nominal robot where identification starts: its base fitted to the

@@ -25,10 +25,12 @@ pub struct Args {
     /// Held-out measurements: figures on poses the model never saw.
     #[arg(long)]
     pub validate: Option<PathBuf>,
-    /// Hold out the last poses of the data, as `identify --holdout` did: a fraction (< 1) or a
-    /// count (≥ 1).
-    #[arg(long, conflicts_with = "validate")]
-    pub holdout: Option<f64>,
+    /// Hold out poses of the data as `identify --holdout --split --seed` did.
+    #[command(flatten)]
+    pub holdout: super::inputs::HoldoutArgs,
+    /// The seed of `--split random` (as given to `identify`).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
     /// The JSON of `kinecal diagnose --json` on these data: its findings and their plots.
     #[arg(long)]
     pub diagnose: Option<PathBuf>,
@@ -41,6 +43,9 @@ pub struct Args {
     /// The parameters `identify` was told to add (`--free`).
     #[arg(long, value_delimiter = ',', num_args = 1..)]
     pub free: Vec<String>,
+    /// The parameters `identify` was told to estimate alone (`--only`).
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub only: Vec<String>,
     /// A model that misses the identification poses by more than this RMS (mm) is not a
     /// calibration of these data (exit 3).
     #[arg(long, default_value_t = 5.0)]
@@ -163,7 +168,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
         &nominal,
         obs,
         args.validate.as_deref(),
-        args.holdout,
+        (&args.holdout, args.seed),
     )?;
     let observed = &split.observed;
     // "Before" is the nominal robot placed as identify and check place it.
@@ -187,7 +192,15 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
     for k in 1..model.tool_point_count() {
         estimated.extend((0..3).map(|a| Param::ToolPoint(k as u8, a)));
     }
-    super::identify::apply_fix_free(&mut estimated, &args.fix, &args.free, N)?;
+    crate::calibration::selection::apply(
+        &mut estimated,
+        &model,
+        &crate::calibration::selection::Selection {
+            only: &args.only,
+            free: &args.free,
+            fix: &args.fix,
+        },
+    )?;
     let weighting = weights::Weighting::of(
         observed.six_d,
         observed.sigma,
@@ -210,16 +223,13 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
             input.data.display().to_string(),
         ),
     ];
-    match (&args.validate, args.holdout) {
-        (Some(v), _) => files.push(("held-out data".into(), v.display().to_string())),
-        (None, Some(h)) => files.push((
+    match &args.validate {
+        Some(v) => files.push(("held-out data".into(), v.display().to_string())),
+        None if args.holdout.holds_out() => files.push((
             "held-out data".into(),
-            format!(
-                "the last {} poses of the data (--holdout {h})",
-                split.valid_poses
-            ),
+            format!("{} of the data", args.holdout.describe(split.valid_poses)),
         )),
-        _ => {}
+        None => {}
     }
     if let Some(d) = &args.diagnose {
         files.push(("diagnose findings".into(), d.display().to_string()));

@@ -5,6 +5,7 @@ pub mod cell_file;
 pub mod dh_table;
 pub mod measurements;
 pub mod observations;
+pub mod prior;
 pub mod robot_file;
 pub mod units;
 pub mod urdf;

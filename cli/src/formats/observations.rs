@@ -42,6 +42,8 @@ pub struct ObservationArgs {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Pose<const N: usize> {
     pub observations: Vec<Measurement<f64, N>>,
+    /// The pose's line in its file (1-based, header included).
+    pub line: u32,
 }
 
 /// The poses of a file and what kind of observations they are.
@@ -229,7 +231,10 @@ pub fn observe<const N: usize>(
             }
             obs.push(m);
         }
-        poses.push(Pose { observations: obs });
+        poses.push(Pose {
+            observations: obs,
+            line: r.line,
+        });
     }
     if named {
         for (k, n) in names.iter().enumerate() {

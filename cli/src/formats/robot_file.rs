@@ -46,6 +46,10 @@ pub struct RobotFile {
     /// `[[couplings]]`: joints read relative to another (interfaces.md §3).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub couplings: Vec<CouplingSpec>,
+    /// `[prior]`: the 1-σ of each kind of parameter's change that `identify` assumes
+    /// (absent: the defaults of [`crate::formats::prior::PriorSpec`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior: Option<crate::formats::prior::PriorSpec>,
 }
 
 /// One `[[joints]]` table: the modified DH row of interfaces.md §1.
@@ -100,6 +104,8 @@ struct OutFile<'a> {
     effects: &'a [EffectSpec],
     #[serde(skip_serializing_if = "<[CouplingSpec]>::is_empty")]
     couplings: &'a [CouplingSpec],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    prior: Option<&'a crate::formats::prior::PriorSpec>,
 }
 
 /// `[base]`: the robot base in the measurement frame (fixed-axis roll, pitch, yaw).
@@ -165,6 +171,8 @@ struct RawFile {
     effects: Vec<Spanned<EffectSpec>>,
     #[serde(default)]
     couplings: Vec<Spanned<CouplingSpec>>,
+    #[serde(default)]
+    prior: Option<crate::formats::prior::PriorSpec>,
 }
 
 /// Where a validation problem is (indices are 0-based positions in the file's lists).
@@ -703,7 +711,11 @@ impl RobotFile {
             base: raw.base.as_ref().map(|b| b.get_ref().clone()),
             effects: raw.effects.iter().map(|e| e.get_ref().clone()).collect(),
             couplings: raw.couplings.iter().map(|c| c.get_ref().clone()).collect(),
+            prior: raw.prior,
         };
+        if let Some(p) = &file.prior {
+            p.check(&format!("{} [prior]", at(None)))?;
+        }
         if let Err(issue) = file.validate() {
             let span = match issue.place {
                 Place::File => None,
@@ -750,6 +762,7 @@ impl RobotFile {
             base: self.base.as_ref(),
             effects: &self.effects,
             couplings: &self.couplings,
+            prior: self.prior.as_ref(),
         };
         toml::to_string(&out).context("cannot format the robot file")
     }
@@ -951,6 +964,7 @@ impl RobotFile {
                     ratio,
                 })
                 .collect(),
+            prior: None,
         }
     }
 }

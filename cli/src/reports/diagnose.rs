@@ -49,6 +49,13 @@ pub struct DiagnoseReport {
     /// Errors on the poses kept out of the whole search (`--holdout`, `--validate`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub holdout: Option<HoldoutReport>,
+    /// With held-out poses: the final model predicts them worse than the nominal robot
+    /// (placed as identify places it): exit 3.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub held_out_worse: Option<bool>,
+    /// With held-out poses: the verdict on them and its likely reasons.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub acceptance: Option<crate::calibration::acceptance::Acceptance>,
     /// With 6-D, σ-weighted or several-reflector data: the geometry and the extended model
     /// fitted to all observations (the model `--out` writes; crate::diagnose::observations).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -153,6 +160,9 @@ pub struct ObservationsReport {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct HoldoutReport {
     pub poses: usize,
+    /// The nominal robot, placed as identify places it (mm): what the calibration is judged
+    /// against.
+    pub start_rms_mm: f64,
     /// The starting model as the search fitted it (mm).
     pub geometric_rms_mm: f64,
     /// The final model (mm).
@@ -274,6 +284,8 @@ impl DiagnoseReport {
             converged: d.baseline_validation_rms_mm.is_finite()
                 && d.baseline_validation_rms_mm <= stall_rms_mm,
             holdout: None,
+            held_out_worse: None,
+            acceptance: None,
             observations: None,
             out: None,
             plots: None,
@@ -336,7 +348,7 @@ impl super::Report for DiagnoseReport {
         self.to_value()
     }
     fn converged(&self) -> bool {
-        self.converged
+        self.converged && self.held_out_worse != Some(true)
     }
     fn non_finite(&self) -> Option<String> {
         super::finite::first_non_finite(self)

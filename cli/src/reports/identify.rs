@@ -54,6 +54,13 @@ pub struct IdentifyReport {
     /// What the observations were (6-D, weighted, how many points).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub observations: Option<ObservationSummary>,
+    /// With held-out poses: the calibrated model predicts them worse than the model it started
+    /// from (exit 3).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub held_out_worse: Option<bool>,
+    /// With held-out poses: the verdict on them and its likely reasons.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub acceptance: Option<crate::calibration::acceptance::Acceptance>,
 }
 
 /// One reflector's residuals (`per_point`).
@@ -175,13 +182,35 @@ pub struct Change {
     pub nominal: f64,
     pub calibrated: f64,
     pub change: f64,
+    /// 1-σ of the estimate (with a prior: the posterior's).
     pub sigma: Option<f64>,
+    /// 1-σ from the data alone.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub data_sigma: Option<f64>,
+    /// The prior's 1-σ on the change, when the parameter has one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub prior_sigma: Option<f64>,
+    /// How much of the estimate the data determined (0 … 1; the rest is the prior's).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub data_share: Option<f64>,
 }
 
 impl Change {
     /// Moved further than `mm` (lengths) or `deg` (angles) from the file value.
     pub fn beyond_tolerance(&self, mm: f64, deg: f64) -> bool {
         !self.free_start && self.change.abs() > if self.length { mm } else { deg }
+    }
+
+    /// The data alone determine it no better than `mm` (lengths) or `deg` (angles) 1-σ.
+    pub fn barely_determined(&self, mm: f64, deg: f64) -> bool {
+        let effect = self.name.starts_with("joint-");
+        let tolerance = if self.length { mm } else { deg };
+        !effect
+            && match self.data_sigma {
+                Some(s) => !(s <= tolerance),
+                // Estimated by the prior alone (the data did not determine it).
+                None => self.data_share.is_some(),
+            }
     }
 }
 
@@ -215,7 +244,7 @@ impl super::Report for IdentifyReport {
         super::json_value(self)
     }
     fn converged(&self) -> bool {
-        self.converged
+        self.converged && self.held_out_worse != Some(true)
     }
     fn non_finite(&self) -> Option<String> {
         super::finite::first_non_finite(self)
@@ -290,10 +319,20 @@ impl fmt::Display for IdentifyReport {
         let moved: Vec<&Change> = self.changes.iter().filter(|c| c.change != 0.0).collect();
         if !moved.is_empty() {
             writeln!(f)?;
+            let shares = moved.iter().any(|c| c.data_share.is_some());
             writeln!(
                 f,
-                "{:<16} {:>14} {:>14} {:>12} {:>10}",
-                "parameter", "file", "calibrated", "change", "1-σ"
+                "{:<16} {:>14} {:>14} {:>12} {:>10}{}",
+                "parameter",
+                "file",
+                "calibrated",
+                "change",
+                "1-σ",
+                if shares {
+                    "   data share (prior 1-σ)"
+                } else {
+                    ""
+                }
             )?;
             for c in moved {
                 let unit = if c.free_start && !c.length && c.name.contains('[') {
@@ -308,9 +347,13 @@ impl fmt::Display for IdentifyReport {
                 } else {
                     ""
                 };
+                let share = match (c.data_share, c.prior_sigma) {
+                    (Some(d), Some(p)) => format!("   {:>3.0} % ({})", 100.0 * d, sig(p, 2)),
+                    _ => String::new(),
+                };
                 writeln!(
                     f,
-                    "{:<16} {:>14} {:>14} {:>12} {:>10}{unit}{flag}",
+                    "{:<16} {:>14} {:>14} {:>12} {:>10}{unit}{share}{flag}",
                     c.name,
                     sig(c.nominal, 7),
                     sig(c.calibrated, 7),
@@ -336,6 +379,18 @@ impl fmt::Display for IdentifyReport {
                         h.confounded_with.join(", ")
                     )?;
                 }
+            }
+        }
+        if let Some(a) = &self.acceptance {
+            writeln!(f)?;
+            match &a.message {
+                Some(m) => writeln!(f, "held-out poses: {m}")?,
+                None => writeln!(
+                    f,
+                    "held-out poses: predicted better than by the starting model ({}× the \
+                     identification RMS)",
+                    sig(a.held_out_ratio, 3)
+                )?,
             }
         }
         if let Some(out) = &self.out {

@@ -279,6 +279,7 @@ pub fn import(chain: &Chain, tool_mm: [f64; 3], name: &str) -> Imported {
         base: Some(base),
         effects: Vec::new(),
         couplings: Vec::new(),
+        prior: None,
     };
     Imported {
         file,

@@ -1,0 +1,199 @@
+//! Acceptance on held-out poses: a calibration is judged on poses it was not fitted to. When
+//! the calibrated model predicts them worse than the model the fit started from, the result is
+//! not a calibration (`held_out_worse`, exit 3); when it predicts them much worse than the
+//! identification poses, a warning. Either way the likely reason is named in one line: held-out
+//! poses outside the joint ranges the identification poses cover (extrapolation), or
+//! parameters the data barely determine (1-σ beyond a manufacturing tolerance).
+
+use kinecal::Measurement;
+use serde::Serialize;
+
+/// Held-out RMS above this many times the identification RMS draws a warning.
+pub const MUCH_WORSE: f64 = 2.0;
+
+/// The verdict on the held-out poses.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Acceptance {
+    /// The calibrated model predicts the held-out poses worse than the starting model.
+    pub held_out_worse: bool,
+    /// Held-out RMS over identification RMS of the calibrated model.
+    pub held_out_ratio: f64,
+    /// The verdict and its likely reasons in one line; `None` when the result holds.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub message: Option<String>,
+    /// Joints along which held-out poses lie outside the identification poses' range.
+    pub outside_ranges: Vec<JointRangeGap>,
+    /// Parameters the data barely determine (1-σ from the data beyond the tolerance).
+    pub weak_parameters: Vec<String>,
+}
+
+/// A joint whose held-out readings leave the identification poses' range.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct JointRangeGap {
+    /// 1-based.
+    pub joint: usize,
+    /// Range of the identification poses, degrees.
+    pub identified_deg: [f64; 2],
+    /// Range of the held-out poses, degrees.
+    pub held_out_deg: [f64; 2],
+    /// Share of the held-out poses outside the identification range.
+    pub outside_share: f64,
+}
+
+/// Joints along which more than a few held-out poses lie clearly outside the range the
+/// identification poses cover (by more than 2 % of that range or 1°, whichever is more).
+pub fn outside_ranges<const N: usize>(
+    ident: &[Measurement<f64, N>],
+    valid: &[Measurement<f64, N>],
+) -> Vec<JointRangeGap> {
+    let range = |data: &[Measurement<f64, N>], j: usize| {
+        data.iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
+                (lo.min(m.q[j]), hi.max(m.q[j]))
+            })
+    };
+    (0..N)
+        .filter_map(|j| {
+            let (lo, hi) = range(ident, j);
+            let margin = (0.02 * (hi - lo)).max(1f64.to_radians());
+            let outside = valid
+                .iter()
+                .filter(|m| m.q[j] < lo - margin || m.q[j] > hi + margin)
+                .count();
+            let share = outside as f64 / valid.len().max(1) as f64;
+            // One stray pose is not extrapolation; a twentieth of them is.
+            (outside > 0 && share >= 0.05).then(|| {
+                let (vlo, vhi) = range(valid, j);
+                JointRangeGap {
+                    joint: j + 1,
+                    identified_deg: [lo.to_degrees(), hi.to_degrees()],
+                    held_out_deg: [vlo.to_degrees(), vhi.to_degrees()],
+                    outside_share: share,
+                }
+            })
+        })
+        .collect()
+}
+
+/// Judges a fit on its held-out poses: `start_mm` and `after_mm` are the starting and the
+/// calibrated model's held-out RMS, `ident_mm` the calibrated model's identification RMS;
+/// `weak` the parameters the data barely determine. `None` without held-out poses.
+pub fn judge<const N: usize>(
+    (start_mm, after_mm, ident_mm): (Option<f64>, Option<f64>, f64),
+    ident: &[Measurement<f64, N>],
+    valid: &[Measurement<f64, N>],
+    weak: Vec<String>,
+) -> Option<Acceptance> {
+    let (start, after) = (start_mm?, after_mm?);
+    let worse = !(after <= start);
+    let ratio = after / ident_mm.max(f64::MIN_POSITIVE);
+    let much_worse = ratio > MUCH_WORSE;
+    let gaps = outside_ranges(ident, valid);
+    let message = (worse || much_worse).then(|| {
+        use crate::output::numfmt::sig;
+        let head = if worse {
+            format!(
+                "the calibrated model predicts the held-out poses worse than the model it started \
+                 from ({} mm against {} mm): this is not a calibration",
+                sig(after, 4),
+                sig(start, 4)
+            )
+        } else {
+            format!(
+                "the calibrated model predicts the held-out poses {}× worse than the poses it was \
+                 fitted to ({} mm against {} mm)",
+                sig(ratio, 3),
+                sig(after, 4),
+                sig(ident_mm, 4)
+            )
+        };
+        let mut why = Vec::new();
+        if !gaps.is_empty() {
+            let joints: Vec<String> = gaps
+                .iter()
+                .map(|g| {
+                    format!(
+                        "joint {} held out {:.0}…{:.0}° against {:.0}…{:.0}° identified",
+                        g.joint,
+                        g.held_out_deg[0],
+                        g.held_out_deg[1],
+                        g.identified_deg[0],
+                        g.identified_deg[1]
+                    )
+                })
+                .collect();
+            why.push(format!(
+                "held-out poses outside the identification poses' joint ranges ({}): measure \
+                 poses that cover the working range",
+                joints.join("; ")
+            ));
+        }
+        if !weak.is_empty() {
+            let shown: Vec<&str> = weak.iter().take(6).map(String::as_str).collect();
+            why.push(format!(
+                "parameters the data barely determine ({}{}: 1-σ beyond the tolerance): hold \
+                 them (--fix) or measure poses that move them (plan --estimate)",
+                shown.join(", "),
+                if weak.len() > shown.len() {
+                    ", …"
+                } else {
+                    ""
+                }
+            ));
+        }
+        if why.is_empty() {
+            why.push(
+                "the held-out poses differ from the identified ones (another session, a drift, \
+                 a collision?): check them with --residuals"
+                    .to_string(),
+            );
+        }
+        format!("{head}; likely: {}", why.join("; "))
+    });
+    Some(Acceptance {
+        held_out_worse: worse,
+        held_out_ratio: ratio,
+        message,
+        outside_ranges: gaps,
+        weak_parameters: weak,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+
+    fn at(q1_deg: f64) -> Measurement<f64, 2> {
+        Measurement::new([q1_deg.to_radians(), 0.0], Vector3::zeros())
+    }
+
+    #[test]
+    fn extrapolation_is_named_and_a_stray_pose_is_not() {
+        let ident: Vec<_> = (0..50).map(|k| at(-90.0 + k as f64)).collect();
+        let inside: Vec<_> = (0..40).map(|k| at(-80.0 + k as f64)).collect();
+        assert!(outside_ranges(&ident, &inside).is_empty());
+        let mut one_stray = inside.clone();
+        one_stray.push(at(60.0));
+        assert!(outside_ranges(&ident, &one_stray).is_empty());
+        let beyond: Vec<_> = (0..40).map(|k| at(-60.0 + 2.0 * k as f64)).collect();
+        let g = outside_ranges(&ident, &beyond);
+        assert_eq!(g.len(), 1);
+        assert_eq!(g[0].joint, 1);
+        let a = judge(
+            (Some(1.0), Some(3.0), 0.5),
+            &ident,
+            &beyond,
+            vec!["d6".into()],
+        )
+        .unwrap();
+        assert!(a.held_out_worse);
+        let m = a.message.unwrap();
+        assert!(m.contains("joint 1") && m.contains("d6"), "{m}");
+        let ok = judge((Some(3.0), Some(1.0), 0.8), &ident, &inside, vec![]).unwrap();
+        assert!(!ok.held_out_worse && ok.message.is_none());
+        let warn = judge((Some(3.0), Some(2.0), 0.5), &ident, &inside, vec![]).unwrap();
+        assert!(!warn.held_out_worse && warn.message.unwrap().contains("4×"));
+        assert!(judge((Some(3.0), None, 0.5), &ident, &inside, vec![]).is_none());
+    }
+}

@@ -1,0 +1,326 @@
+//! Which parameters a fit estimates: `--only`, `--free` and `--fix` by the names `identify`
+//! prints (`theta2`, `base.rz`, `tool2.x`, `joint-table1[0]`, `joint-cyclic3.n1.a`) and by
+//! group (docs/formats.md "Parameter names and groups"):
+//!
+//! | group | parameters |
+//! |---|---|
+//! | `base` | `base.x` … `base.rz` |
+//! | `tool` | every tool point coordinate and, when estimated, the tool orientation |
+//! | `geometry` | every joint row: `alpha`, `a`, `theta`, `d` (and `beta` where it is a parameter) |
+//! | `theta`, `alpha`, `a`, `d`, `beta` | that column of every row |
+//! | `effects` | every effect value |
+//! | `joint-tableN`, `joint-cyclicN`, `joint-scaleN`, `joint-complianceN` | every value of that effect of joint N |
+//!
+//! `--only` replaces the parameter list by what it names (also parameters the default list
+//! leaves out, such as a base the robot file gives); `--free` then adds, `--fix` removes.
+
+use kinecal::model::param::Param;
+use kinecal::Robot;
+
+/// The groups, as listed in messages.
+const GROUPS: &str = "base, tool, geometry, theta, alpha, a, d, beta, effects, joint-tableN, \
+                      joint-cyclicN, joint-scaleN, joint-complianceN";
+
+/// `--only`, `--free`, `--fix`, as given (each entry one name or group).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Selection<'a> {
+    pub only: &'a [String],
+    pub free: &'a [String],
+    pub fix: &'a [String],
+}
+
+impl Selection<'_> {
+    /// Nothing asked: the default list stands.
+    pub fn is_empty(&self) -> bool {
+        self.only.is_empty() && self.free.is_empty() && self.fix.is_empty()
+    }
+}
+
+/// Every parameter a name can refer to for `robot`: the default list `params` and everything
+/// else the model has (its base, rows, tilts, tool points and orientation, effect values).
+fn universe<const N: usize, const V: usize>(
+    robot: &Robot<f64, N, V>,
+    params: &[Param],
+) -> Vec<Param> {
+    let mut all: Vec<Param> = params.to_vec();
+    let mut push = |p: Param| {
+        if !all.contains(&p) {
+            all.push(p);
+        }
+    };
+    for p in [
+        Param::BaseX,
+        Param::BaseY,
+        Param::BaseZ,
+        Param::BaseRx,
+        Param::BaseRy,
+        Param::BaseRz,
+    ] {
+        push(p);
+    }
+    for j in 0..N as u8 {
+        for p in [Param::Alpha(j), Param::A(j), Param::Theta(j), Param::D(j)] {
+            push(p);
+        }
+    }
+    for p in [Param::ToolX, Param::ToolY, Param::ToolZ] {
+        push(p);
+    }
+    for k in 1..robot.tool_point_count() {
+        for a in 0..3 {
+            push(Param::ToolPoint(k as u8, a));
+        }
+    }
+    if !robot.tool_axes_identity() {
+        for p in [Param::ToolRx, Param::ToolRy, Param::ToolRz] {
+            push(p);
+        }
+    }
+    for k in 0..robot.effects().values().len() {
+        push(Param::Effect(k as u16));
+    }
+    all
+}
+
+/// What one name or group refers to among `all` (in `all`'s order); a single geometric name
+/// that the model does not list yet (`beta3`, `tool.rx`) is taken as it parses. Refused
+/// (exit 2) with the names this robot has when it refers to nothing.
+fn resolve<const N: usize, const V: usize>(
+    flag: &str,
+    name: &str,
+    robot: &Robot<f64, N, V>,
+    all: &[Param],
+) -> anyhow::Result<Vec<Param>> {
+    let name = name.trim();
+    let column = |f: fn(Param) -> bool| all.iter().copied().filter(|p| f(*p)).collect();
+    let found: Vec<Param> = match name {
+        "base" => column(Param::is_base),
+        "tool" => column(|p| p.is_tool() || p.is_tool_rotation()),
+        "geometry" => column(|p| p.joint().is_some()),
+        "theta" => column(|p| matches!(p, Param::Theta(_))),
+        "alpha" => column(|p| matches!(p, Param::Alpha(_))),
+        "a" => column(|p| matches!(p, Param::A(_))),
+        "d" => column(|p| matches!(p, Param::D(_))),
+        "beta" => column(|p| matches!(p, Param::Beta(_))),
+        "effects" => column(|p| matches!(p, Param::Effect(_))),
+        _ => {
+            let by_name: Vec<Param> = all
+                .iter()
+                .copied()
+                .filter(|p| p.name(robot).to_string() == name)
+                .collect();
+            if !by_name.is_empty() {
+                by_name
+            } else if let Some(group) = effect_group(name, robot) {
+                group
+            } else {
+                Param::parse(name)
+                    .filter(|p| p.joint().is_none_or(|j| j < N))
+                    .filter(|p| {
+                        p.tool_point()
+                            .is_none_or(|(k, _)| k < robot.tool_point_count())
+                    })
+                    .into_iter()
+                    .collect()
+            }
+        }
+    };
+    if found.is_empty() {
+        crate::refuse!(
+            "{flag} {name}: no parameter of this {N}-joint model has that name (names as \
+             identify prints them: base.x … base.rz, alpha1, a1, theta1, d1, beta1 … d{N}, \
+             tool.x, tool.y, tool.z, effect values such as joint-table2[0]; groups: {GROUPS})"
+        );
+    }
+    Ok(found)
+}
+
+/// Every value of the effect `KINDJ` (`joint-table2`, `joint-cyclic3`) of `robot`, if it has
+/// one of that kind on that joint.
+fn effect_group<const N: usize, const V: usize>(
+    name: &str,
+    robot: &Robot<f64, N, V>,
+) -> Option<Vec<Param>> {
+    let split = name.find(|c: char| c.is_ascii_digit())?;
+    let (kind, joint) = name.split_at(split);
+    let joint: usize = joint.parse().ok()?;
+    let kind = kinecal::EffectKind::from_id(kind)?;
+    let values: Vec<Param> = robot
+        .effects()
+        .iter()
+        .filter(|e| e.kind == kind && e.joint as usize + 1 == joint)
+        .flat_map(|e| e.range().map(|k| Param::Effect(k as u16)))
+        .collect();
+    (!values.is_empty()).then_some(values)
+}
+
+/// Applies `sel` to the parameter list of a fit of `robot`: `--only` replaces it, `--free`
+/// adds, `--fix` removes (each by name or group); the order stays that of the model.
+pub fn apply<const N: usize, const V: usize>(
+    params: &mut Vec<Param>,
+    robot: &Robot<f64, N, V>,
+    sel: &Selection<'_>,
+) -> anyhow::Result<()> {
+    if sel.is_empty() {
+        return Ok(());
+    }
+    let all = universe(robot, params);
+    let names = |flag: &str, list: &[String]| -> anyhow::Result<Vec<Param>> {
+        let mut out = Vec::new();
+        for n in list {
+            out.extend(resolve(flag, n, robot, &all)?);
+        }
+        Ok(out)
+    };
+    let only = names("--only", sel.only)?;
+    let free = names("--free", sel.free)?;
+    let fix = names("--fix", sel.fix)?;
+    let mut chosen: Vec<Param> = if sel.only.is_empty() {
+        params.clone()
+    } else {
+        Vec::new()
+    };
+    chosen.extend(only);
+    chosen.extend(free);
+    chosen.retain(|p| !fix.contains(p));
+    // The model's order (base, rows, tool, tilts, effects), then what only parsed.
+    let mut ordered: Vec<Param> = all.iter().copied().filter(|p| chosen.contains(p)).collect();
+    for p in chosen {
+        if !ordered.contains(&p) {
+            ordered.push(p);
+        }
+    }
+    if ordered.is_empty() {
+        crate::refuse!(
+            "--only/--fix leave no parameter to estimate: name at least one parameter to fit"
+        );
+    }
+    *params = ordered;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use kinecal::model::effects::EffectKind;
+
+    fn robot() -> Robot<f64, 6, { crate::VCAP }> {
+        let mut r = crate::simulation::er20_c10();
+        r.effects_mut()
+            .push(EffectKind::Table, 0, 6, 0, -0.1, 0.05, &[0.0; 5])
+            .unwrap();
+        r.effects_mut()
+            .push(EffectKind::Cyclic, 2, 6, 1, 0.0, 0.0, &[0.0; 2])
+            .unwrap();
+        r
+    }
+
+    fn names(r: &Robot<f64, 6, { crate::VCAP }>, p: &[Param]) -> Vec<String> {
+        p.iter().map(|p| p.name(r).to_string()).collect()
+    }
+
+    fn s(v: &[&str]) -> Vec<String> {
+        v.iter().map(|x| x.to_string()).collect()
+    }
+
+    #[test]
+    fn only_replaces_the_list_and_reaches_a_known_base() {
+        let r = robot();
+        let mut p = vec![Param::Theta(0), Param::D(1)];
+        let only = s(&["base", "theta2", "joint-table1"]);
+        apply(
+            &mut p,
+            &r,
+            &Selection {
+                only: &only,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(
+            names(&r, &p),
+            [
+                "base.x",
+                "base.y",
+                "base.z",
+                "base.rx",
+                "base.ry",
+                "base.rz",
+                "theta2",
+                "joint-table1[0]",
+                "joint-table1[1]",
+                "joint-table1[2]",
+                "joint-table1[3]",
+                "joint-table1[4]"
+            ]
+        );
+    }
+
+    #[test]
+    fn printed_effect_names_and_groups_fix_and_free() {
+        let r = robot();
+        let mut p: Vec<Param> = (0..7).map(|k| Param::Effect(k as u16)).collect();
+        p.push(Param::A(2));
+        let fix = s(&["joint-table1[0]", "joint-cyclic3.n1.b"]);
+        let free = s(&["beta3"]);
+        let sel = Selection {
+            fix: &fix,
+            free: &free,
+            ..Default::default()
+        };
+        apply(&mut p, &r, &sel).unwrap();
+        let n = names(&r, &p);
+        assert!(!n.contains(&"joint-table1[0]".to_string()));
+        assert!(!n.contains(&"joint-cyclic3.n1.b".to_string()));
+        assert!(n.contains(&"joint-cyclic3.n1.a".to_string()));
+        assert!(n.contains(&"beta3".to_string()) && n.contains(&"a3".to_string()));
+        let mut q = p.clone();
+        let fix = s(&["effects", "geometry"]);
+        apply(
+            &mut q,
+            &r,
+            &Selection {
+                fix: &fix,
+                ..Default::default()
+            },
+        )
+        .unwrap_err();
+        let fix = s(&["geometry"]);
+        apply(
+            &mut q,
+            &r,
+            &Selection {
+                fix: &fix,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert!(q.iter().all(|p| matches!(p, Param::Effect(_))));
+    }
+
+    #[test]
+    fn unknown_names_are_refused() {
+        let r = robot();
+        for bad in [
+            "theta7",
+            "joint-table2",
+            "tool3.x",
+            "nope",
+            "joint-table1[9]",
+        ] {
+            let mut p = vec![Param::Theta(0)];
+            let fix = s(&[bad]);
+            let e = apply(
+                &mut p,
+                &r,
+                &Selection {
+                    fix: &fix,
+                    ..Default::default()
+                },
+            )
+            .unwrap_err()
+            .to_string();
+            assert!(e.contains(bad), "{e}");
+        }
+    }
+}

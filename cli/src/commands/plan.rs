@@ -194,10 +194,7 @@ fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Re
         })
         .collect();
     // A cell with nothing to collide with (no `--scene`) reports the largest float: none.
-    let min_clearance = clearances
-        .iter()
-        .cloned()
-        .fold(f64::INFINITY, f64::min);
+    let min_clearance = clearances.iter().cloned().fold(f64::INFINITY, f64::min);
     let min_clearance = (min_clearance < 1e300).then_some(min_clearance);
     let colliding = clearances.iter().filter(|c| **c <= 0.0).count();
     let mut written = p.poses.clone();

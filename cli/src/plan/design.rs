@@ -6,9 +6,9 @@
 //! for the steps and the report.
 
 use crate::formats::cell_file::HostScene;
-use kinecal::planning::cell::Tracker;
 use anyhow::{anyhow, bail};
 use kinecal::model::param::{Param, ParamSet};
+use kinecal::planning::cell::Tracker;
 use kinecal::planning::information::{
     default_tolerance, scaled_rows, Covariance, Information, PoseRows,
 };

@@ -11,9 +11,10 @@
 //! only constraint ([`limits_only_scene`]).
 //!
 //! 1. Pool: `--pool` feasible configurations, 80 % drawn with the wrist aimed at the tracker
-//!    and 20 % uniformly within the limits ([`pose_pool::draw`]). Poses closer than 0.1 mm to
-//!    a collision or within 0.001° of the incidence limit are dropped, so the rounding of the
-//!    written joint values cannot make a planned pose infeasible.
+//!    and 20 % uniformly within the limits ([`pose_pool::draw`]); all uniformly without a
+//!    scene. Poses closer than 0.1 mm to a collision or within 0.001° of the incidence limit are
+//!    dropped, so the rounding of the written joint values cannot make a planned pose
+//!    infeasible.
 //! 2. Design: `random` draws uniformly within the limits and keeps feasible poses (the
 //!    experimenter's heuristic); `d`, `o1` (the same optimum: O1 is monotone in det JᵀJ for a
 //!    fixed number of poses), `a` and `kpi` select from the pool by greedy construction and
@@ -193,7 +194,8 @@ fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Re
             scene.clearance(&fk)
         })
         .collect();
-    // A cell with nothing to collide with (no `--scene`) reports the largest float: none.
+    // A cell with nothing to collide with (no `--scene`) reports the largest float: no
+    // clearance to report (JSON null).
     let min_clearance = clearances.iter().cloned().fold(f64::INFINITY, f64::min);
     let min_clearance = (min_clearance < 1e300).then_some(min_clearance);
     let colliding = clearances.iter().filter(|c| **c <= 0.0).count();

@@ -273,6 +273,7 @@ fn plan_with(criterion: CriterionArg, collisions: bool, seed: u64) -> (Vec<[f64;
             passes: 30,
             seed,
             refine: true,
+            estimate: &[],
         };
         let p = design::plan(&robot, &req).unwrap();
         (

@@ -3,13 +3,18 @@
 //! Plans are made in the robot base frame with the base at identity: the scene is given there,
 //! and the identified base pose (the tracker's placement) only rotates the tool-point
 //! covariance, whose trace is what the criteria use. The identified set is the default full
-//! set (base pose, alpha/a/theta/d of every joint, tool point); its structural redundancies
-//! are dropped by [`Basis`](kinecal::planning::selection::Basis).
+//! set (base pose, alpha/a/theta/d of every joint, tool point), or with `--estimate` the named
+//! subset with every other parameter held at its value (a quick re-calibration: the
+//! information about the subset is then its own Jacobian columns,
+//! [`crate::plan::estimate`]); structural redundancies are dropped by
+//! [`Basis`](kinecal::planning::selection::Basis). Without `--scene` the joint limits are the
+//! only constraint ([`limits_only_scene`]).
 //!
 //! 1. Pool: `--pool` feasible configurations, 80 % drawn with the wrist aimed at the tracker
-//!    and 20 % uniformly within the limits ([`pose_pool::draw`]). Poses closer than 0.1 mm to
-//!    a collision or within 0.001° of the incidence limit are dropped, so the rounding of the
-//!    written joint values cannot make a planned pose infeasible.
+//!    and 20 % uniformly within the limits ([`pose_pool::draw`]); all uniformly without a
+//!    scene. Poses closer than 0.1 mm to a collision or within 0.001° of the incidence limit are
+//!    dropped, so the rounding of the written joint values cannot make a planned pose
+//!    infeasible.
 //! 2. Design: `random` draws uniformly within the limits and keeps feasible poses (the
 //!    experimenter's heuristic); `d`, `o1` (the same optimum: O1 is monotone in det JᵀJ for a
 //!    fixed number of poses), `a` and `kpi` select from the pool by greedy construction and
@@ -36,8 +41,15 @@ pub struct Args {
     #[arg(long)]
     pub robot: PathBuf,
     /// Measurement cell (TOML, robot base frame): tracker, floor, link capsules, obstacles.
+    /// Without it, every configuration within the robot's joint limits is taken as measurable
+    /// (no incidence limit, nothing to collide with).
     #[arg(long)]
-    pub scene: PathBuf,
+    pub scene: Option<PathBuf>,
+    /// Design for these parameters only, the others held at the robot file's values (a quick
+    /// re-calibration): names as identify prints them (theta2, base.x, tool.z, …) or the
+    /// groups base, tool, geometry, theta. Repeatable, or comma-separated.
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub estimate: Vec<String>,
     /// Number of measurement poses to plan.
     #[arg(long)]
     pub poses: usize,
@@ -113,7 +125,15 @@ fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Re
     let robot = file
         .to_robot::<N>()
         .map_err(|e| anyhow!("{}: {e}", args.robot.display()))?;
-    let scene = SceneFile::load(&args.scene, N)?.to_scene()?;
+    let scene = match &args.scene {
+        Some(path) => SceneFile::load(path, N)?.to_scene()?,
+        None => limits_only_scene()?,
+    };
+    let estimate = if args.estimate.is_empty() {
+        Vec::new()
+    } else {
+        crate::plan::estimate::estimate_params(&args.estimate, N)?
+    };
     let work = args
         .work
         .iter()
@@ -143,6 +163,7 @@ fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Re
         passes: args.passes,
         seed: args.seed,
         refine: !args.no_refine,
+        estimate: &estimate,
     };
     // A spinner with the elapsed time while the design runs (stderr, only on a terminal): the
     // work is bounded by --poses, --pool and --passes (checked above), but a large design
@@ -173,7 +194,10 @@ fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Re
             scene.clearance(&fk)
         })
         .collect();
+    // A cell with nothing to collide with (no `--scene`) reports the largest float: no
+    // clearance to report (JSON null).
     let min_clearance = clearances.iter().cloned().fold(f64::INFINITY, f64::min);
+    let min_clearance = (min_clearance < 1e300).then_some(min_clearance);
     let colliding = clearances.iter().filter(|c| **c <= 0.0).count();
     let mut written = p.poses.clone();
     for (c, cl) in written.iter_mut().zip(&clearances) {
@@ -203,6 +227,10 @@ fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Re
         },
         observability: ev.o.into(),
         identifiable_directions: ev.rank,
+        estimate: estimate
+            .iter()
+            .map(|p| p.name(&robot).to_string())
+            .collect(),
         collision_avoidance: !args.no_collisions,
         pool: p.pool_size,
         draws: p.draws,
@@ -219,9 +247,12 @@ pub fn run(args: &Args) -> anyhow::Result<PlanReport> {
         "--out",
         &args.out,
         &[
-            ("robot", args.robot.as_path()),
-            ("scene", args.scene.as_path()),
-        ],
+            Some(("robot", args.robot.as_path())),
+            args.scene.as_deref().map(|s| ("scene", s)),
+        ]
+        .into_iter()
+        .flatten()
+        .collect::<Vec<_>>(),
     )?;
     // The work grows with poses × pool × passes: all three are bounded before it starts.
     crate::check_count("--poses", args.poses, 1, crate::MAX_PLAN_POSES)?;

@@ -8,6 +8,7 @@
 use crate::formats::cell_file::HostScene;
 use anyhow::{anyhow, bail};
 use kinecal::model::param::{Param, ParamSet};
+use kinecal::planning::cell::Tracker;
 use kinecal::planning::information::{
     default_tolerance, scaled_rows, Covariance, Information, PoseRows,
 };
@@ -91,6 +92,28 @@ pub fn plan_params(n: usize) -> anyhow::Result<ParamSet<PCAP>> {
     ParamSet::<PCAP>::full(n, true).map_err(|e| anyhow!("parameter set: {e:?}"))
 }
 
+/// The cell of a plan made without a scene file: the robot's joint limits are the only
+/// constraint. Its tracker sees every orientation (incidence limit 180°; it stands at the base
+/// origin, so `incidence_deg` is measured against that point and means nothing), and there is
+/// no floor, no capsule and no obstacle (clearance ∞).
+pub fn limits_only_scene() -> anyhow::Result<HostScene> {
+    HostScene::new(
+        Tracker {
+            position: nalgebra::Vector3::zeros(),
+            max_incidence: std::f64::consts::PI,
+            beam_radius: 0.0,
+        },
+        None,
+    )
+    .map_err(|e| anyhow!("the joint-limits-only cell: {e:?}"))
+}
+
+/// True when the scene's tracker constrains the orientation (not [`limits_only_scene`]): only
+/// then are poses aimed at it.
+fn aims(scene: &HostScene) -> bool {
+    scene.tracker().max_incidence < std::f64::consts::PI
+}
+
 /// The robot in its own base frame (base at identity), as plans use it.
 pub fn in_base_frame<const N: usize, const V: usize>(robot: &Robot<f64, N, V>) -> Robot<f64, N, V> {
     let mut r = robot.clone();
@@ -125,7 +148,7 @@ pub fn build_pool<const N: usize, const V: usize>(
     max_draws: u64,
 ) -> Pool<N> {
     let sampling = Sampling {
-        aimed_fraction: 0.8,
+        aimed_fraction: if aims(scene) { 0.8 } else { 0.0 },
         cone_fraction: 0.97,
         collisions,
     };
@@ -254,7 +277,7 @@ impl<const N: usize, const V: usize> Neighbourhood<'_, N, V> {
             let u: f64 = pose_pool::uniform(rng);
             *xi = (*xi + step * (2.0 * u - 1.0)).clamp(j.lower, j.upper);
         }
-        if pose_pool::uniform::<f64, _>(rng) < 0.5 {
+        if aims(self.scene) && pose_pool::uniform::<f64, _>(rng) < 0.5 {
             fk.compute(self.robot, &x);
             let tracker = fk.base.point(&self.scene.tracker().position);
             let target = pose_pool::aim_target(
@@ -430,6 +453,9 @@ pub struct PlanRequest<'a, const N: usize> {
     pub seed: u64,
     /// Polish the design by local refinement ([`Refinement`]).
     pub refine: bool,
+    /// The parameters the design is for (`--estimate`, [`crate::plan::estimate`]), the others
+    /// held at their values; empty: the default full set ([`plan_params`]).
+    pub estimate: &'a [Param],
 }
 
 /// Plans `req.poses` poses for `robot` (any base: it is set to identity).
@@ -450,8 +476,18 @@ pub fn plan<const N: usize, const V: usize>(
         bail!("--noise-mm must be a positive number, got {}", req.sigma);
     }
     let robot = in_base_frame(robot);
-    let params = plan_params(N)?;
-    let params = params.as_slice();
+    let full = plan_params(N)?;
+    let params = if req.estimate.is_empty() {
+        full.as_slice()
+    } else {
+        req.estimate
+    };
+    if params.len() > PCAP {
+        bail!(
+            "{} parameters to plan for, more than the {PCAP} a plan holds",
+            params.len()
+        );
+    }
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(req.seed);
     let max_draws = 2_000_000 + 2_000 * req.pool.max(req.poses) as u64;
     let (poses, draws, pool_size, passes, exchanges, basis_rank) = match req.criterion.criterion() {

@@ -276,6 +276,7 @@ pub fn monte_carlo<const V: usize>(
         passes: 30,
         seed,
         refine: true,
+        estimate: &[],
     };
     let p = design::plan(&nominal, &req)?;
     let qs: Vec<[f64; 6]> = p.poses.iter().map(|c| c.q).collect();

@@ -14,14 +14,17 @@ pub struct PlanReport {
     pub kpi_trace_mm2: f64,
     /// √trace of the tool-point covariance per working configuration (mm).
     pub tool_std_mm: Vec<f64>,
-    /// Signed clearance in the full cell (mm; ≤ 0: a pose collides).
-    pub min_clearance_mm: f64,
+    /// Signed clearance in the full cell (mm; ≤ 0: a pose collides); `None` (JSON `null`)
+    /// when the cell has nothing to collide with (no `--scene`).
+    pub min_clearance_mm: Option<f64>,
     pub colliding_poses: usize,
     pub max_incidence_deg: f64,
     pub noise_mm: f64,
     pub criteria: Criteria,
     pub observability: Observability,
     pub identifiable_directions: usize,
+    /// The parameters the design is for (`--estimate`, others held); empty: the full set.
+    pub estimate: Vec<String>,
     pub collision_avoidance: bool,
     /// Feasible candidate poses, and the draws it took.
     pub pool: usize,
@@ -90,17 +93,17 @@ impl fmt::Display for PlanReport {
             "O1 {:.4}  O2 {:.4}  O3 {:.4}  O4 {:.4}  O5 {:.4}",
             o.o1, o.o2, o.o3, o.o4, o.o5
         )?;
-        let clearance = if self.collision_avoidance {
-            format!("{:.1}", self.min_clearance_mm)
-        } else {
-            format!(
-                "{:.1} ({} colliding poses: collisions not avoided)",
-                self.min_clearance_mm, self.colliding_poses
-            )
+        let clearance = match self.min_clearance_mm {
+            None => "∞ (no scene: joint limits only)".to_string(),
+            Some(c) if self.collision_avoidance => format!("{c:.1} mm"),
+            Some(c) => format!(
+                "{c:.1} mm ({} colliding poses: collisions not avoided)",
+                self.colliding_poses
+            ),
         };
         writeln!(
             f,
-            "min clearance {clearance} mm, max incidence {:.2}°; pool {} feasible of {} draws; {} exchange passes, {} swaps; {:.2} s",
+            "min clearance {clearance}, max incidence {:.2}°; pool {} feasible of {} draws; {} exchange passes, {} swaps; {:.2} s",
             self.max_incidence_deg,
             self.pool,
             self.draws,

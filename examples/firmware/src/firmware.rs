@@ -12,6 +12,7 @@
 //! 3. **Identify**: the LM stepper in idle slices while the servo holds position; halfway its
 //!    state is saved as a snapshot (as to flash), the run continues, and a fresh solver restored
 //!    from the snapshot must finish bit-identical. The result replaces [`MODEL`].
+//!    A re-mastering follows: theta2 and theta3 alone, re-identified the same way from 10 poses.
 //! 4. **Search**: a small PSO the same way; the BPNN of BPNN-PSO predicts particle positions.
 //! 5. **Servo**: a 50 ms trajectory of 6-D targets compensated tick by tick with [`MODEL`];
 //!    the simulated true robot must reach every target.
@@ -97,6 +98,7 @@ struct Stateful {
     lm_pose: f32,
     lm_pose6d: f32,
     lm_point_multi: f32,
+    lm_remaster: f32,
     pso_particle: f32,
 }
 
@@ -259,6 +261,7 @@ fn main() -> ! {
         lm_pose: f32::NAN,
         lm_pose6d: f32::NAN,
         lm_point_multi: f32::NAN,
+        lm_remaster: f32::NAN,
         pso_particle: f32::NAN,
     };
     identify(
@@ -279,6 +282,14 @@ fn main() -> ! {
         shared.lm,
         id,
         val,
+    );
+    remaster(
+        &mut counter,
+        &mut checks,
+        &mut stateful,
+        &mut servo,
+        shared.lm,
+        id,
     );
     search(
         &mut counter,
@@ -560,13 +571,11 @@ fn identify(
     val: &[Measurement<f32, N>],
 ) {
     let Shared { flash, lm: lm_slot } = shared;
-    let lm = place(&mut **lm_slot, new_lm);
+    let lm = place(&mut **lm_slot, new_lm as NewLm);
     // One pose into the normal equations (poses 2..=49 of the first pass; the first call also
     // validates the data, the 50th also analyses identifiability). The run continues from here.
     let _ = lm_step(lm, id, 1);
-    bench.lm_pose = counter.per_call_once(ID_POSES as u32 - 2, || {
-        let _ = black_box(lm_step(black_box(&mut *lm), id, 1));
-    });
+    bench.lm_pose = lm_per_pose(counter, lm, id, ID_POSES as u32 - 2);
     let mut saved: Option<(usize, u32)> = None;
     let mut error = None;
     let idle = Idle::run(counter, servo, 10_000, || {
@@ -631,7 +640,7 @@ fn identify(
     let (len, at) = saved.unwrap_or_else(|| fail("LM finished before its snapshot"));
     let first = lm.progress();
     // The same slot: the first solver is done with (its end and model are kept).
-    let lm = place(&mut **lm_slot, new_lm);
+    let lm = place(&mut **lm_slot, new_lm as NewLm);
     let restored = restore(lm, &flash[..len]);
     let mut steps = 0u32;
     let end = loop {
@@ -675,35 +684,15 @@ fn probe(
             let _ = data.push(m);
         },
     );
-    let lm = place(lm_slot, || {
-        Levenberg::new(
-            scenario::nominal_probe(),
-            FixedLm::new(scenario::pose6d_params()),
-            scenario::lm_config(),
-        )
-    });
+    let lm = place(lm_slot, new_probe_lm as NewLm);
     // Accumulation pass at the nominal probe: 6-D observations 2..=8, then reflector
     // observations 9..=19 (the first call also validates the data, the last also analyses
     // identifiability). The run continues from here.
     let _ = lm_step(lm, data, 1);
-    bench.lm_pose6d = counter.per_call_once(SIX_D as u32 - 1, || {
-        let _ = black_box(lm_step(black_box(&mut *lm), data, 1));
-    });
-    bench.lm_point_multi = counter.per_call_once((ALL - SIX_D) as u32 - 1, || {
-        let _ = black_box(lm_step(black_box(&mut *lm), data, 1));
-    });
+    bench.lm_pose6d = lm_per_pose(counter, lm, data, SIX_D as u32 - 1);
+    bench.lm_point_multi = lm_per_pose(counter, lm, data, (ALL - SIX_D) as u32 - 1);
     // The rest in idle slices while the servo holds its pose.
-    let mut end = None;
-    let idle = Idle::run(counter, servo, 10_000, || {
-        match lm_step(lm, data, LM_SLICE) {
-            Ok(p) if p.stopped.is_some() => {
-                end = Some(p);
-                Work::Done
-            }
-            Ok(_) => Work::Step,
-            Err(_) => Work::Done,
-        }
-    });
+    let (idle, end) = lm_idle(counter, servo, lm, data);
     // Largest differences from the host's values: lengths (mm), angles (rad), and the angle
     // between the identified probe frames (rad).
     let robot = lm.robot();
@@ -752,6 +741,44 @@ fn probe(
     );
 }
 
+/// Stage 3c: a quick re-calibration after a re-mastering. The controller's model is the true
+/// robot with theta2 and theta3 off by [`scenario::REMASTER_DEG`] (the robot was re-mastered
+/// since); LM over those two parameters alone (the others held), on the first
+/// [`scenario::REMASTER_POSES`] identification poses, in idle slices, must find the host's
+/// true rows again within what the tracker's noise allows.
+#[inline(never)]
+fn remaster(
+    counter: &mut Counter,
+    checks: &mut Checks,
+    bench: &mut Stateful,
+    servo: &mut Servo,
+    lm_slot: &mut MaybeUninit<Result<Lm, LmError>>,
+    id: &[Measurement<f32, N>],
+) {
+    const POSES: usize = scenario::REMASTER_POSES;
+    let data = &id[..POSES];
+    let lm = place(lm_slot, new_remaster_lm as NewLm);
+    // Poses 2..=9 of the accumulation pass (the first call also validates the data, the last
+    // also analyses identifiability). The run continues from here.
+    let _ = lm_step(lm, data, 1);
+    bench.lm_remaster = lm_per_pose(counter, lm, data, POSES as u32 - 2);
+    let (idle, end) = lm_idle(counter, servo, lm, data);
+    idle.report("remaster", checks);
+    let joints = lm.robot().joints();
+    let mut worst = 0.0f32;
+    for j in 1..3 {
+        worst = worst.max((joints[j].theta - TRUE_ROWS[j][2]).abs());
+    }
+    checks.check(
+        "lm.remaster",
+        end.is_some() && worst <= scenario::REMASTER_TOLERANCE_RAD as f32,
+        format_args!(
+            "theta2, theta3 within {} µrad of the truth",
+            fx(worst * 1e6, 3)
+        ),
+    );
+}
+
 /// A reflector coordinate or row value of `robot` (`None` for the probe frame's angles, which
 /// are compared as a frame: their roll/pitch/yaw would link 6 KB of inverse trigonometry).
 fn stored_value(robot: &Robot<f32, N>, p: Param) -> Option<f32> {
@@ -768,12 +795,67 @@ fn stored_value(robot: &Robot<f32, N>, p: Param) -> Option<f32> {
     }
 }
 
+/// A constructor of the LM solver for one stage: plain functions, so that one copy of
+/// [`place`] builds them all.
+type NewLm = fn() -> Result<Lm, LmError>;
+
 fn new_lm() -> Result<Lm, LmError> {
-    Levenberg::new(
-        scenario::nominal(),
-        FixedLm::new(scenario::params()),
-        scenario::lm_config(),
+    lm_of(scenario::nominal(), scenario::params())
+}
+
+fn new_probe_lm() -> Result<Lm, LmError> {
+    lm_of(scenario::nominal_probe(), scenario::pose6d_params())
+}
+
+/// The re-mastering's solver: theta2 and theta3 from the model before the re-mastering.
+fn new_remaster_lm() -> Result<Lm, LmError> {
+    lm_of(
+        true_robot(scenario::REMASTER_DEG.to_radians() as f32),
+        scenario::remaster_params(),
     )
+}
+
+/// The solver over `set` from `start`, with the scenario's settings (one copy for every stage).
+#[inline(never)]
+fn lm_of(start: Robot<f32, N>, set: kinecal::model::param::ParamSet<P>) -> Result<Lm, LmError> {
+    Levenberg::new(start, FixedLm::new(set), scenario::lm_config())
+}
+
+/// Instructions per pose of `lm`'s accumulation pass: `calls` single-pose steps over `data`
+/// (see [`Counter::per_call_once`]; one copy for every LM stage).
+#[inline(never)]
+fn lm_per_pose(
+    counter: &mut Counter,
+    lm: &mut Lm,
+    data: &[Measurement<f32, N>],
+    calls: u32,
+) -> f32 {
+    counter.per_call_once(calls, || {
+        let _ = black_box(lm_step(black_box(&mut *lm), data, 1));
+    })
+}
+
+/// `lm` over `data` in idle slices until it stops: the scheduler's record and the progress it
+/// stopped with (`None`: the data were refused).
+#[inline(never)]
+fn lm_idle(
+    counter: &mut Counter,
+    servo: &mut Servo,
+    lm: &mut Lm,
+    data: &[Measurement<f32, N>],
+) -> (Idle, Option<LmProgress<f32>>) {
+    let mut end = None;
+    let idle = Idle::run(counter, servo, 10_000, || {
+        match lm_step(lm, data, LM_SLICE) {
+            Ok(p) if p.stopped.is_some() => {
+                end = Some(p);
+                Work::Done
+            }
+            Ok(_) => Work::Step,
+            Err(_) => Work::Done,
+        }
+    });
+    (idle, end)
 }
 
 /// Stage 4: a small PSO in idle slices, with a snapshot and resume as for LM.
@@ -897,7 +979,7 @@ fn predict(checks: &mut Checks) -> &'static mut Net<f32> {
 #[inline(never)]
 fn trajectory(counter: &mut Counter, checks: &mut Checks) {
     let nominal = scenario::nominal::<f32>();
-    let truth = true_robot();
+    let truth = true_robot(0.0);
     let mut fk = ForwardKinematics::<f32, N>::new();
     let mut tracker = Tracker::new(scenario::compensation());
     let (mut worst_tick, mut faults) = (0u32, 0u32);
@@ -973,9 +1055,14 @@ fn trajectory(counter: &mut Counter, checks: &mut Checks) {
     );
 }
 
-/// The simulated physical robot (the truth the measurements came from).
-fn true_robot() -> Robot<f32, N> {
-    let joints = TRUE_ROWS.map(|r| Joint::mdh(r[0], r[1], r[2], r[3]));
+/// The simulated physical robot (the truth the measurements came from), with theta2 and
+/// theta3 less `remastered` (rad): the model from before a re-mastering.
+fn true_robot(remastered: f32) -> Robot<f32, N> {
+    let joints: [Joint<f32>; N] = core::array::from_fn(|j| {
+        let r = TRUE_ROWS[j];
+        let off = if j == 1 || j == 2 { remastered } else { 0.0 };
+        Joint::mdh(r[0], r[1], r[2] - off, r[3])
+    });
     let t = scenario::TOOL_MM;
     Robot::new(
         Frame::identity(),
@@ -1046,6 +1133,7 @@ fn benches(counter: &mut Counter, id: &[Measurement<f32, N>], stateful: &Statefu
     report("lm_pose_f32", stateful.lm_pose);
     report("lm_pose6d_f32", stateful.lm_pose6d);
     report("lm_point_multi_f32", stateful.lm_point_multi);
+    report("lm_remaster_f32", stateful.lm_remaster);
     report("pso_particle_f32", stateful.pso_particle);
 
     let x = scenario::net_input::<f32>();

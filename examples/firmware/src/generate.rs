@@ -239,6 +239,37 @@ fn reference(csv: &[u8], truth: &Robot<f64, N>) -> (String, String) {
         );
     }
 
+    // The re-mastering (the firmware's stage 3c): theta2 and theta3 from the true rows less
+    // REMASTER_DEG, on the first REMASTER_POSES identification poses. What the f64 solve is left
+    // from the truth is the tracker noise's share, which the firmware's tolerance must exceed.
+    let remastered = scenario::remaster_params();
+    let mut before = truth.clone();
+    apply_delta(
+        &mut before,
+        &remastered,
+        &[-scenario::REMASTER_DEG.to_radians(); 2],
+    )
+    .expect("two finite deltas");
+    let mut lm_r = Levenberg::<f64, N, 0, _>::new(
+        before,
+        FixedLm::<f64, P>::new(remastered.clone()),
+        scenario::lm_config(),
+    )
+    .expect("solver");
+    lm_r.run(&id[..scenario::REMASTER_POSES])
+        .expect("re-mastering LM runs");
+    let remaster_noise_floor = remastered
+        .iter()
+        .map(|p| {
+            (value(lm_r.robot(), *p).expect("a value") - value(truth, *p).expect("a value")).abs()
+        })
+        .fold(0.0, f64::max);
+    assert!(
+        remaster_noise_floor <= 0.5 * scenario::REMASTER_TOLERANCE_RAD,
+        "re-mastering: the f64 solve is {remaster_noise_floor} rad from the truth, more than half \
+         the firmware's tolerance"
+    );
+
     let rows: Vec<[f64; 4]> = truth
         .joints()
         .iter()

@@ -60,6 +60,26 @@ pub fn params() -> ParamSet<P> {
     }
 }
 
+/// A re-mastering (a motor swap moves the zero of joints 2 and 3): the firmware re-identifies
+/// only [`remaster_params`] from the first [`REMASTER_POSES`] identification poses, starting
+/// from the true rows with theta2 and theta3 off by [`REMASTER_DEG`] each (the controller's
+/// model from before the re-mastering), and must find the true rows again.
+pub const REMASTER_POSES: usize = 10;
+pub const REMASTER_DEG: f64 = 0.2;
+/// Largest error (rad) the firmware accepts in the re-identified theta2 and theta3 (the
+/// re-mastering moved them 3,491 µrad): 10 poses of 10 µm tracker noise leave about 2 µrad,
+/// which the host generator (src/generate.rs) asserts, in `f64`, is at most half of this.
+pub const REMASTER_TOLERANCE_RAD: f64 = 1e-5;
+
+/// The re-mastering's parameters: theta2 and theta3, in a set of the solver's capacity.
+pub fn remaster_params() -> ParamSet<P> {
+    let mut s = ParamSet::new();
+    if s.push(Param::Theta(1)).is_err() || s.push(Param::Theta(2)).is_err() {
+        unreachable!("2 parameters fit a set of 24");
+    }
+    s
+}
+
 /// Solver settings shared by the host reference and the firmware (library defaults, which are
 /// scaled to the scalar's precision).
 pub fn lm_config<T: Real>() -> LmConfig<T> {

@@ -154,6 +154,26 @@ fn effect_group<const N: usize, const V: usize>(
     (!values.is_empty()).then_some(values)
 }
 
+/// The parameters `names` (names or groups) refer to among everything `robot` has, in the
+/// order given, each once (`plan --estimate`); refused (exit 2) naming `flag` and the first
+/// name that refers to nothing.
+pub fn named<const N: usize, const V: usize>(
+    flag: &str,
+    names: &[String],
+    robot: &Robot<f64, N, V>,
+) -> anyhow::Result<Vec<Param>> {
+    let all = universe(robot, &[]);
+    let mut out: Vec<Param> = Vec::new();
+    for n in names {
+        for p in resolve(flag, n, robot, &all)? {
+            if !out.contains(&p) {
+                out.push(p);
+            }
+        }
+    }
+    Ok(out)
+}
+
 /// Applies `sel` to the parameter list of a fit of `robot`: `--only` replaces it, `--free`
 /// adds, `--fix` removes (each by name or group); the order stays that of the model.
 pub fn apply<const N: usize, const V: usize>(

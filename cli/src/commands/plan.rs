@@ -6,7 +6,7 @@
 //! set (base pose, alpha/a/theta/d of every joint, tool point), or with `--estimate` the named
 //! subset with every other parameter held at its value (a quick re-calibration: the
 //! information about the subset is then its own Jacobian columns,
-//! [`crate::plan::estimate`]); structural redundancies are dropped by
+//! [`crate::calibration::selection`]); structural redundancies are dropped by
 //! [`Basis`](kinecal::planning::selection::Basis). Without `--scene` the joint limits are the
 //! only constraint ([`limits_only_scene`]).
 //!
@@ -132,7 +132,7 @@ fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Re
     let estimate = if args.estimate.is_empty() {
         Vec::new()
     } else {
-        crate::plan::estimate::estimate_params(&args.estimate, N)?
+        crate::calibration::selection::named("--estimate", &args.estimate, &robot)?
     };
     let work = args
         .work

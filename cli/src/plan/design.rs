@@ -453,7 +453,7 @@ pub struct PlanRequest<'a, const N: usize> {
     pub seed: u64,
     /// Polish the design by local refinement ([`Refinement`]).
     pub refine: bool,
-    /// The parameters the design is for (`--estimate`, [`crate::plan::estimate`]), the others
+    /// The parameters the design is for (`--estimate`, [`crate::calibration::selection::named`]), the others
     /// held at their values; empty: the default full set ([`plan_params`]).
     pub estimate: &'a [Param],
 }

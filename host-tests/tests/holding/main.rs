@@ -5,3 +5,4 @@
 mod common;
 
 mod acceptance;
+mod quick_recalibration;

@@ -8,16 +8,15 @@
 //! each. The plan has no scene file (the joint limits are the only constraint, as for the
 //! random poses). Measurements carry 0.02 mm of Gaussian noise per coordinate.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 use kinecal::model::param::apply_delta;
 use kinecal::planning::information::scaled_rows;
 use kinecal::{ForwardKinematics, Param, Robot};
+use kinecal_cli::calibration::selection::named;
 use kinecal_cli::formats::measurements;
 use kinecal_cli::formats::robot_file::RobotFile;
 use kinecal_cli::plan::design::{in_base_frame, PoseRowsHost, PCAP};
-use kinecal_cli::plan::estimate::estimate_params;
 use kinecal_cli::simulation::{dataset, measure, random_configurations};
 use kinecal_cli::VCAP;
 use nalgebra::{Matrix2, Vector3};
@@ -153,23 +152,12 @@ fn ten_planned_poses_for_theta2_theta3_match_a_full_recalibration_from_200() {
     // Quick re-calibration: theta2 and theta3 from the 10 planned poses, the rest held.
     let quick_data = d.join("quick.csv");
     write_measurements(&truth, &planned, 1, &quick_data);
-    let held: Vec<String> = (1..=6)
-        .flat_map(|j| {
-            let mut v = vec![format!("alpha{j}"), format!("a{j}"), format!("d{j}")];
-            if j != 2 && j != 3 {
-                v.push(format!("theta{j}"));
-            }
-            v
-        })
-        .chain(["tool.x", "tool.y", "tool.z"].map(String::from))
-        .collect();
-    let held = held.join(",");
     let quick_toml = d.join("quick.toml");
     let quick = json_of(&run_on(
         "identify",
         &cal_path,
         &quick_data,
-        &["--fix", &held, "--json", "--out", s(&quick_toml)],
+        &["--only", "theta2,theta3", "--json", "--out", s(&quick_toml)],
     ));
     assert_eq!(quick["converged"], true, "{quick}");
 
@@ -211,23 +199,33 @@ fn ten_planned_poses_for_theta2_theta3_match_a_full_recalibration_from_200() {
 #[test]
 fn estimate_names_groups_and_refusals() {
     let names = |s: &[&str]| s.iter().map(|x| x.to_string()).collect::<Vec<_>>();
-    let p = estimate_params(&names(&["base", "theta2", " theta3 ", "theta2"]), 6).unwrap();
+    let six = calibrated();
+    let seven = RobotFile::parse(LBR7_PLACED, "lbr7.toml")
+        .unwrap()
+        .to_robot::<7>()
+        .unwrap();
+    let p = named(
+        "--estimate",
+        &names(&["base", "theta2", " theta3 ", "theta2"]),
+        &six,
+    )
+    .unwrap();
     assert_eq!(p.len(), 8);
     assert!(p[..6].iter().all(|p| p.is_base()));
     assert_eq!(&p[6..], &SUBSET);
-    let geometry = estimate_params(&names(&["geometry"]), 6).unwrap();
+    let geometry = named("--estimate", &names(&["geometry"]), &six).unwrap();
     assert_eq!(geometry.len(), 24);
     assert!(geometry.contains(&Param::D(5)) && geometry.contains(&Param::Alpha(0)));
     assert_eq!(
-        estimate_params(&names(&["theta"]), 7).unwrap(),
+        named("--estimate", &names(&["theta"]), &seven).unwrap(),
         (0..7).map(Param::Theta).collect::<Vec<_>>()
     );
     assert_eq!(
-        estimate_params(&names(&["tool", "tool.z"]), 6).unwrap(),
+        named("--estimate", &names(&["tool", "tool.z"]), &six).unwrap(),
         vec![Param::ToolX, Param::ToolY, Param::ToolZ]
     );
     for bad in ["theta7", "nonsense", "effects", ""] {
-        let e = estimate_params(&names(&[bad]), 6).unwrap_err();
+        let e = named("--estimate", &names(&[bad]), &six).unwrap_err();
         assert!(e.downcast_ref::<kinecal_cli::Refused>().is_some(), "{e}");
         assert!(e.to_string().contains(&format!("--estimate {bad}:")), "{e}");
     }

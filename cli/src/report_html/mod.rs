@@ -2,7 +2,8 @@
 //! URL) of how accurate the robot was before and after, what was changed, how sure the numbers
 //! are and what is still unexplained (`kinecal report`, `demo`).
 //!
-//! - [`stats`]: per-axis and total error statistics (the totals from identify's functions);
+//! - [`stats`]: per-axis and total error statistics (the totals from identify's functions;
+//!   the module lives in [`crate::calibration::stats`], which `validate` uses too);
 //! - [`iso9283`]: positional accuracy and repeatability in the ISO 9283 sense;
 //! - [`params`]: the parameter table, what was held and why, the correlations;
 //! - [`findings`]: a diagnose JSON read back, with its figures;
@@ -18,9 +19,11 @@ pub mod iso9283;
 pub mod page;
 pub mod params;
 pub mod plots;
-pub mod stats;
 pub mod summary;
 pub mod template;
+
+/// The statistics of one model on one set (per axis, total, 95 %), shared with `validate`.
+pub use crate::calibration::stats;
 
 use crate::calibration::weights::{self, Weighting};
 use crate::calibration::{fit_lm, orientation_errors_deg, pose_errors, ErrorStats, Residuals};

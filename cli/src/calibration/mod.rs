@@ -5,6 +5,7 @@ pub mod coupling_hint;
 pub mod method;
 pub mod pso_search;
 pub mod stats;
+pub mod validate;
 pub mod weights;
 
 use crate::compute::vec_lm::VecLm;

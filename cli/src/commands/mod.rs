@@ -17,6 +17,7 @@ pub mod plan;
 pub mod report;
 pub mod simulate;
 pub mod study;
+pub mod validate;
 
 use crate::reports::{ErrorReport, Report};
 use clap::{Parser, Subcommand};
@@ -65,6 +66,9 @@ pub enum Command {
     /// The calibration report: one self-contained HTML page (before/after, parameters,
     /// findings).
     Report(report::Args),
+    /// A calibrated model on another session's data: only the registration (base, tool) is
+    /// fitted, then model and nominal robot are compared (exit 3 when the model is worse).
+    Validate(validate::Args),
 }
 
 fn boxed<R: Report + 'static>(r: anyhow::Result<R>) -> anyhow::Result<Box<dyn Report>> {
@@ -86,6 +90,7 @@ pub fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
         Command::Import(a) => boxed(import::run(a)),
         Command::Export(a) => boxed(export::run(a, cli.json)),
         Command::Report(a) => boxed(report::run(a)),
+        Command::Validate(a) => boxed(validate::run(a)),
     }
 }
 

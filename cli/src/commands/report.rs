@@ -84,7 +84,7 @@ pub fn run(args: &Args) -> anyhow::Result<ReportSummary> {
 
 /// Refuses (exit 2) a model whose geometry is far from the robot file's: not an identified
 /// model of this robot (lengths beyond 100 mm, angles beyond 10°, or other tool points).
-fn same_robot<const N: usize>(
+pub(crate) fn same_robot<const N: usize>(
     robot: &Robot<f64, N, VCAP>,
     model: &Robot<f64, N, VCAP>,
     paths: (&Path, &Path),

@@ -161,6 +161,8 @@ struct Calibrated {
     robot: PathBuf,
     truth: PathBuf,
     model: PathBuf,
+    /// Session 1's data.
+    s1: PathBuf,
 }
 
 fn calibrated() -> Calibrated {
@@ -182,6 +184,7 @@ fn calibrated() -> Calibrated {
         robot,
         truth,
         model,
+        s1,
     }
 }
 
@@ -512,4 +515,102 @@ fn ur10_model_beats_the_nominal_robot_on_the_poses_it_never_saw() {
         assert!(f("model", "rms_mm") < f("nominal", "rms_mm"));
         assert!(f("model", "rms_mm") < 0.6, "{}", f("model", "rms_mm"));
     }
+}
+
+/// The figures of the page's cell `key` (`td[data-key=…]`), as printed.
+fn cell(doc: &scraper::Html, key: &str) -> String {
+    let sel = scraper::Selector::parse(&format!("td[data-key=\"{key}\"]")).unwrap();
+    let all: Vec<String> = doc
+        .select(&sel)
+        .map(|e| e.text().collect::<String>().trim().to_string())
+        .collect();
+    assert_eq!(all.len(), 1, "{key}: {} cells", all.len());
+    all[0].clone()
+}
+
+/// `report --validate-json V.json`: the page has the validation section with the very figures
+/// of the JSON (4 significant digits, as the page prints every figure), the registration and
+/// the verdict; a model worse than nominal turns the section's verdict and a page warning red.
+#[test]
+fn the_report_shows_the_validation_of_another_session() {
+    use kinecal_cli::output::numfmt::sig;
+    let c = calibrated();
+    let d = c.dir.path();
+    let t2 = edited(&c.truth, d, "truth2.toml", |f| {
+        move_setup(f, [50.0, -20.0, 10.0], [0.5, -0.3, 2.0], [2.0, -1.5, 2.0])
+    });
+    // The same robot moved; and a changed one (theta2 off by 0.4°: the model is worse).
+    let t3 = edited(&t2, d, "truth3.toml", |f| f.joints[1].theta_deg += 0.4);
+    let (s2, s3) = (d.join("s2.csv"), d.join("s3.csv"));
+    simulate(&t2, Some(100), Some(0.02), Some(14), &[], &s2);
+    simulate(&t3, Some(100), Some(0.02), Some(15), &[], &s3);
+    for (session, worse) in [(&s2, false), (&s3, true)] {
+        let out = validate(&c.robot, &c.model, session, &[]);
+        assert_eq!(out.status.code(), Some(if worse { 3 } else { 0 }), "{}", stderr(&out));
+        let v = write(d, "v.json", &String::from_utf8_lossy(&out.stdout));
+        let j = json_any(&out);
+        let page = d.join("page.html");
+        let _ = std::fs::remove_file(&page);
+        let r = kinecal(&[
+            "report",
+            "--robot",
+            s(&c.robot),
+            "--model",
+            s(&c.model),
+            "--data",
+            s(&c.s1),
+            "--validate-json",
+            s(&v),
+            "--out",
+            s(&page),
+        ]);
+        assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
+        let html = std::fs::read_to_string(&page).unwrap();
+        let doc = scraper::Html::parse_document(&html);
+        for who in ["model", "nominal"] {
+            for (key, json_key) in [
+                ("rms", "rms_mm"),
+                ("mean", "mean_mm"),
+                ("max", "max_mm"),
+                ("p95", "p95_mm"),
+                ("rms_x", "rms_x_mm"),
+                ("rms_y", "rms_y_mm"),
+                ("rms_z", "rms_z_mm"),
+            ] {
+                assert_eq!(
+                    cell(&doc, &format!("validate.{who}.{key}")),
+                    sig(num(&j, &[who, json_key]), 4),
+                    "{who}.{key}"
+                );
+            }
+            assert_eq!(cell(&doc, &format!("validate.{who}.rms_deg")), "-");
+        }
+        let verdict = scraper::Selector::parse("#validation-verdict").unwrap();
+        let v_el = doc.select(&verdict).next().expect("the validation verdict");
+        let class = v_el.value().attr("class").unwrap_or_default().to_string();
+        let text = v_el.text().collect::<String>();
+        assert_eq!(class.contains("bad"), worse, "{class}");
+        assert_eq!(text.contains("recalibrate"), worse, "{text}");
+        assert!(html.contains("base.x, base.y, base.z, base.rx, base.ry, base.rz, tool.x"));
+        assert_eq!(html.contains(REASON), worse);
+        let warn = scraper::Selector::parse("p.warn").unwrap();
+        assert_eq!(doc.select(&warn).count(), usize::from(worse), "page warnings");
+    }
+    // Not a validate JSON: refused, naming the file.
+    let bad = write(d, "bad.json", "{\"found\": []}");
+    let r = kinecal(&[
+        "report",
+        "--robot",
+        s(&c.robot),
+        "--model",
+        s(&c.model),
+        "--data",
+        s(&c.s1),
+        "--validate-json",
+        s(&bad),
+        "--out",
+        s(&d.join("bad.html")),
+    ]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(stderr(&r).contains("bad.json: not the JSON of `kinecal validate --json`"));
 }

@@ -32,6 +32,11 @@ pub struct Args {
     /// The JSON of `kinecal diagnose --json` on these data: its findings and their plots.
     #[arg(long)]
     pub diagnose: Option<PathBuf>,
+    /// The JSON of `kinecal validate --json` on another session: the model against the
+    /// nominal robot there, both registered the same way (`--validate` is for held-out poses of
+    /// this session: nothing is registered).
+    #[arg(long)]
+    pub validate_json: Option<PathBuf>,
     /// The page to write (HTML; written atomically, never over an input).
     #[arg(long)]
     pub out: PathBuf,
@@ -63,6 +68,9 @@ pub fn run(args: &Args) -> anyhow::Result<ReportSummary> {
     }
     if let Some(d) = &args.diagnose {
         inputs.push(("diagnose", d));
+    }
+    if let Some(v) = &args.validate_json {
+        inputs.push(("validate JSON", v));
     }
     crate::output::atomic::refuse_overwriting_inputs("--out", &args.out, &inputs)?;
     crate::check_positive("--stall-rms-mm", args.stall_rms_mm, 1e6)?;
@@ -224,6 +232,16 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
     if let Some(d) = &args.diagnose {
         files.push(("diagnose findings".into(), d.display().to_string()));
     }
+    let validation = match &args.validate_json {
+        Some(p) => {
+            files.push(("another session (validate)".into(), p.display().to_string()));
+            Some((
+                crate::report_html::validation::load(p)?,
+                p.display().to_string(),
+            ))
+        }
+        None => None,
+    };
     let all_params = model_params(&model, &tilts);
     // identify's start: the placed nominal robot with the effects it added at zero.
     let mut start = nominal.clone();
@@ -261,6 +279,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
         limits_deg: file.joints.iter().map(|j| j.limits_deg).collect(),
         stall_rms_mm: args.stall_rms_mm,
         diagnose,
+        validation,
         ident: split.ident,
         valid: split.valid,
         pose_of: split.pose_of,

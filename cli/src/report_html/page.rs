@@ -2,6 +2,7 @@
 //! digits as `identify` prints them), so the template only lays it out.
 
 use super::findings::Findings;
+use super::validation::Validation;
 use serde::Serialize;
 
 /// One cell of a statistics table: the printed number and the key the tests find it by
@@ -132,4 +133,6 @@ pub struct Page {
     pub correlations: Vec<[String; 3]>,
     pub fit_note: String,
     pub findings: Option<Findings>,
+    /// The model on another session (`report --validate-json`).
+    pub validation: Option<Validation>,
 }

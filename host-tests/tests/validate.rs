@@ -94,10 +94,10 @@ fn move_setup(f: &mut RobotFile, dxyz: [f64; 3], drpy: [f64; 3], dtool: [f64; 3]
         xyz_mm: std::array::from_fn(|a| b.xyz_mm[a] + dxyz[a]),
         rpy_deg: std::array::from_fn(|a| b.rpy_deg[a] + drpy[a]),
     });
-    for a in 0..3 {
-        f.tool.xyz_mm[a] += dtool[a];
+    for (a, d) in dtool.iter().enumerate() {
+        f.tool.xyz_mm[a] += d;
         for t in f.tools.iter_mut() {
-            t.xyz_mm[a] += dtool[a];
+            t.xyz_mm[a] += d;
         }
     }
 }
@@ -203,15 +203,23 @@ fn the_same_robot_with_the_setup_moved_is_accepted() {
     let out = validate(&c.robot, &c.model, &s2, &[]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     let j = json_of(&out);
-    let (m, n) = (num(&j, &["model", "rms_mm"]), num(&j, &["nominal", "rms_mm"]));
+    let (m, n) = (
+        num(&j, &["model", "rms_mm"]),
+        num(&j, &["nominal", "rms_mm"]),
+    );
     eprintln!("moved set-up: model {m:.4} mm, nominal {n:.4} mm (RMS, registered base+tool)");
     assert_eq!(j["worse_than_nominal"], false);
     assert_eq!(j["register"], "base+tool");
     // Noise 0.02 mm per axis: a distance RMS of 0.035 mm.
     assert!(m < 0.06, "model {m} mm");
     assert!(n > 10.0 * m, "nominal {n} mm against model {m} mm");
-    for k in ["rms_mm", "mean_mm", "max_mm", "p95_mm", "rms_x_mm", "rms_y_mm"] {
-        assert!(num(&j, &["model", k]) <= num(&j, &["model", "max_mm"]), "{k}");
+    for k in [
+        "rms_mm", "mean_mm", "max_mm", "p95_mm", "rms_x_mm", "rms_y_mm",
+    ] {
+        assert!(
+            num(&j, &["model", k]) <= num(&j, &["model", "max_mm"]),
+            "{k}"
+        );
     }
     assert!(num(&j, &["model", "p95_mm"]) >= num(&j, &["model", "mean_mm"]) * 0.9);
     // The registration found where the tracker went (the true base of session 2).
@@ -219,12 +227,20 @@ fn the_same_robot_with_the_setup_moved_is_accepted() {
     let base = truth2.base.unwrap().xyz_mm;
     for (a, k) in ["base.x", "base.y", "base.z"].iter().enumerate() {
         let got = num(&j, &["model", "registration", k]);
-        assert!((got - base[a]).abs() < 0.5, "{k}: {got} against {}", base[a]);
+        assert!(
+            (got - base[a]).abs() < 0.5,
+            "{k}: {got} against {}",
+            base[a]
+        );
     }
     let tool = truth2.tool.xyz_mm;
     for (a, k) in ["tool.x", "tool.y", "tool.z"].iter().enumerate() {
         let got = num(&j, &["model", "registration", k]);
-        assert!((got - tool[a]).abs() < 0.5, "{k}: {got} against {}", tool[a]);
+        assert!(
+            (got - tool[a]).abs() < 0.5,
+            "{k}: {got} against {}",
+            tool[a]
+        );
     }
     // Text output: the same verdict.
     let text = kinecal(&[
@@ -269,14 +285,24 @@ fn a_changed_robot_is_refused_with_exit_3() {
     let out = validate(&robot, &model, &s2, &[]);
     assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
     let j = json_any(&out);
-    let (m, n) = (num(&j, &["model", "rms_mm"]), num(&j, &["nominal", "rms_mm"]));
+    let (m, n) = (
+        num(&j, &["model", "rms_mm"]),
+        num(&j, &["nominal", "rms_mm"]),
+    );
     eprintln!("changed robot: model {m:.4} mm, nominal {n:.4} mm (RMS, registered base+tool)");
     assert_eq!(j["worse_than_nominal"], true);
     assert!(m > 1.5 * n, "model {m} mm against nominal {n} mm");
-    assert!(n > 0.2, "the change is beyond what the registration absorbs: {n} mm");
+    assert!(
+        n > 0.2,
+        "the change is beyond what the registration absorbs: {n} mm"
+    );
     let err = stderr(&out);
     assert!(err.contains(REASON), "{err}");
-    assert_eq!(err.lines().filter(|l| l.contains(REASON)).count(), 1, "{err}");
+    assert_eq!(
+        err.lines().filter(|l| l.contains(REASON)).count(),
+        1,
+        "{err}"
+    );
     // The same session judged with the robot as it was: the model holds.
     let s3 = d.join("s3.csv");
     simulate(&t1, Some(150), Some(0.02), Some(23), &[], &s3);
@@ -348,7 +374,10 @@ fn register_lists_what_it_fitted_and_none_needs_a_base() {
         );
         if json {
             let e = json_any(&out);
-            assert!(e["error"].as_str().unwrap().contains("has no [base]"), "{e}");
+            assert!(
+                e["error"].as_str().unwrap().contains("has no [base]"),
+                "{e}"
+            );
         }
     }
     // …but registering the base places it.
@@ -410,11 +439,21 @@ fn six_d_sessions_register_the_tool_orientation() {
     let j = json_of(&out);
     let tool_rot = ["tool.rx", "tool.ry", "tool.rz"];
     let registered = names(&j["registered"]);
-    for k in BASE.iter().chain(&["tool.x", "tool.y", "tool.z"]).chain(&tool_rot) {
+    for k in BASE
+        .iter()
+        .chain(&["tool.x", "tool.y", "tool.z"])
+        .chain(&tool_rot)
+    {
         assert!(registered.contains(&k.to_string()), "{k} in {registered:?}");
     }
-    let (m, n) = (num(&j, &["model", "rms_mm"]), num(&j, &["nominal", "rms_mm"]));
-    let (md, nd) = (num(&j, &["model", "rms_deg"]), num(&j, &["nominal", "rms_deg"]));
+    let (m, n) = (
+        num(&j, &["model", "rms_mm"]),
+        num(&j, &["nominal", "rms_mm"]),
+    );
+    let (md, nd) = (
+        num(&j, &["model", "rms_deg"]),
+        num(&j, &["nominal", "rms_deg"]),
+    );
     eprintln!("6-D: model {m:.4} mm {md:.5}°, nominal {n:.4} mm {nd:.5}°");
     assert!(m < 0.05, "model {m} mm");
     assert!(n > 5.0 * m, "nominal {n} mm against model {m} mm");
@@ -546,7 +585,12 @@ fn the_report_shows_the_validation_of_another_session() {
     simulate(&t3, Some(100), Some(0.02), Some(15), &[], &s3);
     for (session, worse) in [(&s2, false), (&s3, true)] {
         let out = validate(&c.robot, &c.model, session, &[]);
-        assert_eq!(out.status.code(), Some(if worse { 3 } else { 0 }), "{}", stderr(&out));
+        assert_eq!(
+            out.status.code(),
+            Some(if worse { 3 } else { 0 }),
+            "{}",
+            stderr(&out)
+        );
         let v = write(d, "v.json", &String::from_utf8_lossy(&out.stdout));
         let j = json_any(&out);
         let page = d.join("page.html");
@@ -594,7 +638,11 @@ fn the_report_shows_the_validation_of_another_session() {
         assert!(html.contains("base.x, base.y, base.z, base.rx, base.ry, base.rz, tool.x"));
         assert_eq!(html.contains(REASON), worse);
         let warn = scraper::Selector::parse("p.warn").unwrap();
-        assert_eq!(doc.select(&warn).count(), usize::from(worse), "page warnings");
+        assert_eq!(
+            doc.select(&warn).count(),
+            usize::from(worse),
+            "page warnings"
+        );
     }
     // Not a validate JSON: refused, naming the file.
     let bad = write(d, "bad.json", "{\"found\": []}");

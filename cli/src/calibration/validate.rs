@@ -10,7 +10,9 @@
 //! (`crate::reports::validate`).
 
 use super::stats::{quantile, SetFigures};
-use super::{fit_lm, named_values, orientation_errors_deg, pose_error_vectors, weights, ErrorStats};
+use super::{
+    fit_lm, named_values, orientation_errors_deg, pose_error_vectors, weights, ErrorStats,
+};
 use crate::formats::observations::{ObservationArgs, Observed};
 use crate::VCAP;
 use kinecal::identify::lm::LmConfig;

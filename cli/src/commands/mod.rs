@@ -183,10 +183,7 @@ fn usage_error(e: clap::Error) -> ! {
         .take_while(|l| !l.is_empty())
         .collect();
     let error = ErrorReport {
-        error: reason
-            .join(" ")
-            .trim_start_matches("error: ")
-            .to_string(),
+        error: reason.join(" ").trim_start_matches("error: ").to_string(),
     };
     print_json(&crate::reports::json_value(&error));
     std::process::exit(crate::EXIT_REFUSED);

@@ -2,7 +2,6 @@
 //! digits as `identify` prints them), so the template only lays it out.
 
 use super::findings::Findings;
-use super::validation::Validation;
 use serde::Serialize;
 
 /// One cell of a statistics table: the printed number and the key the tests find it by
@@ -107,6 +106,32 @@ pub struct PointLine {
     pub name: String,
     pub observations: String,
     pub cells: Vec<Cell>,
+}
+
+/// One robot's row of the section's table.
+#[derive(Clone, Debug, Serialize)]
+pub struct ValidationRow {
+    /// `model` or `nominal`.
+    pub model: String,
+    /// RMS, mean, largest, 95 % of the distance; RMS per axis; orientation RMS (degrees).
+    pub cells: Vec<Cell>,
+}
+
+/// The validation section (`report --validate-json`, [`super::validation`]) as the page shows
+/// it.
+#[derive(Clone, Debug, Serialize)]
+pub struct Validation {
+    pub source: String,
+    pub data_file: String,
+    pub model_file: String,
+    pub register: String,
+    pub registered: String,
+    pub poses: usize,
+    pub worse_than_nominal: bool,
+    pub verdict: String,
+    pub rows: Vec<ValidationRow>,
+    /// Several reflectors: name, model RMS, nominal RMS.
+    pub points: Vec<[Cell; 3]>,
 }
 
 /// The whole page.

@@ -2,36 +2,10 @@
 //! V.json`): the model and the nominal robot on another session, both registered the same
 //! way, and the verdict (docs/formats.md, "Validation on another session").
 
-use super::page::Cell;
+use super::page::{Cell, Validation, ValidationRow};
 use crate::output::numfmt::sig;
 use crate::reports::validate::{Figures, ValidateReport};
-use serde::Serialize;
 use std::path::Path;
-
-/// One robot's row of the section's table.
-#[derive(Clone, Debug, Serialize)]
-pub struct ValidationRow {
-    /// `model` or `nominal`.
-    pub model: String,
-    /// RMS, mean, largest, 95 % of the distance; RMS per axis; orientation RMS (degrees).
-    pub cells: Vec<Cell>,
-}
-
-/// The section as the page shows it.
-#[derive(Clone, Debug, Serialize)]
-pub struct Validation {
-    pub source: String,
-    pub data_file: String,
-    pub model_file: String,
-    pub register: String,
-    pub registered: String,
-    pub poses: usize,
-    pub worse_than_nominal: bool,
-    pub verdict: String,
-    pub rows: Vec<ValidationRow>,
-    /// Several reflectors: name, model RMS, nominal RMS.
-    pub points: Vec<[Cell; 3]>,
-}
 
 /// Reads a validate JSON file; refuses (exit 2) what is not one.
 pub fn load(path: &Path) -> anyhow::Result<ValidateReport> {
@@ -105,7 +79,10 @@ pub fn section(v: &ValidateReport, origin: &str) -> Validation {
                         text: name.clone(),
                     },
                     cell(format!("validate.point.{name}.model.rms"), p.model.rms_mm),
-                    cell(format!("validate.point.{name}.nominal.rms"), p.nominal.rms_mm),
+                    cell(
+                        format!("validate.point.{name}.nominal.rms"),
+                        p.nominal.rms_mm,
+                    ),
                 ]
             })
             .collect(),

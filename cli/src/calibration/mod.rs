@@ -8,6 +8,8 @@ pub mod prior;
 pub mod pso_search;
 pub mod residual_table;
 pub mod selection;
+pub mod stats;
+pub mod validate;
 pub mod weights;
 
 use crate::compute::vec_lm::VecLm;

@@ -282,6 +282,7 @@ pub fn run(args: &Args) -> anyhow::Result<DemoReport> {
         limits_deg: vec![None; 6],
         stall_rms_mm: 5.0,
         diagnose: None,
+        validation: None,
     })?;
     crate::output::atomic::write_atomic(&page, built.html.as_bytes())
         .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", page.display()))?;

@@ -17,6 +17,7 @@ pub mod plan;
 pub mod report;
 pub mod simulate;
 pub mod study;
+pub mod validate;
 
 use crate::reports::{ErrorReport, Report};
 use clap::{Parser, Subcommand};
@@ -65,6 +66,9 @@ pub enum Command {
     /// The calibration report: one self-contained HTML page (before/after, parameters,
     /// findings).
     Report(report::Args),
+    /// A calibrated model on another session's data: only the registration (base, tool) is
+    /// fitted, then model and nominal robot are compared (exit 3 when the model is worse).
+    Validate(validate::Args),
 }
 
 fn boxed<R: Report + 'static>(r: anyhow::Result<R>) -> anyhow::Result<Box<dyn Report>> {
@@ -86,6 +90,7 @@ pub fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
         Command::Import(a) => boxed(import::run(a)),
         Command::Export(a) => boxed(export::run(a, cli.json)),
         Command::Report(a) => boxed(report::run(a)),
+        Command::Validate(a) => boxed(validate::run(a)),
     }
 }
 
@@ -114,7 +119,10 @@ fn print_stdout(text: &str) {
 /// A failing command prints `kinecal: <reason>` on stderr and, with `--json`,
 /// `{"error": "<reason>"}` on stdout.
 pub fn main() {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => usage_error(e),
+    };
     quiet_panics(cli.json);
     // Storage is sized from the problem on the heap (the solver's normal equations included):
     // the main thread's ordinary stack is enough.
@@ -148,6 +156,37 @@ pub fn main() {
             std::process::exit(exit_status(&e));
         }
     }
+}
+
+/// A command line clap cannot parse (an unknown flag, a value outside its choices): clap's
+/// message on stderr and exit status 2, as clap itself does; with `--json` among the arguments
+/// also `{"error": "<its first line>"}` on stdout, as every other failure prints. `--help` and
+/// `--version` print as usual.
+fn usage_error(e: clap::Error) -> ! {
+    use clap::error::ErrorKind;
+    let json = std::env::args_os().any(|a| a == "--json");
+    if !json
+        || matches!(
+            e.kind(),
+            ErrorKind::DisplayHelp
+                | ErrorKind::DisplayVersion
+                | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+        )
+    {
+        e.exit()
+    }
+    let text = e.render().to_string();
+    eprint!("{text}");
+    let reason: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .take_while(|l| !l.is_empty())
+        .collect();
+    let error = ErrorReport {
+        error: reason.join(" ").trim_start_matches("error: ").to_string(),
+    };
+    print_json(&crate::reports::json_value(&error));
+    std::process::exit(crate::EXIT_REFUSED);
 }
 
 /// The error that replaces a report with a figure that is not a finite number (the command

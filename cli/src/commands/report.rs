@@ -34,6 +34,11 @@ pub struct Args {
     /// The JSON of `kinecal diagnose --json` on these data: its findings and their plots.
     #[arg(long)]
     pub diagnose: Option<PathBuf>,
+    /// The JSON of `kinecal validate --json` on another session: the model against the
+    /// nominal robot there, both registered the same way (`--validate` is for held-out poses of
+    /// this session: nothing is registered).
+    #[arg(long)]
+    pub validate_json: Option<PathBuf>,
     /// The page to write (HTML; written atomically, never over an input).
     #[arg(long)]
     pub out: PathBuf,
@@ -69,6 +74,9 @@ pub fn run(args: &Args) -> anyhow::Result<ReportSummary> {
     if let Some(d) = &args.diagnose {
         inputs.push(("diagnose", d));
     }
+    if let Some(v) = &args.validate_json {
+        inputs.push(("validate JSON", v));
+    }
     crate::output::atomic::refuse_overwriting_inputs("--out", &args.out, &inputs)?;
     crate::check_positive("--stall-rms-mm", args.stall_rms_mm, 1e6)?;
     let n = RobotFile::load(&input.robot)?.joint_count();
@@ -89,7 +97,7 @@ pub fn run(args: &Args) -> anyhow::Result<ReportSummary> {
 
 /// Refuses (exit 2) a model whose geometry is far from the robot file's: not an identified
 /// model of this robot (lengths beyond 100 mm, angles beyond 10°, or other tool points).
-fn same_robot<const N: usize>(
+pub(crate) fn same_robot<const N: usize>(
     robot: &Robot<f64, N, VCAP>,
     model: &Robot<f64, N, VCAP>,
     paths: (&Path, &Path),
@@ -234,6 +242,16 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
     if let Some(d) = &args.diagnose {
         files.push(("diagnose findings".into(), d.display().to_string()));
     }
+    let validation = match &args.validate_json {
+        Some(p) => {
+            files.push(("another session (validate)".into(), p.display().to_string()));
+            Some((
+                crate::report_html::validation::load(p)?,
+                p.display().to_string(),
+            ))
+        }
+        None => None,
+    };
     let all_params = model_params(&model, &tilts);
     // identify's start: the placed nominal robot with the effects it added at zero.
     let mut start = nominal.clone();
@@ -271,6 +289,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
         limits_deg: file.joints.iter().map(|j| j.limits_deg).collect(),
         stall_rms_mm: args.stall_rms_mm,
         diagnose,
+        validation,
         ident: split.ident,
         valid: split.valid,
         pose_of: split.pose_of,

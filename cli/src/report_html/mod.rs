@@ -2,10 +2,12 @@
 //! URL) of how accurate the robot was before and after, what was changed, how sure the numbers
 //! are and what is still unexplained (`kinecal report`, `demo`).
 //!
-//! - [`stats`]: per-axis and total error statistics (the totals from identify's functions);
+//! - [`stats`]: per-axis and total error statistics (the totals from identify's functions;
+//!   the module lives in [`crate::calibration::stats`], which `validate` uses too);
 //! - [`iso9283`]: positional accuracy and repeatability in the ISO 9283 sense;
 //! - [`params`]: the parameter table, what was held and why, the correlations;
 //! - [`findings`]: a diagnose JSON read back, with its figures;
+//! - [`validation`]: a validate JSON read back (the model on another session);
 //! - [`plots`]: the figures (plotters, SVG);
 //! - [`page`]: the page model (formatted text), [`template`]: the page from its template;
 //! - [`summary`]: the command's JSON and text (the page's figures).
@@ -18,9 +20,12 @@ pub mod iso9283;
 pub mod page;
 pub mod params;
 pub mod plots;
-pub mod stats;
 pub mod summary;
 pub mod template;
+pub mod validation;
+
+/// The statistics of one model on one set (per axis, total, 95 %), shared with `validate`.
+pub use crate::calibration::stats;
 
 use crate::calibration::weights::{self, Weighting};
 use crate::calibration::{fit_lm, orientation_errors_deg, pose_errors, ErrorStats, Residuals};
@@ -82,6 +87,8 @@ pub struct Inputs<'a, const N: usize> {
     /// Above this identification RMS (mm) the model is not a calibration of these data.
     pub stall_rms_mm: f64,
     pub diagnose: Option<(findings::DiagnoseJson, String)>,
+    /// `kinecal validate --json` on another session, and where it was read from.
+    pub validation: Option<(crate::reports::validate::ValidateReport, String)>,
 }
 
 /// The page and its summary.
@@ -531,6 +538,16 @@ pub fn build<const N: usize>(inp: Inputs<'_, N>) -> anyhow::Result<Built> {
         sig(a, 4),
         sig(100.0 * (1.0 - a / b), 3)
     );
+    let validation = inp
+        .validation
+        .as_ref()
+        .map(|(v, origin)| validation::section(v, origin));
+    if let Some(v) = validation.as_ref().filter(|v| v.worse_than_nominal) {
+        warnings.push(format!(
+            "On another session ({}) the model predicts worse than the nominal robot: {}.",
+            v.data_file, v.verdict
+        ));
+    }
     let mut sources = inp.sources.files.clone();
     sources.push(("model name".into(), inp.model_name.clone()));
     let page = Page {
@@ -559,6 +576,7 @@ pub fn build<const N: usize>(inp: Inputs<'_, N>) -> anyhow::Result<Built> {
         correlations: params::correlation_cells(&fit.correlations),
         fit_note,
         findings,
+        validation,
     };
     let html = template::render(&page)?;
     let summary = ReportSummary {

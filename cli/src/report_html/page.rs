@@ -108,6 +108,32 @@ pub struct PointLine {
     pub cells: Vec<Cell>,
 }
 
+/// One robot's row of the section's table.
+#[derive(Clone, Debug, Serialize)]
+pub struct ValidationRow {
+    /// `model` or `nominal`.
+    pub model: String,
+    /// RMS, mean, largest, 95 % of the distance; RMS per axis; orientation RMS (degrees).
+    pub cells: Vec<Cell>,
+}
+
+/// The validation section (`report --validate-json`, [`super::validation`]) as the page shows
+/// it.
+#[derive(Clone, Debug, Serialize)]
+pub struct Validation {
+    pub source: String,
+    pub data_file: String,
+    pub model_file: String,
+    pub register: String,
+    pub registered: String,
+    pub poses: usize,
+    pub worse_than_nominal: bool,
+    pub verdict: String,
+    pub rows: Vec<ValidationRow>,
+    /// Several reflectors: name, model RMS, nominal RMS.
+    pub points: Vec<[Cell; 3]>,
+}
+
 /// The whole page.
 #[derive(Clone, Debug, Serialize)]
 pub struct Page {
@@ -132,4 +158,6 @@ pub struct Page {
     pub correlations: Vec<[String; 3]>,
     pub fit_note: String,
     pub findings: Option<Findings>,
+    /// The model on another session (`report --validate-json`).
+    pub validation: Option<Validation>,
 }

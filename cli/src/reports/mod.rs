@@ -21,6 +21,7 @@ pub mod plan;
 pub mod simulate;
 pub mod study;
 pub mod urdf;
+pub mod validate;
 
 pub use check::CheckReport;
 pub use compensate::CompensateReport;
@@ -32,6 +33,7 @@ pub use plan::PlanReport;
 pub use simulate::SimulateReport;
 pub use study::StudyReport;
 pub use urdf::{ExportReport, ImportReport};
+pub use validate::ValidateReport;
 
 use serde::Serialize;
 use std::fmt;

@@ -6,3 +6,4 @@ mod common;
 
 mod acceptance;
 mod quick_recalibration;
+mod validate;

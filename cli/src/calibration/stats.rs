@@ -3,7 +3,9 @@
 //!
 //! The totals come from [`crate::calibration::ErrorStats`] over
 //! [`crate::calibration::pose_errors`], the very functions `identify` reports with, so the
-//! report's RMS, mean and largest error equal `identify`'s.
+//! report's RMS, mean and largest error equal `identify`'s. The calibration report
+//! (`crate::report_html`) and `validate` ([`crate::calibration::validate`]) both take their
+//! per-axis and 95 % figures from here.
 
 use crate::calibration::{pose_error_vectors, ErrorStats};
 use kinecal::{Measurement, Robot};

@@ -1,0 +1,264 @@
+//! A calibrated model judged on another session's data (`kinecal validate`): only the
+//! registration (where the robot stands in the tracker's frame, and where the probe sits on the
+//! flange) is fitted to the session, the same way for the model and for the nominal robot, and
+//! then both are compared on it. A model that predicts the session worse than the nominal robot
+//! no longer describes the robot (or the set-up): recalibrate (docs/formats.md, "Validation on
+//! another session").
+//!
+//! In memory only: robots in library units, observations already read (mm, degrees, weights);
+//! the command (`crate::commands::validate`) loads the files and prints the report
+//! (`crate::reports::validate`).
+
+use super::stats::{quantile, SetFigures};
+use super::{
+    fit_lm, named_values, orientation_errors_deg, pose_error_vectors, weights, ErrorStats,
+};
+use crate::formats::observations::{ObservationArgs, Observed};
+use crate::VCAP;
+use kinecal::identify::lm::LmConfig;
+use kinecal::{Measurement, Param, Robot};
+use std::collections::BTreeMap;
+
+/// What the registration fits (`--register`).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Register {
+    /// Nothing: both robots as their files give them (the nominal file needs a `[base]`).
+    None,
+    /// The base pose (base.x … base.rz): the tracker moved.
+    Base,
+    /// The base pose and the tool point(s), and for 6-D data the tool orientation: the
+    /// tracker and the probe moved.
+    #[default]
+    #[value(name = "base+tool")]
+    BaseTool,
+}
+
+impl Register {
+    /// The name on the command line and in the JSON report.
+    pub fn id(self) -> &'static str {
+        match self {
+            Register::None => "none",
+            Register::Base => "base",
+            Register::BaseTool => "base+tool",
+        }
+    }
+
+    /// The parameters fitted for a robot of `points` tool points, with 6-D data or not.
+    pub fn params(self, points: usize, six_d: bool) -> Vec<Param> {
+        let mut p = Vec::new();
+        if self == Register::None {
+            return p;
+        }
+        p.extend([
+            Param::BaseX,
+            Param::BaseY,
+            Param::BaseZ,
+            Param::BaseRx,
+            Param::BaseRy,
+            Param::BaseRz,
+        ]);
+        if self == Register::BaseTool {
+            p.extend([Param::ToolX, Param::ToolY, Param::ToolZ]);
+            if six_d {
+                p.extend([Param::ToolRx, Param::ToolRy, Param::ToolRz]);
+            }
+            for k in 1..points {
+                p.extend((0..3).map(|a| Param::ToolPoint(k as u8, a)));
+            }
+        }
+        p
+    }
+}
+
+/// The options of [`validate`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Options {
+    pub register: Register,
+    /// How orientation and σ columns weigh in the registration (as for `identify`).
+    pub obs: ObservationArgs,
+}
+
+/// What [`validate`] compares: the nominal robot and the calibrated model (library units),
+/// whether each file stated its `[base]`, the session's observations, and the names the
+/// refusals use for the files.
+pub struct Inputs<'a, const N: usize> {
+    pub nominal: &'a Robot<f64, N, VCAP>,
+    pub nominal_base_known: bool,
+    pub nominal_origin: &'a str,
+    pub model: &'a Robot<f64, N, VCAP>,
+    pub model_base_known: bool,
+    pub model_origin: &'a str,
+    pub observed: &'a Observed<N>,
+}
+
+/// One robot registered onto the session, and its errors there.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Judged {
+    /// Position errors, per axis and in total (mm).
+    pub figures: SetFigures,
+    /// Orientation errors of 6-D observations (degrees) and their 95th percentile.
+    pub orientation: Option<(ErrorStats, f64)>,
+    /// Several reflectors: each one's position errors, by name.
+    pub per_point: Vec<(String, SetFigures)>,
+    /// The registration fitted, by name (mm, degrees).
+    pub registration: BTreeMap<String, f64>,
+    /// Registration parameters the session could not determine (held at their start).
+    pub held: Vec<String>,
+}
+
+/// The result of [`validate`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Validation {
+    pub register: Register,
+    /// Names of the parameters fitted (the same for both robots).
+    pub registered: Vec<String>,
+    pub poses: usize,
+    pub observations: usize,
+    pub model: Judged,
+    pub nominal: Judged,
+    /// The model's position RMS is above the nominal robot's: strictly, no margin.
+    pub worse_than_nominal: bool,
+}
+
+/// Registers the model and the nominal robot onto the session the same way (the parameters of
+/// `opts.register`, fitted by the Levenberg–Marquardt of `identify` over every observation,
+/// weighted as `identify` weighs 6-D and σ data: [`weights::weighted_fit`]) and compares them.
+/// The base of each starts from point-set registration, for 6-D data with `base+tool` the tool
+/// orientation from the data too. Refused (exit 2): `none` with a file that has no `[base]`, a
+/// model with other tool points than the nominal robot, a session with no observations.
+pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::Result<Validation> {
+    let observed = inp.observed;
+    let data = observed.all();
+    if data.is_empty() {
+        crate::refuse!("the session has no observations: give a file with measured poses");
+    }
+    if inp.model.tool_point_count() != inp.nominal.tool_point_count() {
+        crate::refuse!(
+            "{}: {} tool points, but {} has {}: give the model that `kinecal identify --robot {} \
+             --out M.toml` wrote",
+            inp.model_origin,
+            inp.model.tool_point_count(),
+            inp.nominal_origin,
+            inp.nominal.tool_point_count(),
+            inp.nominal_origin
+        );
+    }
+    if opts.register == Register::None {
+        for (known, origin) in [
+            (inp.nominal_base_known, inp.nominal_origin),
+            (inp.model_base_known, inp.model_origin),
+        ] {
+            if !known {
+                crate::refuse!(
+                    "{origin} has no [base]: --register none compares the files as written and \
+                     needs the base pose: add a [base] (the one `kinecal check` prints), or \
+                     register it with --register base"
+                );
+            }
+        }
+    }
+    let params = opts
+        .register
+        .params(inp.nominal.tool_point_count(), observed.six_d);
+    let pose_of = crate::formats::observations::pose_of(&observed.poses);
+    let judge = |robot: &Robot<f64, N, VCAP>| -> anyhow::Result<Judged> {
+        let (placed, held) = register(robot, &params, &data, &pose_of, observed, opts)?;
+        judged(&placed, &data, &observed.names, &params, held)
+    };
+    let model = judge(inp.model)?;
+    let nominal = judge(inp.nominal)?;
+    let worse_than_nominal = model.figures.total.rms > nominal.figures.total.rms;
+    Ok(Validation {
+        register: opts.register,
+        registered: params
+            .iter()
+            .map(|p| p.name(inp.model).to_string())
+            .collect(),
+        poses: observed.poses.len(),
+        observations: data.len(),
+        model,
+        nominal,
+        worse_than_nominal,
+    })
+}
+
+/// `robot` with the registration parameters fitted to `data` (unchanged for no parameters),
+/// and the names of those the data could not determine.
+fn register<const N: usize>(
+    robot: &Robot<f64, N, VCAP>,
+    params: &[Param],
+    data: &[Measurement<f64, N>],
+    pose_of: &[usize],
+    observed: &Observed<N>,
+    opts: &Options,
+) -> anyhow::Result<(Robot<f64, N, VCAP>, Vec<String>)> {
+    use anyhow::Context;
+    if params.is_empty() {
+        return Ok((robot.clone(), Vec::new()));
+    }
+    let mut start = robot.clone();
+    let base = crate::compute::registration::fit_base(&start, data)
+        .context("registering the base pose")?;
+    start
+        .set_base(base)
+        .map_err(|e| anyhow::anyhow!("registered base pose is invalid: {e:?}"))?;
+    if params.contains(&Param::ToolRx) {
+        if let Some(axes) = crate::compute::registration::fit_tool_axes(&start, data) {
+            start
+                .set_tool_axes(axes)
+                .map_err(|e| anyhow::anyhow!("registered tool orientation is invalid: {e:?}"))?;
+        }
+    }
+    let mut weighted = data.to_vec();
+    let stated = weights::stated(&weighted, observed.sigma);
+    let how = weights::Weighting::of(
+        observed.six_d,
+        observed.sigma,
+        &opts.obs,
+        observed.poses.len(),
+        params.len(),
+    );
+    let (fit, _) = weights::weighted_fit(&mut weighted, pose_of, &stated, how, |d| {
+        fit_lm(&start, params, d, LmConfig::default())
+    })?;
+    Ok((fit.robot, fit.unidentifiable))
+}
+
+/// The errors of the registered `robot` on `data`.
+fn judged<const N: usize>(
+    robot: &Robot<f64, N, VCAP>,
+    data: &[Measurement<f64, N>],
+    names: &[String],
+    params: &[Param],
+    held: Vec<String>,
+) -> anyhow::Result<Judged> {
+    let e = pose_error_vectors(robot, data);
+    let figures =
+        SetFigures::of_vectors(&e).ok_or_else(|| anyhow::anyhow!("no observations to judge"))?;
+    let o = orientation_errors_deg(robot, data);
+    let orientation = ErrorStats::of(&o).map(|s| (s, quantile(&o, 0.95)));
+    let per_point = if names.len() < 2 {
+        Vec::new()
+    } else {
+        names
+            .iter()
+            .enumerate()
+            .filter_map(|(k, name)| {
+                let ek: Vec<_> = e
+                    .iter()
+                    .zip(data)
+                    .filter(|(_, m)| m.tool as usize == k)
+                    .map(|(v, _)| *v)
+                    .collect();
+                Some((name.clone(), SetFigures::of_vectors(&ek)?))
+            })
+            .collect()
+    };
+    Ok(Judged {
+        figures,
+        orientation,
+        per_point,
+        registration: named_values(robot, params),
+        held,
+    })
+}

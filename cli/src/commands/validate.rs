@@ -1,0 +1,89 @@
+//! `kinecal validate`: a calibrated model judged on another session's data, against the nominal
+//! robot registered the same way ([`crate::calibration::validate`]; docs/formats.md).
+
+use super::inputs::InputArgs;
+use crate::calibration::validate::{validate, Inputs, Options, Register};
+use crate::formats::observations::{observe, ObservationArgs};
+use crate::formats::robot_file::{load_robot, RobotFile};
+use crate::reports::validate::ValidateReport;
+use crate::with_joints;
+use std::path::PathBuf;
+
+/// Arguments of `kinecal validate` (docs/formats.md).
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// The nominal robot file, the session's measurements and their units.
+    #[command(flatten)]
+    pub input: InputArgs,
+    /// The calibrated model (`identify --robot R --data D1 --out M`).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// What is fitted to the session, for both robots alike: nothing, the base pose, or the
+    /// base pose and the tool point(s) (and the tool orientation with 6-D data).
+    #[arg(long, value_enum, default_value = "base+tool")]
+    pub register: Register,
+    /// Orientation and σ columns: how they weigh in the registration (as for `identify`).
+    #[command(flatten)]
+    pub obs: ObservationArgs,
+}
+
+/// Runs the subcommand; the report's `worse_than_nominal` makes the command exit with 3, with
+/// the reason on stderr.
+pub fn run(args: &Args) -> anyhow::Result<ValidateReport> {
+    let n = RobotFile::load(&args.input.robot)?.joint_count();
+    let m = RobotFile::load(&args.model)?.joint_count();
+    if m != n {
+        crate::refuse!(
+            "{}: a model of a {m}-joint robot, but {} has {n} joints: give the model that \
+             `kinecal identify --robot {} --out M.toml` wrote",
+            args.model.display(),
+            args.input.robot.display(),
+            args.input.robot.display()
+        );
+    }
+    let report = with_joints!(n, N => run_with_joints::<N>(args))?;
+    if report.worse_than_nominal {
+        eprintln!("error: {} (exit 3)", report.verdict);
+    }
+    Ok(report)
+}
+
+fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ValidateReport> {
+    let input = &args.input;
+    let (file, nominal) = load_robot::<N>(&input.robot)?;
+    let (model_file, model) = load_robot::<N>(&args.model)?;
+    super::report::same_robot(&nominal, &model, (&input.robot, &args.model))?;
+    let ds = crate::formats::units::load_measurements(
+        &input.data,
+        &input.units,
+        &nominal,
+        // A registered session may stand anywhere: its units are judged by shape alone.
+        file.base_known() && args.register == Register::None,
+    )?;
+    let origin = input.data.display().to_string();
+    let observed = observe(&ds, &file, &args.obs, &origin)?;
+    super::inputs::some_rows(observed.poses.clone(), &input.data)?;
+    let (robot_origin, model_origin) = (
+        input.robot.display().to_string(),
+        args.model.display().to_string(),
+    );
+    let v = validate(
+        Inputs {
+            nominal: &nominal,
+            nominal_base_known: file.base_known(),
+            nominal_origin: &robot_origin,
+            model: &model,
+            model_base_known: model_file.base_known(),
+            model_origin: &model_origin,
+            observed: &observed,
+        },
+        &Options {
+            register: args.register,
+            obs: args.obs.clone(),
+        },
+    )?;
+    Ok(ValidateReport::of(
+        &v,
+        (&robot_origin, &model_origin, &origin),
+    ))
+}

@@ -1,0 +1,236 @@
+//! The report of `kinecal validate` (docs/formats.md, "Validation on another session"). It
+//! also reads back (`Deserialize`): `kinecal report --validate-json V.json` shows it.
+
+use super::finite::first_non_finite;
+use crate::calibration::stats::SetFigures;
+use crate::calibration::validate::{Judged, Validation};
+use crate::output::numfmt::sig;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::fmt;
+
+/// The reason `validate` gives when the model is worse than the nominal robot (stderr, exit 3).
+pub const RECALIBRATE: &str = "the robot or the set-up changed since calibration: recalibrate";
+
+/// `kinecal validate`: both robots registered onto the session the same way, and their errors.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ValidateReport {
+    pub robot_file: String,
+    pub model_file: String,
+    pub data_file: String,
+    /// `none`, `base` or `base+tool`.
+    pub register: String,
+    /// Names of the parameters fitted (`base.x` …, `tool.x` …).
+    pub registered: Vec<String>,
+    pub poses: usize,
+    pub observations: usize,
+    /// The calibrated model, registered.
+    pub model: Figures,
+    /// The nominal robot, registered the same way.
+    pub nominal: Figures,
+    /// Several reflectors: each one's figures (name → `model`, `nominal`).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub per_point: BTreeMap<String, PointFigures>,
+    /// The model's position RMS is above the nominal robot's (strictly): exit 3.
+    pub worse_than_nominal: bool,
+    /// The verdict in one line.
+    pub verdict: String,
+}
+
+/// One robot's errors on the session (mm; orientation in degrees with 6-D data), and the
+/// registration fitted.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Figures {
+    pub rms_mm: f64,
+    pub mean_mm: f64,
+    pub max_mm: f64,
+    pub p95_mm: f64,
+    pub rms_x_mm: f64,
+    pub rms_y_mm: f64,
+    pub rms_z_mm: f64,
+    /// Signed means (measured − model): what a registration left over.
+    pub mean_x_mm: f64,
+    pub mean_y_mm: f64,
+    pub mean_z_mm: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rms_deg: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mean_deg: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_deg: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub p95_deg: Option<f64>,
+    /// The registration fitted: name → value (mm, degrees).
+    #[serde(default)]
+    pub registration: BTreeMap<String, f64>,
+    /// Registration parameters the session could not determine.
+    #[serde(default)]
+    pub held: Vec<String>,
+}
+
+/// One reflector's position errors.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PointFigures {
+    pub observations: usize,
+    pub model: PointStats,
+    pub nominal: PointStats,
+}
+
+/// RMS, mean, largest and 95th percentile of a reflector's distance errors (mm).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PointStats {
+    pub rms_mm: f64,
+    pub mean_mm: f64,
+    pub max_mm: f64,
+    pub p95_mm: f64,
+}
+
+impl From<&SetFigures> for PointStats {
+    fn from(f: &SetFigures) -> Self {
+        Self {
+            rms_mm: f.total.rms,
+            mean_mm: f.total.mean,
+            max_mm: f.total.max,
+            p95_mm: f.total.p95,
+        }
+    }
+}
+
+impl From<&Judged> for Figures {
+    fn from(j: &Judged) -> Self {
+        let f = &j.figures;
+        let o = j.orientation;
+        Self {
+            rms_mm: f.total.rms,
+            mean_mm: f.total.mean,
+            max_mm: f.total.max,
+            p95_mm: f.total.p95,
+            rms_x_mm: f.x.rms,
+            rms_y_mm: f.y.rms,
+            rms_z_mm: f.z.rms,
+            mean_x_mm: f.x.mean,
+            mean_y_mm: f.y.mean,
+            mean_z_mm: f.z.mean,
+            rms_deg: o.map(|(s, _)| s.rms_mm),
+            mean_deg: o.map(|(s, _)| s.mean_mm),
+            max_deg: o.map(|(s, _)| s.max_mm),
+            p95_deg: o.map(|(_, p)| p),
+            registration: j.registration.clone(),
+            held: j.held.clone(),
+        }
+    }
+}
+
+impl ValidateReport {
+    /// The report of `v`, with the files' names `(robot, model, data)`.
+    pub fn of(v: &Validation, (robot, model, data): (&str, &str, &str)) -> Self {
+        let per_point = v
+            .model
+            .per_point
+            .iter()
+            .zip(&v.nominal.per_point)
+            .map(|((name, m), (_, n))| {
+                (
+                    name.clone(),
+                    PointFigures {
+                        observations: m.poses,
+                        model: m.into(),
+                        nominal: n.into(),
+                    },
+                )
+            })
+            .collect();
+        let (m, n) = (v.model.figures.total.rms, v.nominal.figures.total.rms);
+        let figures = format!(
+            "position RMS {} mm with the model, {} mm with the nominal robot, both registered \
+             `{}` on {} poses",
+            sig(m, 4),
+            sig(n, 4),
+            v.register.id(),
+            v.poses
+        );
+        Self {
+            robot_file: robot.to_string(),
+            model_file: model.to_string(),
+            data_file: data.to_string(),
+            register: v.register.id().to_string(),
+            registered: v.registered.clone(),
+            poses: v.poses,
+            observations: v.observations,
+            model: (&v.model).into(),
+            nominal: (&v.nominal).into(),
+            per_point,
+            worse_than_nominal: v.worse_than_nominal,
+            verdict: if v.worse_than_nominal {
+                format!("{RECALIBRATE} ({figures})")
+            } else {
+                format!("the model still holds ({figures})")
+            },
+        }
+    }
+}
+
+impl super::Report for ValidateReport {
+    fn to_json(&self) -> serde_json::Value {
+        super::json_value(self)
+    }
+    /// A model worse than the nominal robot must not be used: exit 3.
+    fn converged(&self) -> bool {
+        !self.worse_than_nominal
+    }
+    fn non_finite(&self) -> Option<String> {
+        first_non_finite(self)
+    }
+}
+
+impl fmt::Display for ValidateReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "validate {} on {}: {} poses ({} observations), robot file {}",
+            self.model_file, self.data_file, self.poses, self.observations, self.robot_file
+        )?;
+        writeln!(
+            f,
+            "registered ({}): {}",
+            self.register,
+            if self.registered.is_empty() {
+                "nothing, both as their files give them".to_string()
+            } else {
+                self.registered.join(", ")
+            }
+        )?;
+        writeln!(
+            f,
+            "{:<8} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}",
+            "(mm)", "RMS", "mean", "max", "95 %", "RMS x", "RMS y", "RMS z"
+        )?;
+        for (name, r) in [("model", &self.model), ("nominal", &self.nominal)] {
+            let cells = [
+                r.rms_mm, r.mean_mm, r.max_mm, r.p95_mm, r.rms_x_mm, r.rms_y_mm, r.rms_z_mm,
+            ]
+            .map(|v| format!("{:>10}", sig(v, 4)));
+            writeln!(f, "{name:<8} {}", cells.join(" "))?;
+        }
+        for (name, r) in [("model", &self.model), ("nominal", &self.nominal)] {
+            if let (Some(rms), Some(p95)) = (r.rms_deg, r.p95_deg) {
+                writeln!(
+                    f,
+                    "{name:<8} orientation RMS {}°, 95 % {}°",
+                    sig(rms, 4),
+                    sig(p95, 4)
+                )?;
+            }
+        }
+        for (name, p) in &self.per_point {
+            writeln!(
+                f,
+                "point {name}: {} observations, RMS {} mm (model), {} mm (nominal)",
+                p.observations,
+                sig(p.model.rms_mm, 4),
+                sig(p.nominal.rms_mm, 4)
+            )?;
+        }
+        writeln!(f, "{}", self.verdict)
+    }
+}

@@ -5,7 +5,7 @@
 //! data and several reflectors work; and on the real UR10 series the model beats the nominal
 //! robot on the poses it never saw.
 
-use common::{json_of, kinecal, s, simulate, stderr, ur10_dir, write, ER20_PLACED};
+use crate::common::{json_of, kinecal, s, simulate, stderr, ur10_dir, write, ER20_PLACED};
 use kinecal::{ForwardKinematics, Frame};
 use kinecal_cli::formats::robot_file::{BaseSpec, RobotFile};
 use nalgebra::Vector3;

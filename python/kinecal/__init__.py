@@ -239,11 +239,14 @@ def identify(
     columns: Optional[Mapping[str, Any]] = None,
     method: str = "lm",
     holdout: Optional[float] = None,
+    split: Optional[str] = None,
     validate: Any = None,
     effects: Iterable[str] = (),
     seed: Optional[int] = None,
     fix: Iterable[str] = (),
     free: Iterable[str] = (),
+    only: Iterable[str] = (),
+    prior: Iterable[str] = (),
     tolerance_mm: Optional[float] = None,
     tolerance_deg: Optional[float] = None,
     stall_rms_mm: Optional[float] = None,
@@ -259,20 +262,24 @@ def identify(
 
     ``q`` (n, N) joint readings, ``xyz`` (n, 3) measured points, ``columns`` further columns
     by name (``rx_deg``…, ``sx_mm``…, ``x_NAME``…); ``method``: ``lm``, ``pso``, ``bpnn-pso``
-    or ``pso+lm``; ``holdout``: hold out the last poses (fraction < 1 or count);
-    ``validate``: a separate measurement set (``(q, xyz)``, ``(q, xyz, columns)`` or
+    or ``pso+lm``; ``holdout``: hold out poses (fraction < 1 or count), ``split`` which ones
+    (``last``, ``random``, ``every:K``); ``fix``, ``free``, ``only``: parameter names or groups
+    (``base``, ``tool``, ``geometry``, ``theta``, ``effects``, ``joint-table2`` …); ``prior``:
+    ``["off"]`` or ``["length_mm=1", "angle_deg=0.1"]``; ``validate``: a separate measurement set (``(q, xyz)``, ``(q, xyz, columns)`` or
     :class:`Measurements`); ``effects``: ``"KIND:JOINT[:ARG]"`` as ``--effect``; the other
     options as the command line's flags (None = its default). Refused input raises
     :class:`RefusedError`; a fit that did not converge returns ``converged=False`` (and warns
-    with :class:`NotConvergedWarning` unless ``warn=False``)."""
+    with :class:`NotConvergedWarning` unless ``warn=False``); so does a model that predicts the
+    held-out poses worse than the model it started from (``held_out_worse``)."""
     data = _set(q, xyz, columns)
     val = None if validate is None else _as_set(validate, "validate")
     argv = ["identify", "--robot", "robot", "--data", "data"]
     if val is not None:
         argv += ["--validate", "validate"]
     argv += _argv("", dict(
-        method=method, holdout=holdout, effect=list(effects), seed=seed,
-        fix=list(fix), free=list(free), tolerance_mm=tolerance_mm,
+        method=method, holdout=holdout, split=split, effect=list(effects), seed=seed,
+        fix=list(fix), free=list(free), only=list(only), prior=list(prior),
+        tolerance_mm=tolerance_mm,
         tolerance_deg=tolerance_deg, stall_rms_mm=stall_rms_mm, length_unit=length_unit,
         angle_unit=angle_unit, deg_weight_mm=deg_weight_mm, sigma_as_stated=sigma_as_stated,
         positions_only=positions_only, ignore_sigma=ignore_sigma,
@@ -288,8 +295,14 @@ def identify(
                 stacklevel=2,
             )
         if not converged:
+            acceptance = result.json.get("acceptance") or {}
+            why = (
+                acceptance.get("message")
+                if result.json.get("held_out_worse")
+                else f"the fit {result.json.get('stop')}"
+            )
             warnings.warn(
-                f"the fit {result.json.get('stop')}; these numbers are not a calibration",
+                f"{why}; these numbers are not a calibration",
                 NotConvergedWarning,
                 stacklevel=2,
             )

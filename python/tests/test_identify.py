@@ -117,3 +117,18 @@ def test_units_flags(ur10):
                            length_unit="m", angle_unit="rad")
     for k in ("identification_rms_mm", "validation_rms_mm", "validation_max_mm"):
         assert res.after[k] == pytest.approx(ref.after[k], abs=1e-9)
+
+
+def test_ur10_split_only_and_prior(ur10, cli):
+    """split=, only= and prior= map to the CLI's flags."""
+    robot = kinecal.Robot.from_file(ur10 / "robot.toml")
+    d = kinecal.read_csv(ur10 / "ur10_random_poses.csv")
+    res = kinecal.identify(robot, d.q, d.xyz, split="every:5", only=["base", "tool", "theta"],
+                           prior=["length_mm=1"], warn=False)
+    _, ref = cli("identify", "--robot", ur10 / "robot.toml", "--data",
+                 ur10 / "ur10_random_poses.csv", "--split", "every:5", "--only",
+                 "base,tool,theta", "--prior", "length_mm=1", expect=0)
+    assert_same(res.json, ref)
+    assert res.json["n_validation"] == 2773 // 5
+    assert res.json["held_out_worse"] is False
+    assert all(k.startswith(("base.", "tool.", "theta")) for k in res.json["changes"])

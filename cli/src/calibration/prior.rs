@@ -39,6 +39,31 @@ pub struct Share {
     pub data_share: f64,
 }
 
+/// Each parameter's prior 1-σ (library units) under `spec`, `None` where its kind has none or
+/// `free_start` says its start is not a file value (a base placed by registration, a tool
+/// orientation started from the data, effect values added at zero).
+pub fn sigmas(
+    spec: &PriorSpec,
+    params: &[Param],
+    free_start: impl Fn(Param) -> bool,
+) -> Vec<Option<f64>> {
+    params
+        .iter()
+        .map(|&p| spec.sigma(p, free_start(p)))
+        .collect()
+}
+
+/// `identify`'s LM fit: [`super::fit_lm`] from `start`, then [`refit`] with the prior `sigma`.
+pub fn fit_lm_with_prior<const N: usize, const V: usize>(
+    start: &Robot<f64, N, V>,
+    params: &[Param],
+    sigma: &[Option<f64>],
+    data: &[Measurement<f64, N>],
+) -> anyhow::Result<Fit<N, V>> {
+    let fit = super::fit_lm(start, params, data, LmConfig::default())?;
+    refit(start, params, sigma, data, fit)
+}
+
 /// File units of a value in the library's units.
 fn file_units(p: Param, v: f64) -> f64 {
     match p {
@@ -123,8 +148,6 @@ pub fn refit<const N: usize, const V: usize>(
     }
     let cfg = LmConfig {
         max_analyses: 0,
-        keep_curvature: true,
-        initial_damping: 1e-6,
         ..LmConfig::default()
     };
     let mut lm = Box::new(

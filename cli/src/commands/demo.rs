@@ -266,6 +266,8 @@ pub fn run(args: &Args) -> anyhow::Result<DemoReport> {
         start: &nominal,
         all_params: crate::calibration::model_params(&hybrid_robot, &[]),
         estimated: set.as_slice().to_vec(),
+        // The demo's model comes from BPNN-PSO, which has no prior.
+        prior: vec![None; set.len()],
         ident: ident.clone(),
         valid: valid.clone(),
         pose_of: (0..ident.len()).collect(),

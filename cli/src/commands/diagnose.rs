@@ -255,7 +255,17 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
             sig(args.stall_rms_mm, 3)
         );
     }
-    if let Some(out) = &args.out {
+    if let Some(out) = args
+        .out
+        .as_ref()
+        .filter(|_| report.held_out_worse == Some(true))
+    {
+        eprintln!(
+            "note: {} not written: the model predicts the held-out poses worse than the \
+             nominal robot",
+            out.display()
+        );
+    } else if let Some(out) = &args.out {
         let model = full_fit.as_ref().map_or(&d.model, |f| &f.model);
         let mut f = RobotFile::from_robot(
             &format!("{} (diagnosed)", file.name),

@@ -3,14 +3,11 @@
 use super::inputs::InputArgs;
 use crate::calibration::method::Method;
 use crate::calibration::selection::Selection;
-use crate::calibration::{
-    add_effect, fit_lm, named_values, weights, EffectRequest, Fit, Residuals,
-};
+use crate::calibration::{add_effect, named_values, weights, EffectRequest, Fit, Residuals};
 use crate::formats::observations::{observe, ObservationArgs, Observed};
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::reports::identify::{Change, IdentifyReport, ObservationSummary, PointResiduals};
 use crate::{with_joints, VCAP};
-use kinecal::identify::lm::LmConfig;
 use kinecal::model::param::ParamSet;
 use kinecal::{Measurement, Robot};
 use std::path::PathBuf;
@@ -254,20 +251,15 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
     // The prior: the robot file's `[prior]` (or the defaults) with `--prior` over it; none on
     // what does not start from a file value.
     let prior = file.prior.unwrap_or_default().with_overrides(&args.prior)?;
-    let free_start = |p: kinecal::Param| {
+    let prior_sigma = crate::calibration::prior::sigmas(&prior, &params, |p| {
         (p.is_base() && base_unknown)
             || (p.is_tool_rotation() && tool_axes_unknown)
             || extra.contains(&p) && matches!(p, kinecal::Param::Effect(_))
-    };
-    let prior_sigma: Vec<Option<f64>> = params
-        .iter()
-        .map(|&p| prior.sigma(p, free_start(p)))
-        .collect();
+    });
     let t0 = Instant::now();
     let run_method = |data: &[Measurement<f64, N>]| match args.method {
         Method::Lm => {
-            let fit = fit_lm(&nominal, &params, data, LmConfig::default())?;
-            crate::calibration::prior::refit(&nominal, &params, &prior_sigma, data, fit)
+            crate::calibration::prior::fit_lm_with_prior(&nominal, &params, &prior_sigma, data)
         }
         m => crate::calibration::pso_search::identify(m, &nominal, &params, data, args.seed),
     };

@@ -51,6 +51,10 @@ pub struct Args {
     /// The parameters `identify` was told to estimate alone (`--only`).
     #[arg(long, value_delimiter = ',', num_args = 1..)]
     pub only: Vec<String>,
+    /// The prior `identify` was given (`--prior`; the robot file's `[prior]` is read as
+    /// identify reads it).
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub prior: Vec<String>,
     /// A model that misses the identification poses by more than this RMS (mm) is not a
     /// calibration of these data (exit 3).
     #[arg(long, default_value_t = 5.0)]
@@ -269,6 +273,16 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
             )
             .map_err(|err| anyhow::anyhow!("{}: effect: {err:?}", args.model.display()))?;
     }
+    // The prior as identify set it: the file's `[prior]` and `--prior`, none on a base placed
+    // by registration, a tool orientation started from the data, effects added at zero.
+    let spec = file.prior.unwrap_or_default().with_overrides(&args.prior)?;
+    let tool_axes_unknown = observed.six_d && file.tool.rpy_deg.is_none();
+    let file_effects = nominal.effects().values().len();
+    let prior = crate::calibration::prior::sigmas(&spec, &estimated, |p| {
+        (p.is_base() && base_unknown)
+            || (p.is_tool_rotation() && tool_axes_unknown)
+            || matches!(p, Param::Effect(k) if usize::from(k) >= file_effects)
+    });
     let built = build(Inputs {
         robot_name: file.name.clone(),
         model_name: model_file.name.clone(),
@@ -282,6 +296,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
         start: &start,
         all_params,
         estimated,
+        prior,
         names: observed.names.clone(),
         six_d: observed.six_d,
         sigma: observed.sigma,

@@ -28,11 +28,10 @@ pub mod validation;
 pub use crate::calibration::stats;
 
 use crate::calibration::weights::{self, Weighting};
-use crate::calibration::{fit_lm, orientation_errors_deg, pose_errors, ErrorStats, Residuals};
+use crate::calibration::{orientation_errors_deg, pose_errors, ErrorStats, Residuals};
 use crate::output::numfmt::sig;
 use crate::reports::identify::PointResiduals;
 use crate::VCAP;
-use kinecal::identify::lm::LmConfig;
 use kinecal::model::param::Param;
 use kinecal::{Measurement, Robot};
 use nalgebra::Vector3;
@@ -69,6 +68,9 @@ pub struct Inputs<'a, const N: usize> {
     /// Every parameter of the model (the table's rows) and those the fit estimates.
     pub all_params: Vec<Param>,
     pub estimated: Vec<Param>,
+    /// The prior 1-σ of each of `estimated` as identify set it
+    /// ([`crate::calibration::prior::sigmas`]).
+    pub prior: Vec<Option<f64>>,
     pub ident: Vec<Measurement<f64, N>>,
     pub valid: Vec<Measurement<f64, N>>,
     /// The pose of each identification observation (several reflectors), for the
@@ -374,7 +376,7 @@ pub fn build<const N: usize>(inp: Inputs<'_, N>) -> anyhow::Result<Built> {
     let mut wdata = ident.clone();
     let stated = weights::stated(&wdata, inp.sigma);
     let (fit, _) = weights::weighted_fit(&mut wdata, &inp.pose_of, &stated, inp.weighting, |d| {
-        fit_lm(inp.start, &inp.estimated, d, LmConfig::default())
+        crate::calibration::prior::fit_lm_with_prior(inp.start, &inp.estimated, &inp.prior, d)
     })?;
     let refit = crate::calibration::pose_error_vectors(&fit.robot, ident)
         .iter()

@@ -165,6 +165,21 @@ fn a_model_worse_than_its_start_on_held_out_poses_exits_3() {
         "{err}"
     );
     assert!(!out.exists());
+    // diagnose judges its final model the same way, against the nominal robot.
+    let o = run_on(
+        "diagnose",
+        &robot,
+        &s1,
+        &["--validate", s(&s2), "--json", "--out", s(&out)],
+    );
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["held_out_worse"], true);
+    assert!(
+        j["holdout"]["final_rms_mm"].as_f64().unwrap()
+            > j["holdout"]["start_rms_mm"].as_f64().unwrap()
+    );
+    assert!(!out.exists());
     // The same robot on both sessions: accepted.
     let s3 = d.join("s3.csv");
     simulate(

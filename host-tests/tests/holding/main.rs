@@ -6,4 +6,5 @@ mod common;
 
 mod acceptance;
 mod quick_recalibration;
+mod ur10;
 mod validate;

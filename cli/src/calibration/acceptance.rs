@@ -85,7 +85,8 @@ pub fn judge<const N: usize>(
     weak: Vec<String>,
 ) -> Option<Acceptance> {
     let (start, after) = (start_mm?, after_mm?);
-    let worse = !(after <= start);
+    // NaN counts as worse.
+    let worse = after.partial_cmp(&start) != Some(std::cmp::Ordering::Less) && after != start;
     let ratio = after / ident_mm.max(f64::MIN_POSITIVE);
     let much_worse = ratio > MUCH_WORSE;
     let gaps = outside_ranges(ident, valid);

@@ -190,7 +190,7 @@ pub fn refit<const N: usize, const V: usize>(
         out.sigma = sigma_post;
     }
     // What was held for want of data and is now estimated with its prior is no longer held.
-    let estimated: Vec<String> = active.iter().map(|p| name(p)).collect();
+    let estimated: Vec<String> = active.iter().map(name).collect();
     out.held.retain(|h| !estimated.contains(&h.name));
     out.unidentifiable.retain(|n| !estimated.contains(n));
     out.robot = lm.robot().clone();

@@ -48,7 +48,7 @@ pub fn some_rows<T>(rows: Vec<T>, path: &std::path::Path) -> anyhow::Result<Vec<
 #[derive(clap::Args, Debug, Clone, Copy, PartialEq, Default)]
 pub struct HoldoutArgs {
     /// Hold out poses for validation: a fraction (< 1) or a count (≥ 1), chosen by --split.
-    #[arg(long, conflicts_with = "validate")]
+    #[arg(long, conflicts_with = "validate", allow_hyphen_values = true)]
     pub holdout: Option<f64>,
     /// Which poses --holdout keeps out: `last` (the last ones of the file), `random` (by
     /// --seed) or `every:K` (every K-th pose; needs no --holdout).

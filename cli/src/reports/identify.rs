@@ -207,7 +207,9 @@ impl Change {
         let tolerance = if self.length { mm } else { deg };
         !effect
             && match self.data_sigma {
-                Some(s) => !(s <= tolerance),
+                Some(s) => {
+                    s.partial_cmp(&tolerance) != Some(std::cmp::Ordering::Less) && s != tolerance
+                }
                 // Estimated by the prior alone (the data did not determine it).
                 None => self.data_share.is_some(),
             }

@@ -195,6 +195,9 @@ fn a_model_worse_than_its_start_on_held_out_poses_exits_3() {
     assert_eq!(j["held_out_worse"], false);
 }
 
+/// A row of the residuals file: set, pose, line, error_mm, start_mm.
+type ResidualRow = (String, u64, u64, f64, f64);
+
 /// `--split last|random|every:K` choose the held-out poses; `--residuals` lists every pose's
 /// residual with its line, and its held-out RMS is the report's.
 #[test]
@@ -212,7 +215,7 @@ fn splits_and_the_residuals_file() {
         &data,
     );
     let robot = write(d, "robot.toml", &er20_unplaced());
-    let held_lines = |extra: &[&str]| -> (serde_json::Value, Vec<(String, u64, u64, f64, f64)>) {
+    let held_lines = |extra: &[&str]| -> (serde_json::Value, Vec<ResidualRow>) {
         let res = d.join("r.csv");
         let mut a = vec!["--json", "--residuals", s(&res)];
         a.extend_from_slice(extra);

@@ -465,3 +465,48 @@ fn usage_errors_with_json_print_one_json_error() {
         assert_eq!(v.as_object().unwrap().len(), 1, "{args:?}: {v}");
     }
 }
+
+#[test]
+fn oversized_or_endless_small_inputs_are_refused_without_reading_them_whole() {
+    let dir = tempfile::tempdir().unwrap();
+    let huge = dir.path().join("huge");
+    std::fs::File::create(&huge)
+        .unwrap()
+        .set_len(3 << 30)
+        .unwrap();
+    let out = dir.path().join("t.csv");
+    for model in [huge.as_path(), Path::new("/dev/zero")] {
+        refused(
+            &[
+                "export",
+                "--model",
+                s(model),
+                "--format",
+                "dh-table",
+                "--out",
+                s(&out),
+            ],
+            &["larger than", "robot file"],
+        );
+    }
+    // The report's diagnose JSON, the same way.
+    let robot = write(dir.path(), "robot.toml", ER20_PLACED);
+    let data = dir.path().join("d.csv");
+    common::simulate(&robot, Some(20), Some(0.01), Some(3), &[], &data);
+    refused(
+        &[
+            "report",
+            "--robot",
+            s(&robot),
+            "--model",
+            s(&robot),
+            "--data",
+            s(&data),
+            "--diagnose",
+            s(&huge),
+            "--out",
+            s(&dir.path().join("r.html")),
+        ],
+        &["larger than"],
+    );
+}

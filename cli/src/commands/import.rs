@@ -36,22 +36,7 @@ const MAX_URDF_BYTES: u64 = 64 << 20;
 /// Reads a URDF file (refused with exit status 2 when it cannot be read or parsed, or is
 /// larger than [`MAX_URDF_BYTES`]: never read whole before that is known).
 pub fn read_urdf(path: &Path) -> anyhow::Result<(String, Urdf)> {
-    use std::io::Read as _;
-    let cannot =
-        |e: std::io::Error| crate::refused(format!("{}: cannot read: {e}", path.display()));
-    let mut text = String::new();
-    std::fs::File::open(path)
-        .map_err(cannot)?
-        .take(MAX_URDF_BYTES + 1)
-        .read_to_string(&mut text)
-        .map_err(cannot)?;
-    if text.len() as u64 > MAX_URDF_BYTES {
-        crate::refuse!(
-            "{}: larger than {} MiB: not a URDF (pass the robot's plain URDF file)",
-            path.display(),
-            MAX_URDF_BYTES >> 20
-        );
-    }
+    let text = crate::formats::read_text_limited(path, MAX_URDF_BYTES, "a URDF file")?;
     let urdf = Urdf::parse(&text, &path.display().to_string())?;
     Ok((text, urdf))
 }

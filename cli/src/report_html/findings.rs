@@ -108,11 +108,15 @@ pub fn load(path: &Path) -> anyhow::Result<DiagnoseJson> {
         }
     }
     for f in &d.found {
-        let huge = f.values.iter().copied().find(|v| !(v.abs() <= MAX_VALUE));
+        let huge = f
+            .values
+            .iter()
+            .copied()
+            .find(|v| !v.is_finite() || v.abs() > MAX_VALUE);
         let step = [f.start_deg, f.step_deg]
             .into_iter()
             .flatten()
-            .find(|v| !(v.abs() <= MAX_VALUE));
+            .find(|v| !v.is_finite() || v.abs() > MAX_VALUE);
         if let Some(v) = huge.or(step) {
             crate::refuse!(
                 "{}: the {} finding on joint {} has the value {v}, out of any correction's \

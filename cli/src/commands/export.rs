@@ -184,7 +184,24 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
             for d in &dropped {
                 eprintln!("warning: not exported: {d}");
             }
-            let out = splice::export(&text, &urdf, &imp, &model, &tip);
+            let out = splice::export(
+                &text,
+                &urdf,
+                &imp,
+                &model,
+                &tip,
+                &path.display().to_string(),
+            )?;
+            // What is written must read back as XML: a splice the file's text defeats is
+            // refused rather than written.
+            if let Err(e) = roxmltree::Document::parse(&out) {
+                crate::refuse!(
+                    "{}: the exported URDF would not be well-formed XML ({e}); nothing written: \
+                     rewrite the chain joints' <origin> elements plainly (xyz=\"…\" rpy=\"…\") \
+                     and export again",
+                    path.display()
+                );
+            }
             write_atomic(&args.out, out.as_bytes())
                 .with_context(|| format!("cannot write {}", args.out.display()))?;
             Ok(ExportReport {

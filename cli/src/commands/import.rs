@@ -29,10 +29,14 @@ pub struct Args {
     pub out: PathBuf,
 }
 
-/// Reads a URDF file (refused with exit status 2 when it cannot be read or parsed).
+/// Largest URDF read (a robot description is kilobytes to a few megabytes; meshes are
+/// separate files).
+const MAX_URDF_BYTES: u64 = 64 << 20;
+
+/// Reads a URDF file (refused with exit status 2 when it cannot be read or parsed, or is
+/// larger than [`MAX_URDF_BYTES`]: never read whole before that is known).
 pub fn read_urdf(path: &Path) -> anyhow::Result<(String, Urdf)> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| crate::refused(format!("{}: cannot read: {e}", path.display())))?;
+    let text = crate::formats::read_text_limited(path, MAX_URDF_BYTES, "a URDF file")?;
     let urdf = Urdf::parse(&text, &path.display().to_string())?;
     Ok((text, urdf))
 }

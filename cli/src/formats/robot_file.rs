@@ -739,8 +739,7 @@ impl RobotFile {
     /// Reads, parses and validates a robot file.
     pub fn load(path: &Path) -> anyhow::Result<RobotFile> {
         let origin = path.display().to_string();
-        let bytes =
-            std::fs::read(path).map_err(|e| refused(format!("{origin}: cannot read: {e}")))?;
+        let bytes = super::read_limited(path, super::MAX_SMALL_FILE, "a robot file")?;
         let text = match std::str::from_utf8(&bytes) {
             Ok(t) => t,
             Err(e) => {

@@ -22,10 +22,76 @@ fn temporary_beside(path: &Path) -> io::Result<PathBuf> {
     Ok(path.with_file_name(tmp))
 }
 
+/// What an existing output path is, following links.
+enum Existing {
+    /// Nothing there yet, or a regular file: written atomically.
+    RegularOrNone,
+    /// A character device or a FIFO (`/dev/null`, `/dev/stdout` on a pipe): a stream, written
+    /// into directly; renaming a file over it would replace the device node itself.
+    Stream,
+    /// A directory, a block device, a socket: refused.
+    Other(&'static str),
+}
+
+fn existing(path: &Path) -> Existing {
+    let Ok(meta) = fs::metadata(path) else {
+        return Existing::RegularOrNone;
+    };
+    let t = meta.file_type();
+    if t.is_file() {
+        return Existing::RegularOrNone;
+    }
+    if t.is_dir() {
+        return Existing::Other("a directory");
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_char_device() || t.is_fifo() {
+            return Existing::Stream;
+        }
+        if t.is_block_device() {
+            return Existing::Other("a block device");
+        }
+        if t.is_socket() {
+            return Existing::Other("a socket");
+        }
+    }
+    Existing::Other("not a regular file")
+}
+
 /// Writes `bytes` to `path` atomically (temporary file beside it, fsync, rename, directory
 /// fsync). The file gets the usual permissions of a new file (or keeps the old file's mode when
 /// it replaces one).
+///
+/// An existing character device or FIFO (`/dev/null`, `/dev/stdout`) is written into directly,
+/// and its write errors (`/dev/full`: no space left) are returned; a directory, block device or
+/// socket is an error. A symbolic link to a regular file is followed: the file it points to is
+/// replaced and the link kept (`/dev/stdout` redirected to a file, a link into another
+/// directory).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
+    match existing(path) {
+        Existing::RegularOrNone => {}
+        Existing::Stream => {
+            let mut f = OpenOptions::new().write(true).open(path)?;
+            f.write_all(bytes)?;
+            return f.flush();
+        }
+        Existing::Other(what) => {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!("{} is {what}: give the path of a file", path.display()),
+            ))
+        }
+    }
+    let resolved;
+    let path = match fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => {
+            resolved = fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+            resolved.as_path()
+        }
+        _ => path,
+    };
     let tmp = temporary_beside(path)?;
     let result = (|| {
         let mut f = OpenOptions::new().write(true).create_new(true).open(&tmp)?;

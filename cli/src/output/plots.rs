@@ -65,6 +65,11 @@ pub fn line_chart_svg(
             (a.min(p.1), b.max(p.1))
         });
     let pad = ((y1 - y0) * 0.05).max(1e-9);
+    // A range wider than a float holds (±1e308) would leave the axis without ticks to find.
+    anyhow::ensure!(
+        (x1 - x0).is_finite() && (y0 - pad).is_finite() && (y1 + pad).is_finite(),
+        "plot {title}: the values span more than a number can hold"
+    );
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();

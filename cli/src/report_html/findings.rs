@@ -74,16 +74,69 @@ pub struct Findings {
 
 /// Reads a diagnose JSON file; refuses (exit 2) what is not one.
 pub fn load(path: &Path) -> anyhow::Result<DiagnoseJson> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| crate::refused(format!("{}: cannot read: {e}", path.display())))?;
-    serde_json::from_str(&text).map_err(|e| {
+    let text = crate::formats::read_text_limited(
+        path,
+        crate::formats::MAX_SMALL_FILE,
+        "the JSON of `kinecal diagnose --json`",
+    )?;
+    let d: DiagnoseJson = serde_json::from_str(&text).map_err(|e| {
         crate::refused(format!(
             "{}: not the JSON of `kinecal diagnose --json` ({e}): give the file that \
              `kinecal diagnose … --json > J.json` wrote",
             path.display()
         ))
-    })
+    })?;
+    // Figures out of any calibration's range (±1e308) would make the figures' axes overflow.
+    let rms = [
+        ("baseline_validation_rms_mm", d.baseline_validation_rms_mm),
+        ("final_validation_rms_mm", d.final_validation_rms_mm),
+        ("noise_floor_mm", d.noise_floor_mm),
+    ]
+    .into_iter()
+    .chain(
+        d.found
+            .iter()
+            .map(|f| ("validation_rms_mm", f.validation_rms_mm)),
+    );
+    for (key, v) in rms {
+        if !(v.is_finite() && v.abs() <= MAX_MM) {
+            crate::refuse!(
+                "{}: {key} = {v} is out of any calibration's range (|x| ≤ {MAX_MM} mm): give \
+                 the file that `kinecal diagnose … --json > J.json` wrote",
+                path.display()
+            );
+        }
+    }
+    for f in &d.found {
+        let huge = f
+            .values
+            .iter()
+            .copied()
+            .find(|v| !v.is_finite() || v.abs() > MAX_VALUE);
+        let step = [f.start_deg, f.step_deg]
+            .into_iter()
+            .flatten()
+            .find(|v| !v.is_finite() || v.abs() > MAX_VALUE);
+        if let Some(v) = huge.or(step) {
+            crate::refuse!(
+                "{}: the {} finding on joint {} has the value {v}, out of any correction's \
+                 range (|x| ≤ {MAX_VALUE}): give the file that `kinecal diagnose … --json > \
+                 J.json` wrote",
+                path.display(),
+                f.effect,
+                f.joint
+            );
+        }
+    }
+    Ok(d)
 }
+
+/// Largest RMS or noise floor accepted, millimetres (a kilometre: far beyond any arm).
+const MAX_MM: f64 = 1e6;
+
+/// Largest finding value (or table start and step) accepted: corrections are radians,
+/// millimetres or ratios, far below this.
+const MAX_VALUE: f64 = 1e6;
 
 /// The candidate of a finding, checked against a robot of `joints` joints (refused, exit 2,
 /// when it does not fit).

@@ -9,8 +9,11 @@ use std::path::Path;
 
 /// Reads a validate JSON file; refuses (exit 2) what is not one.
 pub fn load(path: &Path) -> anyhow::Result<ValidateReport> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| crate::refused(format!("{}: cannot read: {e}", path.display())))?;
+    let text = crate::formats::read_text_limited(
+        path,
+        crate::formats::MAX_SMALL_FILE,
+        "the JSON of `kinecal validate --json`",
+    )?;
     serde_json::from_str(&text).map_err(|e| {
         crate::refused(format!(
             "{}: not the JSON of `kinecal validate --json` ({e}): give the file that \

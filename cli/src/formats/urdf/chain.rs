@@ -4,6 +4,7 @@
 
 use super::parse::{Urdf, UrdfJoint};
 use crate::refused;
+use std::collections::HashMap;
 
 /// The joints from the base link to the tip link, base first (fixed ones included: they are
 /// folded into the neighbouring transforms by [`super::mdh`]).
@@ -23,14 +24,6 @@ impl Chain<'_> {
 
 /// Most joints of a robot file (docs/formats.md).
 const MAX_JOINTS: usize = 8;
-
-fn has_link(urdf: &Urdf, link: &str) -> bool {
-    urdf.links.iter().any(|l| l == link)
-        || urdf
-            .joints
-            .iter()
-            .any(|j| j.child == link || j.parent == link)
-}
 
 /// The root link: the one link that is no joint's child.
 fn root_link(urdf: &Urdf, path: &str) -> anyhow::Result<String> {
@@ -53,43 +46,57 @@ fn root_link(urdf: &Urdf, path: &str) -> anyhow::Result<String> {
     }
 }
 
-/// True when the subtree below `link` holds a joint that is not fixed.
-fn moves_below(urdf: &Urdf, link: &str, depth: usize) -> bool {
-    depth < 10_000
-        && urdf
+/// Per link of the subtree below `base` (itself included): true when a joint below it is not
+/// fixed. One pass over the subtree (the tree is checked acyclic by the parser).
+fn moving_below<'a>(urdf: &'a Urdf, base: &'a str) -> HashMap<&'a str, bool> {
+    let mut order: Vec<&str> = vec![base];
+    let mut k = 0;
+    while k < order.len() {
+        let link = order[k];
+        order.extend(urdf.child_joints(link).map(|j| j.child.as_str()));
+        k += 1;
+    }
+    let mut moves: HashMap<&str, bool> = HashMap::with_capacity(order.len());
+    for &link in order.iter().rev() {
+        let m = urdf
             .child_joints(link)
-            .any(|j| j.kind != "fixed" || moves_below(urdf, &j.child, depth + 1))
+            .any(|j| j.kind != "fixed" || moves.get(j.child.as_str()).copied().unwrap_or(false));
+        moves.insert(link, m);
+    }
+    moves
 }
 
-/// The leaves of the subtree below `link`.
-fn leaves(urdf: &Urdf, link: &str, out: &mut Vec<String>, depth: usize) {
-    let mut any = false;
-    for j in urdf.child_joints(link) {
-        any = true;
-        if depth < 10_000 {
-            leaves(urdf, &j.child, out, depth + 1);
+/// The leaves of the subtree below `link`, in file order.
+fn leaves(urdf: &Urdf, link: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut stack = vec![link];
+    while let Some(l) = stack.pop() {
+        let before = stack.len();
+        stack.extend(urdf.child_joints(l).map(|j| j.child.as_str()));
+        if stack.len() == before {
+            out.push(l.to_string());
+        } else {
+            stack[before..].reverse();
         }
     }
-    if !any {
-        out.push(link.to_string());
-    }
+    out
 }
 
 /// The default tip: below `base`, follow the one branch that still moves; the single leaf
 /// after the last moving joint. A tree where two branches move, or with several leaves after
 /// the last moving joint, is refused with the candidates named.
 fn default_tip(urdf: &Urdf, base: &str, path: &str) -> anyhow::Result<String> {
+    let moves = moving_below(urdf, base);
     let mut link = base.to_string();
-    for _ in 0..10_000 {
+    for _ in 0..=urdf.joints.len() {
         let moving: Vec<&UrdfJoint> = urdf
             .child_joints(&link)
-            .filter(|j| j.kind != "fixed" || moves_below(urdf, &j.child, 0))
+            .filter(|j| j.kind != "fixed" || moves.get(j.child.as_str()) == Some(&true))
             .collect();
         match moving.as_slice() {
             [one] => link = one.child.clone(),
             [] => {
-                let mut found = Vec::new();
-                leaves(urdf, &link, &mut found, 0);
+                let found = leaves(urdf, &link);
                 return match found.as_slice() {
                     [one] => Ok(one.clone()),
                     many => Err(refused(format!(
@@ -126,7 +133,7 @@ pub fn find<'a>(
 ) -> anyhow::Result<Chain<'a>> {
     for (what, l) in [("--base-link", base), ("--tip-link", tip)] {
         if let Some(l) = l {
-            if !has_link(urdf, l) {
+            if !urdf.has_link(l) {
                 let mut known = urdf.links.clone();
                 known.truncate(30);
                 crate::refuse!(
@@ -152,7 +159,7 @@ pub fn find<'a>(
                 "{path}: link '{tip}' is not below link '{base}'; check --base-link and --tip-link"
             );
         };
-        if joints.len() > 10_000 {
+        if joints.len() > urdf.joints.len() {
             crate::refuse!("{path}: the joint tree has a cycle at link '{link}'");
         }
         joints.push(j);

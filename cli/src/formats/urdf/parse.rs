@@ -5,7 +5,19 @@
 
 use crate::refused;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use std::collections::{HashMap, HashSet};
 use std::ops::Range;
+
+/// Deepest element nesting accepted (a URDF nests a few levels; the XML parser recurses per
+/// level, so a file nested thousands deep would overflow the stack).
+const MAX_DEPTH: usize = 1000;
+
+/// Most attributes on one element (the XML parser checks each new attribute against the
+/// element's others: quadratic in their number).
+const MAX_ATTRIBUTES: usize = 1000;
+
+/// Most XML nodes in a file (a large robot description has a few tens of thousands).
+const MAX_NODES: u32 = 5_000_000;
 
 /// One `<joint>`.
 #[derive(Clone, Debug)]
@@ -47,6 +59,77 @@ pub struct Urdf {
     pub joints: Vec<UrdfJoint>,
     /// Byte offset of the `</robot>` closing tag (where export appends the tool frame).
     pub robot_end: usize,
+    /// Index into `joints` of the joint whose child is a link, per link (each link has at
+    /// most one: checked by [`Urdf::parse`]).
+    parent_of: HashMap<String, usize>,
+    /// Indices into `joints` of the joints whose parent is a link, in file order.
+    children_of: HashMap<String, Vec<usize>>,
+}
+
+/// Refuses, before the XML parser sees it, a text nested deeper than [`MAX_DEPTH`] or with an
+/// element of more than [`MAX_ATTRIBUTES`] attributes. A linear scan of the tags (comments,
+/// CDATA, processing instructions and declarations skipped; quotes respected); the parser
+/// still judges well-formedness.
+fn prescan(text: &str, path: &str) -> anyhow::Result<()> {
+    let b = text.as_bytes();
+    let skip_to = |from: usize, pat: &str| -> usize {
+        text[from..]
+            .find(pat)
+            .map_or(b.len(), |k| from + k + pat.len())
+    };
+    let mut depth = 0usize;
+    let mut i = 0usize;
+    while let Some(k) = text[i..].find('<') {
+        i += k;
+        let rest = &b[i..];
+        if rest.starts_with(b"<!--") {
+            i = skip_to(i + 4, "-->");
+        } else if rest.starts_with(b"<![CDATA[") {
+            i = skip_to(i + 9, "]]>");
+        } else if rest.starts_with(b"<?") {
+            i = skip_to(i + 2, "?>");
+        } else if rest.starts_with(b"<!") {
+            i = skip_to(i + 2, ">");
+        } else if rest.starts_with(b"</") {
+            depth = depth.saturating_sub(1);
+            i = skip_to(i + 2, ">");
+        } else {
+            let mut j = i + 1;
+            let mut quote = None;
+            let mut attributes = 0usize;
+            while j < b.len() {
+                let c = b[j];
+                match quote {
+                    Some(q) if c == q => quote = None,
+                    Some(_) => {}
+                    None => match c {
+                        b'"' | b'\'' => quote = Some(c),
+                        b'=' => attributes += 1,
+                        b'>' => break,
+                        _ => {}
+                    },
+                }
+                j += 1;
+            }
+            if attributes > MAX_ATTRIBUTES {
+                crate::refuse!(
+                    "{path}: an element with more than {MAX_ATTRIBUTES} attributes: not a URDF \
+                     (pass the robot's URDF file)"
+                );
+            }
+            if b[j - 1] != b'/' {
+                depth += 1;
+                if depth > MAX_DEPTH {
+                    crate::refuse!(
+                        "{path}: elements nested more than {MAX_DEPTH} deep: not a URDF (a \
+                         robot description nests a few levels; pass the robot's URDF file)"
+                    );
+                }
+            }
+            i = (j + 1).min(b.len());
+        }
+    }
+    Ok(())
 }
 
 impl UrdfJoint {
@@ -93,6 +176,88 @@ pub fn rpy_of(q: &UnitQuaternion<f64>) -> [f64; 3] {
     [roll, pitch, yaw]
 }
 
+/// The joint tree's indices (parent joint per link, child joints per link), after refusing
+/// what makes it no tree: a link or joint name declared twice, a joint naming a link the file
+/// does not declare, a link that is the child of several joints, joints that form a cycle.
+#[allow(clippy::type_complexity)]
+fn tree(
+    links: &[String],
+    joints: &[UrdfJoint],
+    path: &str,
+) -> anyhow::Result<(HashMap<String, usize>, HashMap<String, Vec<usize>>)> {
+    let mut declared = HashSet::new();
+    for l in links {
+        if !declared.insert(l.as_str()) {
+            crate::refuse!(
+                "{path}: link '{l}' is declared twice: link names must be unique; fix the file"
+            );
+        }
+    }
+    let mut names = HashSet::new();
+    for j in joints {
+        if !names.insert(j.name.as_str()) {
+            crate::refuse!(
+                "{path}: joint '{}' is declared twice: joint names must be unique; fix the file",
+                j.name
+            );
+        }
+    }
+    let mut parent_of: HashMap<String, usize> = HashMap::new();
+    let mut children_of: HashMap<String, Vec<usize>> = HashMap::new();
+    for (k, j) in joints.iter().enumerate() {
+        for (role, l) in [("parent", &j.parent), ("child", &j.child)] {
+            if !declared.contains(l.as_str()) {
+                crate::refuse!(
+                    "{path}: joint '{}' has {role} link '{l}', which the file does not declare \
+                     (no <link name=\"{l}\">): fix the link name",
+                    j.name
+                );
+            }
+        }
+        if let Some(&other) = parent_of.get(&j.child) {
+            crate::refuse!(
+                "{path}: link '{}' has several parents (joints '{}' and '{}'): a URDF is a \
+                 tree, each link the child of one joint at most; fix the file",
+                j.child,
+                joints[other].name,
+                j.name
+            );
+        }
+        parent_of.insert(j.child.clone(), k);
+        children_of.entry(j.parent.clone()).or_default().push(k);
+    }
+    // With one parent per link, a cycle is a walk up the parents that comes back: each link is
+    // visited once (`state`: 1 on the current walk, 2 known to reach a root).
+    let mut state: HashMap<&str, u8> = HashMap::new();
+    for start in links {
+        let mut walk: Vec<&str> = Vec::new();
+        let mut link = start.as_str();
+        loop {
+            match state.get(link) {
+                Some(2) => break,
+                Some(_) => {
+                    crate::refuse!(
+                        "{path}: the joints form a cycle through link '{link}' (joint '{}'): a \
+                         URDF is a tree; fix the parent and child links",
+                        joints[parent_of[link]].name
+                    );
+                }
+                None => {}
+            }
+            state.insert(link, 1);
+            walk.push(link);
+            match parent_of.get(link) {
+                Some(&k) => link = joints[k].parent.as_str(),
+                None => break,
+            }
+        }
+        for l in walk {
+            state.insert(l, 2);
+        }
+    }
+    Ok((parent_of, children_of))
+}
+
 fn numbers(path: &str, what: &str, text: &str) -> anyhow::Result<[f64; 3]> {
     let v: Vec<f64> = text
         .split_whitespace()
@@ -123,7 +288,12 @@ impl Urdf {
         let stem = path.strip_suffix(".xacro").unwrap_or(path);
         let stem = stem.strip_suffix(".urdf").unwrap_or(stem);
         let expand = format!("expand it first: xacro {stem}.urdf.xacro > {stem}.urdf");
-        let doc = roxmltree::Document::parse(text).map_err(|e| {
+        prescan(text, path)?;
+        let options = roxmltree::ParsingOptions {
+            nodes_limit: MAX_NODES,
+            ..roxmltree::ParsingOptions::default()
+        };
+        let doc = roxmltree::Document::parse_with_options(text, options).map_err(|e| {
             if text.contains("<xacro:") || text.contains("${") {
                 // An undeclared `xacro:` prefix is an XML error: still a xacro file.
                 refused(format!("{path}: this is a xacro file ({e}); {expand}"))
@@ -161,11 +331,14 @@ impl Urdf {
         let robot_end = text[..root.range().end]
             .rfind("</robot")
             .unwrap_or(root.range().end);
+        let (parent_of, children_of) = tree(&links, &joints, path)?;
         Ok(Urdf {
             name: root.attribute("name").unwrap_or_default().to_string(),
             links,
             joints,
             robot_end,
+            parent_of,
+            children_of,
         })
     }
 
@@ -242,11 +415,22 @@ impl Urdf {
 
     /// The joint whose child is `link`, if any.
     pub fn parent_joint(&self, link: &str) -> Option<&UrdfJoint> {
-        self.joints.iter().find(|j| j.child == link)
+        self.parent_of.get(link).map(|&k| &self.joints[k])
     }
 
-    /// The joints whose parent is `link`.
+    /// The joints whose parent is `link`, in file order.
     pub fn child_joints<'a>(&'a self, link: &'a str) -> impl Iterator<Item = &'a UrdfJoint> + 'a {
-        self.joints.iter().filter(move |j| j.parent == link)
+        self.children_of
+            .get(link)
+            .into_iter()
+            .flatten()
+            .map(move |&k| &self.joints[k])
+    }
+
+    /// True when the file declares `<link name="link">`.
+    pub fn has_link(&self, link: &str) -> bool {
+        self.parent_of.contains_key(link)
+            || self.children_of.contains_key(link)
+            || self.links.iter().any(|l| l == link)
     }
 }

@@ -33,6 +33,22 @@ fn triple(v: [f64; 3]) -> String {
     format!("{} {} {}", num(v[0]), num(v[1]), num(v[2]))
 }
 
+/// `v` as the value of a double-quoted XML attribute (`tool&0` as `tool&amp;0`).
+fn escape_attribute(v: &str) -> String {
+    let mut out = String::with_capacity(v.len());
+    for c in v.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&apos;"),
+            c => out.push(c),
+        }
+    }
+    out
+}
+
 /// `xyz` (metres) and `rpy` (radians) of a transform in millimetres.
 fn xyz_rpy(t: &Isometry3<f64>) -> (String, String) {
     let v = t.translation.vector / 1000.0;
@@ -76,8 +92,16 @@ pub fn tool_in_tip(nominal: &Imported, model: &RobotFile) -> Isometry3<f64> {
     (last * nominal.tip_in_last_link).inverse() * tool
 }
 
-/// The exported text (see the module documentation). `tip` is the chain's tip link.
-pub fn export(text: &str, urdf: &Urdf, nominal: &Imported, model: &RobotFile, tip: &str) -> String {
+/// The exported text (see the module documentation). `tip` is the chain's tip link; `path`
+/// names the file in a refusal.
+pub fn export(
+    text: &str,
+    urdf: &Urdf,
+    nominal: &Imported,
+    model: &RobotFile,
+    tip: &str,
+    path: &str,
+) -> anyhow::Result<String> {
     let origins = calibrated_origins(nominal, model);
     // (range to replace, new text), applied from the end of the file backwards.
     let mut edits: Vec<(std::ops::Range<usize>, String)> = Vec::new();
@@ -92,11 +116,15 @@ pub fn export(text: &str, urdf: &Urdf, nominal: &Imported, model: &RobotFile, ti
                     edits.push((x.clone(), xyz));
                     edits.push((r.clone(), rpy));
                 }
+                // The missing attribute goes after the closing quote of the present one,
+                // whichever quote the file uses (`xyz='0 0 1'`).
                 (Some(x), None) => {
-                    edits.push((x.start..x.end + 1, format!("{xyz}\" rpy=\"{rpy}\"")));
+                    edits.push((x.clone(), xyz));
+                    edits.push((x.end + 1..x.end + 1, format!(" rpy=\"{rpy}\"")));
                 }
                 (None, Some(r)) => {
-                    edits.push((r.start..r.end + 1, format!("{rpy}\" xyz=\"{xyz}\"")));
+                    edits.push((r.clone(), rpy));
+                    edits.push((r.end + 1..r.end + 1, format!(" xyz=\"{xyz}\"")));
                 }
                 (None, None) => {
                     let at = or.element.start + "<origin".len();
@@ -112,14 +140,29 @@ pub fn export(text: &str, urdf: &Urdf, nominal: &Imported, model: &RobotFile, ti
         }
     }
     let (xyz, rpy) = xyz_rpy(&tool_in_tip(nominal, model));
+    let tip = escape_attribute(tip);
     let tool = format!(
         "  <!-- kinecal: the calibrated tool point (kinecal export) -->\n  <link name=\"{TOOL_LINK}\"/>\n  <joint name=\"{TOOL_JOINT}\" type=\"fixed\">\n    <parent link=\"{tip}\"/>\n    <child link=\"{TOOL_LINK}\"/>\n    <origin xyz=\"{xyz}\" rpy=\"{rpy}\"/>\n  </joint>\n"
     );
     edits.push((urdf.robot_end..urdf.robot_end, tool));
     edits.sort_by_key(|(r, _)| std::cmp::Reverse(r.start));
     let mut out = text.to_string();
+    let mut limit = text.len();
     for (r, s) in edits {
+        // Edits apart from each other and on character boundaries, else refused (two joints
+        // sharing an element would otherwise be edited twice, or a multibyte character cut).
+        if r.start > r.end
+            || r.end > limit
+            || !text.is_char_boundary(r.start)
+            || !text.is_char_boundary(r.end)
+        {
+            crate::refuse!(
+                "{path}: cannot rewrite the origin of the chain's joints in place (overlapping \
+                 elements): write each chain joint with its own <origin xyz=\"…\" rpy=\"…\"/>"
+            );
+        }
+        limit = r.start;
         out.replace_range(r, &s);
     }
-    out
+    Ok(out)
 }

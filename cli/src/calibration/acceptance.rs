@@ -144,8 +144,9 @@ pub fn judge<const N: usize>(
         }
         if why.is_empty() {
             why.push(
-                "the held-out poses differ from the identified ones (another session, a drift, \
-                 a collision?): check them with --residuals"
+                "the held-out poses differ from the identified ones: from another session (the \
+                 tracker or the tool moved: judge a model there with kinecal validate, which \
+                 fits the set-up first), a drift or a collision (find the poses with --residuals)"
                     .to_string(),
             );
         }

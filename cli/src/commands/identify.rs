@@ -104,7 +104,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
         observe(&ds, &file, &args.obs, &p.display().to_string())
     };
     let observed = load(&input.data)?;
-    super::inputs::some_rows(observed.poses.clone(), &input.data)?;
+    super::inputs::any_rows(&observed.poses, &input.data)?;
     let validate = match &args.validate {
         Some(v) => Some((load(v)?, v.display().to_string())),
         None => None,
@@ -373,7 +373,7 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
     report.held_out_worse = report.acceptance.as_ref().map(|a| a.held_out_worse);
     let residuals = crate::calibration::residual_table::ResidualTable::of(
         (&nominal, &fit.robot),
-        (&ident_set, &valid_set),
+        ((&ident_set, &ident), (&valid_set, &valid)),
         args.validate.is_some(),
         &observed.names,
     );

@@ -13,6 +13,9 @@ use crate::formats::observations::Pose;
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use std::fmt::Write as _;
 
+/// A set's poses and the observation list they index.
+pub type PoseSet<'a, const N: usize> = (&'a [Pose], &'a [Measurement<f64, N>]);
+
 /// One observation's residual.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ResidualRow {
@@ -43,10 +46,7 @@ impl ResidualTable {
     /// numbered in the data file's order.
     pub fn of<const N: usize, const V: usize>(
         (start, model): (&Robot<f64, N, V>, &Robot<f64, N, V>),
-        ((ident, ident_obs), (valid, valid_obs)): (
-            (&[Pose], &[Measurement<f64, N>]),
-            (&[Pose], &[Measurement<f64, N>]),
-        ),
+        ((ident, ident_obs), (valid, valid_obs)): (PoseSet<'_, N>, PoseSet<'_, N>),
         separate_file: bool,
         names: &[String],
     ) -> Self {

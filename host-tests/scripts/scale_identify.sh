@@ -8,7 +8,11 @@
 #   NO_BUILD=1 (use the built binary),
 #   KINECAL (path of another build of the binary, e.g. of another commit),
 #   UR10_DATA (default ../shared/data/ur10 beside the repository; the diagnose rows are skipped
-#   when it is missing).
+#   when it is missing), DIAGNOSE_HOLDOUTS (the diagnose rows' --holdout counts, 0: none;
+#   default "0 1773"; empty: no diagnose rows).
+# Budgets (CI, .ci/run): IDENTIFY_MAX_MB and DIAGNOSE_MAX_MB, the most peak resident memory
+#   (MB, median of the runs) any identify or diagnose row may take; the script then exits 1
+#   when a row takes more, after printing every row. Times are printed, never asserted.
 #
 # identify: simulated UR10 (host-tests/tests/data/ur10.toml: no [base], so 33 parameters),
 #   `simulate --geom-errors --noise-mm 0.01 --seed 1 --poses N`, then
@@ -28,6 +32,20 @@ POSES=${POSES:-"1000 10000 100000 1000000"}
 REPS=${REPS:-3}
 PARAM_POSES=${PARAM_POSES:-10000}
 UR10_DATA=${UR10_DATA:-$ROOT/../shared/data/ur10}
+DIAGNOSE_HOLDOUTS=${DIAGNOSE_HOLDOUTS-"0 1773"}
+IDENTIFY_MAX_MB=${IDENTIFY_MAX_MB:-}
+DIAGNOSE_MAX_MB=${DIAGNOSE_MAX_MB:-}
+OVER=()
+
+# Notes a row whose peak resident memory ($2, MB) is over the budget $3 (MB; empty: none).
+budget() {
+    local what=$1 peak=$2 max=$3
+    [[ -n $max ]] || return 0
+    if python3 -c 'import sys; sys.exit(0 if float(sys.argv[1]) <= float(sys.argv[2]) else 1)' "$peak" "$max"; then
+        return 0
+    fi
+    OVER+=("$what: peak resident memory $(printf '%.0f' "$peak") MB, over the budget of $max MB")
+}
 
 if [[ "${NO_BUILD:-0}" != 1 ]]; then
     cargo build --release -p kinecal-cli --bin kinecal >&2
@@ -110,6 +128,7 @@ for n in $POSES; do
         --robot host-tests/tests/data/ur10.toml --data "$csv" --holdout 0.2
     rm -f "$csv"
     read -r wall cpu peak <<<"$(medians "$TMP/stats.txt")"
+    budget "identify, $n poses" "$peak" "$IDENTIFY_MAX_MB"
     python3 - "$TMP/identify.json" "$mb" "$wall" "$cpu" "$peak" <<'EOF'
 import json, sys
 r = json.load(open(sys.argv[1]))
@@ -139,6 +158,7 @@ if [[ $PARAM_POSES != 0 ]]; then
         measure "$TMP/identify.json" "$TMP/stats.txt" "$K" identify --json \
             --robot host-tests/tests/data/ur10.toml --data "$csv" --holdout 0.2 "${extra[@]}"
         read -r wall cpu peak <<<"$(medians "$TMP/stats.txt")"
+        budget "identify, $PARAM_POSES poses, effects ${effects:-none}" "$peak" "$IDENTIFY_MAX_MB"
         python3 - "$TMP/identify.json" "$mb" "$wall" "$cpu" "$peak" "${effects:-none}" <<'EOF'
 import json, sys
 r = json.load(open(sys.argv[1]))
@@ -151,16 +171,19 @@ EOF
     rm -f "$csv"
 fi
 
-if [[ -f "$UR10_DATA/ur10_random_poses.csv" ]]; then
+if [[ -z $DIAGNOSE_HOLDOUTS ]]; then
+    :
+elif [[ -f "$UR10_DATA/ur10_random_poses.csv" ]]; then
     data=$UR10_DATA/ur10_random_poses.csv
     mb=$(python3 -c "import os, sys; print(f'{os.path.getsize(sys.argv[1]) / 1e6:.1f}')" "$data")
     rows=$(($(grep -cvE '^[[:space:]]*(#|$)' "$data") - 1))
-    for holdout in 0 1773; do
+    for holdout in $DIAGNOSE_HOLDOUTS; do
         extra=()
         [[ $holdout == 0 ]] || extra=(--holdout "$holdout")
         measure "$TMP/diagnose.json" "$TMP/stats.txt" "$K" diagnose --json \
             --robot "$UR10_DATA/robot.toml" --data "$data" "${extra[@]}"
         read -r wall cpu peak <<<"$(medians "$TMP/stats.txt")"
+        budget "diagnose, UR10 series, --holdout $holdout" "$peak" "$DIAGNOSE_MAX_MB"
         python3 - "$TMP/diagnose.json" "$rows" "$holdout" "$mb" "$wall" "$cpu" "$peak" <<'EOF'
 import json, sys
 r = json.load(open(sys.argv[1]))
@@ -177,4 +200,9 @@ EOF
     done
 else
     echo "(no $UR10_DATA/ur10_random_poses.csv: diagnose rows skipped)"
+fi
+
+if ((${#OVER[@]})); then
+    printf 'OVER BUDGET: %s\n' "${OVER[@]}" >&2
+    exit 1
 fi

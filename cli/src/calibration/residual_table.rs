@@ -10,8 +10,11 @@
 //! data, `error_deg` (the angle between measured and model tool frame).
 
 use crate::formats::observations::Pose;
-use kinecal::{ForwardKinematics, Robot};
+use kinecal::{ForwardKinematics, Measurement, Robot};
 use std::fmt::Write as _;
+
+/// A set's poses and the observation list they index.
+pub type PoseSet<'a, const N: usize> = (&'a [Pose], &'a [Measurement<f64, N>]);
 
 /// One observation's residual.
 #[derive(Clone, Debug, PartialEq)]
@@ -38,16 +41,17 @@ pub struct ResidualTable {
 
 impl ResidualTable {
     /// The residuals of `models` (start, calibrated) on the identification and held-out
-    /// poses; `separate_file`: the held-out poses come from another file (numbered on their
-    /// own), else both sets are numbered in the data file's order.
+    /// poses (each set's poses and the observation list they index); `separate_file`: the
+    /// held-out poses come from another file (numbered on their own), else both sets are
+    /// numbered in the data file's order.
     pub fn of<const N: usize, const V: usize>(
         (start, model): (&Robot<f64, N, V>, &Robot<f64, N, V>),
-        (ident, valid): (&[Pose<N>], &[Pose<N>]),
+        ((ident, ident_obs), (valid, valid_obs)): (PoseSet<'_, N>, PoseSet<'_, N>),
         separate_file: bool,
         names: &[String],
     ) -> Self {
         // The pose number of a line: its rank among the lines of its file.
-        let sorted = |poses: &[&[Pose<N>]]| {
+        let sorted = |poses: &[&[Pose]]| {
             let mut l: Vec<u32> = poses
                 .iter()
                 .flat_map(|s| s.iter().map(|p| p.line))
@@ -64,14 +68,14 @@ impl ResidualTable {
         let rank = |lines: &[u32], l: u32| lines.binary_search(&l).map_or(0, |k| k + 1);
         let mut fk = ForwardKinematics::new();
         let mut rows = Vec::new();
-        for (held_out, poses) in [(false, ident), (true, valid)] {
+        for (held_out, poses, all) in [(false, ident, ident_obs), (true, valid, valid_obs)] {
             for p in poses {
                 let pose = if held_out && separate_file {
                     rank(&valid_lines, p.line)
                 } else {
                     rank(&ident_lines, p.line)
                 };
-                for m in &p.observations {
+                for m in p.of(all) {
                     let tool = m.tool as usize;
                     let start_mm = fk
                         .compute_point(start, &m.q, tool)

@@ -6,7 +6,7 @@ use super::inputs::InputArgs;
 use crate::diagnose::linear::squared_errors;
 use crate::diagnose::observations::{fit_all_observations, FullFit, Observations};
 use crate::diagnose::{diagnose_with_progress, Config, Diagnosis, Progress};
-use crate::formats::observations::{flatten, observe, pose_of, ObservationArgs, Observed, Pose};
+use crate::formats::observations::{observe, pose_of, ObservationArgs, Observed};
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::output::numfmt::sig;
 use crate::reports::diagnose::ObservationsReport;
@@ -116,13 +116,19 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
         );
     }
     let observed = load(&input.data)?;
-    let all = super::inputs::some_rows(observed.poses.clone(), &input.data)?;
+    super::inputs::any_rows(&observed.poses, &input.data)?;
     let validate = match &args.validate {
-        Some(v) => Some(super::inputs::some_rows(load(v)?.poses, v)?),
+        Some(path) => {
+            let v = load(path)?;
+            super::inputs::any_rows(&v.poses, path)?;
+            Some(v)
+        }
         None => None,
     };
+    let kind = observed.kind();
     let (search_poses, held_poses) =
-        super::inputs::split_poses(all, validate, (&args.holdout, args.seed))?;
+        super::inputs::split_sets(observed, validate, (&args.holdout, args.seed))?;
+    let observed = kind;
     let full = observed.six_d || observed.sigma || observed.names.len() > 1;
     if full {
         eprintln!(
@@ -147,12 +153,12 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
     }
     let search = first_points(&search_poses);
     let held = first_points(&held_poses);
-    if search.len() < search_poses.len() {
+    if search.len() < search_poses.poses.len() {
         eprintln!(
             "note: {}: {} of {} poses have no {} point and are left out of the search",
             input.data.display(),
-            search_poses.len() - search.len(),
-            search_poses.len(),
+            search_poses.poses.len() - search.len(),
+            search_poses.poses.len(),
             observed.names.first().map_or("measured", String::as_str)
         );
     }
@@ -289,10 +295,11 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
 }
 
 /// The first reflector's position in every pose that saw it, unweighted: what the search reads.
-fn first_points<const N: usize>(poses: &[Pose<N>]) -> Vec<kinecal::Measurement<f64, N>> {
+fn first_points<const N: usize>(poses: &Observed<N>) -> Vec<kinecal::Measurement<f64, N>> {
     poses
+        .poses
         .iter()
-        .filter_map(|p| p.observations.iter().find(|m| m.tool == 0))
+        .filter_map(|p| p.of(&poses.measurements).iter().find(|m| m.tool == 0))
         .map(|m| kinecal::Measurement::new(m.q, m.point))
         .collect()
 }
@@ -305,10 +312,10 @@ fn all_observations<const N: usize>(
     observed: &Observed<N>,
     obs: &ObservationArgs,
     cfg: &Config,
-    poses: (&[Pose<N>], &[Pose<N>]),
+    poses: (&Observed<N>, &Observed<N>),
 ) -> anyhow::Result<(FullFit<N>, ObservationsReport)> {
-    let pose_of = pose_of(poses.0);
-    let (data, held) = (flatten(poses.0), flatten(poses.1));
+    let pose_of = pose_of(&poses.0.poses);
+    let (data, held) = (poses.0.all(), poses.1.all());
     let w = Observations {
         six_d: observed.six_d,
         sigma: observed.sigma,

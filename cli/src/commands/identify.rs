@@ -101,7 +101,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
         observe(&ds, &file, &args.obs, &p.display().to_string())
     };
     let observed = load(&input.data)?;
-    super::inputs::some_rows(observed.poses.clone(), &input.data)?;
+    super::inputs::any_rows(&observed.poses, &input.data)?;
     let validate = match &args.validate {
         Some(v) => Some((load(v)?, v.display().to_string())),
         None => None,
@@ -157,7 +157,7 @@ pub struct Identified<const N: usize> {
     pub report: IdentifyReport,
     pub model: RobotFile,
     pub robot: Robot<f64, N, VCAP>,
-    /// Each pose's residual (what `--residuals` writes).
+    /// Each pose's residual (what `--residuals` writes; empty without `--residuals`).
     pub residuals: crate::calibration::residual_table::ResidualTable,
 }
 
@@ -363,12 +363,17 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
         weak,
     );
     report.held_out_worse = report.acceptance.as_ref().map(|a| a.held_out_worse);
-    let residuals = crate::calibration::residual_table::ResidualTable::of(
-        (&nominal, &fit.robot),
-        (&ident_set, &valid_set),
-        args.validate.is_some(),
-        &observed.names,
-    );
+    // Only what `--residuals` writes: a row per observation (~90 MB for a million).
+    let residuals = if args.residuals.is_some() {
+        crate::calibration::residual_table::ResidualTable::of(
+            (&nominal, &fit.robot),
+            ((&ident_set, &ident), (&valid_set, &valid)),
+            args.validate.is_some(),
+            &observed.names,
+        )
+    } else {
+        Default::default()
+    };
     Ok(Identified {
         report,
         model,

@@ -34,13 +34,19 @@ impl InputArgs {
 /// `rows` when there is at least one; a file with a header and no rows is refused (exit 2)
 /// naming it, wherever a command reads measurements.
 pub fn some_rows<T>(rows: Vec<T>, path: &std::path::Path) -> anyhow::Result<Vec<T>> {
+    any_rows(&rows, path)?;
+    Ok(rows)
+}
+
+/// The refusal of [`some_rows`] without taking (or copying) the rows.
+pub fn any_rows<T>(rows: &[T], path: &std::path::Path) -> anyhow::Result<()> {
     if rows.is_empty() {
         crate::refuse!(
             "{}: no measurement rows (only a header?): give a file with measured poses",
             path.display()
         );
     }
-    Ok(rows)
+    Ok(())
 }
 
 /// `--holdout F` and `--split last|random|every:K`: which poses of the data file are kept out
@@ -84,7 +90,8 @@ impl HoldoutArgs {
 /// The identification and held-out observations of the data file (and `--validate` file or
 /// `--holdout` split), as `identify` fits them and `report` judges them.
 pub struct Split<const N: usize> {
-    /// Every pose of the data file, with what they observe (names, 6-D, σ).
+    /// What the data file observes (names, 6-D, σ); its poses are those of `ident_set` and
+    /// `valid_set`.
     pub observed: crate::formats::observations::Observed<N>,
     pub ident: Vec<kinecal::Measurement<f64, N>>,
     pub valid: Vec<kinecal::Measurement<f64, N>>,
@@ -93,9 +100,9 @@ pub struct Split<const N: usize> {
     /// The pose of each identification observation.
     pub pose_of: Vec<usize>,
     /// The identification and held-out poses themselves (held out: of the `--validate` file
-    /// when there is one), each with its line in its file.
-    pub ident_set: Vec<crate::formats::observations::Pose<N>>,
-    pub valid_set: Vec<crate::formats::observations::Pose<N>>,
+    /// when there is one), each with its line in its file: ranges into `ident` and `valid`.
+    pub ident_set: Vec<crate::formats::observations::Pose>,
+    pub valid_set: Vec<crate::formats::observations::Pose>,
 }
 
 /// Loads the data (and `validate`) in the units of `input` and splits them: the validation
@@ -116,7 +123,7 @@ pub fn load_split<const N: usize>(
         observe(&ds, file, obs, &p.display().to_string())
     };
     let observed = load(&input.data)?;
-    some_rows(observed.poses.clone(), &input.data)?;
+    any_rows(&observed.poses, &input.data)?;
     let validate = match validate {
         Some(v) => Some((load(v)?, v.display().to_string())),
         None => None,
@@ -138,51 +145,53 @@ pub fn split_observed<const N: usize>(
     holdout: (&HoldoutArgs, u64),
     data_origin: &str,
 ) -> anyhow::Result<Split<N>> {
-    use crate::formats::observations::{flatten, pose_of};
-    let all = some_rows(observed.poses.clone(), std::path::Path::new(data_origin))?;
+    use crate::formats::observations::pose_of;
+    any_rows(&observed.poses, std::path::Path::new(data_origin))?;
     let validate = match validate {
-        Some((v, origin)) => Some(some_rows(v.poses, std::path::Path::new(&origin))?),
+        Some((v, origin)) => {
+            any_rows(&v.poses, std::path::Path::new(&origin))?;
+            Some(v)
+        }
         None => None,
     };
-    let (ident_set, valid_set) = split_poses(all, validate, holdout)?;
-    let (ident_poses, valid_poses) = (ident_set.len(), valid_set.len());
-    let pose_of = pose_of(&ident_set);
-    let (ident, valid) = (flatten(&ident_set), flatten(&valid_set));
+    let kind = observed.kind();
+    let (ident_set, valid_set) = split_sets(observed, validate, holdout)?;
+    let (ident_poses, valid_poses) = (ident_set.poses.len(), valid_set.poses.len());
+    let pose_of = pose_of(&ident_set.poses);
+    let (ident, valid) = (ident_set.measurements, valid_set.measurements);
     if ident.is_empty() {
         crate::refuse!("{data_origin}: --holdout leaves no poses to identify from: hold out fewer");
     }
     Ok(Split {
-        observed,
+        observed: kind,
         ident,
         valid,
         ident_poses,
         valid_poses,
         pose_of,
-        ident_set,
-        valid_set,
+        ident_set: ident_set.poses,
+        valid_set: valid_set.poses,
     })
 }
 
 /// Identification and held-out poses: all of `all` against the `validate` file's poses, or
-/// `all` split by `holdout` (`--holdout`, `--split`, and the command's seed), or all and none.
-pub fn split_poses<T: Clone>(
-    all: Vec<T>,
-    validate: Option<Vec<T>>,
+/// `all` split by `holdout` (`--holdout`, `--split`, and the command's seed), or all and none;
+/// each set with its own observation list (the identification set's is `all`'s, compacted in
+/// place).
+pub fn split_sets<const N: usize>(
+    all: crate::formats::observations::Observed<N>,
+    validate: Option<crate::formats::observations::Observed<N>>,
     (holdout, seed): (&HoldoutArgs, u64),
-) -> anyhow::Result<(Vec<T>, Vec<T>)> {
+) -> anyhow::Result<(
+    crate::formats::observations::Observed<N>,
+    crate::formats::observations::Observed<N>,
+)> {
     if let Some(v) = validate {
         return Ok((all, v));
     }
-    let mask = crate::calibration::held_out_mask(all.len(), holdout.holdout, holdout.split, seed)?;
-    let (mut ident, mut valid) = (Vec::new(), Vec::new());
-    for (p, held) in all.into_iter().zip(mask) {
-        if held {
-            valid.push(p);
-        } else {
-            ident.push(p);
-        }
-    }
-    Ok((ident, valid))
+    let mask =
+        crate::calibration::held_out_mask(all.poses.len(), holdout.holdout, holdout.split, seed)?;
+    Ok(all.split(&mask))
 }
 
 /// Places the nominal robot where identification starts: its base fitted to the

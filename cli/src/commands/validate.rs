@@ -62,7 +62,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ValidateReport
     )?;
     let origin = input.data.display().to_string();
     let observed = observe(&ds, &file, &args.obs, &origin)?;
-    super::inputs::some_rows(observed.poses.clone(), &input.data)?;
+    super::inputs::any_rows(&observed.poses, &input.data)?;
     let (robot_origin, model_origin) = (
         input.robot.display().to_string(),
         args.model.display().to_string(),

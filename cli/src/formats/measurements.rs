@@ -297,6 +297,13 @@ pub fn read_bytes<const N: usize>(bytes: &[u8]) -> Result<Dataset<N>, CsvError> 
         (read_records::<N, _>(prefix.chain(*part)), lines)
     });
     let mut out = Dataset::default();
+    // One allocation of the final size: growing it part by part would hold the old and the
+    // new list at once (and up to twice the records).
+    out.records.reserve_exact(
+        read.iter()
+            .map(|(ds, _)| ds.as_ref().map_or(0, Dataset::len))
+            .sum(),
+    );
     let mut before = 0u32;
     for (ds, lines) in read {
         // A part's reader numbers the prefix's lines too, as the whole file's reader does.

@@ -38,18 +38,35 @@ pub struct ObservationArgs {
     pub ignore_sigma: bool,
 }
 
-/// One measured pose: its observations (one per reflector seen).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Pose<const N: usize> {
-    pub observations: Vec<Measurement<f64, N>>,
+/// One measured pose: where its observations (one per reflector seen) are in the
+/// observation list of its set ([`Observed::measurements`], or the identification or
+/// held-out list of a split), and its line. Poses are ranges into one list, not a list each:
+/// a million poses are then one allocation, not a million.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Pose {
+    /// Index of the pose's first observation.
+    pub first: u32,
+    /// How many observations it has (at least one).
+    pub count: u32,
     /// The pose's line in its file (1-based, header included).
     pub line: u32,
+}
+
+impl Pose {
+    /// The pose's observations in `all`, the observation list its [`Pose::first`] indexes.
+    pub fn of<'a, T>(&self, all: &'a [T]) -> &'a [T] {
+        let first = self.first as usize;
+        all.get(first..first + self.count as usize).unwrap_or(&[])
+    }
 }
 
 /// The poses of a file and what kind of observations they are.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Observed<const N: usize> {
-    pub poses: Vec<Pose<N>>,
+    /// Every observation, pose after pose.
+    pub measurements: Vec<Measurement<f64, N>>,
+    /// The poses, in file order (ranges into `measurements`).
+    pub poses: Vec<Pose>,
     /// Point names (`[[tools]]`), empty for one `[tool]`.
     pub names: Vec<String>,
     /// Orientation observed (6-D).
@@ -58,27 +75,67 @@ pub struct Observed<const N: usize> {
     pub sigma: bool,
 }
 
-/// Flattens poses into the observation list the solvers take.
-pub fn flatten<const N: usize>(poses: &[Pose<N>]) -> Vec<Measurement<f64, N>> {
-    poses
-        .iter()
-        .flat_map(|p| p.observations.iter().copied())
-        .collect()
-}
-
-/// The pose (index into `poses`) of every observation of [`flatten`]`(poses)`.
-pub fn pose_of<const N: usize>(poses: &[Pose<N>]) -> Vec<usize> {
+/// The pose (index into `poses`) of every observation of the list `poses` index.
+pub fn pose_of(poses: &[Pose]) -> Vec<usize> {
     poses
         .iter()
         .enumerate()
-        .flat_map(|(k, p)| std::iter::repeat_n(k, p.observations.len()))
+        .flat_map(|(k, p)| std::iter::repeat_n(k, p.count as usize))
         .collect()
 }
 
 impl<const N: usize> Observed<N> {
-    /// Every observation, pose after pose.
+    /// Every observation, pose after pose (a copy).
     pub fn all(&self) -> Vec<Measurement<f64, N>> {
-        flatten(&self.poses)
+        self.measurements.clone()
+    }
+
+    /// The observations of pose `k`.
+    pub fn observations(&self, k: usize) -> &[Measurement<f64, N>] {
+        self.poses.get(k).map_or(&[], |p| p.of(&self.measurements))
+    }
+
+    /// The same kind of observations without any pose (what a split leaves behind).
+    pub fn kind(&self) -> Self {
+        Self {
+            measurements: Vec::new(),
+            poses: Vec::new(),
+            names: self.names.clone(),
+            six_d: self.six_d,
+            sigma: self.sigma,
+        }
+    }
+
+    /// Splits the poses: those with `held[k]` (the held-out set) and the others (the
+    /// identification set), each in file order and with its own observation list. In place:
+    /// the identification set keeps this list, so only the held-out observations are copied.
+    pub fn split(mut self, held: &[bool]) -> (Self, Self) {
+        let mut valid = self.kind();
+        let mut kept = 0usize;
+        let mut ident_poses = Vec::new();
+        for (k, p) in self.poses.iter().enumerate() {
+            let range = p.first as usize..(p.first + p.count) as usize;
+            if held.get(k).copied().unwrap_or(false) {
+                valid.poses.push(Pose {
+                    first: valid.measurements.len() as u32,
+                    ..*p
+                });
+                valid
+                    .measurements
+                    .extend_from_slice(&self.measurements[range]);
+            } else {
+                ident_poses.push(Pose {
+                    first: kept as u32,
+                    ..*p
+                });
+                self.measurements.copy_within(range, kept);
+                kept += p.count as usize;
+            }
+        }
+        self.measurements.truncate(kept);
+        self.measurements.shrink_to_fit();
+        self.poses = ident_poses;
+        (self, valid)
     }
 }
 
@@ -153,6 +210,7 @@ pub fn observe<const N: usize>(
         );
     }
     let mut poses = Vec::with_capacity(ds.records.len());
+    let mut measurements = Vec::with_capacity(ds.records.len());
     for r in &ds.records {
         let at = |c: &str| format!("{origin}:{}: {c}", r.line);
         let get = |k: usize| r.extra.get(k).copied().unwrap_or(f64::NAN);
@@ -195,7 +253,8 @@ pub fn observe<const N: usize>(
             None
         };
         let q = r.q_deg.map(f64::to_radians);
-        let mut obs = Vec::new();
+        let first = measurements.len();
+        let obs = &mut measurements;
         if named {
             for (k, c) in points.iter().enumerate() {
                 let p = c.map(get);
@@ -231,26 +290,28 @@ pub fn observe<const N: usize>(
             }
             obs.push(m);
         }
-        poses.push(Pose {
-            observations: obs,
-            line: r.line,
-        });
+        let count = measurements.len() - first;
+        // Only a pose with several reflectors can see none of them (dropped below).
+        if count > 0 {
+            poses.push(Pose {
+                first: first as u32,
+                count: count as u32,
+                line: r.line,
+            });
+        }
     }
     if named {
         for (k, n) in names.iter().enumerate() {
-            if !poses
-                .iter()
-                .any(|p| p.observations.iter().any(|m| m.tool as usize == k))
-            {
+            if !measurements.iter().any(|m| m.tool as usize == k) {
                 crate::refuse!(
                     "{origin}: reflector `{n}` was never seen (x_{n} empty on every row): \
                      remove it from [[tools]]"
                 );
             }
         }
-        poses.retain(|p| !p.observations.is_empty());
     }
     Ok(Observed {
+        measurements,
         poses,
         names,
         six_d,

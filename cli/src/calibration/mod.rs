@@ -341,20 +341,11 @@ pub struct Held {
     /// Estimated parameters whose combination reproduces its effect on the measured points,
     /// strongest first (empty when no pose moves the point with it at all).
     pub confounded_with: Vec<String>,
-    /// The estimated parameters reproduce its effect exactly (to 1e-6 of its column), or no
-    /// pose moves the point with it: no data of this kind can ever tell them apart (as opposed
-    /// to data that barely do).
-    #[serde(skip)]
-    pub exact: bool,
     /// Each estimated parameter's change that stands in for a unit change of this one (scaled
     /// units, 1 mm at the tool), by name: how much of its manufacturing tolerance they absorb.
     #[serde(skip)]
     pub stand_ins: Vec<(String, f64)>,
 }
-
-/// Below this share of its column left unexplained by the estimated parameters, a held
-/// parameter is exactly confounded with them ([`Held::exact`]).
-pub const EXACT_CONFOUNDING: f64 = 1e-6;
 
 /// Levenberg–Marquardt from `start` over `params`, its normal equations on the heap sized
 /// for exactly these parameters ([`VecLm`]).
@@ -466,13 +457,10 @@ fn identifiability_report<const N: usize, const V: usize>(
         .map(|k| {
             let mut with = Vec::new();
             let mut stand_ins = Vec::new();
-            let mut exact = true;
             if d[k] > dmax * 1e-8 {
                 if let Some(ch) = &rchol {
                     let b = DVector::from_fn(m, |i, _| corr(active[i], k));
                     let c = ch.solve(&b);
-                    // 1 − R² of the held column on the estimated ones.
-                    exact = 1.0 - b.dot(&c) < EXACT_CONFOUNDING;
                     stand_ins = c
                         .iter()
                         .enumerate()
@@ -495,14 +483,11 @@ fn identifiability_report<const N: usize, const V: usize>(
                         .take(4)
                         .map(|(_, j)| params[*j].name(robot).to_string())
                         .collect();
-                } else {
-                    exact = false;
                 }
             }
             Held {
                 name: params[k].name(robot).to_string(),
                 confounded_with: with,
-                exact,
                 stand_ins,
             }
         })

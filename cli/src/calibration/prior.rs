@@ -79,11 +79,9 @@ fn file_units(p: Param, v: f64) -> f64 {
 /// a prior, its [`Share`] (`Fit::prior`). Returns `fit` unchanged when no estimated parameter
 /// has a prior or the data leave no degree of freedom to estimate the noise from.
 ///
-/// What the first fit held because no data of its kind can tell it from the estimated
-/// parameters (`Held::exact`: the base's rotation about z against theta1, a tool offset along
-/// the last axis against d6) stays held, and the parameters that stand in for it take its
-/// tolerance into theirs (a stand-in for something without a prior gets none). What it held
-/// only because these data barely determine it is estimated again, now with its prior.
+/// What the first fit held stays held (the base's rotation about z against theta1, a tool
+/// offset along the last axis against d6), and the parameters that stand in for it take its
+/// tolerance into theirs (a stand-in for something without a prior gets none).
 pub fn refit<const N: usize, const V: usize>(
     start: &Robot<f64, N, V>,
     params: &[Param],
@@ -103,13 +101,10 @@ pub fn refit<const N: usize, const V: usize>(
     let mut active: Vec<(Param, Option<f64>)> = params
         .iter()
         .zip(sigma)
-        .filter(|(p, s)| match held(p) {
-            None => true,
-            Some(h) => !h.exact && s.is_some(),
-        })
+        .filter(|(p, _)| held(p).is_none())
         .map(|(p, s)| (*p, var(p, *s)))
         .collect();
-    for h in fit.held.iter().filter(|h| h.exact) {
+    for h in &fit.held {
         let Some(k) = params.iter().position(|p| name(p) == h.name) else {
             continue;
         };
@@ -189,10 +184,6 @@ pub fn refit<const N: usize, const V: usize>(
         }
         out.sigma = sigma_post;
     }
-    // What was held for want of data and is now estimated with its prior is no longer held.
-    let estimated: Vec<String> = active.iter().map(name).collect();
-    out.held.retain(|h| !estimated.contains(&h.name));
-    out.unidentifiable.retain(|n| !estimated.contains(n));
     out.robot = lm.robot().clone();
     out.iterations += p.iteration;
     out.evaluations += p.evaluations as u64;

@@ -127,8 +127,8 @@ fn resolve<const N: usize, const V: usize>(
     };
     if found.is_empty() {
         crate::refuse!(
-            "{flag} {name}: no parameter of this {N}-joint model has that name (names as \
-             identify prints them: base.x … base.rz, alpha1, a1, theta1, d1, beta1 … d{N}, \
+            "{flag} {name}: not a parameter of this {N}-joint model (names as identify \
+             prints them: base.x … base.rz, alpha1, a1, theta1, d1, beta1 … d{N}, \
              tool.x, tool.y, tool.z, effect values such as joint-table2[0]; groups: {GROUPS})"
         );
     }

@@ -35,8 +35,6 @@ pub struct ResidualRow {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ResidualTable {
     pub rows: Vec<ResidualRow>,
-    /// Point names (`[[tools]]`), empty with one tool.
-    pub names: Vec<String>,
 }
 
 impl ResidualTable {
@@ -101,10 +99,7 @@ impl ResidualTable {
                 }
             }
         }
-        Self {
-            rows,
-            names: names.to_vec(),
-        }
+        Self { rows }
     }
 
     /// The CSV text (numbers to 1 nm and 1e-6°).

@@ -63,14 +63,6 @@ pub struct HoldoutArgs {
 }
 
 impl HoldoutArgs {
-    /// The last poses by `holdout` (as before `--split`).
-    pub fn last(holdout: Option<f64>) -> Self {
-        Self {
-            holdout,
-            split: crate::calibration::SplitKind::Last,
-        }
-    }
-
     /// Whether any pose of the data file is held out.
     pub fn holds_out(&self) -> bool {
         self.holdout.is_some() || matches!(self.split, crate::calibration::SplitKind::Every(_))

@@ -1,5 +1,5 @@
 //! Compiles the C host test of the C ABI (`ffi/tests/c/host_test.c`, over `include/kinecal.h`)
-//! into a static library; `tests/c_abi.rs` links it with `kinecal-ffi` (which provides the
+//! into a static library; `tests/library/c_abi.rs` links it with `kinecal-ffi` (which provides the
 //! `kc_*` symbols) and runs it. Strict C: `-std=c99 -Wall -Wextra -Werror -pedantic`.
 
 fn main() {

@@ -1,18 +1,18 @@
 #!/usr/bin/env bash
-# The calibration report of the UR10 series (../shared/data/ur10: first 1,000 poses identify,
+# The calibration report of the UR10 series (data/ur10: first 1,000 poses identify,
 # the 1,773 others held out) rendered in headless Chromium: a desktop screenshot, a phone-width
 # screenshot and an A4 PDF (its first page as PNG when pdftoppm is installed).
 #
 #   scripts/report_screenshot.sh [OUT_DIR]        (default: out/report)
 #
 # KINECAL=path/to/kinecal uses that binary (default: builds target/release/kinecal).
-# UR10_DIR=… points at the data (default: ../shared/data/ur10 beside the repository).
+# UR10_DIR=… points at the data (default: data/ur10 in the repository).
 # Needs `chromium` (Debian: apt-get install chromium); exits 0 with a message when absent.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-out/report}
 mkdir -p "$out"
-ur10=${UR10_DIR:-../shared/data/ur10}
+ur10=${UR10_DIR:-data/ur10}
 if [ ! -f "$ur10/ur10_random_poses.csv" ]; then
   echo "report_screenshot: no UR10 data at $ur10 (set UR10_DIR)" >&2
   exit 1

@@ -1,4 +1,4 @@
-//! # kinecal-ffi: the C ABI of kinecal (issue 17)
+//! # kinecal-ffi: the C ABI of kinecal
 //!
 //! Scalar `float` (the library's `f32`, as on the Cortex-M4F), exactly [`KC_JOINTS`] joints,
 //! library units (millimetres, radians). The header is `include/kinecal.h`, generated from

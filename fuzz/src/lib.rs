@@ -233,7 +233,7 @@ pub fn arm3<const V: usize>() -> Robot<f64, 3, V> {
     .expect("nominal arm")
 }
 
-/// The nominal UR10 of `shared/data/ur10/robot.toml`.
+/// The nominal UR10 of `data/ur10/robot.toml`.
 pub fn ur10<const V: usize>() -> Robot<f64, 6, V> {
     let mut rows = [
         Joint::mdh_deg(0.0, 0.0, 0.0, 118.0),

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Identification speed and accuracy side by side, in one run, on the same files (issue 13):
+# Identification speed and accuracy side by side, in one run, on the same files:
 #   kinecal identify --json (its own `seconds`, and the wall-clock of the whole process),
 #   scipy's MINPACK (host-tests/scripts/scipy_lm.py),
 #   the levenberg-marquardt crate with an analytic Jacobian, kinecal's fit_lm and its bare solver
@@ -147,7 +147,7 @@ for pset in ("27", "33"):
           f"crate Jacobian check (max rel. error vs central differences) {lmc['jacobian_check_max_rel_error']:.1e}")
     checks.append((pset, s / k, crate / k, med(walls) / lib, (med(walls) - startup) / lib))
 
-print("\n## Issue 13 targets (50 poses)\n")
+print("\n## Targets (50 poses)\n")
 print("| parameters | scipy ÷ identify (target ≥ 300) | crate ÷ identify (target ≥ 3) "
       "| identify wall ÷ library solve (target ≤ 3) | (wall − start-up floor) ÷ library solve |")
 print("|---:|---:|---:|---:|---:|")

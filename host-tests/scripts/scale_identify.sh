@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# How `kinecal identify` and `kinecal diagnose` grow with the number of poses (issue 13): wall
+# How `kinecal identify` and `kinecal diagnose` grow with the number of poses: wall
 # time and peak memory of the whole process (CSV reading included), from `/usr/bin/time -v`.
 #
 # Usage (from anywhere):  host-tests/scripts/scale_identify.sh
@@ -7,7 +7,7 @@
 #   default 3), PARAM_POSES (poses of the parameter rows, default 10000; 0 skips them),
 #   NO_BUILD=1 (use the built binary),
 #   KINECAL (path of another build of the binary, e.g. of another commit),
-#   UR10_DATA (default ../shared/data/ur10 beside the repository; the diagnose rows are skipped
+#   UR10_DATA (default data/ur10 in the repository; the diagnose rows are skipped
 #   when it is missing), DIAGNOSE_HOLDOUTS (the diagnose rows' --holdout counts, 0: none;
 #   default "0 1773"; empty: no diagnose rows).
 # Budgets (CI, .ci/run): IDENTIFY_MAX_MB and DIAGNOSE_MAX_MB, the most peak resident memory
@@ -31,7 +31,7 @@ TARGET=${CARGO_TARGET_DIR:-$ROOT/target}
 POSES=${POSES:-"1000 10000 100000 1000000"}
 REPS=${REPS:-3}
 PARAM_POSES=${PARAM_POSES:-10000}
-UR10_DATA=${UR10_DATA:-$ROOT/../shared/data/ur10}
+UR10_DATA=${UR10_DATA:-$ROOT/data/ur10}
 DIAGNOSE_HOLDOUTS=${DIAGNOSE_HOLDOUTS-"0 1773"}
 IDENTIFY_MAX_MB=${IDENTIFY_MAX_MB:-}
 DIAGNOSE_MAX_MB=${DIAGNOSE_MAX_MB:-}

@@ -3,7 +3,7 @@
 
 Usage: scipy_lm.py ROBOT.toml IDENT.csv VALID.csv
 Fits alpha, a, theta, d of every joint and the tool point (base from the robot file, identity
-when absent) from the nominal model, written plainly from interfaces.md §1 with 4x4 matrices.
+when absent) from the nominal model, written plainly from docs/formats.md "Kinematic model" with 4x4 matrices.
 Prints one JSON line: validation RMS (mm), seconds, function evaluations.
 """
 import csv, json, sys, time, tomllib

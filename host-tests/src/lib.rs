@@ -1,4 +1,4 @@
-//! Cross-checks of kinecal: an independent `f64` reference of interfaces.md §1–3 and the tests,
+//! Cross-checks of kinecal: an independent `f64` reference of docs/formats.md and the tests,
 //! benchmarks and scripts that hold the library and the command line to it.
 
 pub mod c_abi;

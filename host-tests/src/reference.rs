@@ -1,4 +1,4 @@
-//! An independent `f64` reference of interfaces.md §1–3, written plainly from the formulas
+//! An independent `f64` reference of docs/formats.md, written plainly from the formulas
 //! with 4×4 homogeneous matrices, and its derivatives by central differences. Joint couplings
 //! (§3 `[[couplings]]`) are a plain N×N matrix applied to the corrected readings.
 //!
@@ -21,7 +21,7 @@ pub struct RefJoint {
     pub beta: f64,
 }
 
-/// A joint correction of interfaces.md §2 (`joint` 0-based, values in rad / rad per m).
+/// A joint correction of docs/formats.md "Effects" (`joint` 0-based, values in rad / rad per m).
 #[derive(Clone, Debug, PartialEq)]
 pub enum RefEffect {
     Scale {

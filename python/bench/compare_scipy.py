@@ -33,13 +33,13 @@ def data_dir() -> Path:
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
     if args:
         return Path(args[0])
-    return Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ur10"
+    return Path(__file__).resolve().parents[2] / "data" / "ur10"
 
 
 # ---- pybotics-style model: parameter vector, FK per pose ------------------------------------
 
 def rot_rpy(r, p, y):
-    """R = Rz(y)·Ry(p)·Rx(r) (interfaces.md §1)."""
+    """R = Rz(y)·Ry(p)·Rx(r) (docs/formats.md "Kinematic model")."""
     cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
     return np.array([
         [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],

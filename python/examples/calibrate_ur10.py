@@ -3,7 +3,7 @@
 
     python python/examples/calibrate_ur10.py [DATA_DIR]
 
-DATA_DIR holds robot.toml and ur10_random_poses.csv (default: ../shared/data/ur10 beside the
+DATA_DIR holds robot.toml and ur10_random_poses.csv (default: data/ur10 of the
 repository). The first 1,000 poses identify the model, the other 1,773 validate it; then
 `diagnose` looks for what the geometric model misses. With matplotlib installed the residuals
 are plotted (ur10_residuals.png in the current folder); without it the plots are skipped.
@@ -23,7 +23,7 @@ import kinecal
 def data_dir() -> Path:
     if len(sys.argv) > 1:
         return Path(sys.argv[1])
-    return Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ur10"
+    return Path(__file__).resolve().parents[2] / "data" / "ur10"
 
 
 def main() -> int:

@@ -14,7 +14,7 @@ use pyo3::prelude::*;
 use std::path::PathBuf;
 
 /// A robot: modified-DH rows (plus tilt), tool point, optional base pose, effects and
-/// couplings, exactly as a robot TOML file describes it (interfaces.md §1, §3).
+/// couplings, exactly as a robot TOML file describes it (docs/formats.md).
 #[pyclass(module = "kinecal", frozen)]
 #[derive(Clone)]
 pub struct Robot {

@@ -55,14 +55,13 @@ def cli(kinecal_bin):
 
 def ur10_dir() -> Path:
     env = os.environ.get("KINECAL_UR10")
-    return Path(env) if env else REPO.parent / "shared" / "data" / "ur10"
+    return Path(env) if env else REPO / "data" / "ur10"
 
 
 @pytest.fixture(scope="session")
 def ur10() -> Path:
     d = ur10_dir()
-    if not (d / "ur10_random_poses.csv").exists():
-        pytest.skip(f"UR10 series not found at {d} (set KINECAL_UR10)")
+    assert (d / "ur10_random_poses.csv").exists(), f"UR10 series not found at {d} (KINECAL_UR10)"
     return d
 
 
@@ -95,7 +94,7 @@ def assert_same(a, b, path="", tol=1e-9):
 
 
 def mdh_fk(mdh: np.ndarray, tool: np.ndarray, q_deg: np.ndarray, base=None) -> np.ndarray:
-    """Independent forward kinematics of interfaces.md §1 with 4×4 matrices in numpy:
+    """Independent forward kinematics of docs/formats.md "Kinematic model" with 4×4 matrices in numpy:
     p = B · Π Rx(alpha)·Tx(a)·Ry(beta)·Rz(theta + q)·Tz(d) · tool."""
 
     def rx(t):

@@ -27,7 +27,7 @@ def robot(rows=ROWS, tool=TOOL, base=BASE):
 
 def test_fk_equals_numpy_mdh():
     """FK of 500 random poses (degrees and radians, with base and tilt) equals the numpy
-    reference of interfaces.md §1 to 1e-9 mm; a single pose gives shape (3,)."""
+    reference of docs/formats.md "Kinematic model" to 1e-9 mm; a single pose gives shape (3,)."""
     rng = np.random.default_rng(1)
     q = rng.uniform(-170, 170, size=(500, 6))
     r = robot()

@@ -26,7 +26,7 @@
 //!
 //! ## What it buys, measured
 //!
-//! ER20-C10 stand-in of issue 3, 24 MDH parameters, 50 poses, 10 µm noise, the defaults of
+//! ER20-C10 stand-in, 24 MDH parameters, 50 poses, 10 µm noise, the defaults of
 //! [`crate::identify::pso::PsoConfig::calibration`] (1,000 iterations at most). A factory PSO run trains the
 //! net; after the robot's errors drift, plain PSO and BPNN-PSO identify it again from the same
 //! swarm seeds. Ratio = iterations BPNN-PSO needs to reach plain PSO's final fitness ÷ iterations

@@ -326,7 +326,7 @@ impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L,
                 .push(slot)
                 .map_err(|_| e(CsvErrorKind::TooManyColumns))?;
         }
-        // Several reflectors (interfaces.md §3): `x_NAME`, `y_NAME`, `z_NAME` instead of
+        // Several reflectors (docs/formats.md): `x_NAME`, `y_NAME`, `z_NAME` instead of
         // `x`, `y`, `z`, carried as extra columns; the record's point is then NaN.
         let named_points =
             seen_xyz == [false; 3] && self.extra_names.iter().any(|n| n.starts_with("x_"));

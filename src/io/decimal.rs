@@ -25,7 +25,7 @@ const EXACT_INT: u64 = 1 << 53;
 /// within 16 ulp of core's (at most 16 roundings — the mantissa, up to 14 multiplications or
 /// divisions by 1e22, the last power of ten — each within 2^-53 of the value); measured at most
 /// 6 ulp over 400,000 random numbers of up to 22 digits with exponents -345..320
-/// (`host-tests/tests/csv_hardening.rs`). Overflow to infinity and underflow to zero happen
+/// (`host-tests/tests/command_line/csv_hardening.rs`). Overflow to infinity and underflow to zero happen
 /// within the same bound of the right place. `nan`/`inf` parse, so the caller can name them as
 /// non-finite instead of "not a number".
 pub fn parse_decimal(s: &str) -> Option<f64> {

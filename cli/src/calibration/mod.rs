@@ -1,5 +1,5 @@
 //! Identification on the desktop: split the data, start the base, run a method, report errors
-//! before and after in the units and keys of interfaces.md §4.
+//! before and after in the units and keys of docs/formats.md "Command line: exit status and JSON".
 
 pub mod acceptance;
 pub mod coupling_hint;
@@ -498,7 +498,7 @@ fn identifiability_report<const N: usize, const V: usize>(
 /// An effect to add to the model before identification (`--effect KIND:JOINT[:ARG]`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct EffectRequest {
-    /// An id of interfaces.md §2 (`joint-compliance`, `joint-cyclic`, `joint-scale`,
+    /// An id of docs/formats.md "Effects" (`joint-compliance`, `joint-cyclic`, `joint-scale`,
     /// `axis-tilt`, `joint-table`).
     pub kind: String,
     /// 0-based joint.

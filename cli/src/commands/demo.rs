@@ -1,6 +1,6 @@
 //! `kinecal demo`: the BPNN-PSO paper's simulation end to end on built-in data.
 //!
-//! Gao et al. 2018 §4 with our stand-in for their ER20-C10 tables (issue 3): a "factory"
+//! Gao et al. 2018 §4 with our stand-in for their ER20-C10 tables: a "factory"
 //! identification by PSO trains the BP network; later the robot's errors drift a little and a
 //! follow-up identification compares PSO, BPNN-PSO, LM and PSO+LM on 50 identification and
 //! 50 validation poses with 10 µm tracker noise.

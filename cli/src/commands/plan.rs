@@ -72,7 +72,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0.01)]
     pub noise_mm: f64,
     /// Take the noise from a tracker file's stated uncertainties instead: the RMS of its
-    /// `sx_mm`, `sy_mm`, `sz_mm` over all rows and coordinates (interfaces.md §3).
+    /// `sx_mm`, `sy_mm`, `sz_mm` over all rows and coordinates (docs/formats.md).
     #[arg(long, value_name = "D.csv", conflicts_with = "noise_mm")]
     pub noise_from: Option<PathBuf>,
     /// Output CSV of the planned poses (q1…qN in degrees, plus incidence_deg, clearance_mm).

@@ -1,4 +1,4 @@
-//! The candidate catalogue of the discrepancy search: every effect of interfaces.md §2 on
+//! The candidate catalogue of the discrepancy search: every effect of docs/formats.md "Effects" on
 //! every joint where it can mean something, and how each is added to a model, read back and
 //! said in words.
 //!
@@ -108,7 +108,7 @@ impl Default for CatalogueConfig {
 }
 
 impl Candidate {
-    /// The effect id of interfaces.md §2.
+    /// The effect id of docs/formats.md "Effects".
     pub fn id(&self) -> &'static str {
         match self.kind {
             CandidateKind::Compliance => "joint-compliance",

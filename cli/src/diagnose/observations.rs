@@ -1,5 +1,5 @@
 //! The diagnosed model fitted to everything the file observed: 6-D poses, the tracker's σ and
-//! several reflectors (interfaces.md §3).
+//! several reflectors (docs/formats.md).
 //!
 //! The search ([`super::diagnose`]) screens, cross-validates and tests on one position
 //! residual per pose (the first reflector's point, unweighted): its linearised screen and its

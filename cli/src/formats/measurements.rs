@@ -1,4 +1,4 @@
-//! Measurement CSV files (interfaces.md §3) on the desktop: the library's streaming
+//! Measurement CSV files (docs/formats.md) on the desktop: the library's streaming
 //! [`kinecal::io::csv::CsvReader`] over a file, errors turned into one line
 //! `FILE:LINE:COLUMN: description`, and a writer.
 
@@ -266,7 +266,7 @@ pub fn load<const N: usize>(path: &Path) -> anyhow::Result<Dataset<N>> {
     if bytes.starts_with(&[0xEF, 0xBB, 0xBF]) {
         bytes.drain(..3);
     }
-    // Malformed content is refused input (exit status 2, interfaces.md §4).
+    // Malformed content is refused input (exit status 2, docs/formats.md "Command line: exit status and JSON").
     read_bytes::<N>(&bytes).map_err(|e| {
         let (header, text) = context_lines(path, e.line);
         crate::refused(describe_error(

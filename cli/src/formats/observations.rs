@@ -1,4 +1,4 @@
-//! What a measurement file observed in each pose (interfaces.md §3): the point (`x`, `y`, `z`),
+//! What a measurement file observed in each pose (docs/formats.md): the point (`x`, `y`, `z`),
 //! or several reflectors' points (`x_NAME`, `y_NAME`, `z_NAME`, an empty cell where one was
 //! not seen), the probe's orientation (`rx_deg`, `ry_deg`, `rz_deg`) and the tracker's 1-σ
 //! (`sx_mm`, `sy_mm`, `sz_mm`, `srot_deg`), turned into the library's weighted observations.

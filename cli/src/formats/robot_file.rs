@@ -1,4 +1,4 @@
-//! The robot description file (interfaces.md §3): TOML in, TOML out, and conversion to and
+//! The robot description file (docs/formats.md): TOML in, TOML out, and conversion to and
 //! from the library's [`Robot`].
 //!
 //! Units in the file are degrees and millimetres; the library works in radians. Angles are
@@ -43,7 +43,7 @@ pub struct RobotFile {
     pub base: Option<BaseSpec>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub effects: Vec<EffectSpec>,
-    /// `[[couplings]]`: joints read relative to another (interfaces.md §3).
+    /// `[[couplings]]`: joints read relative to another (docs/formats.md).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub couplings: Vec<CouplingSpec>,
     /// `[prior]`: the 1-σ of each kind of parameter's change that `identify` assumes
@@ -52,7 +52,7 @@ pub struct RobotFile {
     pub prior: Option<crate::formats::prior::PriorSpec>,
 }
 
-/// One `[[joints]]` table: the modified DH row of interfaces.md §1.
+/// One `[[joints]]` table: the modified DH row of docs/formats.md "Kinematic model".
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct JointSpec {
@@ -73,7 +73,7 @@ pub struct JointSpec {
 pub struct ToolSpec {
     pub xyz_mm: [f64; 3],
     /// Orientation of the measured frame in the flange frame (fixed-axis roll, pitch, yaw;
-    /// interfaces.md §3): what 6-D observations (`rx_deg`, `ry_deg`, `rz_deg`) measure, and
+    /// docs/formats.md): what 6-D observations (`rx_deg`, `ry_deg`, `rz_deg`) measure, and
     /// what identification fits as `tool.rx`, `tool.ry`, `tool.rz` when they are present
     /// (`kinecal import --urdf` writes the tip link's orientation here).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -117,7 +117,7 @@ pub struct BaseSpec {
     pub rpy_deg: [f64; 3],
 }
 
-/// One `[[effects]]` table (interfaces.md §2).
+/// One `[[effects]]` table (docs/formats.md "Effects").
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EffectSpec {

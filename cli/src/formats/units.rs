@@ -1,5 +1,5 @@
 //! Units at the door: `--length-unit mm|m` and `--angle-unit deg|rad` for every subcommand that
-//! reads measurements, sweeps or targets (interfaces.md §3, §4), the conversion to the
+//! reads measurements, sweeps or targets (docs/formats.md), the conversion to the
 //! millimetres and degrees used everywhere behind the door, and the plausibility check that
 //! refuses a file whose numbers are evidently in other units than the ones assumed.
 //!

@@ -9,7 +9,7 @@ use crate::output::numfmt::sig;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// The keys of a diagnose report this page shows (interfaces.md §4, docs/formats.md).
+/// The keys of a diagnose report this page shows (docs/formats.md "Command line: exit status and JSON").
 #[derive(Clone, Debug, Deserialize)]
 pub struct DiagnoseJson {
     pub baseline_validation_rms_mm: f64,

@@ -132,7 +132,7 @@ pub fn perturb_geometry<const N: usize, const V: usize, R: Rng>(
 /// One `--effect KIND:JOINT:V1[,V2…][:ORDER]` (joint 1-based on the command line, 0-based here).
 #[derive(Clone, Debug, PartialEq)]
 pub struct EffectArg {
-    /// An effect id of interfaces.md §2, `axis-tilt` included.
+    /// An effect id of docs/formats.md "Effects", `axis-tilt` included.
     pub kind: String,
     pub joint: usize,
     pub values: Vec<f64>,

@@ -658,7 +658,7 @@ fn identify(
     irq::free(|cs| *MODEL.borrow(cs).borrow_mut() = Some(model));
 }
 
-/// Stage 3b (issue 18): the tool as a 6-DoF probe with two further reflectors. Observations of
+/// Stage 3b: the tool as a 6-DoF probe with two further reflectors. Observations of
 /// a known error of the probe and the wrist (weighted 6-D observations of reflector 1, position
 /// observations of reflectors 2 and 3, computed here from the truth at the first
 /// identification poses) in the held-out poses' storage; LM from the nominal probe must find

@@ -94,7 +94,7 @@ fn truth(rng: &mut Xoshiro256PlusPlus) -> Robot<f64, N> {
     t
 }
 
-/// CSV (interfaces.md §3) of the true robot seen by a tracker with noise: 50 identification
+/// CSV (docs/formats.md) of the true robot seen by a tracker with noise: 50 identification
 /// poses (`set` 0) then 20 held-out ones (`set` 1), with a carried-along `temp_c` column.
 fn measurements() -> (String, Robot<f64, N>) {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(SEED);
@@ -209,7 +209,7 @@ fn reference(csv: &[u8], truth: &Robot<f64, N>) -> (String, String) {
             .expect("trajectory point compensates");
         commands.push(s.q);
     }
-    // Issue 18: the probe's 6-D and multi-reflector run from the nominal probe, on
+    // The probe's 6-D and multi-reflector run from the nominal probe, on
     // observations of its truth at the first identification poses.
     let truth6 = scenario::probe_truth::<f64>();
     let mut obs = Vec::new();
@@ -368,7 +368,7 @@ fn reference(csv: &[u8], truth: &Robot<f64, N>) -> (String, String) {
 
     let _ = writeln!(
         o,
-        "/// The probe's 6-D run (issue 18): iterations, identified values of `scenario::pose6d_params()` (rad, mm)."
+        "/// The probe's 6-D run: iterations, identified values of `scenario::pose6d_params()` (rad, mm)."
     );
     let _ = writeln!(
         o,

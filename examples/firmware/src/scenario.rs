@@ -43,7 +43,7 @@ pub fn nominal<T: Real>() -> Robot<T, N> {
 }
 
 /// The same arm read the FANUC way: J3 measured from the horizontal, so the model angle is
-/// `q3 = J3 + J2` (a `[[couplings]]` table, interfaces.md §3).
+/// `q3 = J3 + J2` (a `[[couplings]]` table, docs/formats.md).
 pub fn coupled<T: Real>() -> Robot<T, N> {
     let mut r = nominal::<T>();
     match r.set_coupling(2, 1, T::one()) {
@@ -163,7 +163,7 @@ pub fn compensation<T: Real>() -> kinecal::compensate::Config<T> {
     kinecal::compensate::Config::default()
 }
 
-/// Issue 18: the tool as a 6-DoF probe with two further reflectors. Reflectors 2 and 3 in the
+/// the tool as a 6-DoF probe with two further reflectors. Reflectors 2 and 3 in the
 /// flange frame, mm (reflector 1 is [`TOOL_MM`]).
 pub const TOOL_POINTS_MM: [[f64; 3]; 2] = [[-60.0, 30.0, 110.0], [10.0, -70.0, 100.0]];
 /// Orientation of the probe's frame in the flange frame (roll, pitch, yaw), deg.

@@ -1,6 +1,6 @@
 /* The C ABI from C: a host program over include/kinecal.h that checks real properties of
  * every part of the surface and every error path. Compiled by host-tests/build.rs (cc crate,
- * -std=c99 -Wall -Wextra -Werror -pedantic) and run by host-tests/tests/c_abi.rs, which passes
+ * -std=c99 -Wall -Wextra -Werror -pedantic) and run by host-tests/tests/library/c_abi.rs, which passes
  * in the reference values it computed with the library in f64. Returns the number of failed
  * checks (0 = all passed). */
 #include "kinecal.h"
@@ -781,7 +781,7 @@ static void test_csv(void) {
   EXPECT(kc_csv_next(&never, &rec, NULL, 0, NULL), KC_NOT_INITIALIZED);
 }
 
-/* Entry point for host-tests/tests/c_abi.rs: `fk_expected` holds the library's f64 points of
+/* Entry point for host-tests/tests/library/c_abi.rs: `fk_expected` holds the library's f64 points of
  * the nominal arm at the 4 poses test_fk uses (3 per pose). Returns the failed checks. */
 int kc_host_test_main(const double *fk_expected, size_t n_expected) {
   failures = 0;

@@ -108,7 +108,7 @@ pub fn data_file(name: &str) -> PathBuf {
 
 /// The real UR10 data (robot.toml and the tracker measurements), outside the repository.
 pub fn ur10_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/ur10")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../data/ur10")
 }
 
 /// Runs `kinecal simulate --robot ROBOT [--poses N] [--noise-mm σ] [--seed S] EXTRA… --out OUT`

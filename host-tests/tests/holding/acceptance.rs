@@ -481,10 +481,6 @@ fn the_prior_holds_what_the_data_barely_determine_and_leaves_the_rest() {
 fn ur10_the_prior_leaves_a_well_determined_calibration_alone() {
     let dir = ur10_dir();
     let data = dir.join("ur10_random_poses.csv");
-    if !data.exists() {
-        eprintln!("skipped: {} is absent", data.display());
-        return;
-    }
     let robot = dir.join("robot.toml");
     let run = |extra: &[&str]| {
         let mut a = vec!["--holdout", "1773", "--json"];

@@ -1,4 +1,4 @@
-//! A URDF chain as the modified DH model of interfaces.md §1 (`kinecal import --urdf`), and
+//! A URDF chain as the modified DH model of docs/formats.md "Kinematic model" (`kinecal import --urdf`), and
 //! the constant transforms that relate each MDH frame to its URDF link (what `export` needs).
 //!
 //! At q = 0 every revolute joint's axis line is expressed in the base link (millimetres). The

@@ -1,0 +1,297 @@
+//! Hardening of the command line: numbers from the user that size work or storage are
+//! bounded before anything is allocated, joint numbers are checked against the robot, outputs
+//! never replace inputs and are written atomically, implausible files are refused, and no
+//! command exits 0 with a non-finite figure (docs/formats.md, "Exit status" and "Limits").
+
+use crate::common::{kinecal, s, simulate, stderr, write, ER20_PLACED};
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+/// Exit 2 with one line on stderr that names `names`; no panic, no backtrace.
+fn assert_refused(out: &Output, names: &str) {
+    let e = stderr(out);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "expected exit 2 (refused); stderr: {e}"
+    );
+    assert!(e.contains(names), "the reason names {names}: {e}");
+    assert!(e.starts_with("kinecal"), "kinecal: …: {e}");
+    assert!(!e.contains("panicked") && !e.contains("backtrace"), "{e}");
+    assert_eq!(e.trim_end().lines().count(), 1, "one line: {e}");
+}
+
+/// A placed ER20 and `n` simulated poses of it (small: the tests refuse before fitting).
+fn er20_data(dir: &Path, n: usize) -> (PathBuf, PathBuf) {
+    let robot = write(dir, "robot.toml", ER20_PLACED);
+    let data = dir.join(format!("data{n}.csv"));
+    simulate(&robot, Some(n), Some(0.01), Some(3), &[], &data);
+    (robot, data)
+}
+
+fn identify(robot: &Path, data: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["identify", "--robot", s(robot), "--data", s(data)];
+    args.extend_from_slice(extra);
+    kinecal(&args)
+}
+
+#[test]
+fn joint_table_knot_spacing_is_bounded_before_allocating() {
+    let dir = tempfile::tempdir().unwrap();
+    let (robot, data) = er20_data(dir.path(), 30);
+    // 1e-9° used to ask for terabytes (SIGABRT), 1e-300° wrapped to a 2-knot table (exit 0).
+    for spacing in ["1e-9", "1e-300", "0.001", "0", "-3", "nan", "inf", "1e300"] {
+        let effect = format!("joint-table:2:{spacing}");
+        let out = identify(&robot, &data, &["--effect", &effect]);
+        assert_eq!(
+            out.status.code(),
+            Some(2),
+            "{effect}: refused; {}",
+            stderr(&out)
+        );
+        assert!(!stderr(&out).contains("panicked"), "{}", stderr(&out));
+    }
+    // A spacing within bounds that still makes too many knots over the data's range.
+    let out = identify(&robot, &data, &["--effect", "joint-table:1:0.1"]);
+    assert_refused(&out, "knots");
+}
+
+#[test]
+fn effects_on_a_joint_the_robot_lacks_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let (robot, data) = er20_data(dir.path(), 30);
+    for effect in [
+        "joint-cyclic:7",
+        "joint-cyclic:7:2",
+        "joint-scale:9",
+        "joint-compliance:7",
+        "joint-table:7:5",
+        "axis-tilt:7",
+    ] {
+        let out = identify(&robot, &data, &["--effect", effect]);
+        assert_refused(&out, "6 joints");
+        assert!(stderr(&out).contains(":7") || stderr(&out).contains(":9"));
+    }
+    // The cyclic order is bounded too.
+    let out = identify(&robot, &data, &["--effect", "joint-cyclic:2:1e9"]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    // simulate: the same joint check and bounded values.
+    for effect in [
+        "joint-cyclic:7:0.001,0.002",
+        "joint-scale:2:1e300",
+        "joint-cyclic:2:0.001,0.001:100000",
+    ] {
+        let out = kinecal(&[
+            "simulate",
+            "--robot",
+            s(&robot),
+            "--effect",
+            effect,
+            "--out",
+            s(&dir.path().join("x.csv")),
+        ]);
+        assert_eq!(
+            out.status.code(),
+            Some(2),
+            "{effect}: refused; {}",
+            stderr(&out)
+        );
+    }
+}
+
+#[test]
+fn implausible_robot_file_magnitudes_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, data) = er20_data(dir.path(), 20);
+    for (from, to) in [
+        ("a_mm = ", "a_mm = 1e308 + 0 * "),
+        ("d_mm = ", "d_mm = -1e9 + 0 * "),
+    ] {
+        // The first joint's value becomes huge (TOML has no arithmetic: rewrite the number).
+        let text = ER20_PLACED.replacen(from, to, 1);
+        let text = text
+            .lines()
+            .map(|l| match l.split_once(" + 0 * ") {
+                Some((head, _)) => head.to_string(),
+                None => l.to_string(),
+            })
+            .collect::<Vec<_>>()
+            .join("\n");
+        let robot = write(dir.path(), "big.toml", &text);
+        let out = kinecal(&["check", "--robot", s(&robot), "--data", s(&data)]);
+        assert_refused(&out, "implausible");
+    }
+}
+
+#[test]
+fn a_non_finite_result_never_exits_0() {
+    let dir = tempfile::tempdir().unwrap();
+    let (robot, data) = er20_data(dir.path(), 30);
+    // One coordinate of 1e308 makes the residuals overflow.
+    let text = std::fs::read_to_string(&data).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let header: Vec<&str> = lines[0].split(',').collect();
+    let x = header.iter().position(|c| *c == "x").unwrap();
+    let mut row: Vec<String> = lines[5].split(',').map(str::to_string).collect();
+    row[x] = "1e308".into();
+    lines[5] = row.join(",");
+    let huge = write(dir.path(), "huge.csv", &(lines.join("\n") + "\n"));
+    for cmd in ["check", "identify"] {
+        let out = kinecal(&[cmd, "--robot", s(&robot), "--data", s(&huge), "--json"]);
+        assert_ne!(out.status.code(), Some(0), "{cmd}: {}", stderr(&out));
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            !text.contains("null") || text.contains("\"error\""),
+            "{text}"
+        );
+    }
+}
+
+#[test]
+fn files_without_rows_are_refused_everywhere() {
+    let dir = tempfile::tempdir().unwrap();
+    let (robot, data) = er20_data(dir.path(), 30);
+    let empty = write(dir.path(), "empty.csv", "q1,q2,q3,q4,q5,q6,x,y,z\n");
+    let out = identify(&robot, &data, &["--validate", s(&empty)]);
+    assert_refused(&out, "empty.csv");
+    for cmd in ["check", "identify", "diagnose"] {
+        let out = kinecal(&[cmd, "--robot", s(&robot), "--data", s(&empty)]);
+        assert_refused(&out, "empty.csv");
+    }
+    let out = kinecal(&[
+        "diagnose",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(&data),
+        "--validate",
+        s(&empty),
+    ]);
+    assert_refused(&out, "empty.csv");
+}
+
+#[test]
+fn too_few_poses_for_the_model_are_refused_for_every_method() {
+    let dir = tempfile::tempdir().unwrap();
+    let (robot, data) = er20_data(dir.path(), 1);
+    for method in ["lm", "pso", "bpnn-pso", "pso+lm"] {
+        let out = identify(&robot, &data, &["--method", method]);
+        assert_refused(&out, "at least");
+    }
+}
+
+#[test]
+fn compensation_inputs_are_bounded_and_failures_are_not_success() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = write(dir.path(), "robot.toml", ER20_PLACED);
+    let targets = dir.path().join("t.csv");
+    simulate(&robot, Some(3), Some(0.0), Some(5), &[], &targets);
+    let text = std::fs::read_to_string(&targets).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let mut row: Vec<String> = lines[1].split(',').map(str::to_string).collect();
+    row[0] = "1e300".into();
+    lines[1] = row.join(",");
+    let bad = write(dir.path(), "bad.csv", &(lines.join("\n") + "\n"));
+    let out_csv = dir.path().join("q.csv");
+    let out = kinecal(&[
+        "compensate",
+        "--model",
+        s(&robot),
+        "--targets",
+        s(&bad),
+        "--out",
+        s(&out_csv),
+    ]);
+    assert_refused(&out, "q1");
+    assert!(!out_csv.exists());
+    // Unreachable targets (far outside the arm's reach) are not reported as success.
+    let mut far: Vec<String> = text.lines().map(str::to_string).collect();
+    let header: Vec<&str> = far[0].split(',').collect();
+    let x = header.iter().position(|c| *c == "x").unwrap();
+    let mut row: Vec<String> = far[1].split(',').map(str::to_string).collect();
+    row[x] = "50000".into();
+    far[1] = row.join(",");
+    let far = write(dir.path(), "far.csv", &(far.join("\n") + "\n"));
+    let out = kinecal(&[
+        "compensate",
+        "--model",
+        s(&robot),
+        "--targets",
+        s(&far),
+        "--out",
+        s(&out_csv),
+    ]);
+    assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+    for bad_flag in [["--max-step-deg", "nan"], ["--accept-mm", "0"]] {
+        let out = kinecal(&[
+            "compensate",
+            "--model",
+            s(&robot),
+            "--targets",
+            s(&targets),
+            "--out",
+            s(&out_csv),
+            bad_flag[0],
+            bad_flag[1],
+        ]);
+        assert_refused(&out, bad_flag[0]);
+    }
+}
+
+#[test]
+fn counts_that_size_work_are_capped() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = write(dir.path(), "robot.toml", ER20_PLACED);
+    let scene = write(
+        dir.path(),
+        "scene.toml",
+        "[tracker]\nxyz_mm = [3000.0, 0.0, 500.0]\n",
+    );
+    let out_csv = dir.path().join("p.csv");
+    for (flag, v) in [
+        ("--poses", "100000"),
+        ("--pool", "100000000"),
+        ("--noise-mm", "nan"),
+    ] {
+        let poses = if flag == "--poses" { v } else { "10" };
+        let mut args = vec![
+            "plan",
+            "--robot",
+            s(&robot),
+            "--scene",
+            s(&scene),
+            "--poses",
+            poses,
+            "--criterion",
+            "d",
+            "--work=0,30,10,0,-40,0",
+            "--out",
+            s(&out_csv),
+        ];
+        if flag != "--poses" {
+            args.extend([flag, v]);
+        }
+        let out = kinecal(&args);
+        assert_refused(&out, flag);
+    }
+    for (flag, v) in [
+        ("--poses", "2000000"),
+        ("--poses", "0"),
+        ("--noise-mm", "inf"),
+    ] {
+        let out = kinecal(&[
+            "simulate",
+            "--robot",
+            s(&robot),
+            flag,
+            v,
+            "--out",
+            s(&out_csv),
+        ]);
+        assert_refused(&out, flag);
+    }
+    let out = kinecal(&["study", "--upper-arm-mm", "650:1100:1e-300"]);
+    assert_refused(&out, "--upper-arm-mm");
+    let out = kinecal(&["study", "--poses", "100000"]);
+    assert_refused(&out, "--poses");
+}

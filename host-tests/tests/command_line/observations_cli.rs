@@ -1,0 +1,285 @@
+//! `kinecal identify` (and `check`, `diagnose`) on measurement files as trackers deliver them
+//! (docs/formats.md): 6-D rows with σ columns (the real UR10 series C), several
+//! named reflectors with empty cells, and the refusals of what cannot be right.
+
+use crate::common::{json_of, kinecal, kinecal_ok, run_on, s, stderr, ur10_dir, write};
+use kinecal::forward::ForwardKinematics;
+use kinecal::{Frame, Joint, Robot};
+use kinecal_cli::formats::robot_file::RobotFile;
+use nalgebra::Vector3;
+use rand::{RngExt, SeedableRng};
+
+/// The issue's figure on the real series: first 1,000 poses identify, the 1,773 others held
+/// out. 6-D identification predicts held-out positions no worse than positions alone, reports
+/// the orientation RMS, finds the tool orientation (the file gives none) without moving
+/// theta6, and its σ come with a χ² figure.
+#[test]
+fn ur10_six_d_predicts_positions_no_worse_than_positions_alone() {
+    let d = ur10_dir();
+    let robot = d.join("robot.toml");
+    let args = ["--holdout", "1773", "--json"];
+    let pos = json_of(&kinecal_ok(&[
+        "identify",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(&d.join("ur10_random_poses.csv")),
+        args[0],
+        args[1],
+        args[2],
+    ]));
+    let six = json_of(&kinecal_ok(&[
+        "identify",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(&d.join("ur10_random_poses_6d.csv")),
+        args[0],
+        args[1],
+        args[2],
+    ]));
+    let v = |j: &serde_json::Value, k: &str| j["after"][k].as_f64().unwrap();
+    let (p, q) = (v(&pos, "validation_rms_mm"), v(&six, "validation_rms_mm"));
+    eprintln!("held-out position RMS: positions {p:.5} mm, 6-D {q:.5} mm");
+    assert!(q <= p, "6-D {q} mm vs positions only {p} mm");
+    assert!(pos["after"].get("validation_rms_deg").is_none());
+    let deg = v(&six, "validation_rms_deg");
+    eprintln!(
+        "held-out orientation RMS: {deg:.4}° (before {:.4}°)",
+        six["before"]["validation_rms_deg"].as_f64().unwrap()
+    );
+    assert!(deg > 0.0 && deg < 0.2, "{deg}");
+    assert_eq!(six["n_identification"], 1000);
+    assert_eq!(six["n_validation"], 1773);
+    assert_eq!(six["converged"], true);
+    assert_eq!(six["observations"]["six_d"], true);
+    assert_eq!(six["observations"]["sigma"], true);
+    // The tool orientation is a parameter now; theta6 stays near its nominal 180°.
+    let par = &six["parameters"];
+    assert!(par["tool.rx"].is_number() && par["tool.ry"].is_number());
+    let theta6 = par["theta6"].as_f64().unwrap();
+    assert!((theta6 - 180.0).abs() < 1.0, "theta6 {theta6}");
+    assert!(six["suspicious"].as_array().unwrap().is_empty());
+    // The σ of the file do not explain model residuals of ~0.5 mm: χ² far above 1.
+    let chi2 = six["chi2_per_dof"].as_f64().unwrap();
+    assert!(chi2 > 10.0, "{chi2}");
+    // Unweighted position-only results are untouched by the new columns' code path.
+    assert!(pos.get("chi2_per_dof").is_none());
+}
+
+/// A UR10-like robot with three reflectors on the tool (`[[tools]]` A, B, C).
+fn three_reflector_robot() -> (String, Robot<f64, 6>) {
+    let rows = [
+        Joint::mdh_deg(0.0, 0.0, 0.0, 118.0),
+        Joint::mdh_deg(90.0, 0.0, 180.0, 0.0),
+        Joint::mdh_deg(0.0, 612.7, 0.0, 0.0),
+        Joint::mdh_deg(0.0, 571.6, 0.0, 163.9),
+        Joint::mdh_deg(-90.0, 0.0, 0.0, 115.7),
+        Joint::mdh_deg(90.0, 0.0, 180.0, 92.2),
+    ];
+    let base = Frame::from_xyz_rpy([400.0, -3000.0, 200.0], [0.0, 0.0, 0.3]);
+    let points = [
+        [60.0, 0.0, 110.0],
+        [-30.0, 52.0, 120.0],
+        [-30.0, -52.0, 95.0],
+    ];
+    let mut r: Robot<f64, 6> = Robot::new(base, rows, Vector3::from(points[0])).unwrap();
+    for (k, p) in points.iter().enumerate().skip(1) {
+        r.set_tool_point(k, Vector3::from(*p)).unwrap();
+    }
+    let mut text = String::from("name = \"three reflectors\"\n");
+    for j in r.joints() {
+        text += &format!(
+            "[[joints]]\nalpha_deg = {}\na_mm = {}\ntheta_deg = {}\nd_mm = {}\n",
+            j.alpha.to_degrees(),
+            j.a,
+            j.theta.to_degrees(),
+            j.d
+        );
+    }
+    for (n, p) in ["A", "B", "C"].iter().zip(points) {
+        text += &format!(
+            "[[tools]]\nname = \"{n}\"\nxyz_mm = [{}, {}, {}]\n",
+            p[0], p[1], p[2]
+        );
+    }
+    (text, r)
+}
+
+/// Three reflectors, each missing in about a fifth of the poses: one fit over every point
+/// seen recovers all three points and the geometry; the report has figures per point and in
+/// total, and the model file keeps the names.
+#[test]
+fn three_reflectors_with_empty_cells_identify_per_point_and_in_total() {
+    let dir = tempfile::tempdir().unwrap();
+    let (text, nominal) = three_reflector_robot();
+    let robot_path = write(dir.path(), "robot.toml", &text);
+    // The truth: rows off by up to 0.5 mm / 0.05°, reflectors off by up to 0.3 mm.
+    let mut truth = nominal.clone();
+    let mut rng = rand::rngs::StdRng::seed_from_u64(18);
+    for i in 0..6 {
+        let mut j = truth.joints()[i];
+        j.a += rng.random_range(-0.5..0.5);
+        j.d += rng.random_range(-0.5..0.5);
+        j.alpha += rng.random_range(-0.05f64..0.05).to_radians();
+        j.theta += rng.random_range(-0.05f64..0.05).to_radians();
+        truth.set_joint(i, j).unwrap();
+    }
+    for k in 0..3 {
+        let p =
+            *truth.tool_point(k).unwrap() + Vector3::from_fn(|_, _| rng.random_range(-0.3..0.3));
+        truth.set_tool_point(k, p).unwrap();
+    }
+    let mut csv = String::from("q1,q2,q3,q4,q5,q6,x_A,y_A,z_A,x_B,y_B,z_B,x_C,y_C,z_C\n");
+    let mut fk = ForwardKinematics::<f64, 6>::new();
+    let mut seen = [0usize; 3];
+    for _ in 0..240 {
+        let q: [f64; 6] = std::array::from_fn(|_| rng.random_range(-150.0f64..150.0));
+        let qr = q.map(f64::to_radians);
+        csv += &q.map(|v| format!("{v:.6}")).join(",");
+        let missing = rng.random_range(0..5usize); // 0..3: that reflector is hidden
+        for (k, s) in seen.iter_mut().enumerate() {
+            if missing == k {
+                csv += ",,,";
+                continue;
+            }
+            *s += 1;
+            let p = fk.compute_point(&truth, &qr, k).unwrap()
+                + Vector3::from_fn(|_, _| rng.random_range(-0.01..0.01));
+            csv += &format!(",{:.6},{:.6},{:.6}", p.x, p.y, p.z);
+        }
+        csv += "\n";
+    }
+    let data = write(dir.path(), "data.csv", &csv);
+    let model = dir.path().join("model.toml");
+    let out = run_on(
+        "identify",
+        &robot_path,
+        &data,
+        &["--holdout", "0.25", "--json", "--out", s(&model)],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let j = json_of(&out);
+    assert_eq!(j["observations"]["points"], 3);
+    let total = j["after"]["validation_rms_mm"].as_f64().unwrap();
+    assert!(total < 0.02, "total held-out {total} mm");
+    let pp = &j["per_point"];
+    let mut n_ident = 0;
+    for name in ["A", "B", "C"] {
+        let p = &pp[name];
+        let r = p["after"]["validation_rms_mm"].as_f64().unwrap();
+        let before = p["before"]["validation_rms_mm"].as_f64().unwrap();
+        eprintln!("point {name}: held-out {before:.3} → {r:.4} mm");
+        assert!(r < 0.02 && before > 0.2, "{name}: {before} → {r}");
+        n_ident += p["n_identification"].as_u64().unwrap();
+    }
+    assert_eq!(n_ident, j["observations"]["identification_observations"]);
+    // The model keeps [[tools]] with the names, and the reflectors' distances are the
+    // truth's (positions alone fix the points up to what d6 and theta6 take: a shift along
+    // and a turn about the flange axis, which leave their distances alone).
+    let m = RobotFile::load(&model).unwrap();
+    let names: Vec<&str> = m.tools.iter().map(|t| t.name.as_str()).collect();
+    assert_eq!(names, ["A", "B", "C"]);
+    let fitted = m.to_robot::<6>().unwrap();
+    for (a, b) in [(0, 1), (0, 2), (1, 2)] {
+        let d_fit = (fitted.tool_point(a).unwrap() - fitted.tool_point(b).unwrap()).norm();
+        let d_true = (truth.tool_point(a).unwrap() - truth.tool_point(b).unwrap()).norm();
+        let e = (d_fit - d_true).abs();
+        assert!(e < 0.01, "points {a}-{b}: distance {e} mm from the truth's");
+    }
+    // check reads the file too: every point against its own tool point.
+    let c = json_of(&kinecal_ok(&[
+        "check",
+        "--robot",
+        s(&robot_path),
+        "--data",
+        s(&data),
+        "--json",
+    ]));
+    assert!(c["nominal_rms_mm"].as_f64().unwrap().is_finite());
+}
+
+/// What cannot be right is refused (exit 2) with a reason that says what to do.
+#[test]
+fn inconsistent_observation_files_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let (text, _) = three_reflector_robot();
+    let robot = write(dir.path(), "robot.toml", &text);
+    let q = "10,20,30,40,50,60";
+    let cases: Vec<(&str, String, String, &str)> = vec![
+        (
+            "a reflector without columns",
+            text.clone(),
+            format!("q1,q2,q3,q4,q5,q6,x_A,y_A,z_A,x_B,y_B,z_B\n{q},1,2,3,4,5,6\n"),
+            "x_C",
+        ),
+        (
+            "a partly seen reflector",
+            text.clone(),
+            format!(
+                "q1,q2,q3,q4,q5,q6,x_A,y_A,z_A,x_B,y_B,z_B,x_C,y_C,z_C\n{q},1,2,,4,5,6,7,8,9\n"
+            ),
+            "all three cells empty",
+        ),
+        (
+            "orientation with several reflectors",
+            text.clone(),
+            format!(
+                "q1,q2,q3,q4,q5,q6,x_A,y_A,z_A,x_B,y_B,z_B,x_C,y_C,z_C,rx_deg,ry_deg,rz_deg\n\
+                 {q},1,2,3,4,5,6,7,8,9,0,0,0\n"
+            ),
+            "--positions-only",
+        ),
+        (
+            "both [tool] and [[tools]]",
+            text.clone() + "[tool]\nxyz_mm = [0.0, 0.0, 100.0]\n",
+            format!("q1,q2,q3,q4,q5,q6,x,y,z\n{q},1,2,3\n"),
+            "not both",
+        ),
+    ];
+    for (what, robot_text, data_text, says) in cases {
+        let r = write(dir.path(), "r.toml", &robot_text);
+        let d = write(dir.path(), "d.csv", &data_text);
+        let out = run_on("identify", &r, &d, &[]);
+        assert_eq!(out.status.code(), Some(2), "{what}: {}", stderr(&out));
+        assert!(stderr(&out).contains(says), "{what}: {}", stderr(&out));
+    }
+    // One [tool]: σ must be positive, orientation needs all three angles, 6-D with position σ
+    // needs srot_deg.
+    let one = ur10_dir().join("robot.toml");
+    let head = "q1,q2,q3,q4,q5,q6,x,y,z";
+    let rows = |extra_head: &str, extra: &str| {
+        let mut t = format!("{head},{extra_head}\n");
+        for k in 0..30 {
+            t += &format!("{},-90,{},-90,{},0,100,-3000,200,{extra}\n", -180 + k, k, k);
+        }
+        t
+    };
+    for (what, data_text, says) in [
+        (
+            "a zero σ",
+            rows("sx_mm,sy_mm,sz_mm", "0.01,0,0.01"),
+            "sy_mm",
+        ),
+        (
+            "two angles",
+            rows("rx_deg,ry_deg", "1,2"),
+            "rx_deg, ry_deg, rz_deg",
+        ),
+        (
+            "6-D σ without srot_deg",
+            rows(
+                "rx_deg,ry_deg,rz_deg,sx_mm,sy_mm,sz_mm",
+                "1,2,3,0.01,0.01,0.01",
+            ),
+            "srot_deg",
+        ),
+    ] {
+        let d = write(dir.path(), "d.csv", &data_text);
+        let out = run_on("identify", &one, &d, &[]);
+        assert_eq!(out.status.code(), Some(2), "{what}: {}", stderr(&out));
+        assert!(stderr(&out).contains(says), "{what}: {}", stderr(&out));
+    }
+    let _ = robot;
+    let _ = kinecal(&["--version"]);
+}

@@ -1,0 +1,17 @@
+//! The library against an independent f64 reference and known truth: kinematics, LM, PSO,
+//! BPNN, snapshots, compensation, observations, the CSV reader, hardening and the C ABI.
+
+mod pso_sim;
+
+mod bpnn;
+mod c_abi;
+mod compensate;
+mod csv_parse;
+mod hardening;
+mod lm;
+mod lm_pass;
+mod lm_penalty;
+mod observations;
+mod pso;
+mod reference_fk;
+mod snapshot;

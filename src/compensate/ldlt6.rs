@@ -7,8 +7,8 @@ use crate::Real;
 // are solved as order 6, a smaller one padded with the identity (zero off-diagonal, one on the
 // diagonal, zero right-hand side): the padding factors and solves exactly (pivots 1, zero
 // multipliers), so the results are those of the unpadded system, while one straight-line 6 × 6
-// routine serves every size. Operations and their order are those of `linalg::ldlt`,
-// `ldlt_solve` and `ldlt_trace_inverse`.
+// routine serves every size: `L·D·Lᵀ` without square roots, the cheaper factorisation where
+// `f32` `sqrt` is a software routine (Cortex-M4F libm).
 
 /// Entries of a packed lower triangle of order 6.
 pub(super) const TRI: usize = 21;

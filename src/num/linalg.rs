@@ -65,11 +65,6 @@ impl<'a, T: Real> Flat<'a, T> {
     pub fn row(&self, i: usize) -> &[T] {
         self.data.get(i * self.n..(i + 1) * self.n).unwrap_or(&[])
     }
-    /// Row `i` for writing (empty when out of range).
-    pub fn row_mut(&mut self, i: usize) -> &mut [T] {
-        let n = self.n;
-        self.data.get_mut(i * n..(i + 1) * n).unwrap_or(&mut [])
-    }
 }
 
 impl<T: Real> SquareStorage<T> for Flat<'_, T> {
@@ -323,94 +318,4 @@ pub fn symmetric_eigen<T: Real, const P: usize>(
         }
     }
     Ok(())
-}
-
-/// `A = L·D·Lᵀ` of the leading `n × n` block in place: unit lower `L` below the diagonal, `D`
-/// on it. No square roots, so it is the cheaper factorisation where `f32` `sqrt` is a software
-/// routine (Cortex-M4F libm). Fails unless every pivot is positive (A positive definite).
-pub fn ldlt<T: Real, const P: usize>(a: &mut Square<T, P>, n: usize) -> Result<(), LinalgError> {
-    if n > P {
-        return Err(LinalgError::Size);
-    }
-    // w[k] = L[j][k]·d[k], reused by every row below j: one multiply per inner step.
-    let mut w = [T::zero(); P];
-    for j in 0..n {
-        let mut d = a[j][j];
-        for k in 0..j {
-            w[k] = a[j][k] * a[k][k];
-            d -= a[j][k] * w[k];
-        }
-        if !(d > T::zero()) || !d.finite() {
-            return Err(LinalgError::NotPositiveDefinite);
-        }
-        a[j][j] = d;
-        let inv = T::one() / d;
-        for i in j + 1..n {
-            let mut s = a[i][j];
-            for k in 0..j {
-                s -= a[i][k] * w[k];
-            }
-            a[i][j] = s * inv;
-        }
-    }
-    Ok(())
-}
-
-/// Solves `L·D·Lᵀ·x = b` in place with the factor from [`ldlt`].
-pub fn ldlt_solve<T: Real, const P: usize>(
-    l: &Square<T, P>,
-    n: usize,
-    b: &mut [T],
-) -> Result<(), LinalgError> {
-    if n > P || b.len() < n {
-        return Err(LinalgError::Size);
-    }
-    for i in 0..n {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= l[i][k] * b[k];
-        }
-        b[i] = s;
-    }
-    for i in 0..n {
-        b[i] /= l[i][i];
-    }
-    for i in (0..n).rev() {
-        let mut s = b[i];
-        for k in i + 1..n {
-            s -= l[k][i] * b[k];
-        }
-        b[i] = s;
-    }
-    Ok(())
-}
-
-/// `trace(A⁻¹)` from the factor of [`ldlt`]: `Σ_i Σ_k (L⁻¹)_{ki}² / d_k`.
-pub fn ldlt_trace_inverse<T: Real, const P: usize>(
-    l: &Square<T, P>,
-    n: usize,
-) -> Result<T, LinalgError> {
-    if n > P {
-        return Err(LinalgError::Size);
-    }
-    let mut inv_d = [T::zero(); P];
-    for (k, v) in inv_d.iter_mut().enumerate().take(n) {
-        *v = T::one() / l[k][k];
-    }
-    let mut tr = T::zero();
-    let mut y = [T::zero(); P];
-    for i in 0..n {
-        // y = L⁻¹ e_i: zero above i, one at i, forward substitution below.
-        y[i] = T::one();
-        tr += inv_d[i];
-        for k in i + 1..n {
-            let mut s = T::zero();
-            for m in i..k {
-                s -= l[k][m] * y[m];
-            }
-            y[k] = s;
-            tr += s * s * inv_d[k];
-        }
-    }
-    Ok(tr)
 }

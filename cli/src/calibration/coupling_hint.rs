@@ -9,7 +9,6 @@
 
 use crate::calibration::{pose_errors, ErrorStats};
 use crate::compute::registration::fit_base;
-use crate::formats::robot_file::RobotFile;
 use crate::output::numfmt::sig;
 use kinecal::{Measurement, Robot};
 use serde_json::{json, Value};
@@ -120,23 +119,4 @@ pub fn detect<const N: usize, const V: usize>(
         }
     }
     best.filter(|b| b.rms_mm <= MAX_FRACTION * nominal && nominal - b.rms_mm >= MIN_GAIN_MM)
-}
-
-/// `kinecal check`'s hint: for a robot file without `[[couplings]]`, looks for a missing one,
-/// prints the warning line to stderr and returns the JSON value of the `coupling_hint` key
-/// (the hint's object, or null).
-pub fn check_hint<const N: usize>(file: &RobotFile, data: &[Measurement<f64, N>]) -> Value {
-    if !file.couplings.is_empty() {
-        return Value::Null;
-    }
-    let Ok(robot) = file.to_robot::<N>() else {
-        return Value::Null;
-    };
-    match detect(&robot, data, !file.base_known()) {
-        Some(h) => {
-            eprintln!("{}", h.message());
-            h.to_json()
-        }
-        None => Value::Null,
-    }
 }

@@ -374,9 +374,3 @@ fn holdout_report<const N: usize>(
         noise_floor_capped,
     }
 }
-
-/// The JSON report of a diagnosis, as before the typed reports: use
-/// [`DiagnoseReport::of`]`(d)` (and [`DiagnoseReport::to_value`] for the JSON) instead.
-pub fn report<const N: usize>(d: &Diagnosis<N>) -> serde_json::Value {
-    DiagnoseReport::of(d).to_value()
-}

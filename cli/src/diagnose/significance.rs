@@ -319,13 +319,3 @@ pub fn noise_floor_interval(floor_mm: f64, nu: f64) -> [f64; 2] {
     };
     [lo, hi]
 }
-
-/// Per-coordinate noise σ (mm) from a fit's residual: `√(SSR / (3n − p_eff))`.
-pub fn residual_noise(ssr: f64, poses: usize, effective_parameters: f64) -> f64 {
-    let dof = (3 * poses) as f64 - effective_parameters;
-    if dof > 0.0 {
-        (ssr / dof).sqrt()
-    } else {
-        f64::NAN
-    }
-}

@@ -23,8 +23,8 @@
 //!   `embedded_io::Read`, and [`io::snapshot`] (stepper state over `embedded_io`).
 //! - [`identify`] — **identification** (steppers: a bounded slice of work per `step()`,
 //!   snapshot/resume): [`identify::lm`] (streaming Levenberg–Marquardt with identifiability
-//!   analysis; its storage in [`identify::lm_storage`], chosen by the caller; its passes over the
-//!   data spread over the caller's workers with [`identify::lm_pass`]), [`identify::fitness`] (the
+//!   analysis; its storage chosen by the caller, its passes over the data spread over the
+//!   caller's workers, all under this one path), [`identify::fitness`] (the
 //!   objective of the global searches), [`identify::pso`], [`identify::bpnn`] and
 //!   [`identify::bpnn_pso`] (Gao et al. 2018).
 //! - [`compensate`] — **compensation**: damped Newton on the identified model, typed safety errors,

@@ -1,8 +1,9 @@
 //! A fixed-size three-layer back-propagation network (the BPNN of the BPNN-PSO paper, §3.2.1).
 //!
-//! `I` inputs → `H` hidden neurons (tanh or sigmoid) → `O` linear outputs. Inputs and outputs
-//! are mapped to [−1, 1] by per-component ranges stored in the net ([`Bpnn::fit_ranges`]), so
-//! millimetres and radians train alike and a trained net is self-contained.
+//! `INPUTS` inputs → `HIDDEN` hidden neurons (tanh or sigmoid) → `OUTPUTS` linear outputs. Inputs
+//! and outputs are mapped to [−1, 1] by per-component ranges stored in the net
+//! ([`Bpnn::fit_ranges`]), so millimetres and radians train alike and a trained net is
+//! self-contained.
 //!
 //! Training is plain back-propagation of the squared error with momentum,
 //! `Δw ← μ·Δw − η·∇E`, over mini-batches of `batch` samples (1 = per-sample updates). The sample
@@ -98,7 +99,7 @@ impl<T: Real> Default for BpnnConfig<T> {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum BpnnError {
-    /// `I`, `H` or `O` is zero.
+    /// `INPUTS`, `HIDDEN` or `OUTPUTS` is zero.
     Empty,
     /// Learning rate not in (0, [`MAX_LEARNING_RATE`]], momentum outside [0, 1), or batch zero.
     Config,
@@ -114,20 +115,22 @@ pub enum BpnnError {
 
 /// The trainable parameters of a net (also the shape of its momentum and gradient).
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Weights<T: Real, const I: usize, const H: usize, const O: usize> {
-    w1: [[T; I]; H],
-    b1: [T; H],
-    w2: [[T; H]; O],
-    b2: [T; O],
+struct Weights<T: Real, const INPUTS: usize, const HIDDEN: usize, const OUTPUTS: usize> {
+    w1: [[T; INPUTS]; HIDDEN],
+    b1: [T; HIDDEN],
+    w2: [[T; HIDDEN]; OUTPUTS],
+    b2: [T; OUTPUTS],
 }
 
-impl<T: Real, const I: usize, const H: usize, const O: usize> Weights<T, I, H, O> {
+impl<T: Real, const INPUTS: usize, const HIDDEN: usize, const OUTPUTS: usize>
+    Weights<T, INPUTS, HIDDEN, OUTPUTS>
+{
     fn zero() -> Self {
         Self {
-            w1: [[T::zero(); I]; H],
-            b1: [T::zero(); H],
-            w2: [[T::zero(); H]; O],
-            b2: [T::zero(); O],
+            w1: [[T::zero(); INPUTS]; HIDDEN],
+            b1: [T::zero(); HIDDEN],
+            w2: [[T::zero(); HIDDEN]; OUTPUTS],
+            b2: [T::zero(); OUTPUTS],
         }
     }
     /// Every weight and bias finite and within ±`limit` (NaN fails).
@@ -197,31 +200,33 @@ impl<T: Real, const K: usize> Range<T, K> {
     }
 }
 
-/// A three-layer network with `I` inputs, `H` hidden neurons and `O` outputs.
+/// A three-layer network with `INPUTS` inputs, `HIDDEN` hidden neurons and `OUTPUTS` outputs.
 #[derive(Clone, Debug)]
-pub struct Bpnn<T: Real, const I: usize, const H: usize, const O: usize> {
+pub struct Bpnn<T: Real, const INPUTS: usize, const HIDDEN: usize, const OUTPUTS: usize> {
     cfg: BpnnConfig<T>,
-    weights: Weights<T, I, H, O>,
-    momentum: Weights<T, I, H, O>,
+    weights: Weights<T, INPUTS, HIDDEN, OUTPUTS>,
+    momentum: Weights<T, INPUTS, HIDDEN, OUTPUTS>,
     /// Batch gradient scratch (zero between calls).
-    grad: Weights<T, I, H, O>,
-    input: Range<T, I>,
-    output: Range<T, O>,
+    grad: Weights<T, INPUTS, HIDDEN, OUTPUTS>,
+    input: Range<T, INPUTS>,
+    output: Range<T, OUTPUTS>,
     rng: Xoshiro256PlusPlus,
     epochs: u32,
 }
 
-impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
+impl<T: Real, const INPUTS: usize, const HIDDEN: usize, const OUTPUTS: usize>
+    Bpnn<T, INPUTS, HIDDEN, OUTPUTS>
+{
     /// A fresh net with Glorot-uniform weights drawn from `seed` and unit ranges.
     pub fn new(cfg: BpnnConfig<T>, seed: u64) -> Result<Self, BpnnError> {
-        if I == 0 || H == 0 || O == 0 {
+        if INPUTS == 0 || HIDDEN == 0 || OUTPUTS == 0 {
             return Err(BpnnError::Empty);
         }
         check_config(&cfg)?;
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
         let mut w = Weights::zero();
-        let l1 = T::of(libm::sqrt(6.0 / (I + H) as f64));
-        let l2 = T::of(libm::sqrt(6.0 / (H + O) as f64));
+        let l1 = T::of(libm::sqrt(6.0 / (INPUTS + HIDDEN) as f64));
+        let l2 = T::of(libm::sqrt(6.0 / (HIDDEN + OUTPUTS) as f64));
         for row in w.w1.iter_mut() {
             for v in row.iter_mut() {
                 *v = symmetric::<T>(&mut rng) * l1;
@@ -262,10 +267,10 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
     /// Sets the ranges mapped to [−1, 1]: inputs `[in_lo, in_hi]`, outputs `[out_lo, out_hi]`.
     pub fn set_ranges(
         &mut self,
-        in_lo: &[T; I],
-        in_hi: &[T; I],
-        out_lo: &[T; O],
-        out_hi: &[T; O],
+        in_lo: &[T; INPUTS],
+        in_hi: &[T; INPUTS],
+        out_lo: &[T; OUTPUTS],
+        out_hi: &[T; OUTPUTS],
     ) -> Result<(), BpnnError> {
         let input = Range::from_bounds(in_lo, in_hi)?;
         let output = Range::from_bounds(out_lo, out_hi)?;
@@ -275,7 +280,11 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
     }
 
     /// Sets the ranges to the per-component minimum and maximum of the training data.
-    pub fn fit_ranges(&mut self, inputs: &[[T; I]], targets: &[[T; O]]) -> Result<(), BpnnError> {
+    pub fn fit_ranges(
+        &mut self,
+        inputs: &[[T; INPUTS]],
+        targets: &[[T; OUTPUTS]],
+    ) -> Result<(), BpnnError> {
         check_data(inputs, targets)?;
         let (ilo, ihi) = min_max(inputs);
         let (olo, ohi) = min_max(targets);
@@ -283,12 +292,12 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
     }
 
     /// The network's output for `x` (in the units of the training targets).
-    pub fn forward(&self, x: &[T; I]) -> [T; O] {
+    pub fn forward(&self, x: &[T; INPUTS]) -> [T; OUTPUTS] {
         let xn = self.input.normalise(x);
-        let mut h = [T::zero(); H];
+        let mut h = [T::zero(); HIDDEN];
         let yn = self.pass(&xn, &mut h);
-        let mut y = [T::zero(); O];
-        for k in 0..O {
+        let mut y = [T::zero(); OUTPUTS];
+        for k in 0..OUTPUTS {
             y[k] = yn[k] * self.output.half[k] + self.output.mid[k];
         }
         y
@@ -296,25 +305,29 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
 
     /// Mean squared error per output component, in normalised output units (so 1 is the
     /// size of the target range), over a data set.
-    pub fn loss(&self, inputs: &[[T; I]], targets: &[[T; O]]) -> Result<T, BpnnError> {
+    pub fn loss(&self, inputs: &[[T; INPUTS]], targets: &[[T; OUTPUTS]]) -> Result<T, BpnnError> {
         check_data(inputs, targets)?;
-        let mut h = [T::zero(); H];
+        let mut h = [T::zero(); HIDDEN];
         let mut s = T::zero();
         for (x, t) in inputs.iter().zip(targets) {
             let y = self.pass(&self.input.normalise(x), &mut h);
             let tn = self.output.normalise(t);
-            for k in 0..O {
+            for k in 0..OUTPUTS {
                 let e = y[k] - tn[k];
                 s += e * e;
             }
         }
-        Ok(s / T::of((inputs.len() * O) as f64))
+        Ok(s / T::of((inputs.len() * OUTPUTS) as f64))
     }
 
     /// One pass of back-propagation over the data in a random order; returns the mean squared
     /// error (as [`Bpnn::loss`]) seen during the pass, each sample measured before its update.
     /// If the weights diverge the net is restored to its state before the call.
-    pub fn train_epoch(&mut self, inputs: &[[T; I]], targets: &[[T; O]]) -> Result<T, BpnnError> {
+    pub fn train_epoch(
+        &mut self,
+        inputs: &[[T; INPUTS]],
+        targets: &[[T; OUTPUTS]],
+    ) -> Result<T, BpnnError> {
         check_data(inputs, targets)?;
         let saved = (self.weights, self.momentum, self.rng.clone());
         let n = inputs.len();
@@ -322,7 +335,7 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
         let batch = self.cfg.batch as usize;
         let mut in_batch = 0usize;
         let mut sum = T::zero();
-        let mut h = [T::zero(); H];
+        let mut h = [T::zero(); HIDDEN];
         self.grad = Weights::zero();
         for k in 0..n {
             let idx = ((start as u64 + k as u64 * stride as u64) % n as u64) as usize;
@@ -346,7 +359,7 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
             return Err(BpnnError::Diverged);
         }
         self.epochs = self.epochs.saturating_add(1);
-        Ok(sum / T::of((n * O) as f64))
+        Ok(sum / T::of((n * OUTPUTS) as f64))
     }
 
     /// Weights within ±[`MAX_WEIGHT`] and momentum within twice that: what a trained or
@@ -356,11 +369,11 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
     }
 
     /// Hidden activations into `h`, normalised output returned.
-    fn pass(&self, xn: &[T; I], h: &mut [T; H]) -> [T; O] {
+    fn pass(&self, xn: &[T; INPUTS], h: &mut [T; HIDDEN]) -> [T; OUTPUTS] {
         let w = &self.weights;
-        for j in 0..H {
+        for j in 0..HIDDEN {
             let mut z = w.b1[j];
-            for i in 0..I {
+            for i in 0..INPUTS {
                 z += w.w1[j][i] * xn[i];
             }
             h[j] = match self.cfg.activation {
@@ -368,10 +381,10 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
                 Activation::Sigmoid => T::one() / (T::one() + (-z).exp()),
             };
         }
-        let mut y = [T::zero(); O];
-        for k in 0..O {
+        let mut y = [T::zero(); OUTPUTS];
+        for k in 0..OUTPUTS {
             let mut s = w.b2[k];
-            for j in 0..H {
+            for j in 0..HIDDEN {
                 s += w.w2[k][j] * h[j];
             }
             y[k] = s;
@@ -380,25 +393,25 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
     }
 
     /// Adds one sample's gradient of ½|y − t|² to the batch gradient; returns |y − t|².
-    fn accumulate(&mut self, xn: &[T; I], tn: &[T; O], h: &mut [T; H]) -> T {
+    fn accumulate(&mut self, xn: &[T; INPUTS], tn: &[T; OUTPUTS], h: &mut [T; HIDDEN]) -> T {
         let y = self.pass(xn, h);
-        let mut e = [T::zero(); O];
+        let mut e = [T::zero(); OUTPUTS];
         let mut sq = T::zero();
-        for k in 0..O {
+        for k in 0..OUTPUTS {
             e[k] = y[k] - tn[k];
             sq += e[k] * e[k];
         }
         let w = &self.weights;
         let g = &mut self.grad;
-        for k in 0..O {
+        for k in 0..OUTPUTS {
             g.b2[k] += e[k];
-            for j in 0..H {
+            for j in 0..HIDDEN {
                 g.w2[k][j] += e[k] * h[j];
             }
         }
-        for j in 0..H {
+        for j in 0..HIDDEN {
             let mut back = T::zero();
-            for k in 0..O {
+            for k in 0..OUTPUTS {
                 back += w.w2[k][j] * e[k];
             }
             let slope = match self.cfg.activation {
@@ -407,7 +420,7 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
             };
             let dz = back * slope;
             g.b1[j] += dz;
-            for i in 0..I {
+            for i in 0..INPUTS {
                 g.w1[j][i] += dz * xn[i];
             }
         }
@@ -424,14 +437,14 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
             *w += *m;
             *g = T::zero();
         };
-        for j in 0..H {
-            for i in 0..I {
+        for j in 0..HIDDEN {
+            for i in 0..INPUTS {
                 upd(&mut w.w1[j][i], &mut m.w1[j][i], &mut g.w1[j][i]);
             }
             upd(&mut w.b1[j], &mut m.b1[j], &mut g.b1[j]);
         }
-        for k in 0..O {
-            for j in 0..H {
+        for k in 0..OUTPUTS {
+            for j in 0..HIDDEN {
                 upd(&mut w.w2[k][j], &mut m.w2[k][j], &mut g.w2[k][j]);
             }
             upd(&mut w.b2[k], &mut m.b2[k], &mut g.b2[k]);
@@ -439,9 +452,9 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
     }
 
     fn encode<W: Write>(&self, e: &mut Encoder<'_, W>) -> Result<(), SnapshotError> {
-        e.usize(I)?;
-        e.usize(H)?;
-        e.usize(O)?;
+        e.usize(INPUTS)?;
+        e.usize(HIDDEN)?;
+        e.usize(OUTPUTS)?;
         e.real(self.cfg.learning_rate)?;
         e.real(self.cfg.momentum)?;
         e.u32(self.cfg.batch)?;
@@ -460,9 +473,9 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
     }
 
     fn decode<R: Read>(&mut self, d: &mut Decoder<'_, R>) -> Result<(), SnapshotError> {
-        d.expect_shape(I)?;
-        d.expect_shape(H)?;
-        d.expect_shape(O)?;
+        d.expect_shape(INPUTS)?;
+        d.expect_shape(HIDDEN)?;
+        d.expect_shape(OUTPUTS)?;
         self.cfg.learning_rate = d.real()?;
         self.cfg.momentum = d.real()?;
         self.cfg.batch = d.u32()?;
@@ -490,7 +503,9 @@ impl<T: Real, const I: usize, const H: usize, const O: usize> Bpnn<T, I, H, O> {
     }
 }
 
-impl<T: Real, const I: usize, const H: usize, const O: usize> Snapshot for Bpnn<T, I, H, O> {
+impl<T: Real, const INPUTS: usize, const HIDDEN: usize, const OUTPUTS: usize> Snapshot
+    for Bpnn<T, INPUTS, HIDDEN, OUTPUTS>
+{
     fn save<W: Write>(&self, w: &mut W) -> Result<(), SnapshotError> {
         save_with::<T, W, _>(w, Kind::Bpnn, |e| self.encode(e))
     }
@@ -516,9 +531,9 @@ fn check_config<T: Real>(cfg: &BpnnConfig<T>) -> Result<(), BpnnError> {
     }
 }
 
-fn check_data<T: Real, const I: usize, const O: usize>(
-    inputs: &[[T; I]],
-    targets: &[[T; O]],
+fn check_data<T: Real, const INPUTS: usize, const OUTPUTS: usize>(
+    inputs: &[[T; INPUTS]],
+    targets: &[[T; OUTPUTS]],
 ) -> Result<(), BpnnError> {
     if inputs.is_empty() || inputs.len() != targets.len() {
         return Err(BpnnError::Shape);

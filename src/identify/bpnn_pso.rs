@@ -83,9 +83,15 @@ pub enum BpnnPsoError {
 /// Trains `net` on a finished run: each particle's drawn initial position → its final personal
 /// best. Sets the net's normalisation ranges from these pairs, then runs `epochs` epochs;
 /// returns the last epoch's loss (mean squared error in normalised units).
-pub fn train<T: Real, const S: usize, const D: usize, const HN: usize, const HH: usize>(
-    net: &mut Bpnn<T, D, HN, D>,
-    run: &Pso<T, S, D, HH>,
+pub fn train<
+    T: Real,
+    const SWARM: usize,
+    const D: usize,
+    const HIDDEN: usize,
+    const HISTORY_LEN: usize,
+>(
+    net: &mut Bpnn<T, D, HIDDEN, D>,
+    run: &Pso<T, SWARM, D, HISTORY_LEN>,
     epochs: u32,
 ) -> Result<T, BpnnPsoError> {
     if !run.is_finished() {
@@ -106,9 +112,15 @@ pub fn train<T: Real, const S: usize, const D: usize, const HN: usize, const HH:
 /// Places every particle of a fresh swarm at the network's prediction for its drawn position,
 /// at rest. Call after [`Pso::new`] or [`Pso::restart`] and before the first [`Pso::step`].
 /// On error the swarm is unchanged.
-pub fn seed<T: Real, const S: usize, const D: usize, const HN: usize, const HH: usize>(
-    swarm: &mut Pso<T, S, D, HH>,
-    net: &Bpnn<T, D, HN, D>,
+pub fn seed<
+    T: Real,
+    const SWARM: usize,
+    const D: usize,
+    const HIDDEN: usize,
+    const HISTORY_LEN: usize,
+>(
+    swarm: &mut Pso<T, SWARM, D, HISTORY_LEN>,
+    net: &Bpnn<T, D, HIDDEN, D>,
 ) -> Result<(), BpnnPsoError> {
     if swarm.progress().evaluations != 0 {
         return Err(BpnnPsoError::Swarm(PsoError::Start));
@@ -122,7 +134,7 @@ pub fn seed<T: Real, const S: usize, const D: usize, const HN: usize, const HH: 
         return Err(BpnnPsoError::Net(BpnnError::NonFinite));
     }
     let rest = [T::zero(); D];
-    for i in 0..S {
+    for i in 0..SWARM {
         let Some(x) = swarm.initial_positions().get(i).copied() else {
             break;
         };

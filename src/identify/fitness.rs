@@ -54,7 +54,7 @@
 //! assert_eq!(f.robot(&x).unwrap().joints()[0].d, 400.5);
 //! ```
 
-use crate::identify::lm_pass::observation_cost;
+use crate::identify::lm::observation_cost;
 use crate::model::param::{apply_delta, ParamError, ParamSet};
 use crate::model::robot::RowTrig;
 use crate::{ForwardKinematics, Frame, Joint, Measurement, Real, Robot};

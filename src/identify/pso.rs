@@ -1,6 +1,6 @@
 //! Particle swarm optimisation as a sliced stepper (the BPNN-PSO paper, §3.1).
 //!
-//! `S` particles search a box in `D` dimensions for the minimum of an [`Objective`] (for
+//! `SWARM` particles search a box in `D` dimensions for the minimum of an [`Objective`] (for
 //! calibration: [`crate::identify::fitness::PositionFitness`] over parameter deltas). Each iteration moves
 //! every particle with the paper's update
 //!
@@ -10,7 +10,7 @@
 //! evaluates it and updates its personal best. The update is *synchronous*, as in the paper's
 //! steps 5–6: every particle of an iteration sees the global best of the previous iteration.
 //!
-//! **Defaults** are the paper's: 200 particles (the caller's `S`), `c1 = 0.5`, `c2 = 1.25`,
+//! **Defaults** are the paper's: 200 particles (the caller's `SWARM`), `c1 = 0.5`, `c2 = 1.25`,
 //! `w = 0.9`. [`PsoConfig::calibration`] builds the box for a parameter set: ±0.5° for angles and
 //! ±2 mm for lengths around the reference (the paper's errors are a fraction of that). The paper
 //! leaves the rest open; we chose (on the 24-parameter ER20 problem) a velocity limit of 0.1 of
@@ -35,8 +35,8 @@
 //! calls → bit-identical results, whatever the slicing.
 //!
 //! **History.** The global best after the initial swarm and after each iteration is kept for
-//! plots (fitness against iteration) in a fixed buffer of `H` entries; later iterations are not
-//! recorded once it is full.
+//! plots (fitness against iteration) in a fixed buffer of `HISTORY_LEN` entries; later iterations
+//! are not recorded once it is full.
 //!
 //! A swarm run in slices, saved half-way and resumed in another swarm, ends exactly where an
 //! uninterrupted run ends:
@@ -122,7 +122,7 @@ pub struct PsoConfig<T: Real, const D: usize> {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum PsoError {
-    /// `S` or `D` is zero.
+    /// `SWARM` or `D` is zero.
     Empty,
     /// A bound is not finite, `lower >= upper`, or a span `upper − lower` too wide for `T`
     /// (times the velocity factors it overflows: `±1e308` in `f64`, say).
@@ -267,21 +267,22 @@ enum Phase {
     Done(PsoStop),
 }
 
-/// A particle swarm of `S` particles in `D` dimensions with a fitness history of `H` entries.
+/// A particle swarm of `SWARM` particles in `D` dimensions with a fitness history of `HISTORY_LEN`
+/// entries.
 ///
 /// Sizes are const generics: `Pso<f32, 200, 24>` holds four `200 × 24` arrays (positions,
 /// velocities, personal bests, starting positions), about 77 kB in `f32`.
 #[derive(Clone, Debug)]
-pub struct Pso<T: Real, const S: usize, const D: usize, const H: usize = HISTORY> {
+pub struct Pso<T: Real, const SWARM: usize, const D: usize, const HISTORY_LEN: usize = HISTORY> {
     cfg: PsoConfig<T, D>,
     vmax: [T; D],
     rng: Xoshiro256PlusPlus,
-    position: [[T; D]; S],
-    velocity: [[T; D]; S],
-    best: [[T; D]; S],
-    best_fitness: [T; S],
+    position: [[T; D]; SWARM],
+    velocity: [[T; D]; SWARM],
+    best: [[T; D]; SWARM],
+    best_fitness: [T; SWARM],
     /// The positions drawn at construction (the BPNN's inputs in BPNN-PSO).
-    initial: [[T; D]; S],
+    initial: [[T; D]; SWARM],
     global: [T; D],
     global_fitness: T,
     phase: Phase,
@@ -291,14 +292,16 @@ pub struct Pso<T: Real, const S: usize, const D: usize, const H: usize = HISTORY
     /// Global best at the last significant improvement (stagnation test).
     reference: T,
     since_improvement: u32,
-    history: heapless::Vec<T, H>,
+    history: heapless::Vec<T, HISTORY_LEN>,
 }
 
-impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
+impl<T: Real, const SWARM: usize, const D: usize, const HISTORY_LEN: usize>
+    Pso<T, SWARM, D, HISTORY_LEN>
+{
     /// A swarm drawn uniformly in the box from `seed` (positions, then velocities, particle
     /// by particle), not yet evaluated.
     pub fn new(cfg: PsoConfig<T, D>, seed: u64) -> Result<Self, PsoError> {
-        if S == 0 {
+        if SWARM == 0 {
             return Err(PsoError::Empty);
         }
         cfg.validate()?;
@@ -307,11 +310,11 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
             cfg,
             vmax: [T::zero(); D],
             rng: Xoshiro256PlusPlus::seed_from_u64(seed),
-            position: [[T::zero(); D]; S],
-            velocity: [[T::zero(); D]; S],
-            best: [[T::zero(); D]; S],
-            best_fitness: [inf; S],
-            initial: [[T::zero(); D]; S],
+            position: [[T::zero(); D]; SWARM],
+            velocity: [[T::zero(); D]; SWARM],
+            best: [[T::zero(); D]; SWARM],
+            best_fitness: [inf; SWARM],
+            initial: [[T::zero(); D]; SWARM],
             global: [T::zero(); D],
             global_fitness: inf,
             phase: Phase::Start,
@@ -346,7 +349,7 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
         }
         self.best = self.position;
         self.initial = self.position;
-        self.best_fitness = [inf; S];
+        self.best_fitness = [inf; SWARM];
         self.global = self.position.first().copied().unwrap_or([T::zero(); D]);
         self.global_fitness = inf;
         self.phase = Phase::Start;
@@ -363,7 +366,7 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
     /// to the velocity limit) before the swarm is first evaluated: how BPNN-PSO places its
     /// predicted particles. The drawn position stays available in [`Pso::initial_positions`].
     pub fn set_start(&mut self, i: usize, x: &[T; D], v: &[T; D]) -> Result<(), PsoError> {
-        if self.evaluations != 0 || i >= S || !x.iter().chain(v.iter()).all(|c| c.finite()) {
+        if self.evaluations != 0 || i >= SWARM || !x.iter().chain(v.iter()).all(|c| c.finite()) {
             return Err(PsoError::Start);
         }
         for d in 0..D {
@@ -394,23 +397,23 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
         self.global_fitness
     }
     /// Every particle's current position.
-    pub fn positions(&self) -> &[[T; D]; S] {
+    pub fn positions(&self) -> &[[T; D]; SWARM] {
         &self.position
     }
     /// Every particle's current velocity.
-    pub fn velocities(&self) -> &[[T; D]; S] {
+    pub fn velocities(&self) -> &[[T; D]; SWARM] {
         &self.velocity
     }
     /// Each particle's best position so far.
-    pub fn personal_bests(&self) -> &[[T; D]; S] {
+    pub fn personal_bests(&self) -> &[[T; D]; SWARM] {
         &self.best
     }
     /// Fitness of each particle's best position so far.
-    pub fn personal_best_fitness(&self) -> &[T; S] {
+    pub fn personal_best_fitness(&self) -> &[T; SWARM] {
         &self.best_fitness
     }
     /// The positions drawn at construction, before any [`Pso::set_start`].
-    pub fn initial_positions(&self) -> &[[T; D]; S] {
+    pub fn initial_positions(&self) -> &[[T; D]; SWARM] {
         &self.initial
     }
     /// Global best after the initial swarm (index 0) and after each iteration (index k).
@@ -471,7 +474,7 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
                 self.best[i] = self.position[i];
             }
             self.next += 1;
-            if self.next >= S {
+            if self.next >= SWARM {
                 self.next = 0;
                 self.end_iteration();
             }
@@ -570,9 +573,9 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
     }
 
     fn encode<W: Write>(&self, e: &mut Encoder<'_, W>) -> Result<(), SnapshotError> {
-        e.usize(S)?;
+        e.usize(SWARM)?;
         e.usize(D)?;
-        e.usize(H)?;
+        e.usize(HISTORY_LEN)?;
         let c = &self.cfg;
         e.real(c.inertia)?;
         e.real(c.cognitive)?;
@@ -611,9 +614,9 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
 
     /// Overwrites every field from `d` and validates the result.
     fn decode<R: Read>(&mut self, d: &mut Decoder<'_, R>) -> Result<(), SnapshotError> {
-        d.expect_shape(S)?;
+        d.expect_shape(SWARM)?;
         d.expect_shape(D)?;
-        d.expect_shape(H)?;
+        d.expect_shape(HISTORY_LEN)?;
         let c = &mut self.cfg;
         c.inertia = d.real()?;
         c.cognitive = d.real()?;
@@ -650,7 +653,7 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
         d.reals(&mut self.best_fitness)?;
         d.real_rows(&mut self.initial)?;
         let n = d.usize()?;
-        if n > H {
+        if n > HISTORY_LEN {
             return Err(SnapshotError::Invalid);
         }
         self.history.clear();
@@ -663,8 +666,8 @@ impl<T: Real, const S: usize, const D: usize, const H: usize> Pso<T, S, D, H> {
         let (lo, hi, vm) = (&self.cfg.lower, &self.cfg.upper, &self.vmax);
         let f = self.cfg.initial_velocity.max(T::one());
         let inside = |x: &[T; D]| (0..D).all(|d| x[d] >= lo[d] && x[d] <= hi[d]);
-        let rows_inside = |a: &[[T; D]; S]| a.iter().all(inside);
-        let ok = self.next < S
+        let rows_inside = |a: &[[T; D]; SWARM]| a.iter().all(inside);
+        let ok = self.next < SWARM
             && rows_inside(&self.position)
             && self
                 .velocity
@@ -693,7 +696,9 @@ fn velocity_limits<T: Real, const D: usize>(cfg: &PsoConfig<T, D>) -> [T; D] {
     v
 }
 
-impl<T: Real, const S: usize, const D: usize, const H: usize> Snapshot for Pso<T, S, D, H> {
+impl<T: Real, const SWARM: usize, const D: usize, const HISTORY_LEN: usize> Snapshot
+    for Pso<T, SWARM, D, HISTORY_LEN>
+{
     fn save<W: Write>(&self, w: &mut W) -> Result<(), SnapshotError> {
         save_with::<T, W, _>(w, Kind::Pso, |e| self.encode(e))
     }

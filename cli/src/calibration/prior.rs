@@ -22,8 +22,7 @@
 use super::{Fit, Param};
 use crate::compute::vec_lm::{VecLm, VecPenalty};
 pub use crate::formats::prior::PriorSpec;
-use kinecal::identify::lm::{Levenberg, LmConfig};
-use kinecal::identify::lm_penalty::PenaltyTerm;
+use kinecal::identify::lm::{Levenberg, LmConfig, PenaltyTerm};
 use kinecal::{Measurement, Robot};
 use serde::Serialize;
 use std::collections::BTreeMap;

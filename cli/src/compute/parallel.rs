@@ -1,5 +1,5 @@
 //! Both cores for the passes over many poses: the library's Levenberg–Marquardt passes
-//! ([`kinecal::identify::lm_pass`]) and per-pose evaluations, spread over scoped threads.
+//! ([`kinecal::identify::lm`]) and per-pose evaluations, spread over scoped threads.
 //!
 //! Large data are always cut into the same [`PARTS`] contiguous parts, whatever the number of
 //! threads, and the parts are summed in order: a result does not depend on the machine's core

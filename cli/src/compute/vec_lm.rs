@@ -4,8 +4,8 @@
 
 use kinecal::identify::lm::{
     LmParts, LmPartsRef, LmPenalty, LmStorage, PenaltyParts, PenaltyPartsRef, PenaltyTerm,
+    LM_FLAG_VECTORS, LM_INDEX_VECTORS, LM_VECTORS,
 };
-use kinecal::identify::lm_storage::{LM_FLAG_VECTORS, LM_INDEX_VECTORS, LM_VECTORS};
 use kinecal::model::param::Param;
 use kinecal::num::linalg::LinalgError;
 use kinecal::Real;

@@ -3,7 +3,7 @@
 //! [`Problem`] is a parameter set of a refit: which parameters are free, their scales
 //! ([`Param::scale`]: 1 mm at the tool per unit) and the penalty on the knots of correction
 //! tables ([`TablePenalty`]), expressed as the library's penalty terms
-//! ([`kinecal::identify::lm_penalty`]). The refits themselves are the library's
+//! ([`kinecal::identify::lm`]). The refits themselves are the library's
 //! Levenberg–Marquardt ([`crate::diagnose::refit`]); what is here serves the screen and the
 //! noise estimate, which work on normal equations directly: every pose's residual and sparse
 //! scaled columns ([`Problem::pose_rows`]), their normal-equation sums per fold ([`Normal`],

@@ -1,6 +1,6 @@
 //! The refits of the discrepancy search, by the library's Levenberg–Marquardt
 //! ([`kinecal::identify::lm::Levenberg`]) with the table penalty
-//! ([`kinecal::identify::lm_penalty`]): the same solver as `identify` and the firmware, on the
+//! ([`kinecal::identify::lm`]): the same solver as `identify` and the firmware, on the
 //! heap ([`VecLm`], [`VecPenalty`]).
 //!
 //! A refit estimates a known parameter set ([`Problem`]: geometry without what the data could

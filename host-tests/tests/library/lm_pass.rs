@@ -1,4 +1,4 @@
-//! Levenberg–Marquardt passes spread over parts (`kinecal::identify::lm_pass`, the host's
+//! Levenberg–Marquardt passes spread over parts (`kinecal::identify::lm`, the host's
 //! `parallel::run_lm`): the same run as one `step` loop up to the order of summation, and every
 //! misuse refused with a typed error.
 

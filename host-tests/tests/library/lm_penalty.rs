@@ -1,5 +1,5 @@
 //! The library's Levenberg–Marquardt with a penalty (prior) on the scaled parameters and with
-//! caller-held parameters (`kinecal::identify::lm_penalty`, `Levenberg::with_penalty`,
+//! caller-held parameters (`kinecal::identify::lm`, `Levenberg::with_penalty`,
 //! `Levenberg::hold`): the optimum is the closed-form penalised least-squares solution of an
 //! independent dense solve, held parameters stay put, bad penalties get typed errors, and a
 //! penalised run survives snapshots bit for bit.

@@ -13,9 +13,8 @@
 
 use kinecal::forward::ForwardKinematics;
 use kinecal::identify::lm::{
-    rms_error, rms_orientation_error, FixedLevenberg, Levenberg, LmConfig,
+    observation_cost, rms_error, rms_orientation_error, FixedLevenberg, Levenberg, LmConfig,
 };
-use kinecal::identify::lm_pass::observation_cost;
 use kinecal::model::param::{apply_delta, Param, ParamSet};
 use kinecal::{EffectKind, Frame, Joint, Measurement, Robot};
 use kinecal_host::reference::{ref_fit, small_angle, RefObservation, RefRobot};

@@ -1,12 +1,18 @@
 //! Snapshot and restore of a [`super::Levenberg`] run: everything except scratch that the
 //! next phase rewrites.
 
-use super::*;
+use super::levenberg::{Levenberg, Phase};
+use super::penalty::LmPenalty;
+use super::status::LmStop;
+use super::storage::LmStorage;
 use crate::io::snapshot::{
     restore_with, save_with, Decoder, Encoder, Kind, Snapshot, SnapshotError,
 };
+use crate::model::param::Param;
 use crate::Frame;
+use crate::{Real, Robot};
 use embedded_io::{Read, Write};
+use nalgebra::Vector3;
 
 fn param_tag(p: Param) -> (u8, u16) {
     match p {
@@ -158,15 +164,23 @@ fn all_finite<T: Real>(v: &[T]) -> bool {
 /// caller holds. Its snapshot then carries a tail after the plain fields (the plain
 /// layout is unchanged, so plain snapshots stay compatible); a snapshot restores only into
 /// a solver with the same holds and penalty shape.
-fn extended<T: Real, S: LmStorage<T>, Q: LmPenalty<T>>(st: &S, pen: &Q) -> bool {
+fn extended<T: Real, Storage: LmStorage<T>, Penalty: LmPenalty<T>>(
+    st: &Storage,
+    pen: &Penalty,
+) -> bool {
     let p = st.parts_ref();
     pen.parts_ref().is_some() || p.held[..p.params.len()].iter().any(|h| *h)
 }
 
 /// A snapshot holds the parameter list, not the storage's capacity: it restores into any
 /// storage with room for the same parameters (fixed arrays or a host's heap).
-impl<T: Real, const N: usize, const V: usize, S: LmStorage<T> + Clone, Q: LmPenalty<T> + Clone>
-    Snapshot for Levenberg<T, N, V, S, Q>
+impl<
+        T: Real,
+        const N: usize,
+        const V: usize,
+        Storage: LmStorage<T> + Clone,
+        Penalty: LmPenalty<T> + Clone,
+    > Snapshot for Levenberg<T, N, V, Storage, Penalty>
 {
     fn save<W: Write>(&self, w: &mut W) -> Result<(), SnapshotError> {
         let p = self.st.parts_ref();

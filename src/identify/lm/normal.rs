@@ -1,160 +1,18 @@
-//! One pass of a [`crate::identify::lm::Levenberg`] run over the measurements, spread over workers.
-//!
-//! A run alternates passes over all poses (accumulate the residuals and normal equations at
-//! the estimate or at a candidate step) with solves of `P × P` systems. The passes are
-//! where the time goes with many poses, and they are sums: each worker can take a slice of the
-//! measurements into its own partial sums, and the solver adds the parts. [`Levenberg::pass`]
-//! hands out the pass the run needs next (borrowing the solver immutably, so the workers may
-//! share it), [`Pass::accumulate`] fills one [`PassPart`], and [`Levenberg::complete_pass`]
-//! merges the parts and moves the run on. The outcome equals [`Levenberg::step`] over the same
-//! data up to the order of summation; a caller who always cuts the data into the same parts
-//! gets the same numbers whatever the number of threads.
-//!
-//! The library spawns nothing: the caller chooses the workers (host threads, or one core after
-//! another) and owns each part's storage, as it owns the solver's.
-//!
-//! [`Levenberg::pass`]: crate::identify::lm::Levenberg::pass
-//! [`Levenberg::complete_pass`]: crate::identify::lm::Levenberg::complete_pass
-//! [`Levenberg::step`]: crate::identify::lm::Levenberg::step
+//! The normal equations of a run, one observation at a time: its residual and scaled
+//! Jacobian columns (the point's rows, and the orientation's for a 6-D observation) added to
+//! `JᵀJ` (lower triangle) and `Jᵀr`, with the shortcuts that keep a pose `O(k²)` in the `k`
+//! columns it excites (held columns' diagonal only; correction tables' two knots).
 
-use crate::identify::lm_status::LmError;
-use crate::identify::lm_storage::{LmParts, LmStorage};
+use super::residual::residual;
+use super::storage::LmParts;
 use crate::io::measurement::Observation;
 use crate::model::effects::{Effect, EffectKind};
-use crate::model::frame::orientation_error;
 use crate::model::param::Param;
 use crate::{ForwardKinematics, Real, Robot};
 use nalgebra::Vector3;
 
-/// What a pass computes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum PassKind {
-    /// Residuals and normal equations `JᵀJ`, `Jᵀr` at the current estimate.
-    Estimate,
-    /// The same at a candidate step: its cost decides the step, and when it is accepted (the
-    /// usual case) its normal equations are the next iteration's.
-    Candidate,
-}
-
-/// The pass a run needs next (see the [module](self)). Borrowing the solver, it is shared by
-/// the workers of one pass.
-#[derive(Clone, Copy, Debug)]
-pub struct Pass<'a, T: Real, const N: usize, const V: usize> {
-    pub(crate) kind: PassKind,
-    /// Which pass of the run this is (parts of another pass are refused).
-    pub(crate) id: u32,
-    /// The model the pass evaluates (the estimate, or the candidate).
-    pub(crate) robot: &'a Robot<T, N, V>,
-    pub(crate) columns: Columns<'a, T>,
-}
-
-/// One worker's share of a pass: its partial sums, in storage for the solver's parameters
-/// (only the normal equations `jtj`, `jtr` and the per-pose scratch `cx`, `cy`, `cz`, `nz` are
-/// used;
-/// the other arrays may be empty).
-#[derive(Clone, Debug)]
-pub struct PassPart<T: Real, S: LmStorage<T>> {
-    pub(crate) storage: S,
-    pub(crate) cost: T,
-    pub(crate) poses: usize,
-    /// The pass these sums belong to (`None`: never used).
-    pub(crate) id: Option<u32>,
-}
-
-impl<T: Real, S: LmStorage<T>> PassPart<T, S> {
-    /// A part with `storage` for the same parameters as the solver's.
-    pub fn new(storage: S) -> Self {
-        Self {
-            storage,
-            cost: T::zero(),
-            poses: 0,
-            id: None,
-        }
-    }
-
-    /// Poses accumulated into this part in its pass.
-    pub fn poses(&self) -> usize {
-        self.poses
-    }
-
-    /// The part's sum of squared residuals (mm²).
-    pub fn cost(&self) -> T {
-        self.cost
-    }
-
-    /// The part's storage: its normal equations `JᵀJ` (lower triangle) and `Jᵀr` of the
-    /// scaled columns over the poses accumulated in its pass (`parts_ref().jtj`, `.jtr`).
-    pub fn storage(&self) -> &S {
-        &self.storage
-    }
-}
-
-impl<T: Real, const N: usize, const V: usize> Pass<'_, T, N, V> {
-    /// What this pass computes.
-    pub fn kind(&self) -> PassKind {
-        self.kind
-    }
-
-    /// The model this pass evaluates (the estimate, or the candidate).
-    pub fn robot(&self) -> &Robot<T, N, V> {
-        self.robot
-    }
-
-    /// Adds `poses` (a slice of the run's measurements; every pose in exactly one part) to
-    /// `part`, starting it afresh when it last served another pass. `fk` is the worker's own
-    /// scratch.
-    pub fn accumulate<S: LmStorage<T>, M: Observation<T, N>>(
-        &self,
-        fk: &mut ForwardKinematics<T, N>,
-        poses: &[M],
-        part: &mut PassPart<T, S>,
-    ) -> Result<(), LmError> {
-        if part.storage.params() != self.columns.params || !part_fits(&mut part.storage) {
-            return Err(LmError::PassMismatch);
-        }
-        check_observations(self.robot, poses)?;
-        let n = self.columns.params.len();
-        if part.id != Some(self.id) {
-            part.id = Some(self.id);
-            part.cost = T::zero();
-            part.poses = 0;
-            let p = part.storage.parts();
-            if self.columns.gradient_only {
-                p.jtr[..n].fill(T::zero());
-            } else {
-                clear_normal_equations(p.jtj, p.jtr, p.stride, n);
-            }
-        }
-        let (_, mut sums) = split_parts(
-            part.storage.parts(),
-            self.columns.full,
-            self.columns.gradient_only,
-        );
-        for m in poses {
-            part.cost += accumulate_pose(fk, self.robot, m, &self.columns, &mut sums);
-        }
-        part.poses += poses.len();
-        Ok(())
-    }
-}
-
-/// Checks that a part's storage has room for what a pass writes: the normal equations and the
-/// per-pose scratch (the solver's other arrays may be empty).
-fn part_fits<T: Real, S: LmStorage<T>>(st: &mut S) -> bool {
-    let n = st.params().len();
-    let p = st.parts();
-    p.stride >= n
-        && p.stride
-            .checked_mul(p.stride)
-            .is_some_and(|m| p.jtj.len() >= m)
-        && p.jtr.len() >= n
-        && [p.cx.len(), p.cy.len(), p.cz.len()].iter().all(|l| *l >= n)
-        && p.nz.len() >= n
-}
-
 /// Zeroes the first `n` rows and entries of normal equations with row stride `stride`.
-pub(crate) fn clear_normal_equations<T: Real>(
+pub(super) fn clear_normal_equations<T: Real>(
     jtj: &mut [T],
     jtr: &mut [T],
     stride: usize,
@@ -168,7 +26,7 @@ pub(crate) fn clear_normal_equations<T: Real>(
 
 /// Where one pose's contribution goes: the lower triangle of `JᵀJ` (row stride `stride`),
 /// `Jᵀr`, and the per-pose scratch of non-zero columns.
-pub(crate) struct NormalSums<'a, T> {
+pub(super) struct NormalSums<'a, T> {
     pub stride: usize,
     pub jtj: &'a mut [T],
     pub jtr: &'a mut [T],
@@ -180,7 +38,7 @@ pub(crate) struct NormalSums<'a, T> {
 
 /// A storage's arrays as what one pose reads (the parameters, scales, estimated set) and where
 /// it adds (the normal equations and their per-pose scratch).
-pub(crate) fn split_parts<T>(
+pub(super) fn split_parts<T>(
     p: LmParts<'_, T>,
     full: bool,
     gradient_only: bool,
@@ -207,7 +65,7 @@ pub(crate) fn split_parts<T>(
 /// The parameters, their scales, which are estimated, and whether held columns enter in full:
 /// what a pass needs to know of the solver.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Columns<'a, T> {
+pub(super) struct Columns<'a, T> {
     pub params: &'a [Param],
     pub scale: &'a [T],
     pub active: &'a [bool],
@@ -218,7 +76,7 @@ pub(crate) struct Columns<'a, T> {
 
 /// Which rows of an observation a block of the Jacobian is: the point's three coordinates,
 /// or the three components of the orientation error (6-D observations).
-pub(crate) trait Rows {
+pub(super) trait Rows {
     /// `∂(rows)/∂param` at the last computed pose.
     fn column<T: Real, const N: usize, const V: usize>(
         fk: &ForwardKinematics<T, N>,
@@ -234,9 +92,9 @@ pub(crate) trait Rows {
 }
 
 /// The point's rows.
-pub(crate) struct PointRows;
+pub(super) struct PointRows;
 /// The orientation's rows.
-pub(crate) struct OrientationRows;
+pub(super) struct OrientationRows;
 
 impl Rows for PointRows {
     #[inline(always)]
@@ -278,46 +136,9 @@ impl Rows for OrientationRows {
     }
 }
 
-/// The weighted residual of one observation at `robot` and its squared norm (the observation's
-/// share of the cost): the point's `w ⊙ (p_m − p)` and, for a 6-D observation, the orientation
-/// error's rotation vector times its weight. `fk` holds the pose afterwards. `None` when the
-/// robot has no tool point `m.tool`.
-#[inline(always)]
-pub(crate) fn residual<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
-    fk: &mut ForwardKinematics<T, N>,
-    robot: &Robot<T, N, V>,
-    m: &M,
-) -> Option<(Vector3<T>, Option<Vector3<T>>)> {
-    let p = if m.tool() == 0 {
-        fk.compute(robot, m.q())
-    } else {
-        fk.compute_point(robot, m.q(), m.tool())?
-    };
-    let mut r = m.point() - p;
-    if let Some(w) = m.weight() {
-        r = r.component_mul(&w);
-    }
-    let rot = m
-        .orientation()
-        .map(|(o, w)| orientation_error(o, &fk.tool_pose(robot)) * w);
-    Some((r, rot))
-}
-
-/// The weighted squared residual of one observation (the module documentation of
-/// [`crate::io::measurement`] gives it); `None` when the
-/// robot has no tool point `m.tool`.
-pub fn observation_cost<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
-    fk: &mut ForwardKinematics<T, N>,
-    robot: &Robot<T, N, V>,
-    m: &M,
-) -> Option<T> {
-    let (r, rot) = residual(fk, robot, m)?;
-    Some(r.norm_squared() + rot.map_or(T::zero(), |v| v.norm_squared()))
-}
-
 /// Adds one observation's residual and scaled Jacobian to `out` and returns its squared
 /// (weighted) residual: the point's rows, then for a 6-D observation the orientation's.
-pub(crate) fn accumulate_pose<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
+pub(super) fn accumulate_pose<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
     fk: &mut ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
     m: &M,
@@ -575,18 +396,4 @@ impl<T: Real> TableCache<T> {
         };
         Some(jc * phi)
     }
-}
-
-/// `Ok` when every observation is finite and names a tool point of `robot`.
-pub(crate) fn check_observations<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
-    robot: &Robot<T, N, V>,
-    data: &[M],
-) -> Result<(), LmError> {
-    if data.iter().any(|m| !m.is_valid()) {
-        return Err(LmError::NonFiniteMeasurement);
-    }
-    if data.iter().any(|m| m.tool() >= robot.tool_point_count()) {
-        return Err(LmError::UnknownToolPoint);
-    }
-    Ok(())
 }

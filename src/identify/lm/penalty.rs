@@ -14,7 +14,7 @@
 //! the start of the run (the first pass), so that `ρ = 1e-3` means "a thousandth of what an
 //! average column of the run knows" whatever the number of poses; an absolute term has `w = 1`.
 //!
-//! The solver's own storage ([`crate::identify::lm_storage`]) is untouched: a penalty lives in
+//! The solver's own storage ([`super::LmStorage`]) is untouched: a penalty lives in
 //! a second, caller-owned value implementing [`LmPenalty`]. [`NoPenalty`] (the default) has no
 //! storage and compiles to nothing; [`FixedPenalty`] keeps a penalty in fixed arrays; a host
 //! sizes one on the heap (the `kinecal` command line's `VecPenalty`).
@@ -201,7 +201,7 @@ impl<T: Real> PenaltyPartsRef<'_, T> {
     }
 }
 
-/// Caller-owned storage of a penalty (see the [module](self)); `None` from both methods means
+/// Caller-owned storage of a penalty (see the [module](crate::identify::lm)); `None` from both methods means
 /// no penalty at all.
 pub trait LmPenalty<T: Real> {
     /// The arrays for writing, or `None` without a penalty.
@@ -281,7 +281,7 @@ impl<T: Real, const P: usize, const K: usize> LmPenalty<T> for FixedPenalty<T, P
 }
 
 /// Checks a penalty against the solver's `params` (sizes, finiteness).
-pub(crate) fn check_penalty<T: Real>(
+pub(super) fn check_penalty<T: Real>(
     p: &PenaltyParts<'_, T>,
     params: &[Param],
 ) -> Result<(), PenaltyError> {

@@ -212,7 +212,7 @@ impl<T: Real, const P: usize> LmStorage<T> for FixedLm<T, P> {
 }
 
 /// Checks that the storage has room for its parameters.
-pub(crate) fn storage_fits<T: Real, S: LmStorage<T>>(st: &mut S) -> bool {
+pub(super) fn storage_fits<T: Real, Storage: LmStorage<T>>(st: &mut Storage) -> bool {
     let n = st.params().len();
     let p = st.parts();
     let vectors = [

@@ -1,7 +1,7 @@
 //! Where a [`crate::identify::lm::Levenberg`] run stands and why it stopped or refused a call:
-//! the types its callers (and its passes, [`crate::identify::lm_pass`]) share.
+//! the types its callers (and its passes) share.
 
-use crate::identify::lm_penalty::PenaltyError;
+use super::penalty::PenaltyError;
 use crate::model::param::ParamError;
 use crate::Real;
 

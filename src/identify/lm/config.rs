@@ -1,0 +1,69 @@
+//! The settings of a [`super::Levenberg`] run.
+
+use crate::Real;
+
+/// Settings of the solver; [`LmConfig::default`] suits laser-tracker data.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LmConfig<T: Real> {
+    /// Stop after this many accepted or rejected steps.
+    pub max_iterations: u32,
+    /// Stop when a step lowers the cost by less than this fraction.
+    pub cost_tolerance: T,
+    /// Stop when the scaled step is shorter than this (mm-equivalent).
+    pub step_tolerance: T,
+    /// Relative pivot below which a parameter direction counts as unidentifiable.
+    pub rank_tolerance: T,
+    /// Ridge on the accumulated scaled update, relative to the mean diagonal of `JᵀJ`.
+    pub ridge: T,
+    /// Initial damping relative to the diagonal.
+    pub initial_damping: T,
+    /// Most identifiability analyses in one run (the first one included); 1 decides once, at
+    /// the starting model; 0 makes none: every parameter the caller does not hold is
+    /// estimated (a refit of a parameter set known to be determined, or made so by a penalty).
+    pub max_analyses: u8,
+    /// Relative pivot a held parameter needs to join on a re-analysis (stricter than
+    /// `rank_tolerance`): moving off the nominal geometry turns exact dependencies (d of
+    /// parallel axes) into near ones, which the data still cannot determine.
+    pub activation_tolerance: T,
+    /// Keep the curvature `JᵀJ` while steps succeed: a candidate's pass then sums only `Jᵀr`
+    /// and the cost (about half the work of a pass with many parameters), and the next step
+    /// is solved with the `JᵀJ` of an earlier point. It is formed afresh (a full pass at the
+    /// estimate) after a rejected step and after a step that gained less than half of what it
+    /// promised. The fixed point is the same; for refits that start next to their solution
+    /// (nearly linear) it saves most of the work. Re-analyses of identifiability are only
+    /// triggered by full passes. Default off.
+    pub keep_curvature: bool,
+}
+
+impl<T: Real> LmConfig<T> {
+    /// Whether the settings can run: every number finite, the initial damping above zero (a
+    /// zero or negative damping never grows, so a failed step would be retried forever), the
+    /// rank tolerance in (0, 1), the other tolerances and the ridge at least zero.
+    pub fn is_valid(&self) -> bool {
+        let finite_non_negative = |x: T| x.finite() && x >= T::zero();
+        self.initial_damping.finite()
+            && self.initial_damping > T::zero()
+            && self.rank_tolerance > T::zero()
+            && self.rank_tolerance < T::one()
+            && finite_non_negative(self.cost_tolerance)
+            && finite_non_negative(self.step_tolerance)
+            && finite_non_negative(self.ridge)
+            && finite_non_negative(self.activation_tolerance)
+    }
+}
+
+impl<T: Real> Default for LmConfig<T> {
+    fn default() -> Self {
+        Self {
+            max_iterations: 100,
+            cost_tolerance: T::of(1e-10).max(T::EPS * T::of(16.0)),
+            step_tolerance: T::of(1e-9).max(T::EPS * T::of(16.0)),
+            rank_tolerance: T::EPS.sqrt(),
+            ridge: T::of(1e-9).max(T::EPS),
+            initial_damping: T::of(1e-3),
+            max_analyses: 8,
+            activation_tolerance: T::of(1e-4),
+            keep_curvature: false,
+        }
+    }
+}

@@ -382,8 +382,8 @@ fn c_client_of_a_diagnosed_model_matches_the_library_in_f64() {
             &cfg,
         )
         .expect("f64 compensation");
-        for j in 0..6 {
-            worst_dq = worst_dq.max((lib.q[j] - cmd[j]).abs());
+        for (l, c) in lib.q.iter().zip(&cmd) {
+            worst_dq = worst_dq.max((l - c).abs());
         }
         let _ = qt;
     }

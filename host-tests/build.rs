@@ -5,13 +5,16 @@
 fn main() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let source = root.join("ffi/tests/c/host_test.c");
+    let model = root.join("ffi/tests/c/model_test.c");
     println!("cargo:rerun-if-changed={}", source.display());
+    println!("cargo:rerun-if-changed={}", model.display());
     println!(
         "cargo:rerun-if-changed={}",
         root.join("include/kinecal.h").display()
     );
     cc::Build::new()
         .file(&source)
+        .file(&model)
         .include(root.join("include"))
         .std("c99")
         // The header's `kc_lm_full` (host-tests builds kinecal-ffi with its `lm-full` feature).

@@ -23,9 +23,13 @@
 // Joints of every robot of this ABI.
 #define KC_JOINTS 6
 
-// Bytes of a `kc_robot` (the largest `Robot<f32, 6>` of the supported targets, rounded up
-// to 8; a compile-time assertion checks it fits).
-#define KC_ROBOT_SIZE 1016
+// Room for joint-correction values in a `kc_robot` (every effect's values together: a
+// `joint-table`'s knots, a `joint-cyclic`'s two terms, …); at most 32 effects.
+#define KC_MAX_EFFECT_VALUES 1024
+
+// Bytes of a `kc_robot` (the largest robot of the supported targets, rounded up to 8; a
+// compile-time assertion checks it fits).
+#define KC_ROBOT_SIZE 5112
 
 // Every distinct parameter of a 6-joint robot: 6 base + 5 × 6 row + 3 tool.
 #define KC_PARAMS_ALL 39
@@ -109,6 +113,9 @@ enum kc_status
   KC_NOT_FOUND = 14,
   // A handle is not aligned to 8 bytes.
   KC_MISALIGNED = 15,
+  // A binary model was refused: truncated, corrupted (CRC), of another layout version or
+  // joint count, or larger than the robot handle holds.
+  KC_MODEL_INVALID = 16,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -273,8 +280,9 @@ typedef uint8_t kc_csv_error_kind;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
-// A robot (`Robot<f32, 6>`): base pose, six MDH rows, tool point, joint couplings. Opaque;
-// caller-owned (a `static` in firmware); `kc_robot_init` constructs it.
+// A robot (`Robot<f32, 6, KC_MAX_EFFECT_VALUES>`): base pose, six MDH rows, tool point, joint
+// corrections (effects), joint couplings. Opaque; caller-owned (a `static` in firmware);
+// `kc_robot_init` or `kc_robot_load` constructs it.
 typedef struct KC_ALIGNED(8) kc_robot {
   uint8_t _opaque[KC_ROBOT_SIZE];
 } kc_robot;
@@ -508,6 +516,27 @@ kc_status kc_robot_init(struct kc_robot *r,
 // # Safety
 // Both are NULL or valid handles; they do not overlap.
 kc_status kc_robot_copy(struct kc_robot *dst, const struct kc_robot *src);
+
+// Builds the robot in `r` (initialised or not) from a binary model written by `kinecal export
+// --format firmware` (`blob`, `len` bytes; docs/formats.md, "Binary model (.kcm)"): rows,
+// base, tool point(s) and orientation, joint corrections, couplings. Forward kinematics,
+// Jacobians, compensation and the tracker then honour its corrections and couplings.
+//
+// Errors, `r` unchanged: `KC_NULL_POINTER` (`r`, or `blob` with `len` > 0),
+// `KC_MODEL_INVALID` (truncated, corrupted: CRC-32, another layout version, another joint
+// count than `KC_JOINTS`, a record this library does not know, more than
+// `KC_MAX_EFFECT_VALUES` values, 32 effects or 4 couplings), `KC_NOT_FINITE` (a NaN or
+// infinite number), `KC_INVALID_ROBOT` (a model `kc_robot_init` would refuse).
+//
+// # Safety
+// `r` is NULL or a writable `kc_robot` not otherwise in use; `blob` is NULL or `len` bytes.
+kc_status kc_robot_load(struct kc_robot *r, const uint8_t *blob, size_t len);
+
+// The number of joints of `r` into `*n` (`KC_JOINTS`).
+//
+// # Safety
+// `r` is NULL or a valid handle; `n` is NULL or writable.
+kc_status kc_robot_joints(const struct kc_robot *r, uint32_t *n);
 
 // Replaces row `joint` (0-based) of `r`. Errors: `KC_INVALID_ARGUMENT` (joint >= 6),
 // `KC_NOT_FINITE`, `KC_INVALID_ROBOT` (as in `kc_robot_init`); on error `r` is unchanged.
@@ -839,6 +868,24 @@ kc_status kc_compensate(const struct kc_robot *r,
                         const float *seed,
                         const struct kc_compensate_config *cfg,
                         struct kc_solution *out);
+
+// For a controller that keeps its nominal kinematics: compensates `target` on the model `r`
+// as `kc_compensate` does (`*out`), and on success writes into `*sent` the target to send
+// instead: where the `nominal` robot, placed at `r`'s base, puts the tool at that command (the
+// point for a point target; point and tool orientation for a pose target). The controller's
+// own inverse kinematics of `*sent` then moves the real robot to `target`.
+//
+// Results and errors as `kc_compensate`; `*sent` is written only with `KC_OK`.
+//
+// # Safety
+// Handles and pointers NULL or valid for their types and sizes; `out` and `sent` writable.
+kc_status kc_compensate_cartesian(const struct kc_robot *r,
+                                  const struct kc_robot *nominal,
+                                  const struct kc_target *target,
+                                  const float *seed,
+                                  const struct kc_compensate_config *cfg,
+                                  struct kc_solution *out,
+                                  struct kc_target *sent);
 
 // A tracker with no trajectory yet and the settings `cfg` (NULL = defaults). Errors:
 // `KC_INVALID_ARGUMENT` / `KC_NOT_FINITE` (settings); on error `t` is unchanged.

@@ -6,7 +6,9 @@ use crate::handle::{self, handle};
 use crate::robot::{frame_of, kc_robot};
 use crate::{all_finite, array_ref, obj_mut, obj_ref, status, Kc, KC_JOINTS};
 use crate::{kc_status, KC_COMPENSATE_FAILED, KC_INVALID_ARGUMENT, KC_NOT_FINITE};
-use kinecal::compensate::{compensate, CompensateError, Config, Solution, Status, Target, Tracker};
+use kinecal::compensate::{
+    compensate, nominal_reach, CompensateError, Config, Solution, Status, Target, Tracker,
+};
 use nalgebra::Vector3;
 
 /// The codes of `kc_target.kind`.
@@ -260,6 +262,59 @@ pub unsafe extern "C" fn kc_compensate(
         let target = target_of(t)?;
         let r = compensate(robot, &target, seed, &cfg);
         finish(r, out, &[seed, &t.xyz_mm, pose_rot(t)])
+    })())
+}
+
+/// For a controller that keeps its nominal kinematics: compensates `target` on the model `r`
+/// as [`kc_compensate`] does (`*out`), and on success writes into `*sent` the target to send
+/// instead: where the `nominal` robot, placed at `r`'s base, puts the tool at that command (the
+/// point for a point target; point and tool orientation for a pose target). The controller's
+/// own inverse kinematics of `*sent` then moves the real robot to `target`.
+///
+/// Results and errors as [`kc_compensate`]; `*sent` is written only with `KC_OK`.
+///
+/// # Safety
+/// Handles and pointers NULL or valid for their types and sizes; `out` and `sent` writable.
+#[no_mangle]
+pub unsafe extern "C" fn kc_compensate_cartesian(
+    r: *const kc_robot,
+    nominal: *const kc_robot,
+    target: *const kc_target,
+    seed: *const f32,
+    cfg: *const kc_compensate_config,
+    out: *mut kc_solution,
+    sent: *mut kc_target,
+) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let robot = unsafe { handle::get(r) }?;
+        // SAFETY: the header contract.
+        let nominal = unsafe { handle::get(nominal) }?;
+        // SAFETY: the header contract.
+        let sent = unsafe { obj_mut(sent) }?;
+        // SAFETY: forwarded contract.
+        let s = unsafe { kc_compensate(r, target, seed, cfg, out) };
+        if s != crate::KC_OK {
+            return Err(s);
+        }
+        // SAFETY: the header contract (checked by the call above).
+        let t = unsafe { obj_ref(target) }?;
+        // SAFETY: the header contract.
+        let q = unsafe { obj_ref(out) }?.q;
+        let pose = t.kind == kc_target_kind::KC_TARGET_POSE as u8;
+        *sent = match nominal_reach(robot, nominal, pose, &q) {
+            Target::Point(p) => kc_target {
+                kind: kc_target_kind::KC_TARGET_POINT as u8,
+                xyz_mm: [p.x, p.y, p.z],
+                rot: [0.0; 9],
+            },
+            Target::Pose(f) => kc_target {
+                kind: kc_target_kind::KC_TARGET_POSE as u8,
+                xyz_mm: [f.o.x, f.o.y, f.o.z],
+                rot: crate::robot::rot_of(&f),
+            },
+        };
+        Ok(())
     })())
 }
 

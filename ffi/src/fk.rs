@@ -241,7 +241,7 @@ pub unsafe extern "C" fn kc_fk_jacobian_set(
 #[inline(always)]
 fn jacobian(
     fk: &ForwardKinematics<f32, KC_JOINTS>,
-    robot: &kinecal::Robot<f32, KC_JOINTS>,
+    robot: &crate::robot::Model,
     set: &[Param],
     out: *mut f32,
     out_len: usize,

@@ -105,6 +105,9 @@ pub enum kc_status {
     KC_NOT_FOUND = 14,
     /// A handle is not aligned to 8 bytes.
     KC_MISALIGNED = 15,
+    /// A binary model was refused: truncated, corrupted (CRC), of another layout version or
+    /// joint count, or larger than the robot handle holds.
+    KC_MODEL_INVALID = 16,
 }
 
 pub use kc_status::*;
@@ -142,6 +145,7 @@ pub extern "C" fn kc_status_message(status: u32) -> *const core::ffi::c_char {
         13 => c"handle not initialised",
         14 => c"not found",
         15 => c"handle not aligned to 8 bytes",
+        16 => c"binary model refused (truncated, corrupted, another version or too large)",
         _ => c"unknown status",
     };
     s.as_ptr()

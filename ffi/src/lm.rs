@@ -3,6 +3,7 @@
 
 use crate::handle::{self, handle};
 use crate::robot::{code_of, kc_param, kc_robot, param_of};
+use crate::KC_INVALID_ROBOT;
 use crate::{
     kc_status, KC_BUFFER_TOO_SMALL, KC_DATA_CHANGED, KC_INVALID_ARGUMENT, KC_NOT_FINITE,
     KC_NOT_INITIALIZED, KC_SNAPSHOT_INVALID, KC_TOO_FEW_MEASUREMENTS, KC_TOO_MANY_PARAMS,
@@ -314,9 +315,11 @@ unsafe fn lm_init<H: Solver<P>, const P: usize>(
         // SAFETY: non-NULL: a kc_lm_config per the header.
         lm_config_of(unsafe { obj_ref(cfg) }?)?
     };
+    // The solver identifies geometry: a robot with joint corrections is refused.
+    let geometry = robot.with_capacity::<0>().map_err(|_| KC_INVALID_ROBOT)?;
     // SAFETY: the header contract; `lm` is not the robot handle (distinct C types).
     let slot = unsafe { handle::uninit::<H>(lm) }?;
-    let made = handle::init::<H>(slot, Levenberg::new(robot.clone(), FixedLm::new(set), cfg));
+    let made = handle::init::<H>(slot, Levenberg::new(geometry, FixedLm::new(set), cfg));
     if let Err(e) = made {
         let e = *e;
         handle::forget::<H>(slot);
@@ -379,7 +382,8 @@ unsafe fn lm_robot<H: Solver<P>, const P: usize>(lm: *const H, out: *mut kc_robo
     let lm = unsafe { lm_ref(lm) }?;
     // SAFETY: the header contract; `out` is a robot handle, not the solver.
     let slot = unsafe { handle::uninit::<kc_robot>(out) }?;
-    handle::init::<kc_robot>(slot, lm.robot().clone());
+    let robot = lm.robot().with_capacity().map_err(|_| KC_INVALID_ROBOT)?;
+    handle::init::<kc_robot>(slot, robot);
     Ok(())
 }
 

@@ -1,8 +1,11 @@
-//! Robots (`kc_robot`: `Robot<f32, 6>`) and parameter codes (`kc_param`).
+//! Robots (`kc_robot`: `Robot<f32, 6, KC_MAX_EFFECT_VALUES>`: geometry, joint corrections,
+//! couplings), loading a binary model (`kc_robot_load`) and parameter codes (`kc_param`).
 
 use crate::handle::{self, handle};
 use crate::{array_mut, array_ref, finite, obj_mut, obj_ref, slice_mut, status, Kc, KC_JOINTS};
 use crate::{kc_status, KC_BUFFER_TOO_SMALL, KC_INVALID_ARGUMENT, KC_INVALID_ROBOT};
+use crate::{slice_ref, KC_MODEL_INVALID, KC_NOT_FINITE};
+use kinecal::io::model_blob::{self, BlobError};
 use kinecal::model::param::ParamSet;
 use kinecal::{Frame, Joint, Param, Robot, RobotError};
 use nalgebra::Vector3;
@@ -39,18 +42,26 @@ pub struct kc_frame {
     pub rpy_rad: [f32; 3],
 }
 
-/// Bytes of a [`kc_robot`] (the largest `Robot<f32, 6>` of the supported targets, rounded up
-/// to 8; a compile-time assertion checks it fits).
-pub const KC_ROBOT_SIZE: usize = 1016;
+/// Room for joint-correction values in a [`kc_robot`] (every effect's values together: a
+/// `joint-table`'s knots, a `joint-cyclic`'s two terms, …); at most 32 effects.
+pub const KC_MAX_EFFECT_VALUES: usize = 1024;
 
-/// A robot (`Robot<f32, 6>`): base pose, six MDH rows, tool point, joint couplings. Opaque;
-/// caller-owned (a `static` in firmware); [`kc_robot_init`] constructs it.
+/// The library robot behind a [`kc_robot`].
+pub(crate) type Model = Robot<f32, KC_JOINTS, KC_MAX_EFFECT_VALUES>;
+
+/// Bytes of a [`kc_robot`] (the largest robot of the supported targets, rounded up to 8; a
+/// compile-time assertion checks it fits).
+pub const KC_ROBOT_SIZE: usize = 5112;
+
+/// A robot (`Robot<f32, 6, KC_MAX_EFFECT_VALUES>`): base pose, six MDH rows, tool point, joint
+/// corrections (effects), joint couplings. Opaque; caller-owned (a `static` in firmware);
+/// [`kc_robot_init`] or [`kc_robot_load`] constructs it.
 #[repr(C, align(8))]
 pub struct kc_robot {
     _opaque: [u8; KC_ROBOT_SIZE],
 }
 
-handle!(kc_robot, KC_ROBOT_SIZE, Robot<f32, 6>, 0x5252_5252);
+handle!(kc_robot, KC_ROBOT_SIZE, Model, 0x5252_5252);
 
 /// The library row of a C row (finite checked by the caller).
 #[inline(always)]
@@ -155,7 +166,7 @@ unsafe fn robot_init(
         dst.copy_from_slice(&tool);
     }
     finite(&values)?;
-    let robot =
+    let robot: Model =
         Robot::new(base, rows.map(|r| joint_of(&r)), Vector3::from(tool)).map_err(robot_error)?;
     // SAFETY: the header contract: `r` is NULL or a writable kc_robot not otherwise borrowed.
     let slot = unsafe { handle::uninit::<kc_robot>(r) }?;
@@ -196,6 +207,70 @@ pub unsafe extern "C" fn kc_robot_copy(dst: *mut kc_robot, src: *const kc_robot)
         // SAFETY: the header contract; `dst` does not overlap `src`.
         let slot = unsafe { handle::uninit::<kc_robot>(dst) }?;
         handle::init::<kc_robot>(slot, s.clone());
+        Ok(())
+    })())
+}
+
+/// The status of a refused binary model.
+fn blob_status(e: BlobError) -> kc_status {
+    match e {
+        BlobError::NotFinite => KC_NOT_FINITE,
+        BlobError::Refused(_) => KC_INVALID_ROBOT,
+        BlobError::BufferTooSmall { .. }
+        | BlobError::Truncated
+        | BlobError::NotAModel
+        | BlobError::Version(_)
+        | BlobError::Checksum
+        | BlobError::Joints(_)
+        | BlobError::Malformed
+        | BlobError::UnknownRecord(_)
+        | BlobError::Capacity => KC_MODEL_INVALID,
+    }
+}
+
+unsafe fn robot_load(r: *mut kc_robot, blob: *const u8, len: usize) -> Kc<()> {
+    // SAFETY: the header contract: `len` readable bytes.
+    let blob = unsafe { slice_ref(blob, len) }?;
+    let zero = Joint::mdh(0.0, 0.0, 0.0, 0.0);
+    let mut robot: Model =
+        Robot::new(Frame::identity(), [zero; KC_JOINTS], Vector3::zeros()).map_err(robot_error)?;
+    model_blob::decode(blob, &mut robot).map_err(blob_status)?;
+    // SAFETY: the header contract: `r` is NULL or a writable kc_robot not otherwise borrowed.
+    let slot = unsafe { handle::uninit::<kc_robot>(r) }?;
+    handle::init::<kc_robot>(slot, robot);
+    Ok(())
+}
+
+/// Builds the robot in `r` (initialised or not) from a binary model written by `kinecal export
+/// --format firmware` (`blob`, `len` bytes; docs/formats.md, "Binary model (.kcm)"): rows,
+/// base, tool point(s) and orientation, joint corrections, couplings. Forward kinematics,
+/// Jacobians, compensation and the tracker then honour its corrections and couplings.
+///
+/// Errors, `r` unchanged: `KC_NULL_POINTER` (`r`, or `blob` with `len` > 0),
+/// `KC_MODEL_INVALID` (truncated, corrupted: CRC-32, another layout version, another joint
+/// count than `KC_JOINTS`, a record this library does not know, more than
+/// `KC_MAX_EFFECT_VALUES` values, 32 effects or 4 couplings), `KC_NOT_FINITE` (a NaN or
+/// infinite number), `KC_INVALID_ROBOT` (a model `kc_robot_init` would refuse).
+///
+/// # Safety
+/// `r` is NULL or a writable `kc_robot` not otherwise in use; `blob` is NULL or `len` bytes.
+#[no_mangle]
+pub unsafe extern "C" fn kc_robot_load(r: *mut kc_robot, blob: *const u8, len: usize) -> kc_status {
+    // SAFETY: forwarded contract.
+    status(unsafe { robot_load(r, blob, len) })
+}
+
+/// The number of joints of `r` into `*n` (`KC_JOINTS`).
+///
+/// # Safety
+/// `r` is NULL or a valid handle; `n` is NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn kc_robot_joints(r: *const kc_robot, n: *mut u32) -> kc_status {
+    status((|| {
+        // SAFETY: the header contract.
+        let robot = unsafe { handle::get(r) }?;
+        // SAFETY: the header contract.
+        *unsafe { obj_mut(n) }? = robot.joints().len() as u32;
         Ok(())
     })())
 }

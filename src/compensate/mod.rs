@@ -83,6 +83,7 @@ macro_rules! for_0_to_5 {
     }};
 }
 
+mod cartesian;
 mod config;
 mod evaluate;
 mod finite;
@@ -93,6 +94,7 @@ mod step;
 mod target;
 mod tracker;
 
+pub use cartesian::{nominal_reach, nominal_target};
 pub use config::Config;
 pub use newton::{compensate, compensate_from};
 pub use outcome::{CompensateError, Solution, Status};

@@ -256,6 +256,87 @@ impl<T: Real, const V: usize> Effects<T, V> {
         Ok(self.list.len() - 1)
     }
 
+    /// As [`Effects::push`] with `len` values that `fill` writes in place (a decoder reads them
+    /// straight into the list: no buffer of the list's size). On any error, `fill`'s included,
+    /// the list is unchanged.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn push_with<E: From<EffectError>>(
+        &mut self,
+        kind: EffectKind,
+        joint: usize,
+        n_joints: usize,
+        order: u16,
+        start: T,
+        step: T,
+        len: usize,
+        fill: impl FnOnce(&mut [T]) -> Result<(), E>,
+    ) -> Result<usize, E> {
+        if joint >= n_joints.min(self.joints) || joint > u8::MAX as usize {
+            return Err(EffectError::Joint.into());
+        }
+        let end = self.used.saturating_add(len);
+        if self.list.is_full() || end > V.min(MAX_VALUES) {
+            return Err(EffectError::Capacity.into());
+        }
+        let Some(slot) = self.values.get_mut(self.used..end) else {
+            return Err(EffectError::Capacity.into());
+        };
+        // The values stay beyond `used` until the shape is accepted (zeroed again if not).
+        let r = fill(slot).and_then(|()| {
+            let vals = self.values.get(self.used..end).unwrap_or(&[]);
+            Self::check_shape(kind, order, start, step, vals).map_err(E::from)
+        });
+        match r {
+            Ok(()) => {
+                let e = Effect {
+                    kind,
+                    joint: joint as u8,
+                    order,
+                    start,
+                    step,
+                    first: self.used as u16,
+                    len: len as u16,
+                };
+                self.used = end;
+                // Cannot fail: checked `is_full` above.
+                let _ = self.list.push(e);
+                Ok(self.list.len() - 1)
+            }
+            Err(e) => {
+                if let Some(v) = self.values.get_mut(self.used..end) {
+                    v.fill(T::zero());
+                }
+                Err(e)
+            }
+        }
+    }
+
+    /// The shape checks of [`Effects::push`]: the value count of the kind, order and step, and
+    /// every number finite and within ±[`crate::model::bounds::MAX_ANGLE`].
+    fn check_shape(
+        kind: EffectKind,
+        order: u16,
+        start: T,
+        step: T,
+        values: &[T],
+    ) -> Result<(), EffectError> {
+        let ok_len = match kind {
+            EffectKind::Scale | EffectKind::Compliance => values.len() == 1,
+            EffectKind::Cyclic => values.len() == 2 && order >= 1,
+            EffectKind::Table => values.len() >= 2 && step > T::zero(),
+        };
+        let bound = T::of(crate::model::bounds::MAX_ANGLE);
+        if !ok_len
+            || [start, step]
+                .iter()
+                .chain(values)
+                .any(|v| !(v.abs() <= bound))
+        {
+            return Err(EffectError::Shape);
+        }
+        Ok(())
+    }
+
     /// Joint corrections `dq` for readings `q`; `tau` are the lever arms (m), used only by
     /// compliance terms.
     pub fn correction<const N: usize>(&self, q: &[T; N], tau: &[T; N]) -> [T; N] {

@@ -1,11 +1,12 @@
 //! `kinecal export`: a calibrated model back into the robot's URDF (origins of the chain
 //! joints rewritten, the tool point appended), or as a table of nominal and calibrated MDH
-//! parameters (`--format dh-table`). docs/formats.md, "export".
+//! parameters (`--format dh-table`), or as the binary model firmware loads (`--format
+//! firmware`). docs/formats.md, "URDF export", "DH table", "Binary model (.kcm)".
 
 use super::import::{import_chain, read_urdf};
-use crate::formats::dh_table;
 use crate::formats::robot_file::RobotFile;
 use crate::formats::urdf::splice;
+use crate::formats::{dh_table, firmware_model};
 use crate::output::atomic::{refuse_overwriting_inputs, write_atomic};
 use crate::reports::{path_text, ExportReport};
 use anyhow::Context;
@@ -19,6 +20,9 @@ pub enum Format {
     /// One row per parameter: parameter, unit, nominal, calibrated, delta (CSV, or JSON for
     /// an --out ending in .json).
     DhTable,
+    /// The binary model firmware loads (`kc_robot_load`): rows, base, tools, effects,
+    /// couplings; version and CRC-32 (docs/formats.md, "Binary model (.kcm)").
+    Firmware,
 }
 
 /// Arguments of `kinecal export`.
@@ -165,6 +169,20 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
         Ok((text, urdf, imp, tip))
     };
     match args.format {
+        Format::Firmware => {
+            let bytes = firmware_model::encode(&model)
+                .map_err(|e| crate::refused(format!("{}: {e}", args.model.display())))?;
+            write_atomic(&args.out, &bytes)
+                .with_context(|| format!("cannot write {}", args.out.display()))?;
+            Ok(ExportReport {
+                format: "firmware".into(),
+                out: path_text(&args.out),
+                joints_rewritten: Vec::new(),
+                dropped: Vec::new(),
+                rows: 0,
+                bytes: Some(bytes.len()),
+            })
+        }
         Format::Urdf => {
             let Some(path) = &args.urdf else {
                 crate::refuse!("export --format urdf needs --urdf F.urdf (the file the model was imported from)");
@@ -210,6 +228,7 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
                 joints_rewritten: imp.joint_names.clone(),
                 dropped,
                 rows: 0,
+                bytes: None,
             })
         }
         Format::DhTable => {
@@ -252,6 +271,7 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
                 joints_rewritten: Vec::new(),
                 dropped: Vec::new(),
                 rows: rows.len(),
+                bytes: None,
             })
         }
     }

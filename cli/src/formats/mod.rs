@@ -3,6 +3,7 @@
 
 pub mod cell_file;
 pub mod dh_table;
+pub mod firmware_model;
 pub mod measurements;
 pub mod observations;
 pub mod prior;

@@ -49,7 +49,7 @@ impl fmt::Display for ImportReport {
 /// `kinecal export`: what was written and what could not go into it.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ExportReport {
-    /// `urdf` or `dh-table`.
+    /// `urdf`, `dh-table` or `firmware`.
     pub format: String,
     pub out: String,
     /// URDF: the joints whose `<origin>` was rewritten.
@@ -58,6 +58,9 @@ pub struct ExportReport {
     pub dropped: Vec<String>,
     /// dh-table: the number of rows written.
     pub rows: usize,
+    /// firmware: the size of the binary model written.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bytes: Option<usize>,
 }
 
 plain_report!(ExportReport);
@@ -76,6 +79,8 @@ impl fmt::Display for ExportReport {
                 "the URDF keeps its nominal base: the calibrated [base] is where the tracker saw \
                  the robot, not part of it"
             )?;
+        } else if let Some(bytes) = self.bytes {
+            writeln!(f, "wrote {} ({bytes} bytes: the whole model)", self.out)?;
         } else {
             writeln!(f, "wrote {} ({} parameters)", self.out, self.rows)?;
         }

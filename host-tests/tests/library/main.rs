@@ -1,6 +1,8 @@
 //! The library against an independent f64 reference and known truth: kinematics, LM, PSO,
 //! BPNN, snapshots, compensation, observations, the CSV reader, hardening and the C ABI.
 
+#[path = "../common/mod.rs"]
+mod common;
 mod pso_sim;
 
 mod bpnn;
@@ -11,6 +13,7 @@ mod hardening;
 mod lm;
 mod lm_pass;
 mod lm_penalty;
+mod model_blob;
 mod observations;
 mod pso;
 mod reference_fk;

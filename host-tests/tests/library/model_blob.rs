@@ -4,7 +4,7 @@
 //! truncated, corrupted, foreign-version and oversized blobs (the target unchanged), and
 //! `kinecal export --format firmware`.
 
-mod common;
+
 
 use kinecal::io::model_blob::{self, tag, BlobError, MAX_JOINTS};
 use kinecal::io::snapshot::crc32;
@@ -102,7 +102,7 @@ fn round_trip<const N: usize>(original: &Robot<f64, N, VCAP>) {
 
 #[test]
 fn six_joints_every_effect_kind_coupling_tool_points_and_axes() {
-    let mut r = model::<6>(common::ER20_TILTED_PLACED);
+    let mut r = model::<6>(crate::common::ER20_TILTED_PLACED);
     let kinds: Vec<EffectKind> = r.effects().iter().map(|e| e.kind).collect();
     for k in [
         EffectKind::Scale,
@@ -124,14 +124,14 @@ fn six_joints_every_effect_kind_coupling_tool_points_and_axes() {
 
 #[test]
 fn seven_joints_every_effect_kind_and_coupling() {
-    let r = model::<7>(common::LBR7_TILTED_PLACED);
+    let r = model::<7>(crate::common::LBR7_TILTED_PLACED);
     assert_eq!(r.effects().len(), 5);
     round_trip(&r);
 }
 
 #[test]
 fn plain_geometry_is_the_fixed_part_only() {
-    let file = RobotFile::parse(common::ER20_PLACED, "test").unwrap();
+    let file = RobotFile::parse(crate::common::ER20_PLACED, "test").unwrap();
     let r = file.to_robot::<6>().unwrap();
     // Header 12, base 96, rows 6 × 56, tool 24, CRC 4.
     assert_eq!(model_blob::encoded_len(&r), 12 + 96 + 336 + 24 + 4);
@@ -159,10 +159,10 @@ fn refused<const N: usize, const V: usize>(
 
 #[test]
 fn truncated_corrupted_and_foreign_blobs_are_refused_leaving_the_robot_unchanged() {
-    let r = model::<6>(common::ER20_TILTED_PLACED);
+    let r = model::<6>(crate::common::ER20_TILTED_PLACED);
     let blob = blob_of(&r);
     let target = {
-        let f = RobotFile::parse(common::ER20_PLACED, "test").unwrap();
+        let f = RobotFile::parse(crate::common::ER20_PLACED, "test").unwrap();
         f.to_robot::<6>().unwrap()
     };
     for len in 0..blob.len() {
@@ -196,7 +196,7 @@ fn truncated_corrupted_and_foreign_blobs_are_refused_leaving_the_robot_unchanged
     let mut b = blob.clone();
     b[6] = 8;
     refused(&resealed(b), &target, BlobError::Joints(8));
-    let seven = blob_of(&model::<7>(common::LBR7_TILTED_PLACED));
+    let seven = blob_of(&model::<7>(crate::common::LBR7_TILTED_PLACED));
     refused(&seven, &target, BlobError::Joints(7));
     assert_eq!(MAX_JOINTS, 7);
     // A NaN in the base and in a table value, checksum valid.
@@ -226,9 +226,9 @@ fn with_record(blob: &[u8], tag: u16, payload: &[u8]) -> Vec<u8> {
 
 #[test]
 fn records_unknown_informational_and_malformed() {
-    let r = model::<6>(common::ER20_TILTED_PLACED);
+    let r = model::<6>(crate::common::ER20_TILTED_PLACED);
     let blob = blob_of(&r);
-    let target = RobotFile::parse(common::ER20_PLACED, "test")
+    let target = RobotFile::parse(crate::common::ER20_PLACED, "test")
         .unwrap()
         .to_robot::<6>()
         .unwrap();
@@ -278,7 +278,7 @@ fn records_unknown_informational_and_malformed() {
 
 #[test]
 fn encoding_into_a_short_buffer_is_refused() {
-    let r = model::<6>(common::ER20_TILTED_PLACED);
+    let r = model::<6>(crate::common::ER20_TILTED_PLACED);
     let need = model_blob::encoded_len(&r);
     let mut out = vec![0u8; need - 1];
     assert_eq!(
@@ -325,7 +325,7 @@ ratio = 1.0
 #[test]
 fn c_client_of_a_diagnosed_model_matches_the_library_in_f64() {
     let file =
-        RobotFile::parse(&format!("{}{DIAGNOSED}", common::ER20_TILTED_PLACED), "t").unwrap();
+        RobotFile::parse(&format!("{}{DIAGNOSED}", crate::common::ER20_TILTED_PLACED), "t").unwrap();
     let model = file.to_robot::<6>().unwrap();
     assert_eq!(model.effects().len(), 5);
     let blob = blob_of(&model);
@@ -406,10 +406,10 @@ fn c_client_of_a_diagnosed_model_matches_the_library_in_f64() {
 fn nominal_targets_bring_the_calibrated_robot_to_the_target() {
     use kinecal::compensate::{compensate, nominal_target, Config, Target};
     let file =
-        RobotFile::parse(&format!("{}{DIAGNOSED}", common::ER20_TILTED_PLACED), "t").unwrap();
+        RobotFile::parse(&format!("{}{DIAGNOSED}", crate::common::ER20_TILTED_PLACED), "t").unwrap();
     let model = file.to_robot::<6>().unwrap();
     // The nominal robot: no tilt, no effects, no coupling, at its own (identity) base.
-    let mut nominal_file = RobotFile::parse(common::ER20_PLACED, "n").unwrap();
+    let mut nominal_file = RobotFile::parse(crate::common::ER20_PLACED, "n").unwrap();
     nominal_file.base = None;
     let nominal = nominal_file.to_robot::<6>().unwrap();
     let mut placed = nominal.clone();

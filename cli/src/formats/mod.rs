@@ -2,11 +2,16 @@
 //! (TOML), measurements (CSV), the measurement cell of `plan` (TOML) and the units at the door.
 
 pub mod cell_file;
+pub mod convention;
 pub mod dh_table;
+pub mod doors;
+pub mod map;
 pub mod measurements;
 pub mod observations;
+pub mod placement;
 pub mod prior;
 pub mod robot_file;
+pub mod rotation_order;
 pub mod units;
 pub mod urdf;
 

@@ -128,7 +128,7 @@ impl AngleUnit {
 }
 
 /// `--length-unit` and `--angle-unit` (flatten into a subcommand's arguments).
-#[derive(clap::Args, Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(clap::Args, Debug, Clone, Default, PartialEq, Eq)]
 pub struct UnitArgs {
     /// Unit of the positions x, y, z in the data, sweep or target files [default: mm]. Without
     /// it, a file that looks like metres is refused (exit 2); given, it is never second-guessed.
@@ -141,6 +141,11 @@ pub struct UnitArgs {
     /// `compensate --out` writes are in this unit.
     #[arg(long, value_enum)]
     pub angle_unit: Option<AngleUnit>,
+    /// Read the data, sweep or target files in another layout, as the map file M.toml says
+    /// (delimiter, decimal comma, header, column names, units, the order of the three angles:
+    /// docs/formats.md, "Files in other layouts").
+    #[arg(long, value_name = "M.toml")]
+    pub map: Option<std::path::PathBuf>,
 }
 
 impl UnitArgs {
@@ -149,6 +154,7 @@ impl UnitArgs {
         Self {
             length_unit: Some(length),
             angle_unit: Some(angle),
+            map: None,
         }
     }
     /// The length unit in force (mm unless given).
@@ -688,15 +694,27 @@ pub fn load_as<const N: usize, const V: usize>(
     base_known: bool,
     kind: FileKind,
 ) -> anyhow::Result<Dataset<N>> {
-    let ds = measurements::load::<N>(path)?;
-    accept(
-        ds,
-        &path.display().to_string(),
-        units,
-        nominal,
-        base_known,
-        kind,
-    )
+    let origin = path.display().to_string();
+    let Some(map) = &units.map else {
+        let ds = measurements::load::<N>(path)?;
+        let ds = accept(ds, &origin, units, nominal, base_known, kind)?;
+        if kind == FileKind::Measurements {
+            crate::formats::doors::measurements(&ds, None, nominal, base_known, &origin)?;
+        }
+        return Ok(ds);
+    };
+    let m = crate::formats::map::load::<N>(path, map, units)?;
+    let ds = accept(m.dataset, &origin, &m.units, nominal, base_known, kind).map_err(|e| {
+        crate::refused(format!(
+            "{e} (with --map {}: or state the unit in its [units])",
+            map.display()
+        ))
+    })?;
+    if kind == FileKind::Measurements {
+        let stated = Some((m.raw_angles.as_slice(), m.rotation, map.as_path()));
+        crate::formats::doors::measurements(&ds, stated, nominal, base_known, &origin)?;
+    }
+    Ok(ds)
 }
 
 /// The plausibility check and conversion of [`load_as`] for records already read (or made
@@ -809,6 +827,7 @@ mod tests {
     const DEFAULTS: UnitArgs = UnitArgs {
         length_unit: None,
         angle_unit: None,
+        map: None,
     };
     use AngleUnit::{Deg, Rad};
     use LengthUnit::{Mm, M};
@@ -838,6 +857,7 @@ mod tests {
                 let half = UnitArgs {
                     length_unit: Some(truth.0),
                     angle_unit: None,
+                    map: None,
                 };
                 let s = suspect(&rec, &half, &r, base_known);
                 assert_eq!(

@@ -107,13 +107,25 @@ fn fit_both(m: &[Matrix3<f64>], f: &[Matrix3<f64>]) -> Option<(Matrix3<f64>, Mat
     let x = Matrix3::from_column_slice(&v.as_slice()[0..9]);
     let b = Matrix3::from_column_slice(&v.as_slice()[9..18]);
     // The null vector's sign is free: a rotation has a positive determinant.
-    let s = if x.determinant() + b.determinant() < 0.0 { -1.0 } else { 1.0 };
+    let s = if x.determinant() + b.determinant() < 0.0 {
+        -1.0
+    } else {
+        1.0
+    };
     let mut t = nearest_rotation(&(x * s))?.transpose();
     let mut b = nearest_rotation(&(b * s))?;
     for _ in 0..10 {
-        let sum_b: Matrix3<f64> = m.iter().zip(f).map(|(mi, fi)| mi * t.transpose() * fi.transpose()).sum();
+        let sum_b: Matrix3<f64> = m
+            .iter()
+            .zip(f)
+            .map(|(mi, fi)| mi * t.transpose() * fi.transpose())
+            .sum();
         b = nearest_rotation(&sum_b)?;
-        let sum_t: Matrix3<f64> = m.iter().zip(f).map(|(mi, fi)| fi.transpose() * b.transpose() * mi).sum();
+        let sum_t: Matrix3<f64> = m
+            .iter()
+            .zip(f)
+            .map(|(mi, fi)| fi.transpose() * b.transpose() * mi)
+            .sum();
         t = nearest_rotation(&sum_t)?;
     }
     Some((b, t))
@@ -180,14 +192,13 @@ pub fn check<const N: usize, const V: usize>(
     let s = scores(q_deg, angles, nominal)?;
     let assumed_deg = s.iter().find(|(o, _)| *o == assumed)?.1;
     let (found, found_deg) = *s.iter().min_by(|a, b| a.1.total_cmp(&b.1))?;
-    (found != assumed && found_deg * CLEAR_RATIO <= assumed_deg && assumed_deg > FLOOR_DEG).then_some(
-        Misstated {
+    (found != assumed && found_deg * CLEAR_RATIO <= assumed_deg && assumed_deg > FLOOR_DEG)
+        .then_some(Misstated {
             assumed,
             found,
             assumed_deg,
             found_deg,
-        },
-    )
+        })
 }
 
 #[cfg(test)]
@@ -204,7 +215,9 @@ mod tests {
         let b = rot(2, 130.0) * rot(0, -20.0);
         let t = rot(1, 75.0) * rot(2, 10.0);
         let f: Vec<Matrix3<f64>> = (0..12)
-            .map(|k| rot(0, 17.0 * k as f64) * rot(1, 29.0 * k as f64 - 50.0) * rot(2, 41.0 * k as f64))
+            .map(|k| {
+                rot(0, 17.0 * k as f64) * rot(1, 29.0 * k as f64 - 50.0) * rot(2, 41.0 * k as f64)
+            })
             .collect();
         let m: Vec<Matrix3<f64>> = f.iter().map(|fi| b * fi * t).collect();
         assert!(score(&m, &f).unwrap() < 1e-6);

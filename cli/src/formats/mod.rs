@@ -4,7 +4,7 @@
 pub mod cell_file;
 pub mod convention;
 pub mod dh_table;
-pub mod doors;
+pub mod loading;
 pub mod map;
 pub mod measurements;
 pub mod observations;

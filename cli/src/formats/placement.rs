@@ -68,7 +68,12 @@ pub fn check<const N: usize, const V: usize>(
     let fit = fit_rigid(&model, &pts).ok()?;
     let n = pts.len() as f64;
     let rms = |f: &dyn Fn(&Vector3<f64>) -> Vector3<f64>| {
-        (pts.iter().zip(&model).map(|(p, m)| (f(m) - p).norm_squared()).sum::<f64>() / n).sqrt()
+        (pts.iter()
+            .zip(&model)
+            .map(|(p, m)| (f(m) - p).norm_squared())
+            .sum::<f64>()
+            / n)
+            .sqrt()
     };
     let stated_mm = rms(&|m| *m);
     let fitted_mm = rms(&|m| fit.point(m));

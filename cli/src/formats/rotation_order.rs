@@ -19,8 +19,15 @@ impl RotationOrder {
 
     /// All six orders, kinecal's first.
     pub fn all() -> [RotationOrder; 6] {
-        [[2, 1, 0], [0, 1, 2], [0, 2, 1], [1, 0, 2], [1, 2, 0], [2, 0, 1]]
-            .map(|axes| RotationOrder { axes })
+        [
+            [2, 1, 0],
+            [0, 1, 2],
+            [0, 2, 1],
+            [1, 0, 2],
+            [1, 2, 0],
+            [2, 0, 1],
+        ]
+        .map(|axes| RotationOrder { axes })
     }
 
     /// Parses `"Rx*Ry*Rz"` (also `·` or `.` between the factors, any case, spaces allowed).
@@ -50,9 +57,7 @@ impl RotationOrder {
 
     /// `"Rx*Ry*Rz"`: the text [`RotationOrder::parse`] reads.
     pub fn text(self) -> String {
-        self.axes
-            .map(|a| ["Rx", "Ry", "Rz"][a])
-            .join("*")
+        self.axes.map(|a| ["Rx", "Ry", "Rz"][a]).join("*")
     }
 
     /// The rotation of angles `deg` (about x, y, z, degrees) composed in this order.
@@ -85,7 +90,10 @@ mod tests {
         for o in RotationOrder::all() {
             assert_eq!(RotationOrder::parse(&o.text()), Some(o));
         }
-        assert_eq!(RotationOrder::parse("rz · ry · rx"), Some(RotationOrder::KINECAL));
+        assert_eq!(
+            RotationOrder::parse("rz · ry · rx"),
+            Some(RotationOrder::KINECAL)
+        );
         assert_eq!(RotationOrder::parse("Rx*Rx*Rz"), None);
         assert_eq!(RotationOrder::parse("Rx*Ry"), None);
         let a = [12.0, -34.0, 56.0];

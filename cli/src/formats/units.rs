@@ -48,7 +48,7 @@
 //! (`rx`, `ry`, `rz`) follow the flags. Reports and robot files are always in mm and degrees.
 
 use crate::compute::registration::fit_rigid;
-use crate::formats::measurements::{self, Dataset, Record};
+use crate::formats::measurements::{Dataset, Record};
 use crate::output::numfmt::sig;
 use kinecal::forward::ForwardKinematics;
 use kinecal::{Frame, Robot};
@@ -684,42 +684,9 @@ pub fn convert<const N: usize>(ds: &mut Dataset<N>, units: &UnitArgs) {
     }
 }
 
-/// Loads a file of `kind` in `units`: malformed input and implausible units are refused
-/// (exit 2); the records come back in millimetres and degrees. `base_known`: whether
-/// `nominal`'s base places the points (otherwise it is fitted for the check).
-pub fn load_as<const N: usize, const V: usize>(
-    path: &Path,
-    units: &UnitArgs,
-    nominal: &Robot<f64, N, V>,
-    base_known: bool,
-    kind: FileKind,
-) -> anyhow::Result<Dataset<N>> {
-    let origin = path.display().to_string();
-    let Some(map) = &units.map else {
-        let ds = measurements::load::<N>(path)?;
-        let ds = accept(ds, &origin, units, nominal, base_known, kind)?;
-        if kind == FileKind::Measurements {
-            crate::formats::doors::measurements(&ds, None, nominal, base_known, &origin)?;
-        }
-        return Ok(ds);
-    };
-    let m = crate::formats::map::load::<N>(path, map, units)?;
-    let ds = accept(m.dataset, &origin, &m.units, nominal, base_known, kind).map_err(|e| {
-        crate::refused(format!(
-            "{e} (with --map {}: or state the unit in its [units])",
-            map.display()
-        ))
-    })?;
-    if kind == FileKind::Measurements {
-        let stated = Some((m.raw_angles.as_slice(), m.rotation, map.as_path()));
-        crate::formats::doors::measurements(&ds, stated, nominal, base_known, &origin)?;
-    }
-    Ok(ds)
-}
-
-/// The plausibility check and conversion of [`load_as`] for records already read (or made
-/// in memory, e.g. from arrays): refused (exit 2) naming `origin` when the units look wrong;
-/// the records come back in millimetres and degrees.
+/// The plausibility check and conversion of [`crate::formats::loading::load_as`] for records
+/// already read (or made in memory, e.g. from arrays): refused (exit 2) naming `origin` when
+/// the units look wrong; the records come back in millimetres and degrees.
 pub fn accept<const N: usize, const V: usize>(
     mut ds: Dataset<N>,
     origin: &str,
@@ -733,35 +700,6 @@ pub fn accept<const N: usize, const V: usize>(
     }
     convert(&mut ds, units);
     Ok(ds)
-}
-
-/// A measurement file (`check`, `identify`, `diagnose`) in mm and degrees; see [`load_as`].
-pub fn load_measurements<const N: usize, const V: usize>(
-    path: &Path,
-    units: &UnitArgs,
-    nominal: &Robot<f64, N, V>,
-    base_known: bool,
-) -> anyhow::Result<Dataset<N>> {
-    load_as(path, units, nominal, base_known, FileKind::Measurements)
-}
-
-/// A sweep file (`frames`: the base is always unknown there) in mm and degrees.
-pub fn load_sweeps<const N: usize, const V: usize>(
-    path: &Path,
-    units: &UnitArgs,
-    nominal: &Robot<f64, N, V>,
-) -> anyhow::Result<Dataset<N>> {
-    load_as(path, units, nominal, false, FileKind::Sweeps)
-}
-
-/// A target file (`compensate`) in mm and degrees: the seeds must bring `model` (its base, or
-/// the identity when it has none: targets in the robot base frame) near the targets.
-pub fn load_targets<const N: usize, const V: usize>(
-    path: &Path,
-    units: &UnitArgs,
-    model: &Robot<f64, N, V>,
-) -> anyhow::Result<Dataset<N>> {
-    load_as(path, units, model, true, FileKind::Targets)
 }
 
 #[cfg(test)]

@@ -84,12 +84,24 @@ mod tests {
     #[test]
     fn delimiters_are_detected() {
         let detect_in = |t: &str, dc: bool| detect(&content_lines(t), dc);
-        assert_eq!(detect_in("a;b;c\n1,5;2;3\n", true), Some(Delimiter::Semicolon));
+        assert_eq!(
+            detect_in("a;b;c\n1,5;2;3\n", true),
+            Some(Delimiter::Semicolon)
+        );
         // Without decimal commas declared, `;` still wins over the commas inside numbers.
-        assert_eq!(detect_in("a;b;c\n1,5;2,5;3,5\n", false), Some(Delimiter::Semicolon));
-        assert_eq!(detect_in("# c\na,b,c\n1,2,3\n", false), Some(Delimiter::Comma));
+        assert_eq!(
+            detect_in("a;b;c\n1,5;2,5;3,5\n", false),
+            Some(Delimiter::Semicolon)
+        );
+        assert_eq!(
+            detect_in("# c\na,b,c\n1,2,3\n", false),
+            Some(Delimiter::Comma)
+        );
         assert_eq!(detect_in("a\tb\n1 2\t3\n", false), Some(Delimiter::Tab));
-        assert_eq!(detect_in("1  2 3\n4 5   6\n", false), Some(Delimiter::Space));
+        assert_eq!(
+            detect_in("1  2 3\n4 5   6\n", false),
+            Some(Delimiter::Space)
+        );
         assert_eq!(detect_in("a,b\n1,2,3\n", false), None);
     }
 

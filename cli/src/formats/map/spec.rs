@@ -117,7 +117,8 @@ impl MapFile {
     /// Reads and checks a map file; every mistake is refused (exit 2) naming the file and
     /// the entry.
     pub fn load(path: &Path) -> anyhow::Result<MapFile> {
-        let text = crate::formats::read_text_limited(path, crate::formats::MAX_SMALL_FILE, "a map file")?;
+        let text =
+            crate::formats::read_text_limited(path, crate::formats::MAX_SMALL_FILE, "a map file")?;
         Self::parse(&text, &path.display().to_string())
     }
 
@@ -254,11 +255,20 @@ mod tests {
     fn mistakes_are_refused_with_the_entry_named() {
         for (text, says) in [
             ("delimiter = \"|\"", "delimiter = \"|\""),
-            ("decimal = \",\"\ndelimiter = \",\"", "decimal = \",\" with delimiter"),
-            ("header = false\n[columns]\nq1 = \"a\"", "q1 = \"a\" with header = false"),
+            (
+                "decimal = \",\"\ndelimiter = \",\"",
+                "decimal = \",\" with delimiter",
+            ),
+            (
+                "header = false\n[columns]\nq1 = \"a\"",
+                "q1 = \"a\" with header = false",
+            ),
             ("[columns]\nq1 = 0", "column numbers start at 1"),
             ("[units]\njoints = \"grad\"", "joints = \"grad\""),
-            ("[units]\nrotation = \"Rx*Rx*Rz\"", "rotation = \"Rx*Rx*Rz\""),
+            (
+                "[units]\nrotation = \"Rx*Rx*Rz\"",
+                "rotation = \"Rx*Rx*Rz\"",
+            ),
             ("[columns]\nsrx_deg = \"a\"", "needs all of srx_deg"),
             ("colums = 1", "not a map file"),
         ] {

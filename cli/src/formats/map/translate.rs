@@ -186,7 +186,9 @@ fn plan(
     };
     let mut required: Vec<String> = (1..=n).map(|j| format!("q{j}")).collect();
     let several = named.iter().any(|(c, _)| c.starts_with("x_"));
-    let has_xyz = named.iter().any(|(c, _)| ["x", "y", "z"].contains(&c.as_str()));
+    let has_xyz = named
+        .iter()
+        .any(|(c, _)| ["x", "y", "z"].contains(&c.as_str()));
     if !several || has_xyz {
         required.extend(["x", "y", "z"].map(String::from));
     }
@@ -229,8 +231,16 @@ fn plan(
         });
     }
     for group in [
-        [Kind::Orientation(0), Kind::Orientation(1), Kind::Orientation(2)],
-        [Kind::TargetAngle(0), Kind::TargetAngle(1), Kind::TargetAngle(2)],
+        [
+            Kind::Orientation(0),
+            Kind::Orientation(1),
+            Kind::Orientation(2),
+        ],
+        [
+            Kind::TargetAngle(0),
+            Kind::TargetAngle(1),
+            Kind::TargetAngle(2),
+        ],
     ] {
         let found = group
             .iter()
@@ -292,7 +302,10 @@ fn convert(map: &MapFile, columns: &[Column], v: &mut [Option<f64>]) -> Option<[
     let orient = map.units.orientation.unwrap_or(AngleUnit::Deg);
     let joints = map.units.joints.unwrap_or(AngleUnit::Deg);
     let mut raw = None;
-    for (group, target) in [(Kind::Orientation as fn(usize) -> Kind, false), (Kind::TargetAngle, true)] {
+    for (group, target) in [
+        (Kind::Orientation as fn(usize) -> Kind, false),
+        (Kind::TargetAngle, true),
+    ] {
         let at: Vec<usize> = (0..3)
             .filter_map(|a| columns.iter().position(|c| c.kind == group(a)))
             .collect();
@@ -388,7 +401,8 @@ pub fn translate(
                 None => "no cell".to_string(),
                 Some(t) => {
                     let t = cell_text(t);
-                    let mut s = format!("not a number: '{}'", t.chars().take(40).collect::<String>());
+                    let mut s =
+                        format!("not a number: '{}'", t.chars().take(40).collect::<String>());
                     if !map.decimal_comma && t.contains(',') && !t.contains('.') {
                         s.push_str(&format!(
                             " (a decimal comma? say decimal = \",\" in {map_origin})"
@@ -457,7 +471,9 @@ mod tests {
         let s = (25.0f64 / 3.0).sqrt();
         assert_eq!(
             t.text,
-            format!("q1,q2,x,y,z,sx_mm,srot_deg,temp_c\n\n0.5,-1.25,1.5,0.25,-0.75,0.02,{s:?},21.5\n")
+            format!(
+                "q1,q2,x,y,z,sx_mm,srot_deg,temp_c\n\n0.5,-1.25,1.5,0.25,-0.75,0.02,{s:?},21.5\n"
+            )
         );
     }
 

@@ -298,7 +298,11 @@ fn the_published_ur10_layout_reads_as_the_converted_file() {
     // Without the map the published file is refused with a one-line reason.
     let out = kinecal(&["check", "--robot", s(&robot), "--data", s(&data)]);
     assert_eq!(out.status.code(), Some(2));
-    assert_eq!(stderr(&out).trim().lines().count(), 1, "{}", stderr(&out));
+    let err = stderr(&out);
+    assert!(
+        err.trim().lines().count() == 1 && err.contains("read it with --map M.toml"),
+        "{err}"
+    );
 }
 
 /// UR10 joint readings and tracker points from `kinecal simulate` (robot placed in a tracker

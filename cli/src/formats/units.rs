@@ -54,7 +54,6 @@ use kinecal::forward::ForwardKinematics;
 use kinecal::{Frame, Robot};
 use nalgebra::Vector3;
 use std::f64::consts::PI;
-use std::path::Path;
 
 /// Unit of the positions in a file.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

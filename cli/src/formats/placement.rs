@@ -12,8 +12,12 @@ use nalgebra::Vector3;
 
 /// The stated base must leave this many times the RMS of the base fitted to the data…
 pub const CLEAR_RATIO: f64 = 10.0;
-/// …and at least this fraction of the reach, for a refusal.
+/// …and at least this fraction of the reach, for a refusal…
 pub const FLOOR_OF_REACH: f64 = 0.05;
+/// …and the fitted base must place the points within this fraction of their spread (two
+/// tiny clusters — metres read as millimetres, radians as degrees — can be placed onto each
+/// other closely whatever they are: that is the units door's to judge).
+pub const FIT_OF_SPREAD: f64 = 0.1;
 /// Most rows compared (evenly spaced over the file).
 pub const SCORED_ROWS: usize = 4096;
 
@@ -79,7 +83,13 @@ pub fn check<const N: usize, const V: usize>(
     let fitted_mm = rms(&|m| fit.point(m));
     let centroid = |v: &[Vector3<f64>]| v.iter().sum::<Vector3<f64>>() / n;
     let offset_mm = (centroid(&pts) - centroid(&model)).norm();
+    let spread = |v: &[Vector3<f64>]| {
+        let c = centroid(v);
+        (v.iter().map(|p| (p - c).norm_squared()).sum::<f64>() / n).sqrt()
+    };
+    let scale = spread(&pts).max(spread(&model));
     (stated_mm.is_finite()
+        && fitted_mm <= FIT_OF_SPREAD * scale
         && stated_mm >= CLEAR_RATIO * fitted_mm
         && stated_mm >= FLOOR_OF_REACH * nominal.reach())
     .then_some(Misplaced {

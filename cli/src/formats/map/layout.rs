@@ -58,23 +58,27 @@ pub fn cell_text(cell: &str) -> &str {
     kinecal::io::csv::column_name(cell)
 }
 
-/// The number in a cell: `Ok(None)` for an empty cell, `Err(())` when it is not a number.
+/// A cell that is not a number.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NotANumber;
+
+/// The number in a cell: `Ok(None)` for an empty cell, `Err(NotANumber)` when it is not one.
 /// With `decimal_comma`, `3,14` is 3.14 (and a cell with a `.` is not a number: thousands
 /// separators are not read).
-pub fn number(cell: &str, decimal_comma: bool) -> Result<Option<f64>, ()> {
+pub fn number(cell: &str, decimal_comma: bool) -> Result<Option<f64>, NotANumber> {
     let t = cell_text(cell);
     if t.is_empty() {
         return Ok(None);
     }
     let parsed = if decimal_comma {
         if t.contains('.') {
-            return Err(());
+            return Err(NotANumber);
         }
         t.replacen(',', ".", 1).parse::<f64>()
     } else {
         t.parse::<f64>()
     };
-    parsed.map(Some).map_err(|_| ())
+    parsed.map(Some).map_err(|_| NotANumber)
 }
 
 #[cfg(test)]
@@ -107,11 +111,11 @@ mod tests {
 
     #[test]
     fn numbers_with_a_decimal_comma() {
-        assert_eq!(number(" -3,14159 ", true), Ok(Some(-3.14159)));
+        assert_eq!(number(" -2,6946 ", true), Ok(Some(-2.6946)));
         assert_eq!(number("2,02011E+13", true), Ok(Some(2.02011e13)));
         assert_eq!(number("\"1.5\"", false), Ok(Some(1.5)));
         assert_eq!(number("", true), Ok(None));
-        assert_eq!(number("1.000,5", true), Err(()));
-        assert_eq!(number("3,14", false), Err(()));
+        assert_eq!(number("1.000,5", true), Err(NotANumber));
+        assert_eq!(number("3,14", false), Err(NotANumber));
     }
 }

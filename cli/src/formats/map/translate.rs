@@ -269,8 +269,8 @@ fn values(
             None => Ok(None),
             Some(t) => match number(t, decimal_comma) {
                 Ok(v) => Ok(v),
-                Err(()) if required => Err(c),
-                Err(()) => Ok(None),
+                Err(_) if required => Err(c),
+                Err(_) => Ok(None),
             },
         }
     };

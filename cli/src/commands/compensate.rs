@@ -60,7 +60,7 @@ impl Args {
                 stream: self.stream,
                 f32: self.f32,
             },
-            units: self.units,
+            units: self.units.clone(),
         }
     }
 }

@@ -105,8 +105,12 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
     // reflectors are used when the named effects are fitted to all observations
     // (crate::diagnose::observations).
     let load = |p: &std::path::Path| -> anyhow::Result<Observed<N>> {
-        let ds =
-            crate::formats::units::load_measurements(p, &input.units, &nominal, file.base_known())?;
+        let ds = crate::formats::loading::load_measurements(
+            p,
+            &input.units,
+            &nominal,
+            file.base_known(),
+        )?;
         observe(&ds, &file, &args.obs, &p.display().to_string())
     };
     if let Some(dir) = args.plots.as_deref().filter(|d| d.exists() && !d.is_dir()) {

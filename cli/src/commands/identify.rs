@@ -96,8 +96,12 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
     let input = &args.input;
     let (file, nominal) = load_robot::<N>(&input.robot)?;
     let load = |p: &std::path::Path| -> anyhow::Result<Observed<N>> {
-        let ds =
-            crate::formats::units::load_measurements(p, &input.units, &nominal, file.base_known())?;
+        let ds = crate::formats::loading::load_measurements(
+            p,
+            &input.units,
+            &nominal,
+            file.base_known(),
+        )?;
         observe(&ds, &file, &args.obs, &p.display().to_string())
     };
     let observed = load(&input.data)?;

@@ -110,8 +110,12 @@ pub fn load_split<const N: usize>(
 ) -> anyhow::Result<Split<N>> {
     use crate::formats::observations::{observe, Observed};
     let load = |p: &std::path::Path| -> anyhow::Result<Observed<N>> {
-        let ds =
-            crate::formats::units::load_measurements(p, &input.units, nominal, file.base_known())?;
+        let ds = crate::formats::loading::load_measurements(
+            p,
+            &input.units,
+            nominal,
+            file.base_known(),
+        )?;
         observe(&ds, file, obs, &p.display().to_string())
     };
     let observed = load(&input.data)?;

@@ -53,7 +53,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ValidateReport
     let (file, nominal) = load_robot::<N>(&input.robot)?;
     let (model_file, model) = load_robot::<N>(&args.model)?;
     super::report::same_robot(&nominal, &model, (&input.robot, &args.model))?;
-    let ds = crate::formats::units::load_measurements(
+    let ds = crate::formats::loading::load_measurements(
         &input.data,
         &input.units,
         &nominal,

@@ -12,8 +12,9 @@
 //! `unreachable`, `limited`, `invalid`); and the model's remaining error at the command in the
 //! units its column names say (`error_mm`, `error_deg`).
 
+use crate::formats::loading::load_targets;
 use crate::formats::robot_file::RobotFile;
-use crate::formats::units::{load_targets, AngleUnit, UnitArgs};
+use crate::formats::units::{AngleUnit, UnitArgs};
 use crate::reports::compensate::CompensateReport;
 use crate::with_joints;
 use anyhow::{anyhow, bail};

@@ -143,7 +143,11 @@ pub fn describe_error(
     match e.kind {
         CsvErrorKind::MissingColumn => {
             let name = required_column_name(e.which as usize, n);
-            msg = format!("missing required column `{name}` (the header needs q1..q{n}, x, y, z)");
+            msg = format!(
+                "missing required column `{name}` (the header needs q1..q{n}, x, y, z; a file \
+                 in another layout: read it with --map M.toml, docs/formats.md \"Files in other \
+                 layouts\")"
+            );
             col = 1;
         }
         CsvErrorKind::LineTooLong => {

@@ -2,12 +2,17 @@
 //! (TOML), measurements (CSV), the measurement cell of `plan` (TOML) and the units at the door.
 
 pub mod cell_file;
+pub mod convention;
 pub mod dh_table;
 pub mod firmware_model;
+pub mod loading;
+pub mod map;
 pub mod measurements;
 pub mod observations;
+pub mod placement;
 pub mod prior;
 pub mod robot_file;
+pub mod rotation_order;
 pub mod units;
 pub mod urdf;
 

@@ -48,13 +48,12 @@
 //! (`rx`, `ry`, `rz`) follow the flags. Reports and robot files are always in mm and degrees.
 
 use crate::compute::registration::fit_rigid;
-use crate::formats::measurements::{self, Dataset, Record};
+use crate::formats::measurements::{Dataset, Record};
 use crate::output::numfmt::sig;
 use kinecal::forward::ForwardKinematics;
 use kinecal::{Frame, Robot};
 use nalgebra::Vector3;
 use std::f64::consts::PI;
-use std::path::Path;
 
 /// Unit of the positions in a file.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -128,7 +127,7 @@ impl AngleUnit {
 }
 
 /// `--length-unit` and `--angle-unit` (flatten into a subcommand's arguments).
-#[derive(clap::Args, Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(clap::Args, Debug, Clone, Default, PartialEq, Eq)]
 pub struct UnitArgs {
     /// Unit of the positions x, y, z in the data, sweep or target files [default: mm]. Without
     /// it, a file that looks like metres is refused (exit 2); given, it is never second-guessed.
@@ -141,6 +140,11 @@ pub struct UnitArgs {
     /// `compensate --out` writes are in this unit.
     #[arg(long, value_enum)]
     pub angle_unit: Option<AngleUnit>,
+    /// Read the data, sweep or target files in another layout, as the map file M.toml says
+    /// (delimiter, decimal comma, header, column names, units, the order of the three angles:
+    /// docs/formats.md, "Files in other layouts").
+    #[arg(long, value_name = "M.toml")]
+    pub map: Option<std::path::PathBuf>,
 }
 
 impl UnitArgs {
@@ -149,6 +153,7 @@ impl UnitArgs {
         Self {
             length_unit: Some(length),
             angle_unit: Some(angle),
+            map: None,
         }
     }
     /// The length unit in force (mm unless given).
@@ -678,30 +683,9 @@ pub fn convert<const N: usize>(ds: &mut Dataset<N>, units: &UnitArgs) {
     }
 }
 
-/// Loads a file of `kind` in `units`: malformed input and implausible units are refused
-/// (exit 2); the records come back in millimetres and degrees. `base_known`: whether
-/// `nominal`'s base places the points (otherwise it is fitted for the check).
-pub fn load_as<const N: usize, const V: usize>(
-    path: &Path,
-    units: &UnitArgs,
-    nominal: &Robot<f64, N, V>,
-    base_known: bool,
-    kind: FileKind,
-) -> anyhow::Result<Dataset<N>> {
-    let ds = measurements::load::<N>(path)?;
-    accept(
-        ds,
-        &path.display().to_string(),
-        units,
-        nominal,
-        base_known,
-        kind,
-    )
-}
-
-/// The plausibility check and conversion of [`load_as`] for records already read (or made
-/// in memory, e.g. from arrays): refused (exit 2) naming `origin` when the units look wrong;
-/// the records come back in millimetres and degrees.
+/// The plausibility check and conversion of [`crate::formats::loading::load_as`] for records
+/// already read (or made in memory, e.g. from arrays): refused (exit 2) naming `origin` when
+/// the units look wrong; the records come back in millimetres and degrees.
 pub fn accept<const N: usize, const V: usize>(
     mut ds: Dataset<N>,
     origin: &str,
@@ -715,35 +699,6 @@ pub fn accept<const N: usize, const V: usize>(
     }
     convert(&mut ds, units);
     Ok(ds)
-}
-
-/// A measurement file (`check`, `identify`, `diagnose`) in mm and degrees; see [`load_as`].
-pub fn load_measurements<const N: usize, const V: usize>(
-    path: &Path,
-    units: &UnitArgs,
-    nominal: &Robot<f64, N, V>,
-    base_known: bool,
-) -> anyhow::Result<Dataset<N>> {
-    load_as(path, units, nominal, base_known, FileKind::Measurements)
-}
-
-/// A sweep file (`frames`: the base is always unknown there) in mm and degrees.
-pub fn load_sweeps<const N: usize, const V: usize>(
-    path: &Path,
-    units: &UnitArgs,
-    nominal: &Robot<f64, N, V>,
-) -> anyhow::Result<Dataset<N>> {
-    load_as(path, units, nominal, false, FileKind::Sweeps)
-}
-
-/// A target file (`compensate`) in mm and degrees: the seeds must bring `model` (its base, or
-/// the identity when it has none: targets in the robot base frame) near the targets.
-pub fn load_targets<const N: usize, const V: usize>(
-    path: &Path,
-    units: &UnitArgs,
-    model: &Robot<f64, N, V>,
-) -> anyhow::Result<Dataset<N>> {
-    load_as(path, units, model, true, FileKind::Targets)
 }
 
 #[cfg(test)]
@@ -809,6 +764,7 @@ mod tests {
     const DEFAULTS: UnitArgs = UnitArgs {
         length_unit: None,
         angle_unit: None,
+        map: None,
     };
     use AngleUnit::{Deg, Rad};
     use LengthUnit::{Mm, M};
@@ -838,6 +794,7 @@ mod tests {
                 let half = UnitArgs {
                     length_unit: Some(truth.0),
                     angle_unit: None,
+                    map: None,
                 };
                 let s = suspect(&rec, &half, &r, base_known);
                 assert_eq!(

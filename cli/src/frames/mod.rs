@@ -191,7 +191,7 @@ fn find_with_joints<const N: usize>(
     out: Option<&Path>,
 ) -> anyhow::Result<FramesReport> {
     let (file, robot): (RobotFile, Robot<f64, N, VCAP>) = load_robot::<N>(robot_path)?;
-    let data = crate::formats::units::load_sweeps(data_path, units, &robot)?;
+    let data = crate::formats::loading::load_sweeps(data_path, units, &robot)?;
     let sweeps = group(data_path, &data)?;
     let origin = data_path.display();
     let mut warnings = Vec::new();

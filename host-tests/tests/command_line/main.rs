@@ -19,3 +19,4 @@ mod reports;
 mod robot_file;
 mod units;
 mod urdf;
+mod vendor_files;

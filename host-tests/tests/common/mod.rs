@@ -106,7 +106,7 @@ pub fn data_file(name: &str) -> PathBuf {
         .join(name)
 }
 
-/// The real UR10 data (robot.toml and the tracker measurements), outside the repository.
+/// The real UR10 data (robot.toml and the tracker measurements) in data/ur10.
 pub fn ur10_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../data/ur10")
 }

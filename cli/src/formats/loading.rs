@@ -1,0 +1,129 @@
+//! Measurement, sweep and target files through their doors (docs/formats.md, "Measurement
+//! CSV"): read (in kinecal's layout, or another through `--map`), a stated base checked
+//! ("Base"), the units checked and converted ("Units and the plausibility check"), then the
+//! order of the angles of 6-D rows ("The convention check").
+
+use crate::formats::measurements::{self, Dataset};
+use crate::formats::rotation_order::RotationOrder;
+use crate::formats::units::{accept, convert, FileKind, UnitArgs};
+use kinecal::Robot;
+use std::path::Path;
+
+/// Loads a file of `kind` in `units`: malformed input and implausible units are refused
+/// (exit 2); the records come back in millimetres and degrees. `base_known`: whether
+/// `nominal`'s base places the points (otherwise it is fitted for the check).
+pub fn load_as<const N: usize, const V: usize>(
+    path: &Path,
+    units: &UnitArgs,
+    nominal: &Robot<f64, N, V>,
+    base_known: bool,
+    kind: FileKind,
+) -> anyhow::Result<Dataset<N>> {
+    let origin = path.display().to_string();
+    let measured = kind == FileKind::Measurements;
+    let Some(map) = &units.map else {
+        let ds = measurements::load::<N>(path)?;
+        if measured && base_known {
+            placement(&ds, units, nominal, &origin)?;
+        }
+        let ds = accept(ds, &origin, units, nominal, base_known, kind)?;
+        if measured {
+            convention(&ds, None, nominal, &origin)?;
+        }
+        return Ok(ds);
+    };
+    let m = crate::formats::map::load::<N>(path, map, units)?;
+    if measured && base_known {
+        placement(&m.dataset, &m.units, nominal, &origin)?;
+    }
+    let ds = accept(m.dataset, &origin, &m.units, nominal, base_known, kind).map_err(|e| {
+        crate::refused(format!(
+            "{e} (with --map {}: or state the unit in its [units])",
+            map.display()
+        ))
+    })?;
+    if measured {
+        let stated = Some((m.raw_angles.as_slice(), m.rotation, map.as_path()));
+        convention(&ds, stated, nominal, &origin)?;
+    }
+    Ok(ds)
+}
+
+/// A measurement file (`check`, `identify`, `diagnose`) in mm and degrees; see [`load_as`].
+pub fn load_measurements<const N: usize, const V: usize>(
+    path: &Path,
+    units: &UnitArgs,
+    nominal: &Robot<f64, N, V>,
+    base_known: bool,
+) -> anyhow::Result<Dataset<N>> {
+    load_as(path, units, nominal, base_known, FileKind::Measurements)
+}
+
+/// A sweep file (`frames`: the base is always unknown there) in mm and degrees.
+pub fn load_sweeps<const N: usize, const V: usize>(
+    path: &Path,
+    units: &UnitArgs,
+    nominal: &Robot<f64, N, V>,
+) -> anyhow::Result<Dataset<N>> {
+    load_as(path, units, nominal, false, FileKind::Sweeps)
+}
+
+/// A target file (`compensate`) in mm and degrees: the seeds must bring `model` (its base, or
+/// the identity when it has none: targets in the robot base frame) near the targets.
+pub fn load_targets<const N: usize, const V: usize>(
+    path: &Path,
+    units: &UnitArgs,
+    model: &Robot<f64, N, V>,
+) -> anyhow::Result<Dataset<N>> {
+    load_as(path, units, model, true, FileKind::Targets)
+}
+
+/// Refuses (exit 2) a measurement file whose stated base misplaces it: run before the units
+/// door on the values as written, read in the units assumed (`units`), since a base metres
+/// off would otherwise look like a unit mistake (points beyond the arm's reach).
+fn placement<const N: usize, const V: usize>(
+    raw: &Dataset<N>,
+    units: &UnitArgs,
+    nominal: &Robot<f64, N, V>,
+    origin: &str,
+) -> anyhow::Result<()> {
+    let mut assumed = raw.clone();
+    convert(&mut assumed, units);
+    if let Some(p) = crate::formats::placement::check(&assumed, nominal) {
+        crate::refuse!("{}", p.message(origin));
+    }
+    Ok(())
+}
+
+/// Refuses (exit 2) a measurement file (in mm and degrees) whose angles compose in another
+/// order than the one assumed. `stated`: the file's angles as
+/// written (degrees), the order the map gives them and the map file, for a file read with
+/// `--map`; without, the angles are the file's `rx_deg`, `ry_deg`, `rz_deg` in kinecal's order.
+fn convention<const N: usize, const V: usize>(
+    ds: &Dataset<N>,
+    stated: Option<(&[[f64; 3]], RotationOrder, &Path)>,
+    nominal: &Robot<f64, N, V>,
+    origin: &str,
+) -> anyhow::Result<()> {
+    let q: Vec<[f64; N]> = ds.records.iter().map(|r| r.q_deg).collect();
+    let (angles, assumed, map) = match stated {
+        Some((a, o, m)) => (a.to_vec(), o, Some(m)),
+        None => {
+            let cols = ["rx_deg", "ry_deg", "rz_deg"].map(|c| ds.extra(c));
+            match cols {
+                [Some(x), Some(y), Some(z)] => (
+                    (0..ds.len()).map(|i| [x[i], y[i], z[i]]).collect(),
+                    RotationOrder::KINECAL,
+                    None,
+                ),
+                _ => (Vec::new(), RotationOrder::KINECAL, None),
+            }
+        }
+    };
+    if angles.len() == q.len() {
+        if let Some(m) = crate::formats::convention::check(&q, &angles, assumed, nominal) {
+            crate::refuse!("{}", m.message(origin, map));
+        }
+    }
+    Ok(())
+}

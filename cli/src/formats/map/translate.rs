@@ -1,0 +1,513 @@
+//! A file in another layout, turned into the text of kinecal's own layout (docs/formats.md,
+//! "Measurement CSV") line for line: the columns kinecal reads, under kinecal's names, each
+//! number written so that it reads back as the very `f64` it stands for.
+//!
+//! What the map converts here: the orientation (its unit and the order of its three angles),
+//! the per-axis angle σ (combined into one `srot_deg`) and the columns named with their unit
+//! (`sx_mm`, `length_mm`, …). Joint readings and positions are left as written: the map's
+//! `joints` and `length` act as `--angle-unit` and `--length-unit` at the units door.
+
+use super::layout::{cell_text, number, Line};
+use super::spec::{ColumnRef, MapFile};
+use crate::formats::rotation_order::RotationOrder;
+use crate::formats::units::{mm_of_m, AngleUnit, LengthUnit};
+use std::fmt::Write as _;
+
+/// What kind of value a kinecal column holds, for its conversion.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    /// `q1`…`qN`, `x`, `y`, `z`, `x_NAME`…: as written (converted at the units door).
+    Raw,
+    /// A length named in millimetres (`sx_mm`, `length_mm`, `sigma_mm`).
+    Millimetres,
+    /// One angle of a measured orientation (`rx_deg`, `ry_deg`, `rz_deg`): axis 0, 1, 2.
+    Orientation(usize),
+    /// One angle of a target orientation (`rx`, `ry`, `rz`), written in the joints' unit.
+    TargetAngle(usize),
+    /// An angular 1-σ (`srot_deg`).
+    AngleSigma,
+}
+
+fn kind_of(name: &str) -> Kind {
+    match name {
+        "rx_deg" => Kind::Orientation(0),
+        "ry_deg" => Kind::Orientation(1),
+        "rz_deg" => Kind::Orientation(2),
+        "rx" => Kind::TargetAngle(0),
+        "ry" => Kind::TargetAngle(1),
+        "rz" => Kind::TargetAngle(2),
+        "srot_deg" => Kind::AngleSigma,
+        n if n.ends_with("_mm") => Kind::Millimetres,
+        _ => Kind::Raw,
+    }
+}
+
+/// Where a kinecal column's value comes from.
+#[derive(Clone, Debug)]
+enum Source {
+    /// A cell of the file (0-based column).
+    Cell(usize),
+    /// The RMS of three angular σ cells (`srx_deg`, `sry_deg`, `srz_deg`).
+    SigmaRms([usize; 3]),
+}
+
+/// One column of the translated file.
+#[derive(Clone, Debug)]
+pub struct Column {
+    pub name: String,
+    source: Source,
+    kind: Kind,
+    /// Whether every row must give a number (a joint reading or `x`, `y`, `z`).
+    required: bool,
+    /// The file's name for it, for messages.
+    file_name: String,
+}
+
+impl Column {
+    /// The file's column (1-based) this column reads, for messages.
+    pub fn file_column(&self) -> usize {
+        match &self.source {
+            Source::Cell(k) | Source::SigmaRms([k, _, _]) => k + 1,
+        }
+    }
+}
+
+/// The translated text, and what the checks behind the units door need.
+pub struct Translated {
+    /// The file in kinecal's layout, with the same line numbers as the file (one more, for
+    /// the header line put first, when the file has none).
+    pub text: String,
+    pub columns: Vec<Column>,
+    /// The measured orientation of each row as the file states it (degrees about x, y, z,
+    /// before the map's order is applied), when it has one.
+    pub raw_angles: Vec<[f64; 3]>,
+    /// Line numbers of `text` are the file's plus this (1 without a header line, else 0).
+    pub line_shift: u32,
+}
+
+/// The column index a reference names, refused (exit 2) when the file has no such column.
+fn resolve(
+    r: &ColumnRef,
+    header: Option<&[String]>,
+    width: usize,
+    key: &str,
+    origins: (&str, &str),
+) -> anyhow::Result<usize> {
+    let (data, map) = origins;
+    match r {
+        ColumnRef::Number(k) => {
+            let k = *k as usize;
+            if k > width {
+                crate::refuse!(
+                    "{map}: [columns] {key} = {k}: {data} has {width} columns: give a column number from 1 to {width}"
+                );
+            }
+            Ok(k - 1)
+        }
+        ColumnRef::Name(n) => {
+            let h = header.unwrap_or(&[]);
+            h.iter().position(|c| c == n).ok_or_else(|| {
+                let mut list: Vec<&str> = h.iter().take(12).map(String::as_str).collect();
+                if h.len() > 12 {
+                    list.push("…");
+                }
+                crate::refused(format!(
+                    "{map}: [columns] {key} = {n:?}: {data} has no such column (its header: {}): give the name as the header writes it",
+                    list.join(", ")
+                ))
+            })
+        }
+    }
+}
+
+/// Whether a header cell is already one of kinecal's column names (docs/formats.md,
+/// "Measurement CSV", "Sweep files", "Target and command files"), read as it is.
+fn kinecal_name(name: &str) -> bool {
+    const KNOWN: [&str; 17] = [
+        "x", "y", "z", "rx_deg", "ry_deg", "rz_deg", "sx_mm", "sy_mm", "sz_mm", "srot_deg",
+        "temp_c", "t_s", "sweep", "rx", "ry", "rz", "tool",
+    ];
+    let joint = name
+        .strip_prefix('q')
+        .is_some_and(|k| !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit()));
+    let point = ["x_", "y_", "z_"].iter().any(|p| {
+        name.strip_prefix(p).is_some_and(|r| {
+            !r.is_empty() && r.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_')
+        })
+    });
+    (joint || point || KNOWN.contains(&name)) && name.len() <= kinecal::io::csv::NAME_LEN
+}
+
+/// The columns of the translated file: `q1`…`qN`, `x`, `y`, `z` first, then the others in the
+/// file's order; the file's columns the map does not name are read too when they carry one
+/// of kinecal's names (`q3`, `temp_c`, …); any other column is left out.
+fn plan(
+    map: &MapFile,
+    n: usize,
+    header: Option<&[String]>,
+    width: usize,
+    origins: (&str, &str),
+) -> anyhow::Result<Vec<Column>> {
+    let (data, map_origin) = origins;
+    let mut named: Vec<(String, usize)> = Vec::new();
+    let mut per_axis = [None; 3];
+    for (key, r) in &map.columns {
+        if let Some(j) = key.strip_prefix('q').and_then(|k| k.parse::<usize>().ok()) {
+            if j == 0 || j > n {
+                crate::refuse!(
+                    "{map_origin}: [columns] {key}: the robot has {n} joints (q1 to q{n})"
+                );
+            }
+        }
+        let k = resolve(r, header, width, key, origins)?;
+        match key.as_str() {
+            "srx_deg" => per_axis[0] = Some(k),
+            "sry_deg" => per_axis[1] = Some(k),
+            "srz_deg" => per_axis[2] = Some(k),
+            _ => named.push((key.clone(), k)),
+        }
+    }
+    let used: Vec<usize> = named
+        .iter()
+        .map(|(_, k)| *k)
+        .chain(per_axis.iter().flatten().copied())
+        .collect();
+    if let Some(h) = header {
+        for (k, c) in h.iter().enumerate() {
+            if !used.contains(&k) && kinecal_name(c) && !named.iter().any(|(m, _)| m == c) {
+                named.push((c.clone(), k));
+            }
+        }
+    }
+    let file_name = |k: usize| {
+        header
+            .and_then(|h| h.get(k))
+            .map_or(format!("column {}", k + 1), |c| format!("`{c}`"))
+    };
+    let mut required: Vec<String> = (1..=n).map(|j| format!("q{j}")).collect();
+    let several = named.iter().any(|(c, _)| c.starts_with("x_"));
+    let has_xyz = named
+        .iter()
+        .any(|(c, _)| ["x", "y", "z"].contains(&c.as_str()));
+    if !several || has_xyz {
+        required.extend(["x", "y", "z"].map(String::from));
+    }
+    let mut columns = Vec::new();
+    for want in &required {
+        let Some((_, k)) = named.iter().find(|(c, _)| c == want) else {
+            crate::refuse!(
+                "{data}: no column for {want} (read with --map {map_origin}): name it in the map's [columns], {want} = \"the file's column name\" (or its number)"
+            );
+        };
+        columns.push(Column {
+            name: want.clone(),
+            source: Source::Cell(*k),
+            kind: Kind::Raw,
+            required: true,
+            file_name: file_name(*k),
+        });
+    }
+    let mut rest: Vec<(String, Source)> = named
+        .into_iter()
+        .filter(|(c, _)| !required.contains(c))
+        .map(|(c, k)| (c, Source::Cell(k)))
+        .collect();
+    if let [Some(a), Some(b), Some(c)] = per_axis {
+        rest.push(("srot_deg".into(), Source::SigmaRms([a, b, c])));
+    }
+    rest.sort_by_key(|(_, s)| match s {
+        Source::Cell(k) | Source::SigmaRms([k, _, _]) => *k,
+    });
+    for (name, source) in rest {
+        let first = match &source {
+            Source::Cell(k) | Source::SigmaRms([k, _, _]) => *k,
+        };
+        columns.push(Column {
+            kind: kind_of(&name),
+            file_name: file_name(first),
+            name,
+            source,
+            required: false,
+        });
+    }
+    for group in [
+        [
+            Kind::Orientation(0),
+            Kind::Orientation(1),
+            Kind::Orientation(2),
+        ],
+        [
+            Kind::TargetAngle(0),
+            Kind::TargetAngle(1),
+            Kind::TargetAngle(2),
+        ],
+    ] {
+        let found = group
+            .iter()
+            .filter(|g| columns.iter().any(|c| c.kind == **g))
+            .count();
+        if found > 0 && found < 3 && map.rotation != RotationOrder::KINECAL {
+            crate::refuse!(
+                "{map_origin}: [units] rotation = \"{}\" needs all three angles (rx_deg, ry_deg, rz_deg, or rx, ry, rz for targets) in [columns]",
+                map.rotation.text()
+            );
+        }
+    }
+    Ok(columns)
+}
+
+/// One row's value of each column: `Ok(None)` for an empty cell (or a column the line is too
+/// short for); `Err(column)` when a required cell is missing or not a number.
+fn values(
+    columns: &[Column],
+    cells: &[&str],
+    decimal_comma: bool,
+) -> Result<Vec<Option<f64>>, usize> {
+    let cell = |k: usize, required: bool, c: usize| -> Result<Option<f64>, usize> {
+        match cells.get(k) {
+            None if required => Err(c),
+            None => Ok(None),
+            Some(t) => match number(t, decimal_comma) {
+                Ok(v) => Ok(v),
+                Err(_) if required => Err(c),
+                Err(_) => Ok(None),
+            },
+        }
+    };
+    columns
+        .iter()
+        .enumerate()
+        .map(|(c, col)| match col.source {
+            Source::Cell(k) => match cell(k, col.required, c)? {
+                None if col.required => Err(c),
+                v => Ok(v),
+            },
+            Source::SigmaRms(ks) => {
+                let mut ss = 0.0;
+                for k in ks {
+                    match cell(k, false, c)? {
+                        Some(v) => ss += v * v,
+                        None => return Ok(None),
+                    }
+                }
+                Ok(Some((ss / 3.0).sqrt()))
+            }
+        })
+        .collect()
+}
+
+/// Converts one row's values in place (see the module documentation); returns the measured
+/// orientation as the file states it (degrees), when the row has one.
+fn convert(map: &MapFile, columns: &[Column], v: &mut [Option<f64>]) -> Option<[f64; 3]> {
+    let orient = map.units.orientation.unwrap_or(AngleUnit::Deg);
+    let joints = map.units.joints.unwrap_or(AngleUnit::Deg);
+    let mut raw = None;
+    for (group, target) in [
+        (Kind::Orientation as fn(usize) -> Kind, false),
+        (Kind::TargetAngle, true),
+    ] {
+        let at: Vec<usize> = (0..3)
+            .filter_map(|a| columns.iter().position(|c| c.kind == group(a)))
+            .collect();
+        if at.len() != 3 {
+            // An incomplete orientation is kinecal's own (the map refuses another order then):
+            // only the unit changes.
+            for k in at {
+                v[k] = v[k].map(|x| orient.to_deg(x));
+                if target {
+                    v[k] = v[k].map(|d| joints.from_deg(d));
+                }
+            }
+            continue;
+        }
+        let (Some(a), Some(b), Some(c)) = (v[at[0]], v[at[1]], v[at[2]]) else {
+            continue;
+        };
+        let deg = [a, b, c].map(|x| orient.to_deg(x));
+        if !target {
+            raw = Some(deg);
+        }
+        let k = map.rotation.to_kinecal_deg(deg);
+        for (i, &col) in at.iter().enumerate() {
+            v[col] = Some(if target { joints.from_deg(k[i]) } else { k[i] });
+        }
+    }
+    let length = map.units.length.unwrap_or(LengthUnit::Mm);
+    for (col, x) in columns.iter().zip(v.iter_mut()) {
+        match col.kind {
+            Kind::AngleSigma => *x = x.map(|s| orient.to_deg(s)),
+            Kind::Millimetres if length == LengthUnit::M => *x = x.map(mm_of_m),
+            _ => {}
+        }
+    }
+    raw
+}
+
+/// Translates the content `lines` of the file (`origins`: the data file and the map file, for
+/// messages) for an `n`-joint robot. Refused (exit 2): a column the map names that the file
+/// lacks, a missing required column, a required cell that is not a number.
+pub fn translate(
+    map: &MapFile,
+    lines: &[Line<'_>],
+    n: usize,
+    origins: (&str, &str),
+) -> anyhow::Result<Translated> {
+    let (data, map_origin) = origins;
+    let Some(first) = lines.first() else {
+        crate::refuse!("{data}:1:1: empty file: no header line");
+    };
+    let delimiter = match map.delimiter {
+        Some(d) => d,
+        None => super::layout::detect(lines, map.decimal_comma).ok_or_else(|| {
+            crate::refused(format!(
+                "{data}: cannot tell its delimiter (the first lines split into different numbers of cells by \",\", \";\", tab and spaces): state it in {map_origin}, delimiter = \";\""
+            ))
+        })?,
+    };
+    let header: Option<Vec<String>> = map.header.then(|| {
+        delimiter
+            .split(first.text)
+            .iter()
+            .map(|c| cell_text(c).to_string())
+            .collect()
+    });
+    let width = header
+        .as_ref()
+        .map_or_else(|| delimiter.split(first.text).len(), Vec::len);
+    let columns = plan(map, n, header.as_deref(), width, origins)?;
+    let body = if map.header { &lines[1..] } else { lines };
+    let line_shift = u32::from(!map.header);
+    let mut text = String::new();
+    let mut at_line = 1u32;
+    let mut newline_to = |text: &mut String, line: u32| {
+        while at_line < line + line_shift {
+            text.push('\n');
+            at_line += 1;
+        }
+    };
+    let head: Vec<&str> = columns.iter().map(|c| c.name.as_str()).collect();
+    if map.header {
+        newline_to(&mut text, first.number);
+    }
+    text.push_str(&head.join(","));
+    let mut raw_angles = Vec::with_capacity(body.len());
+    for line in body {
+        newline_to(&mut text, line.number);
+        let cells = delimiter.split(line.text);
+        let mut v = values(&columns, &cells, map.decimal_comma).map_err(|c| {
+            let col = &columns[c];
+            let k = col.file_column();
+            let what = match cells.get(k - 1) {
+                None => "no cell".to_string(),
+                Some(t) => {
+                    let t = cell_text(t);
+                    let mut s =
+                        format!("not a number: '{}'", t.chars().take(40).collect::<String>());
+                    if !map.decimal_comma && t.contains(',') && !t.contains('.') {
+                        s.push_str(&format!(
+                            " (a decimal comma? say decimal = \",\" in {map_origin})"
+                        ));
+                    } else if map.decimal_comma && t.contains('.') {
+                        s.push_str(&format!(
+                            " (a decimal point: {map_origin} says decimal = \",\")"
+                        ));
+                    }
+                    s
+                }
+            };
+            crate::refused(format!(
+                "{data}:{}:{k}: {what} in column {} (kinecal's {}); delimiter {}",
+                line.number,
+                col.file_name,
+                col.name,
+                delimiter.text()
+            ))
+        })?;
+        if let Some(r) = convert(map, &columns, &mut v) {
+            raw_angles.push(r);
+        } else if columns.iter().any(|c| c.kind == Kind::Orientation(0)) {
+            raw_angles.push([f64::NAN; 3]);
+        }
+        for (k, x) in v.iter().enumerate() {
+            if k > 0 {
+                text.push(',');
+            }
+            if let Some(x) = x {
+                // `{:?}` is the shortest text that reads back as the same f64.
+                let _ = write!(text, "{x:?}");
+            }
+        }
+    }
+    text.push('\n');
+    Ok(Translated {
+        text,
+        columns,
+        raw_angles,
+        line_shift,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::layout::content_lines;
+    use super::*;
+
+    fn map(text: &str) -> MapFile {
+        MapFile::parse(text, "M.toml").unwrap()
+    }
+
+    #[test]
+    fn a_vendor_layout_becomes_kinecal_s() {
+        let m = map(
+            "decimal = \",\"\n[columns]\nq1 = \"j1\"\nq2 = \"j2\"\nx = \"mx\"\ny = \"my\"\nz = \"mz\"\nsx_mm = \"sdx\"\nsrx_deg = \"a\"\nsry_deg = \"b\"\nsrz_deg = \"c\"\n[units]\nlength = \"m\"\n",
+        );
+        let file = "time;j1;j2;mx;my;mz;sdx;a;b;c;temp_c\n\n1;0,5;-1,25;1,5;0,25;-0,75;0,00002;3;0;4;21,5\n";
+        let t = translate(&m, &content_lines(file), 2, ("D.csv", "M.toml")).unwrap();
+        let names: Vec<&str> = t.columns.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(
+            names,
+            ["q1", "q2", "x", "y", "z", "sx_mm", "srot_deg", "temp_c"]
+        );
+        let s = (25.0f64 / 3.0).sqrt();
+        assert_eq!(
+            t.text,
+            format!(
+                "q1,q2,x,y,z,sx_mm,srot_deg,temp_c\n\n0.5,-1.25,1.5,0.25,-0.75,0.02,{s:?},21.5\n"
+            )
+        );
+    }
+
+    #[test]
+    fn without_a_header_columns_are_numbers_and_lines_shift_by_one() {
+        let m = map("header = false\n[columns]\nq1 = 2\nx = 3\ny = 4\nz = 5\n");
+        let t = translate(&m, &content_lines("# c\n9 10 11 12 13\n"), 1, ("D", "M")).unwrap();
+        assert_eq!(t.text, "q1,x,y,z\n\n10.0,11.0,12.0,13.0\n");
+        assert_eq!(t.line_shift, 1);
+    }
+
+    #[test]
+    fn mistakes_name_the_file_line_and_column() {
+        let m = map("[columns]\nq1 = \"j\"\nx = \"a\"\ny = \"b\"\nz = \"c\"\n");
+        let lines = "j;a;b;c\n1;2;3;4\n1;2,5;3;4\n";
+        let e = translate(&m, &content_lines(lines), 1, ("D.csv", "M.toml"))
+            .err()
+            .unwrap()
+            .to_string();
+        assert_eq!(
+            e,
+            "D.csv:3:2: not a number: '2,5' (a decimal comma? say decimal = \",\" in M.toml) in column `a` (kinecal's x); delimiter \";\""
+        );
+        let m = map("[columns]\nq1 = \"joint\"\n");
+        let e = translate(&m, &content_lines(lines), 1, ("D.csv", "M.toml"))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.starts_with("M.toml: [columns] q1 = \"joint\": D.csv has no such column (its header: j, a, b, c)"), "{e}");
+        let m = map("[columns]\nq1 = \"j\"\n");
+        let e = translate(&m, &content_lines(lines), 1, ("D.csv", "M.toml"))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.starts_with("D.csv: no column for x"), "{e}");
+    }
+}

@@ -1,0 +1,119 @@
+//! The order in which three angles about x, y and z compose a rotation (docs/formats.md,
+//! "Files in other layouts"): any of the six products of Rx, Ry, Rz, written like
+//! `"Rx*Ry*Rz"`. kinecal's own is `"Rz*Ry*Rx"` (R = Rz(rz)·Ry(ry)·Rx(rx), the fixed-axis
+//! roll-pitch-yaw of a robot file's `rpy_deg`).
+
+use kinecal::Frame;
+use nalgebra::{Matrix3, Rotation3, Vector3};
+
+/// One of the six orders: `axes[0]` is the leftmost factor of the product.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RotationOrder {
+    /// Axis indices (0 = x, 1 = y, 2 = z), leftmost factor first.
+    pub axes: [usize; 3],
+}
+
+impl RotationOrder {
+    /// kinecal's own order, R = Rz(rz)·Ry(ry)·Rx(rx).
+    pub const KINECAL: RotationOrder = RotationOrder { axes: [2, 1, 0] };
+
+    /// All six orders, kinecal's first.
+    pub fn all() -> [RotationOrder; 6] {
+        [
+            [2, 1, 0],
+            [0, 1, 2],
+            [0, 2, 1],
+            [1, 0, 2],
+            [1, 2, 0],
+            [2, 0, 1],
+        ]
+        .map(|axes| RotationOrder { axes })
+    }
+
+    /// Parses `"Rx*Ry*Rz"` (also `·` or `.` between the factors, any case, spaces allowed).
+    pub fn parse(text: &str) -> Option<RotationOrder> {
+        let t: String = text
+            .chars()
+            .filter(|c| !c.is_whitespace())
+            .collect::<String>()
+            .to_ascii_lowercase();
+        let parts: Vec<&str> = t.split(['*', '·', '.']).collect();
+        if parts.len() != 3 {
+            return None;
+        }
+        let mut axes = [0usize; 3];
+        for (k, p) in parts.iter().enumerate() {
+            axes[k] = match *p {
+                "rx" => 0,
+                "ry" => 1,
+                "rz" => 2,
+                _ => return None,
+            };
+        }
+        let mut seen = [false; 3];
+        axes.iter().for_each(|a| seen[*a] = true);
+        seen.iter().all(|s| *s).then_some(RotationOrder { axes })
+    }
+
+    /// `"Rx*Ry*Rz"`: the text [`RotationOrder::parse`] reads.
+    pub fn text(self) -> String {
+        self.axes.map(|a| ["Rx", "Ry", "Rz"][a]).join("*")
+    }
+
+    /// The rotation of angles `deg` (about x, y, z, degrees) composed in this order.
+    pub fn matrix(self, deg: [f64; 3]) -> Matrix3<f64> {
+        let factor = |a: usize| {
+            let axis = Vector3::ith_axis(a);
+            *Rotation3::from_axis_angle(&axis, deg[a].to_radians()).matrix()
+        };
+        factor(self.axes[0]) * factor(self.axes[1]) * factor(self.axes[2])
+    }
+
+    /// kinecal's angles (degrees, `rx_deg`, `ry_deg`, `rz_deg`) of the rotation that the angles
+    /// `deg` (about x, y, z) compose in this order; the same numbers for kinecal's own order.
+    pub fn to_kinecal_deg(self, deg: [f64; 3]) -> [f64; 3] {
+        if self == Self::KINECAL || deg.iter().any(|a| !a.is_finite()) {
+            return deg;
+        }
+        Frame::from_parts(&self.matrix(deg), Vector3::zeros())
+            .rpy()
+            .map(f64::to_degrees)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_six_orders_parse_and_kinecal_s_is_rpy() {
+        for o in RotationOrder::all() {
+            assert_eq!(RotationOrder::parse(&o.text()), Some(o));
+        }
+        assert_eq!(
+            RotationOrder::parse("rz · ry · rx"),
+            Some(RotationOrder::KINECAL)
+        );
+        assert_eq!(RotationOrder::parse("Rx*Rx*Rz"), None);
+        assert_eq!(RotationOrder::parse("Rx*Ry"), None);
+        let a = [12.0, -34.0, 56.0];
+        let f = Frame::from_xyz_rpy([0.0; 3], a.map(f64::to_radians));
+        let m = RotationOrder::KINECAL.matrix(a);
+        assert!((f.rotation() - m).norm() < 1e-15);
+    }
+
+    #[test]
+    fn converted_angles_give_the_same_rotation() {
+        let a = [-90.179563, -20.112975, -90.157388];
+        for o in RotationOrder::all() {
+            let k = o.to_kinecal_deg(a);
+            let back = RotationOrder::KINECAL.matrix(k);
+            assert!((back - o.matrix(a)).norm() < 1e-12, "{}", o.text());
+        }
+        // The first row of the UR10 tracker series as published (R = Rx·Ry·Rz) and as
+        // data/ur10/ur10_random_poses_6d.csv gives it (kinecal's order, 6 decimals).
+        let k = RotationOrder::parse("Rx*Ry*Rz").unwrap().matrix(a);
+        let converted = RotationOrder::KINECAL.matrix([150.437141, -89.806151, 139.676065]);
+        assert!((k - converted).norm() < 1e-7);
+    }
+}

@@ -196,7 +196,7 @@ trait Solver<const P: usize>: handle::Handle<Inner = Result<Lm<P>, LmError>> {}
 impl<const P: usize, H: handle::Handle<Inner = Result<Lm<P>, LmError>>> Solver<P> for H {}
 
 /// Bytes of a [`kc_lm`] (see `KC_ROBOT_SIZE`).
-pub const KC_LM_SIZE: usize = 8952;
+pub const KC_LM_SIZE: usize = 8968;
 
 /// A Levenberg–Marquardt identification (`Levenberg<f32, 6, 0, FixedLm<f32,
 /// KC_LM_MAX_PARAMS>>`): a streaming stepper that does a bounded slice of work per

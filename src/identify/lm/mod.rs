@@ -1022,7 +1022,7 @@ pub fn rms_error<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
     for m in data {
         // An observation of a point the robot does not have has no error: NaN, not a number.
         let p = fk
-            .compute_point(robot, m.q(), m.tool())
+            .compute_at(robot, m.q(), m.tool(), m.temperature())
             .unwrap_or(Vector3::repeat(T::of(f64::NAN)));
         s += (m.point() - p).norm_squared();
     }
@@ -1041,7 +1041,10 @@ pub fn rms_orientation_error<T: Real, const N: usize, const V: usize, M: Observa
         let Some((o, _)) = m.orientation() else {
             continue;
         };
-        if fk.compute_point(robot, m.q(), m.tool()).is_none() {
+        if fk
+            .compute_at(robot, m.q(), m.tool(), m.temperature())
+            .is_none()
+        {
             return Some(T::of(f64::NAN));
         }
         s += crate::model::frame::orientation_error(o, &fk.tool_pose(robot)).norm_squared();

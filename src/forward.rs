@@ -532,8 +532,9 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
 
     /// The column of effect value `k`: `∂p/∂r'_j · φ_k` (the correction acts on the reading of
     /// its joint `j`, so the column goes through the couplings); for the thermal-expansion
-    /// value `c`, `(T − T0) · (p − b) / s`: the point's offset from the base origin at the
-    /// reference temperature, times `T − T0`. Out of line, so that the geometric columns (the
+    /// value `c`, `(T − T0) · (p − b) / s` at the temperature [`Self::temp_c`]: the point's
+    /// offset from the base origin at the reference temperature, times `T − T0` (zero without
+    /// a temperature). Out of line, so that the geometric columns (the
     /// LM's inner loop) do not pay for it.
     #[inline(never)]
     fn effect_column<const V: usize>(
@@ -544,10 +545,14 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
         let effects = robot.effects();
         match effects.basis(k as usize, &self.q, &self.tau) {
             Some((j, phi)) => Ok(self.reading_column(robot, j) * phi),
-            None => match effects.thermal() {
-                Some((i, _, _)) if i == k as usize => {
-                    Ok((self.point - self.base.o) * (self.delta_t / self.expansion))
+            // From the term and the temperature rather than from the last evaluation, so that
+            // a term added to the model the pose was computed for (at c = 0) has its column.
+            None => match (effects.thermal(), self.temp_c) {
+                (Some((i, c, t0)), Some(t)) if i == k as usize => {
+                    let dt = t - t0;
+                    Ok((self.point - self.base.o) * (dt / (T::one() + c * dt)))
                 }
+                (Some((i, ..)), None) if i == k as usize => Ok(Vector3::zeros()),
                 _ => Err(ParamError::OutOfRange),
             },
         }

@@ -52,7 +52,7 @@
 
 #if defined(KC_LM_FULL)
 // Bytes of a `kc_lm_full` (see `KC_ROBOT_SIZE`).
-#define KC_LM_FULL_SIZE 17648
+#define KC_LM_FULL_SIZE 17664
 #endif
 
 // Bytes of a `kc_tracker` (see `KC_ROBOT_SIZE`).

@@ -29,8 +29,11 @@ const STEEL: f64 = 1.2e-5;
 
 fn warm_robot() -> Robot<f64, 6, VCAP> {
     let mut r = er20();
-    r.set_base(kinecal::Frame::from_xyz_rpy([2000.0, -300.0, 100.0], [0.0, 0.0, 0.4]))
-        .unwrap();
+    r.set_base(kinecal::Frame::from_xyz_rpy(
+        [2000.0, -300.0, 100.0],
+        [0.0, 0.0, 0.4],
+    ))
+    .unwrap();
     r.effects_mut()
         .push(EffectKind::Thermal, 0, 6, 1, 25.0, 0.0, &[STEEL])
         .unwrap();
@@ -51,7 +54,10 @@ fn kinematics_scale_every_length_about_the_base() {
     assert_eq!(fk.compute_at(&r, &Q, 0, Some(25.0)).unwrap(), cold);
     let hot = fk.compute_at(&r, &Q, 0, Some(45.0)).unwrap();
     let s = 1.0 + STEEL * 20.0;
-    assert!((hot - (b + (cold - b) * s)).norm() < 1e-9, "{hot} vs {cold}");
+    assert!(
+        (hot - (b + (cold - b) * s)).norm() < 1e-9,
+        "{hot} vs {cold}"
+    );
     assert!((fk.frames[5].z - cold_z).norm() < 1e-15);
     // 20 K on a point ~1.5 m from the base: ~0.36 mm.
     assert!((hot - cold).norm() > 0.2, "{}", (hot - cold).norm());
@@ -86,7 +92,10 @@ fn columns_match_finite_differences_at_a_temperature() {
             (fd - col).norm() <= 1e-6 * col.norm().max(1.0),
             "{p:?}: column {col} vs differences {fd}"
         );
-        assert_eq!(fk.rotation_column(&r, Param::Effect(k)).unwrap(), Vector3::zeros());
+        assert_eq!(
+            fk.rotation_column(&r, Param::Effect(k)).unwrap(),
+            Vector3::zeros()
+        );
     }
 }
 
@@ -104,10 +113,18 @@ fn compensation_takes_the_temperature() {
     let seed = Q.map(|q| q + 0.002);
     let sol = compensate(&r, &Target::Point(target), &seed, &cfg).unwrap();
     let reached = fk.compute_at(&r, &sol.q, 0, Some(40.0)).unwrap();
-    assert!((reached - target).norm() < 1e-4, "{}", (reached - target).norm());
+    assert!(
+        (reached - target).norm() < 1e-4,
+        "{}",
+        (reached - target).norm()
+    );
     let cold = compensate(&r, &Target::Point(target), &seed, &Config::default()).unwrap();
     let missed = fk.compute_at(&r, &cold.q, 0, Some(40.0)).unwrap();
-    assert!((missed - target).norm() > 0.1, "{}", (missed - target).norm());
+    assert!(
+        (missed - target).norm() > 0.1,
+        "{}",
+        (missed - target).norm()
+    );
 }
 
 /// The robot file keeps c and T0 (`joint = 0`, `reference_c`) and reads them back exactly.
@@ -116,13 +133,20 @@ fn robot_file_round_trips_the_term() {
     let r = warm_robot();
     let f = RobotFile::from_robot("warm", &r, true, &[]);
     let text = toml::to_string(&f).unwrap();
-    assert!(text.contains("thermal-expansion") && text.contains("reference_c = 25"), "{text}");
+    assert!(
+        text.contains("thermal-expansion") && text.contains("reference_c = 25"),
+        "{text}"
+    );
     let back: RobotFile = toml::from_str(&text).unwrap();
     let r2 = back.to_robot::<6>().unwrap();
     assert_eq!(r2.effects().thermal(), r.effects().thermal());
 }
 
-fn warm_up(c: f64, temps: (f64, f64), seed: u64) -> (Robot<f64, 6, VCAP>, Vec<Measurement<f64, 6>>) {
+fn warm_up(
+    c: f64,
+    temps: (f64, f64),
+    seed: u64,
+) -> (Robot<f64, 6, VCAP>, Vec<Measurement<f64, 6>>) {
     let s = Simulation {
         poses: 300,
         noise_mm: 0.01,
@@ -155,7 +179,10 @@ fn diagnose_finds_thermal_expansion_in_a_warm_up() {
             d.baseline_validation_rms_mm,
             d.final_validation_rms_mm,
             d.noise_floor_mm,
-            d.found.iter().map(|f| f.candidate.label()).collect::<Vec<_>>()
+            d.found
+                .iter()
+                .map(|f| f.candidate.label())
+                .collect::<Vec<_>>()
         );
         assert!(d.baseline_validation_rms_mm > 3.0 * floor);
         let f = d
@@ -187,7 +214,10 @@ fn diagnose_does_not_name_thermal_expansion_without_one() {
                     .iter()
                     .any(|f| matches!(f.candidate.kind, CandidateKind::Thermal { .. })),
                 "{temps:?}: {:?}",
-                d.found.iter().map(|f| f.candidate.label()).collect::<Vec<_>>()
+                d.found
+                    .iter()
+                    .map(|f| f.candidate.label())
+                    .collect::<Vec<_>>()
             );
             let offered = kinecal_cli::diagnose::candidates::catalogue(
                 &er20(),
@@ -199,5 +229,87 @@ fn diagnose_does_not_name_thermal_expansion_without_one() {
             .any(|c| matches!(c.kind, CandidateKind::Thermal { .. }));
             assert_eq!(offered, temps.0 != temps.1);
         }
+    });
+}
+
+/// The sizes the users saw refused with their reasons (a 17° peak-to-peak table on
+/// joint 6, a compliance of 12.9° per m), and real-sized effects accepted.
+#[test]
+fn implausible_sizes_are_named() {
+    use kinecal_cli::diagnose::candidates::Candidate;
+    use kinecal_cli::diagnose::plausibility::{implausible, Limits};
+    let lim = Limits::default();
+    let table = Candidate {
+        kind: CandidateKind::Table {
+            start: -3.0,
+            step: 0.1,
+            knots: 4,
+        },
+        joint: 5,
+    };
+    let why = implausible(&table, &[0.0, 0.15, -0.147, 0.02], &lim).unwrap();
+    assert!(
+        why.contains("joint 6") && why.contains("17") && why.contains("peak to peak"),
+        "{why}"
+    );
+    assert_eq!(implausible(&table, &[0.0, 2e-4, -3e-4, 1e-4], &lim), None);
+    let compliance = Candidate {
+        kind: CandidateKind::Compliance,
+        joint: 0,
+    };
+    let why = implausible(&compliance, &[12.9f64.to_radians()], &lim).unwrap();
+    assert!(why.contains("12.9") && why.contains("per m"), "{why}");
+    assert_eq!(implausible(&compliance, &[3e-4], &lim), None);
+    let thermal = Candidate {
+        kind: CandidateKind::Thermal { reference: 25.0 },
+        joint: 0,
+    };
+    assert_eq!(implausible(&thermal, &[STEEL], &lim), None);
+    assert!(implausible(&thermal, &[5e-4], &lim).is_some());
+}
+
+/// A joint-angle table of 8° peak to peak (no gearbox does that) is significant and refused:
+/// the round says why, nothing is added for the joint's table family, and the search goes on.
+#[test]
+fn an_implausible_table_is_refused_with_its_reason() {
+    main_sized_stack(|| {
+        // Knots every 40° over ±170° on joint 2: ±4°.
+        let knots: Vec<f64> = (0..9)
+            .map(|k| 4f64.to_radians() * if k % 2 == 0 { 1.0 } else { -1.0 })
+            .collect();
+        let s = Simulation {
+            poses: 300,
+            noise_mm: 0.01,
+            seed: 13,
+            geom_errors: Some(GeomErrors::default()),
+            effects: vec![effect("joint-table", 2, &knots, 1)],
+        };
+        let (_, d) = simulate_at(&er20(), &s, None).unwrap();
+        let data = d.measurements();
+        let r = kinecal_cli::diagnose::diagnose(&er20(), true, &[], &data, &Default::default())
+            .unwrap();
+        let refused: Vec<&String> = r.rounds.iter().filter_map(|x| x.refused.as_ref()).collect();
+        eprintln!(
+            "refused {refused:?}; found {:?}",
+            r.found
+                .iter()
+                .map(|f| f.candidate.label())
+                .collect::<Vec<_>>()
+        );
+        assert!(
+            refused
+                .iter()
+                .any(|w| w.contains("joint 2") && w.contains("peak to peak")),
+            "{refused:?}"
+        );
+        assert!(!r
+            .found
+            .iter()
+            .any(|f| f.candidate.joint == 1
+                && matches!(f.candidate.kind, CandidateKind::Table { .. })));
+        let report = kinecal_cli::reports::diagnose::DiagnoseReport::of(&r);
+        assert!(report
+            .to_string()
+            .contains("refused as implausible: joint-table"));
     });
 }

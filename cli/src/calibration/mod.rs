@@ -63,10 +63,12 @@ pub fn pose_error_vectors<const N: usize, const V: usize>(
     crate::compute::parallel::map_parts(data, |part| {
         let mut fk = ForwardKinematics::new();
         part.iter()
-            .map(|m| match fk.compute_at(robot, &m.q, m.tool as usize, m.temp_c) {
-                Some(p) => m.point - p,
-                None => nalgebra::Vector3::repeat(f64::NAN),
-            })
+            .map(
+                |m| match fk.compute_at(robot, &m.q, m.tool as usize, m.temp_c) {
+                    Some(p) => m.point - p,
+                    None => nalgebra::Vector3::repeat(f64::NAN),
+                },
+            )
             .collect::<Vec<_>>()
     })
     .concat()

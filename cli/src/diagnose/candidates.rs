@@ -432,7 +432,9 @@ pub fn temperature_reference<const N: usize>(
     let t: Vec<f64> = data.iter().map(|m| m.temp_c).collect::<Option<_>>()?;
     let (lo, hi) = t
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(*x), b.max(*x)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(*x), b.max(*x))
+        });
     (!t.is_empty() && hi - lo >= min_span).then(|| t.iter().sum::<f64>() / t.len() as f64)
 }
 

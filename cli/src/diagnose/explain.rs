@@ -144,7 +144,10 @@ pub fn per_pose<const N: usize>(
             let (dq, tool_mm) = match (&untilted, c.kind) {
                 (Some(r0), CandidateKind::Tilt) => {
                     let beta = values.first().copied().unwrap_or(0.0);
-                    (beta, (p - fk0.compute_at(r0, &m.q, 0, m.temp_c).unwrap_or_default()).norm())
+                    (
+                        beta,
+                        (p - fk0.compute_at(r0, &m.q, 0, m.temp_c).unwrap_or_default()).norm(),
+                    )
                 }
                 (None, CandidateKind::Tilt) => (0.0, 0.0),
                 (_, CandidateKind::Thermal { .. }) => {

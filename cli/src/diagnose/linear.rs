@@ -425,6 +425,8 @@ pub fn squared_errors<const N: usize, const V: usize>(
 ) -> Vec<f64> {
     let mut fk = ForwardKinematics::new();
     data.iter()
-        .map(|m| (m.point - fk.compute_at(robot, &m.q, 0, m.temp_c).unwrap_or_default()).norm_squared())
+        .map(|m| {
+            (m.point - fk.compute_at(robot, &m.q, 0, m.temp_c).unwrap_or_default()).norm_squared()
+        })
         .collect()
 }

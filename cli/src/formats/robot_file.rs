@@ -526,7 +526,10 @@ impl RobotFile {
             let thermal = e.kind == THERMAL;
             if thermal {
                 if e.joint != 0 {
-                    return issue(p, format!("{what}: thermal-expansion acts on no joint: give joint = 0"));
+                    return issue(
+                        p,
+                        format!("{what}: thermal-expansion acts on no joint: give joint = 0"),
+                    );
                 }
                 if e.values.len() != 1 || !finite(&e.values) || !(e.values[0].abs() < 1e-2) {
                     return issue(
@@ -534,11 +537,19 @@ impl RobotFile {
                         format!("{what}: expected 1 value [c], a finite expansion per kelvin below 1e-2 in magnitude (steel ≈ 1.2e-5)"),
                     );
                 }
-                if e.reference_c.is_some_and(|t| !(t.is_finite() && t.abs() <= 1e3)) {
-                    return issue(p, format!("{what}: reference_c must be a temperature in °C"));
+                if e.reference_c
+                    .is_some_and(|t| !(t.is_finite() && t.abs() <= 1e3))
+                {
+                    return issue(
+                        p,
+                        format!("{what}: reference_c must be a temperature in °C"),
+                    );
                 }
             } else if e.reference_c.is_some() {
-                return issue(p, format!("{what}: reference_c applies to thermal-expansion only"));
+                return issue(
+                    p,
+                    format!("{what}: reference_c applies to thermal-expansion only"),
+                );
             }
             if !thermal && (e.joint < 1 || e.joint > n) {
                 return issue(p, format!("{what}: joint must be 1 to {n}"));

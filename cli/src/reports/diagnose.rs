@@ -424,11 +424,7 @@ impl fmt::Display for DiagnoseReport {
             writeln!(f, "noise floor {floor} mm{interval}, {source}")?;
         }
         for r in self.rounds.iter().filter_map(|r| r.refused.as_ref()) {
-            writeln!(
-                f,
-                "refused as implausible: {} ({})",
-                r.candidate, r.reason
-            )?;
+            writeln!(f, "refused as implausible: {} ({})", r.candidate, r.reason)?;
         }
         writeln!(f, "stopped: {}", self.stop_reason)?;
         if let Some(h) = &self.holdout {

@@ -81,9 +81,11 @@ pub struct ForwardKinematics<T: Real, const N: usize> {
     /// Temperature (°C) the next evaluation is at, for a model with a thermal-expansion term;
     /// `None`: at the term's reference temperature. Set by the caller, kept across evaluations.
     pub temp_c: Option<T>,
-    /// Length scale `1 + c·(T − T0)` of the last evaluation (1 without thermal expansion).
+    /// Length scale `1 + c·(T − T0)` of the last evaluation of a model with a
+    /// thermal-expansion term (1 at its reference temperature; not written for other models).
     pub expansion: T,
-    /// `T − T0` of the last evaluation, °C (0 without thermal expansion or temperature).
+    /// `T − T0` of the last evaluation of a model with a thermal-expansion term, °C (0 without
+    /// a temperature; not written for other models).
     pub delta_t: T,
 }
 
@@ -221,30 +223,45 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
         }
         let qg = self.q_geometric;
         self.chain(robot, &qg, tool);
-        self.expansion = T::one();
-        self.delta_t = T::zero();
-        if let Some(t) = self.temp_c {
-            if !effects.is_empty() {
-                self.expand(effects.expansion(t));
-            }
+        // A model without value capacity (the firmware's) has no term: this folds away.
+        if let Some((_, c, t0)) = effects.thermal() {
+            self.expand(c, t0);
         }
         self.point
     }
 
-    /// Scales every joint origin's and the point's offset from the base origin by the thermal
-    /// expansion `(s, T − T0)` (out of line: only models with the term at a temperature pay).
+    /// Sets [`Self::expansion`] and [`Self::delta_t`] from the term `(c, T0)` and
+    /// [`Self::temp_c`], and scales every joint origin's and the point's offset from the base
+    /// origin by the expansion (out of line: only models with the term pay).
     #[inline(never)]
-    fn expand(&mut self, e: Option<(T, T)>) {
-        let Some((s, dt)) = e else {
-            return;
+    fn expand(&mut self, c: T, t0: T) {
+        let dt = match self.temp_c {
+            Some(t) => t - t0,
+            None => T::zero(),
         };
+        let s = T::one() + c * dt;
+        self.expansion = s;
+        self.delta_t = dt;
+        if dt == T::zero() {
+            return;
+        }
         let b = self.base.o;
         for f in self.frames.iter_mut() {
             f.o = b + (f.o - b) * s;
         }
         self.point = b + (self.point - b) * s;
-        self.expansion = s;
-        self.delta_t = dt;
+    }
+
+    /// The length scale the last evaluation applied to `robot`: [`Self::expansion`] when it
+    /// has a thermal-expansion term, else exactly 1 (a model without value capacity folds it
+    /// away, and a workspace last used for another model is not read).
+    #[inline(always)]
+    fn length_scale<const V: usize>(&self, robot: &Robot<T, N, V>) -> T {
+        if robot.effects().thermal().is_some() {
+            self.expansion
+        } else {
+            T::one()
+        }
     }
 
     /// [`Self::compute_point`] at temperature `temp_c` (°C; `None`: the reference temperature):
@@ -399,17 +416,17 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
                 let f = self.previous(joint(i)?);
                 f.x.cross(&(pt - f.o))
             }
-            Param::A(i) => self.previous(joint(i)?).x * self.expansion,
+            Param::A(i) => self.previous(joint(i)?).x * self.length_scale(robot),
             Param::Beta(i) => {
                 let i = joint(i)?;
                 let f = self.previous(i);
                 let t = &robot.trig()[i];
                 let y = f.y * t.ca + f.z * t.sa;
-                let o = f.o + f.x * (robot.joints()[i].a * self.expansion);
+                let o = f.o + f.x * (robot.joints()[i].a * self.length_scale(robot));
                 y.cross(&(pt - o))
             }
             Param::Theta(i) => self.joint_column(joint(i)?),
-            Param::D(i) => self.frames[joint(i)?].z * self.expansion,
+            Param::D(i) => self.frames[joint(i)?].z * self.length_scale(robot),
             Param::ToolX | Param::ToolY | Param::ToolZ => {
                 if N == 0 {
                     return Err(ParamError::OutOfRange);
@@ -423,7 +440,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
                     Param::ToolY => f.y,
                     _ => f.z,
                 };
-                c * self.expansion
+                c * self.length_scale(robot)
             }
             Param::ToolPoint(k, a) => self.point_column(robot, k, a)?,
             // The measured frame's orientation does not move its points.
@@ -448,7 +465,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
             return Ok(Vector3::zeros());
         }
         let f = &self.frames[N - 1];
-        Ok([f.x, f.y, f.z][a as usize] * self.expansion)
+        Ok([f.x, f.y, f.z][a as usize] * self.length_scale(robot))
     }
 
     /// One column of the orientation's identification Jacobian at the last computed pose: the

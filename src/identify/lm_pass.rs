@@ -288,7 +288,11 @@ pub(crate) fn residual<T: Real, const N: usize, const V: usize, M: Observation<T
     robot: &Robot<T, N, V>,
     m: &M,
 ) -> Option<(Vector3<T>, Option<Vector3<T>>)> {
-    fk.temp_c = m.temperature();
+    // Only a model with value capacity can have a thermal-expansion term (the firmware's has
+    // none: no instruction here).
+    if V > 0 {
+        fk.temp_c = m.temperature();
+    }
     let p = if m.tool() == 0 {
         fk.compute(robot, m.q())
     } else {

@@ -223,9 +223,11 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
         }
         let qg = self.q_geometric;
         self.chain(robot, &qg, tool);
-        // A model without value capacity (the firmware's) has no term: this folds away.
-        if let Some((_, c, t0)) = effects.thermal() {
-            self.expand(c, t0);
+        // A model without value capacity (the firmware's) has no term: not even the search.
+        if V > 0 {
+            if let Some((_, c, t0)) = effects.thermal() {
+                self.expand(c, t0);
+            }
         }
         self.point
     }
@@ -257,7 +259,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     /// away, and a workspace last used for another model is not read).
     #[inline(always)]
     fn length_scale<const V: usize>(&self, robot: &Robot<T, N, V>) -> T {
-        if robot.effects().thermal().is_some() {
+        if V > 0 && robot.effects().thermal().is_some() {
             self.expansion
         } else {
             T::one()

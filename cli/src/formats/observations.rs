@@ -256,7 +256,7 @@ pub fn observe<const N: usize>(
         };
         let q = r.q_deg.map(f64::to_radians);
         let temp_c = temp.map(get).filter(|t| !t.is_nan());
-        if let Some(t) = temp_c.filter(|t| !(t.abs() <= 1e3)) {
+        if let Some(t) = temp_c.filter(|t| t.abs() > 1e3) {
             crate::refuse!("{}: not a temperature in °C: {t}", at("temp_c"));
         }
         let first = measurements.len();

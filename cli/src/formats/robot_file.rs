@@ -531,7 +531,7 @@ impl RobotFile {
                         format!("{what}: thermal-expansion acts on no joint: give joint = 0"),
                     );
                 }
-                if e.values.len() != 1 || !finite(&e.values) || !(e.values[0].abs() < 1e-2) {
+                if e.values.len() != 1 || !finite(&e.values) || e.values[0].abs() >= 1e-2 {
                     return issue(
                         p,
                         format!("{what}: expected 1 value [c], a finite expansion per kelvin below 1e-2 in magnitude (steel ≈ 1.2e-5)"),

@@ -35,7 +35,7 @@
 #define KC_PARAMS_ALL 39
 
 // Bytes of a `kc_fk` (see `KC_ROBOT_SIZE`).
-#define KC_FK_SIZE 432
+#define KC_FK_SIZE 448
 
 // Bytes of a `kc_param_set` (see `KC_ROBOT_SIZE`).
 #define KC_PARAM_SET_SIZE 176
@@ -45,7 +45,7 @@
 #define KC_LM_MAX_PARAMS 24
 
 // Bytes of a `kc_lm` (see `KC_ROBOT_SIZE`).
-#define KC_LM_SIZE 8952
+#define KC_LM_SIZE 8968
 
 #if defined(KC_LM_FULL)
 // Room for identified parameters in a `kc_lm_full`: every geometric parameter of a 6-joint
@@ -56,11 +56,11 @@
 
 #if defined(KC_LM_FULL)
 // Bytes of a `kc_lm_full` (see `KC_ROBOT_SIZE`).
-#define KC_LM_FULL_SIZE 17648
+#define KC_LM_FULL_SIZE 17664
 #endif
 
 // Bytes of a `kc_tracker` (see `KC_ROBOT_SIZE`).
-#define KC_TRACKER_SIZE 96
+#define KC_TRACKER_SIZE 104
 
 // Longest line (bytes) a `kc_csv` reads.
 #define KC_CSV_LINE 256

@@ -11,6 +11,12 @@
 //! angles, while the effect columns and the joint Jacobian are derivatives with respect to
 //! readings (the chain rule through the couplings, [`ForwardKinematics::reading_column`]).
 //!
+//! A model with a `thermal-expansion` term is evaluated at the temperature
+//! [`ForwardKinematics::temp_c`] (the caller sets it: a measurement's `temp_c`, the firmware's
+//! sensor): every length scales by `s = 1 + c·(T − T0)`, so every joint origin and the point
+//! move away from the base origin by the factor `s` while no orientation changes. Without a
+//! temperature (`None`) the model is evaluated at its reference temperature (`s = 1`).
+//!
 //! ```
 //! use kinecal::forward::{point, ForwardKinematics};
 //! use kinecal::model::param::Param;
@@ -72,6 +78,15 @@ pub struct ForwardKinematics<T: Real, const N: usize> {
     /// Lever arms τ_j (m) of a unit downward force at the point, computed at the readings'
     /// model angles without corrections (zero unless the model has a compliance term).
     pub tau: [T; N],
+    /// Temperature (°C) the next evaluation is at, for a model with a thermal-expansion term;
+    /// `None`: at the term's reference temperature. Set by the caller, kept across evaluations.
+    pub temp_c: Option<T>,
+    /// Length scale `1 + c·(T − T0)` of the last evaluation of a model with a
+    /// thermal-expansion term (1 at its reference temperature; not written for other models).
+    pub expansion: T,
+    /// `T − T0` of the last evaluation of a model with a thermal-expansion term, °C (0 without
+    /// a temperature; not written for other models).
+    pub delta_t: T,
 }
 
 impl<T: Real, const N: usize> Default for ForwardKinematics<T, N> {
@@ -84,6 +99,9 @@ impl<T: Real, const N: usize> Default for ForwardKinematics<T, N> {
             q: [T::zero(); N],
             q_geometric: [T::zero(); N],
             tau: [T::zero(); N],
+            temp_c: None,
+            expansion: T::one(),
+            delta_t: T::zero(),
         }
     }
 }
@@ -205,7 +223,60 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
         }
         let qg = self.q_geometric;
         self.chain(robot, &qg, tool);
+        // A model without value capacity (the firmware's) has no term: not even the search.
+        if V > 0 {
+            if let Some((_, c, t0)) = effects.thermal() {
+                self.expand(c, t0);
+            }
+        }
         self.point
+    }
+
+    /// Sets [`Self::expansion`] and [`Self::delta_t`] from the term `(c, T0)` and
+    /// [`Self::temp_c`], and scales every joint origin's and the point's offset from the base
+    /// origin by the expansion (out of line: only models with the term pay).
+    #[inline(never)]
+    fn expand(&mut self, c: T, t0: T) {
+        let dt = match self.temp_c {
+            Some(t) => t - t0,
+            None => T::zero(),
+        };
+        let s = T::one() + c * dt;
+        self.expansion = s;
+        self.delta_t = dt;
+        if dt == T::zero() {
+            return;
+        }
+        let b = self.base.o;
+        for f in self.frames.iter_mut() {
+            f.o = b + (f.o - b) * s;
+        }
+        self.point = b + (self.point - b) * s;
+    }
+
+    /// The length scale the last evaluation applied to `robot`: [`Self::expansion`] when it
+    /// has a thermal-expansion term, else exactly 1 (a model without value capacity folds it
+    /// away, and a workspace last used for another model is not read).
+    #[inline(always)]
+    fn length_scale<const V: usize>(&self, robot: &Robot<T, N, V>) -> T {
+        if V > 0 && robot.effects().thermal().is_some() {
+            self.expansion
+        } else {
+            T::one()
+        }
+    }
+
+    /// [`Self::compute_point`] at temperature `temp_c` (°C; `None`: the reference temperature):
+    /// sets [`Self::temp_c`] first.
+    pub fn compute_at<const V: usize>(
+        &mut self,
+        robot: &Robot<T, N, V>,
+        q: &[T; N],
+        k: usize,
+        temp_c: Option<T>,
+    ) -> Option<Vector3<T>> {
+        self.temp_c = temp_c;
+        self.compute_point(robot, q, k)
     }
 
     /// `q_geometric` ← model angles of `q_geometric` (out of line: only coupled robots pay).
@@ -347,17 +418,17 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
                 let f = self.previous(joint(i)?);
                 f.x.cross(&(pt - f.o))
             }
-            Param::A(i) => self.previous(joint(i)?).x,
+            Param::A(i) => self.previous(joint(i)?).x * self.length_scale(robot),
             Param::Beta(i) => {
                 let i = joint(i)?;
                 let f = self.previous(i);
                 let t = &robot.trig()[i];
                 let y = f.y * t.ca + f.z * t.sa;
-                let o = f.o + f.x * robot.joints()[i].a;
+                let o = f.o + f.x * (robot.joints()[i].a * self.length_scale(robot));
                 y.cross(&(pt - o))
             }
             Param::Theta(i) => self.joint_column(joint(i)?),
-            Param::D(i) => self.frames[joint(i)?].z,
+            Param::D(i) => self.frames[joint(i)?].z * self.length_scale(robot),
             Param::ToolX | Param::ToolY | Param::ToolZ => {
                 if N == 0 {
                     return Err(ParamError::OutOfRange);
@@ -366,11 +437,12 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
                     return Ok(Vector3::zeros());
                 }
                 let f = &self.frames[N - 1];
-                match p {
+                let c = match p {
                     Param::ToolX => f.x,
                     Param::ToolY => f.y,
                     _ => f.z,
-                }
+                };
+                c * self.length_scale(robot)
             }
             Param::ToolPoint(k, a) => self.point_column(robot, k, a)?,
             // The measured frame's orientation does not move its points.
@@ -395,7 +467,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
             return Ok(Vector3::zeros());
         }
         let f = &self.frames[N - 1];
-        Ok([f.x, f.y, f.z][a as usize])
+        Ok([f.x, f.y, f.z][a as usize] * self.length_scale(robot))
     }
 
     /// One column of the orientation's identification Jacobian at the last computed pose: the
@@ -447,13 +519,14 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
                     _ => f.z,
                 }
             }
-            Param::Effect(k) => {
-                let (j, phi) = robot
-                    .effects()
-                    .basis(k as usize, &self.q, &self.tau)
-                    .ok_or(ParamError::OutOfRange)?;
-                self.reading_rotation_column(robot, j) * phi
-            }
+            Param::Effect(k) => match robot.effects().basis(k as usize, &self.q, &self.tau) {
+                Some((j, phi)) => self.reading_rotation_column(robot, j) * phi,
+                // Thermal expansion turns nothing.
+                None => {
+                    self.effect_column(robot, k)?;
+                    Vector3::zeros()
+                }
+            },
         })
     }
 
@@ -477,19 +550,31 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     }
 
     /// The column of effect value `k`: `∂p/∂r'_j · φ_k` (the correction acts on the reading of
-    /// its joint `j`, so the column goes through the couplings). Out of line, so that the
-    /// geometric columns (the LM's inner loop) do not pay for it.
+    /// its joint `j`, so the column goes through the couplings); for the thermal-expansion
+    /// value `c`, `(T − T0) · (p − b) / s` at the temperature [`Self::temp_c`]: the point's
+    /// offset from the base origin at the reference temperature, times `T − T0` (zero without
+    /// a temperature). Out of line, so that the geometric columns (the
+    /// LM's inner loop) do not pay for it.
     #[inline(never)]
     fn effect_column<const V: usize>(
         &self,
         robot: &Robot<T, N, V>,
         k: u16,
     ) -> Result<Vector3<T>, ParamError> {
-        let (j, phi) = robot
-            .effects()
-            .basis(k as usize, &self.q, &self.tau)
-            .ok_or(ParamError::OutOfRange)?;
-        Ok(self.reading_column(robot, j) * phi)
+        let effects = robot.effects();
+        match effects.basis(k as usize, &self.q, &self.tau) {
+            Some((j, phi)) => Ok(self.reading_column(robot, j) * phi),
+            // From the term and the temperature rather than from the last evaluation, so that
+            // a term added to the model the pose was computed for (at c = 0) has its column.
+            None => match (effects.thermal(), self.temp_c) {
+                (Some((i, c, t0)), Some(t)) if i == k as usize => {
+                    let dt = t - t0;
+                    Ok((self.point - self.base.o) * (dt / (T::one() + c * dt)))
+                }
+                (Some((i, ..)), None) if i == k as usize => Ok(Vector3::zeros()),
+                _ => Err(ParamError::OutOfRange),
+            },
+        }
     }
 
     /// The identification Jacobian for `params` at the last computed pose, one column per

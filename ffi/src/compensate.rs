@@ -96,6 +96,9 @@ fn config_of(c: &kc_compensate_config) -> Kc<Config<f32>> {
             Some(c.orientation_scale_mm)
         },
         singular: c.singular,
+        // The C configuration has no temperature yet: models are compensated at their
+        // thermal-expansion term's reference temperature.
+        temperature_c: None,
     };
     if cfg.is_valid() {
         Ok(cfg)
@@ -319,7 +322,7 @@ pub unsafe extern "C" fn kc_compensate_cartesian(
 }
 
 /// Bytes of a [`kc_tracker`] (see `KC_ROBOT_SIZE`).
-pub const KC_TRACKER_SIZE: usize = 96;
+pub const KC_TRACKER_SIZE: usize = 104;
 
 /// Streaming compensation along a trajectory (`Tracker<f32, 6>`): keeps the previous command
 /// and starts each cycle from it. Opaque, caller-owned; [`kc_tracker_init`].

@@ -10,7 +10,7 @@ use kinecal::{ForwardKinematics, Param};
 use nalgebra::Vector3;
 
 /// Bytes of a [`kc_fk`] (see `KC_ROBOT_SIZE`).
-pub const KC_FK_SIZE: usize = 432;
+pub const KC_FK_SIZE: usize = 448;
 
 /// A forward-kinematics workspace (`ForwardKinematics<f32, 6>`): the frames of the last pose
 /// computed, which [`kc_fk_jacobian`] differentiates. Opaque, caller-owned; [`kc_fk_init`].

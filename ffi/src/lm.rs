@@ -197,7 +197,7 @@ trait Solver<const P: usize>: handle::Handle<Inner = Result<Lm<P>, LmError>> {}
 impl<const P: usize, H: handle::Handle<Inner = Result<Lm<P>, LmError>>> Solver<P> for H {}
 
 /// Bytes of a [`kc_lm`] (see `KC_ROBOT_SIZE`).
-pub const KC_LM_SIZE: usize = 8952;
+pub const KC_LM_SIZE: usize = 8968;
 
 /// A Levenberg–Marquardt identification (`Levenberg<f32, 6, 0, FixedLm<f32,
 /// KC_LM_MAX_PARAMS>>`): a streaming stepper that does a bounded slice of work per
@@ -224,7 +224,7 @@ pub const KC_LM_FULL_MAX_PARAMS: usize = 39;
 
 /// Bytes of a [`kc_lm_full`] (see `KC_ROBOT_SIZE`).
 #[cfg(feature = "lm-full")]
-pub const KC_LM_FULL_SIZE: usize = 17648;
+pub const KC_LM_FULL_SIZE: usize = 17664;
 
 /// As [`kc_lm`] with room for `KC_LM_FULL_MAX_PARAMS` parameters (twice the memory; the
 /// `kc_lm_full_*` functions are those of `kc_lm`). Only in a static library built with the

@@ -274,6 +274,9 @@ impl RefRobot {
                         step: e.step,
                         knots: v.to_vec(),
                     },
+                    // The reference evaluates at the term's reference temperature, where the
+                    // expansion changes no length: a correction of zero.
+                    EffectKind::Thermal => RefEffect::Scale { joint, s: 0.0 },
                 }
             })
             .collect();

@@ -34,6 +34,10 @@ pub struct Config<T: Real> {
     /// Default 0.01: at a 2 m reach, 20 mm/rad, i.e. a 1 mm correction would need ~3° along the
     /// weakest direction. About 1–2° from a wrist singularity for pose targets.
     pub singular: T,
+    /// The arm's temperature (°C, from the controller's sensor) for a model with a
+    /// thermal-expansion term: the model is evaluated with its lengths expanded to it. `None`:
+    /// at the term's reference temperature. Default None.
+    pub temperature_c: Option<T>,
 }
 
 impl<T: Real> Default for Config<T> {
@@ -46,6 +50,7 @@ impl<T: Real> Default for Config<T> {
             max_step: T::of(2f64.to_radians()),
             orientation_scale: None,
             singular: T::of(0.01),
+            temperature_c: None,
         }
     }
 }
@@ -61,5 +66,6 @@ impl<T: Real> Config<T> {
             && pos(self.max_step)
             && nonneg(self.singular)
             && self.orientation_scale.is_none_or(pos)
+            && self.temperature_c.is_none_or(finite)
     }
 }

@@ -83,6 +83,9 @@ pub fn compensate_from<T: Real, const N: usize, const V: usize>(
     };
 
     let mut fk = ForwardKinematics::new();
+    if V > 0 {
+        fk.temp_c = config.temperature_c;
+    }
     let mut q0 = *start;
     clamp(&mut q0);
     // Two evaluation slots used in turn (best, candidate): accepting a step flips an index

@@ -34,6 +34,12 @@ pub trait Observation<T: Real, const N: usize> {
     fn orientation(&self) -> Option<(&Frame<T>, T)> {
         None
     }
+    /// The arm's temperature when the observation was taken (°C), for a model with a
+    /// thermal-expansion term; `None`: at the term's reference temperature.
+    #[inline(always)]
+    fn temperature(&self) -> Option<T> {
+        None
+    }
     /// True when every number is finite (weights not negative, the orientation a rotation).
     fn is_valid(&self) -> bool;
 }
@@ -57,6 +63,9 @@ pub struct Measurement<T: Real, const N: usize> {
     /// Weight of the orientation residual, per rad (mm per rad to compare with unweighted
     /// millimetres, or 1/σ for σ in rad).
     pub orientation_weight: T,
+    /// The arm's temperature (°C, a data file's `temp_c`), for a model with a
+    /// thermal-expansion term; `None`: at the term's reference temperature.
+    pub temp_c: Option<T>,
 }
 
 impl<T: Real, const N: usize> Default for Measurement<T, N> {
@@ -75,6 +84,7 @@ impl<T: Real, const N: usize> Measurement<T, N> {
             weight: Vector3::repeat(T::one()),
             orientation: None,
             orientation_weight: T::zero(),
+            temp_c: None,
         }
     }
 
@@ -93,7 +103,7 @@ impl<T: Real, const N: usize> Measurement<T, N> {
     }
 
     /// True when every number is finite, the weights are not negative and the orientation
-    /// (if any) is a rotation.
+    /// (if any) is a rotation (and the temperature, if any, finite).
     pub fn is_finite(&self) -> bool {
         let w_ok = self.weight.iter().all(|w| w.finite() && *w >= T::zero());
         let o_ok = match &self.orientation {
@@ -104,7 +114,11 @@ impl<T: Real, const N: usize> Measurement<T, N> {
                     && self.orientation_weight >= T::zero()
             }
         };
-        self.q.iter().all(|v| v.finite()) && self.point.iter().all(|v| v.finite()) && w_ok && o_ok
+        self.q.iter().all(|v| v.finite())
+            && self.point.iter().all(|v| v.finite())
+            && w_ok
+            && o_ok
+            && self.temp_c.is_none_or(|t| t.finite())
     }
 }
 
@@ -130,6 +144,10 @@ impl<T: Real, const N: usize> Observation<T, N> for Measurement<T, N> {
         self.orientation
             .as_ref()
             .map(|o| (o, self.orientation_weight))
+    }
+    #[inline(always)]
+    fn temperature(&self) -> Option<T> {
+        self.temp_c
     }
     fn is_valid(&self) -> bool {
         self.is_finite()

@@ -4,6 +4,10 @@
 //! The model is linear in its values `v_k`, so identification needs only the basis `φ_k` (the
 //! Jacobian column is `∂p/∂q_j · φ_k`), and compensation needs `∂dq_j/∂q_j`; both live here,
 //! beside the correction itself. `axis-tilt` is geometric (the joint's `beta`), so it is not here.
+//!
+//! `thermal-expansion` is in the list but is no joint correction: it scales every length of the
+//! model by `1 + c·(T − T0)` at the temperature `T` of an evaluation ([`Effects::expansion`];
+//! forward kinematics applies it and gives its column).
 
 use crate::Real;
 use heapless::Vec;
@@ -23,6 +27,10 @@ pub enum EffectKind {
     Compliance,
     /// Piecewise-linear in `q_j` through equally spaced knots: any smooth repeatable error.
     Table,
+    /// Every length (each row's `a`, `d`, the tool points) scales by `1 + c·(T − T0)`: the
+    /// arm expands with its temperature `T` (°C). One value, `c` per kelvin; `T0` (°C) is
+    /// kept in [`Effect::start`]; always on joint 0 (it acts on no joint).
+    Thermal,
 }
 
 impl EffectKind {
@@ -33,6 +41,7 @@ impl EffectKind {
             EffectKind::Cyclic => "joint-cyclic",
             EffectKind::Compliance => "joint-compliance",
             EffectKind::Table => "joint-table",
+            EffectKind::Thermal => "thermal-expansion",
         }
     }
 
@@ -43,6 +52,7 @@ impl EffectKind {
             "joint-cyclic" => EffectKind::Cyclic,
             "joint-compliance" => EffectKind::Compliance,
             "joint-table" => EffectKind::Table,
+            "thermal-expansion" => EffectKind::Thermal,
             _ => return None,
         })
     }
@@ -57,13 +67,14 @@ pub struct Effect<T: Real> {
     pub joint: u8,
     /// Harmonic order `n` (cyclic only, ≥ 1).
     pub order: u16,
-    /// Position of the lowest knot, rad (table only).
+    /// Position of the lowest knot, rad (table only); the reference temperature `T0`, °C
+    /// (thermal-expansion only).
     pub start: T,
     /// Knot spacing, rad (table only, > 0).
     pub step: T,
     /// Index of the first value in the value array.
     pub first: u16,
-    /// Number of values: 1 (scale, compliance), 2 (cyclic: a, b), knots (table).
+    /// Number of values: 1 (scale, compliance, thermal), 2 (cyclic: a, b), knots (table).
     pub len: u16,
 }
 
@@ -180,6 +191,24 @@ impl<T: Real, const V: usize> Effects<T, V> {
     pub(crate) fn values_mut(&mut self) -> &mut [T] {
         &mut self.values[..self.used]
     }
+    /// The thermal-expansion term, if any: the index of its value `c` (per kelvin) in
+    /// [`Self::values`], `c` and the reference temperature `T0` (°C).
+    #[inline]
+    pub fn thermal(&self) -> Option<(usize, T, T)> {
+        let e = self.list.iter().find(|e| e.kind == EffectKind::Thermal)?;
+        let v = self.values_in(e)?;
+        Some((e.first as usize, v[0], e.start))
+    }
+
+    /// The length scale `1 + c·(T − T0)` at temperature `temp_c` (°C) and `T − T0`; `None`
+    /// without a thermal-expansion term.
+    #[inline]
+    pub fn expansion(&self, temp_c: T) -> Option<(T, T)> {
+        let (_, c, t0) = self.thermal()?;
+        let dt = temp_c - t0;
+        Some((T::one() + c * dt, dt))
+    }
+
     /// True when some effect needs the lever arms τ (a compliance term).
     pub fn needs_lever_arms(&self) -> bool {
         self.list.iter().any(|e| e.kind == EffectKind::Compliance)
@@ -207,7 +236,9 @@ impl<T: Real, const V: usize> Effects<T, V> {
     /// Appends an effect with its values; the joint must be below `n_joints` and below the
     /// list's own robot's joint count. Every value, `start` and `step` must be finite and within
     /// ±[`crate::model::bounds::MAX_ANGLE`]. On error nothing changes. `start`/`step` matter for
-    /// tables only, `order` for cyclic only.
+    /// tables only, `order` for cyclic only; a thermal-expansion term is on joint 0, one per
+    /// list, its `start` the reference temperature (°C) and its value `c` (per kelvin) below
+    /// 1e-2 in magnitude.
     #[allow(clippy::too_many_arguments)]
     pub fn push(
         &mut self,
@@ -222,21 +253,7 @@ impl<T: Real, const V: usize> Effects<T, V> {
         if joint >= n_joints.min(self.joints) || joint > u8::MAX as usize {
             return Err(EffectError::Joint);
         }
-        let ok_len = match kind {
-            EffectKind::Scale | EffectKind::Compliance => values.len() == 1,
-            EffectKind::Cyclic => values.len() == 2 && order >= 1,
-            EffectKind::Table => values.len() >= 2 && step > T::zero(),
-        };
-        let bound = T::of(crate::model::bounds::MAX_ANGLE);
-        // `!(|v| <= bound)`: NaN fails too.
-        if !ok_len
-            || [start, step]
-                .iter()
-                .chain(values)
-                .any(|v| !(v.abs() <= bound))
-        {
-            return Err(EffectError::Shape);
-        }
+        self.check_shape(kind, joint, order, start, step, values)?;
         if self.list.is_full() || self.used + values.len() > V.min(MAX_VALUES) {
             return Err(EffectError::Capacity);
         }
@@ -284,7 +301,8 @@ impl<T: Real, const V: usize> Effects<T, V> {
         // The values stay beyond `used` until the shape is accepted (zeroed again if not).
         let r = fill(slot).and_then(|()| {
             let vals = self.values.get(self.used..end).unwrap_or(&[]);
-            Self::check_shape(kind, order, start, step, vals).map_err(E::from)
+            self.check_shape(kind, joint, order, start, step, vals)
+                .map_err(E::from)
         });
         match r {
             Ok(()) => {
@@ -311,10 +329,13 @@ impl<T: Real, const V: usize> Effects<T, V> {
         }
     }
 
-    /// The shape checks of [`Effects::push`]: the value count of the kind, order and step, and
-    /// every number finite and within ±[`crate::model::bounds::MAX_ANGLE`].
+    /// The shape checks of [`Effects::push`]: the value count of the kind, order and step (a
+    /// thermal-expansion term on joint 0, once per list, `|c| < 1e-2`), and every number finite
+    /// and within ±[`crate::model::bounds::MAX_ANGLE`].
     fn check_shape(
+        &self,
         kind: EffectKind,
+        joint: usize,
         order: u16,
         start: T,
         step: T,
@@ -324,8 +345,15 @@ impl<T: Real, const V: usize> Effects<T, V> {
             EffectKind::Scale | EffectKind::Compliance => values.len() == 1,
             EffectKind::Cyclic => values.len() == 2 && order >= 1,
             EffectKind::Table => values.len() >= 2 && step > T::zero(),
+            EffectKind::Thermal => {
+                values.len() == 1
+                    && joint == 0
+                    && values[0].abs() < T::of(1e-2)
+                    && self.thermal().is_none()
+            }
         };
         let bound = T::of(crate::model::bounds::MAX_ANGLE);
+        // `!(|v| <= bound)`: NaN fails too.
         if !ok_len
             || [start, step]
                 .iter()
@@ -360,6 +388,7 @@ impl<T: Real, const V: usize> Effects<T, V> {
                     let (k, w) = e.segment(q[j]);
                     v[k] * (T::one() - w) + v[k + 1] * w
                 }
+                EffectKind::Thermal => T::zero(),
             };
         }
         dq
@@ -379,7 +408,7 @@ impl<T: Real, const V: usize> Effects<T, V> {
             };
             g[j] += match e.kind {
                 EffectKind::Scale => v[0],
-                EffectKind::Compliance => T::zero(),
+                EffectKind::Compliance | EffectKind::Thermal => T::zero(),
                 EffectKind::Cyclic => {
                     let n = T::of(e.order as f64);
                     let (s, c) = (q[j] * n).sincos();
@@ -401,7 +430,8 @@ impl<T: Real, const V: usize> Effects<T, V> {
     }
 
     /// Basis function `φ` of value `k` (global value index) at readings `q`, lever arms `tau`:
-    /// `∂dq_joint/∂v_k`. Returns the joint it acts on.
+    /// `∂dq_joint/∂v_k`. Returns the joint it acts on; `None` for a thermal-expansion value
+    /// (no joint correction: its column is [`crate::ForwardKinematics::column`]'s).
     pub fn basis<const N: usize>(&self, k: usize, q: &[T; N], tau: &[T; N]) -> Option<(usize, T)> {
         let e = self.list.iter().find(|e| e.range().contains(&k))?;
         let j = e.joint as usize;
@@ -410,6 +440,7 @@ impl<T: Real, const V: usize> Effects<T, V> {
         }
         let i = k - e.first as usize;
         let phi = match e.kind {
+            EffectKind::Thermal => return None,
             EffectKind::Scale => q[j],
             EffectKind::Compliance => tau[j],
             EffectKind::Cyclic => {

@@ -9,6 +9,7 @@ pub mod pso_search;
 pub mod residual_table;
 pub mod selection;
 pub mod stats;
+pub mod thermal;
 pub mod validate;
 pub mod weights;
 
@@ -62,10 +63,12 @@ pub fn pose_error_vectors<const N: usize, const V: usize>(
     crate::compute::parallel::map_parts(data, |part| {
         let mut fk = ForwardKinematics::new();
         part.iter()
-            .map(|m| match fk.compute_point(robot, &m.q, m.tool as usize) {
-                Some(p) => m.point - p,
-                None => nalgebra::Vector3::repeat(f64::NAN),
-            })
+            .map(
+                |m| match fk.compute_at(robot, &m.q, m.tool as usize, m.temp_c) {
+                    Some(p) => m.point - p,
+                    None => nalgebra::Vector3::repeat(f64::NAN),
+                },
+            )
             .collect::<Vec<_>>()
     })
     .concat()
@@ -107,7 +110,7 @@ pub fn orientation_errors_deg<const N: usize, const V: usize>(
     data.iter()
         .filter_map(|m| {
             let o = m.orientation.as_ref()?;
-            fk.compute_point(robot, &m.q, m.tool as usize)?;
+            fk.compute_at(robot, &m.q, m.tool as usize, m.temp_c)?;
             Some(
                 kinecal::model::frame::orientation_error(o, &fk.tool_pose(robot))
                     .norm()
@@ -495,7 +498,8 @@ fn identifiability_report<const N: usize, const V: usize>(
     (held, sigma, chi2_per_dof, correlations)
 }
 
-/// An effect to add to the model before identification (`--effect KIND:JOINT[:ARG]`).
+/// An effect to add to the model before identification (`--effect KIND:JOINT[:ARG]`;
+/// `--effect thermal-expansion[:0[:T0]]`, [`thermal`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct EffectRequest {
     /// An id of docs/formats.md "Effects" (`joint-compliance`, `joint-cyclic`, `joint-scale`,
@@ -503,13 +507,17 @@ pub struct EffectRequest {
     pub kind: String,
     /// 0-based joint.
     pub joint: usize,
-    /// Harmonic order (cyclic, default 1) or knot spacing in degrees (table, default 3.6).
+    /// Harmonic order (cyclic, default 1), knot spacing in degrees (table, default 3.6) or
+    /// reference temperature in °C (thermal-expansion, default the data's mean).
     pub arg: Option<f64>,
 }
 
 impl std::str::FromStr for EffectRequest {
     type Err = anyhow::Error;
     fn from_str(s: &str) -> anyhow::Result<Self> {
+        if let Some(r) = thermal::parse_request(s) {
+            return r;
+        }
         let mut it = s.split(':');
         let kind = it.next().unwrap_or_default().to_string();
         let joint: usize = it
@@ -531,7 +539,7 @@ impl std::str::FromStr for EffectRequest {
         anyhow::ensure!(joint >= 1, "--effect {s}: joints are numbered from 1");
         anyhow::ensure!(
             kind == "axis-tilt" || kinecal::EffectKind::from_id(&kind).is_some(),
-            "--effect {s}: unknown effect '{kind}' (joint-compliance, joint-cyclic, joint-scale, axis-tilt, joint-table)"
+            "--effect {s}: unknown effect '{kind}' (joint-compliance, joint-cyclic, joint-scale, axis-tilt, joint-table, thermal-expansion)"
         );
         if let Some(a) = arg {
             match kind.as_str() {

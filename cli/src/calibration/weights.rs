@@ -87,7 +87,7 @@ fn rows<const N: usize, const V: usize>(
     let mut fk = ForwardKinematics::new();
     let (mut pos, mut rot) = (Vec::new(), Vec::new());
     for (m, s) in data.iter().zip(stated) {
-        let Some(p) = fk.compute_point(robot, &m.q, m.tool as usize) else {
+        let Some(p) = fk.compute_at(robot, &m.q, m.tool as usize, m.temp_c) else {
             continue;
         };
         let r = m.point - p;

@@ -201,6 +201,14 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
     ] {
         crate::check_positive(flag, v, 1e6)?;
     }
+    // A thermal-expansion term of the file without `reference_c` is referred to the
+    // identification data's mean temperature (and written with it).
+    let mut file = file;
+    if file.with_thermal_reference(crate::calibration::thermal::mean_temperature(&ident)) {
+        nominal = file
+            .to_robot::<N>()
+            .map_err(|e| anyhow::anyhow!("{robot_origin}: {e}"))?;
+    }
     let base_unknown = !file.base_known();
     // 6-D data and no `[tool] rpy_deg`: the measured frame's orientation is unknown; started
     // from the data as the base is (and then compared with no tolerance).
@@ -218,6 +226,10 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
                 req.kind,
                 req.joint + 1
             );
+        }
+        if req.kind == crate::formats::robot_file::THERMAL {
+            extra.extend(crate::calibration::thermal::add(&mut nominal, req, &ident)?);
+            continue;
         }
         let range = joint_range(&ident, req.joint);
         extra.extend(add_effect(&mut nominal, req, range)?);

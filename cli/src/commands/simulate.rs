@@ -40,6 +40,11 @@ pub struct Args {
         allow_hyphen_values = true
     )]
     pub effects: Vec<String>,
+    /// The arm warms (or cools) linearly from A to B °C over the poses, in their order: each
+    /// row gets a `temp_c` column, and a `--effect thermal-expansion:0:C` (C per kelvin) is
+    /// referred to the mean temperature.
+    #[arg(long, value_name = "A:B", value_parser = parse_temperature, allow_hyphen_values = true)]
+    pub temperature: Option<(f64, f64)>,
     /// Output measurement CSV.
     #[arg(long)]
     pub out: PathBuf,
@@ -60,6 +65,19 @@ pub struct Args {
     /// Joint readings (degrees) the sweeps start from, q1,…,qN (default: a bent pose).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub rest: Vec<f64>,
+}
+
+/// `A:B`: two temperatures in °C.
+fn parse_temperature(s: &str) -> Result<(f64, f64), String> {
+    let bad = || format!("`--temperature {s}`: expected A:B, two temperatures in °C (e.g. 15:35)");
+    let (a, b) = s.split_once(':').ok_or_else(bad)?;
+    let t = |x: &str| {
+        x.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite() && v.abs() <= 1e3)
+    };
+    Ok((t(a).ok_or_else(bad)?, t(b).ok_or_else(bad)?))
 }
 
 fn simulate_with_joints<const N: usize>(
@@ -83,8 +101,11 @@ fn simulate_with_joints<const N: usize>(
         geom_errors: args.geom_errors.then(GeomErrors::default),
         effects: effects.clone(),
     };
-    let (truth, mut ds) = simulation::simulate(&nominal, &sim)?;
+    let (truth, mut ds) = simulation::simulate_at(&nominal, &sim, args.temperature)?;
     if !args.sweeps.is_empty() {
+        if args.temperature.is_some() {
+            crate::refuse!("--temperature applies to random poses, not to --sweeps");
+        }
         let rest: [f64; N] = if args.rest.is_empty() {
             crate::simulation::sweeps::default_rest(&truth)
         } else {
@@ -130,7 +151,11 @@ fn simulate_with_joints<const N: usize>(
             .iter()
             .map(|e| SimulatedEffect {
                 effect: e.kind.clone(),
-                joint: e.joint + 1,
+                joint: if e.kind == crate::formats::robot_file::THERMAL {
+                    0
+                } else {
+                    e.joint + 1
+                },
                 values: e.values.clone(),
                 order: e.order,
             })

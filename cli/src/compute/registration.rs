@@ -65,7 +65,7 @@ pub fn fit_base<const N: usize, const V: usize>(
         let mut fk = ForwardKinematics::<f64, N>::new();
         part.iter()
             .map(|m| {
-                fk.compute_point(&placed, &m.q, m.tool as usize)
+                fk.compute_at(&placed, &m.q, m.tool as usize, m.temp_c)
                     .unwrap_or(Vector3::repeat(f64::NAN))
             })
             .collect::<Vec<_>>()
@@ -88,7 +88,7 @@ pub fn fit_tool_axes<const N: usize, const V: usize>(
     let mut n = 0;
     for m in data {
         let Some(o) = &m.orientation else { continue };
-        fk.compute_point(robot, &m.q, m.tool as usize)?;
+        fk.compute_at(robot, &m.q, m.tool as usize, m.temp_c)?;
         sum += fk.flange_pose().rotation().transpose() * o.rotation();
         n += 1;
     }

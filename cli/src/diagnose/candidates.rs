@@ -30,6 +30,9 @@
 //!     bisection is the fit of one more continuous parameter of a candidate (like its knot
 //!     values) and a shift is kept only when it lowers the screen's held-out error by 1 %; the
 //!     null cases of the test matrices measure what both do to the false-alarm rate.
+//! - `thermal-expansion` once (it acts on no joint: listed on joint 1), when every pose has a
+//!   temperature and they span at least [`CatalogueConfig::min_temperature_span_c`]; its
+//!   reference temperature is the data's mean, so that `c` does not trade with the lengths.
 
 use crate::formats::robot_file::AXIS_TILT;
 use crate::output::numfmt::sig;
@@ -50,6 +53,8 @@ pub enum CandidateKind {
     Tilt,
     /// Piecewise-linear in `q_j`: first knot at `start` (rad), spacing `step` (rad).
     Table { start: f64, step: f64, knots: usize },
+    /// Every length scales by `1 + c·(T − reference)` (°C).
+    Thermal { reference: f64 },
 }
 
 /// One candidate: a kind on a joint (0-based).
@@ -84,6 +89,9 @@ pub struct CatalogueConfig {
     pub min_knots: usize,
     /// Axes within this angle (degrees) of parallel count as parallel (for `axis-tilt`).
     pub parallel_tolerance_deg: f64,
+    /// `thermal-expansion` is offered when the poses' temperatures span at least this many
+    /// kelvin (1.2e-5/K over 1 K moves a point 2 m out by 0.024 mm: about a tracker's noise).
+    pub min_temperature_span_c: f64,
 }
 
 impl Default for CatalogueConfig {
@@ -103,6 +111,7 @@ impl Default for CatalogueConfig {
             min_poses_per_interval: 4.0,
             min_knots: 4,
             parallel_tolerance_deg: 2.0,
+            min_temperature_span_c: 1.0,
         }
     }
 }
@@ -116,6 +125,7 @@ impl Candidate {
             CandidateKind::Scale => "joint-scale",
             CandidateKind::Tilt => AXIS_TILT,
             CandidateKind::Table { .. } => "joint-table",
+            CandidateKind::Thermal { .. } => "thermal-expansion",
         }
     }
 
@@ -127,6 +137,7 @@ impl Candidate {
             CandidateKind::Scale => Some(EffectKind::Scale),
             CandidateKind::Tilt => None,
             CandidateKind::Table { .. } => Some(EffectKind::Table),
+            CandidateKind::Thermal { .. } => Some(EffectKind::Thermal),
         }
     }
 
@@ -142,6 +153,10 @@ impl Candidate {
                     round_sig(start.to_degrees(), 6)
                 )
             }
+            CandidateKind::Thermal { reference } => format!(
+                "thermal-expansion (reference {} °C)",
+                round_sig(reference, 4)
+            ),
             _ => format!("{} on joint {j}", self.id()),
         }
     }
@@ -181,6 +196,7 @@ impl Candidate {
             CandidateKind::Tilt => return Ok(vec![Param::Beta(self.joint as u8)]),
             CandidateKind::Cyclic(n) => (n, 0.0, 0.0, 2),
             CandidateKind::Table { start, step, knots } => (1, start, step, knots),
+            CandidateKind::Thermal { reference } => (1, reference, 0.0, 1),
             _ => (1, 0.0, 0.0, 1),
         };
         let kind = self
@@ -230,7 +246,7 @@ impl Candidate {
                 let (s, c) = (q * n as f64).sin_cos();
                 v(0) * s + v(1) * c
             }
-            CandidateKind::Tilt => 0.0,
+            CandidateKind::Tilt | CandidateKind::Thermal { .. } => 0.0,
             CandidateKind::Table { start, step, knots } => {
                 if knots < 2 || values.len() < knots {
                     return 0.0;
@@ -270,6 +286,13 @@ impl Candidate {
             CandidateKind::Tilt => {
                 let parent = if self.joint == 0 { "the base's vertical".to_string() } else { format!("joint {}'s axis", self.joint) };
                 format!("joint {j}'s axis is tilted by {} out of parallel with {parent}", fmt_deg(v0.abs()))
+            }
+            CandidateKind::Thermal { reference } => {
+                format!(
+                    "the arm's lengths grow with its temperature (thermal expansion {} ppm per kelvin from {} °C; steel ≈ 12, aluminium ≈ 23)",
+                    if v0.is_finite() { sig(v0 * 1e6, 3) } else { "-".into() },
+                    round_sig(reference, 4)
+                )
             }
             CandidateKind::Table { start, step, knots } => {
                 let rms = (values.iter().map(|v| v * v).sum::<f64>() / values.len().max(1) as f64).sqrt();
@@ -322,10 +345,16 @@ pub fn catalogue<const N: usize, const V: usize>(
         return out;
     }
     let (lo, hi) = coverage(data);
+    if let Some(reference) = temperature_reference(data, cfg.min_temperature_span_c) {
+        out.push(Candidate {
+            kind: CandidateKind::Thermal { reference },
+            joint: 0,
+        });
+    }
     let mut tau_max = [0.0f64; N];
     let mut fk = ForwardKinematics::new();
     for m in data {
-        fk.compute(robot, &m.q);
+        fk.compute_at(robot, &m.q, 0, m.temp_c).unwrap_or_default();
         let tau = fk.lever_arms();
         for j in 0..N {
             tau_max[j] = tau_max[j].max(tau[j].abs());
@@ -392,6 +421,21 @@ pub fn catalogue<const N: usize, const V: usize>(
         }
     }
     out
+}
+
+/// The mean temperature of `data` (°C) when every pose has one and they span at least
+/// `min_span` kelvin: the reference of a thermal-expansion candidate.
+pub fn temperature_reference<const N: usize>(
+    data: &[Measurement<f64, N>],
+    min_span: f64,
+) -> Option<f64> {
+    let t: Vec<f64> = data.iter().map(|m| m.temp_c).collect::<Option<_>>()?;
+    let (lo, hi) = t
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(*x), b.max(*x))
+        });
+    (!t.is_empty() && hi - lo >= min_span).then(|| t.iter().sum::<f64>() / t.len() as f64)
 }
 
 /// The joint range `data` cover: lowest and highest reading of each joint (rad).

@@ -292,7 +292,7 @@ impl<const N: usize> PoseKinematics<N> {
         let poses = data
             .iter()
             .map(|m| {
-                fk.compute(&probe, &m.q);
+                fk.compute_at(&probe, &m.q, 0, m.temp_c);
                 fk
             })
             .collect();

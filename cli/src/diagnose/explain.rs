@@ -125,12 +125,18 @@ pub fn per_pose<const N: usize>(
     let mut fk0 = ForwardKinematics::new();
     data.iter()
         .map(|m| {
-            let p = fk.compute(robot, &m.q);
+            let p = fk.compute_at(robot, &m.q, 0, m.temp_c).unwrap_or_default();
             let r = m.point - p;
             let tau = fk.lever_arms().get(j).copied().unwrap_or(0.0);
             let q = m.q.get(j).copied().unwrap_or(0.0);
             let dir = match c.kind {
                 CandidateKind::Tilt => fk.column(robot, Param::Beta(j as u8)).unwrap_or_default(),
+                // Per unit of c: the point's offset from the base times T − T0.
+                CandidateKind::Thermal { .. } => robot
+                    .effects()
+                    .thermal()
+                    .and_then(|(k, ..)| fk.column(robot, Param::Effect(k as u16)).ok())
+                    .unwrap_or_default(),
                 _ => fk.reading_column(robot, j),
             };
             let n2 = dir.norm_squared();
@@ -138,9 +144,16 @@ pub fn per_pose<const N: usize>(
             let (dq, tool_mm) = match (&untilted, c.kind) {
                 (Some(r0), CandidateKind::Tilt) => {
                     let beta = values.first().copied().unwrap_or(0.0);
-                    (beta, (p - fk0.compute(r0, &m.q)).norm())
+                    (
+                        beta,
+                        (p - fk0.compute_at(r0, &m.q, 0, m.temp_c).unwrap_or_default()).norm(),
+                    )
                 }
                 (None, CandidateKind::Tilt) => (0.0, 0.0),
+                (_, CandidateKind::Thermal { .. }) => {
+                    let c = values.first().copied().unwrap_or(0.0);
+                    (c, (dir * c).norm())
+                }
                 _ => {
                     let dq = c.correction(&values, q, tau);
                     (dq, (dir * dq).norm())
@@ -183,8 +196,10 @@ pub fn knots(c: &Candidate, values: &[f64], lo: f64, hi: f64) -> Vec<(f64, f64)>
 /// The correction (rad) on a dense uniform grid over `[lo, hi]` (rad) plus a table's knots in
 /// it, sorted by angle: `(q, dq)`. Compliance and tilt have no curve in `q` (empty).
 pub fn curve(c: &Candidate, values: &[f64], lo: f64, hi: f64) -> Vec<(f64, f64)> {
-    if matches!(c.kind, CandidateKind::Compliance | CandidateKind::Tilt)
-        || hi.is_nan()
+    if matches!(
+        c.kind,
+        CandidateKind::Compliance | CandidateKind::Tilt | CandidateKind::Thermal { .. }
+    ) || hi.is_nan()
         || lo.is_nan()
         || hi < lo
     {
@@ -406,6 +421,12 @@ fn short_text(
             sig(tau_max, 3),
             fmt_deg(v0.abs())
         ),
+        CandidateKind::Thermal { reference } => format!(
+            "the arm expands with its temperature by {} ppm per kelvin from {} °C (steel ≈ 12): up to {} mm at the poses measured",
+            sig(v0 * 1e6, 3),
+            sig(reference, 4),
+            sig(e.tool_max_mm, 3)
+        ),
         CandidateKind::Tilt => {
             let parent = if c.joint == 0 {
                 "the base's vertical".to_string()
@@ -452,7 +473,7 @@ pub fn explain<const N: usize>(
         CandidateKind::Cyclic(_) => 2.0 * v0.hypot(values.get(1).copied().unwrap_or(0.0)),
         CandidateKind::Table { .. } | CandidateKind::Scale => spread(&mut grid.iter().map(|p| p.1)),
         CandidateKind::Compliance => spread(&mut poses.iter().map(|p| p.dq)),
-        CandidateKind::Tilt => v0.abs(),
+        CandidateKind::Tilt | CandidateKind::Thermal { .. } => v0.abs(),
     };
     let n = poses.len().max(1) as f64;
     let tool_rms_mm = (poses.iter().map(|p| p.tool_mm * p.tool_mm).sum::<f64>() / n).sqrt();

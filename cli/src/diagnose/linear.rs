@@ -192,7 +192,7 @@ impl Problem {
         cols: &mut Vec<(usize, Vector3<f64>)>,
     ) -> Vector3<f64> {
         cols.clear();
-        let r = m.point - fk.compute(robot, &m.q);
+        let r = m.point - fk.compute_at(robot, &m.q, 0, m.temp_c).unwrap_or_default();
         for &i in &self.geometric {
             if let Ok(c) = fk.column(robot, self.params[i]) {
                 cols.push((i, c * self.inv_scale[i]));
@@ -425,6 +425,8 @@ pub fn squared_errors<const N: usize, const V: usize>(
 ) -> Vec<f64> {
     let mut fk = ForwardKinematics::new();
     data.iter()
-        .map(|m| (m.point - fk.compute(robot, &m.q)).norm_squared())
+        .map(|m| {
+            (m.point - fk.compute_at(robot, &m.q, 0, m.temp_c).unwrap_or_default()).norm_squared()
+        })
         .collect()
 }

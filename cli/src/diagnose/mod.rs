@@ -32,6 +32,7 @@ pub mod explain;
 pub mod folds;
 pub mod linear;
 pub mod observations;
+pub mod plausibility;
 pub mod refit;
 pub mod residual_plots;
 pub mod significance;
@@ -79,6 +80,9 @@ pub struct Config {
     /// least this fraction: a real but negligible gain (a parameter that moves the predictions
     /// by nanometres) is not worth a model term.
     pub min_improvement: f64,
+    /// The largest size of each kind of finding that is accepted
+    /// ([`plausibility::implausible`]).
+    pub plausible: plausibility::Limits,
 }
 
 impl Default for Config {
@@ -94,6 +98,7 @@ impl Default for Config {
             refit_iterations: 20,
             floor_tolerance: 1.05,
             min_improvement: 0.01,
+            plausible: plausibility::Limits::default(),
         }
     }
 }
@@ -125,8 +130,11 @@ pub struct Round {
     pub tested: Vec<Tested>,
     /// `α / m`.
     pub threshold: f64,
-    /// Index into `tested` of the one added.
+    /// Index into `tested` of the one added (or refused, see `refused`).
     pub chosen: Option<usize>,
+    /// Why the chosen candidate was refused as physically implausible (then nothing was added
+    /// this round and its family is not offered again).
+    pub refused: Option<String>,
     pub seconds: f64,
 }
 
@@ -208,7 +216,7 @@ impl<const N: usize> Found<N> {
             distinct_figures([self.before_rms_mm, self.validation_rms_mm, noise_floor_mm]);
         let alpha = self.threshold * self.candidates_compared as f64;
         format!(
-            "{}: held-out RMS {before} → {after} mm, {} (one-sided paired t test p = {}, below the {} % family-wise threshold {} over {} candidates)",
+            "{}: cross-validated RMS {before} → {after} mm, {} (one-sided paired t test p = {}, below the {} % family-wise threshold {} over {} candidates)",
             self.candidate.meaning(&values),
             floor_phrase(noise_floor_mm, &floor),
             sig(self.test.p, 2),
@@ -531,6 +539,8 @@ pub fn diagnose_with_progress<const N: usize>(
     let mut errors = baseline_errors.clone();
     let mut free_tilt: Vec<usize> = free_tilt.to_vec();
     let mut found: Vec<Found<N>> = Vec::new();
+    // Candidates refused as physically implausible (their families are not offered again).
+    let mut refused: Vec<Candidate> = Vec::new();
     let mut rounds = Vec::new();
     let stop_reason;
     loop {
@@ -555,6 +565,7 @@ pub fn diagnose_with_progress<const N: usize>(
             .filter(|c| {
                 !c.present_in(&current, &free_tilt)
                     && !found.iter().any(|f| f.candidate.same_effect(c))
+                    && !refused.iter().any(|r| r.same_effect(c))
             })
             .collect();
         if cands.is_empty() {
@@ -660,6 +671,7 @@ pub fn diagnose_with_progress<const N: usize>(
             tested: tested.clone(),
             threshold,
             chosen,
+            refused: None,
             seconds: tr.elapsed().as_secs_f64(),
         });
         let Some(i) = chosen else {
@@ -670,6 +682,16 @@ pub fn diagnose_with_progress<const N: usize>(
         let after_fit = fit(&robot_c, &problem_c, data, cfg.refit_iterations)?;
         let after = after_fit.robot.clone();
         let t = &tested[i];
+        let values = t.candidate.values(&after);
+        if let Some(why) = plausibility::implausible(&t.candidate, &values, &cfg.plausible) {
+            // Significant but no physical effect of its kind: refused, and the search goes on
+            // without its family.
+            refused.push(t.candidate);
+            if let Some(r) = rounds.last_mut() {
+                r.refused = Some(why);
+            }
+            continue;
+        }
         if t.candidate.kind == CandidateKind::Tilt {
             free_tilt.push(t.candidate.joint);
         }

@@ -19,6 +19,10 @@ pub const Q_DECIMALS: usize = 6;
 /// Decimals written for measured points (millimetres).
 pub const XYZ_DECIMALS: usize = 8;
 
+/// The extra column carrying the arm's temperature (°C) of each row: what a model's
+/// thermal-expansion term is evaluated at.
+pub const TEMPERATURE_COLUMN: &str = "temp_c";
+
 /// One measured pose in file units.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Record<const N: usize> {
@@ -62,9 +66,24 @@ impl<const N: usize> Dataset<N> {
         self.records.is_empty()
     }
 
-    /// All records in library units (rad, mm).
+    /// All records in library units (rad, mm), with the [`TEMPERATURE_COLUMN`] (when the
+    /// file has it and the cell is not empty) as each measurement's `temp_c`.
     pub fn measurements<T: Real>(&self) -> Vec<Measurement<T, N>> {
-        self.records.iter().map(|r| r.measurement()).collect()
+        let temp = self
+            .extra_names
+            .iter()
+            .position(|n| n == TEMPERATURE_COLUMN);
+        self.records
+            .iter()
+            .map(|r| {
+                let mut m: Measurement<T, N> = r.measurement();
+                m.temp_c = temp
+                    .and_then(|k| r.extra.get(k).copied())
+                    .filter(|t| t.is_finite())
+                    .map(T::of);
+                m
+            })
+            .collect()
     }
 
     /// The values of an extra column, if the file has it.

@@ -209,6 +209,8 @@ pub fn observe<const N: usize>(
              [[tools]] in the robot file"
         );
     }
+    // The arm's temperature, for a model with a thermal-expansion term (an empty cell: none).
+    let temp = col(ds, crate::formats::measurements::TEMPERATURE_COLUMN);
     let mut poses = Vec::with_capacity(ds.records.len());
     let mut measurements = Vec::with_capacity(ds.records.len());
     for r in &ds.records {
@@ -253,6 +255,10 @@ pub fn observe<const N: usize>(
             None
         };
         let q = r.q_deg.map(f64::to_radians);
+        let temp_c = temp.map(get).filter(|t| !t.is_nan());
+        if let Some(t) = temp_c.filter(|t| t.abs() > 1e3) {
+            crate::refuse!("{}: not a temperature in °C: {t}", at("temp_c"));
+        }
         let first = measurements.len();
         let obs = &mut measurements;
         if named {
@@ -279,11 +285,13 @@ pub fn observe<const N: usize>(
                 let mut m = Measurement::new(q, Vector3::from(p));
                 m.tool = k as u8;
                 m.weight = weight;
+                m.temp_c = temp_c;
                 obs.push(m);
             }
         } else {
             let mut m = Measurement::new(q, Vector3::from(r.xyz_mm));
             m.weight = weight;
+            m.temp_c = temp_c;
             if let Some((o, w)) = orientation {
                 m.orientation = Some(o);
                 m.orientation_weight = w;

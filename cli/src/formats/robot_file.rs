@@ -27,6 +27,13 @@ use toml::Spanned;
 /// library's effect list.
 pub const AXIS_TILT: &str = "axis-tilt";
 
+/// The effect id of the thermal expansion of every length (`docs/formats.md#effects`).
+pub const THERMAL: &str = "thermal-expansion";
+
+/// Reference temperature (°C) of a thermal-expansion term whose file gives none and that no
+/// data have set ([`RobotFile::with_thermal_reference`]).
+pub const DEFAULT_REFERENCE_C: f64 = 20.0;
+
 /// A whole robot file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RobotFile {
@@ -121,12 +128,15 @@ pub struct BaseSpec {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EffectSpec {
-    /// `joint-scale`, `joint-cyclic`, `joint-compliance`, `joint-table` or `axis-tilt`.
+    /// `joint-scale`, `joint-cyclic`, `joint-compliance`, `joint-table`, `axis-tilt` or
+    /// `thermal-expansion`.
     pub kind: String,
-    /// 1-based joint number.
+    /// 1-based joint number (0 for thermal-expansion, which acts on no joint).
+    #[serde(default)]
     pub joint: usize,
     /// scale: `[s]`; cyclic: `[a, b]` (rad); compliance: `[k]` (rad per m); table: knot values
-    /// (rad), lowest knot first; axis-tilt: `[]` or `[beta]` (rad, overrides `beta_deg`).
+    /// (rad), lowest knot first; axis-tilt: `[]` or `[beta]` (rad, overrides `beta_deg`);
+    /// thermal-expansion: `[c]` (per kelvin).
     #[serde(default)]
     pub values: Vec<f64>,
     /// Harmonic order (joint-cyclic only, default 1).
@@ -138,6 +148,10 @@ pub struct EffectSpec {
     /// Position of the lowest knot (joint-table only; default: the joint's lower limit).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub start_deg: Option<f64>,
+    /// Reference temperature T0, °C (thermal-expansion only; default: the identification
+    /// data's mean `temp_c`, [`RobotFile::with_thermal_reference`], or 20 °C without data).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_c: Option<f64>,
 }
 
 /// One `[[couplings]]` table: the model angle of `joint` is its reading plus `ratio` times the
@@ -509,7 +523,35 @@ impl RobotFile {
         for (i, e) in self.effects.iter().enumerate() {
             let p = Place::Effect(i);
             let what = format!("effect `{}` on joint {}", e.kind, e.joint);
-            if e.joint < 1 || e.joint > n {
+            let thermal = e.kind == THERMAL;
+            if thermal {
+                if e.joint != 0 {
+                    return issue(
+                        p,
+                        format!("{what}: thermal-expansion acts on no joint: give joint = 0"),
+                    );
+                }
+                if e.values.len() != 1 || !finite(&e.values) || e.values[0].abs() >= 1e-2 {
+                    return issue(
+                        p,
+                        format!("{what}: expected 1 value [c], a finite expansion per kelvin below 1e-2 in magnitude (steel ≈ 1.2e-5)"),
+                    );
+                }
+                if e.reference_c
+                    .is_some_and(|t| !(t.is_finite() && t.abs() <= 1e3))
+                {
+                    return issue(
+                        p,
+                        format!("{what}: reference_c must be a temperature in °C"),
+                    );
+                }
+            } else if e.reference_c.is_some() {
+                return issue(
+                    p,
+                    format!("{what}: reference_c applies to thermal-expansion only"),
+                );
+            }
+            if !thermal && (e.joint < 1 || e.joint > n) {
                 return issue(p, format!("{what}: joint must be 1 to {n}"));
             }
             if !finite(&e.values) {
@@ -542,11 +584,12 @@ impl RobotFile {
                 "joint-cyclic" => e.values.len() == 2,
                 "joint-table" => e.values.len() >= 2,
                 AXIS_TILT => e.values.len() <= 1,
+                THERMAL => e.values.len() == 1,
                 other => {
                     return issue(
                         p,
                         format!(
-                            "unknown effect kind `{other}` (expected joint-scale, joint-cyclic, joint-compliance, joint-table or axis-tilt)"
+                            "unknown effect kind `{other}` (expected joint-scale, joint-cyclic, joint-compliance, joint-table, axis-tilt or thermal-expansion)"
                         ),
                     )
                 }
@@ -843,8 +886,10 @@ impl RobotFile {
         for e in self.effects.iter().filter(|e| e.kind != AXIS_TILT) {
             let kind = EffectKind::from_id(&e.kind)
                 .ok_or_else(|| anyhow!("unknown effect kind `{}`", e.kind))?;
-            let j = e.joint - 1;
-            let (start, step) = if kind == EffectKind::Table {
+            let j = e.joint.saturating_sub(1);
+            let (start, step) = if kind == EffectKind::Thermal {
+                (e.reference_c.unwrap_or(DEFAULT_REFERENCE_C), 0.0)
+            } else if kind == EffectKind::Table {
                 let start = e.start_deg.unwrap_or(self.limits_deg(j)[0]);
                 (start.to_radians(), e.step_deg.unwrap_or(0.0).to_radians())
             } else {
@@ -905,9 +950,11 @@ impl RobotFile {
         let mut effects: Vec<EffectSpec> = Vec::new();
         for (i, e) in robot.effects().iter().enumerate() {
             let table = e.kind == EffectKind::Table;
+            let thermal = e.kind == EffectKind::Thermal;
             effects.push(EffectSpec {
                 kind: e.kind.id().to_string(),
-                joint: e.joint as usize + 1,
+                joint: if thermal { 0 } else { e.joint as usize + 1 },
+                reference_c: thermal.then_some(e.start),
                 values: robot.effects().values_of(i).to_vec(),
                 order: (e.kind == EffectKind::Cyclic).then_some(e.order),
                 step_deg: table.then(|| deg_short(e.step)),
@@ -925,6 +972,7 @@ impl RobotFile {
                 order: None,
                 step_deg: None,
                 start_deg: None,
+                reference_c: None,
             });
         }
         let points: Vec<[f64; 3]> = (0..robot.tool_point_count())

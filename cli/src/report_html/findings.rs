@@ -42,6 +42,9 @@ pub struct FoundJson {
     pub start_deg: Option<f64>,
     #[serde(default)]
     pub knots: Option<usize>,
+    /// Thermal-expansion: the reference temperature (°C).
+    #[serde(default)]
+    pub reference_c: Option<f64>,
 }
 
 /// A finding as the page shows it.
@@ -141,6 +144,16 @@ const MAX_VALUE: f64 = 1e6;
 /// The candidate of a finding, checked against a robot of `joints` joints (refused, exit 2,
 /// when it does not fit).
 fn candidate(f: &FoundJson, joints: usize, origin: &str) -> anyhow::Result<Candidate> {
+    if f.effect == "thermal-expansion" {
+        let reference = f.reference_c.filter(|t| t.is_finite()).unwrap_or(20.0);
+        if f.values.len() != 1 {
+            crate::refuse!("{origin}: the thermal-expansion finding needs 1 value");
+        }
+        return Ok(Candidate {
+            kind: CandidateKind::Thermal { reference },
+            joint: 0,
+        });
+    }
     if !(1..=joints).contains(&f.joint) {
         crate::refuse!(
             "{origin}: a finding on joint {} of a robot with {joints} joints: give the diagnose \

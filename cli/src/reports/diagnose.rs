@@ -79,7 +79,7 @@ pub struct DiagnoseReport {
 pub struct FoundEffect {
     /// The effect id (docs/formats.md), `axis-tilt` included.
     pub effect: String,
-    /// 1-based.
+    /// 1-based (0 for `thermal-expansion`, which acts on no joint).
     pub joint: usize,
     pub values: Vec<f64>,
     /// Held-out RMS after adding it (mm).
@@ -99,6 +99,9 @@ pub struct FoundEffect {
     pub start_deg: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub knots: Option<usize>,
+    /// Thermal-expansion: the reference temperature T0 (°C) its value `c` (per kelvin) is from.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_c: Option<f64>,
     /// The finding in a technician's words with its size, period, where it acts and the share
     /// of the held-out gap it closed ([`crate::diagnose::explain`]); present when the report
     /// was made with the search's data ([`DiagnoseReport::with_explanations`]).
@@ -118,7 +121,18 @@ pub struct RoundReport {
     pub refitted: Vec<Refitted>,
     /// The candidate added (null: none).
     pub added: Option<String>,
+    /// The candidate the test chose but that was refused as physically implausible, and why
+    /// (absent when none was).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refused: Option<Refused>,
     pub seconds: f64,
+}
+
+/// A significant candidate refused for its implausible size.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Refused {
+    pub candidate: String,
+    pub reason: String,
 }
 
 /// A candidate of the screen.
@@ -187,6 +201,7 @@ impl DiagnoseReport {
             .map(|f| {
                 let c = &f.candidate;
                 let (mut order, mut step_deg, mut start_deg, mut knots) = (None, None, None, None);
+                let mut reference_c = None;
                 match c.kind {
                     CandidateKind::Cyclic(n) => order = Some(n),
                     CandidateKind::Table {
@@ -200,11 +215,13 @@ impl DiagnoseReport {
                         start_deg = Some(crate::formats::robot_file::deg_short(start));
                         knots = Some(k);
                     }
+                    CandidateKind::Thermal { reference } => reference_c = Some(reference),
                     _ => {}
                 }
+                let thermal = matches!(c.kind, CandidateKind::Thermal { .. });
                 FoundEffect {
                     effect: c.id().to_string(),
-                    joint: c.joint + 1,
+                    joint: if thermal { 0 } else { c.joint + 1 },
                     values: c.values(&d.model),
                     validation_rms_mm: f.validation_rms_mm,
                     before_validation_rms_mm: f.before_rms_mm,
@@ -216,6 +233,7 @@ impl DiagnoseReport {
                     step_deg,
                     start_deg,
                     knots,
+                    reference_c,
                     explanation: None,
                 }
             })
@@ -245,7 +263,16 @@ impl DiagnoseReport {
                         p_value: t.test.p,
                     })
                     .collect(),
-                added: r.chosen.map(|i| r.tested[i].candidate.label()),
+                added: r
+                    .chosen
+                    .filter(|_| r.refused.is_none())
+                    .map(|i| r.tested[i].candidate.label()),
+                refused: r.refused.as_ref().and_then(|why| {
+                    Some(Refused {
+                        candidate: r.tested.get(r.chosen?)?.candidate.label(),
+                        reason: why.clone(),
+                    })
+                }),
                 seconds: r.seconds,
             })
             .collect();
@@ -334,10 +361,10 @@ pub fn summary<const N: usize>(d: &Diagnosis<N>) -> String {
                 percent(d.alpha)
             )
         };
-        format!("Nothing significant is missing from the model: held-out RMS {base} mm, {floor} ({why}).")
+        format!("Nothing significant is missing from the model: cross-validated RMS {base} mm, {floor} ({why}).")
     } else {
         format!(
-            "{} effect(s) missing from the model: held-out RMS {base} → {fin} mm, {floor}.",
+            "{} effect(s) missing from the model: cross-validated RMS {base} → {fin} mm, {floor}.",
             d.found.len(),
         )
     }
@@ -396,13 +423,16 @@ impl fmt::Display for DiagnoseReport {
             };
             writeln!(f, "noise floor {floor} mm{interval}, {source}")?;
         }
+        for r in self.rounds.iter().filter_map(|r| r.refused.as_ref()) {
+            writeln!(f, "refused as implausible: {} ({})", r.candidate, r.reason)?;
+        }
         writeln!(f, "stopped: {}", self.stop_reason)?;
         if let Some(h) = &self.holdout {
             if self.found.is_empty() {
                 // One model: nothing was added to the starting model as refitted.
                 writeln!(
                     f,
-                    "held-out poses ({}): {} mm with the starting model refitted (nothing added)",
+                    "held-out poses ({}), not searched: {} mm with the starting model refitted (nothing added)",
                     h.poses,
                     sig(h.geometric_rms_mm, 4)
                 )?;
@@ -410,7 +440,7 @@ impl fmt::Display for DiagnoseReport {
                 let [g, fin] = distinct_figures([h.geometric_rms_mm, h.final_rms_mm]);
                 writeln!(
                     f,
-                    "held-out poses ({}): starting model refitted {g} mm → extended model {fin} mm",
+                    "held-out poses ({}), not searched: starting model refitted {g} mm → extended model {fin} mm",
                     h.poses
                 )?;
             }

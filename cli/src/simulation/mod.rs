@@ -156,14 +156,20 @@ impl FromStr for EffectArg {
         let kind = parts[0].trim();
         if EffectKind::from_id(kind).is_none() && kind != crate::formats::robot_file::AXIS_TILT {
             return Err(format!(
-                "`--effect {s}`: unknown kind `{kind}` (joint-scale, joint-cyclic, joint-compliance, joint-table, axis-tilt)"
+                "`--effect {s}`: unknown kind `{kind}` (joint-scale, joint-cyclic, joint-compliance, joint-table, axis-tilt, thermal-expansion)"
             ));
         }
         let joint: usize = parts[1]
             .trim()
             .parse()
             .map_err(|_| format!("`--effect {s}`: joint `{}` is not a number", parts[1]))?;
-        if joint == 0 {
+        let thermal = kind == crate::formats::robot_file::THERMAL;
+        if thermal && (joint != 0 || parts.len() != 3) {
+            return Err(format!(
+                "`--effect {s}`: thermal-expansion acts on no joint: thermal-expansion:0:C (C per kelvin)"
+            ));
+        }
+        if joint == 0 && !thermal {
             return Err(format!("`--effect {s}`: joints are numbered from 1"));
         }
         let values = parts[2]
@@ -210,7 +216,9 @@ impl FromStr for EffectArg {
             ));
         }
         let want = match kind {
-            "joint-scale" | "joint-compliance" | "axis-tilt" => values.len() == 1,
+            "joint-scale" | "joint-compliance" | "axis-tilt" | "thermal-expansion" => {
+                values.len() == 1
+            }
             "joint-cyclic" => values.len() == 2,
             _ => values.len() >= 2,
         };
@@ -221,7 +229,7 @@ impl FromStr for EffectArg {
         }
         Ok(EffectArg {
             kind: kind.to_string(),
-            joint: joint - 1,
+            joint: joint.saturating_sub(1),
             values,
             order,
             grid: None,
@@ -289,10 +297,24 @@ pub fn measure<const N: usize, const V: usize, R: Rng>(
     sigma_mm: f64,
     rng: &mut R,
 ) -> Vec<Vector3<f64>> {
+    measure_at(robot, configs, &[], sigma_mm, rng)
+}
+
+/// [`measure`] with the arm at temperature `temps[i]` (°C) for pose `i` (none beyond the
+/// slice): what a model's thermal-expansion term is evaluated at.
+pub fn measure_at<const N: usize, const V: usize, R: Rng>(
+    robot: &Robot<f64, N, V>,
+    configs: &[[f64; N]],
+    temps: &[f64],
+    sigma_mm: f64,
+    rng: &mut R,
+) -> Vec<Vector3<f64>> {
     let mut fk = ForwardKinematics::<f64, N>::new();
     configs
         .iter()
-        .map(|q| {
+        .enumerate()
+        .map(|(i, q)| {
+            fk.temp_c = temps.get(i).copied();
             let p = fk.compute(robot, q);
             if sigma_mm > 0.0 {
                 let n: [f64; 3] = std::array::from_fn(|_| rng.sample::<f64, _>(StandardNormal));
@@ -355,6 +377,30 @@ pub fn simulate<const N: usize>(
     nominal: &Robot<f64, N, VCAP>,
     sim: &Simulation,
 ) -> anyhow::Result<(Robot<f64, N, VCAP>, Dataset<N>)> {
+    simulate_at(nominal, sim, None)
+}
+
+/// [`simulate`] with the arm warming (or cooling) linearly from `temperature.0` to
+/// `temperature.1` °C over the poses, in their order: every row gets a `temp_c`, and a
+/// thermal-expansion effect of the true robot is referred to the mean temperature.
+pub fn simulate_at<const N: usize>(
+    nominal: &Robot<f64, N, VCAP>,
+    sim: &Simulation,
+    temperature: Option<(f64, f64)>,
+) -> anyhow::Result<(Robot<f64, N, VCAP>, Dataset<N>)> {
+    let temps: Vec<f64> = match temperature {
+        Some((a, b)) => {
+            if !(a.is_finite() && b.is_finite() && a.abs() <= 1e3 && b.abs() <= 1e3) {
+                bail!("the temperatures must be finite numbers of °C, got {a} and {b}");
+            }
+            let n = sim.poses.max(2) - 1;
+            (0..sim.poses)
+                // As a sensor reports it, to 0.01 °C (the file and the truth agree exactly).
+                .map(|i| ((a + (b - a) * i as f64 / n as f64) * 100.0).round() / 100.0)
+                .collect()
+        }
+        None => Vec::new(),
+    };
     if !(sim.noise_mm.is_finite() && sim.noise_mm >= 0.0) {
         bail!(
             "the noise level must be a finite number ≥ 0, got {}",
@@ -367,11 +413,31 @@ pub fn simulate<const N: usize>(
         None => nominal.clone(),
     };
     for e in &sim.effects {
+        if e.kind == crate::formats::robot_file::THERMAL {
+            let reference = if temps.is_empty() {
+                crate::formats::robot_file::DEFAULT_REFERENCE_C
+            } else {
+                temps.iter().sum::<f64>() / temps.len() as f64
+            };
+            truth
+                .effects_mut()
+                .push(EffectKind::Thermal, 0, N, 1, reference, 0.0, &e.values)
+                .map_err(|err| anyhow!("effect thermal-expansion: {err:?}"))?;
+            continue;
+        }
         add_effect(&mut truth, e)?;
     }
     let configs = random_configurations(&truth, sim.poses, &mut rng.configs);
-    let points = measure(&truth, &configs, sim.noise_mm, &mut rng.noise);
-    Ok((truth, dataset(&configs, &points)))
+    let points = measure_at(&truth, &configs, &temps, sim.noise_mm, &mut rng.noise);
+    let mut ds = dataset(&configs, &points);
+    if !temps.is_empty() {
+        ds.extra_names
+            .push(crate::formats::measurements::TEMPERATURE_COLUMN.to_string());
+        for (r, t) in ds.records.iter_mut().zip(&temps) {
+            r.extra.push(*t);
+        }
+    }
+    Ok((truth, ds))
 }
 
 /// The ER20-C10 stand-in (rows alpha°, a mm, theta°, d mm; tool 100 mm along the flange z).

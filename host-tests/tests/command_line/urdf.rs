@@ -641,6 +641,7 @@ fn export_warns_about_what_a_urdf_cannot_hold() {
             order: None,
             step_deg: None,
             start_deg: None,
+            reference_c: None,
         });
     let model_path = d.join("model.toml");
     model.save(&model_path).unwrap();

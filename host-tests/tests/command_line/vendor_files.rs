@@ -2,8 +2,6 @@
 //! doors behind the units door: the order of a file's three angles ("The convention check")
 //! and a stated base that puts the data far away ("Base").
 
-
-
 use crate::common::*;
 use kinecal::forward::ForwardKinematics;
 use kinecal::Frame;

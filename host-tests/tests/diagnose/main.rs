@@ -1,9 +1,11 @@
 //! The discrepancy workflow (`diagnose`): simulated hidden effects, explanations, grids,
-//! observation kinds and the real UR10 series.
+//! observation kinds, the evidence a finding needs (thermal expansion, plausibility) and the real
+//! UR10 series.
 
 #[path = "../common/mod.rs"]
 mod common;
 
+mod evidence;
 mod explain;
 mod grids;
 mod matrix;

@@ -4,8 +4,6 @@
 //! truncated, corrupted, foreign-version and oversized blobs (the target unchanged), and
 //! `kinecal export --format firmware`.
 
-
-
 use kinecal::io::model_blob::{self, tag, BlobError, MAX_JOINTS};
 use kinecal::io::snapshot::crc32;
 use kinecal::model::effects::EffectKind;
@@ -41,6 +39,11 @@ values = [0.0001, 0.0003, -0.0002, 0.0004, 0.0, -0.0001, 0.0002, 0.0005, -0.0003
 kind = "joint-cyclic"
 joint = 2
 values = [0.0001, 0.00015]
+[[effects]]
+kind = "thermal-expansion"
+joint = 0
+values = [1.2e-5]
+reference_c = 22.5
 [[couplings]]
 joint = 3
 from = 2
@@ -85,7 +88,10 @@ fn round_trip<const N: usize>(original: &Robot<f64, N, VCAP>) {
     model_blob::decode(&blob, &mut decoded).unwrap();
     assert_eq!(&decoded, original);
     let (mut fa, mut fb) = (ForwardKinematics::new(), ForwardKinematics::new());
-    for q in poses::<N>(500, 7) {
+    for (i, q) in poses::<N>(500, 7).into_iter().enumerate() {
+        // Half the poses at the reference temperature, half at 10 … 40 °C (thermal expansion).
+        let t = (i % 2 == 1).then_some(10.0 + (i % 31) as f64);
+        (fa.temp_c, fb.temp_c) = (t, t);
         let (a, b) = (fa.compute(original, &q), fb.compute(&decoded, &q));
         assert_eq!(a, b, "FK differs at {q:?}");
         assert_eq!(fa.tool_pose(original), fb.tool_pose(&decoded));
@@ -109,6 +115,7 @@ fn six_joints_every_effect_kind_coupling_tool_points_and_axes() {
         EffectKind::Cyclic,
         EffectKind::Compliance,
         EffectKind::Table,
+        EffectKind::Thermal,
     ] {
         assert!(kinds.contains(&k), "{k:?} missing from the test model");
     }
@@ -125,7 +132,7 @@ fn six_joints_every_effect_kind_coupling_tool_points_and_axes() {
 #[test]
 fn seven_joints_every_effect_kind_and_coupling() {
     let r = model::<7>(crate::common::LBR7_TILTED_PLACED);
-    assert_eq!(r.effects().len(), 5);
+    assert_eq!(r.effects().len(), 6);
     round_trip(&r);
 }
 
@@ -237,12 +244,13 @@ fn records_unknown_informational_and_malformed() {
     let mut t = target.clone();
     model_blob::decode(&info, &mut t).unwrap();
     assert_eq!(t, r);
-    // A correction this library does not know (thermal-expansion's reserved tag) is refused.
-    let thermal = with_record(&blob, tag::THERMAL_EXPANSION, &[0; 32]);
+    // A correction this library does not know (the next tag after thermal-expansion's) is
+    // refused.
+    let next = tag::THERMAL_EXPANSION + 1;
     refused(
-        &thermal,
+        &with_record(&blob, next, &[0; 32]),
         &target,
-        BlobError::UnknownRecord(tag::THERMAL_EXPANSION),
+        BlobError::UnknownRecord(next),
     );
     // An effect whose count disagrees with its length.
     let mut scale = vec![0u8; 24 + 8];
@@ -324,8 +332,11 @@ ratio = 1.0
 
 #[test]
 fn c_client_of_a_diagnosed_model_matches_the_library_in_f64() {
-    let file =
-        RobotFile::parse(&format!("{}{DIAGNOSED}", crate::common::ER20_TILTED_PLACED), "t").unwrap();
+    let file = RobotFile::parse(
+        &format!("{}{DIAGNOSED}", crate::common::ER20_TILTED_PLACED),
+        "t",
+    )
+    .unwrap();
     let model = file.to_robot::<6>().unwrap();
     assert_eq!(model.effects().len(), 5);
     let blob = blob_of(&model);
@@ -405,8 +416,11 @@ fn c_client_of_a_diagnosed_model_matches_the_library_in_f64() {
 #[ignore = "one sampled pose is wrist-singular for the nominal IK (sigma 13, converged to 9e-11 mm but typed Singular): the pose sampling must avoid it"]
 fn nominal_targets_bring_the_calibrated_robot_to_the_target() {
     use kinecal::compensate::{compensate, nominal_target, Config, Target};
-    let file =
-        RobotFile::parse(&format!("{}{DIAGNOSED}", crate::common::ER20_TILTED_PLACED), "t").unwrap();
+    let file = RobotFile::parse(
+        &format!("{}{DIAGNOSED}", crate::common::ER20_TILTED_PLACED),
+        "t",
+    )
+    .unwrap();
     let model = file.to_robot::<6>().unwrap();
     // The nominal robot: no tilt, no effects, no coupling, at its own (identity) base.
     let mut nominal_file = RobotFile::parse(crate::common::ER20_PLACED, "n").unwrap();

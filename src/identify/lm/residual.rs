@@ -17,6 +17,11 @@ pub(super) fn residual<T: Real, const N: usize, const V: usize, M: Observation<T
     robot: &Robot<T, N, V>,
     m: &M,
 ) -> Option<(Vector3<T>, Option<Vector3<T>>)> {
+    // Only a model with value capacity can have a thermal-expansion term (the firmware's has
+    // none: no instruction here).
+    if V > 0 {
+        fk.temp_c = m.temperature();
+    }
     let p = if m.tool() == 0 {
         fk.compute(robot, m.q())
     } else {
@@ -71,7 +76,7 @@ pub fn rms_error<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
     for m in data {
         // An observation of a point the robot does not have has no error: NaN, not a number.
         let p = fk
-            .compute_point(robot, m.q(), m.tool())
+            .compute_at(robot, m.q(), m.tool(), m.temperature())
             .unwrap_or(Vector3::repeat(T::of(f64::NAN)));
         s += (m.point() - p).norm_squared();
     }
@@ -90,7 +95,10 @@ pub fn rms_orientation_error<T: Real, const N: usize, const V: usize, M: Observa
         let Some((o, _)) = m.orientation() else {
             continue;
         };
-        if fk.compute_point(robot, m.q(), m.tool()).is_none() {
+        if fk
+            .compute_at(robot, m.q(), m.tool(), m.temperature())
+            .is_none()
+        {
             return Some(T::of(f64::NAN));
         }
         s += orientation_error(o, &fk.tool_pose(robot)).norm_squared();

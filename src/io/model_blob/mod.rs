@@ -67,7 +67,7 @@ pub mod tag {
     pub const JOINT_COMPLIANCE: u16 = 0x0012;
     /// `joint-table` (effect payload).
     pub const JOINT_TABLE: u16 = 0x0013;
-    /// Reserved for `thermal-expansion` (effect payload).
+    /// `thermal-expansion` (effect payload: joint 0, start the reference temperature T0, °C).
     pub const THERMAL_EXPANSION: u16 = 0x0014;
     /// Tags with this bit set carry information only: decoders skip those they do not know.
     pub const INFORMATIONAL: u16 = 0x8000;
@@ -84,6 +84,7 @@ pub(crate) const fn effect_tag(kind: EffectKind) -> u16 {
         EffectKind::Cyclic => tag::JOINT_CYCLIC,
         EffectKind::Compliance => tag::JOINT_COMPLIANCE,
         EffectKind::Table => tag::JOINT_TABLE,
+        EffectKind::Thermal => tag::THERMAL_EXPANSION,
     }
 }
 
@@ -94,6 +95,7 @@ pub(crate) const fn effect_kind(tag: u16) -> Option<EffectKind> {
         tag::JOINT_CYCLIC => Some(EffectKind::Cyclic),
         tag::JOINT_COMPLIANCE => Some(EffectKind::Compliance),
         tag::JOINT_TABLE => Some(EffectKind::Table),
+        tag::THERMAL_EXPANSION => Some(EffectKind::Thermal),
         _ => None,
     }
 }

@@ -20,8 +20,13 @@
 #define KC_ALIGNED(n) __attribute__((aligned(n)))
 #endif
 
-// Joints of every robot of this ABI.
+// Joints of the CSV reader's records and of the default parameter set `kc_params_mdh` (a
+// 6-joint measurement file).
 #define KC_JOINTS 6
+
+// Most joints of a robot of this ABI, and the length of every joint array (readings,
+// commands, rows): a 6-joint robot uses the first 6 entries.
+#define KC_MAX_JOINTS 7
 
 // Room for joint-correction values in a `kc_robot` (every effect's values together: a
 // `joint-table`'s knots, a `joint-cyclic`'s two terms, …); at most 32 effects.
@@ -29,38 +34,40 @@
 
 // Bytes of a `kc_robot` (the largest robot of the supported targets, rounded up to 8; a
 // compile-time assertion checks it fits).
-#define KC_ROBOT_SIZE 5112
+#define KC_ROBOT_SIZE 5160
 
-// Every distinct parameter of a 6-joint robot: 6 base + 5 × 6 row + 3 tool.
-#define KC_PARAMS_ALL 39
+// Every distinct parameter of a 7-joint robot: 6 base + 5 × 7 row + 3 tool (39 of a 6-joint
+// robot).
+#define KC_PARAMS_ALL 44
 
 // Bytes of a `kc_fk` (see `KC_ROBOT_SIZE`).
-#define KC_FK_SIZE 448
+#define KC_FK_SIZE 504
 
 // Bytes of a `kc_param_set` (see `KC_ROBOT_SIZE`).
-#define KC_PARAM_SET_SIZE 176
+#define KC_PARAM_SET_SIZE 192
 
-// Room for identified parameters in a `kc_lm`: the 24 of the MDH set (`kc_params_mdh`), as
-// the Rust firmware sizes its solver (same code, same instruction counts, same RAM).
+// Room for identified parameters in a `kc_lm`: the 24 of the MDH set of a 6-joint robot
+// (`kc_params_mdh`), as the Rust firmware sizes its solver (same code, same instruction counts,
+// same RAM); a 7-joint robot's solver identifies at most 24 of its parameters too.
 #define KC_LM_MAX_PARAMS 24
 
 // Bytes of a `kc_lm` (see `KC_ROBOT_SIZE`).
-#define KC_LM_SIZE 8968
+#define KC_LM_SIZE 9136
 
 #if defined(KC_LM_FULL)
 // Room for identified parameters in a `kc_lm_full`: every geometric parameter of a 6-joint
 // arm (`KC_PARAMS_ALL`: 6 base, 5 × 6 row, 3 tool), for a firmware that also fits the base
 // pose and the tool point (`kc_params_full`).
-#define KC_LM_FULL_MAX_PARAMS 39
+#define KC_LM_FULL_MAX_PARAMS 44
 #endif
 
 #if defined(KC_LM_FULL)
 // Bytes of a `kc_lm_full` (see `KC_ROBOT_SIZE`).
-#define KC_LM_FULL_SIZE 17664
+#define KC_LM_FULL_SIZE 21520
 #endif
 
 // Bytes of a `kc_tracker` (see `KC_ROBOT_SIZE`).
-#define KC_TRACKER_SIZE 104
+#define KC_TRACKER_SIZE 112
 
 // Longest line (bytes) a `kc_csv` reads.
 #define KC_CSV_LINE 256
@@ -280,9 +287,9 @@ typedef uint8_t kc_csv_error_kind;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
-// A robot (`Robot<f32, 6, KC_MAX_EFFECT_VALUES>`): base pose, six MDH rows, tool point, joint
-// corrections (effects), joint couplings. Opaque; caller-owned (a `static` in firmware);
-// `kc_robot_init` or `kc_robot_load` constructs it.
+// A robot (`Robot<f32, N, KC_MAX_EFFECT_VALUES>`, N = 6 or 7): base pose, MDH rows, tool
+// point, joint corrections (effects), joint couplings. Opaque; caller-owned (a `static` in
+// firmware); `kc_robot_init` or `kc_robot_load` constructs it.
 typedef struct KC_ALIGNED(8) kc_robot {
   uint8_t _opaque[KC_ROBOT_SIZE];
 } kc_robot;
@@ -324,8 +331,9 @@ typedef struct kc_param {
   uint8_t joint;
 } kc_param;
 
-// A forward-kinematics workspace (`ForwardKinematics<f32, 6>`): the frames of the last pose
-// computed, which `kc_fk_jacobian` differentiates. Opaque, caller-owned; `kc_fk_init`.
+// A forward-kinematics workspace (`ForwardKinematics<f32, N>`): the frames of the last pose
+// computed, which `kc_fk_jacobian` differentiates. It takes the joint count of the robot it
+// computes. Opaque, caller-owned; `kc_fk_init`.
 typedef struct KC_ALIGNED(8) kc_fk {
   uint8_t _opaque[KC_FK_SIZE];
 } kc_fk;
@@ -372,8 +380,8 @@ typedef struct KC_ALIGNED(8) kc_lm {
 // tracker saw (mm, measurement frame): a plain position observation of the first tool point,
 // read by the solver in place.
 typedef struct kc_measurement {
-  // Joint readings, rad.
-  float q[KC_JOINTS];
+  // Joint readings, rad: the robot's joints first (a 6-joint robot ignores the last).
+  float q[KC_MAX_JOINTS];
   // Measured point, mm.
   float xyz_mm[3];
 } kc_measurement;
@@ -437,8 +445,9 @@ typedef struct kc_target {
 
 // A joint command and how well it meets the target on the model.
 typedef struct kc_solution {
-  // The joint command (rad): within `max_step_rad` of the seed and inside the joint limits.
-  float q[KC_JOINTS];
+  // The joint command (rad): within `max_step_rad` of the seed and inside the joint limits;
+  // the robot's joints first, the rest 0.
+  float q[KC_MAX_JOINTS];
   // |target point − model point at q| (mm).
   float position_error_mm;
   // Angle between target and model tool orientation at q (rad); 0 for point targets.
@@ -451,8 +460,9 @@ typedef struct kc_solution {
   uint8_t status;
 } kc_solution;
 
-// Streaming compensation along a trajectory (`Tracker<f32, 6>`): keeps the previous command
-// and starts each cycle from it. Opaque, caller-owned; `kc_tracker_init`.
+// Streaming compensation along a trajectory (`Tracker<f32, N>`): keeps the previous command
+// and starts each cycle from it. It takes the joint count of the robot it is used with (a
+// robot of another count starts a new trajectory). Opaque, caller-owned; `kc_tracker_init`.
 typedef struct KC_ALIGNED(8) kc_tracker {
   uint8_t _opaque[KC_TRACKER_SIZE];
 } kc_tracker;
@@ -496,17 +506,19 @@ extern "C" {
 // "unknown status"). Never NULL.
 const char *kc_status_message(uint32_t status);
 
-// Builds a robot in `r` from six MDH rows (`rows[KC_JOINTS]`), the base pose (`base`: the
-// robot base frame in the measurement frame; NULL = identity) and the tool point in the
-// flange frame (`tool_mm[3]`; NULL = the flange origin). No couplings.
+// Builds a robot in `r` of `joints` joints (6 or 7) from its MDH rows (`rows[joints]`; an
+// array of `KC_MAX_JOINTS` does), the base pose (`base`: the robot base frame in the
+// measurement frame; NULL = identity) and the tool point in the flange frame (`tool_mm[3]`;
+// NULL = the flange origin). No couplings, no joint corrections.
 //
-// Errors: `KC_NULL_POINTER` (`r`, `rows`), `KC_NOT_FINITE` (any value NaN or infinite),
-// `KC_INVALID_ROBOT` (a length beyond ±1 km, an angle beyond ±1e4 rad, `lower >= upper`).
-// On error `r` is unchanged.
+// Errors: `KC_NULL_POINTER` (`r`, `rows`), `KC_INVALID_ARGUMENT` (`joints` not 6 or 7),
+// `KC_NOT_FINITE` (any value NaN or infinite), `KC_INVALID_ROBOT` (a length beyond ±1 km, an
+// angle beyond ±1e4 rad, `lower >= upper`). On error `r` is unchanged.
 //
 // # Safety
 // Pointers are NULL or valid for the sizes above; `r` is not otherwise in use during the call.
 kc_status kc_robot_init(struct kc_robot *r,
+                        uint32_t joints,
                         const struct kc_joint_row *rows,
                         const struct kc_frame *base,
                         const float *tool_mm);
@@ -523,8 +535,8 @@ kc_status kc_robot_copy(struct kc_robot *dst, const struct kc_robot *src);
 // Jacobians, compensation and the tracker then honour its corrections and couplings.
 //
 // Errors, `r` unchanged: `KC_NULL_POINTER` (`r`, or `blob` with `len` > 0),
-// `KC_MODEL_INVALID` (truncated, corrupted: CRC-32, another layout version, another joint
-// count than `KC_JOINTS`, a record this library does not know, more than
+// `KC_MODEL_INVALID` (truncated, corrupted: CRC-32, another layout version, a joint count
+// other than 6 or 7, a record this library does not know, more than
 // `KC_MAX_EFFECT_VALUES` values, 32 effects or 4 couplings), `KC_NOT_FINITE` (a NaN or
 // infinite number), `KC_INVALID_ROBOT` (a model `kc_robot_init` would refuse).
 //
@@ -532,13 +544,15 @@ kc_status kc_robot_copy(struct kc_robot *dst, const struct kc_robot *src);
 // `r` is NULL or a writable `kc_robot` not otherwise in use; `blob` is NULL or `len` bytes.
 kc_status kc_robot_load(struct kc_robot *r, const uint8_t *blob, size_t len);
 
-// The number of joints of `r` into `*n` (`KC_JOINTS`).
+// The number of joints of `r` (6 or 7) into `*n`: the entries of its joint arrays (readings,
+// rows, commands) that the functions read and write.
 //
 // # Safety
 // `r` is NULL or a valid handle; `n` is NULL or writable.
 kc_status kc_robot_joints(const struct kc_robot *r, uint32_t *n);
 
-// Replaces row `joint` (0-based) of `r`. Errors: `KC_INVALID_ARGUMENT` (joint >= 6),
+// Replaces row `joint` (0-based) of `r`. Errors: `KC_INVALID_ARGUMENT` (joint beyond the
+// robot's),
 // `KC_NOT_FINITE`, `KC_INVALID_ROBOT` (as in `kc_robot_init`); on error `r` is unchanged.
 //
 // # Safety
@@ -570,7 +584,7 @@ kc_status kc_robot_set_tool(struct kc_robot *r, const float *tool_mm);
 // `r` is NULL or a valid handle not otherwise in use.
 kc_status kc_robot_set_coupling(struct kc_robot *r, uint32_t joint, uint32_t from, float ratio);
 
-// Reads back the rows (`out[KC_JOINTS]`), the base pose (`base_out`, may be NULL; roll,
+// Reads back the rows (`out[n]`, n = the robot's joints; an array of `KC_MAX_JOINTS` does), the base pose (`base_out`, may be NULL; roll,
 // pitch, yaw as `kc_frame`) and the tool point (`tool_out[3]`, may be NULL) of `r`.
 //
 // # Safety
@@ -586,20 +600,25 @@ kc_status kc_robot_rows(const struct kc_robot *r,
 // `r` is NULL or a valid handle; the outputs are NULL or of their sizes.
 kc_status kc_robot_base(const struct kc_robot *r, float *xyz_out, float *rot_out);
 
-// The 24-parameter set of the BPNN-PSO paper: alpha, a, theta, d of every joint, joint by
-// joint, into `out[24]`.
+// The 24-parameter set of the BPNN-PSO paper for a 6-joint robot: alpha, a, theta, d of every
+// joint, joint by joint, into `out[24]` (a 7-joint robot's 28: `kc_params_full`).
 //
 // # Safety
 // `out` is NULL or 24 writable `kc_param`.
 kc_status kc_params_mdh(struct kc_param *out);
 
-// The full default set: the base pose when `base_unknown` is non-zero (6), alpha, a, theta, d
-// of every joint (24) and the tool point (3): 27 or 33 parameters. `*count` receives the
-// length; `KC_BUFFER_TOO_SMALL` (only the count written) when `cap` is smaller.
+// The full default set of a robot of `joints` joints (6 or 7): the base pose when
+// `base_unknown` is non-zero (6), alpha, a, theta, d of every joint (24 or 28) and the tool
+// point (3): 27, 33, 31 or 37 parameters. `*count` receives the length; `KC_BUFFER_TOO_SMALL`
+// (only the count written) when `cap` is smaller; `KC_INVALID_ARGUMENT` for another `joints`.
 //
 // # Safety
 // `out` is NULL or `cap` writable `kc_param`; `count` is NULL or writable.
-kc_status kc_params_full(uint8_t base_unknown, struct kc_param *out, size_t cap, size_t *count);
+kc_status kc_params_full(uint32_t joints,
+                         uint8_t base_unknown,
+                         struct kc_param *out,
+                         size_t cap,
+                         size_t *count);
 
 // Initialises a workspace (identity frames).
 //
@@ -607,7 +626,7 @@ kc_status kc_params_full(uint8_t base_unknown, struct kc_param *out, size_t cap,
 // `w` is NULL or a writable `kc_fk` not otherwise in use.
 kc_status kc_fk_init(struct kc_fk *w);
 
-// Forward kinematics of `r` at the joint readings `q[KC_JOINTS]` (rad): the measured point
+// Forward kinematics of `r` at the joint readings `q[n]` (rad; n = the robot's joints): the measured point
 // (the tool point, measurement frame, mm) into `xyz_out[3]`. The workspace keeps the pose for
 // `kc_fk_jacobian`. `KC_NOT_FINITE` when a reading is NaN or infinite: checked on the
 // result (the library maps non-finite readings, and only those, to a non-finite point), so it
@@ -616,7 +635,10 @@ kc_status kc_fk_init(struct kc_fk *w);
 //
 // # Safety
 // Handles NULL or valid (`w` not otherwise in use); arrays NULL or of their sizes.
-kc_status kc_fk_point(struct kc_fk *w, const struct kc_robot *r, const float *q, float *xyz_out);
+kc_status kc_fk_point(struct kc_fk *w,
+                      const struct kc_robot *r,
+                      const float *q,
+                      float *xyz_out);
 
 // As `kc_fk_point` (`KC_NOT_FINITE` likewise), also the tool orientation (the flange axes in the measurement frame)
 // as a row-major rotation matrix into `rot_out[9]`: with `xyz_out` the tool pose, usable as
@@ -631,7 +653,8 @@ kc_status kc_fk_pose(struct kc_fk *w,
                      float *rot_out);
 
 // The identification Jacobian at the pose of the last `kc_fk_point` / `kc_fk_pose` call
-// on `w` (with the same robot `r`): column `k` (∂ point / ∂ `params[k]`, mm per mm or per rad)
+// on `w` (with the same robot `r`; `KC_INVALID_ARGUMENT` when `w` last computed a robot of
+// another joint count): column `k` (∂ point / ∂ `params[k]`, mm per mm or per rad)
 // into `out[3*k + axis]`. `n` <= `KC_PARAMS_ALL`; `out_len` >= `3*n` (else
 // `KC_BUFFER_TOO_SMALL`). Converts the codes on every call: in a loop use
 // `kc_fk_jacobian_set`.
@@ -646,7 +669,7 @@ kc_status kc_fk_jacobian(const struct kc_fk *w,
                          size_t out_len);
 
 // Converts the `n` codes `params` (at most `KC_PARAMS_ALL`; duplicates dropped, order kept)
-// into the set `s`. Errors: `KC_INVALID_ARGUMENT` (an unknown kind or a joint beyond 5),
+// into the set `s`. Errors: `KC_INVALID_ARGUMENT` (an unknown kind or a joint beyond 6),
 // `KC_TOO_MANY_PARAMS`; on error `s` is unchanged.
 //
 // # Safety
@@ -851,9 +874,9 @@ kc_status kc_rms_error(const struct kc_robot *r,
 // `out` is NULL or a writable `kc_compensate_config`.
 kc_status kc_compensate_config_default(struct kc_compensate_config *out);
 
-// The joint command (from the seed `seed[KC_JOINTS]`, e.g. the nominal inverse kinematics)
-// that brings the model `r` to `target`, with the settings `cfg` (NULL = defaults), into
-// `*out`.
+// The joint command (from the seed `seed[n]`, n = the robot's joints, e.g. the nominal
+// inverse kinematics) that brings the model `r` to `target`, with the settings `cfg` (NULL =
+// defaults), into `*out`.
 //
 // `KC_OK`: the target is met. `KC_COMPENSATE_FAILED`: it is not (singular, unreachable,
 // limited: `out->status`); `*out` holds the best safe command (within the step box around the
@@ -873,9 +896,11 @@ kc_status kc_compensate(const struct kc_robot *r,
 // as `kc_compensate` does (`*out`), and on success writes into `*sent` the target to send
 // instead: where the `nominal` robot, placed at `r`'s base, puts the tool at that command (the
 // point for a point target; point and tool orientation for a pose target). The controller's
-// own inverse kinematics of `*sent` then moves the real robot to `target`.
+// own inverse kinematics of `*sent` then moves the real robot to `target`. Only the nominal
+// robot's geometry and tool are used as the controller has them (its base is `r`'s).
 //
-// Results and errors as `kc_compensate`; `*sent` is written only with `KC_OK`.
+// Results and errors as `kc_compensate`, and `KC_INVALID_ARGUMENT` when the two robots
+// have different joint counts; `*sent` is written only with `KC_OK`.
 //
 // # Safety
 // Handles and pointers NULL or valid for their types and sizes; `out` and `sent` writable.
@@ -901,10 +926,10 @@ kc_status kc_tracker_init(struct kc_tracker *t, const struct kc_compensate_confi
 kc_status kc_tracker_reset(struct kc_tracker *t);
 
 // One trajectory point: `target` with the controller's nominal inverse kinematics
-// `nominal[KC_JOINTS]` for it. The step box is centred on `nominal`; the iteration starts from
-// the previous correction carried over. Results and errors as `kc_compensate`; after
-// `KC_COMPENSATE_FAILED` the tracker continues from the best safe command, after the other
-// errors it is unchanged.
+// `nominal[n]` (n = the robot's joints) for it. The step box is centred on `nominal`; the
+// iteration starts from the previous correction carried over. Results and errors as
+// `kc_compensate`; after `KC_COMPENSATE_FAILED` the tracker continues from the best safe
+// command, after the other errors it is unchanged.
 //
 // # Safety
 // Handles and pointers NULL or valid for their types and sizes; `t` and `out` writable.
@@ -914,16 +939,17 @@ kc_status kc_tracker_next(struct kc_tracker *t,
                           const float *nominal,
                           struct kc_solution *out);
 
-// Starts a trajectory at the joints' current position `q[KC_JOINTS]`, for
-// `kc_tracker_follow`. `KC_NOT_FINITE` on NaN (tracker unchanged).
+// Starts a trajectory of robot `r` at the joints' current position `q[n]` (n = the robot's
+// joints), for `kc_tracker_follow`. `KC_NOT_FINITE` on NaN (tracker unchanged).
 //
 // # Safety
-// `t` NULL or valid and not otherwise in use; `q` NULL or KC_JOINTS floats.
-kc_status kc_tracker_start(struct kc_tracker *t, const float *q);
+// `t` NULL or valid and not otherwise in use; `r` NULL or valid; `q` NULL or n floats.
+kc_status kc_tracker_start(struct kc_tracker *t, const struct kc_robot *r, const float *q);
 
 // One trajectory point without a nominal solution: the previous command is the seed, so the
 // joints move at most `max_step_rad` per cycle. Needs `kc_tracker_start` or an earlier
-// `kc_tracker_next` (else `KC_INVALID_ARGUMENT`). Results as `kc_compensate`.
+// `kc_tracker_next` with a robot of the same joint count (else `KC_INVALID_ARGUMENT`).
+// Results as `kc_compensate`.
 //
 // # Safety
 // As `kc_tracker_next`.

@@ -1,11 +1,13 @@
 //! Compensation: the joint command that brings the identified robot to a target
-//! (`kc_compensate`), and its streaming form along a trajectory (`kc_tracker`:
-//! `Tracker<f32, 6>`).
+//! (`kc_compensate`), the target to send to a controller that keeps its nominal kinematics
+//! (`kc_compensate_cartesian`), and the streaming form along a trajectory (`kc_tracker`:
+//! `Tracker<f32, 6 or 7>`).
 
 use crate::handle::{self, handle};
-use crate::robot::{frame_of, kc_robot};
-use crate::{all_finite, array_ref, obj_mut, obj_ref, status, Kc, KC_JOINTS};
+use crate::robot::{frame_of, kc_robot, rot_of, Arm, Model};
+use crate::{all_finite, array_ref, obj_mut, obj_ref, status, Kc, KC_MAX_JOINTS};
 use crate::{kc_status, KC_COMPENSATE_FAILED, KC_INVALID_ARGUMENT, KC_NOT_FINITE};
+use crate::KC_NOT_INITIALIZED;
 use kinecal::compensate::{
     compensate, nominal_reach, CompensateError, Config, Solution, Status, Target, Tracker,
 };
@@ -152,8 +154,9 @@ pub enum kc_solution_status {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct kc_solution {
-    /// The joint command (rad): within `max_step_rad` of the seed and inside the joint limits.
-    pub q: [f32; KC_JOINTS],
+    /// The joint command (rad): within `max_step_rad` of the seed and inside the joint limits;
+    /// the robot's joints first, the rest 0.
+    pub q: [f32; KC_MAX_JOINTS],
     /// |target point − model point at q| (mm).
     pub position_error_mm: f32,
     /// Angle between target and model tool orientation at q (rad); 0 for point targets.
@@ -167,9 +170,13 @@ pub struct kc_solution {
 }
 
 #[inline(always)]
-fn solution_of(s: &Solution<f32, KC_JOINTS>, st: kc_solution_status) -> kc_solution {
+fn solution_of<const N: usize>(s: &Solution<f32, N>, st: kc_solution_status) -> kc_solution {
+    let mut q = [0.0; KC_MAX_JOINTS];
+    for (o, v) in q.iter_mut().zip(&s.q) {
+        *o = *v;
+    }
     kc_solution {
-        q: s.q,
+        q,
         position_error_mm: s.position_error,
         orientation_error_rad: s.orientation_error,
         sigma: s.sigma,
@@ -204,8 +211,8 @@ fn pose_rot(t: &kc_target) -> &[f32] {
 
 /// The status of a compensation result, `*out` written when a command was computed.
 #[inline(always)]
-fn finish(
-    r: Result<Solution<f32, KC_JOINTS>, CompensateError<f32, KC_JOINTS>>,
+fn finish<const N: usize>(
+    r: Result<Solution<f32, N>, CompensateError<f32, N>>,
     out: &mut kc_solution,
     inputs: &[&[f32]],
 ) -> Kc<()> {
@@ -231,9 +238,31 @@ fn finish(
     }
 }
 
-/// The joint command (from the seed `seed[KC_JOINTS]`, e.g. the nominal inverse kinematics)
-/// that brings the model `r` to `target`, with the settings `cfg` (NULL = defaults), into
-/// `*out`.
+/// Compensation of `robot` towards the caller's target from its `N` seed readings.
+///
+/// # Safety
+/// `seed` is NULL or `N` floats.
+#[inline(always)]
+unsafe fn compensate_n<const N: usize>(
+    robot: &Arm<N>,
+    t: &kc_target,
+    seed: *const f32,
+    cfg: &Config<f32>,
+    out: &mut kc_solution,
+) -> Kc<[f32; N]> {
+    // SAFETY: the caller's contract.
+    let seed = unsafe { array_ref::<f32, N>(seed) }?;
+    let target = target_of(t)?;
+    let r = compensate(robot, &target, seed, cfg);
+    // Used only on success (`finish` returns the failure otherwise).
+    let q = r.as_ref().map(|s| s.q).unwrap_or(*seed);
+    finish(r, out, &[seed, &t.xyz_mm, pose_rot(t)])?;
+    Ok(q)
+}
+
+/// The joint command (from the seed `seed[n]`, n = the robot's joints, e.g. the nominal
+/// inverse kinematics) that brings the model `r` to `target`, with the settings `cfg` (NULL =
+/// defaults), into `*out`.
 ///
 /// `KC_OK`: the target is met. `KC_COMPENSATE_FAILED`: it is not (singular, unreachable,
 /// limited: `out->status`); `*out` holds the best safe command (within the step box around the
@@ -256,25 +285,45 @@ pub unsafe extern "C" fn kc_compensate(
         let robot = unsafe { handle::get(r) }?;
         // SAFETY: the header contract.
         let t = unsafe { obj_ref(target) }?;
-        // SAFETY: the header contract (KC_JOINTS floats).
-        let seed = unsafe { array_ref::<f32, KC_JOINTS>(seed) }?;
         // SAFETY: the header contract.
         let out = unsafe { obj_mut(out) }?;
         // SAFETY: the header contract.
         let cfg = unsafe { config_or_default(cfg) }?;
-        let target = target_of(t)?;
-        let r = compensate(robot, &target, seed, &cfg);
-        finish(r, out, &[seed, &t.xyz_mm, pose_rot(t)])
+        match robot {
+            // SAFETY: the header contract (6 seed readings).
+            Model::J6(m) => unsafe { compensate_n(m, t, seed, &cfg, out) }.map(|_| ()),
+            // SAFETY: the header contract (7 seed readings).
+            Model::J7(m) => unsafe { compensate_n(m, t, seed, &cfg, out) }.map(|_| ()),
+        }
     })())
+}
+
+/// The target the nominal robot reaches at the command `q`, as a C target.
+#[inline(always)]
+fn sent_of<const N: usize>(model: &Arm<N>, nominal: &Arm<N>, pose: bool, q: &[f32; N]) -> kc_target {
+    match nominal_reach(model, nominal, pose, q) {
+        Target::Point(p) => kc_target {
+            kind: kc_target_kind::KC_TARGET_POINT as u8,
+            xyz_mm: [p.x, p.y, p.z],
+            rot: [0.0; 9],
+        },
+        Target::Pose(f) => kc_target {
+            kind: kc_target_kind::KC_TARGET_POSE as u8,
+            xyz_mm: [f.o.x, f.o.y, f.o.z],
+            rot: rot_of(&f),
+        },
+    }
 }
 
 /// For a controller that keeps its nominal kinematics: compensates `target` on the model `r`
 /// as [`kc_compensate`] does (`*out`), and on success writes into `*sent` the target to send
 /// instead: where the `nominal` robot, placed at `r`'s base, puts the tool at that command (the
 /// point for a point target; point and tool orientation for a pose target). The controller's
-/// own inverse kinematics of `*sent` then moves the real robot to `target`.
+/// own inverse kinematics of `*sent` then moves the real robot to `target`. Only the nominal
+/// robot's geometry and tool are used as the controller has them (its base is `r`'s).
 ///
-/// Results and errors as [`kc_compensate`]; `*sent` is written only with `KC_OK`.
+/// Results and errors as [`kc_compensate`], and `KC_INVALID_ARGUMENT` when the two robots
+/// have different joint counts; `*sent` is written only with `KC_OK`.
 ///
 /// # Safety
 /// Handles and pointers NULL or valid for their types and sizes; `out` and `sent` writable.
@@ -294,44 +343,77 @@ pub unsafe extern "C" fn kc_compensate_cartesian(
         // SAFETY: the header contract.
         let nominal = unsafe { handle::get(nominal) }?;
         // SAFETY: the header contract.
-        let sent = unsafe { obj_mut(sent) }?;
-        // SAFETY: forwarded contract.
-        let s = unsafe { kc_compensate(r, target, seed, cfg, out) };
-        if s != crate::KC_OK {
-            return Err(s);
-        }
-        // SAFETY: the header contract (checked by the call above).
         let t = unsafe { obj_ref(target) }?;
         // SAFETY: the header contract.
-        let q = unsafe { obj_ref(out) }?.q;
+        let out = unsafe { obj_mut(out) }?;
+        // SAFETY: the header contract.
+        let sent = unsafe { obj_mut(sent) }?;
+        // SAFETY: the header contract.
+        let cfg = unsafe { config_or_default(cfg) }?;
         let pose = t.kind == kc_target_kind::KC_TARGET_POSE as u8;
-        *sent = match nominal_reach(robot, nominal, pose, &q) {
-            Target::Point(p) => kc_target {
-                kind: kc_target_kind::KC_TARGET_POINT as u8,
-                xyz_mm: [p.x, p.y, p.z],
-                rot: [0.0; 9],
-            },
-            Target::Pose(f) => kc_target {
-                kind: kc_target_kind::KC_TARGET_POSE as u8,
-                xyz_mm: [f.o.x, f.o.y, f.o.z],
-                rot: crate::robot::rot_of(&f),
-            },
+        *sent = match (robot, nominal) {
+            (Model::J6(m), Model::J6(n)) => {
+                // SAFETY: the header contract (6 seed readings).
+                let q = unsafe { compensate_n(m, t, seed, &cfg, out) }?;
+                sent_of(m, n, pose, &q)
+            }
+            (Model::J7(m), Model::J7(n)) => {
+                // SAFETY: the header contract (7 seed readings).
+                let q = unsafe { compensate_n(m, t, seed, &cfg, out) }?;
+                sent_of(m, n, pose, &q)
+            }
+            _ => return Err(KC_INVALID_ARGUMENT),
         };
         Ok(())
     })())
 }
 
 /// Bytes of a [`kc_tracker`] (see `KC_ROBOT_SIZE`).
-pub const KC_TRACKER_SIZE: usize = 104;
+pub const KC_TRACKER_SIZE: usize = 112;
 
-/// Streaming compensation along a trajectory (`Tracker<f32, 6>`): keeps the previous command
-/// and starts each cycle from it. Opaque, caller-owned; [`kc_tracker_init`].
+/// Streaming compensation along a trajectory (`Tracker<f32, N>`): keeps the previous command
+/// and starts each cycle from it. It takes the joint count of the robot it is used with (a
+/// robot of another count starts a new trajectory). Opaque, caller-owned; [`kc_tracker_init`].
 #[repr(C, align(8))]
 pub struct kc_tracker {
     _opaque: [u8; KC_TRACKER_SIZE],
 }
 
-handle!(kc_tracker, KC_TRACKER_SIZE, Tracker<f32, 6>, 0x5454_5454);
+/// The tracker behind a [`kc_tracker`], for the joint count of its trajectory.
+pub(crate) enum Trackers {
+    /// Of a six-joint robot.
+    J6(Tracker<f32, 6>),
+    /// Of a seven-joint robot.
+    J7(Tracker<f32, 7>),
+}
+
+impl Trackers {
+    /// The six-joint tracker (a new trajectory with the same settings if it held the other).
+    #[inline(always)]
+    fn six(&mut self) -> Kc<&mut Tracker<f32, 6>> {
+        if let Trackers::J7(t) = self {
+            *self = Trackers::J6(Tracker::new(t.config));
+        }
+        match self {
+            Trackers::J6(t) => Ok(t),
+            Trackers::J7(_) => Err(KC_NOT_INITIALIZED),
+        }
+    }
+
+    /// The seven-joint tracker (a new trajectory with the same settings if it held the other).
+    #[inline(always)]
+    fn seven(&mut self) -> Kc<&mut Tracker<f32, 7>> {
+        if let Trackers::J6(t) = self {
+            *self = Trackers::J7(Tracker::new(t.config));
+        }
+        match self {
+            Trackers::J7(t) => Ok(t),
+            Trackers::J6(_) => Err(KC_NOT_INITIALIZED),
+        }
+    }
+}
+
+handle!(kc_tracker, KC_TRACKER_SIZE, Trackers, 0x5454_5454);
 
 /// A tracker with no trajectory yet and the settings `cfg` (NULL = defaults). Errors:
 /// `KC_INVALID_ARGUMENT` / `KC_NOT_FINITE` (settings); on error `t` is unchanged.
@@ -348,7 +430,7 @@ pub unsafe extern "C" fn kc_tracker_init(
         let cfg = unsafe { config_or_default(cfg) }?;
         // SAFETY: the header contract.
         let slot = unsafe { handle::uninit::<kc_tracker>(t) }?;
-        handle::init::<kc_tracker>(slot, Tracker::new(cfg));
+        handle::init::<kc_tracker>(slot, Trackers::J6(Tracker::new(cfg)));
         Ok(())
     })())
 }
@@ -361,16 +443,38 @@ pub unsafe extern "C" fn kc_tracker_init(
 pub unsafe extern "C" fn kc_tracker_reset(t: *mut kc_tracker) -> kc_status {
     status((|| {
         // SAFETY: the header contract.
-        unsafe { handle::get_mut(t) }?.reset();
+        match unsafe { handle::get_mut(t) }? {
+            Trackers::J6(t) => t.reset(),
+            Trackers::J7(t) => t.reset(),
+        }
         Ok(())
     })())
 }
 
+/// One tracker cycle with the nominal readings.
+///
+/// # Safety
+/// `nominal` is NULL or `N` floats.
+#[inline(always)]
+unsafe fn next_n<const N: usize>(
+    tracker: &mut Tracker<f32, N>,
+    robot: &Arm<N>,
+    tg: &kc_target,
+    nominal: *const f32,
+    out: &mut kc_solution,
+) -> Kc<()> {
+    // SAFETY: the caller's contract.
+    let nominal = unsafe { array_ref::<f32, N>(nominal) }?;
+    let target = target_of(tg)?;
+    let r = tracker.next(robot, &target, nominal);
+    finish(r, out, &[nominal, &tg.xyz_mm, pose_rot(tg)])
+}
+
 /// One trajectory point: `target` with the controller's nominal inverse kinematics
-/// `nominal[KC_JOINTS]` for it. The step box is centred on `nominal`; the iteration starts from
-/// the previous correction carried over. Results and errors as [`kc_compensate`]; after
-/// `KC_COMPENSATE_FAILED` the tracker continues from the best safe command, after the other
-/// errors it is unchanged.
+/// `nominal[n]` (n = the robot's joints) for it. The step box is centred on `nominal`; the
+/// iteration starts from the previous correction carried over. Results and errors as
+/// [`kc_compensate`]; after `KC_COMPENSATE_FAILED` the tracker continues from the best safe
+/// command, after the other errors it is unchanged.
 ///
 /// # Safety
 /// Handles and pointers NULL or valid for their types and sizes; `t` and `out` writable.
@@ -389,35 +493,52 @@ pub unsafe extern "C" fn kc_tracker_next(
         let robot = unsafe { handle::get(r) }?;
         // SAFETY: the header contract.
         let tg = unsafe { obj_ref(target) }?;
-        // SAFETY: the header contract (KC_JOINTS floats).
-        let nominal = unsafe { array_ref::<f32, KC_JOINTS>(nominal) }?;
         // SAFETY: the header contract.
         let out = unsafe { obj_mut(out) }?;
-        let target = target_of(tg)?;
-        let r = tracker.next(robot, &target, nominal);
-        finish(r, out, &[nominal, &tg.xyz_mm, pose_rot(tg)])
+        match robot {
+            // SAFETY: the header contract (6 readings).
+            Model::J6(m) => unsafe { next_n(tracker.six()?, m, tg, nominal, out) },
+            // SAFETY: the header contract (7 readings).
+            Model::J7(m) => unsafe { next_n(tracker.seven()?, m, tg, nominal, out) },
+        }
     })())
 }
 
-/// Starts a trajectory at the joints' current position `q[KC_JOINTS]`, for
-/// [`kc_tracker_follow`]. `KC_NOT_FINITE` on NaN (tracker unchanged).
+/// Starts a trajectory of robot `r` at the joints' current position `q[n]` (n = the robot's
+/// joints), for [`kc_tracker_follow`]. `KC_NOT_FINITE` on NaN (tracker unchanged).
 ///
 /// # Safety
-/// `t` NULL or valid and not otherwise in use; `q` NULL or KC_JOINTS floats.
+/// `t` NULL or valid and not otherwise in use; `r` NULL or valid; `q` NULL or n floats.
 #[no_mangle]
-pub unsafe extern "C" fn kc_tracker_start(t: *mut kc_tracker, q: *const f32) -> kc_status {
+pub unsafe extern "C" fn kc_tracker_start(
+    t: *mut kc_tracker,
+    r: *const kc_robot,
+    q: *const f32,
+) -> kc_status {
     status((|| {
         // SAFETY: the header contract.
         let tracker = unsafe { handle::get_mut(t) }?;
-        // SAFETY: the header contract (KC_JOINTS floats).
-        let q = unsafe { array_ref::<f32, KC_JOINTS>(q) }?;
-        tracker.start(q).map_err(|_| KC_NOT_FINITE)
+        // SAFETY: the header contract.
+        let robot = unsafe { handle::get(r) }?;
+        match robot.joints() {
+            6 => {
+                // SAFETY: the header contract (6 floats).
+                let q = unsafe { array_ref::<f32, 6>(q) }?;
+                tracker.six()?.start(q).map_err(|_| KC_NOT_FINITE)
+            }
+            _ => {
+                // SAFETY: the header contract (7 floats).
+                let q = unsafe { array_ref::<f32, 7>(q) }?;
+                tracker.seven()?.start(q).map_err(|_| KC_NOT_FINITE)
+            }
+        }
     })())
 }
 
 /// One trajectory point without a nominal solution: the previous command is the seed, so the
 /// joints move at most `max_step_rad` per cycle. Needs [`kc_tracker_start`] or an earlier
-/// [`kc_tracker_next`] (else `KC_INVALID_ARGUMENT`). Results as [`kc_compensate`].
+/// [`kc_tracker_next`] with a robot of the same joint count (else `KC_INVALID_ARGUMENT`).
+/// Results as [`kc_compensate`].
 ///
 /// # Safety
 /// As [`kc_tracker_next`].
@@ -438,7 +559,15 @@ pub unsafe extern "C" fn kc_tracker_follow(
         // SAFETY: the header contract.
         let out = unsafe { obj_mut(out) }?;
         let target = target_of(tg)?;
-        let r = tracker.follow(robot, &target);
-        finish(r, out, &[&tg.xyz_mm, pose_rot(tg)])
+        match robot {
+            Model::J6(m) => {
+                let r = tracker.six()?.follow(m, &target);
+                finish(r, out, &[&tg.xyz_mm, pose_rot(tg)])
+            }
+            Model::J7(m) => {
+                let r = tracker.seven()?.follow(m, &target);
+                finish(r, out, &[&tg.xyz_mm, pose_rot(tg)])
+            }
+        }
     })())
 }

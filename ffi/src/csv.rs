@@ -221,8 +221,9 @@ fn copy_extras(rec: &Record<KC_JOINTS, KC_CSV_MAX_EXTRAS>, out: &mut [f64]) {
 
 #[inline(always)]
 fn measurement_of(m: &Measurement<f32, KC_JOINTS>) -> kc_measurement {
+    let [a, b, c, d, e, f] = m.q;
     kc_measurement {
-        q: m.q,
+        q: [a, b, c, d, e, f, 0.0],
         xyz_mm: [m.point.x, m.point.y, m.point.z],
     }
 }

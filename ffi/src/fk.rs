@@ -1,25 +1,61 @@
-//! Forward kinematics (`kc_fk`: the `ForwardKinematics<f32, 6>` workspace) and the
+//! Forward kinematics (`kc_fk`: a `ForwardKinematics<f32, 6 or 7>` workspace) and the
 //! identification Jacobian.
 
 use crate::handle::{self, handle};
-use crate::robot::{kc_param, kc_robot, param_of, rot_of, KC_PARAMS_ALL};
-use crate::{array_mut, array_ref, finite, slice_mut, slice_ref, status, Kc, KC_JOINTS};
+use crate::robot::{kc_param, kc_robot, param_of, rot_of, Arm, Model, KC_PARAMS_ALL};
+use crate::{array_mut, array_ref, finite, slice_mut, slice_ref, status, Kc};
 use crate::{kc_status, KC_BUFFER_TOO_SMALL, KC_INVALID_ARGUMENT, KC_TOO_MANY_PARAMS};
+use crate::KC_NOT_INITIALIZED;
 use kinecal::model::param::ParamSet;
 use kinecal::{ForwardKinematics, Param};
 use nalgebra::Vector3;
 
 /// Bytes of a [`kc_fk`] (see `KC_ROBOT_SIZE`).
-pub const KC_FK_SIZE: usize = 448;
+pub const KC_FK_SIZE: usize = 504;
 
-/// A forward-kinematics workspace (`ForwardKinematics<f32, 6>`): the frames of the last pose
-/// computed, which [`kc_fk_jacobian`] differentiates. Opaque, caller-owned; [`kc_fk_init`].
+/// A forward-kinematics workspace (`ForwardKinematics<f32, N>`): the frames of the last pose
+/// computed, which [`kc_fk_jacobian`] differentiates. It takes the joint count of the robot it
+/// computes. Opaque, caller-owned; [`kc_fk_init`].
 #[repr(C, align(8))]
 pub struct kc_fk {
     _opaque: [u8; KC_FK_SIZE],
 }
 
-handle!(kc_fk, KC_FK_SIZE, ForwardKinematics<f32, 6>, 0x4646_4646);
+/// The workspace behind a [`kc_fk`], for the joint count of the last robot computed.
+pub(crate) enum Workspace {
+    /// For a six-joint robot.
+    J6(ForwardKinematics<f32, 6>),
+    /// For a seven-joint robot.
+    J7(ForwardKinematics<f32, 7>),
+}
+
+impl Workspace {
+    /// The six-joint workspace (a fresh one if it held the other).
+    #[inline(always)]
+    fn six(&mut self) -> Kc<&mut ForwardKinematics<f32, 6>> {
+        if let Workspace::J7(_) = self {
+            *self = Workspace::J6(ForwardKinematics::new());
+        }
+        match self {
+            Workspace::J6(f) => Ok(f),
+            Workspace::J7(_) => Err(KC_NOT_INITIALIZED),
+        }
+    }
+
+    /// The seven-joint workspace (a fresh one if it held the other).
+    #[inline(always)]
+    fn seven(&mut self) -> Kc<&mut ForwardKinematics<f32, 7>> {
+        if let Workspace::J6(_) = self {
+            *self = Workspace::J7(ForwardKinematics::new());
+        }
+        match self {
+            Workspace::J7(f) => Ok(f),
+            Workspace::J6(_) => Err(KC_NOT_INITIALIZED),
+        }
+    }
+}
+
+handle!(kc_fk, KC_FK_SIZE, Workspace, 0x4646_4646);
 
 // `float *` output arrays are written as `Vector3<f32>` columns: nalgebra's `Matrix` is
 // `repr(C)` over a `repr(transparent)` array, so a `Vector3<f32>` is three contiguous floats.
@@ -44,12 +80,12 @@ pub unsafe extern "C" fn kc_fk_init(w: *mut kc_fk) -> kc_status {
     status((|| {
         // SAFETY: the header contract.
         let slot = unsafe { handle::uninit::<kc_fk>(w) }?;
-        handle::init::<kc_fk>(slot, ForwardKinematics::new());
+        handle::init::<kc_fk>(slot, Workspace::J6(ForwardKinematics::new()));
         Ok(())
     })())
 }
 
-/// Forward kinematics of `r` at the joint readings `q[KC_JOINTS]` (rad): the measured point
+/// Forward kinematics of `r` at the joint readings `q[n]` (rad; n = the robot's joints): the measured point
 /// (the tool point, measurement frame, mm) into `xyz_out[3]`. The workspace keeps the pose for
 /// [`kc_fk_jacobian`]. `KC_NOT_FINITE` when a reading is NaN or infinite: checked on the
 /// result (the library maps non-finite readings, and only those, to a non-finite point), so it
@@ -67,18 +103,60 @@ pub unsafe extern "C" fn kc_fk_point(
 ) -> kc_status {
     status((|| {
         // SAFETY: the header contract.
-        let fk = unsafe { handle::get_mut(w) }?;
+        let ws = unsafe { handle::get_mut(w) }?;
         // SAFETY: the header contract.
         let robot = unsafe { handle::get(r) }?;
-        // SAFETY: the header contract (KC_JOINTS floats).
-        let q = unsafe { array_ref::<f32, KC_JOINTS>(q) }?;
-        // SAFETY: the header contract (3 floats): a `Vector3<f32>` is three floats with the
-        // alignment of one (asserted above), so the library writes the point straight there.
+        // SAFETY: the header contract (3 floats).
         let out = unsafe { array_mut::<f32, 3>(xyz_out) }?;
-        let p = vec3_mut(out);
-        *p = fk.compute(robot, q);
-        finite(p.as_slice())
+        match robot {
+            // SAFETY: the header contract (6 floats).
+            Model::J6(m) => unsafe { fk_point(ws.six()?, m, q, out) },
+            // SAFETY: the header contract (7 floats).
+            Model::J7(m) => unsafe { fk_point(ws.seven()?, m, q, out) },
+        }
     })())
+}
+
+/// The point of `robot` at the caller's `N` readings `q` into `out`.
+///
+/// # Safety
+/// `q` is NULL or `N` floats.
+#[inline(always)]
+unsafe fn fk_point<const N: usize>(
+    fk: &mut ForwardKinematics<f32, N>,
+    robot: &Arm<N>,
+    q: *const f32,
+    out: &mut [f32; 3],
+) -> Kc<()> {
+    // SAFETY: the caller's contract.
+    let q = unsafe { array_ref::<f32, N>(q) }?;
+    // A `Vector3<f32>` is three floats with the alignment of one (asserted above), so the
+    // library writes the point straight into the caller's array.
+    let p = vec3_mut(out);
+    *p = fk.compute(robot, q);
+    finite(p.as_slice())
+}
+
+/// The tool pose of `robot` at the caller's `N` readings `q`: point into `out`, row-major
+/// rotation into `rot`.
+///
+/// # Safety
+/// `q` is NULL or `N` floats.
+#[inline(always)]
+unsafe fn fk_pose<const N: usize>(
+    fk: &mut ForwardKinematics<f32, N>,
+    robot: &Arm<N>,
+    q: *const f32,
+    out: &mut [f32; 3],
+    rot: &mut [f32; 9],
+) -> Kc<()> {
+    // SAFETY: the caller's contract.
+    let q = unsafe { array_ref::<f32, N>(q) }?;
+    fk.compute(robot, q);
+    let f = fk.flange_pose();
+    *out = [f.o.x, f.o.y, f.o.z];
+    *rot = rot_of(&f);
+    finite(out)
 }
 
 /// As [`kc_fk_point`] (`KC_NOT_FINITE` likewise), also the tool orientation (the flange axes in the measurement frame)
@@ -97,25 +175,25 @@ pub unsafe extern "C" fn kc_fk_pose(
 ) -> kc_status {
     status((|| {
         // SAFETY: the header contract.
-        let fk = unsafe { handle::get_mut(w) }?;
+        let ws = unsafe { handle::get_mut(w) }?;
         // SAFETY: the header contract.
         let robot = unsafe { handle::get(r) }?;
-        // SAFETY: the header contract (KC_JOINTS floats).
-        let q = unsafe { array_ref::<f32, KC_JOINTS>(q) }?;
         // SAFETY: the header contract (3 floats).
         let out = unsafe { array_mut::<f32, 3>(xyz_out) }?;
         // SAFETY: the header contract (9 floats).
         let rot = unsafe { array_mut::<f32, 9>(rot_out) }?;
-        fk.compute(robot, q);
-        let f = fk.flange_pose();
-        *out = [f.o.x, f.o.y, f.o.z];
-        *rot = rot_of(&f);
-        finite(out)
+        match robot {
+            // SAFETY: the header contract (6 floats).
+            Model::J6(m) => unsafe { fk_pose(ws.six()?, m, q, out, rot) },
+            // SAFETY: the header contract (7 floats).
+            Model::J7(m) => unsafe { fk_pose(ws.seven()?, m, q, out, rot) },
+        }
     })())
 }
 
 /// The identification Jacobian at the pose of the last [`kc_fk_point`] / [`kc_fk_pose`] call
-/// on `w` (with the same robot `r`): column `k` (∂ point / ∂ `params[k]`, mm per mm or per rad)
+/// on `w` (with the same robot `r`; `KC_INVALID_ARGUMENT` when `w` last computed a robot of
+/// another joint count): column `k` (∂ point / ∂ `params[k]`, mm per mm or per rad)
 /// into `out[3*k + axis]`. `n` <= `KC_PARAMS_ALL`; `out_len` >= `3*n` (else
 /// `KC_BUFFER_TOO_SMALL`). Converts the codes on every call: in a loop use
 /// [`kc_fk_jacobian_set`].
@@ -151,7 +229,7 @@ pub unsafe extern "C" fn kc_fk_jacobian(
 }
 
 /// Bytes of a [`kc_param_set`] (see `KC_ROBOT_SIZE`).
-pub const KC_PARAM_SET_SIZE: usize = 176;
+pub const KC_PARAM_SET_SIZE: usize = 192;
 
 /// A parameter set converted once for [`kc_fk_jacobian_set`] (`ParamSet<KC_PARAMS_ALL>`): the
 /// per-call conversion of `kc_param` codes in [`kc_fk_jacobian`] costs about a quarter of a
@@ -169,7 +247,7 @@ handle!(
 );
 
 /// Converts the `n` codes `params` (at most `KC_PARAMS_ALL`; duplicates dropped, order kept)
-/// into the set `s`. Errors: `KC_INVALID_ARGUMENT` (an unknown kind or a joint beyond 5),
+/// into the set `s`. Errors: `KC_INVALID_ARGUMENT` (an unknown kind or a joint beyond 6),
 /// `KC_TOO_MANY_PARAMS`; on error `s` is unchanged.
 ///
 /// # Safety
@@ -237,11 +315,27 @@ pub unsafe extern "C" fn kc_fk_jacobian_set(
     })())
 }
 
-/// The Jacobian columns of `set` into the caller's `out_len` floats.
+/// The Jacobian columns of `set` into the caller's `out_len` floats, for a workspace and a
+/// robot of the same joint count.
 #[inline(always)]
 fn jacobian(
-    fk: &ForwardKinematics<f32, KC_JOINTS>,
-    robot: &crate::robot::Model,
+    ws: &Workspace,
+    robot: &Model,
+    set: &[Param],
+    out: *mut f32,
+    out_len: usize,
+) -> Kc<()> {
+    match (ws, robot) {
+        (Workspace::J6(fk), Model::J6(m)) => columns(fk, m, set, out, out_len),
+        (Workspace::J7(fk), Model::J7(m)) => columns(fk, m, set, out, out_len),
+        _ => Err(KC_INVALID_ARGUMENT),
+    }
+}
+
+#[inline(always)]
+fn columns<const N: usize>(
+    fk: &ForwardKinematics<f32, N>,
+    robot: &Arm<N>,
     set: &[Param],
     out: *mut f32,
     out_len: usize,

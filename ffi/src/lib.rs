@@ -1,6 +1,7 @@
 //! # kinecal-ffi: the C ABI of kinecal
 //!
-//! Scalar `float` (the library's `f32`, as on the Cortex-M4F), exactly [`KC_JOINTS`] joints,
+//! Scalar `float` (the library's `f32`, as on the Cortex-M4F), robots of 6 or 7 joints (joint
+//! arrays are declared with [`KC_MAX_JOINTS`] entries; a 6-joint robot uses the first 6),
 //! library units (millimetres, radians). The header is `include/kinecal.h`, generated from
 //! this crate by cbindgen (`ffi/cbindgen.toml`; the test `c_header` fails when it is stale).
 //!
@@ -62,8 +63,13 @@ pub use fk::*;
 pub use lm::*;
 pub use robot::*;
 
-/// Joints of every robot of this ABI.
+/// Joints of the CSV reader's records and of the default parameter set `kc_params_mdh` (a
+/// 6-joint measurement file).
 pub const KC_JOINTS: usize = 6;
+
+/// Most joints of a robot of this ABI, and the length of every joint array (readings,
+/// commands, rows): a 6-joint robot uses the first 6 entries.
+pub const KC_MAX_JOINTS: usize = 7;
 
 /// What a call did: 0 is success, anything else says why nothing (or, for
 /// [`kc_status::KC_COMPENSATE_FAILED`], only a best-effort result) was produced.

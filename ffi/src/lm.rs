@@ -1,22 +1,23 @@
-//! Identification: the Levenberg–Marquardt stepper (`kc_lm`: `Levenberg<f32, 6, 0,
+//! Identification: the Levenberg–Marquardt stepper (`kc_lm`: `Levenberg<f32, 6 or 7, 0,
 //! FixedLm<f32, 24>>`), its snapshots, and the RMS error of a model over measurements.
 
 use crate::handle::{self, handle};
-use crate::robot::{code_of, kc_param, kc_robot, param_of};
+use crate::robot::{code_of, each_robot, kc_param, kc_robot, param_of, Arm, Model};
 use crate::KC_INVALID_ROBOT;
 use crate::{
     kc_status, KC_BUFFER_TOO_SMALL, KC_DATA_CHANGED, KC_INVALID_ARGUMENT, KC_NOT_FINITE,
     KC_NOT_INITIALIZED, KC_SNAPSHOT_INVALID, KC_TOO_FEW_MEASUREMENTS, KC_TOO_MANY_PARAMS,
 };
-use crate::{obj_mut, obj_ref, slice_mut, slice_ref, status, Kc, KC_JOINTS};
+use crate::{obj_mut, obj_ref, slice_mut, slice_ref, status, Kc, KC_MAX_JOINTS};
 use kinecal::identify::lm::{rms_error, FixedLm, Levenberg, LmConfig, LmError, LmProgress, LmStop};
 use kinecal::io::snapshot::{Snapshot, SnapshotError};
 use kinecal::model::param::{ParamError, ParamSet};
 use kinecal::Observation;
 use nalgebra::Vector3;
 
-/// Room for identified parameters in a `kc_lm`: the 24 of the MDH set (`kc_params_mdh`), as
-/// the Rust firmware sizes its solver (same code, same instruction counts, same RAM).
+/// Room for identified parameters in a `kc_lm`: the 24 of the MDH set of a 6-joint robot
+/// (`kc_params_mdh`), as the Rust firmware sizes its solver (same code, same instruction counts,
+/// same RAM); a 7-joint robot's solver identifies at most 24 of its parameters too.
 pub const KC_LM_MAX_PARAMS: usize = 24;
 
 /// One measured pose: joint readings (rad, as the controller reports them) and the point the
@@ -25,23 +26,48 @@ pub const KC_LM_MAX_PARAMS: usize = 24;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct kc_measurement {
-    /// Joint readings, rad.
-    pub q: [f32; KC_JOINTS],
+    /// Joint readings, rad: the robot's joints first (a 6-joint robot ignores the last).
+    pub q: [f32; KC_MAX_JOINTS],
     /// Measured point, mm.
     pub xyz_mm: [f32; 3],
 }
 
-impl Observation<f32, KC_JOINTS> for kc_measurement {
+impl kc_measurement {
+    /// The readings of an `N`-joint robot (`N` <= `KC_MAX_JOINTS`: the only counts used).
     #[inline(always)]
-    fn q(&self) -> &[f32; KC_JOINTS] {
-        &self.q
+    fn readings<const N: usize>(&self) -> &[f32; N] {
+        const { assert!(N <= KC_MAX_JOINTS) };
+        // SAFETY: `q` holds KC_MAX_JOINTS >= N floats (asserted at compile time), so its first
+        // N form an `[f32; N]` with the same alignment, borrowed as long as `self`.
+        unsafe { &*self.q.as_ptr().cast::<[f32; N]>() }
+    }
+}
+
+impl Observation<f32, 6> for kc_measurement {
+    #[inline(always)]
+    fn q(&self) -> &[f32; 6] {
+        self.readings()
     }
     #[inline(always)]
     fn point(&self) -> Vector3<f32> {
         Vector3::new(self.xyz_mm[0], self.xyz_mm[1], self.xyz_mm[2])
     }
     fn is_valid(&self) -> bool {
-        self.q.iter().chain(&self.xyz_mm).all(|v| v.is_finite())
+        self.readings::<6>().iter().chain(&self.xyz_mm).all(|v| v.is_finite())
+    }
+}
+
+impl Observation<f32, 7> for kc_measurement {
+    #[inline(always)]
+    fn q(&self) -> &[f32; 7] {
+        self.readings()
+    }
+    #[inline(always)]
+    fn point(&self) -> Vector3<f32> {
+        Vector3::new(self.xyz_mm[0], self.xyz_mm[1], self.xyz_mm[2])
+    }
+    fn is_valid(&self) -> bool {
+        self.readings::<7>().iter().chain(&self.xyz_mm).all(|v| v.is_finite())
     }
 }
 
@@ -189,15 +215,34 @@ fn progress_of(p: &LmProgress<f32>) -> kc_lm_progress {
     }
 }
 
-/// The solver of a handle with room for `P` parameters.
-pub(crate) type Lm<const P: usize> = Levenberg<f32, KC_JOINTS, 0, FixedLm<f32, P>>;
+/// The solver of an `N`-joint robot with room for `P` parameters.
+pub(crate) type Lm<const N: usize, const P: usize> = Levenberg<f32, N, 0, FixedLm<f32, P>>;
 
-/// A solver handle: its constructor's `Result` is what it holds.
-trait Solver<const P: usize>: handle::Handle<Inner = Result<Lm<P>, LmError>> {}
-impl<const P: usize, H: handle::Handle<Inner = Result<Lm<P>, LmError>>> Solver<P> for H {}
+/// What a solver handle holds: its constructor's `Result`, for a 6- or 7-joint robot.
+pub(crate) enum Solvers<const P: usize> {
+    /// A six-joint robot's solver.
+    J6(Result<Lm<6, P>, LmError>),
+    /// A seven-joint robot's solver.
+    J7(Result<Lm<7, P>, LmError>),
+}
+
+/// `$body` with `$s` bound to the solver of a `Solvers` (or `&`, `&mut`) that was built.
+macro_rules! each_lm {
+    ($m:expr, $s:ident => $body:expr) => {
+        match $m {
+            Solvers::J6(Ok($s)) => $body,
+            Solvers::J7(Ok($s)) => $body,
+            Solvers::J6(Err(_)) | Solvers::J7(Err(_)) => Err(KC_NOT_INITIALIZED),
+        }
+    };
+}
+
+/// A solver handle.
+trait Solver<const P: usize>: handle::Handle<Inner = Solvers<P>> {}
+impl<const P: usize, H: handle::Handle<Inner = Solvers<P>>> Solver<P> for H {}
 
 /// Bytes of a [`kc_lm`] (see `KC_ROBOT_SIZE`).
-pub const KC_LM_SIZE: usize = 8968;
+pub const KC_LM_SIZE: usize = 9136;
 
 /// A Levenberg–Marquardt identification (`Levenberg<f32, 6, 0, FixedLm<f32,
 /// KC_LM_MAX_PARAMS>>`): a streaming stepper that does a bounded slice of work per
@@ -212,7 +257,7 @@ pub struct kc_lm {
 handle!(
     kc_lm,
     KC_LM_SIZE,
-    Result<Lm<KC_LM_MAX_PARAMS>, LmError>,
+    Solvers<KC_LM_MAX_PARAMS>,
     0x4c4c_4c4c
 );
 
@@ -220,11 +265,11 @@ handle!(
 /// arm (`KC_PARAMS_ALL`: 6 base, 5 × 6 row, 3 tool), for a firmware that also fits the base
 /// pose and the tool point (`kc_params_full`).
 #[cfg(feature = "lm-full")]
-pub const KC_LM_FULL_MAX_PARAMS: usize = 39;
+pub const KC_LM_FULL_MAX_PARAMS: usize = 44;
 
 /// Bytes of a [`kc_lm_full`] (see `KC_ROBOT_SIZE`).
 #[cfg(feature = "lm-full")]
-pub const KC_LM_FULL_SIZE: usize = 17664;
+pub const KC_LM_FULL_SIZE: usize = 21520;
 
 /// As [`kc_lm`] with room for `KC_LM_FULL_MAX_PARAMS` parameters (twice the memory; the
 /// `kc_lm_full_*` functions are those of `kc_lm`). Only in a static library built with the
@@ -241,33 +286,9 @@ pub struct kc_lm_full {
 handle!(
     kc_lm_full,
     KC_LM_FULL_SIZE,
-    Result<Lm<KC_LM_FULL_MAX_PARAMS>, LmError>,
+    Solvers<KC_LM_FULL_MAX_PARAMS>,
     0x4c4d_4c46
 );
-
-/// The solver of an initialised handle.
-///
-/// # Safety
-/// As `handle::get`.
-#[inline(always)]
-unsafe fn lm_ref<'a, H: Solver<P>, const P: usize>(lm: *const H) -> Kc<&'a Lm<P>> {
-    // SAFETY: forwarded contract.
-    match unsafe { handle::get(lm) }? {
-        Ok(s) => Ok(s),
-        Err(_) => Err(KC_NOT_INITIALIZED),
-    }
-}
-
-/// # Safety
-/// As `handle::get_mut`.
-#[inline(always)]
-unsafe fn lm_mut<'a, H: Solver<P>, const P: usize>(lm: *mut H) -> Kc<&'a mut Lm<P>> {
-    // SAFETY: forwarded contract.
-    match unsafe { handle::get_mut(lm) }? {
-        Ok(s) => Ok(s),
-        Err(_) => Err(KC_NOT_INITIALIZED),
-    }
-}
 
 fn lm_error(e: LmError) -> kc_status {
     match e {
@@ -287,6 +308,22 @@ fn lm_error(e: LmError) -> kc_status {
 
 /// # Safety
 /// As [`kc_lm_init`].
+/// A solver for `robot` with the parameter codes `codes`.
+fn solver<const N: usize, const P: usize>(
+    robot: &Arm<N>,
+    codes: &[kc_param],
+    cfg: &LmConfig<f32>,
+) -> Kc<Result<Lm<N, P>, LmError>> {
+    let mut set = ParamSet::<P>::new();
+    for c in codes {
+        set.push(param_of(*c)?).map_err(|_| KC_TOO_MANY_PARAMS)?;
+    }
+    set.check(robot).map_err(|_| KC_INVALID_ARGUMENT)?;
+    // The solver identifies geometry: a robot with joint corrections is refused.
+    let geometry = robot.with_capacity::<0>().map_err(|_| KC_INVALID_ROBOT)?;
+    Ok(Levenberg::new(geometry, FixedLm::new(set), *cfg))
+}
+
 unsafe fn lm_init<H: Solver<P>, const P: usize>(
     lm: *mut H,
     start: *const kc_robot,
@@ -304,32 +341,26 @@ unsafe fn lm_init<H: Solver<P>, const P: usize>(
     }
     // SAFETY: the header contract (`n` values).
     let codes = unsafe { slice_ref(params, n) }?;
-    let mut set = ParamSet::<P>::new();
-    for c in codes {
-        set.push(param_of(*c)?).map_err(|_| KC_TOO_MANY_PARAMS)?;
-    }
-    set.check(robot).map_err(|_| KC_INVALID_ARGUMENT)?;
     let cfg = if cfg.is_null() {
         LmConfig::default()
     } else {
         // SAFETY: non-NULL: a kc_lm_config per the header.
         lm_config_of(unsafe { obj_ref(cfg) }?)?
     };
-    // The solver identifies geometry: a robot with joint corrections is refused.
-    let geometry = robot.with_capacity::<0>().map_err(|_| KC_INVALID_ROBOT)?;
+    let made = match robot {
+        Model::J6(m) => Solvers::J6(solver(m, codes, &cfg)?),
+        Model::J7(m) => Solvers::J7(solver(m, codes, &cfg)?),
+    };
     // SAFETY: the header contract; `lm` is not the robot handle (distinct C types).
     let slot = unsafe { handle::uninit::<H>(lm) }?;
-    let made = handle::init::<H>(slot, Levenberg::new(geometry, FixedLm::new(set), cfg));
-    if let Err(e) = made {
-        let e = *e;
-        handle::forget::<H>(slot);
-        return Err(lm_error(e));
-    }
-    Ok(())
+    let e = match handle::init::<H>(slot, made) {
+        Solvers::J6(Err(e)) | Solvers::J7(Err(e)) => *e,
+        Solvers::J6(Ok(_)) | Solvers::J7(Ok(_)) => return Ok(()),
+    };
+    handle::forget::<H>(slot);
+    Err(lm_error(e))
 }
 
-/// # Safety
-/// As [`kc_lm_step`].
 #[inline(always)]
 unsafe fn lm_step<H: Solver<P>, const P: usize>(
     lm: *mut H,
@@ -339,56 +370,54 @@ unsafe fn lm_step<H: Solver<P>, const P: usize>(
     out: *mut kc_lm_progress,
 ) -> Kc<()> {
     // SAFETY: the header contract.
-    let lm = unsafe { lm_mut(lm) }?;
+    let lm = unsafe { handle::get_mut(lm) }?;
     // SAFETY: the header contract.
     let data = unsafe { measurements(data, n) }?;
     // SAFETY: the header contract.
     let out = unsafe { obj_mut(out) }?;
-    let p = step(lm, data, budget_poses).map_err(lm_error)?;
+    let p = each_lm!(lm, s => step(s, data, budget_poses).map_err(lm_error))?;
     *out = progress_of(&p);
     Ok(())
 }
 
-/// The stepper's call, kept out of line: inlined into [`kc_lm_step`] under the firmware's
-/// inlining limits, LLVM compiled the identifiability analysis of the first solve ~5 % slower
-/// (the C firmware's first idle slice went over its two-period limit, 202,760 instructions
-/// against 192,160 in the Rust firmware; 197,400 out of line).
 #[inline(never)]
-fn step<const P: usize>(
-    lm: &mut Lm<P>,
+fn step<const N: usize, const P: usize>(
+    lm: &mut Lm<N, P>,
     data: &[kc_measurement],
     budget: usize,
-) -> Result<LmProgress<f32>, LmError> {
+) -> Result<LmProgress<f32>, LmError>
+where
+    kc_measurement: Observation<f32, N>,
+{
     lm.step(data, budget)
 }
 
-/// # Safety
-/// As [`kc_lm_get_progress`].
 unsafe fn lm_progress<H: Solver<P>, const P: usize>(
     lm: *const H,
     out: *mut kc_lm_progress,
 ) -> Kc<()> {
     // SAFETY: the header contract.
-    let lm = unsafe { lm_ref(lm) }?;
+    let lm = unsafe { handle::get(lm) }?;
+    let p = each_lm!(lm, s => Ok(s.progress()))?;
     // SAFETY: the header contract.
-    *unsafe { obj_mut(out) }? = progress_of(&lm.progress());
+    *unsafe { obj_mut(out) }? = progress_of(&p);
     Ok(())
 }
 
-/// # Safety
-/// As [`kc_lm_robot`].
 unsafe fn lm_robot<H: Solver<P>, const P: usize>(lm: *const H, out: *mut kc_robot) -> Kc<()> {
     // SAFETY: the header contract.
-    let lm = unsafe { lm_ref(lm) }?;
+    let lm = unsafe { handle::get(lm) }?;
+    let robot = match lm {
+        Solvers::J6(Ok(s)) => Model::J6(s.robot().with_capacity().map_err(|_| KC_INVALID_ROBOT)?),
+        Solvers::J7(Ok(s)) => Model::J7(s.robot().with_capacity().map_err(|_| KC_INVALID_ROBOT)?),
+        Solvers::J6(Err(_)) | Solvers::J7(Err(_)) => return Err(KC_NOT_INITIALIZED),
+    };
     // SAFETY: the header contract; `out` is a robot handle, not the solver.
     let slot = unsafe { handle::uninit::<kc_robot>(out) }?;
-    let robot = lm.robot().with_capacity().map_err(|_| KC_INVALID_ROBOT)?;
     handle::init::<kc_robot>(slot, robot);
     Ok(())
 }
 
-/// # Safety
-/// As [`kc_lm_unidentifiable`].
 unsafe fn lm_unidentifiable<H: Solver<P>, const P: usize>(
     lm: *const H,
     out: *mut kc_param,
@@ -396,23 +425,24 @@ unsafe fn lm_unidentifiable<H: Solver<P>, const P: usize>(
     count: *mut usize,
 ) -> Kc<()> {
     // SAFETY: the header contract.
-    let lm = unsafe { lm_ref(lm) }?;
+    let lm = unsafe { handle::get(lm) }?;
     // SAFETY: the header contract.
     let count = unsafe { obj_mut(count) }?;
     // SAFETY: the header contract (`cap` values).
     let out = unsafe { slice_mut(out, cap) }?;
-    let n = lm.unidentifiable().count();
-    *count = n;
-    if cap < n {
-        return Err(KC_BUFFER_TOO_SMALL);
-    }
-    for (o, p) in out.iter_mut().zip(lm.unidentifiable()) {
-        *o = code_of(p);
-    }
-    Ok(())
+    each_lm!(lm, s => {
+        let n = s.unidentifiable().count();
+        *count = n;
+        if cap < n {
+            return Err(KC_BUFFER_TOO_SMALL);
+        }
+        for (o, p) in out.iter_mut().zip(s.unidentifiable()) {
+            *o = code_of(p);
+        }
+        Ok(())
+    })
 }
 
-/// An `embedded_io` writer that only counts (the size of a snapshot).
 struct Count(usize);
 
 impl embedded_io::ErrorType for Count {
@@ -429,37 +459,24 @@ impl embedded_io::Write for Count {
     }
 }
 
-fn snapshot_size<const P: usize>(lm: &Lm<P>) -> Kc<usize> {
+fn snapshot_size<const N: usize, const P: usize>(lm: &Lm<N, P>) -> Kc<usize> {
     let mut c = Count(0);
     lm.save(&mut c).map_err(|_| KC_SNAPSHOT_INVALID)?;
     Ok(c.0)
 }
 
-/// # Safety
-/// As [`kc_lm_snapshot_size`].
 unsafe fn lm_snapshot_size<H: Solver<P>, const P: usize>(lm: *const H, size: *mut usize) -> Kc<()> {
     // SAFETY: the header contract.
-    let lm = unsafe { lm_ref(lm) }?;
+    let lm = unsafe { handle::get(lm) }?;
     // SAFETY: the header contract.
     let size = unsafe { obj_mut(size) }?;
-    *size = snapshot_size(lm)?;
+    *size = each_lm!(lm, s => snapshot_size(s))?;
     Ok(())
 }
 
-/// # Safety
-/// As [`kc_lm_save`].
-unsafe fn lm_save<H: Solver<P>, const P: usize>(
-    lm: *const H,
-    buf: *mut u8,
-    cap: usize,
-    written: *mut usize,
-) -> Kc<()> {
-    // SAFETY: the header contract.
-    let lm = unsafe { lm_ref(lm) }?;
-    // SAFETY: the header contract.
-    let written = unsafe { obj_mut(written) }?;
-    // SAFETY: the header contract (`cap` bytes).
-    let mut w: &mut [u8] = unsafe { slice_mut(buf, cap) }?;
+fn save<const N: usize, const P: usize>(lm: &Lm<N, P>, buf: &mut [u8], written: &mut usize) -> Kc<()> {
+    let cap = buf.len();
+    let mut w: &mut [u8] = buf;
     match lm.save(&mut w) {
         Ok(()) => {
             *written = cap - w.len();
@@ -473,25 +490,38 @@ unsafe fn lm_save<H: Solver<P>, const P: usize>(
     }
 }
 
-/// # Safety
-/// As [`kc_lm_restore`].
+unsafe fn lm_save<H: Solver<P>, const P: usize>(
+    lm: *const H,
+    buf: *mut u8,
+    cap: usize,
+    written: *mut usize,
+) -> Kc<()> {
+    // SAFETY: the header contract.
+    let lm = unsafe { handle::get(lm) }?;
+    // SAFETY: the header contract.
+    let written = unsafe { obj_mut(written) }?;
+    // SAFETY: the header contract (`cap` bytes).
+    let buf: &mut [u8] = unsafe { slice_mut(buf, cap) }?;
+    each_lm!(lm, s => save(s, buf, written))
+}
+
 unsafe fn lm_restore<H: Solver<P>, const P: usize>(
     lm: *mut H,
     buf: *const u8,
     len: usize,
 ) -> Kc<()> {
     // SAFETY: the header contract.
-    let lm = unsafe { lm_mut(lm) }?;
+    let lm = unsafe { handle::get_mut(lm) }?;
     // SAFETY: the header contract (`len` bytes).
     let r: &[u8] = unsafe { slice_ref(buf, len) }?;
-    restore(lm, r).map_err(|_| KC_SNAPSHOT_INVALID)
+    each_lm!(lm, s => restore(s, r).map_err(|_| KC_SNAPSHOT_INVALID))
 }
 
-/// The library's restore, out of line as the Rust firmware calls it: inlined into the
-/// wrapper's closure LLVM keeps a third copy of the solver on the stack (25 KB instead of
-/// 17 KB on the M4F).
 #[inline(never)]
-fn restore<const P: usize>(lm: &mut Lm<P>, mut r: &[u8]) -> Result<(), SnapshotError> {
+fn restore<const N: usize, const P: usize>(
+    lm: &mut Lm<N, P>,
+    mut r: &[u8],
+) -> Result<(), SnapshotError> {
     lm.restore(&mut r)
 }
 
@@ -766,10 +796,18 @@ pub unsafe extern "C" fn kc_rms_error(
         if data.is_empty() {
             return Err(KC_TOO_FEW_MEASUREMENTS);
         }
-        if !data.iter().all(|m| m.is_valid()) {
-            return Err(KC_NOT_FINITE);
-        }
-        *out = rms_error(robot, data);
+        *out = each_robot!(robot, m => rms(m, data))?;
         Ok(())
     })())
+}
+
+/// The RMS error of `robot` over the measurements (`KC_NOT_FINITE` for a NaN in them).
+fn rms<const N: usize>(robot: &Arm<N>, data: &[kc_measurement]) -> Kc<f32>
+where
+    kc_measurement: Observation<f32, N>,
+{
+    if !data.iter().all(|d| d.is_valid()) {
+        return Err(KC_NOT_FINITE);
+    }
+    Ok(rms_error(robot, data))
 }

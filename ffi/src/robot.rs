@@ -1,8 +1,10 @@
-//! Robots (`kc_robot`: `Robot<f32, 6, KC_MAX_EFFECT_VALUES>`: geometry, joint corrections,
-//! couplings), loading a binary model (`kc_robot_load`) and parameter codes (`kc_param`).
+//! Robots (`kc_robot`: a `Robot<f32, 6 or 7, KC_MAX_EFFECT_VALUES>`: geometry, joint
+//! corrections, couplings), loading a binary model (`kc_robot_load`) and parameter codes
+//! (`kc_param`).
 
 use crate::handle::{self, handle};
-use crate::{array_mut, array_ref, finite, obj_mut, obj_ref, slice_mut, status, Kc, KC_JOINTS};
+use crate::{array_mut, array_ref, finite, obj_mut, obj_ref, slice_mut, status, Kc};
+use crate::{KC_JOINTS, KC_MAX_JOINTS};
 use crate::{kc_status, KC_BUFFER_TOO_SMALL, KC_INVALID_ARGUMENT, KC_INVALID_ROBOT};
 use crate::{slice_ref, KC_MODEL_INVALID, KC_NOT_FINITE};
 use kinecal::io::model_blob::{self, BlobError};
@@ -46,16 +48,48 @@ pub struct kc_frame {
 /// `joint-table`'s knots, a `joint-cyclic`'s two terms, …); at most 32 effects.
 pub const KC_MAX_EFFECT_VALUES: usize = 1024;
 
-/// The library robot behind a [`kc_robot`].
-pub(crate) type Model = Robot<f32, KC_JOINTS, KC_MAX_EFFECT_VALUES>;
+/// A library robot of `N` joints as a [`kc_robot`] holds it.
+pub(crate) type Arm<const N: usize> = Robot<f32, N, KC_MAX_EFFECT_VALUES>;
+
+/// The library robot behind a [`kc_robot`]: 6 or 7 joints.
+#[derive(Clone)]
+pub(crate) enum Model {
+    /// A six-joint arm.
+    J6(Arm<6>),
+    /// A seven-joint arm.
+    J7(Arm<7>),
+}
+
+/// `$body` with `$r` bound to the robot of a [`Model`] (or of a `&Model`, `&mut Model`),
+/// whatever its joint count: the body is compiled once per count.
+macro_rules! each_robot {
+    ($m:expr, $r:ident => $body:expr) => {
+        match $m {
+            crate::robot::Model::J6($r) => $body,
+            crate::robot::Model::J7($r) => $body,
+        }
+    };
+}
+pub(crate) use each_robot;
+
+impl Model {
+    /// The joint count.
+    #[inline(always)]
+    pub(crate) fn joints(&self) -> usize {
+        match self {
+            Model::J6(_) => 6,
+            Model::J7(_) => 7,
+        }
+    }
+}
 
 /// Bytes of a [`kc_robot`] (the largest robot of the supported targets, rounded up to 8; a
 /// compile-time assertion checks it fits).
-pub const KC_ROBOT_SIZE: usize = 5112;
+pub const KC_ROBOT_SIZE: usize = 5160;
 
-/// A robot (`Robot<f32, 6, KC_MAX_EFFECT_VALUES>`): base pose, six MDH rows, tool point, joint
-/// corrections (effects), joint couplings. Opaque; caller-owned (a `static` in firmware);
-/// [`kc_robot_init`] or [`kc_robot_load`] constructs it.
+/// A robot (`Robot<f32, N, KC_MAX_EFFECT_VALUES>`, N = 6 or 7): base pose, MDH rows, tool
+/// point, joint corrections (effects), joint couplings. Opaque; caller-owned (a `static` in
+/// firmware); [`kc_robot_init`] or [`kc_robot_load`] constructs it.
 #[repr(C, align(8))]
 pub struct kc_robot {
     _opaque: [u8; KC_ROBOT_SIZE],
@@ -133,19 +167,19 @@ pub(crate) fn rot_of(f: &Frame<f32>) -> [f32; 9] {
     ]
 }
 
-unsafe fn robot_init(
-    r: *mut kc_robot,
+/// A robot of `N` joints from the caller's rows, base and tool (NULL: identity, flange origin).
+///
+/// # Safety
+/// `rows` is NULL or `N` rows; `base` NULL or a frame; `tool_mm` NULL or 3 floats.
+unsafe fn build<const N: usize>(
     rows: *const kc_joint_row,
     base: *const kc_frame,
     tool_mm: *const f32,
-) -> Kc<()> {
-    // SAFETY: the caller passes KC_JOINTS rows (header contract).
-    let rows: &[kc_joint_row; KC_JOINTS] = unsafe { array_ref(rows) }?;
-    let mut values = [0.0f32; 7 * KC_JOINTS + 9];
-    for (k, row) in rows.iter().enumerate() {
-        if let Some(dst) = values.get_mut(7 * k..7 * k + 7) {
-            dst.copy_from_slice(&row_values(row));
-        }
+) -> Kc<Arm<N>> {
+    // SAFETY: the caller passes `N` rows (header contract: the robot's joint count).
+    let rows: &[kc_joint_row; N] = unsafe { array_ref(rows) }?;
+    for row in rows {
+        finite(&row_values(row))?;
     }
     let base = if base.is_null() {
         Frame::identity()
@@ -162,37 +196,51 @@ unsafe fn robot_init(
         // SAFETY: non-NULL: 3 floats per the header.
         *unsafe { array_ref::<f32, 3>(tool_mm) }?
     };
-    if let Some(dst) = values.get_mut(7 * KC_JOINTS..7 * KC_JOINTS + 3) {
-        dst.copy_from_slice(&tool);
-    }
-    finite(&values)?;
-    let robot: Model =
-        Robot::new(base, rows.map(|r| joint_of(&r)), Vector3::from(tool)).map_err(robot_error)?;
+    finite(&tool)?;
+    Robot::new(base, rows.map(|r| joint_of(&r)), Vector3::from(tool)).map_err(robot_error)
+}
+
+unsafe fn robot_init(
+    r: *mut kc_robot,
+    joints: u32,
+    rows: *const kc_joint_row,
+    base: *const kc_frame,
+    tool_mm: *const f32,
+) -> Kc<()> {
+    let robot = match joints {
+        // SAFETY: forwarded contract (6 rows).
+        6 => Model::J6(unsafe { build::<6>(rows, base, tool_mm) }?),
+        // SAFETY: forwarded contract (7 rows).
+        7 => Model::J7(unsafe { build::<7>(rows, base, tool_mm) }?),
+        _ => return Err(KC_INVALID_ARGUMENT),
+    };
     // SAFETY: the header contract: `r` is NULL or a writable kc_robot not otherwise borrowed.
     let slot = unsafe { handle::uninit::<kc_robot>(r) }?;
     handle::init::<kc_robot>(slot, robot);
     Ok(())
 }
 
-/// Builds a robot in `r` from six MDH rows (`rows[KC_JOINTS]`), the base pose (`base`: the
-/// robot base frame in the measurement frame; NULL = identity) and the tool point in the
-/// flange frame (`tool_mm[3]`; NULL = the flange origin). No couplings.
+/// Builds a robot in `r` of `joints` joints (6 or 7) from its MDH rows (`rows[joints]`; an
+/// array of `KC_MAX_JOINTS` does), the base pose (`base`: the robot base frame in the
+/// measurement frame; NULL = identity) and the tool point in the flange frame (`tool_mm[3]`;
+/// NULL = the flange origin). No couplings, no joint corrections.
 ///
-/// Errors: `KC_NULL_POINTER` (`r`, `rows`), `KC_NOT_FINITE` (any value NaN or infinite),
-/// `KC_INVALID_ROBOT` (a length beyond ±1 km, an angle beyond ±1e4 rad, `lower >= upper`).
-/// On error `r` is unchanged.
+/// Errors: `KC_NULL_POINTER` (`r`, `rows`), `KC_INVALID_ARGUMENT` (`joints` not 6 or 7),
+/// `KC_NOT_FINITE` (any value NaN or infinite), `KC_INVALID_ROBOT` (a length beyond ±1 km, an
+/// angle beyond ±1e4 rad, `lower >= upper`). On error `r` is unchanged.
 ///
 /// # Safety
 /// Pointers are NULL or valid for the sizes above; `r` is not otherwise in use during the call.
 #[no_mangle]
 pub unsafe extern "C" fn kc_robot_init(
     r: *mut kc_robot,
+    joints: u32,
     rows: *const kc_joint_row,
     base: *const kc_frame,
     tool_mm: *const f32,
 ) -> kc_status {
     // SAFETY: forwarded contract.
-    status(unsafe { robot_init(r, rows, base, tool_mm) })
+    status(unsafe { robot_init(r, joints, rows, base, tool_mm) })
 }
 
 /// Copies robot `src` into `dst` (a new handle; `dst` may be initialised or not).
@@ -231,14 +279,24 @@ fn blob_status(e: BlobError) -> kc_status {
 unsafe fn robot_load(r: *mut kc_robot, blob: *const u8, len: usize) -> Kc<()> {
     // SAFETY: the header contract: `len` readable bytes.
     let blob = unsafe { slice_ref(blob, len) }?;
-    let zero = Joint::mdh(0.0, 0.0, 0.0, 0.0);
-    let mut robot: Model =
-        Robot::new(Frame::identity(), [zero; KC_JOINTS], Vector3::zeros()).map_err(robot_error)?;
-    model_blob::decode(blob, &mut robot).map_err(blob_status)?;
+    let robot = match model_blob::joint_count(blob).map_err(blob_status)? {
+        6 => Model::J6(decoded(blob)?),
+        7 => Model::J7(decoded(blob)?),
+        _ => return Err(KC_MODEL_INVALID),
+    };
     // SAFETY: the header contract: `r` is NULL or a writable kc_robot not otherwise borrowed.
     let slot = unsafe { handle::uninit::<kc_robot>(r) }?;
     handle::init::<kc_robot>(slot, robot);
     Ok(())
+}
+
+/// The robot of `N` joints a binary model describes.
+fn decoded<const N: usize>(blob: &[u8]) -> Kc<Arm<N>> {
+    let zero = Joint::mdh(0.0, 0.0, 0.0, 0.0);
+    let mut robot: Arm<N> =
+        Robot::new(Frame::identity(), [zero; N], Vector3::zeros()).map_err(robot_error)?;
+    model_blob::decode(blob, &mut robot).map_err(blob_status)?;
+    Ok(robot)
 }
 
 /// Builds the robot in `r` (initialised or not) from a binary model written by `kinecal export
@@ -247,8 +305,8 @@ unsafe fn robot_load(r: *mut kc_robot, blob: *const u8, len: usize) -> Kc<()> {
 /// Jacobians, compensation and the tracker then honour its corrections and couplings.
 ///
 /// Errors, `r` unchanged: `KC_NULL_POINTER` (`r`, or `blob` with `len` > 0),
-/// `KC_MODEL_INVALID` (truncated, corrupted: CRC-32, another layout version, another joint
-/// count than `KC_JOINTS`, a record this library does not know, more than
+/// `KC_MODEL_INVALID` (truncated, corrupted: CRC-32, another layout version, a joint count
+/// other than 6 or 7, a record this library does not know, more than
 /// `KC_MAX_EFFECT_VALUES` values, 32 effects or 4 couplings), `KC_NOT_FINITE` (a NaN or
 /// infinite number), `KC_INVALID_ROBOT` (a model `kc_robot_init` would refuse).
 ///
@@ -260,7 +318,8 @@ pub unsafe extern "C" fn kc_robot_load(r: *mut kc_robot, blob: *const u8, len: u
     status(unsafe { robot_load(r, blob, len) })
 }
 
-/// The number of joints of `r` into `*n` (`KC_JOINTS`).
+/// The number of joints of `r` (6 or 7) into `*n`: the entries of its joint arrays (readings,
+/// rows, commands) that the functions read and write.
 ///
 /// # Safety
 /// `r` is NULL or a valid handle; `n` is NULL or writable.
@@ -270,12 +329,13 @@ pub unsafe extern "C" fn kc_robot_joints(r: *const kc_robot, n: *mut u32) -> kc_
         // SAFETY: the header contract.
         let robot = unsafe { handle::get(r) }?;
         // SAFETY: the header contract.
-        *unsafe { obj_mut(n) }? = robot.joints().len() as u32;
+        *unsafe { obj_mut(n) }? = robot.joints() as u32;
         Ok(())
     })())
 }
 
-/// Replaces row `joint` (0-based) of `r`. Errors: `KC_INVALID_ARGUMENT` (joint >= 6),
+/// Replaces row `joint` (0-based) of `r`. Errors: `KC_INVALID_ARGUMENT` (joint beyond the
+/// robot's),
 /// `KC_NOT_FINITE`, `KC_INVALID_ROBOT` (as in [`kc_robot_init`]); on error `r` is unchanged.
 ///
 /// # Safety
@@ -292,11 +352,11 @@ pub unsafe extern "C" fn kc_robot_set_row(
         // SAFETY: the header contract.
         let row = unsafe { obj_ref(row) }?;
         let i = usize::try_from(joint).map_err(|_| KC_INVALID_ARGUMENT)?;
-        if i >= KC_JOINTS {
+        if i >= robot.joints() {
             return Err(KC_INVALID_ARGUMENT);
         }
         finite(&row_values(row))?;
-        robot.set_joint(i, joint_of(row)).map_err(robot_error)
+        each_robot!(robot, m => m.set_joint(i, joint_of(row)).map_err(robot_error))
     })())
 }
 
@@ -321,7 +381,7 @@ pub unsafe extern "C" fn kc_robot_set_base(
         let rot = unsafe { array_ref::<f32, 9>(rot) }?;
         finite(xyz)?;
         finite(rot)?;
-        robot.set_base(frame_of(xyz, rot)).map_err(robot_error)
+        each_robot!(robot, m => m.set_base(frame_of(xyz, rot)).map_err(robot_error))
     })())
 }
 
@@ -338,7 +398,7 @@ pub unsafe extern "C" fn kc_robot_set_tool(r: *mut kc_robot, tool_mm: *const f32
         // SAFETY: the header contract (3 floats).
         let t = unsafe { array_ref::<f32, 3>(tool_mm) }?;
         finite(t)?;
-        robot.set_tool(Vector3::from(*t)).map_err(robot_error)
+        each_robot!(robot, m => m.set_tool(Vector3::from(*t)).map_err(robot_error))
     })())
 }
 
@@ -363,11 +423,11 @@ pub unsafe extern "C" fn kc_robot_set_coupling(
         finite(&[ratio])?;
         let j = usize::try_from(joint).map_err(|_| KC_INVALID_ROBOT)?;
         let f = usize::try_from(from).map_err(|_| KC_INVALID_ROBOT)?;
-        robot.set_coupling(j, f, ratio).map_err(robot_error)
+        each_robot!(robot, m => m.set_coupling(j, f, ratio).map_err(robot_error))
     })())
 }
 
-/// Reads back the rows (`out[KC_JOINTS]`), the base pose (`base_out`, may be NULL; roll,
+/// Reads back the rows (`out[n]`, n = the robot's joints; an array of `KC_MAX_JOINTS` does), the base pose (`base_out`, may be NULL; roll,
 /// pitch, yaw as [`kc_frame`]) and the tool point (`tool_out[3]`, may be NULL) of `r`.
 ///
 /// # Safety
@@ -382,23 +442,25 @@ pub unsafe extern "C" fn kc_robot_rows(
     status((|| {
         // SAFETY: the header contract.
         let robot = unsafe { handle::get(r) }?;
-        // SAFETY: the header contract (KC_JOINTS rows).
-        let out = unsafe { array_mut::<kc_joint_row, KC_JOINTS>(out) }?;
-        for (o, j) in out.iter_mut().zip(robot.joints()) {
-            *o = row_of(j);
-        }
-        if !base_out.is_null() {
-            // SAFETY: non-NULL: a kc_frame per the header.
-            let b = unsafe { obj_mut(base_out) }?;
-            let f = robot.base();
-            b.xyz_mm = [f.o.x, f.o.y, f.o.z];
-            b.rpy_rad = f.rpy();
-        }
-        if !tool_out.is_null() {
-            // SAFETY: non-NULL: 3 floats per the header.
-            let t = unsafe { array_mut::<f32, 3>(tool_out) }?;
-            *t = [robot.tool().x, robot.tool().y, robot.tool().z];
-        }
+        // SAFETY: the header contract (as many rows as the robot has joints).
+        let out = unsafe { slice_mut::<kc_joint_row>(out, robot.joints()) }?;
+        each_robot!(robot, m => {
+            for (o, j) in out.iter_mut().zip(m.joints()) {
+                *o = row_of(j);
+            }
+            if !base_out.is_null() {
+                // SAFETY: non-NULL: a kc_frame per the header.
+                let b = unsafe { obj_mut(base_out) }?;
+                let f = m.base();
+                b.xyz_mm = [f.o.x, f.o.y, f.o.z];
+                b.rpy_rad = f.rpy();
+            }
+            if !tool_out.is_null() {
+                // SAFETY: non-NULL: 3 floats per the header.
+                let t = unsafe { array_mut::<f32, 3>(tool_out) }?;
+                *t = [m.tool().x, m.tool().y, m.tool().z];
+            }
+        });
         Ok(())
     })())
 }
@@ -420,7 +482,7 @@ pub unsafe extern "C" fn kc_robot_base(
         let xyz = unsafe { array_mut::<f32, 3>(xyz_out) }?;
         // SAFETY: the header contract (9 floats).
         let rot = unsafe { array_mut::<f32, 9>(rot_out) }?;
-        let f = robot.base();
+        let f = each_robot!(robot, m => m.base());
         *xyz = [f.o.x, f.o.y, f.o.z];
         *rot = rot_of(f);
         Ok(())
@@ -472,8 +534,9 @@ pub enum kc_param_kind {
     KC_PARAM_TOOL_Z = 13,
 }
 
-/// Every distinct parameter of a 6-joint robot: 6 base + 5 × 6 row + 3 tool.
-pub const KC_PARAMS_ALL: usize = 39;
+/// Every distinct parameter of a 7-joint robot: 6 base + 5 × 7 row + 3 tool (39 of a 6-joint
+/// robot).
+pub const KC_PARAMS_ALL: usize = 44;
 
 /// The library parameter of a code (`KC_INVALID_ARGUMENT` for an unknown kind or a joint
 /// beyond the robot's).
@@ -481,7 +544,7 @@ pub const KC_PARAMS_ALL: usize = 39;
 pub(crate) fn param_of(p: kc_param) -> Kc<Param> {
     let j = p.joint;
     let row = |f: fn(u8) -> Param| {
-        if (j as usize) < KC_JOINTS {
+        if (j as usize) < KC_MAX_JOINTS {
             Ok(f(j))
         } else {
             Err(KC_INVALID_ARGUMENT)
@@ -552,8 +615,8 @@ unsafe fn write_params(
     Ok(())
 }
 
-/// The 24-parameter set of the BPNN-PSO paper: alpha, a, theta, d of every joint, joint by
-/// joint, into `out[24]`.
+/// The 24-parameter set of the BPNN-PSO paper for a 6-joint robot: alpha, a, theta, d of every
+/// joint, joint by joint, into `out[24]` (a 7-joint robot's 28: [`kc_params_full`]).
 ///
 /// # Safety
 /// `out` is NULL or 24 writable `kc_param`.
@@ -567,21 +630,26 @@ pub unsafe extern "C" fn kc_params_mdh(out: *mut kc_param) -> kc_status {
     })())
 }
 
-/// The full default set: the base pose when `base_unknown` is non-zero (6), alpha, a, theta, d
-/// of every joint (24) and the tool point (3): 27 or 33 parameters. `*count` receives the
-/// length; `KC_BUFFER_TOO_SMALL` (only the count written) when `cap` is smaller.
+/// The full default set of a robot of `joints` joints (6 or 7): the base pose when
+/// `base_unknown` is non-zero (6), alpha, a, theta, d of every joint (24 or 28) and the tool
+/// point (3): 27, 33, 31 or 37 parameters. `*count` receives the length; `KC_BUFFER_TOO_SMALL`
+/// (only the count written) when `cap` is smaller; `KC_INVALID_ARGUMENT` for another `joints`.
 ///
 /// # Safety
 /// `out` is NULL or `cap` writable `kc_param`; `count` is NULL or writable.
 #[no_mangle]
 pub unsafe extern "C" fn kc_params_full(
+    joints: u32,
     base_unknown: u8,
     out: *mut kc_param,
     cap: usize,
     count: *mut usize,
 ) -> kc_status {
     status((|| {
-        let set = ParamSet::<KC_PARAMS_ALL>::full(KC_JOINTS, base_unknown != 0)
+        if !(6..=KC_MAX_JOINTS as u32).contains(&joints) {
+            return Err(KC_INVALID_ARGUMENT);
+        }
+        let set = ParamSet::<KC_PARAMS_ALL>::full(joints as usize, base_unknown != 0)
             .map_err(|_| KC_INVALID_ARGUMENT)?;
         // SAFETY: forwarded contract.
         unsafe { write_params(set.as_slice(), out, cap, count) }

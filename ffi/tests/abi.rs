@@ -58,7 +58,7 @@ fn abi_robot(perturb: f32) -> Box<kc_robot> {
     let mut r = handle::<kc_robot>();
     let rows = rows_of(&joints(perturb));
     // SAFETY: valid pointers of the documented sizes.
-    let s = unsafe { kc_robot_init(&mut *r, rows.as_ptr(), std::ptr::null(), TOOL.as_ptr()) };
+    let s = unsafe { kc_robot_init(&mut *r, 6, rows.as_ptr(), std::ptr::null(), TOOL.as_ptr()) };
     assert_eq!(s, KC_OK);
     r
 }
@@ -151,7 +151,7 @@ fn an_lm_run_is_the_library_s_step_by_step() {
     let c_data: Vec<kc_measurement> = data
         .iter()
         .map(|m| kc_measurement {
-            q: m.q,
+            q: std::array::from_fn(|j| m.q.get(j).copied().unwrap_or(0.0)),
             xyz_mm: [m.point.x, m.point.y, m.point.z],
         })
         .collect();
@@ -249,7 +249,9 @@ fn compensation_and_tracking_are_the_library_s_bit_for_bit() {
                 ),
             };
             assert_eq!(s, want_status);
-            assert_eq!(g.q.map(f32::to_bits), w.q.map(f32::to_bits));
+            let bits: Vec<u32> = g.q[..6].iter().map(|v| v.to_bits()).collect();
+            assert_eq!(bits, w.q.map(f32::to_bits));
+            assert_eq!(g.q[6], 0.0);
             assert_eq!(g.position_error_mm.to_bits(), w.position_error.to_bits());
             assert_eq!(g.iterations, u32::from(w.iterations));
         }
@@ -300,7 +302,9 @@ fn csv_records_are_the_library_s() {
             Some(Ok(r)) => {
                 let w: Measurement<f32, 6> = r.measurement();
                 assert_eq!(s, KC_OK);
-                assert_eq!(m.q.map(f32::to_bits), w.q.map(f32::to_bits));
+                let bits: Vec<u32> = m.q[..6].iter().map(|v| v.to_bits()).collect();
+                assert_eq!(bits, w.q.map(f32::to_bits));
+                assert_eq!(m.q[6], 0.0);
                 assert_eq!(m.xyz_mm, [w.point.x, w.point.y, w.point.z]);
                 assert_eq!(extra[0].to_bits(), r.extra[0].to_bits());
                 assert_eq!(line, r.line);

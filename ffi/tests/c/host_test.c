@@ -107,7 +107,7 @@ static void test_robot(void) {
   static kc_robot never;
 
   rows_of(ROWS, rows);
-  EXPECT(kc_robot_init(&nominal, rows, NULL, TOOL), KC_OK);
+  EXPECT(kc_robot_init(&nominal, 6, rows, NULL, TOOL), KC_OK);
   EXPECT(kc_robot_rows(&nominal, back, &base_back, tool_back), KC_OK);
   CHECK(memcmp(rows, back, sizeof rows) == 0);
   CHECK(base_back.xyz_mm[0] == 0.0f && base_back.rpy_rad[2] == 0.0f);
@@ -119,27 +119,27 @@ static void test_robot(void) {
   base.rpy_rad[0] = 0.1f;
   base.rpy_rad[1] = -0.2f;
   base.rpy_rad[2] = 0.3f;
-  EXPECT(kc_robot_init(&scratch, rows, &base, TOOL), KC_OK);
+  EXPECT(kc_robot_init(&scratch, 6, rows, &base, TOOL), KC_OK);
   EXPECT(kc_robot_rows(&scratch, back, &base_back, NULL), KC_OK);
   CHECK(fabsf(base_back.rpy_rad[0] - 0.1f) < 1e-6f && fabsf(base_back.rpy_rad[1] + 0.2f) < 1e-6f &&
         fabsf(base_back.rpy_rad[2] - 0.3f) < 1e-6f && base_back.xyz_mm[0] == 1000.0f);
 
   /* Refusals: the robot keeps its rows. */
   EXPECT(kc_robot_rows(&nominal, before, NULL, NULL), KC_OK);
-  EXPECT(kc_robot_init(NULL, rows, NULL, TOOL), KC_NULL_POINTER);
-  EXPECT(kc_robot_init(&nominal, NULL, NULL, TOOL), KC_NULL_POINTER);
+  EXPECT(kc_robot_init(NULL, 6, rows, NULL, TOOL), KC_NULL_POINTER);
+  EXPECT(kc_robot_init(&nominal, 6, NULL, NULL, TOOL), KC_NULL_POINTER);
   memcpy(bad, rows, sizeof bad);
   bad[3].d_mm = NAN;
-  EXPECT(kc_robot_init(&nominal, bad, NULL, TOOL), KC_NOT_FINITE);
+  EXPECT(kc_robot_init(&nominal, 6, bad, NULL, TOOL), KC_NOT_FINITE);
   memcpy(bad, rows, sizeof bad);
   bad[1].lower_rad = 1.0f;
   bad[1].upper_rad = -1.0f;
-  EXPECT(kc_robot_init(&nominal, bad, NULL, TOOL), KC_INVALID_ROBOT);
+  EXPECT(kc_robot_init(&nominal, 6, bad, NULL, TOOL), KC_INVALID_ROBOT);
   memcpy(bad, rows, sizeof bad);
   bad[2].a_mm = 1e7f; /* 10 km */
-  EXPECT(kc_robot_init(&nominal, bad, NULL, TOOL), KC_INVALID_ROBOT);
+  EXPECT(kc_robot_init(&nominal, 6, bad, NULL, TOOL), KC_INVALID_ROBOT);
   base.rpy_rad[1] = INFINITY;
-  EXPECT(kc_robot_init(&nominal, rows, &base, TOOL), KC_NOT_FINITE);
+  EXPECT(kc_robot_init(&nominal, 6, rows, &base, TOOL), KC_NOT_FINITE);
   EXPECT(kc_robot_set_base(&nominal, origin, not_rotation), KC_INVALID_ROBOT);
   EXPECT(kc_robot_set_base(&nominal, origin, NULL), KC_NULL_POINTER);
   EXPECT(kc_robot_set_row(&nominal, 6, &rows[0]), KC_INVALID_ARGUMENT);
@@ -263,11 +263,11 @@ static void test_fk(const double *fk_expected, size_t n_expected) {
   {
     kc_param full[KC_PARAMS_ALL];
     size_t count = 0;
-    EXPECT(kc_params_full(1, full, 10, &count), KC_BUFFER_TOO_SMALL);
+    EXPECT(kc_params_full(6, 1, full, 10, &count), KC_BUFFER_TOO_SMALL);
     CHECK(count == 33);
-    EXPECT(kc_params_full(1, full, KC_PARAMS_ALL, &count), KC_OK);
+    EXPECT(kc_params_full(6, 1, full, KC_PARAMS_ALL, &count), KC_OK);
     CHECK(count == 33 && full[0].kind == KC_PARAM_BASE_X && full[32].kind == KC_PARAM_TOOL_Z);
-    EXPECT(kc_params_full(0, full, KC_PARAMS_ALL, &count), KC_OK);
+    EXPECT(kc_params_full(6, 0, full, KC_PARAMS_ALL, &count), KC_OK);
     CHECK(count == 27);
   }
 }
@@ -284,7 +284,7 @@ static void make_truth(void) {
     rows[j].theta_rad += (float)((0.1 - 0.03 * j) * DEG);
     rows[j].d_mm -= 0.4f * s;
   }
-  EXPECT(kc_robot_init(&truth, rows, NULL, TOOL), KC_OK);
+  EXPECT(kc_robot_init(&truth, 6, rows, NULL, TOOL), KC_OK);
 }
 
 static void measure(kc_measurement *out, size_t n) {
@@ -480,7 +480,7 @@ static void test_lm_full(void) {
   size_t count = 0, i;
 
   EXPECT(kc_robot_rows(&truth, rows, NULL, NULL), KC_OK);
-  EXPECT(kc_robot_init(&true_cell, rows, &base_true, TOOL), KC_OK);
+  EXPECT(kc_robot_init(&true_cell, 6, rows, &base_true, TOOL), KC_OK);
   for (i = 0; i < N_ID; i++) {
     random_q(id[i].q);
     EXPECT(kc_fk_point(&fk, &true_cell, id[i].q, id[i].xyz_mm), KC_OK);
@@ -490,8 +490,8 @@ static void test_lm_full(void) {
     EXPECT(kc_fk_point(&fk, &true_cell, val[i].q, val[i].xyz_mm), KC_OK);
   }
   rows_of(ROWS, rows);
-  EXPECT(kc_robot_init(&start, rows, &base_guess, tool_guess), KC_OK);
-  EXPECT(kc_params_full(1, full, KC_PARAMS_ALL, &count), KC_OK);
+  EXPECT(kc_robot_init(&start, 6, rows, &base_guess, tool_guess), KC_OK);
+  EXPECT(kc_params_full(6, 1, full, KC_PARAMS_ALL, &count), KC_OK);
   CHECK(count == 33 && count > KC_LM_MAX_PARAMS && count <= KC_LM_FULL_MAX_PARAMS);
   EXPECT(kc_lm_init(&mdh_lm, &start, full, count, NULL), KC_TOO_MANY_PARAMS);
   EXPECT(kc_lm_full_init(&full_lm, &start, full, count, NULL), KC_OK);
@@ -545,7 +545,7 @@ static void test_lm_full(void) {
     fprintf(stderr, "c: the 24 MDH parameters alone: held-out worst %.3g mm\n", (double)worst24);
   }
   EXPECT(kc_robot_base(&fitted, base_got, rot_got), KC_OK);
-  EXPECT(kc_robot_init(&scratch, rows, &base_true, TOOL), KC_OK);
+  EXPECT(kc_robot_init(&scratch, 6, rows, &base_true, TOOL), KC_OK);
   EXPECT(kc_robot_base(&scratch, xyz_true, rot_true), KC_OK);
   EXPECT(kc_robot_rows(&fitted, rows, NULL, tool_got), KC_OK);
   fprintf(stderr,
@@ -663,10 +663,10 @@ static void test_tracker(void) {
   for (j = 0; j < KC_JOINTS; j++) CHECK(fabsf(s.q[j] - q_before[j]) < 1e-3f);
   EXPECT(kc_tracker_reset(&tracker), KC_OK);
   EXPECT(kc_tracker_follow(&tracker, &model, &t, &s), KC_INVALID_ARGUMENT); /* no command */
-  EXPECT(kc_tracker_start(&tracker, q_before), KC_OK);
+  EXPECT(kc_tracker_start(&tracker, &model, q_before), KC_OK);
   EXPECT(kc_tracker_follow(&tracker, &model, &t, &s), KC_OK);
   qn[0] = NAN;
-  EXPECT(kc_tracker_start(&tracker, qn), KC_NOT_FINITE);
+  EXPECT(kc_tracker_start(&tracker, &model, qn), KC_NOT_FINITE);
   EXPECT(kc_compensate_config_default(&cfg), KC_OK);
   cfg.accept_mm = 0.0f;
   EXPECT(kc_tracker_init(&tracker, &cfg), KC_INVALID_ARGUMENT);

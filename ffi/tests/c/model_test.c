@@ -1,24 +1,27 @@
 /* A C client of a binary model (.kcm) through include/kinecal.h: loads it, checks the joint
  * count and the refusals (truncated, corrupted: the handle keeps the model it had), then
  * computes forward kinematics and compensated commands for the caller, which compares them
- * with the library's f64 (host-tests/tests/firmware_model.rs). Strict C99. */
+ * with the library's f64 (host-tests/tests/library/model_blob.rs). Strict C99. */
 #include "kinecal.h"
 #include <string.h>
 
 static kc_robot robot;
+static kc_robot nominal;
 static kc_fk fk;
 static uint8_t copy[16384];
 
-/* Returns 0, or the negative number of the step that failed. `q` and `seeds` hold `n` poses of
- * KC_JOINTS readings (rad), `targets` n points (mm); `points` receives the model's point at each
- * `q`, `commands` the compensated command from each seed towards each target. */
-int kc_model_test(const uint8_t *blob, size_t len, const float *q, const float *seeds,
-                  const float *targets, size_t n, float *points, float *commands) {
-    uint32_t joints = 0;
+/* Returns 0, or the negative number of the step that failed. The model must have `joints`
+ * joints (6 or 7). `q` and `seeds` hold `n` poses of `joints` readings (rad), `targets` n points
+ * (mm); `points` receives the model's point at each `q`, `commands` the compensated command
+ * (`joints` readings) from each seed towards each target. */
+int kc_model_test(const uint8_t *blob, size_t len, uint32_t joints, const float *q,
+                  const float *seeds, const float *targets, size_t n, float *points,
+                  float *commands) {
+    uint32_t got = 0;
     size_t i;
     float before[3], after[3];
     if (kc_robot_load(&robot, blob, len) != KC_OK) return -1;
-    if (kc_robot_joints(&robot, &joints) != KC_OK || joints != KC_JOINTS) return -2;
+    if (kc_robot_joints(&robot, &got) != KC_OK || got != joints) return -2;
     if (kc_fk_init(&fk) != KC_OK) return -3;
     if (len > sizeof copy || len < 16) return -4;
     /* Refused blobs leave the loaded model as it was. */
@@ -34,7 +37,7 @@ int kc_model_test(const uint8_t *blob, size_t len, const float *q, const float *
     if (kc_fk_point(&fk, &robot, q, after) != KC_OK) return -10;
     if (memcmp(before, after, sizeof before) != 0) return -11;
     for (i = 0; i < n; i++) {
-        if (kc_fk_point(&fk, &robot, q + KC_JOINTS * i, points + 3 * i) != KC_OK) return -12;
+        if (kc_fk_point(&fk, &robot, q + joints * i, points + 3 * i) != KC_OK) return -12;
     }
     for (i = 0; i < n; i++) {
         kc_target t;
@@ -42,8 +45,33 @@ int kc_model_test(const uint8_t *blob, size_t len, const float *q, const float *
         memset(&t, 0, sizeof t);
         t.kind = KC_TARGET_POINT;
         memcpy(t.xyz_mm, targets + 3 * i, sizeof t.xyz_mm);
-        if (kc_compensate(&robot, &t, seeds + KC_JOINTS * i, NULL, &s) != KC_OK) return -13;
-        memcpy(commands + KC_JOINTS * i, s.q, sizeof s.q);
+        if (kc_compensate(&robot, &t, seeds + joints * i, NULL, &s) != KC_OK) return -13;
+        memcpy(commands + joints * i, s.q, joints * sizeof s.q[0]);
+    }
+    return 0;
+}
+
+/* The Cartesian route for a controller that keeps its nominal kinematics: loads the calibrated
+ * model `blob` and the nominal robot `nominal_blob`, and for each of the `n` point targets
+ * (`targets`, mm; seeds `seeds`, `joints` readings each) writes the point to send into `sent`
+ * (3 per target). Returns 0, or the negative number of the step that failed. */
+int kc_model_cartesian(const uint8_t *blob, size_t len, const uint8_t *nominal_blob,
+                       size_t nominal_len, uint32_t joints, const float *seeds,
+                       const float *targets, size_t n, float *sent) {
+    size_t i;
+    if (kc_robot_load(&robot, blob, len) != KC_OK) return -1;
+    if (kc_robot_load(&nominal, nominal_blob, nominal_len) != KC_OK) return -2;
+    for (i = 0; i < n; i++) {
+        kc_target t, out;
+        kc_solution s;
+        memset(&t, 0, sizeof t);
+        t.kind = KC_TARGET_POINT;
+        memcpy(t.xyz_mm, targets + 3 * i, sizeof t.xyz_mm);
+        if (kc_compensate_cartesian(&robot, &nominal, &t, seeds + joints * i, NULL, &s, &out) !=
+            KC_OK)
+            return -3;
+        if (out.kind != KC_TARGET_POINT) return -4;
+        memcpy(sent + 3 * i, out.xyz_mm, sizeof out.xyz_mm);
     }
     return 0;
 }

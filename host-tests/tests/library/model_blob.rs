@@ -330,6 +330,78 @@ from = 2
 ratio = 1.0
 "#;
 
+/// Runs the C client (`ffi/tests/c/model_test.c`) on the binary model of `model` at `n` poses
+/// drawn from `ranges` (rad; bent arm, no singularity), and checks its forward kinematics and
+/// compensated commands against the library in f64.
+fn c_client_matches_f64<const N: usize, const V: usize>(
+    model: &Robot<f64, N, V>,
+    ranges: [(f64, f64); N],
+    n: usize,
+    rng_seed: u64,
+) {
+    let blob = blob_of(model);
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(rng_seed);
+    let (mut q, mut seeds, mut targets) = (Vec::new(), Vec::new(), Vec::new());
+    let mut fk = ForwardKinematics::<f64, N>::new();
+    let mut truth = Vec::new();
+    for _ in 0..n {
+        // Readings exact in f32.
+        let qt: [f64; N] =
+            std::array::from_fn(|j| rng.random_range(ranges[j].0..ranges[j].1) as f32 as f64);
+        let p = fk.compute(model, &qt);
+        targets.extend(p.iter().map(|x| *x as f32));
+        q.extend(qt.iter().map(|x| *x as f32));
+        seeds.extend(
+            qt.iter()
+                .map(|x| (x + rng.random_range(-0.005..0.005)) as f32),
+        );
+        truth.push(p);
+    }
+    let run = {
+        let _one = kinecal_host::c_abi::C_CLIENT.lock().unwrap_or_else(|e| e.into_inner());
+        kinecal_host::c_abi::model_test(&blob, N, &q, &seeds, &targets)
+    };
+    assert_eq!(run.status, 0, "C client failed at step {}", -run.status);
+    let (mut worst_fk, mut worst_comp, mut worst_dq) = (0.0f64, 0.0f64, 0.0f64);
+    let cfg = kinecal::compensate::Config::<f64>::default();
+    for (i, p) in truth.iter().enumerate() {
+        let c = Vector3::new(
+            run.points[3 * i] as f64,
+            run.points[3 * i + 1] as f64,
+            run.points[3 * i + 2] as f64,
+        );
+        worst_fk = worst_fk.max((c - p).norm());
+        let cmd: [f64; N] = std::array::from_fn(|j| run.commands[N * i + j] as f64);
+        let target = Vector3::new(
+            targets[3 * i] as f64,
+            targets[3 * i + 1] as f64,
+            targets[3 * i + 2] as f64,
+        );
+        worst_comp = worst_comp.max((fk.compute(model, &cmd) - target).norm());
+        let seed: [f64; N] = std::array::from_fn(|j| seeds[N * i + j] as f64);
+        let lib = kinecal::compensate::compensate(
+            model,
+            &kinecal::compensate::Target::Point(target),
+            &seed,
+            &cfg,
+        )
+        .expect("f64 compensation");
+        for (l, c) in lib.q.iter().zip(&cmd) {
+            worst_dq = worst_dq.max((l - c).abs());
+        }
+    }
+    println!(
+        "C client, {N} joints, {} effects ({} bytes): FK vs f64 worst {worst_fk:.2e} mm; C command \
+         on the f64 model worst {worst_comp:.2e} mm from the target; |C − f64 command| worst \
+         {worst_dq:.2e} rad",
+        model.effects().len(),
+        blob.len()
+    );
+    assert!(worst_fk < 2e-3, "FK {worst_fk} mm");
+    assert!(worst_comp < 5e-3, "compensation {worst_comp} mm");
+    assert!(worst_dq < 1e-4, "command {worst_dq} rad");
+}
+
 #[test]
 fn c_client_of_a_diagnosed_model_matches_the_library_in_f64() {
     let file = RobotFile::parse(
@@ -339,73 +411,53 @@ fn c_client_of_a_diagnosed_model_matches_the_library_in_f64() {
     .unwrap();
     let model = file.to_robot::<6>().unwrap();
     assert_eq!(model.effects().len(), 5);
-    let blob = blob_of(&model);
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(32);
-    let n = 60;
-    let (mut q, mut seeds, mut targets) = (Vec::new(), Vec::new(), Vec::new());
-    let mut fk = ForwardKinematics::<f64, 6>::new();
-    let mut truth = Vec::new();
-    for _ in 0..n {
-        // Arm bent (no stretched or wrist singularity), readings exact in f32.
-        let qt: [f64; 6] = std::array::from_fn(|j| {
-            let range = [
-                (-1.5, 1.5),
-                (-1.2, -0.2),
-                (0.3, 1.2),
-                (-1.5, 1.5),
-                (0.4, 1.4),
-                (-1.5, 1.5),
-            ][j];
-            rng.random_range(range.0..range.1) as f32 as f64
-        });
-        let p = fk.compute(&model, &qt);
-        targets.extend(p.iter().map(|x| *x as f32));
-        q.extend(qt.iter().map(|x| *x as f32));
-        seeds.extend(
-            qt.iter()
-                .map(|x| (x + rng.random_range(-0.005..0.005)) as f32),
-        );
-        truth.push((qt, p));
-    }
-    let run = kinecal_host::c_abi::model_test(&blob, &q, &seeds, &targets);
-    assert_eq!(run.status, 0, "C client failed at step {}", -run.status);
-    let (mut worst_fk, mut worst_comp, mut worst_dq) = (0.0f64, 0.0f64, 0.0f64);
-    let cfg = kinecal::compensate::Config::<f64>::default();
-    for (i, (qt, p)) in truth.iter().enumerate() {
-        let c = Vector3::new(
-            run.points[3 * i] as f64,
-            run.points[3 * i + 1] as f64,
-            run.points[3 * i + 2] as f64,
-        );
-        worst_fk = worst_fk.max((c - p).norm());
-        let cmd: [f64; 6] = std::array::from_fn(|j| run.commands[6 * i + j] as f64);
-        let target = Vector3::new(
-            targets[3 * i] as f64,
-            targets[3 * i + 1] as f64,
-            targets[3 * i + 2] as f64,
-        );
-        worst_comp = worst_comp.max((fk.compute(&model, &cmd) - target).norm());
-        let seed: [f64; 6] = std::array::from_fn(|j| seeds[6 * i + j] as f64);
-        let lib = kinecal::compensate::compensate(
-            &model,
-            &kinecal::compensate::Target::Point(target),
-            &seed,
-            &cfg,
-        )
-        .expect("f64 compensation");
-        for (l, c) in lib.q.iter().zip(&cmd) {
-            worst_dq = worst_dq.max((l - c).abs());
-        }
-        let _ = qt;
-    }
-    println!(
-        "C client, diagnosed model ({} bytes): FK vs f64 worst {worst_fk:.2e} mm; C command on the \
-         f64 model worst {worst_comp:.2e} mm from the target; |C − f64 command| worst {worst_dq:.2e} rad",
-        blob.len()
+    let ranges = [
+        (-1.5, 1.5),
+        (-1.2, -0.2),
+        (0.3, 1.2),
+        (-1.5, 1.5),
+        (0.4, 1.4),
+        (-1.5, 1.5),
+    ];
+    c_client_matches_f64(&model, ranges, 60, 32);
+}
+
+/// A 7-joint model with a joint table (and a cyclic term, a coupling) through the C ABI.
+#[test]
+fn c_client_of_a_seven_joint_model_with_an_effect_matches_the_library_in_f64() {
+    let text = format!(
+        "{}{}",
+        crate::common::LBR7_TILTED_PLACED,
+        r#"
+[[effects]]
+kind = "joint-table"
+joint = 4
+step_deg = 10.0
+start_deg = -170.0
+values = [0.0002, -0.0004, 0.0003, 0.0005, -0.0001, 0.0002, -0.0003, 0.0004, 0.0001, -0.0002]
+[[effects]]
+kind = "joint-cyclic"
+joint = 2
+values = [0.0003, -0.0002]
+[[couplings]]
+joint = 3
+from = 2
+ratio = 0.5
+"#
     );
-    assert!(worst_fk < 2e-3, "FK {worst_fk} mm");
-    assert!(worst_comp < 5e-3, "compensation {worst_comp} mm");
-    assert!(worst_dq < 1e-4, "command {worst_dq} rad");
+    let model = RobotFile::parse(&text, "7").unwrap().to_robot::<7>().unwrap();
+    assert_eq!(model.effects().len(), 2);
+    // Elbow (joint 4) and wrist (joint 6) bent: away from the 7R's singularities.
+    let ranges = [
+        (-1.5, 1.5),
+        (-1.0, 1.0),
+        (-1.5, 1.5),
+        (0.5, 1.6),
+        (-1.5, 1.5),
+        (0.5, 1.5),
+        (-1.5, 1.5),
+    ];
+    c_client_matches_f64(&model, ranges, 60, 33);
 }
 
 /// Corrected targets for a controller that keeps its nominal kinematics: the pose the nominal
@@ -413,7 +465,6 @@ fn c_client_of_a_diagnosed_model_matches_the_library_in_f64() {
 /// robot's inverse kinematics (the library's compensation on the nominal robot), brings the
 /// calibrated robot to the original target.
 #[test]
-#[ignore = "one sampled pose is wrist-singular for the nominal IK (sigma 13, converged to 9e-11 mm but typed Singular): the pose sampling must avoid it"]
 fn nominal_targets_bring_the_calibrated_robot_to_the_target() {
     use kinecal::compensate::{compensate, nominal_target, Config, Target};
     let file = RobotFile::parse(
@@ -435,7 +486,8 @@ fn nominal_targets_bring_the_calibrated_robot_to_the_target() {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(4);
     let mut fk = ForwardKinematics::<f64, 6>::new();
     let (mut worst, mut worst_point, mut moved) = (0.0f64, 0.0f64, 0.0f64);
-    for _ in 0..100 {
+    let (mut tested, mut skipped) = (0, 0);
+    while tested < 100 {
         let qt: [f64; 6] = std::array::from_fn(|j| {
             let range = [
                 (-1.5, 1.5),
@@ -447,6 +499,16 @@ fn nominal_targets_bring_the_calibrated_robot_to_the_target() {
             ][j];
             rng.random_range(range.0..range.1)
         });
+        // Poses where the controller's nominal IK is singular are no test of the route: the
+        // nominal robot's pose at the sampled readings must solve as a well-conditioned target.
+        fk.compute(&placed, &qt);
+        let own = Target::Pose(fk.tool_pose(&placed));
+        if compensate(&placed, &own, &qt, &cfg).is_err() {
+            skipped += 1;
+            assert!(skipped <= 10, "too many singular samples");
+            continue;
+        }
+        tested += 1;
         fk.compute(&model, &qt);
         let goal = fk.tool_pose(&model);
         let seed: [f64; 6] = std::array::from_fn(|j| qt[j] + rng.random_range(-0.005..0.005));
@@ -463,7 +525,8 @@ fn nominal_targets_bring_the_calibrated_robot_to_the_target() {
     }
     println!(
         "nominal targets: moved up to {moved:.3} mm from the targets; the calibrated robot at the \
-         nominal IK of the sent pose: worst {worst:.2e} mm, {worst_point:.2e} rad"
+         nominal IK of the sent pose: worst {worst:.2e} mm, {worst_point:.2e} rad ({skipped} \
+         singular samples skipped)"
     );
     assert!(moved > 0.1, "the corrections are real ({moved} mm)");
     assert!(worst < 0.01, "{worst} mm");

@@ -121,7 +121,7 @@ static void build_robot(kc_robot *r, const float rows[N][4]) {
         j[i] = (kc_joint_row){rows[i][0], rows[i][1], rows[i][2], rows[i][3], 0.0f, REF_LIMITS[i][0],
                               REF_LIMITS[i][1]};
     }
-    must(kc_robot_init(r, j, 0, REF_TOOL_MM), "robot");
+    must(kc_robot_init(r, N, j, 0, REF_TOOL_MM), "robot");
 }
 
 /* Rows, base and tool of two robots equal bit for bit. */

@@ -32,11 +32,16 @@ _Static_assert(REF_PARAMS == P && P <= KC_LM_MAX_PARAMS, "24 parameters fit the 
 /* The measurement file as the host generated it (examples/firmware/data/measurements.csv),
    assembled in by csv.S. */
 extern const uint8_t measurements_csv_start[], measurements_csv_end[];
+/* A diagnosed UR10 model as a binary model (ur10_diagnosed.kcm, see README.md), assembled in
+   by model.S. */
+extern const uint8_t diagnosed_kcm_start[], diagnosed_kcm_end[];
 
 /* Handles live in static memory the firmware owns. */
 static kc_robot nominal, coupled, truth;
 /* The model the servo tick compensates with (replaced when an identification finishes). */
 static kc_robot model;
+/* The diagnosed UR10 (joint tables) and its geometry alone. */
+static kc_robot diagnosed, diagnosed_geometry;
 static kc_lm lm, lm_resumed;
 static kc_csv csv;
 static kc_fk fk;
@@ -575,7 +580,95 @@ static void trajectory(void) {
     p_nl();
 }
 
-/* ---- 5. benches ---- */
+/* ---- 5. a diagnosed model from a binary model ---- */
+
+/* Readings of the first 8 measured poses of data/ur10/ur10_random_poses.csv (from the second
+   row; degrees): inside the travel the diagnosed joint tables cover. */
+#define UR10_POSES 8
+static const float UR10_Q_DEG[UR10_POSES][6] = {
+    {-234.021174f, -154.389207f, 97.330060f, -116.367728f, 56.880385f, -3.856206f},
+    {-209.382843f, -161.827346f, 116.101303f, -127.770734f, 8.507392f, -6.000358f},
+    {-255.990667f, -169.946158f, 117.843095f, -115.508291f, 83.303480f, -1.254096f},
+    {-255.867481f, -136.025337f, 72.284928f, -127.435554f, 45.783969f, 2.937446f},
+    {-241.806524f, -160.495219f, 98.579680f, -115.878995f, 32.496103f, -1.462526f},
+    {-224.859579f, -132.758905f, 70.590692f, -135.375603f, 27.181232f, 12.229097f},
+    {-246.608483f, -156.891887f, 72.883669f, -98.370551f, 84.218493f, 0.607507f},
+    {-222.871988f, -177.685671f, 88.217739f, -111.981163f, 13.730876f, 17.511767f},
+};
+static kc_target diag_target;
+static float diag_seed[KC_MAX_JOINTS];
+static kc_solution diag_sol;
+
+static void bench_compensate_tables(void *ctx) {
+    (void)ctx;
+    (void)kc_compensate(&diagnosed, &diag_target, diag_seed, 0, &diag_sol);
+}
+
+/* Loads the diagnosed model, compensates point targets with its tables (from seeds 0.2° off,
+   as a nominal inverse kinematics would give), and measures one compensation. */
+static void diagnosed_model(void) {
+    size_t len = (size_t)(diagnosed_kcm_end - diagnosed_kcm_start);
+    uint32_t joints = 0;
+    must(kc_robot_load(&diagnosed, diagnosed_kcm_start, len), "load .kcm");
+    must(kc_robot_joints(&diagnosed, &joints), "joints");
+    /* A truncated copy is refused and the handle keeps the model. */
+    kc_status truncated = kc_robot_load(&diagnosed, diagnosed_kcm_start, len - 1);
+    check("model.load", joints == N && truncated == KC_MODEL_INVALID);
+    p_u32((uint32_t)len);
+    p_str(" bytes, ");
+    p_u32(joints);
+    p_str(" joints; a truncated copy refused");
+    p_nl();
+
+    /* The same geometry without the joint corrections. */
+    kc_joint_row rows[KC_MAX_JOINTS];
+    kc_frame base;
+    float tool[3];
+    must(kc_robot_rows(&diagnosed, rows, &base, tool), "rows");
+    must(kc_robot_init(&diagnosed_geometry, N, rows, &base, tool), "geometry");
+
+    float worst = 0.0f, tables2 = 0.0f, worst_seed = 0.0f;
+    uint32_t ok = 0;
+    for (int k = 0; k < UR10_POSES; k++) {
+        float q[KC_MAX_JOINTS] = {0}, p[3], g[3];
+        for (int j = 0; j < N; j++) q[j] = UR10_Q_DEG[k][j] * 0.017453292519943295f;
+        kc_target t = {.kind = KC_TARGET_POINT};
+        must(kc_fk_point(&fk, &diagnosed, q, t.xyz_mm), "fk");
+        must(kc_fk_point(&fk, &diagnosed_geometry, q, g), "fk");
+        float d = dist3(g, t.xyz_mm);
+        tables2 += d * d;
+        float seed[KC_MAX_JOINTS] = {0};
+        for (int j = 0; j < N; j++) seed[j] = q[j] + (j % 2 ? 0.2f : -0.2f) * 0.017453292519943295f;
+        must(kc_fk_point(&fk, &diagnosed, seed, p), "fk");
+        worst_seed = maxf(worst_seed, dist3(p, t.xyz_mm));
+        kc_solution s;
+        if (kc_compensate(&diagnosed, &t, seed, 0, &s) == KC_OK) ok++;
+        must(kc_fk_point(&fk, &diagnosed, s.q, p), "fk");
+        worst = maxf(worst, dist3(p, t.xyz_mm));
+        if (k == 0) {
+            diag_target = t;
+            for (int j = 0; j < N; j++) diag_seed[j] = seed[j];
+        }
+    }
+    float tables = sqrt_f32(tables2 / (float)UR10_POSES);
+    check("model.tables", tables > 0.05f);
+    p_str("the joint tables move the tool by ");
+    p_fx(tables, 4);
+    p_str(" mm RMS at the measured poses");
+    p_nl();
+    check("model.compensate", ok == UR10_POSES && worst <= 0.01f && worst_seed > 100.0f * worst);
+    p_u32(ok);
+    p_str(" of ");
+    p_u32(UR10_POSES);
+    p_str(" targets met, worst ");
+    p_fx(worst, 5);
+    p_str(" mm on the model with its tables (seeds off by up to ");
+    p_fx(worst_seed, 3);
+    p_str(" mm)");
+    p_nl();
+}
+
+/* ---- 6. benches ---- */
 
 static void report(const char *name, float insns) {
     p_str("BENCH ");
@@ -622,6 +715,8 @@ static void benches(void) {
     }
     report("compensate_f32", per_call(bench_compensate, 0));
     report("lm_pose_f32", lm_pose_insns);
+    /* One point target from a seed 0.2° off, on the diagnosed model with its joint tables. */
+    report("compensate_tables_f32", per_call(bench_compensate_tables, 0));
 }
 
 int main(void) {
@@ -648,6 +743,7 @@ int main(void) {
     kinematics();
     identify();
     trajectory();
+    diagnosed_model();
     benches();
 
     p_str("STACK ");

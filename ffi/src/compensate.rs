@@ -5,9 +5,9 @@
 
 use crate::handle::{self, handle};
 use crate::robot::{frame_of, kc_robot, rot_of, Arm, Model};
+use crate::KC_NOT_INITIALIZED;
 use crate::{all_finite, array_ref, obj_mut, obj_ref, status, Kc, KC_MAX_JOINTS};
 use crate::{kc_status, KC_COMPENSATE_FAILED, KC_INVALID_ARGUMENT, KC_NOT_FINITE};
-use crate::KC_NOT_INITIALIZED;
 use kinecal::compensate::{
     compensate, nominal_reach, CompensateError, Config, Solution, Status, Target, Tracker,
 };
@@ -300,7 +300,12 @@ pub unsafe extern "C" fn kc_compensate(
 
 /// The target the nominal robot reaches at the command `q`, as a C target.
 #[inline(always)]
-fn sent_of<const N: usize>(model: &Arm<N>, nominal: &Arm<N>, pose: bool, q: &[f32; N]) -> kc_target {
+fn sent_of<const N: usize>(
+    model: &Arm<N>,
+    nominal: &Arm<N>,
+    pose: bool,
+    q: &[f32; N],
+) -> kc_target {
     match nominal_reach(model, nominal, pose, q) {
         Target::Point(p) => kc_target {
             kind: kc_target_kind::KC_TARGET_POINT as u8,

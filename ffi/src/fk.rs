@@ -3,9 +3,9 @@
 
 use crate::handle::{self, handle};
 use crate::robot::{kc_param, kc_robot, param_of, rot_of, Arm, Model, KC_PARAMS_ALL};
+use crate::KC_NOT_INITIALIZED;
 use crate::{array_mut, array_ref, finite, slice_mut, slice_ref, status, Kc};
 use crate::{kc_status, KC_BUFFER_TOO_SMALL, KC_INVALID_ARGUMENT, KC_TOO_MANY_PARAMS};
-use crate::KC_NOT_INITIALIZED;
 use kinecal::model::param::ParamSet;
 use kinecal::{ForwardKinematics, Param};
 use nalgebra::Vector3;
@@ -318,13 +318,7 @@ pub unsafe extern "C" fn kc_fk_jacobian_set(
 /// The Jacobian columns of `set` into the caller's `out_len` floats, for a workspace and a
 /// robot of the same joint count.
 #[inline(always)]
-fn jacobian(
-    ws: &Workspace,
-    robot: &Model,
-    set: &[Param],
-    out: *mut f32,
-    out_len: usize,
-) -> Kc<()> {
+fn jacobian(ws: &Workspace, robot: &Model, set: &[Param], out: *mut f32, out_len: usize) -> Kc<()> {
     match (ws, robot) {
         (Workspace::J6(fk), Model::J6(m)) => columns(fk, m, set, out, out_len),
         (Workspace::J7(fk), Model::J7(m)) => columns(fk, m, set, out, out_len),

@@ -53,7 +53,10 @@ impl Observation<f32, 6> for kc_measurement {
         Vector3::new(self.xyz_mm[0], self.xyz_mm[1], self.xyz_mm[2])
     }
     fn is_valid(&self) -> bool {
-        self.readings::<6>().iter().chain(&self.xyz_mm).all(|v| v.is_finite())
+        self.readings::<6>()
+            .iter()
+            .chain(&self.xyz_mm)
+            .all(|v| v.is_finite())
     }
 }
 
@@ -67,7 +70,10 @@ impl Observation<f32, 7> for kc_measurement {
         Vector3::new(self.xyz_mm[0], self.xyz_mm[1], self.xyz_mm[2])
     }
     fn is_valid(&self) -> bool {
-        self.readings::<7>().iter().chain(&self.xyz_mm).all(|v| v.is_finite())
+        self.readings::<7>()
+            .iter()
+            .chain(&self.xyz_mm)
+            .all(|v| v.is_finite())
     }
 }
 
@@ -254,12 +260,7 @@ pub struct kc_lm {
 }
 
 // Built straight in place, no stack copy of the solver; an `Err` is never tagged initialised.
-handle!(
-    kc_lm,
-    KC_LM_SIZE,
-    Solvers<KC_LM_MAX_PARAMS>,
-    0x4c4c_4c4c
-);
+handle!(kc_lm, KC_LM_SIZE, Solvers<KC_LM_MAX_PARAMS>, 0x4c4c_4c4c);
 
 /// Room for identified parameters in a `kc_lm_full`: every geometric parameter of a 6-joint
 /// arm (`KC_PARAMS_ALL`: 6 base, 5 × 6 row, 3 tool), for a firmware that also fits the base
@@ -474,7 +475,11 @@ unsafe fn lm_snapshot_size<H: Solver<P>, const P: usize>(lm: *const H, size: *mu
     Ok(())
 }
 
-fn save<const N: usize, const P: usize>(lm: &Lm<N, P>, buf: &mut [u8], written: &mut usize) -> Kc<()> {
+fn save<const N: usize, const P: usize>(
+    lm: &Lm<N, P>,
+    buf: &mut [u8],
+    written: &mut usize,
+) -> Kc<()> {
     let cap = buf.len();
     let mut w: &mut [u8] = buf;
     match lm.save(&mut w) {

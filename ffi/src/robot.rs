@@ -4,9 +4,9 @@
 
 use crate::handle::{self, handle};
 use crate::{array_mut, array_ref, finite, obj_mut, obj_ref, slice_mut, status, Kc};
-use crate::{KC_JOINTS, KC_MAX_JOINTS};
 use crate::{kc_status, KC_BUFFER_TOO_SMALL, KC_INVALID_ARGUMENT, KC_INVALID_ROBOT};
 use crate::{slice_ref, KC_MODEL_INVALID, KC_NOT_FINITE};
+use crate::{KC_JOINTS, KC_MAX_JOINTS};
 use kinecal::io::model_blob::{self, BlobError};
 use kinecal::model::param::ParamSet;
 use kinecal::{Frame, Joint, Param, Robot, RobotError};

@@ -9,6 +9,7 @@
 //! writes exactly ([`commands`]). Errors keep the command line's one-line reasons: refused
 //! input raises `kinecal.RefusedError` (a `ValueError`), anything else `kinecal.KinecalError`.
 
+mod cartesian;
 mod commands;
 mod data;
 mod robot;
@@ -53,5 +54,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(data::write_csv, m)?)?;
     m.add_function(wrap_pyfunction!(commands::identify, m)?)?;
     m.add_function(wrap_pyfunction!(commands::run, m)?)?;
+    m.add_function(wrap_pyfunction!(cartesian::compensate_cartesian, m)?)?;
     Ok(())
 }

@@ -4,7 +4,9 @@
 //! Targets file: `q1`…`qN` (the seed: the controller's nominal joints, degrees), `x`,`y`,`z`
 //! (target point, mm, measurement frame), optionally `rx`,`ry`,`rz` (degrees, fixed-axis
 //! roll/pitch/yaw of the tool orientation) for a full pose target. Output: `q1`…`qN` in the
-//! angle unit of the targets, `status`, `error_mm`, `error_deg`.
+//! angle unit of the targets, `status`, `error_mm`, `error_deg`. With `--robot NOMINAL
+//! --cartesian`: instead of joints, the targets to send to a controller that keeps the nominal
+//! kinematics (`x`, `y`, `z`[, `rx`, `ry`, `rz`] in the targets' units, `status`).
 
 use crate::compensation::{Job, Settings};
 use crate::formats::units::UnitArgs;
@@ -34,6 +36,15 @@ pub struct Args {
     /// Remaining model error (mm; orientation scaled by the reach) above which a target fails.
     #[arg(long, default_value_t = 0.01)]
     pub accept_mm: f64,
+    /// The nominal robot (TOML) whose kinematics the controller keeps: with --cartesian.
+    #[arg(long)]
+    pub robot: Option<PathBuf>,
+    /// Write, instead of joint commands, the point (and orientation for pose targets) that the
+    /// nominal robot (--robot), placed at the model's [base], reaches at the compensated joints:
+    /// the targets to send to a controller that keeps its nominal model (columns x, y, z[, rx,
+    /// ry, rz] in the targets' units, then status).
+    #[arg(long, requires = "robot")]
+    pub cartesian: bool,
     /// Rows are a trajectory: warm-start each from the previous row's correction.
     #[arg(long)]
     pub stream: bool,
@@ -61,12 +72,18 @@ impl Args {
                 f32: self.f32,
             },
             units: self.units.clone(),
+            cartesian: self.cartesian.then(|| self.robot.clone()).flatten(),
         }
     }
 }
 
 /// Runs the subcommand: writes the joint commands and returns the summary.
 pub fn run(args: &Args) -> anyhow::Result<CompensateReport> {
+    if args.robot.is_some() && !args.cartesian {
+        crate::refuse!(
+            "--robot names the nominal robot of --cartesian: add --cartesian, or drop --robot for joint commands"
+        );
+    }
     let r = crate::compensation::run(&args.job())?;
     if !r.base_known {
         eprintln!(

@@ -11,6 +11,11 @@
 //! radians with 11), so the controller gets its own unit back; `status` (`ok`, `singular`,
 //! `unreachable`, `limited`, `invalid`); and the model's remaining error at the command in the
 //! units its column names say (`error_mm`, `error_deg`).
+//!
+//! With a nominal robot ([`Job::cartesian`]): instead of joints, the target to send to a
+//! controller that keeps its nominal kinematics, [`kinecal::compensate::nominal_reach`] at the
+//! command: `x`,`y`,`z` (and `rx`,`ry`,`rz` for pose targets) in the targets' units, then
+//! `status`; a row that failed keeps its target.
 
 use crate::formats::loading::load_targets;
 use crate::formats::robot_file::RobotFile;
@@ -18,7 +23,7 @@ use crate::formats::units::{AngleUnit, UnitArgs};
 use crate::reports::compensate::CompensateReport;
 use crate::with_joints;
 use anyhow::{anyhow, bail};
-use kinecal::compensate::{compensate, Config, Solution, Status, Target, Tracker};
+use kinecal::compensate::{compensate, nominal_reach, Config, Solution, Status, Target, Tracker};
 use kinecal::{Frame, Real, Robot};
 use nalgebra::Vector3;
 use std::fmt::Write as _;
@@ -65,6 +70,9 @@ pub struct Job {
     pub settings: Settings,
     /// Units of the targets file and of the joint commands written.
     pub units: UnitArgs,
+    /// The nominal robot (robot TOML) of a controller that keeps its kinematics: the output is
+    /// then the targets to send it instead of joint commands.
+    pub cartesian: Option<PathBuf>,
 }
 
 impl Job {
@@ -80,6 +88,7 @@ impl Job {
             out: out.into(),
             settings: Settings::default(),
             units: UnitArgs::default(),
+            cartesian: None,
         }
     }
 }
@@ -87,14 +96,14 @@ impl Job {
 /// Compensates every target of `job.targets` with the model `job.model` and writes the joint
 /// commands to `job.out` (never over an input); the summary.
 pub fn run(job: &Job) -> anyhow::Result<CompensateReport> {
-    crate::output::atomic::refuse_overwriting_inputs(
-        "--out",
-        &job.out,
-        &[
-            ("model", job.model.as_path()),
-            ("targets", job.targets.as_path()),
-        ],
-    )?;
+    let mut inputs = vec![
+        ("model", job.model.as_path()),
+        ("targets", job.targets.as_path()),
+    ];
+    if let Some(n) = &job.cartesian {
+        inputs.push(("robot", n.as_path()));
+    }
+    crate::output::atomic::refuse_overwriting_inputs("--out", &job.out, &inputs)?;
     let file = RobotFile::load(&job.model)?;
     let n = file.joint_count();
     with_joints!(n, N => compensate_with_joints::<N>(job, &file))
@@ -119,6 +128,24 @@ fn compensate_with_joints<const N: usize>(
     crate::check_positive("--max-step-deg", settings.max_step_deg, 180.0)?;
     crate::check_positive("--accept-mm", settings.accept_mm, 1000.0)?;
     crate::check_count("--iterations", usize::from(settings.iterations), 1, 255)?;
+    let nominal = match &args.cartesian {
+        None => None,
+        Some(path) => {
+            let f = RobotFile::load(path)?;
+            if f.joint_count() != N {
+                crate::refuse!(
+                    "{}: the nominal robot has {} joints, the model {}: --robot must be the controller's model of the same arm",
+                    path.display(),
+                    f.joint_count(),
+                    N
+                );
+            }
+            Some(
+                f.to_robot::<N>()
+                    .map_err(|e| anyhow!("{}: {e}", path.display()))?,
+            )
+        }
+    };
     let rows = read_targets::<N>(&args.targets, &args.units, &robot)?;
     if rows.is_empty() {
         crate::refuse!(
@@ -167,8 +194,20 @@ fn compensate_with_joints<const N: usize>(
         AngleUnit::Deg => 9,
         AngleUnit::Rad => 11,
     };
-    let head: Vec<String> = (1..=N).map(|i| format!("q{i}")).collect();
-    let _ = writeln!(csv, "{},status,error_mm,error_deg", head.join(","));
+    if let Some(nominal) = &nominal {
+        write_cartesian(
+            &mut csv,
+            &robot,
+            nominal,
+            &rows,
+            &results,
+            &args.units,
+            poses > 0,
+        );
+    } else {
+        let head: Vec<String> = (1..=N).map(|i| format!("q{i}")).collect();
+        let _ = writeln!(csv, "{},status,error_mm,error_deg", head.join(","));
+    }
     let mut counts = std::collections::BTreeMap::<&str, usize>::new();
     let (mut ok_err, mut max_corr, mut sum_corr2, mut ncorr) = (Vec::new(), 0.0f64, 0.0f64, 0usize);
     for (row, (status, sol)) in rows.iter().zip(&results) {
@@ -176,13 +215,15 @@ fn compensate_with_joints<const N: usize>(
         let q = sol
             .map(|s| s.q)
             .unwrap_or(std::array::from_fn(|j| row.seed[j]));
-        for v in q {
-            let _ = write!(csv, "{:.decimals$},", angle.from_deg(v.to_degrees()));
-        }
         let (e, w) = sol
             .map(|s| (s.position_error, s.orientation_error.to_degrees()))
             .unwrap_or((f64::NAN, f64::NAN));
-        let _ = writeln!(csv, "{},{},{}", status.as_str(), fmt_num(e), fmt_num(w));
+        if nominal.is_none() {
+            for v in q {
+                let _ = write!(csv, "{:.decimals$},", angle.from_deg(v.to_degrees()));
+            }
+            let _ = writeln!(csv, "{},{},{}", status.as_str(), fmt_num(e), fmt_num(w));
+        }
         if *status == Status::Ok {
             ok_err.push(e);
         }
@@ -235,7 +276,52 @@ fn compensate_with_joints<const N: usize>(
         effects: robot.effects().len(),
         base_known: file.base_known(),
         targets_file: args.targets.display().to_string(),
+        cartesian_nominal: args.cartesian.as_ref().map(|p| p.display().to_string()),
     })
+}
+
+/// The `--cartesian` output: per row the target to send to a controller with the `nominal`
+/// kinematics (where the nominal robot, placed at the model's base, puts the tool at the
+/// compensated command), in the targets' units; a failed row keeps its target.
+fn write_cartesian<const N: usize, const V: usize, const W: usize>(
+    csv: &mut String,
+    model: &Robot<f64, N, V>,
+    nominal: &Robot<f64, N, W>,
+    rows: &[Row],
+    results: &[(Status, Option<Solution<f64, N>>)],
+    units: &UnitArgs,
+    poses: bool,
+) {
+    let per_mm = 1.0 / units.length().mm_per_unit();
+    let angle = units.angle();
+    let _ = writeln!(csv, "x,y,z,{}status", if poses { "rx,ry,rz," } else { "" });
+    for (row, (status, sol)) in rows.iter().zip(results) {
+        let (p, rpy) = match (status, sol) {
+            (Status::Ok, Some(s)) => match nominal_reach(model, nominal, row.rpy.is_some(), &s.q) {
+                Target::Pose(f) => (f.o, Some(f.rpy())),
+                Target::Point(p) => (p, None),
+            },
+            _ => (row.point, row.rpy),
+        };
+        for v in p.iter() {
+            let _ = write!(csv, "{},", v * per_mm);
+        }
+        if poses {
+            for a in rpy.unwrap_or([f64::NAN; 3]) {
+                let _ = write!(csv, "{},", fmt_plain(angle.from_deg(a.to_degrees())));
+            }
+        }
+        let _ = writeln!(csv, "{}", status.as_str());
+    }
+}
+
+/// A number in full precision (shortest round-trip form), empty when not finite.
+fn fmt_plain(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v}")
+    } else {
+        String::new()
+    }
 }
 
 fn fmt_num(v: f64) -> String {

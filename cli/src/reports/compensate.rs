@@ -46,6 +46,9 @@ pub struct CompensateReport {
     /// The targets file (text only).
     #[serde(skip)]
     pub targets_file: String,
+    /// `--cartesian`: the nominal robot file whose kinematics the controller keeps (the output
+    /// then holds the targets to send it: x, y, z[, rx, ry, rz]).
+    pub cartesian_nominal: Option<String>,
 }
 
 impl super::Report for CompensateReport {
@@ -97,6 +100,12 @@ impl fmt::Display for CompensateReport {
             "{:.2} µs per target ({})",
             self.microseconds_per_target, self.precision
         )?;
+        if let Some(n) = &self.cartesian_nominal {
+            writeln!(
+                f,
+                "targets to send to a controller with the nominal kinematics of {n} (x, y, z[, rx, ry, rz])"
+            )?;
+        }
         writeln!(f, "wrote {}", self.out)
     }
 }

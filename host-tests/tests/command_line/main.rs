@@ -5,6 +5,7 @@
 mod common;
 
 mod atomic_out;
+mod cartesian;
 mod cli_check_simulate;
 mod cli_hardening;
 mod couplings;

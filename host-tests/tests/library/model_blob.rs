@@ -358,7 +358,9 @@ fn c_client_matches_f64<const N: usize, const V: usize>(
         truth.push(p);
     }
     let run = {
-        let _one = kinecal_host::c_abi::C_CLIENT.lock().unwrap_or_else(|e| e.into_inner());
+        let _one = kinecal_host::c_abi::C_CLIENT
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
         kinecal_host::c_abi::model_test(&blob, N, &q, &seeds, &targets)
     };
     assert_eq!(run.status, 0, "C client failed at step {}", -run.status);
@@ -445,7 +447,10 @@ from = 2
 ratio = 0.5
 "#
     );
-    let model = RobotFile::parse(&text, "7").unwrap().to_robot::<7>().unwrap();
+    let model = RobotFile::parse(&text, "7")
+        .unwrap()
+        .to_robot::<7>()
+        .unwrap();
     assert_eq!(model.effects().len(), 2);
     // Elbow (joint 4) and wrist (joint 6) bent: away from the 7R's singularities.
     let ranges = [
@@ -499,11 +504,16 @@ fn nominal_targets_bring_the_calibrated_robot_to_the_target() {
             ][j];
             rng.random_range(range.0..range.1)
         });
-        // Poses where the controller's nominal IK is singular are no test of the route: the
-        // nominal robot's pose at the sampled readings must solve as a well-conditioned target.
+        // Poses where the controller's nominal IK or the model's compensation is singular are no
+        // test of the route: both robots' poses at the sampled readings must solve as
+        // well-conditioned targets.
         fk.compute(&placed, &qt);
         let own = Target::Pose(fk.tool_pose(&placed));
-        if compensate(&placed, &own, &qt, &cfg).is_err() {
+        fk.compute(&model, &qt);
+        let modelled = Target::Pose(fk.tool_pose(&model));
+        if compensate(&placed, &own, &qt, &cfg).is_err()
+            || compensate(&model, &modelled, &qt, &cfg).is_err()
+        {
             skipped += 1;
             assert!(skipped <= 10, "too many singular samples");
             continue;
@@ -531,4 +541,88 @@ fn nominal_targets_bring_the_calibrated_robot_to_the_target() {
     assert!(moved > 0.1, "the corrections are real ({moved} mm)");
     assert!(worst < 0.01, "{worst} mm");
     assert!(worst_point < 1e-5, "{worst_point} rad");
+}
+
+/// The C route (`kc_compensate_cartesian`, float): for a diagnosed model loaded from its binary
+/// model and the nominal robot from its own, the sent points fed to the nominal robot's inverse
+/// kinematics (the library's compensation on the nominal robot at the model's base, in f64)
+/// bring the calibrated robot to the targets within 0.01 mm.
+#[test]
+fn c_cartesian_route_brings_the_calibrated_robot_to_the_targets() {
+    use kinecal::compensate::{compensate, Config, Target};
+    let file = RobotFile::parse(
+        &format!("{}{DIAGNOSED}", crate::common::ER20_TILTED_PLACED),
+        "t",
+    )
+    .unwrap();
+    let model = file.to_robot::<6>().unwrap();
+    // The controller's nominal model reads joint 3 as the model does (the coupling is the
+    // controller's convention, not a calibration result).
+    let nominal_text = format!(
+        "{}\n[[couplings]]\njoint = 3\nfrom = 2\nratio = 1.0\n",
+        crate::common::ER20_PLACED
+    );
+    let mut nominal_file = RobotFile::parse(&nominal_text, "n").unwrap();
+    nominal_file.base = None;
+    let nominal = nominal_file.to_robot::<6>().unwrap();
+    let mut placed = nominal.clone();
+    placed.set_base(*model.base()).unwrap();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(35);
+    let mut fk = ForwardKinematics::<f64, 6>::new();
+    let (mut seeds, mut targets, mut goals) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..40 {
+        let qt: [f64; 6] = std::array::from_fn(|j| {
+            let r = [
+                (-1.5, 1.5),
+                (-1.2, -0.2),
+                (0.3, 1.2),
+                (-1.5, 1.5),
+                (0.5, 1.4),
+                (-1.5, 1.5),
+            ][j];
+            rng.random_range(r.0..r.1)
+        });
+        let p = fk.compute(&model, &qt).map(|v| v as f32 as f64);
+        targets.extend(p.iter().map(|v| *v as f32));
+        let seed: [f32; 6] =
+            std::array::from_fn(|j| (qt[j] + rng.random_range(-0.005..0.005)) as f32);
+        seeds.extend(seed);
+        goals.push((seed.map(f64::from), p));
+    }
+    let sent = {
+        let _one = kinecal_host::c_abi::C_CLIENT
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        kinecal_host::c_abi::model_cartesian(
+            &blob_of(&model),
+            &blob_of(&nominal),
+            6,
+            &seeds,
+            &targets,
+        )
+    }
+    .unwrap_or_else(|s| panic!("C route failed at step {}", -s));
+    let cfg = Config::<f64> {
+        iterations: 30,
+        ..Config::default()
+    };
+    let (mut worst, mut moved) = (0.0f64, 0.0f64);
+    for (i, (seed, goal)) in goals.iter().enumerate() {
+        let p = Vector3::new(
+            sent[3 * i] as f64,
+            sent[3 * i + 1] as f64,
+            sent[3 * i + 2] as f64,
+        );
+        moved = moved.max((p - goal).norm());
+        let q = compensate(&placed, &Target::Point(p), seed, &cfg)
+            .expect("nominal IK")
+            .q;
+        worst = worst.max((fk.compute(&model, &q) - goal).norm());
+    }
+    println!(
+        "C Cartesian route: sent points up to {moved:.3} mm from the targets; the calibrated robot \
+         at the nominal IK of the sent points: worst {worst:.2e} mm"
+    );
+    assert!(moved > 0.1, "the corrections are real ({moved} mm)");
+    assert!(worst < 0.01, "{worst} mm");
 }

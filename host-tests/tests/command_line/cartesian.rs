@@ -1,0 +1,174 @@
+//! `kinecal compensate --robot NOMINAL --cartesian`: the targets to send to a controller that
+//! keeps its nominal kinematics. Fed to the nominal robot's inverse kinematics (the library's
+//! compensation on the nominal robot placed at the model's base, run to convergence), each sent
+//! target brings the calibrated robot (geometry, effects, coupling) to the original target.
+
+use crate::common::{json_of, kinecal, kinecal_ok, s, write, ER20_PLACED, ER20_TILTED_PLACED};
+use kinecal::compensate::{compensate, Config, Target};
+use kinecal::{ForwardKinematics, Frame};
+use kinecal_cli::formats::robot_file::RobotFile;
+use rand::{RngExt, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+/// The calibrated model: the tilted arm with a joint table, a cyclic term and a compliance.
+const EFFECTS: &str = r#"
+[[effects]]
+kind = "joint-table"
+joint = 2
+step_deg = 10.0
+start_deg = -170.0
+values = [0.0004, -0.0003, 0.0005, 0.0002, -0.0004, 0.0001, 0.0003, -0.0002, 0.0004, 0.0]
+[[effects]]
+kind = "joint-cyclic"
+joint = 4
+values = [0.0006, -0.0003]
+[[effects]]
+kind = "joint-compliance"
+joint = 1
+values = [0.0008]
+"#;
+
+/// Bent-arm readings (rad), away from the wrist and stretched singularities.
+const RANGES: [(f64, f64); 6] = [
+    (-1.5, 1.5),
+    (-1.2, -0.2),
+    (0.3, 1.2),
+    (-1.5, 1.5),
+    (0.5, 1.4),
+    (-1.5, 1.5),
+];
+
+fn cells(line: &str) -> Vec<f64> {
+    line.split(',')
+        .map(|c| c.parse::<f64>().unwrap_or(f64::NAN))
+        .collect()
+}
+
+#[test]
+fn cartesian_targets_through_the_nominal_ik_reach_the_targets_on_the_calibrated_robot() {
+    let dir = tempfile::tempdir().unwrap();
+    let model_text = format!("{ER20_TILTED_PLACED}{EFFECTS}");
+    let model_path = write(dir.path(), "model.toml", &model_text);
+    // The controller's nominal model: no tilt, no effects, and it does not know the base.
+    let mut nominal_file = RobotFile::parse(ER20_PLACED, "n").unwrap();
+    nominal_file.base = None;
+    let nominal_path = dir.path().join("nominal.toml");
+    nominal_file.save(&nominal_path).unwrap();
+
+    let model = RobotFile::parse(&model_text, "m")
+        .unwrap()
+        .to_robot::<6>()
+        .unwrap();
+    assert_eq!(model.effects().len(), 3);
+    // The nominal robot where the controller's robot stands (the model's base).
+    let mut placed = nominal_file.to_robot::<6>().unwrap();
+    placed.set_base(*model.base()).unwrap();
+
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(41);
+    let mut fk = ForwardKinematics::<f64, 6>::new();
+    let (mut points, mut poses) = (String::new(), String::new());
+    let head = "q1,q2,q3,q4,q5,q6,x,y,z";
+    points.push_str(&format!("{head}\n"));
+    poses.push_str(&format!("{head},rx,ry,rz\n"));
+    let mut goals = Vec::new();
+    for _ in 0..40 {
+        let qt: [f64; 6] = std::array::from_fn(|j| rng.random_range(RANGES[j].0..RANGES[j].1));
+        fk.compute(&model, &qt);
+        let goal = fk.tool_pose(&model);
+        let seed: [f64; 6] = std::array::from_fn(|j| qt[j] + rng.random_range(-0.005..0.005));
+        let seed_deg: Vec<String> = seed.iter().map(|v| format!("{}", v.to_degrees())).collect();
+        let xyz = format!("{},{},{}", goal.o.x, goal.o.y, goal.o.z);
+        let rpy = goal.rpy().map(|a| format!("{}", a.to_degrees())).join(",");
+        points.push_str(&format!("{},{xyz}\n", seed_deg.join(",")));
+        poses.push_str(&format!("{},{xyz},{rpy}\n", seed_deg.join(",")));
+        goals.push((seed, goal));
+    }
+    let cfg = Config::<f64> {
+        iterations: 30,
+        ..Config::default()
+    };
+    for (name, text, pose) in [("points", &points, false), ("poses", &poses, true)] {
+        let targets = write(dir.path(), &format!("{name}.csv"), text);
+        let out = dir.path().join(format!("{name}-sent.csv"));
+        let run = kinecal_ok(&[
+            "compensate",
+            "--model",
+            s(&model_path),
+            "--targets",
+            s(&targets),
+            "--out",
+            s(&out),
+            "--robot",
+            s(&nominal_path),
+            "--cartesian",
+            "--json",
+        ]);
+        let report = json_of(&run);
+        assert_eq!(report["ok"], 40, "{report}");
+        let sent = std::fs::read_to_string(&out).unwrap();
+        let mut lines = sent.lines();
+        let want_head = if pose {
+            "x,y,z,rx,ry,rz,status"
+        } else {
+            "x,y,z,status"
+        };
+        assert_eq!(lines.next(), Some(want_head));
+        let (mut worst, mut worst_rad, mut moved) = (0.0f64, 0.0f64, 0.0f64);
+        for ((seed, goal), line) in goals.iter().zip(lines) {
+            let v = cells(line);
+            assert!(line.ends_with(",ok"), "{line}");
+            let p = nalgebra::Vector3::new(v[0], v[1], v[2]);
+            moved = moved.max((p - goal.o).norm());
+            // The controller: its nominal inverse kinematics of the sent target.
+            let target = if pose {
+                let rpy = [v[3], v[4], v[5]].map(f64::to_radians);
+                Target::Pose(Frame::from_xyz_rpy([p.x, p.y, p.z], rpy))
+            } else {
+                Target::Point(p)
+            };
+            let q = compensate(&placed, &target, seed, &cfg)
+                .expect("nominal IK of the sent target")
+                .q;
+            fk.compute(&model, &q);
+            let reached = fk.tool_pose(&model);
+            worst = worst.max((reached.o - goal.o).norm());
+            if pose {
+                let e = kinecal::model::frame::orientation_error(&reached, goal).norm();
+                worst_rad = worst_rad.max(e);
+            }
+        }
+        println!(
+            "--cartesian {name}: sent targets up to {moved:.3} mm from the targets; the calibrated \
+             robot at the nominal IK of the sent targets: worst {worst:.2e} mm, {worst_rad:.2e} rad"
+        );
+        assert!(moved > 0.1, "the corrections are real ({moved} mm)");
+        assert!(worst < 0.01, "{name}: {worst} mm");
+        assert!(worst_rad < 1e-5, "{name}: {worst_rad} rad");
+    }
+}
+
+#[test]
+fn robot_without_cartesian_and_cartesian_without_robot_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = write(dir.path(), "model.toml", ER20_TILTED_PLACED);
+    let targets = write(
+        dir.path(),
+        "t.csv",
+        "q1,q2,q3,q4,q5,q6,x,y,z\n0,-40,50,0,60,0,900,0,900\n",
+    );
+    let out = dir.path().join("o.csv");
+    let base = [
+        "compensate",
+        "--model",
+        s(&model),
+        "--targets",
+        s(&targets),
+        "--out",
+        s(&out),
+    ];
+    let r = kinecal(&[&base[..], &["--robot", s(&model)]].concat());
+    assert_eq!(r.status.code(), Some(2), "{r:?}");
+    let r = kinecal(&[&base[..], &["--cartesian"]].concat());
+    assert_ne!(r.status.code(), Some(0), "{r:?}");
+    assert!(!out.exists());
+}

@@ -1,0 +1,101 @@
+//! `compensate_cartesian`: the targets to send to a controller that keeps its nominal
+//! kinematics, as `kinecal compensate --robot NOMINAL --cartesian` writes them
+//! ([`kinecal::compensate::nominal_target`], the command line's default settings).
+
+use crate::refused;
+use crate::robot::{array2, model, radians, readings, Robot};
+use kinecal::compensate::{nominal_target, Config, Status, Target};
+use kinecal::Frame;
+use kinecal_cli::with_joints;
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray2, PyArrayMethods};
+use pyo3::prelude::*;
+
+/// Per target: the point (n × 3: x, y, z in mm) or pose (n × 6: and rx, ry, rz, fixed-axis
+/// roll/pitch/yaw in `angle_unit`) to send to a controller with the `nominal` kinematics so
+/// that the robot `model` describes reaches it: where the nominal robot, placed at the model's
+/// base, puts the tool at the compensated command (from the seeds: the controller's nominal
+/// joints, n × N in `angle_unit`). Returns the sent targets (a failed row keeps its target) and
+/// each row's status (`ok`, `singular`, `unreachable`, `limited`, `invalid`).
+#[pyfunction]
+#[pyo3(signature = (model, nominal, seeds, targets, angle_unit = "deg"))]
+pub fn compensate_cartesian<'py>(
+    py: Python<'py>,
+    model: &Robot,
+    nominal: &Robot,
+    seeds: &Bound<'py, PyAny>,
+    targets: &Bound<'py, PyAny>,
+    angle_unit: &str,
+) -> PyResult<(Bound<'py, PyArray2<f64>>, Vec<String>)> {
+    let rad = radians(angle_unit)?;
+    let (seeds, _) = array2(py, seeds, "seeds")?;
+    let (targets, _) = array2(py, targets, "targets")?;
+    let seeds = seeds.readonly();
+    let targets = targets.readonly();
+    let t = targets.as_array();
+    let pose = match t.ncols() {
+        3 => false,
+        6 => true,
+        k => {
+            return Err(refused(format!(
+                "targets: {k} columns; give x, y, z (mm) or x, y, z, rx, ry, rz"
+            )))
+        }
+    };
+    let n = model.file.joint_count();
+    if nominal.file.joint_count() != n {
+        return Err(refused(format!(
+            "nominal: {} joints, the model {n}: give the controller's model of the same arm",
+            nominal.file.joint_count()
+        )));
+    }
+    let to_rad = |a: f64| if rad { a } else { a.to_radians() };
+    let from_rad = |a: f64| if rad { a } else { a.to_degrees() };
+    let r: PyResult<(Array2<f64>, Vec<String>)> = with_joints!(n, N => {
+        let m = model::<N>(&model.file).map_err(crate::py_err)?;
+        let nom = model::<N>(&nominal.file).map_err(crate::py_err)?;
+        let q = readings::<N>(seeds.as_array(), rad, "seeds")?;
+        if q.len() != t.nrows() {
+            return Err(refused(format!(
+                "seeds: {} rows, targets {}: one seed per target",
+                q.len(),
+                t.nrows()
+            )));
+        }
+        let mut out = Array2::<f64>::zeros((t.nrows(), t.ncols()));
+        let mut status = Vec::with_capacity(t.nrows());
+        for (i, (seed, row)) in q.iter().zip(t.outer_iter()).enumerate() {
+            if row.iter().any(|v| !v.is_finite()) {
+                return Err(refused(format!("targets: row {i} is not finite")));
+            }
+            let p = [row[0], row[1], row[2]];
+            let target = if pose {
+                Target::Pose(Frame::from_xyz_rpy(p, [row[3], row[4], row[5]].map(to_rad)))
+            } else {
+                Target::Point(nalgebra::Vector3::from(p))
+            };
+            let r = nominal_target(&m, &nom, &target, seed, &Config::default());
+            let sent = match &r {
+                Ok((sent, _)) => match sent {
+                    Target::Pose(f) => {
+                        let rpy = f.rpy().map(from_rad);
+                        vec![f.o.x, f.o.y, f.o.z, rpy[0], rpy[1], rpy[2]]
+                    }
+                    Target::Point(v) => vec![v.x, v.y, v.z],
+                },
+                Err(_) => row.to_vec(),
+            };
+            for (o, v) in out.row_mut(i).iter_mut().zip(sent) {
+                *o = v;
+            }
+            let st = match &r {
+                Ok(_) => Status::Ok,
+                Err(e) => e.status(),
+            };
+            status.push(st.as_str().to_string());
+        }
+        Ok((out, status))
+    });
+    let (out, status) = r?;
+    Ok((out.into_pyarray(py), status))
+}

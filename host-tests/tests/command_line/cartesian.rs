@@ -71,10 +71,22 @@ fn cartesian_targets_through_the_nominal_ik_reach_the_targets_on_the_calibrated_
     points.push_str(&format!("{head}\n"));
     poses.push_str(&format!("{head},rx,ry,rz\n"));
     let mut goals = Vec::new();
-    for _ in 0..40 {
+    let mut skipped = 0;
+    while goals.len() < 40 {
         let qt: [f64; 6] = std::array::from_fn(|j| rng.random_range(RANGES[j].0..RANGES[j].1));
+        // Poses where the model's compensation or the nominal IK is singular are no test of
+        // the route: both robots' poses at the sampled readings must solve well-conditioned.
+        fk.compute(&placed, &qt);
+        let own = Target::Pose(fk.tool_pose(&placed));
         fk.compute(&model, &qt);
         let goal = fk.tool_pose(&model);
+        if compensate(&placed, &own, &qt, &Config::default()).is_err()
+            || compensate(&model, &Target::Pose(goal), &qt, &Config::default()).is_err()
+        {
+            skipped += 1;
+            assert!(skipped <= 10, "too many singular samples");
+            continue;
+        }
         let seed: [f64; 6] = std::array::from_fn(|j| qt[j] + rng.random_range(-0.005..0.005));
         let seed_deg: Vec<String> = seed.iter().map(|v| format!("{}", v.to_degrees())).collect();
         let xyz = format!("{},{},{}", goal.o.x, goal.o.y, goal.o.z);

@@ -262,7 +262,7 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
             fix: &args.fix,
         },
     )?;
-    enough_poses(ident.len(), params.len(), base_unknown, data_path)?;
+    enough_poses(&ident, params.len(), base_unknown, data_path)?;
     let before = Residuals::of(&nominal, &ident, &valid);
     // The prior: the robot file's `[prior]` (or the defaults) with `--prior` over it; none on
     // what does not start from a file value.
@@ -473,20 +473,34 @@ fn stop_text<const N: usize>(
     }
 }
 
-/// Refuses (exit 2), for every method, data that cannot determine the model: each pose gives
-/// three equations, so `n` poses determine at most `3n` parameters; a base fitted by
+/// Refuses (exit 2), for every method, data that cannot determine the model: each distinct
+/// observation (joint readings and tool point) gives three equations, so `n` of them
+/// determine at most `3n` parameters (a pose repeated adds none); a base fitted by
 /// registration needs at least 3 poses.
-fn enough_poses(
-    poses: usize,
+fn enough_poses<const N: usize>(
+    ident: &[kinecal::Measurement<f64, N>],
     params: usize,
     base_unknown: bool,
     data: &std::path::Path,
 ) -> anyhow::Result<()> {
+    let mut keys: Vec<([u64; N], u8)> = ident
+        .iter()
+        .map(|m| (m.q.map(f64::to_bits), m.tool))
+        .collect();
+    keys.sort_unstable();
+    keys.dedup();
+    let (poses, distinct) = (ident.len(), keys.len());
     let need = params.div_ceil(3).max(if base_unknown { 3 } else { 1 });
-    if poses < need {
+    if distinct < need {
+        let repeated = if distinct < poses {
+            format!(" ({distinct} distinct: the others repeat them)")
+        } else {
+            String::new()
+        };
         crate::refuse!(
-            "{}: {poses} poses to identify {params} parameters from; at least {need} are needed \
-             (3 equations per pose{}): measure more poses, or hold parameters with --fix",
+            "{}: {poses} poses{repeated} to identify {params} parameters from; at least {need} \
+             distinct ones are needed (3 equations per pose{}): measure more poses, or hold \
+             parameters with --fix",
             data.display(),
             if base_unknown {
                 ", and 3 poses for the base estimate"

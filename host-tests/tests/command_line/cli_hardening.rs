@@ -369,3 +369,45 @@ fn messages_escape_control_characters_and_stay_short() {
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(json["error"].as_str().unwrap().chars().count() < 1100);
 }
+
+#[test]
+fn malformed_sweeps_and_working_configurations_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = write(dir.path(), "robot.toml", ER20_PLACED);
+    // Two points cannot give a circle: a data problem (exit 2), not an internal error.
+    let sweeps = write(
+        dir.path(),
+        "sweeps.csv",
+        "q1,q2,q3,q4,q5,q6,x,y,z,sweep\n0,0,0,0,0,0,1,2,3,1\n1,0,0,0,0,0,1,2,3,1\n",
+    );
+    let out = kinecal(&["frames", "--robot", s(&robot), "--data", s(&sweeps)]);
+    assert_refused(&out, "at least 4 per sweep");
+    let no_column = write(
+        dir.path(),
+        "plain.csv",
+        "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1,2,3\n",
+    );
+    let out = kinecal(&["frames", "--robot", s(&robot), "--data", s(&no_column)]);
+    assert_refused(&out, "no `sweep` column");
+    let out_csv = dir.path().join("plan.csv");
+    for (work, names) in [
+        ("1e308,0,0,0,0,0", "no joint angle"),
+        ("0,0,0", "expected 6"),
+        ("nan,0,0,0,0,0", "no joint angle"),
+        ("x,0,0,0,0,0", "not a number"),
+    ] {
+        let out = kinecal(&[
+            "plan",
+            "--robot",
+            s(&robot),
+            "--poses",
+            "30",
+            "--criterion",
+            "d",
+            &format!("--work={work}"),
+            "--out",
+            s(&out_csv),
+        ]);
+        assert_refused(&out, names);
+    }
+}

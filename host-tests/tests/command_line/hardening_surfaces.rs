@@ -412,6 +412,32 @@ fn report_refuses_diagnose_figures_out_of_range() {
         );
         assert!(!out.exists());
     }
+    // 20,000 findings (a page of hundreds of megabytes): more than a model holds.
+    let one =
+        "{\"effect\":\"joint-scale\",\"joint\":2,\"values\":[0.001],\"validation_rms_mm\":0.5}";
+    let many = format!(
+        "{{\"baseline_validation_rms_mm\":1,\"final_validation_rms_mm\":0.5,\
+         \"noise_floor_mm\":0.1,\"found\":[{}]}}",
+        vec![one; 20_000].join(",")
+    );
+    let j = write(tmp.path(), "many.json", &many);
+    refused(
+        &[
+            "report",
+            "--robot",
+            s(&robot),
+            "--model",
+            s(&model),
+            "--data",
+            s(&data),
+            "--diagnose",
+            s(&j),
+            "--out",
+            s(&out),
+        ],
+        &["20000 findings", "more than a model holds"],
+    );
+    assert!(!out.exists());
 }
 
 #[test]

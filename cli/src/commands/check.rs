@@ -72,9 +72,7 @@ fn check_with_joints<const N: usize>(
     let hint = if file.couplings.is_empty() {
         file.to_robot::<N>()
             .ok()
-            .and_then(|r| {
-                coupling_hint::detect(&r, &meas, !file.base_known(), file.tool_unknown())
-            })
+            .and_then(|r| coupling_hint::detect(&r, &meas, !file.base_known(), file.tool_unknown()))
     } else {
         None
     };

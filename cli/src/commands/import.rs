@@ -101,9 +101,9 @@ pub fn run(args: &Args) -> anyhow::Result<ImportReport> {
         .save(&args.out)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
     let base = base.unwrap_or(crate::formats::robot_file::BaseSpec {
-            xyz_mm: [0.0; 3],
-            rpy_deg: [0.0; 3],
-        });
+        xyz_mm: [0.0; 3],
+        rpy_deg: [0.0; 3],
+    });
     Ok(ImportReport {
         urdf: path_text(&args.urdf),
         out: path_text(&args.out),

@@ -151,7 +151,10 @@ pub fn pose_errors(path: &Path, title: &str, series: &[(String, Vec<f64>)]) -> a
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(70)
-            .build_cartesian_2d(0.0..n + 1.0, 0.0..legend_headroom(0.0, ymax, series.len(), 500))
+            .build_cartesian_2d(
+                0.0..n + 1.0,
+                0.0..legend_headroom(0.0, ymax, series.len(), 500),
+            )
             .map_err(plot_err)?;
         chart
             .configure_mesh()

@@ -52,7 +52,13 @@ fn er20_plus(dir: &Path, name: &str, more: &str) -> PathBuf {
 fn accepted_robot(robot: &Path, dir: &Path) {
     let out = dir.join("sim.csv");
     kinecal_ok(&[
-        "simulate", "--robot", s(robot), "--poses", "8", "--out", s(&out),
+        "simulate",
+        "--robot",
+        s(robot),
+        "--poses",
+        "8",
+        "--out",
+        s(&out),
     ]);
 }
 
@@ -60,7 +66,10 @@ fn accepted_robot(robot: &Path, dir: &Path) {
 /// the refusal `stderr` says, with `path` standing for the file the page names.
 fn same_message(doc: &str, stderr: &str, named: &str, path: &str) {
     let doc = doc.split_whitespace().collect::<Vec<_>>().join(" ");
-    let doc = doc.strip_prefix("kinecal: ").unwrap_or(&doc).replace(named, path);
+    let doc = doc
+        .strip_prefix("kinecal: ")
+        .unwrap_or(&doc)
+        .replace(named, path);
     let got = stderr.split_whitespace().collect::<Vec<_>>().join(" ");
     assert!(got.contains(&doc), "documented:\n{doc}\nprinted:\n{got}");
 }
@@ -87,7 +96,11 @@ fn csv_example(b: &Block, dir: &Path) {
         .filter(|l| !l.starts_with('#') && !l.starts_with("q1"))
         .collect();
     let real_rows: Vec<&str> = real.lines().skip(1).collect();
-    assert_eq!(rows, real_rows[..rows.len()], "the example is the file's first rows");
+    assert_eq!(
+        rows,
+        real_rows[..rows.len()],
+        "the example is the file's first rows"
+    );
     let mut text = b.text.clone();
     for r in &real_rows[rows.len()..] {
         text.push_str(r);
@@ -96,7 +109,12 @@ fn csv_example(b: &Block, dir: &Path) {
     let data = write(dir, "example.csv", &text);
     let robot = ur10_dir().join("robot.toml");
     let v = crate::common::json_of(&kinecal_ok(&[
-        "check", "--robot", s(&robot), "--data", s(&data), "--json",
+        "check",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(&data),
+        "--json",
     ]));
     assert_eq!(v["poses"].as_u64().unwrap() as usize, real_rows.len());
 }
@@ -143,7 +161,10 @@ fn map_example(b: &Block, dir: &Path) {
     ]);
     assert_eq!(o.status.code(), Some(2));
     let e = stderr(&o);
-    assert!(e.contains("q2"), "only the unlisted columns are missing: {e}");
+    assert!(
+        e.contains("q2"),
+        "only the unlisted columns are missing: {e}"
+    );
 }
 
 /// A `sh` block: `kinecal …` commands (backslash continuations joined), run from the
@@ -151,7 +172,10 @@ fn map_example(b: &Block, dir: &Path) {
 fn shell_example(b: &Block) {
     let joined = b.text.replace("\\\n", " ");
     let mut ran = 0;
-    for line in joined.lines().filter(|l| l.trim_start().starts_with("kinecal ")) {
+    for line in joined
+        .lines()
+        .filter(|l| l.trim_start().starts_with("kinecal "))
+    {
         let words: Vec<&str> = line.split_whitespace().skip(1).collect();
         let o = std::process::Command::new(crate::common::bin())
             .args(&words)
@@ -217,12 +241,12 @@ fn every_example_of_formats_md_runs() {
         let first = b.text.lines().next().unwrap_or("");
         let case = match (b.lang.as_str(), first) {
             ("toml", l) if l.starts_with("name = ") => robot_file_example as fn(&Block, &Path),
-            ("toml", "[[couplings]]") => |b: &Block, d: &Path| {
-                accepted_robot(&er20_plus(d, "coupled.toml", &b.text), d)
-            },
-            ("toml", l) if l.starts_with("[prior]") => |b: &Block, d: &Path| {
-                accepted_robot(&er20_plus(d, "prior.toml", &b.text), d)
-            },
+            ("toml", "[[couplings]]") => {
+                |b: &Block, d: &Path| accepted_robot(&er20_plus(d, "coupled.toml", &b.text), d)
+            }
+            ("toml", l) if l.starts_with("[prior]") => {
+                |b: &Block, d: &Path| accepted_robot(&er20_plus(d, "prior.toml", &b.text), d)
+            }
             ("csv", _) => csv_example,
             ("text", l) if l.contains("look like metres") => metres_message,
             ("toml", l) if l.starts_with("delimiter = ") => map_example,

@@ -14,7 +14,10 @@ fn a_single_named_reflector_is_read_and_its_columns_are_not_extra() {
     // The same rows with the point as reflector `smr`, stated σ and a temperature.
     let text = std::fs::read_to_string(&data).unwrap();
     let mut lines = text.lines().filter(|l| !l.starts_with('#'));
-    let header = lines.next().unwrap().replace(",x,y,z", ",x_smr,y_smr,z_smr");
+    let header = lines
+        .next()
+        .unwrap()
+        .replace(",x,y,z", ",x_smr,y_smr,z_smr");
     assert!(header.contains("x_smr"), "{header}");
     let mut named = format!("{header},sx_mm,sy_mm,sz_mm,temp_c\n");
     for l in lines {
@@ -32,10 +35,20 @@ fn a_single_named_reflector_is_read_and_its_columns_are_not_extra() {
         ),
     );
     let named_check = json_of(&kinecal_ok(&[
-        "check", "--robot", s(&one), "--data", s(&named), "--json",
+        "check",
+        "--robot",
+        s(&one),
+        "--data",
+        s(&named),
+        "--json",
     ]));
     let plain_check = json_of(&kinecal_ok(&[
-        "check", "--robot", s(&robot), "--data", s(&data), "--json",
+        "check",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(&data),
+        "--json",
     ]));
     assert_eq!(named_check["extra_columns"], serde_json::json!(["temp_c"]));
     // The same points: the same nominal error.

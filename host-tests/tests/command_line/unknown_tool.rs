@@ -26,7 +26,14 @@ fn measured(dir: &Path) -> std::path::PathBuf {
         &er20_with_tool(&format!("xyz_mm = [{x:?}, {y:?}, {z:?}]\n")),
     );
     let data = dir.join("data.csv");
-    simulate(&truth, Some(60), Some(0.01), Some(5), &["--geom-errors"], &data);
+    simulate(
+        &truth,
+        Some(60),
+        Some(0.01),
+        Some(5),
+        &["--geom-errors"],
+        &data,
+    );
     data
 }
 
@@ -35,13 +42,15 @@ fn an_unknown_tool_is_started_from_the_data_and_not_suspicious() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let data = measured(d);
-    for (name, line) in [
-        ("word.toml", "xyz_mm = \"unknown\"\n"),
-        ("empty.toml", ""),
-    ] {
+    for (name, line) in [("word.toml", "xyz_mm = \"unknown\"\n"), ("empty.toml", "")] {
         let robot = write(d, name, &er20_with_tool(line));
         let c = json_of(&kinecal_ok(&[
-            "check", "--robot", s(&robot), "--data", s(&data), "--json",
+            "check",
+            "--robot",
+            s(&robot),
+            "--data",
+            s(&data),
+            "--json",
         ]));
         let started = c["tool_started_mm"].as_array().expect("tool_started_mm");
         for (a, t) in started.iter().zip(TRUE_TOOL) {
@@ -49,16 +58,26 @@ fn an_unknown_tool_is_started_from_the_data_and_not_suspicious() {
             assert!((a.as_f64().unwrap() - t).abs() < 10.0, "{name}: {c}");
         }
         let nominal = c["nominal_rms_mm"].as_f64().unwrap();
-        assert!(nominal < 10.0, "{name}: nominal {nominal} mm with the started tool");
+        assert!(
+            nominal < 10.0,
+            "{name}: nominal {nominal} mm with the started tool"
+        );
         let o = kinecal(&[
-            "identify", "--robot", s(&robot), "--data", s(&data), "--json",
+            "identify",
+            "--robot",
+            s(&robot),
+            "--data",
+            s(&data),
+            "--json",
         ]);
         assert!(o.status.success(), "{name}: {}", stderr(&o));
         let v = json_of(&o);
         assert_eq!(v["tool_unknown"], true, "{name}");
         let suspicious = v["suspicious"].as_array().unwrap();
         assert!(
-            !suspicious.iter().any(|p| p.as_str().unwrap().starts_with("tool.")),
+            !suspicious
+                .iter()
+                .any(|p| p.as_str().unwrap().starts_with("tool.")),
             "{name}: {suspicious:?}"
         );
         let before = v["before"]["identification_rms_mm"].as_f64().unwrap();
@@ -91,7 +110,14 @@ fn the_coupling_hint_works_with_an_unknown_tool() {
         &format!("{fanuc}\n[[couplings]]\njoint = 3\nfrom = 2\nratio = 1.0\n"),
     );
     let data = d.join("d.csv");
-    simulate(&coupled, Some(150), Some(0.02), None, &["--geom-errors"], &data);
+    simulate(
+        &coupled,
+        Some(150),
+        Some(0.02),
+        None,
+        &["--geom-errors"],
+        &data,
+    );
     let old = "[tool]\nxyz_mm = [15.0, -10.0, 120.0]\n";
     assert!(fanuc.contains(old));
     let plain = write(
@@ -100,7 +126,12 @@ fn the_coupling_hint_works_with_an_unknown_tool() {
         &fanuc.replace(old, "[tool]\nxyz_mm = \"unknown\"\n"),
     );
     let v = json_of(&kinecal_ok(&[
-        "check", "--robot", s(&plain), "--data", s(&data), "--json",
+        "check",
+        "--robot",
+        s(&plain),
+        "--data",
+        s(&data),
+        "--json",
     ]));
     assert_eq!(v["coupling_hint"]["joint"], 3, "{v}");
     assert_eq!(v["coupling_hint"]["from"], 2, "{v}");

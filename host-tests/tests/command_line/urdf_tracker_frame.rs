@@ -160,6 +160,9 @@ fn an_import_calibrated_in_a_tracker_frame_exports_back_into_its_urdf() {
         assert!(diff < 1e-6, "{folder}: {diff} mm");
         // And that is not the nominal: the calibration went into the file.
         let moved = shape_difference_mm(&points(&nominal, &qs), &points(&reimported, &qs));
-        assert!(moved > 0.05, "{folder}: the export equals the nominal ({moved} mm)");
+        assert!(
+            moved > 0.05,
+            "{folder}: the export equals the nominal ({moved} mm)"
+        );
     }
 }

@@ -9,6 +9,7 @@ use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::reports::identify::{Change, IdentifyReport, ObservationSummary, PointResiduals};
 use crate::{with_joints, VCAP};
 use kinecal::model::param::ParamSet;
+use kinecal::Param;
 use kinecal::{Measurement, Robot};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -253,6 +254,9 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
     for k in 1..nominal.tool_point_count() {
         params.extend((0..3).map(|a| kinecal::Param::ToolPoint(k as u8, a)));
     }
+    if base_unknown {
+        hold_first_row(&mut params);
+    }
     crate::calibration::selection::apply(
         &mut params,
         &nominal,
@@ -270,6 +274,7 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
     let prior_sigma = crate::calibration::prior::sigmas(&prior, &params, |p| {
         (p.is_base() && base_unknown)
             || (p.is_tool_rotation() && tool_axes_unknown)
+            || (is_tool_point(p) && file.tool_unknown())
             || extra.contains(&p) && matches!(p, kinecal::Param::Effect(_))
     });
     let t0 = Instant::now();
@@ -322,6 +327,10 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
     let mut changes = changes(&nominal, &fit, &params, base_unknown);
     for c in changes.iter_mut() {
         if tool_axes_unknown && c.name.starts_with("tool.r") {
+            c.free_start = true;
+        }
+        // Started from the data: no tolerance says how far it may move from a guess.
+        if file.tool_unknown() && ["tool.x", "tool.y", "tool.z"].contains(&c.name.as_str()) {
             c.free_start = true;
         }
     }
@@ -579,6 +588,7 @@ fn report<const N: usize>(
         method: method.id().to_string(),
         n_identification: ident,
         n_validation: valid,
+        tool_unknown: file.tool_unknown(),
         before,
         after,
         iterations: fit.iterations,
@@ -599,4 +609,23 @@ fn report<const N: usize>(
         held_out_worse: None,
         acceptance: None,
     }
+}
+
+/// The first tool point's coordinates (`tool.x`, `tool.y`, `tool.z`).
+fn is_tool_point(p: Param) -> bool {
+    matches!(p, Param::ToolX | Param::ToolY | Param::ToolZ)
+}
+
+/// With the base estimated: the base is a rigid transform before row 1, which row 1's
+/// constant part only repeats (T_1(q) = Rx(alpha)·Tx(a)·Ry(beta)·Rz(theta)·Tz(d)·Rz(q)), so
+/// alpha1, a1, beta1, theta1 and d1 are held at their file values and the base takes what they
+/// would. Row 1 stays the robot's own (an import exports back into its URDF) and the
+/// tracker's frame stays in the base. `--free` estimates them anyway.
+pub fn hold_first_row(params: &mut Vec<Param>) {
+    params.retain(|p| {
+        !matches!(
+            p,
+            Param::Alpha(0) | Param::A(0) | Param::Beta(0) | Param::Theta(0) | Param::D(0)
+        )
+    });
 }

@@ -3,16 +3,13 @@
 //! held-out gap shrink.
 
 use super::inputs::InputArgs;
+use crate::calibration::weights::{self, Weighting};
 use crate::diagnose::linear::squared_errors;
 use crate::diagnose::observations::{fit_all_observations, FullFit, Observations};
-use crate::calibration::weights::{self, Weighting};
 use crate::diagnose::search_weights::search_weights;
 use crate::diagnose::{
     diagnose_with_progress, fit_geometry, observation_params, Config, Diagnosis, Progress,
 };
-use crate::VCAP;
-use kinecal::model::param::ParamSet;
-use kinecal::{Measurement, Robot};
 use crate::formats::observations::{observe, pose_of, ObservationArgs, Observed};
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::output::numfmt::sig;
@@ -20,6 +17,9 @@ use crate::reports::diagnose::ObservationsReport;
 use crate::reports::diagnose::{DiagnoseReport, HoldoutReport};
 use crate::reports::identify::{ObservationSummary, PointResiduals};
 use crate::with_joints;
+use crate::VCAP;
+use kinecal::model::param::ParamSet;
+use kinecal::{Measurement, Robot};
 use std::path::PathBuf;
 
 /// Arguments of `kinecal diagnose` (docs/formats.md, docs/walkthrough.md).
@@ -311,7 +311,11 @@ fn search_observations<const N: usize>(
     observed: &Observed<N>,
     obs: &ObservationArgs,
     poses: (&Observed<N>, &Observed<N>),
-) -> anyhow::Result<(Robot<f64, N, VCAP>, Vec<Measurement<f64, N>>, Vec<Measurement<f64, N>>)> {
+) -> anyhow::Result<(
+    Robot<f64, N, VCAP>,
+    Vec<Measurement<f64, N>>,
+    Vec<Measurement<f64, N>>,
+)> {
     let (mut search, mut held) = (poses.0.all(), poses.1.all());
     let mut start = nominal.clone();
     if !(observed.six_d || observed.sigma || observed.names.len() > 1) || search.is_empty() {

@@ -171,7 +171,11 @@ impl Linearised {
     /// knots, penalised like this.
     pub fn screen(&self, extra: &PoseColumns, m: usize, table: Option<TablePenalty>) -> Vec<f64> {
         let n = self.blocks.len() - 1;
-        debug_assert_eq!(extra.poses(), self.residuals.len(), "one set of columns per block");
+        debug_assert_eq!(
+            extra.poses(),
+            self.residuals.len(),
+            "one set of columns per block"
+        );
         let p = self.p;
         // Per-fold blocks: B = Jᵀ C (p × m), D = Cᵀ C (m × m), e = Cᵀ r.
         let k = self.fold_poses.len();
@@ -181,7 +185,10 @@ impl Linearised {
         // Fold by fold, so that only one fold's blocks are being written at a time.
         for (f, poses) in self.fold_poses.iter().enumerate() {
             let (bf, df, ef) = (b[f].as_mut_slice(), &mut d[f], &mut e[f]);
-            for i in poses.iter().flat_map(|&i| self.blocks[i]..self.blocks[i + 1]) {
+            for i in poses
+                .iter()
+                .flat_map(|&i| self.blocks[i]..self.blocks[i + 1])
+            {
                 let cols = extra.pose(i);
                 let r = &self.residuals[i];
                 for (x, (ci, cv)) in cols.iter().enumerate() {
@@ -348,14 +355,12 @@ impl<const N: usize> PoseKinematics<N> {
             }
             let Some(wo) = *wo else { continue };
             match table {
-                Some(e) => out.push_pose(
-                    table_columns(
-                        e,
-                        fk.q,
-                        fk.reading_rotation_column(robot, e.joint as usize) * wo,
-                        &scale,
-                    ),
-                ),
+                Some(e) => out.push_pose(table_columns(
+                    e,
+                    fk.q,
+                    fk.reading_rotation_column(robot, e.joint as usize) * wo,
+                    &scale,
+                )),
                 None => out.push_pose(params.iter().enumerate().filter_map(|(k, p)| {
                     non_zero(k, fk.rotation_column(robot, *p).ok()? * (wo / scale[k]))
                 })),

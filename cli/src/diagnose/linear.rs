@@ -17,8 +17,8 @@
 
 use crate::compute::dense::{cholesky, cholesky_inverse};
 use kinecal::identify::lm::{observation_cost, PenaltyTerm};
-use kinecal::model::frame::orientation_error;
 use kinecal::model::effects::EffectKind;
+use kinecal::model::frame::orientation_error;
 use kinecal::model::param::{value, Param};
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use nalgebra::{DMatrix, DVector, Vector3};
@@ -200,9 +200,14 @@ impl Problem {
             .unwrap_or_default();
         let weighted = m.weight != Vector3::repeat(1.0);
         let r = m.point - p;
-        self.block_columns(fk, robot, m, cols, |fk, p| fk.column(robot, p).ok(), |fk, j| {
-            fk.reading_column(robot, j)
-        });
+        self.block_columns(
+            fk,
+            robot,
+            m,
+            cols,
+            |fk, p| fk.column(robot, p).ok(),
+            |fk, j| fk.reading_column(robot, j),
+        );
         if weighted {
             for (_, c) in cols.iter_mut() {
                 *c = c.component_mul(&m.weight);

@@ -492,9 +492,8 @@ pub fn observation_poses<const N: usize>(data: &[Measurement<f64, N>]) -> Vec<us
     let mut out = Vec::with_capacity(data.len());
     let mut start = 0;
     for (i, m) in data.iter().enumerate() {
-        let same = i > 0
-            && m.q == data[start].q
-            && !data[start..i].iter().any(|o| o.tool == m.tool);
+        let same =
+            i > 0 && m.q == data[start].q && !data[start..i].iter().any(|o| o.tool == m.tool);
         if !same {
             start = i;
         }

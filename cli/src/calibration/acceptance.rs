@@ -90,7 +90,7 @@ pub fn judge<const N: usize>(
 ) -> Option<Acceptance> {
     let (start, after) = (start_mm?, after_mm?);
     // NaN counts as worse.
-    let worse = !(after <= start + NO_DIFFERENCE_MM);
+    let worse = after.is_nan() || start.is_nan() || after > start + NO_DIFFERENCE_MM;
     let ratio = after / ident_mm.max(f64::MIN_POSITIVE);
     let much_worse = ratio > MUCH_WORSE && after > ident_mm + NO_DIFFERENCE_MM;
     let gaps = outside_ranges(ident, valid);

@@ -83,7 +83,7 @@ pub fn parse_configuration<const N: usize>(text: &str) -> anyhow::Result<[f64; N
             ))
         })?;
         // Beyond the library's angle bound a reading is no joint angle (a unit or typing error).
-        if !(v.to_radians().abs() <= kinecal::model::bounds::MAX_ANGLE) {
+        if v.is_nan() || v.to_radians().abs() > kinecal::model::bounds::MAX_ANGLE {
             crate::refuse!(
                 "--work `{text}`: value {} ({p}°) is no joint angle in degrees: give q1,…,q{N} \
                  in degrees",

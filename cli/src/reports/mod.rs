@@ -108,8 +108,7 @@ pub const MAX_MESSAGE_CHARS: usize = 1000;
 /// quoting hostile input cannot move the cursor, recolour the terminal or fill the screen.
 pub fn terminal_safe(text: &str) -> String {
     let mut out = String::with_capacity(text.len().min(4 * MAX_MESSAGE_CHARS));
-    let mut shown = 0;
-    for c in text.chars() {
+    for (shown, c) in text.chars().enumerate() {
         if shown == MAX_MESSAGE_CHARS {
             let rest = text.chars().count() - shown;
             out.push_str(&format!("… ({rest} more characters)"));
@@ -120,7 +119,6 @@ pub fn terminal_safe(text: &str) -> String {
         } else {
             out.push(c);
         }
-        shown += 1;
     }
     out
 }

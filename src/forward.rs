@@ -82,10 +82,11 @@ pub struct ForwardKinematics<T: Real, const N: usize> {
     /// `None`: at the term's reference temperature. Set by the caller, kept across evaluations.
     pub temp_c: Option<T>,
     /// Length scale `1 + c·(T − T0)` of the last evaluation of a model with a
-    /// thermal-expansion term (1 at its reference temperature; not written for other models).
+    /// thermal-expansion term (1 at its reference temperature or without the term; not written
+    /// for models without value capacity).
     pub expansion: T,
     /// `T − T0` of the last evaluation of a model with a thermal-expansion term, °C (0 without
-    /// a temperature; not written for other models).
+    /// a temperature or without the term; not written for models without value capacity).
     pub delta_t: T,
 }
 
@@ -225,8 +226,12 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
         self.chain(robot, &qg, tool);
         // A model without value capacity (the firmware's) has no term: not even the search.
         if V > 0 {
-            if let Some((_, c, t0)) = effects.thermal() {
-                self.expand(c, t0);
+            match effects.thermal() {
+                Some((_, c, t0)) => self.expand(c, t0),
+                None => {
+                    self.expansion = T::one();
+                    self.delta_t = T::zero();
+                }
             }
         }
         self.point
@@ -254,12 +259,13 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
         self.point = b + (self.point - b) * s;
     }
 
-    /// The length scale the last evaluation applied to `robot`: [`Self::expansion`] when it
-    /// has a thermal-expansion term, else exactly 1 (a model without value capacity folds it
-    /// away, and a workspace last used for another model is not read).
+    /// The length scale the last evaluation applied: [`Self::expansion`], which every
+    /// evaluation of a model with value capacity writes (exactly 1 without a thermal-expansion
+    /// term), so a column does not search the effect list again (the C ABI's Jacobian paid
+    /// ~140 instructions for that); a model without value capacity folds it to 1.
     #[inline(always)]
-    fn length_scale<const V: usize>(&self, robot: &Robot<T, N, V>) -> T {
-        if V > 0 && robot.effects().thermal().is_some() {
+    fn length_scale<const V: usize>(&self, _robot: &Robot<T, N, V>) -> T {
+        if V > 0 {
             self.expansion
         } else {
             T::one()

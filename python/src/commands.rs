@@ -9,8 +9,9 @@ use clap::Parser;
 use kinecal_cli::commands::identify as identify_cmd;
 use kinecal_cli::commands::identify::{Identified, Inputs};
 use kinecal_cli::commands::{dispatch, non_finite_error, Cli, Command};
+use kinecal_cli::formats::loading::accept_dataset;
 use kinecal_cli::formats::observations::observe;
-use kinecal_cli::formats::units::{accept, FileKind};
+use kinecal_cli::formats::units::FileKind;
 use kinecal_cli::reports::Report;
 use kinecal_cli::with_joints;
 use numpy::PyReadonlyArray2;
@@ -71,10 +72,18 @@ fn identify_n<const N: usize>(
 ) -> PyResult<Identified<N>> {
     let file = robot.file.clone();
     let nominal = model::<N>(&file).map_err(py_err)?;
-    // As the command loads a file: the reader's checks, the units check, the observations.
+    // As the command loads a file: the reader's checks, the doors of the command line's own
+    // loader (a stated base, the units, the angle order), the observations. Arrays are in
+    // kinecal's layout: a map describes files.
+    if let Some(m) = &args.input.units.map {
+        return Err(refused(format!(
+            "--map {}: a map says how to read a file; give the arrays in kinecal's columns",
+            m.display()
+        )));
+    }
     let load = |a: &Arrays<'_>, origin: &str| -> PyResult<_> {
         let ds = dataset::<N>(a, origin)?;
-        let ds = accept(
+        let ds = accept_dataset(
             ds,
             origin,
             &args.input.units,

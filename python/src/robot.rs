@@ -267,6 +267,7 @@ impl Robot {
             tool: ToolSpec {
                 xyz_mm: tool_xyz_mm,
                 rpy_deg: tool_rpy_deg,
+                unknown: false,
             },
             tools: Vec::new(),
             base,

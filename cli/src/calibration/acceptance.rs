@@ -11,6 +11,10 @@ use serde::Serialize;
 /// Held-out RMS above this many times the identification RMS draws a warning.
 pub const MUCH_WORSE: f64 = 2.0;
 
+/// Held-out RMS differences below this (mm, a thousandth of a micrometre) are rounding, not
+/// a worse model: noise-free simulated data end at nanometres either way.
+pub const NO_DIFFERENCE_MM: f64 = 1e-6;
+
 /// The verdict on the held-out poses.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Acceptance {
@@ -86,9 +90,9 @@ pub fn judge<const N: usize>(
 ) -> Option<Acceptance> {
     let (start, after) = (start_mm?, after_mm?);
     // NaN counts as worse.
-    let worse = after.partial_cmp(&start) != Some(std::cmp::Ordering::Less) && after != start;
+    let worse = after.is_nan() || start.is_nan() || after > start + NO_DIFFERENCE_MM;
     let ratio = after / ident_mm.max(f64::MIN_POSITIVE);
-    let much_worse = ratio > MUCH_WORSE;
+    let much_worse = ratio > MUCH_WORSE && after > ident_mm + NO_DIFFERENCE_MM;
     let gaps = outside_ranges(ident, valid);
     let message = (worse || much_worse).then(|| {
         use crate::output::numfmt::sig;

@@ -8,7 +8,6 @@
 //! and reports the candidate that explains the data far better than the file as written.
 
 use crate::calibration::{pose_errors, ErrorStats};
-use crate::compute::registration::fit_base;
 use crate::output::numfmt::sig;
 use kinecal::{Measurement, Robot};
 use serde_json::{json, Value};
@@ -67,17 +66,16 @@ impl CouplingHint {
     }
 }
 
-/// RMS (mm) of `robot` on `data`, with the base fitted to the data first when `fit` is set.
+/// RMS (mm) of `robot` on `data`, with the base fitted to the data first when `fit` is set
+/// and the tool point started from them when `tool` is (an unknown tool).
 fn rms_placed<const N: usize, const V: usize>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
     fit: bool,
+    tool: bool,
 ) -> Option<f64> {
     let mut r = robot.clone();
-    if fit {
-        let base = fit_base(&r, data).ok()?;
-        r.set_base(base).ok()?;
-    }
+    crate::compute::tool_start::place(&mut r, data, fit, tool).ok()?;
     let rms = ErrorStats::of(&pose_errors(&r, data))?.rms_mm;
     rms.is_finite().then_some(rms)
 }
@@ -85,18 +83,20 @@ fn rms_placed<const N: usize, const V: usize>(
 /// The coupling (joint `j` from `j − 1`, ratio ±1) that explains `data` far better than
 /// `robot` (which must have no couplings) does: at most [`MAX_FRACTION`] of its RMS and at
 /// least [`MIN_GAIN_MM`] better. `fit_base` = place each model by registration (the file has
-/// no `[base]`), as `check` does.
+/// no `[base]`), as `check` does; `tool_unknown`: the tool point is started from the data for
+/// each candidate (the file says it is unknown).
 pub fn detect<const N: usize, const V: usize>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
     fit_base: bool,
+    tool_unknown: bool,
 ) -> Option<CouplingHint> {
     if !robot.couplings().is_empty() || data.len() < 6 {
         return None;
     }
     let stride = data.len().div_ceil(MAX_POSES).max(1);
     let sample: Vec<Measurement<f64, N>> = data.iter().step_by(stride).cloned().collect();
-    let nominal = rms_placed(robot, &sample, fit_base)?;
+    let nominal = rms_placed(robot, &sample, fit_base, tool_unknown)?;
     let mut best: Option<CouplingHint> = None;
     for j in 1..N {
         for ratio in [1.0, -1.0] {
@@ -104,7 +104,7 @@ pub fn detect<const N: usize, const V: usize>(
             if r.set_coupling(j, j - 1, ratio).is_err() {
                 continue;
             }
-            let Some(rms) = rms_placed(&r, &sample, fit_base) else {
+            let Some(rms) = rms_placed(&r, &sample, fit_base, tool_unknown) else {
                 continue;
             };
             if best.as_ref().is_none_or(|b| rms < b.rms_mm) {

@@ -205,9 +205,21 @@ pub fn held_out_mask(
         }
         let k = if h < 1.0 {
             (h * n as f64).round() as usize
-        } else {
+        } else if h.fract() == 0.0 && h <= n as f64 {
             h as usize
+        } else if h.fract() != 0.0 {
+            crate::refuse!(
+                "--holdout {h}: a count of poses is a whole number; give a fraction (0 < F < 1) \
+                 or a count (≥ 1)"
+            );
+        } else {
+            n
         };
+        if k == 0 {
+            crate::refuse!(
+                "--holdout {h} holds out no pose of {n}: give a larger fraction or a count (≥ 1)"
+            );
+        }
         if k >= n {
             crate::refuse!(
                 "--holdout {h} leaves no poses to identify from ({n} poses): hold out fewer"

@@ -9,7 +9,6 @@
 use super::inputs::InputArgs;
 use crate::calibration::coupling_hint;
 use crate::calibration::{pose_errors, ErrorStats};
-use crate::compute::registration::fit_base;
 use crate::formats::loading::load_measurements;
 use crate::formats::robot_file::RobotFile;
 use crate::reports::check::{CheckReport, CouplingHintReport};
@@ -62,12 +61,10 @@ fn check_with_joints<const N: usize>(
         })
         .count();
     let fitted = !file.base_known();
-    if fitted {
-        let base = fit_base(&robot, &meas).map_err(|e| anyhow!("{}: {e}", data_path.display()))?;
-        robot
-            .set_base(base)
-            .map_err(|e| anyhow!("fitted base: {e:?}"))?;
-    }
+    // No [base]: fitted by registration; a tool point the file says is unknown: started from
+    // the data (crate::compute::tool_start), so the nominal RMS is the geometry's.
+    crate::compute::tool_start::place(&mut robot, &meas, fitted, file.tool_unknown())
+        .map_err(|e| anyhow!("{}: {e}", data_path.display()))?;
     let stats = ErrorStats::of(&pose_errors(&robot, &meas))
         .ok_or_else(|| anyhow!("{}: no measurements", data_path.display()))?;
     let b = robot.base();
@@ -75,7 +72,7 @@ fn check_with_joints<const N: usize>(
     let hint = if file.couplings.is_empty() {
         file.to_robot::<N>()
             .ok()
-            .and_then(|r| coupling_hint::detect(&r, &meas, !file.base_known()))
+            .and_then(|r| coupling_hint::detect(&r, &meas, !file.base_known(), file.tool_unknown()))
     } else {
         None
     };
@@ -88,7 +85,7 @@ fn check_with_joints<const N: usize>(
         name: file.name.clone(),
         joints: N,
         poses: ds.len(),
-        extra_columns: ds.extra_names.clone(),
+        extra_columns: carried_columns(&ds.extra_names, &file.tool_names()),
         joint_ranges_deg: ds
             .joint_ranges_deg()
             .iter()
@@ -100,6 +97,10 @@ fn check_with_joints<const N: usize>(
             xyz_mm: [b.o.x, b.o.y, b.o.z],
             rpy_deg: b.rpy().map(f64::to_degrees),
         },
+        tool_started_mm: file.tool_unknown().then(|| {
+            let t = robot.tool();
+            [t.x, t.y, t.z]
+        }),
         nominal_rms_mm: stats.rms_mm,
         nominal_mean_mm: stats.mean_mm,
         nominal_max_mm: stats.max_mm,
@@ -112,4 +113,27 @@ fn check_with_joints<const N: usize>(
 pub fn run(args: &Args) -> anyhow::Result<CheckReport> {
     let file = RobotFile::load(&args.input.robot)?;
     with_joints!(file.joint_count(), N => check_with_joints::<N>(&args.input, &file))
+}
+
+/// Columns with a fixed meaning (docs/formats.md, "Observations"): orientations, stated σ
+/// and the named reflectors' points are read, not carried along.
+const READ_COLUMNS: [&str; 10] = [
+    "rx_deg", "ry_deg", "rz_deg", "sx_mm", "sy_mm", "sz_mm", "srot_deg", "srx_deg", "sry_deg",
+    "srz_deg",
+];
+
+/// The columns of the file that kinecal carries along without reading them (`temp_c`, a
+/// timestamp…): every column but the joints, the point and [`READ_COLUMNS`], and but `x_NAME`,
+/// `y_NAME`, `z_NAME` of the robot file's reflectors `tools`.
+fn carried_columns(extra: &[String], tools: &[String]) -> Vec<String> {
+    let reflector = |c: &str| {
+        tools
+            .iter()
+            .any(|t| ["x_", "y_", "z_"].iter().any(|p| c == format!("{p}{t}")))
+    };
+    extra
+        .iter()
+        .filter(|c| !READ_COLUMNS.contains(&c.as_str()) && !reflector(c))
+        .cloned()
+        .collect()
 }

@@ -262,6 +262,7 @@ pub fn run(args: &Args) -> anyhow::Result<DemoReport> {
         },
         nominal: &nominal,
         base_fitted: false,
+        tool_unknown: false,
         model: &hybrid_robot,
         start: &nominal,
         all_params: crate::calibration::model_params(&hybrid_robot, &[]),

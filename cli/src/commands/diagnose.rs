@@ -3,9 +3,13 @@
 //! held-out gap shrink.
 
 use super::inputs::InputArgs;
+use crate::calibration::weights::{self, Weighting};
 use crate::diagnose::linear::squared_errors;
 use crate::diagnose::observations::{fit_all_observations, FullFit, Observations};
-use crate::diagnose::{diagnose_with_progress, Config, Diagnosis, Progress};
+use crate::diagnose::search_weights::search_weights;
+use crate::diagnose::{
+    diagnose_with_progress, fit_geometry, observation_params, Config, Diagnosis, Progress,
+};
 use crate::formats::observations::{observe, pose_of, ObservationArgs, Observed};
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::output::numfmt::sig;
@@ -13,6 +17,9 @@ use crate::reports::diagnose::ObservationsReport;
 use crate::reports::diagnose::{DiagnoseReport, HoldoutReport};
 use crate::reports::identify::{ObservationSummary, PointResiduals};
 use crate::with_joints;
+use crate::VCAP;
+use kinecal::model::param::ParamSet;
+use kinecal::{Measurement, Robot};
 use std::path::PathBuf;
 
 /// Arguments of `kinecal diagnose` (docs/formats.md, docs/walkthrough.md).
@@ -53,8 +60,8 @@ pub struct Args {
     /// coupled joint, the tool, the base): nothing is diagnosed from it and the command exits 3.
     #[arg(long, default_value_t = crate::reports::diagnose::DEFAULT_STALL_RMS_MM)]
     pub stall_rms_mm: f64,
-    /// Orientation and σ columns: how the final fit to all observations uses them (the search
-    /// reads the first reflector's positions, unweighted).
+    /// Orientation and σ columns: how the search and the final fit to all observations weigh
+    /// them.
     #[command(flatten)]
     pub obs: ObservationArgs,
 }
@@ -100,10 +107,10 @@ impl Drop for Stages {
 fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport> {
     let input = &args.input;
     let (file, nominal) = load_robot::<N>(&input.robot)?;
-    // The search (its linear screening, cross-validation and paired test) reads one position
-    // residual per pose, unweighted: the first reflector's point. Orientations, σ and further
-    // reflectors are used when the named effects are fitted to all observations
-    // (crate::diagnose::observations).
+    // The search (its linear screening, cross-validation and paired test) reads every
+    // observation, weighted as identify weighs them at the geometric fit
+    // (crate::diagnose::search_weights); the named effects are then fitted to all observations
+    // as identify fits them (crate::diagnose::observations).
     let load = |p: &std::path::Path| -> anyhow::Result<Observed<N>> {
         let ds = crate::formats::loading::load_measurements(
             p,
@@ -134,17 +141,23 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
         super::inputs::split_sets(observed, validate, (&args.holdout, args.seed))?;
     let observed = kind;
     let full = observed.six_d || observed.sigma || observed.names.len() > 1;
+    let (nominal, search, held) = search_observations(
+        &nominal,
+        &file,
+        &observed,
+        &args.obs,
+        (&search_poses, &held_poses),
+    )?;
     if full {
         eprintln!(
-            "note: {}: the search for missing effects reads {}, unweighted; what it names is \
-             then fitted to all observations ({}), and that model is the one reported under \
-             `observations` and written by --out",
+            "note: {}: the search for missing effects reads every observation ({}), weighted \
+             as identify weighs them at the geometric fit (σ and error floors; figures per \
+             observation, the points' in mm); what it names is then fitted to all observations \
+             as identify fits them, and that model is the one reported under `observations` \
+             and written by --out",
             input.data.display(),
-            match observed.names.first() {
-                Some(n) if observed.names.len() > 1 => format!("the positions of reflector {n}"),
-                _ => "the positions".to_string(),
-            },
             [
+                Some("positions"),
                 observed.six_d.then_some("orientations"),
                 observed.sigma.then_some("the stated σ"),
                 (observed.names.len() > 1).then_some("every reflector"),
@@ -153,17 +166,6 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
             .flatten()
             .collect::<Vec<_>>()
             .join(", ")
-        );
-    }
-    let search = first_points(&search_poses);
-    let held = first_points(&held_poses);
-    if search.len() < search_poses.poses.len() {
-        eprintln!(
-            "note: {}: {} of {} poses have no {} point and are left out of the search",
-            input.data.display(),
-            search_poses.poses.len() - search.len(),
-            search_poses.poses.len(),
-            observed.names.first().map_or("measured", String::as_str)
         );
     }
     crate::check_count("--folds", args.folds, 2, search.len().max(2))?;
@@ -298,14 +300,62 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
     Ok(report)
 }
 
-/// The first reflector's position in every pose that saw it, unweighted: what the search reads.
-fn first_points<const N: usize>(poses: &Observed<N>) -> Vec<kinecal::Measurement<f64, N>> {
-    poses
-        .poses
-        .iter()
-        .filter_map(|p| p.of(&poses.measurements).iter().find(|m| m.tool == 0))
-        .map(|m| kinecal::Measurement::new(m.q, m.point))
-        .collect()
+/// The observations the search reads (every one of the searched poses and of the held-out
+/// ones), weighted as [`crate::diagnose::search_weights`] says, and the nominal robot it starts
+/// from: with 6-D data and no `[tool] rpy_deg`, the measured frame's axes started from the data
+/// (at a geometric fit of the positions), as identify starts them.
+#[allow(clippy::type_complexity)]
+fn search_observations<const N: usize>(
+    nominal: &Robot<f64, N, VCAP>,
+    file: &RobotFile,
+    observed: &Observed<N>,
+    obs: &ObservationArgs,
+    poses: (&Observed<N>, &Observed<N>),
+) -> anyhow::Result<(
+    Robot<f64, N, VCAP>,
+    Vec<Measurement<f64, N>>,
+    Vec<Measurement<f64, N>>,
+)> {
+    let (mut search, mut held) = (poses.0.all(), poses.1.all());
+    let mut start = nominal.clone();
+    if !(observed.six_d || observed.sigma || observed.names.len() > 1) || search.is_empty() {
+        return Ok((start, search, held));
+    }
+    let (base_known, tilt) = (file.base_known(), file.tilt_joints());
+    if observed.six_d && file.tool.rpy_deg.is_none() {
+        let positions: Vec<Measurement<f64, N>> = search
+            .iter()
+            .map(|m| Measurement {
+                orientation: None,
+                ..*m
+            })
+            .collect();
+        let (geo, _) = fit_geometry(&start, base_known, &tilt, &positions)?;
+        if let Some(axes) = crate::compute::registration::fit_tool_axes(&geo, &search) {
+            start
+                .set_tool_axes(axes)
+                .map_err(|e| anyhow::anyhow!("estimated tool orientation is invalid: {e:?}"))?;
+        }
+    }
+    let stated = weights::stated(&search, observed.sigma);
+    let params = ParamSet::<64>::full(N, !base_known)
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?
+        .len()
+        + observation_params(&start, &search).len();
+    let pose_of = pose_of(&poses.0.poses);
+    let how = Weighting::of(
+        observed.six_d,
+        observed.sigma,
+        obs,
+        poses.0.poses.len(),
+        params,
+    );
+    let w = search_weights(&mut search, &pose_of, &stated, how, |d| {
+        Ok(fit_geometry(&start, base_known, &tilt, d)?.0)
+    })?;
+    let stated_held = weights::stated(&held, observed.sigma);
+    w.apply(&mut held, &stated_held);
+    Ok((start, search, held))
 }
 
 /// The geometry and `d`'s extended model fitted to all observations of the searched poses

@@ -9,6 +9,7 @@ use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::reports::identify::{Change, IdentifyReport, ObservationSummary, PointResiduals};
 use crate::{with_joints, VCAP};
 use kinecal::model::param::ParamSet;
+use kinecal::Param;
 use kinecal::{Measurement, Robot};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -253,6 +254,9 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
     for k in 1..nominal.tool_point_count() {
         params.extend((0..3).map(|a| kinecal::Param::ToolPoint(k as u8, a)));
     }
+    if base_unknown {
+        hold_first_row(&mut params);
+    }
     crate::calibration::selection::apply(
         &mut params,
         &nominal,
@@ -262,7 +266,7 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
             fix: &args.fix,
         },
     )?;
-    enough_poses(ident.len(), params.len(), base_unknown, data_path)?;
+    enough_poses(&ident, params.len(), base_unknown, data_path)?;
     let before = Residuals::of(&nominal, &ident, &valid);
     // The prior: the robot file's `[prior]` (or the defaults) with `--prior` over it; none on
     // what does not start from a file value.
@@ -270,6 +274,7 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
     let prior_sigma = crate::calibration::prior::sigmas(&prior, &params, |p| {
         (p.is_base() && base_unknown)
             || (p.is_tool_rotation() && tool_axes_unknown)
+            || (is_tool_point(p) && file.tool_unknown())
             || extra.contains(&p) && matches!(p, kinecal::Param::Effect(_))
     });
     let t0 = Instant::now();
@@ -322,6 +327,10 @@ pub fn identify<const N: usize>(args: &Args, inputs: Inputs<N>) -> anyhow::Resul
     let mut changes = changes(&nominal, &fit, &params, base_unknown);
     for c in changes.iter_mut() {
         if tool_axes_unknown && c.name.starts_with("tool.r") {
+            c.free_start = true;
+        }
+        // Started from the data: no tolerance says how far it may move from a guess.
+        if file.tool_unknown() && ["tool.x", "tool.y", "tool.z"].contains(&c.name.as_str()) {
             c.free_start = true;
         }
     }
@@ -473,20 +482,34 @@ fn stop_text<const N: usize>(
     }
 }
 
-/// Refuses (exit 2), for every method, data that cannot determine the model: each pose gives
-/// three equations, so `n` poses determine at most `3n` parameters; a base fitted by
+/// Refuses (exit 2), for every method, data that cannot determine the model: each distinct
+/// observation (joint readings and tool point) gives three equations, so `n` of them
+/// determine at most `3n` parameters (a pose repeated adds none); a base fitted by
 /// registration needs at least 3 poses.
-fn enough_poses(
-    poses: usize,
+fn enough_poses<const N: usize>(
+    ident: &[kinecal::Measurement<f64, N>],
     params: usize,
     base_unknown: bool,
     data: &std::path::Path,
 ) -> anyhow::Result<()> {
+    let mut keys: Vec<([u64; N], u8)> = ident
+        .iter()
+        .map(|m| (m.q.map(f64::to_bits), m.tool))
+        .collect();
+    keys.sort_unstable();
+    keys.dedup();
+    let (poses, distinct) = (ident.len(), keys.len());
     let need = params.div_ceil(3).max(if base_unknown { 3 } else { 1 });
-    if poses < need {
+    if distinct < need {
+        let repeated = if distinct < poses {
+            format!(" ({distinct} distinct: the others repeat them)")
+        } else {
+            String::new()
+        };
         crate::refuse!(
-            "{}: {poses} poses to identify {params} parameters from; at least {need} are needed \
-             (3 equations per pose{}): measure more poses, or hold parameters with --fix",
+            "{}: {poses} poses{repeated} to identify {params} parameters from; at least {need} \
+             distinct ones are needed (3 equations per pose{}): measure more poses, or hold \
+             parameters with --fix",
             data.display(),
             if base_unknown {
                 ", and 3 poses for the base estimate"
@@ -565,6 +588,7 @@ fn report<const N: usize>(
         method: method.id().to_string(),
         n_identification: ident,
         n_validation: valid,
+        tool_unknown: file.tool_unknown(),
         before,
         after,
         iterations: fit.iterations,
@@ -585,4 +609,23 @@ fn report<const N: usize>(
         held_out_worse: None,
         acceptance: None,
     }
+}
+
+/// The first tool point's coordinates (`tool.x`, `tool.y`, `tool.z`).
+fn is_tool_point(p: Param) -> bool {
+    matches!(p, Param::ToolX | Param::ToolY | Param::ToolZ)
+}
+
+/// With the base estimated: the base is a rigid transform before row 1, which row 1's
+/// constant part only repeats (T_1(q) = Rx(alpha)·Tx(a)·Ry(beta)·Rz(theta)·Tz(d)·Rz(q)), so
+/// alpha1, a1, beta1, theta1 and d1 are held at their file values and the base takes what they
+/// would. Row 1 stays the robot's own (an import exports back into its URDF) and the
+/// tracker's frame stays in the base. `--free` estimates them anyway.
+pub fn hold_first_row(params: &mut Vec<Param>) {
+    params.retain(|p| {
+        !matches!(
+            p,
+            Param::Alpha(0) | Param::A(0) | Param::Beta(0) | Param::Theta(0) | Param::D(0)
+        )
+    });
 }

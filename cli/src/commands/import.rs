@@ -24,6 +24,11 @@ pub struct Args {
     /// Tool point in the tip link's frame, millimetres (`x,y,z`; default 0,0,0).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub tool_xyz_mm: Option<Vec<f64>>,
+    /// Write `[base]` (the pose of MDH frame 0 in the base link): for measurements taken in
+    /// the base link's frame. Without it the base is unknown (a tracker sees the robot in its
+    /// own frame) and `check`, `identify` estimate it from the data.
+    #[arg(long)]
+    pub with_base: bool,
     /// Robot file (TOML) to write.
     #[arg(long)]
     pub out: PathBuf,
@@ -81,24 +86,24 @@ pub fn run(args: &Args) -> anyhow::Result<ImportReport> {
         None => [0.0; 3],
     };
     let (_, urdf) = read_urdf(&args.urdf)?;
-    let (imp, base_link, tip_link, fixed_folded) = import_chain(
+    let (mut imp, base_link, tip_link, fixed_folded) = import_chain(
         &urdf,
         &args.urdf,
         args.base_link.as_deref(),
         args.tip_link.as_deref(),
         tool,
     )?;
+    let base = imp.file.base.clone();
+    if !args.with_base {
+        imp.file.base = None;
+    }
     imp.file
         .save(&args.out)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
-    let base = imp
-        .file
-        .base
-        .clone()
-        .unwrap_or(crate::formats::robot_file::BaseSpec {
-            xyz_mm: [0.0; 3],
-            rpy_deg: [0.0; 3],
-        });
+    let base = base.unwrap_or(crate::formats::robot_file::BaseSpec {
+        xyz_mm: [0.0; 3],
+        rpy_deg: [0.0; 3],
+    });
     Ok(ImportReport {
         urdf: path_text(&args.urdf),
         out: path_text(&args.out),
@@ -110,5 +115,6 @@ pub fn run(args: &Args) -> anyhow::Result<ImportReport> {
         tool_xyz_mm: imp.file.tool.xyz_mm,
         base_xyz_mm: base.xyz_mm,
         base_rpy_deg: base.rpy_deg,
+        base_written: args.with_base,
     })
 }

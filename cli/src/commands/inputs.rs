@@ -193,7 +193,8 @@ pub fn split_sets<const N: usize>(
 /// Places the nominal robot where identification starts: its base fitted to the
 /// identification observations (point-set registration) when the robot file has no `[base]`,
 /// and for 6-D data without `[tool] rpy_deg` the measured frame's orientation started from the
-/// data. Returns whether the tool orientation was unknown.
+/// data; a tool point the file says is unknown is started from the data too
+/// ([`crate::compute::tool_start`]). Returns whether the tool orientation was unknown.
 pub fn place_nominal<const N: usize>(
     nominal: &mut kinecal::Robot<f64, N, { crate::VCAP }>,
     file: &crate::formats::robot_file::RobotFile,
@@ -201,13 +202,8 @@ pub fn place_nominal<const N: usize>(
     six_d: bool,
 ) -> anyhow::Result<bool> {
     use anyhow::Context;
-    if !file.base_known() {
-        let base = crate::compute::registration::fit_base(nominal, ident)
-            .context("estimating the base pose")?;
-        nominal
-            .set_base(base)
-            .map_err(|e| anyhow::anyhow!("estimated base pose is invalid: {e:?}"))?;
-    }
+    crate::compute::tool_start::place(nominal, ident, !file.base_known(), file.tool_unknown())
+        .context("estimating the base pose and the unknown tool point")?;
     let tool_axes_unknown = six_d && file.tool.rpy_deg.is_none();
     if tool_axes_unknown {
         if let Some(axes) = crate::compute::registration::fit_tool_axes(nominal, ident) {

@@ -75,6 +75,9 @@ pub struct Args {
     /// `sx_mm`, `sy_mm`, `sz_mm` over all rows and coordinates (docs/formats.md).
     #[arg(long, value_name = "D.csv", conflicts_with = "noise_mm")]
     pub noise_from: Option<PathBuf>,
+    /// How to read the `--noise-from` file (units, another layout).
+    #[command(flatten)]
+    pub units: crate::formats::units::UnitArgs,
     /// Output CSV of the planned poses (q1…qN in degrees, plus incidence_deg, clearance_mm).
     #[arg(long)]
     pub out: PathBuf,
@@ -96,8 +99,14 @@ pub struct Args {
 
 /// The RMS of the stated 1-σ (`sx_mm`, `sy_mm`, `sz_mm`) of every row of the measurement file
 /// `path` (mm): the tracker's noise as it reports it, for the predicted covariances.
-fn stated_noise_mm<const N: usize>(path: &std::path::Path) -> anyhow::Result<f64> {
-    let ds = crate::formats::measurements::load::<N>(path)?;
+/// Read as every measurement file is (`--map`, units, the stated base).
+fn stated_noise_mm<const N: usize>(
+    path: &std::path::Path,
+    units: &crate::formats::units::UnitArgs,
+    robot: &kinecal::Robot<f64, N, { crate::VCAP }>,
+    base_known: bool,
+) -> anyhow::Result<f64> {
+    let ds = crate::formats::loading::load_measurements(path, units, robot, base_known)?;
     let cols: Vec<Vec<f64>> = ["sx_mm", "sy_mm", "sz_mm"]
         .iter()
         .filter_map(|c| ds.extra(c))
@@ -148,7 +157,7 @@ fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Re
         }
     }
     let sigma = match &args.noise_from {
-        Some(p) => stated_noise_mm::<N>(p)?,
+        Some(p) => stated_noise_mm::<N>(p, &args.units, &robot, file.base_known())?,
         None => args.noise_mm,
     };
     let start = Instant::now();

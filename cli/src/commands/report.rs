@@ -204,6 +204,9 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
     for k in 1..model.tool_point_count() {
         estimated.extend((0..3).map(|a| Param::ToolPoint(k as u8, a)));
     }
+    if base_unknown {
+        super::identify::hold_first_row(&mut estimated);
+    }
     crate::calibration::selection::apply(
         &mut estimated,
         &model,
@@ -281,6 +284,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
     let prior = crate::calibration::prior::sigmas(&spec, &estimated, |p| {
         (p.is_base() && base_unknown)
             || (p.is_tool_rotation() && tool_axes_unknown)
+            || (matches!(p, Param::ToolX | Param::ToolY | Param::ToolZ) && file.tool_unknown())
             || matches!(p, Param::Effect(k) if usize::from(k) >= file_effects)
     });
     let built = build(Inputs {
@@ -292,6 +296,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
         },
         nominal: &nominal,
         base_fitted: base_unknown,
+        tool_unknown: file.tool_unknown(),
         model: &model,
         start: &start,
         all_params,

@@ -6,4 +6,5 @@
 pub mod dense;
 pub mod parallel;
 pub mod registration;
+pub mod tool_start;
 pub mod vec_lm;

@@ -18,14 +18,15 @@ pub fn fit_rigid(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> anyhow::Result<Frame
             b.len()
         );
     }
+    // The data's failures are refusals (exit 2): the user measures again, nothing is broken.
     if a.len() < 3 {
-        bail!(
-            "point-set registration needs at least 3 points, got {}",
+        crate::refuse!(
+            "point-set registration needs at least 3 points, got {}: measure more poses",
             a.len()
         );
     }
     if a.iter().chain(b).any(|p| !p.iter().all(|c| c.is_finite())) {
-        bail!("point-set registration: non-finite point");
+        crate::refuse!("point-set registration: a point is not a finite number: check the data");
     }
     let n = a.len() as f64;
     let ca = a.iter().sum::<Vector3<f64>>() / n;
@@ -41,7 +42,10 @@ pub fn fit_rigid(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> anyhow::Result<Frame
     let mut s = svd.singular_values.as_slice().to_vec();
     s.sort_by(|x, y| y.total_cmp(x));
     if s[1] <= 1e-9 * s[0] || s[0] == 0.0 {
-        bail!("point-set registration: the points lie on a line (need configurations spread in space)");
+        crate::refuse!(
+            "point-set registration: the points lie on a line or at one place: measure poses \
+             spread in space"
+        );
     }
     let v = vt.transpose();
     let d = (v * u.transpose()).determinant().signum();

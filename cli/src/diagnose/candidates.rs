@@ -321,8 +321,10 @@ pub fn fmt_deg(rad: f64) -> String {
 }
 
 fn round_sig(x: f64, digits: i32) -> f64 {
-    if x == 0.0 || !x.is_finite() {
-        return x;
+    // Below a millionth of the unit is rounding noise of the arithmetic (a table start of
+    // -2.5e-14°), printed as 0.
+    if x.abs() < 1e-6 || !x.is_finite() {
+        return if x.is_finite() { 0.0 } else { x };
     }
     let m = 10f64.powi(digits - 1 - x.abs().log10().floor() as i32);
     (x * m).round() / m

@@ -17,7 +17,8 @@ use crate::compute::dense::{cholesky, cholesky_inverse, LowerFactor};
 use crate::compute::parallel;
 pub use crate::diagnose::folds::{subset, Folds};
 use crate::diagnose::linear::{
-    add_table_penalty, add_tiny_ridge, Normal, NormalSums, Problem, TablePenalty,
+    add_table_penalty, add_tiny_ridge, observation_blocks, Normal, NormalSums, Problem,
+    TablePenalty,
 };
 use crate::diagnose::refit::fold_errors;
 use kinecal::model::effects::{Effect, EffectKind};
@@ -58,9 +59,10 @@ pub fn rms(sq: &[f64]) -> f64 {
     }
 }
 
-/// The sparse scaled columns `(column index, ∂p/∂x)` of every pose, pose after pose in one
-/// buffer: the screen builds one set per candidate, and a vector per pose would cost thousands
-/// of allocations each time.
+/// The sparse scaled columns `(column index, ∂p/∂x)` of every block of rows (one per position
+/// observation, the point's then the orientation's for a 6-D one), block after block in one
+/// buffer: the screen builds one set per candidate, and a vector per block would cost thousands
+/// of allocations each time. Here a "pose" is one such block.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PoseColumns {
     /// Pose `i`'s columns are `entries[offsets[i]..offsets[i + 1]]`.
@@ -112,6 +114,8 @@ type FoldFactor = (LowerFactor, DVector<f64>);
 pub struct Linearised {
     /// The poses of each fold, in increasing order.
     fold_poses: Vec<Vec<usize>>,
+    /// Pose `i`'s blocks of rows are `blocks[i]..blocks[i + 1]` (of `residuals`, `columns`).
+    blocks: Vec<usize>,
     residuals: Vec<Vector3<f64>>,
     columns: PoseColumns,
     /// Per fold: factor of the penalised training matrix and `L⁻¹(g − Π x)`.
@@ -129,6 +133,7 @@ impl Linearised {
         let p = problem.len();
         let FoldSums {
             fold_poses,
+            blocks,
             residuals,
             columns,
             per_fold,
@@ -147,6 +152,7 @@ impl Linearised {
         });
         Self {
             fold_poses,
+            blocks,
             residuals,
             columns,
             factors,
@@ -159,12 +165,17 @@ impl Linearised {
         self.screen(&PoseColumns::empty(self.residuals.len()), 0, None)
     }
 
-    /// Held-out squared errors with `m` extra columns (`extra.pose(i)`: pose `i`'s non-zero
-    /// ones, indices `0..m`); `table`: the extra columns are a table's knots, penalised like
-    /// this.
+    /// Held-out squared errors (one per observation) with `m` extra columns
+    /// (`extra.pose(b)`: block `b`'s non-zero ones, indices `0..m`, blocks as
+    /// [`PoseKinematics::columns`] lays them out); `table`: the extra columns are a table's
+    /// knots, penalised like this.
     pub fn screen(&self, extra: &PoseColumns, m: usize, table: Option<TablePenalty>) -> Vec<f64> {
-        let n = self.residuals.len();
-        debug_assert_eq!(extra.poses(), n, "one set of columns per pose");
+        let n = self.blocks.len() - 1;
+        debug_assert_eq!(
+            extra.poses(),
+            self.residuals.len(),
+            "one set of columns per block"
+        );
         let p = self.p;
         // Per-fold blocks: B = Jᵀ C (p × m), D = Cᵀ C (m × m), e = Cᵀ r.
         let k = self.fold_poses.len();
@@ -174,7 +185,10 @@ impl Linearised {
         // Fold by fold, so that only one fold's blocks are being written at a time.
         for (f, poses) in self.fold_poses.iter().enumerate() {
             let (bf, df, ef) = (b[f].as_mut_slice(), &mut d[f], &mut e[f]);
-            for &i in poses {
+            for i in poses
+                .iter()
+                .flat_map(|&i| self.blocks[i]..self.blocks[i + 1])
+            {
                 let cols = extra.pose(i);
                 let r = &self.residuals[i];
                 for (x, (ci, cv)) in cols.iter().enumerate() {
@@ -235,14 +249,18 @@ impl Linearised {
                 (dp, DVector::zeros(0))
             };
             for &i in &self.fold_poses[f] {
-                let mut pred = self.residuals[i];
-                for (j, c) in self.columns.pose(i) {
-                    pred -= c * dp[*j];
+                let mut sq = 0.0;
+                for b in self.blocks[i]..self.blocks[i + 1] {
+                    let mut pred = self.residuals[b];
+                    for (j, c) in self.columns.pose(b) {
+                        pred -= c * dp[*j];
+                    }
+                    for (j, c) in extra.pose(b) {
+                        pred -= c * dc[*j];
+                    }
+                    sq += pred.norm_squared();
                 }
-                for (j, c) in extra.pose(i) {
-                    pred -= c * dc[*j];
-                }
-                out[i] = pred.norm_squared();
+                out[i] = sq;
             }
         }
         out
@@ -283,6 +301,8 @@ pub fn candidate_columns<const N: usize, const V: usize>(
 #[derive(Clone, Debug)]
 pub struct PoseKinematics<const N: usize> {
     poses: Vec<ForwardKinematics<f64, N>>,
+    /// Each observation's point weights (None: unit) and, for a 6-D one, its orientation's.
+    weights: Vec<(Option<Vector3<f64>>, Option<f64>)>,
 }
 
 impl<const N: usize> PoseKinematics<N> {
@@ -292,15 +312,26 @@ impl<const N: usize> PoseKinematics<N> {
         let poses = data
             .iter()
             .map(|m| {
-                fk.compute_at(&probe, &m.q, 0, m.temp_c);
+                fk.compute_at(&probe, &m.q, m.tool as usize, m.temp_c);
                 fk
             })
             .collect();
-        Self { poses }
+        let weights = data
+            .iter()
+            .map(|m| {
+                (
+                    (m.weight != Vector3::repeat(1.0)).then_some(m.weight),
+                    m.orientation.map(|_| m.orientation_weight),
+                )
+            })
+            .collect();
+        Self { poses, weights }
     }
 
-    /// The non-zero scaled columns of `params` at every pose for `robot`: the model the frames
-    /// were computed for, possibly with a candidate added at zero values.
+    /// The non-zero scaled columns of `params` at every observation for `robot` (the model
+    /// the frames were computed for, possibly with a candidate added at zero values), weighted
+    /// as [`crate::diagnose::linear::Problem::pose_rows`] weighs them: one block per position
+    /// observation, the point's then the orientation's for a 6-D one.
     pub fn columns<const V: usize>(
         &self,
         robot: &Robot<f64, N, V>,
@@ -311,15 +342,28 @@ impl<const N: usize> PoseKinematics<N> {
         let table = table_of(robot, params);
         let per_pose = if table.is_some() { 2 } else { params.len() };
         let mut out = PoseColumns::with_capacity(self.poses.len(), per_pose * self.poses.len());
-        for fk in &self.poses {
+        for (fk, (w, wo)) in self.poses.iter().zip(&self.weights) {
+            let point = |c: Vector3<f64>| w.map_or(c, |w| c.component_mul(&w));
             match table {
-                Some(e) => out.push_pose(table_columns(fk, robot, e, &scale)),
-                None => out.push_pose(
-                    params
-                        .iter()
-                        .enumerate()
-                        .filter_map(|(k, p)| non_zero(k, fk.column(robot, *p).ok()? / scale[k])),
+                Some(e) => out.push_pose(
+                    table_columns(e, fk.q, fk.reading_column(robot, e.joint as usize), &scale)
+                        .map(|(k, c)| (k, point(c))),
                 ),
+                None => out.push_pose(params.iter().enumerate().filter_map(|(k, p)| {
+                    non_zero(k, point(fk.column(robot, *p).ok()? / scale[k]))
+                })),
+            }
+            let Some(wo) = *wo else { continue };
+            match table {
+                Some(e) => out.push_pose(table_columns(
+                    e,
+                    fk.q,
+                    fk.reading_rotation_column(robot, e.joint as usize) * wo,
+                    &scale,
+                )),
+                None => out.push_pose(params.iter().enumerate().filter_map(|(k, p)| {
+                    non_zero(k, fk.rotation_column(robot, *p).ok()? * (wo / scale[k]))
+                })),
             }
         }
         out
@@ -355,19 +399,17 @@ fn table_of<'r, const N: usize, const V: usize>(
     (knots.eq(params.iter().copied()) && (e.joint as usize) < N).then_some(e)
 }
 
-/// The non-zero scaled columns of table `e`'s knots (`scale` per knot) at one pose: only the
-/// two knots around the reading can be non-zero, so they are computed as
-/// [`ForwardKinematics::column`] would (`∂p/∂r'_j · φ_k`) without asking it for every knot of a
-/// table of up to 200.
-fn table_columns<'a, const N: usize, const V: usize>(
-    fk: &ForwardKinematics<f64, N>,
-    robot: &Robot<f64, N, V>,
+/// The non-zero scaled columns of table `e`'s knots (`scale` per knot) at one pose whose
+/// readings are `q`: only the two knots around the reading can be non-zero, so they are
+/// computed as [`ForwardKinematics::column`] would (`jc · φ_k`, `jc` the block's column of the
+/// corrected reading) without asking it for every knot of a table of up to 200.
+fn table_columns<'a, const N: usize>(
     e: &Effect<f64>,
+    q: [f64; N],
+    jc: Vector3<f64>,
     scale: &'a [f64],
 ) -> impl Iterator<Item = (usize, Vector3<f64>)> + 'a {
-    let j = e.joint as usize;
-    let (seg, w) = e.segment(fk.q[j]);
-    let jc = fk.reading_column(robot, j);
+    let (seg, w) = e.segment(q[e.joint as usize]);
     [(seg, 1.0 - w), (seg + 1, w)]
         .into_iter()
         .filter_map(move |(k, phi)| non_zero(k, jc * phi / scale[k]))
@@ -391,7 +433,7 @@ fn non_zero(k: usize, c: Vector3<f64>) -> Option<(usize, Vector3<f64>)> {
 /// noise's), which is why a held-out RMS is an upward-biased estimate of the noise.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FoldInflation {
-    /// Held-out coordinates (3 per pose).
+    /// Held-out rows (3 per position observation, 6 per 6-D one).
     pub coordinates: usize,
     /// `Σ_f tr B_f`: what the fold fits add to `E[Σ |r_i|²] / σ²` beyond `coordinates`.
     pub trace: f64,
@@ -404,6 +446,8 @@ pub struct FoldInflation {
 struct FoldSums {
     /// The poses of each fold, in increasing order.
     fold_poses: Vec<Vec<usize>>,
+    /// Pose `i`'s blocks of rows are `blocks[i]..blocks[i + 1]`.
+    blocks: Vec<usize>,
     residuals: Vec<Vector3<f64>>,
     columns: PoseColumns,
     per_fold: Vec<Normal>,
@@ -420,19 +464,23 @@ fn fold_sums<const N: usize, const V: usize>(
 ) -> FoldSums {
     let p = problem.len();
     let fold_poses: Vec<Vec<usize>> = (0..folds.k).map(|f| folds.split(f).0).collect();
+    type Block = (Vector3<f64>, Vec<(usize, Vector3<f64>)>);
     let parts = parallel::map_each(&fold_poses, |poses| {
         let mut fk = ForwardKinematics::new();
         let mut sums = NormalSums::new(p);
-        let mut rows = Vec::with_capacity(poses.len());
+        let mut rows: Vec<Vec<Block>> = Vec::with_capacity(poses.len());
         let mut cols = Vec::new();
         for &i in poses {
-            let r = problem.pose_rows(&mut fk, robot, &data[i], &mut cols);
-            sums.add(&r, &cols);
-            rows.push((r, cols.clone()));
+            let mut blocks = Vec::with_capacity(1);
+            observation_blocks(problem, &mut fk, robot, &data[i], &mut cols, |r, c| {
+                sums.add(r, c);
+                blocks.push((*r, c.to_vec()));
+            });
+            rows.push(blocks);
         }
         (sums.finish(), rows)
     });
-    let mut per_pose = vec![(Vector3::zeros(), Vec::new()); data.len()];
+    let mut per_pose: Vec<Vec<Block>> = vec![Vec::new(); data.len()];
     let mut per_fold = Vec::with_capacity(folds.k);
     for (poses, (normal, rows)) in fold_poses.iter().zip(parts) {
         for (&i, row) in poses.iter().zip(rows) {
@@ -440,16 +488,23 @@ fn fold_sums<const N: usize, const V: usize>(
         }
         per_fold.push(normal);
     }
-    let entries = per_pose.iter().map(|(_, c)| c.len()).sum();
-    let mut columns = PoseColumns::with_capacity(data.len(), entries);
-    let mut residuals = Vec::with_capacity(data.len());
-    for (r, c) in per_pose {
-        residuals.push(r);
-        columns.push_pose(c);
+    let entries = per_pose.iter().flatten().map(|(_, c)| c.len()).sum();
+    let count = per_pose.iter().map(Vec::len).sum();
+    let mut columns = PoseColumns::with_capacity(count, entries);
+    let mut residuals = Vec::with_capacity(count);
+    let mut blocks = Vec::with_capacity(data.len() + 1);
+    blocks.push(0);
+    for pose in per_pose {
+        for (r, c) in pose {
+            residuals.push(r);
+            columns.push_pose(c);
+        }
+        blocks.push(residuals.len());
     }
     let total = Normal::sum(p, &per_fold);
     FoldSums {
         fold_poses,
+        blocks,
         residuals,
         columns,
         per_fold,
@@ -470,11 +525,14 @@ pub fn fold_inflation<const N: usize, const V: usize>(
     folds: &Folds,
 ) -> FoldInflation {
     let FoldSums {
-        per_fold, total, ..
+        per_fold,
+        total,
+        residuals,
+        ..
     } = fold_sums(robot, problem, data, folds);
     let traces = parallel::map_each(&per_fold, |nf| fold_traces(problem, &total.a, nf));
     let mut out = FoldInflation {
-        coordinates: 3 * data.len(),
+        coordinates: 3 * residuals.len(),
         trace: 0.0,
         trace_squared: 0.0,
     };

@@ -16,8 +16,9 @@
 //! it is light whatever the number of poses.
 
 use crate::compute::dense::{cholesky, cholesky_inverse};
-use kinecal::identify::lm::PenaltyTerm;
+use kinecal::identify::lm::{observation_cost, PenaltyTerm};
 use kinecal::model::effects::EffectKind;
+use kinecal::model::frame::orientation_error;
 use kinecal::model::param::{value, Param};
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use nalgebra::{DMatrix, DVector, Vector3};
@@ -183,7 +184,9 @@ impl Problem {
         pen
     }
 
-    /// Residual and the non-zero scaled Jacobian columns of one pose at `robot`.
+    /// Residual and the non-zero scaled Jacobian columns of one observation's point at `robot`,
+    /// weighted as the library's runs weigh them (`w ⊙ (p_m − p)`; unit weights leave
+    /// millimetres). `fk` holds the pose afterwards, for [`Self::orientation_rows`].
     pub fn pose_rows<const N: usize, const V: usize>(
         &self,
         fk: &mut ForwardKinematics<f64, N>,
@@ -192,9 +195,70 @@ impl Problem {
         cols: &mut Vec<(usize, Vector3<f64>)>,
     ) -> Vector3<f64> {
         cols.clear();
-        let r = m.point - fk.compute_at(robot, &m.q, 0, m.temp_c).unwrap_or_default();
+        let p = fk
+            .compute_at(robot, &m.q, m.tool as usize, m.temp_c)
+            .unwrap_or_default();
+        let weighted = m.weight != Vector3::repeat(1.0);
+        let r = m.point - p;
+        self.block_columns(
+            fk,
+            robot,
+            m,
+            cols,
+            |fk, p| fk.column(robot, p).ok(),
+            |fk, j| fk.reading_column(robot, j),
+        );
+        if weighted {
+            for (_, c) in cols.iter_mut() {
+                *c = c.component_mul(&m.weight);
+            }
+            return r.component_mul(&m.weight);
+        }
+        r
+    }
+
+    /// The orientation's residual (the rotation vector of the measured frame against the
+    /// model's, times the observation's weight) and its non-zero scaled columns, for a 6-D
+    /// observation whose point [`Self::pose_rows`] just computed (`fk` at its pose); `None`
+    /// for a position observation.
+    pub fn orientation_rows<const N: usize, const V: usize>(
+        &self,
+        fk: &ForwardKinematics<f64, N>,
+        robot: &Robot<f64, N, V>,
+        m: &Measurement<f64, N>,
+        cols: &mut Vec<(usize, Vector3<f64>)>,
+    ) -> Option<Vector3<f64>> {
+        cols.clear();
+        let o = m.orientation.as_ref()?;
+        let w = m.orientation_weight;
+        let r = orientation_error(o, &fk.tool_pose(robot)) * w;
+        self.block_columns(
+            fk,
+            robot,
+            m,
+            cols,
+            |fk, p| fk.rotation_column(robot, p).ok(),
+            |fk, j| fk.reading_rotation_column(robot, j),
+        );
+        for (_, c) in cols.iter_mut() {
+            *c *= w;
+        }
+        Some(r)
+    }
+
+    /// The non-zero scaled columns of one block of rows (`column`: a parameter's, `reading`:
+    /// a joint reading's) at the pose `fk` holds.
+    fn block_columns<const N: usize, const V: usize>(
+        &self,
+        fk: &ForwardKinematics<f64, N>,
+        robot: &Robot<f64, N, V>,
+        m: &Measurement<f64, N>,
+        cols: &mut Vec<(usize, Vector3<f64>)>,
+        column: impl Fn(&ForwardKinematics<f64, N>, Param) -> Option<Vector3<f64>>,
+        reading: impl Fn(&ForwardKinematics<f64, N>, usize) -> Vector3<f64>,
+    ) {
         for &i in &self.geometric {
-            if let Ok(c) = fk.column(robot, self.params[i]) {
+            if let Some(c) = column(fk, self.params[i]) {
                 cols.push((i, c * self.inv_scale[i]));
             }
         }
@@ -207,7 +271,7 @@ impl Problem {
             let first = e.first as usize;
             if e.kind == EffectKind::Table {
                 let (seg, w) = e.segment(m.q[j]);
-                let jc = fk.reading_column(robot, j);
+                let jc = reading(fk, j);
                 for (kk, wk) in [(seg, 1.0 - w), (seg + 1, w)] {
                     if wk == 0.0 {
                         continue;
@@ -219,14 +283,30 @@ impl Problem {
             } else {
                 for k in first..first + e.len as usize {
                     if let Some(Some(i)) = self.effect_index.get(k) {
-                        if let Ok(c) = fk.column(robot, Param::Effect(k as u16)) {
+                        if let Some(c) = column(fk, Param::Effect(k as u16)) {
                             cols.push((*i, c * self.inv_scale[*i]));
                         }
                     }
                 }
             }
         }
-        r
+    }
+}
+
+/// Calls `f` with every block of rows of one observation at `robot` (its residual and
+/// non-zero scaled columns): the point's, then for a 6-D observation the orientation's.
+pub fn observation_blocks<const N: usize, const V: usize>(
+    problem: &Problem,
+    fk: &mut ForwardKinematics<f64, N>,
+    robot: &Robot<f64, N, V>,
+    m: &Measurement<f64, N>,
+    cols: &mut Vec<(usize, Vector3<f64>)>,
+    mut f: impl FnMut(&Vector3<f64>, &[(usize, Vector3<f64>)]),
+) {
+    let r = problem.pose_rows(fk, robot, m, cols);
+    f(&r, cols);
+    if let Some(r) = problem.orientation_rows(fk, robot, m, cols) {
+        f(&r, cols);
     }
 }
 
@@ -263,7 +343,7 @@ pub struct Normal {
     pub g: DVector<f64>,
     /// Sum of squared residuals (mm²).
     pub ssr: f64,
-    /// Number of poses summed.
+    /// Number of blocks of three rows summed (one per position observation, two per 6-D one).
     pub poses: usize,
 }
 
@@ -313,8 +393,8 @@ impl Normal {
     }
 }
 
-/// Calls `f` with the residual and the non-zero scaled columns ([`Problem::pose_rows`]) of
-/// every pose of `data`, in order.
+/// Calls `f` with every block of rows ([`observation_blocks`]) of every observation of
+/// `data`, in order.
 fn for_each_pose_rows<const N: usize, const V: usize>(
     problem: &Problem,
     robot: &Robot<f64, N, V>,
@@ -324,8 +404,7 @@ fn for_each_pose_rows<const N: usize, const V: usize>(
     let mut fk = ForwardKinematics::new();
     let mut cols = Vec::with_capacity(problem.len());
     for m in data {
-        let r = problem.pose_rows(&mut fk, robot, m, &mut cols);
-        f(&r, &cols);
+        observation_blocks(problem, &mut fk, robot, m, &mut cols, &mut f);
     }
 }
 
@@ -360,7 +439,8 @@ impl NormalSums {
         }
     }
 
-    /// Adds one pose: its residual `r` and its non-zero columns (distinct indices).
+    /// Adds one block of three rows (a point's, or a 6-D observation's orientation): its
+    /// residual `r` and its non-zero columns (distinct indices). `poses` counts blocks.
     pub fn add(&mut self, r: &Vector3<f64>, cols: &[(usize, Vector3<f64>)]) {
         self.ssr += r.norm_squared();
         self.poses += 1;
@@ -418,15 +498,15 @@ pub fn effective_parameters(a: &DMatrix<f64>, pen: &DMatrix<f64>) -> f64 {
     }
 }
 
-/// Squared 3-D position error (mm²) of every pose.
+/// Squared error of every observation, weighted as the library's runs weigh it
+/// ([`observation_cost`]): the squared 3-D distance (mm²) for an unweighted position, plus the
+/// weighted orientation error of a 6-D observation.
 pub fn squared_errors<const N: usize, const V: usize>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
 ) -> Vec<f64> {
     let mut fk = ForwardKinematics::new();
     data.iter()
-        .map(|m| {
-            (m.point - fk.compute_at(robot, &m.q, 0, m.temp_c).unwrap_or_default()).norm_squared()
-        })
+        .map(|m| observation_cost(&mut fk, robot, m).unwrap_or(f64::NAN))
         .collect()
 }

@@ -35,6 +35,7 @@ pub mod observations;
 pub mod plausibility;
 pub mod refit;
 pub mod residual_plots;
+pub mod search_weights;
 pub mod significance;
 
 use crate::calibration::fit_lm;
@@ -451,6 +452,7 @@ pub fn fit_geometry<const N: usize>(
     for j in free_tilt {
         params.push(Param::Beta(*j as u8));
     }
+    params.extend(observation_params(nominal, data));
     let fitted = fit_lm(&start, &params, data, LmConfig::default())?;
     let held: Vec<Param> = params
         .iter()
@@ -462,6 +464,54 @@ pub fn fit_geometry<const N: usize>(
         })
         .collect();
     Ok((fitted.robot, held))
+}
+
+/// Parameters only what `data` observe beyond one point determine: with 6-D observations the
+/// measured frame's axes in the flange, with observations of further tool points their
+/// offsets (as `identify` frees them).
+pub fn observation_params<const N: usize>(
+    robot: &Robot<f64, N, VCAP>,
+    data: &[Measurement<f64, N>],
+) -> Vec<Param> {
+    let mut out = Vec::new();
+    if data.iter().any(|m| m.orientation.is_some()) {
+        out.extend([Param::ToolRx, Param::ToolRy, Param::ToolRz]);
+    }
+    for k in 1..robot.tool_point_count() {
+        if data.iter().any(|m| m.tool as usize == k) {
+            out.extend((0..3).map(|a| Param::ToolPoint(k as u8, a)));
+        }
+    }
+    out
+}
+
+/// The observations of one pose: consecutive observations with the same joint readings and
+/// distinct tool points (a repeat of a point starts a new pose). The paired test compares
+/// poses, not observations: the points of one pose share its joint errors.
+pub fn observation_poses<const N: usize>(data: &[Measurement<f64, N>]) -> Vec<usize> {
+    let mut out = Vec::with_capacity(data.len());
+    let mut start = 0;
+    for (i, m) in data.iter().enumerate() {
+        let same =
+            i > 0 && m.q == data[start].q && !data[start..i].iter().any(|o| o.tool == m.tool);
+        if !same {
+            start = i;
+        }
+        out.push(out.last().map_or(0, |&p: &usize| p + usize::from(!same)));
+    }
+    out
+}
+
+/// Per-pose sums of per-observation values (`pose_of` from [`observation_poses`]).
+fn per_pose(values: &[f64], pose_of: &[usize]) -> Vec<f64> {
+    if pose_of.last().is_none_or(|&p| p + 1 == values.len()) {
+        return values.to_vec();
+    }
+    let mut out = vec![0.0; pose_of.last().map_or(0, |p| p + 1)];
+    for (v, p) in values.iter().zip(pose_of) {
+        out[*p] += v;
+    }
+    out
 }
 
 /// Where the search is, for a progress display ([`diagnose_with_progress`]).
@@ -523,6 +573,7 @@ pub fn diagnose_with_progress<const N: usize>(
         .as_slice()
         .to_vec();
     params.extend(free_tilt.iter().map(|j| Param::Beta(*j as u8)));
+    params.extend(observation_params(nominal, data));
     params.retain(|p| !held.contains(p));
     params.extend((0..geometric.effects().values().len()).map(|k| Param::Effect(k as u16)));
     let mut problem = Problem::new(&geometric, &params, cfg.penalty)?;
@@ -536,6 +587,7 @@ pub fn diagnose_with_progress<const N: usize>(
     let baseline_errors = refit_errors(&current, &problem, data, &folds, cfg.refit_iterations)?;
     let baseline_rms = rms(&baseline_errors);
     let repeat = repeat_noise(data);
+    let pose_of = observation_poses(data);
     let mut errors = baseline_errors.clone();
     let mut free_tilt: Vec<usize> = free_tilt.to_vec();
     let mut found: Vec<Found<N>> = Vec::new();
@@ -651,7 +703,7 @@ pub fn diagnose_with_progress<const N: usize>(
                 candidate: *c,
                 parameters: *parameters,
                 validation_rms_mm: rms(e),
-                test: paired_improvement(&errors, e),
+                test: paired_improvement(&per_pose(&errors, &pose_of), &per_pose(e, &pose_of)),
             })
             .collect();
         let mut fits: Vec<_> = models
@@ -722,16 +774,19 @@ pub fn diagnose_with_progress<const N: usize>(
     let n = data.len();
     let final_rms = rms(&errors);
     // The noise floor, in the held-out RMS sense (√3 σ).
+    // (√(rows per observation) σ: 3 rows per position, 6 per 6-D observation.)
+    let mut rows_per_observation = 3.0;
     let (floor, dof, noise_source) = match repeat {
         Some((s, dof)) => (3f64.sqrt() * s, dof as f64, NoiseSource::RepeatedPoses),
         None => {
             let inflation = fold_inflation(&final_fit.robot, &problem, data, &folds);
+            rows_per_observation = inflation.coordinates as f64 / n as f64;
             let (s, nu) = held_out_noise(errors.iter().sum(), &inflation);
             // The Satterthwaite ν leaves out the covariances between folds (optimistic): it
-            // is capped at the residual's degrees of freedom, 3n − p_eff.
-            let residual_dof = (3 * n) as f64 - effective_parameters;
+            // is capped at the residual's degrees of freedom, rows − p_eff.
+            let residual_dof = inflation.coordinates as f64 - effective_parameters;
             (
-                3f64.sqrt() * s,
+                rows_per_observation.sqrt() * s,
                 nu.min(residual_dof.max(1.0)),
                 NoiseSource::HeldOut,
             )
@@ -760,7 +815,7 @@ pub fn diagnose_with_progress<const N: usize>(
         model: final_fit.robot,
         free_tilt,
         noise_floor_mm,
-        noise_sigma_mm: noise_floor_mm / 3f64.sqrt(),
+        noise_sigma_mm: noise_floor_mm / rows_per_observation.sqrt(),
         noise_source,
         noise_floor_interval_mm: interval,
         noise_dof: dof,

@@ -1,12 +1,11 @@
 //! The diagnosed model fitted to everything the file observed: 6-D poses, the tracker's σ and
 //! several reflectors (docs/formats.md).
 //!
-//! The search ([`super::diagnose`]) screens, cross-validates and tests on one position
-//! residual per pose (the first reflector's point, unweighted): its linearised screen and its
-//! paired test are built on per-pose squared distances in millimetres. What it names is then
-//! fitted here to all observations as `identify` fits them, so that the model `diagnose`
-//! writes uses the orientation (theta of the last joint, the tool axes), the weights and every
-//! reflector:
+//! The search ([`super::diagnose`]) screens, cross-validates and tests on every observation
+//! with the weights [`super::search_weights`] settles on at the geometric fit. What it names is
+//! then fitted here to all observations as `identify` fits them (weights refitted with the
+//! model, the orientation factor chosen by cross-validation), so that the model `diagnose`
+//! writes is identify's fit of that parameter set:
 //!
 //! 1. the geometry's identifiability is decided again on all observations (6-D data determine
 //!    what positions alone hold, theta6 against the tool point);

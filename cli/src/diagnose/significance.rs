@@ -187,11 +187,20 @@ pub fn ln_gamma(x: f64) -> f64 {
 /// Per-coordinate noise σ (mm) from repeated poses: groups of identical joint readings, pooled
 /// within-group scatter. `None` unless at least 3 groups with repeats (and 6 degrees of
 /// freedom) exist. Returns `(σ, degrees of freedom)`.
+/// Repeats are of one point (several reflectors of one pose are not repeats); the points'
+/// scatter is weighted as their residuals are. Without an estimate for orientations, `None`
+/// for 6-D data (the floor then comes from the held-out errors).
 pub fn repeat_noise<const N: usize>(data: &[Measurement<f64, N>]) -> Option<(f64, usize)> {
-    let mut groups: std::collections::HashMap<[u64; N], Vec<usize>> =
+    if data.iter().any(|m| m.orientation.is_some()) {
+        return None;
+    }
+    let mut groups: std::collections::HashMap<([u64; N], u8), Vec<usize>> =
         std::collections::HashMap::new();
     for (i, m) in data.iter().enumerate() {
-        groups.entry(m.q.map(f64::to_bits)).or_default().push(i);
+        groups
+            .entry((m.q.map(f64::to_bits), m.tool))
+            .or_default()
+            .push(i);
     }
     let mut ss = 0.0;
     let mut dof = 0usize;
@@ -205,7 +214,10 @@ pub fn repeat_noise<const N: usize>(data: &[Measurement<f64, N>]) -> Option<(f64
             / idx.len() as f64;
         ss += idx
             .iter()
-            .map(|&i| (data[i].point - mean).norm_squared())
+            .map(|&i| {
+                let m = &data[i];
+                (m.point - mean).component_mul(&m.weight).norm_squared()
+            })
             .sum::<f64>();
         dof += 3 * (idx.len() - 1);
     }

@@ -23,14 +23,7 @@ pub fn load_as<const N: usize, const V: usize>(
     let measured = kind == FileKind::Measurements;
     let Some(map) = &units.map else {
         let ds = measurements::load::<N>(path)?;
-        if measured && base_known {
-            placement(&ds, units, nominal, &origin)?;
-        }
-        let ds = accept(ds, &origin, units, nominal, base_known, kind)?;
-        if measured {
-            convention(&ds, None, nominal, &origin)?;
-        }
-        return Ok(ds);
+        return accept_dataset(ds, &origin, units, nominal, base_known, kind);
     };
     let m = crate::formats::map::load::<N>(path, map, units)?;
     if measured && base_known {
@@ -45,6 +38,28 @@ pub fn load_as<const N: usize, const V: usize>(
     if measured {
         let stated = Some((m.raw_angles.as_slice(), m.rotation, map.as_path()));
         convention(&ds, stated, nominal, &origin)?;
+    }
+    Ok(ds)
+}
+
+/// A dataset already read in kinecal's layout (a file, or arrays handed over by the Python
+/// package) through the same doors as a file: the stated base, the units, the angle order.
+/// `origin` names it in a refusal.
+pub fn accept_dataset<const N: usize, const V: usize>(
+    ds: Dataset<N>,
+    origin: &str,
+    units: &UnitArgs,
+    nominal: &Robot<f64, N, V>,
+    base_known: bool,
+    kind: FileKind,
+) -> anyhow::Result<Dataset<N>> {
+    let measured = kind == FileKind::Measurements;
+    if measured && base_known {
+        placement(&ds, units, nominal, origin)?;
+    }
+    let ds = accept(ds, origin, units, nominal, base_known, kind)?;
+    if measured {
+        convention(&ds, None, nominal, origin)?;
     }
     Ok(ds)
 }

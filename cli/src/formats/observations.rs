@@ -165,12 +165,32 @@ pub fn observe<const N: usize>(
         crate::refuse!("{origin}: orientation needs all of rx_deg, ry_deg, rz_deg");
     }
     let sig = ["sx_mm", "sy_mm", "sz_mm"].map(|c| col(ds, c));
+    // One isotropic angular σ, or one per axis (`srx_deg`, `sry_deg`, `srz_deg`: their RMS,
+    // as a map's per-axis σ are read).
     let srot = col(ds, "srot_deg");
+    let sr_axes = ["srx_deg", "sry_deg", "srz_deg"].map(|c| col(ds, c));
+    let given = sr_axes.iter().filter(|c| c.is_some()).count();
+    if given > 0 && (given < 3 || srot.is_some()) {
+        crate::refuse!(
+            "{origin}: an angular σ is one srot_deg or all of srx_deg, sry_deg, srz_deg: give \
+             one of the two"
+        );
+    }
+    let srot_of = |get: &dyn Fn(usize) -> f64| -> f64 {
+        match (srot, sr_axes) {
+            (Some(c), _) => get(c),
+            (None, [Some(a), Some(b), Some(c)]) => {
+                ((get(a).powi(2) + get(b).powi(2) + get(c).powi(2)) / 3.0).sqrt()
+            }
+            _ => f64::NAN,
+        }
+    };
+    let has_srot = srot.is_some() || given == 3;
     let has_sig = sig.iter().any(Option::is_some) && !args.ignore_sigma;
     if has_sig && sig.iter().any(Option::is_none) {
         crate::refuse!("{origin}: position uncertainty needs all of sx_mm, sy_mm, sz_mm");
     }
-    if six_d && has_sig && srot.is_none() {
+    if six_d && has_sig && !has_srot {
         crate::refuse!(
             "{origin}: sx_mm, sy_mm, sz_mm but no srot_deg for the orientation: add it, or give \
              --ignore-sigma (or --positions-only)"
@@ -182,7 +202,13 @@ pub fn observe<const N: usize>(
              measured frame; give one [tool] with its rpy_deg, or --positions-only"
         );
     }
-    let named = names.len() > 1;
+    let first_nan = ds
+        .records
+        .iter()
+        .any(|r| r.xyz_mm.iter().any(|v| v.is_nan()));
+    // One `[[tools]]` entry names its reflector too: its x_NAME… columns are read when the
+    // file has no x, y, z.
+    let named = names.len() > 1 || (names.len() == 1 && first_nan);
     let points: Vec<[usize; 3]> = if named {
         let mut v = Vec::new();
         for n in &names {
@@ -199,10 +225,6 @@ pub fn observe<const N: usize>(
     } else {
         Vec::new()
     };
-    let first_nan = ds
-        .records
-        .iter()
-        .any(|r| r.xyz_mm.iter().any(|v| v.is_nan()));
     if !named && first_nan {
         crate::refuse!(
             "{origin}: the file has no x, y, z (x_NAME… columns?): name the reflectors with \
@@ -239,7 +261,7 @@ pub fn observe<const N: usize>(
                 );
             }
             let w = if has_sig {
-                let s = srot.map_or(f64::NAN, get);
+                let s = srot_of(&get);
                 if !(s.is_finite() && s > 0.0) {
                     crate::refuse!(
                         "{}: a 1-σ must be a positive number, got {s} (or give --ignore-sigma)",
@@ -286,6 +308,10 @@ pub fn observe<const N: usize>(
                 m.tool = k as u8;
                 m.weight = weight;
                 m.temp_c = temp_c;
+                if let (1, Some((o, w))) = (points.len(), orientation) {
+                    m.orientation = Some(o);
+                    m.orientation_weight = w;
+                }
                 obs.push(m);
             }
         } else {

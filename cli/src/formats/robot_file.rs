@@ -85,6 +85,46 @@ pub struct ToolSpec {
     /// (`kinecal import --urdf` writes the tip link's orientation here).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rpy_deg: Option<[f64; 3]>,
+    /// `xyz_mm = "unknown"` or a `[tool]` without `xyz_mm`: nobody measured the point; it is
+    /// started from the data (`xyz_mm` then holds zeros) and not judged against a tolerance.
+    #[serde(skip)]
+    pub unknown: bool,
+}
+
+/// `[tool]` as written: `xyz_mm` a point in mm, the word `"unknown"`, or absent (unknown).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTool {
+    #[serde(default)]
+    xyz_mm: Option<RawXyz>,
+    #[serde(default)]
+    rpy_deg: Option<[f64; 3]>,
+}
+
+#[derive(Clone, Debug)]
+enum RawXyz {
+    Point([f64; 3]),
+    Word(String),
+}
+
+impl<'de> Deserialize<'de> for RawXyz {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visit;
+        impl<'de> serde::de::Visitor<'de> for Visit {
+            type Value = RawXyz;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a point [x, y, z] in mm or \"unknown\"")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<RawXyz, E> {
+                Ok(RawXyz::Word(v.to_string()))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, seq: A) -> Result<RawXyz, A::Error> {
+                <[f64; 3]>::deserialize(serde::de::value::SeqAccessDeserializer::new(seq))
+                    .map(RawXyz::Point)
+            }
+        }
+        d.deserialize_any(Visit)
+    }
 }
 
 /// One `[[tools]]` table: a named reflector (letters, digits, `_`) and its point in the flange
@@ -176,7 +216,7 @@ struct RawFile {
     name: String,
     joints: Spanned<Vec<Spanned<JointSpec>>>,
     #[serde(default)]
-    tool: Option<Spanned<ToolSpec>>,
+    tool: Option<Spanned<RawTool>>,
     #[serde(default)]
     tools: Vec<Spanned<NamedToolSpec>>,
     #[serde(default)]
@@ -363,6 +403,12 @@ impl RobotFile {
     /// True when the file has a `[base]` table (otherwise the base must be estimated).
     pub fn base_known(&self) -> bool {
         self.base.is_some()
+    }
+
+    /// The file says the tool point is unknown (`[tool] xyz_mm = "unknown"`, or a `[tool]`
+    /// without `xyz_mm`): it is started from the data, as an unknown base is.
+    pub fn tool_unknown(&self) -> bool {
+        self.tool.unknown && self.tools.is_empty()
     }
 
     /// Joints (0-based) marked `axis-tilt` in `[[effects]]`: their `beta` is a free parameter.
@@ -735,10 +781,30 @@ impl RobotFile {
                     at(None)
                 )))
             }
-            (Some(t), None) => t.get_ref().clone(),
+            (Some(t), None) => {
+                let raw = t.get_ref();
+                let (xyz_mm, unknown) = match &raw.xyz_mm {
+                    Some(RawXyz::Point(p)) => (*p, false),
+                    None => ([0.0; 3], true),
+                    Some(RawXyz::Word(w)) if w == "unknown" => ([0.0; 3], true),
+                    Some(RawXyz::Word(w)) => {
+                        return Err(refused(format!(
+                            "{}: [tool] xyz_mm = \"{w}\": give the point as [x, y, z] in mm, \
+                             or \"unknown\" to have it estimated from the data",
+                            at(Some(t.span()))
+                        )))
+                    }
+                };
+                ToolSpec {
+                    xyz_mm,
+                    rpy_deg: raw.rpy_deg,
+                    unknown,
+                }
+            }
             (None, Some(t)) => ToolSpec {
                 xyz_mm: t.get_ref().xyz_mm,
                 rpy_deg: None,
+                unknown: false,
             },
         };
         let file = RobotFile {
@@ -998,6 +1064,7 @@ impl RobotFile {
             tool: ToolSpec {
                 xyz_mm: [robot.tool().x, robot.tool().y, robot.tool().z],
                 rpy_deg: (!robot.tool_axes_identity()).then(|| rpy_deg_short(robot.tool_axes())),
+                unknown: false,
             },
             tools,
             base,

@@ -13,7 +13,6 @@ use crate::reports::frames::{CircleReport, FittedCircle, FramesReport, OnAxis, T
 use crate::reports::FrameReport;
 use crate::simulation::sweeps::{SweepSet, SWEEP_COLUMN};
 use crate::{with_joints, VCAP};
-use anyhow::{anyhow, bail};
 use kinecal::frames::circle::Circle;
 use kinecal::frames::circle_point::{
     base_from_sweeps, tool_from_sweeps, AxialMethod, FramesError, JointAxis, ToolEstimate,
@@ -75,12 +74,12 @@ fn group<const N: usize>(path: &Path, data: &Dataset<N>) -> anyhow::Result<Sweep
     let origin = path.display();
     match SweepSet::from_dataset(data) {
         Ok(Some(s)) => Ok(s),
-        Ok(None) => bail!(
+        Ok(None) => crate::refuse!(
             "{origin}:1:1: no `{SWEEP_COLUMN}` column (the joint swept on each row, 1 to {N})"
         ),
         Err(bad) => {
             let col = header_column(path, SWEEP_COLUMN).unwrap_or(1);
-            bail!(
+            crate::refuse!(
                 "{origin}:{}:{col}: `{SWEEP_COLUMN}` must name a joint 1 to {N}, got {}",
                 bad.line,
                 bad.value
@@ -89,6 +88,8 @@ fn group<const N: usize>(path: &Path, data: &Dataset<N>) -> anyhow::Result<Sweep
     }
 }
 
+/// The refusal (exit 2) of sweeps the library could not use: every [`FramesError`] is about
+/// the data, so the user sweeps again.
 fn explain(e: FramesError, what: &str) -> anyhow::Error {
     let why = match e {
         FramesError::Circle(kinecal::frames::circle::CircleError::TooFewPoints) => {
@@ -117,7 +118,7 @@ fn explain(e: FramesError, what: &str) -> anyhow::Error {
         }
         FramesError::Coincident => "the axes coincide".to_string(),
     };
-    anyhow!("{what}: {why}")
+    crate::refused(format!("{what}: {why}; sweep again"))
 }
 
 fn circle_report(
@@ -216,7 +217,7 @@ fn find_with_joints<const N: usize>(
     }
 
     let (Some(s1), Some(s2)) = (sweeps.get(0), sweeps.get(1)) else {
-        bail!("{origin}: the base frame needs a sweep of joint 1 and one of joint 2 (column `{SWEEP_COLUMN}`)");
+        crate::refuse!("{origin}: the base frame needs a sweep of joint 1 and one of joint 2 (column `{SWEEP_COLUMN}`)");
     };
     let base = base_from_sweeps(&robot, &s1, &s2).map_err(|e| {
         explain(

@@ -22,6 +22,18 @@ const COLOURS: [RGBColor; 6] = [
     BLACK,
 ];
 
+/// The top of a y range `lo..hi` raised so that a legend of `rows` entries in the upper right
+/// corner of a chart `height` pixels high lies above every point (plotters draws the legend
+/// over the curves otherwise).
+pub fn legend_headroom(lo: f64, hi: f64, rows: usize, height: u32) -> f64 {
+    // The plotting area is the chart less the caption, margins and x labels (about 110 px);
+    // a legend row is about 20 px, its box 16 px more.
+    let plot = (f64::from(height) - 110.0).max(100.0);
+    let legend = (rows as f64 * 20.0 + 16.0).min(plot * 0.6);
+    let f = legend / plot;
+    hi + (hi - lo) * f / (1.0 - f)
+}
+
 /// Lines `(x, y)` per named series; `log_y` plots log10 of y (for fitness that falls by decades).
 pub fn line_chart(
     path: &Path,
@@ -79,7 +91,10 @@ pub fn line_chart_svg(
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(70)
-            .build_cartesian_2d(x0..x1.max(x0 + 1.0), (y0 - pad)..(y1 + pad))
+            .build_cartesian_2d(
+                x0..x1.max(x0 + 1.0),
+                (y0 - pad)..legend_headroom(y0 - pad, y1 + pad, series.len(), size.1),
+            )
             .map_err(plot_err)?;
         let y_desc = if log_y {
             format!("log10 {y_label}")
@@ -107,6 +122,7 @@ pub fn line_chart_svg(
         }
         chart
             .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
             .draw()
@@ -135,7 +151,10 @@ pub fn pose_errors(path: &Path, title: &str, series: &[(String, Vec<f64>)]) -> a
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(70)
-            .build_cartesian_2d(0.0..n + 1.0, 0.0..ymax)
+            .build_cartesian_2d(
+                0.0..n + 1.0,
+                0.0..legend_headroom(0.0, ymax, series.len(), 500),
+            )
             .map_err(plot_err)?;
         chart
             .configure_mesh()
@@ -159,6 +178,7 @@ pub fn pose_errors(path: &Path, title: &str, series: &[(String, Vec<f64>)]) -> a
         }
         chart
             .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
             .draw()

@@ -69,18 +69,26 @@ impl CriterionArg {
 pub fn parse_configuration<const N: usize>(text: &str) -> anyhow::Result<[f64; N]> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     if parts.len() != N {
-        bail!(
+        crate::refuse!(
             "--work `{text}`: expected {N} comma-separated joint values (degrees), got {}",
             parts.len()
         );
     }
     let mut q = [0.0; N];
     for (i, (qi, p)) in q.iter_mut().zip(&parts).enumerate() {
-        let v: f64 = p
-            .parse()
-            .map_err(|_| anyhow!("--work `{text}`: value {} (`{p}`) is not a number", i + 1))?;
-        if !v.is_finite() {
-            bail!("--work `{text}`: value {} is not finite", i + 1);
+        let v: f64 = p.parse().map_err(|_| {
+            crate::refused(format!(
+                "--work `{text}`: value {} (`{p}`) is not a number",
+                i + 1
+            ))
+        })?;
+        // Beyond the library's angle bound a reading is no joint angle (a unit or typing error).
+        if v.is_nan() || v.to_radians().abs() > kinecal::model::bounds::MAX_ANGLE {
+            crate::refuse!(
+                "--work `{text}`: value {} ({p}°) is no joint angle in degrees: give q1,…,q{N} \
+                 in degrees",
+                i + 1
+            );
         }
         *qi = v.to_radians();
     }

@@ -37,7 +37,13 @@ pub fn improvements(path: &Path, title: &str, series: &[(String, Vec<f64>)]) -> 
             .y_label_area_size(60)
             .build_cartesian_2d(
                 0.0..(n as f64 + 1.0),
-                (lo - 5.0).min(0.0)..(hi + 10.0).min(100.0),
+                (lo - 5.0).min(0.0)
+                    ..crate::output::plots::legend_headroom(
+                        (lo - 5.0).min(0.0),
+                        (hi + 10.0).min(100.0),
+                        series.len(),
+                        520,
+                    ),
             )
             .map_err(plot_err)?;
         chart
@@ -69,7 +75,7 @@ pub fn improvements(path: &Path, title: &str, series: &[(String, Vec<f64>)]) -> 
         }
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
+            .position(SeriesLabelPosition::UpperRight)
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)
             .draw()

@@ -89,6 +89,17 @@ pub fn load(path: &Path) -> anyhow::Result<DiagnoseJson> {
             path.display()
         ))
     })?;
+    // A model holds at most MAX_EFFECTS effects, so diagnose never finds more: a longer list
+    // is no diagnose report (and 20,000 of them would make a page of hundreds of megabytes).
+    if d.found.len() > kinecal::model::effects::MAX_EFFECTS {
+        crate::refuse!(
+            "{}: {} findings, more than a model holds ({}): give the file that `kinecal \
+             diagnose … --json > J.json` wrote",
+            path.display(),
+            d.found.len(),
+            kinecal::model::effects::MAX_EFFECTS
+        );
+    }
     // Figures out of any calibration's range (±1e308) would make the figures' axes overflow.
     let rms = [
         ("baseline_validation_rms_mm", d.baseline_validation_rms_mm),

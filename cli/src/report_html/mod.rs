@@ -59,6 +59,8 @@ pub struct Inputs<'a, const N: usize> {
     /// The nominal robot, its base fitted when the robot file has none (`base_fitted`).
     pub nominal: &'a Robot<f64, N, VCAP>,
     pub base_fitted: bool,
+    /// The robot file gave the tool point as unknown (started from the data in `nominal`).
+    pub tool_unknown: bool,
     /// The identified model.
     pub model: &'a Robot<f64, N, VCAP>,
     /// Where `identify` started its fit: the nominal robot placed as above, with the model's
@@ -534,12 +536,23 @@ pub fn build<const N: usize>(inp: Inputs<'_, N>) -> anyhow::Result<Built> {
             "identification",
         ),
     };
-    let headline = format!(
-        "Position error (RMS, {on} poses): {} mm before, {} mm after calibration ({} % less).",
-        sig(b, 4),
-        sig(a, 4),
-        sig(100.0 * (1.0 - a / b), 3)
-    );
+    // An unknown tool has no "before": the nominal robot's figure is with a point started
+    // from the data, and no reduction is claimed against it.
+    let headline = if inp.tool_unknown {
+        format!(
+            "Position error (RMS, {on} poses): {} mm after calibration; the tool point was \
+             unknown (started from the data, the nominal robot is at {} mm with it).",
+            sig(a, 4),
+            sig(b, 4)
+        )
+    } else {
+        format!(
+            "Position error (RMS, {on} poses): {} mm before, {} mm after calibration ({} % less).",
+            sig(b, 4),
+            sig(a, 4),
+            sig(100.0 * (1.0 - a / b), 3)
+        )
+    };
     let validation = inp
         .validation
         .as_ref()

@@ -17,7 +17,8 @@ pub struct CheckReport {
     pub name: String,
     pub joints: usize,
     pub poses: usize,
-    /// Columns besides q1…qN, x, y, z.
+    /// Columns carried along without a fixed meaning (not q1…qN, x, y, z, the orientations,
+    /// the stated σ or the reflectors' points).
     pub extra_columns: Vec<String>,
     /// Per joint, the lowest and highest reading (degrees).
     pub joint_ranges_deg: Vec<[f64; 2]>,
@@ -26,6 +27,10 @@ pub struct CheckReport {
     /// The robot file has no `[base]`: the base was fitted to the data.
     pub base_fitted: bool,
     pub base: FrameReport,
+    /// The robot file gives the tool point as unknown: it was started from the data
+    /// (`tool_xyz_mm`), and the nominal error is with it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tool_started_mm: Option<[f64; 3]>,
     pub nominal_rms_mm: f64,
     pub nominal_mean_mm: f64,
     pub nominal_max_mm: f64,
@@ -106,6 +111,13 @@ impl fmt::Display for CheckReport {
                 f,
                 "fitted base: xyz_mm = [{:.3}, {:.3}, {:.3}], rpy_deg = [{:.4}, {:.4}, {:.4}]",
                 xyz[0], xyz[1], xyz[2], rpy[0], rpy[1], rpy[2]
+            )?;
+        }
+        if let Some(t) = self.tool_started_mm {
+            writeln!(
+                f,
+                "tool point unknown, started from the data: xyz_mm = [{:.3}, {:.3}, {:.3}]",
+                t[0], t[1], t[2]
             )?;
         }
         writeln!(

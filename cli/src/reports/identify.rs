@@ -17,6 +17,9 @@ pub struct IdentifyReport {
     pub method: String,
     pub n_identification: usize,
     pub n_validation: usize,
+    /// The robot file gave the tool point as unknown: `before` is the nominal robot with the
+    /// point started from the data, not a tool anybody stated.
+    pub tool_unknown: bool,
     pub before: Residuals,
     pub after: Residuals,
     pub iterations: u32,
@@ -266,6 +269,13 @@ impl fmt::Display for IdentifyReport {
             "{:>8} {:>16} {:>16} {:>16} {:>16}",
             "", "ident RMS mm", "valid RMS mm", "valid mean mm", "valid max mm"
         )?;
+        if self.tool_unknown {
+            writeln!(
+                f,
+                "the tool point was unknown: \"before\" is the nominal robot with the point \
+                 started from the data"
+            )?;
+        }
         for (k, r) in [("before", &self.before), ("after", &self.after)] {
             writeln!(
                 f,

@@ -90,13 +90,37 @@ impl ErrorReport {
 
 impl fmt::Display for ErrorReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "kinecal: {}", self.error)
+        write!(f, "kinecal: {}", terminal_safe(&self.error))
     }
 }
 
-/// An error's whole chain (`outer: inner: …`) on one line.
+/// An error's whole chain (`outer: inner: …`) on one line, safe for a terminal
+/// ([`terminal_safe`]).
 pub fn one_line(e: &anyhow::Error) -> String {
-    format!("{e:#}").replace('\n', " ")
+    terminal_safe(&format!("{e:#}").replace('\n', " "))
+}
+
+/// Longest message printed (characters); the rest is counted, not shown.
+pub const MAX_MESSAGE_CHARS: usize = 1000;
+
+/// `text` with every control character (an escape sequence, a carriage return from a file or
+/// a name) written as `\u{…}`, and cut after [`MAX_MESSAGE_CHARS`] characters: a message
+/// quoting hostile input cannot move the cursor, recolour the terminal or fill the screen.
+pub fn terminal_safe(text: &str) -> String {
+    let mut out = String::with_capacity(text.len().min(4 * MAX_MESSAGE_CHARS));
+    for (shown, c) in text.chars().enumerate() {
+        if shown == MAX_MESSAGE_CHARS {
+            let rest = text.chars().count() - shown;
+            out.push_str(&format!("… ({rest} more characters)"));
+            break;
+        }
+        if c.is_control() {
+            out.push_str(&c.escape_unicode().to_string());
+        } else {
+            out.push(c);
+        }
+    }
+    out
 }
 
 /// A path as reports show it.

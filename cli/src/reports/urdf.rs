@@ -19,6 +19,9 @@ pub struct ImportReport {
     pub tool_xyz_mm: [f64; 3],
     pub base_xyz_mm: [f64; 3],
     pub base_rpy_deg: [f64; 3],
+    /// Whether the file holds that base as `[base]` (`--with-base`); otherwise the base is
+    /// estimated from the data.
+    pub base_written: bool,
 }
 
 plain_report!(ImportReport);
@@ -40,9 +43,18 @@ impl fmt::Display for ImportReport {
         }
         writeln!(
             f,
-            "tool point {:?} mm in the last MDH frame; base {:?} mm, rpy {:?} deg",
+            "tool point {:?} mm in the last MDH frame; frame 0 in the base link {:?} mm, rpy {:?} deg",
             self.tool_xyz_mm, self.base_xyz_mm, self.base_rpy_deg
-        )
+        )?;
+        if self.base_written {
+            writeln!(f, "[base] written: the data are in the base link's frame")
+        } else {
+            writeln!(
+                f,
+                "no [base] written: check and identify estimate it from the data (--with-base \
+                 for data in the base link's frame)"
+            )
+        }
     }
 }
 

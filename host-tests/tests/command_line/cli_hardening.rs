@@ -295,3 +295,119 @@ fn counts_that_size_work_are_capped() {
     let out = kinecal(&["study", "--poses", "100000"]);
     assert_refused(&out, "--poses");
 }
+
+#[test]
+fn a_holdout_that_holds_out_nothing_or_a_fraction_of_a_pose_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let (robot, data) = er20_data(dir.path(), 60);
+    // 1e-300 of 60 poses rounds to none; 0.005 of 60 too; 1.5 poses is no count.
+    for (h, names) in [
+        ("1e-300", "holds out no pose of 60"),
+        ("0.005", "holds out no pose of 60"),
+        ("1.5", "whole number"),
+        ("60", "leaves no poses to identify from"),
+        ("1e300", "leaves no poses to identify from"),
+    ] {
+        let out = identify(&robot, &data, &["--holdout", h]);
+        assert_refused(&out, names);
+    }
+    // A whole count and a fraction that holds out at least one pose are taken.
+    for h in ["2", "2.0", "0.05"] {
+        let out = identify(&robot, &data, &["--holdout", h]);
+        assert_ne!(
+            out.status.code(),
+            Some(2),
+            "--holdout {h}: {}",
+            stderr(&out)
+        );
+    }
+}
+
+#[test]
+fn one_pose_repeated_cannot_determine_a_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let (robot, data) = er20_data(dir.path(), 60);
+    let text = std::fs::read_to_string(&data).unwrap();
+    let mut lines = text.lines();
+    let (header, first) = (lines.next().unwrap(), lines.next().unwrap());
+    let same = write(
+        dir.path(),
+        "same.csv",
+        &format!("{header}\n{}", format!("{first}\n").repeat(60)),
+    );
+    // The base known: 60 rows, one distinct pose.
+    assert_refused(&identify(&robot, &same, &[]), "1 distinct");
+    // The base unknown: no placement from one point.
+    let unplaced = write(
+        dir.path(),
+        "unplaced.toml",
+        ER20_PLACED.split("[base]").next().unwrap(),
+    );
+    assert_refused(&identify(&unplaced, &same, &[]), "at one place");
+}
+
+#[test]
+fn messages_escape_control_characters_and_stay_short() {
+    let dir = tempfile::tempdir().unwrap();
+    // A file name with an escape sequence and a carriage return, and one 5,000 characters long
+    // (the messages quote both).
+    let hostile = dir.path().join("robot\u{1b}[31mred\rover.toml");
+    let out = kinecal(&["check", "--robot", s(&hostile), "--data", "nothing.csv"]);
+    let e = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{e}");
+    assert!(
+        !e.contains('\u{1b}') && !e.contains('\r'),
+        "raw control bytes: {e:?}"
+    );
+    assert!(e.contains("\\u{1b}[31mred\\u{d}over.toml"), "escaped: {e}");
+    let long = format!("{}.toml", "n".repeat(5000));
+    let out = kinecal(&["check", "--robot", &long, "--data", "nothing.csv", "--json"]);
+    let e = stderr(&out);
+    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+    assert!(e.chars().count() < 1100, "{} characters", e.chars().count());
+    assert!(e.contains("more characters"), "{e}");
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(json["error"].as_str().unwrap().chars().count() < 1100);
+}
+
+#[test]
+fn malformed_sweeps_and_working_configurations_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = write(dir.path(), "robot.toml", ER20_PLACED);
+    // Two points cannot give a circle: a data problem (exit 2), not an internal error.
+    let sweeps = write(
+        dir.path(),
+        "sweeps.csv",
+        "q1,q2,q3,q4,q5,q6,x,y,z,sweep\n0,0,0,0,0,0,1,2,3,1\n1,0,0,0,0,0,1,2,3,1\n",
+    );
+    let out = kinecal(&["frames", "--robot", s(&robot), "--data", s(&sweeps)]);
+    assert_refused(&out, "at least 4 per sweep");
+    let no_column = write(
+        dir.path(),
+        "plain.csv",
+        "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1,2,3\n",
+    );
+    let out = kinecal(&["frames", "--robot", s(&robot), "--data", s(&no_column)]);
+    assert_refused(&out, "no `sweep` column");
+    let out_csv = dir.path().join("plan.csv");
+    for (work, names) in [
+        ("1e308,0,0,0,0,0", "no joint angle"),
+        ("0,0,0", "expected 6"),
+        ("nan,0,0,0,0,0", "no joint angle"),
+        ("x,0,0,0,0,0", "not a number"),
+    ] {
+        let out = kinecal(&[
+            "plan",
+            "--robot",
+            s(&robot),
+            "--poses",
+            "30",
+            "--criterion",
+            "d",
+            &format!("--work={work}"),
+            "--out",
+            s(&out_csv),
+        ]);
+        assert_refused(&out, names);
+    }
+}

@@ -214,6 +214,18 @@ fn urdf_that_is_no_tree_is_refused_naming_the_link() {
 }
 
 #[test]
+fn urdf_limits_crossed_and_rotations_out_of_range_are_refused() {
+    let crossed = arm("tool0", 0).replacen(
+        "<limit lower=\"-3\" upper=\"3\"",
+        "<limit lower=\"1\" upper=\"-1\"",
+        1,
+    );
+    import_refused(&crossed, &["j1", "limit lower = 1 is above upper = -1"]);
+    let huge = arm("tool0", 0).replacen("rpy=\"0 0 0\"", "rpy=\"1e308 0 0\"", 1);
+    import_refused(&huge, &["j1", "no rotation in radians"]);
+}
+
+#[test]
 fn deeply_nested_or_attribute_laden_xml_is_refused() {
     let n = 13_000;
     let deep = format!(
@@ -412,6 +424,32 @@ fn report_refuses_diagnose_figures_out_of_range() {
         );
         assert!(!out.exists());
     }
+    // 20,000 findings (a page of hundreds of megabytes): more than a model holds.
+    let one =
+        "{\"effect\":\"joint-scale\",\"joint\":2,\"values\":[0.001],\"validation_rms_mm\":0.5}";
+    let many = format!(
+        "{{\"baseline_validation_rms_mm\":1,\"final_validation_rms_mm\":0.5,\
+         \"noise_floor_mm\":0.1,\"found\":[{}]}}",
+        vec![one; 20_000].join(",")
+    );
+    let j = write(tmp.path(), "many.json", &many);
+    refused(
+        &[
+            "report",
+            "--robot",
+            s(&robot),
+            "--model",
+            s(&model),
+            "--data",
+            s(&data),
+            "--diagnose",
+            s(&j),
+            "--out",
+            s(&out),
+        ],
+        &["20000 findings", "more than a model holds"],
+    );
+    assert!(!out.exists());
 }
 
 #[test]

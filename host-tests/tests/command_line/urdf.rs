@@ -166,10 +166,11 @@ fn random_q(rng: &mut Xoshiro256PlusPlus, limits: &[[f64; 2]]) -> Vec<f64> {
         .collect()
 }
 
-/// `kinecal import --urdf F --out DIR/robot.toml EXTRA…`, read back.
+/// `kinecal import --urdf F --with-base --out DIR/robot.toml EXTRA…` (the URDF's base link
+/// is the frame these tests measure in), read back.
 fn import(dir: &Path, urdf: &Path, extra: &[&str]) -> (PathBuf, RobotFile) {
     let out = dir.join("robot.toml");
-    let mut args = vec!["import", "--urdf", s(urdf), "--out", s(&out)];
+    let mut args = vec!["import", "--urdf", s(urdf), "--with-base", "--out", s(&out)];
     args.extend_from_slice(extra);
     kinecal_ok(&args);
     let f = RobotFile::load(&out).unwrap();

@@ -10,5 +10,6 @@ mod explain;
 mod grids;
 mod matrix;
 mod observations;
+mod orientation;
 mod ur10;
 mod workflow;

@@ -12,7 +12,7 @@ use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
 
 /// MDH rows of a UR10-like arm (alpha°, a mm, theta°, d mm).
-const ROWS: [[f64; 4]; 6] = [
+pub(crate) const ROWS: [[f64; 4]; 6] = [
     [0.0, 0.0, 0.0, 118.0],
     [90.0, 0.0, 180.0, 0.0],
     [0.0, 612.7, 0.0, 0.0],
@@ -23,7 +23,7 @@ const ROWS: [[f64; 4]; 6] = [
 
 /// A robot file: `rows` with the offsets `dev` added (per joint: da, dd, dalpha°, dtheta°),
 /// a known base, the tools (`[tool]` when one is unnamed) and `extra` TOML.
-fn robot_text(
+pub(crate) fn robot_text(
     dev: &[[f64; 4]; 6],
     tools: &[(&str, [f64; 3])],
     rpy: [f64; 3],
@@ -58,7 +58,7 @@ fn robot_text(
 }
 
 /// Rows off by up to 0.5 mm and 0.05°.
-fn deviations(rng: &mut rand::rngs::StdRng) -> [[f64; 4]; 6] {
+pub(crate) fn deviations(rng: &mut rand::rngs::StdRng) -> [[f64; 4]; 6] {
     std::array::from_fn(|_| {
         [
             rng.random_range(-0.5..0.5),
@@ -73,7 +73,7 @@ fn deviations(rng: &mut rand::rngs::StdRng) -> [[f64; 4]; 6] {
 const HIDDEN: &str =
     "[[effects]]\nkind = \"joint-cyclic\"\njoint = 2\nvalues = [0.0006, -0.0004]\n";
 
-fn load(
+pub(crate) fn load(
     text: &str,
     dir: &std::path::Path,
     name: &str,

@@ -196,6 +196,26 @@ fn effects_refuse_joints_beyond_the_robot_and_u16_indices() {
         .unwrap();
 }
 
+/// A list without value capacity (`V = 0`, the firmware's models) holds no effect, whatever
+/// is pushed: [`Effects::is_empty`] says so at compile time.
+#[test]
+fn a_list_without_value_capacity_stays_empty() {
+    let mut e = Effects::<f64, 0>::for_joints(6);
+    let pushes: [(EffectKind, u16, f64, f64, &[f64]); 6] = [
+        (EffectKind::Scale, 1, 0.0, 0.0, &[1e-3]),
+        (EffectKind::Compliance, 1, 0.0, 0.0, &[1e-3]),
+        (EffectKind::Cyclic, 1, 0.0, 0.0, &[1e-3, 1e-3]),
+        (EffectKind::Table, 1, 0.0, 0.1, &[1e-3, 1e-3]),
+        (EffectKind::Thermal, 1, 20.0, 0.0, &[1e-5]),
+        (EffectKind::Scale, 1, 0.0, 0.0, &[]),
+    ];
+    for (kind, order, start, step, values) in pushes {
+        assert!(e.push(kind, 0, 6, order, start, step, values).is_err());
+        assert!(e.is_empty());
+        assert_eq!(e.len(), 0);
+    }
+}
+
 #[test]
 fn pso_boxes_that_overflow_are_refused() {
     assert_eq!(

@@ -217,6 +217,8 @@ fn truncated_corrupted_and_foreign_blobs_are_refused_leaving_the_robot_unchanged
     // More effect values than the robot has room for.
     let small: Robot<f64, 6, 8> = target.with_capacity().unwrap();
     refused(&blob, &small, BlobError::Capacity);
+    let plain: Robot<f64, 6, 0> = target.with_capacity().unwrap();
+    refused(&blob, &plain, BlobError::Capacity);
 }
 
 /// `blob` with one record appended before the checksum (length and CRC updated).

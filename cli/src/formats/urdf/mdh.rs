@@ -274,6 +274,7 @@ pub fn import(chain: &Chain, tool_mm: [f64; 3], name: &str) -> Imported {
         tool: ToolSpec {
             xyz_mm: [snap(point.x), snap(point.y), snap(point.z)],
             rpy_deg: Some([deg(r), deg(p), deg(y)]),
+            unknown: false,
         },
         tools: Vec::new(),
         base: Some(base),

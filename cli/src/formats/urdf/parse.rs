@@ -364,6 +364,17 @@ impl Urdf {
             Some(t) => numbers(path, &what("origin rpy"), t)?,
             None => [0.0; 3],
         };
+        // Beyond the library's angle bound an angle is no rotation in radians (1e308 would
+        // lose every digit in the range reduction).
+        if rpy
+            .iter()
+            .any(|a| a.abs() > kinecal::model::bounds::MAX_ANGLE)
+        {
+            crate::refuse!(
+                "{path}: joint '{name}' origin rpy = {rpy:?} is no rotation in radians: give \
+                 roll, pitch and yaw in radians"
+            );
+        }
         let axis = match child_el("axis").and_then(|a| a.attribute("xyz")) {
             Some(t) => numbers(path, &what("axis xyz"), t)?,
             None => [1.0, 0.0, 0.0],
@@ -380,6 +391,14 @@ impl Urdf {
                 let hi = l
                     .attribute("upper")
                     .map_or(Ok(0.0), |t| number(path, &what("limit upper"), t))?;
+                // Equal limits (both absent: 0 and 0) leave the range to the robot file's
+                // default; crossed ones are a mistake.
+                if lo > hi {
+                    crate::refuse!(
+                        "{path}: joint '{name}' limit lower = {lo} is above upper = {hi}: swap \
+                         them"
+                    );
+                }
                 Some([lo, hi])
             }
             _ => None,

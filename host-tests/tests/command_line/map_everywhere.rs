@@ -1,0 +1,137 @@
+//! `--map` on every subcommand that reads measurements, sweeps or targets: each file rewritten
+//! in a vendor layout (`;`, decimal commas, the tracker's column names) and read with a map
+//! gives the same report as the file in kinecal's layout. (Units through a map are the
+//! vendor_files tests'; here the cells stay the same digits so the reports agree bit for bit.)
+
+use crate::common::{json_of, kinecal, s, simulate, stderr, write, ER20_PLACED};
+use std::path::{Path, PathBuf};
+
+/// `file` (kinecal's layout, comma-separated) rewritten as a vendor writes it: `;`-separated,
+/// decimal commas, every column renamed `V_<name>`; and the map that reads it back.
+fn vendor(dir: &Path, file: &Path) -> (PathBuf, PathBuf) {
+    let text = std::fs::read_to_string(file).unwrap();
+    let mut lines = text
+        .lines()
+        .filter(|l| !l.is_empty() && !l.starts_with('#'));
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let mut out = header
+        .iter()
+        .map(|c| format!("V_{c}"))
+        .collect::<Vec<_>>()
+        .join(";");
+    out.push('\n');
+    for l in lines {
+        let cells: Vec<String> = l.split(',').map(|v| v.replace('.', ",")).collect();
+        out.push_str(&cells.join(";"));
+        out.push('\n');
+    }
+    let mut map = String::from("delimiter = \";\"\ndecimal = \",\"\n[columns]\n");
+    for c in &header {
+        map.push_str(&format!("{c} = \"V_{c}\"\n"));
+    }
+    let name = file.file_stem().unwrap().to_string_lossy().to_string();
+    (
+        write(dir, &format!("{name}.vendor.csv"), &out),
+        write(dir, &format!("{name}.map.toml"), &map),
+    )
+}
+
+/// The JSON of `args` with `file` and of the same with the vendor file and `--map`; both
+/// succeed, and they agree but for paths and timings.
+fn same_with_map(dir: &Path, args: &[&str], flag: &str, file: &Path) {
+    let (v, map) = vendor(dir, file);
+    let run = |data: &Path, extra: &[&str]| {
+        let mut a: Vec<&str> = args.to_vec();
+        a.extend([flag, s(data)]);
+        a.extend_from_slice(extra);
+        a.push("--json");
+        let o = kinecal(&a);
+        assert!(o.status.success(), "{a:?}: {}", stderr(&o));
+        let mut j = json_of(&o);
+        // Paths differ (the two files), and timings (`seconds`, `microseconds_per_target`).
+        if let Some(m) = j.as_object_mut() {
+            m.retain(|k, v| {
+                !k.contains("seconds") && !v.as_str().is_some_and(|t| t.contains(s(dir)))
+            });
+        }
+        j
+    };
+    let plain = run(file, &[]);
+    let mapped = run(&v, &["--map", s(&map)]);
+    assert_eq!(plain, mapped, "{args:?}");
+}
+
+#[test]
+fn every_reader_takes_a_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = write(d, "er20.toml", ER20_PLACED);
+    let data = d.join("data.csv");
+    simulate(
+        &robot,
+        Some(30),
+        Some(0.01),
+        Some(3),
+        &["--geom-errors"],
+        &data,
+    );
+    let r = s(&robot);
+    same_with_map(d, &["check", "--robot", r], "--data", &data);
+    same_with_map(d, &["identify", "--robot", r], "--data", &data);
+    same_with_map(
+        d,
+        &["validate", "--robot", r, "--model", r],
+        "--data",
+        &data,
+    );
+    // Sweeps.
+    let sweeps = d.join("sweeps.csv");
+    simulate(
+        &robot,
+        None,
+        Some(0.01),
+        Some(4),
+        &["--sweeps", "1,2,5,6", "--sweep-points", "12"],
+        &sweeps,
+    );
+    same_with_map(d, &["frames", "--robot", r], "--data", &sweeps);
+    // Targets: the measured points.
+    let text = std::fs::read_to_string(&data).unwrap();
+    let targets = write(d, "targets.csv", &text);
+    let out = d.join("q.csv");
+    same_with_map(
+        d,
+        &["compensate", "--model", r, "--out", s(&out)],
+        "--targets",
+        &targets,
+    );
+    // The stated σ of plan --noise-from.
+    let mut sig = String::new();
+    for (k, l) in text.lines().filter(|l| !l.starts_with('#')).enumerate() {
+        sig.push_str(l);
+        sig.push_str(if k == 0 {
+            ",sx_mm,sy_mm,sz_mm\n"
+        } else {
+            ",0.02,0.03,0.04\n"
+        });
+    }
+    let sig = write(d, "sigma.csv", &sig);
+    let plan_out = d.join("plan.csv");
+    same_with_map(
+        d,
+        &[
+            "plan",
+            "--robot",
+            r,
+            "--poses",
+            "12",
+            "--criterion",
+            "random",
+            "--work=0,-30,30,0,30,0",
+            "--out",
+            s(&plan_out),
+        ],
+        "--noise-from",
+        &sig,
+    );
+}

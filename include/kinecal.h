@@ -55,8 +55,8 @@
 #define KC_LM_SIZE 9136
 
 #if defined(KC_LM_FULL)
-// Room for identified parameters in a `kc_lm_full`: every geometric parameter of a 6-joint
-// arm (`KC_PARAMS_ALL`: 6 base, 5 × 6 row, 3 tool), for a firmware that also fits the base
+// Room for identified parameters in a `kc_lm_full`: every geometric parameter of a 7-joint
+// arm (`KC_PARAMS_ALL`: 6 base, 5 × 7 row, 3 tool; 39 of a 6-joint arm), for a firmware that also fits the base
 // pose and the tool point (`kc_params_full`).
 #define KC_LM_FULL_MAX_PARAMS 44
 #endif

@@ -262,8 +262,8 @@ pub struct kc_lm {
 // Built straight in place, no stack copy of the solver; an `Err` is never tagged initialised.
 handle!(kc_lm, KC_LM_SIZE, Solvers<KC_LM_MAX_PARAMS>, 0x4c4c_4c4c);
 
-/// Room for identified parameters in a `kc_lm_full`: every geometric parameter of a 6-joint
-/// arm (`KC_PARAMS_ALL`: 6 base, 5 × 6 row, 3 tool), for a firmware that also fits the base
+/// Room for identified parameters in a `kc_lm_full`: every geometric parameter of a 7-joint
+/// arm (`KC_PARAMS_ALL`: 6 base, 5 × 7 row, 3 tool; 39 of a 6-joint arm), for a firmware that also fits the base
 /// pose and the tool point (`kc_params_full`).
 #[cfg(feature = "lm-full")]
 pub const KC_LM_FULL_MAX_PARAMS: usize = 44;

@@ -231,7 +231,7 @@ static void test_fk(const double *fk_expected, size_t n_expected) {
   EXPECT(kc_fk_point(NULL, &nominal, q, p), KC_NULL_POINTER);
   EXPECT(kc_fk_point(&never, &nominal, q, p), KC_NOT_INITIALIZED);
   EXPECT(kc_fk_jacobian(&fk, &nominal, mdh, 24, jac2, 3 * 24 - 1), KC_BUFFER_TOO_SMALL);
-  EXPECT(kc_fk_jacobian(&fk, &nominal, mdh, 40, jac2, 3 * 40), KC_TOO_MANY_PARAMS);
+  EXPECT(kc_fk_jacobian(&fk, &nominal, mdh, KC_PARAMS_ALL + 1, jac2, 3 * (KC_PARAMS_ALL + 1)), KC_TOO_MANY_PARAMS);
   EXPECT(kc_fk_jacobian(&fk, &nominal, NULL, 24, jac2, 3 * 24), KC_NULL_POINTER);
   bad_param.kind = KC_PARAM_D;
   bad_param.joint = 6;

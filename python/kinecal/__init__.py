@@ -41,6 +41,7 @@ __all__ = [
     "identify",
     "diagnose",
     "compensate",
+    "compensate_cartesian",
     "frames",
     "plan",
     "simulate",
@@ -485,6 +486,25 @@ def compensate(
     status = [r[head.index("status")] for r in rows]
     return CommandResult(report, converged, q=_joints_of(head, rows, model.joints),
                          status=status, error_mm=col("error_mm"), error_deg=col("error_deg"))
+
+
+def compensate_cartesian(
+    model: Robot,
+    nominal: Robot,
+    q_seed: Any,
+    targets: Any,
+    *,
+    angle_unit: str = "deg",
+) -> Tuple[np.ndarray, List[str]]:
+    """Targets for a controller that keeps its ``nominal`` kinematics (``kinecal compensate
+    --robot NOMINAL --cartesian``): for each target (n, 3: x, y, z mm; or n, 6 with rx, ry, rz in
+    ``angle_unit``), the point (and orientation) that the nominal robot, placed at ``model``'s
+    base, reaches at the joints that bring ``model`` to the target, from the seeds ``q_seed``
+    (n, N). In memory, the same library function as the command line. Returns the targets to
+    send (a failed row keeps its target) and each row's status."""
+    q = np.ascontiguousarray(np.asarray(q_seed, dtype=np.float64))
+    t = np.ascontiguousarray(np.asarray(targets, dtype=np.float64))
+    return _native.compensate_cartesian(model, nominal, q, t, angle_unit)
 
 
 def frames(

@@ -81,3 +81,10 @@ def identify(
     validate: Optional[Tuple[_F64, _F64, List[str], Optional[_F64]]] = None,
 ) -> Tuple[str, str, bool]: ...
 def run(argv: List[str]) -> Tuple[str, bool]: ...
+def compensate_cartesian(
+    model: Robot,
+    nominal: Robot,
+    seeds: _Array,
+    targets: _Array,
+    angle_unit: str = "deg",
+) -> Tuple[_F64, List[str]]: ...

@@ -3,7 +3,7 @@
 //! ([`kinecal::compensate::nominal_target`], the command line's default settings).
 
 use crate::refused;
-use crate::robot::{array2, model, radians, readings, Robot};
+use crate::robot::{array2, radians, readings, Robot};
 use kinecal::compensate::{nominal_target, Config, Status, Target};
 use kinecal::Frame;
 use kinecal_cli::with_joints;
@@ -51,9 +51,10 @@ pub fn compensate_cartesian<'py>(
     }
     let to_rad = |a: f64| if rad { a } else { a.to_radians() };
     let from_rad = |a: f64| if rad { a } else { a.to_degrees() };
-    let r: PyResult<(Array2<f64>, Vec<String>)> = with_joints!(n, N => {
-        let m = model::<N>(&model.file).map_err(crate::py_err)?;
-        let nom = model::<N>(&nominal.file).map_err(crate::py_err)?;
+    type Sent = (Array2<f64>, Vec<String>);
+    let r: anyhow::Result<PyResult<Sent>> = with_joints!(n, N => Ok((|| -> PyResult<Sent> {
+        let m = crate::robot::model::<N>(&model.file).map_err(crate::py_err)?;
+        let nom = crate::robot::model::<N>(&nominal.file).map_err(crate::py_err)?;
         let q = readings::<N>(seeds.as_array(), rad, "seeds")?;
         if q.len() != t.nrows() {
             return Err(refused(format!(
@@ -95,7 +96,7 @@ pub fn compensate_cartesian<'py>(
             status.push(st.as_str().to_string());
         }
         Ok((out, status))
-    });
-    let (out, status) = r?;
+    })()));
+    let (out, status) = r.map_err(crate::py_err)??;
     Ok((out.into_pyarray(py), status))
 }

@@ -79,6 +79,34 @@ def test_compensate_equals_cli(sim, cli, tmp_path):
     assert np.abs(truth.fk(res.q) - targets).max() < 0.01
 
 
+def test_compensate_cartesian_equals_cli(cell, sim, cli, tmp_path):
+    """Targets for a controller that keeps the nominal kinematics: Python's in-memory route
+    equals `kinecal compensate --robot NOMINAL --cartesian` row for row, and the sent targets,
+    driven through the nominal robot's own compensation, bring the true robot to the targets."""
+    d, _ = sim
+    truth = kinecal.Robot.from_file(d / "truth.toml")
+    rng = np.random.default_rng(9)
+    seeds = rng.uniform(-60, 60, size=(30, truth.joints))
+    targets = truth.fk(seeds) + rng.normal(0, 0.3, size=(30, 3))
+    kinecal.write_csv(tmp_path / "t.csv", seeds, targets)
+    sent, status = kinecal.compensate_cartesian(truth, cell, seeds, targets)
+    code, ref = cli("compensate", "--model", d / "truth.toml", "--robot", CELL / "robot.toml",
+                    "--cartesian", "--targets", tmp_path / "t.csv", "--out", tmp_path / "c.csv")
+    assert code == 0, ref
+    import csv
+
+    with open(tmp_path / "c.csv") as f:
+        rows = list(csv.DictReader(f))
+    np.testing.assert_allclose(
+        sent, np.array([[float(r[k]) for k in ("x", "y", "z")] for r in rows]), atol=1e-5)
+    assert status == [r["status"] for r in rows]
+    ok = [i for i, s in enumerate(status) if s == "ok"]
+    assert len(ok) >= 25, status
+    # The nominal controller's joints for the sent targets put the true robot on the targets.
+    q = kinecal.compensate(cell, seeds[ok], sent[ok]).q
+    assert np.abs(truth.fk(q) - targets[ok]).max() < 0.01
+
+
 def test_frames_equals_cli(cell, cli, tmp_path):
     """Base frame from simulated sweeps: JSON and the framed robot equal the CLI's."""
     cli("simulate", "--robot", CELL / "robot.toml", "--sweeps", "1,2,5,6", "--noise-mm", 0.002,

@@ -75,7 +75,11 @@ pub fn per_pose_errors(path: &Path, before_sq: &[f64], after_sq: &[f64]) -> anyh
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(60)
-            .build_cartesian_2d(0.0..(b.len().max(1) as f64 + 1.0), 0.0..ymax)
+            .build_cartesian_2d(
+                0.0..(b.len().max(1) as f64 + 1.0),
+                // Room above the points for the legend (two entries).
+                0.0..crate::output::plots::legend_headroom(0.0, ymax, 2, 500),
+            )
             .map_err(plot_err)?;
         chart
             .configure_mesh()
@@ -241,7 +245,11 @@ pub fn effect_residuals<const N: usize>(
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(80)
-            .build_cartesian_2d(xmin..xmax, ylo..yhi)
+            .build_cartesian_2d(
+                xmin..xmax,
+                // Room above the points for the legend (up to four entries).
+                ylo..crate::output::plots::legend_headroom(ylo, yhi, 4, 620 - 56),
+            )
             .map_err(plot_err)?;
         chart
             .configure_mesh()

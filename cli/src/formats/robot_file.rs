@@ -368,6 +368,10 @@ pub fn rpy_deg_short(base: &Frame<f64>) -> [f64; 3] {
     fallback
 }
 
+/// A robot file whose every length is below this (mm) is refused as one written in metres: the
+/// smallest arms calibrated with a tracker have links of tens of millimetres.
+pub const METRES_SUSPECT_MM: f64 = 10.0;
+
 fn finite(xs: &[f64]) -> bool {
     xs.iter().all(|x| x.is_finite())
 }
@@ -432,6 +436,40 @@ impl RobotFile {
             .unwrap_or([-180.0, 180.0])
     }
 
+    /// Why the file's lengths read as metres, if they do: the largest link length, offset and
+    /// tool coordinate below [`METRES_SUSPECT_MM`] (a 0.612 that should be 612 mm) is no arm
+    /// measured with a tracker, and fitting it to millimetre data is no calibration (the units
+    /// door of the measurement files, for robot files).
+    fn lengths_in_metres(&self) -> Option<String> {
+        let mut largest: Option<(String, f64)> = None;
+        let mut see = |key: String, v: f64| {
+            if v.is_finite() && largest.as_ref().is_none_or(|(_, m)| v.abs() > *m) {
+                largest = Some((key, v.abs()));
+            }
+        };
+        for (i, j) in self.joints.iter().enumerate() {
+            see(format!("a{}", i + 1), j.a_mm);
+            see(format!("d{}", i + 1), j.d_mm);
+        }
+        if !self.tool.unknown {
+            for (a, v) in ["x", "y", "z"].iter().zip(self.tool.xyz_mm) {
+                see(format!("tool {a}"), v);
+            }
+        }
+        for t in &self.tools {
+            for (a, v) in ["x", "y", "z"].iter().zip(t.xyz_mm) {
+                see(format!("{} {a}", t.name), v);
+            }
+        }
+        let (key, v) = largest?;
+        (v > 0.0 && v < METRES_SUSPECT_MM).then(|| {
+            format!(
+                "every length is below {METRES_SUSPECT_MM} mm (the largest, {key}, is {}): robot files are in millimetres and this one reads as metres; multiply its lengths (a_mm, d_mm, xyz_mm) by 1000",
+                crate::number_text(v)
+            )
+        })
+    }
+
     /// Checks every value: finite numbers, `lower < upper`, 2 to 8 joints, effects on existing
     /// joints with the right number of values.
     pub fn validate(&self) -> Result<(), Issue> {
@@ -482,6 +520,9 @@ impl RobotFile {
                     }
                 }
             }
+        }
+        if let Some(m) = self.lengths_in_metres() {
+            return issue(Place::Joints, m);
         }
         if !self.tool.rpy_deg.is_none_or(|r| finite(&r)) {
             return issue(Place::Tool, "tool: rpy_deg must be finite numbers".into());

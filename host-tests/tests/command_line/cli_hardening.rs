@@ -411,3 +411,58 @@ fn malformed_sweeps_and_working_configurations_are_refused() {
         assert_refused(&out, names);
     }
 }
+
+/// `text` with every length of the robot file (`a_mm`, `d_mm`, `xyz_mm` of `[tool]` and
+/// `[base]`) divided by 1000: the file a user wrote in metres.
+fn in_metres(text: &str) -> String {
+    let metres = |v: &str| (v.trim().parse::<f64>().unwrap() / 1000.0).to_string();
+    text.lines()
+        .map(|l| {
+            let (key, value) = match l.split_once(" = ") {
+                Some(kv) => kv,
+                None => return l.to_string(),
+            };
+            match key.trim() {
+                "a_mm" | "d_mm" => format!("{key} = {}", metres(value)),
+                "xyz_mm" => {
+                    let inner = value.trim().trim_start_matches('[').trim_end_matches(']');
+                    let v: Vec<String> = inner.split(',').map(metres).collect();
+                    format!("{key} = [{}]", v.join(", "))
+                }
+                _ => l.to_string(),
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+#[test]
+fn a_robot_file_in_metres_is_refused_by_every_reader() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mm, data) = er20_data(dir.path(), 30);
+    let text = in_metres(ER20_PLACED);
+    assert!(text.contains("d_mm = 0.504"), "{text}");
+    let robot = write(dir.path(), "metres.toml", &text);
+    // check and identify exited 0 (a tolerance warning at most) on a robot 1000× too small.
+    for args in [
+        vec!["check", "--robot", s(&robot), "--data", s(&data)],
+        vec!["identify", "--robot", s(&robot), "--data", s(&data)],
+        vec!["diagnose", "--robot", s(&robot), "--data", s(&data)],
+        vec![
+            "validate",
+            "--robot",
+            s(&mm),
+            "--model",
+            s(&robot),
+            "--data",
+            s(&data),
+        ],
+    ] {
+        let out = kinecal(&args);
+        assert_refused(&out, "metres");
+        assert!(stderr(&out).contains("multiply"), "{}", stderr(&out));
+    }
+    // The same file in millimetres is read.
+    let out = kinecal(&["check", "--robot", s(&mm), "--data", s(&data)]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+}

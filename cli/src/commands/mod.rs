@@ -93,6 +93,9 @@ pub fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
         Command::Import(a) => boxed(import::run(a)),
         Command::Export(a) => boxed(export::run(a, cli.json)),
         Command::Report(a) => boxed(report::run(a)),
+        Command::Validate(a) if crate::constraints::read::is_constraint_file(&a.input.data) => {
+            boxed(crate::constraints::validate::run(a))
+        }
         Command::Validate(a) => boxed(validate::run(a)),
     }
 }

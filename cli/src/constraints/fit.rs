@@ -88,10 +88,10 @@ pub fn unidentifiable<const N: usize>(
     let largest = (0..np).fold(0.0, |m: f64, k| m.max(scaled(k, model.column(k).norm())));
     let mut held = Vec::new();
     let mut free: Vec<usize> = Vec::new();
-    for k in 0..np {
+    for (k, p) in params.iter().enumerate() {
         let (before, after) = (model.column(k).norm(), seen.column(k).norm());
         if after <= ABSORBED * before || scaled(k, after) <= 1e-9 * largest {
-            held.push(params[k]);
+            held.push(*p);
         } else {
             free.push(k);
         }

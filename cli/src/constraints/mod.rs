@@ -17,3 +17,4 @@ pub mod report;
 pub mod shapes;
 pub mod simulate;
 pub mod system;
+pub mod validate;

@@ -7,6 +7,7 @@ mod common;
 mod atomic_out;
 mod cli_check_simulate;
 mod cli_hardening;
+mod constraints;
 mod couplings;
 mod csv_hardening;
 mod documented_examples;

@@ -17,12 +17,14 @@
 //! - [`report_html`]: the calibration report, one self-contained HTML page (`report`, `demo`);
 //! - [`frames`] and [`compensation`]: the circle-point frames and corrected joint commands from
 //!   files;
+//! - [`constraints`]: calibration from sockets, planes and distances (no tracker);
 //! - [`commands`]: one thin module per subcommand; `main.rs` calls [`commands::main`].
 
 pub mod calibration;
 pub mod commands;
 pub mod compensation;
 pub mod compute;
+pub mod constraints;
 pub mod diagnose;
 pub mod formats;
 pub mod frames;

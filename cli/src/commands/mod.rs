@@ -81,6 +81,9 @@ pub fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
         Command::Check(a) => boxed(check::run(a)),
         Command::Demo(a) => boxed(demo::run(a)),
         Command::Simulate(a) => boxed(simulate::run(a)),
+        Command::Identify(a) if crate::constraints::read::is_constraint_file(&a.input.data) => {
+            boxed(crate::constraints::identify::run(a))
+        }
         Command::Identify(a) => boxed(identify::run(a)),
         Command::Diagnose(a) => boxed(diagnose::run(a)),
         Command::Frames(a) => boxed(frames::run(a)),
@@ -90,6 +93,9 @@ pub fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
         Command::Import(a) => boxed(import::run(a)),
         Command::Export(a) => boxed(export::run(a, cli.json)),
         Command::Report(a) => boxed(report::run(a)),
+        Command::Validate(a) if crate::constraints::read::is_constraint_file(&a.input.data) => {
+            boxed(crate::constraints::validate::run(a))
+        }
         Command::Validate(a) => boxed(validate::run(a)),
     }
 }

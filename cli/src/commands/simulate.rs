@@ -65,6 +65,11 @@ pub struct Args {
     /// Joint readings (degrees) the sweeps start from, q1,…,qN (default: a bent pose).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub rest: Vec<f64>,
+    /// Instead of tracker points, a constraint session (no tracker): socket:GROUPSxROWS,
+    /// plane:GROUPSxROWS, distance:PAIRS, point:ROWS, comma-separated (e.g.
+    /// socket:4x10,plane:3x15,distance:30); --noise-mm is each contact's or length's σ.
+    #[arg(long, value_name = "KIND:COUNT,…")]
+    pub constraints: Option<crate::constraints::simulate::SessionPlan>,
 }
 
 /// `A:B`: two temperatures in °C.
@@ -126,7 +131,22 @@ fn simulate_with_joints<const N: usize>(
             args.seed,
         )?;
     }
-    measurements::write(&args.out, &ds)?;
+    let rows = match &args.constraints {
+        Some(plan) => {
+            if !args.sweeps.is_empty() || args.temperature.is_some() {
+                crate::refuse!("--constraints does not combine with --sweeps or --temperature");
+            }
+            let text =
+                crate::constraints::simulate::session(&truth, plan, args.noise_mm, args.seed)?;
+            crate::output::atomic::write_atomic(&args.out, text.as_bytes())
+                .map_err(|e| anyhow!("{}: cannot write: {e}", args.out.display()))?;
+            plan.rows()
+        }
+        None => {
+            measurements::write(&args.out, &ds)?;
+            ds.len()
+        }
+    };
     if let Some(t) = &args.truth {
         let mut tilt = file.tilt_joints();
         tilt.extend(
@@ -140,7 +160,7 @@ fn simulate_with_joints<const N: usize>(
         f.save(t)?;
     }
     Ok(SimulateReport {
-        poses: ds.len(),
+        poses: rows,
         seed: args.seed,
         out: args.out.display().to_string(),
         truth: args.truth.as_ref().map(|t| t.display().to_string()),

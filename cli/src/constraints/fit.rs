@@ -1,0 +1,206 @@
+//! The constraint fit: Levenberg–Marquardt over the model parameters and the groups' shapes
+//! (socket centres, planes), after holding what the constraints cannot determine.
+//!
+//! Identifiability: the model columns of the weighted Jacobian at the start, with the shapes'
+//! columns projected out (what a shape can absorb is not seen by the model), each scaled to
+//! unit norm. A column that the projection (nearly, [`ABSORBED`]) empties (the base from
+//! distances or sockets: the constraints are invariant to a rigid motion of the whole robot) is
+//! held; then, while the
+//! smallest singular value is below [`RANK_TOLERANCE`] of the largest (an overall scale from
+//! sockets and planes without a length), the parameter that dominates its singular vector is
+//! held, base parameters first. Held parameters keep their starting values.
+
+use super::read::Group;
+use super::shapes::{fit as fit_shape, points, Shape};
+use super::system::{evaluate, step_shapes};
+use crate::VCAP;
+use kinecal::model::param::apply_delta;
+use kinecal::{Param, Robot};
+use nalgebra::{DMatrix, DVector};
+
+/// Relative singular value (unit-norm columns) below which a direction of the model counts as
+/// undetermined. A constraint's invariance is exact only where its residuals vanish (an overall
+/// scale changes socket residuals in proportion to them): at the nominal model, millimetres
+/// from the data over a reach of metres, such a direction sits near 1e-5 while the weakest
+/// determined ones of a socket session sit near 0.1 (ER20, 6 sockets × 10 rows).
+pub const RANK_TOLERANCE: f64 = 2e-3;
+/// A model column that the shapes absorb to within this fraction of its norm is held: a base
+/// rotation is absorbed by the socket centres to the spread of the predicted points over the
+/// reach (~1e-3 at the nominal model), exactly by planes and distances.
+pub const ABSORBED: f64 = 1e-2;
+/// Most LM iterations.
+pub const MAX_ITERATIONS: usize = 200;
+/// Converged when a step lowers the cost by less than this fraction.
+pub const COST_TOLERANCE: f64 = 1e-12;
+
+/// A finished constraint fit.
+#[derive(Clone, Debug)]
+pub struct Fitted<const N: usize> {
+    pub robot: Robot<f64, N, VCAP>,
+    pub shapes: Vec<Shape>,
+    /// The parameters estimated.
+    pub estimated: Vec<Param>,
+    /// The parameters held because the data cannot determine them.
+    pub unidentifiable: Vec<Param>,
+    pub iterations: usize,
+    pub converged: bool,
+    /// How the iteration ended, in words.
+    pub stop: String,
+}
+
+/// Each group's shape fitted to the points `robot` predicts (closed form, model held).
+pub fn shapes_of<const N: usize>(robot: &Robot<f64, N, VCAP>, groups: &[Group<N>]) -> Vec<Shape> {
+    groups
+        .iter()
+        .map(|g| fit_shape(g.kind, &points(robot, g)))
+        .collect()
+}
+
+/// The parameters of `params` the constraints of `groups` cannot determine at `robot`, in the
+/// order they were found.
+pub fn unidentifiable<const N: usize>(
+    robot: &Robot<f64, N, VCAP>,
+    groups: &[Group<N>],
+    params: &[Param],
+) -> anyhow::Result<Vec<Param>> {
+    let shapes = shapes_of(robot, groups);
+    let (_, jac) = evaluate(robot, groups, &shapes, params, true)?;
+    let np = params.len();
+    let model = jac.columns(0, np).into_owned();
+    let nuisance = jac.columns(np, jac.ncols() - np).into_owned();
+    let mut seen = model.clone();
+    if nuisance.ncols() > 0 {
+        let svd = nuisance.svd(true, false);
+        let u = svd.u.expect("U requested");
+        let smax = svd.singular_values.max();
+        for (k, s) in svd.singular_values.iter().enumerate() {
+            if *s > 1e-12 * smax {
+                let uk = u.column(k);
+                let proj = uk.transpose() * &seen;
+                seen -= uk * proj;
+            }
+        }
+    }
+    // Columns in mm per mm or per rad at the reach: one that is zero against the largest (a
+    // base rotation seen by distances only) is held as well.
+    let reach = robot.reach();
+    let scaled = |k: usize, n: f64| n / params[k].scale(reach);
+    let largest = (0..np).fold(0.0, |m: f64, k| m.max(scaled(k, model.column(k).norm())));
+    let mut held = Vec::new();
+    let mut free: Vec<usize> = Vec::new();
+    for (k, p) in params.iter().enumerate() {
+        let (before, after) = (model.column(k).norm(), seen.column(k).norm());
+        if after <= ABSORBED * before || scaled(k, after) <= 1e-9 * largest {
+            held.push(*p);
+        } else {
+            free.push(k);
+        }
+    }
+    loop {
+        if free.is_empty() {
+            break;
+        }
+        let mut a = DMatrix::zeros(seen.nrows(), free.len());
+        for (c, &k) in free.iter().enumerate() {
+            let col = seen.column(k);
+            a.set_column(c, &(col / col.norm()));
+        }
+        let svd = a.svd(false, true);
+        let s = &svd.singular_values;
+        let (kmin, smin) = (s.imin(), s.min());
+        if smin > RANK_TOLERANCE * s.max() {
+            break;
+        }
+        let v = svd.v_t.expect("V requested").row(kmin).into_owned();
+        let weight = |k: usize| if params[k].is_base() { 4.0 } else { 1.0 };
+        let pick = (0..free.len())
+            .max_by(|&i, &j| {
+                (v[i].abs() * weight(free[i])).total_cmp(&(v[j].abs() * weight(free[j])))
+            })
+            .expect("free is not empty");
+        held.push(params[free[pick]]);
+        free.remove(pick);
+    }
+    Ok(held)
+}
+
+/// Fits `params` of `start` and the groups' shapes to `groups`; holds what the data cannot
+/// determine (see the module).
+pub fn fit<const N: usize>(
+    start: &Robot<f64, N, VCAP>,
+    groups: &[Group<N>],
+    params: &[Param],
+) -> anyhow::Result<Fitted<N>> {
+    let held = unidentifiable(start, groups, params)?;
+    let estimated: Vec<Param> = params
+        .iter()
+        .copied()
+        .filter(|p| !held.contains(p))
+        .collect();
+    let np = estimated.len();
+    let mut robot = start.clone();
+    let mut shapes = shapes_of(&robot, groups);
+    let (mut r, mut jac) = evaluate(&robot, groups, &shapes, &estimated, true)?;
+    let mut cost = r.norm_squared();
+    let mut lambda = 1e-3;
+    let mut iterations = 0;
+    let mut stop = String::from("stopped at its iteration limit before converging");
+    let mut converged = false;
+    while iterations < MAX_ITERATIONS {
+        iterations += 1;
+        let jtj = jac.transpose() * &jac;
+        let g = jac.transpose() * &r;
+        let diag: DVector<f64> = jtj.diagonal().map(|d| d.max(1e-12));
+        let mut stepped = false;
+        while lambda < 1e16 {
+            let mut a = jtj.clone();
+            for k in 0..a.nrows() {
+                a[(k, k)] += lambda * diag[k];
+            }
+            let Some(delta) = a.cholesky().map(|c| c.solve(&(-&g))) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let mut trial = robot.clone();
+            if apply_delta(&mut trial, &estimated, &delta.as_slice()[..np]).is_err() {
+                lambda *= 10.0;
+                continue;
+            }
+            let trial_shapes = step_shapes(&shapes, &delta.as_slice()[np..]);
+            let (tr, _) = evaluate(&trial, groups, &trial_shapes, &estimated, false)?;
+            let trial_cost = tr.norm_squared();
+            if trial_cost.is_finite() && trial_cost < cost {
+                let drop = (cost - trial_cost) / cost.max(f64::MIN_POSITIVE);
+                robot = trial;
+                shapes = trial_shapes;
+                cost = trial_cost;
+                lambda = (lambda / 10.0).max(1e-12);
+                stepped = true;
+                if drop < COST_TOLERANCE {
+                    converged = true;
+                    stop = "converged (the cost no longer decreases)".into();
+                }
+                break;
+            }
+            lambda *= 10.0;
+        }
+        if !stepped {
+            // No step lowers the cost however short: a minimum to the rounding of the cost.
+            converged = true;
+            stop = "converged (no shorter step lowers the cost)".into();
+        }
+        if converged {
+            break;
+        }
+        (r, jac) = evaluate(&robot, groups, &shapes, &estimated, true)?;
+    }
+    Ok(Fitted {
+        robot,
+        shapes,
+        estimated,
+        unidentifiable: held,
+        iterations,
+        converged,
+        stop,
+    })
+}

@@ -1,0 +1,280 @@
+//! `kinecal identify` on a constraint file: the model and the groups' shapes fitted together
+//! ([`super::fit`]), judged on held-out groups (`--holdout` holds out whole groups by the rule
+//! and seed of identify's poses; `--validate` reads a second constraint file).
+
+use super::read::{self, Group, Kind, Session};
+use super::report::{
+    ConstraintIdentifyReport, Constraints, FittedPlane, FittedSocket, KindSummary,
+};
+use super::shapes::{errors, held_out_error, points, rms, Shape};
+use crate::calibration::method::Method;
+use crate::calibration::selection::Selection;
+use crate::calibration::{named_values, Residuals};
+use crate::commands::identify::{hold_first_row, Args};
+use crate::formats::robot_file::{load_robot, RobotFile};
+use crate::{with_joints, VCAP};
+use kinecal::model::param::ParamSet;
+use kinecal::{Param, Robot};
+use std::time::Instant;
+
+/// Runs `identify` on the constraint file `args.input.data`.
+pub fn run(args: &Args) -> anyhow::Result<ConstraintIdentifyReport> {
+    for out in [args.out.as_deref(), args.residuals.as_deref()] {
+        crate::output::atomic::refuse_model_over_inputs(
+            out,
+            &args.input.robot,
+            &args.input.data,
+            args.validate.as_deref(),
+        )?;
+    }
+    let n = RobotFile::load(&args.input.robot)?.joint_count();
+    with_joints!(n, N => run_with_joints::<N>(args))
+}
+
+fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintIdentifyReport> {
+    let (file, nominal) = load_robot::<N>(&args.input.robot)?;
+    if args.method != Method::Lm {
+        crate::refuse!(
+            "a constraint file (kind column) is fitted with --method lm only: leave --method out"
+        );
+    }
+    if !args.effects.is_empty() || args.residuals.is_some() {
+        crate::refuse!(
+            "--effect and --residuals are not available on constraint files yet: leave them out"
+        );
+    }
+    let tools = file.tool_names();
+    let session = read::load::<N>(&args.input.data, &args.input.units, &tools)?;
+    let (ident, valid) = match &args.validate {
+        Some(v) => {
+            if !read::is_constraint_file(v) {
+                crate::refuse!(
+                    "--validate {}: not a constraint file (no kind column) while --data is one",
+                    v.display()
+                );
+            }
+            (
+                session.groups,
+                read::load::<N>(v, &args.input.units, &tools)?.groups,
+            )
+        }
+        None => split(session, args)?,
+    };
+    if ident.is_empty() {
+        crate::refuse!("--holdout leaves no groups to identify from: hold out fewer");
+    }
+    let ident_session = Session {
+        groups: ident.clone(),
+    };
+    let base_unknown = !(file.base_known() && ident_session.has_points());
+    let params = parameters(&nominal, &file, args, base_unknown)?;
+    let t0 = Instant::now();
+    let fitted = super::fit::fit(&nominal, &ident, &params)?;
+    let seconds = t0.elapsed().as_secs_f64();
+    let before_shapes = super::fit::shapes_of(&nominal, &ident);
+    let before = residuals(&nominal, &ident, &before_shapes, &valid);
+    let after = residuals(&fitted.robot, &ident, &fitted.shapes, &valid);
+    let name = |p: &Param| p.name(&fitted.robot).to_string();
+    let acceptance = crate::calibration::acceptance::judge(
+        (
+            before.validation_rms_mm,
+            after.validation_rms_mm,
+            after.identification_rms_mm,
+        ),
+        &measurements(&ident),
+        &measurements(&valid),
+        Vec::new(),
+    );
+    let held_out_worse = acceptance.as_ref().map(|a| a.held_out_worse);
+    let all = crate::calibration::model_params(&fitted.robot, &file.tilt_joints());
+    let mut report = ConstraintIdentifyReport {
+        method: "lm".into(),
+        count_unit: "groups".into(),
+        n_identification: ident.len(),
+        n_validation: valid.len(),
+        n_identification_rows: ident.iter().map(|g| g.rows.len()).sum(),
+        n_validation_rows: valid.iter().map(|g| g.rows.len()).sum(),
+        before,
+        after,
+        iterations: fitted.iterations,
+        seconds,
+        parameters: named_values(&fitted.robot, &all),
+        estimated: fitted.estimated.iter().map(name).collect(),
+        unidentifiable: fitted.unidentifiable.iter().map(name).collect(),
+        converged: fitted.converged && after.identification_rms_mm.is_finite(),
+        stop: fitted.stop.clone(),
+        held_out_worse,
+        acceptance,
+        constraints: constraints(
+            &ident,
+            (&nominal, &before_shapes),
+            (&fitted.robot, &fitted.shapes),
+        ),
+        out: None,
+    };
+    if let Some(m) = report.acceptance.as_ref().and_then(|a| a.message.as_ref()) {
+        eprintln!("warning: {m}");
+    }
+    if let Some(out) = &args.out {
+        if held_out_worse == Some(true) {
+            eprintln!(
+                "note: {} not written: the model predicts the held-out groups worse than the \
+                 model it started from",
+                out.display()
+            );
+        } else {
+            let mut f = RobotFile::from_robot(
+                &format!("{} (identified)", file.name),
+                &fitted.robot,
+                true,
+                &file.tilt_joints(),
+            )
+            .with_tool_names(&tools);
+            if f.tool.rpy_deg.is_none() {
+                f.tool.rpy_deg = file.tool.rpy_deg;
+            }
+            f.prior = file.prior;
+            f.save(out)?;
+            report.out = Some(out.display().to_string());
+        }
+    }
+    Ok(report)
+}
+
+/// The groups `--holdout`/`--split` keep out (whole groups, by identify's rule and seed).
+fn split<const N: usize>(
+    session: Session<N>,
+    args: &Args,
+) -> anyhow::Result<(Vec<Group<N>>, Vec<Group<N>>)> {
+    let mask = crate::calibration::held_out_mask(
+        session.groups.len(),
+        args.holdout.holdout,
+        args.holdout.split,
+        args.seed,
+    )?;
+    let (mut ident, mut valid) = (Vec::new(), Vec::new());
+    for (g, held) in session.groups.into_iter().zip(mask) {
+        if held {
+            valid.push(g);
+        } else {
+            ident.push(g);
+        }
+    }
+    Ok((ident, valid))
+}
+
+/// What identify would estimate from positions (the full set, the first row held when the base
+/// is estimated, the file's effects), narrowed by `--fix/--free/--only`. Without tracker points
+/// the base is always in the set: the fit finds it undetermined and holds it.
+fn parameters<const N: usize>(
+    nominal: &Robot<f64, N, VCAP>,
+    file: &RobotFile,
+    args: &Args,
+    base_unknown: bool,
+) -> anyhow::Result<Vec<Param>> {
+    let mut params: Vec<Param> = ParamSet::<64>::full(N, base_unknown)
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?
+        .as_slice()
+        .to_vec();
+    for t in file.tilt_joints() {
+        params.push(Param::Beta(t as u8));
+    }
+    params.extend((0..nominal.effects().values().len()).map(|k| Param::Effect(k as u16)));
+    for k in 1..nominal.tool_point_count() {
+        params.extend((0..3).map(|a| Param::ToolPoint(k as u8, a)));
+    }
+    if base_unknown {
+        hold_first_row(&mut params);
+    }
+    params.dedup();
+    crate::calibration::selection::apply(
+        &mut params,
+        nominal,
+        &Selection {
+            only: &args.only,
+            free: &args.free,
+            fix: &args.fix,
+        },
+    )?;
+    Ok(params)
+}
+
+/// Before/after figures: the RMS of the identification rows against the fit's shapes, and per
+/// held-out group its residual against its own refitted shape (mm).
+fn residuals<const N: usize>(
+    robot: &Robot<f64, N, VCAP>,
+    ident: &[Group<N>],
+    shapes: &[Shape],
+    valid: &[Group<N>],
+) -> Residuals {
+    let e: Vec<f64> = ident
+        .iter()
+        .zip(shapes)
+        .flat_map(|(g, s)| errors(g, &points(robot, g), s))
+        .collect();
+    let v: Vec<f64> = valid.iter().map(|g| held_out_error(robot, g)).collect();
+    let held = !v.is_empty();
+    Residuals {
+        identification_rms_mm: rms(&e),
+        validation_rms_mm: held.then(|| rms(&v)),
+        validation_mean_mm: held.then(|| v.iter().map(|x| x.abs()).sum::<f64>() / v.len() as f64),
+        validation_max_mm: held.then(|| v.iter().fold(0.0, |m: f64, x| m.max(x.abs()))),
+        identification_rms_deg: None,
+        validation_rms_deg: None,
+    }
+}
+
+/// Per kind: counts and RMS before and after; the fitted socket centres and planes.
+fn constraints<const N: usize>(
+    groups: &[Group<N>],
+    (nominal, before): (&Robot<f64, N, VCAP>, &[Shape]),
+    (robot, after): (&Robot<f64, N, VCAP>, &[Shape]),
+) -> Constraints {
+    let mut out = Constraints::default();
+    for kind in [Kind::Socket, Kind::Plane, Kind::Distance, Kind::Point] {
+        let of: Vec<usize> = (0..groups.len())
+            .filter(|&k| groups[k].kind == kind)
+            .collect();
+        if of.is_empty() {
+            continue;
+        }
+        let err = |r: &Robot<f64, N, VCAP>, s: &[Shape]| {
+            let e: Vec<f64> = of
+                .iter()
+                .flat_map(|&k| errors(&groups[k], &points(r, &groups[k]), &s[k]))
+                .collect();
+            rms(&e)
+        };
+        out.kinds.push(KindSummary {
+            kind: kind.id().into(),
+            groups: of.len(),
+            rows: of.iter().map(|&k| groups[k].rows.len()).sum(),
+            before_rms_mm: err(nominal, before),
+            after_rms_mm: err(robot, after),
+        });
+    }
+    for (g, s) in groups.iter().zip(after) {
+        match s {
+            Shape::Centre(c) => out.sockets.push(FittedSocket {
+                group: g.name.clone(),
+                centre_mm: [c.x, c.y, c.z],
+            }),
+            Shape::Plane(n, d) => out.planes.push(FittedPlane {
+                group: g.name.clone(),
+                normal: [n.x, n.y, n.z],
+                offset_mm: *d,
+            }),
+            Shape::None => {}
+        }
+    }
+    out
+}
+
+/// The rows as measurements (joint readings only) for the acceptance check's joint ranges.
+fn measurements<const N: usize>(groups: &[Group<N>]) -> Vec<kinecal::Measurement<f64, N>> {
+    groups
+        .iter()
+        .flat_map(|g| g.rows.iter())
+        .map(|r| kinecal::Measurement::from_deg(&r.q.map(f64::to_degrees), &[0.0; 3]))
+        .collect()
+}

@@ -1,0 +1,217 @@
+//! The reports of `identify` and `validate` on a constraint file (JSON keys of
+//! `../shared/spec/interfaces.md` §4, and per kind what the constraints say).
+
+use crate::calibration::acceptance::Acceptance;
+use crate::calibration::Residuals;
+use crate::output::numfmt::sig;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::fmt;
+
+/// One kind of constraint in a session: how many groups and rows, RMS before and after.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct KindSummary {
+    pub kind: String,
+    pub groups: usize,
+    pub rows: usize,
+    /// RMS over the identification rows of this kind (mm; a distance group counts once).
+    pub before_rms_mm: f64,
+    pub after_rms_mm: f64,
+}
+
+/// A fitted socket centre (measurement frame of the fit, mm).
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct FittedSocket {
+    pub group: String,
+    pub centre_mm: [f64; 3],
+}
+
+/// A fitted plane `normal·p = offset_mm`.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct FittedPlane {
+    pub group: String,
+    pub normal: [f64; 3],
+    pub offset_mm: f64,
+}
+
+/// What the constraints said, per kind, and the fitted shapes.
+#[derive(Clone, Debug, Serialize, PartialEq, Default)]
+pub struct Constraints {
+    pub kinds: Vec<KindSummary>,
+    pub sockets: Vec<FittedSocket>,
+    pub planes: Vec<FittedPlane>,
+}
+
+/// `identify` on a constraint file.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct ConstraintIdentifyReport {
+    pub method: String,
+    /// What `n_identification` and `n_validation` count: groups (a held-out set is whole groups).
+    pub count_unit: String,
+    pub n_identification: usize,
+    pub n_validation: usize,
+    pub n_identification_rows: usize,
+    pub n_validation_rows: usize,
+    pub before: Residuals,
+    pub after: Residuals,
+    pub iterations: usize,
+    pub seconds: f64,
+    pub parameters: BTreeMap<String, f64>,
+    /// The parameters estimated (the others are held at their file values).
+    pub estimated: Vec<String>,
+    pub unidentifiable: Vec<String>,
+    pub converged: bool,
+    pub stop: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub held_out_worse: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub acceptance: Option<Acceptance>,
+    pub constraints: Constraints,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub out: Option<String>,
+}
+
+impl crate::reports::Report for ConstraintIdentifyReport {
+    fn to_json(&self) -> serde_json::Value {
+        crate::reports::json_value(self)
+    }
+    fn converged(&self) -> bool {
+        self.converged && self.held_out_worse != Some(true)
+    }
+    fn non_finite(&self) -> Option<String> {
+        crate::reports::finite::first_non_finite(self)
+    }
+}
+
+impl fmt::Display for ConstraintIdentifyReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let g = |v: Option<f64>| v.map_or("-".to_string(), |x| sig(x, 4));
+        writeln!(
+            f,
+            "constraint fit ({}): {} identification groups ({} rows), {} held-out groups",
+            self.method, self.n_identification, self.n_identification_rows, self.n_validation
+        )?;
+        writeln!(
+            f,
+            "{:>8} {:>16} {:>16} {:>16} {:>16}",
+            "", "ident RMS mm", "valid RMS mm", "valid mean mm", "valid max mm"
+        )?;
+        for (k, r) in [("before", &self.before), ("after", &self.after)] {
+            writeln!(
+                f,
+                "{:>8} {:>16} {:>16} {:>16} {:>16}",
+                k,
+                g(Some(r.identification_rms_mm)),
+                g(r.validation_rms_mm),
+                g(r.validation_mean_mm),
+                g(r.validation_max_mm)
+            )?;
+        }
+        for k in &self.constraints.kinds {
+            writeln!(
+                f,
+                "{:>8}: {} groups, {} rows, RMS {} → {} mm",
+                k.kind,
+                k.groups,
+                k.rows,
+                sig(k.before_rms_mm, 4),
+                sig(k.after_rms_mm, 4)
+            )?;
+        }
+        if !self.unidentifiable.is_empty() {
+            writeln!(
+                f,
+                "held at the file's values (the constraints cannot determine them): {}",
+                self.unidentifiable.join(", ")
+            )?;
+        }
+        if let Some(m) = self.acceptance.as_ref().and_then(|a| a.message.as_ref()) {
+            writeln!(f, "{m}")?;
+        }
+        writeln!(f, "{} after {} iterations", self.stop, self.iterations)?;
+        if let Some(o) = &self.out {
+            writeln!(f, "model written to {o}")?;
+        }
+        Ok(())
+    }
+}
+
+/// Figures of a model's constraint residuals (mm).
+#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+pub struct Figures {
+    pub rms_mm: f64,
+    pub mean_mm: f64,
+    pub max_mm: f64,
+    pub p95_mm: f64,
+}
+
+impl Figures {
+    /// The figures of absolute errors `e` (per group: see [`super::shapes::held_out_error`]).
+    pub fn of(e: &[f64]) -> Figures {
+        let mut a: Vec<f64> = e.iter().map(|x| x.abs()).collect();
+        a.sort_by(f64::total_cmp);
+        let n = a.len().max(1) as f64;
+        let p95 = a
+            .get(((0.95 * n).ceil() as usize).saturating_sub(1))
+            .copied()
+            .unwrap_or(f64::NAN);
+        Figures {
+            rms_mm: super::shapes::rms(&a),
+            mean_mm: a.iter().sum::<f64>() / n,
+            max_mm: a.last().copied().unwrap_or(f64::NAN),
+            p95_mm: p95,
+        }
+    }
+}
+
+/// `validate` on a constraint file.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct ConstraintValidateReport {
+    /// What the figures are over: each group's residual against its own refitted shape.
+    pub count_unit: String,
+    pub groups: usize,
+    pub model: Figures,
+    pub nominal: Figures,
+    /// Nothing is registered: a constraint residual does not depend on the base.
+    pub registered: Vec<String>,
+    pub worse_than_nominal: bool,
+}
+
+impl crate::reports::Report for ConstraintValidateReport {
+    fn to_json(&self) -> serde_json::Value {
+        crate::reports::json_value(self)
+    }
+    fn converged(&self) -> bool {
+        !self.worse_than_nominal
+    }
+    fn non_finite(&self) -> Option<String> {
+        crate::reports::finite::first_non_finite(self)
+    }
+}
+
+impl fmt::Display for ConstraintValidateReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "{} constraint groups, each against its own refitted shape",
+            self.groups
+        )?;
+        for (k, v) in [("model", &self.model), ("nominal", &self.nominal)] {
+            writeln!(
+                f,
+                "{k:>8}: RMS {} mm, mean {} mm, max {} mm, p95 {} mm",
+                sig(v.rms_mm, 4),
+                sig(v.mean_mm, 4),
+                sig(v.max_mm, 4),
+                sig(v.p95_mm, 4)
+            )?;
+        }
+        if self.worse_than_nominal {
+            writeln!(
+                f,
+                "the model predicts these constraints worse than the nominal robot"
+            )?;
+        }
+        Ok(())
+    }
+}

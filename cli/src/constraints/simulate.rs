@@ -1,0 +1,229 @@
+//! Constraint sessions from a robot with known errors (`simulate --constraints
+//! socket:4x10,plane:3x15,distance:30[,point:20]`): the joints that bring the true robot's
+//! tool point to a socket or onto a plane come from the library's `compensate` (the damped
+//! Newton iteration that brings an identified robot to target points), started from random
+//! poses so that each socket is touched in different orientations.
+
+use crate::formats::measurements::quantize_deg;
+use crate::simulation::{random_configurations, Streams};
+use crate::VCAP;
+use kinecal::compensate::{compensate, Config, Target};
+use kinecal::{ForwardKinematics, Robot};
+use nalgebra::Vector3;
+use rand::{Rng, RngExt};
+use rand_distr::StandardNormal;
+use std::fmt::Write as _;
+
+/// What to simulate: socket and plane groups × rows each, distance pairs, tracker points.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct SessionPlan {
+    pub sockets: (usize, usize),
+    pub planes: (usize, usize),
+    pub distances: usize,
+    pub points: usize,
+}
+
+impl std::str::FromStr for SessionPlan {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let bad = |p: &str| {
+            format!(
+                "--constraints `{p}`: expected socket:GROUPSxROWS, plane:GROUPSxROWS, \
+                 distance:PAIRS or point:ROWS, separated by commas"
+            )
+        };
+        let mut plan = SessionPlan::default();
+        for part in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+            let (kind, n) = part.split_once(':').ok_or_else(|| bad(part))?;
+            let count = |t: &str| t.trim().parse::<usize>().ok().filter(|&n| n <= 100_000);
+            let pair = || -> Option<(usize, usize)> {
+                let (g, r) = n.split_once('x')?;
+                Some((count(g)?, count(r)?))
+            };
+            match kind.trim() {
+                "socket" => plan.sockets = pair().ok_or_else(|| bad(part))?,
+                "plane" => plan.planes = pair().ok_or_else(|| bad(part))?,
+                "distance" => plan.distances = count(n).ok_or_else(|| bad(part))?,
+                "point" => plan.points = count(n).ok_or_else(|| bad(part))?,
+                _ => return Err(bad(part)),
+            }
+        }
+        for (what, (g, r)) in [("socket", plan.sockets), ("plane", plan.planes)] {
+            if g > 0 && r < 4 {
+                return Err(format!(
+                    "--constraints {what}:{g}x{r}: a group needs at least 4 rows"
+                ));
+            }
+        }
+        if plan.rows() == 0 {
+            return Err(format!("--constraints `{s}`: nothing to simulate"));
+        }
+        Ok(plan)
+    }
+}
+
+impl SessionPlan {
+    /// Rows of the session.
+    pub fn rows(&self) -> usize {
+        self.sockets.0 * self.sockets.1
+            + self.planes.0 * self.planes.1
+            + 2 * self.distances
+            + self.points
+    }
+}
+
+/// Tries per row (seeds) and per group (locations, planes) before giving up.
+const TRIES: usize = 30;
+
+/// The CSV of a constraint session of `truth` (noise `noise_mm` per contact, length or tracker
+/// axis; `seed` as `simulate`'s). Joint readings are rounded as the file keeps them.
+pub fn session<const N: usize>(
+    truth: &Robot<f64, N, VCAP>,
+    plan: &SessionPlan,
+    noise_mm: f64,
+    seed: u64,
+) -> anyhow::Result<String> {
+    let mut s = Streams::new(seed);
+    let mut out = String::from("kind,group");
+    for j in 1..=N {
+        let _ = write!(out, ",q{j}");
+    }
+    out.push_str(",length_mm,sigma_mm,x,y,z\n");
+    let sigma = if noise_mm > 0.0 {
+        format!("{noise_mm}")
+    } else {
+        String::new()
+    };
+    let row = |out: &mut String, kind: &str, group: &str, q: &[f64; N], tail: &str| {
+        let _ = write!(out, "{kind},{group}");
+        for v in q {
+            let _ = write!(out, ",{}", quantize_deg(v.to_degrees()));
+        }
+        let _ = writeln!(out, "{tail}");
+    };
+    let noise3 = |rng: &mut rand_xoshiro::Xoshiro256PlusPlus| {
+        Vector3::from_fn(|_, _| noise_mm * rng.sample::<f64, _>(StandardNormal))
+    };
+    for g in 0..plan.sockets.0 {
+        let rows = group_rows(plan.sockets.1, &mut s, |s| {
+            let q0 = random_configurations(truth, 1, &mut s.configs)[0];
+            let centre = fk(truth, &q0);
+            (0..plan.sockets.1)
+                .map(|_| {
+                    let target = centre + noise3(&mut s.noise);
+                    reach(truth, &target, &q0, 45.0, &mut s.configs)
+                })
+                .collect()
+        })?;
+        for q in &rows {
+            row(
+                &mut out,
+                "socket",
+                &format!("s{}", g + 1),
+                q,
+                &format!(",,{sigma},,,"),
+            );
+        }
+    }
+    for g in 0..plan.planes.0 {
+        let rows = group_rows(plan.planes.1, &mut s, |s| {
+            let q0 = random_configurations(truth, 1, &mut s.configs)[0];
+            let p0 = fk(truth, &q0);
+            let normal =
+                Vector3::from_fn(|_, _| s.errors.sample::<f64, _>(StandardNormal)).normalize();
+            let (t1, t2) = super::shapes::tangents(&normal);
+            (0..plan.planes.1)
+                .map(|_| {
+                    let u: f64 = s.configs.random_range(-150.0..150.0);
+                    let v: f64 = s.configs.random_range(-150.0..150.0);
+                    let target = p0 + t1 * u + t2 * v + normal * noise3(&mut s.noise).x;
+                    reach(truth, &target, &q0, 30.0, &mut s.configs)
+                })
+                .collect()
+        })?;
+        for q in &rows {
+            row(
+                &mut out,
+                "plane",
+                &format!("p{}", g + 1),
+                q,
+                &format!(",,{sigma},,,"),
+            );
+        }
+    }
+    for g in 0..plan.distances {
+        let q = random_configurations(truth, 2, &mut s.configs);
+        let length = (fk(truth, &q[0]) - fk(truth, &q[1])).norm() + noise3(&mut s.noise).x;
+        let tail = format!(",{length:.6},{sigma},,,");
+        for qa in &q {
+            row(&mut out, "distance", &format!("d{}", g + 1), qa, &tail);
+        }
+    }
+    for k in 0..plan.points {
+        let q = random_configurations(truth, 1, &mut s.configs)[0];
+        let p = fk(truth, &q) + noise3(&mut s.noise);
+        let tail = format!(",,{sigma},{:.8},{:.8},{:.8}", p.x, p.y, p.z);
+        row(&mut out, "point", &format!("x{}", k + 1), &q, &tail);
+    }
+    Ok(out)
+}
+
+/// The tool point of `robot` at `q`.
+fn fk<const N: usize>(robot: &Robot<f64, N, VCAP>, q: &[f64; N]) -> Vector3<f64> {
+    ForwardKinematics::<f64, N>::new().compute(robot, q)
+}
+
+/// Joint readings (rounded as written) that bring `robot`'s tool point to `target`, started
+/// from `around` moved by up to ±`spread_deg` per joint at random.
+fn reach<const N: usize, R: Rng>(
+    robot: &Robot<f64, N, VCAP>,
+    target: &Vector3<f64>,
+    around: &[f64; N],
+    spread_deg: f64,
+    rng: &mut R,
+) -> Option<[f64; N]> {
+    let config = Config {
+        iterations: 60,
+        max_step: 120f64.to_radians(),
+        accept: 1e-4,
+        tolerance: 1e-8,
+        ..Config::default()
+    };
+    let spread = spread_deg.to_radians();
+    for _ in 0..TRIES {
+        let seed: [f64; N] = std::array::from_fn(|j| {
+            let jt = &robot.joints()[j];
+            (around[j] + rng.random_range(-spread..spread)).clamp(jt.lower, jt.upper)
+        });
+        let Ok(sol) = compensate(robot, &Target::Point(*target), &seed, &config) else {
+            continue;
+        };
+        let q = sol.q.map(|v| quantize_deg(v.to_degrees()).to_radians());
+        let inside = (0..N).all(|j| {
+            let jt = &robot.joints()[j];
+            q[j] >= jt.lower && q[j] <= jt.upper
+        });
+        if inside && (fk(robot, &q) - target).norm() < 1e-3 {
+            return Some(q);
+        }
+    }
+    None
+}
+
+/// Draws a group (a socket's location or a plane, then its rows) until every row is reachable.
+fn group_rows<const N: usize>(
+    rows: usize,
+    s: &mut Streams,
+    mut draw: impl FnMut(&mut Streams) -> Option<Vec<[f64; N]>>,
+) -> anyhow::Result<Vec<[f64; N]>> {
+    for _ in 0..TRIES {
+        if let Some(q) = draw(s) {
+            debug_assert_eq!(q.len(), rows);
+            return Ok(q);
+        }
+    }
+    anyhow::bail!(
+        "simulate --constraints: no socket or plane of {rows} reachable rows found in {TRIES} \
+         draws: try another --seed or fewer rows"
+    )
+}

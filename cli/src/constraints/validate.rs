@@ -1,0 +1,61 @@
+//! `kinecal validate` on a constraint file: the calibrated model and the nominal robot each
+//! predict the session's tool points, each group is compared with its own shape refitted to
+//! them (a socket's centre, a plane; a distance group's length error), and the figures over the
+//! groups are compared (exit 3 when the model is worse, as `validate` on tracker points).
+//! Nothing is registered: a constraint residual does not depend on where the robot stands.
+
+use super::read;
+use super::report::{ConstraintValidateReport, Figures};
+use super::shapes::held_out_error;
+use crate::commands::validate::Args;
+use crate::formats::robot_file::{load_robot, RobotFile};
+use crate::with_joints;
+
+/// Runs `validate` on the constraint file `args.input.data`.
+pub fn run(args: &Args) -> anyhow::Result<ConstraintValidateReport> {
+    let n = RobotFile::load(&args.input.robot)?.joint_count();
+    let m = RobotFile::load(&args.model)?.joint_count();
+    if m != n {
+        crate::refuse!(
+            "{}: a model of a {m}-joint robot, but {} has {n} joints: give the model that \
+             `kinecal identify --robot {} --out M.toml` wrote",
+            args.model.display(),
+            args.input.robot.display(),
+            args.input.robot.display()
+        );
+    }
+    let report = with_joints!(n, N => run_with_joints::<N>(args))?;
+    if report.worse_than_nominal {
+        eprintln!(
+            "error: the model predicts these constraints worse than the nominal robot ({} mm \
+             against {} mm RMS): it is not a calibration for this robot (exit 3)",
+            crate::output::numfmt::sig(report.model.rms_mm, 4),
+            crate::output::numfmt::sig(report.nominal.rms_mm, 4)
+        );
+    }
+    Ok(report)
+}
+
+fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintValidateReport> {
+    let (file, nominal) = load_robot::<N>(&args.input.robot)?;
+    let (_, model) = load_robot::<N>(&args.model)?;
+    let session = read::load::<N>(&args.input.data, &args.input.units, &file.tool_names())?;
+    let errors = |robot| -> Vec<f64> {
+        session
+            .groups
+            .iter()
+            .map(|g| held_out_error(robot, g))
+            .collect()
+    };
+    let (m, n) = (Figures::of(&errors(&model)), Figures::of(&errors(&nominal)));
+    Ok(ConstraintValidateReport {
+        count_unit: "groups".into(),
+        groups: session.groups.len(),
+        // NaN counts as worse.
+        worse_than_nominal: m.rms_mm.is_nan()
+            || m.rms_mm > n.rms_mm + crate::calibration::acceptance::NO_DIFFERENCE_MM,
+        model: m,
+        nominal: n,
+        registered: Vec::new(),
+    })
+}

@@ -1,0 +1,319 @@
+//! Calibration without a tracker (issue 31): constraint sessions simulated from a robot with
+//! known geometric errors (`simulate --constraints`), fitted by `identify`, judged against the
+//! truth on fresh random poses, with an alignment computed here (Kabsch/Umeyama on the two
+//! models' tool points) since constraints cannot see the base (nor, from sockets and planes
+//! alone, the overall scale). Refusals of malformed groups and held-out groups.
+
+use crate::common::{data_file, json_of, kinecal, kinecal_ok, s, stderr, write};
+use kinecal::ForwardKinematics;
+use kinecal_cli::formats::robot_file::load_robot;
+use nalgebra::{Matrix3, Vector3};
+use std::path::{Path, PathBuf};
+
+/// The base pose names `identify` prints.
+const BASE: [&str; 6] = [
+    "base.x", "base.y", "base.z", "base.rx", "base.ry", "base.rz",
+];
+
+/// Simulates a constraint session `spec` of the ER20 with geometric errors; returns the session
+/// and the true robot file.
+fn session(dir: &Path, spec: &str, seed: u64) -> (PathBuf, PathBuf) {
+    let (data, truth) = (dir.join("session.csv"), dir.join("truth.toml"));
+    kinecal_ok(&[
+        "simulate",
+        "--robot",
+        s(&data_file("er20.toml")),
+        "--constraints",
+        spec,
+        "--geom-errors",
+        "--noise-mm",
+        "0.01",
+        "--seed",
+        &seed.to_string(),
+        "--out",
+        s(&data),
+        "--truth",
+        s(&truth),
+    ]);
+    (data, truth)
+}
+
+/// `identify --json` on `data` (extra flags appended), asserting exit 0.
+fn identify(data: &Path, extra: &[&str]) -> serde_json::Value {
+    let robot = data_file("er20.toml");
+    let mut args = vec![
+        "identify",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(data),
+        "--json",
+    ];
+    args.extend_from_slice(extra);
+    json_of(&kinecal_ok(&args))
+}
+
+fn names(v: &serde_json::Value) -> Vec<String> {
+    v.as_array()
+        .expect("an array")
+        .iter()
+        .map(|n| n.as_str().unwrap().to_string())
+        .collect()
+}
+
+/// RMS distance (mm) between the tool points of `model` and `truth` on 300 random poses, after
+/// the rigid transform (and, with `scale`, the uniform scale) that best maps one set on the other.
+fn tool_point_rms(model: &Path, truth: &Path, scale: bool) -> f64 {
+    let (_, m) = load_robot::<6>(model).unwrap();
+    let (_, t) = load_robot::<6>(truth).unwrap();
+    let mut rng = kinecal_cli::simulation::Streams::new(1234).configs;
+    let qs = kinecal_cli::simulation::random_configurations(&t, 300, &mut rng);
+    let mut fk = ForwardKinematics::<f64, 6>::new();
+    let a: Vec<Vector3<f64>> = qs.iter().map(|q| fk.compute(&m, q)).collect();
+    let b: Vec<Vector3<f64>> = qs.iter().map(|q| fk.compute(&t, q)).collect();
+    let n = a.len() as f64;
+    let (ca, cb) = (
+        a.iter().sum::<Vector3<f64>>() / n,
+        b.iter().sum::<Vector3<f64>>() / n,
+    );
+    let mut h = Matrix3::zeros();
+    for (pa, pb) in a.iter().zip(&b) {
+        h += (pb - cb) * (pa - ca).transpose();
+    }
+    let svd = h.svd(true, true);
+    let (u, vt) = (svd.u.unwrap(), svd.v_t.unwrap());
+    let d = (u * vt).determinant().signum();
+    let r = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * vt;
+    let k = if scale {
+        let sv = svd.singular_values;
+        (sv[0] + sv[1] + d * sv[2]) / a.iter().map(|p| (p - ca).norm_squared()).sum::<f64>()
+    } else {
+        1.0
+    };
+    let e: f64 = a
+        .iter()
+        .zip(&b)
+        .map(|(pa, pb)| (cb + k * r * (pa - ca) - pb).norm_squared())
+        .sum();
+    (e / n).sqrt()
+}
+
+/// Parameters `identify` holds on tracker points of the same robot (the model's own
+/// redundancies, which constraints share).
+fn held_with_points(dir: &Path) -> Vec<String> {
+    let data = dir.join("points.csv");
+    crate::common::simulate(
+        &data_file("er20.toml"),
+        Some(60),
+        Some(0.01),
+        Some(3),
+        &["--geom-errors"],
+        &data,
+    );
+    names(&identify(&data, &[])["unidentifiable"])
+}
+
+/// Fits `spec` and checks: converged, the base held and named, `extra` more non-base parameters
+/// held than with tracker points, and the tool-point error on fresh poses (aligned) at most a
+/// fifth of the nominal robot's.
+fn calibrates(spec: &str, seed: u64, extra: usize, scale_blind: bool) -> serde_json::Value {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, truth) = session(dir.path(), spec, seed);
+    let model = dir.path().join("model.toml");
+    let v = identify(&data, &["--out", s(&model)]);
+    assert_eq!(v["converged"], true, "{spec}: {v}");
+    assert_eq!(v["method"], "lm");
+    let held = names(&v["unidentifiable"]);
+    for b in BASE {
+        assert!(
+            held.contains(&b.to_string()),
+            "{spec}: {b} not held: {held:?}"
+        );
+    }
+    let model_held = held.iter().filter(|n| !n.starts_with("base.")).count();
+    let points = held_with_points(dir.path());
+    assert_eq!(
+        model_held,
+        points.len() + extra,
+        "{spec}: held {held:?}, with tracker points {points:?}"
+    );
+    let after = tool_point_rms(&model, &truth, scale_blind);
+    let before = tool_point_rms(&data_file("er20.toml"), &truth, scale_blind);
+    eprintln!("{spec}: tool point RMS on fresh poses {before} mm nominal, {after} mm calibrated");
+    assert!(
+        after * 5.0 < before,
+        "{spec}: tool point RMS {after} mm calibrated against {before} mm nominal"
+    );
+    assert!(
+        v["after"]["identification_rms_mm"].as_f64().unwrap()
+            < v["before"]["identification_rms_mm"].as_f64().unwrap() / 5.0,
+        "{v}"
+    );
+    v
+}
+
+#[test]
+fn sockets_alone_calibrate_the_shape_and_hold_the_base_and_a_scale() {
+    let v = calibrates("socket:8x10", 5, 1, true);
+    let sockets = v["constraints"]["sockets"].as_array().unwrap();
+    assert_eq!(sockets.len(), 8);
+}
+
+#[test]
+fn planes_alone_calibrate_the_shape_and_hold_the_base_and_a_scale() {
+    let v = calibrates("plane:6x12", 5, 1, true);
+    for p in v["constraints"]["planes"].as_array().unwrap() {
+        let n: Vec<f64> = p["normal"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
+        let norm = n.iter().map(|x| x * x).sum::<f64>().sqrt();
+        assert!((norm - 1.0).abs() < 1e-9, "{p}");
+    }
+}
+
+#[test]
+fn distances_alone_calibrate_the_size_too_and_hold_only_the_base() {
+    calibrates("distance:60", 5, 0, false);
+}
+
+#[test]
+fn a_mixed_session_calibrates_and_reports_each_kind() {
+    let v = calibrates("socket:4x10,plane:3x15,distance:30", 3, 0, false);
+    let kinds: Vec<&str> = v["constraints"]["kinds"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|k| k["kind"].as_str().unwrap())
+        .collect();
+    assert_eq!(kinds, ["socket", "plane", "distance"]);
+    for k in v["constraints"]["kinds"].as_array().unwrap() {
+        assert!(k["after_rms_mm"].as_f64().unwrap() < k["before_rms_mm"].as_f64().unwrap());
+    }
+}
+
+#[test]
+fn held_out_groups_are_predicted_better_than_by_the_nominal_robot() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, _) = session(dir.path(), "socket:6x10,distance:40", 7);
+    let v = identify(&data, &["--holdout", "0.25", "--split", "random"]);
+    assert_eq!(v["count_unit"], "groups");
+    let (ni, nv) = (
+        v["n_identification"].as_u64().unwrap(),
+        v["n_validation"].as_u64().unwrap(),
+    );
+    assert_eq!(ni + nv, 46, "{v}");
+    assert!(nv >= 10, "{v}");
+    let before = v["before"]["validation_rms_mm"].as_f64().unwrap();
+    let after = v["after"]["validation_rms_mm"].as_f64().unwrap();
+    assert!(
+        after * 5.0 < before,
+        "held out {after} mm against {before} mm nominal"
+    );
+    assert!(v["after"]["validation_max_mm"].as_f64().unwrap() >= after);
+    assert_eq!(v["held_out_worse"], false);
+    // A second session as the validation file: the same figures, counted in its groups.
+    let other = dir.path().join("other");
+    std::fs::create_dir(&other).unwrap();
+    let (valid, _) = session(&other, "socket:3x8", 7);
+    // The same true robot: the seed gives the geometric errors, whatever the session.
+    let w = identify(&data, &["--validate", s(&valid)]);
+    assert_eq!(w["n_validation"], 3);
+    assert!(
+        w["after"]["validation_rms_mm"].as_f64().unwrap() * 5.0
+            < w["before"]["validation_rms_mm"].as_f64().unwrap(),
+        "{w}"
+    );
+}
+
+/// One row of a hand-made constraint file: kind, group, length_mm.
+type Cells<'a> = (&'a str, &'a str, &'a str);
+
+/// A constraint file of the ER20 with `rows` (kind, group, length) at one pose each.
+fn file_of(dir: &Path, rows: &[(&str, &str, &str)]) -> PathBuf {
+    let mut text = String::from("kind,group,q1,q2,q3,q4,q5,q6,length_mm\n");
+    for (k, (kind, group, length)) in rows.iter().enumerate() {
+        let q = 10.0 + k as f64;
+        text.push_str(&format!(
+            "{kind},{group},{q},{q},{q},{q},{q},{q},{length}\n"
+        ));
+    }
+    write(dir, "bad.csv", &text)
+}
+
+#[test]
+fn malformed_groups_are_refused_with_the_fix() {
+    let dir = tempfile::tempdir().unwrap();
+    let socket3 = [("socket", "s1", ""); 3];
+    let distance3 = [("distance", "d1", "500"); 3];
+    let lengths = [("distance", "d1", "500"), ("distance", "d1", "501")];
+    let missing = [("distance", "d1", "500"), ("distance", "d1", "")];
+    let negative = [("distance", "d1", "-5"), ("distance", "d1", "-5")];
+    let unknown = [("sphere", "s1", ""); 4];
+    let badname = [("socket", "s 1", ""); 4];
+    let cases: [(&[Cells], &str); 7] = [
+        (&socket3, "at least 4"),
+        (&distance3, "exactly 2"),
+        (&lengths, "same length_mm"),
+        (&missing, "length_mm on both rows"),
+        (&negative, "must be > 0"),
+        (&unknown, "unknown"),
+        (&badname, "letters, digits"),
+    ];
+    for (rows, why) in cases {
+        let data = file_of(dir.path(), rows);
+        let o = kinecal(&[
+            "identify",
+            "--robot",
+            s(&data_file("er20.toml")),
+            "--data",
+            s(&data),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{rows:?}: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(e.contains(why), "{rows:?}: {e}");
+        assert_eq!(e.trim().lines().count(), 1, "one line: {e}");
+    }
+}
+
+#[test]
+fn joint_readings_in_radians_are_read_with_angle_unit() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, _) = session(dir.path(), "distance:40", 9);
+    let text = std::fs::read_to_string(&data).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let mut rad = format!("{header}\n");
+    for l in lines {
+        let cells: Vec<String> = l
+            .split(',')
+            .enumerate()
+            .map(|(k, c)| {
+                if (2..8).contains(&k) {
+                    format!("{}", c.parse::<f64>().unwrap().to_radians())
+                } else {
+                    c.to_string()
+                }
+            })
+            .collect();
+        rad.push_str(&cells.join(","));
+        rad.push('\n');
+    }
+    let rad_file = write(dir.path(), "rad.csv", &rad);
+    let deg = identify(&data, &[]);
+    let r = identify(&rad_file, &["--angle-unit", "rad"]);
+    let (a, b) = (
+        deg["before"]["identification_rms_mm"].as_f64().unwrap(),
+        r["before"]["identification_rms_mm"].as_f64().unwrap(),
+    );
+    assert!((a - b).abs() < 1e-6 * a, "nominal {a} vs {b}");
+    // Both fits end at the same minimum to the convergence tolerance; degrees read as radians
+    // would put every tool point metres away.
+    let (a, b) = (
+        deg["after"]["identification_rms_mm"].as_f64().unwrap(),
+        r["after"]["identification_rms_mm"].as_f64().unwrap(),
+    );
+    assert!((a - b).abs() < 0.05 * a, "calibrated {a} vs {b}");
+}

@@ -6,6 +6,8 @@
 
 pub mod check;
 pub mod compensate;
+pub mod constraint_identify;
+pub mod constraint_validate;
 pub mod demo;
 pub mod diagnose;
 pub mod export;
@@ -82,7 +84,7 @@ pub fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
         Command::Demo(a) => boxed(demo::run(a)),
         Command::Simulate(a) => boxed(simulate::run(a)),
         Command::Identify(a) if crate::constraints::read::is_constraint_file(&a.input.data) => {
-            boxed(crate::constraints::identify::run(a))
+            boxed(constraint_identify::run(a))
         }
         Command::Identify(a) => boxed(identify::run(a)),
         Command::Diagnose(a) => boxed(diagnose::run(a)),
@@ -94,7 +96,7 @@ pub fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
         Command::Export(a) => boxed(export::run(a, cli.json)),
         Command::Report(a) => boxed(report::run(a)),
         Command::Validate(a) if crate::constraints::read::is_constraint_file(&a.input.data) => {
-            boxed(crate::constraints::validate::run(a))
+            boxed(constraint_validate::run(a))
         }
         Command::Validate(a) => boxed(validate::run(a)),
     }

@@ -6,15 +6,13 @@
 //! - [`shapes`]: socket centres and planes fitted to predicted tool points, row errors;
 //! - [`system`]: the weighted residuals and Jacobian of a session;
 //! - [`fit`]: identifiability and the Levenberg–Marquardt fit;
-//! - [`identify`], [`validate`]: the commands on a constraint file;
 //! - [`simulate`]: constraint sessions from a robot with known errors;
-//! - [`report`]: their reports.
+//! - [`report`]: the reports of `identify` and `validate` on a constraint file (which
+//!   `commands::constraint_identify` and `commands::constraint_validate` run).
 
 pub mod fit;
-pub mod identify;
 pub mod read;
 pub mod report;
 pub mod shapes;
 pub mod simulate;
 pub mod system;
-pub mod validate;

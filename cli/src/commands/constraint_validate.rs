@@ -4,10 +4,10 @@
 //! groups are compared (exit 3 when the model is worse, as `validate` on tracker points).
 //! Nothing is registered: a constraint residual does not depend on where the robot stands.
 
-use super::read;
-use super::report::{ConstraintValidateReport, Figures};
-use super::shapes::held_out_error;
-use crate::commands::validate::Args;
+use super::validate::Args;
+use crate::constraints::read;
+use crate::constraints::report::{ConstraintValidateReport, Figures};
+use crate::constraints::shapes::held_out_error;
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::with_joints;
 

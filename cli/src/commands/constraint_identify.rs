@@ -1,16 +1,16 @@
 //! `kinecal identify` on a constraint file: the model and the groups' shapes fitted together
-//! ([`super::fit`]), judged on held-out groups (`--holdout` holds out whole groups by the rule
+//! ([`crate::constraints::fit`]), judged on held-out groups (`--holdout` holds out whole groups by the rule
 //! and seed of identify's poses; `--validate` reads a second constraint file).
 
-use super::read::{self, Group, Kind, Session};
-use super::report::{
-    ConstraintIdentifyReport, Constraints, FittedPlane, FittedSocket, KindSummary,
-};
-use super::shapes::{errors, held_out_error, points, rms, Shape};
+use super::identify::{hold_first_row, Args};
 use crate::calibration::method::Method;
 use crate::calibration::selection::Selection;
 use crate::calibration::{named_values, Residuals};
-use crate::commands::identify::{hold_first_row, Args};
+use crate::constraints::read::{self, Group, Kind, Session};
+use crate::constraints::report::{
+    ConstraintIdentifyReport, Constraints, FittedPlane, FittedSocket, KindSummary,
+};
+use crate::constraints::shapes::{errors, held_out_error, points, rms, Shape};
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::{with_joints, VCAP};
 use kinecal::model::param::ParamSet;
@@ -69,9 +69,9 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintIden
     let base_unknown = !(file.base_known() && ident_session.has_points());
     let params = parameters(&nominal, &file, args, base_unknown)?;
     let t0 = Instant::now();
-    let fitted = super::fit::fit(&nominal, &ident, &params)?;
+    let fitted = crate::constraints::fit::fit(&nominal, &ident, &params)?;
     let seconds = t0.elapsed().as_secs_f64();
-    let before_shapes = super::fit::shapes_of(&nominal, &ident);
+    let before_shapes = crate::constraints::fit::shapes_of(&nominal, &ident);
     let before = residuals(&nominal, &ident, &before_shapes, &valid);
     let after = residuals(&fitted.robot, &ident, &fitted.shapes, &valid);
     let name = |p: &Param| p.name(&fitted.robot).to_string();

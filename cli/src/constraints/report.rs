@@ -1,5 +1,5 @@
-//! The reports of `identify` and `validate` on a constraint file (JSON keys of
-//! `../shared/spec/interfaces.md` §4, and per kind what the constraints say).
+//! The reports of `identify` and `validate` on a constraint file (the JSON keys of their
+//! tracker-point reports, docs/formats.md, and per kind what the constraints say).
 
 use crate::calibration::acceptance::Acceptance;
 use crate::calibration::Residuals;

@@ -8,22 +8,12 @@ use super::validate::Args;
 use crate::constraints::read;
 use crate::constraints::report::{ConstraintValidateReport, Figures};
 use crate::constraints::shapes::held_out_error;
-use crate::formats::robot_file::{load_robot, RobotFile};
+use crate::formats::robot_file::load_robot;
 use crate::with_joints;
 
 /// Runs `validate` on the constraint file `args.input.data`.
 pub fn run(args: &Args) -> anyhow::Result<ConstraintValidateReport> {
-    let n = RobotFile::load(&args.input.robot)?.joint_count();
-    let m = RobotFile::load(&args.model)?.joint_count();
-    if m != n {
-        crate::refuse!(
-            "{}: a model of a {m}-joint robot, but {} has {n} joints: give the model that \
-             `kinecal identify --robot {} --out M.toml` wrote",
-            args.model.display(),
-            args.input.robot.display(),
-            args.input.robot.display()
-        );
-    }
+    let n = super::validate::joint_count(args)?;
     let report = with_joints!(n, N => run_with_joints::<N>(args))?;
     if report.worse_than_nominal {
         eprintln!(

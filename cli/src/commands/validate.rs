@@ -27,9 +27,9 @@ pub struct Args {
     pub obs: ObservationArgs,
 }
 
-/// Runs the subcommand; the report's `worse_than_nominal` makes the command exit with 3, with
-/// the reason on stderr.
-pub fn run(args: &Args) -> anyhow::Result<ValidateReport> {
+/// The joint count of the robot and the model, refused when they differ (tracker points and
+/// constraint files alike).
+pub(super) fn joint_count(args: &Args) -> anyhow::Result<usize> {
     let n = RobotFile::load(&args.input.robot)?.joint_count();
     let m = RobotFile::load(&args.model)?.joint_count();
     if m != n {
@@ -41,6 +41,13 @@ pub fn run(args: &Args) -> anyhow::Result<ValidateReport> {
             args.input.robot.display()
         );
     }
+    Ok(n)
+}
+
+/// Runs the subcommand; the report's `worse_than_nominal` makes the command exit with 3, with
+/// the reason on stderr.
+pub fn run(args: &Args) -> anyhow::Result<ValidateReport> {
+    let n = joint_count(args)?;
     let report = with_joints!(n, N => run_with_joints::<N>(args))?;
     if report.worse_than_nominal {
         eprintln!("error: {} (exit 3)", report.verdict);

@@ -142,7 +142,7 @@ struct OutFile<'a> {
     name: &'a str,
     joints: &'a [JointSpec],
     #[serde(skip_serializing_if = "Option::is_none")]
-    tool: Option<&'a ToolSpec>,
+    tool: Option<OutTool>,
     #[serde(skip_serializing_if = "<[NamedToolSpec]>::is_empty")]
     tools: &'a [NamedToolSpec],
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -153,6 +153,35 @@ struct OutFile<'a> {
     couplings: &'a [CouplingSpec],
     #[serde(skip_serializing_if = "Option::is_none")]
     prior: Option<&'a crate::formats::prior::PriorSpec>,
+}
+
+/// `[tool]` as written: an unknown point stays `xyz_mm = "unknown"` (the zeros it holds in
+/// memory would read back as a measured point at the flange).
+#[derive(Serialize)]
+struct OutTool {
+    xyz_mm: OutXyz,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rpy_deg: Option<[f64; 3]>,
+}
+
+#[derive(Serialize)]
+#[serde(untagged)]
+enum OutXyz {
+    Point([f64; 3]),
+    Word(&'static str),
+}
+
+impl OutTool {
+    fn of(t: &ToolSpec) -> Self {
+        OutTool {
+            xyz_mm: if t.unknown {
+                OutXyz::Word("unknown")
+            } else {
+                OutXyz::Point(t.xyz_mm)
+            },
+            rpy_deg: t.rpy_deg,
+        }
+    }
 }
 
 /// `[base]`: the robot base in the measurement frame (fixed-axis roll, pitch, yaw).
@@ -906,7 +935,7 @@ impl RobotFile {
         let out = OutFile {
             name: &self.name,
             joints: &self.joints,
-            tool: self.tools.is_empty().then_some(&self.tool),
+            tool: self.tools.is_empty().then(|| OutTool::of(&self.tool)),
             tools: &self.tools,
             base: self.base.as_ref(),
             effects: &self.effects,

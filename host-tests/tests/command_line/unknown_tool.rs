@@ -136,3 +136,25 @@ fn the_coupling_hint_works_with_an_unknown_tool() {
     assert_eq!(v["coupling_hint"]["joint"], 3, "{v}");
     assert_eq!(v["coupling_hint"]["from"], 2, "{v}");
 }
+
+/// A robot file with an unknown tool written back (`identify --out`, `diagnose --out`, the
+/// fuzz target's round trip) keeps `xyz_mm = "unknown"`: the zeros it holds in memory read
+/// back as a measured point at the flange (the robot_file fuzz target's reproducer in
+/// fuzz/regressions/robot_file/).
+#[test]
+fn an_unknown_tool_is_written_back_as_unknown() {
+    use kinecal_cli::formats::robot_file::RobotFile;
+    for line in ["xyz_mm = \"unknown\"\n", "rpy_deg = [0.0, 0.0, 90.0]\n"] {
+        let file = RobotFile::parse(&er20_with_tool(line), "er20").unwrap();
+        assert!(file.tool.unknown);
+        let text = file.to_toml().unwrap();
+        assert!(text.contains("xyz_mm = \"unknown\""), "{text}");
+        let back = RobotFile::parse(&text, "written").unwrap();
+        assert_eq!(back, file);
+    }
+    // A measured point stays a point.
+    let file = RobotFile::parse(&er20_with_tool("xyz_mm = [1.0, 2.0, 3.0]\n"), "er20").unwrap();
+    let back = RobotFile::parse(&file.to_toml().unwrap(), "written").unwrap();
+    assert!(!back.tool.unknown);
+    assert_eq!(back, file);
+}

@@ -19,14 +19,7 @@ use std::time::Instant;
 
 /// Runs `identify` on the constraint file `args.input.data`.
 pub fn run(args: &Args) -> anyhow::Result<ConstraintIdentifyReport> {
-    for out in [args.out.as_deref(), args.residuals.as_deref()] {
-        crate::output::atomic::refuse_model_over_inputs(
-            out,
-            &args.input.robot,
-            &args.input.data,
-            args.validate.as_deref(),
-        )?;
-    }
+    super::identify::refuse_outputs_over_inputs(args)?;
     let n = RobotFile::load(&args.input.robot)?.joint_count();
     with_joints!(n, N => run_with_joints::<N>(args))
 }

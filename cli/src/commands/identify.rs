@@ -78,9 +78,8 @@ pub struct Args {
     pub obs: ObservationArgs,
 }
 
-/// Runs the subcommand: fits the model (and writes it with `--out`); the report's
-/// `converged` says whether the numbers are a calibration.
-pub fn run(args: &Args) -> anyhow::Result<IdentifyReport> {
+/// Refuses `--out` and `--residuals` over an input (tracker points and constraint files alike).
+pub(super) fn refuse_outputs_over_inputs(args: &Args) -> anyhow::Result<()> {
     for out in [args.out.as_deref(), args.residuals.as_deref()] {
         crate::output::atomic::refuse_model_over_inputs(
             out,
@@ -89,6 +88,13 @@ pub fn run(args: &Args) -> anyhow::Result<IdentifyReport> {
             args.validate.as_deref(),
         )?;
     }
+    Ok(())
+}
+
+/// Runs the subcommand: fits the model (and writes it with `--out`); the report's
+/// `converged` says whether the numbers are a calibration.
+pub fn run(args: &Args) -> anyhow::Result<IdentifyReport> {
+    refuse_outputs_over_inputs(args)?;
     let n = RobotFile::load(&args.input.robot)?.joint_count();
     with_joints!(n, N => run_with_joints::<N>(args))
 }

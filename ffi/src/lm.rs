@@ -139,6 +139,8 @@ fn lm_config_of(c: &kc_lm_config) -> Kc<LmConfig<f32>> {
         max_analyses: c.max_analyses,
         activation_tolerance: c.activation_tolerance,
         keep_curvature: c.keep_curvature != 0,
+        // The library's default: a controller's slices cost what they did.
+        complete_passes: false,
     };
     crate::finite(&[
         c.cost_tolerance,

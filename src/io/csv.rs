@@ -425,17 +425,18 @@ impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L,
                 }
                 break;
             }
-            let b = self.chunk[self.chunk_pos];
-            self.chunk_pos += 1;
+            // The rest of the chunk up to the line end (or all of it), copied at once.
+            let avail = &self.chunk[self.chunk_pos..self.chunk_len];
             any = true;
-            if b == b'\n' {
+            let end = avail.iter().position(|b| *b == b'\n');
+            let take = end.unwrap_or(avail.len());
+            let copy = take.min(L - n);
+            self.line[n..n + copy].copy_from_slice(&avail[..copy]);
+            n += copy;
+            too_long |= take > copy;
+            self.chunk_pos += take + usize::from(end.is_some());
+            if end.is_some() {
                 break;
-            }
-            if n < L {
-                self.line[n] = b;
-                n += 1;
-            } else {
-                too_long = true;
             }
         }
         self.line_no = self.line_no.saturating_add(1);
@@ -503,7 +504,7 @@ impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L,
             return Err(e(CsvErrorKind::ExtraCell, self.slots.len() + 1));
         }
         let mut extra = [f64::NAN; X];
-        for (c, cell) in text.split(',').enumerate() {
+        for (c, cell) in Cells(Some(text)).enumerate() {
             let slot = self.slots.get(c).copied().unwrap_or(Slot::Ignored);
             if slot == Slot::Ignored {
                 continue;
@@ -551,6 +552,29 @@ impl<R: Read, const N: usize, const L: usize, const X: usize> CsvReader<R, N, L,
             let _ = rec.extra.push(*v);
         }
         Ok(rec)
+    }
+}
+
+/// The cells of a line, as `text.split(',')` yields them: a byte search (cells are short: a
+/// general substring searcher costs more than the scan). `None`: the last cell was yielded.
+struct Cells<'a>(Option<&'a str>);
+
+impl<'a> Iterator for Cells<'a> {
+    type Item = &'a str;
+    #[inline]
+    fn next(&mut self) -> Option<&'a str> {
+        let t = self.0?;
+        match t.bytes().position(|b| b == b',') {
+            Some(k) => {
+                // `,` is one byte: both sides are on character boundaries.
+                self.0 = t.get(k + 1..);
+                Some(t.get(..k).unwrap_or(""))
+            }
+            None => {
+                self.0 = None;
+                Some(t)
+            }
+        }
     }
 }
 

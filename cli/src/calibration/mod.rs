@@ -370,6 +370,12 @@ pub fn fit_lm<const N: usize, const V: usize>(
     data: &[Measurement<f64, N>],
     cfg: LmConfig<f64>,
 ) -> anyhow::Result<Fit<N, V>> {
+    // Complete passes: the re-analyses and the final confirmation of the held set read the
+    // normal equations a pass left (one or two passes over the data fewer, the same numbers).
+    let cfg = LmConfig {
+        complete_passes: true,
+        ..cfg
+    };
     let mut lm = Box::new(
         Levenberg::new(start.clone(), VecLm::new(params), cfg)
             .map_err(|e| anyhow::anyhow!("identification setup: {e:?}"))?,

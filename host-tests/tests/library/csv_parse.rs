@@ -327,6 +327,54 @@ proptest! {
     }
 }
 
+/// A row of `cells` (each `(padding, number or empty)`) joined with commas.
+fn row_text(cells: &[(usize, Option<f64>)]) -> String {
+    let cell = |(pad, v): &(usize, Option<f64>)| {
+        let pad = " ".repeat(*pad);
+        v.map_or(pad.clone(), |v| format!("{pad}{v}{pad}"))
+    };
+    cells.iter().map(cell).collect::<Vec<_>>().join(",")
+}
+
+proptest! {
+    /// The reader cuts a line into the cells `str::split(',')` gives: padded numbers, empty
+    /// extra cells (NaN), missing extras (NaN), a cell beyond the header (refused, column 12).
+    #[test]
+    fn cells_are_the_comma_separated_fields(
+        required in prop::collection::vec((0usize..3, -1e4f64..1e4), 9),
+        extras in prop::collection::vec((0usize..3, prop::option::of(-1e4f64..1e4)), 0..=3),
+    ) {
+        let mut cells: Vec<(usize, Option<f64>)> = required.iter().map(|(p, v)| (*p, Some(*v))).collect();
+        cells.extend(extras.iter().copied());
+        let line = row_text(&cells);
+        let text = format!("q1,q2,q3,q4,q5,q6,x,y,z,t_s,temp_c\n{line}\n");
+        let fields: Vec<&str> = line.split(',').collect();
+        match read6(&text) {
+            Ok(d) => {
+                prop_assert!(fields.len() <= 11);
+                let r = &d.records[0];
+                let want = |k: usize| fields.get(k).and_then(|c| c.trim().parse::<f64>().ok());
+                for k in 0..6 {
+                    prop_assert_eq!(Some(r.q_deg[k]), want(k));
+                }
+                for k in 0..3 {
+                    prop_assert_eq!(Some(r.xyz_mm[k]), want(6 + k));
+                }
+                for k in 0..2 {
+                    match want(9 + k) {
+                        Some(v) => prop_assert_eq!(r.extra[k], v),
+                        None => prop_assert!(r.extra[k].is_nan()),
+                    }
+                }
+            }
+            Err(e) => {
+                prop_assert_eq!(fields.len(), 12);
+                prop_assert_eq!((e.kind, e.line, e.column), (CsvErrorKind::ExtraCell, 2, 12));
+            }
+        }
+    }
+}
+
 mod decimal {
     use kinecal::io::csv::parse_decimal;
     use proptest::prelude::*;

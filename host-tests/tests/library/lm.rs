@@ -254,3 +254,67 @@ fn snapshot_at_every_step_restores_to_a_bit_identical_run() {
     assert_eq!(target.progress(), before);
     assert_eq!(target.robot(), &before_robot);
 }
+
+/// With `complete_passes` every pass forms the held columns in full, so what the run leaves
+/// is the complete normal matrix at its final model (what the covariance and confounding
+/// reports read) without a confirming pass of its own: equal, unscaled, to the first pass of
+/// a fresh run started there (which forms every column), held rows and columns included; a
+/// run whose steps are all accepted makes one pass per iteration plus the first, and ends at
+/// the model the run without the option reaches with its extra passes.
+#[test]
+fn the_normal_matrix_left_is_complete_at_the_final_model() {
+    let nominal = er20();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
+    let truth = perturbed(&nominal, &mut rng);
+    let data = measure(&truth, 60, 0.01, &mut rng);
+    let set = ParamSet::<64>::full(6, true).unwrap();
+    let cfg = LmConfig {
+        complete_passes: true,
+        ..LmConfig::default()
+    };
+    let mut lm = Levenberg::fixed(nominal.clone(), set.clone(), cfg).unwrap();
+    let done = lm.run(&data).unwrap();
+    let mut plain = Levenberg::fixed(nominal.clone(), set.clone(), LmConfig::default()).unwrap();
+    let plain_done = plain.run(&data).unwrap();
+    assert_eq!(lm.robot(), plain.robot(), "the same fit, bit for bit");
+    assert!(
+        done.evaluations < plain_done.evaluations,
+        "{} passes with, {} without",
+        done.evaluations,
+        plain_done.evaluations
+    );
+    let held: Vec<Param> = lm.unidentifiable().collect();
+    assert!(!held.is_empty(), "the base and the first row confound");
+    let mut fresh = Levenberg::fixed(lm.robot().clone(), set, LmConfig::default()).unwrap();
+    // One call of as many poses as there are: exactly the first pass.
+    fresh.step(&data, data.len()).unwrap();
+    let n = lm.params().len();
+    let unscaled = |l: &FixedLevenberg<f64, 6, 64, 64>, i: usize, j: usize| {
+        l.normal_matrix(i.max(j), i.min(j)) * l.scale(i) * l.scale(j)
+    };
+    let mut worst = 0f64;
+    for i in 0..n {
+        for j in 0..=i {
+            let (a, b) = (unscaled(&lm, i, j), unscaled(&fresh, i, j));
+            let tol = 1e-9
+                * (unscaled(&lm, i, i) * unscaled(&lm, j, j))
+                    .sqrt()
+                    .max(1e-300);
+            assert!(
+                (a - b).abs() <= tol,
+                "JᵀJ[{i}][{j}] ({:?}, {:?}): {a} left, {b} at the final model",
+                lm.params()[i],
+                lm.params()[j]
+            );
+            worst = worst.max((a - b).abs() / tol);
+        }
+    }
+    eprintln!(
+        "{} held, {} iterations, {} passes; worst difference {:.2e} of the tolerance",
+        held.len(),
+        done.iteration,
+        done.evaluations,
+        worst
+    );
+    assert!(done.evaluations <= done.iteration + 1, "{done:?}");
+}

@@ -33,6 +33,13 @@ pub struct LmConfig<T: Real> {
     /// (nearly linear) it saves most of the work. Re-analyses of identifiability are only
     /// triggered by full passes. Default off.
     pub keep_curvature: bool,
+    /// Form the held parameters' columns in full on every pass: the normal equations a pass
+    /// leaves are then complete at the model it ends at, and re-analysing or confirming the
+    /// held set reads them instead of making a pass of its own (one or two passes fewer per
+    /// run, the same numbers; each pass costs more when many parameters are held). Ignored
+    /// with `keep_curvature`. Default off (a firmware's slices stay as they were); the
+    /// command line's fits turn it on.
+    pub complete_passes: bool,
 }
 
 impl<T: Real> LmConfig<T> {
@@ -64,6 +71,7 @@ impl<T: Real> Default for LmConfig<T> {
             max_analyses: 8,
             activation_tolerance: T::of(1e-4),
             keep_curvature: false,
+            complete_passes: false,
         }
     }
 }

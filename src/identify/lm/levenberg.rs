@@ -5,7 +5,7 @@
 
 use super::analysis::{analyse, estimate_all, held_column_grew};
 use super::config::LmConfig;
-use super::normal::{accumulate_pose, clear_normal_equations, split_parts, Columns};
+use super::normal::{accumulate_pose, clear_normal_equations, split_parts, Columns, Reach};
 use super::pass::{Pass, PassKind, PassPart};
 use super::penalty::{check_penalty, LmPenalty, NoPenalty, PenaltyError, PenaltyPartsRef};
 use super::residual::check_observations;
@@ -348,6 +348,7 @@ impl<T: Real, const N: usize, const V: usize, Storage: LmStorage<T>, Penalty: Lm
             columns: Columns {
                 params: p.params,
                 scale: p.scale,
+                reach: Reach::of_scales(&p.scale[..p.params.len().min(p.scale.len())]),
                 active: p.active,
                 full: self.full_columns(),
                 gradient_only: self.gradient_only(),
@@ -428,17 +429,28 @@ impl<T: Real, const N: usize, const V: usize, Storage: LmStorage<T>, Penalty: Lm
     }
 
     /// Held columns enter the normal equations in full on the passes that decide
-    /// identifiability (the first, a confirmation, a re-analysis); otherwise just their
-    /// diagonal.
+    /// identifiability (the first, a confirmation, a re-analysis), and on every pass with
+    /// `complete_passes`; otherwise just their diagonal.
     fn full_columns(&self) -> bool {
-        !self.analysed || matches!(self.phase, Phase::Confirm(_) | Phase::Reanalyse)
+        !self.analysed
+            || self.complete_at_estimate()
+            || matches!(self.phase, Phase::Confirm(_) | Phase::Reanalyse)
+    }
+
+    /// With `complete_passes` (and not `keep_curvature`, whose curvature is an earlier
+    /// point's): the normal equations in place are complete (every column, held ones too) and
+    /// the estimate's whenever the run is between passes, since every pass forms them in full
+    /// and a rejected candidate's are formed again at the estimate; an analysis reads them.
+    fn complete_at_estimate(&self) -> bool {
+        self.cfg.complete_passes && !self.cfg.keep_curvature
     }
 
     /// Adds one pose's residual and scaled Jacobian to the normal equations.
     fn accumulate<M: Observation<T, N>>(&mut self, m: &M) {
         let full = self.full_columns();
         let gradient_only = self.gradient_only();
-        let (columns, mut sums) = split_parts(self.st.parts(), full, gradient_only);
+        let (columns, mut sums) =
+            split_parts::<_, Storage>(self.st.parts(), None, full, gradient_only);
         let robot = if self.phase == Phase::Evaluate {
             &self.candidate
         } else {
@@ -495,8 +507,16 @@ impl<T: Real, const N: usize, const V: usize, Storage: LmStorage<T>, Penalty: Lm
                 self.analyse();
                 Phase::Solve
             }
-            // The held columns' off-diagonal terms are missing: one full pass.
-            _ if self.held_column_grew() => Phase::Reanalyse,
+            // A held column grew: analyse again, from this pass when it formed every column;
+            // else the held columns' off-diagonal terms are missing: one full pass.
+            _ if self.held_column_grew() => {
+                if self.complete_at_estimate() {
+                    self.analyse();
+                    Phase::Solve
+                } else {
+                    Phase::Reanalyse
+                }
+            }
             _ => Phase::Solve,
         };
     }
@@ -578,6 +598,14 @@ impl<T: Real, const N: usize, const V: usize, Storage: LmStorage<T>, Penalty: Lm
         let held = (0..n).any(|k| !p.active[k] && !p.held[k]);
         if !held || self.analyses >= self.cfg.max_analyses {
             self.phase = Phase::Done(stop);
+        } else if self.complete_at_estimate() {
+            // What a confirming pass would form is in place: the same sums.
+            self.factored = false;
+            self.phase = if self.analyse() {
+                Phase::Solve
+            } else {
+                Phase::Done(stop)
+            };
         } else {
             self.next = 0;
             self.phase = Phase::Confirm(stop);
@@ -674,12 +702,17 @@ impl<T: Real, const N: usize, const V: usize, Storage: LmStorage<T>, Penalty: Lm
                     Phase::Solve
                 };
             } else {
-                // The candidate's pass left its normal equations: the next solve's. (A held
-                // column that grew needs the full ones first.)
-                self.phase = if self.held_column_grew() {
-                    Phase::Reanalyse
-                } else {
+                // The candidate's pass left its normal equations: the next solve's. A held
+                // column that grew is analysed again: from them when they are complete, else
+                // after a pass forming the held columns in full.
+                self.phase = if !self.held_column_grew() {
                     Phase::Solve
+                } else if self.complete_at_estimate() {
+                    self.factored = false;
+                    self.analyse();
+                    Phase::Solve
+                } else {
+                    Phase::Reanalyse
                 };
             }
         } else {

@@ -22,9 +22,10 @@
 //! makes theta6 and the last rows' angles invisible until the fit moves the point off the axis.
 //! So the decision is taken again whenever a held parameter's column has grown since it was
 //! taken (checked at every accepted step, `O(P)`), and once more at the converged model; the
-//! run only ends when a re-analysis at the final model confirms the held set. Re-analysis
-//! prefers the parameters already estimated, so a confounded pair does not swap back and
-//! forth. A tiny ridge on the accumulated update keeps nearly dependent directions bounded.
+//! run only ends when a re-analysis at the final model confirms the held set; a re-analysis
+//! takes a pass forming the held columns in full, or none with `complete_passes` (every pass
+//! forms them: the host's choice). Re-analysis prefers the parameters already estimated, so a
+//! confounded pair does not swap back and forth. A tiny ridge on the accumulated update keeps nearly dependent directions bounded.
 //!
 //! **Penalties and subsets.** A run may minimise `Σ|r_i|² + uᵀΠu` instead, `Π` a caller-given
 //! quadratic penalty (a prior) on the scaled parameters ([`PenaltyTerm`]:
@@ -87,5 +88,6 @@ pub use penalty::{
 pub use residual::{observation_cost, rms_error, rms_orientation_error};
 pub use status::{LmError, LmProgress, LmStop};
 pub use storage::{
-    FixedLm, LmParts, LmPartsRef, LmStorage, LM_FLAG_VECTORS, LM_INDEX_VECTORS, LM_VECTORS,
+    add_dense_rows, FixedLm, LmParts, LmPartsRef, LmStorage, LM_FLAG_VECTORS, LM_INDEX_VECTORS,
+    LM_VECTORS,
 };

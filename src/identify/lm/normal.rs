@@ -1,14 +1,16 @@
 //! The normal equations of a run, one observation at a time: its residual and scaled
 //! Jacobian columns (the point's rows, and the orientation's for a 6-D observation) added to
 //! `JᵀJ` (lower triangle) and `Jᵀr`, with the shortcuts that keep a pose `O(k²)` in the `k`
-//! columns it excites (held columns' diagonal only; correction tables' two knots).
+//! columns it excites (held columns' diagonal only, on the passes that need no more;
+//! correction tables' two knots).
 
 use super::residual::residual;
-use super::storage::LmParts;
+use super::storage::{LmParts, LmStorage};
 use crate::io::measurement::Observation;
 use crate::model::effects::{Effect, EffectKind};
 use crate::model::param::Param;
 use crate::{ForwardKinematics, Real, Robot};
+use core::marker::PhantomData;
 use nalgebra::Vector3;
 
 /// Zeroes the first `n` rows and entries of normal equations with row stride `stride`.
@@ -25,8 +27,9 @@ pub(super) fn clear_normal_equations<T: Real>(
 }
 
 /// Where one pose's contribution goes: the lower triangle of `JᵀJ` (row stride `stride`),
-/// `Jᵀr`, and the per-pose scratch of non-zero columns.
-pub(super) struct NormalSums<'a, T> {
+/// `Jᵀr`, and the per-pose scratch of non-zero columns; `S`'s [`LmStorage::add_rows`] adds a
+/// pose's dense rows.
+pub(super) struct NormalSums<'a, T, S> {
     pub stride: usize,
     pub jtj: &'a mut [T],
     pub jtr: &'a mut [T],
@@ -34,18 +37,21 @@ pub(super) struct NormalSums<'a, T> {
     pub cy: &'a mut [T],
     pub cz: &'a mut [T],
     pub nz: &'a mut [usize],
+    pub kernel: PhantomData<S>,
 }
 
 /// A storage's arrays as what one pose reads (the parameters, scales, estimated set) and where
 /// it adds (the normal equations and their per-pose scratch).
-pub(super) fn split_parts<T>(
+pub(super) fn split_parts<T: Real, S: LmStorage<T>>(
     p: LmParts<'_, T>,
+    reach: Option<Reach<T>>,
     full: bool,
     gradient_only: bool,
-) -> (Columns<'_, T>, NormalSums<'_, T>) {
+) -> (Columns<'_, T>, NormalSums<'_, T, S>) {
     let columns = Columns {
         params: p.params,
         scale: p.scale,
+        reach,
         active: p.active,
         full,
         gradient_only,
@@ -58,6 +64,7 @@ pub(super) fn split_parts<T>(
         cy: p.cy,
         cz: p.cz,
         nz: p.nz,
+        kernel: PhantomData,
     };
     (columns, sums)
 }
@@ -68,10 +75,45 @@ pub(super) fn split_parts<T>(
 pub(super) struct Columns<'a, T> {
     pub params: &'a [Param],
     pub scale: &'a [T],
+    /// The scale of the angles (the reach) with its inverse, when the columns are scaled by
+    /// products: a pass over many poses (the host's passes); `None`: by divisions, as one
+    /// pose at a time (firmware) does.
+    pub reach: Option<Reach<T>>,
     pub active: &'a [bool],
     pub full: bool,
     /// Only `Jᵀr` (and the cost): `JᵀJ` is left as it is (a solver keeping its curvature).
     pub gradient_only: bool,
+}
+
+/// A robot's reach (mm per rad: the scale of angles and effect values) and its inverse.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Reach<T> {
+    pub mm: T,
+    pub inverse: T,
+}
+
+impl<T: Real> Reach<T> {
+    /// The scale other than 1 in `scales` (the reach, per [`Param::scale`]), if any.
+    pub fn of_scales(scales: &[T]) -> Option<Self> {
+        let mm = scales.iter().copied().find(|s| *s != T::one())?;
+        Some(Self {
+            mm,
+            inverse: T::one() / mm,
+        })
+    }
+}
+
+/// Column `c` of a parameter with scale `s`, scaled (`c / s`): with the reach given (a
+/// pass over many poses), unchanged for lengths (scale 1) and by the reach's inverse for the
+/// rest (a division per column and pose was a fifth of an identify on the host); else, and
+/// for any other scale, divided.
+#[inline(always)]
+fn scaled<T: Real>(c: Vector3<T>, s: T, reach: Option<Reach<T>>) -> Vector3<T> {
+    match reach {
+        Some(_) if s == T::one() => c,
+        Some(r) if s == r.mm => c * r.inverse,
+        _ => c / s,
+    }
 }
 
 /// Which rows of an observation a block of the Jacobian is: the point's three coordinates,
@@ -138,21 +180,27 @@ impl Rows for OrientationRows {
 
 /// Adds one observation's residual and scaled Jacobian to `out` and returns its squared
 /// (weighted) residual: the point's rows, then for a 6-D observation the orientation's.
-pub(super) fn accumulate_pose<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
+pub(super) fn accumulate_pose<
+    T: Real,
+    const N: usize,
+    const V: usize,
+    M: Observation<T, N>,
+    S: LmStorage<T>,
+>(
     fk: &mut ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
     m: &M,
     set: &Columns<'_, T>,
-    out: &mut NormalSums<'_, T>,
+    out: &mut NormalSums<'_, T, S>,
 ) -> T {
     // The pass checked that the robot has the observation's point.
     let Some((r, rot)) = residual(fk, robot, m) else {
         return T::zero();
     };
-    let mut cost = accumulate_rows::<PointRows, T, N, V>(fk, robot, r, m.weight(), set, out);
+    let mut cost = accumulate_rows::<PointRows, T, N, V, S>(fk, robot, r, m.weight(), set, out);
     if let (Some(rr), Some((_, w))) = (rot, m.orientation()) {
         let w = Some(Vector3::repeat(w));
-        cost += accumulate_rows::<OrientationRows, T, N, V>(fk, robot, rr, w, set, out);
+        cost += accumulate_rows::<OrientationRows, T, N, V, S>(fk, robot, rr, w, set, out);
     }
     cost
 }
@@ -165,13 +213,13 @@ pub(super) fn accumulate_pose<T: Real, const N: usize, const V: usize, M: Observ
 /// columns are non-zero at this pose (tables touch two knots of many) only their pairs are
 /// updated: `O(k²)` for `k` of them instead of `O(P²)`.
 #[inline(always)]
-fn accumulate_rows<R: Rows, T: Real, const N: usize, const V: usize>(
+fn accumulate_rows<R: Rows, T: Real, const N: usize, const V: usize, S: LmStorage<T>>(
     fk: &ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
     r: Vector3<T>,
     weight: Option<Vector3<T>>,
     set: &Columns<'_, T>,
-    out: &mut NormalSums<'_, T>,
+    out: &mut NormalSums<'_, T, S>,
 ) -> T {
     // A gradient-only pass leaves `JᵀJ` alone: no held column's diagonal either.
     let set = &Columns {
@@ -181,6 +229,7 @@ fn accumulate_rows<R: Rows, T: Real, const N: usize, const V: usize>(
     let Columns {
         params,
         scale,
+        reach,
         active,
         full,
         gradient_only,
@@ -192,11 +241,11 @@ fn accumulate_rows<R: Rows, T: Real, const N: usize, const V: usize>(
     // of many: their columns are set apart.
     let with_tables = V > 0 && robot.effects().iter().any(|e| e.kind == EffectKind::Table);
     let k_nz = if with_tables {
-        columns_with_tables::<R, T, N, V>(fk, robot, set, weight, out)
+        columns_with_tables::<R, T, N, V, S>(fk, robot, set, weight, out)
     } else {
         let mut k_nz = 0;
         for k in 0..n {
-            let mut c = R::column(fk, robot, params[k]) / scale[k];
+            let mut c = scaled(R::column(fk, robot, params[k]), scale[k], reach);
             if let Some(w) = weight {
                 c = c.component_mul(&w);
             }
@@ -220,10 +269,13 @@ fn accumulate_rows<R: Rows, T: Real, const N: usize, const V: usize>(
     }
     // Most columns enter (the geometric case): whole contiguous rows, zero columns adding
     // nothing. Few (tables touch two knots of many): only the pairs that do.
-    let dense = 2 * k_nz >= n;
+    if 2 * k_nz >= n {
+        S::add_rows((out.jtj, out.jtr), s, (cx, cy, cz), [r.x, r.y, r.z], nz);
+        return r.norm_squared();
+    }
     // Sparse (a model with effects, where tables touch few of many columns): how many of the
     // entering columns are `0, 1, 2, …` (a contiguous leading run: the geometric columns).
-    let lead = if dense || V == 0 {
+    let lead = if V == 0 {
         0
     } else {
         nz.iter().enumerate().take_while(|(a, j)| *a == **j).count()
@@ -232,22 +284,15 @@ fn accumulate_rows<R: Rows, T: Real, const N: usize, const V: usize>(
         let (xi, yi, zi) = (cx[i], cy[i], cz[i]);
         out.jtr[i] += Vector3::new(xi, yi, zi).dot(&r);
         let row = &mut out.jtj[i * s..i * s + i + 1];
-        if dense {
-            let cols = cx[..=i].iter().zip(&cy[..=i]).zip(&cz[..=i]);
-            for (v, ((x, y), z)) in row.iter_mut().zip(cols) {
-                *v += xi * *x + yi * *y + zi * *z;
-            }
-        } else {
-            // nz is increasing, so every j ≤ i: the lower triangle. Its leading run `0..lead`
-            // (the geometric columns, which every pose excites) as one contiguous row.
-            let head = lead.min(a + 1);
-            let cols = cx[..head].iter().zip(&cy[..head]).zip(&cz[..head]);
-            for (v, ((x, y), z)) in row[..head].iter_mut().zip(cols) {
-                *v += xi * *x + yi * *y + zi * *z;
-            }
-            for &j in &nz[head..=a] {
-                row[j] += xi * cx[j] + yi * cy[j] + zi * cz[j];
-            }
+        // nz is increasing, so every j ≤ i: the lower triangle. Its leading run `0..lead`
+        // (the geometric columns, which every pose excites) as one contiguous row.
+        let head = lead.min(a + 1);
+        let cols = cx[..head].iter().zip(&cy[..head]).zip(&cz[..head]);
+        for (v, ((x, y), z)) in row[..head].iter_mut().zip(cols) {
+            *v += xi * *x + yi * *y + zi * *z;
+        }
+        for &j in &nz[head..=a] {
+            row[j] += xi * cx[j] + yi * cy[j] + zi * cz[j];
         }
     }
     r.norm_squared()
@@ -259,16 +304,17 @@ fn accumulate_rows<R: Rows, T: Real, const N: usize, const V: usize>(
 /// segment look-up per table and pose instead of one per knot). Returns the number of
 /// entering non-zero columns (in `out.nz`, increasing).
 #[inline(never)]
-fn columns_with_tables<R: Rows, T: Real, const N: usize, const V: usize>(
+fn columns_with_tables<R: Rows, T: Real, const N: usize, const V: usize, S: LmStorage<T>>(
     fk: &ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
     set: &Columns<'_, T>,
     weight: Option<Vector3<T>>,
-    out: &mut NormalSums<'_, T>,
+    out: &mut NormalSums<'_, T, S>,
 ) -> usize {
     let Columns {
         params,
         scale,
+        reach,
         active,
         full,
         ..
@@ -277,7 +323,7 @@ fn columns_with_tables<R: Rows, T: Real, const N: usize, const V: usize>(
     let s = out.stride;
     let mut k_nz = 0;
     // Column `k` is `c` (already scaled).
-    let mut enter = |out: &mut NormalSums<'_, T>, k: usize, mut c: Vector3<T>| {
+    let mut enter = |out: &mut NormalSums<'_, T, S>, k: usize, mut c: Vector3<T>| {
         if let Some(w) = weight {
             c = c.component_mul(&w);
         }
@@ -303,7 +349,7 @@ fn columns_with_tables<R: Rows, T: Real, const N: usize, const V: usize>(
                 let jc = R::reading(fk, robot, j);
                 for (i, phi) in [(seg, T::one() - w), (seg + 1, w)] {
                     if phi != T::zero() && i < len {
-                        enter(out, k + i, jc * phi / scale[k + i]);
+                        enter(out, k + i, scaled(jc * phi, scale[k + i], reach));
                     }
                 }
                 k += len;
@@ -316,7 +362,7 @@ fn columns_with_tables<R: Rows, T: Real, const N: usize, const V: usize>(
             _ => None,
         };
         let c = c.unwrap_or_else(|| R::column(fk, robot, params[k]));
-        enter(out, k, c / scale[k]);
+        enter(out, k, scaled(c, scale[k], reach));
         k += 1;
     }
     k_nz

@@ -124,8 +124,9 @@ impl<T: Real, const N: usize, const V: usize> Pass<'_, T, N, V> {
                 clear_normal_equations(p.jtj, p.jtr, p.stride, n);
             }
         }
-        let (_, mut sums) = split_parts(
+        let (_, mut sums) = split_parts::<_, Storage>(
             part.storage.parts(),
+            None,
             self.columns.full,
             self.columns.gradient_only,
         );

@@ -117,6 +117,20 @@ pub trait LmStorage<T: Real> {
         })
     }
 
+    /// Adds one pose's rows to `JᵀJ` (lower triangle) and `Jᵀr` as [`add_dense_rows`] does
+    /// (the default). A host may override it with that same function compiled for wider vector
+    /// instructions: the same products and sums in the same order, so bit-identical sums.
+    #[inline(always)]
+    fn add_rows(
+        sums: (&mut [T], &mut [T]),
+        stride: usize,
+        columns: (&[T], &[T], &[T]),
+        r: [T; 3],
+        rows: &[usize],
+    ) {
+        add_dense_rows(sums, stride, columns, r, rows);
+    }
+
     /// Solves for `x[..m]` in place with the factor [`LmStorage::solve_work`] left in `work`
     /// (its lower triangle must hold `L` of `L·Lᵀ`, as the library's [`cholesky`] leaves it).
     fn resolve_work(
@@ -127,6 +141,31 @@ pub trait LmStorage<T: Real> {
     ) -> Result<(), LinalgError> {
         let x = x.get_mut(..m).ok_or(LinalgError::Size)?;
         Flat::new(work, stride).and_then(|w| cholesky_solve(&w, m, x))
+    }
+}
+
+/// Adds one pose's three rows to the normal equations: the columns `(cx, cy, cz)` (zero
+/// where a column does not enter) to the lower triangle of `jtj` (row stride `stride`) and,
+/// with the residual `r`, to `jtr`: for each `i` of `rows` (increasing, every other column
+/// zero) `jtr[i] += (cx[i], cy[i], cz[i])·r` and for every `j ≤ i`
+/// `jtj[i·stride + j] += cx[i]·cx[j] + cy[i]·cy[j] + cz[i]·cz[j]`. Whole contiguous rows: the
+/// loop vectorises.
+#[inline(always)]
+pub fn add_dense_rows<T: Real>(
+    (jtj, jtr): (&mut [T], &mut [T]),
+    stride: usize,
+    (cx, cy, cz): (&[T], &[T], &[T]),
+    r: [T; 3],
+    rows: &[usize],
+) {
+    for &i in rows {
+        let (xi, yi, zi) = (cx[i], cy[i], cz[i]);
+        jtr[i] += xi * r[0] + yi * r[1] + zi * r[2];
+        let row = &mut jtj[i * stride..i * stride + i + 1];
+        let cols = cx[..=i].iter().zip(&cy[..=i]).zip(&cz[..=i]);
+        for (v, ((x, y), z)) in row.iter_mut().zip(cols) {
+            *v += xi * *x + yi * *y + zi * *z;
+        }
     }
 }
 

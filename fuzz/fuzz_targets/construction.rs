@@ -139,6 +139,7 @@ fuzz_target!(|data: &[u8]| {
         max_analyses: u.int_in_range(0..=8u8).unwrap_or(1),
         activation_tolerance: any_f64(&mut u, 1e-4, 1e-4),
         keep_curvature: u.ratio(1u8, 2).unwrap_or(false),
+        complete_passes: u.ratio(1u8, 2).unwrap_or(false),
     };
     let lm = FixedLevenberg::<f64, N, V, 16>::fixed(robot.clone(), ParamSet::full(N, false).unwrap(), cfg);
     invariant!(

@@ -65,6 +65,7 @@ fuzz_target!(|data: &[u8]| {
             cfg.max_iterations = u.int_in_range(0..=10u32).unwrap_or(5);
             cfg.max_analyses = u.int_in_range(0..=3u8).unwrap_or(1);
             cfg.keep_curvature = u.ratio(1u8, 2).unwrap_or(false);
+            cfg.complete_passes = u.ratio(1u8, 2).unwrap_or(false);
             let base_unknown = u.ratio(1u8, 3).unwrap_or(false);
             let params = ParamSet::<24>::full(N, base_unknown).unwrap();
             let Ok(mut lm) = FixedLevenberg::<f64, N, 4, 24>::fixed(kinecal_fuzz::arm3::<4>(), params, cfg) else { return };

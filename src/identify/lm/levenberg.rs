@@ -445,12 +445,23 @@ impl<T: Real, const N: usize, const V: usize, Storage: LmStorage<T>, Penalty: Lm
         self.cfg.complete_passes && !self.cfg.keep_curvature
     }
 
+    /// What follows when a held column grew: with complete normal equations in place, the
+    /// analysis on them and a solve; else a pass forming the held columns in full first.
+    fn reanalysis(&mut self) -> Phase {
+        if self.complete_at_estimate() {
+            self.factored = false;
+            self.analyse();
+            Phase::Solve
+        } else {
+            Phase::Reanalyse
+        }
+    }
+
     /// Adds one pose's residual and scaled Jacobian to the normal equations.
     fn accumulate<M: Observation<T, N>>(&mut self, m: &M) {
         let full = self.full_columns();
         let gradient_only = self.gradient_only();
-        let (columns, mut sums) =
-            split_parts::<_, Storage>(self.st.parts(), None, full, gradient_only);
+        let (columns, mut sums) = split_parts::<_, Storage>(self.st.parts(), full, gradient_only);
         let robot = if self.phase == Phase::Evaluate {
             &self.candidate
         } else {
@@ -509,14 +520,7 @@ impl<T: Real, const N: usize, const V: usize, Storage: LmStorage<T>, Penalty: Lm
             }
             // A held column grew: analyse again, from this pass when it formed every column;
             // else the held columns' off-diagonal terms are missing: one full pass.
-            _ if self.held_column_grew() => {
-                if self.complete_at_estimate() {
-                    self.analyse();
-                    Phase::Solve
-                } else {
-                    Phase::Reanalyse
-                }
-            }
+            _ if self.held_column_grew() => self.reanalysis(),
             _ => Phase::Solve,
         };
     }
@@ -705,14 +709,10 @@ impl<T: Real, const N: usize, const V: usize, Storage: LmStorage<T>, Penalty: Lm
                 // The candidate's pass left its normal equations: the next solve's. A held
                 // column that grew is analysed again: from them when they are complete, else
                 // after a pass forming the held columns in full.
-                self.phase = if !self.held_column_grew() {
-                    Phase::Solve
-                } else if self.complete_at_estimate() {
-                    self.factored = false;
-                    self.analyse();
-                    Phase::Solve
+                self.phase = if self.held_column_grew() {
+                    self.reanalysis()
                 } else {
-                    Phase::Reanalyse
+                    Phase::Solve
                 };
             }
         } else {

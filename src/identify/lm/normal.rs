@@ -44,14 +44,14 @@ pub(super) struct NormalSums<'a, T, S> {
 /// it adds (the normal equations and their per-pose scratch).
 pub(super) fn split_parts<T: Real, S: LmStorage<T>>(
     p: LmParts<'_, T>,
-    reach: Option<Reach<T>>,
     full: bool,
     gradient_only: bool,
 ) -> (Columns<'_, T>, NormalSums<'_, T, S>) {
     let columns = Columns {
         params: p.params,
         scale: p.scale,
-        reach,
+        // One pose at a time (firmware): divided, as ever.
+        reach: None,
         active: p.active,
         full,
         gradient_only,

@@ -126,7 +126,6 @@ impl<T: Real, const N: usize, const V: usize> Pass<'_, T, N, V> {
         }
         let (_, mut sums) = split_parts::<_, Storage>(
             part.storage.parts(),
-            None,
             self.columns.full,
             self.columns.gradient_only,
         );

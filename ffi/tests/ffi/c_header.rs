@@ -30,6 +30,6 @@ fn header_is_current() {
         return;
     }
     panic!(
-        "include/kinecal.h is stale: run KINECAL_BLESS=1 cargo test -p kinecal-ffi --test c_header"
+        "include/kinecal.h is stale: run KINECAL_BLESS=1 cargo test -p kinecal-ffi --test ffi c_header"
     );
 }

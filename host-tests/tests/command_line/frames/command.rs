@@ -1,0 +1,131 @@
+//! The `frames` subcommand: the base into the robot file, warnings, one JSON object.
+
+use super::*;
+
+#[test]
+fn frames_command_reports_the_base_and_writes_it_into_the_robot_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot_path = write_robot(dir.path(), &ER20, ER20_TOOL);
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(99);
+    let base = random_base(&mut rng);
+    let truth: Robot<f64, 6, 0> = robot(&ER20, ER20_TOOL, base);
+    let data = sweep_data(
+        &truth,
+        &[20.0, 10.0, -10.0, 0.0, 20.0, 0.0],
+        &[1, 2, 5, 6],
+        24,
+        360.0,
+        0.015,
+        8,
+    )
+    .unwrap();
+    let csv = dir.path().join("sweeps.csv");
+    measurements::write(&csv, &data).unwrap();
+    let out = dir.path().join("r2.toml");
+    let v = find_frames(&robot_path, &csv, Some(&out)).unwrap();
+    let found = Frame::from_xyz_rpy(v.base.xyz_mm, v.base.rpy_deg.map(f64::to_radians));
+    let (mm, deg) = frame_error(&found, &base);
+    let (radial, axial) = (v.tool_radial_mm.unwrap(), v.tool_axial_mm.unwrap());
+    println!("frames: base error {mm:.4} mm, {deg:.5}°; tool {radial} / {axial}");
+    assert!(mm < 0.1 && deg < 0.01);
+    assert!((axial - 225.0).abs() < 0.05);
+    assert!(radial < 0.05);
+    assert_eq!(v.circles.len(), 4);
+    assert!(v.circles.iter().all(|c| c.radius_mm().is_finite()));
+    assert!(v.circles[0].rms_mm().unwrap() < 0.05);
+    assert_eq!(v.out, Some(out.display().to_string()));
+    // The written robot file has the same base and reads back.
+    let (_, r2) = kinecal_cli::formats::robot_file::load_robot::<6>(&out).unwrap();
+    let (mm2, deg2) = frame_error(r2.base(), &found);
+    assert!(mm2 < 1e-9 && deg2 < 1e-9);
+    assert_eq!(r2.joints()[1].a, 170.0);
+}
+
+#[test]
+fn frames_command_warns_about_short_or_noisy_sweeps_and_names_bad_cells() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot_path = write_robot(dir.path(), &UR10, UR10_TOOL);
+    let truth: Robot<f64, 6, 0> = robot(&UR10, UR10_TOOL, Frame::identity());
+    let run = |data: &measurements::Dataset<6>, name: &str| {
+        let csv = dir.path().join(name);
+        measurements::write(&csv, data).unwrap();
+        find_frames(&robot_path, &csv, None)
+    };
+    let warnings = |v: &kinecal_cli::reports::FramesReport| v.warnings.clone();
+    let good = sweep_data(&truth, &[0.0; 6], &[1, 2, 5, 6], 24, 360.0, 0.015, 1).unwrap();
+    let w = warnings(&run(&good, "good.csv").unwrap());
+    assert!(
+        w.iter()
+            .all(|w| !w.contains("too short") && !w.contains("too noisy")),
+        "{w:?}"
+    );
+    let short = sweep_data(&truth, &[0.0; 6], &[1, 2], 24, 8.0, 0.015, 1).unwrap();
+    let w = warnings(&run(&short, "short.csv").unwrap());
+    assert!(
+        w.iter()
+            .any(|w| w.contains("joint 1") && w.contains("too short")),
+        "{w:?}"
+    );
+    let noisy = sweep_data(&truth, &[0.0; 6], &[1, 2], 24, 90.0, 0.3, 1).unwrap();
+    let w = warnings(&run(&noisy, "noisy.csv").unwrap());
+    assert!(w.iter().any(|w| w.contains("too noisy")), "{w:?}");
+
+    // A sweep cell that names no joint: file, line and column.
+    let mut bad = good.clone();
+    bad.records[4].extra[0] = 9.0;
+    let e = run(&bad, "bad.csv").unwrap_err().to_string();
+    assert!(
+        e.contains("bad.csv:6:") && e.contains(":10:") && e.contains("sweep"),
+        "{e}"
+    );
+    // No sweep column at all.
+    let mut none = good.clone();
+    none.extra_names.clear();
+    none.records.iter_mut().for_each(|r| r.extra.clear());
+    let e = run(&none, "none.csv").unwrap_err().to_string();
+    assert!(e.contains("none.csv") && e.contains("sweep"), "{e}");
+    // No joint-2 sweep.
+    let only1 = sweep_data(&truth, &[0.0; 6], &[1], 24, 90.0, 0.015, 1).unwrap();
+    let e = run(&only1, "only1.csv").unwrap_err().to_string();
+    assert!(e.contains("joint 2"), "{e}");
+}
+
+#[test]
+fn frames_binary_prints_one_json_object() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot_path = write_robot(dir.path(), &UR10, UR10_TOOL);
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
+    let truth: Robot<f64, 6, 0> = robot(&UR10, UR10_TOOL, random_base(&mut rng));
+    let data = sweep_data(&truth, &[0.0; 6], &[1, 2, 5, 6], 24, 360.0, 0.02, 2).unwrap();
+    let csv = dir.path().join("s.csv");
+    measurements::write(&csv, &data).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
+        .args([
+            "frames",
+            "--robot",
+            robot_path.to_str().unwrap(),
+            "--data",
+            csv.to_str().unwrap(),
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for key in ["base", "tool_radial_mm", "tool_axial_mm", "circles"] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    let xyz: Vec<f64> = serde_json::from_value(v["base"]["xyz_mm"].clone()).unwrap();
+    let rpy: Vec<f64> = serde_json::from_value(v["base"]["rpy_deg"].clone()).unwrap();
+    let found = Frame::from_xyz_rpy(
+        [xyz[0], xyz[1], xyz[2]],
+        [rpy[0], rpy[1], rpy[2]].map(f64::to_radians),
+    );
+    let (mm, deg) = frame_error(&found, truth.base());
+    assert!(mm < 0.1 && deg < 0.01, "{mm} mm {deg}°");
+    assert!((v["tool_axial_mm"].as_f64().unwrap() - 201.2).abs() < 0.05);
+}

@@ -1,0 +1,230 @@
+//! One case: data with its hidden effects scaled to the noise floor, the diagnosis, what it named.
+
+use super::*;
+
+pub fn sim<const N: usize>(
+    l: &Loaded<N>,
+    poses: usize,
+    noise: f64,
+    seed: u64,
+    effects: Vec<EffectArg>,
+) -> Vec<Measurement<f64, N>> {
+    let s = Simulation {
+        poses,
+        noise_mm: noise,
+        seed,
+        geom_errors: Some(GeomErrors::default()),
+        effects,
+    };
+    simulate(&l.sim_nominal, &s).unwrap().1.measurements()
+}
+
+/// RMS (mm) a geometric refit leaves of noiseless data with `effects`.
+pub fn unexplained<const N: usize>(
+    l: &Loaded<N>,
+    poses: usize,
+    seed: u64,
+    effects: Vec<EffectArg>,
+) -> f64 {
+    let data = sim(l, poses, 0.0, seed, effects);
+    let (fitted, _) = fit_geometry(&l.nominal, l.base_known, &[], &data).unwrap();
+    kinecal::identify::lm::rms_error(&fitted, &data)
+}
+
+/// The data of a case: each hidden effect scaled so that what the geometry cannot absorb has an
+/// RMS of `amplitude` noise floors.
+pub fn make_data<const N: usize>(
+    l: &Loaded<N>,
+    poses: usize,
+    c: &Case,
+) -> Vec<Measurement<f64, N>> {
+    if let Some(raw) = &c.raw {
+        return sim(l, poses, c.noise_mm, c.seed, raw.clone());
+    }
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(c.seed ^ 0xeff);
+    let floor = 3f64.sqrt() * c.noise_mm;
+    let mut effects = Vec::new();
+    for h in &c.hidden {
+        let j = l.nominal.joints()[h.joint - 1];
+        let mut e = h.unit(&mut rng, j.lower, j.upper);
+        let u = unexplained(l, poses, c.seed, vec![e.clone()]);
+        let k = c.amplitude * floor / u.max(1e-9);
+        e.values.iter_mut().for_each(|v| *v *= k);
+        effects.push(e);
+    }
+    sim(l, poses, c.noise_mm, c.seed, effects)
+}
+
+pub struct Outcome {
+    pub named: Vec<String>,
+    pub exact: bool,
+    pub final_rms: f64,
+    pub baseline_rms: f64,
+    pub floor_est: f64,
+    pub floor_true: f64,
+    pub seconds: f64,
+}
+
+pub fn named<const N: usize>(d: &Diagnosis<N>) -> Vec<Hidden> {
+    d.found
+        .iter()
+        .map(|f| {
+            use kinecal_cli::diagnose::candidates::CandidateKind;
+            let (arg, grid) = match f.candidate.kind {
+                CandidateKind::Cyclic(n) => (n as usize, None),
+                CandidateKind::Table { start, step, knots } => {
+                    let (start, step) = (start.to_degrees(), step.to_degrees());
+                    let phase = start.rem_euclid(step);
+                    let phase = if step - phase < 1e-6 { 0.0 } else { phase };
+                    (knots, Some((step, phase)))
+                }
+                _ => (0, None),
+            };
+            Hidden {
+                kind: f.candidate.id().to_string(),
+                joint: f.candidate.joint + 1,
+                arg,
+                grid,
+            }
+        })
+        .collect()
+}
+
+/// Named exactly: the same kinds on the same joints (cyclic: the same order), nothing else.
+/// A table on a fixed grid is a `joint-table` like any other (its grid is not compared).
+pub fn exact(hidden: &[Hidden], found: &[Hidden]) -> bool {
+    let key = |h: &Hidden| {
+        (
+            h.kind.clone(),
+            h.joint,
+            if h.kind == "joint-cyclic" { h.arg } else { 0 },
+        )
+    };
+    let mut a: Vec<_> = hidden.iter().map(key).collect();
+    let mut b: Vec<_> = found.iter().map(key).collect();
+    a.sort();
+    b.sort();
+    a == b
+}
+
+pub fn run_case<const N: usize>(l: &Loaded<N>, poses: usize, c: &Case) -> Outcome {
+    let data = make_data(l, poses, c);
+    let t = Instant::now();
+    let d = diagnose(&l.nominal, l.base_known, &[], &data, &Config::default()).unwrap();
+    let seconds = t.elapsed().as_secs_f64();
+    if std::env::var("KINECAL_MATRIX_VERBOSE").is_ok() {
+        let r = kinecal_cli::reports::diagnose::DiagnoseReport::of(&d).to_value();
+        eprintln!("{}", serde_json::to_string_pretty(&r).unwrap());
+    }
+    let found = named(&d);
+    Outcome {
+        named: found.iter().map(|h| h.label()).collect(),
+        exact: exact(&c.hidden, &found),
+        final_rms: d.final_validation_rms_mm,
+        baseline_rms: d.baseline_validation_rms_mm,
+        floor_est: d.noise_floor_mm,
+        floor_true: 3f64.sqrt() * c.noise_mm,
+        seconds,
+    }
+}
+
+pub fn all_cases(m: &Matrix) -> Vec<Case> {
+    let mut cases = Vec::new();
+    let mut seed = m.seed_base;
+    for (ri, rc) in m.robots.iter().enumerate() {
+        let mut sets: Vec<Vec<Hidden>> =
+            rc.effects.iter().map(|e| vec![Hidden::parse(e)]).collect();
+        sets.extend(
+            rc.pairs
+                .iter()
+                .map(|p| p.iter().map(|e| Hidden::parse(e)).collect()),
+        );
+        for hidden in sets {
+            for &noise in &m.noise_mm {
+                for &amp in &m.amplitudes {
+                    seed += 1;
+                    cases.push(Case {
+                        robot: ri,
+                        hidden: hidden.clone(),
+                        noise_mm: noise,
+                        amplitude: amp,
+                        seed,
+                        raw: None,
+                    });
+                }
+            }
+        }
+        for &noise in &m.noise_mm {
+            for _ in 0..m.nothing_seeds {
+                seed += 1;
+                cases.push(Case {
+                    robot: ri,
+                    hidden: Vec::new(),
+                    noise_mm: noise,
+                    amplitude: 0.0,
+                    seed,
+                    raw: None,
+                });
+            }
+        }
+    }
+    for rc in &m.raw {
+        let ri = m
+            .robots
+            .iter()
+            .position(|r| r.name == rc.robot)
+            .unwrap_or_else(|| panic!("raw case: no robot {}", rc.robot));
+        let effects: Vec<EffectArg> = rc.effects.iter().map(|e| e.parse().unwrap()).collect();
+        let hidden = effects
+            .iter()
+            .map(|e| Hidden {
+                kind: e.kind.clone(),
+                joint: e.joint + 1,
+                arg: if e.kind == "joint-cyclic" {
+                    e.order as usize
+                } else {
+                    e.values.len()
+                },
+                grid: None,
+            })
+            .collect::<Vec<_>>();
+        for _ in 0..rc.seeds {
+            seed += 1;
+            cases.push(Case {
+                robot: ri,
+                hidden: hidden.clone(),
+                noise_mm: rc.noise_mm,
+                amplitude: f64::NAN,
+                seed,
+                raw: Some(effects.clone()),
+            });
+        }
+    }
+    cases
+}
+
+pub fn describe(m: &Matrix, c: &Case) -> String {
+    let h: Vec<String> = match &c.raw {
+        Some(raw) => raw
+            .iter()
+            .map(|e| format!("{}:{}:{:?}", e.kind, e.joint + 1, e.values))
+            .collect(),
+        None => c.hidden.iter().map(|h| h.label()).collect(),
+    };
+    format!(
+        "{:6} seed {:5} noise {:.3} amp {:>4}  hidden [{}]",
+        m.robots[c.robot].name,
+        c.seed,
+        c.noise_mm,
+        if c.amplitude.is_nan() {
+            "raw".to_string()
+        } else {
+            format!("{:.0}", c.amplitude)
+        },
+        if h.is_empty() {
+            "nothing".into()
+        } else {
+            h.join(" + ")
+        }
+    )
+}

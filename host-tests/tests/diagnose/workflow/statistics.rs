@@ -1,0 +1,80 @@
+//! The statistics of the search: the t distribution, the paired test's level and power, χ².
+
+use super::*;
+
+#[test]
+fn student_t_tail_matches_tables() {
+    // Two-sided 5 % critical values: t(10) = 2.228, t(30) = 2.042; normal limit 1.960.
+    assert!((student_t_sf(2.228, 10.0) - 0.025).abs() < 2e-4);
+    assert!((student_t_sf(2.042, 30.0) - 0.025).abs() < 2e-4);
+    assert!((student_t_sf(1.95996, 1e7) - 0.025).abs() < 1e-5);
+    // Cauchy (1 dof): P(T > 1) = 1/4; symmetry and the centre.
+    assert!((student_t_sf(1.0, 1.0) - 0.25).abs() < 1e-12);
+    assert!((student_t_sf(-2.228, 10.0) - 0.975).abs() < 2e-4);
+    assert!((student_t_sf(0.0, 5.0) - 0.5).abs() < 1e-12);
+    // I_x(1, 1) = x; I_½(a, a) = ½.
+    assert!((incomplete_beta(1.0, 1.0, 0.3) - 0.3).abs() < 1e-12);
+    assert!((incomplete_beta(7.5, 7.5, 0.5) - 0.5).abs() < 1e-12);
+}
+
+/// With nothing to find, the one-sided paired test rejects at its nominal rate, and a real
+/// improvement of half a standard deviation over 100 poses is found almost always.
+#[test]
+fn paired_test_holds_its_level_and_has_power() {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
+    // Squared errors of two models with the same error distribution (chi-square-like, skewed).
+    let sq = Normal::new(0.0, 1.0).unwrap();
+    let draw = |shift: f64, rng: &mut Xoshiro256PlusPlus| -> (Vec<f64>, Vec<f64>) {
+        let a: Vec<f64> = (0..100)
+            .map(|_| {
+                (0..3)
+                    .map(|_| {
+                        let x: f64 = sq.sample(rng);
+                        x * x
+                    })
+                    .sum::<f64>()
+            })
+            .collect();
+        let b: Vec<f64> = a
+            .iter()
+            .map(|x| {
+                let e: f64 = sq.sample(rng);
+                x * (1.0 - shift) + 0.3 * e
+            })
+            .collect();
+        (a, b)
+    };
+    let trials = 4000;
+    let mut rejections = 0;
+    for _ in 0..trials {
+        let (a, b) = draw(0.0, &mut rng);
+        rejections += usize::from(paired_improvement(&a, &b).p < 0.05);
+    }
+    let rate = rejections as f64 / trials as f64;
+    assert!((0.035..0.065).contains(&rate), "false-alarm rate {rate}");
+    let mut found = 0;
+    for _ in 0..200 {
+        let (a, b) = draw(0.3, &mut rng);
+        found += usize::from(paired_improvement(&a, &b).p < 0.05 / 40.0);
+    }
+    assert!(found > 190, "power {found}/200");
+}
+
+/// Chi-square quantiles of the interval against tables.
+#[test]
+fn chi_square_quantiles_match_tables() {
+    use kinecal_cli::diagnose::significance::{chi_square_quantile, normal_quantile};
+    assert!((normal_quantile(0.975) - 1.959_964).abs() < 1e-6);
+    assert!((normal_quantile(0.025) + 1.959_964).abs() < 1e-6);
+    assert!((normal_quantile(0.5)).abs() < 1e-12);
+    // χ²(10): 3.247, 20.483; χ²(100): 74.22, 129.56.
+    for (p, nu, q) in [
+        (0.025, 10.0, 3.247),
+        (0.975, 10.0, 20.483),
+        (0.025, 100.0, 74.222),
+        (0.975, 100.0, 129.561),
+    ] {
+        let x = chi_square_quantile(p, nu);
+        assert!((x / q - 1.0).abs() < 0.01, "χ²({nu}) {p}: {x} vs {q}");
+    }
+}

@@ -9,7 +9,7 @@
 use nalgebra::{Cholesky, DMatrix, Dyn};
 
 /// Rows per block.
-const BLOCK: usize = 64;
+pub const BLOCK: usize = 64;
 
 /// A lower-triangular factor `L` prepared for solves with many right-hand sides: the inverses
 /// of its diagonal blocks are formed once (by substitution), so that a solve is matrix
@@ -91,35 +91,4 @@ pub fn cholesky_inverse(chol: &Cholesky<f64, Dyn>) -> Option<DMatrix<f64>> {
     LowerFactor::new(l.clone())?.solve_in_place(&mut l_inv);
     let h_inv = l_inv.transpose() * &l_inv;
     h_inv.iter().all(|v| v.is_finite()).then_some(h_inv)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A symmetric positive-definite test matrix spanning several blocks.
-    fn spd(p: usize) -> DMatrix<f64> {
-        let j = DMatrix::from_fn(p + 7, p, |i, k| ((i * 31 + k * 17) % 23) as f64 - 11.0);
-        j.transpose() * &j + DMatrix::identity(p, p)
-    }
-
-    #[test]
-    fn blocked_factor_and_solves_match_the_unblocked_ones() {
-        let p = 2 * BLOCK + 13;
-        let h = spd(p);
-        let reference = h.clone().cholesky().unwrap();
-        let blocked = cholesky(h.clone()).unwrap();
-        let (lr, lb) = (reference.l(), blocked.l());
-        assert!((&lr - &lb).amax() < 1e-9 * lr.amax(), "factors differ");
-        let b = DMatrix::from_fn(p, 5, |i, k| (i + 2 * k) as f64);
-        let mut x = b.clone();
-        LowerFactor::new(lb.clone()).unwrap().solve_in_place(&mut x);
-        assert!((&lb * &x - &b).amax() < 1e-9 * b.amax(), "solve");
-        let inv = cholesky_inverse(&blocked).unwrap();
-        assert!(
-            (&h * &inv - DMatrix::identity(p, p)).amax() < 1e-9,
-            "inverse"
-        );
-        assert!(cholesky(-h).is_none(), "negative definite");
-    }
 }

@@ -132,7 +132,7 @@ fn fit_both(m: &[Matrix3<f64>], f: &[Matrix3<f64>]) -> Option<(Matrix3<f64>, Mat
 }
 
 /// RMS angle, degrees, left by the best `B`, `T` (`None` when no fit is possible).
-fn score(m: &[Matrix3<f64>], f: &[Matrix3<f64>]) -> Option<f64> {
+pub fn score(m: &[Matrix3<f64>], f: &[Matrix3<f64>]) -> Option<f64> {
     let (b, t) = fit_both(m, f)?;
     let ss: f64 = m
         .iter()
@@ -199,27 +199,4 @@ pub fn check<const N: usize, const V: usize>(
             assumed_deg,
             found_deg,
         })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use nalgebra::Vector3;
-
-    fn rot(axis: usize, deg: f64) -> Matrix3<f64> {
-        *nalgebra::Rotation3::from_axis_angle(&Vector3::ith_axis(axis), deg.to_radians()).matrix()
-    }
-
-    #[test]
-    fn both_rotations_are_recovered() {
-        let b = rot(2, 130.0) * rot(0, -20.0);
-        let t = rot(1, 75.0) * rot(2, 10.0);
-        let f: Vec<Matrix3<f64>> = (0..12)
-            .map(|k| {
-                rot(0, 17.0 * k as f64) * rot(1, 29.0 * k as f64 - 50.0) * rot(2, 41.0 * k as f64)
-            })
-            .collect();
-        let m: Vec<Matrix3<f64>> = f.iter().map(|fi| b * fi * t).collect();
-        assert!(score(&m, &f).unwrap() < 1e-6);
-    }
 }

@@ -27,21 +27,3 @@ pub fn sig(x: f64, digits: usize) -> String {
     let decimals = (digits as i32 - 1 - mag2).max(0) as usize;
     format!("{rounded:.decimals$}")
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn significant_digits() {
-        assert_eq!(sig(0.0178, 3), "0.0178");
-        assert_eq!(sig(0.0174, 3), "0.0174");
-        assert_eq!(sig(101.654, 4), "101.7");
-        assert_eq!(sig(9.9996, 4), "10.00");
-        assert_eq!(sig(-0.5, 2), "-0.50");
-        assert_eq!(sig(0.0, 3), "0");
-        assert_eq!(sig(f64::INFINITY, 3), "-");
-        assert_eq!(sig(1.5e-7, 2), "1.5e-7");
-        assert_eq!(sig(0.29, 3), "0.290");
-    }
-}

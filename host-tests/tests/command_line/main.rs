@@ -16,6 +16,7 @@ mod exit_status;
 mod frames;
 mod hardening_surfaces;
 mod identify_start;
+mod internals;
 mod map_everywhere;
 mod observations_cli;
 mod one_reflector;

@@ -1,0 +1,30 @@
+//! `kinecal_cli::compute::dense` (cli/src/compute/dense.rs) on its own.
+
+use kinecal_cli::compute::dense::*;
+use nalgebra::DMatrix;
+
+/// A symmetric positive-definite test matrix spanning several blocks.
+fn spd(p: usize) -> DMatrix<f64> {
+    let j = DMatrix::from_fn(p + 7, p, |i, k| ((i * 31 + k * 17) % 23) as f64 - 11.0);
+    j.transpose() * &j + DMatrix::identity(p, p)
+}
+
+#[test]
+fn blocked_factor_and_solves_match_the_unblocked_ones() {
+    let p = 2 * BLOCK + 13;
+    let h = spd(p);
+    let reference = h.clone().cholesky().unwrap();
+    let blocked = cholesky(h.clone()).unwrap();
+    let (lr, lb) = (reference.l(), blocked.l());
+    assert!((&lr - &lb).amax() < 1e-9 * lr.amax(), "factors differ");
+    let b = DMatrix::from_fn(p, 5, |i, k| (i + 2 * k) as f64);
+    let mut x = b.clone();
+    LowerFactor::new(lb.clone()).unwrap().solve_in_place(&mut x);
+    assert!((&lb * &x - &b).amax() < 1e-9 * b.amax(), "solve");
+    let inv = cholesky_inverse(&blocked).unwrap();
+    assert!(
+        (&h * &inv - DMatrix::identity(p, p)).amax() < 1e-9,
+        "inverse"
+    );
+    assert!(cholesky(-h).is_none(), "negative definite");
+}

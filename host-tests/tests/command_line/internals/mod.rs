@@ -1,0 +1,19 @@
+//! The command line's application modules one at a time: units and conventions, the map
+//! format, statistics and acceptance, selection, number formatting, the diagnose explanations.
+
+mod acceptance;
+mod convention;
+mod demo_report;
+mod dense;
+mod explain;
+mod finite;
+mod iso9283;
+mod map_layout;
+mod map_spec;
+mod map_translate;
+mod numfmt;
+mod parallel;
+mod rotation_order;
+mod selection;
+mod stats;
+mod units;

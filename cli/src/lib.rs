@@ -2,7 +2,8 @@
 //!
 //! Layers, bottom to top (each uses only those before it; `scripts/module_graph.py` checks):
 //!
-//! - this file: [`Refused`] input (exit status 2), the exit statuses, [`with_joints!`];
+//! - this file: [`Refused`] input (exit status 2), the exit statuses, [`with_joints!`], [`Tell`]
+//!   (where an application function's warnings go);
 //! - [`output`]: atomic file writes, numbers for people, SVG charts;
 //! - [`compute`]: both cores, the LM's storage on the heap, dense factorisations, registration;
 //! - [`formats`]: the files users bring and get (robot TOML, measurement CSV, the cell file of
@@ -15,10 +16,16 @@
 //! - [`plan`]: measurement planning on the desktop (pools, designs, the study);
 //! - [`reports`]: every command's report as a typed value (JSON and text from the same fields);
 //! - [`report_html`]: the calibration report, one self-contained HTML page (`report`, `demo`);
-//! - [`frames`] and [`compensation`]: the circle-point frames and corrected joint commands from
-//!   files;
+//! - [`frames`] and [`compensation`]: the circle-point frames and corrected joint commands, in
+//!   memory and from files;
 //! - [`constraints`]: calibration from sockets, planes and distances (no tracker);
 //! - [`commands`]: one thin module per subcommand; `main.rs` calls [`commands::main`].
+//!
+//! One engine under every front end: the application functions take what was read (a robot
+//! file, measurement sets in mm and degrees, options) and return typed results, telling their
+//! warnings to a [`Tell`]; a command module reads the files, calls them, writes the outputs
+//! and renders the report, and the Python package (`python/`) calls the same functions on
+//! arrays in memory.
 
 pub mod calibration;
 pub mod commands;
@@ -59,6 +66,26 @@ macro_rules! refuse {
     ($($t:tt)*) => {
         return Err($crate::refused(format!($($t)*)))
     };
+}
+
+/// Where an application function's messages go while it runs: warnings and notes for people,
+/// told when they arise (the command line prints each on stderr at once, so that it comes
+/// before a later error, as it always has), and the stage a long computation is at (the
+/// command line's spinner on a terminal). The functions themselves print nothing.
+pub trait Tell {
+    /// A warning or a note, as it is to be printed (one or more lines).
+    fn line(&mut self, text: &str);
+    /// The stage the work is at (ignored unless a front end shows it).
+    fn stage(&mut self, _what: &str) {}
+}
+
+/// [`Tell`] on stderr: every line printed at once, stages not shown.
+pub struct Stderr;
+
+impl Tell for Stderr {
+    fn line(&mut self, text: &str) {
+        eprintln!("{text}");
+    }
 }
 
 /// Exit status of a command that ran but whose result must not be trusted as calibrated

@@ -1,7 +1,7 @@
 """kinecal from Python: kinematic calibration of robot arms, numpy in, numpy out.
 
-The numbers are the ``kinecal`` command line's: every function calls the application the
-subcommand calls (``identify`` on arrays in memory, the others on files written exactly), with
+The numbers are the ``kinecal`` command line's: every function calls, in memory, the application
+functions the subcommand calls (numpy arrays in, typed results out, no temporary files), with
 the command line's defaults and its one-line reasons on errors.
 
 >>> import kinecal
@@ -18,10 +18,8 @@ reason, as :class:`RefusedError`).
 
 from __future__ import annotations
 
-import csv
 import json
 import os
-import tempfile
 import warnings
 from dataclasses import dataclass, field
 from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
@@ -311,12 +309,12 @@ def identify(
 
 
 # --------------------------------------------------------------------------------------------
-# The commands that work on files: diagnose, compensate, frames, plan, simulate, check
+# diagnose, compensate, frames, plan, simulate, check: in memory, as identify
 
 
 class CommandResult:
     """The result of a subcommand: ``json`` (its ``--json`` object as a dict; keys also as
-    attributes), ``converged``, and what it wrote (``robot``, ``q``, ``measurements`` …)."""
+    attributes), ``converged``, and what it makes (``robot``, ``q``, ``measurements`` …)."""
 
     def __init__(self, report: Dict[str, Any], converged: bool, **outputs: Any):
         self.json = report
@@ -336,73 +334,6 @@ class CommandResult:
     def __repr__(self) -> str:
         keys = ", ".join(sorted(self.json)[:8])
         return f"CommandResult(converged={self.converged}, keys=[{keys}, …])"
-
-
-class _Files:
-    """A temporary folder for the files a command reads and writes; error messages name the
-    files by ``label`` instead of their temporary paths."""
-
-    def __init__(self) -> None:
-        self._dir = tempfile.TemporaryDirectory(prefix="kinecal-")
-        self.labels: Dict[str, str] = {}
-
-    def path(self, name: str, label: str) -> str:
-        p = os.path.join(self._dir.name, name)
-        self.labels[p] = label
-        return p
-
-    def robot(self, robot: Robot, label: str = "robot") -> str:
-        p = self.path(f"{label}.toml", label)
-        robot.save(p)
-        return p
-
-    def data(self, data: Any, label: str) -> str:
-        q, xyz, names, extra = _as_set(data, label)
-        p = self.path(f"{label}.csv", label)
-        _native.write_csv(p, q, xyz, names, extra)
-        return p
-
-    def run(self, argv: List[str]) -> Tuple[Dict[str, Any], bool]:
-        try:
-            text, converged = _native.run(argv)
-        except KinecalError as e:
-            message = str(e)
-            for p, label in self.labels.items():
-                message = message.replace(p, label)
-            raise type(e)(message) from None
-        return self._relabel(json.loads(text)), converged
-
-    def _relabel(self, value: Any) -> Any:
-        """The report with the temporary paths in its strings replaced by their labels."""
-        if isinstance(value, dict):
-            return {k: self._relabel(v) for k, v in value.items()}
-        if isinstance(value, list):
-            return [self._relabel(v) for v in value]
-        if isinstance(value, str):
-            for p, label in self.labels.items():
-                value = value.replace(p, label)
-        return value
-
-    def close(self) -> None:
-        self._dir.cleanup()
-
-    def __enter__(self) -> "_Files":
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        self.close()
-
-
-def _read_rows(path: str) -> Tuple[List[str], List[List[str]]]:
-    with open(path, newline="") as f:
-        rows = [r for r in csv.reader(f) if r and not r[0].startswith("#")]
-    return rows[0], rows[1:]
-
-
-def _joints_of(head: List[str], rows: List[List[str]], n: int) -> np.ndarray:
-    """The (rows, n) joint columns q1…qn of a CSV read by ``_read_rows``."""
-    k = [head.index(f"q{j + 1}") for j in range(n)]
-    return np.array([[float(r[c]) for c in k] for r in rows]).reshape(-1, n)
 
 
 def _warn_not_converged(converged: bool, what: str) -> None:
@@ -432,19 +363,21 @@ def diagnose(
     """The discrepancy workflow (``kinecal diagnose``): fits the geometry, names the missing
     effects, adds them. Returns the report (``baseline_validation_rms_mm``, ``found``,
     ``final_validation_rms_mm``, ``noise_floor_mm`` …) and ``robot``, the extended model."""
-    with _Files() as f:
-        argv = ["diagnose", "--robot", f.robot(robot), "--data", f.data((q, xyz, columns or {}), "data")]
-        if validate is not None:
-            argv += ["--validate", f.data(validate, "validate")]
-        out = f.path("model.toml", "model")
-        argv += ["--out", out]
-        argv += _argv("", dict(
-            holdout=holdout, seed=seed, folds=folds, alpha=alpha, max_order=max_order,
-            max_effects=max_effects, stall_rms_mm=stall_rms_mm, length_unit=length_unit,
-            angle_unit=angle_unit, plots=None if plots is None else os.fspath(plots),
-        ))[1:]
-        report, converged = f.run(argv)
-        model = Robot.from_file(out) if os.path.exists(out) else None
+    data = _set(q, xyz, columns)
+    val = None if validate is None else _as_set(validate, "validate")
+    # The paths are names only (messages and the report name the sets so); nothing is
+    # written but the plots, into the caller's folder.
+    argv = ["diagnose", "--robot", "robot", "--data", "data", "--out", "model"]
+    if val is not None:
+        argv += ["--validate", "validate"]
+    argv += _argv("", dict(
+        holdout=holdout, seed=seed, folds=folds, alpha=alpha, max_order=max_order,
+        max_effects=max_effects, stall_rms_mm=stall_rms_mm, length_unit=length_unit,
+        angle_unit=angle_unit, plots=None if plots is None else os.fspath(plots),
+    ))[1:]
+    text, toml, converged = _native.diagnose(robot, argv, data, val)
+    report = json.loads(text)
+    model = None if toml is None else Robot.from_toml(toml, "model")
     if warn:
         _warn_not_converged(converged, "diagnose: the geometric model does not fit the data")
     return CommandResult(report, converged, robot=model)
@@ -472,20 +405,15 @@ def compensate(
     if rpy_deg is not None:
         r = np.asarray(rpy_deg, dtype=np.float64).reshape(-1, 3)
         columns = {"rx": r[:, 0], "ry": r[:, 1], "rz": r[:, 2]}
-    with _Files() as f:
-        out = f.path("commands.csv", "commands")
-        argv = ["compensate", "--model", f.robot(model, "model"),
-                "--targets", f.data((q_seed, xyz, columns), "targets"), "--out", out]
-        argv += _argv("", dict(
-            iterations=iterations, max_step_deg=max_step_deg, accept_mm=accept_mm,
-            stream=stream, f32=f32, length_unit=length_unit, angle_unit=angle_unit,
-        ))[1:]
-        report, converged = f.run(argv)
-        head, rows = _read_rows(out)
-    col = lambda name: np.array([float(r[head.index(name)]) for r in rows])  # noqa: E731
-    status = [r[head.index("status")] for r in rows]
-    return CommandResult(report, converged, q=_joints_of(head, rows, model.joints),
-                         status=status, error_mm=col("error_mm"), error_deg=col("error_deg"))
+    targets = _set(q_seed, xyz, columns, "targets")
+    argv = ["compensate", "--model", "model", "--targets", "targets", "--out", "commands"]
+    argv += _argv("", dict(
+        iterations=iterations, max_step_deg=max_step_deg, accept_mm=accept_mm,
+        stream=stream, f32=f32, length_unit=length_unit, angle_unit=angle_unit,
+    ))[1:]
+    text, converged, q, status, error_mm, error_deg = _native.compensate(model, argv, targets)
+    return CommandResult(json.loads(text), converged, q=q, status=status, error_mm=error_mm,
+                         error_deg=error_deg)
 
 
 def compensate_cartesian(
@@ -520,14 +448,11 @@ def frames(
     (n,) names the joint (1-based) turned on each row (0 = ignored). Returns the report
     (``base``, ``tool_radial_mm``, ``tool_axial_mm``, ``circles``) and ``robot`` with
     ``[base]`` set to the pose found."""
-    with _Files() as f:
-        out = f.path("framed.toml", "framed")
-        argv = ["frames", "--robot", f.robot(robot),
-                "--data", f.data((q, xyz, {"sweep": sweep}), "sweeps"), "--out", out]
-        argv += _argv("", dict(length_unit=length_unit, angle_unit=angle_unit))[1:]
-        report, converged = f.run(argv)
-        framed = Robot.from_file(out) if os.path.exists(out) else None
-    return CommandResult(report, converged, robot=framed)
+    sweeps = _set(q, xyz, {"sweep": sweep}, "sweeps")
+    argv = ["frames", "--robot", "robot", "--data", "sweeps", "--out", "framed"]
+    argv += _argv("", dict(length_unit=length_unit, angle_unit=angle_unit))[1:]
+    text, framed = _native.frames(robot, argv, sweeps)
+    return CommandResult(json.loads(text), True, robot=Robot.from_toml(framed, "framed"))
 
 
 def plan(
@@ -548,16 +473,13 @@ def plan(
     ``criterion`` ``random``, ``d``, ``o1``, ``a`` or ``kpi``; ``work``: working
     configurations (degrees). Returns the report (``criterion``, ``poses``, ``kpi_trace_mm2``,
     ``min_clearance_mm``, ``max_incidence_deg`` …) and ``q`` (poses, N) in degrees."""
-    with _Files() as f:
-        out = f.path("plan.csv", "plan")
-        argv = ["plan", "--robot", f.robot(robot), "--scene", os.fspath(scene),
-                f"--poses={int(poses)}", f"--criterion={criterion}", "--out", out]
-        argv += [f"--work={_text(list(w))}" for w in work]
-        argv += _argv("", dict(seed=seed, noise_mm=noise_mm, pool=pool, passes=passes,
-                               no_collisions=no_collisions, no_refine=no_refine))[1:]
-        report, converged = f.run(argv)
-        head, rows = _read_rows(out)
-    return CommandResult(report, converged, q=_joints_of(head, rows, robot.joints))
+    argv = ["plan", "--robot", "robot", "--scene", os.fspath(scene), f"--poses={int(poses)}",
+            f"--criterion={criterion}", "--out", "plan"]
+    argv += [f"--work={_text(list(w))}" for w in work]
+    argv += _argv("", dict(seed=seed, noise_mm=noise_mm, pool=pool, passes=passes,
+                           no_collisions=no_collisions, no_refine=no_refine))[1:]
+    text, q = _native.plan(robot, argv)
+    return CommandResult(json.loads(text), True, q=q)
 
 
 def simulate(
@@ -574,18 +496,16 @@ def simulate(
 ) -> CommandResult:
     """Measurement data from a robot with known errors (``kinecal simulate``). Returns the
     report, ``measurements`` (:class:`Measurements`) and ``truth`` (the true :class:`Robot`)."""
-    with _Files() as f:
-        out, truth = f.path("sim.csv", "simulated"), f.path("truth.toml", "truth")
-        argv = ["simulate", "--robot", f.robot(robot), "--out", out, "--truth", truth]
-        argv += _argv("", dict(
-            poses=poses, noise_mm=noise_mm, seed=seed, geom_errors=geom_errors,
-            effect=list(effects), sweep_points=sweep_points, sweep_span_deg=sweep_span_deg,
-            sweeps=None if sweeps is None else ",".join(str(int(s)) for s in sweeps),
-        ))[1:]
-        report, converged = f.run(argv)
-        data = read_csv(out, robot.joints)
-        true_robot = Robot.from_file(truth)
-    return CommandResult(report, converged, measurements=data, truth=true_robot)
+    argv = ["simulate", "--robot", "robot", "--out", "simulated", "--truth", "truth"]
+    argv += _argv("", dict(
+        poses=poses, noise_mm=noise_mm, seed=seed, geom_errors=geom_errors,
+        effect=list(effects), sweep_points=sweep_points, sweep_span_deg=sweep_span_deg,
+        sweeps=None if sweeps is None else ",".join(str(int(s)) for s in sweeps),
+    ))[1:]
+    text, (q, xyz, names, extra), truth = _native.simulate(robot, argv)
+    data = Measurements(q, xyz, {n: extra[:, k].copy() for k, n in enumerate(names)})
+    return CommandResult(json.loads(text), True, measurements=data,
+                         truth=Robot.from_toml(truth, "truth"))
 
 
 def check(
@@ -599,8 +519,8 @@ def check(
 ) -> CommandResult:
     """Validates a measurement set for ``robot`` (``kinecal check``): ``poses``,
     ``nominal_rms_mm`` (base fitted when the robot has none), joint ranges."""
-    with _Files() as f:
-        argv = ["check", "--robot", f.robot(robot), "--data", f.data((q, xyz, columns or {}), "data")]
-        argv += _argv("", dict(length_unit=length_unit, angle_unit=angle_unit))[1:]
-        report, converged = f.run(argv)
-    return CommandResult(report, converged)
+    data = _set(q, xyz, columns)
+    argv = ["check", "--robot", "robot", "--data", "data"]
+    argv += _argv("", dict(length_unit=length_unit, angle_unit=angle_unit))[1:]
+    text, converged = _native.check(robot, argv, data)
+    return CommandResult(json.loads(text), converged)

@@ -9,6 +9,8 @@ import numpy.typing as npt
 _Path = Union[str, PathLike[str]]
 _Array = npt.ArrayLike
 _F64 = npt.NDArray[np.float64]
+# One measurement set: q (n, N), xyz (n, 3), extra column names, extra (n, k) or None.
+_Set = Tuple[_F64, _F64, List[str], Optional[_F64]]
 
 class Robot:
     """A robot description (robot TOML): MDH rows (+ tilt), tool point, optional base pose,
@@ -77,10 +79,21 @@ def write_csv(
 def identify(
     robot: Robot,
     argv: List[str],
-    data: Tuple[_F64, _F64, List[str], Optional[_F64]],
-    validate: Optional[Tuple[_F64, _F64, List[str], Optional[_F64]]] = None,
+    data: _Set,
+    validate: Optional[_Set] = None,
 ) -> Tuple[str, str, bool]: ...
-def run(argv: List[str]) -> Tuple[str, bool]: ...
+def check(robot: Robot, argv: List[str], data: _Set) -> Tuple[str, bool]: ...
+def diagnose(
+    robot: Robot, argv: List[str], data: _Set, validate: Optional[_Set] = None
+) -> Tuple[str, Optional[str], bool]: ...
+def compensate(
+    model: Robot, argv: List[str], targets: _Set
+) -> Tuple[str, bool, _F64, List[str], _F64, _F64]: ...
+def frames(robot: Robot, argv: List[str], sweeps: _Set) -> Tuple[str, str]: ...
+def plan(robot: Robot, argv: List[str]) -> Tuple[str, _F64]: ...
+def simulate(
+    robot: Robot, argv: List[str]
+) -> Tuple[str, Tuple[_F64, _F64, List[str], _F64], str]: ...
 def compensate_cartesian(
     model: Robot,
     nominal: Robot,

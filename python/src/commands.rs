@@ -1,25 +1,31 @@
-//! The subcommands from Python: their arguments parsed by the command line's own clap
-//! definitions (so every default and check is the command line's), `identify` on arrays in
-//! memory, the others on files through the subcommand's `run`.
+//! The subcommands that read measurements, from Python: their options parsed by the command
+//! line's own clap definitions (so every default and check is the command line's; the file
+//! arguments are names only), the arrays built into measurement sets through the command
+//! line's doors, and `identify`, `check` and `diagnose` run on them in memory. The shared
+//! pieces ([`parse`], [`finish`], [`Set`], [`accepted`]) serve [`crate::producers`] too.
 
 use crate::data::{dataset, Arrays};
 use crate::robot::{model, Robot};
 use crate::{error, py_err, refused};
 use clap::Parser;
+use kinecal_cli::calibration::check::check as check_set;
 use kinecal_cli::commands::identify as identify_cmd;
 use kinecal_cli::commands::identify::{Identified, Inputs};
-use kinecal_cli::commands::{dispatch, non_finite_error, Cli, Command};
+use kinecal_cli::commands::{non_finite_error, Cli, Command};
+use kinecal_cli::diagnose::workflow;
 use kinecal_cli::formats::loading::accept_dataset;
-use kinecal_cli::formats::observations::observe;
-use kinecal_cli::formats::units::FileKind;
-use kinecal_cli::reports::Report;
-use kinecal_cli::with_joints;
+use kinecal_cli::formats::measurements::Dataset;
+use kinecal_cli::formats::observations::{observe, ObservationArgs, Observed};
+use kinecal_cli::formats::robot_file::RobotFile;
+use kinecal_cli::formats::units::{FileKind, UnitArgs};
+use kinecal_cli::reports::{CheckReport, DiagnoseReport, Report};
+use kinecal_cli::{with_joints, Stderr, VCAP};
 use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 
 /// `argv` (without the program name) parsed as the command line parses it; a bad argument
 /// is refused with clap's first line (`error: …` without `error: `).
-fn parse(argv: &[String]) -> PyResult<Cli> {
+pub fn parse(argv: &[String]) -> PyResult<Cli> {
     let words = std::iter::once("kinecal".to_string()).chain(argv.iter().cloned());
     Cli::try_parse_from(words).map_err(|e| {
         let text = e.to_string();
@@ -28,9 +34,14 @@ fn parse(argv: &[String]) -> PyResult<Cli> {
     })
 }
 
+/// The refusal of an `argv` that is not the command `name`'s.
+pub fn not_command(name: &str) -> PyErr {
+    refused(format!("{name}: argv must start with `{name}`"))
+}
+
 /// The JSON text of a report and whether it may be taken as calibrated; a report with a
 /// figure that is not finite is an error, as on the command line.
-fn finish(r: anyhow::Result<Box<dyn Report>>) -> PyResult<(String, bool)> {
+pub fn finish(r: anyhow::Result<Box<dyn Report>>) -> PyResult<(String, bool)> {
     let r = r.map_err(py_err)?;
     if let Some(e) = non_finite_error(r.as_ref()) {
         return Err(error("KinecalError", e.error));
@@ -39,29 +50,67 @@ fn finish(r: anyhow::Result<Box<dyn Report>>) -> PyResult<(String, bool)> {
     Ok((text, r.converged()))
 }
 
-/// Runs the subcommand `argv` (e.g. `["diagnose", "--robot", R, "--data", D]`) on files,
-/// exactly as `kinecal … --json` does ([`dispatch`]); returns `(json_text, converged)`.
-#[pyfunction]
-pub fn run(py: Python<'_>, argv: Vec<String>) -> PyResult<(String, bool)> {
-    let cli = parse(&argv)?;
-    py.detach(|| finish(dispatch(&cli)))
-}
-
 /// One measurement set from Python: `(q, xyz, extra_names, extra)`.
-type Set<'py> = (
+pub type Set<'py> = (
     PyReadonlyArray2<'py, f64>,
     PyReadonlyArray2<'py, f64>,
     Vec<String>,
     Option<PyReadonlyArray2<'py, f64>>,
 );
 
-fn arrays<'a>(s: &'a Set<'_>) -> Arrays<'a> {
+pub fn arrays<'a>(s: &'a Set<'_>) -> Arrays<'a> {
     Arrays {
         q: s.0.as_array(),
         xyz: s.1.as_array(),
         extra_names: s.2.clone(),
         extra: s.3.as_ref().map(|e| e.as_array()),
     }
+}
+
+/// Refuses `--map`: a map says how to read a file, and arrays are in kinecal's layout.
+pub fn no_map(units: &UnitArgs) -> PyResult<()> {
+    match &units.map {
+        Some(m) => Err(refused(format!(
+            "--map {}: a map says how to read a file; give the arrays in kinecal's columns",
+            m.display()
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// The measurement set `a` (named `origin`) as the command line loads a file of `kind`: the
+/// CSV reader's checks on the arrays, then the doors of its loader (a stated base, the units,
+/// the angle order) for the model `nominal`; in mm and degrees.
+pub fn accepted<const N: usize>(
+    a: &Arrays<'_>,
+    origin: &str,
+    units: &UnitArgs,
+    nominal: &kinecal::Robot<f64, N, VCAP>,
+    base_known: bool,
+    kind: FileKind,
+) -> PyResult<Dataset<N>> {
+    let ds = dataset::<N>(a, origin)?;
+    accept_dataset(ds, origin, units, nominal, base_known, kind).map_err(py_err)
+}
+
+/// The observations of the measurement set `a` (named `origin`) for the robot `file`, as a
+/// measurement file's.
+fn observed<const N: usize>(
+    a: &Arrays<'_>,
+    origin: &str,
+    (file, nominal): (&RobotFile, &kinecal::Robot<f64, N, VCAP>),
+    units: &UnitArgs,
+    obs: &ObservationArgs,
+) -> PyResult<Observed<N>> {
+    let ds = accepted::<N>(
+        a,
+        origin,
+        units,
+        nominal,
+        file.base_known(),
+        FileKind::Measurements,
+    )?;
+    observe(&ds, file, obs, origin).map_err(py_err)
 }
 
 fn identify_n<const N: usize>(
@@ -75,28 +124,14 @@ fn identify_n<const N: usize>(
     // As the command loads a file: the reader's checks, the doors of the command line's own
     // loader (a stated base, the units, the angle order), the observations. Arrays are in
     // kinecal's layout: a map describes files.
-    if let Some(m) = &args.input.units.map {
-        return Err(refused(format!(
-            "--map {}: a map says how to read a file; give the arrays in kinecal's columns",
-            m.display()
-        )));
-    }
-    let load = |a: &Arrays<'_>, origin: &str| -> PyResult<_> {
-        let ds = dataset::<N>(a, origin)?;
-        let ds = accept_dataset(
-            ds,
-            origin,
-            &args.input.units,
-            &nominal,
-            file.base_known(),
-            FileKind::Measurements,
-        )
-        .map_err(py_err)?;
-        observe(&ds, &file, &args.obs, origin).map_err(py_err)
-    };
-    let observed = load(data, "data")?;
+    no_map(&args.input.units)?;
+    let models = (&file, &nominal);
+    let observed = observed(data, "data", models, &args.input.units, &args.obs)?;
     let validate = match validate {
-        Some(v) => Some((load(v, "validate")?, "validate".to_string())),
+        Some(v) => Some((
+            self::observed(v, "validate", models, &args.input.units, &args.obs)?,
+            "validate".to_string(),
+        )),
         None => None,
     };
     let inputs = Inputs {
@@ -124,7 +159,7 @@ pub fn identify(
     validate: Option<Set<'_>>,
 ) -> PyResult<(String, String, bool)> {
     let Command::Identify(args) = parse(&argv)?.command else {
-        return Err(refused("identify: argv must start with `identify`".into()));
+        return Err(not_command("identify"));
     };
     let data = arrays(&data);
     let validate = validate.as_ref().map(arrays);
@@ -140,4 +175,133 @@ pub fn identify(
         r
     });
     done.map_err(py_err)?
+}
+
+fn check_n<const N: usize>(
+    robot: &Robot,
+    args: &kinecal_cli::commands::check::Args,
+    data: &Arrays<'_>,
+) -> PyResult<(String, bool)> {
+    let file = &robot.file;
+    let (robot_name, data_name) = (
+        args.input.robot.display().to_string(),
+        args.input.data.display().to_string(),
+    );
+    let nominal = crate::robot::model_named::<N>(file, &robot_name).map_err(py_err)?;
+    let units = &args.input.units;
+    let kind = FileKind::Measurements;
+    let ds = accepted::<N>(data, &data_name, units, &nominal, file.base_known(), kind)?;
+    let c = check_set(file, nominal, &ds, &data_name).map_err(py_err)?;
+    finish(Ok(Box::new(CheckReport::of(
+        &c,
+        file,
+        &robot_name,
+        &data_name,
+    ))))
+}
+
+/// `kinecal check` on arrays: `argv` holds the options (`check --robot robot --data data
+/// [--length-unit …] …`; the paths are names only), `data` the measurement set. Returns
+/// `(json_text, converged)`.
+#[pyfunction]
+pub fn check(
+    py: Python<'_>,
+    robot: &Robot,
+    argv: Vec<String>,
+    data: Set<'_>,
+) -> PyResult<(String, bool)> {
+    let Command::Check(args) = parse(&argv)?.command else {
+        return Err(not_command("check"));
+    };
+    no_map(&args.input.units)?;
+    let data = arrays(&data);
+    let n = robot.file.joint_count();
+    let r: anyhow::Result<PyResult<(String, bool)>> =
+        py.detach(|| with_joints!(n, N => Ok(check_n::<N>(robot, &args, &data))));
+    r.map_err(py_err)?
+}
+
+/// `(json_text, extended model TOML or None, converged)` of `diagnose`.
+type Diagnosed = (String, Option<String>, bool);
+
+fn diagnose_n<const N: usize>(
+    robot: &Robot,
+    args: &kinecal_cli::commands::diagnose::Args,
+    data: &Arrays<'_>,
+    validate: Option<&Arrays<'_>>,
+) -> PyResult<Diagnosed> {
+    let file = robot.file.clone();
+    let input = &args.input;
+    let nominal = crate::robot::model_named::<N>(&file, &input.robot.display().to_string())
+        .map_err(py_err)?;
+    let models = (&file, &nominal);
+    let data_name = input.data.display().to_string();
+    let observed = observed(data, &data_name, models, &input.units, &args.obs)?;
+    let validate = match (validate, &args.validate) {
+        (Some(v), Some(name)) => {
+            let name = name.display().to_string();
+            Some((
+                self::observed(v, &name, models, &input.units, &args.obs)?,
+                name,
+            ))
+        }
+        _ => None,
+    };
+    let inputs = workflow::Inputs {
+        file,
+        nominal,
+        observed,
+        data_origin: data_name,
+        validate,
+    };
+    let w = workflow::run(inputs, &args.options(), &mut Stderr).map_err(py_err)?;
+    let mut report = DiagnoseReport::of_workflow(&w, args.stall_rms_mm);
+    let model = if w.held_out_worse() {
+        None
+    } else {
+        report.out = args.out.as_ref().map(|o| o.display().to_string());
+        Some(w.model.to_toml().map_err(py_err)?)
+    };
+    // The plots are the caller's output, in the folder it names.
+    if let Some(dir) = &args.plots {
+        let files = kinecal_cli::diagnose::residual_plots::write_all(dir, &w.diagnosis, &w.search)
+            .map_err(py_err)?;
+        report.plots = Some(files.iter().map(|p| p.display().to_string()).collect());
+    }
+    let (json, converged) = finish(Ok(Box::new(report)))?;
+    Ok((json, model, converged))
+}
+
+/// `kinecal diagnose` on arrays: `argv` holds the options (`diagnose --robot robot --data data
+/// [--validate validate] --out model [--plots DIR] …`; the paths but `--plots` are names
+/// only: nothing is written but the plots), `data` and `validate` the measurement sets.
+/// Returns `(json_text, model_toml, converged)`; `model_toml` is None when the extended model
+/// predicts the held-out poses worse than the nominal robot (the command line does not write
+/// it then).
+#[pyfunction]
+#[pyo3(signature = (robot, argv, data, validate = None))]
+pub fn diagnose(
+    py: Python<'_>,
+    robot: &Robot,
+    argv: Vec<String>,
+    data: Set<'_>,
+    validate: Option<Set<'_>>,
+) -> PyResult<Diagnosed> {
+    let Command::Diagnose(args) = parse(&argv)?.command else {
+        return Err(not_command("diagnose"));
+    };
+    no_map(&args.input.units)?;
+    workflow::check_plots_dir(args.plots.as_deref()).map_err(py_err)?;
+    if validate.is_some() != args.validate.is_some() {
+        return Err(refused(
+            "diagnose: give --validate in argv exactly when a validation set is given".into(),
+        ));
+    }
+    let data = arrays(&data);
+    let validate = validate.as_ref().map(arrays);
+    let n = robot.file.joint_count();
+    let r: anyhow::Result<PyResult<Diagnosed>> = py.detach(
+        || with_joints!(n, N => Ok(diagnose_n::<N>(robot, &args, &data, validate.as_ref()))),
+    );
+    r.map_err(py_err)?
 }

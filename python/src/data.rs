@@ -91,7 +91,9 @@ pub fn dataset<const N: usize>(a: &Arrays<'_>, origin: &str) -> PyResult<Dataset
             q_deg,
             xyz_mm,
             extra,
-            line: (i + 1) as u32,
+            // Row i is line i + 2 of the file these arrays make (header on line 1,
+            // kinecal_cli::formats::origin::Origin::layout): messages name the same lines.
+            line: (i + 2) as u32,
         });
     }
     Ok(Dataset {
@@ -110,7 +112,10 @@ type Columns<'py> = (
     Bound<'py, PyArray2<f64>>,
 );
 
-fn arrays_of<const N: usize>(ds: &Dataset<N>) -> (Array2<f64>, Array2<f64>, Array2<f64>) {
+/// The arrays `(q, xyz, extra)` of `ds` (NaN where a row has no extra value).
+pub(crate) fn arrays_of<const N: usize>(
+    ds: &Dataset<N>,
+) -> (Array2<f64>, Array2<f64>, Array2<f64>) {
     let n = ds.len();
     let k = ds.extra_names.len();
     let q = Array2::from_shape_fn((n, N), |(i, j)| ds.records[i].q_deg[j]);

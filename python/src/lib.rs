@@ -2,16 +2,20 @@
 //! module, numpy arrays in and out. The public Python API is the package `kinecal`
 //! (`python/kinecal/__init__.py`), which wraps these functions; python/README.md describes it.
 //!
-//! Every number comes from the functions the `kinecal` subcommands call: `identify` through
-//! [`kinecal_cli::commands::identify::identify`] on measurements built in memory through the
-//! CSV reader's checks and the units check ([`data`]); `diagnose`, `compensate`, `frames`,
-//! `plan`, `simulate` and `check` through the subcommand's own `run` on files the Python side
-//! writes exactly ([`commands`]). Errors keep the command line's one-line reasons: refused
-//! input raises `kinecal.RefusedError` (a `ValueError`), anything else `kinecal.KinecalError`.
+//! Every number comes from the functions the `kinecal` subcommands call, in memory: the
+//! arrays become measurement sets through the CSV reader's checks and the command line's
+//! loading doors (units, a stated base, the angle order; [`data`], [`commands::accepted`]), the
+//! options are parsed by the command line's own clap definitions, and `identify`, `check` and
+//! `diagnose` ([`commands`]), `compensate`, `frames`, `plan` and `simulate` ([`producers`]) call
+//! the application functions the subcommands call after reading their files; results come back
+//! as JSON text, arrays and robot TOML text, never through a file. Errors keep the command
+//! line's one-line reasons: refused input raises `kinecal.RefusedError` (a `ValueError`),
+//! anything else `kinecal.KinecalError`.
 
 mod cartesian;
 mod commands;
 mod data;
+mod producers;
 mod robot;
 
 use pyo3::prelude::*;
@@ -53,7 +57,12 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(data::read_csv, m)?)?;
     m.add_function(wrap_pyfunction!(data::write_csv, m)?)?;
     m.add_function(wrap_pyfunction!(commands::identify, m)?)?;
-    m.add_function(wrap_pyfunction!(commands::run, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::check, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::diagnose, m)?)?;
+    m.add_function(wrap_pyfunction!(producers::compensate, m)?)?;
+    m.add_function(wrap_pyfunction!(producers::frames, m)?)?;
+    m.add_function(wrap_pyfunction!(producers::plan, m)?)?;
+    m.add_function(wrap_pyfunction!(producers::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(cartesian::compensate_cartesian, m)?)?;
     Ok(())
 }

@@ -21,10 +21,18 @@ pub struct Robot {
     pub file: RobotFile,
 }
 
-/// The library model of `file` with `N` joints (a refused error names `origin`).
+/// The library model of `file` with `N` joints (a refused error names it `robot`).
 pub fn model<const N: usize>(file: &RobotFile) -> anyhow::Result<kinecal::Robot<f64, N, VCAP>> {
+    model_named(file, "robot")
+}
+
+/// The library model of `file` with `N` joints (a refused error names `origin`).
+pub fn model_named<const N: usize>(
+    file: &RobotFile,
+    origin: &str,
+) -> anyhow::Result<kinecal::Robot<f64, N, VCAP>> {
     file.to_robot::<N>()
-        .map_err(|e| kinecal_cli::refused(format!("robot: {e}")))
+        .map_err(|e| kinecal_cli::refused(format!("{origin}: {e}")))
 }
 
 impl Robot {

@@ -1,5 +1,5 @@
-"""diagnose, compensate, frames, plan and simulate from Python equal the CLI's JSON (and
-output files) on the same inputs."""
+"""diagnose, compensate, frames, plan, simulate and check from Python (in memory) equal the
+CLI's JSON (and output files) on the same inputs."""
 
 from __future__ import annotations
 
@@ -71,10 +71,13 @@ def test_compensate_equals_cli(sim, cli, tmp_path):
 
     with open(tmp_path / "q.csv") as f:
         rows = list(csv.DictReader(f))
-    np.testing.assert_array_equal(
-        res.q, np.array([[float(r[f"q{j + 1}"]) for j in range(truth.joints)] for r in rows]))
+    # The commands unrounded: the file's 9 decimals of a degree are theirs, digit for digit.
+    assert [[f"{v:.9f}" for v in q] for q in res.q] == [
+        [r[f"q{j + 1}"] for j in range(truth.joints)] for r in rows]
     assert res.status == [r["status"] for r in rows]
-    np.testing.assert_array_equal(res.error_mm, [float(r["error_mm"]) for r in rows])
+    # The file's errors have 4 significant digits.
+    np.testing.assert_allclose(res.error_mm, [float(r["error_mm"]) for r in rows], rtol=5e-4)
+    np.testing.assert_allclose(res.error_deg, [float(r["error_deg"]) for r in rows], rtol=5e-4)
     # The commands bring the model to the targets.
     assert np.abs(truth.fk(res.q) - targets).max() < 0.01
 
@@ -135,5 +138,40 @@ def test_plan_equals_cli(cell, cli, tmp_path):
 
     with open(tmp_path / "p.csv") as f:
         rows = list(csv.DictReader(f))
-    np.testing.assert_array_equal(res.q, [[float(r[f"q{j}"]) for j in range(1, 7)] for r in rows])
+    # The poses unrounded: the file's 9 decimals of a degree are theirs, digit for digit.
+    assert [[f"{v:.9f}" for v in q] for q in res.q] == [
+        [r[f"q{j}"] for j in range(1, 7)] for r in rows]
     assert res.q.shape == (12, 6)
+
+
+def test_check_equals_cli(cell, sim, cli):
+    """check on arrays equals `kinecal check --json` on the file (base fitted: the cell robot
+    has none), and on the true robot (base known)."""
+    d, _ = sim
+    data = kinecal.read_csv(d / "sim.csv")
+    for robot, path in [(cell, CELL / "robot.toml"), (None, d / "truth.toml")]:
+        robot = robot or kinecal.Robot.from_file(path)
+        res = kinecal.check(robot, data.q, data.xyz)
+        code, ref = cli("check", "--robot", path, "--data", d / "sim.csv")
+        assert code == 0, ref
+        assert_same(res.json, ref)
+        assert res.robot == "robot" and res.data == "data"
+
+
+def test_diagnose_validate_and_6d_equal_cli(ur10, cli, tmp_path):
+    """diagnose with a validation set (arrays; the CLI's --validate file written by write_csv)
+    on 6-D UR10 data with stated σ: the fit to all observations included, equal to the CLI."""
+    robot = kinecal.Robot.from_file(ur10 / "robot.toml")
+    d = kinecal.read_csv(ur10 / "ur10_random_poses_6d.csv")
+    a, b = d[:300], d[300:400]
+    a.write(tmp_path / "a.csv")
+    b.write(tmp_path / "b.csv")
+    res = kinecal.diagnose(robot, a.q, a.xyz, columns=a.columns, validate=b, max_effects=1)
+    code, ref = cli("diagnose", "--robot", ur10 / "robot.toml", "--data", tmp_path / "a.csv",
+                    "--validate", tmp_path / "b.csv", "--max-effects", 1,
+                    "--out", tmp_path / "ext.toml")
+    assert code in (0, 3), ref
+    assert_same(res.json, ref)
+    assert "observations" in res.json and res.json["holdout"]["poses"] == 100
+    if "out" in ref:
+        assert res.robot == kinecal.Robot.from_file(tmp_path / "ext.toml")

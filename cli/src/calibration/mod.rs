@@ -2,7 +2,9 @@
 //! before and after in the units and keys of docs/formats.md "Command line: exit status and JSON".
 
 pub mod acceptance;
+pub mod check;
 pub mod coupling_hint;
+pub mod inputs;
 pub mod method;
 pub mod prior;
 pub mod pso_search;

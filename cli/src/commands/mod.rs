@@ -1,8 +1,12 @@
 //! The `kinecal` subcommands, one module each, and [`main`]: the command line itself.
 //!
-//! Each module holds its clap arguments and a `run` that returns the command's typed report
-//! ([`crate::reports`]); `main` prints the report as text or, with `--json`, as one JSON
-//! object, and sets the exit status (docs/formats.md).
+//! Each module holds its clap arguments and a `run` that reads the command's files, calls the
+//! application function on what it read (in the domain modules: [`crate::calibration`],
+//! [`crate::diagnose`], [`crate::compensation`], [`crate::frames`], [`crate::plan`],
+//! [`crate::simulation`]; the Python package calls the same functions on arrays), writes the
+//! command's output files and returns its typed report ([`crate::reports`]); `main` prints the
+//! report as text or, with `--json`, as one JSON object, and sets the exit status
+//! (docs/formats.md).
 
 pub mod check;
 pub mod compensate;
@@ -24,8 +28,8 @@ pub mod validate;
 use crate::reports::{ErrorReport, Report};
 use clap::{Parser, Subcommand};
 
-/// The command line: `--json` and one subcommand (also parsed by the Python package, which
-/// runs subcommands through [`dispatch`]).
+/// The command line: `--json` and one subcommand (also parsed by the Python package, for the
+/// options of the functions it calls).
 #[derive(Parser, Debug)]
 #[command(
     name = "kinecal",
@@ -71,6 +75,49 @@ pub enum Command {
     /// A calibrated model on another session's data: only the registration (base, tool) is
     /// fitted, then model and nominal robot are compared (exit 3 when the model is worse).
     Validate(validate::Args),
+}
+
+/// The command line's [`crate::Tell`]: each line on stderr at once, and the stage in a spinner
+/// with the time spent, `{command} {spinner} {stage} {elapsed}` (drawn only when stderr is a
+/// terminal, as PSO's and `study`'s bars), from the first stage until it is dropped.
+pub(crate) struct Spinner {
+    command: &'static str,
+    bar: Option<indicatif::ProgressBar>,
+}
+
+impl Spinner {
+    pub(crate) fn new(command: &'static str) -> Self {
+        Self { command, bar: None }
+    }
+}
+
+impl crate::Tell for Spinner {
+    fn line(&mut self, text: &str) {
+        eprintln!("{text}");
+    }
+    fn stage(&mut self, what: &str) {
+        let command = self.command;
+        let bar = self.bar.get_or_insert_with(|| {
+            let bar = indicatif::ProgressBar::new_spinner();
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(&format!(
+                    "{command} {{spinner}} {{msg}} {{elapsed}}"
+                ))
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+            );
+            bar.enable_steady_tick(std::time::Duration::from_millis(120));
+            bar
+        });
+        bar.set_message(what.to_string());
+    }
+}
+
+impl Drop for Spinner {
+    fn drop(&mut self) {
+        if let Some(bar) = &self.bar {
+            bar.finish_and_clear();
+        }
+    }
 }
 
 fn boxed<R: Report + 'static>(r: anyhow::Result<R>) -> anyhow::Result<Box<dyn Report>> {

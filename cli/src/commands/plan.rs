@@ -24,15 +24,15 @@
 //!    `kpi_trace_mm2` = trace of the summed tool-point covariance at the `--work`
 //!    configurations, the A/D/E criteria, the observability indices O1–O5.
 
+use super::Spinner;
 use crate::formats::cell_file::SceneFile;
 use crate::formats::robot_file::RobotFile;
-use crate::plan::design::*;
-use crate::reports::plan::{Criteria, PlanReport};
+use crate::plan::design::{limits_only_scene, poses_csv, CriterionArg};
+use crate::plan::request::{plan_request, Request};
+use crate::reports::plan::PlanReport;
 use crate::with_joints;
 use anyhow::anyhow;
-use kinecal::ForwardKinematics;
 use std::path::PathBuf;
-use std::time::Instant;
 
 /// Arguments of `kinecal plan` (docs/formats.md for the scene file).
 #[derive(clap::Args, Debug)]
@@ -130,6 +130,24 @@ fn stated_noise_mm<const N: usize>(
     Ok(rms)
 }
 
+impl Args {
+    /// The plan these arguments ask for (but the files: robot, scene, `--noise-from`, `--out`).
+    pub fn request(&self) -> Request {
+        Request {
+            estimate: self.estimate.clone(),
+            poses: self.poses,
+            criterion: self.criterion,
+            work: self.work.clone(),
+            seed: self.seed,
+            noise_mm: self.noise_mm,
+            pool: self.pool,
+            collisions: !self.no_collisions,
+            passes: self.passes,
+            refine: !self.no_refine,
+        }
+    }
+}
+
 fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Result<PlanReport> {
     let robot = file
         .to_robot::<N>()
@@ -138,116 +156,17 @@ fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Re
         Some(path) => SceneFile::load(path, N)?.to_scene()?,
         None => limits_only_scene()?,
     };
-    let estimate = if args.estimate.is_empty() {
-        Vec::new()
-    } else {
-        crate::calibration::selection::named("--estimate", &args.estimate, &robot)?
+    let req = args.request();
+    let noise = |robot: &kinecal::Robot<f64, N, { crate::VCAP }>| match &args.noise_from {
+        Some(p) => stated_noise_mm::<N>(p, &args.units, robot, file.base_known()),
+        None => Ok(args.noise_mm),
     };
-    let work = args
-        .work
-        .iter()
-        .map(|w| parse_configuration::<N>(w))
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    for (k, q) in work.iter().enumerate() {
-        if !robot.within_limits(q) {
-            eprintln!(
-                "kinecal plan: warning: working configuration {} is outside the joint limits",
-                k + 1
-            );
-        }
-    }
-    let sigma = match &args.noise_from {
-        Some(p) => stated_noise_mm::<N>(p, &args.units, &robot, file.base_known())?,
-        None => args.noise_mm,
-    };
-    let start = Instant::now();
-    let req = PlanRequest {
-        scene: &scene,
-        criterion: args.criterion,
-        poses: args.poses,
-        work: &work,
-        sigma,
-        pool: args.pool,
-        collisions: !args.no_collisions,
-        passes: args.passes,
-        seed: args.seed,
-        refine: !args.no_refine,
-        estimate: &estimate,
-    };
-    // A spinner with the elapsed time while the design runs (stderr, only on a terminal): the
-    // work is bounded by --poses, --pool and --passes (checked above), but a large design
-    // takes minutes.
-    let bar = indicatif::ProgressBar::new_spinner();
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("plan {spinner} {msg} {elapsed}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
-    );
-    bar.set_message(format!(
-        "choosing {} poses from a pool of {}",
-        args.poses, args.pool
-    ));
-    bar.enable_steady_tick(std::time::Duration::from_millis(120));
-    let p = plan(&robot, &req);
-    bar.finish_and_clear();
-    let p = p?;
-    let seconds = start.elapsed().as_secs_f64();
-    // Signed clearance in the full cell, also for plans made without collision avoidance
-    // (negative: the pose collides).
-    let base_robot = in_base_frame(&robot);
-    let mut fk = ForwardKinematics::new();
-    let clearances: Vec<f64> = p
-        .poses
-        .iter()
-        .map(|c| {
-            fk.compute(&base_robot, &c.q);
-            scene.clearance(&fk)
-        })
-        .collect();
-    // A cell with nothing to collide with (no `--scene`) reports the largest float: no
-    // clearance to report (JSON null).
-    let min_clearance = clearances.iter().cloned().fold(f64::INFINITY, f64::min);
-    let min_clearance = (min_clearance < 1e300).then_some(min_clearance);
-    let colliding = clearances.iter().filter(|c| **c <= 0.0).count();
-    let mut written = p.poses.clone();
-    for (c, cl) in written.iter_mut().zip(&clearances) {
-        c.clearance = *cl;
-    }
-    crate::output::atomic::write_atomic(&args.out, poses_csv(&written).as_bytes())
+    // A spinner while the design runs: the work is bounded by --poses, --pool and --passes
+    // (checked first), but a large design takes minutes.
+    let p = plan_request(&robot, &scene, &req, noise, &mut Spinner::new("plan"))?;
+    crate::output::atomic::write_atomic(&args.out, poses_csv(&p.poses).as_bytes())
         .map_err(|e| anyhow!("{}: cannot write: {e}", args.out.display()))?;
-    let max_incidence = p
-        .poses
-        .iter()
-        .map(|c| c.incidence.to_degrees())
-        .fold(0.0, f64::max);
-    let ev = &p.evaluation;
-    Ok(PlanReport {
-        criterion: args.criterion.name().to_string(),
-        poses: p.poses.len(),
-        kpi_trace_mm2: ev.kpi_trace_mm2,
-        tool_std_mm: ev.tool_std_mm.clone(),
-        min_clearance_mm: min_clearance,
-        colliding_poses: colliding,
-        max_incidence_deg: max_incidence,
-        noise_mm: sigma,
-        criteria: Criteria {
-            a: ev.a,
-            d: ev.d,
-            e: ev.e,
-        },
-        observability: ev.o.into(),
-        identifiable_directions: ev.rank,
-        estimate: estimate
-            .iter()
-            .map(|p| p.name(&robot).to_string())
-            .collect(),
-        collision_avoidance: !args.no_collisions,
-        pool: p.pool_size,
-        draws: p.draws,
-        exchange_passes: p.passes,
-        exchanges: p.exchanges,
-        seconds,
-        out: args.out.display().to_string(),
-    })
+    Ok(PlanReport::of(&p, &req, &args.out.display().to_string()))
 }
 
 /// Runs the subcommand: writes the planned poses and returns their predicted accuracy.
@@ -263,16 +182,7 @@ pub fn run(args: &Args) -> anyhow::Result<PlanReport> {
         .flatten()
         .collect::<Vec<_>>(),
     )?;
-    // The work grows with poses × pool × passes: all three are bounded before it starts.
-    crate::check_count("--poses", args.poses, 1, crate::MAX_PLAN_POSES)?;
-    crate::check_count("--pool", args.pool, 1, crate::MAX_POOL)?;
-    crate::check_count(
-        "--passes",
-        args.passes as usize,
-        0,
-        crate::MAX_PASSES as usize,
-    )?;
-    crate::check_positive("--noise-mm", args.noise_mm, crate::MAX_NOISE_MM)?;
+    args.request().check()?;
     let file = RobotFile::load(&args.robot)?;
     with_joints!(file.joint_count(), N => plan_with_joints::<N>(args, &file))
 }

@@ -4,12 +4,13 @@
 //! a/d ±0.8 mm, tool ±0.5 mm per coordinate) and then each `--effect` applied. `--effect`
 //! units: joint-scale dimensionless, joint-cyclic a and b in rad (`:ORDER` for harmonics),
 //! joint-compliance rad per metre of lever arm, axis-tilt the joint's beta in rad, joint-table
-//! knot corrections in rad spread evenly from the lower to the upper joint limit.
+//! knot corrections in rad spread evenly from the lower to the upper joint limit. The work is
+//! [`crate::simulation::request`].
 
 use crate::formats::measurements;
-use crate::formats::robot_file::{RobotFile, AXIS_TILT};
-use crate::reports::simulate::{SimulateReport, SimulatedEffect};
-use crate::simulation::{self, EffectArg, GeomErrors, Simulation};
+use crate::formats::robot_file::RobotFile;
+use crate::reports::simulate::SimulateReport;
+use crate::simulation::request::{simulate_request, Request};
 use crate::with_joints;
 use anyhow::anyhow;
 use std::path::PathBuf;
@@ -85,108 +86,62 @@ fn parse_temperature(s: &str) -> Result<(f64, f64), String> {
     Ok((t(a).ok_or_else(bad)?, t(b).ok_or_else(bad)?))
 }
 
+impl Args {
+    /// The simulation these arguments ask for.
+    pub fn request(&self) -> Request {
+        Request {
+            poses: self.poses,
+            noise_mm: self.noise_mm,
+            seed: self.seed,
+            geom_errors: self.geom_errors,
+            effects: self.effects.clone(),
+            temperature: self.temperature,
+            sweeps: self.sweeps.clone(),
+            sweep_points: self.sweep_points,
+            sweep_span_deg: self.sweep_span_deg,
+            rest: self.rest.clone(),
+        }
+    }
+}
+
 fn simulate_with_joints<const N: usize>(
     args: &Args,
     file: &RobotFile,
-    effects: Vec<EffectArg>,
 ) -> anyhow::Result<SimulateReport> {
     let nominal = file
         .to_robot::<N>()
         .map_err(|e| anyhow!("{}: {e}", args.robot.display()))?;
-    if !file.base_known() {
-        eprintln!(
-            "kinecal simulate: {} has no [base]: simulating with the robot base at the measurement frame's origin (identity)",
-            args.robot.display()
-        );
-    }
-    let sim = Simulation {
-        poses: args.poses,
-        noise_mm: args.noise_mm,
-        seed: args.seed,
-        geom_errors: args.geom_errors.then(GeomErrors::default),
-        effects: effects.clone(),
-    };
-    let (truth, mut ds) = simulation::simulate_at(&nominal, &sim, args.temperature)?;
-    if !args.sweeps.is_empty() {
-        if args.temperature.is_some() {
-            crate::refuse!("--temperature applies to random poses, not to --sweeps");
-        }
-        let rest: [f64; N] = if args.rest.is_empty() {
-            crate::simulation::sweeps::default_rest(&truth)
-        } else {
-            args.rest.as_slice().try_into().map_err(|_| {
-                crate::refused(format!(
-                    "--rest needs {N} joint readings, got {}",
-                    args.rest.len()
-                ))
-            })?
-        };
-        ds = crate::simulation::sweeps::sweep_data(
-            &truth,
-            &rest,
-            &args.sweeps,
-            args.sweep_points,
-            args.sweep_span_deg,
-            args.noise_mm,
-            args.seed,
-        )?;
-    }
+    let req = args.request();
+    let robot = args.robot.display().to_string();
+    let s = simulate_request(file, &nominal, &req, &robot, &mut crate::Stderr)?;
     let rows = match &args.constraints {
         Some(plan) => {
             if !args.sweeps.is_empty() || args.temperature.is_some() {
                 crate::refuse!("--constraints does not combine with --sweeps or --temperature");
             }
             let text =
-                crate::constraints::simulate::session(&truth, plan, args.noise_mm, args.seed)?;
+                crate::constraints::simulate::session(&s.truth, plan, args.noise_mm, args.seed)?;
             crate::output::atomic::write_atomic(&args.out, text.as_bytes())
                 .map_err(|e| anyhow!("{}: cannot write: {e}", args.out.display()))?;
             plan.rows()
         }
         None => {
-            measurements::write(&args.out, &ds)?;
-            ds.len()
+            measurements::write(&args.out, &s.data)?;
+            s.data.len()
         }
     };
     if let Some(t) = &args.truth {
-        let mut tilt = file.tilt_joints();
-        tilt.extend(
-            effects
-                .iter()
-                .filter(|e| e.kind == AXIS_TILT)
-                .map(|e| e.joint),
-        );
-        let mut f = RobotFile::from_robot(&file.name, &truth, true, &tilt);
-        f.tool.rpy_deg = file.tool.rpy_deg;
-        f.save(t)?;
+        s.truth_file.save(t)?;
     }
-    Ok(SimulateReport {
-        poses: rows,
-        seed: args.seed,
-        out: args.out.display().to_string(),
-        truth: args.truth.as_ref().map(|t| t.display().to_string()),
-        joints: N,
-        noise_mm: args.noise_mm,
-        geom_errors: args.geom_errors,
-        effects: effects
-            .iter()
-            .map(|e| SimulatedEffect {
-                effect: e.kind.clone(),
-                joint: if e.kind == crate::formats::robot_file::THERMAL {
-                    0
-                } else {
-                    e.joint + 1
-                },
-                values: e.values.clone(),
-                order: e.order,
-            })
-            .collect(),
-        base: if file.base_known() {
-            "file"
-        } else {
-            "identity (robot file has no [base])"
-        }
-        .to_string(),
-    })
+    let out = args.out.display().to_string();
+    let truth = args.truth.as_ref().map(|t| t.display().to_string());
+    Ok(SimulateReport::of(
+        &s,
+        &req,
+        file.base_known(),
+        rows,
+        (&out, truth.as_deref()),
+    ))
 }
 
 /// Runs the subcommand: writes the files and returns what was written.
@@ -201,45 +156,6 @@ pub fn run(args: &Args) -> anyhow::Result<SimulateReport> {
         crate::refuse!("--out and --truth must not overwrite the robot file or each other");
     }
     let file = RobotFile::load(&args.robot)?;
-    crate::check_number("--noise-mm", args.noise_mm, 0.0, crate::MAX_NOISE_MM)?;
-    crate::check_count("--poses", args.poses, 1, crate::MAX_SIMULATED_POSES)?;
-    if !args.sweeps.is_empty() {
-        crate::check_count(
-            "--sweep-points",
-            args.sweep_points,
-            2,
-            crate::MAX_SWEEP_POINTS,
-        )?;
-        crate::check_positive("--sweep-span-deg", args.sweep_span_deg, 3600.0)?;
-        if args.sweeps.len() > 64 {
-            crate::refuse!("--sweeps: at most 64 sweeps, got {}", args.sweeps.len());
-        }
-        for &j in &args.sweeps {
-            crate::check_count("--sweep", j, 1, file.joint_count())?;
-        }
-        for &q in &args.rest {
-            crate::check_number(
-                "--rest",
-                q,
-                -crate::MAX_JOINT_READING_DEG,
-                crate::MAX_JOINT_READING_DEG,
-            )?;
-        }
-    }
-    let effects = args
-        .effects
-        .iter()
-        .map(|s| s.parse::<EffectArg>().map_err(crate::refused))
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    for e in &effects {
-        if e.joint >= file.joint_count() {
-            crate::refuse!(
-                "--effect {}:{}: the robot has {} joints",
-                e.kind,
-                e.joint + 1,
-                file.joint_count()
-            );
-        }
-    }
-    with_joints!(file.joint_count(), N => simulate_with_joints::<N>(args, &file, effects.clone()))
+    args.request().checked(file.joint_count())?;
+    with_joints!(file.joint_count(), N => simulate_with_joints::<N>(args, &file))
 }

@@ -16,8 +16,14 @@
 //! controller that keeps its nominal kinematics, [`kinecal::compensate::nominal_reach`] at the
 //! command: `x`,`y`,`z` (and `rx`,`ry`,`rz` for pose targets) in the targets' units, then
 //! `status`; a row that failed keeps its target.
+//!
+//! In memory, [`compensate_set`] on a targets set already read (the Python package calls it on
+//! arrays) returns the summary and the rows; [`run`] reads the files, calls it and writes the
+//! rows ([`Compensated::csv`]).
 
 use crate::formats::loading::load_targets;
+use crate::formats::measurements::Dataset;
+use crate::formats::origin::Origin;
 use crate::formats::robot_file::RobotFile;
 use crate::formats::units::{AngleUnit, UnitArgs};
 use crate::reports::compensate::CompensateReport;
@@ -27,7 +33,7 @@ use kinecal::compensate::{compensate, nominal_reach, Config, Solution, Status, T
 use kinecal::{Frame, Real, Robot};
 use nalgebra::Vector3;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// The solver settings of a compensation run.
@@ -106,29 +112,27 @@ pub fn run(job: &Job) -> anyhow::Result<CompensateReport> {
     crate::output::atomic::refuse_overwriting_inputs("--out", &job.out, &inputs)?;
     let file = RobotFile::load(&job.model)?;
     let n = file.joint_count();
-    with_joints!(n, N => compensate_with_joints::<N>(job, &file))
+    with_joints!(n, N => run_with_joints::<N>(job, &file))
 }
 
-/// One target row in library units.
-struct Row {
-    seed: Vec<f64>,
-    point: Vector3<f64>,
-    /// Roll, pitch, yaw (rad) for a pose target.
-    rpy: Option<[f64; 3]>,
+impl Settings {
+    /// Refuses (exit 2) settings outside the command line's limits.
+    pub fn check(&self) -> anyhow::Result<()> {
+        crate::check_positive("--max-step-deg", self.max_step_deg, 180.0)?;
+        crate::check_positive("--accept-mm", self.accept_mm, 1000.0)?;
+        crate::check_count("--iterations", usize::from(self.iterations), 1, 255)
+    }
 }
 
-fn compensate_with_joints<const N: usize>(
+fn run_with_joints<const N: usize>(
     job: &Job,
     file: &RobotFile,
 ) -> anyhow::Result<CompensateReport> {
-    let (args, settings) = (job, &job.settings);
     let robot = file
         .to_robot::<N>()
-        .map_err(|e| anyhow!("{}: {e}", args.model.display()))?;
-    crate::check_positive("--max-step-deg", settings.max_step_deg, 180.0)?;
-    crate::check_positive("--accept-mm", settings.accept_mm, 1000.0)?;
-    crate::check_count("--iterations", usize::from(settings.iterations), 1, 255)?;
-    let nominal = match &args.cartesian {
+        .map_err(|e| anyhow!("{}: {e}", job.model.display()))?;
+    job.settings.check()?;
+    let nominal = match &job.cartesian {
         None => None,
         Some(path) => {
             let f = RobotFile::load(path)?;
@@ -146,18 +150,129 @@ fn compensate_with_joints<const N: usize>(
             )
         }
     };
-    let rows = read_targets::<N>(&args.targets, &args.units, &robot)?;
+    let targets = load_targets(&job.targets, &job.units, &robot)?;
+    let names = Names {
+        model: job.model.display().to_string(),
+        targets: Origin::file(&job.targets),
+        out: job.out.display().to_string(),
+        nominal: job.cartesian.as_ref().map(|p| p.display().to_string()),
+    };
+    let done = compensate_set(
+        file,
+        &robot,
+        nominal.as_ref(),
+        &targets,
+        (&job.settings, &job.units),
+        &names,
+    )?;
+    crate::output::atomic::write_atomic(&job.out, done.csv(&job.units).as_bytes())
+        .map_err(|e| anyhow!("{}: cannot write: {e}", job.out.display()))?;
+    Ok(done.report)
+}
+
+/// One target row in library units.
+struct Row {
+    seed: Vec<f64>,
+    point: Vector3<f64>,
+    /// Roll, pitch, yaw (rad) for a pose target.
+    rpy: Option<[f64; 3]>,
+}
+
+/// What a compensation names in its report and messages: the model, the targets (and where
+/// their header is), the output, the nominal robot of a controller that keeps its kinematics.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Names {
+    pub model: String,
+    pub targets: Origin,
+    pub out: String,
+    /// With a nominal robot: its name, and the output is the targets to send it.
+    pub nominal: Option<String>,
+}
+
+/// The joint command of one target: in the targets' angle unit (the seed when it failed),
+/// the status and the model's remaining error there (NaN without a solution).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Command<const N: usize> {
+    pub q: [f64; N],
+    pub status: Status,
+    pub error_mm: f64,
+    pub error_deg: f64,
+}
+
+/// The target to send a controller that keeps its nominal kinematics: the point (mm) and, for
+/// a pose target, the fixed-axis roll, pitch, yaw (rad); a failed row keeps its target.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sent {
+    pub point_mm: Vector3<f64>,
+    pub rpy: Option<[f64; 3]>,
+}
+
+/// A compensation done: the summary, each target's joint command and, with a nominal robot,
+/// each target to send it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Compensated<const N: usize> {
+    pub report: CompensateReport,
+    pub commands: Vec<Command<N>>,
+    pub sent: Option<Vec<Sent>>,
+    /// Whether the targets are poses (rx, ry, rz).
+    pub poses: bool,
+}
+
+impl<const N: usize> Compensated<N> {
+    /// The output file's text (`--out`), in the targets' `units`: the joint commands
+    /// (`q1`…`qN` with about 1e-9° resolution, `status`, `error_mm`, `error_deg`), or with a
+    /// nominal robot the targets to send it (`x`, `y`, `z`[, `rx`, `ry`, `rz`], `status`).
+    pub fn csv(&self, units: &UnitArgs) -> String {
+        let mut csv = String::new();
+        if let Some(sent) = &self.sent {
+            write_cartesian(&mut csv, sent, &self.commands, units, self.poses);
+            return csv;
+        }
+        let decimals = match units.angle() {
+            AngleUnit::Deg => 9,
+            AngleUnit::Rad => 11,
+        };
+        let head: Vec<String> = (1..=N).map(|i| format!("q{i}")).collect();
+        let _ = writeln!(csv, "{},status,error_mm,error_deg", head.join(","));
+        for c in &self.commands {
+            for v in c.q {
+                let _ = write!(csv, "{v:.decimals$},");
+            }
+            let _ = writeln!(
+                csv,
+                "{},{},{}",
+                c.status.as_str(),
+                fmt_num(c.error_mm),
+                fmt_num(c.error_deg)
+            );
+        }
+        csv
+    }
+}
+
+/// Compensates every target of `targets` (in mm and degrees, through the targets door
+/// [`crate::formats::loading`]) with `robot`, the model of the robot file `file`, with
+/// `settings`; `units` are the targets' (the commands come back in their angle unit). With
+/// `nominal` (the controller's kinematics), also the targets to send it. Refuses (exit 2)
+/// settings outside their limits, implausible seeds and targets, and an empty set.
+pub fn compensate_set<const N: usize, const V: usize>(
+    file: &RobotFile,
+    robot: &Robot<f64, N, { crate::VCAP }>,
+    nominal: Option<&Robot<f64, N, V>>,
+    targets: &Dataset<N>,
+    (settings, units): (&Settings, &UnitArgs),
+    names: &Names,
+) -> anyhow::Result<Compensated<N>> {
+    settings.check()?;
+    let origin = &names.targets;
+    let rows = target_rows(targets, origin, units)?;
     if rows.is_empty() {
-        crate::refuse!(
-            "{}: no targets (a header and no rows): give at least one target row",
-            args.targets.display()
-        );
+        crate::refuse!("{origin}: no targets (a header and no rows): give at least one target row");
     }
     let poses = rows.iter().filter(|r| r.rpy.is_some()).count();
     if poses > 0 && N < 6 {
         bail!(
-            "{}: pose targets (rx, ry, rz) need a robot with six or more joints; the model has {N}",
-            args.targets.display()
+            "{origin}: pose targets (rx, ry, rz) need a robot with six or more joints; the model has {N}"
         );
     }
     let cfg = Config::<f64> {
@@ -182,32 +297,14 @@ fn compensate_with_joints<const N: usize>(
         };
         solve_all(&r32, &rows, &c32, settings.stream)
     } else {
-        solve_all(&robot, &rows, &cfg, settings.stream)
+        solve_all(robot, &rows, &cfg, settings.stream)
     };
     let seconds = started.elapsed().as_secs_f64();
 
-    // Output file and summary.
-    let mut csv = String::new();
-    // Joint commands in the targets' angle unit, with about the same resolution (1e-9°).
-    let angle = args.units.angle();
-    let decimals = match angle {
-        AngleUnit::Deg => 9,
-        AngleUnit::Rad => 11,
-    };
-    if let Some(nominal) = &nominal {
-        write_cartesian(
-            &mut csv,
-            &robot,
-            nominal,
-            &rows,
-            &results,
-            &args.units,
-            poses > 0,
-        );
-    } else {
-        let head: Vec<String> = (1..=N).map(|i| format!("q{i}")).collect();
-        let _ = writeln!(csv, "{},status,error_mm,error_deg", head.join(","));
-    }
+    // Joint commands in the targets' angle unit.
+    let angle = units.angle();
+    let sent = nominal.map(|nominal| sent_targets(robot, nominal, &rows, &results));
+    let mut commands = Vec::with_capacity(rows.len());
     let mut counts = std::collections::BTreeMap::<&str, usize>::new();
     let (mut ok_err, mut max_corr, mut sum_corr2, mut ncorr) = (Vec::new(), 0.0f64, 0.0f64, 0usize);
     for (row, (status, sol)) in rows.iter().zip(&results) {
@@ -218,12 +315,12 @@ fn compensate_with_joints<const N: usize>(
         let (e, w) = sol
             .map(|s| (s.position_error, s.orientation_error.to_degrees()))
             .unwrap_or((f64::NAN, f64::NAN));
-        if nominal.is_none() {
-            for v in q {
-                let _ = write!(csv, "{:.decimals$},", angle.from_deg(v.to_degrees()));
-            }
-            let _ = writeln!(csv, "{},{},{}", status.as_str(), fmt_num(e), fmt_num(w));
-        }
+        commands.push(Command {
+            q: q.map(|v| angle.from_deg(v.to_degrees())),
+            status: *status,
+            error_mm: e,
+            error_deg: w,
+        });
         if *status == Status::Ok {
             ok_err.push(e);
         }
@@ -234,8 +331,6 @@ fn compensate_with_joints<const N: usize>(
             ncorr += 1;
         }
     }
-    crate::output::atomic::write_atomic(&args.out, csv.as_bytes())
-        .map_err(|e| anyhow!("{}: cannot write: {e}", args.out.display()))?;
     let ok = counts.get("ok").copied().unwrap_or(0);
     let failed = rows.len() - ok;
     let rms = |v: &[f64]| {
@@ -255,7 +350,7 @@ fn compensate_with_joints<const N: usize>(
     } else {
         seconds * 1e6 / rows.len() as f64
     };
-    Ok(CompensateReport {
+    let report = CompensateReport {
         targets: rows.len(),
         ok,
         failed,
@@ -269,49 +364,71 @@ fn compensate_with_joints<const N: usize>(
         stream: settings.stream,
         seconds,
         microseconds_per_target: per_target_us,
-        out: args.out.display().to_string(),
-        model: args.model.display().to_string(),
+        out: names.out.clone(),
+        model: names.model.clone(),
         model_name: file.name.clone(),
         joints: N,
         effects: robot.effects().len(),
         base_known: file.base_known(),
-        targets_file: args.targets.display().to_string(),
-        cartesian_nominal: args.cartesian.as_ref().map(|p| p.display().to_string()),
+        targets_file: origin.name().to_string(),
+        cartesian_nominal: names.nominal.clone(),
+    };
+    Ok(Compensated {
+        report,
+        commands,
+        sent,
+        poses: poses > 0,
     })
 }
 
-/// The `--cartesian` output: per row the target to send to a controller with the `nominal`
-/// kinematics (where the nominal robot, placed at the model's base, puts the tool at the
-/// compensated command), in the targets' units; a failed row keeps its target.
-fn write_cartesian<const N: usize, const V: usize, const W: usize>(
-    csv: &mut String,
+/// Per row the target to send a controller with the `nominal` kinematics: where the nominal
+/// robot, placed at the model's base, puts the tool at the compensated command
+/// ([`nominal_reach`]); a failed row keeps its target.
+fn sent_targets<const N: usize, const V: usize, const W: usize>(
     model: &Robot<f64, N, V>,
     nominal: &Robot<f64, N, W>,
     rows: &[Row],
     results: &[(Status, Option<Solution<f64, N>>)],
+) -> Vec<Sent> {
+    rows.iter()
+        .zip(results)
+        .map(|(row, (status, sol))| {
+            let (p, rpy) = match (status, sol) {
+                (Status::Ok, Some(s)) => {
+                    match nominal_reach(model, nominal, row.rpy.is_some(), &s.q) {
+                        Target::Pose(f) => (f.o, Some(f.rpy())),
+                        Target::Point(p) => (p, None),
+                    }
+                }
+                _ => (row.point, row.rpy),
+            };
+            Sent { point_mm: p, rpy }
+        })
+        .collect()
+}
+
+/// The `--cartesian` output: per row the target to send (`sent`), in the targets' units, and
+/// the row's status.
+fn write_cartesian<const N: usize>(
+    csv: &mut String,
+    sent: &[Sent],
+    commands: &[Command<N>],
     units: &UnitArgs,
     poses: bool,
 ) {
     let per_mm = 1.0 / units.length().mm_per_unit();
     let angle = units.angle();
     let _ = writeln!(csv, "x,y,z,{}status", if poses { "rx,ry,rz," } else { "" });
-    for (row, (status, sol)) in rows.iter().zip(results) {
-        let (p, rpy) = match (status, sol) {
-            (Status::Ok, Some(s)) => match nominal_reach(model, nominal, row.rpy.is_some(), &s.q) {
-                Target::Pose(f) => (f.o, Some(f.rpy())),
-                Target::Point(p) => (p, None),
-            },
-            _ => (row.point, row.rpy),
-        };
-        for v in p.iter() {
+    for (s, c) in sent.iter().zip(commands) {
+        for v in s.point_mm.iter() {
             let _ = write!(csv, "{},", v * per_mm);
         }
         if poses {
-            for a in rpy.unwrap_or([f64::NAN; 3]) {
+            for a in s.rpy.unwrap_or([f64::NAN; 3]) {
                 let _ = write!(csv, "{},", fmt_plain(angle.from_deg(a.to_degrees())));
             }
         }
-        let _ = writeln!(csv, "{}", status.as_str());
+        let _ = writeln!(csv, "{}", c.status.as_str());
     }
 }
 
@@ -371,15 +488,14 @@ fn solve_all<T: Real, const N: usize, const V: usize>(
         .collect()
 }
 
-/// Reads the targets file: the library's CSV reader for q, x, y, z; `rx`, `ry`, `rz` arrive as
-/// extra columns and must be all present or all absent (per file), finite on every row.
-fn read_targets<const N: usize>(
-    path: &Path,
+/// The rows of a targets set (already through the targets door): the seeds and points must be
+/// ones a controller could have; `rx`, `ry`, `rz` (extra columns) must be all present or all
+/// absent, finite on every row. Refusals name `origin`'s lines and columns.
+fn target_rows<const N: usize>(
+    ds: &Dataset<N>,
+    origin: &Origin,
     units: &UnitArgs,
-    model: &Robot<f64, N, { crate::VCAP }>,
 ) -> anyhow::Result<Vec<Row>> {
-    let ds = load_targets(path, units, model)?;
-    let origin = path.display();
     let idx: Vec<Option<usize>> = ["rx", "ry", "rz"]
         .iter()
         .map(|c| ds.extra_names.iter().position(|n| n == c))
@@ -387,7 +503,7 @@ fn read_targets<const N: usize>(
     let pose = match (idx[0], idx[1], idx[2]) {
         (None, None, None) => None,
         (Some(a), Some(b), Some(c)) => Some([a, b, c]),
-        _ => crate::refuse!("{origin}:{}:1: a pose target needs all of rx, ry, rz; the header has only some of them", header_line(path)),
+        _ => crate::refuse!("{origin}:{}:1: a pose target needs all of rx, ry, rz; the header has only some of them", origin.header_line()),
     };
     let mut rows = Vec::with_capacity(ds.len());
     for r in &ds.records {
@@ -426,7 +542,7 @@ fn read_targets<const N: usize>(
                 let v = k.map(|i| r.extra.get(i).copied().unwrap_or(f64::NAN));
                 if let Some(bad) = (0..3).find(|i| !v[*i].is_finite()) {
                     let col = ["rx", "ry", "rz"][bad];
-                    crate::refuse!("{origin}:{}:{}: `{col}` must be a finite angle on every row of a pose target file", r.line, header_column(path, col));
+                    crate::refuse!("{origin}:{}:{}: `{col}` must be a finite angle on every row of a pose target file", r.line, origin.column(col).unwrap_or(1));
                 }
                 Some(v.map(|a| units.angle().to_deg(a).to_radians()))
             }
@@ -438,34 +554,4 @@ fn read_targets<const N: usize>(
         });
     }
     Ok(rows)
-}
-
-/// The first line that is neither blank nor a comment (1-based), and its cells.
-fn header(path: &Path) -> (usize, Vec<String>) {
-    let text = std::fs::read_to_string(path).unwrap_or_default();
-    for (i, l) in text.lines().enumerate() {
-        let t = l.trim().trim_start_matches('\u{feff}');
-        if !t.is_empty() && !t.starts_with('#') {
-            return (
-                i + 1,
-                t.split(',')
-                    .map(|c| kinecal::io::csv::column_name(c).to_string())
-                    .collect(),
-            );
-        }
-    }
-    (1, Vec::new())
-}
-
-fn header_line(path: &Path) -> usize {
-    header(path).0
-}
-
-/// 1-based column of `name` in the header (1 if absent).
-fn header_column(path: &Path, name: &str) -> usize {
-    header(path)
-        .1
-        .iter()
-        .position(|c| c == name)
-        .map_or(1, |i| i + 1)
 }

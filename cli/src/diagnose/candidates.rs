@@ -23,7 +23,7 @@
 //!     from −185°, and a 10° table aligned to 0° would keep a kink unmodelled at every knot).
 //!     Each pitch is offered at two phases (knots at multiples of the pitch, and shifted by half
 //!     of it); the best grids of the most promising tables then have their phase fitted by
-//!     bisection down to 1/64 of the pitch ([`shifted`], `diagnose::phase_search`), so a table
+//!     bisection down to 1/64 of the pitch ([`shifted`], `diagnose::phase`), so a table
 //!     whose knots sit at 2° + k·5° is matched too. Every grid is trimmed to the range the data
 //!     cover and offered only with at least 4 poses per knot interval and at least 4 knots.
 //!     Every grid of the catalogue counts in the Bonferroni correction of the round; the phase

@@ -9,6 +9,7 @@ pub mod loading;
 pub mod map;
 pub mod measurements;
 pub mod observations;
+pub mod origin;
 pub mod placement;
 pub mod prior;
 pub mod robot_file;

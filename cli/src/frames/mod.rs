@@ -5,8 +5,13 @@
 //! The measurement file has an extra column `sweep` naming the joint (1-based) turned on each
 //! row; rows with an empty cell or 0 there are ignored. Joints 1 and 2 give the base pose,
 //! the last two joints the tool's radial and axial distances from the flange axis.
+//!
+//! In memory, [`find`] on sweeps already read (the Python package calls it on arrays) returns
+//! the report and the robot file with the base found; [`from_files`] reads the files, calls it
+//! and writes that robot file.
 
 use crate::formats::measurements::Dataset;
+use crate::formats::origin::Origin;
 use crate::formats::robot_file::{deg_exact, load_robot, BaseSpec, RobotFile};
 use crate::formats::units::UnitArgs;
 use crate::reports::frames::{CircleReport, FittedCircle, FramesReport, OnAxis, ToolReport};
@@ -19,7 +24,6 @@ use kinecal::frames::circle_point::{
 };
 use kinecal::Robot;
 use nalgebra::Vector3;
-use std::io::BufRead;
 use std::path::Path;
 
 /// A sweep shorter than this (degrees of joint travel) gets a warning.
@@ -50,35 +54,33 @@ pub fn from_files(
         )?;
     }
     let n = RobotFile::load(robot)?.joint_count();
-    with_joints!(n, N => find_with_joints::<N>(robot, data, units, out))
+    with_joints!(n, N => from_files_with_joints::<N>(robot, data, units, out))
 }
 
-/// 1-based column of `name` in the file's header (for error messages).
-fn header_column(path: &Path, name: &str) -> Option<usize> {
-    let f = std::fs::File::open(path).ok()?;
-    for line in std::io::BufReader::new(f).lines() {
-        let line = line.ok()?;
-        let t = line.trim().trim_start_matches('\u{feff}');
-        if t.is_empty() || t.starts_with('#') {
-            continue;
-        }
-        return t
-            .split(',')
-            .position(|c| kinecal::io::csv::column_name(c) == name)
-            .map(|i| i + 1);
+fn from_files_with_joints<const N: usize>(
+    robot_path: &Path,
+    data_path: &Path,
+    units: &UnitArgs,
+    out: Option<&Path>,
+) -> anyhow::Result<FramesReport> {
+    let (file, robot): (RobotFile, Robot<f64, N, VCAP>) = load_robot::<N>(robot_path)?;
+    let data = crate::formats::loading::load_sweeps(data_path, units, &robot)?;
+    let mut found = find(&file, &robot, &data, &Origin::file(data_path))?;
+    if let Some(out) = out {
+        found.framed.save(out)?;
+        found.report.out = Some(out.display().to_string());
     }
-    None
+    Ok(found.report)
 }
 
-fn group<const N: usize>(path: &Path, data: &Dataset<N>) -> anyhow::Result<SweepSet<N>> {
-    let origin = path.display();
+fn group<const N: usize>(origin: &Origin, data: &Dataset<N>) -> anyhow::Result<SweepSet<N>> {
     match SweepSet::from_dataset(data) {
         Ok(Some(s)) => Ok(s),
         Ok(None) => crate::refuse!(
             "{origin}:1:1: no `{SWEEP_COLUMN}` column (the joint swept on each row, 1 to {N})"
         ),
         Err(bad) => {
-            let col = header_column(path, SWEEP_COLUMN).unwrap_or(1);
+            let col = origin.column(SWEEP_COLUMN).unwrap_or(1);
             crate::refuse!(
                 "{origin}:{}:{col}: `{SWEEP_COLUMN}` must name a joint 1 to {N}, got {}",
                 bad.line,
@@ -185,16 +187,26 @@ fn judge(joint: usize, a: &JointAxis<f64>, warnings: &mut Vec<String>) {
     }
 }
 
-fn find_with_joints<const N: usize>(
-    robot_path: &Path,
-    data_path: &Path,
-    units: &UnitArgs,
-    out: Option<&Path>,
-) -> anyhow::Result<FramesReport> {
-    let (file, robot): (RobotFile, Robot<f64, N, VCAP>) = load_robot::<N>(robot_path)?;
-    let data = crate::formats::loading::load_sweeps(data_path, units, &robot)?;
-    let sweeps = group(data_path, &data)?;
-    let origin = data_path.display();
+/// What [`find`] found: the report (`out` unset) and the robot file with `[base]` set to the
+/// pose found (what `--out` writes).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Found {
+    pub report: FramesReport,
+    pub framed: RobotFile,
+}
+
+/// Finds the base frame and the tool distances from the sweeps `data` (in mm and degrees,
+/// through the sweeps door of [`crate::formats::loading`]; named by `origin` in messages)
+/// for the robot file `file` and its model `robot` (its base is ignored). Doubtful sweeps are
+/// warnings in the report; sweeps the method cannot use are refused (exit 2).
+pub fn find<const N: usize>(
+    file: &RobotFile,
+    robot: &Robot<f64, N, VCAP>,
+    data: &Dataset<N>,
+    origin: &Origin,
+) -> anyhow::Result<Found> {
+    let sweeps = group(origin, data)?;
+
     let mut warnings = Vec::new();
     let mut notes: Vec<String> = Vec::new();
     let mut circles = Vec::new();
@@ -219,7 +231,7 @@ fn find_with_joints<const N: usize>(
     let (Some(s1), Some(s2)) = (sweeps.get(0), sweeps.get(1)) else {
         crate::refuse!("{origin}: the base frame needs a sweep of joint 1 and one of joint 2 (column `{SWEEP_COLUMN}`)");
     };
-    let base = base_from_sweeps(&robot, &s1, &s2).map_err(|e| {
+    let base = base_from_sweeps(robot, &s1, &s2).map_err(|e| {
         explain(
             e,
             &format!("{origin}: base frame from the sweeps of joints 1 and 2"),
@@ -231,7 +243,7 @@ fn find_with_joints<const N: usize>(
 
     let tool: Option<ToolEstimate<f64>> = match sweeps.get(N - 2) {
         Some(w) => Some(
-            tool_from_sweeps(&robot, &w, sweeps.get(N - 1).as_ref()).map_err(|e| {
+            tool_from_sweeps(robot, &w, sweeps.get(N - 1).as_ref()).map_err(|e| {
                 explain(
                     e,
                     &format!(
@@ -297,16 +309,13 @@ fn find_with_joints<const N: usize>(
         });
     }
 
-    if let Some(out) = out {
-        let mut f = file.clone();
-        f.base = Some(BaseSpec {
-            xyz_mm: xyz,
-            rpy_deg: rpy,
-        });
-        f.save(out)?;
-    }
+    let mut framed = file.clone();
+    framed.base = Some(BaseSpec {
+        xyz_mm: xyz,
+        rpy_deg: rpy,
+    });
 
-    Ok(FramesReport {
+    let report = FramesReport {
         robot: file.name.clone(),
         base: FrameReport {
             xyz_mm: xyz,
@@ -327,6 +336,7 @@ fn find_with_joints<const N: usize>(
             .to_degrees(),
         warnings,
         notes,
-        out: out.map(|p| p.display().to_string()),
-    })
+        out: None,
+    };
+    Ok(Found { report, framed })
 }

@@ -3,5 +3,6 @@
 //! Jost et al. 2017 ([`study`]) and its figure.
 
 pub mod design;
+pub mod request;
 pub mod study;
 pub mod study_figure;

@@ -1,7 +1,9 @@
 //! The report of `kinecal check`.
 
 use super::{plain_report, FrameReport};
+use crate::calibration::check::Checked;
 use crate::calibration::coupling_hint::CouplingHint;
+use crate::formats::robot_file::RobotFile;
 use crate::output::numfmt::sig;
 use serde::Serialize;
 use std::fmt;
@@ -40,6 +42,34 @@ pub struct CheckReport {
     /// The joint limits the robot file states (degrees), per joint (text only).
     #[serde(skip)]
     pub limits_deg: Vec<Option<[f64; 2]>>,
+}
+
+impl CheckReport {
+    /// The report of `c`, what [`crate::calibration::check::check`] found for the robot file
+    /// `file` (named `robot`) and the measurement set named `data`.
+    pub fn of(c: &Checked, file: &RobotFile, robot: &str, data: &str) -> Self {
+        Self {
+            robot: robot.to_string(),
+            data: data.to_string(),
+            name: file.name.clone(),
+            joints: c.joints,
+            poses: c.poses,
+            extra_columns: c.extra_columns.clone(),
+            joint_ranges_deg: c.joint_ranges_deg.clone(),
+            outside_limits: c.outside_limits,
+            base_fitted: c.base_fitted,
+            base: FrameReport {
+                xyz_mm: c.base_xyz_mm,
+                rpy_deg: c.base_rpy_deg,
+            },
+            tool_started_mm: c.tool_started_mm,
+            nominal_rms_mm: c.nominal.rms_mm,
+            nominal_mean_mm: c.nominal.mean_mm,
+            nominal_max_mm: c.nominal.max_mm,
+            coupling_hint: c.coupling_hint.as_ref().map(CouplingHintReport::from),
+            limits_deg: file.joints.iter().map(|j| j.limits_deg).collect(),
+        }
+    }
 }
 
 /// The `coupling_hint` object.

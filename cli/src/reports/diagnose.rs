@@ -3,6 +3,7 @@
 use crate::calibration::Residuals;
 use crate::diagnose::candidates::CandidateKind;
 use crate::diagnose::explain::{explain, Explanation};
+use crate::diagnose::workflow::{Diagnosed, Holdout};
 use crate::diagnose::{distinct_figures, floor_phrase, percent, Diagnosis, NoiseSource};
 use crate::output::numfmt::sig;
 use crate::reports::identify::{ObservationSummary, PointResiduals};
@@ -185,7 +186,49 @@ pub struct HoldoutReport {
     pub noise_floor_capped: bool,
 }
 
+impl From<&Holdout> for HoldoutReport {
+    fn from(h: &Holdout) -> Self {
+        Self {
+            poses: h.poses,
+            start_rms_mm: h.start_rms_mm,
+            geometric_rms_mm: h.geometric_rms_mm,
+            final_rms_mm: h.final_rms_mm,
+            noise_floor_capped: h.noise_floor_capped,
+        }
+    }
+}
+
 impl DiagnoseReport {
+    /// The report of the workflow's result `w` ([`crate::diagnose::workflow::run`]) with
+    /// `--stall-rms-mm` `stall_rms_mm`: the findings explained on the searched poses, the
+    /// held-out errors and their verdict, the fit to all observations; nothing written.
+    pub fn of_workflow<const N: usize>(w: &Diagnosed<N>, stall_rms_mm: f64) -> Self {
+        let d = &w.diagnosis;
+        let mut report = Self::with_stall_limit(d, stall_rms_mm).with_explanations(d, &w.search);
+        report.acceptance = w.acceptance.clone();
+        report.held_out_worse = w.acceptance.as_ref().map(|a| a.held_out_worse);
+        report.holdout = w.holdout.as_ref().map(HoldoutReport::from);
+        report.poses = w.search.len();
+        report.observations = w.all_observations.as_ref().map(|a| ObservationsReport {
+            summary: ObservationSummary::new(
+                &a.observed,
+                a.observations,
+                a.deg_weight_mm,
+                &a.fit.weighting,
+            ),
+            before: a.before,
+            after: a.after,
+            per_point: PointResiduals::per_point(
+                &a.observed.names,
+                (&a.fit.geometric, &a.fit.model),
+                (&a.fit.weighted, &a.held),
+            ),
+            unidentifiable: a.fit.unidentifiable.clone(),
+            chi2_per_dof: a.fit.chi2_per_dof,
+        });
+        report
+    }
+
     /// The report of `d`, judged with the default `--stall-rms-mm`
     /// ([`DEFAULT_STALL_RMS_MM`]); no held-out poses, nothing written.
     pub fn of<const N: usize>(d: &Diagnosis<N>) -> Self {
@@ -308,8 +351,7 @@ impl DiagnoseReport {
             geometry_seconds: d.geometry_seconds,
             seconds: d.seconds,
             poses: d.folds.of.len(),
-            converged: d.baseline_validation_rms_mm.is_finite()
-                && d.baseline_validation_rms_mm <= stall_rms_mm,
+            converged: crate::diagnose::workflow::geometry_fits(d, stall_rms_mm),
             holdout: None,
             held_out_worse: None,
             acceptance: None,

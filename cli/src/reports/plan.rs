@@ -1,6 +1,7 @@
 //! The report of `kinecal plan`.
 
 use super::plain_report;
+use crate::plan::request::{Planned, Request};
 use serde::Serialize;
 use std::fmt;
 
@@ -58,6 +59,38 @@ impl From<[f64; 5]> for Observability {
     fn from(o: [f64; 5]) -> Self {
         let [o1, o2, o3, o4, o5] = o;
         Self { o1, o2, o3, o4, o5 }
+    }
+}
+
+impl PlanReport {
+    /// The report of the plan `p` made for `req`, its poses written to `out`.
+    pub fn of<const N: usize>(p: &Planned<N>, req: &Request, out: &str) -> Self {
+        let ev = &p.plan.evaluation;
+        Self {
+            criterion: req.criterion.name().to_string(),
+            poses: p.poses.len(),
+            kpi_trace_mm2: ev.kpi_trace_mm2,
+            tool_std_mm: ev.tool_std_mm.clone(),
+            min_clearance_mm: p.min_clearance_mm,
+            colliding_poses: p.colliding_poses,
+            max_incidence_deg: p.max_incidence_deg,
+            noise_mm: p.noise_mm,
+            criteria: Criteria {
+                a: ev.a,
+                d: ev.d,
+                e: ev.e,
+            },
+            observability: ev.o.into(),
+            identifiable_directions: ev.rank,
+            estimate: p.estimate.clone(),
+            collision_avoidance: req.collisions,
+            pool: p.plan.pool_size,
+            draws: p.plan.draws,
+            exchange_passes: p.plan.passes,
+            exchanges: p.plan.exchanges,
+            seconds: p.seconds,
+            out: out.to_string(),
+        }
     }
 }
 

@@ -1,6 +1,8 @@
 //! The report of `kinecal simulate`.
 
 use super::plain_report;
+use crate::formats::robot_file::THERMAL;
+use crate::simulation::request::{Request, Simulated};
 use serde::Serialize;
 use std::fmt;
 
@@ -29,6 +31,44 @@ pub struct SimulatedEffect {
     pub joint: usize,
     pub values: Vec<f64>,
     pub order: u16,
+}
+
+impl SimulateReport {
+    /// The report of the simulation `s` of `req` for a robot file with or without `[base]`
+    /// (`base_known`): `poses` rows written to `out`, the true model to `truth`.
+    pub fn of<const N: usize>(
+        s: &Simulated<N>,
+        req: &Request,
+        base_known: bool,
+        poses: usize,
+        (out, truth): (&str, Option<&str>),
+    ) -> Self {
+        Self {
+            poses,
+            seed: req.seed,
+            out: out.to_string(),
+            truth: truth.map(str::to_string),
+            joints: N,
+            noise_mm: req.noise_mm,
+            geom_errors: req.geom_errors,
+            effects: s
+                .effects
+                .iter()
+                .map(|e| SimulatedEffect {
+                    effect: e.kind.clone(),
+                    joint: if e.kind == THERMAL { 0 } else { e.joint + 1 },
+                    values: e.values.clone(),
+                    order: e.order,
+                })
+                .collect(),
+            base: if base_known {
+                "file"
+            } else {
+                "identity (robot file has no [base])"
+            }
+            .to_string(),
+        }
+    }
 }
 
 plain_report!(SimulateReport);

@@ -6,6 +6,7 @@
 //! gives three independent Xoshiro streams (configurations, errors, noise), so switching
 //! `--geom-errors` or the noise level does not change the poses.
 
+pub mod request;
 pub mod sweeps;
 
 use crate::formats::measurements::{quantize_deg, Dataset, Record};

@@ -1,0 +1,134 @@
+//! The application of `kinecal check`: how far a robot file's nominal model is from a
+//! measurement set (already read and in mm and degrees), what the set covers, and a missing
+//! `[[couplings]]` entry that would explain it (docs/formats.md, docs/walkthrough.md).
+//!
+//! When the robot file has no `[base]`, the base pose is first fitted by point-set
+//! registration ([`crate::compute::registration::fit_rigid`], Kabsch without scale) of the
+//! nominal points to the measured ones: the best rigid placement of the nominal robot, which
+//! is also how `identify` starts.
+
+use crate::calibration::coupling_hint::{self, CouplingHint};
+use crate::calibration::{pose_errors, ErrorStats};
+use crate::formats::measurements::Dataset;
+use crate::formats::observations::{observe, ObservationArgs};
+use crate::formats::robot_file::RobotFile;
+use crate::VCAP;
+use anyhow::anyhow;
+use kinecal::Robot;
+
+/// What [`check`] found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Checked {
+    pub joints: usize,
+    pub poses: usize,
+    /// Columns carried along without a fixed meaning ([`carried_columns`]).
+    pub extra_columns: Vec<String>,
+    /// Per joint, the lowest and highest reading (degrees).
+    pub joint_ranges_deg: Vec<[f64; 2]>,
+    /// Poses with a reading outside the joint limits the robot file states.
+    pub outside_limits: usize,
+    /// The robot file has no `[base]`: the base was fitted to the data.
+    pub base_fitted: bool,
+    /// The base pose the nominal error is with: position (mm), fixed-axis roll, pitch, yaw
+    /// (degrees).
+    pub base_xyz_mm: [f64; 3],
+    pub base_rpy_deg: [f64; 3],
+    /// The tool point started from the data, when the robot file gives it as unknown.
+    pub tool_started_mm: Option<[f64; 3]>,
+    /// The nominal model's position errors.
+    pub nominal: ErrorStats,
+    /// A `[[couplings]]` entry that would explain the data far better (robot files without
+    /// couplings only); the command line prints its message.
+    pub coupling_hint: Option<CouplingHint>,
+}
+
+/// Checks the measurement set `ds` (named `data_origin` in messages; in mm and degrees, through
+/// the doors of [`crate::formats::loading`]) against the robot file `file` and its model
+/// `robot`. Refuses (exit 2) an empty set.
+pub fn check<const N: usize>(
+    file: &RobotFile,
+    mut robot: Robot<f64, N, VCAP>,
+    ds: &Dataset<N>,
+    data_origin: &str,
+) -> anyhow::Result<Checked> {
+    if ds.is_empty() {
+        crate::refuse!("{data_origin}: no measurements after the header");
+    }
+    // Several reflectors: every point seen, each against its own tool point.
+    let meas = observe(ds, file, &ObservationArgs::default(), data_origin)?.all();
+    // Only limits the robot file states are checked: without them nothing is known to violate.
+    let stated: Vec<(usize, [f64; 2])> = file
+        .joints
+        .iter()
+        .enumerate()
+        .filter_map(|(i, j)| j.limits_deg.map(|l| (i, l)))
+        .collect();
+    let outside = ds
+        .records
+        .iter()
+        .filter(|r| {
+            stated
+                .iter()
+                .any(|(i, [lo, hi])| !(r.q_deg[*i] >= *lo && r.q_deg[*i] <= *hi))
+        })
+        .count();
+    let fitted = !file.base_known();
+    // No [base]: fitted by registration; a tool point the file says is unknown: started from
+    // the data (crate::compute::tool_start), so the nominal RMS is the geometry's.
+    crate::compute::tool_start::place(&mut robot, &meas, fitted, file.tool_unknown())
+        .map_err(|e| anyhow!("{data_origin}: {e}"))?;
+    let stats = ErrorStats::of(&pose_errors(&robot, &meas))
+        .ok_or_else(|| anyhow!("{data_origin}: no measurements"))?;
+    let b = robot.base();
+    // A missing [[couplings]] entry that explains the data (robot files without couplings).
+    let hint = if file.couplings.is_empty() {
+        file.to_robot::<N>()
+            .ok()
+            .and_then(|r| coupling_hint::detect(&r, &meas, !file.base_known(), file.tool_unknown()))
+    } else {
+        None
+    };
+    Ok(Checked {
+        joints: N,
+        poses: ds.len(),
+        extra_columns: carried_columns(&ds.extra_names, &file.tool_names()),
+        joint_ranges_deg: ds
+            .joint_ranges_deg()
+            .iter()
+            .map(|(lo, hi)| [*lo, *hi])
+            .collect(),
+        outside_limits: outside,
+        base_fitted: fitted,
+        base_xyz_mm: [b.o.x, b.o.y, b.o.z],
+        base_rpy_deg: b.rpy().map(f64::to_degrees),
+        tool_started_mm: file.tool_unknown().then(|| {
+            let t = robot.tool();
+            [t.x, t.y, t.z]
+        }),
+        nominal: stats,
+        coupling_hint: hint,
+    })
+}
+
+/// Columns with a fixed meaning (docs/formats.md, "Observations"): orientations, stated σ
+/// and the named reflectors' points are read, not carried along.
+const READ_COLUMNS: [&str; 10] = [
+    "rx_deg", "ry_deg", "rz_deg", "sx_mm", "sy_mm", "sz_mm", "srot_deg", "srx_deg", "sry_deg",
+    "srz_deg",
+];
+
+/// The columns of the file that kinecal carries along without reading them (`temp_c`, a
+/// timestamp…): every column but the joints, the point and [`READ_COLUMNS`], and but `x_NAME`,
+/// `y_NAME`, `z_NAME` of the robot file's reflectors `tools`.
+pub fn carried_columns(extra: &[String], tools: &[String]) -> Vec<String> {
+    let reflector = |c: &str| {
+        tools
+            .iter()
+            .any(|t| ["x_", "y_", "z_"].iter().any(|p| c == format!("{p}{t}")))
+    };
+    extra
+        .iter()
+        .filter(|c| !READ_COLUMNS.contains(&c.as_str()) && !reflector(c))
+        .cloned()
+        .collect()
+}

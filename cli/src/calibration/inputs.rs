@@ -1,0 +1,97 @@
+//! What identification and the discrepancy workflow start from: the held-out poses
+//! (`--holdout`, `--split`), the refusal of a set without poses, and the nominal robot placed
+//! where identification starts. The command line's `identify`, `diagnose` and `report` and the
+//! Python package use the same functions ([`crate::commands::inputs`] re-exports them).
+
+/// `rows` when there is at least one; a file with a header and no rows is refused (exit 2)
+/// naming it, wherever a command reads measurements.
+pub fn some_rows<T>(rows: Vec<T>, path: &std::path::Path) -> anyhow::Result<Vec<T>> {
+    any_rows(&rows, path)?;
+    Ok(rows)
+}
+
+/// The refusal of [`some_rows`] without taking (or copying) the rows.
+pub fn any_rows<T>(rows: &[T], path: &std::path::Path) -> anyhow::Result<()> {
+    if rows.is_empty() {
+        crate::refuse!(
+            "{}: no measurement rows (only a header?): give a file with measured poses",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
+/// `--holdout F` and `--split last|random|every:K`: which poses of the data file are kept out
+/// of the fit (`--seed` of the command picks the random ones).
+#[derive(clap::Args, Debug, Clone, Copy, PartialEq, Default)]
+pub struct HoldoutArgs {
+    /// Hold out poses for validation: a fraction (< 1) or a count (≥ 1), chosen by --split.
+    #[arg(long, conflicts_with = "validate", allow_hyphen_values = true)]
+    pub holdout: Option<f64>,
+    /// Which poses --holdout keeps out: `last` (the last ones of the file), `random` (by
+    /// --seed) or `every:K` (every K-th pose; needs no --holdout).
+    #[arg(long, default_value = "last", conflicts_with = "validate")]
+    pub split: crate::calibration::SplitKind,
+}
+
+impl HoldoutArgs {
+    /// Whether any pose of the data file is held out.
+    pub fn holds_out(&self) -> bool {
+        self.holdout.is_some() || matches!(self.split, crate::calibration::SplitKind::Every(_))
+    }
+
+    /// The held-out poses in words (`the last 316 poses`, `every 5th pose`, `316 random poses`).
+    pub fn describe(&self, held: usize) -> String {
+        use crate::calibration::SplitKind;
+        match self.split {
+            SplitKind::Last => format!("the last {held} poses"),
+            SplitKind::Random => format!("{held} poses chosen at random"),
+            SplitKind::Every(k) => format!("every {k}th pose ({held} poses)"),
+        }
+    }
+}
+
+/// Identification and held-out poses: all of `all` against the `validate` file's poses, or
+/// `all` split by `holdout` (`--holdout`, `--split`, and the command's seed), or all and none;
+/// each set with its own observation list (the identification set's is `all`'s, compacted in
+/// place).
+pub fn split_sets<const N: usize>(
+    all: crate::formats::observations::Observed<N>,
+    validate: Option<crate::formats::observations::Observed<N>>,
+    (holdout, seed): (&HoldoutArgs, u64),
+) -> anyhow::Result<(
+    crate::formats::observations::Observed<N>,
+    crate::formats::observations::Observed<N>,
+)> {
+    if let Some(v) = validate {
+        return Ok((all, v));
+    }
+    let mask =
+        crate::calibration::held_out_mask(all.poses.len(), holdout.holdout, holdout.split, seed)?;
+    Ok(all.split(&mask))
+}
+
+/// Places the nominal robot where identification starts: its base fitted to the
+/// identification observations (point-set registration) when the robot file has no `[base]`,
+/// and for 6-D data without `[tool] rpy_deg` the measured frame's orientation started from the
+/// data; a tool point the file says is unknown is started from the data too
+/// ([`crate::compute::tool_start`]). Returns whether the tool orientation was unknown.
+pub fn place_nominal<const N: usize>(
+    nominal: &mut kinecal::Robot<f64, N, { crate::VCAP }>,
+    file: &crate::formats::robot_file::RobotFile,
+    ident: &[kinecal::Measurement<f64, N>],
+    six_d: bool,
+) -> anyhow::Result<bool> {
+    use anyhow::Context;
+    crate::compute::tool_start::place(nominal, ident, !file.base_known(), file.tool_unknown())
+        .context("estimating the base pose and the unknown tool point")?;
+    let tool_axes_unknown = six_d && file.tool.rpy_deg.is_none();
+    if tool_axes_unknown {
+        if let Some(axes) = crate::compute::registration::fit_tool_axes(nominal, ident) {
+            nominal
+                .set_tool_axes(axes)
+                .map_err(|e| anyhow::anyhow!("estimated tool orientation is invalid: {e:?}"))?;
+        }
+    }
+    Ok(tool_axes_unknown)
+}

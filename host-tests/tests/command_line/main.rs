@@ -25,6 +25,7 @@ mod reports;
 mod robot_file;
 mod units;
 mod unknown_tool;
+mod ur10_distances;
 mod urdf;
 mod urdf_tracker_frame;
 mod vendor_files;

@@ -1,5 +1,20 @@
-//! Helpers shared by the fuzz targets: value generators, the fault-injecting reader, reference
+//! The fuzz targets' bodies and the helpers they share: value generators, the fault-injecting reader, reference
 //! robots, known-issue gates and invariant assertions.
+
+// The targets, one module each: `run(data)` takes one input and asserts the target's invariants.
+// The cargo-fuzz binaries in fuzz_targets/ call them; host-tests/tests/library/fuzz_corpus.rs
+// replays the committed corpus and regressions through them with the stable toolchain.
+pub mod compensation;
+pub mod construction;
+pub mod csv_reader;
+pub mod decimal;
+pub mod kinematics;
+pub mod measurement_file;
+pub mod model_blob;
+pub mod robot_file;
+pub mod snapshots;
+pub mod steppers;
+pub mod urdf;
 
 use arbitrary::{Arbitrary, Unstructured};
 use kinecal::{Frame, Joint, Robot};
@@ -24,7 +39,6 @@ pub fn skip(name: &str) -> bool {
 }
 
 /// Asserts an invariant with its name (the name is what the report and the regressions use).
-#[macro_export]
 macro_rules! invariant {
     ($name:expr, $cond:expr $(,)?) => {
         if !$cond {
@@ -37,6 +51,7 @@ macro_rules! invariant {
         }
     };
 }
+pub(crate) use invariant;
 
 /// Extreme and special values the generators mix in.
 pub const SPECIAL: [f64; 16] = [
@@ -117,7 +132,11 @@ impl FaultPlan {
         let persistent = u16::from_le_bytes([g(2), g(3)]);
         FaultPlan {
             max_chunk: 1 + (g(0) as usize % 64),
-            transient_every: if transient < 128 { 0 } else { (transient - 126) as u32 },
+            transient_every: if transient < 128 {
+                0
+            } else {
+                (transient - 126) as u32
+            },
             fail_after: if persistent >= 0x8000 {
                 Some((persistent - 0x8000) as usize)
             } else {
@@ -179,10 +198,6 @@ impl<'a> FaultReader<'a> {
             persistent_injected: Default::default(),
         }
     }
-    /// Bytes delivered so far.
-    pub fn delivered(&self) -> usize {
-        self.pos
-    }
 }
 
 impl embedded_io::ErrorType for FaultReader<'_> {
@@ -197,7 +212,8 @@ impl embedded_io::Read for FaultReader<'_> {
         self.calls = self.calls.wrapping_add(1);
         if let Some(n) = self.plan.fail_after {
             if n < self.data.len() && self.pos >= n {
-                self.persistent_injected.set(self.persistent_injected.get() + 1);
+                self.persistent_injected
+                    .set(self.persistent_injected.get() + 1);
                 return Err(InjectedError);
             }
         }
@@ -206,7 +222,9 @@ impl embedded_io::Read for FaultReader<'_> {
             return Err(InjectedError);
         }
         let k = 1 + xorshift(&mut self.rng) as usize % self.plan.max_chunk;
-        let mut end = (self.pos + k).min(self.data.len()).min(self.pos + buf.len());
+        let mut end = (self.pos + k)
+            .min(self.data.len())
+            .min(self.pos + buf.len());
         if let Some(n) = self.plan.fail_after {
             if n > self.pos {
                 end = end.min(n);
@@ -328,9 +346,14 @@ pub fn simulate<const N: usize, const V: usize>(
 ) -> Vec<kinecal::Measurement<f64, N>> {
     (0..n)
         .map(|k| {
-            let q: [f64; N] =
-                std::array::from_fn(|j| ((k * 7 + j * 3) % 11) as f64 * 0.37 - 1.8 + 0.01 * j as f64);
-            kinecal::Measurement { q, point: kinecal::forward::point(robot, &q), ..Default::default() }
+            let q: [f64; N] = std::array::from_fn(|j| {
+                ((k * 7 + j * 3) % 11) as f64 * 0.37 - 1.8 + 0.01 * j as f64
+            });
+            kinecal::Measurement {
+                q,
+                point: kinecal::forward::point(robot, &q),
+                ..Default::default()
+            }
         })
         .collect()
 }

@@ -9,6 +9,7 @@ mod bpnn;
 mod c_abi;
 mod compensate;
 mod csv_parse;
+mod fuzz_corpus;
 mod hardening;
 mod lm;
 mod lm_pass;

@@ -9,8 +9,8 @@ use crate::robot::{model, Robot};
 use crate::{error, py_err, refused};
 use clap::Parser;
 use kinecal_cli::calibration::check::check as check_set;
+use kinecal_cli::calibration::identify::{identify, Identified, Inputs};
 use kinecal_cli::commands::identify as identify_cmd;
-use kinecal_cli::commands::identify::{Identified, Inputs};
 use kinecal_cli::commands::{non_finite_error, Cli, Command};
 use kinecal_cli::diagnose::workflow;
 use kinecal_cli::formats::loading::accept_dataset;
@@ -142,7 +142,7 @@ fn identify_n<const N: usize>(
         data_origin: "data".into(),
         validate,
     };
-    identify_cmd::identify(args, inputs).map_err(py_err)
+    identify(&args.options(), inputs).map_err(py_err)
 }
 
 /// `kinecal identify` on arrays: `argv` holds the options as on the command line (`identify

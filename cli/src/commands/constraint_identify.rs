@@ -2,7 +2,8 @@
 //! ([`crate::constraints::fit`]), judged on held-out groups (`--holdout` holds out whole groups by the rule
 //! and seed of identify's poses; `--validate` reads a second constraint file).
 
-use super::identify::{hold_first_row, Args};
+use super::identify::Args;
+use crate::calibration::identify::hold_first_row;
 use crate::calibration::method::Method;
 use crate::calibration::selection::Selection;
 use crate::calibration::{named_values, Residuals};

@@ -33,24 +33,6 @@ impl InputArgs {
     }
 }
 
-/// The identification and held-out observations of the data file (and `--validate` file or
-/// `--holdout` split), as `identify` fits them and `report` judges them.
-pub struct Split<const N: usize> {
-    /// What the data file observes (names, 6-D, σ); its poses are those of `ident_set` and
-    /// `valid_set`.
-    pub observed: crate::formats::observations::Observed<N>,
-    pub ident: Vec<kinecal::Measurement<f64, N>>,
-    pub valid: Vec<kinecal::Measurement<f64, N>>,
-    pub ident_poses: usize,
-    pub valid_poses: usize,
-    /// The pose of each identification observation.
-    pub pose_of: Vec<usize>,
-    /// The identification and held-out poses themselves (held out: of the `--validate` file
-    /// when there is one), each with its line in its file: ranges into `ident` and `valid`.
-    pub ident_set: Vec<crate::formats::observations::Pose>,
-    pub valid_set: Vec<crate::formats::observations::Pose>,
-}
-
 /// Loads the data (and `validate`) in the units of `input` and splits them: the validation
 /// file's poses are held out, or those `holdout` chooses; refuses (exit 2) empty files and a
 /// split that leaves nothing to identify from.
@@ -61,7 +43,7 @@ pub fn load_split<const N: usize>(
     obs: &crate::formats::observations::ObservationArgs,
     validate: Option<&std::path::Path>,
     holdout: (&HoldoutArgs, u64),
-) -> anyhow::Result<Split<N>> {
+) -> anyhow::Result<crate::calibration::inputs::Split<N>> {
     use crate::formats::observations::{observe, Observed};
     let load = |p: &std::path::Path| -> anyhow::Result<Observed<N>> {
         let ds = crate::formats::loading::load_measurements(
@@ -78,48 +60,10 @@ pub fn load_split<const N: usize>(
         Some(v) => Some((load(v)?, v.display().to_string())),
         None => None,
     };
-    split_observed(
+    crate::calibration::inputs::split_observed(
         observed,
         validate,
         holdout,
         &input.data.display().to_string(),
     )
-}
-
-/// Splits the poses of `observed` (named `data_origin` in messages): `validate`'s poses are
-/// held out, or those `holdout` chooses (with the command's seed); refuses (exit 2) empty
-/// data and a split that leaves nothing to identify from.
-pub fn split_observed<const N: usize>(
-    observed: crate::formats::observations::Observed<N>,
-    validate: Option<(crate::formats::observations::Observed<N>, String)>,
-    holdout: (&HoldoutArgs, u64),
-    data_origin: &str,
-) -> anyhow::Result<Split<N>> {
-    use crate::formats::observations::pose_of;
-    any_rows(&observed.poses, std::path::Path::new(data_origin))?;
-    let validate = match validate {
-        Some((v, origin)) => {
-            any_rows(&v.poses, std::path::Path::new(&origin))?;
-            Some(v)
-        }
-        None => None,
-    };
-    let kind = observed.kind();
-    let (ident_set, valid_set) = split_sets(observed, validate, holdout)?;
-    let (ident_poses, valid_poses) = (ident_set.poses.len(), valid_set.poses.len());
-    let pose_of = pose_of(&ident_set.poses);
-    let (ident, valid) = (ident_set.measurements, valid_set.measurements);
-    if ident.is_empty() {
-        crate::refuse!("{data_origin}: --holdout leaves no poses to identify from: hold out fewer");
-    }
-    Ok(Split {
-        observed: kind,
-        ident,
-        valid,
-        ident_poses,
-        valid_poses,
-        pose_of,
-        ident_set: ident_set.poses,
-        valid_set: valid_set.poses,
-    })
 }

@@ -2,4 +2,5 @@
 //! benchmarks and scripts that hold the library and the command line to it.
 
 pub mod c_abi;
+pub mod constraint_reference;
 pub mod reference;

@@ -8,6 +8,7 @@ mod atomic_out;
 mod cartesian;
 mod cli_check_simulate;
 mod cli_hardening;
+mod constraint_reference;
 mod constraints;
 mod couplings;
 mod csv_hardening;

@@ -6,7 +6,7 @@ use super::identify::Args;
 use crate::calibration::identify::hold_first_row;
 use crate::calibration::method::Method;
 use crate::calibration::selection::Selection;
-use crate::calibration::{named_values, Residuals};
+use crate::calibration::{add_effect, named_values, Residuals};
 use crate::constraints::read::{self, Group, Kind, Session};
 use crate::constraints::report::{
     ConstraintIdentifyReport, Constraints, FittedPlane, FittedSocket, KindSummary,
@@ -26,16 +26,14 @@ pub fn run(args: &Args) -> anyhow::Result<ConstraintIdentifyReport> {
 }
 
 fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintIdentifyReport> {
-    let (file, nominal) = load_robot::<N>(&args.input.robot)?;
+    let (file, mut nominal) = load_robot::<N>(&args.input.robot)?;
     if args.method != Method::Lm {
         crate::refuse!(
             "a constraint file (kind column) is fitted with --method lm only: leave --method out"
         );
     }
-    if !args.effects.is_empty() || args.residuals.is_some() {
-        crate::refuse!(
-            "--effect and --residuals are not available on constraint files yet: leave them out"
-        );
+    if args.residuals.is_some() {
+        crate::refuse!("--residuals is not available on constraint files yet: leave it out");
     }
     let tools = file.tool_names();
     let session = read::load::<N>(&args.input.data, &args.input.units, &tools)?;
@@ -61,7 +59,8 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintIden
         groups: ident.clone(),
     };
     let base_unknown = !(file.base_known() && ident_session.has_points());
-    let params = parameters(&nominal, &file, args, base_unknown)?;
+    let extra = add_effects(&mut nominal, &args.effects, &ident)?;
+    let params = parameters(&nominal, &file, args, base_unknown, &extra)?;
     let t0 = Instant::now();
     let fitted = crate::constraints::fit::fit(&nominal, &ident, &params)?;
     let seconds = t0.elapsed().as_secs_f64();
@@ -157,14 +156,46 @@ fn split<const N: usize>(
     Ok((ident, valid))
 }
 
+/// The `--effect` requests added to `nominal` with zero values, each table or cyclic term over
+/// the joint range of the identification rows; returns the parameters that are not effect
+/// values (an axis tilt's). A constraint file carries no temperatures: thermal expansion is
+/// refused.
+fn add_effects<const N: usize>(
+    nominal: &mut Robot<f64, N, VCAP>,
+    requests: &[crate::calibration::EffectRequest],
+    ident: &[Group<N>],
+) -> anyhow::Result<Vec<Param>> {
+    let rows = measurements(ident);
+    let mut extra = Vec::new();
+    for req in requests {
+        if req.kind == crate::formats::robot_file::THERMAL {
+            crate::refuse!(
+                "--effect {}: a constraint file has no temp_c column; fit thermal expansion from \
+                 tracker points with temperatures",
+                req.kind
+            );
+        }
+        let range = if req.joint < N {
+            crate::calibration::identify::joint_range(&rows, req.joint)
+        } else {
+            (0.0, 0.0)
+        };
+        extra.extend(add_effect(nominal, req, range)?);
+    }
+    extra.retain(|p| !matches!(p, Param::Effect(_)));
+    Ok(extra)
+}
+
 /// What identify would estimate from positions (the full set, the first row held when the base
-/// is estimated, the file's effects), narrowed by `--fix/--free/--only`. Without tracker points
+/// is estimated, the file's effects and those `--effect` added, `extra`: the tilts it added),
+/// narrowed by `--fix/--free/--only`. Without tracker points
 /// the base is always in the set: the fit finds it undetermined and holds it.
 fn parameters<const N: usize>(
     nominal: &Robot<f64, N, VCAP>,
     file: &RobotFile,
     args: &Args,
     base_unknown: bool,
+    extra: &[Param],
 ) -> anyhow::Result<Vec<Param>> {
     let mut params: Vec<Param> = ParamSet::<64>::full(N, base_unknown)
         .map_err(|e| anyhow::anyhow!("{e:?}"))?
@@ -173,6 +204,13 @@ fn parameters<const N: usize>(
     for t in file.tilt_joints() {
         params.push(Param::Beta(t as u8));
     }
+    params.extend(
+        extra
+            .iter()
+            .filter(|p| !params.contains(p))
+            .copied()
+            .collect::<Vec<_>>(),
+    );
     params.extend((0..nominal.effects().values().len()).map(|k| Param::Effect(k as u16)));
     for k in 1..nominal.tool_point_count() {
         params.extend((0..3).map(|a| Param::ToolPoint(k as u8, a)));

@@ -317,3 +317,87 @@ fn joint_readings_in_radians_are_read_with_angle_unit() {
     );
     assert!((a - b).abs() < 0.05 * a, "calibrated {a} vs {b}");
 }
+
+/// Simulates `spec` of the ER20 with a cyclic error of joint 2 (a = 0.002 rad, b = −0.001 rad:
+/// millimetres at the tool) and no other error; returns the session and the true robot file.
+fn session_with_cyclic_error(dir: &Path, spec: &str, seed: u64) -> (PathBuf, PathBuf) {
+    let (data, truth) = (dir.join("session.csv"), dir.join("truth.toml"));
+    kinecal_ok(&[
+        "simulate",
+        "--robot",
+        s(&data_file("er20.toml")),
+        "--constraints",
+        spec,
+        "--effect",
+        "joint-cyclic:2:0.002,-0.001:1",
+        "--noise-mm",
+        "0.01",
+        "--seed",
+        &seed.to_string(),
+        "--out",
+        s(&data),
+        "--truth",
+        s(&truth),
+    ]);
+    (data, truth)
+}
+
+#[test]
+fn an_effect_requested_on_a_constraint_file_is_estimated_with_the_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, truth) = session_with_cyclic_error(dir.path(), "socket:4x10,distance:40", 7);
+    let (plain, with) = (dir.path().join("plain.toml"), dir.path().join("with.toml"));
+    let v0 = identify(&data, &["--out", s(&plain)]);
+    let v1 = identify(&data, &["--effect", "joint-cyclic:2:1", "--out", s(&with)]);
+    assert_eq!(v1["converged"], true, "{v1}");
+    let estimated = names(&v1["estimated"]);
+    for p in ["joint-cyclic2.n1.a", "joint-cyclic2.n1.b"] {
+        assert!(
+            estimated.contains(&p.to_string()),
+            "{p} not estimated: {estimated:?}"
+        );
+    }
+    let (a, b) = (
+        v1["parameters"]["joint-cyclic2.n1.a"].as_f64().unwrap(),
+        v1["parameters"]["joint-cyclic2.n1.b"].as_f64().unwrap(),
+    );
+    let nominal = tool_point_rms(&data_file("er20.toml"), &truth, false);
+    let (e0, e1) = (
+        tool_point_rms(&plain, &truth, false),
+        tool_point_rms(&with, &truth, false),
+    );
+    eprintln!(
+        "cyclic error of joint 2 from sockets and distances: tool point RMS {nominal} mm \
+         nominal, {e0} mm geometry only, {e1} mm with --effect (a = {a}, b = {b} rad)"
+    );
+    // The geometry alone cannot follow the cyclic term; with it the model reaches the noise.
+    assert!(e1 * 4.0 < e0, "{e1} mm with the effect, {e0} mm without");
+    assert!(e1 < 0.05, "{e1} mm");
+    assert!(
+        (a - 0.002).abs() < 2e-4 && (b + 0.001).abs() < 2e-4,
+        "a = {a}, b = {b}"
+    );
+    let ident = |v: &serde_json::Value| v["after"]["identification_rms_mm"].as_f64().unwrap();
+    assert!(ident(&v1) < ident(&v0), "{v0}\n{v1}");
+}
+
+#[test]
+fn thermal_expansion_on_a_constraint_file_is_refused_with_the_fix() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, _) = session(dir.path(), "socket:4x10", 3);
+    let out = kinecal(&[
+        "identify",
+        "--robot",
+        s(&data_file("er20.toml")),
+        "--data",
+        s(&data),
+        "--effect",
+        "thermal-expansion",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("no temp_c column"),
+        "{}",
+        stderr(&out)
+    );
+}

@@ -17,6 +17,10 @@ use kinecal::model::param::{Param, ParamSet};
 use kinecal::{EffectKind, ForwardKinematics, Frame, Joint, Robot};
 use nalgebra::Vector3;
 
+/// The spread of moderate joint readings (rad): about a turn, as the corpus was generated.
+#[allow(clippy::approx_constant)]
+const TURN: f64 = 6.28;
+
 const N: usize = 6;
 const V: usize = 16;
 
@@ -133,9 +137,9 @@ pub fn run(data: &[u8]) {
     }
     let q: [f64; N] = std::array::from_fn(|_| {
         if moderate_input {
-            near(&mut u, 0.0, 6.28)
+            near(&mut u, 0.0, TURN)
         } else {
-            finite_f64(&mut u, 0.0, 6.28)
+            finite_f64(&mut u, 0.0, TURN)
         }
     });
     if skip("robot-huge") && robot_magnitude(&robot) > 1e100 {

@@ -40,16 +40,19 @@ pub fn skip(name: &str) -> bool {
 
 /// Asserts an invariant with its name (the name is what the report and the regressions use).
 macro_rules! invariant {
-    ($name:expr, $cond:expr $(,)?) => {
-        if !$cond {
+    ($name:expr, $cond:expr $(,)?) => {{
+        // Bound first: `!(a <= b)` is meant (NaN fails the invariant).
+        let held: bool = $cond;
+        if !held {
             panic!("invariant `{}` failed: {}", $name, stringify!($cond));
         }
-    };
-    ($name:expr, $cond:expr, $($fmt:tt)+) => {
-        if !$cond {
+    }};
+    ($name:expr, $cond:expr, $($fmt:tt)+) => {{
+        let held: bool = $cond;
+        if !held {
             panic!("invariant `{}` failed: {}: {}", $name, stringify!($cond), format!($($fmt)+));
         }
-    };
+    }};
 }
 pub(crate) use invariant;
 
@@ -217,7 +220,7 @@ impl embedded_io::Read for FaultReader<'_> {
                 return Err(InjectedError);
             }
         }
-        if self.plan.transient_every != 0 && self.calls % self.plan.transient_every == 0 {
+        if self.plan.transient_every != 0 && self.calls.is_multiple_of(self.plan.transient_every) {
             self.transient_injected += 1;
             return Err(InjectedError);
         }

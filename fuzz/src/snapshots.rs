@@ -178,7 +178,7 @@ pub fn run(data: &[u8]) {
             }
             invariant!(
                 "steps-after-restore",
-                !(p.best_fitness() > best),
+                p.best_fitness().partial_cmp(&best) != Some(std::cmp::Ordering::Greater),
                 "best fitness rose from {best} to {}",
                 p.best_fitness()
             );

@@ -64,11 +64,14 @@ pub fn run(data: &[u8]) {
     let meas = degenerate(&mut u);
     match u.int_in_range(0..=2u8).unwrap_or(0) {
         0 => {
-            let mut cfg = LmConfig::<f64>::default();
-            cfg.max_iterations = u.int_in_range(0..=10u32).unwrap_or(5);
-            cfg.max_analyses = u.int_in_range(0..=3u8).unwrap_or(1);
-            cfg.keep_curvature = u.ratio(1u8, 2).unwrap_or(false);
-            cfg.complete_passes = u.ratio(1u8, 2).unwrap_or(false);
+            // Fields in this order: each draws from the input in turn.
+            let cfg = LmConfig::<f64> {
+                max_iterations: u.int_in_range(0..=10u32).unwrap_or(5),
+                max_analyses: u.int_in_range(0..=3u8).unwrap_or(1),
+                keep_curvature: u.ratio(1u8, 2).unwrap_or(false),
+                complete_passes: u.ratio(1u8, 2).unwrap_or(false),
+                ..Default::default()
+            };
             let base_unknown = u.ratio(1u8, 3).unwrap_or(false);
             let params = ParamSet::<24>::full(N, base_unknown).unwrap();
             let Ok(mut lm) =

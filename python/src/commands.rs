@@ -9,7 +9,7 @@ use crate::robot::{model, Robot};
 use crate::{error, py_err, refused};
 use clap::Parser;
 use kinecal_cli::calibration::check::check as check_set;
-use kinecal_cli::calibration::identify::{identify, Identified, Inputs};
+use kinecal_cli::calibration::identify::{self as identification, Identified, Inputs};
 use kinecal_cli::commands::identify as identify_cmd;
 use kinecal_cli::commands::{non_finite_error, Cli, Command};
 use kinecal_cli::diagnose::workflow;
@@ -142,7 +142,7 @@ fn identify_n<const N: usize>(
         data_origin: "data".into(),
         validate,
     };
-    identify(&args.options(), inputs).map_err(py_err)
+    identification::identify(&args.options(), inputs).map_err(py_err)
 }
 
 /// `kinecal identify` on arrays: `argv` holds the options as on the command line (`identify

@@ -7,7 +7,8 @@
 use crate::common::{data_file, json_of, kinecal, kinecal_ok, s, stderr, write};
 use kinecal::ForwardKinematics;
 use kinecal_cli::formats::robot_file::load_robot;
-use nalgebra::{Matrix3, Vector3};
+use kinecal_host::constraint_reference::aligned_rms;
+use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 
 /// The base pose names `identify` prints.
@@ -18,23 +19,31 @@ const BASE: [&str; 6] = [
 /// Simulates a constraint session `spec` of the ER20 with geometric errors; returns the session
 /// and the true robot file.
 fn session(dir: &Path, spec: &str, seed: u64) -> (PathBuf, PathBuf) {
+    session_of(dir, spec, seed, &["--geom-errors"])
+}
+
+/// Simulates a constraint session `spec` of the ER20 whose errors `errors` gives (simulate's
+/// flags), 0.01 mm noise; returns the session and the true robot file.
+fn session_of(dir: &Path, spec: &str, seed: u64, errors: &[&str]) -> (PathBuf, PathBuf) {
     let (data, truth) = (dir.join("session.csv"), dir.join("truth.toml"));
-    kinecal_ok(&[
+    let (seed, robot) = (seed.to_string(), data_file("er20.toml"));
+    let mut args = vec![
         "simulate",
         "--robot",
-        s(&data_file("er20.toml")),
+        s(&robot),
         "--constraints",
         spec,
-        "--geom-errors",
         "--noise-mm",
         "0.01",
         "--seed",
-        &seed.to_string(),
+        &seed,
         "--out",
         s(&data),
         "--truth",
         s(&truth),
-    ]);
+    ];
+    args.extend_from_slice(errors);
+    kinecal_ok(&args);
     (data, truth)
 }
 
@@ -71,31 +80,7 @@ fn tool_point_rms(model: &Path, truth: &Path, scale: bool) -> f64 {
     let mut fk = ForwardKinematics::<f64, 6>::new();
     let a: Vec<Vector3<f64>> = qs.iter().map(|q| fk.compute(&m, q)).collect();
     let b: Vec<Vector3<f64>> = qs.iter().map(|q| fk.compute(&t, q)).collect();
-    let n = a.len() as f64;
-    let (ca, cb) = (
-        a.iter().sum::<Vector3<f64>>() / n,
-        b.iter().sum::<Vector3<f64>>() / n,
-    );
-    let mut h = Matrix3::zeros();
-    for (pa, pb) in a.iter().zip(&b) {
-        h += (pb - cb) * (pa - ca).transpose();
-    }
-    let svd = h.svd(true, true);
-    let (u, vt) = (svd.u.unwrap(), svd.v_t.unwrap());
-    let d = (u * vt).determinant().signum();
-    let r = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * vt;
-    let k = if scale {
-        let sv = svd.singular_values;
-        (sv[0] + sv[1] + d * sv[2]) / a.iter().map(|p| (p - ca).norm_squared()).sum::<f64>()
-    } else {
-        1.0
-    };
-    let e: f64 = a
-        .iter()
-        .zip(&b)
-        .map(|(pa, pb)| (cb + k * r * (pa - ca) - pb).norm_squared())
-        .sum();
-    (e / n).sqrt()
+    aligned_rms(&a, &b, scale)
 }
 
 /// Parameters `identify` holds on tracker points of the same robot (the model's own
@@ -318,34 +303,17 @@ fn joint_readings_in_radians_are_read_with_angle_unit() {
     assert!((a - b).abs() < 0.05 * a, "calibrated {a} vs {b}");
 }
 
-/// Simulates `spec` of the ER20 with a cyclic error of joint 2 (a = 0.002 rad, b = −0.001 rad:
-/// millimetres at the tool) and no other error; returns the session and the true robot file.
-fn session_with_cyclic_error(dir: &Path, spec: &str, seed: u64) -> (PathBuf, PathBuf) {
-    let (data, truth) = (dir.join("session.csv"), dir.join("truth.toml"));
-    kinecal_ok(&[
-        "simulate",
-        "--robot",
-        s(&data_file("er20.toml")),
-        "--constraints",
-        spec,
-        "--effect",
-        "joint-cyclic:2:0.002,-0.001:1",
-        "--noise-mm",
-        "0.01",
-        "--seed",
-        &seed.to_string(),
-        "--out",
-        s(&data),
-        "--truth",
-        s(&truth),
-    ]);
-    (data, truth)
-}
-
 #[test]
 fn an_effect_requested_on_a_constraint_file_is_estimated_with_the_model() {
     let dir = tempfile::tempdir().unwrap();
-    let (data, truth) = session_with_cyclic_error(dir.path(), "socket:4x10,distance:40", 7);
+    // A cyclic error of joint 2 (a = 0.002 rad, b = −0.001 rad: millimetres at the tool) and
+    // no other error.
+    let (data, truth) = session_of(
+        dir.path(),
+        "socket:4x10,distance:40",
+        7,
+        &["--effect", "joint-cyclic:2:0.002,-0.001:1"],
+    );
     let (plain, with) = (dir.path().join("plain.toml"), dir.path().join("with.toml"));
     let v0 = identify(&data, &["--out", s(&plain)]);
     let v1 = identify(&data, &["--effect", "joint-cyclic:2:1", "--out", s(&with)]);

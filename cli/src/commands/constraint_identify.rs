@@ -3,7 +3,6 @@
 //! and seed of identify's poses; `--validate` reads a second constraint file).
 
 use super::identify::Args;
-use crate::calibration::identify::hold_first_row;
 use crate::calibration::method::Method;
 use crate::calibration::selection::Selection;
 use crate::calibration::{add_effect, named_values, Residuals};
@@ -14,7 +13,6 @@ use crate::constraints::report::{
 use crate::constraints::shapes::{errors, held_out_error, points, rms, Shape};
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::{with_joints, VCAP};
-use kinecal::model::param::ParamSet;
 use kinecal::{Param, Robot};
 use std::time::Instant;
 
@@ -186,10 +184,8 @@ fn add_effects<const N: usize>(
     Ok(extra)
 }
 
-/// What identify would estimate from positions (the full set, the first row held when the base
-/// is estimated, the file's effects and those `--effect` added, `extra`: the tilts it added),
-/// narrowed by `--fix/--free/--only`. Without tracker points
-/// the base is always in the set: the fit finds it undetermined and holds it.
+/// The parameters the fit estimates: [`crate::constraints::fit::candidates`] narrowed by
+/// `--fix/--free/--only`.
 fn parameters<const N: usize>(
     nominal: &Robot<f64, N, VCAP>,
     file: &RobotFile,
@@ -197,28 +193,7 @@ fn parameters<const N: usize>(
     base_unknown: bool,
     extra: &[Param],
 ) -> anyhow::Result<Vec<Param>> {
-    let mut params: Vec<Param> = ParamSet::<64>::full(N, base_unknown)
-        .map_err(|e| anyhow::anyhow!("{e:?}"))?
-        .as_slice()
-        .to_vec();
-    for t in file.tilt_joints() {
-        params.push(Param::Beta(t as u8));
-    }
-    params.extend(
-        extra
-            .iter()
-            .filter(|p| !params.contains(p))
-            .copied()
-            .collect::<Vec<_>>(),
-    );
-    params.extend((0..nominal.effects().values().len()).map(|k| Param::Effect(k as u16)));
-    for k in 1..nominal.tool_point_count() {
-        params.extend((0..3).map(|a| Param::ToolPoint(k as u8, a)));
-    }
-    if base_unknown {
-        hold_first_row(&mut params);
-    }
-    params.dedup();
+    let mut params = crate::constraints::fit::candidates(nominal, file, base_unknown, extra)?;
     crate::calibration::selection::apply(
         &mut params,
         nominal,

@@ -10,6 +10,7 @@
 
 pub mod check;
 pub mod compensate;
+pub mod constraint_check;
 pub mod constraint_identify;
 pub mod constraint_validate;
 pub mod demo;
@@ -127,6 +128,9 @@ fn boxed<R: Report + 'static>(r: anyhow::Result<R>) -> anyhow::Result<Box<dyn Re
 /// Runs the subcommand of `cli` and returns its report (nothing printed but its warnings).
 pub fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
     match &cli.command {
+        Command::Check(a) if crate::constraints::read::is_constraint_file(&a.input.data) => {
+            boxed(constraint_check::run(a))
+        }
         Command::Check(a) => boxed(check::run(a)),
         Command::Demo(a) => boxed(demo::run(a)),
         Command::Simulate(a) => boxed(simulate::run(a)),

@@ -48,6 +48,41 @@ pub struct Fitted<const N: usize> {
     pub stop: String,
 }
 
+/// What identify would estimate from positions (the full set, the first row held when the base
+/// is estimated, the file's tilts and effects, the further tool points, and `extra`: the tilts
+/// `--effect` added), before `--fix/--free/--only`. Without tracker points the base is always
+/// in the set: the analysis finds it undetermined and holds it.
+pub fn candidates<const N: usize>(
+    nominal: &Robot<f64, N, VCAP>,
+    file: &crate::formats::robot_file::RobotFile,
+    base_unknown: bool,
+    extra: &[Param],
+) -> anyhow::Result<Vec<Param>> {
+    let mut params: Vec<Param> = kinecal::model::param::ParamSet::<64>::full(N, base_unknown)
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?
+        .as_slice()
+        .to_vec();
+    for t in file.tilt_joints() {
+        params.push(Param::Beta(t as u8));
+    }
+    params.extend(
+        extra
+            .iter()
+            .filter(|p| !params.contains(p))
+            .copied()
+            .collect::<Vec<_>>(),
+    );
+    params.extend((0..nominal.effects().values().len()).map(|k| Param::Effect(k as u16)));
+    for k in 1..nominal.tool_point_count() {
+        params.extend((0..3).map(|a| Param::ToolPoint(k as u8, a)));
+    }
+    if base_unknown {
+        crate::calibration::identify::hold_first_row(&mut params);
+    }
+    params.dedup();
+    Ok(params)
+}
+
 /// Each group's shape fitted to the points `robot` predicts (closed form, model held).
 pub fn shapes_of<const N: usize>(robot: &Robot<f64, N, VCAP>, groups: &[Group<N>]) -> Vec<Shape> {
     groups

@@ -215,3 +215,118 @@ impl fmt::Display for ConstraintValidateReport {
         Ok(())
     }
 }
+
+/// One kind of constraint in a checked session.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct KindFigures {
+    pub kind: String,
+    pub groups: usize,
+    pub rows: usize,
+    /// RMS of the nominal model's rows of this kind (mm; a distance group counts once).
+    pub nominal_rms_mm: f64,
+}
+
+/// `check` on a constraint file.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct ConstraintCheckReport {
+    pub robot: String,
+    pub data: String,
+    /// What `groups` counts: groups of rows tied together (docs/formats.md).
+    pub count_unit: String,
+    pub joints: usize,
+    pub groups: usize,
+    pub rows: usize,
+    pub joint_ranges_deg: Vec<[f64; 2]>,
+    pub outside_limits: usize,
+    pub kinds: Vec<KindFigures>,
+    /// The nominal model's RMS over every row, each group against the shape fitted to its own
+    /// predicted points (mm).
+    pub nominal_rms_mm: f64,
+    /// What `identify` would hold: the parameters these constraints cannot determine at the
+    /// nominal model.
+    pub cannot_determine: Vec<String>,
+}
+
+impl ConstraintCheckReport {
+    /// The report of `c`, the check of the data file `data` against the robot file `robot`.
+    pub fn of(c: &super::check::ConstraintChecked, robot: &str, data: &str) -> Self {
+        Self {
+            robot: robot.into(),
+            data: data.into(),
+            count_unit: "groups".into(),
+            joints: c.joints,
+            groups: c.groups,
+            rows: c.rows,
+            joint_ranges_deg: c.joint_ranges_deg.clone(),
+            outside_limits: c.outside_limits,
+            kinds: c
+                .kinds
+                .iter()
+                .map(|k| KindFigures {
+                    kind: k.kind.into(),
+                    groups: k.groups,
+                    rows: k.rows,
+                    nominal_rms_mm: k.nominal_rms_mm,
+                })
+                .collect(),
+            nominal_rms_mm: c.nominal_rms_mm,
+            cannot_determine: c.cannot_determine.clone(),
+        }
+    }
+}
+
+impl crate::reports::Report for ConstraintCheckReport {
+    fn to_json(&self) -> serde_json::Value {
+        crate::reports::json_value(self)
+    }
+    fn non_finite(&self) -> Option<String> {
+        crate::reports::finite::first_non_finite(self)
+    }
+}
+
+impl fmt::Display for ConstraintCheckReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "{}: {} constraint groups ({} rows) of a {}-joint robot ({})",
+            self.data, self.groups, self.rows, self.joints, self.robot
+        )?;
+        for k in &self.kinds {
+            writeln!(
+                f,
+                "{:>8}: {} groups, {} rows, nominal RMS {} mm",
+                k.kind,
+                k.groups,
+                k.rows,
+                sig(k.nominal_rms_mm, 4)
+            )?;
+        }
+        writeln!(
+            f,
+            "nominal RMS over all rows: {} mm (each group against its own fitted shape)",
+            sig(self.nominal_rms_mm, 4)
+        )?;
+        let ranges: Vec<String> = self
+            .joint_ranges_deg
+            .iter()
+            .enumerate()
+            .map(|(i, [lo, hi])| format!("q{} {}..{}", i + 1, sig(*lo, 4), sig(*hi, 4)))
+            .collect();
+        writeln!(f, "joint ranges (deg): {}", ranges.join(", "))?;
+        if self.outside_limits > 0 {
+            writeln!(
+                f,
+                "warning: {} rows outside the robot file's joint limits",
+                self.outside_limits
+            )?;
+        }
+        if !self.cannot_determine.is_empty() {
+            writeln!(
+                f,
+                "these constraints cannot determine (identify holds them at the file's values): {}",
+                self.cannot_determine.join(", ")
+            )?;
+        }
+        Ok(())
+    }
+}

@@ -369,3 +369,92 @@ fn thermal_expansion_on_a_constraint_file_is_refused_with_the_fix() {
         stderr(&out)
     );
 }
+
+/// `check --json` of `data` on the ER20, asserting exit 0.
+fn check(data: &Path) -> serde_json::Value {
+    json_of(&kinecal_ok(&[
+        "check",
+        "--robot",
+        s(&data_file("er20.toml")),
+        "--data",
+        s(data),
+        "--json",
+    ]))
+}
+
+#[test]
+fn check_reads_a_constraint_session_as_identify_starts_from_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, _) = session(dir.path(), "socket:4x10,plane:3x15,distance:30", 3);
+    let c = check(&data);
+    assert_eq!(c["count_unit"], "groups");
+    assert_eq!(c["groups"], 4 + 3 + 30, "{c}");
+    assert_eq!(c["rows"], 40 + 45 + 60, "{c}");
+    assert_eq!(c["joint_ranges_deg"].as_array().unwrap().len(), 6);
+    // The nominal figures per kind are identify's "before" on the same rows.
+    let v = identify(&data, &[]);
+    let kinds = c["kinds"].as_array().unwrap();
+    let before = v["constraints"]["kinds"].as_array().unwrap();
+    assert_eq!(kinds.len(), 3);
+    for (k, b) in kinds.iter().zip(before) {
+        assert_eq!(k["kind"], b["kind"]);
+        assert_eq!(k["groups"], b["groups"]);
+        assert_eq!(k["rows"], b["rows"]);
+        let (x, y) = (
+            k["nominal_rms_mm"].as_f64().unwrap(),
+            b["before_rms_mm"].as_f64().unwrap(),
+        );
+        assert!((x - y).abs() <= 1e-9 * y, "{}: {x} against {y}", k["kind"]);
+        assert!(x > 0.1, "{k}: the geometric errors are millimetres");
+    }
+    let blind = names(&c["cannot_determine"]);
+    for b in BASE {
+        assert!(blind.contains(&b.to_string()), "{b}: {blind:?}");
+    }
+    // Identify holds at the end what check found it cannot determine at the start.
+    let held = names(&v["unidentifiable"]);
+    assert_eq!(
+        blind.len(),
+        held.len(),
+        "check {blind:?}, identify {held:?}"
+    );
+}
+
+#[test]
+fn check_names_the_scale_that_sockets_alone_cannot_see() {
+    let dir = tempfile::tempdir().unwrap();
+    let non_base = |spec: &str| {
+        let (data, _) = session(dir.path(), spec, 5);
+        let blind = names(&check(&data)["cannot_determine"]);
+        for b in BASE {
+            assert!(blind.contains(&b.to_string()), "{spec}: {b}: {blind:?}");
+        }
+        blind.iter().filter(|n| !n.starts_with("base.")).count()
+    };
+    let (sockets, distances) = (non_base("socket:8x10"), non_base("distance:60"));
+    assert_eq!(
+        sockets,
+        distances + 1,
+        "sockets {sockets}, distances {distances}"
+    );
+}
+
+#[test]
+fn commands_that_need_tracker_points_refuse_a_constraint_file_with_the_fix() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, _) = session(dir.path(), "socket:4x10", 3);
+    let out = kinecal(&[
+        "diagnose",
+        "--robot",
+        s(&data_file("er20.toml")),
+        "--data",
+        s(&data),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let e = stderr(&out);
+    assert!(
+        e.contains("a constraint file (kind column)") && e.contains("tracker points"),
+        "{e}"
+    );
+    assert_eq!(e.trim().lines().count(), 1, "{e}");
+}

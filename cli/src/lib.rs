@@ -15,6 +15,7 @@
 //!   held-out gap shrink);
 //! - [`plan`]: measurement planning on the desktop (pools, designs, the study);
 //! - [`reports`]: every command's report as a typed value (JSON and text from the same fields);
+//! - [`application`]: application functions that return a report (`identify` in memory);
 //! - [`report_html`]: the calibration report, one self-contained HTML page (`report`, `demo`);
 //! - [`frames`] and [`compensation`]: the circle-point frames and corrected joint commands, in
 //!   memory and from files;
@@ -27,6 +28,7 @@
 //! and renders the report, and the Python package (`python/`) calls the same functions on
 //! arrays in memory.
 
+pub mod application;
 pub mod calibration;
 pub mod commands;
 pub mod compensation;

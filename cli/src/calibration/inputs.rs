@@ -151,3 +151,11 @@ pub fn split_observed<const N: usize>(
         valid_set: valid_set.poses,
     })
 }
+
+/// (min, max) of joint `j` over the data, rad.
+pub fn joint_range<const N: usize>(data: &[kinecal::Measurement<f64, N>], j: usize) -> (f64, f64) {
+    data.iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
+            (lo.min(m.q[j]), hi.max(m.q[j]))
+        })
+}

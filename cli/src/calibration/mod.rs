@@ -4,7 +4,6 @@
 pub mod acceptance;
 pub mod check;
 pub mod coupling_hint;
-pub mod identify;
 pub mod inputs;
 pub mod method;
 pub mod prior;

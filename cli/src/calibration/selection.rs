@@ -218,3 +218,21 @@ pub fn apply<const N: usize, const V: usize>(
     *params = ordered;
     Ok(())
 }
+
+/// With the base estimated: the base is a rigid transform before row 1, which row 1's
+/// constant part only repeats (T_1(q) = Rx(alpha)·Tx(a)·Ry(beta)·Rz(theta)·Tz(d)·Rz(q)), so
+/// alpha1, a1, beta1, theta1 and d1 are held at their file values and the base takes what they
+/// would. Row 1 stays the robot's own (an import exports back into its URDF) and the
+/// tracker's frame stays in the base. `--free` estimates them anyway.
+pub fn hold_first_row(params: &mut Vec<kinecal::Param>) {
+    params.retain(|p| {
+        !matches!(
+            p,
+            kinecal::Param::Alpha(0)
+                | kinecal::Param::A(0)
+                | kinecal::Param::Beta(0)
+                | kinecal::Param::Theta(0)
+                | kinecal::Param::D(0)
+        )
+    });
+}

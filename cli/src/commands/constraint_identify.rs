@@ -30,9 +30,6 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintIden
             "a constraint file (kind column) is fitted with --method lm only: leave --method out"
         );
     }
-    if args.residuals.is_some() {
-        crate::refuse!("--residuals is not available on constraint files yet: leave it out");
-    }
     let tools = file.tool_names();
     let session = read::load::<N>(&args.input.data, &args.input.units, &tools)?;
     let (ident, valid) = match &args.validate {
@@ -106,6 +103,17 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintIden
     if let Some(m) = report.acceptance.as_ref().and_then(|a| a.message.as_ref()) {
         eprintln!("warning: {m}");
     }
+    if let Some(path) = &args.residuals {
+        let csv = crate::constraints::residual_table::to_csv(
+            (&nominal, &before_shapes),
+            (&fitted.robot, &fitted.shapes),
+            &ident,
+            &valid,
+        );
+        crate::output::atomic::write_atomic(path, csv.as_bytes()).map_err(|e| {
+            crate::refused(format!("--residuals {}: cannot write: {e}", path.display()))
+        })?;
+    }
     if let Some(out) = &args.out {
         if held_out_worse == Some(true) {
             eprintln!(
@@ -174,7 +182,7 @@ fn add_effects<const N: usize>(
             );
         }
         let range = if req.joint < N {
-            crate::calibration::identify::joint_range(&rows, req.joint)
+            crate::calibration::inputs::joint_range(&rows, req.joint)
         } else {
             (0.0, 0.0)
         };

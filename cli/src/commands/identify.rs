@@ -1,7 +1,7 @@
 //! `kinecal identify`: fits the model to measurements and reports residuals before and after.
 
 use super::inputs::InputArgs;
-use crate::calibration::identify::{
+use crate::application::identify::{
     identify, Inputs, Options, DEFAULT_SEED, DEFAULT_STALL_RMS_MM, DEFAULT_TOLERANCE_DEG,
     DEFAULT_TOLERANCE_MM,
 };

@@ -205,7 +205,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
         estimated.extend((0..3).map(|a| Param::ToolPoint(k as u8, a)));
     }
     if base_unknown {
-        crate::calibration::identify::hold_first_row(&mut estimated);
+        crate::calibration::selection::hold_first_row(&mut estimated);
     }
     crate::calibration::selection::apply(
         &mut estimated,

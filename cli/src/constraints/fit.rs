@@ -77,7 +77,7 @@ pub fn candidates<const N: usize>(
         params.extend((0..3).map(|a| Param::ToolPoint(k as u8, a)));
     }
     if base_unknown {
-        crate::calibration::identify::hold_first_row(&mut params);
+        crate::calibration::selection::hold_first_row(&mut params);
     }
     params.dedup();
     Ok(params)

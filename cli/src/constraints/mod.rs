@@ -8,6 +8,7 @@
 //! - [`system`]: the weighted residuals and Jacobian of a session;
 //! - [`fit`]: identifiability and the Levenberg–Marquardt fit;
 //! - [`simulate`]: constraint sessions from a robot with known errors;
+//! - [`residual_table`]: what `identify --residuals` writes for a constraint file;
 //! - [`report`]: the reports of `check`, `identify` and `validate` on a constraint file (which
 //!   `commands::constraint_check`, `commands::constraint_identify` and
 //!   `commands::constraint_validate` run).
@@ -16,6 +17,7 @@ pub mod check;
 pub mod fit;
 pub mod read;
 pub mod report;
+pub mod residual_table;
 pub mod shapes;
 pub mod simulate;
 pub mod system;

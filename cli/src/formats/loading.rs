@@ -20,7 +20,7 @@ pub fn load_as<const N: usize, const V: usize>(
     kind: FileKind,
 ) -> anyhow::Result<Dataset<N>> {
     let origin = path.display().to_string();
-    if crate::constraints::read::is_constraint_file(path) {
+    if crate::formats::measurements::is_constraint_file(path) {
         crate::refuse!(
             "{origin}: a constraint file (kind column): check, identify and validate read \
              constraint files; give this command tracker points (x, y, z per row)"

@@ -475,3 +475,22 @@ pub fn write<const N: usize>(path: &Path, data: &Dataset<N>) -> anyhow::Result<(
     crate::output::atomic::write_atomic(path, to_csv_string(data).as_bytes())
         .map_err(|e| anyhow!("{}: cannot write: {e}", path.display()))
 }
+
+/// Whether the file at `path` is a constraint file: its header line has a `kind` column.
+/// Reads up to the header line only (within its first MiB): a measurement file of a million
+/// rows is not read twice.
+pub fn is_constraint_file(path: &Path) -> bool {
+    use std::io::{BufRead, Read};
+    let Ok(f) = std::fs::File::open(path) else {
+        return false;
+    };
+    let mut lines = std::io::BufReader::new(f.take(1 << 20))
+        .split(b'\n')
+        .map_while(Result::ok);
+    let header = lines.find_map(|l| {
+        let l = String::from_utf8_lossy(&l).into_owned();
+        let t = l.trim().trim_start_matches('\u{feff}').trim().to_string();
+        (!t.is_empty() && !t.starts_with('#')).then_some(t)
+    });
+    header.is_some_and(|h| h.split(',').any(|c| c.trim() == "kind"))
+}

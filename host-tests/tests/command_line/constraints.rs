@@ -458,3 +458,84 @@ fn commands_that_need_tracker_points_refuse_a_constraint_file_with_the_fix() {
     );
     assert_eq!(e.trim().lines().count(), 1, "{e}");
 }
+
+#[test]
+fn residuals_of_a_constraint_fit_add_up_to_its_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, _) = session(dir.path(), "socket:4x10,plane:3x15,distance:30", 3);
+    let table = dir.path().join("residuals.csv");
+    let v = identify(
+        &data,
+        &[
+            "--holdout",
+            "0.25",
+            "--split",
+            "random",
+            "--residuals",
+            s(&table),
+        ],
+    );
+    let text = std::fs::read_to_string(&table).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("set,kind,group,line,nominal_mm,model_mm")
+    );
+    // (set, group) → the nominal and model values of its rows.
+    let mut groups: std::collections::BTreeMap<(String, String), Vec<(f64, f64)>> =
+        Default::default();
+    let mut ident_rows = Vec::new();
+    for l in lines {
+        let c: Vec<&str> = l.split(',').collect();
+        assert_eq!(c.len(), 6, "{l}");
+        let line: usize = c[3].parse().unwrap();
+        assert!(line >= 2, "{l}");
+        let (a, b): (f64, f64) = (c[4].parse().unwrap(), c[5].parse().unwrap());
+        if c[0] == "identification" {
+            ident_rows.push((a, b));
+        } else {
+            assert_eq!(c[0], "held-out", "{l}");
+        }
+        groups
+            .entry((c[0].to_string(), c[2].to_string()))
+            .or_default()
+            .push((a, b));
+    }
+    let rms = |e: &[f64]| (e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64).sqrt();
+    let close = |x: f64, y: f64| (x - y).abs() <= 1e-6 + 1e-5 * y.abs();
+    let (before, after) = (&v["before"], &v["after"]);
+    let a: Vec<f64> = ident_rows.iter().map(|r| r.0).collect();
+    let b: Vec<f64> = ident_rows.iter().map(|r| r.1).collect();
+    let f = |x: &serde_json::Value| x.as_f64().unwrap();
+    assert!(
+        close(rms(&a), f(&before["identification_rms_mm"])),
+        "{}",
+        rms(&a)
+    );
+    assert!(
+        close(rms(&b), f(&after["identification_rms_mm"])),
+        "{}",
+        rms(&b)
+    );
+    // A held-out group's residual is the RMS of its rows against its own refitted shape.
+    let held: Vec<&Vec<(f64, f64)>> = groups
+        .iter()
+        .filter(|((set, _), _)| set == "held-out")
+        .map(|(_, r)| r)
+        .collect();
+    assert_eq!(held.len(), v["n_validation"].as_u64().unwrap() as usize);
+    let per_group = |k: fn(&(f64, f64)) -> f64| {
+        let g: Vec<f64> = held
+            .iter()
+            .map(|r| rms(&r.iter().map(k).collect::<Vec<_>>()))
+            .collect();
+        rms(&g)
+    };
+    assert!(close(per_group(|r| r.0), f(&before["validation_rms_mm"])));
+    assert!(close(per_group(|r| r.1), f(&after["validation_rms_mm"])));
+    let idg = groups
+        .keys()
+        .filter(|(set, _)| set == "identification")
+        .count();
+    assert_eq!(idg, v["n_identification"].as_u64().unwrap() as usize);
+}

@@ -2,8 +2,9 @@
 //! (which reads the files, calls [`identify`] and writes what it returns) and the Python
 //! package's `identify` (which builds [`Inputs`] from arrays).
 
-use crate::calibration::inputs::HoldoutArgs;
+use crate::calibration::inputs::{joint_range, HoldoutArgs};
 use crate::calibration::method::Method;
+use crate::calibration::selection::hold_first_row;
 use crate::calibration::selection::Selection;
 use crate::calibration::{add_effect, named_values, weights, EffectRequest, Fit, Residuals};
 use crate::formats::observations::{ObservationArgs, Observed};
@@ -115,7 +116,7 @@ pub fn identify<const N: usize>(
     } = inputs;
     let validated = validate.is_some();
     let data_path = std::path::Path::new(&data_origin);
-    let super::inputs::Split {
+    let crate::calibration::inputs::Split {
         observed,
         ident,
         valid,
@@ -457,14 +458,6 @@ fn existing_effect_params<const N: usize>(
         .collect()
 }
 
-/// (min, max) of joint `j` over the data, rad.
-pub fn joint_range<const N: usize>(data: &[Measurement<f64, N>], j: usize) -> (f64, f64) {
-    data.iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
-            (lo.min(m.q[j]), hi.max(m.q[j]))
-        })
-}
-
 /// The report of a finished fit.
 #[allow(clippy::too_many_arguments)]
 fn report<const N: usize>(
@@ -508,18 +501,4 @@ fn report<const N: usize>(
 /// The first tool point's coordinates (`tool.x`, `tool.y`, `tool.z`).
 fn is_tool_point(p: Param) -> bool {
     matches!(p, Param::ToolX | Param::ToolY | Param::ToolZ)
-}
-
-/// With the base estimated: the base is a rigid transform before row 1, which row 1's
-/// constant part only repeats (T_1(q) = Rx(alpha)·Tx(a)·Ry(beta)·Rz(theta)·Tz(d)·Rz(q)), so
-/// alpha1, a1, beta1, theta1 and d1 are held at their file values and the base takes what they
-/// would. Row 1 stays the robot's own (an import exports back into its URDF) and the
-/// tracker's frame stays in the base. `--free` estimates them anyway.
-pub fn hold_first_row(params: &mut Vec<Param>) {
-    params.retain(|p| {
-        !matches!(
-            p,
-            Param::Alpha(0) | Param::A(0) | Param::Beta(0) | Param::Theta(0) | Param::D(0)
-        )
-    });
 }

@@ -6,7 +6,7 @@ use super::identify::Args;
 use crate::calibration::method::Method;
 use crate::calibration::selection::Selection;
 use crate::calibration::{add_effect, named_values, Residuals};
-use crate::constraints::read::{self, Group, Kind, Session};
+use crate::constraints::read::{self, Group, Session};
 use crate::constraints::report::{
     ConstraintIdentifyReport, Constraints, FittedPlane, FittedSocket, KindSummary,
 };
@@ -246,13 +246,7 @@ fn constraints<const N: usize>(
     (robot, after): (&Robot<f64, N, VCAP>, &[Shape]),
 ) -> Constraints {
     let mut out = Constraints::default();
-    for kind in [Kind::Socket, Kind::Plane, Kind::Distance, Kind::Point] {
-        let of: Vec<usize> = (0..groups.len())
-            .filter(|&k| groups[k].kind == kind)
-            .collect();
-        if of.is_empty() {
-            continue;
-        }
+    for (kind, of) in read::by_kind(groups) {
         let err = |r: &Robot<f64, N, VCAP>, s: &[Shape]| {
             let e: Vec<f64> = of
                 .iter()

@@ -5,7 +5,7 @@
 //! model (the analysis `identify` starts from).
 
 use super::fit::{candidates, shapes_of, unidentifiable};
-use super::read::{Kind, Session};
+use super::read::{by_kind, Session};
 use super::shapes::{errors, points, rms};
 use crate::formats::robot_file::RobotFile;
 use crate::VCAP;
@@ -74,13 +74,7 @@ pub fn check<const N: usize>(
     let shapes = shapes_of(nominal, groups);
     let row_errors = |k: usize| errors(&groups[k], &points(nominal, &groups[k]), &shapes[k]);
     let mut kinds = Vec::new();
-    for kind in [Kind::Socket, Kind::Plane, Kind::Distance, Kind::Point] {
-        let of: Vec<usize> = (0..groups.len())
-            .filter(|&k| groups[k].kind == kind)
-            .collect();
-        if of.is_empty() {
-            continue;
-        }
+    for (kind, of) in by_kind(groups) {
         let e: Vec<f64> = of.iter().flat_map(|&k| row_errors(k)).collect();
         kinds.push(KindCheck {
             kind: kind.id(),

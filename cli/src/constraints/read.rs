@@ -57,6 +57,21 @@ pub struct Row<const N: usize> {
     pub line: usize,
 }
 
+/// The kinds present in `groups`, in the order socket, plane, distance, point, each with the
+/// indices of its groups (what the reports tabulate per kind).
+pub fn by_kind<const N: usize>(groups: &[Group<N>]) -> Vec<(Kind, Vec<usize>)> {
+    [Kind::Socket, Kind::Plane, Kind::Distance, Kind::Point]
+        .into_iter()
+        .map(|kind| {
+            let of = (0..groups.len())
+                .filter(|&k| groups[k].kind == kind)
+                .collect::<Vec<_>>();
+            (kind, of)
+        })
+        .filter(|(_, of)| !of.is_empty())
+        .collect()
+}
+
 /// A group of rows tied together by its `group` name.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Group<const N: usize> {

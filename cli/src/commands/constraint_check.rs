@@ -20,6 +20,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintChec
     let (file, nominal) = load_robot::<N>(&input.robot)?;
     let session = read::load::<N>(&input.data, &input.units, &file.tool_names())?;
     let data = path_text(&input.data);
+    crate::constraints::shapes::check_lengths(&nominal, &session.groups, &data)?;
     let checked = check(&file, &nominal, &session, &data)?;
     Ok(ConstraintCheckReport::of(
         &checked,

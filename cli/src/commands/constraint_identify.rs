@@ -32,6 +32,11 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintIden
     }
     let tools = file.tool_names();
     let session = read::load::<N>(&args.input.data, &args.input.units, &tools)?;
+    crate::constraints::shapes::check_lengths(
+        &nominal,
+        &session.groups,
+        &args.input.data.display().to_string(),
+    )?;
     let (ident, valid) = match &args.validate {
         Some(v) => {
             if !read::is_constraint_file(v) {

@@ -4,6 +4,7 @@
 //! states is checked here and a violation refused (exit 2) with what to do.
 
 use crate::formats::units::{LengthUnit, UnitArgs};
+use core::f64::consts::PI;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -191,6 +192,14 @@ pub fn parse<const N: usize>(
                     j + 1
                 );
             };
+            // Degrees read as radians reach tens of turns: refused below.
+            if angle == crate::formats::units::AngleUnit::Rad && v.abs() > 4.0 * PI {
+                crate::refuse!(
+                    "{origin}:{line}: q{} = {v} rad is over two turns: the readings look like \
+                     degrees; leave --angle-unit rad out",
+                    j + 1
+                );
+            }
             q[j] = angle.to_deg(v).to_radians();
         }
         let sigma_mm = match sigma_col

@@ -106,3 +106,43 @@ pub fn held_out_error<const N: usize>(robot: &Robot<f64, N, VCAP>, g: &Group<N>)
 pub fn rms(e: &[f64]) -> f64 {
     (e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64).sqrt()
 }
+
+/// Refuses (exit 2) distance groups whose stated lengths are, in the median, more than 20 times
+/// longer or shorter than the nominal model's distances between their poses: a length unit
+/// misstated (millimetres read as metres or the reverse), not a robot 20 times off.
+pub fn check_lengths<const N: usize>(
+    nominal: &Robot<f64, N, VCAP>,
+    groups: &[Group<N>],
+    origin: &str,
+) -> anyhow::Result<()> {
+    let mut ratios: Vec<f64> = groups
+        .iter()
+        .filter(|g| g.kind == Kind::Distance)
+        .filter_map(|g| {
+            let pts = points(nominal, g);
+            let predicted = (pts.first()? - pts.get(1)?).norm();
+            (predicted > 1.0).then(|| g.length_mm.unwrap_or(f64::NAN) / predicted)
+        })
+        .filter(|r| r.is_finite())
+        .collect();
+    if ratios.is_empty() {
+        return Ok(());
+    }
+    ratios.sort_by(f64::total_cmp);
+    let median = ratios[ratios.len() / 2];
+    if median > 20.0 {
+        crate::refuse!(
+            "{origin}: the stated lengths are {:.0}x the nominal robot's distances between their \
+             poses: they look like millimetres read as metres; leave --length-unit m out",
+            median
+        );
+    }
+    if median < 0.05 {
+        crate::refuse!(
+            "{origin}: the stated lengths are 1/{:.0} of the nominal robot's distances between \
+             their poses: they look like metres read as millimetres; give --length-unit m",
+            1.0 / median
+        );
+    }
+    Ok(())
+}

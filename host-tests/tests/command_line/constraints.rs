@@ -539,3 +539,39 @@ fn residuals_of_a_constraint_fit_add_up_to_its_report() {
         .count();
     assert_eq!(idg, v["n_identification"].as_u64().unwrap() as usize);
 }
+
+#[test]
+fn a_misstated_unit_on_a_constraint_file_is_refused_with_the_fix() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, _) = session(dir.path(), "socket:4x10,distance:20", 3);
+    let run = |cmd: &str, flag: &str, value: &str| {
+        kinecal(&[
+            cmd,
+            "--robot",
+            s(&data_file("er20.toml")),
+            "--data",
+            s(&data),
+            flag,
+            value,
+        ])
+    };
+    for cmd in ["check", "identify"] {
+        // Degrees read as radians.
+        let out = run(cmd, "--angle-unit", "rad");
+        assert_eq!(out.status.code(), Some(2), "{cmd}: {}", stderr(&out));
+        assert!(
+            stderr(&out).contains("look like degrees; leave --angle-unit rad out"),
+            "{cmd}: {}",
+            stderr(&out)
+        );
+        // Millimetre lengths read as metres.
+        let out = run(cmd, "--length-unit", "m");
+        assert_eq!(out.status.code(), Some(2), "{cmd}: {}", stderr(&out));
+        assert!(
+            stderr(&out)
+                .contains("look like millimetres read as metres; leave --length-unit m out"),
+            "{cmd}: {}",
+            stderr(&out)
+        );
+    }
+}

@@ -4,7 +4,7 @@
 //! ([`kinecal_cli::calibration::fit_lm`]) and bare ([`kinecal::identify::lm::Levenberg::run`]).
 //!
 //! ```text
-//! cargo build --release -p kinecal-host --example lm_compare
+//! cargo build --release -p kinecal-host --features lm-compare --example lm_compare
 //! target/release/examples/lm_compare --robot ROBOT.toml --data IDENT.csv --validate VALID.csv
 //! ```
 //!

@@ -32,7 +32,7 @@ VENV=${KINECAL_VENV:-$TARGET/scipy-venv}
 
 if [[ "${NO_BUILD:-0}" != 1 ]]; then
     cargo build --release -p kinecal-cli --bin kinecal >&2
-    cargo build --release -p kinecal-host --example lm_compare >&2
+    cargo build --release -p kinecal-host --features lm-compare --example lm_compare >&2
 fi
 K=${KINECAL:-$TARGET/release/kinecal}
 LMC=${LM_COMPARE:-$TARGET/release/examples/lm_compare}

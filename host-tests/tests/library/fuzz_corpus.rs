@@ -1,12 +1,11 @@
 //! Every committed fuzz input replayed through its target with the stable toolchain: the
 //! minimised corpus of each target (`fuzz/corpus/<target>/`) and every reproducer that once
 //! failed an invariant (`fuzz/regressions/<target>/`, fuzz/README.md lists the defects). The
-//! targets' bodies are the fuzz crate's modules (`fuzz/src/<target>.rs`), compiled here as they
-//! are for cargo fuzz; an input that panics fails the test with the file's name and the
-//! invariant's message. Fuzzing itself (new inputs) stays with `scripts/fuzz`.
+//! targets' bodies are the fuzz crate's modules (`fuzz/src/<target>.rs`), built for this replay
+//! by the crate `host-tests/fuzz-targets` (unoptimised: the build, not the replay, is what costs);
+//! an input that panics fails the test with the file's name and the invariant's message. Fuzzing itself (new inputs) stays with `scripts/fuzz`.
 
-#[path = "../../../fuzz/src/lib.rs"]
-mod targets;
+use kinecal_fuzz as targets;
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};

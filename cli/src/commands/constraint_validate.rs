@@ -7,8 +7,9 @@
 use super::validate::Args;
 use crate::constraints::read;
 use crate::constraints::report::{ConstraintValidateReport, Figures};
-use crate::constraints::shapes::held_out_error;
+use crate::constraints::shapes::{check_lengths, held_out_error};
 use crate::formats::robot_file::load_robot;
+use crate::reports::path_text;
 use crate::with_joints;
 
 /// Runs `validate` on the constraint file `args.input.data`.
@@ -30,6 +31,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintVali
     let (file, nominal) = load_robot::<N>(&args.input.robot)?;
     let (_, model) = load_robot::<N>(&args.model)?;
     let session = read::load::<N>(&args.input.data, &args.input.units, &file.tool_names())?;
+    check_lengths(&nominal, &session.groups, &path_text(&args.input.data))?;
     let errors = |robot| -> Vec<f64> {
         session
             .groups

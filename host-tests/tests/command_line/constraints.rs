@@ -544,18 +544,15 @@ fn residuals_of_a_constraint_fit_add_up_to_its_report() {
 fn a_misstated_unit_on_a_constraint_file_is_refused_with_the_fix() {
     let dir = tempfile::tempdir().unwrap();
     let (data, _) = session(dir.path(), "socket:4x10,distance:20", 3);
+    let robot = data_file("er20.toml");
     let run = |cmd: &str, flag: &str, value: &str| {
-        kinecal(&[
-            cmd,
-            "--robot",
-            s(&data_file("er20.toml")),
-            "--data",
-            s(&data),
-            flag,
-            value,
-        ])
+        let mut args = vec![cmd, "--robot", s(&robot), "--data", s(&data), flag, value];
+        if cmd == "validate" {
+            args.extend(["--model", s(&robot)]);
+        }
+        kinecal(&args)
     };
-    for cmd in ["check", "identify"] {
+    for cmd in ["check", "identify", "validate"] {
         // Degrees read as radians.
         let out = run(cmd, "--angle-unit", "rad");
         assert_eq!(out.status.code(), Some(2), "{cmd}: {}", stderr(&out));

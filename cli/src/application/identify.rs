@@ -101,7 +101,8 @@ pub struct Identified<const N: usize> {
 
 /// `kinecal identify` in memory: fits the model of `inputs` with `opts`, exactly as the command
 /// does. Refused input is a [`crate::Refused`] error; a fit that did not converge is
-/// `report.converged == false`. Prints nothing (the command prints the warnings, [`warn`]).
+/// `report.converged == false`. Prints nothing (the command prints
+/// [`IdentifyReport::warnings`]).
 pub fn identify<const N: usize>(
     opts: &Options,
     inputs: Inputs<N>,

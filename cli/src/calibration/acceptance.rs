@@ -15,6 +15,13 @@ pub const MUCH_WORSE: f64 = 2.0;
 /// a worse model: noise-free simulated data end at nanometres either way.
 pub const NO_DIFFERENCE_MM: f64 = 1e-6;
 
+/// The note when nothing was held out: a fit judged only on what it was fitted to can predict
+/// new poses worse than the model it started from (a geometry fitted to poses that do not
+/// span the workspace does) and nothing would say so.
+pub const NOT_JUDGED: &str = "note: nothing was held out, so nothing checks that the model \
+    predicts data it was not fitted to better than the one it started from: --holdout 0.2 \
+    (or --validate FILE) judges it on unseen data";
+
 /// The verdict on the held-out poses.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Acceptance {

@@ -164,47 +164,8 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
             done.report.out = Some(out.display().to_string());
         }
     }
-    warn(&done.report);
+    for w in done.report.warnings() {
+        eprintln!("{w}");
+    }
     Ok(done.report)
-}
-
-/// The warnings of a finished fit on stderr: χ²/dof far from 1, suspicious parameters, not
-/// converged.
-pub fn warn(report: &IdentifyReport) {
-    if let Some(c) = report.chi2_per_dof {
-        if !(0.25..=4.0).contains(&c) {
-            eprintln!(
-                "warning: χ²/dof = {} with the file's σ: the residuals are {}× what the stated \
-                 uncertainties explain ({}); the fit added an error floor (JSON `observations`)",
-                crate::output::numfmt::sig(c, 3),
-                crate::output::numfmt::sig(c.sqrt(), 3),
-                if c > 1.0 {
-                    "the model misses an effect (kinecal diagnose) or the σ are too small"
-                } else {
-                    "the σ are too large"
-                }
-            );
-        }
-    }
-    if !report.suspicious.is_empty() {
-        eprintln!(
-            "warning: {} moved further than a manufacturing tolerance explains: check the units, \
-             the tool point and the robot file (--tolerance-mm/--tolerance-deg set the limit)",
-            report.suspicious.join(", ")
-        );
-    }
-    if let Some(m) = report.acceptance.as_ref().and_then(|a| a.message.as_ref()) {
-        let level = if report.held_out_worse == Some(true) {
-            "error"
-        } else {
-            "warning"
-        };
-        eprintln!("{level}: {m}");
-    }
-    if !report.converged {
-        eprintln!(
-            "error: the fit {}; these numbers are not a calibration (exit 3)",
-            report.stop
-        );
-    }
 }

@@ -411,3 +411,53 @@ impl fmt::Display for IdentifyReport {
         Ok(())
     }
 }
+
+impl IdentifyReport {
+    /// The warnings of a finished fit, one message each as stderr shows them: no held-out
+    /// poses, χ²/dof far from 1, suspicious parameters, the held-out verdict, not converged.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.n_validation == 0 {
+            out.push(crate::calibration::acceptance::NOT_JUDGED.to_string());
+        }
+        if let Some(c) = self.chi2_per_dof {
+            if !(0.25..=4.0).contains(&c) {
+                out.push(format!(
+                    "warning: χ²/dof = {} with the file's σ: the residuals are {}× what the \
+                     stated uncertainties explain ({}); the fit added an error floor (JSON \
+                     `observations`)",
+                    sig(c, 3),
+                    sig(c.sqrt(), 3),
+                    if c > 1.0 {
+                        "the model misses an effect (kinecal diagnose) or the σ are too small"
+                    } else {
+                        "the σ are too large"
+                    }
+                ));
+            }
+        }
+        if !self.suspicious.is_empty() {
+            out.push(format!(
+                "warning: {} moved further than a manufacturing tolerance explains: check the \
+                 units, the tool point and the robot file (--tolerance-mm/--tolerance-deg set \
+                 the limit)",
+                self.suspicious.join(", ")
+            ));
+        }
+        if let Some(m) = self.acceptance.as_ref().and_then(|a| a.message.as_ref()) {
+            let level = if self.held_out_worse == Some(true) {
+                "error"
+            } else {
+                "warning"
+            };
+            out.push(format!("{level}: {m}"));
+        }
+        if !self.converged {
+            out.push(format!(
+                "error: the fit {}; these numbers are not a calibration (exit 3)",
+                self.stop
+            ));
+        }
+        out
+    }
+}

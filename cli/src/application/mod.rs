@@ -4,5 +4,14 @@
 //! package calls them on arrays.
 //!
 //! - [`identify`]: `kinecal identify` on tracker observations.
+//! - [`constraints`]: `kinecal identify` on constraint observations (sockets, planes,
+//!   distances).
+//! - [`export`]: `kinecal export`'s checks and outputs (URDF, DH table, firmware model).
+//! - [`study`]: `kinecal study`, the measurement-planning study over a grid of arms.
+//! - [`demo`]: `kinecal demo`, the BPNN-PSO paper's simulation and its four methods.
 
+pub mod constraints;
+pub mod demo;
+pub mod export;
 pub mod identify;
+pub mod study;

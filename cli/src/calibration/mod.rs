@@ -8,6 +8,7 @@ pub mod inputs;
 pub mod method;
 pub mod prior;
 pub mod pso_search;
+pub mod replay;
 pub mod residual_table;
 pub mod selection;
 pub mod stats;

@@ -1,20 +1,13 @@
-//! `kinecal identify` on a constraint file: the model and the groups' shapes fitted together
-//! ([`crate::constraints::fit`]), judged on held-out groups (`--holdout` holds out whole groups by the rule
-//! and seed of identify's poses; `--validate` reads a second constraint file).
+//! `kinecal identify` on a constraint file: reads the robot file and the sessions, calls
+//! [`crate::application::constraints::identify`] and writes what it returns (`--residuals`,
+//! `--out` unless the model predicts the held-out groups worse than the one it started from).
 
 use super::identify::Args;
-use crate::calibration::method::Method;
-use crate::calibration::selection::Selection;
-use crate::calibration::{add_effect, named_values, Residuals};
-use crate::constraints::read::{self, Group, Session};
-use crate::constraints::report::{
-    ConstraintIdentifyReport, Constraints, FittedPlane, FittedSocket, KindSummary,
-};
-use crate::constraints::shapes::{errors, held_out_error, points, rms, Shape};
+use crate::application::constraints::{identify, Inputs};
+use crate::constraints::read;
+use crate::constraints::report::ConstraintIdentifyReport;
 use crate::formats::robot_file::{load_robot, RobotFile};
-use crate::{with_joints, VCAP};
-use kinecal::{Param, Robot};
-use std::time::Instant;
+use crate::with_joints;
 
 /// Runs `identify` on the constraint file `args.input.data`.
 pub fn run(args: &Args) -> anyhow::Result<ConstraintIdentifyReport> {
@@ -24,271 +17,48 @@ pub fn run(args: &Args) -> anyhow::Result<ConstraintIdentifyReport> {
 }
 
 fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintIdentifyReport> {
-    let (file, mut nominal) = load_robot::<N>(&args.input.robot)?;
-    if args.method != Method::Lm {
-        crate::refuse!(
-            "a constraint file (kind column) is fitted with --method lm only: leave --method out"
-        );
-    }
+    let (file, nominal) = load_robot::<N>(&args.input.robot)?;
     let tools = file.tool_names();
     let session = read::load::<N>(&args.input.data, &args.input.units, &tools)?;
-    crate::constraints::shapes::check_lengths(
-        &nominal,
-        &session.groups,
-        &args.input.data.display().to_string(),
-    )?;
-    let (ident, valid) = match &args.validate {
-        Some(v) => {
-            if !read::is_constraint_file(v) {
-                crate::refuse!(
-                    "--validate {}: not a constraint file (no kind column) while --data is one",
-                    v.display()
-                );
-            }
-            (
-                session.groups,
-                read::load::<N>(v, &args.input.units, &tools)?.groups,
-            )
-        }
-        None => split(session, args)?,
-    };
-    if ident.is_empty() {
-        crate::refuse!("--holdout leaves no groups to identify from: hold out fewer");
-    }
-    let ident_session = Session {
-        groups: ident.clone(),
-    };
-    let base_unknown = !(file.base_known() && ident_session.has_points());
-    let extra = add_effects(&mut nominal, &args.effects, &ident)?;
-    let params = parameters(&nominal, &file, args, base_unknown, &extra)?;
-    let t0 = Instant::now();
-    let fitted = crate::constraints::fit::fit(&nominal, &ident, &params)?;
-    let seconds = t0.elapsed().as_secs_f64();
-    let before_shapes = crate::constraints::fit::shapes_of(&nominal, &ident);
-    let before = residuals(&nominal, &ident, &before_shapes, &valid);
-    let after = residuals(&fitted.robot, &ident, &fitted.shapes, &valid);
-    let name = |p: &Param| p.name(&fitted.robot).to_string();
-    let acceptance = crate::calibration::acceptance::judge(
-        (
-            before.validation_rms_mm,
-            after.validation_rms_mm,
-            after.identification_rms_mm,
+    let validate = match &args.validate {
+        Some(v) if !read::is_constraint_file(v) => crate::refuse!(
+            "--validate {}: not a constraint file (no kind column) while --data is one",
+            v.display()
         ),
-        &measurements(&ident),
-        &measurements(&valid),
-        Vec::new(),
-    );
-    let held_out_worse = acceptance.as_ref().map(|a| a.held_out_worse);
-    let all = crate::calibration::model_params(&fitted.robot, &file.tilt_joints());
-    let mut report = ConstraintIdentifyReport {
-        method: "lm".into(),
-        count_unit: "groups".into(),
-        n_identification: ident.len(),
-        n_validation: valid.len(),
-        n_identification_rows: ident.iter().map(|g| g.rows.len()).sum(),
-        n_validation_rows: valid.iter().map(|g| g.rows.len()).sum(),
-        before,
-        after,
-        iterations: fitted.iterations,
-        seconds,
-        parameters: named_values(&fitted.robot, &all),
-        estimated: fitted.estimated.iter().map(name).collect(),
-        unidentifiable: fitted.unidentifiable.iter().map(name).collect(),
-        converged: fitted.converged && after.identification_rms_mm.is_finite(),
-        stop: fitted.stop.clone(),
-        held_out_worse,
-        acceptance,
-        constraints: constraints(
-            &ident,
-            (&nominal, &before_shapes),
-            (&fitted.robot, &fitted.shapes),
-        ),
-        out: None,
+        Some(v) => Some(read::load::<N>(v, &args.input.units, &tools)?.groups),
+        None => None,
     };
+    let inputs = Inputs {
+        file,
+        nominal,
+        session,
+        data_origin: args.input.data.display().to_string(),
+        validate,
+    };
+    let mut done = identify(&args.options(), inputs)?;
+    let report = &mut done.report;
     if let Some(m) = report.acceptance.as_ref().and_then(|a| a.message.as_ref()) {
         eprintln!("warning: {m}");
     }
-    if let Some(path) = &args.residuals {
-        let csv = crate::constraints::residual_table::to_csv(
-            (&nominal, &before_shapes),
-            (&fitted.robot, &fitted.shapes),
-            &ident,
-            &valid,
-        );
+    if report.n_validation == 0 {
+        eprintln!("{}", crate::calibration::acceptance::NOT_JUDGED);
+    }
+    if let (Some(path), Some(csv)) = (&args.residuals, &done.residuals) {
         crate::output::atomic::write_atomic(path, csv.as_bytes()).map_err(|e| {
             crate::refused(format!("--residuals {}: cannot write: {e}", path.display()))
         })?;
     }
     if let Some(out) = &args.out {
-        if held_out_worse == Some(true) {
+        if report.held_out_worse == Some(true) {
             eprintln!(
                 "note: {} not written: the model predicts the held-out groups worse than the \
                  model it started from",
                 out.display()
             );
         } else {
-            let mut f = RobotFile::from_robot(
-                &format!("{} (identified)", file.name),
-                &fitted.robot,
-                true,
-                &file.tilt_joints(),
-            )
-            .with_tool_names(&tools);
-            if f.tool.rpy_deg.is_none() {
-                f.tool.rpy_deg = file.tool.rpy_deg;
-            }
-            f.prior = file.prior;
-            f.save(out)?;
+            done.model.save(out)?;
             report.out = Some(out.display().to_string());
         }
     }
-    Ok(report)
-}
-
-/// The groups `--holdout`/`--split` keep out (whole groups, by identify's rule and seed).
-fn split<const N: usize>(
-    session: Session<N>,
-    args: &Args,
-) -> anyhow::Result<(Vec<Group<N>>, Vec<Group<N>>)> {
-    let mask = crate::calibration::held_out_mask(
-        session.groups.len(),
-        args.holdout.holdout,
-        args.holdout.split,
-        args.seed,
-    )?;
-    let (mut ident, mut valid) = (Vec::new(), Vec::new());
-    for (g, held) in session.groups.into_iter().zip(mask) {
-        if held {
-            valid.push(g);
-        } else {
-            ident.push(g);
-        }
-    }
-    Ok((ident, valid))
-}
-
-/// The `--effect` requests added to `nominal` with zero values, each table or cyclic term over
-/// the joint range of the identification rows; returns the parameters that are not effect
-/// values (an axis tilt's). A constraint file carries no temperatures: thermal expansion is
-/// refused.
-fn add_effects<const N: usize>(
-    nominal: &mut Robot<f64, N, VCAP>,
-    requests: &[crate::calibration::EffectRequest],
-    ident: &[Group<N>],
-) -> anyhow::Result<Vec<Param>> {
-    let rows = measurements(ident);
-    let mut extra = Vec::new();
-    for req in requests {
-        if req.kind == crate::formats::robot_file::THERMAL {
-            crate::refuse!(
-                "--effect {}: a constraint file has no temp_c column; fit thermal expansion from \
-                 tracker points with temperatures",
-                req.kind
-            );
-        }
-        let range = if req.joint < N {
-            crate::calibration::inputs::joint_range(&rows, req.joint)
-        } else {
-            (0.0, 0.0)
-        };
-        extra.extend(add_effect(nominal, req, range)?);
-    }
-    extra.retain(|p| !matches!(p, Param::Effect(_)));
-    Ok(extra)
-}
-
-/// The parameters the fit estimates: [`crate::constraints::fit::candidates`] narrowed by
-/// `--fix/--free/--only`.
-fn parameters<const N: usize>(
-    nominal: &Robot<f64, N, VCAP>,
-    file: &RobotFile,
-    args: &Args,
-    base_unknown: bool,
-    extra: &[Param],
-) -> anyhow::Result<Vec<Param>> {
-    let mut params = crate::constraints::fit::candidates(nominal, file, base_unknown, extra)?;
-    crate::calibration::selection::apply(
-        &mut params,
-        nominal,
-        &Selection {
-            only: &args.only,
-            free: &args.free,
-            fix: &args.fix,
-        },
-    )?;
-    Ok(params)
-}
-
-/// Before/after figures: the RMS of the identification rows against the fit's shapes, and per
-/// held-out group its residual against its own refitted shape (mm).
-fn residuals<const N: usize>(
-    robot: &Robot<f64, N, VCAP>,
-    ident: &[Group<N>],
-    shapes: &[Shape],
-    valid: &[Group<N>],
-) -> Residuals {
-    let e: Vec<f64> = ident
-        .iter()
-        .zip(shapes)
-        .flat_map(|(g, s)| errors(g, &points(robot, g), s))
-        .collect();
-    let v: Vec<f64> = valid.iter().map(|g| held_out_error(robot, g)).collect();
-    let held = !v.is_empty();
-    Residuals {
-        identification_rms_mm: rms(&e),
-        validation_rms_mm: held.then(|| rms(&v)),
-        validation_mean_mm: held.then(|| v.iter().map(|x| x.abs()).sum::<f64>() / v.len() as f64),
-        validation_max_mm: held.then(|| v.iter().fold(0.0, |m: f64, x| m.max(x.abs()))),
-        identification_rms_deg: None,
-        validation_rms_deg: None,
-    }
-}
-
-/// Per kind: counts and RMS before and after; the fitted socket centres and planes.
-fn constraints<const N: usize>(
-    groups: &[Group<N>],
-    (nominal, before): (&Robot<f64, N, VCAP>, &[Shape]),
-    (robot, after): (&Robot<f64, N, VCAP>, &[Shape]),
-) -> Constraints {
-    let mut out = Constraints::default();
-    for (kind, of) in read::by_kind(groups) {
-        let err = |r: &Robot<f64, N, VCAP>, s: &[Shape]| {
-            let e: Vec<f64> = of
-                .iter()
-                .flat_map(|&k| errors(&groups[k], &points(r, &groups[k]), &s[k]))
-                .collect();
-            rms(&e)
-        };
-        out.kinds.push(KindSummary {
-            kind: kind.id().into(),
-            groups: of.len(),
-            rows: of.iter().map(|&k| groups[k].rows.len()).sum(),
-            before_rms_mm: err(nominal, before),
-            after_rms_mm: err(robot, after),
-        });
-    }
-    for (g, s) in groups.iter().zip(after) {
-        match s {
-            Shape::Centre(c) => out.sockets.push(FittedSocket {
-                group: g.name.clone(),
-                centre_mm: [c.x, c.y, c.z],
-            }),
-            Shape::Plane(n, d) => out.planes.push(FittedPlane {
-                group: g.name.clone(),
-                normal: [n.x, n.y, n.z],
-                offset_mm: *d,
-            }),
-            Shape::None => {}
-        }
-    }
-    out
-}
-
-/// The rows as measurements (joint readings only) for the acceptance check's joint ranges.
-fn measurements<const N: usize>(groups: &[Group<N>]) -> Vec<kinecal::Measurement<f64, N>> {
-    groups
-        .iter()
-        .flat_map(|g| g.rows.iter())
-        .map(|r| kinecal::Measurement::from_deg(&r.q.map(f64::to_degrees), &[0.0; 3]))
-        .collect()
+    Ok(done.report)
 }

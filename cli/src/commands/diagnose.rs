@@ -1,6 +1,5 @@
-//! `kinecal diagnose`: the discrepancy workflow (see [`crate::diagnose`]): fits the geometry,
-//! finds where model and data disagree, names the missing effects, adds them and shows the
-//! held-out gap shrink. The work on the data read is [`crate::diagnose::workflow`].
+//! `kinecal diagnose`: reads the files, runs the discrepancy workflow on them
+//! ([`crate::diagnose::workflow`]) and writes the model and the plots.
 
 use super::inputs::InputArgs;
 use super::Spinner;
@@ -104,14 +103,12 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
     check_plots_dir(args.plots.as_deref())?;
     let observed = load(&input.data)?;
     super::inputs::any_rows(&observed.poses, &input.data)?;
-    let validate = match &args.validate {
-        Some(path) => {
-            let v = load(path)?;
-            super::inputs::any_rows(&v.poses, path)?;
-            Some((v, path.display().to_string()))
-        }
-        None => None,
-    };
+    let mut validate = None;
+    if let Some(path) = &args.validate {
+        let v = load(path)?;
+        super::inputs::any_rows(&v.poses, path)?;
+        validate = Some((v, path.display().to_string()));
+    }
     let inputs = Inputs {
         file,
         nominal,

@@ -4,9 +4,8 @@
 //! firmware`). docs/formats.md, "URDF export", "DH table", "Binary model (.kcm)".
 
 use super::import::{import_chain, read_urdf};
+use crate::application::export;
 use crate::formats::robot_file::RobotFile;
-use crate::formats::urdf::splice;
-use crate::formats::{dh_table, firmware_model};
 use crate::output::atomic::{refuse_overwriting_inputs, write_atomic};
 use crate::reports::{path_text, ExportReport};
 use anyhow::Context;
@@ -60,190 +59,70 @@ pub struct Args {
     pub tolerance_deg: f64,
 }
 
-/// The first row value of `model` further than the tolerances from `nominal`, described:
-/// a calibration moves rows by millimetres and tenths of a degree, so a larger difference
-/// means the model was made for another robot (or another MDH convention) than this file.
-fn mismatch(model: &RobotFile, nominal: &RobotFile, tol_mm: f64, tol_deg: f64) -> Option<String> {
-    let wrap = |d: f64| (d + 180.0).rem_euclid(360.0) - 180.0;
-    for (i, (m, n)) in model.joints.iter().zip(&nominal.joints).enumerate() {
-        let rows = [
-            ("alpha", m.alpha_deg, n.alpha_deg, true),
-            ("a", m.a_mm, n.a_mm, false),
-            ("theta", m.theta_deg, n.theta_deg, true),
-            ("d", m.d_mm, n.d_mm, false),
-            (
-                "beta",
-                m.beta_deg.unwrap_or(0.0),
-                n.beta_deg.unwrap_or(0.0),
-                true,
-            ),
-        ];
-        for (name, mv, nv, angle) in rows {
-            let (diff, tol, unit) = if angle {
-                (wrap(mv - nv).abs(), tol_deg, "°")
-            } else {
-                ((mv - nv).abs(), tol_mm, " mm")
-            };
-            if diff > tol || diff.is_nan() {
-                return Some(format!(
-                    "{name}{} is {mv:.3}{unit} in the model and {nv:.3}{unit} in the nominal",
-                    i + 1
-                ));
-            }
-        }
-    }
-    None
-}
-
-/// What a URDF cannot hold, named; each is also warned about on stderr.
-fn dropped(model: &RobotFile) -> Vec<String> {
-    let mut v: Vec<String> = model
-        .effects
-        .iter()
-        .filter(|e| e.kind != crate::formats::robot_file::AXIS_TILT)
-        .map(|e| {
-            format!(
-                "effect {} on joint {} (non-geometric: a URDF cannot hold it)",
-                e.kind, e.joint
-            )
-        })
-        .collect();
-    v.extend(model.couplings.iter().map(|c| {
-        format!(
-            "coupling of joint {} to joint {} (ratio {}: a URDF joint reads its own angle only)",
-            c.joint, c.from, c.ratio
-        )
-    }));
-    v
-}
-
-/// Runs `kinecal export`.
+/// Runs `kinecal export`: reads the model (and the URDF or nominal robot file), calls
+/// [`crate::application::export`] and writes its output.
 pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
     let mut inputs = vec![("model", args.model.as_path())];
-    if let Some(u) = &args.urdf {
-        inputs.push(("URDF", u.as_path()));
-    }
-    if let Some(r) = &args.robot {
-        inputs.push(("robot", r.as_path()));
-    }
+    inputs.extend(args.urdf.as_deref().map(|u| ("URDF", u)));
+    inputs.extend(args.robot.as_deref().map(|r| ("robot", r)));
     refuse_overwriting_inputs("--out", &args.out, &inputs)?;
-    for (flag, v) in [
-        ("--tolerance-mm", args.tolerance_mm),
-        ("--tolerance-deg", args.tolerance_deg),
-    ] {
-        crate::check_positive(flag, v, 1e6)?;
-    }
+    let tol = (args.tolerance_mm, args.tolerance_deg);
+    crate::check_positive("--tolerance-mm", tol.0, 1e6)?;
+    crate::check_positive("--tolerance-deg", tol.1, 1e6)?;
     let model = RobotFile::load(&args.model)?;
-    let check_match = |nominal: &RobotFile, source: &std::path::Path| -> anyhow::Result<()> {
-        if let Some(what) = mismatch(&model, nominal, args.tolerance_mm, args.tolerance_deg) {
-            crate::refuse!(
-                "{}: not a calibration of {}: {what} (further apart than --tolerance-mm {} / \
-                 --tolerance-deg {}): export the model into the file it was imported from",
-                args.model.display(),
-                source.display(),
-                args.tolerance_mm,
-                args.tolerance_deg
-            );
-        }
-        Ok(())
-    };
+    let model_origin = args.model.display().to_string();
     let nominal_import = |path: &PathBuf| -> anyhow::Result<_> {
         let (text, urdf) = read_urdf(path)?;
-        let (imp, _, tip, _) = import_chain(
-            &urdf,
-            path,
-            args.base_link.as_deref(),
-            args.tip_link.as_deref(),
-            [0.0; 3],
-        )?;
+        let (base, tip) = (args.base_link.as_deref(), args.tip_link.as_deref());
+        let (imp, _, tip, _) = import_chain(&urdf, path, base, tip, [0.0; 3])?;
         if imp.file.joints.len() != model.joints.len() {
             crate::refuse!(
-                "{}: the model has {} joints, the URDF chain {}: pass the --base-link/--tip-link \
-                 given to import",
-                args.model.display(),
+                "{model_origin}: the model has {} joints, the URDF chain {}: pass the \
+                 --base-link/--tip-link given to import",
                 model.joints.len(),
                 imp.file.joints.len()
             );
         }
-        check_match(&imp.file, path)?;
+        export::check_match(&model, &model_origin, &imp.file, &path_text(path), tol)?;
         Ok((text, urdf, imp, tip))
     };
-    match args.format {
+    let mut report = ExportReport {
+        format: String::new(),
+        out: path_text(&args.out),
+        joints_rewritten: Vec::new(),
+        dropped: Vec::new(),
+        rows: 0,
+        bytes: None,
+    };
+    let bytes = match args.format {
         Format::Firmware => {
-            let bytes = firmware_model::encode(&model)
-                .map_err(|e| crate::refused(format!("{}: {e}", args.model.display())))?;
-            write_atomic(&args.out, &bytes)
-                .with_context(|| format!("cannot write {}", args.out.display()))?;
-            Ok(ExportReport {
-                format: "firmware".into(),
-                out: path_text(&args.out),
-                joints_rewritten: Vec::new(),
-                dropped: Vec::new(),
-                rows: 0,
-                bytes: Some(bytes.len()),
-            })
+            let bytes = export::firmware(&model, &model_origin)?;
+            (report.format, report.bytes) = ("firmware".into(), Some(bytes.len()));
+            bytes
         }
         Format::Urdf => {
             let Some(path) = &args.urdf else {
                 crate::refuse!("export --format urdf needs --urdf F.urdf (the file the model was imported from)");
             };
             let (text, urdf, imp, tip) = nominal_import(path)?;
-            if urdf.links.iter().any(|l| l == splice::TOOL_LINK)
-                || urdf.joints.iter().any(|j| j.name == splice::TOOL_JOINT)
-            {
-                crate::refuse!(
-                    "{}: already has a link '{}' (written by an earlier export?): export into \
-                     the original URDF",
-                    path.display(),
-                    splice::TOOL_LINK
-                );
-            }
-            let dropped = dropped(&model);
+            let dropped = export::dropped(&model);
             for d in &dropped {
                 eprintln!("warning: not exported: {d}");
             }
-            let out = splice::export(
-                &text,
-                &urdf,
-                &imp,
-                &model,
-                &tip,
-                &path.display().to_string(),
-            )?;
-            // What is written must read back as XML: a splice the file's text defeats is
-            // refused rather than written.
-            if let Err(e) = roxmltree::Document::parse(&out) {
-                crate::refuse!(
-                    "{}: the exported URDF would not be well-formed XML ({e}); nothing written: \
-                     rewrite the chain joints' <origin> elements plainly (xyz=\"…\" rpy=\"…\") \
-                     and export again",
-                    path.display()
-                );
-            }
-            write_atomic(&args.out, out.as_bytes())
-                .with_context(|| format!("cannot write {}", args.out.display()))?;
-            Ok(ExportReport {
-                format: "urdf".into(),
-                out: path_text(&args.out),
-                joints_rewritten: imp.joint_names.clone(),
-                dropped,
-                rows: 0,
-                bytes: None,
-            })
+            let out = export::urdf((&text, &urdf), &imp, &model, &tip, &path_text(path))?;
+            report.format = "urdf".into();
+            (report.joints_rewritten, report.dropped) = (imp.joint_names.clone(), dropped);
+            out.into_bytes()
         }
         Format::DhTable => {
             let nominal = match (&args.robot, &args.urdf) {
                 (Some(r), _) => {
                     let f = RobotFile::load(r)?;
-                    if f.joints.len() != model.joints.len() {
-                        crate::refuse!(
-                            "{}: {} joints, the model {}",
-                            r.display(),
-                            f.joints.len(),
-                            model.joints.len()
-                        );
+                    let (n, m) = (f.joints.len(), model.joints.len());
+                    if n != m {
+                        crate::refuse!("{}: {n} joints, the model {m}", r.display());
                     }
-                    check_match(&f, r)?;
+                    export::check_match(&model, &model_origin, &f, &path_text(r), tol)?;
                     Some(f)
                 }
                 (None, Some(u)) => Some(nominal_import(u)?.2.file),
@@ -252,27 +131,17 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
                     None
                 }
             };
-            let rows = dh_table::table(&model, nominal.as_ref());
             let as_json = json
                 || args
                     .out
                     .extension()
                     .is_some_and(|e| e.eq_ignore_ascii_case("json"));
-            let text = if as_json {
-                dh_table::to_json(&rows)
-            } else {
-                dh_table::to_csv(&rows)
-            };
-            write_atomic(&args.out, text.as_bytes())
-                .with_context(|| format!("cannot write {}", args.out.display()))?;
-            Ok(ExportReport {
-                format: "dh-table".into(),
-                out: path_text(&args.out),
-                joints_rewritten: Vec::new(),
-                dropped: Vec::new(),
-                rows: rows.len(),
-                bytes: None,
-            })
+            let (text, rows) = export::dh_table(&model, nominal.as_ref(), as_json);
+            (report.format, report.rows) = ("dh-table".into(), rows);
+            text.into_bytes()
         }
-    }
+    };
+    write_atomic(&args.out, &bytes)
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    Ok(report)
 }

@@ -3,14 +3,14 @@
 //! identification data and optionally held-out data and a diagnose JSON.
 
 use super::inputs::InputArgs;
+use crate::calibration::replay;
+use crate::calibration::selection::Selection;
 use crate::calibration::{model_params, weights};
 use crate::formats::observations::ObservationArgs;
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::report_html::summary::ReportSummary;
 use crate::report_html::{build, findings, Inputs, Sources};
-use crate::{with_joints, VCAP};
-use kinecal::model::param::ParamSet;
-use kinecal::{Param, Robot};
+use crate::with_joints;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `kinecal report` (docs/formats.md).
@@ -72,15 +72,9 @@ pub fn run(args: &Args) -> anyhow::Result<ReportSummary> {
         ("data", input.data.as_path()),
         ("model", args.model.as_path()),
     ];
-    if let Some(v) = &args.validate {
-        inputs.push(("validation", v));
-    }
-    if let Some(d) = &args.diagnose {
-        inputs.push(("diagnose", d));
-    }
-    if let Some(v) = &args.validate_json {
-        inputs.push(("validate JSON", v));
-    }
+    inputs.extend(args.validate.as_deref().map(|v| ("validation", v)));
+    inputs.extend(args.diagnose.as_deref().map(|d| ("diagnose", d)));
+    inputs.extend(args.validate_json.as_deref().map(|v| ("validate JSON", v)));
     crate::output::atomic::refuse_overwriting_inputs("--out", &args.out, &inputs)?;
     crate::check_positive("--stall-rms-mm", args.stall_rms_mm, 1e6)?;
     let n = RobotFile::load(&input.robot)?.joint_count();
@@ -99,80 +93,11 @@ pub fn run(args: &Args) -> anyhow::Result<ReportSummary> {
     Ok(summary)
 }
 
-/// Refuses (exit 2) a model whose geometry is far from the robot file's: not an identified
-/// model of this robot (lengths beyond 100 mm, angles beyond 10°, or other tool points).
-pub(crate) fn same_robot<const N: usize>(
-    robot: &Robot<f64, N, VCAP>,
-    model: &Robot<f64, N, VCAP>,
-    paths: (&Path, &Path),
-) -> anyhow::Result<()> {
-    let wrap = |a: f64| {
-        (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
-    };
-    let refuse = |what: String| -> anyhow::Result<()> {
-        crate::refuse!(
-            "{}: not an identified model of {} ({what}): give the model that `kinecal identify \
-             --robot {} --out M.toml` wrote",
-            paths.1.display(),
-            paths.0.display(),
-            paths.0.display()
-        )
-    };
-    if robot.tool_point_count() != model.tool_point_count() {
-        return refuse(format!(
-            "{} tool points against {}",
-            model.tool_point_count(),
-            robot.tool_point_count()
-        ));
-    }
-    for (j, (a, b)) in robot.joints().iter().zip(model.joints()).enumerate() {
-        for (name, d) in [("a", b.a - a.a), ("d", b.d - a.d)] {
-            if d.is_nan() || d.abs() > 100.0 {
-                return refuse(format!(
-                    "{name}{} differs by {} mm",
-                    j + 1,
-                    crate::number_text(d)
-                ));
-            }
-        }
-        for (name, d) in [("alpha", b.alpha - a.alpha), ("theta", b.theta - a.theta)] {
-            let d = wrap(d).to_degrees();
-            if d.is_nan() || d.abs() > 10.0 {
-                return refuse(format!(
-                    "{name}{} differs by {}°",
-                    j + 1,
-                    crate::number_text(d)
-                ));
-            }
-        }
-    }
-    Ok(())
-}
-
-fn units_text(args: &Args) -> String {
-    use crate::formats::units::{AngleUnit, LengthUnit};
-    let u = &args.input.units;
-    format!(
-        "positions read as {}, joint readings as {}{}",
-        match u.length_unit {
-            Some(LengthUnit::M) => "metres (--length-unit m)",
-            Some(LengthUnit::Mm) => "millimetres (--length-unit mm)",
-            None => "millimetres",
-        },
-        match u.angle_unit {
-            Some(AngleUnit::Rad) => "radians (--angle-unit rad)",
-            Some(AngleUnit::Deg) => "degrees (--angle-unit deg)",
-            None => "degrees",
-        },
-        "; the report is in millimetres and degrees"
-    )
-}
-
 fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary> {
     let input = &args.input;
     let (file, mut nominal) = load_robot::<N>(&input.robot)?;
     let (model_file, model) = load_robot::<N>(&args.model)?;
-    same_robot(&nominal, &model, (&input.robot, &args.model))?;
+    replay::same_robot(&nominal, &model, (&input.robot, &args.model))?;
     let obs = &args.obs;
     let split = super::inputs::load_split(
         input,
@@ -186,36 +111,14 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
     // "Before" is the nominal robot placed as identify and check place it.
     let base_unknown = !file.base_known();
     super::inputs::place_nominal(&mut nominal, &file, &split.ident, observed.six_d)?;
-    // The parameters identify estimated: its default set, the model's effects and tilts.
-    let mut tilts = file.tilt_joints();
-    tilts.extend(model_file.tilt_joints());
-    tilts.extend((0..N).filter(|&j| model.joints()[j].beta != 0.0));
-    tilts.sort_unstable();
-    tilts.dedup();
-    let mut estimated: Vec<Param> = ParamSet::<64>::full(N, base_unknown)
-        .map_err(|e| anyhow::anyhow!("{e:?}"))?
-        .as_slice()
-        .to_vec();
-    estimated.extend(tilts.iter().map(|&j| Param::Beta(j as u8)));
-    estimated.extend((0..model.effects().values().len()).map(|k| Param::Effect(k as u16)));
-    if observed.six_d {
-        estimated.extend([Param::ToolRx, Param::ToolRy, Param::ToolRz]);
-    }
-    for k in 1..model.tool_point_count() {
-        estimated.extend((0..3).map(|a| Param::ToolPoint(k as u8, a)));
-    }
-    if base_unknown {
-        crate::calibration::selection::hold_first_row(&mut estimated);
-    }
-    crate::calibration::selection::apply(
-        &mut estimated,
-        &model,
-        &crate::calibration::selection::Selection {
-            only: &args.only,
-            free: &args.free,
-            fix: &args.fix,
-        },
-    )?;
+    // The parameters identify estimated (calibration/replay.rs).
+    let selected = Selection {
+        only: &args.only,
+        free: &args.free,
+        fix: &args.fix,
+    };
+    let how = (observed.six_d, base_unknown);
+    let (tilts, estimated) = replay::estimated(&file, (&model_file, &model), how, &selected)?;
     let weighting = weights::Weighting::of(
         observed.six_d,
         observed.sigma,
@@ -227,16 +130,11 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
         Some(p) => Some((findings::load(p)?, p.display().to_string())),
         None => None,
     };
+    let t = |p: &Path| p.display().to_string();
     let mut files = vec![
-        ("robot file".to_string(), input.robot.display().to_string()),
-        (
-            "identified model".to_string(),
-            args.model.display().to_string(),
-        ),
-        (
-            "identification data".to_string(),
-            input.data.display().to_string(),
-        ),
+        ("robot file".to_string(), t(&input.robot)),
+        ("identified model".to_string(), t(&args.model)),
+        ("identification data".to_string(), t(&input.data)),
     ];
     match &args.validate {
         Some(v) => files.push(("held-out data".into(), v.display().to_string())),
@@ -260,39 +158,20 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
         None => None,
     };
     let all_params = model_params(&model, &tilts);
-    // identify's start: the placed nominal robot with the effects it added at zero.
-    let mut start = nominal.clone();
-    for e in model.effects().iter().skip(nominal.effects().len()) {
-        start
-            .effects_mut()
-            .push(
-                e.kind,
-                e.joint as usize,
-                N,
-                e.order,
-                e.start,
-                e.step,
-                &vec![0.0; e.len as usize],
-            )
-            .map_err(|err| anyhow::anyhow!("{}: effect: {err:?}", args.model.display()))?;
-    }
-    // The prior as identify set it: the file's `[prior]` and `--prior`, none on a base placed
-    // by registration, a tool orientation started from the data, effects added at zero.
-    let spec = file.prior.unwrap_or_default().with_overrides(&args.prior)?;
-    let tool_axes_unknown = observed.six_d && file.tool.rpy_deg.is_none();
-    let file_effects = nominal.effects().values().len();
-    let prior = crate::calibration::prior::sigmas(&spec, &estimated, |p| {
-        (p.is_base() && base_unknown)
-            || (p.is_tool_rotation() && tool_axes_unknown)
-            || (matches!(p, Param::ToolX | Param::ToolY | Param::ToolZ) && file.tool_unknown())
-            || matches!(p, Param::Effect(k) if usize::from(k) >= file_effects)
-    });
+    let model_origin = args.model.display().to_string();
+    let (start, prior) = replay::start_and_prior(
+        (&file, &nominal),
+        (&model, &model_origin),
+        how,
+        &estimated,
+        &args.prior,
+    )?;
     let built = build(Inputs {
         robot_name: file.name.clone(),
         model_name: model_file.name.clone(),
         sources: Sources {
             files,
-            units: units_text(args),
+            units: args.input.units.described(),
         },
         nominal: &nominal,
         base_fitted: base_unknown,

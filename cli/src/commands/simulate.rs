@@ -44,7 +44,7 @@ pub struct Args {
     /// The arm warms (or cools) linearly from A to B °C over the poses, in their order: each
     /// row gets a `temp_c` column, and a `--effect thermal-expansion:0:C` (C per kelvin) is
     /// referred to the mean temperature.
-    #[arg(long, value_name = "A:B", value_parser = parse_temperature, allow_hyphen_values = true)]
+    #[arg(long, value_name = "A:B", value_parser = crate::simulation::request::parse_temperature, allow_hyphen_values = true)]
     pub temperature: Option<(f64, f64)>,
     /// Output measurement CSV.
     #[arg(long)]
@@ -71,19 +71,6 @@ pub struct Args {
     /// socket:4x10,plane:3x15,distance:30); --noise-mm is each contact's or length's σ.
     #[arg(long, value_name = "KIND:COUNT,…")]
     pub constraints: Option<crate::constraints::simulate::SessionPlan>,
-}
-
-/// `A:B`: two temperatures in °C.
-fn parse_temperature(s: &str) -> Result<(f64, f64), String> {
-    let bad = || format!("`--temperature {s}`: expected A:B, two temperatures in °C (e.g. 15:35)");
-    let (a, b) = s.split_once(':').ok_or_else(bad)?;
-    let t = |x: &str| {
-        x.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite() && v.abs() <= 1e3)
-    };
-    Ok((t(a).ok_or_else(bad)?, t(b).ok_or_else(bad)?))
 }
 
 impl Args {

@@ -23,18 +23,11 @@
 //! unknown), and the spread of the identified tool points at the working configuration is
 //! compared with the plan's prediction σ²·trace C_s.
 
-use crate::plan::design::{self, CriterionArg};
-use crate::reports::study::{
-    ArmDesigns, ArmDesignsWithout, ArmRow, DesignStats, Designs, MonteCarloReport, SettingRow,
-    StudyReport,
-};
-use anyhow::{anyhow, bail};
+use crate::application::study::{study, Options};
+use crate::plan::design;
+use crate::plan::study::{length_range, StudySettings};
+use crate::reports::study::StudyReport;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
-use std::time::Instant;
-
-use crate::plan::study::*;
 
 /// Arguments of `kinecal study`.
 #[derive(clap::Args, Debug)]
@@ -85,37 +78,6 @@ pub struct Args {
     pub svg: Option<PathBuf>,
 }
 
-fn parse_range(text: &str, what: &str) -> anyhow::Result<Vec<f64>> {
-    let p: Vec<f64> = text
-        .split(':')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| anyhow!("{what} `{text}`: expected MIN:MAX:STEP in mm"))?;
-    let [lo, hi, step] = p[..] else {
-        bail!("{what} `{text}`: expected MIN:MAX:STEP in mm")
-    };
-    if !(lo.is_finite()
-        && hi.is_finite()
-        && step.is_finite()
-        && step > 0.0
-        && lo <= hi
-        && lo > 0.0
-        && hi <= crate::MAX_LENGTH_MM)
-    {
-        crate::refuse!(
-            "{what} `{text}`: need 0 < MIN ≤ MAX ≤ {} and a finite STEP > 0",
-            crate::MAX_LENGTH_MM
-        );
-    }
-    // Counted in f64 first: a tiny step must not wrap the count.
-    let n_f = ((hi - lo) / step + 1e-9).floor() + 1.0;
-    if n_f.is_nan() || n_f > 1000.0 {
-        crate::refuse!("{what} `{text}`: more than 1000 values: use a larger STEP");
-    }
-    let n = n_f as usize;
-    Ok((0..n).map(|i| lo + step * i as f64).collect())
-}
-
 /// Runs the subcommand: the study's table (and figure with `--svg`).
 pub fn run(args: &Args) -> anyhow::Result<StudyReport> {
     let settings = StudySettings {
@@ -126,8 +88,8 @@ pub fn run(args: &Args) -> anyhow::Result<StudyReport> {
         noise_mm: args.noise_mm,
         refine: args.refine,
     };
-    let uppers = parse_range(&args.upper_arm_mm, "--upper-arm-mm")?;
-    let forearms = parse_range(&args.forearm_mm, "--forearm-mm")?;
+    let uppers = length_range(&args.upper_arm_mm, "--upper-arm-mm")?;
+    let forearms = length_range(&args.forearm_mm, "--forearm-mm")?;
     crate::check_count("--poses", args.poses, 1, crate::MAX_PLAN_POSES)?;
     crate::check_count("--pool", args.pool, 1, crate::MAX_POOL)?;
     crate::check_count("--random-designs", args.random_designs, 0, 1000)?;
@@ -140,187 +102,29 @@ pub fn run(args: &Args) -> anyhow::Result<StudyReport> {
     crate::check_count("--monte-carlo", args.monte_carlo, 0, 1_000_000)?;
     crate::check_count("--threads", args.threads, 1, 256)?;
     crate::check_positive("--noise-mm", args.noise_mm, crate::MAX_NOISE_MM)?;
-    let work = vec![design::parse_configuration::<6>(&args.work)?];
-    let arms: Vec<(f64, f64)> = uppers
-        .iter()
-        .flat_map(|u| forearms.iter().map(move |f| (*u, *f)))
-        .collect();
-    let start = Instant::now();
-    let bar = indicatif::ProgressBar::new(arms.len() as u64);
+    let work = design::parse_configuration::<6>(&args.work)?;
+    let options = Options {
+        settings,
+        uppers,
+        forearms,
+        work,
+        seed: args.seed,
+        monte_carlo: args.monte_carlo,
+        threads: args.threads,
+    };
+    let arms = (options.uppers.len() * options.forearms.len()) as u64;
+    let bar = indicatif::ProgressBar::new(arms);
     bar.set_style(
         indicatif::ProgressStyle::with_template("study {bar:40} {pos}/{len} arms {elapsed}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
-    let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<Option<anyhow::Result<ArmResult>>>> =
-        Mutex::new((0..arms.len()).map(|_| None).collect());
-    std::thread::scope(|scope| {
-        for _ in 0..args.threads.clamp(1, 64) {
-            let builder = std::thread::Builder::new().stack_size(8 << 20);
-            let _ = builder.spawn_scoped(scope, || loop {
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                let Some(&(u, f)) = arms.get(i) else { break };
-                let r = study_arm(
-                    &settings,
-                    u,
-                    f,
-                    &work,
-                    args.seed.wrapping_add(1000 * i as u64),
-                );
-                if let Ok(mut g) = results.lock() {
-                    g[i] = Some(r);
-                }
-                bar.inc(1);
-            });
-        }
-    });
+    let done = study(&options, &|| bar.inc(1));
     bar.finish_and_clear();
-    let results: Vec<ArmResult> = results
-        .into_inner()
-        .map_err(|_| anyhow!("internal error: a worker panicked"))?
-        .into_iter()
-        .map(|r| r.unwrap_or_else(|| Err(anyhow!("internal error: an arm was not studied"))))
-        .collect::<anyhow::Result<_>>()?;
-    let study_seconds = start.elapsed().as_secs_f64();
-
-    let mut table = Vec::new();
-    for k in 0..2 {
-        let kpi: Vec<f64> = results.iter().map(|r| r.settings[k].kpi).collect();
-        let design = |vals: Vec<f64>, is_kpi: bool| {
-            let (mean, min, max) = stats(&vals);
-            let imp: Vec<f64> = vals.iter().zip(&kpi).map(|(o, k)| 1.0 - k / o).collect();
-            let (im, imin, imax) = stats(&imp);
-            let not_kpi = |x: f64| (!is_kpi).then_some(x);
-            DesignStats {
-                mean_kpi_trace_mm2: mean,
-                min_kpi_trace_mm2: min,
-                max_kpi_trace_mm2: max,
-                kpi_improvement_mean: not_kpi(im),
-                kpi_improvement_min: not_kpi(imin),
-                kpi_improvement_max: not_kpi(imax),
-            }
-        };
-        let designs = Designs {
-            random: design(
-                results.iter().map(|r| r.settings[k].random).collect(),
-                false,
-            ),
-            d_o1: design(results.iter().map(|r| r.settings[k].d).collect(), false),
-            kpi: design(kpi.clone(), true),
-        };
-        let colliding_share = (k == 1).then(|| {
-            stats(
-                &results
-                    .iter()
-                    .map(|r| r.settings[1].colliding)
-                    .collect::<Vec<_>>(),
-            )
-            .0
-        });
-        table.push(SettingRow {
-            collision_avoidance: k == 0,
-            designs,
-            colliding_share,
-        });
-    }
-
-    let monte_carlo = if args.monte_carlo > 0 {
-        let robot = arm(780.0, 760.0)?;
-        let scene = cell(780.0, 760.0)?;
-        let m = monte_carlo(
-            &robot,
-            &scene,
-            CriterionArg::Kpi,
-            &work,
-            args.poses,
-            3000,
-            args.noise_mm,
-            args.monte_carlo,
-            args.seed,
-        )?;
-        Some(MonteCarloReport {
-            runs: m.runs,
-            predicted_trace_mm2: m.predicted_trace_mm2,
-            empirical_trace_mm2: m.empirical_trace_mm2,
-            ratio: m.ratio(),
-            empirical_mse_mm2: m.empirical_mse_mm2,
-            seconds: m.seconds,
-        })
-    } else {
-        None
-    };
-
+    let (mut report, results) = done?;
     if let Some(path) = &args.svg {
-        let series: Vec<(String, Vec<f64>)> = vec![
-            (
-                "vs random, with collision avoidance".into(),
-                results
-                    .iter()
-                    .map(|r| 100.0 * (1.0 - r.settings[0].kpi / r.settings[0].random))
-                    .collect(),
-            ),
-            (
-                "vs D/O1, with collision avoidance".into(),
-                results
-                    .iter()
-                    .map(|r| 100.0 * (1.0 - r.settings[0].kpi / r.settings[0].d))
-                    .collect(),
-            ),
-            (
-                "vs random, without".into(),
-                results
-                    .iter()
-                    .map(|r| 100.0 * (1.0 - r.settings[1].kpi / r.settings[1].random))
-                    .collect(),
-            ),
-            (
-                "vs D/O1, without".into(),
-                results
-                    .iter()
-                    .map(|r| 100.0 * (1.0 - r.settings[1].kpi / r.settings[1].d))
-                    .collect(),
-            ),
-        ];
-        crate::plan::study_figure::improvements(
-            path,
-            &format!(
-                "KPI design: TCP variance improvement, {} arms",
-                results.len()
-            ),
-            &series,
-        )?;
+        crate::plan::study_figure::kpi_improvements(path, &results)?;
     }
-    let per_arm = results
-        .iter()
-        .map(|r| {
-            let (w, wo) = (&r.settings[0], &r.settings[1]);
-            ArmRow {
-                upper_arm_mm: r.upper,
-                forearm_mm: r.forearm,
-                with: ArmDesigns {
-                    random: w.random,
-                    d_o1: w.d,
-                    kpi: w.kpi,
-                },
-                without: ArmDesignsWithout {
-                    random: wo.random,
-                    d_o1: wo.d,
-                    kpi: wo.kpi,
-                    colliding_share: wo.colliding,
-                },
-            }
-        })
-        .collect();
-    Ok(StudyReport {
-        arms: results.len(),
-        poses: args.poses,
-        noise_mm: args.noise_mm,
-        work_deg: args.work.clone(),
-        table,
-        monte_carlo,
-        per_arm,
-        seconds: study_seconds,
-        threads: args.threads.clamp(1, 64),
-        figure: args.svg.as_ref().map(|p| p.display().to_string()),
-    })
+    report.work_deg = args.work.clone();
+    report.figure = args.svg.as_ref().map(|p| p.display().to_string());
+    Ok(report)
 }

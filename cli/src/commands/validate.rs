@@ -59,7 +59,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ValidateReport
     let input = &args.input;
     let (file, nominal) = load_robot::<N>(&input.robot)?;
     let (model_file, model) = load_robot::<N>(&args.model)?;
-    super::report::same_robot(&nominal, &model, (&input.robot, &args.model))?;
+    crate::calibration::replay::same_robot(&nominal, &model, (&input.robot, &args.model))?;
     let ds = crate::formats::loading::load_measurements(
         &input.data,
         &input.units,

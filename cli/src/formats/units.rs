@@ -164,6 +164,23 @@ impl UnitArgs {
     pub fn angle(&self) -> AngleUnit {
         self.angle_unit.unwrap_or(AngleUnit::Deg)
     }
+    /// The units as a report's sources state them.
+    pub fn described(&self) -> String {
+        format!(
+            "positions read as {}, joint readings as {}{}",
+            match self.length_unit {
+                Some(LengthUnit::M) => "metres (--length-unit m)",
+                Some(LengthUnit::Mm) => "millimetres (--length-unit mm)",
+                None => "millimetres",
+            },
+            match self.angle_unit {
+                Some(AngleUnit::Rad) => "radians (--angle-unit rad)",
+                Some(AngleUnit::Deg) => "degrees (--angle-unit deg)",
+                None => "degrees",
+            },
+            "; the report is in millimetres and degrees"
+        )
+    }
 }
 
 /// What a file holds, for the wording of a refusal.

@@ -2,6 +2,30 @@
 //! makes in memory for a robot model in a cell: the chosen poses with their signed clearance
 //! in the full cell, and what the report says of them. The command line writes the poses;
 //! the Python package returns them.
+//!
+//! Plans are made in the robot base frame with the base at identity: the scene is given there,
+//! and the identified base pose (the tracker's placement) only rotates the tool-point
+//! covariance, whose trace is what the criteria use. The identified set is the default full
+//! set (base pose, alpha/a/theta/d of every joint, tool point), or with `--estimate` the named
+//! subset with every other parameter held at its value (a quick re-calibration: the
+//! information about the subset is then its own Jacobian columns,
+//! [`crate::calibration::selection`]); structural redundancies are dropped by
+//! [`Basis`](kinecal::planning::selection::Basis). Without `--scene` the joint limits are the
+//! only constraint ([`super::design::limits_only_scene`]).
+//!
+//! 1. Pool: `--pool` feasible configurations, 80 % drawn with the wrist aimed at the tracker
+//!    and 20 % uniformly within the limits ([`kinecal::planning::pose_pool::draw`]); all
+//!    uniformly without a scene. Poses closer than 0.1 mm to a collision or within 0.001° of the incidence limit are
+//!    dropped, so the rounding of the written joint values cannot make a planned pose
+//!    infeasible.
+//! 2. Design: `random` draws uniformly within the limits and keeps feasible poses (the
+//!    experimenter's heuristic); `d`, `o1` (the same optimum: O1 is monotone in det JᵀJ for a
+//!    fixed number of poses), `a` and `kpi` select from the pool by greedy construction and
+//!    Fedorov exchange ([`kinecal::planning::selection::select`]).
+//! 3. Report: predicted by linear error propagation, σ = `--noise-mm` per coordinate (or the
+//!    RMS of a tracker file's stated σ, `--noise-from`):
+//!    `kpi_trace_mm2` = trace of the summed tool-point covariance at the `--work`
+//!    configurations, the A/D/E criteria, the observability indices O1–O5.
 
 use super::design::{
     in_base_frame, parse_configuration, plan, CriterionArg, HostCandidate, Plan, PlanRequest,
@@ -150,4 +174,37 @@ pub fn plan_request<const N: usize>(
         noise_mm: sigma,
         seconds,
     })
+}
+
+/// The RMS of the stated 1-σ (`sx_mm`, `sy_mm`, `sz_mm`) of every row of the measurement file
+/// `path` (mm): the tracker's noise as it reports it, for the predicted covariances.
+/// Read as every measurement file is (`--map`, units, the stated base).
+pub fn stated_noise_mm<const N: usize>(
+    path: &std::path::Path,
+    units: &crate::formats::units::UnitArgs,
+    robot: &kinecal::Robot<f64, N, { crate::VCAP }>,
+    base_known: bool,
+) -> anyhow::Result<f64> {
+    let ds = crate::formats::loading::load_measurements(path, units, robot, base_known)?;
+    let cols: Vec<Vec<f64>> = ["sx_mm", "sy_mm", "sz_mm"]
+        .iter()
+        .filter_map(|c| ds.extra(c))
+        .collect();
+    if cols.len() != 3 || ds.is_empty() {
+        crate::refuse!(
+            "--noise-from {}: needs the columns sx_mm, sy_mm, sz_mm (the tracker's 1-σ per \
+             coordinate): give --noise-mm instead",
+            path.display()
+        );
+    }
+    let values: Vec<f64> = cols.concat();
+    if let Some(bad) = values.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
+        crate::refuse!(
+            "--noise-from {}: a stated σ of {bad} mm: every σ must be a positive number",
+            path.display()
+        );
+    }
+    let rms = (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt();
+    crate::check_positive("--noise-from (the RMS of its σ)", rms, crate::MAX_NOISE_MM)?;
+    Ok(rms)
 }

@@ -361,3 +361,36 @@ pub fn example_scene_file() -> anyhow::Result<SceneFile> {
             .collect(),
     })
 }
+
+/// The lengths `MIN:MAX:STEP` (mm) of `text` (the option `what`): at most 1000 values, within
+/// (0, the longest length a robot file takes].
+pub fn length_range(text: &str, what: &str) -> anyhow::Result<Vec<f64>> {
+    let p: Vec<f64> = text
+        .split(':')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| anyhow!("{what} `{text}`: expected MIN:MAX:STEP in mm"))?;
+    let [lo, hi, step] = p[..] else {
+        bail!("{what} `{text}`: expected MIN:MAX:STEP in mm")
+    };
+    if !(lo.is_finite()
+        && hi.is_finite()
+        && step.is_finite()
+        && step > 0.0
+        && lo <= hi
+        && lo > 0.0
+        && hi <= crate::MAX_LENGTH_MM)
+    {
+        crate::refuse!(
+            "{what} `{text}`: need 0 < MIN ≤ MAX ≤ {} and a finite STEP > 0",
+            crate::MAX_LENGTH_MM
+        );
+    }
+    // Counted in f64 first: a tiny step must not wrap the count.
+    let n_f = ((hi - lo) / step + 1e-9).floor() + 1.0;
+    if n_f.is_nan() || n_f > 1000.0 {
+        crate::refuse!("{what} `{text}`: more than 1000 values: use a larger STEP");
+    }
+    let n = n_f as usize;
+    Ok((0..n).map(|i| lo + step * i as f64).collect())
+}

@@ -85,3 +85,47 @@ pub fn improvements(path: &Path, title: &str, series: &[(String, Vec<f64>)]) -> 
     crate::output::plots::save_svg(path, &svg)?;
     Ok(())
 }
+
+/// The figure of the study's arms `results`: the KPI design's improvement over the random and
+/// the D/O1 designs, with and without collision avoidance, written to `path`.
+pub fn kpi_improvements(path: &Path, results: &[super::study::ArmResult]) -> anyhow::Result<()> {
+    let series: Vec<(String, Vec<f64>)> = vec![
+        (
+            "vs random, with collision avoidance".into(),
+            results
+                .iter()
+                .map(|r| 100.0 * (1.0 - r.settings[0].kpi / r.settings[0].random))
+                .collect(),
+        ),
+        (
+            "vs D/O1, with collision avoidance".into(),
+            results
+                .iter()
+                .map(|r| 100.0 * (1.0 - r.settings[0].kpi / r.settings[0].d))
+                .collect(),
+        ),
+        (
+            "vs random, without".into(),
+            results
+                .iter()
+                .map(|r| 100.0 * (1.0 - r.settings[1].kpi / r.settings[1].random))
+                .collect(),
+        ),
+        (
+            "vs D/O1, without".into(),
+            results
+                .iter()
+                .map(|r| 100.0 * (1.0 - r.settings[1].kpi / r.settings[1].d))
+                .collect(),
+        ),
+    ];
+    improvements(
+        path,
+        &format!(
+            "KPI design: TCP variance improvement, {} arms",
+            results.len()
+        ),
+        &series,
+    )?;
+    Ok(())
+}

@@ -156,3 +156,16 @@ pub fn simulate_request<const N: usize>(
         effects,
     })
 }
+
+/// `--temperature A:B`: two temperatures in °C.
+pub fn parse_temperature(s: &str) -> Result<(f64, f64), String> {
+    let bad = || format!("`--temperature {s}`: expected A:B, two temperatures in °C (e.g. 15:35)");
+    let (a, b) = s.split_once(':').ok_or_else(bad)?;
+    let t = |x: &str| {
+        x.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite() && v.abs() <= 1e3)
+    };
+    Ok((t(a).ok_or_else(bad)?, t(b).ok_or_else(bad)?))
+}

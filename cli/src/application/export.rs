@@ -1,0 +1,136 @@
+//! `kinecal export` on files already read: the checks that a model belongs to the nominal it is
+//! exported against, and the three outputs (the URDF with calibrated joint origins, the DH
+//! table, the firmware's binary model) as bytes. The command module reads the files, calls
+//! these and writes what they return (docs/formats.md, "URDF export", "DH table", "Binary
+//! model (.kcm)").
+
+use crate::formats::robot_file::RobotFile;
+use crate::formats::urdf::mdh::Imported;
+use crate::formats::urdf::parse::Urdf;
+use crate::formats::urdf::splice;
+use crate::formats::{dh_table, firmware_model};
+
+/// Refuses `model` (named `model_origin`) when a row value lies further than the tolerances
+/// (mm, degrees) from `nominal` (named `source`): a calibration moves rows by millimetres and
+/// tenths of a degree, so a larger difference means the model was made for another robot (or
+/// another MDH convention).
+pub fn check_match(
+    model: &RobotFile,
+    model_origin: &str,
+    nominal: &RobotFile,
+    source: &str,
+    (tol_mm, tol_deg): (f64, f64),
+) -> anyhow::Result<()> {
+    if let Some(what) = mismatch(model, nominal, tol_mm, tol_deg) {
+        crate::refuse!(
+            "{model_origin}: not a calibration of {source}: {what} (further apart than \
+             --tolerance-mm {tol_mm} / --tolerance-deg {tol_deg}): export the model into the \
+             file it was imported from"
+        );
+    }
+    Ok(())
+}
+
+/// The first row value of `model` further than the tolerances from `nominal`, described.
+fn mismatch(model: &RobotFile, nominal: &RobotFile, tol_mm: f64, tol_deg: f64) -> Option<String> {
+    let wrap = |d: f64| (d + 180.0).rem_euclid(360.0) - 180.0;
+    for (i, (m, n)) in model.joints.iter().zip(&nominal.joints).enumerate() {
+        let rows = [
+            ("alpha", m.alpha_deg, n.alpha_deg, true),
+            ("a", m.a_mm, n.a_mm, false),
+            ("theta", m.theta_deg, n.theta_deg, true),
+            ("d", m.d_mm, n.d_mm, false),
+            (
+                "beta",
+                m.beta_deg.unwrap_or(0.0),
+                n.beta_deg.unwrap_or(0.0),
+                true,
+            ),
+        ];
+        for (name, mv, nv, angle) in rows {
+            let (diff, tol, unit) = if angle {
+                (wrap(mv - nv).abs(), tol_deg, "°")
+            } else {
+                ((mv - nv).abs(), tol_mm, " mm")
+            };
+            if diff > tol || diff.is_nan() {
+                return Some(format!(
+                    "{name}{} is {mv:.3}{unit} in the model and {nv:.3}{unit} in the nominal",
+                    i + 1
+                ));
+            }
+        }
+    }
+    None
+}
+
+/// What a URDF cannot hold of `model`, named (effects other than axis tilts, couplings).
+pub fn dropped(model: &RobotFile) -> Vec<String> {
+    let mut v: Vec<String> = model
+        .effects
+        .iter()
+        .filter(|e| e.kind != crate::formats::robot_file::AXIS_TILT)
+        .map(|e| {
+            format!(
+                "effect {} on joint {} (non-geometric: a URDF cannot hold it)",
+                e.kind, e.joint
+            )
+        })
+        .collect();
+    v.extend(model.couplings.iter().map(|c| {
+        format!(
+            "coupling of joint {} to joint {} (ratio {}: a URDF joint reads its own angle only)",
+            c.joint, c.from, c.ratio
+        )
+    }));
+    v
+}
+
+/// The URDF `text` (parsed: `urdf`, named `origin`; its chain imported as `imported`, ending at
+/// `tip`) with the chain's joint origins calibrated and the tool frame added. Refuses a URDF
+/// that already has the tool link (an earlier export) and a result that is not well-formed XML.
+pub fn urdf(
+    (text, urdf): (&str, &Urdf),
+    imported: &Imported,
+    model: &RobotFile,
+    tip: &str,
+    origin: &str,
+) -> anyhow::Result<String> {
+    if urdf.links.iter().any(|l| l == splice::TOOL_LINK)
+        || urdf.joints.iter().any(|j| j.name == splice::TOOL_JOINT)
+    {
+        crate::refuse!(
+            "{origin}: already has a link '{}' (written by an earlier export?): export into \
+             the original URDF",
+            splice::TOOL_LINK
+        );
+    }
+    let out = splice::export(text, urdf, imported, model, tip, origin)?;
+    // What is written must read back as XML: a splice the file's text defeats is refused
+    // rather than written.
+    if let Err(e) = roxmltree::Document::parse(&out) {
+        crate::refuse!(
+            "{origin}: the exported URDF would not be well-formed XML ({e}); nothing written: \
+             rewrite the chain joints' <origin> elements plainly (xyz=\"…\" rpy=\"…\") and \
+             export again"
+        );
+    }
+    Ok(out)
+}
+
+/// The DH table of `model` against `nominal` (nominal and delta columns when given), as JSON
+/// or CSV, and its row count.
+pub fn dh_table(model: &RobotFile, nominal: Option<&RobotFile>, as_json: bool) -> (String, usize) {
+    let rows = dh_table::table(model, nominal);
+    let text = if as_json {
+        dh_table::to_json(&rows)
+    } else {
+        dh_table::to_csv(&rows)
+    };
+    (text, rows.len())
+}
+
+/// The binary model firmware loads (`kc_robot_load`); `origin` names the model in a refusal.
+pub fn firmware(model: &RobotFile, origin: &str) -> anyhow::Result<Vec<u8>> {
+    firmware_model::encode(model).map_err(|e| crate::refused(format!("{origin}: {e}")))
+}

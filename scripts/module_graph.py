@@ -26,7 +26,7 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 LIBRARY_LAYERS = ["num", "model", "forward", "io", "identify", "compensate", "frames", "planning"]
 # Bottom to top, as cli/src/lib.rs lists them (lib.rs itself holds the error types and macros).
 CLI_LAYERS = ["lib", "output", "compute", "formats", "simulation", "calibration", "diagnose",
-              "plan", "reports", "constraints", "application", "report_html", "frames", "compensation", "commands", "main"]
+              "plan", "reports", "constraints", "report_html", "application", "frames", "compensation", "commands", "main"]
 
 # Crate-root re-exports of the library and the file that defines each.
 ROOT_REEXPORTS = {

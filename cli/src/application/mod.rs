@@ -9,9 +9,11 @@
 //! - [`export`]: `kinecal export`'s checks and outputs (URDF, DH table, firmware model).
 //! - [`study`]: `kinecal study`, the measurement-planning study over a grid of arms.
 //! - [`demo`]: `kinecal demo`, the BPNN-PSO paper's simulation and its four methods.
+//! - [`report`]: `kinecal report`, the calibration report of an identified model.
 
 pub mod constraints;
 pub mod demo;
 pub mod export;
 pub mod identify;
+pub mod report;
 pub mod study;

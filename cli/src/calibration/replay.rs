@@ -9,6 +9,23 @@ use kinecal::model::param::ParamSet;
 use kinecal::{Param, Robot};
 use std::path::Path;
 
+/// The joint count of the robot file `robot`; refuses (exit 2) a model file `model` of a robot
+/// with another count.
+pub fn joint_count(robot: &Path, model: &Path) -> anyhow::Result<usize> {
+    let n = RobotFile::load(robot)?.joint_count();
+    let m = RobotFile::load(model)?.joint_count();
+    if m != n {
+        crate::refuse!(
+            "{}: a model of a {m}-joint robot, but {} has {n} joints: give the model that \
+             `kinecal identify --robot {} --out M.toml` wrote",
+            model.display(),
+            robot.display(),
+            robot.display()
+        );
+    }
+    Ok(n)
+}
+
 /// Refuses (exit 2) a model whose geometry is far from the robot file's: not an identified
 /// model of this robot (lengths beyond 100 mm, angles beyond 10°, or other tool points).
 pub fn same_robot<const N: usize>(

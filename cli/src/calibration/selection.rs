@@ -21,6 +21,41 @@ use kinecal::Robot;
 const GROUPS: &str = "base, tool, geometry, theta, alpha, a, d, beta, effects, joint-tableN, \
                       joint-cyclicN, joint-scaleN, joint-complianceN";
 
+/// `--fix`, `--free`, `--only` and `--prior` on the command line (`identify`, and `report`
+/// given what identify was given).
+#[derive(clap::Args, Debug, Clone, Default, PartialEq)]
+pub struct ParameterArgs {
+    /// Hold these parameters at their file values: names as printed (d6, theta1, tool.z,
+    /// base.rz, joint-table1[0], …) or groups (base, tool, geometry, theta, effects,
+    /// joint-table2, …). Repeatable, or comma-separated.
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub fix: Vec<String>,
+    /// Estimate these parameters too (for example base when `[base]` is given but not
+    /// trusted, or beta3 for a tilt); names or groups as for --fix.
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub free: Vec<String>,
+    /// Estimate only these parameters (names or groups as for --fix) and hold everything
+    /// else: a quick re-calibration (`--only base,theta2,theta3` after a re-mastering).
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub only: Vec<String>,
+    /// The prior on every parameter's change: `off`, or KIND=SIGMA over the robot file's
+    /// `[prior]` and the defaults (length_mm 5, angle_deg 0.5, tool_mm 10, tool_deg 2,
+    /// base_mm 10, base_deg 1, effect 0 = off). Comma-separated.
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    pub prior: Vec<String>,
+}
+
+impl ParameterArgs {
+    /// The selection these flags make.
+    pub fn selection(&self) -> Selection<'_> {
+        Selection {
+            only: &self.only,
+            free: &self.free,
+            fix: &self.fix,
+        }
+    }
+}
+
 /// `--only`, `--free`, `--fix`, as given (each entry one name or group).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Selection<'a> {

@@ -14,7 +14,7 @@ use crate::with_joints;
 
 /// Runs `validate` on the constraint file `args.input.data`.
 pub fn run(args: &Args) -> anyhow::Result<ConstraintValidateReport> {
-    let n = super::validate::joint_count(args)?;
+    let n = crate::calibration::replay::joint_count(&args.input.robot, &args.model)?;
     let report = with_joints!(n, N => run_with_joints::<N>(args))?;
     if report.worse_than_nominal {
         eprintln!(

@@ -4,7 +4,7 @@
 use super::inputs::InputArgs;
 use super::Spinner;
 use crate::diagnose::workflow::{self, check_plots_dir, Inputs, Options};
-use crate::formats::observations::{observe, ObservationArgs, Observed};
+use crate::formats::observations::ObservationArgs;
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::output::numfmt::sig;
 use crate::reports::diagnose::DiagnoseReport;
@@ -91,15 +91,8 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
     // observation, weighted as identify weighs them at the geometric fit
     // (crate::diagnose::search_weights); the named effects are then fitted to all observations
     // as identify fits them (crate::diagnose::observations).
-    let load = |p: &std::path::Path| -> anyhow::Result<Observed<N>> {
-        let ds = crate::formats::loading::load_measurements(
-            p,
-            &input.units,
-            &nominal,
-            file.base_known(),
-        )?;
-        observe(&ds, &file, &args.obs, &p.display().to_string())
-    };
+    let load =
+        |p: &std::path::Path| super::inputs::load_observed(p, input, (&file, &nominal), &args.obs);
     check_plots_dir(args.plots.as_deref())?;
     let observed = load(&input.data)?;
     super::inputs::any_rows(&observed.poses, &input.data)?;

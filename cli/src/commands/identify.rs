@@ -6,8 +6,9 @@ use crate::application::identify::{
     DEFAULT_TOLERANCE_MM,
 };
 use crate::calibration::method::Method;
+use crate::calibration::selection::ParameterArgs;
 use crate::calibration::EffectRequest;
-use crate::formats::observations::{observe, ObservationArgs, Observed};
+use crate::formats::observations::ObservationArgs;
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::reports::identify::IdentifyReport;
 use crate::with_joints;
@@ -39,24 +40,9 @@ pub struct Args {
     /// Write the identified model (robot TOML; written atomically, never over an input).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Hold these parameters at their file values: names as printed (d6, theta1, tool.z,
-    /// base.rz, joint-table1[0], …) or groups (base, tool, geometry, theta, effects,
-    /// joint-table2, …). Repeatable, or comma-separated.
-    #[arg(long, value_delimiter = ',', num_args = 1..)]
-    pub fix: Vec<String>,
-    /// Estimate these parameters too (for example base when `[base]` is given but not
-    /// trusted, or beta3 for a tilt); names or groups as for --fix.
-    #[arg(long, value_delimiter = ',', num_args = 1..)]
-    pub free: Vec<String>,
-    /// Estimate only these parameters (names or groups as for --fix) and hold everything
-    /// else: a quick re-calibration (`--only base,theta2,theta3` after a re-mastering).
-    #[arg(long, value_delimiter = ',', num_args = 1..)]
-    pub only: Vec<String>,
-    /// The prior on every parameter's change: `off`, or KIND=SIGMA over the robot file's
-    /// `[prior]` and the defaults (length_mm 5, angle_deg 0.5, tool_mm 10, tool_deg 2,
-    /// base_mm 10, base_deg 1, effect 0 = off). Comma-separated.
-    #[arg(long, value_delimiter = ',', num_args = 1..)]
-    pub prior: Vec<String>,
+    /// Which parameters are estimated (`--fix`, `--free`, `--only`) and their prior.
+    #[command(flatten)]
+    pub parameters: ParameterArgs,
     /// Write each pose's residual (identification and held-out; per axis, with the pose index
     /// and its line in the file) to this CSV.
     #[arg(long)]
@@ -85,10 +71,10 @@ impl Args {
             holdout: self.holdout,
             effects: self.effects.clone(),
             seed: self.seed,
-            fix: self.fix.clone(),
-            free: self.free.clone(),
-            only: self.only.clone(),
-            prior: self.prior.clone(),
+            fix: self.parameters.fix.clone(),
+            free: self.parameters.free.clone(),
+            only: self.parameters.only.clone(),
+            prior: self.parameters.prior.clone(),
             residuals: self.residuals.is_some(),
             tolerance_mm: self.tolerance_mm,
             tolerance_deg: self.tolerance_deg,
@@ -122,15 +108,8 @@ pub fn run(args: &Args) -> anyhow::Result<IdentifyReport> {
 fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport> {
     let input = &args.input;
     let (file, nominal) = load_robot::<N>(&input.robot)?;
-    let load = |p: &std::path::Path| -> anyhow::Result<Observed<N>> {
-        let ds = crate::formats::loading::load_measurements(
-            p,
-            &input.units,
-            &nominal,
-            file.base_known(),
-        )?;
-        observe(&ds, &file, &args.obs, &p.display().to_string())
-    };
+    let load =
+        |p: &std::path::Path| super::inputs::load_observed(p, input, (&file, &nominal), &args.obs);
     let observed = load(&input.data)?;
     super::inputs::any_rows(&observed.poses, &input.data)?;
     let validate = match &args.validate {

@@ -33,6 +33,22 @@ impl InputArgs {
     }
 }
 
+/// The observations of the measurement file `path`, read in the units of `input` for the robot
+/// file `file` and its model `nominal` (the stated base, the angle order: the loader's doors).
+pub fn load_observed<const N: usize>(
+    path: &std::path::Path,
+    input: &InputArgs,
+    (file, nominal): (
+        &crate::formats::robot_file::RobotFile,
+        &kinecal::Robot<f64, N, { crate::VCAP }>,
+    ),
+    obs: &crate::formats::observations::ObservationArgs,
+) -> anyhow::Result<crate::formats::observations::Observed<N>> {
+    let ds =
+        crate::formats::loading::load_measurements(path, &input.units, nominal, file.base_known())?;
+    crate::formats::observations::observe(&ds, file, obs, &path.display().to_string())
+}
+
 /// Loads the data (and `validate`) in the units of `input` and splits them: the validation
 /// file's poses are held out, or those `holdout` chooses; refuses (exit 2) empty files and a
 /// split that leaves nothing to identify from.
@@ -44,16 +60,7 @@ pub fn load_split<const N: usize>(
     validate: Option<&std::path::Path>,
     holdout: (&HoldoutArgs, u64),
 ) -> anyhow::Result<crate::calibration::inputs::Split<N>> {
-    use crate::formats::observations::{observe, Observed};
-    let load = |p: &std::path::Path| -> anyhow::Result<Observed<N>> {
-        let ds = crate::formats::loading::load_measurements(
-            p,
-            &input.units,
-            nominal,
-            file.base_known(),
-        )?;
-        observe(&ds, file, obs, &p.display().to_string())
-    };
+    let load = |p: &std::path::Path| load_observed(p, input, (file, nominal), obs);
     let observed = load(&input.data)?;
     any_rows(&observed.poses, &input.data)?;
     let validate = match validate {

@@ -3,15 +3,15 @@
 //! identification data and optionally held-out data and a diagnose JSON.
 
 use super::inputs::InputArgs;
+use crate::application::report::{report, Inputs, Options};
 use crate::calibration::replay;
-use crate::calibration::selection::Selection;
-use crate::calibration::{model_params, weights};
+use crate::calibration::selection::ParameterArgs;
 use crate::formats::observations::ObservationArgs;
-use crate::formats::robot_file::{load_robot, RobotFile};
+use crate::formats::robot_file::load_robot;
 use crate::report_html::summary::ReportSummary;
-use crate::report_html::{build, findings, Inputs, Sources};
+use crate::report_html::{findings, Sources};
 use crate::with_joints;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Arguments of `kinecal report` (docs/formats.md).
 #[derive(clap::Args, Debug)]
@@ -42,19 +42,10 @@ pub struct Args {
     /// The page to write (HTML; written atomically, never over an input).
     #[arg(long)]
     pub out: PathBuf,
-    /// The parameters `identify` was told to hold (`--fix`), for the 1-σ and the table.
-    #[arg(long, value_delimiter = ',', num_args = 1..)]
-    pub fix: Vec<String>,
-    /// The parameters `identify` was told to add (`--free`).
-    #[arg(long, value_delimiter = ',', num_args = 1..)]
-    pub free: Vec<String>,
-    /// The parameters `identify` was told to estimate alone (`--only`).
-    #[arg(long, value_delimiter = ',', num_args = 1..)]
-    pub only: Vec<String>,
-    /// The prior `identify` was given (`--prior`; the robot file's `[prior]` is read as
-    /// identify reads it).
-    #[arg(long, value_delimiter = ',', num_args = 1..)]
-    pub prior: Vec<String>,
+    /// The parameters `identify` was told to hold, add or estimate alone (`--fix`, `--free`,
+    /// `--only`) and its `--prior` (the robot file's `[prior]` is read as identify reads it).
+    #[command(flatten)]
+    pub parameters: ParameterArgs,
     /// A model that misses the identification poses by more than this RMS (mm) is not a
     /// calibration of these data (exit 3).
     #[arg(long, default_value_t = 5.0)]
@@ -77,17 +68,7 @@ pub fn run(args: &Args) -> anyhow::Result<ReportSummary> {
     inputs.extend(args.validate_json.as_deref().map(|v| ("validate JSON", v)));
     crate::output::atomic::refuse_overwriting_inputs("--out", &args.out, &inputs)?;
     crate::check_positive("--stall-rms-mm", args.stall_rms_mm, 1e6)?;
-    let n = RobotFile::load(&input.robot)?.joint_count();
-    let m = RobotFile::load(&args.model)?.joint_count();
-    if m != n {
-        crate::refuse!(
-            "{}: a model of a {m}-joint robot, but {} has {n} joints: give the model that \
-             `kinecal identify --robot {} --out M.toml` wrote",
-            args.model.display(),
-            input.robot.display(),
-            input.robot.display()
-        );
-    }
+    let n = replay::joint_count(&input.robot, &args.model)?;
     let mut summary = with_joints!(n, N => run_with_joints::<N>(args))?;
     summary.out = Some(args.out.display().to_string());
     Ok(summary)
@@ -95,106 +76,53 @@ pub fn run(args: &Args) -> anyhow::Result<ReportSummary> {
 
 fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary> {
     let input = &args.input;
-    let (file, mut nominal) = load_robot::<N>(&input.robot)?;
+    let (file, nominal) = load_robot::<N>(&input.robot)?;
     let (model_file, model) = load_robot::<N>(&args.model)?;
     replay::same_robot(&nominal, &model, (&input.robot, &args.model))?;
-    let obs = &args.obs;
-    let split = super::inputs::load_split(
-        input,
-        &file,
-        &nominal,
-        obs,
-        args.validate.as_deref(),
-        (&args.holdout, args.seed),
-    )?;
-    let observed = &split.observed;
-    // "Before" is the nominal robot placed as identify and check place it.
-    let base_unknown = !file.base_known();
-    super::inputs::place_nominal(&mut nominal, &file, &split.ident, observed.six_d)?;
-    // The parameters identify estimated (calibration/replay.rs).
-    let selected = Selection {
-        only: &args.only,
-        free: &args.free,
-        fix: &args.fix,
-    };
-    let how = (observed.six_d, base_unknown);
-    let (tilts, estimated) = replay::estimated(&file, (&model_file, &model), how, &selected)?;
-    let weighting = weights::Weighting::of(
-        observed.six_d,
-        observed.sigma,
-        obs,
-        split.ident_poses,
-        estimated.len(),
-    );
+    let (validate, holdout) = (args.validate.as_deref(), (&args.holdout, args.seed));
+    let split = super::inputs::load_split(input, &file, &nominal, &args.obs, validate, holdout)?;
+    let t = |p: &std::path::Path| p.display().to_string();
     let diagnose = match &args.diagnose {
-        Some(p) => Some((findings::load(p)?, p.display().to_string())),
+        Some(p) => Some((findings::load(p)?, t(p))),
         None => None,
     };
-    let t = |p: &Path| p.display().to_string();
-    let mut files = vec![
-        ("robot file".to_string(), t(&input.robot)),
-        ("identified model".to_string(), t(&args.model)),
-        ("identification data".to_string(), t(&input.data)),
-    ];
-    match &args.validate {
-        Some(v) => files.push(("held-out data".into(), v.display().to_string())),
-        None if args.holdout.holds_out() => files.push((
-            "held-out data".into(),
-            format!("{} of the data", args.holdout.describe(split.valid_poses)),
-        )),
-        None => {}
-    }
-    if let Some(d) = &args.diagnose {
-        files.push(("diagnose findings".into(), d.display().to_string()));
-    }
     let validation = match &args.validate_json {
-        Some(p) => {
-            files.push(("another session (validate)".into(), p.display().to_string()));
-            Some((
-                crate::report_html::validation::load(p)?,
-                p.display().to_string(),
-            ))
-        }
+        Some(p) => Some((crate::report_html::validation::load(p)?, t(p))),
         None => None,
     };
-    let all_params = model_params(&model, &tilts);
-    let model_origin = args.model.display().to_string();
-    let (start, prior) = replay::start_and_prior(
-        (&file, &nominal),
-        (&model, &model_origin),
-        how,
-        &estimated,
-        &args.prior,
-    )?;
-    let built = build(Inputs {
-        robot_name: file.name.clone(),
-        model_name: model_file.name.clone(),
+    let held_out = match &args.validate {
+        Some(v) => Some(t(v)),
+        None if args.holdout.holds_out() => Some(format!(
+            "{} of the data",
+            args.holdout.describe(split.valid_poses)
+        )),
+        None => None,
+    };
+    let files = Sources::files(
+        (&input.robot, &args.model, &input.data),
+        held_out,
+        (args.diagnose.as_deref(), args.validate_json.as_deref()),
+    );
+    let options = Options {
+        parameters: &args.parameters,
+        obs: &args.obs,
+        stall_rms_mm: args.stall_rms_mm,
+    };
+    let inputs = Inputs {
+        file,
+        nominal,
+        model_file,
+        model,
+        model_origin: t(&args.model),
+        split,
         sources: Sources {
             files,
-            units: args.input.units.described(),
+            units: input.units.described(),
         },
-        nominal: &nominal,
-        base_fitted: base_unknown,
-        tool_unknown: file.tool_unknown(),
-        model: &model,
-        start: &start,
-        all_params,
-        estimated,
-        prior,
-        names: observed.names.clone(),
-        six_d: observed.six_d,
-        sigma: observed.sigma,
-        weighting,
-        limits_deg: file.joints.iter().map(|j| j.limits_deg).collect(),
-        stall_rms_mm: args.stall_rms_mm,
         diagnose,
         validation,
-        ident: split.ident,
-        valid: split.valid,
-        pose_of: split.pose_of,
-        ident_poses: split.ident_poses,
-        valid_poses: split.valid_poses,
-    })?;
+    };
+    let built = report(&options, inputs)?;
     crate::output::atomic::write_atomic(&args.out, built.html.as_bytes())
         .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", args.out.display()))?;
     if !built.summary.converged {

@@ -4,7 +4,7 @@
 use super::inputs::InputArgs;
 use crate::calibration::validate::{validate, Inputs, Options, Register};
 use crate::formats::observations::{observe, ObservationArgs};
-use crate::formats::robot_file::{load_robot, RobotFile};
+use crate::formats::robot_file::load_robot;
 use crate::reports::validate::ValidateReport;
 use crate::with_joints;
 use std::path::PathBuf;
@@ -27,27 +27,10 @@ pub struct Args {
     pub obs: ObservationArgs,
 }
 
-/// The joint count of the robot and the model, refused when they differ (tracker points and
-/// constraint files alike).
-pub(super) fn joint_count(args: &Args) -> anyhow::Result<usize> {
-    let n = RobotFile::load(&args.input.robot)?.joint_count();
-    let m = RobotFile::load(&args.model)?.joint_count();
-    if m != n {
-        crate::refuse!(
-            "{}: a model of a {m}-joint robot, but {} has {n} joints: give the model that \
-             `kinecal identify --robot {} --out M.toml` wrote",
-            args.model.display(),
-            args.input.robot.display(),
-            args.input.robot.display()
-        );
-    }
-    Ok(n)
-}
-
 /// Runs the subcommand; the report's `worse_than_nominal` makes the command exit with 3, with
 /// the reason on stderr.
 pub fn run(args: &Args) -> anyhow::Result<ValidateReport> {
-    let n = joint_count(args)?;
+    let n = crate::calibration::replay::joint_count(&args.input.robot, &args.model)?;
     let report = with_joints!(n, N => run_with_joints::<N>(args))?;
     if report.worse_than_nominal {
         eprintln!("error: {} (exit 3)", report.verdict);

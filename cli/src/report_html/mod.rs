@@ -40,6 +40,7 @@ use page::{
     StatRow,
 };
 use stats::SetFigures;
+use std::path::Path;
 use summary::{ReportSummary, SetSummary};
 
 /// Where the inputs came from, as the page lists them.
@@ -49,6 +50,28 @@ pub struct Sources {
     pub files: Vec<(String, String)>,
     /// The units the data were read in, in words.
     pub units: String,
+}
+
+impl Sources {
+    /// The files of a report, labelled: the robot file, the identified model, the
+    /// identification data, the held-out data (a file, or which poses of the data), the
+    /// diagnose findings and another session's validate JSON.
+    pub fn files(
+        (robot, model, data): (&Path, &Path, &Path),
+        held_out: Option<String>,
+        (diagnose, validate_json): (Option<&Path>, Option<&Path>),
+    ) -> Vec<(String, String)> {
+        let t = |p: &Path| p.display().to_string();
+        let mut files = vec![
+            ("robot file".to_string(), t(robot)),
+            ("identified model".to_string(), t(model)),
+            ("identification data".to_string(), t(data)),
+        ];
+        files.extend(held_out.map(|h| ("held-out data".to_string(), h)));
+        files.extend(diagnose.map(|d| ("diagnose findings".to_string(), t(d))));
+        files.extend(validate_json.map(|v| ("another session (validate)".to_string(), t(v))));
+        files
+    }
 }
 
 /// What the report is made of (robots in library units, observations flattened).

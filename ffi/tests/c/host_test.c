@@ -295,6 +295,13 @@ static void measure(kc_measurement *out, size_t n) {
   }
 }
 
+/* Field by field: the struct has padding, whose bytes the library need not write. */
+static int same_progress(const kc_lm_progress *a, const kc_lm_progress *b) {
+  return a->iteration == b->iteration && a->evaluations == b->evaluations &&
+         memcmp(&a->cost, &b->cost, sizeof a->cost) == 0 && a->stopped == b->stopped &&
+         a->converged == b->converged;
+}
+
 /* Runs `l` to its end in slices of 5 poses; saves a snapshot into `snap` once the run reaches
  * `snap_at` iterations (when `snap` is not NULL). Returns the number of step calls. */
 static int run_lm(kc_lm *l, kc_lm_progress *end, uint8_t *snap, size_t *snap_len,
@@ -401,7 +408,7 @@ static void test_lm(void) {
   EXPECT(kc_lm_init(&lm2, &nominal, mdh, 24, NULL), KC_OK);
   EXPECT(kc_lm_restore(&lm2, flash, snap_len), KC_OK);
   run_lm(&lm2, &end2, NULL, NULL, 0);
-  CHECK(memcmp(&end, &end2, sizeof end) == 0);
+  CHECK(same_progress(&end, &end2));
   EXPECT(kc_lm_robot(&lm2, &scratch), KC_OK);
   EXPECT(kc_robot_rows(&scratch, got2, NULL, NULL), KC_OK);
   CHECK(memcmp(got, got2, sizeof got) == 0);
@@ -457,7 +464,7 @@ static void test_lm(void) {
   EXPECT(kc_lm_init(&lm2, &never_robot, mdh, 24, NULL), KC_NOT_INITIALIZED);
   EXPECT(kc_lm_init(&lm2, NULL, mdh, 24, NULL), KC_NULL_POINTER);
   EXPECT(kc_lm_get_progress(&lm2, &p), KC_OK);
-  CHECK(memcmp(&p, &end, sizeof p) == 0);
+  CHECK(same_progress(&p, &end));
 }
 
 /* The firmware's usual case: the data are in the tracker's frame, whose pose (and the tool

@@ -388,33 +388,34 @@ fn enough_poses<const N: usize>(
     base_unknown: bool,
     data: &std::path::Path,
 ) -> anyhow::Result<()> {
-    let mut keys: Vec<([u64; N], u8)> = ident
-        .iter()
-        .map(|m| (m.q.map(f64::to_bits), m.tool))
-        .collect();
-    keys.sort_unstable();
-    keys.dedup();
-    let (poses, distinct) = (ident.len(), keys.len());
     let need = params.div_ceil(3).max(if base_unknown { 3 } else { 1 });
-    if distinct < need {
-        let repeated = if distinct < poses {
-            format!(" ({distinct} distinct: the others repeat them)")
-        } else {
-            String::new()
-        };
-        crate::refuse!(
-            "{}: {poses} poses{repeated} to identify {params} parameters from; at least {need} \
-             distinct ones are needed (3 equations per pose{}): measure more poses, or hold \
-             parameters with --fix",
-            data.display(),
-            if base_unknown {
-                ", and 3 poses for the base estimate"
-            } else {
-                ""
-            }
-        );
+    // Distinct poses counted until there are enough (a million poses: the first few hundred
+    // settle it, where sorting all of them took a fifth of a second); all of them when there
+    // are too few, so that the refusal says how many there are.
+    let mut seen = std::collections::HashSet::with_capacity(need.min(ident.len()));
+    for m in ident {
+        seen.insert((m.q.map(f64::to_bits), m.tool));
+        if seen.len() >= need {
+            return Ok(());
+        }
     }
-    Ok(())
+    let (poses, distinct) = (ident.len(), seen.len());
+    let repeated = if distinct < poses {
+        format!(" ({distinct} distinct: the others repeat them)")
+    } else {
+        String::new()
+    };
+    crate::refuse!(
+        "{}: {poses} poses{repeated} to identify {params} parameters from; at least {need} \
+         distinct ones are needed (3 equations per pose{}): measure more poses, or hold \
+         parameters with --fix",
+        data.display(),
+        if base_unknown {
+            ", and 3 poses for the base estimate"
+        } else {
+            ""
+        }
+    );
 }
 
 /// What every estimated parameter did, in the order of the parameter list.

@@ -287,6 +287,7 @@ fn every_planned_pose_is_feasible_and_kpi_beats_random_and_d() {
     let (file, robot, scene) = load();
     let w = work();
     let mut kpi = std::collections::BTreeMap::new();
+    let mut jobs = Vec::new();
     for collisions in [true, false] {
         for (criterion, seeds) in [
             (CriterionArg::Random, &[1u64, 2, 3, 4, 5][..]),
@@ -295,29 +296,40 @@ fn every_planned_pose_is_feasible_and_kpi_beats_random_and_d() {
             (CriterionArg::A, &[1][..]),
             (CriterionArg::Kpi, &[1, 2][..]),
         ] {
-            for &seed in seeds {
-                let (poses, predicted) = plan_with(criterion, collisions, seed);
-                assert_eq!(poses.len(), 60);
-                let mut distinct = poses.clone();
-                distinct.sort_by(|a, b| a.partial_cmp(b).unwrap());
-                distinct.dedup();
-                assert_eq!(distinct.len(), 60, "{criterion:?}: a pose repeated");
-                for q in &poses {
-                    let q_deg: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
-                    if let Some(why) = independent_violation(&file, &scene, &q_deg, collisions) {
-                        panic!("{criterion:?} (collisions {collisions}, seed {seed}) planned an infeasible pose {q_deg:?}: {why}");
-                    }
-                }
-                let dense = dense_kpi(&robot, &poses, &w, 0.01);
-                assert!(
-                    (dense - predicted).abs() <= 1e-6 * dense,
-                    "{criterion:?}: predicted {predicted} vs dense {dense}"
-                );
-                kpi.entry((collisions, criterion.name()))
-                    .or_insert_with(Vec::new)
-                    .push(dense);
+            jobs.extend(seeds.iter().map(|&seed| (collisions, criterion, seed)));
+        }
+    }
+    // The 20 designs are independent (the planner runs on one core): planned side by side,
+    // checked in order.
+    let plans: Vec<_> = std::thread::scope(|s| {
+        let running: Vec<_> = jobs
+            .iter()
+            .map(|&(collisions, criterion, seed)| {
+                s.spawn(move || plan_with(criterion, collisions, seed))
+            })
+            .collect();
+        running.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    for (&(collisions, criterion, seed), (poses, predicted)) in jobs.iter().zip(plans) {
+        assert_eq!(poses.len(), 60);
+        let mut distinct = poses.clone();
+        distinct.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        distinct.dedup();
+        assert_eq!(distinct.len(), 60, "{criterion:?}: a pose repeated");
+        for q in &poses {
+            let q_deg: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
+            if let Some(why) = independent_violation(&file, &scene, &q_deg, collisions) {
+                panic!("{criterion:?} (collisions {collisions}, seed {seed}) planned an infeasible pose {q_deg:?}: {why}");
             }
         }
+        let dense = dense_kpi(&robot, &poses, &w, 0.01);
+        assert!(
+            (dense - predicted).abs() <= 1e-6 * dense,
+            "{criterion:?}: predicted {predicted} vs dense {dense}"
+        );
+        kpi.entry((collisions, criterion.name()))
+            .or_insert_with(Vec::new)
+            .push(dense);
     }
     let mean = |v: &Vec<f64>| v.iter().sum::<f64>() / v.len() as f64;
     for collisions in [true, false] {

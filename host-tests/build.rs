@@ -1,19 +1,24 @@
-//! Compiles the C host test of the C ABI (`ffi/tests/c/host_test.c`, over `include/kinecal.h`)
+//! Compiles the C host test of the C ABI (`ffi/tests/c/host_test.c` with its CSV part
+//! `csv_test.c`, over `include/kinecal.h`)
 //! into a static library; `tests/library/c_abi.rs` links it with `kinecal-ffi` (which provides the
 //! `kc_*` symbols) and runs it. Strict C: `-std=c99 -Wall -Wextra -Werror -pedantic`.
 
 fn main() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let source = root.join("ffi/tests/c/host_test.c");
+    let csv = root.join("ffi/tests/c/csv_test.c");
+    let check = root.join("ffi/tests/c/check.h");
     let model = root.join("ffi/tests/c/model_test.c");
-    println!("cargo:rerun-if-changed={}", source.display());
-    println!("cargo:rerun-if-changed={}", model.display());
+    for f in [&source, &csv, &check, &model] {
+        println!("cargo:rerun-if-changed={}", f.display());
+    }
     println!(
         "cargo:rerun-if-changed={}",
         root.join("include/kinecal.h").display()
     );
     cc::Build::new()
         .file(&source)
+        .file(&csv)
         .file(&model)
         .include(root.join("include"))
         .std("c99")

@@ -272,18 +272,15 @@ def identify(
     held-out poses worse than the model it started from (``held_out_worse``)."""
     data = _set(q, xyz, columns)
     val = None if validate is None else _as_set(validate, "validate")
-    argv = ["identify", "--robot", "robot", "--data", "data"]
-    if val is not None:
-        argv += ["--validate", "validate"]
-    argv += _argv("", dict(
-        method=method, holdout=holdout, split=split, effect=list(effects), seed=seed,
+    options = dict(
+        method=method, holdout=holdout, split=split, effects=list(effects), seed=seed,
         fix=list(fix), free=list(free), only=list(only), prior=list(prior),
-        tolerance_mm=tolerance_mm,
-        tolerance_deg=tolerance_deg, stall_rms_mm=stall_rms_mm, length_unit=length_unit,
-        angle_unit=angle_unit, deg_weight_mm=deg_weight_mm, sigma_as_stated=sigma_as_stated,
-        positions_only=positions_only, ignore_sigma=ignore_sigma,
-    ))[1:]
-    text, model, converged = _native.identify(robot, argv, data, val)
+        tolerance_mm=tolerance_mm, tolerance_deg=tolerance_deg, stall_rms_mm=stall_rms_mm,
+        length_unit=length_unit, angle_unit=angle_unit, deg_weight_mm=deg_weight_mm,
+        sigma_as_stated=sigma_as_stated, positions_only=positions_only,
+        ignore_sigma=ignore_sigma,
+    )
+    text, model, converged = _native.identify(robot, data, val, options)
     result = IdentifyResult(json.loads(text), Robot.from_toml(model, "identified model"), converged)
     if warn:
         if result.suspicious:
@@ -365,17 +362,14 @@ def diagnose(
     ``final_validation_rms_mm``, ``noise_floor_mm`` …) and ``robot``, the extended model."""
     data = _set(q, xyz, columns)
     val = None if validate is None else _as_set(validate, "validate")
-    # The paths are names only (messages and the report name the sets so); nothing is
-    # written but the plots, into the caller's folder.
-    argv = ["diagnose", "--robot", "robot", "--data", "data", "--out", "model"]
-    if val is not None:
-        argv += ["--validate", "validate"]
-    argv += _argv("", dict(
+    # Messages and the report name the sets `data` and `validate`; nothing is written but
+    # the plots.
+    options = dict(
         holdout=holdout, seed=seed, folds=folds, alpha=alpha, max_order=max_order,
         max_effects=max_effects, stall_rms_mm=stall_rms_mm, length_unit=length_unit,
         angle_unit=angle_unit, plots=None if plots is None else os.fspath(plots),
-    ))[1:]
-    text, toml, converged = _native.diagnose(robot, argv, data, val)
+    )
+    text, toml, converged = _native.diagnose(robot, data, val, options)
     report = json.loads(text)
     model = None if toml is None else Robot.from_toml(toml, "model")
     if warn:
@@ -520,7 +514,7 @@ def check(
     """Validates a measurement set for ``robot`` (``kinecal check``): ``poses``,
     ``nominal_rms_mm`` (base fitted when the robot has none), joint ranges."""
     data = _set(q, xyz, columns)
-    argv = ["check", "--robot", "robot", "--data", "data"]
-    argv += _argv("", dict(length_unit=length_unit, angle_unit=angle_unit))[1:]
-    text, converged = _native.check(robot, argv, data)
+    text, converged = _native.check(
+        robot, data, dict(length_unit=length_unit, angle_unit=angle_unit)
+    )
     return CommandResult(json.loads(text), converged)

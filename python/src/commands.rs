@@ -1,17 +1,17 @@
-//! The subcommands that read measurements, from Python: their options parsed by the command
-//! line's own clap definitions (so every default and check is the command line's; the file
-//! arguments are names only), the arrays built into measurement sets through the command
-//! line's doors, and `identify`, `check` and `diagnose` run on them in memory. The shared
-//! pieces ([`parse`], [`finish`], [`Set`], [`accepted`]) serve [`crate::producers`] too.
+//! The subcommands that read measurements, from Python: their options typed
+//! ([`crate::options`]: the application's option structs and defaults, no command line), the
+//! arrays built into measurement sets through the command line's doors, and `identify`,
+//! `check` and `diagnose` run on them in memory. The shared pieces ([`finish`], [`Set`],
+//! [`accepted`], and [`parse`] for the producers' options) serve [`crate::producers`] too.
 
 use crate::data::{dataset, Arrays};
+use crate::options;
 use crate::robot::{model, Robot};
 use crate::{error, py_err, refused};
 use clap::Parser;
 use kinecal_cli::application::identify::{self as identification, Identified, Inputs};
 use kinecal_cli::calibration::check::check as check_set;
-use kinecal_cli::commands::identify as identify_cmd;
-use kinecal_cli::commands::{non_finite_error, Cli, Command};
+use kinecal_cli::commands::{non_finite_error, Cli};
 use kinecal_cli::diagnose::workflow;
 use kinecal_cli::formats::loading::accept_dataset;
 use kinecal_cli::formats::measurements::Dataset;
@@ -22,6 +22,7 @@ use kinecal_cli::reports::{CheckReport, DiagnoseReport, Report};
 use kinecal_cli::{with_joints, Stderr, VCAP};
 use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
+use std::path::Path;
 
 /// `argv` (without the program name) parsed as the command line parses it; a bad argument
 /// is refused with clap's first line (`error: …` without `error: `).
@@ -115,21 +116,19 @@ fn observed<const N: usize>(
 
 fn identify_n<const N: usize>(
     robot: &Robot,
-    args: &identify_cmd::Args,
+    (opts, units): (&identification::Options, &UnitArgs),
     data: &Arrays<'_>,
     validate: Option<&Arrays<'_>>,
 ) -> PyResult<Identified<N>> {
     let file = robot.file.clone();
     let nominal = model::<N>(&file).map_err(py_err)?;
     // As the command loads a file: the reader's checks, the doors of the command line's own
-    // loader (a stated base, the units, the angle order), the observations. Arrays are in
-    // kinecal's layout: a map describes files.
-    no_map(&args.input.units)?;
+    // loader (a stated base, the units, the angle order), the observations.
     let models = (&file, &nominal);
-    let observed = observed(data, "data", models, &args.input.units, &args.obs)?;
+    let observed = observed(data, "data", models, units, &opts.obs)?;
     let validate = match validate {
         Some(v) => Some((
-            self::observed(v, "validate", models, &args.input.units, &args.obs)?,
+            self::observed(v, "validate", models, units, &opts.obs)?,
             "validate".to_string(),
         )),
         None => None,
@@ -142,31 +141,32 @@ fn identify_n<const N: usize>(
         data_origin: "data".into(),
         validate,
     };
-    identification::identify(&args.options(), inputs).map_err(py_err)
+    identification::identify(opts, inputs).map_err(py_err)
 }
 
-/// `kinecal identify` on arrays: `argv` holds the options as on the command line (`identify
-/// --robot robot --data data [--validate validate] [--method …] …`; the paths are names only),
-/// `data` and `validate` the measurement sets `(q, xyz, extra_names, extra)` in the units the
-/// options say. Returns `(json_text, model_toml, converged)`.
+/// `kinecal identify` on arrays: `data` and `validate` the measurement sets `(q, xyz,
+/// extra_names, extra)` in the units `options` say; `options` the keyword arguments of
+/// `kinecal.identify` ([`options::Identify`], [`options::Units`], [`options::Observations`]).
+/// Messages name the sets `data` and `validate` and the robot `robot`. Returns
+/// `(json_text, model_toml, converged)`.
 #[pyfunction]
-#[pyo3(signature = (robot, argv, data, validate = None))]
+#[pyo3(signature = (robot, data, validate, options))]
 pub fn identify(
     py: Python<'_>,
     robot: &Robot,
-    argv: Vec<String>,
     data: Set<'_>,
     validate: Option<Set<'_>>,
+    options: &Bound<'_, PyAny>,
 ) -> PyResult<(String, String, bool)> {
-    let Command::Identify(args) = parse(&argv)?.command else {
-        return Err(not_command("identify"));
-    };
+    let obs: options::Observations = options::extract("identify", options)?;
+    let opts = options::extract::<options::Identify>("identify", options)?.options(&obs)?;
+    let units = options::extract::<options::Units>("identify", options)?.args()?;
     let data = arrays(&data);
     let validate = validate.as_ref().map(arrays);
     let n = robot.file.joint_count();
     let done = py.detach(|| {
         let r: anyhow::Result<PyResult<(String, String, bool)>> = with_joints!(n, N => Ok(
-            identify_n::<N>(robot, &args, &data, validate.as_ref()).and_then(|d| {
+            identify_n::<N>(robot, (&opts, &units), &data, validate.as_ref()).and_then(|d| {
                 let model = d.model.to_toml().map_err(py_err)?;
                 let (json, converged) = finish(Ok(Box::new(d.report)))?;
                 Ok((json, model, converged))
@@ -179,45 +179,34 @@ pub fn identify(
 
 fn check_n<const N: usize>(
     robot: &Robot,
-    args: &kinecal_cli::commands::check::Args,
+    units: &UnitArgs,
     data: &Arrays<'_>,
 ) -> PyResult<(String, bool)> {
     let file = &robot.file;
-    let (robot_name, data_name) = (
-        args.input.robot.display().to_string(),
-        args.input.data.display().to_string(),
-    );
-    let nominal = crate::robot::model_named::<N>(file, &robot_name).map_err(py_err)?;
-    let units = &args.input.units;
+    let (robot_name, data_name) = ("robot", "data");
+    let nominal = crate::robot::model_named::<N>(file, robot_name).map_err(py_err)?;
     let kind = FileKind::Measurements;
-    let ds = accepted::<N>(data, &data_name, units, &nominal, file.base_known(), kind)?;
-    let c = check_set(file, nominal, &ds, &data_name).map_err(py_err)?;
+    let ds = accepted::<N>(data, data_name, units, &nominal, file.base_known(), kind)?;
+    let c = check_set(file, nominal, &ds, data_name).map_err(py_err)?;
     finish(Ok(Box::new(CheckReport::of(
-        &c,
-        file,
-        &robot_name,
-        &data_name,
+        &c, file, robot_name, data_name,
     ))))
 }
 
-/// `kinecal check` on arrays: `argv` holds the options (`check --robot robot --data data
-/// [--length-unit …] …`; the paths are names only), `data` the measurement set. Returns
-/// `(json_text, converged)`.
+/// `kinecal check` on arrays: `data` the measurement set, `options` the units
+/// ([`options::Units`]). Returns `(json_text, converged)`.
 #[pyfunction]
 pub fn check(
     py: Python<'_>,
     robot: &Robot,
-    argv: Vec<String>,
     data: Set<'_>,
+    options: &Bound<'_, PyAny>,
 ) -> PyResult<(String, bool)> {
-    let Command::Check(args) = parse(&argv)?.command else {
-        return Err(not_command("check"));
-    };
-    no_map(&args.input.units)?;
+    let units = options::extract::<options::Units>("check", options)?.args()?;
     let data = arrays(&data);
     let n = robot.file.joint_count();
     let r: anyhow::Result<PyResult<(String, bool)>> =
-        py.detach(|| with_joints!(n, N => Ok(check_n::<N>(robot, &args, &data))));
+        py.detach(|| with_joints!(n, N => Ok(check_n::<N>(robot, &units, &data))));
     r.map_err(py_err)?
 }
 
@@ -226,44 +215,39 @@ type Diagnosed = (String, Option<String>, bool);
 
 fn diagnose_n<const N: usize>(
     robot: &Robot,
-    args: &kinecal_cli::commands::diagnose::Args,
+    (opts, units, plots): (&workflow::Options, &UnitArgs, Option<&Path>),
     data: &Arrays<'_>,
     validate: Option<&Arrays<'_>>,
 ) -> PyResult<Diagnosed> {
     let file = robot.file.clone();
-    let input = &args.input;
-    let nominal = crate::robot::model_named::<N>(&file, &input.robot.display().to_string())
-        .map_err(py_err)?;
+    let nominal = crate::robot::model_named::<N>(&file, "robot").map_err(py_err)?;
     let models = (&file, &nominal);
-    let data_name = input.data.display().to_string();
-    let observed = observed(data, &data_name, models, &input.units, &args.obs)?;
-    let validate = match (validate, &args.validate) {
-        (Some(v), Some(name)) => {
-            let name = name.display().to_string();
-            Some((
-                self::observed(v, &name, models, &input.units, &args.obs)?,
-                name,
-            ))
-        }
-        _ => None,
+    let observed = observed(data, "data", models, units, &opts.obs)?;
+    let validate = match validate {
+        Some(v) => Some((
+            self::observed(v, "validate", models, units, &opts.obs)?,
+            "validate".to_string(),
+        )),
+        None => None,
     };
     let inputs = workflow::Inputs {
         file,
         nominal,
         observed,
-        data_origin: data_name,
+        data_origin: "data".into(),
         validate,
     };
-    let w = workflow::run(inputs, &args.options(), &mut Stderr).map_err(py_err)?;
-    let mut report = DiagnoseReport::of_workflow(&w, args.stall_rms_mm);
+    let w = workflow::run(inputs, opts, &mut Stderr).map_err(py_err)?;
+    let mut report = DiagnoseReport::of_workflow(&w, opts.stall_rms_mm);
     let model = if w.held_out_worse() {
         None
     } else {
-        report.out = args.out.as_ref().map(|o| o.display().to_string());
+        // The model comes back as text; the report names it as the command's `--out`.
+        report.out = Some("model".into());
         Some(w.model.to_toml().map_err(py_err)?)
     };
     // The plots are the caller's output, in the folder it names.
-    if let Some(dir) = &args.plots {
+    if let Some(dir) = plots {
         let files = kinecal_cli::diagnose::residual_plots::write_all(dir, &w.diagnosis, &w.search)
             .map_err(py_err)?;
         report.plots = Some(files.iter().map(|p| p.display().to_string()).collect());
@@ -272,36 +256,35 @@ fn diagnose_n<const N: usize>(
     Ok((json, model, converged))
 }
 
-/// `kinecal diagnose` on arrays: `argv` holds the options (`diagnose --robot robot --data data
-/// [--validate validate] --out model [--plots DIR] …`; the paths but `--plots` are names
-/// only: nothing is written but the plots), `data` and `validate` the measurement sets.
-/// Returns `(json_text, model_toml, converged)`; `model_toml` is None when the extended model
-/// predicts the held-out poses worse than the nominal robot (the command line does not write
-/// it then).
+/// `kinecal diagnose` on arrays: `data` and `validate` the measurement sets, `options` the
+/// keyword arguments of `kinecal.diagnose` ([`options::Diagnose`], [`options::Units`]; nothing
+/// is written but the plots, into the folder `plots` names). Returns `(json_text, model_toml,
+/// converged)`; `model_toml` is None when the extended model predicts the held-out poses worse
+/// than the nominal robot (the command line does not write it then).
 #[pyfunction]
-#[pyo3(signature = (robot, argv, data, validate = None))]
+#[pyo3(signature = (robot, data, validate, options))]
 pub fn diagnose(
     py: Python<'_>,
     robot: &Robot,
-    argv: Vec<String>,
     data: Set<'_>,
     validate: Option<Set<'_>>,
+    options: &Bound<'_, PyAny>,
 ) -> PyResult<Diagnosed> {
-    let Command::Diagnose(args) = parse(&argv)?.command else {
-        return Err(not_command("diagnose"));
-    };
-    no_map(&args.input.units)?;
-    workflow::check_plots_dir(args.plots.as_deref()).map_err(py_err)?;
-    if validate.is_some() != args.validate.is_some() {
-        return Err(refused(
-            "diagnose: give --validate in argv exactly when a validation set is given".into(),
-        ));
-    }
+    let kw: options::Diagnose = options::extract("diagnose", options)?;
+    let opts = kw.options()?;
+    let units = options::extract::<options::Units>("diagnose", options)?.args()?;
+    workflow::check_plots_dir(kw.plots.as_deref()).map_err(py_err)?;
     let data = arrays(&data);
     let validate = validate.as_ref().map(arrays);
     let n = robot.file.joint_count();
-    let r: anyhow::Result<PyResult<Diagnosed>> = py.detach(
-        || with_joints!(n, N => Ok(diagnose_n::<N>(robot, &args, &data, validate.as_ref()))),
-    );
+    let plots = kw.plots.as_deref();
+    let r: anyhow::Result<PyResult<Diagnosed>> = py.detach(|| {
+        with_joints!(n, N => Ok(diagnose_n::<N>(
+            robot,
+            (&opts, &units, plots),
+            &data,
+            validate.as_ref()
+        )))
+    });
     r.map_err(py_err)?
 }

@@ -99,8 +99,19 @@ def test_too_few_poses_and_bad_options(ur, kinecal_bin, ur10, tmp_path):
         kinecal.identify(robot, d.q, d.xyz, fix=["d9"])
     with pytest.raises(kinecal.RefusedError, match="--holdout"):
         kinecal.identify(robot, d.q, d.xyz, holdout=-1.0)
-    with pytest.raises(kinecal.RefusedError, match="invalid value 'newton'"):
+    with pytest.raises(kinecal.RefusedError, match=r"^--method newton: give one of lm, pso, bpnn-pso, pso\+lm$"):
         kinecal.identify(robot, d.q, d.xyz, method="newton")
+    with pytest.raises(kinecal.RefusedError, match=r"^--split sometimes: give last, random or every:K"):
+        kinecal.identify(robot, d.q, d.xyz, holdout=0.2, split="sometimes")
+    with pytest.raises(kinecal.RefusedError, match=r"^--length-unit inch: give one of mm, m$"):
+        kinecal.check(robot, d.q, d.xyz, length_unit="inch")
+    with pytest.raises(kinecal.RefusedError, match=r"^--effect "):
+        kinecal.identify(robot, d.q, d.xyz, effects=["wobble:2"])
+    # A value of the wrong type is refused naming the option, not run with a default.
+    with pytest.raises(kinecal.RefusedError, match=r"^identify: .*seed"):
+        kinecal.identify(robot, d.q, d.xyz, seed="seven")
+    with pytest.raises(kinecal.RefusedError, match=r"^diagnose: .*folds"):
+        kinecal.diagnose(robot, d.q, d.xyz, folds=-2)
     with pytest.raises(kinecal.RefusedError, match="cannot be used with"):
         kinecal.identify(robot, d.q, d.xyz, holdout=10, validate=(d.q, d.xyz))
 

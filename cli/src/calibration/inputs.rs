@@ -64,6 +64,13 @@ pub fn split_sets<const N: usize>(
     crate::formats::observations::Observed<N>,
 )> {
     if let Some(v) = validate {
+        // The command line's parser refuses the pair before; callers in memory get here.
+        if holdout.holds_out() || holdout.split != crate::calibration::SplitKind::Last {
+            crate::refuse!(
+                "--holdout and --split cannot be used with --validate: the validation set is \
+                 the held-out data; give one or the other"
+            );
+        }
         return Ok((all, v));
     }
     let mask =

@@ -18,7 +18,7 @@ pub struct Args {
     #[command(flatten)]
     pub input: InputArgs,
     /// Seed of the cross-validation folds.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = workflow::DEFAULT_SEED)]
     pub seed: u64,
     /// Write the extended model (robot TOML with its effects).
     #[arg(long)]
@@ -34,16 +34,16 @@ pub struct Args {
     #[arg(long)]
     pub validate: Option<PathBuf>,
     /// Cross-validation folds.
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = workflow::DEFAULT_FOLDS)]
     pub folds: usize,
     /// Family-wise false-alarm rate of each round.
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = workflow::DEFAULT_ALPHA)]
     pub alpha: f64,
     /// Highest joint-cyclic order in the catalogue.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = workflow::DEFAULT_MAX_ORDER)]
     pub max_order: u16,
     /// Most effects to add.
-    #[arg(long, default_value_t = 12)]
+    #[arg(long, default_value_t = workflow::DEFAULT_MAX_EFFECTS)]
     pub max_effects: usize,
     /// A geometric fit whose held-out RMS stays above this has not found the robot (units, a
     /// coupled joint, the tool, the base): nothing is diagnosed from it and the command exits 3.

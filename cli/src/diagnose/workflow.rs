@@ -37,6 +37,28 @@ pub struct Options {
     pub obs: ObservationArgs,
 }
 
+/// The defaults of [`Options`] (the command line's too).
+pub const DEFAULT_SEED: u64 = 0;
+pub const DEFAULT_FOLDS: usize = 5;
+pub const DEFAULT_ALPHA: f64 = 0.05;
+pub const DEFAULT_MAX_ORDER: u16 = 3;
+pub const DEFAULT_MAX_EFFECTS: usize = 12;
+
+impl Default for Options {
+    fn default() -> Self {
+        Self {
+            seed: DEFAULT_SEED,
+            holdout: HoldoutArgs::default(),
+            folds: DEFAULT_FOLDS,
+            alpha: DEFAULT_ALPHA,
+            max_order: DEFAULT_MAX_ORDER,
+            max_effects: DEFAULT_MAX_EFFECTS,
+            stall_rms_mm: crate::reports::diagnose::DEFAULT_STALL_RMS_MM,
+            obs: ObservationArgs::default(),
+        }
+    }
+}
+
 /// What the workflow runs on: the robot file and its model, the observations (in mm and
 /// degrees, through [`crate::formats::observations::observe`]) and, optionally, a validation
 /// set; each named as messages name it (a path, or what the caller calls it).

@@ -139,39 +139,6 @@ def _as_set(data: Any, what: str):
 
 
 # --------------------------------------------------------------------------------------------
-# Arguments as on the command line
-
-
-def _flag(name: str) -> str:
-    return "--" + name.replace("_", "-")
-
-
-def _argv(command: str, options: Mapping[str, Any]) -> List[str]:
-    """The command line of ``command`` with ``options``: None = the command line's default,
-    True = a switch, lists = the flag repeated, floats written exactly (``repr``)."""
-    argv = [command]
-    for name, value in options.items():
-        if value is None or value is False:
-            continue
-        if value is True:
-            argv.append(_flag(name))
-        elif isinstance(value, (list, tuple)):
-            for v in value:
-                argv.append(f"{_flag(name)}={_text(v)}")
-        else:
-            argv.append(f"{_flag(name)}={_text(value)}")
-    return argv
-
-
-def _text(v: Any) -> str:
-    if isinstance(v, float):
-        return repr(v)
-    if isinstance(v, (list, tuple, np.ndarray)):
-        return ",".join(_text(float(x)) for x in v)
-    return str(v)
-
-
-# --------------------------------------------------------------------------------------------
 # identify
 
 
@@ -400,12 +367,11 @@ def compensate(
         r = np.asarray(rpy_deg, dtype=np.float64).reshape(-1, 3)
         columns = {"rx": r[:, 0], "ry": r[:, 1], "rz": r[:, 2]}
     targets = _set(q_seed, xyz, columns, "targets")
-    argv = ["compensate", "--model", "model", "--targets", "targets", "--out", "commands"]
-    argv += _argv("", dict(
+    options = dict(
         iterations=iterations, max_step_deg=max_step_deg, accept_mm=accept_mm,
         stream=stream, f32=f32, length_unit=length_unit, angle_unit=angle_unit,
-    ))[1:]
-    text, converged, q, status, error_mm, error_deg = _native.compensate(model, argv, targets)
+    )
+    text, converged, q, status, error_mm, error_deg = _native.compensate(model, targets, options)
     return CommandResult(json.loads(text), converged, q=q, status=status, error_mm=error_mm,
                          error_deg=error_deg)
 
@@ -443,9 +409,9 @@ def frames(
     (``base``, ``tool_radial_mm``, ``tool_axial_mm``, ``circles``) and ``robot`` with
     ``[base]`` set to the pose found."""
     sweeps = _set(q, xyz, {"sweep": sweep}, "sweeps")
-    argv = ["frames", "--robot", "robot", "--data", "sweeps", "--out", "framed"]
-    argv += _argv("", dict(length_unit=length_unit, angle_unit=angle_unit))[1:]
-    text, framed = _native.frames(robot, argv, sweeps)
+    text, framed = _native.frames(
+        robot, sweeps, dict(length_unit=length_unit, angle_unit=angle_unit)
+    )
     return CommandResult(json.loads(text), True, robot=Robot.from_toml(framed, "framed"))
 
 
@@ -467,12 +433,12 @@ def plan(
     ``criterion`` ``random``, ``d``, ``o1``, ``a`` or ``kpi``; ``work``: working
     configurations (degrees). Returns the report (``criterion``, ``poses``, ``kpi_trace_mm2``,
     ``min_clearance_mm``, ``max_incidence_deg`` …) and ``q`` (poses, N) in degrees."""
-    argv = ["plan", "--robot", "robot", "--scene", os.fspath(scene), f"--poses={int(poses)}",
-            f"--criterion={criterion}", "--out", "plan"]
-    argv += [f"--work={_text(list(w))}" for w in work]
-    argv += _argv("", dict(seed=seed, noise_mm=noise_mm, pool=pool, passes=passes,
-                           no_collisions=no_collisions, no_refine=no_refine))[1:]
-    text, q = _native.plan(robot, argv)
+    options = dict(
+        poses=int(poses), criterion=criterion, work=[[float(v) for v in w] for w in work],
+        seed=seed, noise_mm=noise_mm, pool=pool, passes=passes,
+        no_collisions=no_collisions, no_refine=no_refine,
+    )
+    text, q = _native.plan(robot, os.fspath(scene), options)
     return CommandResult(json.loads(text), True, q=q)
 
 
@@ -490,13 +456,12 @@ def simulate(
 ) -> CommandResult:
     """Measurement data from a robot with known errors (``kinecal simulate``). Returns the
     report, ``measurements`` (:class:`Measurements`) and ``truth`` (the true :class:`Robot`)."""
-    argv = ["simulate", "--robot", "robot", "--out", "simulated", "--truth", "truth"]
-    argv += _argv("", dict(
+    options = dict(
         poses=poses, noise_mm=noise_mm, seed=seed, geom_errors=geom_errors,
-        effect=list(effects), sweep_points=sweep_points, sweep_span_deg=sweep_span_deg,
-        sweeps=None if sweeps is None else ",".join(str(int(s)) for s in sweeps),
-    ))[1:]
-    text, (q, xyz, names, extra), truth = _native.simulate(robot, argv)
+        effects=list(effects), sweep_points=sweep_points, sweep_span_deg=sweep_span_deg,
+        sweeps=[] if sweeps is None else [int(s) for s in sweeps],
+    )
+    text, (q, xyz, names, extra), truth = _native.simulate(robot, options)
     data = Measurements(q, xyz, {n: extra[:, k].copy() for k, n in enumerate(names)})
     return CommandResult(json.loads(text), True, measurements=data,
                          truth=Robot.from_toml(truth, "truth"))

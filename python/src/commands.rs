@@ -2,16 +2,15 @@
 //! ([`crate::options`]: the application's option structs and defaults, no command line), the
 //! arrays built into measurement sets through the command line's doors, and `identify`,
 //! `check` and `diagnose` run on them in memory. The shared pieces ([`finish`], [`Set`],
-//! [`accepted`], and [`parse`] for the producers' options) serve [`crate::producers`] too.
+//! [`accepted`]) serve [`crate::producers`] too.
 
 use crate::data::{dataset, Arrays};
 use crate::options;
 use crate::robot::{model, Robot};
-use crate::{error, py_err, refused};
-use clap::Parser;
+use crate::{error, py_err};
 use kinecal_cli::application::identify::{self as identification, Identified, Inputs};
 use kinecal_cli::calibration::check::check as check_set;
-use kinecal_cli::commands::{non_finite_error, Cli};
+use kinecal_cli::commands::non_finite_error;
 use kinecal_cli::diagnose::workflow;
 use kinecal_cli::formats::loading::accept_dataset;
 use kinecal_cli::formats::measurements::Dataset;
@@ -23,22 +22,6 @@ use kinecal_cli::{with_joints, Stderr, VCAP};
 use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 use std::path::Path;
-
-/// `argv` (without the program name) parsed as the command line parses it; a bad argument
-/// is refused with clap's first line (`error: …` without `error: `).
-pub fn parse(argv: &[String]) -> PyResult<Cli> {
-    let words = std::iter::once("kinecal".to_string()).chain(argv.iter().cloned());
-    Cli::try_parse_from(words).map_err(|e| {
-        let text = e.to_string();
-        let line = text.lines().next().unwrap_or("bad arguments");
-        refused(line.trim_start_matches("error: ").to_string())
-    })
-}
-
-/// The refusal of an `argv` that is not the command `name`'s.
-pub fn not_command(name: &str) -> PyErr {
-    refused(format!("{name}: argv must start with `{name}`"))
-}
 
 /// The JSON text of a report and whether it may be taken as calibrated; a report with a
 /// figure that is not finite is an error, as on the command line.
@@ -65,17 +48,6 @@ pub fn arrays<'a>(s: &'a Set<'_>) -> Arrays<'a> {
         xyz: s.1.as_array(),
         extra_names: s.2.clone(),
         extra: s.3.as_ref().map(|e| e.as_array()),
-    }
-}
-
-/// Refuses `--map`: a map says how to read a file, and arrays are in kinecal's layout.
-pub fn no_map(units: &UnitArgs) -> PyResult<()> {
-    match &units.map {
-        Some(m) => Err(refused(format!(
-            "--map {}: a map says how to read a file; give the arrays in kinecal's columns",
-            m.display()
-        ))),
-        None => Ok(()),
     }
 }
 

@@ -5,13 +5,12 @@
 //! Every number comes from the functions the `kinecal` subcommands call, in memory: the
 //! arrays become measurement sets through the CSV reader's checks and the command line's
 //! loading doors (units, a stated base, the angle order; [`data`], [`commands::accepted`]);
-//! `identify`, `check` and `diagnose` ([`commands`]) take typed options ([`options`]: the
-//! application's option structs and defaults), while the options of `compensate`, `frames`,
-//! `plan` and `simulate` ([`producers`]) are still parsed by the command line's own clap
-//! definitions. Each calls the application function its subcommand calls after reading its
-//! files; results come back as JSON text, arrays and robot TOML text, never through a file.
-//! Errors keep the command line's one-line reasons: refused input raises
-//! `kinecal.RefusedError` (a `ValueError`),
+//! `identify`, `check` and `diagnose` ([`commands`]), `compensate`, `frames`, `plan` and
+//! `simulate` ([`producers`]) take typed options ([`options`]: the application's option
+//! structs and defaults; no command line is parsed). Each calls the application function its
+//! subcommand calls after reading its files; results come back as JSON text, arrays and robot
+//! TOML text, never through a file. Errors keep the command line's one-line reasons: refused
+//! input raises `kinecal.RefusedError` (a `ValueError`),
 //! anything else `kinecal.KinecalError`.
 
 mod cartesian;

@@ -1,7 +1,8 @@
-//! Options from Python: the keyword arguments of `kinecal.identify`, `diagnose` and `check`
-//! (a dict that `python/kinecal/__init__.py` fills, `None` for a default) into the
-//! application's option structs (`application::identify::Options`,
-//! `diagnose::workflow::Options`) and the loading options (`UnitArgs`, `ObservationArgs`).
+//! Options from Python: the keyword arguments of the `kinecal` functions (a dict that
+//! `python/kinecal/__init__.py` fills, `None` for a default) into the application's option
+//! structs (`application::identify::Options`, `diagnose::workflow::Options`, compensation
+//! `Settings`, the plan and simulation `Request`s) and the loading options (`UnitArgs`,
+//! `ObservationArgs`).
 //! Values arrive typed (numbers as numbers); a word the command line would refuse (a method, a
 //! unit, a split, an effect) is refused in the command line's terms, naming the flag it
 //! stands for; the defaults are the application's (`Options::default()`).
@@ -11,9 +12,12 @@ use clap::ValueEnum;
 use kinecal_cli::application::identify::Options as IdentifyOptions;
 use kinecal_cli::calibration::inputs::HoldoutArgs;
 use kinecal_cli::calibration::SplitKind;
+use kinecal_cli::compensation::Settings;
 use kinecal_cli::diagnose::workflow::Options as DiagnoseOptions;
 use kinecal_cli::formats::observations::ObservationArgs;
 use kinecal_cli::formats::units::UnitArgs;
+use kinecal_cli::plan::request::Request as PlanRequest;
+use kinecal_cli::simulation::request::Request as SimulateRequest;
 use pyo3::prelude::*;
 use std::fmt::Display;
 use std::str::FromStr;
@@ -195,5 +199,100 @@ impl Diagnose {
             stall_rms_mm: self.stall_rms_mm.unwrap_or(d.stall_rms_mm),
             obs: d.obs,
         })
+    }
+}
+
+/// `kinecal.compensate`'s solver settings.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+pub struct Compensate {
+    pub iterations: Option<u8>,
+    pub max_step_deg: Option<f64>,
+    pub accept_mm: Option<f64>,
+    pub stream: bool,
+    pub f32: bool,
+}
+
+impl Compensate {
+    pub fn settings(&self) -> Settings {
+        let d = Settings::default();
+        Settings {
+            iterations: self.iterations.unwrap_or(d.iterations),
+            max_step_deg: self.max_step_deg.unwrap_or(d.max_step_deg),
+            accept_mm: self.accept_mm.unwrap_or(d.accept_mm),
+            stream: self.stream,
+            f32: self.f32,
+        }
+    }
+}
+
+/// `kinecal.plan`'s options (the scene is read by the caller).
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+pub struct Plan {
+    pub poses: usize,
+    pub criterion: String,
+    /// Working configurations, degrees.
+    pub work: Vec<Vec<f64>>,
+    pub seed: Option<u64>,
+    pub noise_mm: Option<f64>,
+    pub pool: Option<usize>,
+    pub passes: Option<u32>,
+    pub no_collisions: bool,
+    pub no_refine: bool,
+}
+
+impl Plan {
+    pub fn request(&self) -> PyResult<PlanRequest> {
+        // The request holds the configurations as the command line's `--work` gives them.
+        let work = self
+            .work
+            .iter()
+            .map(|w| {
+                w.iter()
+                    .map(|v| v.to_string())
+                    .collect::<Vec<_>>()
+                    .join(",")
+            })
+            .collect();
+        let mut r = PlanRequest::new(self.poses, choice("--criterion", &self.criterion)?, work);
+        r.seed = self.seed.unwrap_or(r.seed);
+        r.noise_mm = self.noise_mm.unwrap_or(r.noise_mm);
+        r.pool = self.pool.unwrap_or(r.pool);
+        r.passes = self.passes.unwrap_or(r.passes);
+        r.collisions = !self.no_collisions;
+        r.refine = !self.no_refine;
+        Ok(r)
+    }
+}
+
+/// `kinecal.simulate`'s options.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+pub struct Simulate {
+    pub poses: Option<usize>,
+    pub noise_mm: Option<f64>,
+    pub seed: Option<u64>,
+    pub geom_errors: bool,
+    pub effects: Vec<String>,
+    pub sweeps: Vec<usize>,
+    pub sweep_points: Option<usize>,
+    pub sweep_span_deg: Option<f64>,
+}
+
+impl Simulate {
+    pub fn request(&self) -> SimulateRequest {
+        let d = SimulateRequest::default();
+        SimulateRequest {
+            poses: self.poses.unwrap_or(d.poses),
+            noise_mm: self.noise_mm.unwrap_or(d.noise_mm),
+            seed: self.seed.unwrap_or(d.seed),
+            geom_errors: self.geom_errors,
+            effects: self.effects.clone(),
+            sweeps: self.sweeps.clone(),
+            sweep_points: self.sweep_points.unwrap_or(d.sweep_points),
+            sweep_span_deg: self.sweep_span_deg.unwrap_or(d.sweep_span_deg),
+            ..d
+        }
     }
 }

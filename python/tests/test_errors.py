@@ -137,3 +137,19 @@ def test_files(tmp_path, kinecal_bin, ur10):
     assert str(e.value) == reason and ":3:" in reason
     with pytest.raises(kinecal.RefusedError, match="rows: 3 columns"):
         kinecal.Robot.from_mdh(np.zeros((6, 3)), [0, 0, 0])
+
+
+def test_bad_options_of_the_producers(ur, tmp_path):
+    """The producers' options are typed: a word the command line would refuse is refused
+    naming its flag, a value of the wrong type naming the option; nothing runs."""
+    robot, d = ur
+    with pytest.raises(kinecal.RefusedError, match=r"^--criterion best: give one of random, d, o1, a, kpi$"):
+        kinecal.plan(robot, tmp_path / "no-scene.toml", 10, "best", [[0.0] * 6])
+    with pytest.raises(kinecal.RefusedError, match=r"^plan: pool: "):
+        kinecal.plan(robot, tmp_path / "no-scene.toml", 10, "kpi", [[0.0] * 6], pool=-5)
+    with pytest.raises(kinecal.RefusedError, match=r"^simulate: seed: "):
+        kinecal.simulate(robot, 10, seed=1.5)
+    with pytest.raises(kinecal.RefusedError, match=r"^--angle-unit grad: give one of deg, rad$"):
+        kinecal.compensate(robot, d.q[:3], d.xyz[:3], angle_unit="grad")
+    with pytest.raises(kinecal.RefusedError, match=r"^compensate: iterations: "):
+        kinecal.compensate(robot, d.q[:3], d.xyz[:3], iterations=1000)

@@ -28,13 +28,13 @@ pub struct Args {
     #[arg(long)]
     pub out: PathBuf,
     /// Most damped Newton steps per target.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = Settings::default().iterations)]
     pub iterations: u8,
     /// Largest accepted correction per joint, |command − seed| (degrees).
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = Settings::default().max_step_deg)]
     pub max_step_deg: f64,
     /// Remaining model error (mm; orientation scaled by the reach) above which a target fails.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = Settings::default().accept_mm)]
     pub accept_mm: f64,
     /// The nominal robot (TOML) whose kinematics the controller keeps: with --cartesian.
     #[arg(long)]

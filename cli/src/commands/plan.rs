@@ -6,7 +6,7 @@ use super::Spinner;
 use crate::formats::cell_file::SceneFile;
 use crate::formats::robot_file::RobotFile;
 use crate::plan::design::{limits_only_scene, poses_csv, CriterionArg};
-use crate::plan::request::{plan_request, Request};
+use crate::plan::request::{self, plan_request, Request};
 use crate::reports::plan::PlanReport;
 use crate::with_joints;
 use anyhow::anyhow;
@@ -44,10 +44,10 @@ pub struct Args {
     )]
     pub work: Vec<String>,
     /// Random seed (pool and random designs).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = request::DEFAULT_SEED)]
     pub seed: u64,
     /// Measurement noise, standard deviation per axis (mm), for the predicted covariances.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = request::DEFAULT_NOISE_MM)]
     pub noise_mm: f64,
     /// Take the noise from a tracker file's stated uncertainties instead: the RMS of its
     /// `sx_mm`, `sy_mm`, `sz_mm` over all rows and coordinates (docs/formats.md).
@@ -60,14 +60,14 @@ pub struct Args {
     #[arg(long)]
     pub out: PathBuf,
     /// Number of feasible candidate poses to select from.
-    #[arg(long, default_value_t = 3000)]
+    #[arg(long, default_value_t = request::DEFAULT_POOL)]
     pub pool: usize,
     /// Ignore collisions, floor and beam (joint limits and incidence only), as the paper's
     /// designs "without collision avoidance".
     #[arg(long)]
     pub no_collisions: bool,
     /// Most Fedorov exchange passes.
-    #[arg(long, default_value_t = 30)]
+    #[arg(long, default_value_t = request::DEFAULT_PASSES)]
     pub passes: u32,
     /// Skip the local refinement (poses near the selected ones added to the pool, then more
     /// exchange passes).

@@ -22,13 +22,13 @@ pub struct Args {
     #[arg(long)]
     pub robot: PathBuf,
     /// Number of poses.
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = Request::default().poses)]
     pub poses: usize,
     /// Measurement noise, standard deviation per axis (mm).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = Request::default().noise_mm)]
     pub noise_mm: f64,
     /// Random seed: same seed, same files.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = Request::default().seed)]
     pub seed: u64,
     /// Give the true robot uniform geometric errors (alpha/theta ±0.1°, a/d ±0.8 mm, tool ±0.5 mm).
     #[arg(long)]
@@ -57,11 +57,11 @@ pub struct Args {
     #[arg(long, value_delimiter = ',')]
     pub sweeps: Vec<usize>,
     /// Points per sweep.
-    #[arg(long, default_value_t = 24)]
+    #[arg(long, default_value_t = Request::default().sweep_points)]
     pub sweep_points: usize,
     /// Angular span of each sweep (degrees), shortened to the joint's limits. Short arcs fix
     /// the circle's centre poorly: 360° for joints 1 and 2 gives the base within ~0.03 mm.
-    #[arg(long, default_value_t = 360.0)]
+    #[arg(long, default_value_t = Request::default().sweep_span_deg)]
     pub sweep_span_deg: f64,
     /// Joint readings (degrees) the sweeps start from, q1,…,qN (default: a bent pose).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]

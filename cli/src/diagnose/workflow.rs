@@ -44,6 +44,10 @@ pub const DEFAULT_ALPHA: f64 = 0.05;
 pub const DEFAULT_MAX_ORDER: u16 = 3;
 pub const DEFAULT_MAX_EFFECTS: usize = 12;
 
+/// A geometric fit whose held-out RMS stays above this (mm) has not found the robot: nothing
+/// is diagnosed from it (the default of `--stall-rms-mm`).
+pub const DEFAULT_STALL_RMS_MM: f64 = 5.0;
+
 impl Default for Options {
     fn default() -> Self {
         Self {
@@ -53,7 +57,7 @@ impl Default for Options {
             alpha: DEFAULT_ALPHA,
             max_order: DEFAULT_MAX_ORDER,
             max_effects: DEFAULT_MAX_EFFECTS,
-            stall_rms_mm: crate::reports::diagnose::DEFAULT_STALL_RMS_MM,
+            stall_rms_mm: DEFAULT_STALL_RMS_MM,
             obs: ObservationArgs::default(),
         }
     }

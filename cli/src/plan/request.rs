@@ -55,7 +55,30 @@ pub struct Request {
     pub refine: bool,
 }
 
+/// The defaults of a [`Request`] (the command line's too).
+pub const DEFAULT_SEED: u64 = 1;
+pub const DEFAULT_NOISE_MM: f64 = 0.01;
+pub const DEFAULT_POOL: usize = 3000;
+pub const DEFAULT_PASSES: u32 = 30;
+
 impl Request {
+    /// `poses` poses by `criterion` around the working configurations `work`, everything else
+    /// at its default (all parameters, with collisions and refinement).
+    pub fn new(poses: usize, criterion: CriterionArg, work: Vec<String>) -> Self {
+        Self {
+            estimate: Vec::new(),
+            poses,
+            criterion,
+            work,
+            seed: DEFAULT_SEED,
+            noise_mm: DEFAULT_NOISE_MM,
+            pool: DEFAULT_POOL,
+            collisions: true,
+            passes: DEFAULT_PASSES,
+            refine: true,
+        }
+    }
+
     /// Refuses (exit 2) sizes outside the command line's limits: the work grows with poses ×
     /// pool × passes, so all three are bounded before it starts.
     pub fn check(&self) -> anyhow::Result<()> {

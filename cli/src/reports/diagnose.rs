@@ -12,9 +12,7 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt;
 
-/// A geometric fit whose held-out RMS stays above this (mm) has not found the robot: nothing
-/// is diagnosed from it (the default of `--stall-rms-mm`).
-pub const DEFAULT_STALL_RMS_MM: f64 = 5.0;
+pub use crate::diagnose::workflow::DEFAULT_STALL_RMS_MM;
 
 /// `kinecal diagnose`: what is missing from the model, how sure, and the search behind it.
 #[derive(Clone, Debug, PartialEq, Serialize)]

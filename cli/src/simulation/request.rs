@@ -31,6 +31,25 @@ pub struct Request {
     pub rest: Vec<f64>,
 }
 
+impl Default for Request {
+    /// The command line's defaults: 100 random poses of the nominal robot, no noise, seed 1;
+    /// sweeps of 24 points over 360°.
+    fn default() -> Self {
+        Self {
+            poses: 100,
+            noise_mm: 0.0,
+            seed: 1,
+            geom_errors: false,
+            effects: Vec::new(),
+            temperature: None,
+            sweeps: Vec::new(),
+            sweep_points: 24,
+            sweep_span_deg: 360.0,
+            rest: Vec::new(),
+        }
+    }
+}
+
 impl Request {
     /// The effects parsed; refuses (exit 2) numbers outside the command line's limits, an
     /// effect that does not parse, and an effect on a joint a `joints`-joint robot lacks.

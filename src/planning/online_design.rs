@@ -18,34 +18,35 @@ use crate::{ForwardKinematics, Real, Robot};
 
 /// Where an online design stands.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Status<T: Real, const S: usize> {
+pub struct Status<T: Real, const WORKS: usize> {
     /// Measurements taken so far.
     pub measurements: usize,
     /// Predicted standard deviation of the tool point (mm, `√trace C_s`) per working
     /// configuration; `None` until every identifiable direction is determined.
-    pub tool_std: Option<[T; S]>,
+    pub tool_std: Option<[T; WORKS]>,
     /// The largest of them (∞ while undetermined).
     pub worst_std: T,
     /// True once `worst_std` is at or below the target.
     pub reached: bool,
 }
 
-/// The online stepper for `N` joints, `V` effect values, `P` parameters and `S` working
+/// The online stepper for `N` joints, `V` effect values, `P` parameters and `WORKS` working
 /// configurations.
 #[derive(Clone, Debug)]
-pub struct OnlineDesign<T: Real, const N: usize, const V: usize, const P: usize, const S: usize> {
+pub struct OnlineDesign<T: Real, const N: usize, const V: usize, const P: usize, const WORKS: usize>
+{
     robot: Robot<T, N, V>,
     params: ParamSet<P>,
     basis: Basis<T, P>,
-    state: DesignState<T, P, S>,
+    state: DesignState<T, P, WORKS>,
     works: usize,
     sigma: T,
     target_std: T,
     fk: ForwardKinematics<T, N>,
 }
 
-impl<T: Real, const N: usize, const V: usize, const P: usize, const S: usize>
-    OnlineDesign<T, N, V, P, S>
+impl<T: Real, const N: usize, const V: usize, const P: usize, const WORKS: usize>
+    OnlineDesign<T, N, V, P, WORKS>
 {
     /// A stepper for `robot` (the model used for the Jacobians), the identified `params`, the
     /// identifiable `basis` (e.g. from the pool), the working configurations `work`, noise
@@ -58,7 +59,7 @@ impl<T: Real, const N: usize, const V: usize, const P: usize, const S: usize>
         sigma: T,
         target_std: T,
     ) -> Result<Self, PlanError> {
-        if work.is_empty() || work.len() > S {
+        if work.is_empty() || work.len() > WORKS {
             return Err(PlanError::WorkConfigurations);
         }
         if basis.dim() != params.len()
@@ -70,7 +71,7 @@ impl<T: Real, const N: usize, const V: usize, const P: usize, const S: usize>
         }
         params.check(&robot).map_err(|_| PlanError::Size)?;
         let mut fk = ForwardKinematics::new();
-        let mut rows: [PoseRows<T, P>; S] = [[[T::zero(); P]; 3]; S];
+        let mut rows: [PoseRows<T, P>; WORKS] = [[[T::zero(); P]; 3]; WORKS];
         for (r, q) in rows.iter_mut().zip(work.iter()) {
             fk.compute(&robot, q);
             let mut g = [[T::zero(); P]; 3];
@@ -101,7 +102,7 @@ impl<T: Real, const N: usize, const V: usize, const P: usize, const S: usize>
     }
 
     /// Adds a measurement taken at `q` (rad) and returns the new status.
-    pub fn add_measurement(&mut self, q: &[T; N]) -> Result<Status<T, S>, PlanError> {
+    pub fn add_measurement(&mut self, q: &[T; N]) -> Result<Status<T, WORKS>, PlanError> {
         if !q.iter().all(|v| v.finite()) {
             return Err(PlanError::Size);
         }
@@ -115,7 +116,7 @@ impl<T: Real, const N: usize, const V: usize, const P: usize, const S: usize>
         &mut self,
         pool: &mut [Candidate<T, N, P>],
         index: usize,
-    ) -> Result<Status<T, S>, PlanError> {
+    ) -> Result<Status<T, WORKS>, PlanError> {
         let c = pool.get_mut(index).ok_or(PlanError::PoolTooSmall)?;
         self.state.add(&c.rows)?;
         c.selected = true;
@@ -123,14 +124,14 @@ impl<T: Real, const N: usize, const V: usize, const P: usize, const S: usize>
     }
 
     /// Predicted precision and whether the target is reached.
-    pub fn status(&self) -> Status<T, S> {
-        let mut var = [T::zero(); S];
+    pub fn status(&self) -> Status<T, WORKS> {
+        let mut var = [T::zero(); WORKS];
         let known = self
             .state
             .tool_variances(self.sigma, &mut var[..self.works]);
         let inf = T::max_value().unwrap_or(T::one());
         let (tool_std, worst) = if known {
-            let mut std = [T::zero(); S];
+            let mut std = [T::zero(); WORKS];
             let mut worst = T::zero();
             for (s, v) in std.iter_mut().zip(var.iter()).take(self.works) {
                 *s = v.max(T::zero()).sqrt();

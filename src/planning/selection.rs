@@ -166,11 +166,11 @@ impl<T: Real, const P: usize> Basis<T, P> {
 /// Information of a growing design in identifiable coordinates, its (ridged) inverse, and the
 /// working-configuration Jacobians: everything the rank-3 trial updates need.
 #[derive(Clone, Debug, PartialEq)]
-pub struct DesignState<T: Real, const P: usize, const S: usize> {
+pub struct DesignState<T: Real, const P: usize, const WORKS: usize> {
     r: usize,
     m: Square<T, P>,
     minv: Square<T, P>,
-    work: Vec<PoseRows<T, P>, S>,
+    work: Vec<PoseRows<T, P>, WORKS>,
     ridge: T,
     poses: usize,
 }
@@ -195,7 +195,7 @@ fn inv3<T: Real>(s: &[[T; 3]; 3]) -> Option<[[T; 3]; 3]> {
     ])
 }
 
-impl<T: Real, const P: usize, const S: usize> DesignState<T, P, S> {
+impl<T: Real, const P: usize, const WORKS: usize> DesignState<T, P, WORKS> {
     /// An empty design in `r` identifiable coordinates; `work` are the reduced tool Jacobians
     /// of the working configurations; `ridge` (absolute, > 0) is added to the diagonal of
     /// the information before inverting.
@@ -515,8 +515,8 @@ pub struct Outcome<T: Real> {
 /// construction, then at most `max_passes` Fedorov exchange passes. On return `design` holds
 /// pool indices and exactly those candidates are marked `selected`; `state` holds the final
 /// information. Candidates already marked `selected` on entry are cleared first.
-pub fn select<T: Real, const N: usize, const P: usize, const S: usize>(
-    state: &mut DesignState<T, P, S>,
+pub fn select<T: Real, const N: usize, const P: usize, const WORKS: usize>(
+    state: &mut DesignState<T, P, WORKS>,
     criterion: Criterion,
     pool: &mut [Candidate<T, N, P>],
     design: &mut [usize],
@@ -556,8 +556,8 @@ pub fn select<T: Real, const N: usize, const P: usize, const S: usize>(
 /// the swap when it helps. Stops after a pass without a swap or after `max_passes`. Returns
 /// the passes made and the swaps accepted. [`select`] ends with it; call it again after the
 /// pool has grown (for example by poses near the selected ones).
-pub fn exchange<T: Real, const N: usize, const P: usize, const S: usize>(
-    state: &mut DesignState<T, P, S>,
+pub fn exchange<T: Real, const N: usize, const P: usize, const WORKS: usize>(
+    state: &mut DesignState<T, P, WORKS>,
     criterion: Criterion,
     pool: &mut [Candidate<T, N, P>],
     design: &mut [usize],

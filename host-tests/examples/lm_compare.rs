@@ -31,6 +31,7 @@ use kinecal_cli::compute::vec_lm::VecLm;
 use kinecal_cli::formats::loading::load_measurements;
 use kinecal_cli::formats::robot_file::load_robot;
 use kinecal_cli::formats::units::UnitArgs;
+use kinecal_cli::HostRobot;
 use kinecal_cli::{with_joints, VCAP};
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::Vector3;
@@ -128,10 +129,8 @@ fn run_n<const N: usize>(args: &Args) -> anyhow::Result<serde_json::Value> {
     params.extend(file.tilt_joints().iter().map(|&t| Param::Beta(t as u8)));
     let names: Vec<String> = params.iter().map(|p| p.name(&start).to_string()).collect();
 
-    let held_out =
-        |r: &Robot<f64, N, VCAP>| ErrorStats::of(&pose_errors(r, &valid)).map(|s| s.rms_mm);
-    let ident_rms =
-        |r: &Robot<f64, N, VCAP>| ErrorStats::of(&pose_errors(r, &ident)).map(|s| s.rms_mm);
+    let held_out = |r: &HostRobot<N>| ErrorStats::of(&pose_errors(r, &valid)).map(|s| s.rms_mm);
+    let ident_rms = |r: &HostRobot<N>| ErrorStats::of(&pose_errors(r, &ident)).map(|s| s.rms_mm);
     let mut methods = Vec::new();
 
     // (a) The levenberg-marquardt crate, analytic Jacobian.
@@ -204,11 +203,11 @@ fn run_n<const N: usize>(args: &Args) -> anyhow::Result<serde_json::Value> {
     }))
 }
 
-type LmOut<const N: usize> = (Robot<f64, N, VCAP>, kinecal::identify::lm::LmProgress<f64>);
+type LmOut<const N: usize> = (HostRobot<N>, kinecal::identify::lm::LmProgress<f64>);
 
 /// The solver `fit_lm` runs (same storage, same configuration), without its report.
 fn bare_lm<const N: usize>(
-    start: &Robot<f64, N, VCAP>,
+    start: &HostRobot<N>,
     params: &[Param],
     data: &[Measurement<f64, N>],
 ) -> anyhow::Result<LmOut<N>> {
@@ -224,7 +223,7 @@ fn bare_lm<const N: usize>(
 /// from `start` in mm and mrad (lengths ×1, angles and effect values ×1000: the units
 /// scipy_lm.py hands MINPACK), residuals `p(q) − measured` (mm), three per pose.
 struct Problem<'a, const N: usize> {
-    start: &'a Robot<f64, N, VCAP>,
+    start: &'a HostRobot<N>,
     params: Vec<Param>,
     data: &'a [Measurement<f64, N>],
     x: DVector<f64>,
@@ -232,7 +231,7 @@ struct Problem<'a, const N: usize> {
     s: Vec<f64>,
     /// Changes in library units (mm, rad), `x / s`.
     delta: Vec<f64>,
-    robot: Robot<f64, N, VCAP>,
+    robot: HostRobot<N>,
     /// False when `apply_delta` refused `x` (non-finite): residuals are then `None`.
     valid: bool,
     /// Positions of base.rx, base.ry, base.rz in the set, if estimated.
@@ -243,7 +242,7 @@ struct Problem<'a, const N: usize> {
 
 impl<'a, const N: usize> Problem<'a, N> {
     fn new(
-        start: &'a Robot<f64, N, VCAP>,
+        start: &'a HostRobot<N>,
         params: &[Param],
         data: &'a [Measurement<f64, N>],
     ) -> anyhow::Result<Self> {

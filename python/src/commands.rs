@@ -18,7 +18,8 @@ use kinecal_cli::formats::observations::{observe, ObservationArgs, Observed};
 use kinecal_cli::formats::robot_file::RobotFile;
 use kinecal_cli::formats::units::{FileKind, UnitArgs};
 use kinecal_cli::reports::{CheckReport, DiagnoseReport, Report};
-use kinecal_cli::{with_joints, Stderr, VCAP};
+use kinecal_cli::HostRobot;
+use kinecal_cli::{with_joints, Stderr};
 use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 use std::path::Path;
@@ -58,7 +59,7 @@ pub fn accepted<const N: usize>(
     a: &Arrays<'_>,
     origin: &str,
     units: &UnitArgs,
-    nominal: &kinecal::Robot<f64, N, VCAP>,
+    nominal: &HostRobot<N>,
     base_known: bool,
     kind: FileKind,
 ) -> PyResult<Dataset<N>> {
@@ -71,7 +72,7 @@ pub fn accepted<const N: usize>(
 fn observed<const N: usize>(
     a: &Arrays<'_>,
     origin: &str,
-    (file, nominal): (&RobotFile, &kinecal::Robot<f64, N, VCAP>),
+    (file, nominal): (&RobotFile, &HostRobot<N>),
     units: &UnitArgs,
     obs: &ObservationArgs,
 ) -> PyResult<Observed<N>> {

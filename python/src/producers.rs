@@ -20,7 +20,8 @@ use kinecal_cli::plan::design::limits_only_scene;
 use kinecal_cli::plan::request::{plan_request, Request as PlanRequest};
 use kinecal_cli::reports::{PlanReport, SimulateReport};
 use kinecal_cli::simulation::request::{simulate_request, Request as SimulateRequest};
-use kinecal_cli::{with_joints, Stderr, VCAP};
+use kinecal_cli::HostRobot;
+use kinecal_cli::{with_joints, Stderr};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
@@ -46,7 +47,7 @@ fn compensate_n<const N: usize>(
         out: "commands".into(),
         nominal: None,
     };
-    let no_nominal: Option<&kinecal::Robot<f64, N, VCAP>> = None;
+    let no_nominal: Option<&HostRobot<N>> = None;
     let done =
         compensate_set(file, &m, no_nominal, &ds, (settings, units), &names).map_err(py_err)?;
     let c = &done.commands;
@@ -146,7 +147,7 @@ fn plan_n<const N: usize>(
         None => limits_only_scene(),
     }
     .map_err(py_err)?;
-    let noise = |_: &kinecal::Robot<f64, N, VCAP>| Ok(req.noise_mm);
+    let noise = |_: &HostRobot<N>| Ok(req.noise_mm);
     let p = plan_request(&m, &scene, req, noise, &mut Stderr).map_err(py_err)?;
     let q = Array2::from_shape_fn((p.poses.len(), N), |(i, j)| p.poses[i].q[j].to_degrees());
     let report = PlanReport::of(&p, req, "plan");

@@ -7,7 +7,8 @@ use kinecal::forward::ForwardKinematics;
 use kinecal::model::param::ParamSet;
 use kinecal::Param;
 use kinecal_cli::formats::robot_file::{BaseSpec, JointSpec, RobotFile, ToolSpec};
-use kinecal_cli::{with_joints, VCAP};
+use kinecal_cli::with_joints;
+use kinecal_cli::HostRobot;
 use numpy::ndarray::{Array2, Array3, ArrayView2};
 use numpy::{IntoPyArray, PyArray2, PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -22,15 +23,12 @@ pub struct Robot {
 }
 
 /// The library model of `file` with `N` joints (a refused error names it `robot`).
-pub fn model<const N: usize>(file: &RobotFile) -> anyhow::Result<kinecal::Robot<f64, N, VCAP>> {
+pub fn model<const N: usize>(file: &RobotFile) -> anyhow::Result<HostRobot<N>> {
     model_named(file, "robot")
 }
 
 /// The library model of `file` with `N` joints (a refused error names `origin`).
-pub fn model_named<const N: usize>(
-    file: &RobotFile,
-    origin: &str,
-) -> anyhow::Result<kinecal::Robot<f64, N, VCAP>> {
+pub fn model_named<const N: usize>(file: &RobotFile, origin: &str) -> anyhow::Result<HostRobot<N>> {
     file.to_robot::<N>()
         .map_err(|e| kinecal_cli::refused(format!("{origin}: {e}")))
 }
@@ -102,7 +100,7 @@ fn fk_n<const N: usize>(
 /// The parameters `names` (or the default set: what `identify` estimates for this file).
 fn params_of<const N: usize>(
     file: &RobotFile,
-    robot: &kinecal::Robot<f64, N, VCAP>,
+    robot: &HostRobot<N>,
     names: Option<Vec<String>>,
 ) -> PyResult<Vec<Param>> {
     match names {

@@ -14,15 +14,15 @@ use crate::constraints::report::{
 };
 use crate::constraints::shapes::{errors, held_out_error, points, rms, Shape};
 use crate::formats::robot_file::RobotFile;
-use crate::VCAP;
-use kinecal::{Param, Robot};
+use crate::HostRobot;
+use kinecal::Param;
 use std::time::Instant;
 
 /// What [`identify`] fits: the robot file and its model, the session (rows in radians and mm,
 /// [`read::load`]) and, optionally, the groups of a second session to validate on.
 pub struct Inputs<const N: usize> {
     pub file: RobotFile,
-    pub nominal: Robot<f64, N, VCAP>,
+    pub nominal: HostRobot<N>,
     pub session: Session<N>,
     /// How error messages name the session (a path).
     pub data_origin: String,
@@ -169,7 +169,7 @@ fn split<const N: usize>(
 /// values (an axis tilt's). A constraint file carries no temperatures: thermal expansion is
 /// refused.
 fn add_effects<const N: usize>(
-    nominal: &mut Robot<f64, N, VCAP>,
+    nominal: &mut HostRobot<N>,
     requests: &[crate::calibration::EffectRequest],
     ident: &[Group<N>],
 ) -> anyhow::Result<Vec<Param>> {
@@ -197,7 +197,7 @@ fn add_effects<const N: usize>(
 /// The parameters the fit estimates: [`crate::constraints::fit::candidates`] narrowed by
 /// `--fix/--free/--only`.
 fn parameters<const N: usize>(
-    nominal: &Robot<f64, N, VCAP>,
+    nominal: &HostRobot<N>,
     file: &RobotFile,
     options: &Options,
     base_unknown: bool,
@@ -219,7 +219,7 @@ fn parameters<const N: usize>(
 /// Before/after figures: the RMS of the identification rows against the fit's shapes, and per
 /// held-out group its residual against its own refitted shape (mm).
 fn residuals<const N: usize>(
-    robot: &Robot<f64, N, VCAP>,
+    robot: &HostRobot<N>,
     ident: &[Group<N>],
     shapes: &[Shape],
     valid: &[Group<N>],
@@ -244,12 +244,12 @@ fn residuals<const N: usize>(
 /// Per kind: counts and RMS before and after; the fitted socket centres and planes.
 fn constraints<const N: usize>(
     groups: &[Group<N>],
-    (nominal, before): (&Robot<f64, N, VCAP>, &[Shape]),
-    (robot, after): (&Robot<f64, N, VCAP>, &[Shape]),
+    (nominal, before): (&HostRobot<N>, &[Shape]),
+    (robot, after): (&HostRobot<N>, &[Shape]),
 ) -> Constraints {
     let mut out = Constraints::default();
     for (kind, of) in read::by_kind(groups) {
-        let err = |r: &Robot<f64, N, VCAP>, s: &[Shape]| {
+        let err = |r: &HostRobot<N>, s: &[Shape]| {
             let e: Vec<f64> = of
                 .iter()
                 .flat_map(|&k| errors(&groups[k], &points(r, &groups[k]), &s[k]))

@@ -10,11 +10,12 @@ use crate::calibration::pso_search::{bpnn_pso_mdh, pso_mdh, train_bpnn};
 use crate::calibration::{fit_lm, pose_errors, ErrorStats, Fit};
 use crate::reports::demo::{DemoErrors, DemoReport, Drift, MethodRow};
 use crate::simulation::er20_c10;
+use crate::HostRobot;
 use crate::{Tell, VCAP};
 use kinecal::identify::fitness::PositionFitness;
 use kinecal::identify::lm::LmConfig;
 use kinecal::model::param::{apply_delta, ParamSet};
-use kinecal::{ForwardKinematics, Measurement, Param, Robot};
+use kinecal::{ForwardKinematics, Measurement, Param};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
@@ -41,9 +42,9 @@ pub struct Demo {
     pub curves: Vec<(String, Vec<(f64, f64)>)>,
     /// Position errors on the validation poses before and after each method.
     pub errors: Vec<(String, Vec<f64>)>,
-    pub nominal: Robot<f64, 6, VCAP>,
+    pub nominal: HostRobot<6>,
     /// The model BPNN-PSO identified, the paper's method.
-    pub model: Robot<f64, 6, VCAP>,
+    pub model: HostRobot<6>,
     pub estimated: Vec<Param>,
     pub ident: Vec<Measurement<f64, 6>>,
     pub valid: Vec<Measurement<f64, 6>>,
@@ -67,7 +68,7 @@ fn mdh_errors(rng: &mut Xoshiro256PlusPlus, angle_deg: f64, length_mm: f64) -> V
 }
 
 fn measure(
-    robot: &Robot<f64, 6, VCAP>,
+    robot: &HostRobot<6>,
     n: usize,
     sigma: f64,
     rng: &mut Xoshiro256PlusPlus,

@@ -10,10 +10,11 @@ use crate::calibration::{add_effect, named_values, weights, EffectRequest, Fit, 
 use crate::formats::observations::{ObservationArgs, Observed};
 use crate::formats::robot_file::RobotFile;
 use crate::reports::identify::{Change, IdentifyReport, ObservationSummary, PointResiduals};
+use crate::HostRobot;
 use crate::VCAP;
 use kinecal::model::param::ParamSet;
+use kinecal::Measurement;
 use kinecal::Param;
-use kinecal::{Measurement, Robot};
 use std::time::Instant;
 
 /// The seed of the stochastic methods unless one is given.
@@ -81,7 +82,7 @@ impl Default for Options {
 /// caller calls it).
 pub struct Inputs<const N: usize> {
     pub file: RobotFile,
-    pub nominal: Robot<f64, N, VCAP>,
+    pub nominal: HostRobot<N>,
     pub observed: Observed<N>,
     pub robot_origin: String,
     pub data_origin: String,
@@ -94,7 +95,7 @@ pub struct Inputs<const N: usize> {
 pub struct Identified<const N: usize> {
     pub report: IdentifyReport,
     pub model: RobotFile,
-    pub robot: Robot<f64, N, VCAP>,
+    pub robot: HostRobot<N>,
     /// Each pose's residual (what `--residuals` writes; empty without `--residuals`).
     pub residuals: crate::calibration::residual_table::ResidualTable,
 }
@@ -420,7 +421,7 @@ fn enough_poses<const N: usize>(
 
 /// What every estimated parameter did, in the order of the parameter list.
 fn changes<const N: usize>(
-    start: &Robot<f64, N, VCAP>,
+    start: &HostRobot<N>,
     fit: &Fit<N, VCAP>,
     params: &[kinecal::Param],
     base_unknown: bool,
@@ -451,7 +452,7 @@ fn changes<const N: usize>(
 
 /// Parameters of effects the model file already carries (identified along with the geometry).
 fn existing_effect_params<const N: usize>(
-    robot: &Robot<f64, N, VCAP>,
+    robot: &HostRobot<N>,
     have: &[kinecal::Param],
 ) -> Vec<kinecal::Param> {
     (0..robot.effects().values().len())

@@ -12,8 +12,7 @@ use crate::formats::robot_file::RobotFile;
 use crate::report_html::findings::DiagnoseJson;
 use crate::report_html::{build, Built, Sources};
 use crate::reports::validate::ValidateReport;
-use crate::VCAP;
-use kinecal::Robot;
+use crate::HostRobot;
 
 /// How identify was run (as given to it) and when a fit has stalled.
 pub struct Options<'a> {
@@ -28,9 +27,9 @@ pub struct Options<'a> {
 /// they came from, and optionally diagnose's findings and another session's validation.
 pub struct Inputs<const N: usize> {
     pub file: RobotFile,
-    pub nominal: Robot<f64, N, VCAP>,
+    pub nominal: HostRobot<N>,
     pub model_file: RobotFile,
-    pub model: Robot<f64, N, VCAP>,
+    pub model: HostRobot<N>,
     pub model_origin: String,
     pub split: Split<N>,
     pub sources: Sources,

@@ -12,9 +12,8 @@ use crate::calibration::{pose_errors, ErrorStats};
 use crate::formats::measurements::Dataset;
 use crate::formats::observations::{observe, ObservationArgs};
 use crate::formats::robot_file::RobotFile;
-use crate::VCAP;
+use crate::HostRobot;
 use anyhow::anyhow;
-use kinecal::Robot;
 
 /// What [`check`] found.
 #[derive(Clone, Debug, PartialEq)]
@@ -47,7 +46,7 @@ pub struct Checked {
 /// `robot`. Refuses (exit 2) an empty set.
 pub fn check<const N: usize>(
     file: &RobotFile,
-    mut robot: Robot<f64, N, VCAP>,
+    mut robot: HostRobot<N>,
     ds: &Dataset<N>,
     data_origin: &str,
 ) -> anyhow::Result<Checked> {

@@ -3,6 +3,7 @@
 //! where identification starts. The command line's `identify`, `diagnose` and `report` and the
 //! Python package use the same functions ([`crate::commands::inputs`] re-exports them).
 
+use crate::HostRobot;
 /// `rows` when there is at least one; a file with a header and no rows is refused (exit 2)
 /// naming it, wherever a command reads measurements.
 pub fn some_rows<T>(rows: Vec<T>, path: &std::path::Path) -> anyhow::Result<Vec<T>> {
@@ -84,7 +85,7 @@ pub fn split_sets<const N: usize>(
 /// data; a tool point the file says is unknown is started from the data too
 /// ([`crate::compute::tool_start`]). Returns whether the tool orientation was unknown.
 pub fn place_nominal<const N: usize>(
-    nominal: &mut kinecal::Robot<f64, N, { crate::VCAP }>,
+    nominal: &mut HostRobot<N>,
     file: &crate::formats::robot_file::RobotFile,
     ident: &[kinecal::Measurement<f64, N>],
     six_d: bool,

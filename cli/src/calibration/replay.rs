@@ -4,9 +4,9 @@
 
 use crate::calibration::selection::{self, Selection};
 use crate::formats::robot_file::RobotFile;
-use crate::VCAP;
+use crate::HostRobot;
 use kinecal::model::param::ParamSet;
-use kinecal::{Param, Robot};
+use kinecal::Param;
 use std::path::Path;
 
 /// The joint count of the robot file `robot`; refuses (exit 2) a model file `model` of a robot
@@ -29,8 +29,8 @@ pub fn joint_count(robot: &Path, model: &Path) -> anyhow::Result<usize> {
 /// Refuses (exit 2) a model whose geometry is far from the robot file's: not an identified
 /// model of this robot (lengths beyond 100 mm, angles beyond 10°, or other tool points).
 pub fn same_robot<const N: usize>(
-    robot: &Robot<f64, N, VCAP>,
-    model: &Robot<f64, N, VCAP>,
+    robot: &HostRobot<N>,
+    model: &HostRobot<N>,
     paths: (&Path, &Path),
 ) -> anyhow::Result<()> {
     let wrap = |a: f64| {
@@ -83,7 +83,7 @@ pub fn same_robot<const N: usize>(
 /// (`base_unknown`). Returns the tilted joints and the parameters.
 pub fn estimated<const N: usize>(
     file: &RobotFile,
-    (model_file, model): (&RobotFile, &Robot<f64, N, VCAP>),
+    (model_file, model): (&RobotFile, &HostRobot<N>),
     (six_d, base_unknown): (bool, bool),
     selected: &Selection<'_>,
 ) -> anyhow::Result<(Vec<usize>, Vec<Param>)> {
@@ -116,12 +116,12 @@ pub fn estimated<const N: usize>(
 /// parameters as identify set it (the file's `[prior]` and `prior`, none on a base placed by
 /// registration, a tool orientation started from the data, effects added at zero).
 pub fn start_and_prior<const N: usize>(
-    (file, nominal): (&RobotFile, &Robot<f64, N, VCAP>),
-    (model, model_origin): (&Robot<f64, N, VCAP>, &str),
+    (file, nominal): (&RobotFile, &HostRobot<N>),
+    (model, model_origin): (&HostRobot<N>, &str),
     (six_d, base_unknown): (bool, bool),
     estimated: &[Param],
     prior: &[String],
-) -> anyhow::Result<(Robot<f64, N, VCAP>, Vec<Option<f64>>)> {
+) -> anyhow::Result<(HostRobot<N>, Vec<Option<f64>>)> {
     let mut start = nominal.clone();
     for e in model.effects().iter().skip(nominal.effects().len()) {
         start

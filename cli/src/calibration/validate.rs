@@ -14,9 +14,9 @@ use super::{
     fit_lm, named_values, orientation_errors_deg, pose_error_vectors, weights, ErrorStats,
 };
 use crate::formats::observations::{ObservationArgs, Observed};
-use crate::VCAP;
+use crate::HostRobot;
 use kinecal::identify::lm::LmConfig;
-use kinecal::{Measurement, Param, Robot};
+use kinecal::{Measurement, Param};
 use std::collections::BTreeMap;
 
 /// What the registration fits (`--register`).
@@ -82,10 +82,10 @@ pub struct Options {
 /// whether each file stated its `[base]`, the session's observations, and the names the
 /// refusals use for the files.
 pub struct Inputs<'a, const N: usize> {
-    pub nominal: &'a Robot<f64, N, VCAP>,
+    pub nominal: &'a HostRobot<N>,
     pub nominal_base_known: bool,
     pub nominal_origin: &'a str,
-    pub model: &'a Robot<f64, N, VCAP>,
+    pub model: &'a HostRobot<N>,
     pub model_base_known: bool,
     pub model_origin: &'a str,
     pub observed: &'a Observed<N>,
@@ -161,7 +161,7 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
         .register
         .params(inp.nominal.tool_point_count(), observed.six_d);
     let pose_of = crate::formats::observations::pose_of(&observed.poses);
-    let judge = |robot: &Robot<f64, N, VCAP>| -> anyhow::Result<Judged> {
+    let judge = |robot: &HostRobot<N>| -> anyhow::Result<Judged> {
         let (placed, held) = register(robot, &params, &data, &pose_of, observed, opts)?;
         judged(&placed, &data, &observed.names, &params, held)
     };
@@ -185,13 +185,13 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
 /// `robot` with the registration parameters fitted to `data` (unchanged for no parameters),
 /// and the names of those the data could not determine.
 fn register<const N: usize>(
-    robot: &Robot<f64, N, VCAP>,
+    robot: &HostRobot<N>,
     params: &[Param],
     data: &[Measurement<f64, N>],
     pose_of: &[usize],
     observed: &Observed<N>,
     opts: &Options,
-) -> anyhow::Result<(Robot<f64, N, VCAP>, Vec<String>)> {
+) -> anyhow::Result<(HostRobot<N>, Vec<String>)> {
     use anyhow::Context;
     if params.is_empty() {
         return Ok((robot.clone(), Vec::new()));
@@ -226,7 +226,7 @@ fn register<const N: usize>(
 
 /// The errors of the registered `robot` on `data`.
 fn judged<const N: usize>(
-    robot: &Robot<f64, N, VCAP>,
+    robot: &HostRobot<N>,
     data: &[Measurement<f64, N>],
     names: &[String],
     params: &[Param],

@@ -1,6 +1,7 @@
 //! The arguments most subcommands share: the robot file, the data file and their units.
 
 use crate::formats::units::UnitArgs;
+use crate::HostRobot;
 use std::path::PathBuf;
 
 pub use crate::calibration::inputs::{any_rows, place_nominal, some_rows, split_sets, HoldoutArgs};
@@ -38,10 +39,7 @@ impl InputArgs {
 pub fn load_observed<const N: usize>(
     path: &std::path::Path,
     input: &InputArgs,
-    (file, nominal): (
-        &crate::formats::robot_file::RobotFile,
-        &kinecal::Robot<f64, N, { crate::VCAP }>,
-    ),
+    (file, nominal): (&crate::formats::robot_file::RobotFile, &HostRobot<N>),
     obs: &crate::formats::observations::ObservationArgs,
 ) -> anyhow::Result<crate::formats::observations::Observed<N>> {
     let ds =
@@ -55,7 +53,7 @@ pub fn load_observed<const N: usize>(
 pub fn load_split<const N: usize>(
     input: &InputArgs,
     file: &crate::formats::robot_file::RobotFile,
-    nominal: &kinecal::Robot<f64, N, { crate::VCAP }>,
+    nominal: &HostRobot<N>,
     obs: &crate::formats::observations::ObservationArgs,
     validate: Option<&std::path::Path>,
     holdout: (&HoldoutArgs, u64),

@@ -9,6 +9,7 @@ use crate::plan::design::{limits_only_scene, poses_csv, CriterionArg};
 use crate::plan::request::{self, plan_request, Request};
 use crate::reports::plan::PlanReport;
 use crate::with_joints;
+use crate::HostRobot;
 use anyhow::anyhow;
 use std::path::PathBuf;
 
@@ -102,7 +103,7 @@ fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Re
         None => limits_only_scene()?,
     };
     let req = args.request();
-    let noise = |robot: &kinecal::Robot<f64, N, { crate::VCAP }>| match &args.noise_from {
+    let noise = |robot: &HostRobot<N>| match &args.noise_from {
         Some(p) => {
             crate::plan::request::stated_noise_mm::<N>(p, &args.units, robot, file.base_known())
         }

@@ -28,6 +28,7 @@ use crate::formats::robot_file::RobotFile;
 use crate::formats::units::{AngleUnit, UnitArgs};
 use crate::reports::compensate::CompensateReport;
 use crate::with_joints;
+use crate::HostRobot;
 use anyhow::{anyhow, bail};
 use kinecal::compensate::{compensate, nominal_reach, Config, Solution, Status, Target, Tracker};
 use kinecal::{Frame, Real, Robot};
@@ -257,7 +258,7 @@ impl<const N: usize> Compensated<N> {
 /// settings outside their limits, implausible seeds and targets, and an empty set.
 pub fn compensate_set<const N: usize, const V: usize>(
     file: &RobotFile,
-    robot: &Robot<f64, N, { crate::VCAP }>,
+    robot: &HostRobot<N>,
     nominal: Option<&Robot<f64, N, V>>,
     targets: &Dataset<N>,
     (settings, units): (&Settings, &UnitArgs),

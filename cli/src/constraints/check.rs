@@ -8,8 +8,7 @@ use super::fit::{candidates, shapes_of, unidentifiable};
 use super::read::{by_kind, Session};
 use super::shapes::{errors, points, rms};
 use crate::formats::robot_file::RobotFile;
-use crate::VCAP;
-use kinecal::Robot;
+use crate::HostRobot;
 
 /// One kind of constraint in the session.
 #[derive(Clone, Debug, PartialEq)]
@@ -43,7 +42,7 @@ pub struct ConstraintChecked {
 /// `file` and its model `nominal`. Refuses (exit 2) a session without rows.
 pub fn check<const N: usize>(
     file: &RobotFile,
-    nominal: &Robot<f64, N, VCAP>,
+    nominal: &HostRobot<N>,
     session: &Session<N>,
     origin: &str,
 ) -> anyhow::Result<ConstraintChecked> {

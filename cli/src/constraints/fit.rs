@@ -13,9 +13,9 @@
 use super::read::Group;
 use super::shapes::{fit as fit_shape, points, Shape};
 use super::system::{evaluate, step_shapes};
-use crate::VCAP;
+use crate::HostRobot;
 use kinecal::model::param::apply_delta;
-use kinecal::{Param, Robot};
+use kinecal::Param;
 use nalgebra::{DMatrix, DVector};
 
 /// Relative singular value (unit-norm columns) below which a direction of the model counts as
@@ -36,7 +36,7 @@ pub const COST_TOLERANCE: f64 = 1e-12;
 /// A finished constraint fit.
 #[derive(Clone, Debug)]
 pub struct Fitted<const N: usize> {
-    pub robot: Robot<f64, N, VCAP>,
+    pub robot: HostRobot<N>,
     pub shapes: Vec<Shape>,
     /// The parameters estimated.
     pub estimated: Vec<Param>,
@@ -53,7 +53,7 @@ pub struct Fitted<const N: usize> {
 /// `--effect` added), before `--fix/--free/--only`. Without tracker points the base is always
 /// in the set: the analysis finds it undetermined and holds it.
 pub fn candidates<const N: usize>(
-    nominal: &Robot<f64, N, VCAP>,
+    nominal: &HostRobot<N>,
     file: &crate::formats::robot_file::RobotFile,
     base_unknown: bool,
     extra: &[Param],
@@ -84,7 +84,7 @@ pub fn candidates<const N: usize>(
 }
 
 /// Each group's shape fitted to the points `robot` predicts (closed form, model held).
-pub fn shapes_of<const N: usize>(robot: &Robot<f64, N, VCAP>, groups: &[Group<N>]) -> Vec<Shape> {
+pub fn shapes_of<const N: usize>(robot: &HostRobot<N>, groups: &[Group<N>]) -> Vec<Shape> {
     groups
         .iter()
         .map(|g| fit_shape(g.kind, &points(robot, g)))
@@ -94,7 +94,7 @@ pub fn shapes_of<const N: usize>(robot: &Robot<f64, N, VCAP>, groups: &[Group<N>
 /// The parameters of `params` the constraints of `groups` cannot determine at `robot`, in the
 /// order they were found.
 pub fn unidentifiable<const N: usize>(
-    robot: &Robot<f64, N, VCAP>,
+    robot: &HostRobot<N>,
     groups: &[Group<N>],
     params: &[Param],
 ) -> anyhow::Result<Vec<Param>> {
@@ -162,7 +162,7 @@ pub fn unidentifiable<const N: usize>(
 /// Fits `params` of `start` and the groups' shapes to `groups`; holds what the data cannot
 /// determine (see the module).
 pub fn fit<const N: usize>(
-    start: &Robot<f64, N, VCAP>,
+    start: &HostRobot<N>,
     groups: &[Group<N>],
     params: &[Param],
 ) -> anyhow::Result<Fitted<N>> {

@@ -6,15 +6,14 @@
 
 use super::read::Group;
 use super::shapes::{errors, fit, points, Shape};
-use crate::VCAP;
-use kinecal::Robot;
+use crate::HostRobot;
 use std::fmt::Write;
 
 /// The residuals file of a constraint fit: `groups` with the shapes each model has for them
 /// (`None`: held out, refitted to the group's own points).
 pub fn to_csv<const N: usize>(
-    (nominal, before): (&Robot<f64, N, VCAP>, &[Shape]),
-    (model, after): (&Robot<f64, N, VCAP>, &[Shape]),
+    (nominal, before): (&HostRobot<N>, &[Shape]),
+    (model, after): (&HostRobot<N>, &[Shape]),
     ident: &[Group<N>],
     held_out: &[Group<N>],
 ) -> String {
@@ -40,14 +39,14 @@ pub fn to_csv<const N: usize>(
         }
     };
     for (k, g) in ident.iter().enumerate() {
-        let e = |robot: &Robot<f64, N, VCAP>, shapes: &[Shape]| {
+        let e = |robot: &HostRobot<N>, shapes: &[Shape]| {
             let shape = shapes.get(k).copied().unwrap_or(Shape::None);
             errors(g, &points(robot, g), &shape)
         };
         rows("identification", g, e(nominal, before), e(model, after));
     }
     for g in held_out {
-        let e = |robot: &Robot<f64, N, VCAP>| {
+        let e = |robot: &HostRobot<N>| {
             let pts = points(robot, g);
             errors(g, &pts, &fit(g.kind, &pts))
         };

@@ -3,8 +3,8 @@
 //! it in millimetres.
 
 use super::read::{Group, Kind};
-use crate::VCAP;
-use kinecal::{ForwardKinematics, Robot};
+use crate::HostRobot;
+use kinecal::ForwardKinematics;
 use nalgebra::{Matrix3, Vector3};
 
 /// The unknown a group adds to the fit.
@@ -30,7 +30,7 @@ impl Shape {
 }
 
 /// The tool points `robot` predicts for the rows of `g`.
-pub fn points<const N: usize>(robot: &Robot<f64, N, VCAP>, g: &Group<N>) -> Vec<Vector3<f64>> {
+pub fn points<const N: usize>(robot: &HostRobot<N>, g: &Group<N>) -> Vec<Vector3<f64>> {
     let mut fk = ForwardKinematics::<f64, N>::new();
     g.rows
         .iter()
@@ -95,7 +95,7 @@ pub fn errors<const N: usize>(g: &Group<N>, pts: &[Vector3<f64>], shape: &Shape)
 
 /// The held-out residual of group `g` under `robot` (mm): its own shape refitted to the
 /// predicted points, then the RMS of its rows' errors (a distance group: the length error).
-pub fn held_out_error<const N: usize>(robot: &Robot<f64, N, VCAP>, g: &Group<N>) -> f64 {
+pub fn held_out_error<const N: usize>(robot: &HostRobot<N>, g: &Group<N>) -> f64 {
     let pts = points(robot, g);
     let shape = fit(g.kind, &pts);
     let e = errors(g, &pts, &shape);
@@ -111,7 +111,7 @@ pub fn rms(e: &[f64]) -> f64 {
 /// longer or shorter than the nominal model's distances between their poses: a length unit
 /// misstated (millimetres read as metres or the reverse), not a robot 20 times off.
 pub fn check_lengths<const N: usize>(
-    nominal: &Robot<f64, N, VCAP>,
+    nominal: &HostRobot<N>,
     groups: &[Group<N>],
     origin: &str,
 ) -> anyhow::Result<()> {

@@ -6,9 +6,9 @@
 
 use crate::formats::measurements::quantize_deg;
 use crate::simulation::{random_configurations, Streams};
-use crate::VCAP;
+use crate::HostRobot;
 use kinecal::compensate::{compensate, Config, Target};
-use kinecal::{ForwardKinematics, Robot};
+use kinecal::ForwardKinematics;
 use nalgebra::Vector3;
 use rand::{Rng, RngExt};
 use rand_distr::StandardNormal;
@@ -78,7 +78,7 @@ const TRIES: usize = 30;
 /// The CSV of a constraint session of `truth` (noise `noise_mm` per contact, length or tracker
 /// axis; `seed` as `simulate`'s). Joint readings are rounded as the file keeps them.
 pub fn session<const N: usize>(
-    truth: &Robot<f64, N, VCAP>,
+    truth: &HostRobot<N>,
     plan: &SessionPlan,
     noise_mm: f64,
     seed: u64,
@@ -169,14 +169,14 @@ pub fn session<const N: usize>(
 }
 
 /// The tool point of `robot` at `q`.
-fn fk<const N: usize>(robot: &Robot<f64, N, VCAP>, q: &[f64; N]) -> Vector3<f64> {
+fn fk<const N: usize>(robot: &HostRobot<N>, q: &[f64; N]) -> Vector3<f64> {
     ForwardKinematics::<f64, N>::new().compute(robot, q)
 }
 
 /// Joint readings (rounded as written) that bring `robot`'s tool point to `target`, started
 /// from `around` moved by up to ±`spread_deg` per joint at random.
 fn reach<const N: usize, R: Rng>(
-    robot: &Robot<f64, N, VCAP>,
+    robot: &HostRobot<N>,
     target: &Vector3<f64>,
     around: &[f64; N],
     spread_deg: f64,

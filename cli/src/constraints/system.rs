@@ -10,8 +10,8 @@
 
 use super::read::{Group, Kind};
 use super::shapes::{tangents, Shape};
-use crate::VCAP;
-use kinecal::{ForwardKinematics, Param, Robot};
+use crate::HostRobot;
+use kinecal::{ForwardKinematics, Param};
 use nalgebra::{DMatrix, DVector, Vector3};
 
 /// Number of residual rows of `groups`.
@@ -29,7 +29,7 @@ pub fn rows<const N: usize>(groups: &[Group<N>]) -> usize {
 /// Weighted residuals and, with `jacobian`, their Jacobian (model columns for `params` first,
 /// then each shape's unknowns in group order).
 pub fn evaluate<const N: usize>(
-    robot: &Robot<f64, N, VCAP>,
+    robot: &HostRobot<N>,
     groups: &[Group<N>],
     shapes: &[Shape],
     params: &[Param],

@@ -31,9 +31,9 @@
 use crate::diagnose::candidates::{fmt_deg, fmt_mm, Candidate, CandidateKind};
 use crate::diagnose::{distinct_figures, percent, Found};
 use crate::output::numfmt::sig;
-use crate::VCAP;
+use crate::HostRobot;
 use kinecal::model::param::Param;
-use kinecal::{ForwardKinematics, Joint, Measurement, Robot};
+use kinecal::{ForwardKinematics, Joint, Measurement};
 use serde::Serialize;
 
 /// How many poses [`Explanation::most_affected_poses`] lists.
@@ -107,7 +107,7 @@ pub struct PoseEffect {
 /// Every pose of `data` as `c` (with its values in `robot`) sees it.
 pub fn per_pose<const N: usize>(
     c: &Candidate,
-    robot: &Robot<f64, N, VCAP>,
+    robot: &HostRobot<N>,
     data: &[Measurement<f64, N>],
 ) -> Vec<PoseEffect> {
     let j = c.joint;

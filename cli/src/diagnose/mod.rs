@@ -40,6 +40,7 @@ pub mod search_weights;
 pub mod significance;
 pub mod workflow;
 
+use crate::HostRobot;
 use phase::phase_search;
 pub use phase::phase_search_starts;
 
@@ -57,10 +58,9 @@ use crate::diagnose::significance::{
     held_out_noise, noise_floor_interval, paired_improvement, repeat_noise, PairedTest,
 };
 use crate::output::numfmt::sig;
-use crate::VCAP;
 use kinecal::identify::lm::LmConfig;
 use kinecal::model::param::{Param, ParamSet};
-use kinecal::{Measurement, Robot};
+use kinecal::Measurement;
 use std::time::Instant;
 
 /// Settings of the search; the defaults are the ones the test matrix was run with.
@@ -156,8 +156,8 @@ pub struct Found<const N: usize> {
     pub threshold: f64,
     pub candidates_compared: usize,
     /// The full-data fits without and with it (for plots).
-    pub before: Robot<f64, N, VCAP>,
-    pub after: Robot<f64, N, VCAP>,
+    pub before: HostRobot<N>,
+    pub after: HostRobot<N>,
 }
 
 /// Where the noise floor estimate comes from.
@@ -174,11 +174,11 @@ pub enum NoiseSource {
 pub struct Diagnosis<const N: usize> {
     /// Geometry fitted to all poses by the library's LM (base when unknown, rows, tool): where
     /// the search starts from.
-    pub geometric: Robot<f64, N, VCAP>,
+    pub geometric: HostRobot<N>,
     /// The starting parameter set (geometry without the held parameters, plus the nominal
     /// model's own effects) fitted to all poses by the search's fit: the model
     /// `baseline_validation_rms_mm` is of. When nothing is added, `model` is this very fit.
-    pub baseline_model: Robot<f64, N, VCAP>,
+    pub baseline_model: HostRobot<N>,
     /// Geometric parameters the data cannot determine (held at nominal).
     pub unidentifiable: Vec<Param>,
     /// The final parameter set (geometry without the held parameters, the nominal model's
@@ -191,7 +191,7 @@ pub struct Diagnosis<const N: usize> {
     pub found: Vec<Found<N>>,
     pub final_validation_rms_mm: f64,
     /// The extended model, fitted to all poses.
-    pub model: Robot<f64, N, VCAP>,
+    pub model: HostRobot<N>,
     /// Joints (0-based) whose `beta` is free in the model (axis-tilt).
     pub free_tilt: Vec<usize>,
     /// Noise floor in the held-out RMS sense, `√3 σ` (mm), and per-coordinate σ; never above
@@ -328,11 +328,11 @@ pub fn choose(
 /// Fits the geometry: base started by registration when unknown, then LM over base (when
 /// unknown), rows, tool and the betas of `free_tilt`. Returns the robot and the held parameters.
 pub fn fit_geometry<const N: usize>(
-    nominal: &Robot<f64, N, VCAP>,
+    nominal: &HostRobot<N>,
     base_known: bool,
     free_tilt: &[usize],
     data: &[Measurement<f64, N>],
-) -> anyhow::Result<(Robot<f64, N, VCAP>, Vec<Param>)> {
+) -> anyhow::Result<(HostRobot<N>, Vec<Param>)> {
     let mut start = nominal.clone();
     if !base_known {
         let base = crate::compute::registration::fit_base(nominal, data)?;
@@ -365,7 +365,7 @@ pub fn fit_geometry<const N: usize>(
 /// measured frame's axes in the flange, with observations of further tool points their
 /// offsets (as `identify` frees them).
 pub fn observation_params<const N: usize>(
-    robot: &Robot<f64, N, VCAP>,
+    robot: &HostRobot<N>,
     data: &[Measurement<f64, N>],
 ) -> Vec<Param> {
     let mut out = Vec::new();
@@ -435,7 +435,7 @@ pub enum Progress {
 /// Runs the whole workflow on `data` for the `nominal` model (its effects, if any, are kept
 /// and refitted; `free_tilt` are joints whose beta is already free).
 pub fn diagnose<const N: usize>(
-    nominal: &Robot<f64, N, VCAP>,
+    nominal: &HostRobot<N>,
     base_known: bool,
     free_tilt: &[usize],
     data: &[Measurement<f64, N>],
@@ -446,7 +446,7 @@ pub fn diagnose<const N: usize>(
 
 /// [`diagnose`], telling `on_progress` where the search is before each stage.
 pub fn diagnose_with_progress<const N: usize>(
-    nominal: &Robot<f64, N, VCAP>,
+    nominal: &HostRobot<N>,
     base_known: bool,
     free_tilt: &[usize],
     data: &[Measurement<f64, N>],
@@ -583,7 +583,7 @@ pub fn diagnose_with_progress<const N: usize>(
             let problem_c = Problem::new(&robot_c, &p, cfg.penalty)?;
             models.push((robot_c, problem_c, parameters));
         }
-        let starts: Vec<(&Robot<f64, N, VCAP>, &Problem)> =
+        let starts: Vec<(&HostRobot<N>, &Problem)> =
             models.iter().map(|(r, p, _)| (r, p)).collect();
         on_progress(Progress::Refit {
             round: rounds.len() + 1,

@@ -22,10 +22,10 @@ use crate::diagnose::linear::Problem;
 use crate::diagnose::refit::fit;
 use crate::diagnose::{Config, Diagnosis};
 use crate::formats::observations::ObservationArgs;
-use crate::VCAP;
+use crate::HostRobot;
 use kinecal::identify::lm::LmConfig;
 use kinecal::model::param::{Param, ParamSet};
-use kinecal::{Measurement, Robot};
+use kinecal::Measurement;
 
 /// What the file observed and how the user asked it to be weighed.
 #[derive(Clone, Copy, Debug)]
@@ -42,9 +42,9 @@ pub struct Observations<'a> {
 #[derive(Clone, Debug)]
 pub struct FullFit<const N: usize> {
     /// The geometry (the nominal model's effects at their file values) on all observations.
-    pub geometric: Robot<f64, N, VCAP>,
+    pub geometric: HostRobot<N>,
     /// The extended model on all observations: what `diagnose --out` writes.
-    pub model: Robot<f64, N, VCAP>,
+    pub model: HostRobot<N>,
     /// Geometric parameters all observations cannot determine (held at nominal).
     pub unidentifiable: Vec<String>,
     /// The observations with the weights the fits used.
@@ -68,7 +68,7 @@ impl<const N: usize> FullFit<N> {
 
 /// Parameters only several points or an orientation determine: the further points' offsets
 /// and, with 6-D data, the tool axes.
-fn observation_params<const N: usize>(robot: &Robot<f64, N, VCAP>, six_d: bool) -> Vec<Param> {
+fn observation_params<const N: usize>(robot: &HostRobot<N>, six_d: bool) -> Vec<Param> {
     let mut out = Vec::new();
     if six_d {
         out.extend([Param::ToolRx, Param::ToolRy, Param::ToolRz]);

@@ -19,8 +19,9 @@
 
 use crate::calibration::weights::{self, weighted_fit, Floors, Stated, Weighting};
 use crate::calibration::Fit;
+use crate::HostRobot;
 use crate::VCAP;
-use kinecal::{Measurement, Robot};
+use kinecal::Measurement;
 
 /// How the search's observations were weighted.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -71,7 +72,7 @@ pub fn search_weights<const N: usize, F>(
     fit_geometry: F,
 ) -> anyhow::Result<SearchWeights>
 where
-    F: Fn(&[Measurement<f64, N>]) -> anyhow::Result<Robot<f64, N, VCAP>>,
+    F: Fn(&[Measurement<f64, N>]) -> anyhow::Result<HostRobot<N>>,
 {
     let floors = if how.balance {
         let how = Weighting {

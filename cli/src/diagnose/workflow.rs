@@ -16,9 +16,10 @@ use crate::calibration::weights::{self, Weighting};
 use crate::calibration::Residuals;
 use crate::formats::observations::{pose_of, ObservationArgs, Observed};
 use crate::formats::robot_file::RobotFile;
-use crate::{Tell, VCAP};
+use crate::HostRobot;
+use crate::Tell;
 use kinecal::model::param::ParamSet;
-use kinecal::{Measurement, Robot};
+use kinecal::Measurement;
 use std::path::Path;
 
 /// The options of the workflow (`kinecal diagnose`'s flags, but the files).
@@ -68,7 +69,7 @@ impl Default for Options {
 /// set; each named as messages name it (a path, or what the caller calls it).
 pub struct Inputs<const N: usize> {
     pub file: RobotFile,
-    pub nominal: Robot<f64, N, VCAP>,
+    pub nominal: HostRobot<N>,
     pub observed: Observed<N>,
     pub data_origin: String,
     /// The validation set and its name.
@@ -311,13 +312,13 @@ pub fn run<const N: usize>(
 /// (at a geometric fit of the positions), as identify starts them.
 #[allow(clippy::type_complexity)]
 fn search_observations<const N: usize>(
-    nominal: &Robot<f64, N, VCAP>,
+    nominal: &HostRobot<N>,
     file: &RobotFile,
     observed: &Observed<N>,
     obs: &ObservationArgs,
     poses: (&Observed<N>, &Observed<N>),
 ) -> anyhow::Result<(
-    Robot<f64, N, VCAP>,
+    HostRobot<N>,
     Vec<Measurement<f64, N>>,
     Vec<Measurement<f64, N>>,
 )> {
@@ -408,7 +409,7 @@ fn all_observations<const N: usize>(
 /// to the final model's RMS there when it is above it.
 fn holdout_errors<const N: usize>(
     d: &mut Diagnosis<N>,
-    start: &Robot<f64, N, VCAP>,
+    start: &HostRobot<N>,
     held: &[Measurement<f64, N>],
 ) -> Holdout {
     let rms = |sq: Vec<f64>| (sq.iter().sum::<f64>() / sq.len() as f64).sqrt();

@@ -17,12 +17,12 @@ use crate::formats::units::UnitArgs;
 use crate::reports::frames::{CircleReport, FittedCircle, FramesReport, OnAxis, ToolReport};
 use crate::reports::FrameReport;
 use crate::simulation::sweeps::{SweepSet, SWEEP_COLUMN};
-use crate::{with_joints, VCAP};
+use crate::with_joints;
+use crate::HostRobot;
 use kinecal::frames::circle::Circle;
 use kinecal::frames::circle_point::{
     base_from_sweeps, tool_from_sweeps, AxialMethod, FramesError, JointAxis, ToolEstimate,
 };
-use kinecal::Robot;
 use nalgebra::Vector3;
 use std::path::Path;
 
@@ -63,7 +63,7 @@ fn from_files_with_joints<const N: usize>(
     units: &UnitArgs,
     out: Option<&Path>,
 ) -> anyhow::Result<FramesReport> {
-    let (file, robot): (RobotFile, Robot<f64, N, VCAP>) = load_robot::<N>(robot_path)?;
+    let (file, robot): (RobotFile, HostRobot<N>) = load_robot::<N>(robot_path)?;
     let data = crate::formats::loading::load_sweeps(data_path, units, &robot)?;
     let mut found = find(&file, &robot, &data, &Origin::file(data_path))?;
     if let Some(out) = out {
@@ -201,7 +201,7 @@ pub struct Found {
 /// warnings in the report; sweeps the method cannot use are refused (exit 2).
 pub fn find<const N: usize>(
     file: &RobotFile,
-    robot: &Robot<f64, N, VCAP>,
+    robot: &HostRobot<N>,
     data: &Dataset<N>,
     origin: &Origin,
 ) -> anyhow::Result<Found> {

@@ -31,8 +31,9 @@ use super::design::{
     in_base_frame, parse_configuration, plan, CriterionArg, HostCandidate, Plan, PlanRequest,
 };
 use crate::formats::cell_file::HostScene;
-use crate::{Tell, VCAP};
-use kinecal::{ForwardKinematics, Robot};
+use crate::HostRobot;
+use crate::Tell;
+use kinecal::ForwardKinematics;
 use std::time::Instant;
 
 /// The options of a plan (`kinecal plan`'s flags, but the files).
@@ -116,10 +117,10 @@ pub struct Planned<const N: usize> {
 /// configurations outside the joint limits are told to `tell` as warnings, the design's stage
 /// as a stage.
 pub fn plan_request<const N: usize>(
-    robot: &Robot<f64, N, VCAP>,
+    robot: &HostRobot<N>,
     scene: &HostScene,
     req: &Request,
-    noise: impl FnOnce(&Robot<f64, N, VCAP>) -> anyhow::Result<f64>,
+    noise: impl FnOnce(&HostRobot<N>) -> anyhow::Result<f64>,
     tell: &mut dyn Tell,
 ) -> anyhow::Result<Planned<N>> {
     let estimate = if req.estimate.is_empty() {
@@ -205,7 +206,7 @@ pub fn plan_request<const N: usize>(
 pub fn stated_noise_mm<const N: usize>(
     path: &std::path::Path,
     units: &crate::formats::units::UnitArgs,
-    robot: &kinecal::Robot<f64, N, { crate::VCAP }>,
+    robot: &HostRobot<N>,
     base_known: bool,
 ) -> anyhow::Result<f64> {
     let ds = crate::formats::loading::load_measurements(path, units, robot, base_known)?;

@@ -24,16 +24,16 @@ pub mod summary;
 pub mod template;
 pub mod validation;
 
-/// The statistics of one model on one set (per axis, total, 95 %), shared with `validate`.
 pub use crate::calibration::stats;
+/// The statistics of one model on one set (per axis, total, 95 %), shared with `validate`.
+use crate::HostRobot;
 
 use crate::calibration::weights::{self, Weighting};
 use crate::calibration::{orientation_errors_deg, pose_errors, ErrorStats, Residuals};
 use crate::output::numfmt::sig;
 use crate::reports::identify::PointResiduals;
-use crate::VCAP;
 use kinecal::model::param::Param;
-use kinecal::{Measurement, Robot};
+use kinecal::Measurement;
 use nalgebra::Vector3;
 use page::{
     Cell, DataSet, Figure, IsoRepeat, IsoRow, JointRange, Page, ParamLine, PointLine, SetTable,
@@ -80,16 +80,16 @@ pub struct Inputs<'a, const N: usize> {
     pub model_name: String,
     pub sources: Sources,
     /// The nominal robot, its base fitted when the robot file has none (`base_fitted`).
-    pub nominal: &'a Robot<f64, N, VCAP>,
+    pub nominal: &'a HostRobot<N>,
     pub base_fitted: bool,
     /// The robot file gave the tool point as unknown (started from the data in `nominal`).
     pub tool_unknown: bool,
     /// The identified model.
-    pub model: &'a Robot<f64, N, VCAP>,
+    pub model: &'a HostRobot<N>,
     /// Where `identify` started its fit: the nominal robot placed as above, with the model's
     /// effects at zero (the 1-σ, held parameters and correlations are those of identify's fit
     /// from it over the identification data).
-    pub start: &'a Robot<f64, N, VCAP>,
+    pub start: &'a HostRobot<N>,
     /// Every parameter of the model (the table's rows) and those the fit estimates.
     pub all_params: Vec<Param>,
     pub estimated: Vec<Param>,

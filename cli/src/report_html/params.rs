@@ -8,9 +8,9 @@
 
 use crate::calibration::{named_values, Correlation, Fit};
 use crate::output::numfmt::sig;
+use crate::HostRobot;
 use crate::VCAP;
 use kinecal::model::param::Param;
-use kinecal::Robot;
 use serde::Serialize;
 
 /// Whether a parameter was estimated.
@@ -68,8 +68,8 @@ impl ParamRow {
 /// The rows of every parameter in `all`, with `fit` (from the model over the identification
 /// data) for 1-σ and what was held, `estimated` the parameters the fit was given.
 pub fn table<const N: usize>(
-    nominal: &Robot<f64, N, VCAP>,
-    model: &Robot<f64, N, VCAP>,
+    nominal: &HostRobot<N>,
+    model: &HostRobot<N>,
     all: &[Param],
     estimated: &[Param],
     fit: &Fit<N, VCAP>,

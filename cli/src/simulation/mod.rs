@@ -10,7 +10,7 @@ pub mod request;
 pub mod sweeps;
 
 use crate::formats::measurements::{quantize_deg, Dataset, Record};
-use crate::VCAP;
+use crate::HostRobot;
 use anyhow::{anyhow, bail};
 use kinecal::forward::ForwardKinematics;
 use kinecal::model::effects::EffectKind;
@@ -375,9 +375,9 @@ pub struct Simulation {
 /// The true robot and its measurements. The true robot is `nominal` with the geometric
 /// errors and then the effects applied; the configurations are drawn within its limits.
 pub fn simulate<const N: usize>(
-    nominal: &Robot<f64, N, VCAP>,
+    nominal: &HostRobot<N>,
     sim: &Simulation,
-) -> anyhow::Result<(Robot<f64, N, VCAP>, Dataset<N>)> {
+) -> anyhow::Result<(HostRobot<N>, Dataset<N>)> {
     simulate_at(nominal, sim, None)
 }
 
@@ -385,10 +385,10 @@ pub fn simulate<const N: usize>(
 /// `temperature.1` °C over the poses, in their order: every row gets a `temp_c`, and a
 /// thermal-expansion effect of the true robot is referred to the mean temperature.
 pub fn simulate_at<const N: usize>(
-    nominal: &Robot<f64, N, VCAP>,
+    nominal: &HostRobot<N>,
     sim: &Simulation,
     temperature: Option<(f64, f64)>,
-) -> anyhow::Result<(Robot<f64, N, VCAP>, Dataset<N>)> {
+) -> anyhow::Result<(HostRobot<N>, Dataset<N>)> {
     let temps: Vec<f64> = match temperature {
         Some((a, b)) => {
             if !(a.is_finite() && b.is_finite() && a.abs() <= 1e3 && b.abs() <= 1e3) {
@@ -442,7 +442,7 @@ pub fn simulate_at<const N: usize>(
 }
 
 /// The ER20-C10 stand-in (rows alpha°, a mm, theta°, d mm; tool 100 mm along the flange z).
-pub fn er20_c10() -> kinecal::Robot<f64, 6, { crate::VCAP }> {
+pub fn er20_c10() -> HostRobot<6> {
     let rows = [
         (0.0, 0.0, 0.0, 504.0),
         (-90.0, 170.0, -90.0, 0.0),

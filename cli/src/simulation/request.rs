@@ -6,8 +6,8 @@
 use super::{EffectArg, GeomErrors, Simulation};
 use crate::formats::measurements::Dataset;
 use crate::formats::robot_file::{RobotFile, AXIS_TILT};
-use crate::{Tell, VCAP};
-use kinecal::Robot;
+use crate::HostRobot;
+use crate::Tell;
 
 /// The options of a simulation (`kinecal simulate`'s flags).
 #[derive(Clone, Debug, PartialEq)]
@@ -102,7 +102,7 @@ impl Request {
 /// the effects it was given.
 #[derive(Clone, Debug)]
 pub struct Simulated<const N: usize> {
-    pub truth: Robot<f64, N, VCAP>,
+    pub truth: HostRobot<N>,
     /// What `--truth` writes: the true model with the robot file's name and tool orientation,
     /// its tilts (the file's and `axis-tilt` effects') stated.
     pub truth_file: RobotFile,
@@ -116,7 +116,7 @@ pub struct Simulated<const N: usize> {
 /// model `nominal`.
 pub fn simulate_request<const N: usize>(
     file: &RobotFile,
-    nominal: &Robot<f64, N, VCAP>,
+    nominal: &HostRobot<N>,
     req: &Request,
     robot_origin: &str,
     tell: &mut dyn Tell,

@@ -3,7 +3,7 @@
 use kinecal::model::effects::EffectKind;
 use kinecal::{Frame, Joint, Robot};
 use kinecal_cli::formats::robot_file::{deg_exact, deg_short, line_column, RobotFile};
-use kinecal_cli::VCAP;
+use kinecal_cli::HostRobot;
 use nalgebra::Vector3;
 use proptest::prelude::*;
 
@@ -235,7 +235,7 @@ proptest! {
             Joint { alpha, a, theta, d, beta, lower: -2.5 - i as f64 * 0.1, upper: 2.0 + i as f64 * 0.3 }
         });
         let b = Frame::from_xyz_rpy([base[0], base[1], base[2]], [base[3], base[4] * 0.5, base[5]]);
-        let mut r: Robot<f64, 6, VCAP> = Robot::new(b, joints, Vector3::from(tool)).unwrap();
+        let mut r: HostRobot<6> = Robot::new(b, joints, Vector3::from(tool)).unwrap();
         let e = r.effects_mut();
         e.push(EffectKind::Scale, 0, 6, 1, 0.0, 0.0, &vals[0..1]).unwrap();
         e.push(EffectKind::Cyclic, 1, 6, 3, 0.0, 0.0, &vals[1..3]).unwrap();

@@ -3,19 +3,19 @@
 //! file, `kinecal diagnose` on a simulated warm-up).
 
 use crate::common::{effect, main_sized_stack};
+use kinecal_cli::HostRobot;
 
 use kinecal::compensate::{compensate, Config, Target};
 use kinecal::model::effects::EffectKind;
 use kinecal::model::param::Param;
-use kinecal::{ForwardKinematics, Measurement, Robot};
+use kinecal::{ForwardKinematics, Measurement};
 use kinecal_cli::diagnose::candidates::CandidateKind;
 use kinecal_cli::formats::robot_file::RobotFile;
 use kinecal_cli::simulation::{simulate_at, GeomErrors, Simulation};
-use kinecal_cli::VCAP;
 use nalgebra::Vector3;
 use std::path::PathBuf;
 
-fn er20() -> Robot<f64, 6, VCAP> {
+fn er20() -> HostRobot<6> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data");
     RobotFile::load(&dir.join("er20.toml"))
         .unwrap()
@@ -26,7 +26,7 @@ fn er20() -> Robot<f64, 6, VCAP> {
 /// Steel: 1.2e-5 per kelvin.
 const STEEL: f64 = 1.2e-5;
 
-fn warm_robot() -> Robot<f64, 6, VCAP> {
+fn warm_robot() -> HostRobot<6> {
     let mut r = er20();
     r.set_base(kinecal::Frame::from_xyz_rpy(
         [2000.0, -300.0, 100.0],
@@ -141,11 +141,7 @@ fn robot_file_round_trips_the_term() {
     assert_eq!(r2.effects().thermal(), r.effects().thermal());
 }
 
-fn warm_up(
-    c: f64,
-    temps: (f64, f64),
-    seed: u64,
-) -> (Robot<f64, 6, VCAP>, Vec<Measurement<f64, 6>>) {
+fn warm_up(c: f64, temps: (f64, f64), seed: u64) -> (HostRobot<6>, Vec<Measurement<f64, 6>>) {
     let s = Simulation {
         poses: 300,
         noise_mm: 0.01,

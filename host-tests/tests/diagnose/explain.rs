@@ -3,8 +3,9 @@
 //! and `kinecal diagnose` end to end (the `explanation` object, the text, the plot).
 
 use crate::common::effect;
+use kinecal_cli::HostRobot;
 
-use kinecal::{ForwardKinematics, Measurement, Robot};
+use kinecal::{ForwardKinematics, Measurement};
 use kinecal_cli::commands::diagnose::{run, Args};
 use kinecal_cli::diagnose::candidates::{Candidate, CandidateKind};
 use kinecal_cli::diagnose::explain::{explain, Explanation, GapBasis};
@@ -13,12 +14,11 @@ use kinecal_cli::diagnose::Found;
 use kinecal_cli::formats::measurements;
 use kinecal_cli::formats::robot_file::RobotFile;
 use kinecal_cli::simulation::{simulate, EffectArg, GeomErrors, Simulation};
-use kinecal_cli::VCAP;
 use rand::{RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use std::path::PathBuf;
 
-type Arm = Robot<f64, 6, VCAP>;
+type Arm = HostRobot<6>;
 
 fn er20_path() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/er20.toml")

@@ -4,28 +4,28 @@
 //! and written back exactly.
 
 use crate::common::main_sized_stack;
+use kinecal_cli::HostRobot;
 
 use kinecal::model::effects::EffectKind;
-use kinecal::{Joint, Measurement, Robot};
+use kinecal::{Joint, Measurement};
 use kinecal_cli::diagnose::candidates::{
     catalogue, coverage, shifted, Candidate, CandidateKind, CatalogueConfig,
 };
 use kinecal_cli::diagnose::{diagnose, Config};
 use kinecal_cli::formats::robot_file::RobotFile;
 use kinecal_cli::simulation::{simulate, GeomErrors, Simulation};
-use kinecal_cli::VCAP;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use std::path::PathBuf;
 
-fn er20() -> Robot<f64, 6, VCAP> {
+fn er20() -> HostRobot<6> {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/er20.toml");
     RobotFile::load(&path).unwrap().to_robot::<6>().unwrap()
 }
 
 /// The ER20 with joint `j` (0-based) limited to `lower..upper` degrees.
-fn with_limits(j: usize, lower: f64, upper: f64) -> Robot<f64, 6, VCAP> {
+fn with_limits(j: usize, lower: f64, upper: f64) -> HostRobot<6> {
     let mut r = er20();
     let row = r.joints()[j];
     r.set_joint(
@@ -50,7 +50,7 @@ fn on_multiple(x: f64, p: f64) -> bool {
 /// `phase + k·pitch` degrees over the joint's limits (values N(0, σ_v) rad) and noise.
 #[allow(clippy::too_many_arguments)]
 fn table_data(
-    nominal: &Robot<f64, 6, VCAP>,
+    nominal: &HostRobot<6>,
     j: usize,
     pitch_deg: f64,
     phase_deg: f64,

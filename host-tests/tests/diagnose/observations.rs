@@ -5,8 +5,9 @@
 
 use crate::common::{json_of, run_on, s, stderr, write};
 use kinecal::forward::ForwardKinematics;
-use kinecal::{Frame, Robot};
+use kinecal::Frame;
 use kinecal_cli::formats::robot_file::RobotFile;
+use kinecal_cli::HostRobot;
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
@@ -77,7 +78,7 @@ pub(crate) fn load(
     text: &str,
     dir: &std::path::Path,
     name: &str,
-) -> (std::path::PathBuf, Robot<f64, 6, { kinecal_cli::VCAP }>) {
+) -> (std::path::PathBuf, HostRobot<6>) {
     let path = write(dir, name, text);
     let robot = RobotFile::load(&path).unwrap().to_robot::<6>().unwrap();
     (path, robot)

@@ -9,22 +9,22 @@
 //! random poses). Measurements carry 0.02 mm of Gaussian noise per coordinate.
 
 use crate::common::*;
+use kinecal_cli::HostRobot;
 
 use kinecal::model::param::apply_delta;
 use kinecal::planning::information::scaled_rows;
-use kinecal::{ForwardKinematics, Param, Robot};
+use kinecal::{ForwardKinematics, Param};
 use kinecal_cli::calibration::selection::named;
 use kinecal_cli::formats::measurements;
 use kinecal_cli::formats::robot_file::RobotFile;
 use kinecal_cli::plan::design::{in_base_frame, PoseRowsHost, PCAP};
 use kinecal_cli::simulation::{dataset, measure, random_configurations};
-use kinecal_cli::VCAP;
 use nalgebra::{Matrix2, Vector3};
 use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
 use std::path::Path;
 
-type Arm = Robot<f64, 6, VCAP>;
+type Arm = HostRobot<6>;
 
 const NOISE_MM: f64 = 0.02;
 const SUBSET: [Param; 2] = [Param::Theta(1), Param::Theta(2)];

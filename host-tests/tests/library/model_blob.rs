@@ -9,7 +9,7 @@ use kinecal::io::snapshot::crc32;
 use kinecal::model::effects::EffectKind;
 use kinecal::{ForwardKinematics, Frame, Robot};
 use kinecal_cli::formats::robot_file::RobotFile;
-use kinecal_cli::VCAP;
+use kinecal_cli::HostRobot;
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -51,7 +51,7 @@ ratio = 1.0
 "#;
 
 /// The model of a robot file text with [`EFFECTS`] appended (and a tilt on joint 2).
-fn model<const N: usize>(text: &str) -> Robot<f64, N, VCAP> {
+fn model<const N: usize>(text: &str) -> HostRobot<N> {
     let file = RobotFile::parse(&format!("{text}{EFFECTS}"), "test").unwrap();
     let mut r = file.to_robot::<N>().unwrap();
     let mut j = r.joints()[1];
@@ -76,10 +76,10 @@ fn blob_of<const N: usize, const V: usize>(r: &Robot<f64, N, V>) -> Vec<u8> {
 }
 
 /// Decodes into a robot that differs from every model here, asserting equality and equal FK.
-fn round_trip<const N: usize>(original: &Robot<f64, N, VCAP>) {
+fn round_trip<const N: usize>(original: &HostRobot<N>) {
     let blob = blob_of(original);
     assert_eq!(model_blob::joint_count(&blob), Ok(N));
-    let mut decoded: Robot<f64, N, VCAP> = Robot::new(
+    let mut decoded: HostRobot<N> = Robot::new(
         Frame::identity(),
         [kinecal::Joint::mdh(0.0, 1.0, 0.0, 1.0); N],
         Vector3::zeros(),

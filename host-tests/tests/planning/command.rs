@@ -12,11 +12,11 @@
 //!   matches the batch prediction, and it stops at the target.
 
 use crate::common::main_sized_stack;
+use kinecal_cli::HostRobot;
 
 use kinecal::model::param::ParamSet;
 use kinecal::planning::information::{default_tolerance, scaled_rows, PoseRows};
 use kinecal::planning::online_design::OnlineDesign;
-use kinecal::Robot;
 use kinecal_cli::formats::cell_file::SceneFile;
 use kinecal_cli::formats::robot_file::RobotFile;
 use kinecal_cli::plan::design::{self, CriterionArg, HostCandidate, PlanRequest, PCAP};
@@ -30,7 +30,7 @@ fn cell_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/cell")
 }
 
-fn load() -> (RobotFile, Robot<f64, 6, { kinecal_cli::VCAP }>, SceneFile) {
+fn load() -> (RobotFile, HostRobot<6>, SceneFile) {
     let file = RobotFile::load(&cell_dir().join("robot.toml")).unwrap();
     let robot = file.to_robot::<6>().unwrap();
     let scene = SceneFile::load(&cell_dir().join("scene.toml"), 6).unwrap();
@@ -218,12 +218,7 @@ fn independent_violation(
 // ---------------------------------------------------------------------------------------
 // Independent KPI: dense Jacobian, SVD pseudo-inverse.
 
-fn dense_kpi(
-    robot: &Robot<f64, 6, { kinecal_cli::VCAP }>,
-    poses: &[[f64; 6]],
-    work: &[[f64; 6]],
-    sigma: f64,
-) -> f64 {
+fn dense_kpi(robot: &HostRobot<6>, poses: &[[f64; 6]], work: &[[f64; 6]], sigma: f64) -> f64 {
     let robot = design::in_base_frame(robot);
     let params = ParamSet::<PCAP>::full(6, true).unwrap();
     let n = params.len();

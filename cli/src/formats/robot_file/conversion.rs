@@ -1,10 +1,11 @@
 //! The robot file to the library's [`Robot`] and back.
 
 use super::*;
+use crate::HostRobot;
 
 impl RobotFile {
     /// The library model (base = identity when the file has no `[base]`; see [`Self::base_known`]).
-    pub fn to_robot<const N: usize>(&self) -> anyhow::Result<Robot<f64, N, VCAP>> {
+    pub fn to_robot<const N: usize>(&self) -> anyhow::Result<HostRobot<N>> {
         self.validate().map_err(|i| anyhow!("{}", i.message))?;
         if self.joints.len() != N {
             return Err(anyhow!(
@@ -183,7 +184,7 @@ impl RobotFile {
 }
 
 /// Loads a robot file and builds the `N`-joint model; also says whether `[base]` was given.
-pub fn load_robot<const N: usize>(path: &Path) -> anyhow::Result<(RobotFile, Robot<f64, N, VCAP>)> {
+pub fn load_robot<const N: usize>(path: &Path) -> anyhow::Result<(RobotFile, HostRobot<N>)> {
     let file = RobotFile::load(path)?;
     let robot = file
         .to_robot::<N>()

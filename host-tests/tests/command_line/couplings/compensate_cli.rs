@@ -1,6 +1,7 @@
 //! `compensate` returns commands in the controller's readings.
 
 use super::*;
+use kinecal_cli::HostRobot;
 
 /// Roll, pitch, yaw (deg) of a rotation, `R = Rz(yaw)·Ry(pitch)·Rx(roll)`.
 fn rpy_deg(r: &Matrix3<f64>) -> [f64; 3] {
@@ -17,7 +18,7 @@ fn compensate_returns_commands_in_the_controllers_readings() {
     let f = parse(&fanuc_text());
     let model = write(dir.path(), "model.toml", &fanuc_text());
     let reference = RefRobot::from_file(&f);
-    let robot: Robot<f64, 6, VCAP> = f.to_robot().unwrap();
+    let robot: HostRobot<6> = f.to_robot().unwrap();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(12);
     let mut text = String::from("q1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz\n");
     let mut truths = Vec::new();

@@ -1,11 +1,12 @@
 //! Base frames from sweeps of a coupled robot, in the library and on the command line.
 
 use super::*;
+use kinecal_cli::HostRobot;
 
 #[test]
 fn frames_from_sweeps_of_a_coupled_robot() {
     let f = parse(&fanuc_text());
-    let robot: Robot<f64, 6, VCAP> = f.to_robot().unwrap();
+    let robot: HostRobot<6> = f.to_robot().unwrap();
     let rest = kinecal_cli::simulation::sweeps::default_rest(&robot);
     let ds = sweep_data(&robot, &rest, &[1, 2, 5, 6], 24, 360.0, 0.0, 1).unwrap();
     // During the J2 sweep J3's reading moves opposite, so q3 stays put.

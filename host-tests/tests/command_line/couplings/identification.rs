@@ -1,9 +1,10 @@
 //! The PSO fitness, its cache, and LM with snapshots honour couplings.
 
 use super::*;
+use kinecal_cli::HostRobot;
 
 fn measure<const N: usize>(
-    robot: &Robot<f64, N, VCAP>,
+    robot: &HostRobot<N>,
     f: &RobotFile,
     n: usize,
     rng: &mut Xoshiro256PlusPlus,
@@ -24,7 +25,7 @@ fn measure<const N: usize>(
 #[test]
 fn pso_fitness_cache_and_lm_with_snapshots_honour_couplings() {
     let f = parse(&fanuc_text());
-    let nominal: Robot<f64, 6, VCAP> = f.to_robot().unwrap();
+    let nominal: HostRobot<6> = f.to_robot().unwrap();
     let mut truth = nominal.clone();
     let set = ParamSet::<64>::full(6, false).unwrap();
     let delta: Vec<f64> = (0..set.len())
@@ -34,7 +35,7 @@ fn pso_fitness_cache_and_lm_with_snapshots_honour_couplings() {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(8);
     let data = measure(&truth, &f, 60, &mut rng);
     // The same data in model angles, for the uncoupled model.
-    let plain: Robot<f64, 6, VCAP> = uncoupled(&f).to_robot().unwrap();
+    let plain: HostRobot<6> = uncoupled(&f).to_robot().unwrap();
     let converted: Vec<Measurement<f64, 6>> = data
         .iter()
         .map(|m| Measurement {

@@ -1,12 +1,13 @@
 //! Forward kinematics and Jacobians of coupled robots against the uncoupled model and reference.
 
 use super::*;
+use kinecal_cli::HostRobot;
 
 fn fk_checks<const N: usize>(text: &str, seed: u64) {
     let f = parse(text);
     assert!(!f.couplings.is_empty());
-    let coupled: Robot<f64, N, VCAP> = f.to_robot().unwrap();
-    let plain: Robot<f64, N, VCAP> = uncoupled(&f).to_robot().unwrap();
+    let coupled: HostRobot<N> = f.to_robot().unwrap();
+    let plain: HostRobot<N> = uncoupled(&f).to_robot().unwrap();
     assert_eq!(coupled.couplings().len(), f.couplings.len());
     assert!(plain.couplings().is_empty());
     let reference = RefRobot::from_file(&f);
@@ -52,7 +53,7 @@ fn fk_of_coupled_robot_is_fk_at_model_angles_and_the_reference() {
 /// Jacobian (∂/∂readings, through the couplings) against central differences of the reference.
 fn jacobian_checks<const N: usize>(text: &str, effects: &str, seed: u64) {
     let f = parse(&format!("{text}{effects}"));
-    let robot: Robot<f64, N, VCAP> = f.to_robot().unwrap();
+    let robot: HostRobot<N> = f.to_robot().unwrap();
     assert!(!robot.effects().is_empty() && !robot.couplings().is_empty());
     let reference = RefRobot::from_robot(&robot);
     let independent = RefRobot::from_file(&f);
@@ -142,7 +143,7 @@ step_deg = 20.0
 values = [0.001, -0.002, 0.0005, 0.0, 0.001, 0.002, -0.001, 0.0, 0.0005, 0.001, -0.0015, 0.0, 0.001]
 "#;
     let f = parse(&format!("{}{effects}", fanuc_text()));
-    let robot: Robot<f64, 6, VCAP> = f.to_robot().unwrap();
+    let robot: HostRobot<6> = f.to_robot().unwrap();
     let reference = RefRobot::from_file(&f);
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
     let mut fk = ForwardKinematics::<f64, 6>::new();

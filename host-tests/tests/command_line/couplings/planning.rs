@@ -1,12 +1,13 @@
 //! Planning candidates of a coupled robot.
 
 use super::*;
+use kinecal_cli::HostRobot;
 
 #[test]
 fn planning_candidates_of_a_coupled_robot() {
     let f = parse(&fanuc_text());
-    let coupled: Robot<f64, 6, VCAP> = f.to_robot().unwrap();
-    let plain: Robot<f64, 6, VCAP> = uncoupled(&f).to_robot().unwrap();
+    let coupled: HostRobot<6> = f.to_robot().unwrap();
+    let plain: HostRobot<6> = uncoupled(&f).to_robot().unwrap();
     let tracker = Tracker {
         position: Vector3::new(2500.0, 0.0, 800.0),
         max_incidence: 30f64.to_radians(),

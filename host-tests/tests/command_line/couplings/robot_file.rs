@@ -1,11 +1,12 @@
 //! Couplings validated, kept by cast and clone, round-tripped by the robot file, refused in place.
 
 use super::*;
+use kinecal_cli::HostRobot;
 
 #[test]
 fn couplings_are_validated_and_kept_by_cast_capacity_and_clone() {
     let f = parse(&fanuc_text());
-    let mut r: Robot<f64, 6, VCAP> = f.to_robot().unwrap();
+    let mut r: HostRobot<6> = f.to_robot().unwrap();
     let before = r.clone();
     for (j, from, ratio, err) in [
         (2, 2, 1.0, CouplingError::SameJoint),
@@ -53,7 +54,7 @@ fn couplings_are_validated_and_kept_by_cast_capacity_and_clone() {
     r.clear_couplings();
     assert!(r.couplings().is_empty());
     // At most MAX_COUPLINGS, whatever the number of joints.
-    let mut r7: Robot<f64, 7, VCAP> = parse(ARM7).to_robot().unwrap();
+    let mut r7: HostRobot<7> = parse(ARM7).to_robot().unwrap();
     r7.clear_couplings();
     for j in 1..=kinecal::model::coupling::MAX_COUPLINGS {
         r7.set_coupling(j, 0, 0.5).unwrap();
@@ -95,7 +96,7 @@ fn robot_file_round_trip_of_couplings() {
         ),
         (4, 2, -1.3)
     );
-    let robot: Robot<f64, 7, VCAP> = f.to_robot().unwrap();
+    let robot: HostRobot<7> = f.to_robot().unwrap();
     assert_eq!(robot.couplings().get(3), Some((1, -1.3)));
     assert_eq!(robot.couplings().get(6), Some((5, 0.25)));
     let back = RobotFile::from_robot(&f.name, &robot, true, &[]);
@@ -104,7 +105,7 @@ fn robot_file_round_trip_of_couplings() {
     assert!(text.contains("[[couplings]]"), "{text}");
     let again = parse(&text);
     assert_eq!(again.couplings, f.couplings);
-    let r2: Robot<f64, 7, VCAP> = again.to_robot().unwrap();
+    let r2: HostRobot<7> = again.to_robot().unwrap();
     assert_eq!(r2.couplings(), robot.couplings());
     // No couplings: no table written.
     let plain = RobotFile::from_robot("p", &uncoupled(&f).to_robot::<7>().unwrap(), true, &[]);

@@ -2,10 +2,10 @@
 
 use kinecal::model::effects::EffectKind;
 use kinecal::model::param::Param;
-use kinecal::Robot;
 use kinecal_cli::calibration::selection::*;
+use kinecal_cli::HostRobot;
 
-fn robot() -> Robot<f64, 6, { kinecal_cli::VCAP }> {
+fn robot() -> HostRobot<6> {
     let mut r = kinecal_cli::simulation::er20_c10();
     r.effects_mut()
         .push(EffectKind::Table, 0, 6, 0, -0.1, 0.05, &[0.0; 5])
@@ -16,7 +16,7 @@ fn robot() -> Robot<f64, 6, { kinecal_cli::VCAP }> {
     r
 }
 
-fn names(r: &Robot<f64, 6, { kinecal_cli::VCAP }>, p: &[Param]) -> Vec<String> {
+fn names(r: &HostRobot<6>, p: &[Param]) -> Vec<String> {
     p.iter().map(|p| p.name(r).to_string()).collect()
 }
 

@@ -1,6 +1,7 @@
 //! The matrix files (TOML): robots, noise levels, amplitudes and hidden effects; the robots loaded.
 
 use super::*;
+use kinecal_cli::HostRobot;
 
 #[derive(Deserialize, Debug)]
 pub struct Matrix {
@@ -177,9 +178,9 @@ pub struct Case {
 
 pub struct Loaded<const N: usize> {
     /// The model given to the diagnosis (nominal; base from the file or identity).
-    pub nominal: Robot<f64, N, VCAP>,
+    pub nominal: HostRobot<N>,
     /// The same with the simulated base, for making data.
-    pub sim_nominal: Robot<f64, N, VCAP>,
+    pub sim_nominal: HostRobot<N>,
     pub base_known: bool,
 }
 

@@ -21,11 +21,10 @@
 
 use crate::common::main_sized_stack;
 
-use kinecal::{Frame, Measurement, Robot};
+use kinecal::{Frame, Measurement};
 use kinecal_cli::diagnose::{diagnose, fit_geometry, Config, Diagnosis};
 use kinecal_cli::formats::robot_file::RobotFile;
 use kinecal_cli::simulation::{simulate, EffectArg, GeomErrors, Simulation};
-use kinecal_cli::VCAP;
 use rand::{RngExt, SeedableRng};
 use rand_distr::StandardNormal;
 use rand_xoshiro::Xoshiro256PlusPlus;

@@ -3,9 +3,10 @@
 //! penalised table fit, and `kinecal diagnose` end to end (JSON keys, model file, plots).
 
 use crate::common::{effect, main_sized_stack};
+use kinecal_cli::HostRobot;
 
 use kinecal::model::param::{Param, ParamSet};
-use kinecal::{Measurement, Robot};
+use kinecal::Measurement;
 use kinecal_cli::commands::diagnose::{run, Args};
 use kinecal_cli::diagnose::candidates::{catalogue, Candidate, CandidateKind, CatalogueConfig};
 use kinecal_cli::diagnose::cross_validation::{
@@ -20,7 +21,6 @@ use kinecal_cli::diagnose::significance::{
 use kinecal_cli::formats::measurements;
 use kinecal_cli::formats::robot_file::RobotFile;
 use kinecal_cli::simulation::{simulate, EffectArg, GeomErrors, Simulation};
-use kinecal_cli::VCAP;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -36,7 +36,7 @@ fn data_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data")
 }
 
-fn er20() -> Robot<f64, 6, VCAP> {
+fn er20() -> HostRobot<6> {
     RobotFile::load(&data_dir().join("er20.toml"))
         .unwrap()
         .to_robot::<6>()
@@ -48,7 +48,7 @@ fn simulated(
     noise: f64,
     seed: u64,
     poses: usize,
-) -> (Robot<f64, 6, VCAP>, Vec<Measurement<f64, 6>>) {
+) -> (HostRobot<6>, Vec<Measurement<f64, 6>>) {
     let s = Simulation {
         poses,
         noise_mm: noise,
@@ -105,8 +105,8 @@ fn args(robot: PathBuf, data: PathBuf) -> Args {
 /// the tracker sees it), the base known or not.
 struct Arm {
     name: &'static str,
-    nominal: Robot<f64, 6, VCAP>,
-    simulated: Robot<f64, 6, VCAP>,
+    nominal: HostRobot<6>,
+    simulated: HostRobot<6>,
     base_known: bool,
 }
 

@@ -87,6 +87,26 @@ fn observed<const N: usize>(
     observe(&ds, file, obs, origin).map_err(py_err)
 }
 
+/// The observations of `data` and of the validation set `validate`, named `data` and
+/// `validate` (as `identify` and `diagnose` read them).
+fn observed_sets<const N: usize>(
+    data: &Arrays<'_>,
+    validate: Option<&Arrays<'_>>,
+    models: (&RobotFile, &HostRobot<N>),
+    units: &UnitArgs,
+    obs: &ObservationArgs,
+) -> PyResult<(Observed<N>, Option<(Observed<N>, String)>)> {
+    let observed = observed(data, "data", models, units, obs)?;
+    let validate = match validate {
+        Some(v) => Some((
+            self::observed(v, "validate", models, units, obs)?,
+            "validate".to_string(),
+        )),
+        None => None,
+    };
+    Ok((observed, validate))
+}
+
 fn identify_n<const N: usize>(
     robot: &Robot,
     (opts, units): (&identification::Options, &UnitArgs),
@@ -98,14 +118,7 @@ fn identify_n<const N: usize>(
     // As the command loads a file: the reader's checks, the doors of the command line's own
     // loader (a stated base, the units, the angle order), the observations.
     let models = (&file, &nominal);
-    let observed = observed(data, "data", models, units, &opts.obs)?;
-    let validate = match validate {
-        Some(v) => Some((
-            self::observed(v, "validate", models, units, &opts.obs)?,
-            "validate".to_string(),
-        )),
-        None => None,
-    };
+    let (observed, validate) = observed_sets(data, validate, models, units, &opts.obs)?;
     let inputs = Inputs {
         file: file.clone(),
         nominal,
@@ -195,14 +208,7 @@ fn diagnose_n<const N: usize>(
     let file = robot.file.clone();
     let nominal = crate::robot::model_named::<N>(&file, "robot").map_err(py_err)?;
     let models = (&file, &nominal);
-    let observed = observed(data, "data", models, units, &opts.obs)?;
-    let validate = match validate {
-        Some(v) => Some((
-            self::observed(v, "validate", models, units, &opts.obs)?,
-            "validate".to_string(),
-        )),
-        None => None,
-    };
+    let (observed, validate) = observed_sets(data, validate, models, units, &opts.obs)?;
     let inputs = workflow::Inputs {
         file,
         nominal,

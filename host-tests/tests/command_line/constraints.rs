@@ -1,4 +1,4 @@
-//! Calibration without a tracker (issue 31): constraint sessions simulated from a robot with
+//! Calibration without a tracker (README, "Without a tracker"): constraint sessions simulated from a robot with
 //! known geometric errors (`simulate --constraints`), fitted by `identify`, judged against the
 //! truth on fresh random poses, with an alignment computed here (Kabsch/Umeyama on the two
 //! models' tool points) since constraints cannot see the base (nor, from sockets and planes

@@ -13,7 +13,6 @@ use kinecal_cli::simulation::sweeps::sweep_data;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use crate::common::main_sized_stack;
 use crate::common::{data_file, kinecal, s, simulate, stderr};
 
 /// The keys whose values are wall-clock times.
@@ -283,7 +282,7 @@ fn frames_text_and_json_are_the_same_report() {
 /// typed report the application functions return (times aside), key for key.
 #[test]
 fn command_json_is_the_typed_report() {
-    main_sized_stack(|| {
+    {
         let dir = tempfile::tempdir().unwrap();
         let (robot, data, truth) = simulated(dir.path());
 
@@ -365,5 +364,5 @@ fn command_json_is_the_typed_report() {
             assert!(e.get(key).is_some(), "missing explanation.{key}");
         }
         assert!(e["period_deg"].is_null());
-    });
+    };
 }

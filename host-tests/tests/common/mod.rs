@@ -161,17 +161,6 @@ pub fn location<'a>(msg: &'a str, file: &str) -> (usize, usize, &'a str) {
     (line, column, it.next().unwrap_or(""))
 }
 
-/// Runs `f` on a thread with the stack of a main thread (8 MiB), as the `kinecal` binary has
-/// (the test harness's threads have 2 MiB; the diagnosis's fits need more).
-pub fn main_sized_stack<R: Send + 'static>(f: impl FnOnce() -> R + Send + 'static) -> R {
-    std::thread::Builder::new()
-        .stack_size(8 << 20)
-        .spawn(f)
-        .unwrap()
-        .join()
-        .unwrap()
-}
-
 /// A hidden effect for `kinecal_cli::simulation` (joint 1-based; tables spread over the limits).
 pub fn effect(
     kind: &str,

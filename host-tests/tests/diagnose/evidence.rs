@@ -2,7 +2,7 @@
 //! (the library's kinematics, Jacobian column and compensation at a temperature, the robot
 //! file, `kinecal diagnose` on a simulated warm-up).
 
-use crate::common::{effect, main_sized_stack};
+use crate::common::effect;
 use kinecal_cli::HostRobot;
 
 use kinecal::compensate::{compensate, Config, Target};
@@ -162,7 +162,7 @@ fn warm_up(c: f64, temps: (f64, f64), seed: u64) -> (HostRobot<6>, Vec<Measureme
 /// noise; diagnose names thermal expansion with c within 5 % and ends at the noise floor.
 #[test]
 fn diagnose_finds_thermal_expansion_in_a_warm_up() {
-    main_sized_stack(|| {
+    {
         let (truth, data) = warm_up(STEEL, (15.0, 35.0), 11);
         let t0 = truth.effects().thermal().unwrap().2;
         assert!((t0 - 25.0).abs() < 1e-9, "{t0}");
@@ -193,14 +193,14 @@ fn diagnose_finds_thermal_expansion_in_a_warm_up() {
             "final {} vs floor {floor}",
             d.final_validation_rms_mm
         );
-    });
+    };
 }
 
 /// The same warm-up of an arm that does not expand: thermal expansion is offered and not
 /// named; at a constant temperature it is not even offered.
 #[test]
 fn diagnose_does_not_name_thermal_expansion_without_one() {
-    main_sized_stack(|| {
+    {
         for temps in [(15.0, 35.0), (22.0, 22.0)] {
             let (_, data) = warm_up(0.0, temps, 12);
             let d = kinecal_cli::diagnose::diagnose(&er20(), true, &[], &data, &Default::default())
@@ -225,7 +225,7 @@ fn diagnose_does_not_name_thermal_expansion_without_one() {
             .any(|c| matches!(c.kind, CandidateKind::Thermal { .. }));
             assert_eq!(offered, temps.0 != temps.1);
         }
-    });
+    };
 }
 
 /// The sizes the issue's users saw refused with their reasons (a 17° peak-to-peak table on
@@ -268,7 +268,7 @@ fn implausible_sizes_are_named() {
 /// the round says why, nothing is added for the joint's table family, and the search goes on.
 #[test]
 fn an_implausible_table_is_refused_with_its_reason() {
-    main_sized_stack(|| {
+    {
         // Knots every 40° over ±170° on joint 2: ±4°.
         let knots: Vec<f64> = (0..9)
             .map(|k| 4f64.to_radians() * if k % 2 == 0 { 1.0 } else { -1.0 })
@@ -311,5 +311,5 @@ fn an_implausible_table_is_refused_with_its_reason() {
             json.contains("\"refused\":{\"candidate\":\"joint-table"),
             "{json}"
         );
-    });
+    }
 }

@@ -3,7 +3,6 @@
 //! get their phase chosen, and a table made on such a grid is found on it, to the noise floor,
 //! and written back exactly.
 
-use crate::common::main_sized_stack;
 use kinecal_cli::HostRobot;
 
 use kinecal::model::effects::EffectKind;
@@ -183,7 +182,7 @@ fn pitches_come_at_two_phases_and_shift_by_fractions_of_the_pitch() {
 /// the noise floor; the written model reads back with the same knots.
 #[test]
 fn a_ten_degree_table_aligned_to_zero_is_found_on_its_grid() {
-    main_sized_stack(|| {
+    {
         let nominal = with_limits(0, -185.0, 185.0);
         let noise = 0.02;
         let data = table_data(&nominal, 0, 10.0, 0.0, 1.5e-4, noise, 600, 11);
@@ -228,7 +227,7 @@ fn a_ten_degree_table_aligned_to_zero_is_found_on_its_grid() {
         let (ea, eb) = (a.get(i).unwrap(), b.get(k).unwrap());
         assert_eq!((ea.start, ea.step), (eb.start, eb.step));
         assert!(text.contains("step_deg = 10.0"), "{text}");
-    });
+    };
 }
 
 /// A 15° table whose knots sit at 6° + k·15° on joint 3: the phase search finds a grid whose
@@ -236,7 +235,7 @@ fn a_ten_degree_table_aligned_to_zero_is_found_on_its_grid() {
 /// reaches the noise floor.
 #[test]
 fn a_table_at_a_phase_is_found_near_its_phase() {
-    main_sized_stack(|| {
+    {
         let nominal = er20();
         let noise = 0.02;
         let data = table_data(&nominal, 2, 15.0, 6.0, 2e-4, noise, 400, 12);
@@ -259,5 +258,5 @@ fn a_table_at_a_phase_is_found_near_its_phase() {
             "{} vs {floor}",
             d.final_validation_rms_mm
         );
-    });
+    };
 }

@@ -13,8 +13,6 @@
 //! cross-validated held-out RMS as a fraction of the geometric model's, with the pitch and
 //! knot origin chosen per joint.
 
-use crate::common::main_sized_stack;
-
 use kinecal_cli::diagnose::candidates::CandidateKind;
 use kinecal_cli::diagnose::linear::squared_errors;
 use kinecal_cli::diagnose::{diagnose, Config};
@@ -33,7 +31,7 @@ fn rms(sq: &[f64]) -> f64 {
 #[test]
 #[ignore = "minutes on real data: cargo test -p kinecal-host --test diagnose ur10:: -- --ignored --nocapture"]
 fn ur10_tables_cut_the_held_out_error_below_045_of_the_geometric_fit() {
-    main_sized_stack(|| {
+    {
         let dir = ur10_dir();
         let (file, nominal) = load_robot::<6>(&dir.join("robot.toml")).unwrap();
         let all = measurements::load::<6>(&dir.join("ur10_random_poses.csv"))
@@ -90,7 +88,7 @@ fn ur10_tables_cut_the_held_out_error_below_045_of_the_geometric_fit() {
             .filter(|f| matches!(f.candidate.kind, CandidateKind::Table { .. }))
             .count();
         assert!(tables >= 3, "{tables} tables named");
-    });
+    };
 }
 
 /// "joint 2: 3.6° from −189.225°, …" for the tables of a diagnosis.
@@ -118,7 +116,7 @@ fn grids<const N: usize>(d: &kinecal_cli::diagnose::Diagnosis<N>) -> String {
 #[test]
 #[ignore = "a minute on real data: cargo test -p kinecal-host --test diagnose ur10:: -- --ignored --nocapture"]
 fn diagnose_own_split_on_subsets() {
-    main_sized_stack(|| {
+    {
         let dir = ur10_dir();
         let (file, nominal) = load_robot::<6>(&dir.join("robot.toml")).unwrap();
         let all = measurements::load::<6>(&dir.join("ur10_random_poses.csv"))
@@ -167,5 +165,5 @@ fn diagnose_own_split_on_subsets() {
             "not better than before:\n{}",
             failures.join("\n")
         );
-    });
+    };
 }

@@ -293,7 +293,7 @@ fn set_start_only_before_the_first_evaluation() {
 
 #[test]
 fn pso_identifies_the_er20_and_converges() {
-    main_sized_stack(|| {
+    {
         let nominal = er20_nominal();
         let truth = with_delta(&nominal, &er20_errors());
         let data = poses(&truth, 50, 0.01, 1);
@@ -337,7 +337,7 @@ fn pso_identifies_the_er20_and_converges() {
             rms(&found),
             rms(&nominal)
         );
-    });
+    };
 }
 
 #[test]
@@ -367,7 +367,7 @@ fn pso_recovers_the_truth_in_an_easy_low_dimensional_case() {
 
 #[test]
 fn same_seed_same_result_whatever_the_slicing() {
-    main_sized_stack(|| {
+    {
         let nominal = er20_nominal();
         let truth = with_delta(&nominal, &er20_errors());
         let data = poses(&truth, 50, 0.01, 1);
@@ -404,12 +404,12 @@ fn same_seed_same_result_whatever_the_slicing() {
         // Budget 0 does nothing.
         let mut d = Swarm::new(cfg, 42).unwrap();
         assert_eq!(d.step(&mut f, 0).unwrap().evaluations, 0);
-    });
+    };
 }
 
 #[test]
 fn pso_runs_in_f32() {
-    main_sized_stack(|| {
+    {
         let nominal = er20_nominal();
         let truth = with_delta(&nominal, &er20_errors());
         let data64 = poses(&truth, 50, 0.01, 1);
@@ -433,7 +433,7 @@ fn pso_runs_in_f32() {
             p.best_fitness,
             h[0]
         );
-    });
+    };
 }
 
 /// The paper's claim (the paper's claim): after a factory identification by PSO trains the
@@ -448,7 +448,7 @@ fn pso_runs_in_f32() {
 /// stop). `kinecal::identify::bpnn_pso`'s module docs give the ratios for larger drifts, where it fails.
 #[test]
 fn bpnn_pso_reaches_pso_final_fitness_in_a_quarter_of_the_iterations() {
-    main_sized_stack(|| {
+    {
         let nominal = er20_nominal();
         let params = mdh24();
         let cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
@@ -522,5 +522,5 @@ fn bpnn_pso_reaches_pso_final_fitness_in_a_quarter_of_the_iterations() {
             "{total_hybrid} vs {total_pso}"
         );
         assert!(median <= 0.25, "{ratios:?}");
-    });
+    };
 }

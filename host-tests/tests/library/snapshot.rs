@@ -41,7 +41,7 @@ fn er20_problem() -> (
 
 #[test]
 fn pso_interrupted_at_every_step_ends_bit_identical() {
-    main_sized_stack(|| {
+    {
         let (nominal, params, data) = er20_problem();
         let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
         let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
@@ -80,12 +80,12 @@ fn pso_interrupted_at_every_step_ends_bit_identical() {
                 "budget {budget}: final states differ"
             );
         }
-    });
+    };
 }
 
 #[test]
 fn paper_sized_swarm_round_trips_in_f32_and_f64() {
-    main_sized_stack(|| {
+    {
         let (nominal, params, data) = er20_problem();
         let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
         let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
@@ -125,7 +125,7 @@ fn paper_sized_swarm_round_trips_in_f32_and_f64() {
             b.best_position().map(f32::to_bits)
         );
         assert_eq!(bytes(&*a), bytes(&*b));
-    });
+    };
 }
 
 /// Restoring `snap` into `target` must fail and leave it exactly as it was.
@@ -142,7 +142,7 @@ fn refused<S: Snapshot>(target: &mut S, snap: &[u8]) -> SnapshotError {
 
 #[test]
 fn corrupted_snapshots_are_refused_and_change_nothing() {
-    main_sized_stack(|| {
+    {
         let (nominal, params, data) = er20_problem();
         let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
         let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
@@ -201,7 +201,7 @@ fn corrupted_snapshots_are_refused_and_change_nothing() {
             .restore_using(&mut scratch, &mut good.as_slice())
             .unwrap();
         assert_eq!(bytes(&other), good);
-    });
+    };
 }
 
 #[test]
@@ -378,7 +378,7 @@ fn container_helpers_round_trip_every_field_type() {
 fn objective_is_unaffected_by_restore() {
     // Restoring a swarm does not need the problem: the fitness of the best position after a
     // restore is the same number the original swarm recorded.
-    main_sized_stack(|| {
+    {
         let (nominal, params, data) = er20_problem();
         let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
         let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
@@ -391,5 +391,5 @@ fn objective_is_unaffected_by_restore() {
             f.fitness(b.best_position()).to_bits(),
             a.best_fitness().to_bits()
         );
-    });
+    };
 }

@@ -11,7 +11,6 @@
 //! - the online stepper: its predicted precision falls as it measures its own proposals,
 //!   matches the batch prediction, and it stops at the target.
 
-use crate::common::main_sized_stack;
 use kinecal_cli::HostRobot;
 
 use kinecal::model::param::ParamSet;
@@ -252,7 +251,7 @@ fn dense_kpi(robot: &HostRobot<6>, poses: &[[f64; 6]], work: &[[f64; 6]], sigma:
 }
 
 fn plan_with(criterion: CriterionArg, collisions: bool, seed: u64) -> (Vec<[f64; 6]>, f64) {
-    main_sized_stack(move || {
+    {
         let (_, robot, scene_file) = load();
         let scene = scene_file.to_scene().unwrap();
         let w = work();
@@ -274,7 +273,7 @@ fn plan_with(criterion: CriterionArg, collisions: bool, seed: u64) -> (Vec<[f64;
             p.poses.iter().map(|c| c.q).collect(),
             p.evaluation.kpi_trace_mm2,
         )
-    })
+    }
 }
 
 #[test]
@@ -429,7 +428,7 @@ fn plan_command_accepts_negative_work_values_and_writes_csv_and_json() {
 
 #[test]
 fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
-    main_sized_stack(|| {
+    {
         let (_, robot, scene_file) = load();
         let scene = scene_file.to_scene().unwrap();
         let robot = design::in_base_frame(&robot);
@@ -535,7 +534,7 @@ fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
             measured.len()
         );
         let _ = default_tolerance::<f64>();
-    });
+    };
 }
 
 #[test]

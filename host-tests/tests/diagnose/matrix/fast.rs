@@ -46,7 +46,7 @@ fn grid_cases_cover_the_limits_on_the_pitch() {
 /// within 1.25× the noise floor; nothing named where nothing is hidden.
 #[test]
 fn fast_subset_names_hidden_effects_exactly() {
-    main_sized_stack(|| {
+    {
         let pick = vec![
             (0, vec!["joint-compliance:2"], 0.02, 4.0),
             (0, vec!["joint-cyclic:4:2"], 0.02, 4.0),
@@ -60,7 +60,7 @@ fn fast_subset_names_hidden_effects_exactly() {
             (1, vec![], 0.02, 0.0),
         ];
         assert_picks(&load_matrix(), &pick, 77);
-    });
+    };
 }
 
 /// Joint tables whose knots lie on a fixed angle pitch (robots of diagnose_matrix_grid.toml,
@@ -70,7 +70,7 @@ fn fast_subset_names_hidden_effects_exactly() {
 /// `fast_subset_names_hidden_effects_exactly`.
 #[test]
 fn fast_grid_tables_named_exactly_at_the_floor() {
-    main_sized_stack(|| {
+    {
         let m = load_matrix_file("diagnose_matrix_grid.toml");
         let kr16 = robot_index(&m, "kr16");
         let arm7 = robot_index(&m, "arm7");
@@ -81,7 +81,7 @@ fn fast_grid_tables_named_exactly_at_the_floor() {
             (kr16, vec![], 0.02, 0.0),
         ];
         assert_picks(&m, &pick, 161);
-    });
+    };
 }
 
 /// The index of the robot called `name` in `m`.

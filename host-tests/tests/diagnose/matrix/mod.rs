@@ -19,8 +19,6 @@
 //! `KINECAL_MATRIX_THREADS=2` runs two cases at a time; `KINECAL_MATRIX_ONLY=SEED,…` only the
 //! cases with these seeds; `KINECAL_MATRIX_VERBOSE=1` prints every case's JSON report.)
 
-use crate::common::main_sized_stack;
-
 use kinecal::{Frame, Measurement};
 use kinecal_cli::diagnose::{diagnose, fit_geometry, Config, Diagnosis};
 use kinecal_cli::formats::robot_file::RobotFile;
@@ -43,25 +41,25 @@ use config::*;
 #[test]
 #[ignore = "the full matrix takes minutes: cargo test -p kinecal-host --test diagnose matrix:: -- --ignored --nocapture"]
 fn full_matrix() {
-    main_sized_stack(|| {
+    {
         let file =
             std::env::var("KINECAL_MATRIX_FILE").unwrap_or_else(|_| "diagnose_matrix.toml".into());
         run_matrix(&file)
-    });
+    };
 }
 
 /// Cases the search was never tuned on.
 #[test]
 #[ignore = "the full matrix takes minutes: cargo test -p kinecal-host --test diagnose matrix:: -- --ignored --nocapture"]
 fn unseen_matrix() {
-    main_sized_stack(|| run_matrix("diagnose_matrix_unseen.toml"));
+    run_matrix("diagnose_matrix_unseen.toml");
 }
 
 /// Joint tables on fixed angle pitches and phases, with null cases.
 #[test]
 #[ignore = "the grid matrix takes a minute or more: KINECAL_MATRIX_THREADS=2 cargo test -p kinecal-host --test diagnose matrix::grid_matrix -- --ignored --nocapture"]
 fn grid_matrix() {
-    main_sized_stack(|| run_matrix("diagnose_matrix_grid.toml"));
+    run_matrix("diagnose_matrix_grid.toml");
 }
 
 /// Runs every case of a matrix file and prints the rates.

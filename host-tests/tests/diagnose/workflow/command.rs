@@ -7,7 +7,7 @@ use super::*;
 /// as the result reports; the result equals that of `diagnose`.
 #[test]
 fn progress_reports_every_stage_in_order() {
-    main_sized_stack(|| {
+    {
         use kinecal_cli::diagnose::{diagnose_with_progress, Progress};
         let (_, d) = simulated(vec![effect("joint-compliance", 2, &[3e-4], 1)], 0.01, 7, 80);
         let mut seen = Vec::new();
@@ -35,12 +35,12 @@ fn progress_reports_every_stage_in_order() {
         let plain =
             kinecal_cli::diagnose::diagnose(&er20(), true, &[], &d, &Default::default()).unwrap();
         assert_eq!(plain.final_validation_rms_mm, r.final_validation_rms_mm);
-    });
+    };
 }
 
 #[test]
 fn diagnose_command_names_the_effect_writes_the_model_and_plots() {
-    main_sized_stack(|| {
+    {
         let tmp = tempfile::tempdir().unwrap();
         let (robot, data) = write_case(
             tmp.path(),
@@ -105,12 +105,12 @@ fn diagnose_command_names_the_effect_writes_the_model_and_plots() {
             let text = std::fs::read_to_string(&p).unwrap();
             assert!(text.contains("<svg") && text.contains("</svg>"), "{p}");
         }
-    });
+    };
 }
 
 #[test]
 fn diagnose_command_names_nothing_when_nothing_is_missing() {
-    main_sized_stack(|| {
+    {
         let tmp = tempfile::tempdir().unwrap();
         let (robot, data) = write_case(tmp.path(), Vec::new(), 8);
         let r = run(&args(robot, data)).unwrap().to_value();
@@ -122,12 +122,12 @@ fn diagnose_command_names_nothing_when_nothing_is_missing() {
             .as_str()
             .unwrap()
             .starts_with("Nothing significant is missing from the model"));
-    });
+    };
 }
 
 #[test]
 fn diagnose_command_refuses_bad_input_with_a_reason() {
-    main_sized_stack(|| {
+    {
         let tmp = tempfile::tempdir().unwrap();
         let s = Simulation {
             poses: 6,
@@ -147,5 +147,5 @@ fn diagnose_command_refuses_bad_input_with_a_reason() {
         a.folds = 5;
         let e = run(&a).unwrap_err().to_string();
         assert!(e.contains("missing.csv"), "{e}");
-    });
+    };
 }

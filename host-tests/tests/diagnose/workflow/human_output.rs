@@ -47,7 +47,7 @@ fn kinecal(argv: &[&str]) -> String {
 /// figures, and the human output says it once, with no `inf`/`NaN`.
 #[test]
 fn nothing_added_reports_one_fit_and_a_floor_below_the_held_out_errors() {
-    main_sized_stack(|| {
+    {
         let tmp = tempfile::tempdir().unwrap();
         let arms = arms();
         for (arm, seed) in [(&arms[0], 11u64), (&arms[1], 12)] {
@@ -116,7 +116,7 @@ fn nothing_added_reports_one_fit_and_a_floor_below_the_held_out_errors() {
             let nums = numbers(summary);
             assert!(shows(&nums[0], base) && shows(&nums[1], floor), "{summary}");
         }
-    });
+    };
 }
 
 /// Something found: every figure of the headline, the sentence and the held-out line is shown
@@ -124,7 +124,7 @@ fn nothing_added_reports_one_fit_and_a_floor_below_the_held_out_errors() {
 /// held-out poses the final cross-validated RMS and the floor differ by a few % only).
 #[test]
 fn human_output_shows_small_differences() {
-    main_sized_stack(|| {
+    {
         let tmp = tempfile::tempdir().unwrap();
         let (robot, data) = write_case(
             tmp.path(),
@@ -189,5 +189,5 @@ fn human_output_shows_small_differences() {
         assert_eq!(nums.len(), 3, "{line}");
         assert!(shows(&nums[1], hg) && shows(&nums[2], hf), "{line}");
         assert_ne!(nums[1].0, nums[2].0, "{line}");
-    });
+    };
 }

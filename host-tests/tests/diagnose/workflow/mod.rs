@@ -2,7 +2,7 @@
 //! test's false-alarm rate, the folds, the linearised screen against full refits, the
 //! penalised table fit, and `kinecal diagnose` end to end (JSON keys, model file, plots).
 
-use crate::common::{effect, main_sized_stack};
+use crate::common::effect;
 use kinecal_cli::HostRobot;
 
 use kinecal::model::param::{Param, ParamSet};

@@ -24,7 +24,7 @@ fn rms_of(sq: &[f64]) -> f64 {
 /// the baseline's own fit.
 #[test]
 fn noise_floor_never_exceeds_the_held_out_rms_on_few_poses() {
-    main_sized_stack(|| {
+    {
         let sigma = 0.02;
         let truth = 3f64.sqrt() * sigma;
         for arm in arms() {
@@ -62,13 +62,13 @@ fn noise_floor_never_exceeds_the_held_out_rms_on_few_poses() {
                 );
             }
         }
-    });
+    };
 }
 
 /// On many poses the fold fits add little, and the floor is an honest estimate of √3 σ.
 #[test]
 fn noise_floor_is_the_noise_level_on_many_poses() {
-    main_sized_stack(|| {
+    {
         let sigma = 0.02;
         let truth = 3f64.sqrt() * sigma;
         for arm in arms() {
@@ -95,5 +95,5 @@ fn noise_floor_is_the_noise_level_on_many_poses() {
                 assert!(hi / lo < 1.3, "{line}: interval too wide for 200 poses");
             }
         }
-    });
+    };
 }

@@ -36,7 +36,7 @@ fn folds_are_deterministic_balanced_and_keep_repeats_together() {
 /// full refits (the screen ranks candidates like the refits).
 #[test]
 fn linearised_screen_agrees_with_full_refits() {
-    main_sized_stack(|| {
+    {
         let (_, d) = simulated(
             vec![effect("joint-compliance", 2, &[3e-4], 1)],
             0.02,
@@ -89,14 +89,14 @@ fn linearised_screen_agrees_with_full_refits() {
                 c.label()
             );
         }
-    });
+    };
 }
 
 /// A table on the grid the data were made with is recovered: the residual drops to the noise
 /// and the knot values match the truth up to the part `theta` takes (a constant).
 #[test]
 fn penalised_fit_recovers_a_table() {
-    main_sized_stack(|| {
+    {
         let knots = [2e-4, -1e-4, 3e-4, 0.0, -2e-4, 1e-4, -3e-4];
         let (truth, d) = simulated(vec![effect("joint-table", 3, &knots, 1)], 0.005, 21, 300);
         let nominal = er20();
@@ -135,14 +135,14 @@ fn penalised_fit_recovers_a_table() {
                 );
             }
         }
-    });
+    };
 }
 
 /// With repeated poses the noise floor comes from their scatter (the model plays no part), and
 /// the search stops once the held-out error reaches it.
 #[test]
 fn noise_floor_comes_from_repeated_poses() {
-    main_sized_stack(|| {
+    {
         let sigma = 0.02;
         let (truth, mut d) = simulated(
             vec![effect("joint-compliance", 2, &[3e-4], 1)],
@@ -178,5 +178,5 @@ fn noise_floor_comes_from_repeated_poses() {
             .collect();
         assert_eq!(names, [("joint-compliance", 1)]);
         assert!(r.final_validation_rms_mm < 1.25 * r.noise_floor_mm);
-    });
+    };
 }

@@ -108,13 +108,3 @@ pub fn poses(
         })
         .collect()
 }
-
-/// Runs `f` on a thread with the stack of a main thread (8 MiB), as the `kinecal` binary has.
-pub fn main_sized_stack<R: Send + 'static>(f: impl FnOnce() -> R + Send + 'static) -> R {
-    std::thread::Builder::new()
-        .stack_size(8 << 20)
-        .spawn(f)
-        .unwrap()
-        .join()
-        .unwrap()
-}

@@ -282,87 +282,85 @@ fn frames_text_and_json_are_the_same_report() {
 /// typed report the application functions return (times aside), key for key.
 #[test]
 fn command_json_is_the_typed_report() {
-    {
-        let dir = tempfile::tempdir().unwrap();
-        let (robot, data, truth) = simulated(dir.path());
+    let dir = tempfile::tempdir().unwrap();
+    let (robot, data, truth) = simulated(dir.path());
 
-        // frames
-        let csv = write_sweeps(&robot, dir.path());
-        let typed = frames::from_files(&robot, &csv, &Default::default(), None).unwrap();
-        let cli = one_object(&kinecal(&[
-            "frames",
-            "--robot",
-            s(&robot),
-            "--data",
-            s(&csv),
-            "--json",
-        ]));
-        assert_same_report(&cli, &serde_json::to_value(&typed).unwrap(), "frames");
+    // frames
+    let csv = write_sweeps(&robot, dir.path());
+    let typed = frames::from_files(&robot, &csv, &Default::default(), None).unwrap();
+    let cli = one_object(&kinecal(&[
+        "frames",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(&csv),
+        "--json",
+    ]));
+    assert_same_report(&cli, &serde_json::to_value(&typed).unwrap(), "frames");
 
-        // compensate
-        let out = dir.path().join("q.csv");
-        let typed = compensation::run(&Job::new(&truth, &data, &out)).unwrap();
-        let cli = one_object(&kinecal(&[
-            "compensate",
-            "--model",
-            s(&truth),
-            "--targets",
-            s(&data),
-            "--out",
-            s(&out),
-            "--json",
-        ]));
-        assert_same_report(&cli, &typed.to_json(), "compensate");
-        assert!(cli.get("status").unwrap().is_object());
+    // compensate
+    let out = dir.path().join("q.csv");
+    let typed = compensation::run(&Job::new(&truth, &data, &out)).unwrap();
+    let cli = one_object(&kinecal(&[
+        "compensate",
+        "--model",
+        s(&truth),
+        "--targets",
+        s(&data),
+        "--out",
+        s(&out),
+        "--json",
+    ]));
+    assert_same_report(&cli, &typed.to_json(), "compensate");
+    assert!(cli.get("status").unwrap().is_object());
 
-        // diagnose: the report of the application's diagnosis with the command's defaults
-        let (file, nominal) = load_robot::<6>(&robot).unwrap();
-        let ds = measurements::load::<6>(&data)
-            .unwrap()
-            .measurements::<f64>();
-        let d = diagnose(
-            &nominal,
-            file.base_known(),
-            &file.tilt_joints(),
-            &ds,
-            &Config::default(),
-        )
-        .unwrap();
-        let typed = DiagnoseReport::of(&d).with_explanations(&d, &ds);
-        let cli = one_object(&kinecal(&[
-            "diagnose",
-            "--robot",
-            s(&robot),
-            "--data",
-            s(&data),
-            "--json",
-        ]));
-        assert_same_report(&cli, &typed.to_json(), "diagnose");
-        for key in [
-            "baseline_validation_rms_mm",
-            "found",
-            "final_validation_rms_mm",
-            "noise_floor_mm",
-        ] {
-            assert!(cli.get(key).is_some(), "missing {key}");
-        }
-        assert_eq!(typed.found.len(), 1);
-        assert_eq!(typed.found[0].effect, "joint-compliance");
-        // Each finding explained in words (the `explanation` object).
-        let e = &cli["found"][0]["explanation"];
-        for key in [
-            "peak_to_peak_deg",
-            "amplitude_deg",
-            "tool_rms_mm",
-            "tool_max_mm",
-            "period_deg",
-            "most_affected_poses",
-            "most_affected_range_deg",
-            "gap_closed",
-            "text",
-        ] {
-            assert!(e.get(key).is_some(), "missing explanation.{key}");
-        }
-        assert!(e["period_deg"].is_null());
-    };
+    // diagnose: the report of the application's diagnosis with the command's defaults
+    let (file, nominal) = load_robot::<6>(&robot).unwrap();
+    let ds = measurements::load::<6>(&data)
+        .unwrap()
+        .measurements::<f64>();
+    let d = diagnose(
+        &nominal,
+        file.base_known(),
+        &file.tilt_joints(),
+        &ds,
+        &Config::default(),
+    )
+    .unwrap();
+    let typed = DiagnoseReport::of(&d).with_explanations(&d, &ds);
+    let cli = one_object(&kinecal(&[
+        "diagnose",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(&data),
+        "--json",
+    ]));
+    assert_same_report(&cli, &typed.to_json(), "diagnose");
+    for key in [
+        "baseline_validation_rms_mm",
+        "found",
+        "final_validation_rms_mm",
+        "noise_floor_mm",
+    ] {
+        assert!(cli.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(typed.found.len(), 1);
+    assert_eq!(typed.found[0].effect, "joint-compliance");
+    // Each finding explained in words (the `explanation` object).
+    let e = &cli["found"][0]["explanation"];
+    for key in [
+        "peak_to_peak_deg",
+        "amplitude_deg",
+        "tool_rms_mm",
+        "tool_max_mm",
+        "period_deg",
+        "most_affected_poses",
+        "most_affected_range_deg",
+        "gap_closed",
+        "text",
+    ] {
+        assert!(e.get(key).is_some(), "missing explanation.{key}");
+    }
+    assert!(e["period_deg"].is_null());
 }

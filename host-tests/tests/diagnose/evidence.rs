@@ -162,70 +162,62 @@ fn warm_up(c: f64, temps: (f64, f64), seed: u64) -> (HostRobot<6>, Vec<Measureme
 /// noise; diagnose names thermal expansion with c within 5 % and ends at the noise floor.
 #[test]
 fn diagnose_finds_thermal_expansion_in_a_warm_up() {
-    {
-        let (truth, data) = warm_up(STEEL, (15.0, 35.0), 11);
-        let t0 = truth.effects().thermal().unwrap().2;
-        assert!((t0 - 25.0).abs() < 1e-9, "{t0}");
-        let d = kinecal_cli::diagnose::diagnose(&er20(), true, &[], &data, &Default::default())
-            .unwrap();
-        // Noise 0.01 mm per axis: a held-out floor near 0.0173 mm.
-        let floor = 0.01 * 3f64.sqrt();
-        eprintln!(
-            "warm-up: geometry {:.4} mm, final {:.4} mm, floor {:.4}, found {:?}",
-            d.baseline_validation_rms_mm,
-            d.final_validation_rms_mm,
-            d.noise_floor_mm,
-            d.found
-                .iter()
-                .map(|f| f.candidate.label())
-                .collect::<Vec<_>>()
-        );
-        assert!(d.baseline_validation_rms_mm > 3.0 * floor);
-        let f = d
-            .found
+    let (truth, data) = warm_up(STEEL, (15.0, 35.0), 11);
+    let t0 = truth.effects().thermal().unwrap().2;
+    assert!((t0 - 25.0).abs() < 1e-9, "{t0}");
+    let d =
+        kinecal_cli::diagnose::diagnose(&er20(), true, &[], &data, &Default::default()).unwrap();
+    // Noise 0.01 mm per axis: a held-out floor near 0.0173 mm.
+    let floor = 0.01 * 3f64.sqrt();
+    eprintln!(
+        "warm-up: geometry {:.4} mm, final {:.4} mm, floor {:.4}, found {:?}",
+        d.baseline_validation_rms_mm,
+        d.final_validation_rms_mm,
+        d.noise_floor_mm,
+        d.found
             .iter()
-            .find(|f| matches!(f.candidate.kind, CandidateKind::Thermal { .. }))
-            .expect("thermal expansion named");
-        let c = f.candidate.values(&d.model)[0];
-        assert!((c - STEEL).abs() < 0.05 * STEEL, "c = {c:e}");
-        assert!(
-            d.final_validation_rms_mm < 1.2 * floor,
-            "final {} vs floor {floor}",
-            d.final_validation_rms_mm
-        );
-    };
+            .map(|f| f.candidate.label())
+            .collect::<Vec<_>>()
+    );
+    assert!(d.baseline_validation_rms_mm > 3.0 * floor);
+    let f = d
+        .found
+        .iter()
+        .find(|f| matches!(f.candidate.kind, CandidateKind::Thermal { .. }))
+        .expect("thermal expansion named");
+    let c = f.candidate.values(&d.model)[0];
+    assert!((c - STEEL).abs() < 0.05 * STEEL, "c = {c:e}");
+    assert!(
+        d.final_validation_rms_mm < 1.2 * floor,
+        "final {} vs floor {floor}",
+        d.final_validation_rms_mm
+    );
 }
 
 /// The same warm-up of an arm that does not expand: thermal expansion is offered and not
 /// named; at a constant temperature it is not even offered.
 #[test]
 fn diagnose_does_not_name_thermal_expansion_without_one() {
-    {
-        for temps in [(15.0, 35.0), (22.0, 22.0)] {
-            let (_, data) = warm_up(0.0, temps, 12);
-            let d = kinecal_cli::diagnose::diagnose(&er20(), true, &[], &data, &Default::default())
-                .unwrap();
-            assert!(
-                !d.found
-                    .iter()
-                    .any(|f| matches!(f.candidate.kind, CandidateKind::Thermal { .. })),
-                "{temps:?}: {:?}",
-                d.found
-                    .iter()
-                    .map(|f| f.candidate.label())
-                    .collect::<Vec<_>>()
-            );
-            let offered = kinecal_cli::diagnose::candidates::catalogue(
-                &er20(),
-                true,
-                &data,
-                &Default::default(),
-            )
-            .iter()
-            .any(|c| matches!(c.kind, CandidateKind::Thermal { .. }));
-            assert_eq!(offered, temps.0 != temps.1);
-        }
-    };
+    for temps in [(15.0, 35.0), (22.0, 22.0)] {
+        let (_, data) = warm_up(0.0, temps, 12);
+        let d = kinecal_cli::diagnose::diagnose(&er20(), true, &[], &data, &Default::default())
+            .unwrap();
+        assert!(
+            !d.found
+                .iter()
+                .any(|f| matches!(f.candidate.kind, CandidateKind::Thermal { .. })),
+            "{temps:?}: {:?}",
+            d.found
+                .iter()
+                .map(|f| f.candidate.label())
+                .collect::<Vec<_>>()
+        );
+        let offered =
+            kinecal_cli::diagnose::candidates::catalogue(&er20(), true, &data, &Default::default())
+                .iter()
+                .any(|c| matches!(c.kind, CandidateKind::Thermal { .. }));
+        assert_eq!(offered, temps.0 != temps.1);
+    }
 }
 
 /// The sizes the issue's users saw refused with their reasons (a 17° peak-to-peak table on
@@ -268,48 +260,47 @@ fn implausible_sizes_are_named() {
 /// the round says why, nothing is added for the joint's table family, and the search goes on.
 #[test]
 fn an_implausible_table_is_refused_with_its_reason() {
-    {
-        // Knots every 40° over ±170° on joint 2: ±4°.
-        let knots: Vec<f64> = (0..9)
-            .map(|k| 4f64.to_radians() * if k % 2 == 0 { 1.0 } else { -1.0 })
-            .collect();
-        let s = Simulation {
-            poses: 300,
-            noise_mm: 0.01,
-            seed: 13,
-            geom_errors: Some(GeomErrors::default()),
-            effects: vec![effect("joint-table", 2, &knots, 1)],
-        };
-        let (_, d) = simulate_at(&er20(), &s, None).unwrap();
-        let data = d.measurements();
-        let r = kinecal_cli::diagnose::diagnose(&er20(), true, &[], &data, &Default::default())
-            .unwrap();
-        let refused: Vec<&String> = r.rounds.iter().filter_map(|x| x.refused.as_ref()).collect();
-        eprintln!(
-            "refused {refused:?}; found {:?}",
-            r.found
-                .iter()
-                .map(|f| f.candidate.label())
-                .collect::<Vec<_>>()
-        );
-        assert!(
-            refused
-                .iter()
-                .any(|w| w.contains("joint 2") && w.contains("peak to peak")),
-            "{refused:?}"
-        );
-        assert!(!r
-            .found
+    // Knots every 40° over ±170° on joint 2: ±4°.
+    let knots: Vec<f64> = (0..9)
+        .map(|k| 4f64.to_radians() * if k % 2 == 0 { 1.0 } else { -1.0 })
+        .collect();
+    let s = Simulation {
+        poses: 300,
+        noise_mm: 0.01,
+        seed: 13,
+        geom_errors: Some(GeomErrors::default()),
+        effects: vec![effect("joint-table", 2, &knots, 1)],
+    };
+    let (_, d) = simulate_at(&er20(), &s, None).unwrap();
+    let data = d.measurements();
+    let r =
+        kinecal_cli::diagnose::diagnose(&er20(), true, &[], &data, &Default::default()).unwrap();
+    let refused: Vec<&String> = r.rounds.iter().filter_map(|x| x.refused.as_ref()).collect();
+    eprintln!(
+        "refused {refused:?}; found {:?}",
+        r.found
+            .iter()
+            .map(|f| f.candidate.label())
+            .collect::<Vec<_>>()
+    );
+    assert!(
+        refused
+            .iter()
+            .any(|w| w.contains("joint 2") && w.contains("peak to peak")),
+        "{refused:?}"
+    );
+    assert!(
+        !r.found
             .iter()
             .any(|f| f.candidate.joint == 1
-                && matches!(f.candidate.kind, CandidateKind::Table { .. })));
-        // The report's rounds carry the refusal (its text stops early here: a table of ±4°
-        // is beyond what the geometric model's stall check lets it call a fit).
-        let report = kinecal_cli::reports::diagnose::DiagnoseReport::of(&r);
-        let json = serde_json::to_string(&report.rounds).unwrap();
-        assert!(
-            json.contains("\"refused\":{\"candidate\":\"joint-table"),
-            "{json}"
-        );
-    }
+                && matches!(f.candidate.kind, CandidateKind::Table { .. }))
+    );
+    // The report's rounds carry the refusal (its text stops early here: a table of ±4°
+    // is beyond what the geometric model's stall check lets it call a fit).
+    let report = kinecal_cli::reports::diagnose::DiagnoseReport::of(&r);
+    let json = serde_json::to_string(&report.rounds).unwrap();
+    assert!(
+        json.contains("\"refused\":{\"candidate\":\"joint-table"),
+        "{json}"
+    );
 }

@@ -182,52 +182,50 @@ fn pitches_come_at_two_phases_and_shift_by_fractions_of_the_pitch() {
 /// the noise floor; the written model reads back with the same knots.
 #[test]
 fn a_ten_degree_table_aligned_to_zero_is_found_on_its_grid() {
-    {
-        let nominal = with_limits(0, -185.0, 185.0);
-        let noise = 0.02;
-        let data = table_data(&nominal, 0, 10.0, 0.0, 1.5e-4, noise, 600, 11);
-        let d = diagnose(&nominal, true, &[], &data, &Config::default()).unwrap();
-        assert_eq!(
-            d.found.len(),
-            1,
-            "{:?}",
-            d.found
-                .iter()
-                .map(|f| f.candidate.label())
-                .collect::<Vec<_>>()
-        );
-        let c = d.found[0].candidate;
-        assert_eq!(c.joint, 0);
-        let (start, step, _) = table_of(&c);
-        assert!(
-            (step - 10.0).abs() < 1e-9 && on_multiple(start, 10.0),
-            "{}",
-            c.label()
-        );
-        let floor = 3f64.sqrt() * noise;
-        assert!(
-            d.baseline_validation_rms_mm > 3.0 * floor,
-            "{}",
-            d.baseline_validation_rms_mm
-        );
-        assert!(
-            d.final_validation_rms_mm <= 1.25 * floor,
-            "{} vs {floor}",
-            d.final_validation_rms_mm
-        );
-        // The robot file keeps step_deg and the knot origin: the table reads back exactly.
-        let file = RobotFile::from_robot("t", &d.model, true, &d.free_tilt);
-        let text = file.to_toml().unwrap();
-        let back = RobotFile::parse(&text, "written model").unwrap();
-        let r = back.to_robot::<6>().unwrap();
-        let (a, b) = (d.model.effects(), r.effects());
-        let i = a.find(EffectKind::Table, 0, 1).unwrap();
-        let k = b.find(EffectKind::Table, 0, 1).unwrap();
-        assert_eq!(a.values_of(i), b.values_of(k));
-        let (ea, eb) = (a.get(i).unwrap(), b.get(k).unwrap());
-        assert_eq!((ea.start, ea.step), (eb.start, eb.step));
-        assert!(text.contains("step_deg = 10.0"), "{text}");
-    };
+    let nominal = with_limits(0, -185.0, 185.0);
+    let noise = 0.02;
+    let data = table_data(&nominal, 0, 10.0, 0.0, 1.5e-4, noise, 600, 11);
+    let d = diagnose(&nominal, true, &[], &data, &Config::default()).unwrap();
+    assert_eq!(
+        d.found.len(),
+        1,
+        "{:?}",
+        d.found
+            .iter()
+            .map(|f| f.candidate.label())
+            .collect::<Vec<_>>()
+    );
+    let c = d.found[0].candidate;
+    assert_eq!(c.joint, 0);
+    let (start, step, _) = table_of(&c);
+    assert!(
+        (step - 10.0).abs() < 1e-9 && on_multiple(start, 10.0),
+        "{}",
+        c.label()
+    );
+    let floor = 3f64.sqrt() * noise;
+    assert!(
+        d.baseline_validation_rms_mm > 3.0 * floor,
+        "{}",
+        d.baseline_validation_rms_mm
+    );
+    assert!(
+        d.final_validation_rms_mm <= 1.25 * floor,
+        "{} vs {floor}",
+        d.final_validation_rms_mm
+    );
+    // The robot file keeps step_deg and the knot origin: the table reads back exactly.
+    let file = RobotFile::from_robot("t", &d.model, true, &d.free_tilt);
+    let text = file.to_toml().unwrap();
+    let back = RobotFile::parse(&text, "written model").unwrap();
+    let r = back.to_robot::<6>().unwrap();
+    let (a, b) = (d.model.effects(), r.effects());
+    let i = a.find(EffectKind::Table, 0, 1).unwrap();
+    let k = b.find(EffectKind::Table, 0, 1).unwrap();
+    assert_eq!(a.values_of(i), b.values_of(k));
+    let (ea, eb) = (a.get(i).unwrap(), b.get(k).unwrap());
+    assert_eq!((ea.start, ea.step), (eb.start, eb.step));
+    assert!(text.contains("step_deg = 10.0"), "{text}");
 }
 
 /// A 15° table whose knots sit at 6° + k·15° on joint 3: the phase search finds a grid whose
@@ -235,28 +233,26 @@ fn a_ten_degree_table_aligned_to_zero_is_found_on_its_grid() {
 /// reaches the noise floor.
 #[test]
 fn a_table_at_a_phase_is_found_near_its_phase() {
-    {
-        let nominal = er20();
-        let noise = 0.02;
-        let data = table_data(&nominal, 2, 15.0, 6.0, 2e-4, noise, 400, 12);
-        let d = diagnose(&nominal, true, &[], &data, &Config::default()).unwrap();
-        let labels: Vec<String> = d.found.iter().map(|f| f.candidate.label()).collect();
-        assert_eq!(d.found.len(), 1, "{labels:?}");
-        let c = d.found[0].candidate;
-        assert_eq!(c.joint, 2, "{labels:?}");
-        let (start, step, _) = table_of(&c);
-        // The pitch, or half of it (which holds every knot of the truth).
-        assert!(
-            (step - 15.0).abs() < 1e-9 || (step - 7.5).abs() < 1e-9,
-            "{labels:?}"
-        );
-        let off = (start - 6.0).rem_euclid(step);
-        assert!(off.min(step - off) <= 15.0 / 16.0 + 1e-9, "{labels:?}");
-        let floor = 3f64.sqrt() * noise;
-        assert!(
-            d.final_validation_rms_mm <= 1.25 * floor,
-            "{} vs {floor}",
-            d.final_validation_rms_mm
-        );
-    };
+    let nominal = er20();
+    let noise = 0.02;
+    let data = table_data(&nominal, 2, 15.0, 6.0, 2e-4, noise, 400, 12);
+    let d = diagnose(&nominal, true, &[], &data, &Config::default()).unwrap();
+    let labels: Vec<String> = d.found.iter().map(|f| f.candidate.label()).collect();
+    assert_eq!(d.found.len(), 1, "{labels:?}");
+    let c = d.found[0].candidate;
+    assert_eq!(c.joint, 2, "{labels:?}");
+    let (start, step, _) = table_of(&c);
+    // The pitch, or half of it (which holds every knot of the truth).
+    assert!(
+        (step - 15.0).abs() < 1e-9 || (step - 7.5).abs() < 1e-9,
+        "{labels:?}"
+    );
+    let off = (start - 6.0).rem_euclid(step);
+    assert!(off.min(step - off) <= 15.0 / 16.0 + 1e-9, "{labels:?}");
+    let floor = 3f64.sqrt() * noise;
+    assert!(
+        d.final_validation_rms_mm <= 1.25 * floor,
+        "{} vs {floor}",
+        d.final_validation_rms_mm
+    );
 }

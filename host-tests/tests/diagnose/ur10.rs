@@ -31,64 +31,62 @@ fn rms(sq: &[f64]) -> f64 {
 #[test]
 #[ignore = "minutes on real data: cargo test -p kinecal-host --test diagnose ur10:: -- --ignored --nocapture"]
 fn ur10_tables_cut_the_held_out_error_below_045_of_the_geometric_fit() {
-    {
-        let dir = ur10_dir();
-        let (file, nominal) = load_robot::<6>(&dir.join("robot.toml")).unwrap();
-        let all = measurements::load::<6>(&dir.join("ur10_random_poses.csv"))
-            .unwrap()
-            .measurements::<f64>();
-        let (ident, held) = all.split_at(1000);
-        // KINECAL_TABLE_RIDGE / KINECAL_TABLE_SMOOTHNESS override the table penalty.
-        let mut cfg = Config::default();
-        let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
-        if let Some(r) = env("KINECAL_TABLE_RIDGE") {
-            cfg.penalty.ridge = r;
-        }
-        if let Some(s) = env("KINECAL_TABLE_SMOOTHNESS") {
-            cfg.penalty.smoothness = s;
-        }
-        let d = diagnose(
-            &nominal,
-            file.base_known(),
-            &file.tilt_joints(),
-            ident,
-            &cfg,
-        )
-        .unwrap();
-        let geo = rms(&squared_errors(&d.geometric, held));
-        let fin = rms(&squared_errors(&d.model, held));
-        let report = kinecal_cli::reports::diagnose::DiagnoseReport::of(&d).to_value();
-        eprintln!(
-            "{}",
-            serde_json::to_string_pretty(&report["rounds"]).unwrap()
+    let dir = ur10_dir();
+    let (file, nominal) = load_robot::<6>(&dir.join("robot.toml")).unwrap();
+    let all = measurements::load::<6>(&dir.join("ur10_random_poses.csv"))
+        .unwrap()
+        .measurements::<f64>();
+    let (ident, held) = all.split_at(1000);
+    // KINECAL_TABLE_RIDGE / KINECAL_TABLE_SMOOTHNESS override the table penalty.
+    let mut cfg = Config::default();
+    let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
+    if let Some(r) = env("KINECAL_TABLE_RIDGE") {
+        cfg.penalty.ridge = r;
+    }
+    if let Some(s) = env("KINECAL_TABLE_SMOOTHNESS") {
+        cfg.penalty.smoothness = s;
+    }
+    let d = diagnose(
+        &nominal,
+        file.base_known(),
+        &file.tilt_joints(),
+        ident,
+        &cfg,
+    )
+    .unwrap();
+    let geo = rms(&squared_errors(&d.geometric, held));
+    let fin = rms(&squared_errors(&d.model, held));
+    let report = kinecal_cli::reports::diagnose::DiagnoseReport::of(&d).to_value();
+    eprintln!(
+        "{}",
+        serde_json::to_string_pretty(&report["rounds"]).unwrap()
+    );
+    for f in &d.found {
+        eprintln!("{}", f.sentence(d.noise_floor_mm));
+    }
+    eprintln!("chosen grids: {}", grids(&d));
+    eprintln!(
+            "UR10: cross-validated {:.4} → {:.4} mm on 1000 poses; held-out ({} poses) {geo:.4} → {fin:.4} mm = {:.3}×; noise floor {:.4} mm; {:.1} s",
+            d.baseline_validation_rms_mm,
+            d.final_validation_rms_mm,
+            held.len(),
+            fin / geo,
+            d.noise_floor_mm,
+            d.seconds
         );
-        for f in &d.found {
-            eprintln!("{}", f.sentence(d.noise_floor_mm));
-        }
-        eprintln!("chosen grids: {}", grids(&d));
-        eprintln!(
-                "UR10: cross-validated {:.4} → {:.4} mm on 1000 poses; held-out ({} poses) {geo:.4} → {fin:.4} mm = {:.3}×; noise floor {:.4} mm; {:.1} s",
-                d.baseline_validation_rms_mm,
-                d.final_validation_rms_mm,
-                held.len(),
-                fin / geo,
-                d.noise_floor_mm,
-                d.seconds
-            );
-        // The geometric fit is where the independent study put it…
-        assert!((0.40..0.60).contains(&geo), "geometric held-out {geo}");
-        // …and the named effects cut it to at most 0.45× on poses the search never saw.
-        assert!(fin <= 0.45 * geo, "held-out {geo} → {fin}");
-        // Not worse than before the data chose the tables' pitch and phase (0.1225 mm).
-        assert!(fin <= 0.1225, "held-out {fin} mm");
-        // What cuts it is joint tables (the study's finding), on several joints.
-        let tables = d
-            .found
-            .iter()
-            .filter(|f| matches!(f.candidate.kind, CandidateKind::Table { .. }))
-            .count();
-        assert!(tables >= 3, "{tables} tables named");
-    };
+    // The geometric fit is where the independent study put it…
+    assert!((0.40..0.60).contains(&geo), "geometric held-out {geo}");
+    // …and the named effects cut it to at most 0.45× on poses the search never saw.
+    assert!(fin <= 0.45 * geo, "held-out {geo} → {fin}");
+    // Not worse than before the data chose the tables' pitch and phase (0.1225 mm).
+    assert!(fin <= 0.1225, "held-out {fin} mm");
+    // What cuts it is joint tables (the study's finding), on several joints.
+    let tables = d
+        .found
+        .iter()
+        .filter(|f| matches!(f.candidate.kind, CandidateKind::Table { .. }))
+        .count();
+    assert!(tables >= 3, "{tables} tables named");
 }
 
 /// "joint 2: 3.6° from −189.225°, …" for the tables of a diagnosis.
@@ -116,54 +114,52 @@ fn grids<const N: usize>(d: &kinecal_cli::diagnose::Diagnosis<N>) -> String {
 #[test]
 #[ignore = "a minute on real data: cargo test -p kinecal-host --test diagnose ur10:: -- --ignored --nocapture"]
 fn diagnose_own_split_on_subsets() {
-    {
-        let dir = ur10_dir();
-        let (file, nominal) = load_robot::<6>(&dir.join("robot.toml")).unwrap();
-        let all = measurements::load::<6>(&dir.join("ur10_random_poses.csv"))
-            .unwrap()
-            .measurements::<f64>();
-        // Every k-th pose from pose `first` (0-based).
-        let every = |k: usize, first: usize| {
-            all.iter()
-                .skip(first)
-                .step_by(k)
-                .copied()
-                .collect::<Vec<_>>()
-        };
-        let cases = [
-            ("all 2,773 poses", all.clone(), 0.229),
-            ("every 3rd pose from the 3rd", every(3, 2), 0.258),
-            ("every 5th pose from the 1st", every(5, 0), 0.311),
-            ("the first 500", all[..500].to_vec(), 0.356),
-        ];
-        let mut failures = Vec::new();
-        for (name, data, before) in cases {
-            let d = diagnose(
-                &nominal,
-                file.base_known(),
-                &file.tilt_joints(),
-                &data,
-                &Config::default(),
-            )
-            .unwrap();
-            let ratio = d.final_validation_rms_mm / d.baseline_validation_rms_mm;
-            let line = format!(
-                    "{name} ({} poses): cross-validated {:.4} → {:.4} mm = {ratio:.3}× (before knots chosen by the data {before}×); {}; {:.1} s",
-                    data.len(),
-                    d.baseline_validation_rms_mm,
-                    d.final_validation_rms_mm,
-                    grids(&d),
-                    d.seconds
-                );
-            eprintln!("{line}");
-            if ratio >= before {
-                failures.push(line);
-            }
-        }
-        assert!(
-            failures.is_empty(),
-            "not better than before:\n{}",
-            failures.join("\n")
-        );
+    let dir = ur10_dir();
+    let (file, nominal) = load_robot::<6>(&dir.join("robot.toml")).unwrap();
+    let all = measurements::load::<6>(&dir.join("ur10_random_poses.csv"))
+        .unwrap()
+        .measurements::<f64>();
+    // Every k-th pose from pose `first` (0-based).
+    let every = |k: usize, first: usize| {
+        all.iter()
+            .skip(first)
+            .step_by(k)
+            .copied()
+            .collect::<Vec<_>>()
     };
+    let cases = [
+        ("all 2,773 poses", all.clone(), 0.229),
+        ("every 3rd pose from the 3rd", every(3, 2), 0.258),
+        ("every 5th pose from the 1st", every(5, 0), 0.311),
+        ("the first 500", all[..500].to_vec(), 0.356),
+    ];
+    let mut failures = Vec::new();
+    for (name, data, before) in cases {
+        let d = diagnose(
+            &nominal,
+            file.base_known(),
+            &file.tilt_joints(),
+            &data,
+            &Config::default(),
+        )
+        .unwrap();
+        let ratio = d.final_validation_rms_mm / d.baseline_validation_rms_mm;
+        let line = format!(
+                "{name} ({} poses): cross-validated {:.4} → {:.4} mm = {ratio:.3}× (before knots chosen by the data {before}×); {}; {:.1} s",
+                data.len(),
+                d.baseline_validation_rms_mm,
+                d.final_validation_rms_mm,
+                grids(&d),
+                d.seconds
+            );
+        eprintln!("{line}");
+        if ratio >= before {
+            failures.push(line);
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "not better than before:\n{}",
+        failures.join("\n")
+    );
 }

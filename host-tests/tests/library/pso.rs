@@ -293,51 +293,49 @@ fn set_start_only_before_the_first_evaluation() {
 
 #[test]
 fn pso_identifies_the_er20_and_converges() {
-    {
-        let nominal = er20_nominal();
-        let truth = with_delta(&nominal, &er20_errors());
-        let data = poses(&truth, 50, 0.01, 1);
-        let params = mdh24();
-        let mut cache = vec![[(0.0, 0.0); 6]; 50];
-        let mut f = PositionFitness::with_cache(&nominal, &params, &data, &mut cache).unwrap();
-        let nominal_fitness = f.fitness(&[0.0; 24]);
-        let truth_fitness = f.fitness(&er20_errors());
-        let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
-        cfg.max_iterations = 600;
-        let mut pso = Swarm::new(cfg, 7).unwrap();
-        let p = pso.run(&mut f).unwrap();
-        let h = pso.history();
-        assert_eq!(h.len(), p.iteration as usize + 1);
-        assert!(
-            h.windows(2).all(|w| w[1] <= w[0]),
-            "the global best never gets worse"
-        );
-        assert!(
-            h[0] > 100.0 * h[100] && h[100] > h[600],
-            "{} {} {}",
-            h[0],
-            h[100],
-            h[600]
-        );
-        // From 1675 mm² at the nominal model to within a few times the noise floor.
-        assert!(nominal_fitness > 1000.0);
-        assert!(
-            p.best_fitness < 10.0 * truth_fitness,
-            "{} vs {}",
-            p.best_fitness,
-            truth_fitness
-        );
-        // The identified model predicts held-out poses far better than the nominal one.
-        let valid = poses(&truth, 50, 0.0, 99);
-        let found = f.robot(pso.best_position()).unwrap();
-        let rms = |r: &Robot<f64, 6>| (sum_sq_reference(r, &valid) / 50.0).sqrt();
-        assert!(
-            rms(&found) < 0.05 * rms(&nominal),
-            "{} vs {}",
-            rms(&found),
-            rms(&nominal)
-        );
-    };
+    let nominal = er20_nominal();
+    let truth = with_delta(&nominal, &er20_errors());
+    let data = poses(&truth, 50, 0.01, 1);
+    let params = mdh24();
+    let mut cache = vec![[(0.0, 0.0); 6]; 50];
+    let mut f = PositionFitness::with_cache(&nominal, &params, &data, &mut cache).unwrap();
+    let nominal_fitness = f.fitness(&[0.0; 24]);
+    let truth_fitness = f.fitness(&er20_errors());
+    let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
+    cfg.max_iterations = 600;
+    let mut pso = Swarm::new(cfg, 7).unwrap();
+    let p = pso.run(&mut f).unwrap();
+    let h = pso.history();
+    assert_eq!(h.len(), p.iteration as usize + 1);
+    assert!(
+        h.windows(2).all(|w| w[1] <= w[0]),
+        "the global best never gets worse"
+    );
+    assert!(
+        h[0] > 100.0 * h[100] && h[100] > h[600],
+        "{} {} {}",
+        h[0],
+        h[100],
+        h[600]
+    );
+    // From 1675 mm² at the nominal model to within a few times the noise floor.
+    assert!(nominal_fitness > 1000.0);
+    assert!(
+        p.best_fitness < 10.0 * truth_fitness,
+        "{} vs {}",
+        p.best_fitness,
+        truth_fitness
+    );
+    // The identified model predicts held-out poses far better than the nominal one.
+    let valid = poses(&truth, 50, 0.0, 99);
+    let found = f.robot(pso.best_position()).unwrap();
+    let rms = |r: &Robot<f64, 6>| (sum_sq_reference(r, &valid) / 50.0).sqrt();
+    assert!(
+        rms(&found) < 0.05 * rms(&nominal),
+        "{} vs {}",
+        rms(&found),
+        rms(&nominal)
+    );
 }
 
 #[test]
@@ -367,73 +365,69 @@ fn pso_recovers_the_truth_in_an_easy_low_dimensional_case() {
 
 #[test]
 fn same_seed_same_result_whatever_the_slicing() {
-    {
-        let nominal = er20_nominal();
-        let truth = with_delta(&nominal, &er20_errors());
-        let data = poses(&truth, 50, 0.01, 1);
-        let params = mdh24();
-        let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
-        let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
-        cfg.max_iterations = 25;
-        let run = |f: &mut PositionFitness<'_, f64, 6, 0, 24>, seed: u64, budget: usize| {
-            let mut pso = Box::new(Swarm::new(cfg, seed).unwrap());
-            while pso.step(f, budget).unwrap().stopped.is_none() {}
-            pso
-        };
-        let a = run(&mut f, 42, usize::MAX);
-        for budget in [1, 7, 199, 200, 201] {
-            let b = run(&mut f, 42, budget);
-            assert_eq!(a.progress(), b.progress());
-            assert_eq!(
-                a.best_position().map(f64::to_bits),
-                b.best_position().map(f64::to_bits)
-            );
-            assert_eq!(
-                a.history().iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                b.history().iter().map(|v| v.to_bits()).collect::<Vec<_>>()
-            );
-            assert!(a
-                .positions()
-                .iter()
-                .flatten()
-                .zip(b.positions().iter().flatten())
-                .all(|(x, y)| x.to_bits() == y.to_bits()));
-        }
-        let c = run(&mut f, 43, usize::MAX);
-        assert_ne!(a.best_position(), c.best_position());
-        // Budget 0 does nothing.
-        let mut d = Swarm::new(cfg, 42).unwrap();
-        assert_eq!(d.step(&mut f, 0).unwrap().evaluations, 0);
+    let nominal = er20_nominal();
+    let truth = with_delta(&nominal, &er20_errors());
+    let data = poses(&truth, 50, 0.01, 1);
+    let params = mdh24();
+    let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
+    let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
+    cfg.max_iterations = 25;
+    let run = |f: &mut PositionFitness<'_, f64, 6, 0, 24>, seed: u64, budget: usize| {
+        let mut pso = Box::new(Swarm::new(cfg, seed).unwrap());
+        while pso.step(f, budget).unwrap().stopped.is_none() {}
+        pso
     };
+    let a = run(&mut f, 42, usize::MAX);
+    for budget in [1, 7, 199, 200, 201] {
+        let b = run(&mut f, 42, budget);
+        assert_eq!(a.progress(), b.progress());
+        assert_eq!(
+            a.best_position().map(f64::to_bits),
+            b.best_position().map(f64::to_bits)
+        );
+        assert_eq!(
+            a.history().iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+            b.history().iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+        );
+        assert!(a
+            .positions()
+            .iter()
+            .flatten()
+            .zip(b.positions().iter().flatten())
+            .all(|(x, y)| x.to_bits() == y.to_bits()));
+    }
+    let c = run(&mut f, 43, usize::MAX);
+    assert_ne!(a.best_position(), c.best_position());
+    // Budget 0 does nothing.
+    let mut d = Swarm::new(cfg, 42).unwrap();
+    assert_eq!(d.step(&mut f, 0).unwrap().evaluations, 0);
 }
 
 #[test]
 fn pso_runs_in_f32() {
-    {
-        let nominal = er20_nominal();
-        let truth = with_delta(&nominal, &er20_errors());
-        let data64 = poses(&truth, 50, 0.01, 1);
-        let nominal32: Robot<f32, 6> = nominal.cast().unwrap();
-        let data: Vec<Measurement<f32, 6>> = data64
-            .iter()
-            .map(|m| Measurement::new(m.q.map(|v| v as f32), m.point.map(|v| v as f32)))
-            .collect();
-        let params = mdh24();
-        let mut cache = vec![[(0.0f32, 0.0f32); 6]; 50];
-        let mut f = PositionFitness::with_cache(&nominal32, &params, &data, &mut cache).unwrap();
-        let mut cfg = PsoConfig::<f32, 24>::calibration(params.as_slice()).unwrap();
-        cfg.max_iterations = 300;
-        let mut pso = Pso::<f32, 200, 24>::new(cfg, 7).unwrap();
-        let p = pso.run(&mut f).unwrap();
-        let h = pso.history();
-        assert!(h.windows(2).all(|w| w[1] <= w[0]));
-        assert!(
-            p.best_fitness < 0.01 * h[0],
-            "{} from {}",
-            p.best_fitness,
-            h[0]
-        );
-    };
+    let nominal = er20_nominal();
+    let truth = with_delta(&nominal, &er20_errors());
+    let data64 = poses(&truth, 50, 0.01, 1);
+    let nominal32: Robot<f32, 6> = nominal.cast().unwrap();
+    let data: Vec<Measurement<f32, 6>> = data64
+        .iter()
+        .map(|m| Measurement::new(m.q.map(|v| v as f32), m.point.map(|v| v as f32)))
+        .collect();
+    let params = mdh24();
+    let mut cache = vec![[(0.0f32, 0.0f32); 6]; 50];
+    let mut f = PositionFitness::with_cache(&nominal32, &params, &data, &mut cache).unwrap();
+    let mut cfg = PsoConfig::<f32, 24>::calibration(params.as_slice()).unwrap();
+    cfg.max_iterations = 300;
+    let mut pso = Pso::<f32, 200, 24>::new(cfg, 7).unwrap();
+    let p = pso.run(&mut f).unwrap();
+    let h = pso.history();
+    assert!(h.windows(2).all(|w| w[1] <= w[0]));
+    assert!(
+        p.best_fitness < 0.01 * h[0],
+        "{} from {}",
+        p.best_fitness,
+        h[0]
+    );
 }
 
 /// The paper's claim (the paper's claim): after a factory identification by PSO trains the
@@ -448,79 +442,76 @@ fn pso_runs_in_f32() {
 /// stop). `kinecal::identify::bpnn_pso`'s module docs give the ratios for larger drifts, where it fails.
 #[test]
 fn bpnn_pso_reaches_pso_final_fitness_in_a_quarter_of_the_iterations() {
-    {
-        let nominal = er20_nominal();
-        let params = mdh24();
-        let cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
+    let nominal = er20_nominal();
+    let params = mdh24();
+    let cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
 
-        // Factory identification.
-        let factory_truth = with_delta(&nominal, &er20_errors());
-        let factory_data = poses(&factory_truth, 50, 0.01, 100);
-        let mut cache = vec![[(0.0, 0.0); 6]; 50];
-        let mut f =
-            PositionFitness::with_cache(&nominal, &params, &factory_data, &mut cache).unwrap();
-        let mut factory = Box::new(Swarm::new(cfg, 0).unwrap());
-        let mut net: MdhSeedNet<f64> = Bpnn::new(BpnnConfig::default(), 0).unwrap();
+    // Factory identification.
+    let factory_truth = with_delta(&nominal, &er20_errors());
+    let factory_data = poses(&factory_truth, 50, 0.01, 100);
+    let mut cache = vec![[(0.0, 0.0); 6]; 50];
+    let mut f = PositionFitness::with_cache(&nominal, &params, &factory_data, &mut cache).unwrap();
+    let mut factory = Box::new(Swarm::new(cfg, 0).unwrap());
+    let mut net: MdhSeedNet<f64> = Bpnn::new(BpnnConfig::default(), 0).unwrap();
+    assert_eq!(
+        bpnn_pso::train(&mut net, &factory, 1).unwrap_err(),
+        BpnnPsoError::NotFinished
+    );
+    factory.run(&mut f).unwrap();
+    net.fit_ranges(factory.initial_positions(), factory.personal_bests())
+        .unwrap();
+    let before = net
+        .loss(factory.initial_positions(), factory.personal_bests())
+        .unwrap();
+    let loss = bpnn_pso::train(&mut net, &factory, DEFAULT_EPOCHS).unwrap();
+    assert!(
+        loss < 0.25 * before,
+        "training lowers the loss: {before} → {loss}"
+    );
+
+    // Follow-up after a small drift.
+    let mut drifted = er20_errors();
+    for (e, d) in drifted.iter_mut().zip(er20_drift()) {
+        *e += 0.1 * d;
+    }
+    let truth = with_delta(&nominal, &drifted);
+    let data = poses(&truth, 50, 0.01, 200);
+    let mut cache = vec![[(0.0, 0.0); 6]; 50];
+    let mut f = PositionFitness::with_cache(&nominal, &params, &data, &mut cache).unwrap();
+    let (mut total_pso, mut total_hybrid) = (0u32, 0u32);
+    let mut ratios = Vec::new();
+    for seed in 1..=8u64 {
+        let mut pso = Box::new(Swarm::new(cfg, seed).unwrap());
+        let p = pso.run(&mut f).unwrap();
+        let pso_iterations = pso.iterations_to_reach(p.best_fitness).unwrap();
+
+        let mut with_target = cfg;
+        with_target.target_fitness = p.best_fitness;
+        let mut hybrid = Box::new(Swarm::new(with_target, seed).unwrap());
+        bpnn_pso::seed(&mut hybrid, &net).unwrap();
+        let h = hybrid.run(&mut f).unwrap();
         assert_eq!(
-            bpnn_pso::train(&mut net, &factory, 1).unwrap_err(),
-            BpnnPsoError::NotFinished
+            h.stopped,
+            Some(PsoStop::Target),
+            "seed {seed}: BPNN-PSO never reached {}",
+            p.best_fitness
         );
-        factory.run(&mut f).unwrap();
-        net.fit_ranges(factory.initial_positions(), factory.personal_bests())
-            .unwrap();
-        let before = net
-            .loss(factory.initial_positions(), factory.personal_bests())
-            .unwrap();
-        let loss = bpnn_pso::train(&mut net, &factory, DEFAULT_EPOCHS).unwrap();
-        assert!(
-            loss < 0.25 * before,
-            "training lowers the loss: {before} → {loss}"
-        );
-
-        // Follow-up after a small drift.
-        let mut drifted = er20_errors();
-        for (e, d) in drifted.iter_mut().zip(er20_drift()) {
-            *e += 0.1 * d;
-        }
-        let truth = with_delta(&nominal, &drifted);
-        let data = poses(&truth, 50, 0.01, 200);
-        let mut cache = vec![[(0.0, 0.0); 6]; 50];
-        let mut f = PositionFitness::with_cache(&nominal, &params, &data, &mut cache).unwrap();
-        let (mut total_pso, mut total_hybrid) = (0u32, 0u32);
-        let mut ratios = Vec::new();
-        for seed in 1..=8u64 {
-            let mut pso = Box::new(Swarm::new(cfg, seed).unwrap());
-            let p = pso.run(&mut f).unwrap();
-            let pso_iterations = pso.iterations_to_reach(p.best_fitness).unwrap();
-
-            let mut with_target = cfg;
-            with_target.target_fitness = p.best_fitness;
-            let mut hybrid = Box::new(Swarm::new(with_target, seed).unwrap());
-            bpnn_pso::seed(&mut hybrid, &net).unwrap();
-            let h = hybrid.run(&mut f).unwrap();
-            assert_eq!(
-                h.stopped,
-                Some(PsoStop::Target),
-                "seed {seed}: BPNN-PSO never reached {}",
-                p.best_fitness
-            );
-            eprintln!("seed {seed}: PSO {pso_iterations} iterations to {:.5} mm²; BPNN-PSO {} (starts at {:.4})", p.best_fitness, h.iteration, hybrid.history()[0]);
-            total_pso += pso_iterations;
-            total_hybrid += h.iteration;
-            ratios.push(h.iteration as f64 / pso_iterations as f64);
-            // Seeding is only possible on a fresh swarm.
-            assert!(matches!(
-                bpnn_pso::seed(&mut hybrid, &net),
-                Err(BpnnPsoError::Swarm(PsoError::Start))
-            ));
-        }
-        ratios.sort_by(f64::total_cmp);
-        let median = 0.5 * (ratios[3] + ratios[4]);
-        eprintln!("total: PSO {total_pso}, BPNN-PSO {total_hybrid}; median ratio {median:.3}");
-        assert!(
-            4 * total_hybrid <= total_pso,
-            "{total_hybrid} vs {total_pso}"
-        );
-        assert!(median <= 0.25, "{ratios:?}");
-    };
+        eprintln!("seed {seed}: PSO {pso_iterations} iterations to {:.5} mm²; BPNN-PSO {} (starts at {:.4})", p.best_fitness, h.iteration, hybrid.history()[0]);
+        total_pso += pso_iterations;
+        total_hybrid += h.iteration;
+        ratios.push(h.iteration as f64 / pso_iterations as f64);
+        // Seeding is only possible on a fresh swarm.
+        assert!(matches!(
+            bpnn_pso::seed(&mut hybrid, &net),
+            Err(BpnnPsoError::Swarm(PsoError::Start))
+        ));
+    }
+    ratios.sort_by(f64::total_cmp);
+    let median = 0.5 * (ratios[3] + ratios[4]);
+    eprintln!("total: PSO {total_pso}, BPNN-PSO {total_hybrid}; median ratio {median:.3}");
+    assert!(
+        4 * total_hybrid <= total_pso,
+        "{total_hybrid} vs {total_pso}"
+    );
+    assert!(median <= 0.25, "{ratios:?}");
 }

@@ -41,91 +41,87 @@ fn er20_problem() -> (
 
 #[test]
 fn pso_interrupted_at_every_step_ends_bit_identical() {
-    {
-        let (nominal, params, data) = er20_problem();
-        let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
-        let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
-        cfg.max_iterations = 30;
-        type Swarm = Pso<f64, 40, 24, 64>;
+    let (nominal, params, data) = er20_problem();
+    let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
+    let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
+    cfg.max_iterations = 30;
+    type Swarm = Pso<f64, 40, 24, 64>;
 
-        let mut straight = Box::new(Swarm::new(cfg, 9).unwrap());
-        straight.run(&mut f).unwrap();
+    let mut straight = Box::new(Swarm::new(cfg, 9).unwrap());
+    straight.run(&mut f).unwrap();
 
-        // Budgets that end calls mid-iteration, on iteration boundaries and across them.
-        for budget in [1usize, 13, 40, 57] {
-            let mut run = Box::new(Swarm::new(cfg, 9).unwrap());
-            let mut calls = 0;
-            loop {
-                let p = run.step(&mut f, budget).unwrap();
-                calls += 1;
-                // Power cut: save, then continue in a fresh stepper built with another seed.
-                let snap = bytes(&*run);
-                let mut fresh = Box::new(Swarm::new(cfg, 1234).unwrap());
-                fresh.restore(&mut snap.as_slice()).unwrap();
-                assert_eq!(bytes(&*fresh), snap, "restore reproduces the state exactly");
-                run = fresh;
-                if p.stopped.is_some() {
-                    break;
-                }
+    // Budgets that end calls mid-iteration, on iteration boundaries and across them.
+    for budget in [1usize, 13, 40, 57] {
+        let mut run = Box::new(Swarm::new(cfg, 9).unwrap());
+        let mut calls = 0;
+        loop {
+            let p = run.step(&mut f, budget).unwrap();
+            calls += 1;
+            // Power cut: save, then continue in a fresh stepper built with another seed.
+            let snap = bytes(&*run);
+            let mut fresh = Box::new(Swarm::new(cfg, 1234).unwrap());
+            fresh.restore(&mut snap.as_slice()).unwrap();
+            assert_eq!(bytes(&*fresh), snap, "restore reproduces the state exactly");
+            run = fresh;
+            if p.stopped.is_some() {
+                break;
             }
-            assert!(calls > 1);
-            assert_eq!(run.progress(), straight.progress());
-            assert_eq!(
-                run.best_position().map(f64::to_bits),
-                straight.best_position().map(f64::to_bits)
-            );
-            assert_eq!(
-                bytes(&*run),
-                bytes(&*straight),
-                "budget {budget}: final states differ"
-            );
         }
-    };
+        assert!(calls > 1);
+        assert_eq!(run.progress(), straight.progress());
+        assert_eq!(
+            run.best_position().map(f64::to_bits),
+            straight.best_position().map(f64::to_bits)
+        );
+        assert_eq!(
+            bytes(&*run),
+            bytes(&*straight),
+            "budget {budget}: final states differ"
+        );
+    }
 }
 
 #[test]
 fn paper_sized_swarm_round_trips_in_f32_and_f64() {
-    {
-        let (nominal, params, data) = er20_problem();
-        let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
-        let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
-        cfg.max_iterations = 6;
-        let mut a = Box::new(Pso::<f64, 200, 24>::new(cfg, 3).unwrap());
-        let mut b = Box::new(Pso::<f64, 200, 24>::new(cfg, 3).unwrap());
-        a.step(&mut f, 733).unwrap();
-        let snap = bytes(&*a);
-        b.restore(&mut snap.as_slice()).unwrap();
-        a.run(&mut f).unwrap();
-        b.run(&mut f).unwrap();
-        assert_eq!(bytes(&*a), bytes(&*b));
+    let (nominal, params, data) = er20_problem();
+    let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
+    let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
+    cfg.max_iterations = 6;
+    let mut a = Box::new(Pso::<f64, 200, 24>::new(cfg, 3).unwrap());
+    let mut b = Box::new(Pso::<f64, 200, 24>::new(cfg, 3).unwrap());
+    a.step(&mut f, 733).unwrap();
+    let snap = bytes(&*a);
+    b.restore(&mut snap.as_slice()).unwrap();
+    a.run(&mut f).unwrap();
+    b.run(&mut f).unwrap();
+    assert_eq!(bytes(&*a), bytes(&*b));
 
-        let n32: kinecal::Robot<f32, 6> = nominal.cast().unwrap();
-        let d32: Vec<kinecal::Measurement<f32, 6>> = data
-            .iter()
-            .map(|m| kinecal::Measurement::new(m.q.map(|v| v as f32), m.point.map(|v| v as f32)))
-            .collect();
-        let mut g = PositionFitness::new(&n32, &params, &d32).unwrap();
-        let mut c32 = PsoConfig::<f32, 24>::calibration(params.as_slice()).unwrap();
-        c32.max_iterations = 6;
-        let mut a = Box::new(Pso::<f32, 200, 24>::new(c32, 3).unwrap());
-        let mut b = Box::new(Pso::<f32, 200, 24>::new(c32, 4).unwrap());
-        a.step(&mut g, 333).unwrap();
-        let snap = bytes(&*a);
-        // An f32 swarm of 200 × 24 is 4 arrays of 19,200 bytes plus config and history.
-        assert!(
-            snap.len() > 4 * 19_200 && snap.len() < 4 * 19_200 + 2_000,
-            "{}",
-            snap.len()
-        );
-        b.restore(&mut snap.as_slice()).unwrap();
-        a.run(&mut g).unwrap();
-        b.run(&mut g).unwrap();
-        assert_eq!(
-            a.best_position().map(f32::to_bits),
-            b.best_position().map(f32::to_bits)
-        );
-        assert_eq!(bytes(&*a), bytes(&*b));
-    };
+    let n32: kinecal::Robot<f32, 6> = nominal.cast().unwrap();
+    let d32: Vec<kinecal::Measurement<f32, 6>> = data
+        .iter()
+        .map(|m| kinecal::Measurement::new(m.q.map(|v| v as f32), m.point.map(|v| v as f32)))
+        .collect();
+    let mut g = PositionFitness::new(&n32, &params, &d32).unwrap();
+    let mut c32 = PsoConfig::<f32, 24>::calibration(params.as_slice()).unwrap();
+    c32.max_iterations = 6;
+    let mut a = Box::new(Pso::<f32, 200, 24>::new(c32, 3).unwrap());
+    let mut b = Box::new(Pso::<f32, 200, 24>::new(c32, 4).unwrap());
+    a.step(&mut g, 333).unwrap();
+    let snap = bytes(&*a);
+    // An f32 swarm of 200 × 24 is 4 arrays of 19,200 bytes plus config and history.
+    assert!(
+        snap.len() > 4 * 19_200 && snap.len() < 4 * 19_200 + 2_000,
+        "{}",
+        snap.len()
+    );
+    b.restore(&mut snap.as_slice()).unwrap();
+    a.run(&mut g).unwrap();
+    b.run(&mut g).unwrap();
+    assert_eq!(
+        a.best_position().map(f32::to_bits),
+        b.best_position().map(f32::to_bits)
+    );
+    assert_eq!(bytes(&*a), bytes(&*b));
 }
 
 /// Restoring `snap` into `target` must fail and leave it exactly as it was.
@@ -142,66 +138,64 @@ fn refused<S: Snapshot>(target: &mut S, snap: &[u8]) -> SnapshotError {
 
 #[test]
 fn corrupted_snapshots_are_refused_and_change_nothing() {
-    {
-        let (nominal, params, data) = er20_problem();
-        let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
-        let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
-        cfg.max_iterations = 5;
-        let mut source = Small::new(cfg, 1).unwrap();
-        source.step(&mut f, 20).unwrap();
-        let good = bytes(&source);
-        let mut target = Small::new(cfg, 2).unwrap();
-        target.step(&mut f, 3).unwrap();
+    let (nominal, params, data) = er20_problem();
+    let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
+    let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
+    cfg.max_iterations = 5;
+    let mut source = Small::new(cfg, 1).unwrap();
+    source.step(&mut f, 20).unwrap();
+    let good = bytes(&source);
+    let mut target = Small::new(cfg, 2).unwrap();
+    target.step(&mut f, 3).unwrap();
 
-        // Every single flipped bit pattern at every byte position.
-        for i in 0..good.len() {
-            for mask in [0x01u8, 0x80, 0xFF] {
-                let mut bad = good.clone();
-                bad[i] ^= mask;
-                refused(&mut target, &bad);
-            }
+    // Every single flipped bit pattern at every byte position.
+    for i in 0..good.len() {
+        for mask in [0x01u8, 0x80, 0xFF] {
+            let mut bad = good.clone();
+            bad[i] ^= mask;
+            refused(&mut target, &bad);
         }
-        // Every truncation.
-        for len in 0..good.len() {
-            let e = refused(&mut target, &good[..len]);
-            assert!(
-                matches!(e, SnapshotError::UnexpectedEof | SnapshotError::Length),
-                "{len}: {e:?}"
-            );
-        }
-        // Header fields give specific errors.
-        let mut bad = good.clone();
-        bad[4..6].copy_from_slice(&2u16.to_le_bytes());
-        assert_eq!(refused(&mut target, &bad), SnapshotError::Version(2));
-        bad = good.clone();
-        bad[0] = b'X';
-        assert_eq!(refused(&mut target, &bad), SnapshotError::BadMagic);
-        bad = good.clone();
-        bad[HEADER_LEN + 100] ^= 0x10;
-        assert_eq!(refused(&mut target, &bad), SnapshotError::Checksum);
-
-        // The uncorrupted snapshot still restores into the untouched target.
-        target.restore(&mut good.as_slice()).unwrap();
-        assert_eq!(bytes(&target), good);
-
-        // The same through a scratch swarm instead of a copy on the stack.
-        let mut other = Small::new(cfg, 3).unwrap();
-        let mut scratch = Small::new(cfg, 4).unwrap();
-        let before = bytes(&other);
-        let mut bad = good.clone();
-        bad[HEADER_LEN + 200] ^= 0x20;
-        assert_eq!(
-            other
-                .restore_using(&mut scratch, &mut bad.as_slice())
-                .unwrap_err(),
-            SnapshotError::Checksum
+    }
+    // Every truncation.
+    for len in 0..good.len() {
+        let e = refused(&mut target, &good[..len]);
+        assert!(
+            matches!(e, SnapshotError::UnexpectedEof | SnapshotError::Length),
+            "{len}: {e:?}"
         );
-        assert_eq!(bytes(&other), before);
+    }
+    // Header fields give specific errors.
+    let mut bad = good.clone();
+    bad[4..6].copy_from_slice(&2u16.to_le_bytes());
+    assert_eq!(refused(&mut target, &bad), SnapshotError::Version(2));
+    bad = good.clone();
+    bad[0] = b'X';
+    assert_eq!(refused(&mut target, &bad), SnapshotError::BadMagic);
+    bad = good.clone();
+    bad[HEADER_LEN + 100] ^= 0x10;
+    assert_eq!(refused(&mut target, &bad), SnapshotError::Checksum);
+
+    // The uncorrupted snapshot still restores into the untouched target.
+    target.restore(&mut good.as_slice()).unwrap();
+    assert_eq!(bytes(&target), good);
+
+    // The same through a scratch swarm instead of a copy on the stack.
+    let mut other = Small::new(cfg, 3).unwrap();
+    let mut scratch = Small::new(cfg, 4).unwrap();
+    let before = bytes(&other);
+    let mut bad = good.clone();
+    bad[HEADER_LEN + 200] ^= 0x20;
+    assert_eq!(
         other
-            .restore_using(&mut scratch, &mut good.as_slice())
-            .unwrap();
-        assert_eq!(bytes(&other), good);
-    };
+            .restore_using(&mut scratch, &mut bad.as_slice())
+            .unwrap_err(),
+        SnapshotError::Checksum
+    );
+    assert_eq!(bytes(&other), before);
+    other
+        .restore_using(&mut scratch, &mut good.as_slice())
+        .unwrap();
+    assert_eq!(bytes(&other), good);
 }
 
 #[test]

@@ -251,29 +251,27 @@ fn dense_kpi(robot: &HostRobot<6>, poses: &[[f64; 6]], work: &[[f64; 6]], sigma:
 }
 
 fn plan_with(criterion: CriterionArg, collisions: bool, seed: u64) -> (Vec<[f64; 6]>, f64) {
-    {
-        let (_, robot, scene_file) = load();
-        let scene = scene_file.to_scene().unwrap();
-        let w = work();
-        let req = PlanRequest {
-            scene: &scene,
-            criterion,
-            poses: 60,
-            work: &w,
-            sigma: 0.01,
-            pool: 2000,
-            collisions,
-            passes: 30,
-            seed,
-            refine: true,
-            estimate: &[],
-        };
-        let p = design::plan(&robot, &req).unwrap();
-        (
-            p.poses.iter().map(|c| c.q).collect(),
-            p.evaluation.kpi_trace_mm2,
-        )
-    }
+    let (_, robot, scene_file) = load();
+    let scene = scene_file.to_scene().unwrap();
+    let w = work();
+    let req = PlanRequest {
+        scene: &scene,
+        criterion,
+        poses: 60,
+        work: &w,
+        sigma: 0.01,
+        pool: 2000,
+        collisions,
+        passes: 30,
+        seed,
+        refine: true,
+        estimate: &[],
+    };
+    let p = design::plan(&robot, &req).unwrap();
+    (
+        p.poses.iter().map(|c| c.q).collect(),
+        p.evaluation.kpi_trace_mm2,
+    )
 }
 
 #[test]
@@ -428,113 +426,111 @@ fn plan_command_accepts_negative_work_values_and_writes_csv_and_json() {
 
 #[test]
 fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
-    {
-        let (_, robot, scene_file) = load();
-        let scene = scene_file.to_scene().unwrap();
-        let robot = design::in_base_frame(&robot);
-        let params = design::plan_params(6).unwrap();
-        let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
-        let mut pool = design::build_pool(
-            &robot,
-            &scene,
-            params.as_slice(),
-            1500,
-            true,
-            &mut rng,
-            1_000_000,
-        )
-        .candidates;
-        let basis = design::pool_basis(&pool, params.len()).unwrap();
-        basis.reduce_pool(&mut pool);
-        let w = work();
-        let sigma = 0.01;
-        // Target: what a 40-pose KPI design reaches, plus 10 %.
-        let (_, k40) = {
-            let mut p2: Vec<HostCandidate<6>> = pool.clone();
-            let wr: Vec<_> = design::work_rows(&robot, params.as_slice(), &w)
-                .unwrap()
-                .iter()
-                .map(|g| basis.reduce(g))
-                .collect();
-            let (d, _) = design::optimise::<6, { kinecal_cli::VCAP }>(
-                &mut p2,
-                &basis,
-                &wr,
-                kinecal::planning::selection::Criterion::Kpi,
-                40,
-                30,
-                None,
-            )
-            .unwrap();
-            let qs: Vec<[f64; 6]> = d.iter().map(|i| p2[*i].q).collect();
-            (
-                qs.clone(),
-                design::evaluate(&robot, params.as_slice(), &qs, &w, sigma).unwrap(),
-            )
-        };
-        let worst40 = k40.tool_std_mm.iter().cloned().fold(0.0, f64::max);
-        let target = worst40 * 1.1;
-        let mut online = OnlineDesign::<f64, 6, { kinecal_cli::VCAP }, PCAP, 4>::new(
-            robot.clone(),
-            params.clone(),
-            basis.clone(),
-            &w,
-            sigma,
-            target,
+    let (_, robot, scene_file) = load();
+    let scene = scene_file.to_scene().unwrap();
+    let robot = design::in_base_frame(&robot);
+    let params = design::plan_params(6).unwrap();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
+    let mut pool = design::build_pool(
+        &robot,
+        &scene,
+        params.as_slice(),
+        1500,
+        true,
+        &mut rng,
+        1_000_000,
+    )
+    .candidates;
+    let basis = design::pool_basis(&pool, params.len()).unwrap();
+    basis.reduce_pool(&mut pool);
+    let w = work();
+    let sigma = 0.01;
+    // Target: what a 40-pose KPI design reaches, plus 10 %.
+    let (_, k40) = {
+        let mut p2: Vec<HostCandidate<6>> = pool.clone();
+        let wr: Vec<_> = design::work_rows(&robot, params.as_slice(), &w)
+            .unwrap()
+            .iter()
+            .map(|g| basis.reduce(g))
+            .collect();
+        let (d, _) = design::optimise::<6, { kinecal_cli::VCAP }>(
+            &mut p2,
+            &basis,
+            &wr,
+            kinecal::planning::selection::Criterion::Kpi,
+            40,
+            30,
+            None,
         )
         .unwrap();
-        let mut measured: Vec<[f64; 6]> = Vec::new();
-        let mut last = f64::INFINITY;
-        let mut first_known = None;
-        loop {
-            let i = online.propose(&pool).expect("a proposal");
-            assert!(!pool[i].selected);
-            let status = online.add_candidate(&mut pool, i).unwrap();
-            measured.push(pool[i].q);
-            assert_eq!(status.measurements, measured.len());
-            if let Some(std) = status.tool_std {
-                first_known.get_or_insert(measured.len());
-                assert!(
-                    status.worst_std <= last * (1.0 + 1e-9),
-                    "precision got worse: {} after {last}",
-                    status.worst_std
-                );
-                last = status.worst_std;
-                // Agrees with the batch prediction from scratch.
-                let ev = design::evaluate(&robot, params.as_slice(), &measured, &w, sigma).unwrap();
-                for (a, b) in std.iter().zip(&ev.tool_std_mm) {
-                    assert!((a - b).abs() <= 1e-4 * b, "online {a} vs batch {b}");
-                }
-            } else {
-                assert!(!status.reached);
-            }
-            if status.reached {
-                assert!(status.worst_std <= target);
-                break;
-            }
-            assert!(
-                measured.len() < 120,
-                "target {target} not reached after 120 poses (now {last})"
-            );
-        }
-        let first_known = first_known.unwrap();
-        // Every identifiable direction needs ≥ rank/3 poses; greedy gets there quickly, and
-        // reaches a 40-pose exchange design's precision (+10 %) with about as many poses.
-        assert!(
-            first_known <= basis.rank(),
-            "first full-rank prediction after {first_known} poses"
-        );
-        assert!(
-            measured.len() <= 60,
-            "{} poses to reach {target}",
-            measured.len()
-        );
-        eprintln!(
-            "online: determined after {first_known} poses, target {target:.5} mm reached after {}",
-            measured.len()
-        );
-        let _ = default_tolerance::<f64>();
+        let qs: Vec<[f64; 6]> = d.iter().map(|i| p2[*i].q).collect();
+        (
+            qs.clone(),
+            design::evaluate(&robot, params.as_slice(), &qs, &w, sigma).unwrap(),
+        )
     };
+    let worst40 = k40.tool_std_mm.iter().cloned().fold(0.0, f64::max);
+    let target = worst40 * 1.1;
+    let mut online = OnlineDesign::<f64, 6, { kinecal_cli::VCAP }, PCAP, 4>::new(
+        robot.clone(),
+        params.clone(),
+        basis.clone(),
+        &w,
+        sigma,
+        target,
+    )
+    .unwrap();
+    let mut measured: Vec<[f64; 6]> = Vec::new();
+    let mut last = f64::INFINITY;
+    let mut first_known = None;
+    loop {
+        let i = online.propose(&pool).expect("a proposal");
+        assert!(!pool[i].selected);
+        let status = online.add_candidate(&mut pool, i).unwrap();
+        measured.push(pool[i].q);
+        assert_eq!(status.measurements, measured.len());
+        if let Some(std) = status.tool_std {
+            first_known.get_or_insert(measured.len());
+            assert!(
+                status.worst_std <= last * (1.0 + 1e-9),
+                "precision got worse: {} after {last}",
+                status.worst_std
+            );
+            last = status.worst_std;
+            // Agrees with the batch prediction from scratch.
+            let ev = design::evaluate(&robot, params.as_slice(), &measured, &w, sigma).unwrap();
+            for (a, b) in std.iter().zip(&ev.tool_std_mm) {
+                assert!((a - b).abs() <= 1e-4 * b, "online {a} vs batch {b}");
+            }
+        } else {
+            assert!(!status.reached);
+        }
+        if status.reached {
+            assert!(status.worst_std <= target);
+            break;
+        }
+        assert!(
+            measured.len() < 120,
+            "target {target} not reached after 120 poses (now {last})"
+        );
+    }
+    let first_known = first_known.unwrap();
+    // Every identifiable direction needs ≥ rank/3 poses; greedy gets there quickly, and
+    // reaches a 40-pose exchange design's precision (+10 %) with about as many poses.
+    assert!(
+        first_known <= basis.rank(),
+        "first full-rank prediction after {first_known} poses"
+    );
+    assert!(
+        measured.len() <= 60,
+        "{} poses to reach {target}",
+        measured.len()
+    );
+    eprintln!(
+        "online: determined after {first_known} poses, target {target:.5} mm reached after {}",
+        measured.len()
+    );
+    let _ = default_tolerance::<f64>();
 }
 
 #[test]

@@ -46,21 +46,19 @@ fn grid_cases_cover_the_limits_on_the_pitch() {
 /// within 1.25× the noise floor; nothing named where nothing is hidden.
 #[test]
 fn fast_subset_names_hidden_effects_exactly() {
-    {
-        let pick = vec![
-            (0, vec!["joint-compliance:2"], 0.02, 4.0),
-            (0, vec!["joint-cyclic:4:2"], 0.02, 4.0),
-            (0, vec!["joint-scale:3"], 0.02, 4.0),
-            (0, vec!["axis-tilt:3"], 0.02, 4.0),
-            (0, vec!["joint-table:2:9"], 0.02, 4.0),
-            (1, vec!["joint-compliance:4"], 0.02, 4.0),
-            (1, vec!["joint-cyclic:1:1"], 0.02, 4.0),
-            (1, vec!["joint-compliance:2", "joint-cyclic:5:1"], 0.02, 5.0),
-            (0, vec![], 0.02, 0.0),
-            (1, vec![], 0.02, 0.0),
-        ];
-        assert_picks(&load_matrix(), &pick, 77);
-    };
+    let pick = vec![
+        (0, vec!["joint-compliance:2"], 0.02, 4.0),
+        (0, vec!["joint-cyclic:4:2"], 0.02, 4.0),
+        (0, vec!["joint-scale:3"], 0.02, 4.0),
+        (0, vec!["axis-tilt:3"], 0.02, 4.0),
+        (0, vec!["joint-table:2:9"], 0.02, 4.0),
+        (1, vec!["joint-compliance:4"], 0.02, 4.0),
+        (1, vec!["joint-cyclic:1:1"], 0.02, 4.0),
+        (1, vec!["joint-compliance:2", "joint-cyclic:5:1"], 0.02, 5.0),
+        (0, vec![], 0.02, 0.0),
+        (1, vec![], 0.02, 0.0),
+    ];
+    assert_picks(&load_matrix(), &pick, 77);
 }
 
 /// Joint tables whose knots lie on a fixed angle pitch (robots of diagnose_matrix_grid.toml,
@@ -70,18 +68,16 @@ fn fast_subset_names_hidden_effects_exactly() {
 /// `fast_subset_names_hidden_effects_exactly`.
 #[test]
 fn fast_grid_tables_named_exactly_at_the_floor() {
-    {
-        let m = load_matrix_file("diagnose_matrix_grid.toml");
-        let kr16 = robot_index(&m, "kr16");
-        let arm7 = robot_index(&m, "arm7");
-        let pick = vec![
-            (kr16, vec!["joint-grid:1:10"], 0.02, 4.0),
-            (arm7, vec!["joint-grid:2:15:5"], 0.02, 6.0),
-            (arm7, vec!["joint-grid:1:10:2.5"], 0.02, 4.0),
-            (kr16, vec![], 0.02, 0.0),
-        ];
-        assert_picks(&m, &pick, 161);
-    };
+    let m = load_matrix_file("diagnose_matrix_grid.toml");
+    let kr16 = robot_index(&m, "kr16");
+    let arm7 = robot_index(&m, "arm7");
+    let pick = vec![
+        (kr16, vec!["joint-grid:1:10"], 0.02, 4.0),
+        (arm7, vec!["joint-grid:2:15:5"], 0.02, 6.0),
+        (arm7, vec!["joint-grid:1:10:2.5"], 0.02, 4.0),
+        (kr16, vec![], 0.02, 0.0),
+    ];
+    assert_picks(&m, &pick, 161);
 }
 
 /// The index of the robot called `name` in `m`.

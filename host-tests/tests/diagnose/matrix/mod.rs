@@ -41,11 +41,9 @@ use config::*;
 #[test]
 #[ignore = "the full matrix takes minutes: cargo test -p kinecal-host --test diagnose matrix:: -- --ignored --nocapture"]
 fn full_matrix() {
-    {
-        let file =
-            std::env::var("KINECAL_MATRIX_FILE").unwrap_or_else(|_| "diagnose_matrix.toml".into());
-        run_matrix(&file)
-    };
+    let file =
+        std::env::var("KINECAL_MATRIX_FILE").unwrap_or_else(|_| "diagnose_matrix.toml".into());
+    run_matrix(&file)
 }
 
 /// Cases the search was never tuned on.

@@ -36,147 +36,140 @@ fn folds_are_deterministic_balanced_and_keep_repeats_together() {
 /// full refits (the screen ranks candidates like the refits).
 #[test]
 fn linearised_screen_agrees_with_full_refits() {
-    {
-        let (_, d) = simulated(
-            vec![effect("joint-compliance", 2, &[3e-4], 1)],
-            0.02,
-            11,
-            100,
+    let (_, d) = simulated(
+        vec![effect("joint-compliance", 2, &[3e-4], 1)],
+        0.02,
+        11,
+        100,
+    );
+    let nominal = er20();
+    let (geo, held) = fit_geometry(&nominal, true, &[], &d).unwrap();
+    let mut params: Vec<Param> = ParamSet::<64>::full(6, false).unwrap().as_slice().to_vec();
+    params.retain(|p| !held.contains(p));
+    let problem = Problem::new(&geo, &params, TablePenalty::default()).unwrap();
+    let current = fit(&geo, &problem, &d, 20).unwrap().robot;
+    let folds = Folds::new(&d, 5, 0);
+    let lin = Linearised::new(&current, &problem, &d, &folds);
+    let base_lin = rms(&lin.baseline());
+    let base_refit = rms(&refit_errors(&current, &problem, &d, &folds, 20).unwrap());
+    assert!(
+        (base_lin / base_refit - 1.0).abs() < 0.01,
+        "{base_lin} vs {base_refit}"
+    );
+    for c in [
+        Candidate {
+            kind: CandidateKind::Compliance,
+            joint: 1,
+        },
+        Candidate {
+            kind: CandidateKind::Cyclic(1),
+            joint: 1,
+        },
+        Candidate {
+            kind: CandidateKind::Scale,
+            joint: 3,
+        },
+    ] {
+        let mut robot_c = current.clone();
+        let extra = c.add_to(&mut robot_c).unwrap();
+        let cols = candidate_columns(&robot_c, &extra, &d);
+        let screened = rms(&lin.screen(&cols, extra.len(), None));
+        let mut p = problem.params.clone();
+        p.extend(extra);
+        let problem_c = Problem::new(&robot_c, &p, TablePenalty::default()).unwrap();
+        let refit = rms(&refit_errors(&robot_c, &problem_c, &d, &folds, 20).unwrap());
+        eprintln!(
+            "{}: screen {screened:.5} refit {refit:.5} (baseline {base_refit:.5})",
+            c.label()
         );
-        let nominal = er20();
-        let (geo, held) = fit_geometry(&nominal, true, &[], &d).unwrap();
-        let mut params: Vec<Param> = ParamSet::<64>::full(6, false).unwrap().as_slice().to_vec();
-        params.retain(|p| !held.contains(p));
-        let problem = Problem::new(&geo, &params, TablePenalty::default()).unwrap();
-        let current = fit(&geo, &problem, &d, 20).unwrap().robot;
-        let folds = Folds::new(&d, 5, 0);
-        let lin = Linearised::new(&current, &problem, &d, &folds);
-        let base_lin = rms(&lin.baseline());
-        let base_refit = rms(&refit_errors(&current, &problem, &d, &folds, 20).unwrap());
         assert!(
-            (base_lin / base_refit - 1.0).abs() < 0.01,
-            "{base_lin} vs {base_refit}"
+            (screened / refit - 1.0).abs() < 0.02,
+            "{}: {screened} vs {refit}",
+            c.label()
         );
-        for c in [
-            Candidate {
-                kind: CandidateKind::Compliance,
-                joint: 1,
-            },
-            Candidate {
-                kind: CandidateKind::Cyclic(1),
-                joint: 1,
-            },
-            Candidate {
-                kind: CandidateKind::Scale,
-                joint: 3,
-            },
-        ] {
-            let mut robot_c = current.clone();
-            let extra = c.add_to(&mut robot_c).unwrap();
-            let cols = candidate_columns(&robot_c, &extra, &d);
-            let screened = rms(&lin.screen(&cols, extra.len(), None));
-            let mut p = problem.params.clone();
-            p.extend(extra);
-            let problem_c = Problem::new(&robot_c, &p, TablePenalty::default()).unwrap();
-            let refit = rms(&refit_errors(&robot_c, &problem_c, &d, &folds, 20).unwrap());
-            eprintln!(
-                "{}: screen {screened:.5} refit {refit:.5} (baseline {base_refit:.5})",
-                c.label()
-            );
-            assert!(
-                (screened / refit - 1.0).abs() < 0.02,
-                "{}: {screened} vs {refit}",
-                c.label()
-            );
-        }
-    };
+    }
 }
 
 /// A table on the grid the data were made with is recovered: the residual drops to the noise
 /// and the knot values match the truth up to the part `theta` takes (a constant).
 #[test]
 fn penalised_fit_recovers_a_table() {
-    {
-        let knots = [2e-4, -1e-4, 3e-4, 0.0, -2e-4, 1e-4, -3e-4];
-        let (truth, d) = simulated(vec![effect("joint-table", 3, &knots, 1)], 0.005, 21, 300);
-        let nominal = er20();
-        let (geo, held) = fit_geometry(&nominal, true, &[], &d).unwrap();
-        let cands = catalogue(&geo, true, &d, &CatalogueConfig::default());
-        // The 6-interval grid over joint 3's limits (the truth's) is on offer.
-        let c = *cands
-            .iter()
-            .find(|c| c.joint == 2 && matches!(c.kind, CandidateKind::Table { step, .. } if (step.to_degrees() - 50.0).abs() < 1e-9))
-            .expect("6-interval grid on joint 3");
-        let mut robot = geo.clone();
-        let extra = c.add_to(&mut robot).unwrap();
-        let mut params: Vec<Param> = ParamSet::<64>::full(6, false).unwrap().as_slice().to_vec();
-        params.retain(|p| !held.contains(p));
-        params.extend(extra);
-        let problem = Problem::new(&robot, &params, TablePenalty::default()).unwrap();
-        let before = (squared_errors(&geo, &d).iter().sum::<f64>() / d.len() as f64).sqrt();
-        let fitted = fit(&robot, &problem, &d, 30).unwrap();
-        let after = (fitted.ssr / d.len() as f64).sqrt();
-        assert!(before > 0.1, "{before}");
-        assert!(after < 1.2 * 3f64.sqrt() * 0.005, "{before} → {after}");
-        // Knot values up to a constant (which theta3 absorbed).
-        let v = c.values(&fitted.robot);
-        let CandidateKind::Table { start, step, .. } = c.kind else {
-            unreachable!()
-        };
-        let offset = fitted.robot.joints()[2].theta - truth.joints()[2].theta;
-        for (i, t) in knots.iter().enumerate() {
-            let q = truth.joints()[2].lower + i as f64 * 50f64.to_radians();
-            let k = ((q - start) / step).round() as usize;
-            if k < v.len() {
-                assert!(
-                    (v[k] + offset - t).abs() < 2e-5,
-                    "knot {i}: {} vs {t}",
-                    v[k] + offset
-                );
-            }
-        }
+    let knots = [2e-4, -1e-4, 3e-4, 0.0, -2e-4, 1e-4, -3e-4];
+    let (truth, d) = simulated(vec![effect("joint-table", 3, &knots, 1)], 0.005, 21, 300);
+    let nominal = er20();
+    let (geo, held) = fit_geometry(&nominal, true, &[], &d).unwrap();
+    let cands = catalogue(&geo, true, &d, &CatalogueConfig::default());
+    // The 6-interval grid over joint 3's limits (the truth's) is on offer.
+    let c = *cands
+        .iter()
+        .find(|c| c.joint == 2 && matches!(c.kind, CandidateKind::Table { step, .. } if (step.to_degrees() - 50.0).abs() < 1e-9))
+        .expect("6-interval grid on joint 3");
+    let mut robot = geo.clone();
+    let extra = c.add_to(&mut robot).unwrap();
+    let mut params: Vec<Param> = ParamSet::<64>::full(6, false).unwrap().as_slice().to_vec();
+    params.retain(|p| !held.contains(p));
+    params.extend(extra);
+    let problem = Problem::new(&robot, &params, TablePenalty::default()).unwrap();
+    let before = (squared_errors(&geo, &d).iter().sum::<f64>() / d.len() as f64).sqrt();
+    let fitted = fit(&robot, &problem, &d, 30).unwrap();
+    let after = (fitted.ssr / d.len() as f64).sqrt();
+    assert!(before > 0.1, "{before}");
+    assert!(after < 1.2 * 3f64.sqrt() * 0.005, "{before} → {after}");
+    // Knot values up to a constant (which theta3 absorbed).
+    let v = c.values(&fitted.robot);
+    let CandidateKind::Table { start, step, .. } = c.kind else {
+        unreachable!()
     };
+    let offset = fitted.robot.joints()[2].theta - truth.joints()[2].theta;
+    for (i, t) in knots.iter().enumerate() {
+        let q = truth.joints()[2].lower + i as f64 * 50f64.to_radians();
+        let k = ((q - start) / step).round() as usize;
+        if k < v.len() {
+            assert!(
+                (v[k] + offset - t).abs() < 2e-5,
+                "knot {i}: {} vs {t}",
+                v[k] + offset
+            );
+        }
+    }
 }
 
 /// With repeated poses the noise floor comes from their scatter (the model plays no part), and
 /// the search stops once the held-out error reaches it.
 #[test]
 fn noise_floor_comes_from_repeated_poses() {
-    {
-        let sigma = 0.02;
-        let (truth, mut d) = simulated(
-            vec![effect("joint-compliance", 2, &[3e-4], 1)],
-            sigma,
-            31,
-            80,
-        );
-        // The first 20 configurations measured twice more: same readings, fresh noise.
-        let mut rng = Xoshiro256PlusPlus::seed_from_u64(99);
-        let configs: Vec<[f64; 6]> = d[..20].iter().map(|m| m.q).collect();
-        for _ in 0..2 {
-            let points = kinecal_cli::simulation::measure(&truth, &configs, sigma, &mut rng);
-            for (q, p) in configs.iter().zip(points) {
-                d.push(Measurement::new(*q, p));
-            }
+    let sigma = 0.02;
+    let (truth, mut d) = simulated(
+        vec![effect("joint-compliance", 2, &[3e-4], 1)],
+        sigma,
+        31,
+        80,
+    );
+    // The first 20 configurations measured twice more: same readings, fresh noise.
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(99);
+    let configs: Vec<[f64; 6]> = d[..20].iter().map(|m| m.q).collect();
+    for _ in 0..2 {
+        let points = kinecal_cli::simulation::measure(&truth, &configs, sigma, &mut rng);
+        for (q, p) in configs.iter().zip(points) {
+            d.push(Measurement::new(*q, p));
         }
-        let r =
-            kinecal_cli::diagnose::diagnose(&er20(), true, &[], &d, &Default::default()).unwrap();
-        assert_eq!(
-            r.noise_source,
-            kinecal_cli::diagnose::NoiseSource::RepeatedPoses
-        );
-        let floor = 3f64.sqrt() * sigma;
-        assert!(
-            (r.noise_floor_mm / floor - 1.0).abs() < 0.2,
-            "{} vs {floor}",
-            r.noise_floor_mm
-        );
-        let names: Vec<(&str, usize)> = r
-            .found
-            .iter()
-            .map(|f| (f.candidate.id(), f.candidate.joint))
-            .collect();
-        assert_eq!(names, [("joint-compliance", 1)]);
-        assert!(r.final_validation_rms_mm < 1.25 * r.noise_floor_mm);
-    };
+    }
+    let r = kinecal_cli::diagnose::diagnose(&er20(), true, &[], &d, &Default::default()).unwrap();
+    assert_eq!(
+        r.noise_source,
+        kinecal_cli::diagnose::NoiseSource::RepeatedPoses
+    );
+    let floor = 3f64.sqrt() * sigma;
+    assert!(
+        (r.noise_floor_mm / floor - 1.0).abs() < 0.2,
+        "{} vs {floor}",
+        r.noise_floor_mm
+    );
+    let names: Vec<(&str, usize)> = r
+        .found
+        .iter()
+        .map(|f| (f.candidate.id(), f.candidate.joint))
+        .collect();
+    assert_eq!(names, [("joint-compliance", 1)]);
+    assert!(r.final_validation_rms_mm < 1.25 * r.noise_floor_mm);
 }

@@ -287,7 +287,7 @@ typedef uint8_t kc_csv_error_kind;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
-// A robot (`Robot<f32, N, KC_MAX_EFFECT_VALUES>`, N = 6 or 7): base pose, MDH rows, tool
+// A robot (`Robot<f32, N, Inline<KC_MAX_EFFECT_VALUES>>`, N = 6 or 7): base pose, MDH rows, tool
 // point, joint corrections (effects), joint couplings. Opaque; caller-owned (a `static` in
 // firmware); `kc_robot_init` or `kc_robot_load` constructs it.
 typedef struct KC_ALIGNED(8) kc_robot {
@@ -368,7 +368,7 @@ typedef struct kc_lm_config {
   uint8_t keep_curvature;
 } kc_lm_config;
 
-// A Levenberg–Marquardt identification (`Levenberg<f32, 6, 0, FixedLm<f32,
+// A Levenberg–Marquardt identification (`Levenberg<f32, 6, Inline<0>, FixedLm<f32,
 // KC_LM_MAX_PARAMS>>`): a streaming stepper that does a bounded slice of work per
 // `kc_lm_step` call, snapshot and restore. Several KB: give it static storage. Room for
 // `KC_LM_MAX_PARAMS` parameters (the MDH set); `kc_lm_full` takes the base and the tool too.

@@ -56,6 +56,7 @@
 use crate::model::coupling::Couplings;
 use crate::model::param::{Param, ParamError};
 use crate::model::robot::RowTrig;
+use crate::ValueStorage;
 use crate::{Frame, Joint, Real, Robot};
 use nalgebra::Vector3;
 
@@ -138,7 +139,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
         Self::default()
     }
 
-    fn chain<const V: usize>(&mut self, robot: &Robot<T, N, V>, q: &[T; N], tool: &Vector3<T>) {
+    fn chain<V: ValueStorage>(&mut self, robot: &Robot<T, N, V>, q: &[T; N], tool: &Vector3<T>) {
         // Origins are accumulated relative to the base origin and shifted once at the end:
         // with the robot metres away from the tracker, summing in absolute coordinates
         // rounds every step at the large magnitude (f32: 1.1 µm worst case at 3 m, vs 0.7 µm).
@@ -161,14 +162,14 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     /// joint reads that) are clamped to it, so that every finite reading gives a finite point
     /// (a harmonic or a coupling of 1e308 rad would overflow). A robot without couplings pays
     /// one branch for them.
-    pub fn compute<const V: usize>(&mut self, robot: &Robot<T, N, V>, q: &[T; N]) -> Vector3<T> {
+    pub fn compute<V: ValueStorage>(&mut self, robot: &Robot<T, N, V>, q: &[T; N]) -> Vector3<T> {
         self.evaluate(robot, q, robot.tool(), 0)
     }
 
     /// [`Self::compute`] for tool point `k` (0 is [`Robot::tool`]; a further reflector of a
     /// robot with several, [`Robot::tool_point`]); `None` (workspace unchanged) when the robot
     /// has no point `k`.
-    pub fn compute_point<const V: usize>(
+    pub fn compute_point<V: ValueStorage>(
         &mut self,
         robot: &Robot<T, N, V>,
         q: &[T; N],
@@ -179,7 +180,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     }
 
     #[inline(always)]
-    fn evaluate<const V: usize>(
+    fn evaluate<V: ValueStorage>(
         &mut self,
         robot: &Robot<T, N, V>,
         q: &[T; N],
@@ -225,7 +226,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
         let qg = self.q_geometric;
         self.chain(robot, &qg, tool);
         // A model without value capacity (the firmware's) has no term: not even the search.
-        if V > 0 {
+        if V::CAPACITY > 0 {
             match effects.thermal() {
                 Some((_, c, t0)) => self.expand(c, t0),
                 None => {
@@ -264,8 +265,8 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     /// term), so a column does not search the effect list again (the C ABI's Jacobian paid
     /// ~140 instructions for that); a model without value capacity folds it to 1.
     #[inline(always)]
-    fn length_scale<const V: usize>(&self, _robot: &Robot<T, N, V>) -> T {
-        if V > 0 {
+    fn length_scale<V: ValueStorage>(&self, _robot: &Robot<T, N, V>) -> T {
+        if V::CAPACITY > 0 {
             self.expansion
         } else {
             T::one()
@@ -274,7 +275,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
 
     /// [`Self::compute_point`] at temperature `temp_c` (°C; `None`: the reference temperature):
     /// sets [`Self::temp_c`] first.
-    pub fn compute_at<const V: usize>(
+    pub fn compute_at<V: ValueStorage>(
         &mut self,
         robot: &Robot<T, N, V>,
         q: &[T; N],
@@ -300,7 +301,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
 
     /// The tool pose: the measured frame's orientation (the flange axes times
     /// [`Robot::tool_axes`]) with the origin at the measured point.
-    pub fn tool_pose<const V: usize>(&self, robot: &Robot<T, N, V>) -> Frame<T> {
+    pub fn tool_pose<V: ValueStorage>(&self, robot: &Robot<T, N, V>) -> Frame<T> {
         let f = self.flange_pose();
         if robot.tool_axes_identity() {
             return f;
@@ -336,7 +337,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     /// joint correction adds to): the model-angle column plus, for every joint `k` coupled
     /// from `j`, `ratio_k · ∂p/∂q_k`. Equals [`Self::joint_column`] without couplings.
     #[inline]
-    pub fn reading_column<const V: usize>(&self, robot: &Robot<T, N, V>, j: usize) -> Vector3<T> {
+    pub fn reading_column<V: ValueStorage>(&self, robot: &Robot<T, N, V>, j: usize) -> Vector3<T> {
         let couplings = robot.couplings();
         if couplings.is_empty() {
             self.joint_column(j)
@@ -363,7 +364,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     /// `lin`, `ang`: through the couplings to readings, then times `1 + slope`. Out of line:
     /// a plain model does not come here.
     #[inline(never)]
-    fn reading_jacobian<const V: usize>(
+    fn reading_jacobian<V: ValueStorage>(
         &self,
         robot: &Robot<T, N, V>,
         lin: &mut [Vector3<T>; N],
@@ -399,7 +400,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     /// Inline: called once per parameter and pose in identification's inner loop, where a
     /// call returning the column through memory stalls on store forwarding.
     #[inline(always)]
-    pub fn column<const V: usize>(
+    pub fn column<V: ValueStorage>(
         &self,
         robot: &Robot<T, N, V>,
         p: Param,
@@ -460,7 +461,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     /// The column of coordinate `a` of tool point `k` ≥ 1: the flange axis when the point
     /// computed is `k`, zero for the others. Out of line (robots with one point never come).
     #[inline(never)]
-    fn point_column<const V: usize>(
+    fn point_column<V: ValueStorage>(
         &self,
         robot: &Robot<T, N, V>,
         k: u8,
@@ -480,7 +481,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     /// rotation vector (in the measurement frame) the measured frame turns by per unit of
     /// `param` (per rad of an angle, per mm of a length: zero for every length). Beside
     /// [`Self::column`], for 6-D observations.
-    pub fn rotation_column<const V: usize>(
+    pub fn rotation_column<V: ValueStorage>(
         &self,
         robot: &Robot<T, N, V>,
         p: Param,
@@ -538,7 +539,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
 
     /// The rotation column of the corrected reading `r'_j` (see [`Self::reading_column`]):
     /// `z_j` plus, for every joint `k` coupled from `j`, `ratio_k · z_k`.
-    pub fn reading_rotation_column<const V: usize>(
+    pub fn reading_rotation_column<V: ValueStorage>(
         &self,
         robot: &Robot<T, N, V>,
         j: usize,
@@ -562,7 +563,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     /// a temperature). Out of line, so that the geometric columns (the
     /// LM's inner loop) do not pay for it.
     #[inline(never)]
-    fn effect_column<const V: usize>(
+    fn effect_column<V: ValueStorage>(
         &self,
         robot: &Robot<T, N, V>,
         k: u16,
@@ -590,7 +591,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     /// with the geometry enters only through the compliance times a lever-arm change (a few 1e-6
     /// of a column for 1e-3 rad/m compliances, seen by the `kinematics` fuzz target),
     /// and Gauss–Newton converges with the approximate columns; the effect columns are exact.
-    pub fn identification_jacobian<const V: usize>(
+    pub fn identification_jacobian<V: ValueStorage>(
         &self,
         robot: &Robot<T, N, V>,
         params: &[Param],
@@ -608,7 +609,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     /// Joint Jacobian of the point (`lin[j] = ∂p/∂r_j`) and of the tool orientation
     /// (`ang[j]`, rotation vector per rad) with respect to the joint *readings* `r`, including
     /// the slope of the joint corrections and the couplings (chain rule).
-    pub fn joint_jacobian<const V: usize>(
+    pub fn joint_jacobian<V: ValueStorage>(
         &self,
         robot: &Robot<T, N, V>,
     ) -> ([Vector3<T>; N], [Vector3<T>; N]) {
@@ -627,7 +628,7 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
 }
 
 /// Forward kinematics of one configuration without keeping the workspace.
-pub fn point<T: Real, const N: usize, const V: usize>(
+pub fn point<T: Real, const N: usize, V: ValueStorage>(
     robot: &Robot<T, N, V>,
     q: &[T; N],
 ) -> Vector3<T> {

@@ -71,4 +71,5 @@ pub use model::effects::{Effect, EffectKind, Effects};
 pub use model::frame::Frame;
 pub use model::param::{Param, ParamSet};
 pub use model::robot::{Joint, Robot, RobotError};
+pub use model::value_storage::{Inline, ValueBuffer, ValueStorage};
 pub use num::real::Real;

@@ -99,8 +99,10 @@ pub const EXIT_REFUSED: i32 = 2;
 /// Effect-value capacity of host-side models: room for per-joint tables on every joint.
 pub const VCAP: usize = 2048;
 
-/// The host's robot model: `f64`, `N` joints, room for [`VCAP`] effect values.
-pub type HostRobot<const N: usize> = kinecal::Robot<f64, N, VCAP>;
+pub use compute::host_values::HostValues;
+
+/// The host's robot model: `f64`, `N` joints, up to [`VCAP`] effect values on the heap.
+pub type HostRobot<const N: usize> = kinecal::Robot<f64, N, HostValues>;
 
 // Limits on numbers from the command line and the robot file that size work or storage, or
 // that no robot can have (docs/formats.md, "Limits"). Input beyond them is refused (exit 2)

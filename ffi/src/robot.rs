@@ -1,4 +1,4 @@
-//! Robots (`kc_robot`: a `Robot<f32, 6 or 7, KC_MAX_EFFECT_VALUES>`: geometry, joint
+//! Robots (`kc_robot`: a `Robot<f32, 6 or 7, Inline<KC_MAX_EFFECT_VALUES>>`: geometry, joint
 //! corrections, couplings), loading a binary model (`kc_robot_load`) and parameter codes
 //! (`kc_param`).
 
@@ -49,7 +49,7 @@ pub struct kc_frame {
 pub const KC_MAX_EFFECT_VALUES: usize = 1024;
 
 /// A library robot of `N` joints as a [`kc_robot`] holds it.
-pub(crate) type Arm<const N: usize> = Robot<f32, N, KC_MAX_EFFECT_VALUES>;
+pub(crate) type Arm<const N: usize> = Robot<f32, N, kinecal::Inline<KC_MAX_EFFECT_VALUES>>;
 
 /// The library robot behind a [`kc_robot`]: 6 or 7 joints.
 #[derive(Clone)]
@@ -87,7 +87,7 @@ impl Model {
 /// compile-time assertion checks it fits).
 pub const KC_ROBOT_SIZE: usize = 5160;
 
-/// A robot (`Robot<f32, N, KC_MAX_EFFECT_VALUES>`, N = 6 or 7): base pose, MDH rows, tool
+/// A robot (`Robot<f32, N, Inline<KC_MAX_EFFECT_VALUES>>`, N = 6 or 7): base pose, MDH rows, tool
 /// point, joint corrections (effects), joint couplings. Opaque; caller-owned (a `static` in
 /// firmware); [`kc_robot_init`] or [`kc_robot_load`] constructs it.
 #[repr(C, align(8))]

@@ -21,7 +21,7 @@ fn check(
     r: &Result<Solution<f64, N>, CompensateError<f64, N>>,
     seed: &[f64; N],
     cfg: &Config<f64>,
-    robot: &kinecal::Robot<f64, N, 0>,
+    robot: &kinecal::Robot<f64, N, kinecal::Inline<0>>,
     target: &Target<f64>,
 ) {
     let sol = match r {
@@ -67,7 +67,7 @@ fn check(
 /// One input: the target's invariants asserted on `data` (panics name the invariant).
 pub fn run(data: &[u8]) {
     let mut u = Unstructured::new(data);
-    let robot = super::ur10::<0>();
+    let robot = super::ur10::<kinecal::Inline<0>>();
     let q_true: [f64; N] = std::array::from_fn(|_| near(&mut u, 0.0, 3.0));
     let seed: [f64; N] = std::array::from_fn(|i| {
         if u.ratio(1u8, 8).unwrap_or(false) {

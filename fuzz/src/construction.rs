@@ -22,7 +22,7 @@ use kinecal::{EffectKind, Frame, Joint, Robot};
 use nalgebra::Vector3;
 
 const N: usize = 3;
-const V: usize = 12;
+type V = kinecal::Inline<12>;
 
 fn joint(u: &mut Unstructured, nominal: &Joint<f64>) -> Joint<f64> {
     Joint {

@@ -22,7 +22,7 @@ use nalgebra::Vector3;
 const TURN: f64 = 6.28;
 
 const N: usize = 6;
-const V: usize = 16;
+type V = kinecal::Inline<16>;
 
 fn fd_param(robot: &Robot<f64, N, V>, q: &[f64; N], p: Param, h: f64) -> Option<Vector3<f64>> {
     let eval = |s: f64| -> Option<Vector3<f64>> {

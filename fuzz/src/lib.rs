@@ -241,7 +241,7 @@ impl embedded_io::Read for FaultReader<'_> {
 }
 
 /// The 3-joint arm of the compensation example (f64, mm, rad), with `V` effect values.
-pub fn arm3<const V: usize>() -> Robot<f64, 3, V> {
+pub fn arm3<V: kinecal::ValueStorage>() -> Robot<f64, 3, V> {
     Robot::new(
         Frame::identity(),
         [
@@ -255,7 +255,7 @@ pub fn arm3<const V: usize>() -> Robot<f64, 3, V> {
 }
 
 /// The nominal UR10 of `data/ur10/robot.toml`.
-pub fn ur10<const V: usize>() -> Robot<f64, 6, V> {
+pub fn ur10<V: kinecal::ValueStorage>() -> Robot<f64, 6, V> {
     let mut rows = [
         Joint::mdh_deg(0.0, 0.0, 0.0, 118.0),
         Joint::mdh_deg(90.0, 0.0, 180.0, 0.0),
@@ -272,7 +272,7 @@ pub fn ur10<const V: usize>() -> Robot<f64, 6, V> {
 }
 
 /// Every number of a robot's description (rows, base, tool, effect values, coupling ratios).
-pub fn robot_numbers<const N: usize, const V: usize>(r: &Robot<f64, N, V>) -> Vec<f64> {
+pub fn robot_numbers<const N: usize, V: kinecal::ValueStorage>(r: &Robot<f64, N, V>) -> Vec<f64> {
     let mut v = Vec::new();
     for j in r.joints() {
         v.extend([j.alpha, j.a, j.theta, j.d, j.beta, j.lower, j.upper]);
@@ -293,12 +293,12 @@ pub fn robot_numbers<const N: usize, const V: usize>(r: &Robot<f64, N, V>) -> Ve
 }
 
 /// True when every number of the robot is finite and its reach is finite and positive.
-pub fn robot_finite<const N: usize, const V: usize>(r: &Robot<f64, N, V>) -> bool {
+pub fn robot_finite<const N: usize, V: kinecal::ValueStorage>(r: &Robot<f64, N, V>) -> bool {
     robot_numbers(r).iter().all(|x| x.is_finite()) && r.reach().is_finite() && r.reach() > 0.0
 }
 
 /// Largest magnitude of a robot's lengths and effect values (for "moderate" gates).
-pub fn robot_magnitude<const N: usize, const V: usize>(r: &Robot<f64, N, V>) -> f64 {
+pub fn robot_magnitude<const N: usize, V: kinecal::ValueStorage>(r: &Robot<f64, N, V>) -> f64 {
     robot_numbers(r).iter().fold(0.0f64, |m, x| m.max(x.abs()))
 }
 
@@ -343,7 +343,7 @@ impl embedded_io::Write for VecWriter {
 }
 
 /// `n` measurements of `robot` at readings spread over the joint range (deterministic).
-pub fn simulate<const N: usize, const V: usize>(
+pub fn simulate<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     n: usize,
 ) -> Vec<kinecal::Measurement<f64, N>> {
@@ -362,7 +362,9 @@ pub fn simulate<const N: usize, const V: usize>(
 }
 
 /// The same robot with every row slightly changed (an "identified" robot).
-pub fn perturbed<const N: usize, const V: usize>(robot: &Robot<f64, N, V>) -> Robot<f64, N, V> {
+pub fn perturbed<const N: usize, V: kinecal::ValueStorage>(
+    robot: &Robot<f64, N, V>,
+) -> Robot<f64, N, V> {
     let mut r = robot.clone();
     for i in 0..N {
         let mut j = *r.joint(i).unwrap();

@@ -17,7 +17,7 @@ use kinecal::io::snapshot::crc32;
 use kinecal::{Frame, Joint, Robot};
 use nalgebra::Vector3;
 
-const V: usize = 64;
+type V = kinecal::Inline<64>;
 
 fn start<const N: usize>() -> Robot<f64, N, V> {
     Robot::new(

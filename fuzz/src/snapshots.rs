@@ -29,7 +29,7 @@ impl Objective<f64> for Bowl {
     }
 }
 
-type Lm = FixedLevenberg<f64, 3, 8, 16>;
+type Lm = FixedLevenberg<f64, 3, kinecal::Inline<8>, 16>;
 type Swarm = Pso<f64, 4, 3, 16>;
 type Net = Bpnn<f64, 2, 3, 1>;
 
@@ -69,10 +69,10 @@ fn check_canonical<S: Snapshot>(s: &S, input: &[u8]) {
 }
 
 pub fn lm_setup() -> (Lm, Vec<kinecal::Measurement<f64, 3>>) {
-    let truth = super::perturbed(&super::arm3::<8>());
+    let truth = super::perturbed(&super::arm3::<kinecal::Inline<8>>());
     let data = super::simulate(&truth, 12);
     let mut lm = Lm::fixed(
-        super::arm3::<8>(),
+        super::arm3::<kinecal::Inline<8>>(),
         ParamSet::full(3, false).unwrap(),
         LmConfig::default(),
     )

@@ -25,7 +25,7 @@ use nalgebra::Vector3;
 const N: usize = 3;
 
 fn degenerate(u: &mut Unstructured) -> Vec<Measurement<f64, N>> {
-    let truth = super::perturbed(&super::arm3::<4>());
+    let truth = super::perturbed(&super::arm3::<kinecal::Inline<4>>());
     let n = u.int_in_range(1..=10usize).unwrap_or(1);
     let mode = u.int_in_range(0..=3u8).unwrap_or(0);
     let mut out = Vec::new();
@@ -74,9 +74,11 @@ pub fn run(data: &[u8]) {
             };
             let base_unknown = u.ratio(1u8, 3).unwrap_or(false);
             let params = ParamSet::<24>::full(N, base_unknown).unwrap();
-            let Ok(mut lm) =
-                FixedLevenberg::<f64, N, 4, 24>::fixed(super::arm3::<4>(), params, cfg)
-            else {
+            let Ok(mut lm) = FixedLevenberg::<f64, N, kinecal::Inline<4>, 24>::fixed(
+                super::arm3::<kinecal::Inline<4>>(),
+                params,
+                cfg,
+            ) else {
                 return;
             };
             let mut calls = 0usize;
@@ -119,7 +121,7 @@ pub fn run(data: &[u8]) {
             }
         }
         1 => {
-            let robot = super::arm3::<4>();
+            let robot = super::arm3::<kinecal::Inline<4>>();
             let mut set = ParamSet::<3>::new();
             for p in [Param::Theta(0), Param::A(1), Param::D(0)] {
                 set.push(p).unwrap();

@@ -11,7 +11,7 @@ use kinecal::{ForwardKinematics, Frame, Joint, Real, Robot};
 use nalgebra::Vector3;
 use std::hint::black_box;
 
-const V: usize = 64;
+type V = kinecal::Inline<64>;
 
 fn model() -> Robot<f64, 6, V> {
     let rows = [

@@ -12,7 +12,7 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 use std::hint::black_box;
 
 /// The ER20-C10 stand-in of the issue, with a small tilt and a placed base.
-fn robot<T: Real>() -> Robot<T, 6, 0> {
+fn robot<T: Real>() -> Robot<T, 6, kinecal::Inline<0>> {
     let rows = [
         (0.0, 0.0, 0.0, 504.0),
         (-90.0, 170.0, -90.0, 0.0),

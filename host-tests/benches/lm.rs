@@ -12,13 +12,13 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 use std::hint::black_box;
 
 /// The ER20-C10 stand-in of the demo (joint limits ±170°).
-fn er20() -> Robot<f64, 6, 0> {
+fn er20() -> Robot<f64, 6, kinecal::Inline<0>> {
     kinecal_cli::simulation::er20_c10()
-        .with_capacity::<0>()
+        .with_capacity::<kinecal::Inline<0>>()
         .unwrap()
 }
 
-fn data() -> (Robot<f64, 6, 0>, Vec<Measurement<f64, 6>>) {
+fn data() -> (Robot<f64, 6, kinecal::Inline<0>>, Vec<Measurement<f64, 6>>) {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(1);
     let nominal = er20();
     let mut truth = nominal.clone();
@@ -54,13 +54,16 @@ fn data() -> (Robot<f64, 6, 0>, Vec<Measurement<f64, 6>>) {
 }
 
 fn solve<T: Real, const P: usize>(
-    nominal: &Robot<T, 6, 0>,
+    nominal: &Robot<T, 6, kinecal::Inline<0>>,
     set: &ParamSet<P>,
     data: &[Measurement<T, 6>],
 ) -> T {
-    let mut lm =
-        FixedLevenberg::<T, 6, 0, P>::fixed(nominal.clone(), set.clone(), LmConfig::default())
-            .unwrap();
+    let mut lm = FixedLevenberg::<T, 6, kinecal::Inline<0>, P>::fixed(
+        nominal.clone(),
+        set.clone(),
+        LmConfig::default(),
+    )
+    .unwrap();
     lm.run(data).unwrap().cost
 }
 

@@ -233,7 +233,7 @@ impl RefRobot {
     }
 
     /// Copies the numbers of a library model (nothing else is shared).
-    pub fn from_robot<const N: usize, const V: usize>(r: &Robot<f64, N, V>) -> RefRobot {
+    pub fn from_robot<const N: usize, V: kinecal::ValueStorage>(r: &Robot<f64, N, V>) -> RefRobot {
         let b = r.base();
         let mut base = Matrix4::identity();
         for (c, v) in [b.x, b.y, b.z, b.o].iter().enumerate() {

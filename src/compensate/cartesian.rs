@@ -8,6 +8,7 @@
 //! frame), so its base is replaced by the model's.
 
 use super::{compensate, CompensateError, Config, Solution, Target};
+use crate::ValueStorage;
 use crate::{ForwardKinematics, Real, Robot};
 
 /// The target to send to a controller with the `nominal` kinematics so that the robot the
@@ -15,7 +16,7 @@ use crate::{ForwardKinematics, Real, Robot};
 /// at the compensated command (a point for a point target, the tool pose for a pose target),
 /// with that command. The seed and the settings are [`compensate`]'s; its errors are returned
 /// as they are (a failed compensation carries its best command, but no target to send).
-pub fn nominal_target<T: Real, const N: usize, const V: usize, const W: usize>(
+pub fn nominal_target<T: Real, const N: usize, V: ValueStorage, W: ValueStorage>(
     model: &Robot<T, N, V>,
     nominal: &Robot<T, N, W>,
     target: &Target<T>,
@@ -29,7 +30,7 @@ pub fn nominal_target<T: Real, const N: usize, const V: usize, const W: usize>(
 
 /// Where the `nominal` robot, placed at `model`'s base, puts the tool at the readings `q`: the
 /// point, or with `pose` the tool pose (as [`ForwardKinematics::tool_pose`]).
-pub fn nominal_reach<T: Real, const N: usize, const V: usize, const W: usize>(
+pub fn nominal_reach<T: Real, const N: usize, V: ValueStorage, W: ValueStorage>(
     model: &Robot<T, N, V>,
     nominal: &Robot<T, N, W>,
     pose: bool,

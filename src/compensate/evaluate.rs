@@ -4,6 +4,7 @@
 use super::target::Target;
 use crate::forward::ForwardKinematics;
 use crate::model::frame::{orientation_error, orientation_sin_cos};
+use crate::ValueStorage;
 use crate::{Real, Robot};
 
 /// Residual and scaled Jacobian at one joint vector.
@@ -83,7 +84,7 @@ impl<T: Real, const N: usize> Eval<T, N> {
 
 /// Evaluates the model at `q` into `e` (residual, its norms, the scaled joint Jacobian),
 /// overwriting every field.
-pub(super) fn evaluate_into<T: Real, const N: usize, const V: usize>(
+pub(super) fn evaluate_into<T: Real, const N: usize, V: ValueStorage>(
     e: &mut Eval<T, N>,
     fk: &mut ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
@@ -155,7 +156,7 @@ pub(super) fn evaluate_into<T: Real, const N: usize, const V: usize>(
 /// corrections, the operations of [`ForwardKinematics::joint_jacobian`] in its order (same
 /// values). Out of line: the servo loop's plain model does not come here.
 #[inline(never)]
-pub(super) fn reading_columns<T: Real, const N: usize, const V: usize>(
+pub(super) fn reading_columns<T: Real, const N: usize, V: ValueStorage>(
     cols: &mut [Col<T>; N],
     fk: &ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,

@@ -8,6 +8,7 @@ use super::outcome::{CompensateError, Solution};
 use super::step::{blocked, conditioning, constrained_step};
 use super::target::{Target, FAR};
 use crate::forward::ForwardKinematics;
+use crate::ValueStorage;
 use crate::{Real, Robot};
 
 /// The corrected joint command for `target` on the identified `robot`, starting from `seed`
@@ -16,7 +17,7 @@ use crate::{Real, Robot};
 /// Six-joint (or larger) arms with a [`Target::Pose`] solve 6 equations; a [`Target::Point`]
 /// solves 3. When the joints outnumber the equations, each step is the minimum-norm change
 /// *from the seed* of the linearised problem, so the redundancy stays where the seed put it.
-pub fn compensate<T: Real, const N: usize, const V: usize>(
+pub fn compensate<T: Real, const N: usize, V: ValueStorage>(
     robot: &Robot<T, N, V>,
     target: &Target<T>,
     seed: &[T; N],
@@ -27,7 +28,7 @@ pub fn compensate<T: Real, const N: usize, const V: usize>(
 
 /// As [`compensate`], but the iteration starts at `start` (a warm start, clamped into the box)
 /// while the box and the redundancy pull stay centred on `seed`.
-pub fn compensate_from<T: Real, const N: usize, const V: usize>(
+pub fn compensate_from<T: Real, const N: usize, V: ValueStorage>(
     robot: &Robot<T, N, V>,
     target: &Target<T>,
     seed: &[T; N],
@@ -83,7 +84,7 @@ pub fn compensate_from<T: Real, const N: usize, const V: usize>(
     };
 
     let mut fk = ForwardKinematics::new();
-    if V > 0 {
+    if V::CAPACITY > 0 {
         fk.temp_c = config.temperature_c;
     }
     let mut q0 = *start;

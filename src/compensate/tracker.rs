@@ -5,6 +5,7 @@ use super::finite::all_finite;
 use super::newton::{compensate, compensate_from};
 use super::outcome::{CompensateError, Solution};
 use super::target::Target;
+use crate::ValueStorage;
 use crate::{Real, Robot};
 
 /// Streaming compensation along a trajectory: keeps the previous command and starts each cycle
@@ -53,7 +54,7 @@ impl<T: Real, const N: usize> Tracker<T, N> {
     /// the controller's own trajectory), and the iteration starts from the previous correction
     /// carried over, `last command + (nominal − previous nominal)`, which stays good even if
     /// the nominal solution switches branch.
-    pub fn next<const V: usize>(
+    pub fn next<V: ValueStorage>(
         &mut self,
         robot: &Robot<T, N, V>,
         target: &Target<T>,
@@ -75,7 +76,7 @@ impl<T: Real, const N: usize> Tracker<T, N> {
 
     /// One trajectory point without a nominal solution: the previous command is the seed, so
     /// the joints move at most `max_step` per cycle. Needs [`Tracker::start`] or an earlier call.
-    pub fn follow<const V: usize>(
+    pub fn follow<V: ValueStorage>(
         &mut self,
         robot: &Robot<T, N, V>,
         target: &Target<T>,

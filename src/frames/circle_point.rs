@@ -38,6 +38,7 @@
 use crate::frames::circle::{basis, fit_circle_with, unit, Circle, CircleError};
 use crate::model::coupling::Couplings;
 use crate::num::linalg::{cholesky, cholesky_solve, Square};
+use crate::ValueStorage;
 use crate::{ForwardKinematics, Frame, Real, Robot};
 use nalgebra::Vector3;
 
@@ -357,7 +358,7 @@ pub struct BaseEstimate<T: Real> {
 /// Base pose `B` from a sweep of joint 1 (`first.joint == 0`) and one of joint 2
 /// (`second.joint == 1`), with the nominal rows of `robot` (its base is ignored). See the
 /// module documentation for the definition.
-pub fn base_from_sweeps<T: Real, const N: usize, const V: usize>(
+pub fn base_from_sweeps<T: Real, const N: usize, V: ValueStorage>(
     robot: &Robot<T, N, V>,
     first: &Sweep<'_, T, N>,
     second: &Sweep<'_, T, N>,
@@ -487,7 +488,7 @@ pub struct ToolEstimate<T: Real> {
 /// `wrist.joint` must be N−2 and `flange.joint` N−1 (0-based). The flange sweep must keep the
 /// joints before the wrist where the wrist sweep had them for [`AxialMethod::FlangeAxis`];
 /// otherwise the less general methods are used.
-pub fn tool_from_sweeps<T: Real, const N: usize, const V: usize>(
+pub fn tool_from_sweeps<T: Real, const N: usize, V: ValueStorage>(
     robot: &Robot<T, N, V>,
     wrist: &Sweep<'_, T, N>,
     flange: Option<&Sweep<'_, T, N>>,

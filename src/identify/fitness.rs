@@ -57,6 +57,7 @@
 use crate::identify::lm::observation_cost;
 use crate::model::param::{apply_delta, ParamError, ParamSet};
 use crate::model::robot::RowTrig;
+use crate::ValueStorage;
 use crate::{ForwardKinematics, Frame, Joint, Measurement, Real, Robot};
 
 /// `(sin q_j, cos q_j)` of one pose's model angles (the joint readings through the robot's
@@ -95,7 +96,7 @@ pub enum FitnessError {
 /// nothing: it copies the reference, applies `x` with [`apply_delta`] and runs the chain once
 /// per pose.
 #[derive(Clone, Debug)]
-pub struct PositionFitness<'a, T: Real, const N: usize, const V: usize, const P: usize> {
+pub struct PositionFitness<'a, T: Real, const N: usize, V: ValueStorage, const P: usize> {
     reference: &'a Robot<T, N, V>,
     params: &'a ParamSet<P>,
     data: &'a [Measurement<T, N>],
@@ -105,7 +106,7 @@ pub struct PositionFitness<'a, T: Real, const N: usize, const V: usize, const P:
     cache: Option<&'a [JointTrig<T, N>]>,
 }
 
-impl<'a, T: Real, const N: usize, const V: usize, const P: usize> PositionFitness<'a, T, N, V, P> {
+impl<'a, T: Real, const N: usize, V: ValueStorage, const P: usize> PositionFitness<'a, T, N, V, P> {
     /// The objective for deltas over `params` from `reference`, fitted to `data`.
     pub fn new(
         reference: &'a Robot<T, N, V>,
@@ -195,7 +196,7 @@ impl<'a, T: Real, const N: usize, const V: usize, const P: usize> PositionFitnes
     }
 }
 
-impl<T: Real, const N: usize, const V: usize, const P: usize> Objective<T>
+impl<T: Real, const N: usize, V: ValueStorage, const P: usize> Objective<T>
     for PositionFitness<'_, T, N, V, P>
 {
     fn dimension(&self) -> usize {
@@ -216,7 +217,7 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Objective<T>
 }
 
 /// Σ of the observations' weighted squared residuals ([`observation_cost`]).
-fn cost<T: Real, const N: usize, const V: usize>(
+fn cost<T: Real, const N: usize, V: ValueStorage>(
     fk: &mut ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
     data: &[Measurement<T, N>],
@@ -232,7 +233,7 @@ fn cost<T: Real, const N: usize, const V: usize>(
 /// The fast path: forward kinematics of the measured point only, with the joint angle's sine
 /// and cosine from `sin(θ + q)`, `cos(θ + q)` by angle addition. Same arithmetic as
 /// [`ForwardKinematics::compute`] otherwise (tested against it).
-fn sum_cached<T: Real, const N: usize, const V: usize>(
+fn sum_cached<T: Real, const N: usize, V: ValueStorage>(
     robot: &Robot<T, N, V>,
     data: &[Measurement<T, N>],
     cache: &[JointTrig<T, N>],

@@ -9,6 +9,7 @@
 //! model by `1 + c·(T − T0)` at the temperature `T` of an evaluation ([`Effects::expansion`];
 //! forward kinematics applies it and gives its column).
 
+use crate::model::value_storage::{ValueBuffer, ValueStorage};
 use crate::Real;
 use heapless::Vec;
 
@@ -111,15 +112,15 @@ impl<T: Real> Effect<T> {
     }
 }
 
-/// Most values one effect list holds, whatever its capacity `V` (value indices are `u16`).
+/// Most values one effect list holds, whatever its storage's capacity (value indices are `u16`).
 pub const MAX_VALUES: usize = u16::MAX as usize;
 
 /// Error when building or changing the effect list.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum EffectError {
-    /// More effects than [`MAX_EFFECTS`], or more values than the model's capacity `V` or
-    /// than [`MAX_VALUES`].
+    /// More effects than [`MAX_EFFECTS`], or more values than the model's storage holds
+    /// ([`ValueStorage::CAPACITY`]) or than [`MAX_VALUES`].
     Capacity,
     /// Joint index outside the robot (the list's own robot, and the `n_joints` given).
     Joint,
@@ -128,32 +129,32 @@ pub enum EffectError {
     Shape,
 }
 
-/// The list of effects of a model and their values (capacity `V` values in all, at most
-/// [`MAX_VALUES`] used whatever `V`).
+/// The list of effects of a model and their values (kept in the storage `V`: at most its
+/// [`ValueStorage::CAPACITY`] values in all, and at most [`MAX_VALUES`] whatever the storage).
 ///
 /// A list belongs to a robot and accepts joints of that robot only: get it with
 /// [`crate::Robot::effects_mut`]. A list made with [`Default`] belongs to no robot and refuses
 /// every effect ([`EffectError::Joint`]); [`Effects::for_joints`] makes one for `n` joints.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Effects<T: Real, const V: usize> {
+pub struct Effects<T: Real, V: ValueStorage> {
     list: Vec<Effect<T>, MAX_EFFECTS>,
-    values: [T; V],
+    values: V::Buffer<T>,
     used: usize,
     joints: usize,
 }
 
-impl<T: Real, const V: usize> Default for Effects<T, V> {
+impl<T: Real, V: ValueStorage> Default for Effects<T, V> {
     fn default() -> Self {
         Self::for_joints(0)
     }
 }
 
-impl<T: Real, const V: usize> Effects<T, V> {
+impl<T: Real, V: ValueStorage> Effects<T, V> {
     /// An empty list for a robot of `n` joints (at most 256 are addressable).
     pub fn for_joints(n: usize) -> Self {
         Self {
             list: Vec::new(),
-            values: [T::zero(); V],
+            values: V::Buffer::<T>::empty(),
             used: 0,
             joints: n,
         }
@@ -173,9 +174,9 @@ impl<T: Real, const V: usize> Effects<T, V> {
     pub fn is_empty(&self) -> bool {
         // Without value capacity nothing is ever stored (every effect has a value): saying so
         // at compile time drops the effect handling (corrections, lever arms, the joint
-        // Jacobian's chain rule) from a model with `V = 0`: the M4F firmware's flash 3.8 KB
+        // Jacobian's chain rule) from a model with `Inline<0>`: the M4F firmware's flash 3.8 KB
         // smaller, its forward kinematics 19 instructions faster.
-        V == 0 || self.list.is_empty()
+        V::CAPACITY == 0 || self.list.is_empty()
     }
     /// Effect `i`, `None` beyond the last.
     pub fn get(&self, i: usize) -> Option<&Effect<T>> {
@@ -183,7 +184,7 @@ impl<T: Real, const V: usize> Effects<T, V> {
     }
     /// All values in use, effect by effect.
     pub fn values(&self) -> &[T] {
-        &self.values[..self.used]
+        self.values.slots().get(..self.used).unwrap_or(&[])
     }
     /// Values of effect `i`.
     pub fn values_of(&self, i: usize) -> &[T] {
@@ -193,7 +194,8 @@ impl<T: Real, const V: usize> Effects<T, V> {
         }
     }
     pub(crate) fn values_mut(&mut self) -> &mut [T] {
-        &mut self.values[..self.used]
+        let used = self.used;
+        self.values.slots_mut().get_mut(..used).unwrap_or(&mut [])
     }
     /// The thermal-expansion term, if any: the index of its value `c` (per kelvin) in
     /// [`Self::values`], `c` and the reference temperature `T0` (°C).
@@ -229,11 +231,15 @@ impl<T: Real, const V: usize> Effects<T, V> {
     /// Values of `e` ([`Effect::range`]); `None` when they are not all in the list or there are
     /// none ([`Effects::push`] never stores an effect without values). Sliced in two steps
     /// rather than with the range, and never empty: the compiler then sees that a list without
-    /// value capacity (`V = 0`) has no effect to evaluate and drops that code (about 1.8 KB of
+    /// value capacity (`Inline<0>`) has no effect to evaluate and drops that code (about 1.8 KB of
     /// the M4F firmware's flash, in forward kinematics and compensation).
     #[inline(always)]
     fn values_in(&self, e: &Effect<T>) -> Option<&[T]> {
-        let v = self.values.get(e.first as usize..)?.get(..e.len as usize)?;
+        let v = self
+            .values
+            .slots()
+            .get(e.first as usize..)?
+            .get(..e.len as usize)?;
         (!v.is_empty()).then_some(v)
     }
 
@@ -258,9 +264,14 @@ impl<T: Real, const V: usize> Effects<T, V> {
             return Err(EffectError::Joint);
         }
         self.check_shape(kind, joint, order, start, step, values)?;
-        if self.list.is_full() || self.used + values.len() > V.min(MAX_VALUES) {
+        let end = self.used + values.len();
+        if self.list.is_full() || end > V::CAPACITY.min(MAX_VALUES) {
             return Err(EffectError::Capacity);
         }
+        let Some(slot) = self.slot(end) else {
+            return Err(EffectError::Capacity);
+        };
+        slot.copy_from_slice(values);
         let e = Effect {
             kind,
             joint: joint as u8,
@@ -270,8 +281,7 @@ impl<T: Real, const V: usize> Effects<T, V> {
             first: self.used as u16,
             len: values.len() as u16,
         };
-        self.values[self.used..self.used + values.len()].copy_from_slice(values);
-        self.used += values.len();
+        self.used = end;
         // Cannot fail: checked `is_full` above.
         let _ = self.list.push(e);
         Ok(self.list.len() - 1)
@@ -296,15 +306,15 @@ impl<T: Real, const V: usize> Effects<T, V> {
             return Err(EffectError::Joint.into());
         }
         let end = self.used.saturating_add(len);
-        if self.list.is_full() || end > V.min(MAX_VALUES) {
+        if self.list.is_full() || end > V::CAPACITY.min(MAX_VALUES) {
             return Err(EffectError::Capacity.into());
         }
-        let Some(slot) = self.values.get_mut(self.used..end) else {
+        let Some(slot) = self.slot(end) else {
             return Err(EffectError::Capacity.into());
         };
         // The values stay beyond `used` until the shape is accepted (zeroed again if not).
         let r = fill(slot).and_then(|()| {
-            let vals = self.values.get(self.used..end).unwrap_or(&[]);
+            let vals = self.values.slots().get(self.used..end).unwrap_or(&[]);
             self.check_shape(kind, joint, order, start, step, vals)
                 .map_err(E::from)
         });
@@ -325,12 +335,27 @@ impl<T: Real, const V: usize> Effects<T, V> {
                 Ok(self.list.len() - 1)
             }
             Err(e) => {
-                if let Some(v) = self.values.get_mut(self.used..end) {
+                if let Some(v) = self.values.slots_mut().get_mut(self.used..end) {
                     v.fill(T::zero());
                 }
+                self.values.release_slots(self.used);
                 Err(e)
             }
         }
+    }
+
+    /// The slots `used..end` for new values, after making room for them (`None` when the
+    /// storage cannot hold them; nothing changes then).
+    fn slot(&mut self, end: usize) -> Option<&mut [T]> {
+        if !self.values.reserve_slots(end) {
+            return None;
+        }
+        let used = self.used;
+        if used > end || self.values.slots().len() < end {
+            self.values.release_slots(used);
+            return None;
+        }
+        self.values.slots_mut().get_mut(used..end)
     }
 
     /// The shape checks of [`Effects::push`]: the value count of the kind, order and step (a

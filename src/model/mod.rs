@@ -43,3 +43,4 @@ pub mod frame;
 pub mod param;
 pub mod robot;
 pub mod tool;
+pub mod value_storage;

@@ -7,6 +7,7 @@
 
 use crate::model::bounds::{MAX_ANGLE, MAX_LENGTH};
 use crate::model::effects::EffectKind;
+use crate::ValueStorage;
 use crate::{Real, Robot};
 use core::fmt;
 use heapless::Vec;
@@ -135,7 +136,7 @@ impl Param {
     }
 
     /// A displayable name (`d2`, `base.rz`, `joint-table3[12]`); effect names need the robot.
-    pub fn name<'a, T: Real, const N: usize, const V: usize>(
+    pub fn name<'a, T: Real, const N: usize, V: ValueStorage>(
         self,
         robot: &'a Robot<T, N, V>,
     ) -> ParamName<'a, T, N, V> {
@@ -192,12 +193,12 @@ impl Param {
 
 /// [`fmt::Display`] of a parameter's name.
 #[derive(Debug)]
-pub struct ParamName<'a, T: Real, const N: usize, const V: usize> {
+pub struct ParamName<'a, T: Real, const N: usize, V: ValueStorage> {
     p: Param,
     robot: Option<&'a Robot<T, N, V>>,
 }
 
-impl<T: Real, const N: usize, const V: usize> fmt::Display for ParamName<'_, T, N, V> {
+impl<T: Real, const N: usize, V: ValueStorage> fmt::Display for ParamName<'_, T, N, V> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self.p {
             Param::BaseX => f.write_str("base.x"),
@@ -348,7 +349,7 @@ impl<const P: usize> ParamSet<P> {
     }
 
     /// Adds every value of every effect of `robot`.
-    pub fn with_effects<T: Real, const N: usize, const V: usize>(
+    pub fn with_effects<T: Real, const N: usize, V: ValueStorage>(
         mut self,
         robot: &Robot<T, N, V>,
     ) -> Result<Self, ParamError> {
@@ -359,7 +360,7 @@ impl<const P: usize> ParamSet<P> {
     }
 
     /// Checks that every parameter exists in `robot`.
-    pub fn check<T: Real, const N: usize, const V: usize>(
+    pub fn check<T: Real, const N: usize, V: ValueStorage>(
         &self,
         robot: &Robot<T, N, V>,
     ) -> Result<(), ParamError> {
@@ -375,7 +376,7 @@ impl<const P: usize> core::ops::Deref for ParamSet<P> {
 }
 
 /// Checks that every parameter of `params` exists in `robot`.
-pub fn check_params<T: Real, const N: usize, const V: usize>(
+pub fn check_params<T: Real, const N: usize, V: ValueStorage>(
     params: &[Param],
     robot: &Robot<T, N, V>,
 ) -> Result<(), ParamError> {
@@ -394,7 +395,7 @@ pub fn check_params<T: Real, const N: usize, const V: usize>(
 }
 
 /// Value of a parameter in `robot` (rad or mm; the base rotation as fixed-axis roll/pitch/yaw).
-pub fn value<T: Real, const N: usize, const V: usize>(
+pub fn value<T: Real, const N: usize, V: ValueStorage>(
     robot: &Robot<T, N, V>,
     p: Param,
 ) -> Option<T> {
@@ -411,7 +412,7 @@ pub fn value<T: Real, const N: usize, const V: usize>(
 
 /// Value of a parameter stored as such in `robot` (every one but the base rotation, `None`
 /// for those and for a joint or effect value the robot does not have).
-fn stored<T: Real, const N: usize, const V: usize>(robot: &Robot<T, N, V>, p: Param) -> Option<T> {
+fn stored<T: Real, const N: usize, V: ValueStorage>(robot: &Robot<T, N, V>, p: Param) -> Option<T> {
     let j = |i: u8| robot.joint(i as usize);
     Some(match p {
         Param::BaseX => robot.base().o.x,
@@ -435,7 +436,7 @@ fn stored<T: Real, const N: usize, const V: usize>(robot: &Robot<T, N, V>, p: Pa
 /// Applies an update `delta` (one entry per parameter of `set`) to `robot`: lengths and angles
 /// are added, the base rotation entries form a rotation vector applied about the base origin.
 /// On error the robot is unchanged.
-pub fn apply_delta<T: Real, const N: usize, const V: usize>(
+pub fn apply_delta<T: Real, const N: usize, V: ValueStorage>(
     robot: &mut Robot<T, N, V>,
     set: &[Param],
     delta: &[T],

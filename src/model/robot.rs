@@ -9,6 +9,7 @@ use crate::model::coupling::{CouplingError, Couplings};
 use crate::model::effects::{EffectError, Effects};
 use crate::model::tool::{ToolExtra, MAX_TOOL_POINTS};
 use crate::{Frame, Real};
+use crate::{Inline, ValueStorage};
 use nalgebra::Vector3;
 
 pub use crate::model::bounds::{MAX_ANGLE, MAX_LENGTH};
@@ -149,9 +150,10 @@ impl From<EffectError> for RobotError {
     }
 }
 
-/// A serial robot with `N` revolute joints and room for `V` joint-correction values.
+/// A serial robot with `N` revolute joints, its joint-correction values kept in `V`
+/// ([`Inline`]`<V>` inside the robot, or a host's storage: [`crate::ValueStorage`]).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Robot<T: Real, const N: usize, const V: usize = 0> {
+pub struct Robot<T: Real, const N: usize, V: ValueStorage = Inline<0>> {
     base: Frame<T>,
     joints: [Joint<T>; N],
     tool: Vector3<T>,
@@ -166,7 +168,7 @@ pub struct Robot<T: Real, const N: usize, const V: usize = 0> {
     extra: ToolExtra<T>,
 }
 
-impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
+impl<T: Real, const N: usize, V: ValueStorage> Robot<T, N, V> {
     /// A robot from its base pose (measurement frame ← base), rows and tool point (flange frame).
     ///
     /// Refused ([`RobotError`]) unless every value is finite and within what a robot can be:
@@ -424,27 +426,29 @@ impl<T: Real, const N: usize, const V: usize> Robot<T, N, V> {
             return Err(RobotError::OutOfRange);
         }
         for (i, e) in self.effects.iter().enumerate() {
-            let mut vals = [U::zero(); V];
             let src = self.effects.values_of(i);
-            for (d, s) in vals.iter_mut().zip(src) {
-                *d = c(*s);
-            }
-            r.effects.push(
+            r.effects.push_with::<RobotError>(
                 e.kind,
                 e.joint as usize,
                 N,
                 e.order,
                 c(e.start),
                 c(e.step),
-                &vals[..src.len()],
+                src.len(),
+                |vals| {
+                    for (d, s) in vals.iter_mut().zip(src) {
+                        *d = c(*s);
+                    }
+                    Ok(())
+                },
             )?;
         }
         Ok(r)
     }
 
-    /// The same geometry, effects and couplings with a different value capacity `W` (fails if
-    /// too small).
-    pub fn with_capacity<const W: usize>(
+    /// The same geometry, effects and couplings with another value storage `W` (fails if it
+    /// holds too few values).
+    pub fn with_capacity<W: ValueStorage>(
         &self,
     ) -> Result<Robot<T, N, W>, crate::model::effects::EffectError> {
         let mut r = Robot {

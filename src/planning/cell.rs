@@ -25,6 +25,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
 use crate::planning::capsule::{segment_distance, Capsule};
+use crate::ValueStorage;
 use crate::{ForwardKinematics, Frame, Real, Robot};
 use heapless::Vec;
 use nalgebra::Vector3;
@@ -248,7 +249,7 @@ impl<T: Real, const C: usize, const O: usize> Scene<T, C, O> {
     ///
     /// Stops at the first violation; when there is none, `clearance` is the smallest of all
     /// compared surface distances.
-    pub fn check<const N: usize, const V: usize>(
+    pub fn check<const N: usize, V: ValueStorage>(
         &self,
         robot: &Robot<T, N, V>,
         fk: &ForwardKinematics<T, N>,

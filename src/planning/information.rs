@@ -58,6 +58,7 @@
 
 use crate::model::param::{Param, ParamError};
 use crate::num::linalg::{symmetric_eigen, LinalgError, Square};
+use crate::ValueStorage;
 use crate::{ForwardKinematics, Real, Robot};
 
 /// The 3-row Jacobian block of one pose in scaled parameters: `rows[k][j] = ∂p_k/∂x_j`.
@@ -66,7 +67,7 @@ pub type PoseRows<T, const P: usize> = [[T; P]; 3];
 /// Fills `rows` with the scaled identification Jacobian of the point at the pose last computed
 /// in `fk` (columns `params`, divided by [`Param::scale`] with the robot's reach: the
 /// derivative with respect to the parameter in mm-equivalent units).
-pub fn scaled_rows<T: Real, const N: usize, const V: usize, const P: usize>(
+pub fn scaled_rows<T: Real, const N: usize, V: ValueStorage, const P: usize>(
     robot: &Robot<T, N, V>,
     fk: &ForwardKinematics<T, N>,
     params: &[Param],

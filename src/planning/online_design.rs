@@ -14,6 +14,7 @@
 use crate::model::param::ParamSet;
 use crate::planning::information::{scaled_rows, PoseRows};
 use crate::planning::selection::{Basis, Candidate, Criterion, DesignState, PlanError};
+use crate::ValueStorage;
 use crate::{ForwardKinematics, Real, Robot};
 
 /// Where an online design stands.
@@ -30,11 +31,16 @@ pub struct Status<T: Real, const WORKS: usize> {
     pub reached: bool,
 }
 
-/// The online stepper for `N` joints, `V` effect values, `P` parameters and `WORKS` working
+/// The online stepper for `N` joints, effect values kept in `V`, `P` parameters and `WORKS` working
 /// configurations.
 #[derive(Clone, Debug)]
-pub struct OnlineDesign<T: Real, const N: usize, const V: usize, const P: usize, const WORKS: usize>
-{
+pub struct OnlineDesign<
+    T: Real,
+    const N: usize,
+    V: ValueStorage,
+    const P: usize,
+    const WORKS: usize,
+> {
     robot: Robot<T, N, V>,
     params: ParamSet<P>,
     basis: Basis<T, P>,
@@ -45,7 +51,7 @@ pub struct OnlineDesign<T: Real, const N: usize, const V: usize, const P: usize,
     fk: ForwardKinematics<T, N>,
 }
 
-impl<T: Real, const N: usize, const V: usize, const P: usize, const WORKS: usize>
+impl<T: Real, const N: usize, V: ValueStorage, const P: usize, const WORKS: usize>
     OnlineDesign<T, N, V, P, WORKS>
 {
     /// A stepper for `robot` (the model used for the Jacobians), the identified `params`, the

@@ -16,6 +16,7 @@ use crate::model::param::Param;
 use crate::planning::cell::Scene;
 use crate::planning::information::scaled_rows;
 use crate::planning::selection::Candidate;
+use crate::ValueStorage;
 use crate::{ForwardKinematics, Real, Robot};
 use nalgebra::{Matrix3, Vector3};
 use rand_core::Rng;
@@ -26,7 +27,7 @@ pub fn uniform<T: Real, R: Rng + ?Sized>(rng: &mut R) -> T {
 }
 
 /// A configuration drawn uniformly within the joint limits.
-pub fn uniform_configuration<T: Real, const N: usize, const V: usize, R: Rng + ?Sized>(
+pub fn uniform_configuration<T: Real, const N: usize, V: ValueStorage, R: Rng + ?Sized>(
     rng: &mut R,
     robot: &Robot<T, N, V>,
 ) -> [T; N] {
@@ -57,7 +58,7 @@ fn wrap_into<T: Real>(angle: T, lower: T, upper: T) -> Option<T> {
 /// Turns the last three joints of `q` (all joints for shorter arms) so that the tool z axis
 /// points from the measured point at `target`. Returns `false` when it did not converge to
 /// within `tolerance` (rad) or a wrist joint cannot be brought within its limits.
-pub fn aim_wrist<T: Real, const N: usize, const V: usize>(
+pub fn aim_wrist<T: Real, const N: usize, V: ValueStorage>(
     robot: &Robot<T, N, V>,
     fk: &mut ForwardKinematics<T, N>,
     q: &mut [T; N],
@@ -197,7 +198,7 @@ impl<T: Real> Default for Sampling<T> {
 pub fn draw<
     T: Real,
     const N: usize,
-    const V: usize,
+    V: ValueStorage,
     const P: usize,
     const C: usize,
     const O: usize,
@@ -233,7 +234,7 @@ pub fn draw<
 pub fn candidate<
     T: Real,
     const N: usize,
-    const V: usize,
+    V: ValueStorage,
     const P: usize,
     const C: usize,
     const O: usize,

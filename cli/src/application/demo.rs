@@ -11,7 +11,7 @@ use crate::calibration::{fit_lm, pose_errors, ErrorStats, Fit};
 use crate::reports::demo::{DemoErrors, DemoReport, Drift, MethodRow};
 use crate::simulation::er20_c10;
 use crate::HostRobot;
-use crate::{Tell, VCAP};
+use crate::{HostValues, Tell};
 use kinecal::identify::fitness::PositionFitness;
 use kinecal::identify::lm::LmConfig;
 use kinecal::model::param::{apply_delta, ParamSet};
@@ -139,7 +139,7 @@ pub fn demo(options: &Options, tell: &mut dyn Tell) -> anyhow::Result<Demo> {
         iterations_to_final: Option<usize>,
         iterations_to_pso_final: Option<Option<usize>>,
     }
-    let mut record = |name: &str, fit: Fit<6, VCAP>, seconds: f64, extra: Extra| -> f64 {
+    let mut record = |name: &str, fit: Fit<6, HostValues>, seconds: f64, extra: Extra| -> f64 {
         let mut fitness = PositionFitness::new(&fit.robot, &set, &ident).expect("valid data");
         let best = fitness.of_robot(&fit.robot);
         let after = ErrorStats::of(&pose_errors(&fit.robot, &valid)).expect("50 poses");

@@ -11,7 +11,7 @@ use crate::formats::observations::{ObservationArgs, Observed};
 use crate::formats::robot_file::RobotFile;
 use crate::reports::identify::{Change, IdentifyReport, ObservationSummary, PointResiduals};
 use crate::HostRobot;
-use crate::VCAP;
+use crate::HostValues;
 use kinecal::model::param::ParamSet;
 use kinecal::Measurement;
 use kinecal::Param;
@@ -354,7 +354,7 @@ struct Verdict {
 }
 
 fn stop_text<const N: usize>(
-    fit: &Fit<N, VCAP>,
+    fit: &Fit<N, HostValues>,
     rms_mm: f64,
     stalled: bool,
     stall_rms_mm: f64,
@@ -422,7 +422,7 @@ fn enough_poses<const N: usize>(
 /// What every estimated parameter did, in the order of the parameter list.
 fn changes<const N: usize>(
     start: &HostRobot<N>,
-    fit: &Fit<N, VCAP>,
+    fit: &Fit<N, HostValues>,
     params: &[kinecal::Param],
     base_unknown: bool,
 ) -> Vec<Change> {
@@ -466,7 +466,7 @@ fn existing_effect_params<const N: usize>(
 fn report<const N: usize>(
     method: Method,
     file: &RobotFile,
-    fit: &Fit<N, VCAP>,
+    fit: &Fit<N, HostValues>,
     (ident, valid): (usize, usize),
     (before, after): (Residuals, Residuals),
     seconds: f64,

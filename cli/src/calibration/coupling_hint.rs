@@ -68,7 +68,7 @@ impl CouplingHint {
 
 /// RMS (mm) of `robot` on `data`, with the base fitted to the data first when `fit` is set
 /// and the tool point started from them when `tool` is (an unknown tool).
-fn rms_placed<const N: usize, const V: usize>(
+fn rms_placed<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
     fit: bool,
@@ -85,7 +85,7 @@ fn rms_placed<const N: usize, const V: usize>(
 /// least [`MIN_GAIN_MM`] better. `fit_base` = place each model by registration (the file has
 /// no `[base]`), as `check` does; `tool_unknown`: the tool point is started from the data for
 /// each candidate (the file says it is unknown).
-pub fn detect<const N: usize, const V: usize>(
+pub fn detect<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
     fit_base: bool,

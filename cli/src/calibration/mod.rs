@@ -47,7 +47,7 @@ impl ErrorStats {
 
 /// Per-pose 3-D position errors (mm) of `robot` on `data`: the lengths of
 /// [`pose_error_vectors`].
-pub fn pose_errors<const N: usize, const V: usize>(
+pub fn pose_errors<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
 ) -> Vec<f64> {
@@ -59,7 +59,7 @@ pub fn pose_errors<const N: usize, const V: usize>(
 
 /// Per-pose position errors, measured − model (mm, measurement frame), of `robot` on `data`;
 /// NaN where the model cannot be evaluated.
-pub fn pose_error_vectors<const N: usize, const V: usize>(
+pub fn pose_error_vectors<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
 ) -> Vec<nalgebra::Vector3<f64>> {
@@ -81,7 +81,7 @@ pub fn pose_error_vectors<const N: usize, const V: usize>(
 /// the tilts of `tilt_joints` (0-based), effect values, the tool orientation (when not the
 /// identity) and further tool points. The `parameters` of `identify`'s report and the rows
 /// of `report`'s parameter table.
-pub fn model_params<const N: usize, const V: usize>(
+pub fn model_params<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     tilt_joints: &[usize],
 ) -> Vec<Param> {
@@ -105,7 +105,7 @@ pub fn model_params<const N: usize, const V: usize>(
 
 /// Per-observation orientation errors (degrees: the angle between measured and model tool
 /// frame) of `robot` on the 6-D observations of `data`.
-pub fn orientation_errors_deg<const N: usize, const V: usize>(
+pub fn orientation_errors_deg<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
 ) -> Vec<f64> {
@@ -145,7 +145,7 @@ pub struct Residuals {
 }
 
 impl Residuals {
-    pub fn of<const N: usize, const V: usize>(
+    pub fn of<const N: usize, V: kinecal::ValueStorage>(
         robot: &Robot<f64, N, V>,
         ident: &[Measurement<f64, N>],
         valid: &[Measurement<f64, N>],
@@ -266,7 +266,7 @@ pub fn held_out_mask(
 }
 
 /// Named parameter values in file units (degrees for angles, mm for lengths, raw for effects).
-pub fn named_values<const N: usize, const V: usize>(
+pub fn named_values<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     params: &[Param],
 ) -> BTreeMap<String, f64> {
@@ -286,7 +286,7 @@ pub fn named_values<const N: usize, const V: usize>(
 
 /// Outcome of one identification run.
 #[derive(Clone, Debug)]
-pub struct Fit<const N: usize, const V: usize> {
+pub struct Fit<const N: usize, V: kinecal::ValueStorage> {
     pub robot: Robot<f64, N, V>,
     pub iterations: u32,
     pub evaluations: u64,
@@ -322,7 +322,7 @@ pub struct Correlation {
     pub r: f64,
 }
 
-impl<const N: usize, const V: usize> Fit<N, V> {
+impl<const N: usize, V: kinecal::ValueStorage> Fit<N, V> {
     /// A fit with no solver diagnostics (global methods).
     pub fn plain(
         robot: Robot<f64, N, V>,
@@ -367,7 +367,7 @@ pub struct Held {
 
 /// Levenberg–Marquardt from `start` over `params`, its normal equations on the heap sized
 /// for exactly these parameters ([`VecLm`]).
-pub fn fit_lm<const N: usize, const V: usize>(
+pub fn fit_lm<const N: usize, V: kinecal::ValueStorage>(
     start: &Robot<f64, N, V>,
     params: &[Param],
     data: &[Measurement<f64, N>],
@@ -414,7 +414,7 @@ pub fn fit_lm<const N: usize, const V: usize>(
 /// confounded with (coefficients of its normalised column on theirs), the 1-σ of each
 /// estimated parameter and the strongest correlations of their estimates.
 #[allow(clippy::type_complexity)]
-fn identifiability_report<const N: usize, const V: usize>(
+fn identifiability_report<const N: usize, V: kinecal::ValueStorage>(
     lm: &Levenberg<f64, N, V, VecLm<f64>>,
     rows: usize,
     cost: f64,
@@ -587,7 +587,7 @@ impl std::str::FromStr for EffectRequest {
 
 /// Adds `req` to `robot` with zero values and returns the parameters it makes free.
 /// Tables span the joint range the data covers (`q_range_rad`), knots every `arg` degrees.
-pub fn add_effect<const N: usize, const V: usize>(
+pub fn add_effect<const N: usize, V: kinecal::ValueStorage>(
     robot: &mut Robot<f64, N, V>,
     req: &EffectRequest,
     q_range_rad: (f64, f64),

@@ -53,7 +53,7 @@ pub fn sigmas(
 }
 
 /// `identify`'s LM fit: [`super::fit_lm`] from `start`, then [`refit`] with the prior `sigma`.
-pub fn fit_lm_with_prior<const N: usize, const V: usize>(
+pub fn fit_lm_with_prior<const N: usize, V: kinecal::ValueStorage>(
     start: &Robot<f64, N, V>,
     params: &[Param],
     sigma: &[Option<f64>],
@@ -81,7 +81,7 @@ fn file_units(p: Param, v: f64) -> f64 {
 /// What the first fit held stays held (the base's rotation about z against theta1, a tool
 /// offset along the last axis against d6), and the parameters that stand in for it take its
 /// tolerance into theirs (a stand-in for something without a prior gets none).
-pub fn refit<const N: usize, const V: usize>(
+pub fn refit<const N: usize, V: kinecal::ValueStorage>(
     start: &Robot<f64, N, V>,
     params: &[Param],
     sigma: &[Option<f64>],

@@ -16,7 +16,7 @@ pub const SWARM: usize = 200;
 
 /// The outcome of a PSO run: the fit plus the swarm's start and final personal bests, which
 /// train the BPNN for the next identification of the same robot.
-pub struct SwarmRun<const N: usize, const V: usize> {
+pub struct SwarmRun<const N: usize, V: kinecal::ValueStorage> {
     pub fit: Fit<N, V>,
     pub initial: Vec<Vec<f64>>,
     pub personal_bests: Vec<Vec<f64>>,
@@ -25,7 +25,7 @@ pub struct SwarmRun<const N: usize, const V: usize> {
 
 /// Runs PSO over the MDH deltas of `start` (geometry only; effects are not searched).
 /// `init` optionally replaces the initial particle positions (BPNN-PSO's predictions).
-pub fn pso_mdh<const N: usize, const V: usize>(
+pub fn pso_mdh<const N: usize, V: kinecal::ValueStorage>(
     start: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
     seed: u64,
@@ -49,7 +49,7 @@ pub fn pso_mdh<const N: usize, const V: usize>(
     }
 }
 
-fn pso_with<const N: usize, const V: usize, const D: usize>(
+fn pso_with<const N: usize, V: kinecal::ValueStorage, const D: usize>(
     start: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
     seed: u64,
@@ -58,9 +58,9 @@ fn pso_with<const N: usize, const V: usize, const D: usize>(
 ) -> anyhow::Result<SwarmRun<N, V>> {
     let params = ParamSet::<D>::mdh(N).map_err(|e| anyhow::anyhow!("{e:?}"))?;
     // The swarm evaluates geometry only: a copy without effect storage is cheaper to clone.
-    let geometric: Robot<f64, N, 0> = if start.effects().is_empty() {
+    let geometric: Robot<f64, N, kinecal::Inline<0>> = if start.effects().is_empty() {
         start
-            .with_capacity::<0>()
+            .with_capacity::<kinecal::Inline<0>>()
             .map_err(|e| anyhow::anyhow!("{e:?}"))?
     } else {
         anyhow::bail!("PSO searches geometry only; the model has joint corrections: use lm")
@@ -119,7 +119,7 @@ fn pso_with<const N: usize, const V: usize, const D: usize>(
 /// are fitted first by LM with the nominal geometry, and the swarm searches from there; a
 /// note on stderr says so. Without that step an unknown base leaves the swarm metres from
 /// anything it can reach (UR10: 4.24 mm where LM reaches 0.49).
-pub fn identify<const N: usize, const V: usize>(
+pub fn identify<const N: usize, V: kinecal::ValueStorage>(
     method: Method,
     start: &Robot<f64, N, V>,
     lm_params: &[Param],
@@ -174,7 +174,7 @@ pub fn identify<const N: usize, const V: usize>(
 
 /// Trains the paper's 24 → 12 → 24 network on a finished 6-joint PSO run (each particle's
 /// initial position → its final personal best; see `kinecal::identify::bpnn_pso`).
-pub fn train_bpnn<const N: usize, const V: usize>(
+pub fn train_bpnn<const N: usize, V: kinecal::ValueStorage>(
     run: &SwarmRun<N, V>,
     seed: u64,
 ) -> anyhow::Result<Box<MdhSeedNet<f64>>> {
@@ -212,7 +212,7 @@ pub fn train_bpnn<const N: usize, const V: usize>(
 
 /// BPNN-PSO: a fresh swarm (same draws as plain PSO with this seed) whose particles start at
 /// the network's predictions, then the unchanged PSO.
-pub fn bpnn_pso_mdh<const N: usize, const V: usize>(
+pub fn bpnn_pso_mdh<const N: usize, V: kinecal::ValueStorage>(
     net: &MdhSeedNet<f64>,
     start: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],

@@ -42,7 +42,7 @@ impl ResidualTable {
     /// poses (each set's poses and the observation list they index); `separate_file`: the
     /// held-out poses come from another file (numbered on their own), else both sets are
     /// numbered in the data file's order.
-    pub fn of<const N: usize, const V: usize>(
+    pub fn of<const N: usize, V: kinecal::ValueStorage>(
         (start, model): (&Robot<f64, N, V>, &Robot<f64, N, V>),
         ((ident, ident_obs), (valid, valid_obs)): (PoseSet<'_, N>, PoseSet<'_, N>),
         separate_file: bool,

@@ -73,7 +73,7 @@ impl Selection<'_> {
 
 /// Every parameter a name can refer to for `robot`: the default list `params` and everything
 /// else the model has (its base, rows, tilts, tool points and orientation, effect values).
-fn universe<const N: usize, const V: usize>(
+fn universe<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     params: &[Param],
 ) -> Vec<Param> {
@@ -120,7 +120,7 @@ fn universe<const N: usize, const V: usize>(
 /// What one name or group refers to among `all` (in `all`'s order); a single geometric name
 /// that the model does not list yet (`beta3`, `tool.rx`) is taken as it parses. Refused
 /// (exit 2) with the names this robot has when it refers to nothing.
-fn resolve<const N: usize, const V: usize>(
+fn resolve<const N: usize, V: kinecal::ValueStorage>(
     flag: &str,
     name: &str,
     robot: &Robot<f64, N, V>,
@@ -172,7 +172,7 @@ fn resolve<const N: usize, const V: usize>(
 
 /// Every value of the effect `KINDJ` (`joint-table2`, `joint-cyclic3`) of `robot`, if it has
 /// one of that kind on that joint.
-fn effect_group<const N: usize, const V: usize>(
+fn effect_group<const N: usize, V: kinecal::ValueStorage>(
     name: &str,
     robot: &Robot<f64, N, V>,
 ) -> Option<Vec<Param>> {
@@ -192,7 +192,7 @@ fn effect_group<const N: usize, const V: usize>(
 /// The parameters `names` (names or groups) refer to among everything `robot` has, in the
 /// order given, each once (`plan --estimate`); refused (exit 2) naming `flag` and the first
 /// name that refers to nothing.
-pub fn named<const N: usize, const V: usize>(
+pub fn named<const N: usize, V: kinecal::ValueStorage>(
     flag: &str,
     names: &[String],
     robot: &Robot<f64, N, V>,
@@ -211,7 +211,7 @@ pub fn named<const N: usize, const V: usize>(
 
 /// Applies `sel` to the parameter list of a fit of `robot`: `--only` replaces it, `--free`
 /// adds, `--fix` removes (each by name or group); the order stays that of the model.
-pub fn apply<const N: usize, const V: usize>(
+pub fn apply<const N: usize, V: kinecal::ValueStorage>(
     params: &mut Vec<Param>,
     robot: &Robot<f64, N, V>,
     sel: &Selection<'_>,

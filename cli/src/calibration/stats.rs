@@ -79,7 +79,7 @@ impl SetFigures {
     }
 
     /// The figures of `robot` on `data`, with the error vectors (measured − model).
-    pub fn of<const N: usize, const V: usize>(
+    pub fn of<const N: usize, V: kinecal::ValueStorage>(
         robot: &Robot<f64, N, V>,
         data: &[Measurement<f64, N>],
     ) -> (Option<Self>, Vec<Vector3<f64>>) {

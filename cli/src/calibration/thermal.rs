@@ -50,7 +50,7 @@ pub fn mean_temperature<const N: usize>(data: &[Measurement<f64, N>]) -> Option<
 
 /// Adds a thermal-expansion term at `c = 0` to `robot`, its reference `req.arg` or the mean
 /// temperature of `data`; returns its parameter. Refused without a temperature on every row.
-pub fn add<const N: usize, const V: usize>(
+pub fn add<const N: usize, V: kinecal::ValueStorage>(
     robot: &mut Robot<f64, N, V>,
     req: &EffectRequest,
     data: &[Measurement<f64, N>],

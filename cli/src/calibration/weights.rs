@@ -79,7 +79,7 @@ fn floor_squared(r2: &[(f64, f64)], dof: f64) -> f64 {
 /// The residual rows of `data` at `robot`, grouped: each point coordinate's and each
 /// orientation component's squared residual with its stated variance.
 #[allow(clippy::type_complexity)]
-fn rows<const N: usize, const V: usize>(
+fn rows<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
     stated: &[Stated],
@@ -107,7 +107,7 @@ fn rows<const N: usize, const V: usize>(
 
 /// The floors at `robot` for `params` estimated parameters (shared among the groups by
 /// their number of rows).
-pub fn floors<const N: usize, const V: usize>(
+pub fn floors<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
     stated: &[Stated],
@@ -142,7 +142,7 @@ pub fn apply<const N: usize>(data: &mut [Measurement<f64, N>], stated: &[Stated]
 }
 
 /// χ² per degree of freedom of the stated σ at `robot` (`None` without σ).
-pub fn chi2_per_dof<const N: usize, const V: usize>(
+pub fn chi2_per_dof<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
     stated: &[Stated],
@@ -177,7 +177,7 @@ pub const ORIENTATION_FACTORS: [f64; 3] = [1.0, 0.25, 0.0625];
 /// away from what predicts positions, which is what compensation serves. The held-out poses
 /// are never used: only the identification poses are cut into folds. An exact tie goes to the
 /// larger factor (more weight on what the probe measured).
-pub fn choose_orientation_factor<const N: usize, const V: usize, F>(
+pub fn choose_orientation_factor<const N: usize, V: kinecal::ValueStorage, F>(
     data: &[Measurement<f64, N>],
     pose_of: &[usize],
     folds: usize,
@@ -269,7 +269,7 @@ pub struct Weighted {
 /// (orientation_cv) the orientation factor of [`choose_orientation_factor`] applied and
 /// refitted. `data`'s weights are left as the final fit used them. `identify` fits from the
 /// file's model; `report` runs the same from the identified model to read its covariance.
-pub fn weighted_fit<const N: usize, const V: usize, F>(
+pub fn weighted_fit<const N: usize, V: kinecal::ValueStorage, F>(
     data: &mut [Measurement<f64, N>],
     pose_of: &[usize],
     stated: &[Stated],

@@ -256,7 +256,7 @@ impl<const N: usize> Compensated<N> {
 /// `settings`; `units` are the targets' (the commands come back in their angle unit). With
 /// `nominal` (the controller's kinematics), also the targets to send it. Refuses (exit 2)
 /// settings outside their limits, implausible seeds and targets, and an empty set.
-pub fn compensate_set<const N: usize, const V: usize>(
+pub fn compensate_set<const N: usize, V: kinecal::ValueStorage>(
     file: &RobotFile,
     robot: &HostRobot<N>,
     nominal: Option<&Robot<f64, N, V>>,
@@ -287,7 +287,7 @@ pub fn compensate_set<const N: usize, const V: usize>(
     }
     let started = Instant::now();
     let results = if settings.f32 {
-        let r32: Robot<f32, N, { crate::VCAP }> = robot
+        let r32: Robot<f32, N, crate::HostValues> = robot
             .cast()
             .map_err(|e| anyhow!("the model does not fit f32: {e:?}"))?;
         let c32 = Config::<f32> {
@@ -385,7 +385,7 @@ pub fn compensate_set<const N: usize, const V: usize>(
 /// Per row the target to send a controller with the `nominal` kinematics: where the nominal
 /// robot, placed at the model's base, puts the tool at the compensated command
 /// ([`nominal_reach`]); a failed row keeps its target.
-fn sent_targets<const N: usize, const V: usize, const W: usize>(
+fn sent_targets<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStorage>(
     model: &Robot<f64, N, V>,
     nominal: &Robot<f64, N, W>,
     rows: &[Row],
@@ -452,7 +452,7 @@ fn fmt_num(v: f64) -> String {
 
 /// Compensates every row (independently, or as a trajectory), in the robot's scalar type;
 /// results in `f64` with the status.
-fn solve_all<T: Real, const N: usize, const V: usize>(
+fn solve_all<T: Real, const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<T, N, V>,
     rows: &[Row],
     cfg: &Config<T>,

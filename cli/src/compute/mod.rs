@@ -1,9 +1,10 @@
 //! The desktop's computing kit under every application module: both cores for passes over many
 //! poses ([`parallel`]), the library LM's storage sized from the problem on the heap
-//! ([`vec_lm`]), dense factorisations arranged as matrix products ([`dense`]) and point-set
+//! ([`vec_lm`]), models' effect values on the heap ([`host_values`]), dense factorisations arranged as matrix products ([`dense`]) and point-set
 //! registration ([`registration`]).
 
 pub mod dense;
+pub mod host_values;
 pub mod parallel;
 pub mod registration;
 pub mod tool_start;

@@ -95,7 +95,7 @@ pub fn pass_parts(params: usize) -> usize {
 /// Runs `lm` (with or without a penalty) over `data` to the end, its passes over the poses on
 /// [`workers`] threads when there are many poses; `on_progress` sees the progress after every
 /// call into the solver.
-pub fn run_lm<const N: usize, const V: usize, Q: LmPenalty<f64>>(
+pub fn run_lm<const N: usize, V: kinecal::ValueStorage, Q: LmPenalty<f64>>(
     lm: &mut Levenberg<f64, N, V, VecLm<f64>, Q>,
     data: &[Measurement<f64, N>],
     mut on_progress: impl FnMut(&Levenberg<f64, N, V, VecLm<f64>, Q>, &LmProgress<f64>),

@@ -57,7 +57,7 @@ pub fn fit_rigid(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> anyhow::Result<Frame
 }
 
 /// The base pose that places `robot` (its own base ignored) best onto the measurements.
-pub fn fit_base<const N: usize, const V: usize>(
+pub fn fit_base<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
 ) -> anyhow::Result<Frame<f64>> {
@@ -83,7 +83,7 @@ pub fn fit_base<const N: usize, const V: usize>(
 /// (the rotation nearest, in the Frobenius sense, to the mean of `R_flangeᵀ · R_measured`;
 /// SVD projection): the start of identification when the robot file gives no `[tool]
 /// rpy_deg`, as [`fit_base`] starts an unknown base. `None` without orientations.
-pub fn fit_tool_axes<const N: usize, const V: usize>(
+pub fn fit_tool_axes<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
 ) -> Option<Frame<f64>> {

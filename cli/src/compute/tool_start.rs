@@ -14,7 +14,7 @@ const ROUNDS: usize = 40;
 /// The tool point (flange frame, mm) nearest in the least-squares sense to `data`'s points of
 /// the first reflector with `robot`'s base: the mean of `R_flangeᵀ · (p − o_flange)`. `None`
 /// when no observation of it computes.
-pub fn fit_tool_point<const N: usize, const V: usize>(
+pub fn fit_tool_point<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
 ) -> Option<Vector3<f64>> {
@@ -34,7 +34,7 @@ pub fn fit_tool_point<const N: usize, const V: usize>(
 
 /// Places `robot` on `data`: the base fitted when `base` (the file has none), the tool point
 /// started from the data when `tool` (the file says it is unknown), the two in turn.
-pub fn place<const N: usize, const V: usize>(
+pub fn place<const N: usize, V: kinecal::ValueStorage>(
     robot: &mut Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
     base: bool,

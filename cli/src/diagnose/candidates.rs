@@ -173,7 +173,7 @@ impl Candidate {
 
     /// True when `robot` already carries this effect (or a table on the joint, or a free tilt
     /// listed in `free_tilt`).
-    pub fn present_in<const N: usize, const V: usize>(
+    pub fn present_in<const N: usize, V: kinecal::ValueStorage>(
         &self,
         robot: &Robot<f64, N, V>,
         free_tilt: &[usize],
@@ -187,7 +187,7 @@ impl Candidate {
     }
 
     /// Adds the candidate to `robot` with zero values; returns the parameters it makes free.
-    pub fn add_to<const N: usize, const V: usize>(
+    pub fn add_to<const N: usize, V: kinecal::ValueStorage>(
         &self,
         robot: &mut Robot<f64, N, V>,
     ) -> anyhow::Result<Vec<Param>> {
@@ -214,7 +214,10 @@ impl Candidate {
 
     /// The candidate's values in `robot` (in the units of the robot file: rad, rad per m,
     /// dimensionless; axis-tilt: `[beta]` in rad).
-    pub fn values<const N: usize, const V: usize>(&self, robot: &Robot<f64, N, V>) -> Vec<f64> {
+    pub fn values<const N: usize, V: kinecal::ValueStorage>(
+        &self,
+        robot: &Robot<f64, N, V>,
+    ) -> Vec<f64> {
         match (self.kind, self.effect_kind()) {
             (CandidateKind::Tilt, _) => {
                 vec![robot.joints().get(self.joint).map_or(0.0, |j| j.beta)]
@@ -336,7 +339,7 @@ fn parallel(joint: &Joint<f64>, tol_deg: f64) -> bool {
 }
 
 /// Every candidate for `robot` and `data` (see the module doc for what is left out and why).
-pub fn catalogue<const N: usize, const V: usize>(
+pub fn catalogue<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     base_known: bool,
     data: &[Measurement<f64, N>],

@@ -27,7 +27,7 @@ use nalgebra::{DMatrix, DVector, Vector3};
 
 /// Held-out squared error (mm²) of every pose: for each fold, `problem` is refitted from
 /// `start` on the other folds and the fold's poses are predicted.
-pub fn refit_errors<const N: usize, const V: usize>(
+pub fn refit_errors<const N: usize, V: kinecal::ValueStorage>(
     start: &Robot<f64, N, V>,
     problem: &Problem,
     data: &[Measurement<f64, N>],
@@ -41,7 +41,7 @@ pub fn refit_errors<const N: usize, const V: usize>(
 /// [`refit_errors`] of several models (start and parameter set) at once: their fold fits are
 /// independent, so all of them are spread over the cores together (the library's
 /// Levenberg–Marquardt, [`crate::diagnose::refit::fold_errors`]).
-pub fn refit_errors_each<const N: usize, const V: usize>(
+pub fn refit_errors_each<const N: usize, V: kinecal::ValueStorage>(
     models: &[(&Robot<f64, N, V>, &Problem)],
     data: &[Measurement<f64, N>],
     folds: &Folds,
@@ -124,7 +124,7 @@ pub struct Linearised {
 }
 
 impl Linearised {
-    pub fn new<const N: usize, const V: usize>(
+    pub fn new<const N: usize, V: kinecal::ValueStorage>(
         robot: &Robot<f64, N, V>,
         problem: &Problem,
         data: &[Measurement<f64, N>],
@@ -282,7 +282,7 @@ where
 
 /// The scaled columns of `params` at every pose of `data` for `robot` (for a candidate: the
 /// robot with the candidate added at zero values, so the points are the current model's).
-pub fn candidate_columns<const N: usize, const V: usize>(
+pub fn candidate_columns<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     params: &[Param],
     data: &[Measurement<f64, N>],
@@ -306,7 +306,10 @@ pub struct PoseKinematics<const N: usize> {
 }
 
 impl<const N: usize> PoseKinematics<N> {
-    pub fn new<const V: usize>(robot: &Robot<f64, N, V>, data: &[Measurement<f64, N>]) -> Self {
+    pub fn new<V: kinecal::ValueStorage>(
+        robot: &Robot<f64, N, V>,
+        data: &[Measurement<f64, N>],
+    ) -> Self {
         let probe = with_lever_arms(robot);
         let mut fk = ForwardKinematics::new();
         let poses = data
@@ -332,7 +335,7 @@ impl<const N: usize> PoseKinematics<N> {
     /// the frames were computed for, possibly with a candidate added at zero values), weighted
     /// as [`crate::diagnose::linear::Problem::pose_rows`] weighs them: one block per position
     /// observation, the point's then the orientation's for a 6-D one.
-    pub fn columns<const V: usize>(
+    pub fn columns<V: kinecal::ValueStorage>(
         &self,
         robot: &Robot<f64, N, V>,
         params: &[Param],
@@ -373,7 +376,9 @@ impl<const N: usize> PoseKinematics<N> {
 /// `robot` with the lever arms in its forward kinematics: itself when a compliance term needs
 /// them, otherwise with a zero compliance term on the first joint. (When there is no room for
 /// one, no compliance candidate fits either, so no column needs them.)
-fn with_lever_arms<const N: usize, const V: usize>(robot: &Robot<f64, N, V>) -> Robot<f64, N, V> {
+fn with_lever_arms<const N: usize, V: kinecal::ValueStorage>(
+    robot: &Robot<f64, N, V>,
+) -> Robot<f64, N, V> {
     let mut probe = robot.clone();
     if N > 0 && !robot.effects().needs_lever_arms() {
         let _ = probe
@@ -384,7 +389,7 @@ fn with_lever_arms<const N: usize, const V: usize>(robot: &Robot<f64, N, V>) -> 
 }
 
 /// The table of `robot` whose knots are exactly `params` (in order), if they are one.
-fn table_of<'r, const N: usize, const V: usize>(
+fn table_of<'r, const N: usize, V: kinecal::ValueStorage>(
     robot: &'r Robot<f64, N, V>,
     params: &[Param],
 ) -> Option<&'r Effect<f64>> {
@@ -456,7 +461,7 @@ struct FoldSums {
 
 /// [`FoldSums`], one job per fold ([`parallel::map_each`]): a fold's sums add its poses in order, as
 /// one pass over all poses would.
-fn fold_sums<const N: usize, const V: usize>(
+fn fold_sums<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     problem: &Problem,
     data: &[Measurement<f64, N>],
@@ -518,7 +523,7 @@ fn fold_sums<const N: usize, const V: usize>(
 /// fold's own normal matrix) they are traces of `p × p` products: `tr B_f = tr(C_f N_f)` and
 /// `tr B_f² = tr((C_f N_f)²)`, instead of forming `B_f` over the fold's `3 n_f` coordinates.
 /// The folds are independent and computed in parallel ([`parallel::map_each`]).
-pub fn fold_inflation<const N: usize, const V: usize>(
+pub fn fold_inflation<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     problem: &Problem,
     data: &[Measurement<f64, N>],

@@ -72,7 +72,7 @@ pub struct Problem {
 impl Problem {
     /// The parameters `params` of `robot` (duplicates ignored). Tables must be free as a whole
     /// or held as a whole, their knots in consecutive order in `params`.
-    pub fn new<const N: usize, const V: usize>(
+    pub fn new<const N: usize, V: kinecal::ValueStorage>(
         robot: &Robot<f64, N, V>,
         params: &[Param],
         penalty: TablePenalty,
@@ -161,7 +161,7 @@ impl Problem {
 
     /// Current values of the parameters in scaled units (the base rotation counts as zero:
     /// it is updated as a small rotation and never penalised).
-    pub fn scaled_values<const N: usize, const V: usize>(
+    pub fn scaled_values<const N: usize, V: kinecal::ValueStorage>(
         &self,
         robot: &Robot<f64, N, V>,
     ) -> DVector<f64> {
@@ -187,7 +187,7 @@ impl Problem {
     /// Residual and the non-zero scaled Jacobian columns of one observation's point at `robot`,
     /// weighted as the library's runs weigh them (`w ⊙ (p_m − p)`; unit weights leave
     /// millimetres). `fk` holds the pose afterwards, for [`Self::orientation_rows`].
-    pub fn pose_rows<const N: usize, const V: usize>(
+    pub fn pose_rows<const N: usize, V: kinecal::ValueStorage>(
         &self,
         fk: &mut ForwardKinematics<f64, N>,
         robot: &Robot<f64, N, V>,
@@ -221,7 +221,7 @@ impl Problem {
     /// model's, times the observation's weight) and its non-zero scaled columns, for a 6-D
     /// observation whose point [`Self::pose_rows`] just computed (`fk` at its pose); `None`
     /// for a position observation.
-    pub fn orientation_rows<const N: usize, const V: usize>(
+    pub fn orientation_rows<const N: usize, V: kinecal::ValueStorage>(
         &self,
         fk: &ForwardKinematics<f64, N>,
         robot: &Robot<f64, N, V>,
@@ -248,7 +248,7 @@ impl Problem {
 
     /// The non-zero scaled columns of one block of rows (`column`: a parameter's, `reading`:
     /// a joint reading's) at the pose `fk` holds.
-    fn block_columns<const N: usize, const V: usize>(
+    fn block_columns<const N: usize, V: kinecal::ValueStorage>(
         &self,
         fk: &ForwardKinematics<f64, N>,
         robot: &Robot<f64, N, V>,
@@ -295,7 +295,7 @@ impl Problem {
 
 /// Calls `f` with every block of rows of one observation at `robot` (its residual and
 /// non-zero scaled columns): the point's, then for a 6-D observation the orientation's.
-pub fn observation_blocks<const N: usize, const V: usize>(
+pub fn observation_blocks<const N: usize, V: kinecal::ValueStorage>(
     problem: &Problem,
     fk: &mut ForwardKinematics<f64, N>,
     robot: &Robot<f64, N, V>,
@@ -382,7 +382,7 @@ impl Normal {
     }
 
     /// Normal equations of `robot` over `data`.
-    pub fn of<const N: usize, const V: usize>(
+    pub fn of<const N: usize, V: kinecal::ValueStorage>(
         problem: &Problem,
         robot: &Robot<f64, N, V>,
         data: &[Measurement<f64, N>],
@@ -395,7 +395,7 @@ impl Normal {
 
 /// Calls `f` with every block of rows ([`observation_blocks`]) of every observation of
 /// `data`, in order.
-fn for_each_pose_rows<const N: usize, const V: usize>(
+fn for_each_pose_rows<const N: usize, V: kinecal::ValueStorage>(
     problem: &Problem,
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
@@ -501,7 +501,7 @@ pub fn effective_parameters(a: &DMatrix<f64>, pen: &DMatrix<f64>) -> f64 {
 /// Squared error of every observation, weighted as the library's runs weigh it
 /// ([`observation_cost`]): the squared 3-D distance (mm²) for an unweighted position, plus the
 /// weighted orientation error of a 6-D observation.
-pub fn squared_errors<const N: usize, const V: usize>(
+pub fn squared_errors<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
 ) -> Vec<f64> {

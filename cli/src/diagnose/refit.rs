@@ -20,8 +20,7 @@ use kinecal::{ForwardKinematics, Measurement, Robot};
 use nalgebra::DMatrix;
 
 /// The library solver of a refit.
-pub type RefitLm<const N: usize, const V: usize> =
-    Levenberg<f64, N, V, VecLm<f64>, VecPenalty<f64>>;
+pub type RefitLm<const N: usize, V> = Levenberg<f64, N, V, VecLm<f64>, VecPenalty<f64>>;
 
 /// Consecutive rejected steps a refit may take beyond its `max_iterations` accepted ones.
 pub const EXTRA_REJECTS: u32 = 12;
@@ -41,7 +40,7 @@ pub fn refit_config(max_iterations: u32) -> LmConfig<f64> {
 }
 
 /// A refit of `problem` starting from `start` (not yet run).
-pub fn solver<const N: usize, const V: usize>(
+pub fn solver<const N: usize, V: kinecal::ValueStorage>(
     start: &Robot<f64, N, V>,
     problem: &Problem,
     max_iterations: u32,
@@ -58,7 +57,7 @@ pub fn solver<const N: usize, const V: usize>(
 
 /// Result of a penalised fit.
 #[derive(Clone, Debug)]
-pub struct FitOutcome<const N: usize, const V: usize> {
+pub struct FitOutcome<const N: usize, V: kinecal::ValueStorage> {
     /// The fitted model.
     pub robot: Robot<f64, N, V>,
     /// Sum of squared residuals (mm²) at the solution.
@@ -69,7 +68,7 @@ pub struct FitOutcome<const N: usize, const V: usize> {
     pub penalty: DMatrix<f64>,
 }
 
-impl<const N: usize, const V: usize> FitOutcome<N, V> {
+impl<const N: usize, V: kinecal::ValueStorage> FitOutcome<N, V> {
     /// Effective number of parameters, `tr((JᵀJ + Π)⁻¹ JᵀJ)` at the solution: the degrees of
     /// freedom the fit used (= the parameter count without penalty). `problem` and `data` must
     /// be the fit's. Computed on demand (one pass over the poses and an O(p³) inverse) because
@@ -80,7 +79,7 @@ impl<const N: usize, const V: usize> FitOutcome<N, V> {
 }
 
 /// Runs a refit to the end over `data` (its passes on both cores when the data are many).
-fn finish<const N: usize, const V: usize>(
+fn finish<const N: usize, V: kinecal::ValueStorage>(
     mut lm: RefitLm<N, V>,
     problem: &Problem,
     data: &[Measurement<f64, N>],
@@ -108,7 +107,7 @@ fn finish<const N: usize, const V: usize>(
 
 /// Penalised Levenberg–Marquardt from `start` over `data` (at most `max_iterations` accepted
 /// steps).
-pub fn fit<const N: usize, const V: usize>(
+pub fn fit<const N: usize, V: kinecal::ValueStorage>(
     start: &Robot<f64, N, V>,
     problem: &Problem,
     data: &[Measurement<f64, N>],
@@ -128,7 +127,7 @@ pub fn fit<const N: usize, const V: usize>(
 /// folds and the fold's poses are predicted. All fold fits are independent and spread over the
 /// cores together ([`parallel::map_each`]); each fold's own first-pass sums are accumulated
 /// once per model (see the [module](self)).
-pub fn fold_errors<const N: usize, const V: usize>(
+pub fn fold_errors<const N: usize, V: kinecal::ValueStorage>(
     models: &[(&Robot<f64, N, V>, &Problem)],
     data: &[Measurement<f64, N>],
     folds: &Folds,

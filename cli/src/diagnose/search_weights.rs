@@ -20,7 +20,7 @@
 use crate::calibration::weights::{self, weighted_fit, Floors, Stated, Weighting};
 use crate::calibration::Fit;
 use crate::HostRobot;
-use crate::VCAP;
+use crate::HostValues;
 use kinecal::Measurement;
 
 /// How the search's observations were weighted.
@@ -79,7 +79,7 @@ where
             orientation_cv: false,
             ..how
         };
-        let run = |d: &[Measurement<f64, N>]| -> anyhow::Result<Fit<N, VCAP>> {
+        let run = |d: &[Measurement<f64, N>]| -> anyhow::Result<Fit<N, HostValues>> {
             Ok(Fit::plain(fit_geometry(d)?, 0, 0, Vec::new()))
         };
         weighted_fit(data, pose_of, stated, how, run)?.1.floors

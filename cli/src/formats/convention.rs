@@ -146,7 +146,7 @@ pub fn score(m: &[Matrix3<f64>], f: &[Matrix3<f64>]) -> Option<f64> {
 /// The RMS angle, degrees, of each of the six orders (in [`RotationOrder::all`]'s order) for
 /// rows of joint readings `q_deg` and the file's angles `angles` (degrees about x, y, z);
 /// `None` with fewer than [`FEWEST_ROWS`] usable rows.
-pub fn scores<const N: usize, const V: usize>(
+pub fn scores<const N: usize, V: kinecal::ValueStorage>(
     q_deg: &[[f64; N]],
     angles: &[[f64; 3]],
     nominal: &Robot<f64, N, V>,
@@ -183,7 +183,7 @@ pub fn scores<const N: usize, const V: usize>(
 }
 
 /// The verdict of the convention door: `Some` when the angles are misstated.
-pub fn check<const N: usize, const V: usize>(
+pub fn check<const N: usize, V: kinecal::ValueStorage>(
     q_deg: &[[f64; N]],
     angles: &[[f64; 3]],
     assumed: RotationOrder,

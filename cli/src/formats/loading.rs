@@ -12,7 +12,7 @@ use std::path::Path;
 /// Loads a file of `kind` in `units`: malformed input and implausible units are refused
 /// (exit 2); the records come back in millimetres and degrees. `base_known`: whether
 /// `nominal`'s base places the points (otherwise it is fitted for the check).
-pub fn load_as<const N: usize, const V: usize>(
+pub fn load_as<const N: usize, V: kinecal::ValueStorage>(
     path: &Path,
     units: &UnitArgs,
     nominal: &Robot<f64, N, V>,
@@ -51,7 +51,7 @@ pub fn load_as<const N: usize, const V: usize>(
 /// A dataset already read in kinecal's layout (a file, or arrays handed over by the Python
 /// package) through the same doors as a file: the stated base, the units, the angle order.
 /// `origin` names it in a refusal.
-pub fn accept_dataset<const N: usize, const V: usize>(
+pub fn accept_dataset<const N: usize, V: kinecal::ValueStorage>(
     ds: Dataset<N>,
     origin: &str,
     units: &UnitArgs,
@@ -71,7 +71,7 @@ pub fn accept_dataset<const N: usize, const V: usize>(
 }
 
 /// A measurement file (`check`, `identify`, `diagnose`) in mm and degrees; see [`load_as`].
-pub fn load_measurements<const N: usize, const V: usize>(
+pub fn load_measurements<const N: usize, V: kinecal::ValueStorage>(
     path: &Path,
     units: &UnitArgs,
     nominal: &Robot<f64, N, V>,
@@ -81,7 +81,7 @@ pub fn load_measurements<const N: usize, const V: usize>(
 }
 
 /// A sweep file (`frames`: the base is always unknown there) in mm and degrees.
-pub fn load_sweeps<const N: usize, const V: usize>(
+pub fn load_sweeps<const N: usize, V: kinecal::ValueStorage>(
     path: &Path,
     units: &UnitArgs,
     nominal: &Robot<f64, N, V>,
@@ -91,7 +91,7 @@ pub fn load_sweeps<const N: usize, const V: usize>(
 
 /// A target file (`compensate`) in mm and degrees: the seeds must bring `model` (its base, or
 /// the identity when it has none: targets in the robot base frame) near the targets.
-pub fn load_targets<const N: usize, const V: usize>(
+pub fn load_targets<const N: usize, V: kinecal::ValueStorage>(
     path: &Path,
     units: &UnitArgs,
     model: &Robot<f64, N, V>,
@@ -102,7 +102,7 @@ pub fn load_targets<const N: usize, const V: usize>(
 /// Refuses (exit 2) a measurement file whose stated base misplaces it: run before the units
 /// door on the values as written, read in the units assumed (`units`), since a base metres
 /// off would otherwise look like a unit mistake (points beyond the arm's reach).
-fn placement<const N: usize, const V: usize>(
+fn placement<const N: usize, V: kinecal::ValueStorage>(
     raw: &Dataset<N>,
     units: &UnitArgs,
     nominal: &Robot<f64, N, V>,
@@ -120,7 +120,7 @@ fn placement<const N: usize, const V: usize>(
 /// order than the one assumed. `stated`: the file's angles as
 /// written (degrees), the order the map gives them and the map file, for a file read with
 /// `--map`; without, the angles are the file's `rx_deg`, `ry_deg`, `rz_deg` in kinecal's order.
-fn convention<const N: usize, const V: usize>(
+fn convention<const N: usize, V: kinecal::ValueStorage>(
     ds: &Dataset<N>,
     stated: Option<(&[[f64; 3]], RotationOrder, &Path)>,
     nominal: &Robot<f64, N, V>,

@@ -50,7 +50,7 @@ impl Misplaced {
 /// The verdict: `Some` when the robot's stated base misplaces the data (rows with one
 /// measured point, in mm and degrees). `None` too when nothing can be told (fewer than three
 /// points, points on a line, several reflectors).
-pub fn check<const N: usize, const V: usize>(
+pub fn check<const N: usize, V: kinecal::ValueStorage>(
     ds: &Dataset<N>,
     nominal: &Robot<f64, N, V>,
 ) -> Option<Misplaced> {

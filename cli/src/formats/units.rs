@@ -425,7 +425,7 @@ fn spread(pts: &[Vector3<f64>]) -> f64 {
 }
 
 /// How well `nominal` explains `records` (raw file values) read as `(l, a)`.
-fn score<const N: usize, const V: usize>(
+fn score<const N: usize, V: kinecal::ValueStorage>(
     records: &[Record<N>],
     placed: &Robot<f64, N, V>,
     base_known: bool,
@@ -489,7 +489,7 @@ fn score<const N: usize, const V: usize>(
 /// written) look like other units than the ones `units` assumes, for the model `nominal`
 /// (its base used when `base_known`, otherwise fitted). `None` = plausible, or no free unit.
 /// The rule is in the module documentation.
-pub fn suspect<const N: usize, const V: usize>(
+pub fn suspect<const N: usize, V: kinecal::ValueStorage>(
     records: &[Record<N>],
     units: &UnitArgs,
     nominal: &Robot<f64, N, V>,
@@ -703,7 +703,7 @@ pub fn convert<const N: usize>(ds: &mut Dataset<N>, units: &UnitArgs) {
 /// The plausibility check and conversion of [`crate::formats::loading::load_as`] for records
 /// already read (or made in memory, e.g. from arrays): refused (exit 2) naming `origin` when
 /// the units look wrong; the records come back in millimetres and degrees.
-pub fn accept<const N: usize, const V: usize>(
+pub fn accept<const N: usize, V: kinecal::ValueStorage>(
     mut ds: Dataset<N>,
     origin: &str,
     units: &UnitArgs,

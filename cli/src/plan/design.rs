@@ -123,7 +123,9 @@ fn aims(scene: &HostScene) -> bool {
 }
 
 /// The robot in its own base frame (base at identity), as plans use it.
-pub fn in_base_frame<const N: usize, const V: usize>(robot: &Robot<f64, N, V>) -> Robot<f64, N, V> {
+pub fn in_base_frame<const N: usize, V: kinecal::ValueStorage>(
+    robot: &Robot<f64, N, V>,
+) -> Robot<f64, N, V> {
     let mut r = robot.clone();
     // Identity is always finite.
     let _ = r.set_base(Frame::identity());
@@ -146,7 +148,7 @@ pub struct Pool<const N: usize> {
 }
 
 /// Draws until `size` feasible candidates (with margins) are found or `max_draws` is reached.
-pub fn build_pool<const N: usize, const V: usize>(
+pub fn build_pool<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     scene: &HostScene,
     params: &[Param],
@@ -178,7 +180,7 @@ pub fn build_pool<const N: usize, const V: usize>(
 
 /// Uniformly random feasible configurations (rejection sampling within the limits): the
 /// experimenter's heuristic. Returns the configurations and the number of draws.
-pub fn random_design<const N: usize, const V: usize>(
+pub fn random_design<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     scene: &HostScene,
     params: &[Param],
@@ -211,7 +213,7 @@ pub fn random_design<const N: usize, const V: usize>(
 }
 
 /// Scaled Jacobian rows of the tool point at each working configuration.
-pub fn work_rows<const N: usize, const V: usize>(
+pub fn work_rows<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     params: &[Param],
     work: &[[f64; N]],
@@ -263,14 +265,14 @@ impl Default for Refinement {
 }
 
 /// What is needed to make new feasible candidates near a pose.
-pub struct Neighbourhood<'a, const N: usize, const V: usize> {
+pub struct Neighbourhood<'a, const N: usize, V: kinecal::ValueStorage> {
     pub robot: &'a Robot<f64, N, V>,
     pub scene: &'a HostScene,
     pub params: &'a [Param],
     pub collisions: bool,
 }
 
-impl<const N: usize, const V: usize> Neighbourhood<'_, N, V> {
+impl<const N: usize, V: kinecal::ValueStorage> Neighbourhood<'_, N, V> {
     /// A feasible candidate (full rows) near `q`: every joint moved by up to ±`step`, and
     /// half of the time the wrist re-aimed at the tracker (within the incidence cone).
     pub fn near(
@@ -323,7 +325,7 @@ pub struct Optimised {
 /// with `refine`, grows the pool near the design and exchanges again. Returns the pool
 /// indices (the pool may have grown).
 #[allow(clippy::too_many_arguments)]
-pub fn optimise<const N: usize, const V: usize>(
+pub fn optimise<const N: usize, V: kinecal::ValueStorage>(
     pool: &mut Vec<HostCandidate<N>>,
     basis: &Basis<f64, PCAP>,
     work_reduced: &[PoseRows<f64, PCAP>],
@@ -399,7 +401,7 @@ pub struct Evaluation {
 
 /// Predicted covariances of a design, computed from scratch (full parameter set, eigen
 /// pseudo-inverse) rather than from the optimiser's reduced coordinates.
-pub fn evaluate<const N: usize, const V: usize>(
+pub fn evaluate<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     params: &[Param],
     poses: &[[f64; N]],
@@ -467,7 +469,7 @@ pub struct PlanRequest<'a, const N: usize> {
 }
 
 /// Plans `req.poses` poses for `robot` (any base: it is set to identity).
-pub fn plan<const N: usize, const V: usize>(
+pub fn plan<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     req: &PlanRequest<N>,
 ) -> anyhow::Result<Plan<N>> {

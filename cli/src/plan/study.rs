@@ -37,7 +37,7 @@ pub struct StudySettings {
 }
 
 /// The example arm with upper arm `upper` and forearm `forearm` (mm).
-pub fn arm(upper: f64, forearm: f64) -> anyhow::Result<Robot<f64, 6, 0>> {
+pub fn arm(upper: f64, forearm: f64) -> anyhow::Result<Robot<f64, 6, kinecal::Inline<0>>> {
     let lim = |j: Joint<f64>, lo: f64, hi: f64| Joint {
         lower: lo.to_radians(),
         upper: hi.to_radians(),
@@ -123,7 +123,7 @@ pub struct ArmResult {
     pub settings: [Cell; 2],
 }
 
-pub fn colliding_share<const N: usize, const V: usize>(
+pub fn colliding_share<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     scene: &HostScene,
     poses: &[[f64; N]],
@@ -249,7 +249,7 @@ impl MonteCarlo {
 /// noisy data sets of a true robot with geometric errors and compares the spread of the
 /// identified tool points at `work` with the prediction.
 #[allow(clippy::too_many_arguments)]
-pub fn monte_carlo<const V: usize>(
+pub fn monte_carlo<V: kinecal::ValueStorage>(
     robot: &Robot<f64, 6, V>,
     scene: &HostScene,
     criterion: CriterionArg,

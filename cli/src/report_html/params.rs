@@ -9,7 +9,7 @@
 use crate::calibration::{named_values, Correlation, Fit};
 use crate::output::numfmt::sig;
 use crate::HostRobot;
-use crate::VCAP;
+use crate::HostValues;
 use kinecal::model::param::Param;
 use serde::Serialize;
 
@@ -72,7 +72,7 @@ pub fn table<const N: usize>(
     model: &HostRobot<N>,
     all: &[Param],
     estimated: &[Param],
-    fit: &Fit<N, VCAP>,
+    fit: &Fit<N, HostValues>,
 ) -> Vec<ParamRow> {
     let from = named_values(nominal, all);
     let to = named_values(model, all);

@@ -78,7 +78,7 @@ pub struct PointResiduals {
 impl PointResiduals {
     /// Each reflector's `before` (`models.0`) and `after` (`models.1`) on the identification and
     /// held-out observations (`None` with one point).
-    pub fn per_point<const N: usize, const V: usize>(
+    pub fn per_point<const N: usize, V: kinecal::ValueStorage>(
         names: &[String],
         models: (&Robot<f64, N, V>, &Robot<f64, N, V>),
         (ident, valid): (&[Measurement<f64, N>], &[Measurement<f64, N>]),

@@ -72,7 +72,7 @@ impl Default for GeomErrors {
 /// Random configurations (rad), uniform within each joint's limits. Each reading is a whole
 /// number of 1e-6° (what the CSV writer keeps), so data written and read back reproduce the
 /// model exactly.
-pub fn random_configurations<const N: usize, const V: usize, R: Rng>(
+pub fn random_configurations<const N: usize, V: kinecal::ValueStorage, R: Rng>(
     robot: &Robot<f64, N, V>,
     n: usize,
     rng: &mut R,
@@ -95,7 +95,7 @@ pub fn random_configurations<const N: usize, const V: usize, R: Rng>(
 
 /// A copy of `robot` with uniform errors on alpha, theta (±angle), a, d (±length) of every
 /// joint and on the tool point (±tool). Base, tilt and effects are kept.
-pub fn perturb_geometry<const N: usize, const V: usize, R: Rng>(
+pub fn perturb_geometry<const N: usize, V: kinecal::ValueStorage, R: Rng>(
     robot: &Robot<f64, N, V>,
     e: &GeomErrors,
     rng: &mut R,
@@ -242,7 +242,7 @@ impl FromStr for EffectArg {
 /// joint-compliance rad per metre of lever arm; axis-tilt sets the joint's beta (rad);
 /// joint-table values are knot corrections (rad), lowest knot first, on `e.grid` when given and
 /// otherwise spread evenly over the joint's range from the lowest limit.
-pub fn add_effect<const N: usize, const V: usize>(
+pub fn add_effect<const N: usize, V: kinecal::ValueStorage>(
     robot: &mut Robot<f64, N, V>,
     e: &EffectArg,
 ) -> anyhow::Result<()> {
@@ -292,7 +292,7 @@ pub fn add_effect<const N: usize, const V: usize>(
 }
 
 /// Measured points of `robot` at `configs` (rad) with Gaussian noise of `sigma_mm` per axis.
-pub fn measure<const N: usize, const V: usize, R: Rng>(
+pub fn measure<const N: usize, V: kinecal::ValueStorage, R: Rng>(
     robot: &Robot<f64, N, V>,
     configs: &[[f64; N]],
     sigma_mm: f64,
@@ -303,7 +303,7 @@ pub fn measure<const N: usize, const V: usize, R: Rng>(
 
 /// [`measure`] with the arm at temperature `temps[i]` (°C) for pose `i` (none beyond the
 /// slice): what a model's thermal-expansion term is evaluated at.
-pub fn measure_at<const N: usize, const V: usize, R: Rng>(
+pub fn measure_at<const N: usize, V: kinecal::ValueStorage, R: Rng>(
     robot: &Robot<f64, N, V>,
     configs: &[[f64; N]],
     temps: &[f64],
@@ -330,7 +330,7 @@ pub fn measure_at<const N: usize, const V: usize, R: Rng>(
 /// A robot with default geometric errors ([`GeomErrors::default`]) made from `nominal`, and `n`
 /// measurements of it at random configurations with Gaussian noise of `sigma_mm` per axis:
 /// `(truth, measurements)`.
-pub fn perturbed_measurements<const N: usize, const V: usize, R: Rng>(
+pub fn perturbed_measurements<const N: usize, V: kinecal::ValueStorage, R: Rng>(
     nominal: &Robot<f64, N, V>,
     n: usize,
     sigma_mm: f64,

@@ -24,7 +24,7 @@ pub const SWEEP_COLUMN: &str = "sweep";
 /// readings stay within theirs, see [`coupled_readings`]). A span of 360° or more gives
 /// `points` evenly spaced readings round the full turn (no repeated end point). Every reading
 /// is quantized to what the CSV writer keeps.
-pub fn sweep_readings<const N: usize, const V: usize>(
+pub fn sweep_readings<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     rest_deg: &[f64; N],
     joint: usize,
@@ -80,7 +80,7 @@ pub fn sweep_readings<const N: usize, const V: usize>(
 /// The readings (degrees) of a sweep row: `rest_deg` with `joint` (0-based) at `reading`, and
 /// every joint coupled from `joint` moved by `−ratio × (reading − rest)` so that its model
 /// angle stays at rest (quantized like every reading the CSV writer keeps).
-pub fn coupled_readings<const N: usize, const V: usize>(
+pub fn coupled_readings<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     rest_deg: &[f64; N],
     joint: usize,
@@ -100,7 +100,7 @@ pub fn coupled_readings<const N: usize, const V: usize>(
 }
 
 /// Distance (mm) of the measured point from joint `j`'s axis at readings `q` (rad).
-pub fn radius_about<const N: usize, const V: usize>(
+pub fn radius_about<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     q: &[f64; N],
     j: usize,
@@ -119,7 +119,9 @@ pub fn radius_about<const N: usize, const V: usize>(
 /// circles are large), otherwise the first of a small grid over joints 2, 3 and 5 (0, ±30°,
 /// ±60°, ±90°, within the limits) that is; failing that, the grid point with the largest
 /// smaller radius. An arm that stands straight up at zero (a 7-axis arm, say) gets bent.
-pub fn default_rest<const N: usize, const V: usize>(robot: &Robot<f64, N, V>) -> [f64; N] {
+pub fn default_rest<const N: usize, V: kinecal::ValueStorage>(
+    robot: &Robot<f64, N, V>,
+) -> [f64; N] {
     let clamp = |j: usize, deg: f64| -> Option<f64> {
         let r = robot.joints().get(j)?;
         let v = deg.to_radians();
@@ -181,7 +183,7 @@ pub fn default_rest<const N: usize, const V: usize>(robot: &Robot<f64, N, V>) ->
 ///   (the noise comes from the seed's noise stream of [`Streams`]).
 ///
 /// Rows carry the swept joint in the extra column `sweep`.
-pub fn sweep_data<const N: usize, const V: usize>(
+pub fn sweep_data<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     rest_deg: &[f64; N],
     joints: &[usize],

@@ -72,7 +72,7 @@ const PSO_SLICE: usize = 2;
 const SNAPSHOT_BYTES: usize = 8192;
 
 /// The solver with its normal equations in fixed arrays sized for this robot's 24 parameters.
-type Lm = Levenberg<f32, N, 0, FixedLm<f32, P>>;
+type Lm = Levenberg<f32, N, kinecal::Inline<0>, FixedLm<f32, P>>;
 type Swarm = kinecal::identify::pso::Pso<f32, SWARM, P, { scenario::PSO_HISTORY }>;
 
 /// The model the servo tick compensates with: read every tick, replaced by the idle loop when

@@ -169,7 +169,7 @@ fn reference(csv: &[u8], truth: &Robot<f64, N>) -> (String, String) {
         .expect("24 columns");
     let jac: Vec<[f64; 3]> = cols.iter().map(|c| (*c).into()).collect();
 
-    let mut lm = Levenberg::<f64, N, 0, _>::new(
+    let mut lm = Levenberg::<f64, N, kinecal::Inline<0>, _>::new(
         nominal.clone(),
         FixedLm::<f64, P>::new(set),
         scenario::lm_config(),
@@ -220,7 +220,7 @@ fn reference(csv: &[u8], truth: &Robot<f64, N>) -> (String, String) {
         "the 6-D run fills the held-out poses' storage"
     );
     let set6 = scenario::pose6d_params();
-    let mut lm6 = Levenberg::<f64, N, 0, _>::new(
+    let mut lm6 = Levenberg::<f64, N, kinecal::Inline<0>, _>::new(
         scenario::nominal_probe(),
         FixedLm::<f64, P>::new(set6.clone()),
         scenario::lm_config(),
@@ -250,7 +250,7 @@ fn reference(csv: &[u8], truth: &Robot<f64, N>) -> (String, String) {
         &[-scenario::REMASTER_DEG.to_radians(); 2],
     )
     .expect("two finite deltas");
-    let mut lm_r = Levenberg::<f64, N, 0, _>::new(
+    let mut lm_r = Levenberg::<f64, N, kinecal::Inline<0>, _>::new(
         before,
         FixedLm::<f64, P>::new(remastered.clone()),
         scenario::lm_config(),

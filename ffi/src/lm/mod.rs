@@ -1,4 +1,4 @@
-//! Identification: the Levenberg–Marquardt stepper (`kc_lm`: `Levenberg<f32, 6 or 7, 0,
+//! Identification: the Levenberg–Marquardt stepper (`kc_lm`: `Levenberg<f32, 6 or 7, Inline<0>,
 //! FixedLm<f32, 24>>`), its snapshots, and the RMS error of a model over measurements.
 
 // In the header's order (one group each: rustfmt sorts `mod` items within a group).

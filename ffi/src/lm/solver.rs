@@ -20,7 +20,8 @@ use super::full::kc_lm_full;
 pub const KC_LM_MAX_PARAMS: usize = 24;
 
 /// The solver of an `N`-joint robot with room for `P` parameters.
-pub(crate) type Lm<const N: usize, const P: usize> = Levenberg<f32, N, 0, FixedLm<f32, P>>;
+pub(crate) type Lm<const N: usize, const P: usize> =
+    Levenberg<f32, N, kinecal::Inline<0>, FixedLm<f32, P>>;
 
 /// What a solver handle holds: its constructor's `Result`, for a 6- or 7-joint robot.
 pub(crate) enum Solvers<const P: usize> {
@@ -49,7 +50,7 @@ impl<const P: usize, H: handle::Handle<Inner = Solvers<P>>> Solver<P> for H {}
 /// Bytes of a [`kc_lm`] (see `KC_ROBOT_SIZE`).
 pub const KC_LM_SIZE: usize = 9136;
 
-/// A Levenberg–Marquardt identification (`Levenberg<f32, 6, 0, FixedLm<f32,
+/// A Levenberg–Marquardt identification (`Levenberg<f32, 6, Inline<0>, FixedLm<f32,
 /// KC_LM_MAX_PARAMS>>`): a streaming stepper that does a bounded slice of work per
 /// [`kc_lm_step`] call, snapshot and restore. Several KB: give it static storage. Room for
 /// `KC_LM_MAX_PARAMS` parameters (the MDH set); [`kc_lm_full`] takes the base and the tool too.
@@ -91,7 +92,9 @@ fn solver<const N: usize, const P: usize>(
     }
     set.check(robot).map_err(|_| KC_INVALID_ARGUMENT)?;
     // The solver identifies geometry: a robot with joint corrections is refused.
-    let geometry = robot.with_capacity::<0>().map_err(|_| KC_INVALID_ROBOT)?;
+    let geometry = robot
+        .with_capacity::<kinecal::Inline<0>>()
+        .map_err(|_| KC_INVALID_ROBOT)?;
     Ok(Levenberg::new(geometry, FixedLm::new(set), *cfg))
 }
 

@@ -14,7 +14,7 @@ use nalgebra::Vector3;
 /// flash; its bytes are the firmware's to provide.
 static BLOB: [u8; 2048] = [0; 2048];
 
-static MODEL: Slot<Robot<f32, 6, 256>> = Slot::new();
+static MODEL: Slot<Robot<f32, 6, kinecal::Inline<256>>> = Slot::new();
 
 fn run() -> f32 {
     let zero = Joint::mdh(0.0f32, 0.0, 0.0, 0.0);

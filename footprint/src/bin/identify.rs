@@ -14,7 +14,7 @@ use nalgebra::Vector3;
 /// Poses of the identification (the measurements a firmware streams in).
 const POSES: usize = 50;
 
-type Solver = Levenberg<f32, 6, 0, FixedLm<f32, 24>>;
+type Solver = Levenberg<f32, 6, kinecal::Inline<0>, FixedLm<f32, 24>>;
 
 static SOLVER: Slot<Solver> = Slot::new();
 static DATA: Slot<[Measurement<f32, 6>; POSES]> = Slot::new();

@@ -16,6 +16,7 @@ mod documented_examples;
 mod exit_status;
 mod frames;
 mod hardening_surfaces;
+mod host_values;
 mod identify_start;
 mod internals;
 mod map_everywhere;

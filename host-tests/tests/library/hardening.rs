@@ -28,7 +28,7 @@ fn robot() -> Robot<f64, 6> {
     Robot::new(Frame::identity(), rows(), Vector3::new(0.0, 0.0, 100.0)).unwrap()
 }
 
-fn finite_fk<const V: usize>(r: &Robot<f64, 6, V>) -> bool {
+fn finite_fk<V: kinecal::ValueStorage>(r: &Robot<f64, 6, V>) -> bool {
     let p = ForwardKinematics::new().compute(r, &[0.1, -0.2, 0.3, 0.4, -0.5, 0.6]);
     p.iter().all(|v| v.is_finite())
 }
@@ -127,7 +127,7 @@ fn casts_are_checked() {
     assert!(Frame::<f64>::identity().cast::<f32>().is_some());
 
     // A table step that rounds to zero in f32: an error, not a silently dropped effect.
-    let mut r = robot().with_capacity::<4>().unwrap();
+    let mut r = robot().with_capacity::<kinecal::Inline<4>>().unwrap();
     r.effects_mut()
         .push(EffectKind::Table, 1, 6, 1, 0.0, 1e-50, &[0.0, 1e-3])
         .unwrap();
@@ -137,7 +137,7 @@ fn casts_are_checked() {
     );
 
     // A valid robot with couplings and effects casts, with every part.
-    let mut r = robot().with_capacity::<4>().unwrap();
+    let mut r = robot().with_capacity::<kinecal::Inline<4>>().unwrap();
     r.set_coupling(2, 1, 1.0).unwrap();
     r.effects_mut()
         .push(EffectKind::Scale, 0, 6, 1, 0.0, 0.0, &[1e-3])
@@ -152,7 +152,7 @@ fn casts_are_checked() {
 
 #[test]
 fn effects_refuse_joints_beyond_the_robot_and_u16_indices() {
-    let mut r = robot().with_capacity::<4>().unwrap();
+    let mut r = robot().with_capacity::<kinecal::Inline<4>>().unwrap();
     // Joint 7 (index 6) of a 6-joint robot, even when the caller claims 7 joints.
     assert_eq!(
         r.effects_mut()
@@ -161,7 +161,7 @@ fn effects_refuse_joints_beyond_the_robot_and_u16_indices() {
     );
     assert!(r.effects().is_empty());
     // A list of no robot accepts nothing.
-    let mut free = Effects::<f64, 4>::default();
+    let mut free = Effects::<f64, kinecal::Inline<4>>::default();
     assert_eq!(
         free.push(EffectKind::Scale, 0, 6, 1, 0.0, 0.0, &[1e-3]),
         Err(EffectError::Joint)
@@ -179,7 +179,7 @@ fn effects_refuse_joints_beyond_the_robot_and_u16_indices() {
     std::thread::Builder::new()
         .stack_size(8 << 20)
         .spawn(|| {
-            let mut e = Box::new(Effects::<f64, 70_000>::for_joints(2));
+            let mut e = Box::new(Effects::<f64, kinecal::Inline<70_000>>::for_joints(2));
             let vals = vec![0.0; 40_000];
             e.push(EffectKind::Table, 0, 2, 1, 0.0, 1e-3, &vals)
                 .unwrap();
@@ -200,7 +200,7 @@ fn effects_refuse_joints_beyond_the_robot_and_u16_indices() {
 /// is pushed: [`Effects::is_empty`] says so at compile time.
 #[test]
 fn a_list_without_value_capacity_stays_empty() {
-    let mut e = Effects::<f64, 0>::for_joints(6);
+    let mut e = Effects::<f64, kinecal::Inline<0>>::for_joints(6);
     let pushes: [(EffectKind, u16, f64, f64, &[f64]); 6] = [
         (EffectKind::Scale, 1, 0.0, 0.0, &[1e-3]),
         (EffectKind::Compliance, 1, 0.0, 0.0, &[1e-3]),
@@ -269,7 +269,7 @@ fn bpnn_ranges_and_rates_that_overflow_are_refused() {
 /// ±MAX_ANGLE are clamped, so every finite reading gives a finite point; NaN still gives NaN.
 #[test]
 fn fk_is_finite_for_every_finite_reading() {
-    let mut r = robot().with_capacity::<8>().unwrap();
+    let mut r = robot().with_capacity::<kinecal::Inline<8>>().unwrap();
     r.set_coupling(2, 1, 1e3).unwrap();
     r.effects_mut()
         .push(EffectKind::Cyclic, 5, 6, 65_535, 0.0, 0.0, &[1e-3, 2e-3])
@@ -367,7 +367,7 @@ fn lm_data(truth: &Robot<f64, 6>) -> Vec<Measurement<f64, 6>> {
         .collect()
 }
 
-type Lm = kinecal::identify::lm::FixedLevenberg<f64, 6, 0, 27>;
+type Lm = kinecal::identify::lm::FixedLevenberg<f64, 6, kinecal::Inline<0>, 27>;
 
 fn lm_setup() -> (Lm, Vec<Measurement<f64, 6>>) {
     let mut truth = robot();

@@ -9,13 +9,16 @@ use rand_distr::{Distribution, Normal};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 /// The ER20-C10 stand-in of the demo (joint limits ±170°).
-fn er20() -> Robot<f64, 6, 64> {
+fn er20() -> Robot<f64, 6, kinecal::Inline<64>> {
     kinecal_cli::simulation::er20_c10()
-        .with_capacity::<64>()
+        .with_capacity::<kinecal::Inline<64>>()
         .unwrap()
 }
 
-fn perturbed(nominal: &Robot<f64, 6, 64>, rng: &mut Xoshiro256PlusPlus) -> Robot<f64, 6, 64> {
+fn perturbed(
+    nominal: &Robot<f64, 6, kinecal::Inline<64>>,
+    rng: &mut Xoshiro256PlusPlus,
+) -> Robot<f64, 6, kinecal::Inline<64>> {
     let mut t = nominal.clone();
     let set = ParamSet::<64>::full(6, false).unwrap();
     let delta: Vec<f64> = set
@@ -34,7 +37,7 @@ fn perturbed(nominal: &Robot<f64, 6, 64>, rng: &mut Xoshiro256PlusPlus) -> Robot
 }
 
 fn measure(
-    robot: &Robot<f64, 6, 64>,
+    robot: &Robot<f64, 6, kinecal::Inline<64>>,
     n: usize,
     sigma: f64,
     rng: &mut Xoshiro256PlusPlus,
@@ -142,9 +145,12 @@ fn bad_input_is_refused_without_damage() {
     assert_eq!(lm.robot(), &nominal);
     let mut bad_set = ParamSet::<64>::new();
     bad_set.push(Param::D(9)).unwrap();
-    assert!(
-        FixedLevenberg::<f64, 6, 64, 64>::fixed(nominal, bad_set, LmConfig::default()).is_err()
-    );
+    assert!(FixedLevenberg::<f64, 6, kinecal::Inline<64>, 64>::fixed(
+        nominal,
+        bad_set,
+        LmConfig::default()
+    )
+    .is_err());
 }
 
 /// Settings that cannot run are refused at construction (a damping of zero or below
@@ -289,7 +295,7 @@ fn the_normal_matrix_left_is_complete_at_the_final_model() {
     // One call of as many poses as there are: exactly the first pass.
     fresh.step(&data, data.len()).unwrap();
     let n = lm.params().len();
-    let unscaled = |l: &FixedLevenberg<f64, 6, 64, 64>, i: usize, j: usize| {
+    let unscaled = |l: &FixedLevenberg<f64, 6, kinecal::Inline<64>, 64>, i: usize, j: usize| {
         l.normal_matrix(i.max(j), i.min(j)) * l.scale(i) * l.scale(j)
     };
     let mut worst = 0f64;

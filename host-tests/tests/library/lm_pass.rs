@@ -10,19 +10,28 @@ use kinecal_cli::simulation;
 use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
 
-type Lm = Levenberg<f64, 6, 64, VecLm<f64>>;
+type Lm = Levenberg<f64, 6, kinecal::Inline<64>, VecLm<f64>>;
 
 /// The ER20 stand-in with the base estimated too (6 base parameters, some confounded and
 /// held), a perturbed truth ([`simulation::perturb_geometry`]), and noisy poses of it.
-fn problem(n: usize, seed: u64) -> (Robot<f64, 6, 64>, Vec<Param>, Vec<Measurement<f64, 6>>) {
-    let nominal = simulation::er20_c10().with_capacity::<64>().unwrap();
+fn problem(
+    n: usize,
+    seed: u64,
+) -> (
+    Robot<f64, 6, kinecal::Inline<64>>,
+    Vec<Param>,
+    Vec<Measurement<f64, 6>>,
+) {
+    let nominal = simulation::er20_c10()
+        .with_capacity::<kinecal::Inline<64>>()
+        .unwrap();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     let (_, data) = simulation::perturbed_measurements(&nominal, n, 0.01, &mut rng);
     let params = ParamSet::<64>::full(6, true).unwrap().to_vec();
     (nominal, params, data)
 }
 
-fn solver(start: &Robot<f64, 6, 64>, params: &[Param]) -> Lm {
+fn solver(start: &Robot<f64, 6, kinecal::Inline<64>>, params: &[Param]) -> Lm {
     Levenberg::new(start.clone(), VecLm::new(params), LmConfig::default()).unwrap()
 }
 

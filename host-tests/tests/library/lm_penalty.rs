@@ -17,12 +17,14 @@ use nalgebra::{DMatrix, DVector, Vector3};
 use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
 
-fn er20() -> Robot<f64, 6, 64> {
-    simulation::er20_c10().with_capacity::<64>().unwrap()
+fn er20() -> Robot<f64, 6, kinecal::Inline<64>> {
+    simulation::er20_c10()
+        .with_capacity::<kinecal::Inline<64>>()
+        .unwrap()
 }
 
 /// Noisy poses of a perturbed ER20 (the truth).
-fn poses(n: usize, seed: u64) -> (Robot<f64, 6, 64>, Vec<Measurement<f64, 6>>) {
+fn poses(n: usize, seed: u64) -> (Robot<f64, 6, kinecal::Inline<64>>, Vec<Measurement<f64, 6>>) {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     simulation::perturbed_measurements(&er20(), n, 0.01, &mut rng)
 }
@@ -43,7 +45,7 @@ const LINEAR: [Param; 6] = [
 /// hand (ridge `I`, second differences `DᵀD` of the three tool coordinates), then
 /// `(JᵀJ + Π) δ = Jᵀr₀ − Π u₀`.
 fn closed_form(
-    start: &Robot<f64, 6, 64>,
+    start: &Robot<f64, 6, kinecal::Inline<64>>,
     data: &[Measurement<f64, 6>],
     prior: &[f64; 6],
     (base_ridge, tool_ridge, tool_smooth): (f64, f64, f64),
@@ -198,7 +200,7 @@ fn f32_and_fixed_storage_reach_the_same_penalised_optimum() {
         ..LmConfig::default()
     };
     let storage = FixedLm::<f32, 8>::from_slice(&LINEAR).unwrap();
-    let start32: Robot<f32, 6, 64> = start.cast().unwrap();
+    let start32: Robot<f32, 6, kinecal::Inline<64>> = start.cast().unwrap();
     let mut lm = Levenberg::with_penalty(start32, storage, pen, cfg).unwrap();
     lm.run(&data32).unwrap();
     for (k, param) in LINEAR.iter().enumerate() {
@@ -240,7 +242,7 @@ fn a_held_parameter_stays_put_and_the_others_are_fitted() {
     }
     assert_ne!(value(lm.robot(), Param::D(0)), value(&start, Param::D(0)));
     // The free run's fit is better than the held run's (the held pair was off).
-    let err = |r: &Robot<f64, 6, 64>| kinecal::identify::lm::rms_error(r, &data);
+    let err = |r: &Robot<f64, 6, kinecal::Inline<64>>| kinecal::identify::lm::rms_error(r, &data);
     assert!(
         err(free.robot()) < err(lm.robot()),
         "{} vs {}",
@@ -312,7 +314,7 @@ fn bad_penalties_are_refused_with_typed_errors() {
 }
 
 /// ER20 with a 12-knot table on joint 2 (values no pose reaches are left to the penalty).
-fn with_table() -> (Robot<f64, 6, 64>, Vec<Param>) {
+fn with_table() -> (Robot<f64, 6, kinecal::Inline<64>>, Vec<Param>) {
     let mut robot = er20();
     let j = &robot.joints()[1];
     let (lo, hi) = (j.lower, j.upper);

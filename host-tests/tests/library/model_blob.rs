@@ -68,7 +68,7 @@ fn poses<const N: usize>(n: usize, seed: u64) -> Vec<[f64; N]> {
         .collect()
 }
 
-fn blob_of<const N: usize, const V: usize>(r: &Robot<f64, N, V>) -> Vec<u8> {
+fn blob_of<const N: usize, V: kinecal::ValueStorage>(r: &Robot<f64, N, V>) -> Vec<u8> {
     let mut out = vec![0u8; model_blob::encoded_len(r)];
     let n = model_blob::encode(r, &mut out).unwrap();
     assert_eq!(n, out.len());
@@ -99,7 +99,8 @@ fn round_trip<const N: usize>(original: &HostRobot<N>) {
     // Re-encoding gives the same bytes.
     assert_eq!(blob_of(&decoded), blob);
     // Decoded into f32: the model the f32 cast of the original is.
-    let mut small: Robot<f32, N, 256> = original.cast::<f32>().unwrap().with_capacity().unwrap();
+    let mut small: Robot<f32, N, kinecal::Inline<256>> =
+        original.cast::<f32>().unwrap().with_capacity().unwrap();
     let want = small.clone();
     small.set_tool(Vector3::new(1.0, 2.0, 3.0)).unwrap();
     model_blob::decode(&blob, &mut small).unwrap();
@@ -154,7 +155,7 @@ fn resealed(mut blob: Vec<u8>) -> Vec<u8> {
 }
 
 /// Asserts that `blob` is refused with `want` and leaves the target unchanged.
-fn refused<const N: usize, const V: usize>(
+fn refused<const N: usize, V: kinecal::ValueStorage>(
     blob: &[u8],
     target: &Robot<f64, N, V>,
     want: BlobError,
@@ -215,9 +216,9 @@ fn truncated_corrupted_and_foreign_blobs_are_refused_leaving_the_robot_unchanged
     b[last..last + 8].copy_from_slice(&f64::INFINITY.to_le_bytes());
     refused(&resealed(b), &target, BlobError::NotFinite);
     // More effect values than the robot has room for.
-    let small: Robot<f64, 6, 8> = target.with_capacity().unwrap();
+    let small: Robot<f64, 6, kinecal::Inline<8>> = target.with_capacity().unwrap();
     refused(&blob, &small, BlobError::Capacity);
-    let plain: Robot<f64, 6, 0> = target.with_capacity().unwrap();
+    let plain: Robot<f64, 6, kinecal::Inline<0>> = target.with_capacity().unwrap();
     refused(&blob, &plain, BlobError::Capacity);
 }
 
@@ -335,7 +336,7 @@ ratio = 1.0
 /// Runs the C client (`ffi/tests/c/model_test.c`) on the binary model of `model` at `n` poses
 /// drawn from `ranges` (rad; bent arm, no singularity), and checks its forward kinematics and
 /// compensated commands against the library in f64.
-fn c_client_matches_f64<const N: usize, const V: usize>(
+fn c_client_matches_f64<const N: usize, V: kinecal::ValueStorage>(
     model: &Robot<f64, N, V>,
     ranges: [(f64, f64); N],
     n: usize,

@@ -74,7 +74,9 @@ fn cached_path_matches_forward_kinematics_with_tilt_base_and_tool() {
 
 #[test]
 fn effects_take_the_general_path() {
-    let mut r: Robot<f64, 6, 4> = er20_nominal().with_capacity::<4>().unwrap();
+    let mut r: Robot<f64, 6, kinecal::Inline<4>> = er20_nominal()
+        .with_capacity::<kinecal::Inline<4>>()
+        .unwrap();
     r.effects_mut()
         .push(EffectKind::Scale, 1, 6, 1, 0.0, 0.0, &[1e-3])
         .unwrap();
@@ -372,11 +374,12 @@ fn same_seed_same_result_whatever_the_slicing() {
     let mut f = PositionFitness::new(&nominal, &params, &data).unwrap();
     let mut cfg = PsoConfig::<f64, 24>::calibration(params.as_slice()).unwrap();
     cfg.max_iterations = 25;
-    let run = |f: &mut PositionFitness<'_, f64, 6, 0, 24>, seed: u64, budget: usize| {
-        let mut pso = Box::new(Swarm::new(cfg, seed).unwrap());
-        while pso.step(f, budget).unwrap().stopped.is_none() {}
-        pso
-    };
+    let run =
+        |f: &mut PositionFitness<'_, f64, 6, kinecal::Inline<0>, 24>, seed: u64, budget: usize| {
+            let mut pso = Box::new(Swarm::new(cfg, seed).unwrap());
+            while pso.step(f, budget).unwrap().stopped.is_none() {}
+            pso
+        };
     let a = run(&mut f, 42, usize::MAX);
     for budget in [1, 7, 199, 200, 201] {
         let b = run(&mut f, 42, budget);

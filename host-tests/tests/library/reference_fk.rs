@@ -12,7 +12,7 @@ use proptest::prelude::*;
 use std::f64::consts::PI;
 
 /// Effect-value capacity of the test robots.
-const V: usize = 64;
+type V = kinecal::Inline<64>;
 
 /// A random robot: rows (alpha, a, theta, d, beta), base (xyz, rpy), tool.
 #[derive(Clone, Debug)]

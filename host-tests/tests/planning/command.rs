@@ -453,7 +453,7 @@ fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
             .iter()
             .map(|g| basis.reduce(g))
             .collect();
-        let (d, _) = design::optimise::<6, { kinecal_cli::VCAP }>(
+        let (d, _) = design::optimise::<6, kinecal_cli::HostValues>(
             &mut p2,
             &basis,
             &wr,
@@ -471,7 +471,7 @@ fn online_stepper_reaches_the_target_precision_with_its_own_proposals() {
     };
     let worst40 = k40.tool_std_mm.iter().cloned().fold(0.0, f64::max);
     let target = worst40 * 1.1;
-    let mut online = OnlineDesign::<f64, 6, { kinecal_cli::VCAP }, PCAP, 4>::new(
+    let mut online = OnlineDesign::<f64, 6, kinecal_cli::HostValues, PCAP, 4>::new(
         robot.clone(),
         params.clone(),
         basis.clone(),

@@ -19,7 +19,7 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 
 const P: usize = 33;
 
-fn robot() -> Robot<f64, 6, 0> {
+fn robot() -> Robot<f64, 6, kinecal::Inline<0>> {
     let rows = [
         Joint::mdh_deg(0.0, 0.0, 0.0, 504.0),
         Joint::mdh_deg(-90.0, 170.0, -90.0, 0.0),
@@ -31,7 +31,11 @@ fn robot() -> Robot<f64, 6, 0> {
     Robot::new(Frame::identity(), rows, Vector3::new(0.0, 0.0, 100.0)).unwrap()
 }
 
-fn rows<T: Real>(r: &Robot<T, 6, 0>, params: &ParamSet<P>, q: &[T; 6]) -> PoseRows<T, P> {
+fn rows<T: Real>(
+    r: &Robot<T, 6, kinecal::Inline<0>>,
+    params: &ParamSet<P>,
+    q: &[T; 6],
+) -> PoseRows<T, P> {
     let mut fk = ForwardKinematics::new();
     fk.compute(r, q);
     let mut g = [[T::zero(); P]; 3];
@@ -42,7 +46,7 @@ fn rows<T: Real>(r: &Robot<T, 6, 0>, params: &ParamSet<P>, q: &[T; 6]) -> PoseRo
 /// Pool → identifiable basis → KPI selection, in scalar T; returns the chosen pool indices
 /// and the basis rank.
 fn design<T: Real>(qs: &[[f64; 6]], work: &[[f64; 6]], n: usize) -> (Vec<usize>, usize) {
-    let r: Robot<T, 6, 0> = robot().cast().unwrap();
+    let r: Robot<T, 6, kinecal::Inline<0>> = robot().cast().unwrap();
     let params = ParamSet::<P>::full(6, true).unwrap();
     let mut pool: Vec<Candidate<T, 6, P>> = qs
         .iter()
@@ -109,7 +113,7 @@ fn f32_selection_and_online_stepper_match_f64() {
             assert!(k32 <= 1.05 * k64 && k64 <= 1.05 * k32);
 
             // The online stepper in f32 predicts what f64 linear algebra predicts.
-            let r32: Robot<f32, 6, 0> = robot().cast().unwrap();
+            let r32: Robot<f32, 6, kinecal::Inline<0>> = robot().cast().unwrap();
             let params = ParamSet::<P>::full(6, true).unwrap();
             let mut info = Information::<f32, P>::new(params.len()).unwrap();
             for q in &qs {
@@ -118,8 +122,10 @@ fn f32_selection_and_online_stepper_match_f64() {
             }
             let basis = Basis::new(&info, default_tolerance()).unwrap();
             let w32: Vec<[f32; 6]> = work.iter().map(|q| q.map(|v| v as f32)).collect();
-            let mut online =
-                OnlineDesign::<f32, 6, 0, P, 2>::new(r32, params, basis, &w32, 0.01, 0.0).unwrap();
+            let mut online = OnlineDesign::<f32, 6, kinecal::Inline<0>, P, 2>::new(
+                r32, params, basis, &w32, 0.01, 0.0,
+            )
+            .unwrap();
             let measured = &qs[..30];
             let mut status = None;
             for q in measured {

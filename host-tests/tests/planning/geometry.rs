@@ -229,7 +229,7 @@ proptest! {
 }
 
 /// A planar 3R arm along x (all axes vertical), a tool 50 mm above the flange.
-fn arm() -> Robot<f64, 3, 0> {
+fn arm() -> Robot<f64, 3, kinecal::Inline<0>> {
     let j = |a: f64| Joint::mdh_deg(0.0, a, 0.0, 0.0);
     Robot::new(
         Frame::identity(),
@@ -357,7 +357,7 @@ fn wrist_aiming_converges_on_a_seven_joint_arm() {
         Joint::mdh_deg(-90.0, 0.0, 0.0, 0.0),
         Joint::mdh_deg(90.0, 0.0, 0.0, 126.0),
     ];
-    let robot: Robot<f64, 7, 0> =
+    let robot: Robot<f64, 7, kinecal::Inline<0>> =
         Robot::new(Frame::identity(), rows, Vector3::new(0.0, 0.0, 100.0)).unwrap();
     let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(4);
     let mut fk = ForwardKinematics::new();

@@ -17,7 +17,7 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 
 const P: usize = 40;
 
-fn robot() -> Robot<f64, 6, 0> {
+fn robot() -> Robot<f64, 6, kinecal::Inline<0>> {
     let rows = [
         Joint::mdh_deg(0.0, 0.0, 0.0, 504.0),
         Joint::mdh_deg(-90.0, 170.0, -90.0, 0.0),
@@ -36,7 +36,11 @@ fn configs(n: usize, seed: u64) -> Vec<[f64; 6]> {
         .collect()
 }
 
-fn rows_at(r: &Robot<f64, 6, 0>, params: &ParamSet<P>, q: &[f64; 6]) -> PoseRows<f64, P> {
+fn rows_at(
+    r: &Robot<f64, 6, kinecal::Inline<0>>,
+    params: &ParamSet<P>,
+    q: &[f64; 6],
+) -> PoseRows<f64, P> {
     let mut fk = ForwardKinematics::new();
     fk.compute(r, q);
     let mut g = [[0.0; P]; 3];

@@ -14,6 +14,7 @@ use super::status::{LmError, LmProgress, LmStop};
 use super::storage::{storage_fits, FixedLm, LmStorage};
 use crate::io::measurement::Observation;
 use crate::model::param::{apply_delta, check_params, value, Param, ParamError};
+use crate::ValueStorage;
 use crate::{ForwardKinematics, Real, Robot};
 
 /// Where a run stands between calls.
@@ -34,7 +35,7 @@ pub(super) enum Phase {
     Done(LmStop),
 }
 
-/// The Levenberg–Marquardt stepper for a robot with `N` joints and `V` effect values, over the
+/// The Levenberg–Marquardt stepper for a robot with `N` joints and effect values kept in `V`, over the
 /// caller's `Storage` (the parameters and the normal equations: an [`LmStorage`]) and
 /// `Penalty` (none by default: an [`LmPenalty`]).
 // `repr(C)`, in the order rustc chose before (storage, models, scalars, workspace, flags: no
@@ -48,7 +49,7 @@ pub(super) enum Phase {
 pub struct Levenberg<
     T: Real,
     const N: usize,
-    const V: usize,
+    V: ValueStorage,
     Storage: LmStorage<T>,
     Penalty: LmPenalty<T> = NoPenalty,
 > {
@@ -79,10 +80,9 @@ pub struct Levenberg<
 }
 
 /// A solver in fixed arrays with room for `P` parameters (firmware; small host problems).
-pub type FixedLevenberg<T, const N: usize, const V: usize, const P: usize> =
-    Levenberg<T, N, V, FixedLm<T, P>>;
+pub type FixedLevenberg<T, const N: usize, V, const P: usize> = Levenberg<T, N, V, FixedLm<T, P>>;
 
-impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V, FixedLm<T, P>> {
+impl<T: Real, const N: usize, V: ValueStorage, const P: usize> Levenberg<T, N, V, FixedLm<T, P>> {
     /// A solver in fixed arrays with room for the `P` parameters of `params`.
     pub fn fixed(
         start: Robot<T, N, V>,
@@ -93,7 +93,7 @@ impl<T: Real, const N: usize, const V: usize, const P: usize> Levenberg<T, N, V,
     }
 }
 
-impl<T: Real, const N: usize, const V: usize, Storage: LmStorage<T>> Levenberg<T, N, V, Storage> {
+impl<T: Real, const N: usize, V: ValueStorage, Storage: LmStorage<T>> Levenberg<T, N, V, Storage> {
     /// A solver starting from `start` (the nominal model or any other, e.g. a previous fit),
     /// estimating the parameters of `storage` (all must exist in the robot, and the storage
     /// must have room for them).
@@ -102,7 +102,7 @@ impl<T: Real, const N: usize, const V: usize, Storage: LmStorage<T>> Levenberg<T
     }
 }
 
-impl<T: Real, const N: usize, const V: usize, Storage: LmStorage<T>, Penalty: LmPenalty<T>>
+impl<T: Real, const N: usize, V: ValueStorage, Storage: LmStorage<T>, Penalty: LmPenalty<T>>
     Levenberg<T, N, V, Storage, Penalty>
 {
     /// [`Levenberg::new`] minimising `Σ|r_i|² + uᵀΠu` with the caller's `penalty` (see

@@ -9,6 +9,7 @@ use super::storage::{LmParts, LmStorage};
 use crate::io::measurement::Observation;
 use crate::model::effects::{Effect, EffectKind};
 use crate::model::param::Param;
+use crate::ValueStorage;
 use crate::{ForwardKinematics, Real, Robot};
 use core::marker::PhantomData;
 use nalgebra::Vector3;
@@ -120,13 +121,13 @@ fn scaled<T: Real>(c: Vector3<T>, s: T, reach: Option<Reach<T>>) -> Vector3<T> {
 /// or the three components of the orientation error (6-D observations).
 pub(super) trait Rows {
     /// `∂(rows)/∂param` at the last computed pose.
-    fn column<T: Real, const N: usize, const V: usize>(
+    fn column<T: Real, const N: usize, V: ValueStorage>(
         fk: &ForwardKinematics<T, N>,
         robot: &Robot<T, N, V>,
         p: Param,
     ) -> Vector3<T>;
     /// `∂(rows)/∂r'_j`, the corrected reading of joint `j` (what a joint correction adds to).
-    fn reading<T: Real, const N: usize, const V: usize>(
+    fn reading<T: Real, const N: usize, V: ValueStorage>(
         fk: &ForwardKinematics<T, N>,
         robot: &Robot<T, N, V>,
         j: usize,
@@ -140,7 +141,7 @@ pub(super) struct OrientationRows;
 
 impl Rows for PointRows {
     #[inline(always)]
-    fn column<T: Real, const N: usize, const V: usize>(
+    fn column<T: Real, const N: usize, V: ValueStorage>(
         fk: &ForwardKinematics<T, N>,
         robot: &Robot<T, N, V>,
         p: Param,
@@ -149,7 +150,7 @@ impl Rows for PointRows {
         fk.column(robot, p).unwrap_or_else(|_| Vector3::zeros())
     }
     #[inline(always)]
-    fn reading<T: Real, const N: usize, const V: usize>(
+    fn reading<T: Real, const N: usize, V: ValueStorage>(
         fk: &ForwardKinematics<T, N>,
         robot: &Robot<T, N, V>,
         j: usize,
@@ -160,7 +161,7 @@ impl Rows for PointRows {
 
 impl Rows for OrientationRows {
     #[inline(always)]
-    fn column<T: Real, const N: usize, const V: usize>(
+    fn column<T: Real, const N: usize, V: ValueStorage>(
         fk: &ForwardKinematics<T, N>,
         robot: &Robot<T, N, V>,
         p: Param,
@@ -169,7 +170,7 @@ impl Rows for OrientationRows {
             .unwrap_or_else(|_| Vector3::zeros())
     }
     #[inline(always)]
-    fn reading<T: Real, const N: usize, const V: usize>(
+    fn reading<T: Real, const N: usize, V: ValueStorage>(
         fk: &ForwardKinematics<T, N>,
         robot: &Robot<T, N, V>,
         j: usize,
@@ -183,7 +184,7 @@ impl Rows for OrientationRows {
 pub(super) fn accumulate_pose<
     T: Real,
     const N: usize,
-    const V: usize,
+    V: ValueStorage,
     M: Observation<T, N>,
     S: LmStorage<T>,
 >(
@@ -213,7 +214,7 @@ pub(super) fn accumulate_pose<
 /// columns are non-zero at this pose (tables touch two knots of many) only their pairs are
 /// updated: `O(k²)` for `k` of them instead of `O(P²)`.
 #[inline(always)]
-fn accumulate_rows<R: Rows, T: Real, const N: usize, const V: usize, S: LmStorage<T>>(
+fn accumulate_rows<R: Rows, T: Real, const N: usize, V: ValueStorage, S: LmStorage<T>>(
     fk: &ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
     r: Vector3<T>,
@@ -239,7 +240,8 @@ fn accumulate_rows<R: Rows, T: Real, const N: usize, const V: usize, S: LmStorag
     // Column k is (cx[k], cy[k], cz[k]) (zero when it does not enter); `nz`: the entering
     // non-zero ones. Tables (only a robot with room for effects can have one) touch two knots
     // of many: their columns are set apart.
-    let with_tables = V > 0 && robot.effects().iter().any(|e| e.kind == EffectKind::Table);
+    let with_tables =
+        V::CAPACITY > 0 && robot.effects().iter().any(|e| e.kind == EffectKind::Table);
     let k_nz = if with_tables {
         columns_with_tables::<R, T, N, V, S>(fk, robot, set, weight, out)
     } else {
@@ -275,7 +277,7 @@ fn accumulate_rows<R: Rows, T: Real, const N: usize, const V: usize, S: LmStorag
     }
     // Sparse (a model with effects, where tables touch few of many columns): how many of the
     // entering columns are `0, 1, 2, …` (a contiguous leading run: the geometric columns).
-    let lead = if V == 0 {
+    let lead = if V::CAPACITY == 0 {
         0
     } else {
         nz.iter().enumerate().take_while(|(a, j)| *a == **j).count()
@@ -304,7 +306,7 @@ fn accumulate_rows<R: Rows, T: Real, const N: usize, const V: usize, S: LmStorag
 /// segment look-up per table and pose instead of one per knot). Returns the number of
 /// entering non-zero columns (in `out.nz`, increasing).
 #[inline(never)]
-fn columns_with_tables<R: Rows, T: Real, const N: usize, const V: usize, S: LmStorage<T>>(
+fn columns_with_tables<R: Rows, T: Real, const N: usize, V: ValueStorage, S: LmStorage<T>>(
     fk: &ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
     set: &Columns<'_, T>,
@@ -371,7 +373,7 @@ fn columns_with_tables<R: Rows, T: Real, const N: usize, const V: usize, S: LmSt
 /// The table whose first knot is effect value `v` = `params[k]`, when all its knots follow in
 /// order from position `k` (and its joint exists).
 #[inline]
-fn table_run_at<'r, T: Real, const N: usize, const V: usize>(
+fn table_run_at<'r, T: Real, const N: usize, V: ValueStorage>(
     robot: &'r Robot<T, N, V>,
     params: &[Param],
     k: usize,
@@ -406,7 +408,7 @@ impl<T: Real> TableCache<T> {
     /// The column of effect value `v` when it is a table knot (`None`: not a table's): what
     /// [`ForwardKinematics::column`] gives, `∂p/∂r'_j · φ_v`.
     #[inline]
-    fn column<R: Rows, const N: usize, const V: usize>(
+    fn column<R: Rows, const N: usize, V: ValueStorage>(
         &mut self,
         fk: &ForwardKinematics<T, N>,
         robot: &Robot<T, N, V>,

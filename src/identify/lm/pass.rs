@@ -22,6 +22,7 @@ use super::residual::check_observations;
 use super::status::LmError;
 use super::storage::LmStorage;
 use crate::io::measurement::Observation;
+use crate::ValueStorage;
 use crate::{ForwardKinematics, Real, Robot};
 
 /// What a pass computes.
@@ -38,7 +39,7 @@ pub enum PassKind {
 /// The pass a run needs next (see the [module](crate::identify::lm)). Borrowing the solver, it is shared by
 /// the workers of one pass.
 #[derive(Clone, Copy, Debug)]
-pub struct Pass<'a, T: Real, const N: usize, const V: usize> {
+pub struct Pass<'a, T: Real, const N: usize, V: ValueStorage> {
     pub(super) kind: PassKind,
     /// Which pass of the run this is (parts of another pass are refused).
     pub(super) id: u32,
@@ -88,7 +89,7 @@ impl<T: Real, Storage: LmStorage<T>> PassPart<T, Storage> {
     }
 }
 
-impl<T: Real, const N: usize, const V: usize> Pass<'_, T, N, V> {
+impl<T: Real, const N: usize, V: ValueStorage> Pass<'_, T, N, V> {
     /// What this pass computes.
     pub fn kind(&self) -> PassKind {
         self.kind

@@ -4,6 +4,7 @@
 use super::status::LmError;
 use crate::io::measurement::Observation;
 use crate::model::frame::orientation_error;
+use crate::ValueStorage;
 use crate::{ForwardKinematics, Real, Robot};
 use nalgebra::Vector3;
 
@@ -12,14 +13,14 @@ use nalgebra::Vector3;
 /// error's rotation vector times its weight. `fk` holds the pose afterwards. `None` when the
 /// robot has no tool point `m.tool`.
 #[inline(always)]
-pub(super) fn residual<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
+pub(super) fn residual<T: Real, const N: usize, V: ValueStorage, M: Observation<T, N>>(
     fk: &mut ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
     m: &M,
 ) -> Option<(Vector3<T>, Option<Vector3<T>>)> {
     // Only a model with value capacity can have a thermal-expansion term (the firmware's has
     // none: no instruction here).
-    if V > 0 {
+    if V::CAPACITY > 0 {
         fk.temp_c = m.temperature();
     }
     let p = if m.tool() == 0 {
@@ -40,7 +41,7 @@ pub(super) fn residual<T: Real, const N: usize, const V: usize, M: Observation<T
 /// The weighted squared residual of one observation (the module documentation of
 /// [`crate::io::measurement`] gives it); `None` when the
 /// robot has no tool point `m.tool`.
-pub fn observation_cost<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
+pub fn observation_cost<T: Real, const N: usize, V: ValueStorage, M: Observation<T, N>>(
     fk: &mut ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
     m: &M,
@@ -50,7 +51,7 @@ pub fn observation_cost<T: Real, const N: usize, const V: usize, M: Observation<
 }
 
 /// `Ok` when every observation is finite and names a tool point of `robot`.
-pub(super) fn check_observations<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
+pub(super) fn check_observations<T: Real, const N: usize, V: ValueStorage, M: Observation<T, N>>(
     robot: &Robot<T, N, V>,
     data: &[M],
 ) -> Result<(), LmError> {
@@ -64,7 +65,7 @@ pub(super) fn check_observations<T: Real, const N: usize, const V: usize, M: Obs
 }
 
 /// Root-mean-square position error (mm) of `robot` over `data` (3-D distance per pose).
-pub fn rms_error<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
+pub fn rms_error<T: Real, const N: usize, V: ValueStorage, M: Observation<T, N>>(
     robot: &Robot<T, N, V>,
     data: &[M],
 ) -> T {
@@ -85,7 +86,7 @@ pub fn rms_error<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
 
 /// Root-mean-square orientation error (rad, the angle between measured and model tool frame)
 /// of `robot` over the 6-D observations in `data`; `None` when there are none.
-pub fn rms_orientation_error<T: Real, const N: usize, const V: usize, M: Observation<T, N>>(
+pub fn rms_orientation_error<T: Real, const N: usize, V: ValueStorage, M: Observation<T, N>>(
     robot: &Robot<T, N, V>,
     data: &[M],
 ) -> Option<T> {

@@ -10,6 +10,7 @@ use crate::io::snapshot::{
 };
 use crate::model::param::Param;
 use crate::Frame;
+use crate::ValueStorage;
 use crate::{Real, Robot};
 use embedded_io::{Read, Write};
 use nalgebra::Vector3;
@@ -38,7 +39,7 @@ fn param_tag(p: Param) -> (u8, u16) {
     }
 }
 
-fn put_robot<T: Real, W: Write, const N: usize, const V: usize>(
+fn put_robot<T: Real, W: Write, const N: usize, V: ValueStorage>(
     e: &mut Encoder<'_, W>,
     r: &Robot<T, N, V>,
 ) -> Result<(), SnapshotError> {
@@ -74,7 +75,7 @@ fn put_robot<T: Real, W: Write, const N: usize, const V: usize>(
 }
 
 /// Reads a robot into `r`, whose effect list must have the same shape.
-fn get_robot<T: Real, R: Read, const N: usize, const V: usize>(
+fn get_robot<T: Real, R: Read, const N: usize, V: ValueStorage>(
     d: &mut Decoder<'_, R>,
     r: &mut Robot<T, N, V>,
 ) -> Result<(), SnapshotError> {
@@ -117,9 +118,8 @@ fn get_robot<T: Real, R: Read, const N: usize, const V: usize>(
         }
     }
     d.expect_shape(r.effects().values().len())?;
-    let mut values = [T::zero(); V];
-    let nv = r.effects().values().len();
-    d.reals(&mut values[..nv])?;
+    // Read in place: `r` is the caller's scratch copy (a snapshot restores all or nothing).
+    d.reals(r.parts_mut().3.values_mut())?;
     let count = r.tool_point_count();
     d.expect_shape(count)?;
     let mut more = [Vector3::<T>::zeros(); crate::model::tool::MAX_TOOL_POINTS];
@@ -134,8 +134,7 @@ fn get_robot<T: Real, R: Read, const N: usize, const V: usize>(
         d.reals(&mut v)?;
         *a = Vector3::new(v[0], v[1], v[2]);
     }
-    let (b, js, tool, eff) = r.parts_mut();
-    eff.values_mut().copy_from_slice(&values[..nv]);
+    let (b, js, tool, _) = r.parts_mut();
     *b = base;
     *js = joints;
     *tool = Vector3::new(t[0], t[1], t[2]);
@@ -177,7 +176,7 @@ fn extended<T: Real, Storage: LmStorage<T>, Penalty: LmPenalty<T>>(
 impl<
         T: Real,
         const N: usize,
-        const V: usize,
+        V: ValueStorage,
         Storage: LmStorage<T> + Clone,
         Penalty: LmPenalty<T> + Clone,
     > Snapshot for Levenberg<T, N, V, Storage, Penalty>
@@ -187,7 +186,7 @@ impl<
         let s = p.stride;
         save_with::<T, W, _>(w, Kind::Levenberg, |e| {
             e.usize(N)?;
-            e.usize(V)?;
+            e.usize(V::CAPACITY)?;
             let n = p.params.len();
             e.usize(n)?;
             for q in p.params {
@@ -249,7 +248,7 @@ impl<
     fn restore<R: Read>(&mut self, r: &mut R) -> Result<(), SnapshotError> {
         let restored = restore_with::<T, R, _, _>(r, Kind::Levenberg, |d| {
             d.expect_shape(N)?;
-            d.expect_shape(V)?;
+            d.expect_shape(V::CAPACITY)?;
             let n = self.st.params().len();
             d.expect_shape(n)?;
             for q in self.st.params() {

@@ -6,6 +6,7 @@ use super::{
 };
 use crate::io::snapshot::crc32;
 use crate::model::tool::MAX_TOOL_POINTS;
+use crate::ValueStorage;
 use crate::{Frame, Joint, Real, Robot};
 use nalgebra::Vector3;
 
@@ -109,7 +110,7 @@ pub fn joint_count(blob: &[u8]) -> Result<usize, BlobError> {
 ///
 /// Decoded into `f64`, a model written from `f64` equals it exactly (rows, base, tool,
 /// effects, couplings: the forward kinematics agree bit for bit).
-pub fn decode<T: Real, const N: usize, const V: usize>(
+pub fn decode<T: Real, const N: usize, V: ValueStorage>(
     blob: &[u8],
     robot: &mut Robot<T, N, V>,
 ) -> Result<(), BlobError> {
@@ -162,7 +163,7 @@ pub fn decode<T: Real, const N: usize, const V: usize>(
 }
 
 /// Applies one record to the robot being built.
-fn record<T: Real, const N: usize, const V: usize>(
+fn record<T: Real, const N: usize, V: ValueStorage>(
     out: &mut Robot<T, N, V>,
     tag: u16,
     p: &mut Reader<'_>,

@@ -5,6 +5,7 @@ use super::{
     RECORD_HEAD_LEN, ROW_LEN, TOOL_LEN, VERSION,
 };
 use crate::io::snapshot::crc32;
+use crate::ValueStorage;
 use crate::{Real, Robot};
 use nalgebra::Vector3;
 
@@ -16,7 +17,7 @@ const TOOL_AXES_LEN: usize = 72;
 const COUPLING_LEN: usize = 12;
 
 /// Bytes [`encode`] writes for `robot`.
-pub fn encoded_len<T: Real, const N: usize, const V: usize>(robot: &Robot<T, N, V>) -> usize {
+pub fn encoded_len<T: Real, const N: usize, V: ValueStorage>(robot: &Robot<T, N, V>) -> usize {
     let mut n = HEADER_LEN + BASE_LEN + ROW_LEN * N + TOOL_LEN + CRC_LEN;
     n += (RECORD_HEAD_LEN + TOOL_POINT_LEN) * robot.tool_point_count().saturating_sub(1);
     if !robot.tool_axes_identity() {
@@ -70,7 +71,7 @@ impl Writer<'_> {
 /// ([`encoded_len`]). [`BlobError::BufferTooSmall`] when `out` is shorter (nothing useful is
 /// written), [`BlobError::Joints`] for more than [`super::MAX_JOINTS`] joints, and
 /// [`BlobError::Capacity`] when the model does not fit the format's 32-bit length.
-pub fn encode<T: Real, const N: usize, const V: usize>(
+pub fn encode<T: Real, const N: usize, V: ValueStorage>(
     robot: &Robot<T, N, V>,
     out: &mut [u8],
 ) -> Result<usize, BlobError> {

@@ -84,7 +84,7 @@ impl RobotFile {
     /// written as `axis-tilt` effects carrying their `beta` in rad, so a re-identification
     /// knows to free them. Angles are written with [`deg_short`], so they read back exactly.
     /// The robot's couplings become `[[couplings]]`.
-    pub fn from_robot<const N: usize, const V: usize>(
+    pub fn from_robot<const N: usize, V: kinecal::ValueStorage>(
         name: &str,
         robot: &Robot<f64, N, V>,
         base_known: bool,

@@ -60,7 +60,7 @@ pub(super) fn lm_step(
 #[inline(never)]
 pub(super) fn pso_step(
     swarm: &mut Swarm,
-    fitness: &mut PositionFitness<'_, f32, N, 0, P>,
+    fitness: &mut PositionFitness<'_, f32, N, kinecal::Inline<0>, P>,
     budget: usize,
 ) -> Result<kinecal::identify::pso::PsoProgress<f32>, PsoError> {
     swarm.step(fitness, budget)

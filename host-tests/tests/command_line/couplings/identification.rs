@@ -71,16 +71,19 @@ fn pso_fitness_cache_and_lm_with_snapshots_honour_couplings() {
     // LM: coupled model on readings = uncoupled model on model angles; a snapshot at every
     // step resumes bit-identically (the couplings survive the restore).
     use kinecal::io::snapshot::Snapshot;
-    let mut a = FixedLevenberg::<f64, 6, VCAP, 64>::fixed(
+    let mut a = FixedLevenberg::<f64, 6, HostValues, 64>::fixed(
         nominal.clone(),
         set.clone(),
         LmConfig::default(),
     )
     .unwrap();
     a.run(&data).unwrap();
-    let mut b =
-        FixedLevenberg::<f64, 6, VCAP, 64>::fixed(plain.clone(), set.clone(), LmConfig::default())
-            .unwrap();
+    let mut b = FixedLevenberg::<f64, 6, HostValues, 64>::fixed(
+        plain.clone(),
+        set.clone(),
+        LmConfig::default(),
+    )
+    .unwrap();
     b.run(&converted).unwrap();
     assert_eq!(a.robot().couplings(), nominal.couplings());
     for p in set.as_slice() {
@@ -92,7 +95,7 @@ fn pso_fitness_cache_and_lm_with_snapshots_honour_couplings() {
     }
     let rms = kinecal::identify::lm::rms_error(a.robot(), &data);
     assert!(rms < 1e-4, "rms {rms} {:?}", a.progress());
-    let mut lm = FixedLevenberg::<f64, 6, VCAP, 64>::fixed(
+    let mut lm = FixedLevenberg::<f64, 6, HostValues, 64>::fixed(
         nominal.clone(),
         set.clone(),
         LmConfig::default(),
@@ -115,9 +118,12 @@ fn pso_fitness_cache_and_lm_with_snapshots_honour_couplings() {
     // (the couplings are part of the robot, stored in the snapshot), and the target is kept.
     let mut buf = Vec::new();
     lm.save(&mut buf).unwrap();
-    let mut other =
-        FixedLevenberg::<f64, 6, VCAP, 64>::fixed(plain.clone(), set.clone(), LmConfig::default())
-            .unwrap();
+    let mut other = FixedLevenberg::<f64, 6, HostValues, 64>::fixed(
+        plain.clone(),
+        set.clone(),
+        LmConfig::default(),
+    )
+    .unwrap();
     let kept = other.robot().clone();
     assert_eq!(
         other.restore(&mut buf.as_slice()),

@@ -18,7 +18,7 @@ use kinecal::{Measurement, Robot, RobotError};
 use kinecal_cli::formats::measurements::{self, Dataset};
 use kinecal_cli::formats::robot_file::{deg_exact, RobotFile};
 use kinecal_cli::simulation::sweeps::{sweep_data, SweepSet};
-use kinecal_cli::VCAP;
+use kinecal_cli::HostValues;
 use kinecal_host::reference::RefRobot;
 use nalgebra::{Matrix3, Vector3};
 use rand::{RngExt, SeedableRng};

@@ -19,7 +19,7 @@ fn planning_candidates_of_a_coupled_robot() {
     let mut fk = ForwardKinematics::new();
     let mut found = 0;
     for _ in 0..400 {
-        let Some(c) = kinecal::planning::pose_pool::draw::<f64, 6, VCAP, 32, 4, 2, _>(
+        let Some(c) = kinecal::planning::pose_pool::draw::<f64, 6, HostValues, 32, 4, 2, _>(
             &mut rng,
             &coupled,
             &scene,

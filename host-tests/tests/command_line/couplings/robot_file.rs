@@ -34,9 +34,9 @@ fn couplings_are_validated_and_kept_by_cast_capacity_and_clone() {
     );
     r.remove_coupling(4);
     assert_eq!(r, before);
-    let r32: Robot<f32, 6, VCAP> = r.cast().unwrap();
+    let r32: Robot<f32, 6, HostValues> = r.cast().unwrap();
     assert_eq!(r32.couplings().get(2), Some((1, 1.0f32)));
-    let r64: Robot<f64, 6, 64> = r.with_capacity::<64>().unwrap();
+    let r64: Robot<f64, 6, kinecal::Inline<64>> = r.with_capacity::<kinecal::Inline<64>>().unwrap();
     assert_eq!(r64.couplings(), r.couplings());
     assert_eq!(r.clone().couplings(), r.couplings());
     // f32 FK of the cast robot agrees with f64 to f32 rounding.

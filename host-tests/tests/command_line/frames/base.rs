@@ -3,7 +3,11 @@
 use super::*;
 
 /// Distance (mm) of the TCP from joint `j`'s axis at configuration `q` (rad).
-fn radius_about<const N: usize>(r: &Robot<f64, N, 0>, q: &[f64; N], j: usize) -> f64 {
+fn radius_about<const N: usize>(
+    r: &Robot<f64, N, kinecal::Inline<0>>,
+    q: &[f64; N],
+    j: usize,
+) -> f64 {
     let mut fk = kinecal::ForwardKinematics::<f64, N>::new();
     let p = fk.compute(r, q);
     let f = fk.frames[j];
@@ -13,7 +17,7 @@ fn radius_about<const N: usize>(r: &Robot<f64, N, 0>, q: &[f64; N], j: usize) ->
 
 /// A random rest configuration (degrees) with the point at least `min_r` mm from axes 1 and 2.
 fn random_rest<const N: usize>(
-    r: &Robot<f64, N, 0>,
+    r: &Robot<f64, N, kinecal::Inline<0>>,
     rng: &mut Xoshiro256PlusPlus,
     min_r: f64,
 ) -> [f64; N] {
@@ -40,7 +44,7 @@ struct Stats {
 
 /// Simulates sweeps of joints 1, 2 on `truth` and returns the recovered base's errors.
 fn base_case<const N: usize>(
-    truth: &Robot<f64, N, 0>,
+    truth: &Robot<f64, N, kinecal::Inline<0>>,
     rest: &[f64; N],
     span: f64,
     noise: f64,
@@ -63,7 +67,7 @@ fn base_cases<const N: usize>(
 ) {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     for case in 0..6 {
-        let mut truth: Robot<f64, N, 0> = robot(rows, tool, random_base(&mut rng));
+        let mut truth: Robot<f64, N, kinecal::Inline<0>> = robot(rows, tool, random_base(&mut rng));
         if let Some(l) = limits {
             truth = with_limits(truth, l);
         }
@@ -120,7 +124,8 @@ fn base_frame_within_a_tenth_of_a_millimetre_and_a_hundredth_of_a_degree() {
 fn base_frame_is_exact_without_noise() {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(7);
     for _ in 0..5 {
-        let truth: Robot<f64, 6, 0> = robot(&GENERAL, GENERAL_TOOL, random_base(&mut rng));
+        let truth: Robot<f64, 6, kinecal::Inline<0>> =
+            robot(&GENERAL, GENERAL_TOOL, random_base(&mut rng));
         let rest = random_rest(&truth, &mut rng, 200.0);
         let (mm, deg) = base_case(&truth, &rest, 45.0, 0.0, 3);
         // The CSV keeps 1e-6° readings and 1e-8 mm points: that is the only error left.
@@ -133,7 +138,7 @@ fn base_frame_is_exact_without_noise() {
 #[test]
 fn er20_base_matches_the_issue_recipe() {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
-    let truth: Robot<f64, 6, 0> = robot(&ER20, ER20_TOOL, random_base(&mut rng));
+    let truth: Robot<f64, 6, kinecal::Inline<0>> = robot(&ER20, ER20_TOOL, random_base(&mut rng));
     let rest = [37.0, 10.0, -20.0, 0.0, 30.0, 0.0];
     let data = sweep_data(&truth, &rest, &[1, 2], 24, 360.0, 0.015, 5).unwrap();
     let set = SweepSet::from_dataset(&data).unwrap().unwrap();
@@ -163,7 +168,7 @@ fn er20_base_matches_the_issue_recipe() {
 #[test]
 fn f32_base_frame_is_close_to_f64() {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(21);
-    let truth: Robot<f64, 6, 0> = robot(&ER20, ER20_TOOL, random_base(&mut rng));
+    let truth: Robot<f64, 6, kinecal::Inline<0>> = robot(&ER20, ER20_TOOL, random_base(&mut rng));
     let rest = random_rest(&truth, &mut rng, 300.0);
     let data = sweep_data(&truth, &rest, &[1, 2], 24, 360.0, 0.015, 9).unwrap();
     let set = SweepSet::from_dataset(&data).unwrap().unwrap();
@@ -187,7 +192,7 @@ fn f32_base_frame_is_close_to_f64() {
         points: &p32[1],
         q: &q32[1],
     };
-    let r32: Robot<f32, 6, 0> = truth.cast().unwrap();
+    let r32: Robot<f32, 6, kinecal::Inline<0>> = truth.cast().unwrap();
     let est = base_from_sweeps(&r32, &s1, &s2).unwrap();
     let est64 = base_from_sweeps(&truth, &set.get(0).unwrap(), &set.get(1).unwrap()).unwrap();
     let (mm, deg) = frame_error(&est.base.cast::<f64>().unwrap(), &est64.base);

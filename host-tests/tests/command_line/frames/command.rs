@@ -8,7 +8,7 @@ fn frames_command_reports_the_base_and_writes_it_into_the_robot_file() {
     let robot_path = write_robot(dir.path(), &ER20, ER20_TOOL);
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(99);
     let base = random_base(&mut rng);
-    let truth: Robot<f64, 6, 0> = robot(&ER20, ER20_TOOL, base);
+    let truth: Robot<f64, 6, kinecal::Inline<0>> = robot(&ER20, ER20_TOOL, base);
     let data = sweep_data(
         &truth,
         &[20.0, 10.0, -10.0, 0.0, 20.0, 0.0],
@@ -45,7 +45,7 @@ fn frames_command_reports_the_base_and_writes_it_into_the_robot_file() {
 fn frames_command_warns_about_short_or_noisy_sweeps_and_names_bad_cells() {
     let dir = tempfile::tempdir().unwrap();
     let robot_path = write_robot(dir.path(), &UR10, UR10_TOOL);
-    let truth: Robot<f64, 6, 0> = robot(&UR10, UR10_TOOL, Frame::identity());
+    let truth: Robot<f64, 6, kinecal::Inline<0>> = robot(&UR10, UR10_TOOL, Frame::identity());
     let run = |data: &measurements::Dataset<6>, name: &str| {
         let csv = dir.path().join(name);
         measurements::write(&csv, data).unwrap();
@@ -95,7 +95,7 @@ fn frames_binary_prints_one_json_object() {
     let dir = tempfile::tempdir().unwrap();
     let robot_path = write_robot(dir.path(), &UR10, UR10_TOOL);
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
-    let truth: Robot<f64, 6, 0> = robot(&UR10, UR10_TOOL, random_base(&mut rng));
+    let truth: Robot<f64, 6, kinecal::Inline<0>> = robot(&UR10, UR10_TOOL, random_base(&mut rng));
     let data = sweep_data(&truth, &[0.0; 6], &[1, 2, 5, 6], 24, 360.0, 0.02, 2).unwrap();
     let csv = dir.path().join("s.csv");
     measurements::write(&csv, &data).unwrap();

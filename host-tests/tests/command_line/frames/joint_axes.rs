@@ -84,7 +84,7 @@ fn joint_axis_follows_the_right_hand_rule() {
 
 #[test]
 fn a_joint_that_moves_during_another_joints_sweep_is_refused() {
-    let truth: Robot<f64, 6, 0> = robot(&ER20, ER20_TOOL, Frame::identity());
+    let truth: Robot<f64, 6, kinecal::Inline<0>> = robot(&ER20, ER20_TOOL, Frame::identity());
     let mut data = sweep_data(&truth, &[0.0; 6], &[1, 2], 24, 90.0, 0.01, 1).unwrap();
     data.records[30].q_deg[0] += 0.5;
     let set = SweepSet::from_dataset(&data).unwrap().unwrap();

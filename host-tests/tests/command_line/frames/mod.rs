@@ -25,7 +25,11 @@ mod tool;
 
 type Rows = [(f64, f64, f64, f64)];
 
-fn robot<const N: usize>(rows: &Rows, tool: [f64; 3], base: Frame<f64>) -> Robot<f64, N, 0> {
+fn robot<const N: usize>(
+    rows: &Rows,
+    tool: [f64; 3],
+    base: Frame<f64>,
+) -> Robot<f64, N, kinecal::Inline<0>> {
     let joints: [Joint<f64>; N] = std::array::from_fn(|i| {
         let (al, a, th, d) = rows[i];
         let mut j = Joint::mdh_deg(al, a, th, d);
@@ -78,7 +82,10 @@ const GENERAL_LIMITS: [(f64, f64); 6] = [
     (-350.0, 350.0),
 ];
 
-fn with_limits<const N: usize>(mut r: Robot<f64, N, 0>, limits: &[(f64, f64)]) -> Robot<f64, N, 0> {
+fn with_limits<const N: usize>(
+    mut r: Robot<f64, N, kinecal::Inline<0>>,
+    limits: &[(f64, f64)],
+) -> Robot<f64, N, kinecal::Inline<0>> {
     for (i, (lo, hi)) in limits.iter().enumerate() {
         let j = Joint {
             lower: lo.to_radians(),

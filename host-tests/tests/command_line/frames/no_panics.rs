@@ -17,7 +17,7 @@ proptest::proptest! {
         }
         let angles: Vec<f64> = qs.iter().map(|q| q[0]).collect();
         let _ = joint_axis(&p, &angles);
-        let r: Robot<f64, 6, 0> = robot(&ER20, ER20_TOOL, Frame::identity());
+        let r: Robot<f64, 6, kinecal::Inline<0>> = robot(&ER20, ER20_TOOL, Frame::identity());
         let n = p.len().min(qs.len());
         let s1 = Sweep { joint: 0, points: &p[..n], q: &qs[..n] };
         let s2 = Sweep { joint: 1, points: &p[..n], q: &qs[..n] };

@@ -25,7 +25,8 @@ fn identify_case() {
     for seed in [1u64, 2] {
         let mut streams = Streams::new(seed);
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed + 40);
-        let nominal: Robot<f64, 6, 0> = robot(&ER20, ER20_TOOL, random_base(&mut rng));
+        let nominal: Robot<f64, 6, kinecal::Inline<0>> =
+            robot(&ER20, ER20_TOOL, random_base(&mut rng));
         let truth = perturb_geometry(&nominal, &GeomErrors::default(), &mut streams.errors);
         let sigma = 0.015;
         // Sweeps on the true robot, interpreted with the nominal rows.

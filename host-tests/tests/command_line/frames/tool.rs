@@ -10,7 +10,7 @@ fn tool_case<const N: usize>(
     noise: f64,
 ) -> kinecal::frames::circle_point::ToolEstimate<f64> {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(17);
-    let truth: Robot<f64, N, 0> = robot(rows, tool, random_base(&mut rng));
+    let truth: Robot<f64, N, kinecal::Inline<0>> = robot(rows, tool, random_base(&mut rng));
     let data = sweep_data(&truth, &rest, sweeps, 24, 360.0, noise, 4).unwrap();
     let set = SweepSet::from_dataset(&data).unwrap().unwrap();
     tool_from_sweeps(&truth, &set.get(N - 2).unwrap(), set.get(N - 1).as_ref()).unwrap()

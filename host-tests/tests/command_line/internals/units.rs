@@ -11,7 +11,7 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 use std::f64::consts::PI;
 
 /// A 6R arm of ~1.8 m reach with limits `lim` (deg) on every joint, placed at `base`.
-fn arm(lim: f64, base: Frame<f64>) -> Robot<f64, 6, 0> {
+fn arm(lim: f64, base: Frame<f64>) -> Robot<f64, 6, kinecal::Inline<0>> {
     let rows = [
         (0.0, 0.0, 0.0, 450.0),
         (-90.0, 150.0, -90.0, 0.0),
@@ -38,7 +38,7 @@ fn placed() -> Frame<f64> {
 
 /// Records of `robot` at `qs` (deg), with noise σ mm, written in `units`.
 fn records(
-    robot: &Robot<f64, 6, 0>,
+    robot: &Robot<f64, 6, kinecal::Inline<0>>,
     qs: &[[f64; 6]],
     sigma: f64,
     units: (LengthUnit, AngleUnit),

@@ -21,7 +21,7 @@ mod safety;
 mod singularities;
 mod tracking;
 
-const V: usize = 128;
+type V = kinecal::Inline<128>;
 type Rng = Xoshiro256PlusPlus;
 
 fn er20() -> Robot<f64, 6, V> {
@@ -169,14 +169,17 @@ fn perturb<const N: usize>(q: &[f64; N], sigma_deg: f64, rng: &mut Rng) -> [f64;
     core::array::from_fn(|j| q[j] + n.sample(rng))
 }
 
-fn pose<T: Real, const N: usize, const W: usize>(r: &Robot<T, N, W>, q: &[T; N]) -> Frame<T> {
+fn pose<T: Real, const N: usize, W: kinecal::ValueStorage>(
+    r: &Robot<T, N, W>,
+    q: &[T; N],
+) -> Frame<T> {
     let mut fk = ForwardKinematics::new();
     fk.compute(r, q);
     fk.flange_pose()
 }
 
 /// Position (mm) and orientation (rad) error of the robot's tool at `q` against `target`.
-fn miss<const N: usize, const W: usize>(
+fn miss<const N: usize, W: kinecal::ValueStorage>(
     r: &Robot<f64, N, W>,
     q: &[f64; N],
     target: &Target<f64>,

@@ -30,7 +30,7 @@ mod six_d;
 mod snapshots;
 mod weights;
 
-const V: usize = 64;
+type V = kinecal::Inline<64>;
 const P: usize = 64;
 type Lm = FixedLevenberg<f64, 6, V, P>;
 

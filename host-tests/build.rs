@@ -12,10 +12,9 @@ fn main() {
     for f in [&source, &csv, &check, &model] {
         println!("cargo:rerun-if-changed={}", f.display());
     }
-    println!(
-        "cargo:rerun-if-changed={}",
-        root.join("include/kinecal.h").display()
-    );
+    for h in ["include/kinecal.h", "include/kinecal_types.h"] {
+        println!("cargo:rerun-if-changed={}", root.join(h).display());
+    }
     cc::Build::new()
         .file(&source)
         .file(&csv)

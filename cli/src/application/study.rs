@@ -52,7 +52,7 @@ pub fn study(
         Mutex::new((0..arms.len()).map(|_| None).collect());
     std::thread::scope(|scope| {
         for _ in 0..options.threads.clamp(1, 64) {
-            let builder = std::thread::Builder::new().stack_size(8 << 20);
+            let builder = std::thread::Builder::new();
             let _ = builder.spawn_scoped(scope, || loop {
                 let i = next.fetch_add(1, Ordering::Relaxed);
                 let Some(&(u, f)) = arms.get(i) else { break };

@@ -387,120 +387,113 @@ fn assert_well_formed_svg(text: &str) {
 /// figures, the text output and the plot with its correction and residual series.
 #[test]
 fn diagnose_command_explains_a_cyclic_error() {
-    std::thread::Builder::new()
-        .stack_size(8 << 20)
-        .spawn(|| {
-            let tmp = tempfile::tempdir().unwrap();
-            // Joint 2, order 2, amplitude 0.03° at phase 40°.
-            let amp = 0.03f64.to_radians();
-            let phase = 40f64.to_radians();
-            let vals = [amp * phase.cos(), amp * phase.sin()];
-            let (_, ds) = simulate(
-                &er20(),
-                &sim(vec![effect("joint-cyclic", 2, &vals, 2)], 200, 0.01, 4),
-            )
-            .unwrap();
-            let data = tmp.path().join("d.csv");
-            measurements::write(&data, &ds).unwrap();
-            let plots = tmp.path().join("plots");
-            let args = {
-                use clap::Parser;
-                #[derive(clap::Parser)]
-                struct Cmd {
-                    #[command(flatten)]
-                    args: Args,
-                }
-                Cmd::try_parse_from([
-                    "diagnose",
-                    "--robot",
-                    er20_path().to_str().unwrap(),
-                    "--data",
-                    data.to_str().unwrap(),
-                    "--plots",
-                    plots.to_str().unwrap(),
-                ])
-                .unwrap()
-                .args
-            };
-            let report = run(&args).unwrap();
-            let r = report.to_value();
-            let found = r["found"].as_array().unwrap();
-            let k = found
-                .iter()
-                .position(|f| f["effect"] == "joint-cyclic" && f["joint"] == 2 && f["order"] == 2)
-                .unwrap_or_else(|| panic!("not named: {r:#}"));
-            let f = &found[k];
-            let e = &f["explanation"];
-            for key in [
-                "peak_to_peak_deg",
-                "amplitude_deg",
-                "tool_rms_mm",
-                "tool_max_mm",
-                "period_deg",
-                "most_affected_poses",
-                "most_affected_range_deg",
-                "gap_closed",
-                "text",
-            ] {
-                assert!(e.get(key).is_some(), "missing explanation.{key}: {e:#}");
-            }
-            let a = e["amplitude_deg"].as_f64().unwrap();
-            assert!((a / 0.03 - 1.0).abs() < 0.03, "amplitude {a}");
-            assert!((e["peak_to_peak_deg"].as_f64().unwrap() - 2.0 * a).abs() < 1e-12);
-            assert_eq!(e["period_deg"].as_f64().unwrap(), 180.0);
-            // The gap share is the one of the reported figures.
-            let (before, after) = (
-                f["before_validation_rms_mm"].as_f64().unwrap(),
-                f["validation_rms_mm"].as_f64().unwrap(),
-            );
-            let floor = r["noise_floor_mm"].as_f64().unwrap();
-            let g = e["gap_closed"].as_f64().unwrap();
-            assert!((0.0..=1.0).contains(&g));
-            assert!(
-                (g - ((before - after) / (before - floor)).clamp(0.0, 1.0)).abs() < 1e-12,
-                "{g}"
-            );
-            assert!(g > 0.5, "the only effect closes most of the gap: {g}");
-            let poses = e["most_affected_poses"].as_array().unwrap();
-            assert_eq!(poses.len(), 5);
-            assert!(poses
-                .iter()
-                .all(|p| (1..=200).contains(&p.as_u64().unwrap())));
-            let text = e["text"].as_str().unwrap();
-            assert!(
-                text.starts_with("joint 2 repeats an angle error of ±"),
-                "{text}"
-            );
-            assert!(text.contains("every 180° (twice per turn)"), "{text}");
-            assert!(text.contains("and every 90.0° from there"), "{text}");
-            // The text output carries the explanation and the search's sentence.
-            let out = report.to_string();
-            assert!(out.contains("Joint 2 repeats an angle error of ±"), "{out}");
-            assert!(
-                out.contains("The search: joint 2 has an angle error"),
-                "{out}"
-            );
-            // The plot: well formed, titled with the finding, the correction over the residuals.
-            let svg_path = r["plots"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|p| p.as_str().unwrap().to_string())
-                .find(|p| p.contains(&format!("effect_{}_joint-cyclic_joint2", k + 1)))
-                .expect("the effect's plot");
-            let svg = std::fs::read_to_string(&svg_path).unwrap();
-            assert_well_formed_svg(&svg);
-            assert!(svg.contains("repeats an angle error of ±"), "title");
-            assert!(svg.contains("identified correction"));
-            assert!(svg.contains("residuals of the fit with the effect plus its correction"));
-            assert!(svg.contains("joint 2 angle error (°)") && svg.contains("joint 2 reading (°)"));
-            assert!(svg.contains("<polyline"), "the correction's line");
-            assert!(
-                svg.matches("<circle").count() >= 300,
-                "the residuals' points"
-            );
-        })
+    let tmp = tempfile::tempdir().unwrap();
+    // Joint 2, order 2, amplitude 0.03° at phase 40°.
+    let amp = 0.03f64.to_radians();
+    let phase = 40f64.to_radians();
+    let vals = [amp * phase.cos(), amp * phase.sin()];
+    let (_, ds) = simulate(
+        &er20(),
+        &sim(vec![effect("joint-cyclic", 2, &vals, 2)], 200, 0.01, 4),
+    )
+    .unwrap();
+    let data = tmp.path().join("d.csv");
+    measurements::write(&data, &ds).unwrap();
+    let plots = tmp.path().join("plots");
+    let args = {
+        use clap::Parser;
+        #[derive(clap::Parser)]
+        struct Cmd {
+            #[command(flatten)]
+            args: Args,
+        }
+        Cmd::try_parse_from([
+            "diagnose",
+            "--robot",
+            er20_path().to_str().unwrap(),
+            "--data",
+            data.to_str().unwrap(),
+            "--plots",
+            plots.to_str().unwrap(),
+        ])
         .unwrap()
-        .join()
-        .unwrap();
+        .args
+    };
+    let report = run(&args).unwrap();
+    let r = report.to_value();
+    let found = r["found"].as_array().unwrap();
+    let k = found
+        .iter()
+        .position(|f| f["effect"] == "joint-cyclic" && f["joint"] == 2 && f["order"] == 2)
+        .unwrap_or_else(|| panic!("not named: {r:#}"));
+    let f = &found[k];
+    let e = &f["explanation"];
+    for key in [
+        "peak_to_peak_deg",
+        "amplitude_deg",
+        "tool_rms_mm",
+        "tool_max_mm",
+        "period_deg",
+        "most_affected_poses",
+        "most_affected_range_deg",
+        "gap_closed",
+        "text",
+    ] {
+        assert!(e.get(key).is_some(), "missing explanation.{key}: {e:#}");
+    }
+    let a = e["amplitude_deg"].as_f64().unwrap();
+    assert!((a / 0.03 - 1.0).abs() < 0.03, "amplitude {a}");
+    assert!((e["peak_to_peak_deg"].as_f64().unwrap() - 2.0 * a).abs() < 1e-12);
+    assert_eq!(e["period_deg"].as_f64().unwrap(), 180.0);
+    // The gap share is the one of the reported figures.
+    let (before, after) = (
+        f["before_validation_rms_mm"].as_f64().unwrap(),
+        f["validation_rms_mm"].as_f64().unwrap(),
+    );
+    let floor = r["noise_floor_mm"].as_f64().unwrap();
+    let g = e["gap_closed"].as_f64().unwrap();
+    assert!((0.0..=1.0).contains(&g));
+    assert!(
+        (g - ((before - after) / (before - floor)).clamp(0.0, 1.0)).abs() < 1e-12,
+        "{g}"
+    );
+    assert!(g > 0.5, "the only effect closes most of the gap: {g}");
+    let poses = e["most_affected_poses"].as_array().unwrap();
+    assert_eq!(poses.len(), 5);
+    assert!(poses
+        .iter()
+        .all(|p| (1..=200).contains(&p.as_u64().unwrap())));
+    let text = e["text"].as_str().unwrap();
+    assert!(
+        text.starts_with("joint 2 repeats an angle error of ±"),
+        "{text}"
+    );
+    assert!(text.contains("every 180° (twice per turn)"), "{text}");
+    assert!(text.contains("and every 90.0° from there"), "{text}");
+    // The text output carries the explanation and the search's sentence.
+    let out = report.to_string();
+    assert!(out.contains("Joint 2 repeats an angle error of ±"), "{out}");
+    assert!(
+        out.contains("The search: joint 2 has an angle error"),
+        "{out}"
+    );
+    // The plot: well formed, titled with the finding, the correction over the residuals.
+    let svg_path = r["plots"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p.as_str().unwrap().to_string())
+        .find(|p| p.contains(&format!("effect_{}_joint-cyclic_joint2", k + 1)))
+        .expect("the effect's plot");
+    let svg = std::fs::read_to_string(&svg_path).unwrap();
+    assert_well_formed_svg(&svg);
+    assert!(svg.contains("repeats an angle error of ±"), "title");
+    assert!(svg.contains("identified correction"));
+    assert!(svg.contains("residuals of the fit with the effect plus its correction"));
+    assert!(svg.contains("joint 2 angle error (°)") && svg.contains("joint 2 reading (°)"));
+    assert!(svg.contains("<polyline"), "the correction's line");
+    assert!(
+        svg.matches("<circle").count() >= 300,
+        "the residuals' points"
+    );
 }

@@ -173,27 +173,52 @@ fn effects_refuse_joints_beyond_the_robot_and_u16_indices() {
         Err(EffectError::Shape)
     );
 
-    // More than 65,535 values in all: refused (value indices are u16), no panic. The list
-    // holds its 70,000 values inline (560 KB), built on the stack before it is boxed: more than
-    // a test thread's default 2 MiB may hold in an unoptimised build, well within 8 MiB.
-    std::thread::Builder::new()
-        .stack_size(8 << 20)
-        .spawn(|| {
-            let mut e = Box::new(Effects::<f64, kinecal::Inline<70_000>>::for_joints(2));
-            let vals = vec![0.0; 40_000];
-            e.push(EffectKind::Table, 0, 2, 1, 0.0, 1e-3, &vals)
-                .unwrap();
-            assert_eq!(
-                e.push(EffectKind::Table, 1, 2, 1, 0.0, 1e-3, &vals),
-                Err(EffectError::Capacity)
-            );
-            assert_eq!(e.len(), 1);
-            assert_eq!(e.values().len(), 40_000);
-            assert_eq!(e.values_of(0).len(), 40_000);
-        })
-        .unwrap()
-        .join()
+    // More than 65,535 values in all: refused (value indices are u16), no panic, whatever the
+    // storage holds (a caller's own storage of 70,000 values on the heap).
+    let mut e = Effects::<f64, Huge>::for_joints(2);
+    let vals = vec![0.0; 40_000];
+    e.push(EffectKind::Table, 0, 2, 1, 0.0, 1e-3, &vals)
         .unwrap();
+    assert_eq!(
+        e.push(EffectKind::Table, 1, 2, 1, 0.0, 1e-3, &vals),
+        Err(EffectError::Capacity)
+    );
+    assert_eq!(e.len(), 1);
+    assert_eq!(e.values().len(), 40_000);
+    assert_eq!(e.values_of(0).len(), 40_000);
+}
+
+/// A caller's effect-value storage: 70,000 values on the heap, more than value indices address.
+#[derive(Clone, Debug, PartialEq)]
+struct Huge;
+
+#[derive(Clone, Debug, PartialEq)]
+struct HugeValues<T>(Vec<T>);
+
+impl kinecal::ValueStorage for Huge {
+    const CAPACITY: usize = 70_000;
+    type Buffer<T: kinecal::Real> = HugeValues<T>;
+}
+
+impl<T: kinecal::Real> kinecal::ValueBuffer<T> for HugeValues<T> {
+    fn empty() -> Self {
+        HugeValues(Vec::new())
+    }
+    fn slots(&self) -> &[T] {
+        &self.0
+    }
+    fn slots_mut(&mut self) -> &mut [T] {
+        &mut self.0
+    }
+    fn reserve_slots(&mut self, len: usize) -> bool {
+        if len > self.0.len() {
+            self.0.resize(len, T::zero());
+        }
+        true
+    }
+    fn release_slots(&mut self, len: usize) {
+        self.0.truncate(len);
+    }
 }
 
 /// A list without value capacity (`V = 0`, the firmware's models) holds no effect, whatever

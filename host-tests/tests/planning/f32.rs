@@ -99,56 +99,48 @@ fn configs(n: usize, seed: u64) -> Vec<[f64; 6]> {
 
 #[test]
 fn f32_selection_and_online_stepper_match_f64() {
-    std::thread::Builder::new()
-        .stack_size(8 << 20)
-        .spawn(|| {
-            let qs = configs(500, 8);
-            let work = configs(2, 9);
-            let (d64, r64) = design::<f64>(&qs, &work, 40);
-            let (d32, r32) = design::<f32>(&qs, &work, 40);
-            assert_eq!(r32, r64, "identifiable directions");
-            let k64 = kpi64(&d64.iter().map(|i| qs[*i]).collect::<Vec<_>>(), &work);
-            let k32 = kpi64(&d32.iter().map(|i| qs[*i]).collect::<Vec<_>>(), &work);
-            eprintln!("KPI of the f64 design {k64:.4e}, of the f32 design {k32:.4e}");
-            assert!(k32 <= 1.05 * k64 && k64 <= 1.05 * k32);
+    let qs = configs(500, 8);
+    let work = configs(2, 9);
+    let (d64, r64) = design::<f64>(&qs, &work, 40);
+    let (d32, r32) = design::<f32>(&qs, &work, 40);
+    assert_eq!(r32, r64, "identifiable directions");
+    let k64 = kpi64(&d64.iter().map(|i| qs[*i]).collect::<Vec<_>>(), &work);
+    let k32 = kpi64(&d32.iter().map(|i| qs[*i]).collect::<Vec<_>>(), &work);
+    eprintln!("KPI of the f64 design {k64:.4e}, of the f32 design {k32:.4e}");
+    assert!(k32 <= 1.05 * k64 && k64 <= 1.05 * k32);
 
-            // The online stepper in f32 predicts what f64 linear algebra predicts.
-            let r32: Robot<f32, 6, kinecal::Inline<0>> = robot().cast().unwrap();
-            let params = ParamSet::<P>::full(6, true).unwrap();
-            let mut info = Information::<f32, P>::new(params.len()).unwrap();
-            for q in &qs {
-                info.add_pose(&rows(&r32, &params, &q.map(|v| v as f32)))
-                    .unwrap();
-            }
-            let basis = Basis::new(&info, default_tolerance()).unwrap();
-            let w32: Vec<[f32; 6]> = work.iter().map(|q| q.map(|v| v as f32)).collect();
-            let mut online = OnlineDesign::<f32, 6, kinecal::Inline<0>, P, 2>::new(
-                r32, params, basis, &w32, 0.01, 0.0,
-            )
+    // The online stepper in f32 predicts what f64 linear algebra predicts.
+    let r32: Robot<f32, 6, kinecal::Inline<0>> = robot().cast().unwrap();
+    let params = ParamSet::<P>::full(6, true).unwrap();
+    let mut info = Information::<f32, P>::new(params.len()).unwrap();
+    for q in &qs {
+        info.add_pose(&rows(&r32, &params, &q.map(|v| v as f32)))
             .unwrap();
-            let measured = &qs[..30];
-            let mut status = None;
-            for q in measured {
-                status = Some(online.add_measurement(&q.map(|v| v as f32)).unwrap());
-            }
-            let status = status.unwrap();
-            let std = status
-                .tool_std
-                .expect("30 random poses determine the model");
-            let k = kpi64(measured, &work) * 1e-4;
-            let s32: f64 = std.iter().map(|s| (*s as f64).powi(2)).sum();
-            assert!(
-                (s32 - k).abs() <= 0.01 * k,
-                "f32 online {s32:.5e} vs f64 {k:.5e}"
-            );
-            assert!(!status.reached, "a target of 0 is never reached");
-            // NaN readings are refused and change nothing.
-            assert_eq!(online.add_measurement(&[f32::NAN; 6]), Err(PlanError::Size));
-            assert_eq!(online.status(), status);
-        })
-        .unwrap()
-        .join()
-        .unwrap();
+    }
+    let basis = Basis::new(&info, default_tolerance()).unwrap();
+    let w32: Vec<[f32; 6]> = work.iter().map(|q| q.map(|v| v as f32)).collect();
+    let mut online =
+        OnlineDesign::<f32, 6, kinecal::Inline<0>, P, 2>::new(r32, params, basis, &w32, 0.01, 0.0)
+            .unwrap();
+    let measured = &qs[..30];
+    let mut status = None;
+    for q in measured {
+        status = Some(online.add_measurement(&q.map(|v| v as f32)).unwrap());
+    }
+    let status = status.unwrap();
+    let std = status
+        .tool_std
+        .expect("30 random poses determine the model");
+    let k = kpi64(measured, &work) * 1e-4;
+    let s32: f64 = std.iter().map(|s| (*s as f64).powi(2)).sum();
+    assert!(
+        (s32 - k).abs() <= 0.01 * k,
+        "f32 online {s32:.5e} vs f64 {k:.5e}"
+    );
+    assert!(!status.reached, "a target of 0 is never reached");
+    // NaN readings are refused and change nothing.
+    assert_eq!(online.add_measurement(&[f32::NAN; 6]), Err(PlanError::Size));
+    assert_eq!(online.status(), status);
 }
 
 #[test]

@@ -10,26 +10,18 @@ use kinecal_cli::plan::design::CriterionArg;
 use kinecal_cli::plan::study::{arm, cell, monte_carlo};
 
 fn run(criterion: CriterionArg, runs: usize, seed: u64) -> (f64, f64, f64) {
-    std::thread::Builder::new()
-        .stack_size(8 << 20)
-        .spawn(move || {
-            let robot = arm(780.0, 760.0).unwrap();
-            let scene = cell(780.0, 760.0).unwrap();
-            let work = [
-                [0.0f64, 30.0, 10.0, 0.0, -40.0, 0.0].map(f64::to_radians),
-                [-20.0f64, 30.0, 30.0, 0.0, -60.0, 0.0].map(f64::to_radians),
-            ];
-            let m =
-                monte_carlo(&robot, &scene, criterion, &work, 60, 1500, 0.01, runs, seed).unwrap();
-            (
-                m.predicted_trace_mm2,
-                m.empirical_trace_mm2,
-                m.empirical_mse_mm2,
-            )
-        })
-        .unwrap()
-        .join()
-        .unwrap()
+    let robot = arm(780.0, 760.0).unwrap();
+    let scene = cell(780.0, 760.0).unwrap();
+    let work = [
+        [0.0f64, 30.0, 10.0, 0.0, -40.0, 0.0].map(f64::to_radians),
+        [-20.0f64, 30.0, 30.0, 0.0, -60.0, 0.0].map(f64::to_radians),
+    ];
+    let m = monte_carlo(&robot, &scene, criterion, &work, 60, 1500, 0.01, runs, seed).unwrap();
+    (
+        m.predicted_trace_mm2,
+        m.empirical_trace_mm2,
+        m.empirical_mse_mm2,
+    )
 }
 
 #[test]

@@ -8,15 +8,6 @@ use super::*;
 /// parameters and the tool, the registration run the base as well.
 #[test]
 fn identify_from_the_sweep_base_converges_as_well_as_from_registration() {
-    std::thread::Builder::new()
-        .stack_size(8 << 20)
-        .spawn(identify_case)
-        .unwrap()
-        .join()
-        .unwrap();
-}
-
-fn identify_case() {
     use kinecal_cli::simulation::{
         dataset, measure, perturb_geometry, random_configurations, GeomErrors, Streams,
     };

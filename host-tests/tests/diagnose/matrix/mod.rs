@@ -103,10 +103,7 @@ pub fn run_matrix(file: &str) {
                 );
                 results.lock().unwrap().push((i, o));
             };
-            std::thread::Builder::new()
-                .stack_size(8 << 20)
-                .spawn_scoped(s, work)
-                .unwrap();
+            std::thread::Builder::new().spawn_scoped(s, work).unwrap();
         }
     });
     let results = results.into_inner().unwrap();

@@ -8,15 +8,6 @@ use super::*;
 /// true robot: RMS ≤ 0.03 mm, max ≤ 0.1 mm (the "done when"), in f64 and f32.
 #[test]
 fn identified_model_compensates_the_true_robot() {
-    // A thread with the stack of a main thread (8 MiB), as the `kinecal` binary has.
-    let h = std::thread::Builder::new()
-        .stack_size(8 << 20)
-        .spawn(end_to_end)
-        .unwrap();
-    h.join().unwrap();
-}
-
-fn end_to_end() {
     for (case, fx) in [
         (0u64, Fx::None),
         (1, Fx::Compliance),

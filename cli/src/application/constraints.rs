@@ -166,8 +166,8 @@ fn split<const N: usize>(
 
 /// The `--effect` requests added to `nominal` with zero values, each table or cyclic term over
 /// the joint range of the identification rows; returns the parameters that are not effect
-/// values (an axis tilt's). A constraint file carries no temperatures: thermal expansion is
-/// refused.
+/// values (an axis tilt's). Thermal expansion needs a `temp_c` on every row (its reference is
+/// the rows' mean temperature unless given).
 fn add_effects<const N: usize>(
     nominal: &mut HostRobot<N>,
     requests: &[crate::calibration::EffectRequest],
@@ -177,11 +177,15 @@ fn add_effects<const N: usize>(
     let mut extra = Vec::new();
     for req in requests {
         if req.kind == crate::formats::robot_file::THERMAL {
-            crate::refuse!(
-                "--effect {}: a constraint file has no temp_c column; fit thermal expansion from \
-                 tracker points with temperatures",
-                req.kind
-            );
+            if rows.iter().all(|m| m.temp_c.is_none()) {
+                crate::refuse!(
+                    "--effect {}: the constraint file has no temp_c column: add the arm's \
+                     temperature (°C) to every row",
+                    req.kind
+                );
+            }
+            extra.extend(crate::calibration::thermal::add(nominal, req, &rows)?);
+            continue;
         }
         let range = if req.joint < N {
             crate::calibration::inputs::joint_range(&rows, req.joint)
@@ -281,11 +285,16 @@ fn constraints<const N: usize>(
     out
 }
 
-/// The rows as measurements (joint readings only) for the acceptance check's joint ranges.
+/// The rows as measurements (joint readings and temperatures) for the acceptance check's joint
+/// ranges and the thermal-expansion term's reference.
 fn measurements<const N: usize>(groups: &[Group<N>]) -> Vec<kinecal::Measurement<f64, N>> {
     groups
         .iter()
         .flat_map(|g| g.rows.iter())
-        .map(|r| kinecal::Measurement::from_deg(&r.q.map(f64::to_degrees), &[0.0; 3]))
+        .map(|r| {
+            let mut m = kinecal::Measurement::from_deg(&r.q.map(f64::to_degrees), &[0.0; 3]);
+            m.temp_c = r.temp_c;
+            m
+        })
         .collect()
 }

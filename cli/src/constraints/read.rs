@@ -54,6 +54,9 @@ pub struct Row<const N: usize> {
     pub sigma_mm: f64,
     /// The measured point of a `point` row.
     pub xyz: Option<[f64; 3]>,
+    /// The arm's temperature (°C) when the row was taken (`temp_c`; `None`: not given, the
+    /// model's reference temperature).
+    pub temp_c: Option<f64>,
     /// Line of the file.
     pub line: usize,
 }
@@ -150,6 +153,7 @@ pub fn parse<const N: usize>(
         .collect::<anyhow::Result<Vec<usize>>>()?;
     let (length_col, sigma_col, tool_col) = (col("length_mm"), col("sigma_mm"), col("tool"));
     let xyz_cols = [col("x"), col("y"), col("z")];
+    let temp_col = col("temp_c");
     let mut groups: Vec<Group<N>> = Vec::new();
     let mut index: BTreeMap<String, usize> = BTreeMap::new();
     let mut lengths: Vec<Vec<Option<f64>>> = Vec::new();
@@ -237,6 +241,10 @@ pub fn parse<const N: usize>(
         } else {
             None
         };
+        let temp_c = temp_col.map(|c| number(c, "temp_c")).transpose()?.flatten();
+        if let Some(t) = temp_c.filter(|t| t.abs() > 1e3) {
+            crate::refuse!("{origin}:{line}: temp_c {t} is not a temperature in °C");
+        }
         let length = length_col
             .map(|c| number(c, "length_mm"))
             .transpose()?
@@ -264,6 +272,7 @@ pub fn parse<const N: usize>(
             tool,
             sigma_mm,
             xyz,
+            temp_c,
             line,
         });
         lengths[k].push(length);

@@ -29,13 +29,13 @@ impl Shape {
     }
 }
 
-/// The tool points `robot` predicts for the rows of `g`.
+/// The tool points `robot` predicts for the rows of `g`, each at its temperature.
 pub fn points<const N: usize>(robot: &HostRobot<N>, g: &Group<N>) -> Vec<Vector3<f64>> {
     let mut fk = ForwardKinematics::<f64, N>::new();
     g.rows
         .iter()
         .map(|r| {
-            fk.compute_point(robot, &r.q, r.tool)
+            fk.compute_at(robot, &r.q, r.tool, r.temp_c)
                 .unwrap_or(Vector3::repeat(f64::NAN))
         })
         .collect()

@@ -8,7 +8,7 @@
 //!   vector from b to a;
 //! - point row: `(p − x) / σ` (3 rows).
 
-use super::read::{Group, Kind};
+use super::read::{Group, Kind, Row};
 use super::shapes::{tangents, Shape};
 use crate::HostRobot;
 use kinecal::{ForwardKinematics, Param};
@@ -45,11 +45,11 @@ pub fn evaluate<const N: usize>(
         DMatrix::zeros(0, 0)
     };
     let mut fk = ForwardKinematics::<f64, N>::new();
-    // Point and model columns of one row.
-    let mut at = |q: &[f64; N], tool: usize| -> anyhow::Result<(Vector3<f64>, Vec<Vector3<f64>>)> {
+    // Point and model columns of one row, at its temperature.
+    let mut at = |rw: &Row<N>| -> anyhow::Result<(Vector3<f64>, Vec<Vector3<f64>>)> {
         let p = fk
-            .compute_point(robot, q, tool)
-            .ok_or_else(|| anyhow::anyhow!("tool point {tool} is not in the robot file"))?;
+            .compute_at(robot, &rw.q, rw.tool, rw.temp_c)
+            .ok_or_else(|| anyhow::anyhow!("tool point {} is not in the robot file", rw.tool))?;
         let cols = if jacobian {
             params
                 .iter()
@@ -67,7 +67,7 @@ pub fn evaluate<const N: usize>(
             (Kind::Socket, Shape::Centre(c)) => {
                 for rw in &g.rows {
                     let w = 1.0 / rw.sigma_mm;
-                    let (p, cols) = at(&rw.q, rw.tool)?;
+                    let (p, cols) = at(rw)?;
                     for a in 0..3 {
                         r[row + a] = (p[a] - c[a]) * w;
                         if jacobian {
@@ -84,7 +84,7 @@ pub fn evaluate<const N: usize>(
                 let (t1, t2) = tangents(n);
                 for rw in &g.rows {
                     let w = 1.0 / rw.sigma_mm;
-                    let (p, cols) = at(&rw.q, rw.tool)?;
+                    let (p, cols) = at(rw)?;
                     r[row] = (n.dot(&p) - d) * w;
                     if jacobian {
                         for (k, col) in cols.iter().enumerate() {
@@ -100,8 +100,8 @@ pub fn evaluate<const N: usize>(
             (Kind::Distance, _) => {
                 let (a, b) = (&g.rows[0], &g.rows[1]);
                 let w = 1.0 / a.sigma_mm;
-                let (pa, ca) = at(&a.q, a.tool)?;
-                let (pb, cb) = at(&b.q, b.tool)?;
+                let (pa, ca) = at(a)?;
+                let (pb, cb) = at(b)?;
                 let v = pa - pb;
                 let len = v.norm();
                 r[row] = (len - g.length_mm.unwrap_or(f64::NAN)) * w;
@@ -116,7 +116,7 @@ pub fn evaluate<const N: usize>(
             (Kind::Point, _) => {
                 for rw in &g.rows {
                     let w = 1.0 / rw.sigma_mm;
-                    let (p, cols) = at(&rw.q, rw.tool)?;
+                    let (p, cols) = at(rw)?;
                     let x = rw.xyz.unwrap_or([f64::NAN; 3]);
                     for a in 0..3 {
                         r[row + a] = (p[a] - x[a]) * w;

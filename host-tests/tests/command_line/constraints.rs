@@ -350,7 +350,7 @@ fn an_effect_requested_on_a_constraint_file_is_estimated_with_the_model() {
 }
 
 #[test]
-fn thermal_expansion_on_a_constraint_file_is_refused_with_the_fix() {
+fn thermal_expansion_on_a_constraint_file_without_temperatures_is_refused_with_the_fix() {
     let dir = tempfile::tempdir().unwrap();
     let (data, _) = session(dir.path(), "socket:4x10", 3);
     let out = kinecal(&[
@@ -368,6 +368,101 @@ fn thermal_expansion_on_a_constraint_file_is_refused_with_the_fix() {
         "{}",
         stderr(&out)
     );
+}
+
+/// A warming arm measured with a ball bar: `pairs` distance groups of the ER20 whose lengths
+/// expand by `c` per kelvin from 25 °C, the rows' `temp_c` rising from 15 to 35 °C over the
+/// session (0.002 mm noise on the lengths); returns the file.
+fn warming_distances(dir: &Path, pairs: usize, c: f64, temp_column: bool) -> PathBuf {
+    use kinecal::model::effects::EffectKind;
+    use rand::{RngExt, SeedableRng};
+    let (_, nominal) = load_robot::<6>(&data_file("er20.toml")).unwrap();
+    let mut truth = nominal.clone();
+    truth
+        .effects_mut()
+        .push(EffectKind::Thermal, 0, 6, 1, 25.0, 0.0, &[c])
+        .unwrap();
+    let mut rng = kinecal_cli::simulation::Streams::new(77).configs;
+    let qs = kinecal_cli::simulation::random_configurations(&truth, 2 * pairs, &mut rng);
+    let mut noise = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(78);
+    let mut fk = ForwardKinematics::<f64, 6>::new();
+    let mut text = String::from("kind,group,q1,q2,q3,q4,q5,q6,length_mm");
+    text += if temp_column { ",temp_c\n" } else { "\n" };
+    for k in 0..pairs {
+        let temp = |i: usize| 15.0 + 20.0 * i as f64 / (2 * pairs - 1) as f64;
+        let (a, b) = (2 * k, 2 * k + 1);
+        let pa = fk.compute_at(&truth, &qs[a], 0, Some(temp(a))).unwrap();
+        let pb = fk.compute_at(&truth, &qs[b], 0, Some(temp(b))).unwrap();
+        let length = (pa - pb).norm() + 0.002 * (noise.random::<f64>() - 0.5) * 3.46;
+        for i in [a, b] {
+            let q: Vec<String> = qs[i].iter().map(|v| v.to_degrees().to_string()).collect();
+            text += &format!("distance,bar{k},{},{length}", q.join(","));
+            text += &if temp_column {
+                format!(",{}\n", temp(i))
+            } else {
+                "\n".to_string()
+            };
+        }
+    }
+    write(dir, "warming.csv", &text)
+}
+
+#[test]
+fn thermal_expansion_is_fitted_from_a_warming_ball_bar_session() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = 2.0e-5;
+    let data = warming_distances(dir.path(), 120, c, true);
+    let plain = identify(&data, &[]);
+    let v = identify(&data, &["--effect", "thermal-expansion"]);
+    assert_eq!(v["converged"], true, "{v}");
+    assert!(
+        names(&v["estimated"]).contains(&"thermal-expansion1".to_string()),
+        "{v}"
+    );
+    let fitted = v["parameters"]["thermal-expansion1"].as_f64().unwrap();
+    let rms = |v: &serde_json::Value| v["after"]["identification_rms_mm"].as_f64().unwrap();
+    eprintln!(
+        "ball bar, 15 -> 35 °C: c = {fitted:e} per K (truth {c:e}); length RMS {} mm without \
+         the term, {} mm with it",
+        rms(&plain),
+        rms(&v)
+    );
+    // The expansion is the only error: c comes back within 3 %, and the lengths that the
+    // geometry alone cannot follow (up to 0.4 mm over the session) fit to the noise.
+    assert!((fitted - c).abs() < 0.03 * c, "c = {fitted}");
+    assert!(rms(&v) < 0.003, "{v}");
+    assert!(rms(&plain) > 5.0 * rms(&v), "{plain}");
+}
+
+#[test]
+fn constraint_temperatures_missing_on_a_row_or_implausible_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = warming_distances(dir.path(), 10, 2.0e-5, true);
+    let text = std::fs::read_to_string(&data).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let cut = lines[1].rfind(',').unwrap();
+    let (blank, hot) = (
+        format!("{},", &lines[1][..cut]),
+        format!("{},5000", &lines[1][..cut]),
+    );
+    for (row, want) in [
+        (blank, "temp_c column with the arm's temperature"),
+        (hot, "temp_c 5000 is not a temperature"),
+    ] {
+        lines[1] = row;
+        let bad = write(dir.path(), "bad.csv", &(lines.join("\n") + "\n"));
+        let out = kinecal(&[
+            "identify",
+            "--robot",
+            s(&data_file("er20.toml")),
+            "--data",
+            s(&bad),
+            "--effect",
+            "thermal-expansion",
+        ]);
+        assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+        assert!(stderr(&out).contains(want), "{}", stderr(&out));
+    }
 }
 
 /// `check --json` of `data` on the ER20, asserting exit 0.

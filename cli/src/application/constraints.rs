@@ -67,6 +67,16 @@ pub fn identify<const N: usize>(
     if ident.is_empty() {
         crate::refuse!("--holdout leaves no groups to identify from: hold out fewer");
     }
+    // A thermal-expansion term of the file without `reference_c` is referred to the
+    // identification rows' mean temperature (and written with it), as on tracker points.
+    let mut file = file;
+    if file.with_thermal_reference(crate::calibration::thermal::mean_temperature(
+        &measurements(&ident),
+    )) {
+        nominal = file
+            .to_robot::<N>()
+            .map_err(|e| anyhow::anyhow!("{}: {e}", file.name))?;
+    }
     let ident_session = Session {
         groups: ident.clone(),
     };

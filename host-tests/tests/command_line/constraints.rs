@@ -413,7 +413,11 @@ fn thermal_expansion_is_fitted_from_a_warming_ball_bar_session() {
     let c = 2.0e-5;
     let data = warming_distances(dir.path(), 120, c, true);
     let plain = identify(&data, &[]);
-    let v = identify(&data, &["--effect", "thermal-expansion"]);
+    let model = dir.path().join("model.toml");
+    let v = identify(
+        &data,
+        &["--effect", "thermal-expansion", "--out", s(&model)],
+    );
     assert_eq!(v["converged"], true, "{v}");
     assert!(
         names(&v["estimated"]).contains(&"thermal-expansion1".to_string()),
@@ -432,6 +436,31 @@ fn thermal_expansion_is_fitted_from_a_warming_ball_bar_session() {
     assert!((fitted - c).abs() < 0.03 * c, "c = {fitted}");
     assert!(rms(&v) < 0.003, "{v}");
     assert!(rms(&plain) > 5.0 * rms(&v), "{plain}");
+    // The reference is the rows' mean temperature (25 °C, not the file default of 20 °C), and
+    // a robot file whose term has no reference_c gets the same when refitted.
+    let text = std::fs::read_to_string(&model).unwrap();
+    assert!(text.contains("reference_c = 25"), "{text}");
+    let bare: String = text
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("reference_c"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let bare = write(dir.path(), "bare.toml", &bare);
+    let again = dir.path().join("again.toml");
+    let v2 = json_of(&kinecal_ok(&[
+        "identify",
+        "--robot",
+        s(&bare),
+        "--data",
+        s(&data),
+        "--json",
+        "--out",
+        s(&again),
+    ]));
+    let refitted = v2["parameters"]["thermal-expansion1"].as_f64().unwrap();
+    assert!((refitted - c).abs() < 0.03 * c, "c = {refitted}");
+    let text = std::fs::read_to_string(&again).unwrap();
+    assert!(text.contains("reference_c = 25"), "{text}");
 }
 
 #[test]

@@ -240,7 +240,7 @@ impl embedded_io::Read for FaultReader<'_> {
     }
 }
 
-/// The 3-joint arm of the compensation example (f64, mm, rad), with `V` effect values.
+/// The 3-joint arm of the compensation example (f64, mm, rad), its effect values kept in `V`.
 pub fn arm3<V: kinecal::ValueStorage>() -> Robot<f64, 3, V> {
     Robot::new(
         Frame::identity(),

@@ -73,7 +73,7 @@ pub struct Effect<T: Real> {
     pub start: T,
     /// Knot spacing, rad (table only, > 0).
     pub step: T,
-    /// Index of the first value in the value array.
+    /// Index of the first value in the list's values.
     pub first: u16,
     /// Number of values: 1 (scale, compliance, thermal), 2 (cyclic: a, b), knots (table).
     pub len: u16,
@@ -351,7 +351,7 @@ impl<T: Real, V: ValueStorage> Effects<T, V> {
             return None;
         }
         let used = self.used;
-        if used > end || self.values.slots().len() < end {
+        if used > end || self.values.slots().len() < end || self.values.slots_mut().len() < end {
             self.values.release_slots(used);
             return None;
         }

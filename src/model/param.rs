@@ -484,7 +484,13 @@ pub fn apply_delta<T: Real, const N: usize, V: ValueStorage>(
                 Param::ToolRz => wt.z += d,
                 // Checked above: the point exists, the axis is 0..3.
                 Param::ToolPoint(..) => {}
-                Param::Effect(k) => effects.values_mut()[k as usize] += d,
+                // Checked above (`check_params`); `get_mut` rather than an index all the same: a
+                // caller's value buffer might hand out fewer writable than readable slots.
+                Param::Effect(k) => {
+                    if let Some(v) = effects.values_mut().get_mut(k as usize) {
+                        *v += d;
+                    }
+                }
             }
         }
         base.o += dt;

@@ -1,7 +1,7 @@
 //! The desktop's computing kit under every application module: both cores for passes over many
 //! poses ([`parallel`]), the library LM's storage sized from the problem on the heap
-//! ([`vec_lm`]), models' effect values on the heap ([`host_values`]), dense factorisations arranged as matrix products ([`dense`]) and point-set
-//! registration ([`registration`]).
+//! ([`vec_lm`]), models' effect values on the heap ([`host_values`]), dense factorisations
+//! arranged as matrix products ([`dense`]) and point-set registration ([`registration`]).
 
 pub mod dense;
 pub mod host_values;

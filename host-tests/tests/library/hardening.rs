@@ -221,7 +221,51 @@ impl<T: kinecal::Real> kinecal::ValueBuffer<T> for HugeValues<T> {
     }
 }
 
-/// A list without value capacity (`V = 0`, the firmware's models) holds no effect, whatever
+/// A caller's value buffer that breaks its contract (more readable than writable slots): the
+/// list refuses to store into it instead of panicking, and stays empty.
+#[derive(Clone, Debug, PartialEq)]
+struct Lopsided;
+
+#[derive(Clone, Debug, PartialEq)]
+struct LopsidedValues<T>(Vec<T>);
+
+impl kinecal::ValueStorage for Lopsided {
+    const CAPACITY: usize = 16;
+    type Buffer<T: kinecal::Real> = LopsidedValues<T>;
+}
+
+impl<T: kinecal::Real> kinecal::ValueBuffer<T> for LopsidedValues<T> {
+    fn empty() -> Self {
+        LopsidedValues(vec![T::zero(); 16])
+    }
+    fn slots(&self) -> &[T] {
+        &self.0
+    }
+    fn slots_mut(&mut self) -> &mut [T] {
+        &mut self.0[..1]
+    }
+    fn reserve_slots(&mut self, len: usize) -> bool {
+        len <= 16
+    }
+    fn release_slots(&mut self, _len: usize) {}
+}
+
+#[test]
+fn a_value_buffer_that_breaks_its_contract_is_refused_not_a_panic() {
+    let mut e = Effects::<f64, Lopsided>::for_joints(6);
+    assert_eq!(
+        e.push(EffectKind::Cyclic, 1, 6, 1, 0.0, 0.0, &[1e-4, 2e-4]),
+        Err(EffectError::Capacity)
+    );
+    assert!(e.is_empty());
+    assert_eq!(e.values().len(), 0);
+    // One value fits the one writable slot.
+    e.push(EffectKind::Scale, 1, 6, 0, 0.0, 0.0, &[1e-4])
+        .unwrap();
+    assert_eq!(e.values(), &[1e-4]);
+}
+
+/// A list without value capacity (`Inline<0>`, the firmware's models) holds no effect, whatever
 /// is pushed: [`Effects::is_empty`] says so at compile time.
 #[test]
 fn a_list_without_value_capacity_stays_empty() {

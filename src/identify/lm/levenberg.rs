@@ -35,8 +35,8 @@ pub(super) enum Phase {
     Done(LmStop),
 }
 
-/// The Levenberg–Marquardt stepper for a robot with `N` joints and effect values kept in `V`, over the
-/// caller's `Storage` (the parameters and the normal equations: an [`LmStorage`]) and
+/// The Levenberg–Marquardt stepper for a robot with `N` joints and effect values kept in `V`,
+/// over the caller's `Storage` (the parameters and the normal equations: an [`LmStorage`]) and
 /// `Penalty` (none by default: an [`LmPenalty`]).
 // `repr(C)`, in the order rustc chose before (storage, models, scalars, workspace, flags: no
 // padding): rustc's own order puts the member with the largest niche first, so a niche new in

@@ -8,6 +8,7 @@ use super::storage::LmStorage;
 use crate::io::snapshot::{
     restore_with, save_with, Decoder, Encoder, Kind, Snapshot, SnapshotError,
 };
+use crate::model::effects::MAX_VALUES;
 use crate::model::param::Param;
 use crate::Frame;
 use crate::ValueStorage;
@@ -117,9 +118,14 @@ fn get_robot<T: Real, R: Read, const N: usize, V: ValueStorage>(
             return Err(SnapshotError::Shape);
         }
     }
-    d.expect_shape(r.effects().values().len())?;
+    let nv = r.effects().values().len();
+    d.expect_shape(nv)?;
     // Read in place: `r` is the caller's scratch copy (a snapshot restores all or nothing).
-    d.reals(r.parts_mut().3.values_mut())?;
+    let values = r.parts_mut().3.values_mut();
+    if values.len() != nv {
+        return Err(SnapshotError::Shape);
+    }
+    d.reals(values)?;
     let count = r.tool_point_count();
     d.expect_shape(count)?;
     let mut more = [Vector3::<T>::zeros(); crate::model::tool::MAX_TOOL_POINTS];
@@ -186,7 +192,7 @@ impl<
         let s = p.stride;
         save_with::<T, W, _>(w, Kind::Levenberg, |e| {
             e.usize(N)?;
-            e.usize(V::CAPACITY)?;
+            e.usize(V::CAPACITY.min(MAX_VALUES))?;
             let n = p.params.len();
             e.usize(n)?;
             for q in p.params {
@@ -248,7 +254,7 @@ impl<
     fn restore<R: Read>(&mut self, r: &mut R) -> Result<(), SnapshotError> {
         let restored = restore_with::<T, R, _, _>(r, Kind::Levenberg, |d| {
             d.expect_shape(N)?;
-            d.expect_shape(V::CAPACITY)?;
+            d.expect_shape(V::CAPACITY.min(MAX_VALUES))?;
             let n = self.st.params().len();
             d.expect_shape(n)?;
             for q in self.st.params() {

@@ -106,7 +106,8 @@ pub fn joint_count(blob: &[u8]) -> Result<usize, BlobError> {
 
 /// Reads the binary model `blob` into `robot`. On any error (truncated, corrupted, another
 /// version, another joint count, a record unknown or malformed, a number not finite, more
-/// effects than `V` values hold, a model [`Robot::new`] refuses) `robot` is unchanged.
+/// values than the storage `V` holds (`V::CAPACITY`), a model [`Robot::new`] refuses) `robot`
+/// is unchanged.
 ///
 /// Decoded into `f64`, a model written from `f64` equals it exactly (rows, base, tool,
 /// effects, couplings: the forward kinematics agree bit for bit).

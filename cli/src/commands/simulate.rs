@@ -103,11 +103,16 @@ fn simulate_with_joints<const N: usize>(
     let s = simulate_request(file, &nominal, &req, &robot, &mut crate::Stderr)?;
     let rows = match &args.constraints {
         Some(plan) => {
-            if !args.sweeps.is_empty() || args.temperature.is_some() {
-                crate::refuse!("--constraints does not combine with --sweeps or --temperature");
+            if !args.sweeps.is_empty() {
+                crate::refuse!("--constraints does not combine with --sweeps");
             }
-            let text =
-                crate::constraints::simulate::session(&s.truth, plan, args.noise_mm, args.seed)?;
+            let text = crate::constraints::simulate::session(
+                &s.truth,
+                plan,
+                args.noise_mm,
+                args.seed,
+                args.temperature,
+            )?;
             crate::output::atomic::write_atomic(&args.out, text.as_bytes())
                 .map_err(|e| anyhow!("{}: cannot write: {e}", args.out.display()))?;
             plan.rows()

@@ -76,45 +76,83 @@ impl SessionPlan {
 const TRIES: usize = 30;
 
 /// The CSV of a constraint session of `truth` (noise `noise_mm` per contact, length or tracker
-/// axis; `seed` as `simulate`'s). Joint readings are rounded as the file keeps them.
+/// axis; `seed` as `simulate`'s). Joint readings are rounded as the file keeps them. With
+/// `temperature` `(A, B)` the arm warms (or cools) linearly from A to B °C over the rows in
+/// their order: each row is taken at its temperature (a socket reached, a point measured by
+/// the true robot at it) and written with it (`temp_c`, to 0.01 °C as a sensor reports it).
 pub fn session<const N: usize>(
     truth: &HostRobot<N>,
     plan: &SessionPlan,
     noise_mm: f64,
     seed: u64,
+    temperature: Option<(f64, f64)>,
 ) -> anyhow::Result<String> {
+    if let Some((a, b)) = temperature {
+        if !(a.is_finite() && b.is_finite() && a.abs() <= 1e3 && b.abs() <= 1e3) {
+            anyhow::bail!("the temperatures must be finite numbers of °C, got {a} and {b}");
+        }
+    }
+    let last = plan.rows().max(2) - 1;
+    // Row `i`'s temperature (°C), `None` without `--temperature`.
+    let temp_of = |i: usize| {
+        temperature.map(|(a, b)| ((a + (b - a) * i as f64 / last as f64) * 100.0).round() / 100.0)
+    };
     let mut s = Streams::new(seed);
     let mut out = String::from("kind,group");
     for j in 1..=N {
         let _ = write!(out, ",q{j}");
     }
-    out.push_str(",length_mm,sigma_mm,x,y,z\n");
+    out.push_str(",length_mm,sigma_mm,x,y,z");
+    out.push_str(if temperature.is_some() {
+        ",temp_c\n"
+    } else {
+        "\n"
+    });
     let sigma = if noise_mm > 0.0 {
         format!("{noise_mm}")
     } else {
         String::new()
     };
-    let row = |out: &mut String, kind: &str, group: &str, q: &[f64; N], tail: &str| {
+    // Rows written so far: the next row's index in the warm-up.
+    let mut written = 0;
+    let mut row = |out: &mut String, kind: &str, group: &str, q: &[f64; N], tail: &str| {
         let _ = write!(out, "{kind},{group}");
         for v in q {
             let _ = write!(out, ",{}", quantize_deg(v.to_degrees()));
         }
-        let _ = writeln!(out, "{tail}");
+        match temp_of(written) {
+            Some(t) => {
+                let _ = writeln!(out, "{tail},{t}");
+            }
+            None => {
+                let _ = writeln!(out, "{tail}");
+            }
+        }
+        written += 1;
     };
     let noise3 = |rng: &mut rand_xoshiro::Xoshiro256PlusPlus| {
         Vector3::from_fn(|_, _| noise_mm * rng.sample::<f64, _>(StandardNormal))
     };
+    let mut first = 0;
     for g in 0..plan.sockets.0 {
         let rows = group_rows(plan.sockets.1, &mut s, |s| {
             let q0 = random_configurations(truth, 1, &mut s.configs)[0];
-            let centre = fk(truth, &q0);
+            let centre = fk(truth, &q0, temp_of(first));
             (0..plan.sockets.1)
-                .map(|_| {
+                .map(|k| {
                     let target = centre + noise3(&mut s.noise);
-                    reach(truth, &target, &q0, 45.0, &mut s.configs)
+                    reach(
+                        truth,
+                        &target,
+                        &q0,
+                        45.0,
+                        temp_of(first + k),
+                        &mut s.configs,
+                    )
                 })
                 .collect()
         })?;
+        first += plan.sockets.1;
         for q in &rows {
             row(
                 &mut out,
@@ -128,19 +166,27 @@ pub fn session<const N: usize>(
     for g in 0..plan.planes.0 {
         let rows = group_rows(plan.planes.1, &mut s, |s| {
             let q0 = random_configurations(truth, 1, &mut s.configs)[0];
-            let p0 = fk(truth, &q0);
+            let p0 = fk(truth, &q0, temp_of(first));
             let normal =
                 Vector3::from_fn(|_, _| s.errors.sample::<f64, _>(StandardNormal)).normalize();
             let (t1, t2) = super::shapes::tangents(&normal);
             (0..plan.planes.1)
-                .map(|_| {
+                .map(|k| {
                     let u: f64 = s.configs.random_range(-150.0..150.0);
                     let v: f64 = s.configs.random_range(-150.0..150.0);
                     let target = p0 + t1 * u + t2 * v + normal * noise3(&mut s.noise).x;
-                    reach(truth, &target, &q0, 30.0, &mut s.configs)
+                    reach(
+                        truth,
+                        &target,
+                        &q0,
+                        30.0,
+                        temp_of(first + k),
+                        &mut s.configs,
+                    )
                 })
                 .collect()
         })?;
+        first += plan.planes.1;
         for q in &rows {
             row(
                 &mut out,
@@ -153,7 +199,12 @@ pub fn session<const N: usize>(
     }
     for g in 0..plan.distances {
         let q = random_configurations(truth, 2, &mut s.configs);
-        let length = (fk(truth, &q[0]) - fk(truth, &q[1])).norm() + noise3(&mut s.noise).x;
+        let (pa, pb) = (
+            fk(truth, &q[0], temp_of(first)),
+            fk(truth, &q[1], temp_of(first + 1)),
+        );
+        let length = (pa - pb).norm() + noise3(&mut s.noise).x;
+        first += 2;
         let tail = format!(",{length:.6},{sigma},,,");
         for qa in &q {
             row(&mut out, "distance", &format!("d{}", g + 1), qa, &tail);
@@ -161,25 +212,29 @@ pub fn session<const N: usize>(
     }
     for k in 0..plan.points {
         let q = random_configurations(truth, 1, &mut s.configs)[0];
-        let p = fk(truth, &q) + noise3(&mut s.noise);
+        let p = fk(truth, &q, temp_of(first)) + noise3(&mut s.noise);
+        first += 1;
         let tail = format!(",,{sigma},{:.8},{:.8},{:.8}", p.x, p.y, p.z);
         row(&mut out, "point", &format!("x{}", k + 1), &q, &tail);
     }
     Ok(out)
 }
 
-/// The tool point of `robot` at `q`.
-fn fk<const N: usize>(robot: &HostRobot<N>, q: &[f64; N]) -> Vector3<f64> {
-    ForwardKinematics::<f64, N>::new().compute(robot, q)
+/// The tool point of `robot` at `q` and the temperature `temp_c` (°C; `None`: the reference).
+fn fk<const N: usize>(robot: &HostRobot<N>, q: &[f64; N], temp_c: Option<f64>) -> Vector3<f64> {
+    let mut fk = ForwardKinematics::<f64, N>::new();
+    fk.compute_at(robot, q, 0, temp_c)
+        .unwrap_or(Vector3::repeat(f64::NAN))
 }
 
-/// Joint readings (rounded as written) that bring `robot`'s tool point to `target`, started
-/// from `around` moved by up to ±`spread_deg` per joint at random.
+/// Joint readings (rounded as written) that bring `robot`'s tool point to `target` at the
+/// temperature `temp_c`, started from `around` moved by up to ±`spread_deg` per joint at random.
 fn reach<const N: usize, R: Rng>(
     robot: &HostRobot<N>,
     target: &Vector3<f64>,
     around: &[f64; N],
     spread_deg: f64,
+    temp_c: Option<f64>,
     rng: &mut R,
 ) -> Option<[f64; N]> {
     let config = Config {
@@ -187,6 +242,7 @@ fn reach<const N: usize, R: Rng>(
         max_step: 120f64.to_radians(),
         accept: 1e-4,
         tolerance: 1e-8,
+        temperature_c: temp_c,
         ..Config::default()
     };
     let spread = spread_deg.to_radians();
@@ -203,7 +259,7 @@ fn reach<const N: usize, R: Rng>(
             let jt = &robot.joints()[j];
             q[j] >= jt.lower && q[j] <= jt.upper
         });
-        if inside && (fk(robot, &q) - target).norm() < 1e-3 {
+        if inside && (fk(robot, &q, temp_c) - target).norm() < 1e-3 {
             return Some(q);
         }
     }

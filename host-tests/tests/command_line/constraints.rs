@@ -464,6 +464,52 @@ fn thermal_expansion_is_fitted_from_a_warming_ball_bar_session() {
 }
 
 #[test]
+fn a_simulated_warming_constraint_session_gives_back_its_expansion() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = 2.0e-5;
+    let (data, truth) = session_of(
+        dir.path(),
+        "socket:4x10,plane:2x12,distance:40",
+        5,
+        &[
+            "--temperature",
+            "15:35",
+            "--effect",
+            &format!("thermal-expansion:0:{c}"),
+        ],
+    );
+    // The rows are written warming from 15 to 35 °C in their order.
+    let text = std::fs::read_to_string(&data).unwrap();
+    let temps: Vec<f64> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+        .collect();
+    assert!(text.lines().next().unwrap().ends_with(",temp_c"), "{text}");
+    assert_eq!((temps[0], temps[temps.len() - 1]), (15.0, 35.0));
+    assert!(temps.windows(2).all(|w| w[1] >= w[0]));
+    let (plain, with) = (dir.path().join("plain.toml"), dir.path().join("with.toml"));
+    let v0 = identify(&data, &["--out", s(&plain)]);
+    let v1 = identify(&data, &["--effect", "thermal-expansion", "--out", s(&with)]);
+    assert_eq!(v1["converged"], true, "{v1}");
+    let fitted = v1["parameters"]["thermal-expansion1"].as_f64().unwrap();
+    let rms = |v: &serde_json::Value| v["after"]["identification_rms_mm"].as_f64().unwrap();
+    let (e0, e1) = (
+        tool_point_rms(&plain, &truth, false),
+        tool_point_rms(&with, &truth, false),
+    );
+    eprintln!(
+        "simulated warming session (sockets, planes, distances): c = {fitted:e} per K (truth \
+         {c:e}); identification RMS {} -> {} mm, tool point RMS {e0} -> {e1} mm",
+        rms(&v0),
+        rms(&v1)
+    );
+    assert!((fitted - c).abs() < 0.05 * c, "c = {fitted}");
+    assert!(rms(&v1) * 3.0 < rms(&v0), "{v0}\n{v1}");
+    assert!(e1 < 0.05, "{e1} mm");
+}
+
+#[test]
 fn constraint_temperatures_missing_on_a_row_or_implausible_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let data = warming_distances(dir.path(), 10, 2.0e-5, true);

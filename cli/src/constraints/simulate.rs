@@ -87,16 +87,12 @@ pub fn session<const N: usize>(
     seed: u64,
     temperature: Option<(f64, f64)>,
 ) -> anyhow::Result<String> {
-    if let Some((a, b)) = temperature {
-        if !(a.is_finite() && b.is_finite() && a.abs() <= 1e3 && b.abs() <= 1e3) {
-            anyhow::bail!("the temperatures must be finite numbers of °C, got {a} and {b}");
-        }
-    }
-    let last = plan.rows().max(2) - 1;
-    // Row `i`'s temperature (°C), `None` without `--temperature`.
-    let temp_of = |i: usize| {
-        temperature.map(|(a, b)| ((a + (b - a) * i as f64 / last as f64) * 100.0).round() / 100.0)
+    let temps = match temperature {
+        Some(t) => crate::simulation::warm_up(t, plan.rows())?,
+        None => Vec::new(),
     };
+    // Row `i`'s temperature (°C), `None` without `--temperature`.
+    let temp_of = |i: usize| temps.get(i).copied();
     let mut s = Streams::new(seed);
     let mut out = String::from("kind,group");
     for j in 1..=N {

@@ -381,6 +381,20 @@ pub fn simulate<const N: usize>(
     simulate_at(nominal, sim, None)
 }
 
+/// The temperatures (°C) of `count` rows of an arm warming (or cooling) linearly from
+/// `temperature.0` to `temperature.1`, each as a sensor reports it, to 0.01 °C (the file and
+/// the truth then agree exactly).
+pub fn warm_up(temperature: (f64, f64), count: usize) -> anyhow::Result<Vec<f64>> {
+    let (a, b) = temperature;
+    if !(a.is_finite() && b.is_finite() && a.abs() <= 1e3 && b.abs() <= 1e3) {
+        bail!("the temperatures must be finite numbers of °C, got {a} and {b}");
+    }
+    let n = count.max(2) - 1;
+    Ok((0..count)
+        .map(|i| ((a + (b - a) * i as f64 / n as f64) * 100.0).round() / 100.0)
+        .collect())
+}
+
 /// [`simulate`] with the arm warming (or cooling) linearly from `temperature.0` to
 /// `temperature.1` °C over the poses, in their order: every row gets a `temp_c`, and a
 /// thermal-expansion effect of the true robot is referred to the mean temperature.
@@ -389,17 +403,8 @@ pub fn simulate_at<const N: usize>(
     sim: &Simulation,
     temperature: Option<(f64, f64)>,
 ) -> anyhow::Result<(HostRobot<N>, Dataset<N>)> {
-    let temps: Vec<f64> = match temperature {
-        Some((a, b)) => {
-            if !(a.is_finite() && b.is_finite() && a.abs() <= 1e3 && b.abs() <= 1e3) {
-                bail!("the temperatures must be finite numbers of °C, got {a} and {b}");
-            }
-            let n = sim.poses.max(2) - 1;
-            (0..sim.poses)
-                // As a sensor reports it, to 0.01 °C (the file and the truth agree exactly).
-                .map(|i| ((a + (b - a) * i as f64 / n as f64) * 100.0).round() / 100.0)
-                .collect()
-        }
+    let temps = match temperature {
+        Some(t) => warm_up(t, sim.poses)?,
         None => Vec::new(),
     };
     if !(sim.noise_mm.is_finite() && sim.noise_mm >= 0.0) {

@@ -373,6 +373,20 @@ pub fn fit_lm<const N: usize, V: kinecal::ValueStorage>(
     data: &[Measurement<f64, N>],
     cfg: LmConfig<f64>,
 ) -> anyhow::Result<Fit<N, V>> {
+    fit_lm_with_solver(start, params, data, cfg).map(|(fit, _)| fit)
+}
+
+/// The solver of a finished [`fit_lm`] run (its final normal equations).
+pub type FitSolver<const N: usize, V> = Box<Levenberg<f64, N, V, VecLm<f64>>>;
+
+/// [`fit_lm`], and the solver at its end: a refit from the fit's result takes its first pass
+/// from it ([`prior::refit_after`]).
+pub fn fit_lm_with_solver<const N: usize, V: kinecal::ValueStorage>(
+    start: &Robot<f64, N, V>,
+    params: &[Param],
+    data: &[Measurement<f64, N>],
+    cfg: LmConfig<f64>,
+) -> anyhow::Result<(Fit<N, V>, FitSolver<N, V>)> {
     // Complete passes: the re-analyses and the final confirmation of the held set read the
     // normal equations a pass left (one or two passes over the data fewer, the same numbers).
     let cfg = LmConfig {
@@ -392,7 +406,7 @@ pub fn fit_lm<const N: usize, V: kinecal::ValueStorage>(
     .map_err(|e| anyhow::anyhow!("identification: {e:?}"))?;
     let rows = residual_rows(data);
     let (held, sigma, chi2_per_dof, correlations) = identifiability_report(&lm, rows, p.cost);
-    Ok(Fit {
+    let fit = Fit {
         robot: lm.robot().clone(),
         iterations: p.iteration,
         evaluations: p.evaluations as u64,
@@ -407,7 +421,8 @@ pub fn fit_lm<const N: usize, V: kinecal::ValueStorage>(
         chi2_per_dof,
         correlations,
         prior: BTreeMap::new(),
-    })
+    };
+    Ok((fit, lm))
 }
 
 /// Reads the solver's last normal matrix: for each held parameter the estimated ones it is

@@ -59,8 +59,8 @@ pub fn fit_lm_with_prior<const N: usize, V: kinecal::ValueStorage>(
     sigma: &[Option<f64>],
     data: &[Measurement<f64, N>],
 ) -> anyhow::Result<Fit<N, V>> {
-    let fit = super::fit_lm(start, params, data, LmConfig::default())?;
-    refit(start, params, sigma, data, fit)
+    let (fit, solver) = super::fit_lm_with_solver(start, params, data, LmConfig::default())?;
+    refit_after(start, params, sigma, data, fit, Some(&solver))
 }
 
 /// File units of a value in the library's units.
@@ -87,6 +87,21 @@ pub fn refit<const N: usize, V: kinecal::ValueStorage>(
     sigma: &[Option<f64>],
     data: &[Measurement<f64, N>],
     fit: Fit<N, V>,
+) -> anyhow::Result<Fit<N, V>> {
+    refit_after(start, params, sigma, data, fit, None)
+}
+
+/// [`refit`] in the column scales of `solver`, the solver `fit` came from
+/// ([`super::fit_lm_with_solver`]), and its first pass taken from it when that gives the same
+/// numbers (one pass over the data fewer: [`Levenberg::complete_first_pass_from`]); a solver
+/// whose passes cut the data differently: a pass of its own. `None`: [`refit`].
+pub fn refit_after<const N: usize, V: kinecal::ValueStorage>(
+    start: &Robot<f64, N, V>,
+    params: &[Param],
+    sigma: &[Option<f64>],
+    data: &[Measurement<f64, N>],
+    fit: Fit<N, V>,
+    solver: Option<&super::FitSolver<N, V>>,
 ) -> anyhow::Result<Fit<N, V>> {
     let s2 = match fit.chi2_per_dof {
         Some(s2) if s2.is_finite() && s2 > 0.0 => s2,
@@ -148,6 +163,17 @@ pub fn refit<const N: usize, V: kinecal::ValueStorage>(
         Levenberg::with_penalty(fit.robot.clone(), VecLm::new(&active), penalty, cfg)
             .map_err(|e| anyhow::anyhow!("identification with the prior: {e:?}"))?,
     );
+    // The first fit's final normal equations are this run's first pass when both summed the
+    // poses in the same parts (a refused copy leaves the run to its own pass).
+    // Scaled as the first fit was (the same refit, preconditioned alike), so that the copy is
+    // the pass's own numbers.
+    if let Some(first) = solver {
+        if lm.adopt_scales_of(first).is_ok()
+            && crate::compute::parallel::same_parts(first.params().len(), active.len(), data.len())
+        {
+            let _ = lm.complete_first_pass_from(first);
+        }
+    }
     let p = crate::compute::parallel::run_lm(&mut lm, data, |_, _| {})
         .map_err(|e| anyhow::anyhow!("identification with the prior: {e:?}"))?;
     // Posterior covariance s²(A + Π)⁻¹ and resolution (A + Π)⁻¹A in scaled units.

@@ -92,6 +92,12 @@ pub fn pass_parts(params: usize) -> usize {
     (PART_MATRIX_BYTES / matrix).clamp(2, PARTS)
 }
 
+/// True when [`run_lm`]'s passes over `poses` poses sum them in the same parts for a model
+/// of `a` parameters as for one of `b`: both on the calling thread, or both cut alike.
+pub fn same_parts(a: usize, b: usize, poses: usize) -> bool {
+    poses < PARALLEL_MIN_POSES || pass_parts(a) == pass_parts(b)
+}
+
 /// Runs `lm` (with or without a penalty) over `data` to the end, its passes over the poses on
 /// [`workers`] threads when there are many poses; `on_progress` sees the progress after every
 /// call into the solver.

@@ -14,6 +14,7 @@ mod hardening;
 mod lm;
 mod lm_pass;
 mod lm_penalty;
+mod lm_seed;
 mod model_blob;
 mod observations;
 mod pso;

@@ -472,7 +472,7 @@ impl<T: Real, const N: usize, V: ValueStorage, Storage: LmStorage<T>, Penalty: L
 
     /// The end of a pass: of a candidate's, accept or reject it; of the estimate's, decide what
     /// comes next.
-    fn end_pass(&mut self) {
+    pub(super) fn end_pass(&mut self) {
         if self.phase == Phase::Evaluate {
             self.cand_cost = self.acc_cost;
             self.end_evaluate();

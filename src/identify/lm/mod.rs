@@ -60,12 +60,19 @@
 //! cuts the data into the same parts gets the same numbers whatever the number of threads. The
 //! library spawns nothing: the caller chooses the workers and owns each part's storage.
 //!
+//! **A refit from a fit's result** (a prior pulling towards the file values, fewer
+//! parameters) would begin with a pass at the model the fit converged at, whose normal
+//! equations the fit's last pass formed: [`Levenberg::complete_first_pass_from`] takes them
+//! (the refit in the fit's column scales, [`Levenberg::adopt_scales_of`]), bit for bit what
+//! the pass would give when both summed the poses in the same order.
+//!
 //! **Inside** (private modules; the calls go one way, from the stepper down):
 //! `levenberg` (the stepper: state, public calls, the phases of a run) → `pass` (a pass over a
 //! slice, for workers) → `normal` (one observation into the normal equations) → `residual`
 //! (an observation's weighted residual, RMS errors); `levenberg` → `solve` (the damped
 //! solve) and `analysis` (identifiability); below them all `config`, `storage`, `penalty` and
-//! `status`; `snapshot` saves and restores the stepper.
+//! `status`; `snapshot` saves and restores the stepper; `seed` starts a refit from a
+//! finished run.
 
 mod analysis;
 mod config;
@@ -74,6 +81,7 @@ mod normal;
 mod pass;
 mod penalty;
 mod residual;
+mod seed;
 mod snapshot;
 mod solve;
 mod status;

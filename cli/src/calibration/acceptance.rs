@@ -57,24 +57,54 @@ pub fn outside_ranges<const N: usize>(
     ident: &[Measurement<f64, N>],
     valid: &[Measurement<f64, N>],
 ) -> Vec<JointRangeGap> {
-    let range = |data: &[Measurement<f64, N>], j: usize| {
-        data.iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
-                (lo.min(m.q[j]), hi.max(m.q[j]))
+    // Every joint's range in one pass over the poses (many, each a few hundred bytes), in
+    // parts on several threads (minima and maxima do not depend on the order).
+    let ranges = |data: &[Measurement<f64, N>]| {
+        let parts = crate::compute::parallel::map_parts(data, |part| {
+            part.iter()
+                .fold([(f64::INFINITY, f64::NEG_INFINITY); N], |mut r, m| {
+                    for (r, q) in r.iter_mut().zip(&m.q) {
+                        *r = (r.0.min(*q), r.1.max(*q));
+                    }
+                    r
+                })
+        });
+        parts
+            .into_iter()
+            .fold([(f64::INFINITY, f64::NEG_INFINITY); N], |mut r, p| {
+                for (r, q) in r.iter_mut().zip(p) {
+                    *r = (r.0.min(q.0), r.1.max(q.1));
+                }
+                r
             })
     };
+    let identified = ranges(ident);
+    let margins = identified.map(|(lo, hi)| (0.02 * (hi - lo)).max(1f64.to_radians()));
+    let outside = crate::compute::parallel::map_parts(valid, |part| {
+        let mut outside = [0usize; N];
+        for m in part {
+            for (j, n) in outside.iter_mut().enumerate() {
+                let (lo, hi) = identified[j];
+                *n += usize::from(m.q[j] < lo - margins[j] || m.q[j] > hi + margins[j]);
+            }
+        }
+        outside
+    })
+    .into_iter()
+    .fold([0usize; N], |mut a, b| {
+        for (a, b) in a.iter_mut().zip(b) {
+            *a += b;
+        }
+        a
+    });
+    let held_out = ranges(valid);
     (0..N)
         .filter_map(|j| {
-            let (lo, hi) = range(ident, j);
-            let margin = (0.02 * (hi - lo)).max(1f64.to_radians());
-            let outside = valid
-                .iter()
-                .filter(|m| m.q[j] < lo - margin || m.q[j] > hi + margin)
-                .count();
-            let share = outside as f64 / valid.len().max(1) as f64;
+            let (lo, hi) = identified[j];
+            let share = outside[j] as f64 / valid.len().max(1) as f64;
             // One stray pose is not extrapolation; a twentieth of them is.
-            (outside > 0 && share >= 0.05).then(|| {
-                let (vlo, vhi) = range(valid, j);
+            (outside[j] > 0 && share >= 0.05).then(|| {
+                let (vlo, vhi) = held_out[j];
                 JointRangeGap {
                     joint: j + 1,
                     identified_deg: [lo.to_degrees(), hi.to_degrees()],

@@ -109,18 +109,23 @@ pub fn orientation_errors_deg<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
 ) -> Vec<f64> {
-    let mut fk = ForwardKinematics::new();
-    data.iter()
-        .filter_map(|m| {
-            let o = m.orientation.as_ref()?;
-            fk.compute_at(robot, &m.q, m.tool as usize, m.temp_c)?;
-            Some(
-                kinecal::model::frame::orientation_error(o, &fk.tool_pose(robot))
-                    .norm()
-                    .to_degrees(),
-            )
-        })
-        .collect()
+    // In parts on several threads: even a file without orientations is a pass over every
+    // observation.
+    crate::compute::parallel::map_parts(data, |part| {
+        let mut fk = ForwardKinematics::new();
+        part.iter()
+            .filter_map(|m| {
+                let o = m.orientation.as_ref()?;
+                fk.compute_at(robot, &m.q, m.tool as usize, m.temp_c)?;
+                Some(
+                    kinecal::model::frame::orientation_error(o, &fk.tool_pose(robot))
+                        .norm()
+                        .to_degrees(),
+                )
+            })
+            .collect::<Vec<_>>()
+    })
+    .concat()
 }
 
 /// Residual rows of `data`: three per point, three more per orientation.

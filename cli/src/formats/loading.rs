@@ -126,7 +126,6 @@ fn convention<const N: usize, V: kinecal::ValueStorage>(
     nominal: &Robot<f64, N, V>,
     origin: &str,
 ) -> anyhow::Result<()> {
-    let q: Vec<[f64; N]> = ds.records.iter().map(|r| r.q_deg).collect();
     let (angles, assumed, map) = match stated {
         Some((a, o, m)) => (a.to_vec(), o, Some(m)),
         None => {
@@ -141,7 +140,9 @@ fn convention<const N: usize, V: kinecal::ValueStorage>(
             }
         }
     };
-    if angles.len() == q.len() {
+    // Only files with orientations have an angle order to check.
+    if !angles.is_empty() && angles.len() == ds.len() {
+        let q: Vec<[f64; N]> = ds.records.iter().map(|r| r.q_deg).collect();
         if let Some(m) = crate::formats::convention::check(&q, &angles, assumed, nominal) {
             crate::refuse!("{}", m.message(origin, map));
         }

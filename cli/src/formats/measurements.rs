@@ -284,13 +284,12 @@ pub fn load<const N: usize>(path: &Path) -> anyhow::Result<Dataset<N>> {
     let origin = path.display().to_string();
     // An input that cannot be read is refused like a malformed one (exit status 2): the user
     // must fix the path or the file.
-    let mut bytes =
-        std::fs::read(path).map_err(|e| crate::refused(format!("{origin}: cannot read: {e}")))?;
-    if bytes.starts_with(&[0xEF, 0xBB, 0xBF]) {
-        bytes.drain(..3);
-    }
+    let file =
+        FileBytes::open(path).map_err(|e| crate::refused(format!("{origin}: cannot read: {e}")))?;
+    let bytes = file.bytes();
+    let bytes = bytes.strip_prefix(&[0xEF, 0xBB, 0xBF]).unwrap_or(bytes);
     // Malformed content is refused input (exit status 2, docs/formats.md "Command line: exit status and JSON").
-    read_bytes::<N>(&bytes).map_err(|e| {
+    read_bytes::<N>(bytes).map_err(|e| {
         let (header, text) = context_lines(path, e.line);
         crate::refused(describe_error(
             &origin,
@@ -300,6 +299,38 @@ pub fn load<const N: usize>(path: &Path) -> anyhow::Result<Dataset<N>> {
             text.as_deref(),
         ))
     })
+}
+
+/// A file's bytes: a large regular file mapped (the parsing threads read it in place, nothing
+/// is copied and the pages are the system's file cache), anything else read into memory.
+enum FileBytes {
+    Mapped(memmap2::Mmap),
+    Read(Vec<u8>),
+}
+
+impl FileBytes {
+    fn open(path: &Path) -> std::io::Result<Self> {
+        let file = std::fs::File::open(path)?;
+        let meta = file.metadata()?;
+        if meta.is_file() && meta.len() >= PARALLEL_MIN_BYTES as u64 {
+            // SAFETY: the map is only read, while this command runs; a file truncated by
+            // another program meanwhile is the one hazard (as for every program that maps its
+            // input), and a measurement file is not written while it is being calibrated from.
+            if let Ok(map) = unsafe { memmap2::Mmap::map(&file) } {
+                return Ok(Self::Mapped(map));
+            }
+        }
+        let mut bytes = Vec::new();
+        std::io::Read::read_to_end(&mut &file, &mut bytes)?;
+        Ok(Self::Read(bytes))
+    }
+
+    fn bytes(&self) -> &[u8] {
+        match self {
+            Self::Mapped(m) => m,
+            Self::Read(v) => v,
+        }
+    }
 }
 
 /// Files larger than this are parsed in parts on several threads.
@@ -319,28 +350,49 @@ pub fn read_bytes<const N: usize>(bytes: &[u8]) -> Result<Dataset<N>, CsvError> 
         let lines = part.iter().filter(|b| **b == b'\n').count() as u32;
         (read_records::<N, _>(prefix.chain(*part)), lines)
     });
-    let mut out = Dataset::default();
-    // One allocation of the final size: growing it part by part would hold the old and the
-    // new list at once (and up to twice the records).
-    out.records.reserve_exact(
-        read.iter()
-            .map(|(ds, _)| ds.as_ref().map_or(0, Dataset::len))
-            .sum(),
-    );
+    // The parts in order: the first error (its line counted from the file's start) is the
+    // whole file's first.
+    let mut parts = Vec::with_capacity(read.len());
     let mut before = 0u32;
     for (ds, lines) in read {
-        // A part's reader numbers the prefix's lines too, as the whole file's reader does.
         let ds = ds.map_err(|e| CsvError {
             line: e.line.saturating_add(before),
             ..e
         })?;
-        out.extra_names = ds.extra_names;
-        out.records.extend(ds.records.into_iter().map(|r| Record {
-            line: r.line.saturating_add(before),
-            ..r
-        }));
+        parts.push((ds, before));
         before = before.saturating_add(lines);
     }
+    let total: usize = parts.iter().map(|(ds, _)| ds.len()).sum();
+    let mut out = Dataset {
+        extra_names: parts
+            .last()
+            .map(|(ds, _)| ds.extra_names.clone())
+            .unwrap_or_default(),
+        // One allocation of the final size: growing it part by part would hold the old and
+        // the new list at once (and up to twice the records).
+        records: Vec::with_capacity(total),
+    };
+    // Each part's records moved to their place on several threads (a part's reader numbers
+    // the prefix's lines too, as the whole file's reader does: its lines are shifted by the
+    // lines of the parts before it).
+    let mut slots = &mut out.records.spare_capacity_mut()[..total];
+    let mut jobs = Vec::with_capacity(parts.len());
+    for (ds, before) in parts {
+        let (here, rest) = slots.split_at_mut(ds.len());
+        slots = rest;
+        jobs.push((ds.records, here, before));
+    }
+    crate::compute::parallel::map_each_mut(&mut jobs, |(records, slots, before)| {
+        for (r, slot) in std::mem::take(records).into_iter().zip(slots.iter_mut()) {
+            slot.write(Record {
+                line: r.line.saturating_add(*before),
+                ..r
+            });
+        }
+    });
+    // SAFETY: the jobs' slots cover the first `total` slots exactly once, and every job wrote
+    // each of its slots (its records are exactly as many as its slots, and it cannot fail).
+    unsafe { out.records.set_len(total) };
     Ok(out)
 }
 

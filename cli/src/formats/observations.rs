@@ -10,7 +10,7 @@
 //! file with orientations and position σ but no `srot_deg`: the two kinds of residual would be
 //! in different units.
 
-use crate::formats::measurements::Dataset;
+use crate::formats::measurements::{Dataset, Record};
 use crate::formats::robot_file::RobotFile;
 use kinecal::{Frame, Measurement};
 use nalgebra::Vector3;
@@ -128,7 +128,9 @@ impl<const N: usize> Observed<N> {
                     first: kept as u32,
                     ..*p
                 });
-                self.measurements.copy_within(range, kept);
+                if range.start != kept {
+                    self.measurements.copy_within(range, kept);
+                }
                 kept += p.count as usize;
             }
         }
@@ -233,107 +235,118 @@ pub fn observe<const N: usize>(
     }
     // The arm's temperature, for a model with a thermal-expansion term (an empty cell: none).
     let temp = col(ds, crate::formats::measurements::TEMPERATURE_COLUMN);
-    let mut poses = Vec::with_capacity(ds.records.len());
-    let mut measurements = Vec::with_capacity(ds.records.len());
-    for r in &ds.records {
-        let at = |c: &str| format!("{origin}:{}: {c}", r.line);
-        let get = |k: usize| r.extra.get(k).copied().unwrap_or(f64::NAN);
-        let weight = if has_sig {
-            let s = sig.map(|c| c.map_or(f64::NAN, get));
-            if let Some(k) = s.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
-                crate::refuse!(
-                    "{}: a 1-σ must be a positive number, got {} (or give --ignore-sigma)",
-                    at(["sx_mm", "sy_mm", "sz_mm"][k]),
-                    s[k]
-                );
-            }
-            Vector3::new(1.0 / s[0], 1.0 / s[1], 1.0 / s[2])
-        } else {
-            Vector3::repeat(1.0)
-        };
-        let orientation = if six_d {
-            let a = rot.map(|c| c.map_or(f64::NAN, get));
-            if let Some(k) = a.iter().position(|v| !v.is_finite() || v.abs() > 1e4) {
-                crate::refuse!(
-                    "{}: not an angle in degrees: {}",
-                    at(["rx_deg", "ry_deg", "rz_deg"][k]),
-                    a[k]
-                );
-            }
-            let w = if has_sig {
-                let s = srot_of(&get);
-                if !(s.is_finite() && s > 0.0) {
+    // One record's observations (one, or one per reflector seen), onto `obs`; the refusal
+    // names the line.
+    let observe_record =
+        |r: &Record<N>, obs: &mut Vec<Measurement<f64, N>>| -> anyhow::Result<()> {
+            let at = |c: &str| format!("{origin}:{}: {c}", r.line);
+            let get = |k: usize| r.extra.get(k).copied().unwrap_or(f64::NAN);
+            let weight = if has_sig {
+                let s = sig.map(|c| c.map_or(f64::NAN, get));
+                if let Some(k) = s.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
                     crate::refuse!(
-                        "{}: a 1-σ must be a positive number, got {s} (or give --ignore-sigma)",
-                        at("srot_deg")
+                        "{}: a 1-σ must be a positive number, got {} (or give --ignore-sigma)",
+                        at(["sx_mm", "sy_mm", "sz_mm"][k]),
+                        s[k]
                     );
                 }
-                1.0 / s.to_radians()
+                Vector3::new(1.0 / s[0], 1.0 / s[1], 1.0 / s[2])
             } else {
-                deg_weight_mm.to_degrees()
+                Vector3::repeat(1.0)
             };
-            Some((Frame::from_xyz_rpy([0.0; 3], a.map(f64::to_radians)), w))
-        } else {
-            None
-        };
-        let q = r.q_deg.map(f64::to_radians);
-        let temp_c = temp.map(get).filter(|t| !t.is_nan());
-        if let Some(t) = temp_c.filter(|t| t.abs() > 1e3) {
-            crate::refuse!("{}: not a temperature in °C: {t}", at("temp_c"));
-        }
-        let first = measurements.len();
-        let obs = &mut measurements;
-        if named {
-            for (k, c) in points.iter().enumerate() {
-                let p = c.map(get);
-                let seen = p.iter().filter(|v| v.is_finite()).count();
-                if seen == 0 {
-                    continue;
-                }
-                if seen < 3 {
+            let orientation = if six_d {
+                let a = rot.map(|c| c.map_or(f64::NAN, get));
+                if let Some(k) = a.iter().position(|v| !v.is_finite() || v.abs() > 1e4) {
                     crate::refuse!(
+                        "{}: not an angle in degrees: {}",
+                        at(["rx_deg", "ry_deg", "rz_deg"][k]),
+                        a[k]
+                    );
+                }
+                let w = if has_sig {
+                    let s = srot_of(&get);
+                    if !(s.is_finite() && s > 0.0) {
+                        crate::refuse!(
+                            "{}: a 1-σ must be a positive number, got {s} (or give --ignore-sigma)",
+                            at("srot_deg")
+                        );
+                    }
+                    1.0 / s.to_radians()
+                } else {
+                    deg_weight_mm.to_degrees()
+                };
+                Some((Frame::from_xyz_rpy([0.0; 3], a.map(f64::to_radians)), w))
+            } else {
+                None
+            };
+            let q = r.q_deg.map(f64::to_radians);
+            let temp_c = temp.map(get).filter(|t| !t.is_nan());
+            if let Some(t) = temp_c.filter(|t| t.abs() > 1e3) {
+                crate::refuse!("{}: not a temperature in °C: {t}", at("temp_c"));
+            }
+            if named {
+                for (k, c) in points.iter().enumerate() {
+                    let p = c.map(get);
+                    let seen = p.iter().filter(|v| v.is_finite()).count();
+                    if seen == 0 {
+                        continue;
+                    }
+                    if seen < 3 {
+                        crate::refuse!(
                         "{}: reflector `{}` has some coordinates and not others: leave all three \
                          cells empty where it was not seen",
                         at(&format!("x_{}", names[k])),
                         names[k]
                     );
+                    }
+                    if let Some(v) = p.iter().find(|v| v.abs() > 1e6) {
+                        crate::refuse!(
+                            "{}: {v} is not a position in millimetres",
+                            at(&format!("x_{}", names[k]))
+                        );
+                    }
+                    let mut m = Measurement::new(q, Vector3::from(p));
+                    m.tool = k as u8;
+                    m.weight = weight;
+                    m.temp_c = temp_c;
+                    if let (1, Some((o, w))) = (points.len(), orientation) {
+                        m.orientation = Some(o);
+                        m.orientation_weight = w;
+                    }
+                    obs.push(m);
                 }
-                if let Some(v) = p.iter().find(|v| v.abs() > 1e6) {
-                    crate::refuse!(
-                        "{}: {v} is not a position in millimetres",
-                        at(&format!("x_{}", names[k]))
-                    );
-                }
-                let mut m = Measurement::new(q, Vector3::from(p));
-                m.tool = k as u8;
+            } else {
+                let mut m = Measurement::new(q, Vector3::from(r.xyz_mm));
                 m.weight = weight;
                 m.temp_c = temp_c;
-                if let (1, Some((o, w))) = (points.len(), orientation) {
+                if let Some((o, w)) = orientation {
                     m.orientation = Some(o);
                     m.orientation_weight = w;
                 }
                 obs.push(m);
             }
-        } else {
-            let mut m = Measurement::new(q, Vector3::from(r.xyz_mm));
-            m.weight = weight;
-            m.temp_c = temp_c;
-            if let Some((o, w)) = orientation {
-                m.orientation = Some(o);
-                m.orientation_weight = w;
+            Ok(())
+        };
+    let (measurements, poses) = if named || ds.records.len() < PARALLEL_MIN_RECORDS {
+        let mut poses = Vec::with_capacity(ds.records.len());
+        let mut measurements = Vec::with_capacity(ds.records.len());
+        for r in &ds.records {
+            let first = measurements.len();
+            observe_record(r, &mut measurements)?;
+            let count = measurements.len() - first;
+            // Only a pose with several reflectors can see none of them (dropped below).
+            if count > 0 {
+                poses.push(Pose {
+                    first: first as u32,
+                    count: count as u32,
+                    line: r.line,
+                });
             }
-            obs.push(m);
         }
-        let count = measurements.len() - first;
-        // Only a pose with several reflectors can see none of them (dropped below).
-        if count > 0 {
-            poses.push(Pose {
-                first: first as u32,
-                count: count as u32,
-                line: r.line,
-            });
-        }
-    }
+        (measurements, poses)
+    } else {
+        observe_each_once(&ds.records, observe_record)?
+    };
     if named {
         for (k, n) in names.iter().enumerate() {
             if !measurements.iter().any(|m| m.tool as usize == k) {
@@ -351,4 +364,51 @@ pub fn observe<const N: usize>(
         six_d,
         sigma: has_sig,
     })
+}
+
+/// Fewer records than this are observed on the calling thread.
+const PARALLEL_MIN_RECORDS: usize = 1 << 14;
+
+/// The observations of records that give exactly one each (one tool point), on several
+/// threads ([`crate::compute::parallel::map_parts`]) straight into the list's final place:
+/// the list of a million poses is written once, and is never held twice. The refusal is the
+/// first record's that is refused, as one pass in order would give.
+fn observe_each_once<const N: usize>(
+    records: &[Record<N>],
+    observe_record: impl Fn(&Record<N>, &mut Vec<Measurement<f64, N>>) -> anyhow::Result<()> + Sync,
+) -> anyhow::Result<(Vec<Measurement<f64, N>>, Vec<Pose>)> {
+    let n = records.len();
+    let mut measurements: Vec<Measurement<f64, N>> = Vec::with_capacity(n);
+    let slots = &mut measurements.spare_capacity_mut()[..n];
+    let parts = crate::compute::parallel::PARTS;
+    let size = n.div_ceil(parts).max(1);
+    let mut jobs: Vec<_> = records.chunks(size).zip(slots.chunks_mut(size)).collect();
+    let done = crate::compute::parallel::map_each_mut(&mut jobs, |(part, slots)| {
+        let mut one = Vec::with_capacity(1);
+        for (r, slot) in part.iter().zip(slots.iter_mut()) {
+            one.clear();
+            observe_record(r, &mut one)?;
+            match one.as_slice() {
+                [m] => {
+                    slot.write(*m);
+                }
+                _ => anyhow::bail!("line {}: not one observation", r.line),
+            }
+        }
+        Ok(())
+    });
+    done.into_iter().collect::<anyhow::Result<()>>()?;
+    // SAFETY: every job wrote every slot of its chunk (a job that did not returned an error
+    // above), and the chunks cover the first `n` slots of the capacity exactly once.
+    unsafe { measurements.set_len(n) };
+    let poses = records
+        .iter()
+        .enumerate()
+        .map(|(k, r)| Pose {
+            first: k as u32,
+            count: 1,
+            line: r.line,
+        })
+        .collect();
+    Ok((measurements, poses))
 }

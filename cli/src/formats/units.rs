@@ -674,6 +674,10 @@ pub fn deg_of_rad(x: f64) -> f64 {
 /// Converts raw file values (in `units`) to millimetres and degrees, in place.
 pub fn convert<const N: usize>(ds: &mut Dataset<N>, units: &UnitArgs) {
     let (l, a) = (units.length(), units.angle());
+    if l != LengthUnit::M && a != AngleUnit::Rad {
+        // Already millimetres and degrees: nothing to visit.
+        return;
+    }
     // Several reflectors' points (`x_NAME`…) are positions like `x`, `y`, `z`; columns named
     // with their unit (`sx_mm`, `rx_deg`) are always in it.
     let named: Vec<usize> = ds

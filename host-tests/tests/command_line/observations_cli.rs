@@ -283,3 +283,64 @@ fn inconsistent_observation_files_are_refused() {
     let _ = robot;
     let _ = kinecal(&["--version"]);
 }
+
+/// A dataset of `n` one-point records with σ columns (line numbers as in a file: header on
+/// line 1), joint readings that differ from row to row.
+fn sigma_rows(n: usize) -> kinecal_cli::formats::measurements::Dataset<6> {
+    use kinecal_cli::formats::measurements::{Dataset, Record};
+    Dataset {
+        extra_names: ["sx_mm", "sy_mm", "sz_mm"].map(String::from).to_vec(),
+        records: (0..n)
+            .map(|i| {
+                let v = i as f64 * 1e-3;
+                let mut r = Record::new(
+                    [v, -v, 2.0 * v, 10.0, 20.0 + v, -30.0],
+                    [500.0 + v, -200.0, 300.0 - v],
+                );
+                r.extra = vec![0.01, 0.02 + 1e-7 * v, 0.03];
+                r.line = i as u32 + 2;
+                r
+            })
+            .collect(),
+    }
+}
+
+/// Above 16,384 records the observations are made on several threads straight into their
+/// place: the same list, poses and line numbers as records observed a few thousand at a time
+/// on one thread, and the refusal is the first bad row's, wherever the parts are cut.
+#[test]
+fn a_large_file_is_observed_in_parts_as_in_one_pass() {
+    use kinecal_cli::formats::measurements::Dataset;
+    use kinecal_cli::formats::observations::{observe, ObservationArgs};
+    let file = RobotFile::load(&crate::common::data_file("ur10.toml")).unwrap();
+    let args = ObservationArgs::default();
+    let ds = sigma_rows(40_000);
+    let all = observe(&ds, &file, &args, "big.csv").unwrap();
+    assert_eq!(all.measurements.len(), 40_000);
+    let mut pieces = Vec::new();
+    for chunk in ds.records.chunks(10_000) {
+        let part = Dataset {
+            extra_names: ds.extra_names.clone(),
+            records: chunk.to_vec(),
+        };
+        pieces.extend(
+            observe(&part, &file, &args, "big.csv")
+                .unwrap()
+                .measurements,
+        );
+    }
+    assert_eq!(all.measurements, pieces);
+    assert!(all.sigma, "weighted by the σ columns");
+    for (k, p) in all.poses.iter().enumerate() {
+        assert_eq!((p.first as usize, p.count, p.line), (k, 1, k as u32 + 2));
+    }
+
+    // Two bad σ, one in the last part and an earlier one: the earlier is named.
+    let mut bad = ds.clone();
+    bad.records[38_000].extra[1] = -1.0;
+    bad.records[12_345].extra[1] = 0.0;
+    let e = observe(&bad, &file, &args, "big.csv")
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("big.csv:12347: sy_mm"), "{e}");
+}

@@ -7,5 +7,7 @@ pub mod dense;
 pub mod host_values;
 pub mod parallel;
 pub mod registration;
+#[cfg(target_arch = "x86_64")]
+pub mod rows_avx2;
 pub mod tool_start;
 pub mod vec_lm;

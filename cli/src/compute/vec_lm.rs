@@ -130,6 +130,39 @@ impl<T: Real> LmStorage<T> for VecLm<T> {
         rows: &[usize],
     ) {
         #[cfg(target_arch = "x86_64")]
+        if std::any::TypeId::of::<T>() == std::any::TypeId::of::<f64>() {
+            let f = |v: &[T]| -> &[f64] {
+                // SAFETY: `T` is `f64` (checked just above): the same type, length and layout.
+                unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<f64>(), v.len()) }
+            };
+            let f_mut = |v: &mut [T]| -> &mut [f64] {
+                // SAFETY: as above; the borrow is the caller's exclusive one, passed on.
+                unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<f64>(), v.len()) }
+            };
+            let (jtj, jtr) = sums;
+            let (cx, cy, cz) = columns;
+            let r64 = {
+                let r = f(&r);
+                [r[0], r[1], r[2]]
+            };
+            let (jtj, jtr) = (f_mut(jtj), f_mut(jtr));
+            if crate::compute::rows_avx2::add_rows_f64(
+                (jtj, jtr),
+                stride,
+                (f(cx), f(cy), f(cz)),
+                r64,
+                rows,
+            ) {
+                return;
+            }
+            // (No AVX2, or rows beyond the slices: the library's loop below.)
+            let back = |v: &mut [f64]| -> &mut [T] {
+                // SAFETY: `T` is `f64`, as above.
+                unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<T>(), v.len()) }
+            };
+            return add_dense_rows((back(jtj), back(jtr)), stride, columns, r, rows);
+        }
+        #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the processor has AVX2, checked just above.
             unsafe { add_dense_rows_avx2(sums, stride, columns, r, rows) };

@@ -14,6 +14,7 @@ mod map_translate;
 mod numfmt;
 mod parallel;
 mod rotation_order;
+mod rows_avx2;
 mod selection;
 mod stats;
 mod units;

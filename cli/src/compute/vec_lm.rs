@@ -136,31 +136,20 @@ impl<T: Real> LmStorage<T> for VecLm<T> {
                 unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<f64>(), v.len()) }
             };
             let f_mut = |v: &mut [T]| -> &mut [f64] {
-                // SAFETY: as above; the borrow is the caller's exclusive one, passed on.
+                // SAFETY: as above; a reborrow of the caller's exclusive borrow.
                 unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<f64>(), v.len()) }
             };
-            let (jtj, jtr) = sums;
-            let (cx, cy, cz) = columns;
-            let r64 = {
-                let r = f(&r);
-                [r[0], r[1], r[2]]
-            };
-            let (jtj, jtr) = (f_mut(jtj), f_mut(jtr));
+            let r64 = f(&r);
             if crate::compute::rows_avx2::add_rows_f64(
-                (jtj, jtr),
+                (f_mut(&mut *sums.0), f_mut(&mut *sums.1)),
                 stride,
-                (f(cx), f(cy), f(cz)),
-                r64,
+                (f(columns.0), f(columns.1), f(columns.2)),
+                [r64[0], r64[1], r64[2]],
                 rows,
             ) {
                 return;
             }
-            // (No AVX2, or rows beyond the slices: the library's loop below.)
-            let back = |v: &mut [f64]| -> &mut [T] {
-                // SAFETY: `T` is `f64`, as above.
-                unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<T>(), v.len()) }
-            };
-            return add_dense_rows((back(jtj), back(jtr)), stride, columns, r, rows);
+            // (No AVX2, or rows beyond the slices: the loops below.)
         }
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {

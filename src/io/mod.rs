@@ -2,6 +2,7 @@
 //! `embedded_io::Read`, the versioned, checksummed snapshots of the steppers, and the binary
 //! model (`.kcm`) that firmware loads.
 
+pub mod constraint;
 pub mod csv;
 mod decimal;
 pub mod measurement;

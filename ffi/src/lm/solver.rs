@@ -74,7 +74,8 @@ pub(super) fn lm_error(e: LmError) -> kc_status {
         | LmError::Params(_)
         | LmError::PassMismatch
         | LmError::Penalty(_)
-        | LmError::Started => KC_INVALID_ARGUMENT,
+        | LmError::Started
+        | LmError::BadGroup => KC_INVALID_ARGUMENT,
     }
 }
 

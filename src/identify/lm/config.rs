@@ -43,6 +43,23 @@ pub struct LmConfig<T: Real> {
 }
 
 impl<T: Real> LmConfig<T> {
+    /// Settings for a constraint session ([`super::Levenberg::step_constraints`]): the
+    /// default, but a direction counts as undetermined below a relative pivot of 1e-4 (to join
+    /// later, 1e-3), and every pass forms the held columns. An overall scale seen by sockets
+    /// and planes alone is determined only through the residuals' own size (a relative
+    /// singular value near 1e-5 at a nominal model), the weakest determined directions of a
+    /// socket session near 0.1 (pivots near 1e-2); with the default tolerance a UR10 socket
+    /// session estimates the scale from noise, in 13 iterations instead of 3
+    /// (host-tests/tests/command_line/constraint_reference.rs).
+    pub fn for_constraints() -> Self {
+        Self {
+            rank_tolerance: T::of(1e-4),
+            activation_tolerance: T::of(1e-3),
+            complete_passes: true,
+            ..Self::default()
+        }
+    }
+
     /// Whether the settings can run: every number finite, the initial damping above zero (a
     /// zero or negative damping never grows, so a failed step would be retried forever), the
     /// rank tolerance in (0, 1), the other tolerances and the ridge at least zero.

@@ -411,7 +411,7 @@ impl<T: Real, const N: usize, V: ValueStorage, Storage: LmStorage<T>, Penalty: L
         Ok(self.progress())
     }
 
-    fn clear_normal_equations(&mut self) {
+    pub(super) fn clear_normal_equations(&mut self) {
         let n = self.st.params().len();
         let gradient_only = self.gradient_only();
         let p = self.st.parts();
@@ -424,14 +424,14 @@ impl<T: Real, const N: usize, V: ValueStorage, Storage: LmStorage<T>, Penalty: L
     }
 
     /// A pass that sums only `Jᵀr` and the cost: a candidate's, when the curvature is kept.
-    fn gradient_only(&self) -> bool {
+    pub(super) fn gradient_only(&self) -> bool {
         self.cfg.keep_curvature && self.phase == Phase::Evaluate
     }
 
     /// Held columns enter the normal equations in full on the passes that decide
     /// identifiability (the first, a confirmation, a re-analysis), and on every pass with
     /// `complete_passes`; otherwise just their diagonal.
-    fn full_columns(&self) -> bool {
+    pub(super) fn full_columns(&self) -> bool {
         !self.analysed
             || self.complete_at_estimate()
             || matches!(self.phase, Phase::Confirm(_) | Phase::Reanalyse)
@@ -565,7 +565,7 @@ impl<T: Real, const N: usize, V: ValueStorage, Storage: LmStorage<T>, Penalty: L
 
     /// Solves the damped normal equations ([`super::solve`]) and moves on: to the candidate's
     /// pass, to the end of the run, or (a step the model refuses) to a harder damping.
-    fn solve(&mut self) {
+    pub(super) fn solve(&mut self) {
         let outcome = solve(
             &self.cfg,
             self.cost,

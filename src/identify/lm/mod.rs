@@ -76,6 +76,8 @@
 
 mod analysis;
 mod config;
+mod constraint;
+mod constraint_step;
 mod levenberg;
 mod normal;
 mod pass;
@@ -88,6 +90,7 @@ mod status;
 mod storage;
 
 pub use config::LmConfig;
+pub use constraint::{constraint_scratch_len, constraint_shape, ConstraintShape, ABSORBED};
 pub use levenberg::{FixedLevenberg, Levenberg};
 pub use pass::{Pass, PassKind, PassPart};
 pub use penalty::{

@@ -30,6 +30,9 @@ pub enum LmError {
     Penalty(PenaltyError),
     /// [`Levenberg::hold`](crate::identify::lm::Levenberg::hold) after the run started.
     Started,
+    /// A constraint group is outside the rows, or its size or numbers do not suit its kind
+    /// ([`crate::io::constraint::ConstraintGroup::is_valid`]).
+    BadGroup,
 }
 
 /// Why the solver stopped.

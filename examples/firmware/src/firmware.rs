@@ -12,7 +12,8 @@
 //! 3. **Identify**: the LM stepper in idle slices while the servo holds position; halfway its
 //!    state is saved as a snapshot (as to flash), the run continues, and a fresh solver restored
 //!    from the snapshot must finish bit-identical. The result replaces [`MODEL`].
-//!    A re-mastering follows: theta2 and theta3 alone, re-identified the same way from 10 poses.
+//!    A re-mastering follows: theta2 and theta3 alone, re-identified the same way from 10 poses;
+//!    then a calibration without a tracker, from 4 sockets touched 8 times each.
 //! 4. **Search**: a small PSO the same way; the BPNN of BPNN-PSO predicts particle positions.
 //! 5. **Servo**: a 50 ms trajectory of 6-D targets compensated tick by tick with [`MODEL`];
 //!    the simulated true robot must reach every target.
@@ -35,6 +36,7 @@ mod probe;
 mod remaster;
 mod scheduler;
 mod search;
+mod sockets;
 mod stream;
 mod tables;
 mod trajectory;
@@ -57,6 +59,7 @@ use probe::probe;
 use remaster::remaster;
 use scheduler::Servo;
 use search::{predict, search};
+use sockets::sockets;
 use stream::stream;
 use trajectory::trajectory;
 
@@ -93,6 +96,7 @@ struct Stateful {
     lm_pose6d: f32,
     lm_point_multi: f32,
     lm_remaster: f32,
+    lm_socket: f32,
     pso_particle: f32,
 }
 
@@ -147,6 +151,7 @@ fn main() -> ! {
         lm_pose6d: f32::NAN,
         lm_point_multi: f32::NAN,
         lm_remaster: f32::NAN,
+        lm_socket: f32::NAN,
         pso_particle: f32::NAN,
     };
     identify(
@@ -175,6 +180,13 @@ fn main() -> ! {
         &mut servo,
         shared.lm,
         id,
+    );
+    sockets(
+        &mut counter,
+        &mut checks,
+        &mut stateful,
+        &mut servo,
+        shared.lm,
     );
     search(
         &mut counter,

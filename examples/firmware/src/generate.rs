@@ -13,8 +13,9 @@
 use crate::scenario::{self, ID_POSES, N, P, SWARM, TICKS, VAL_POSES};
 use kinecal::compensate::{Target, Tracker};
 use kinecal::identify::fitness::PositionFitness;
-use kinecal::identify::lm::{rms_error, FixedLm, Levenberg};
+use kinecal::identify::lm::{constraint_scratch_len, rms_error, FixedLm, Levenberg, LmConfig};
 use kinecal::identify::pso::Pso;
+use kinecal::io::constraint::ConstraintRow;
 use kinecal::io::csv::CsvReader;
 use kinecal::model::param::{apply_delta, value};
 use kinecal::{ForwardKinematics, Measurement, Robot};
@@ -121,6 +122,86 @@ fn measurements() -> (String, Robot<f64, N>) {
         let _ = writeln!(s, "{:.4},{:.4},{:.4},{set},{temp:.2}", m.x, m.y, m.z);
     }
     (s, truth)
+}
+
+/// The socket session's joint readings (stage 3d, `scenario::SOCKETS`): socket `k` is the true
+/// tool point at identification pose `k`; each of its rows starts from that pose with the
+/// wrist turned (joints 4 to 6 by up to ±40°, joints 2 and 3 by up to ±8°) and takes
+/// minimum-norm Newton steps of all joints until the true tool point is at the socket again,
+/// give or take the contact's noise (`scenario::SOCKET_SIGMA_MM` per axis).
+fn socket_readings(truth: &Robot<f64, N>, id: &[Measurement<f64, N>]) -> Vec<[f64; N]> {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(SEED + 3);
+    let mut fk = ForwardKinematics::<f64, N>::new();
+    let mut out = Vec::new();
+    for m in &id[..scenario::SOCKETS] {
+        let centre = fk.compute(truth, &m.q);
+        let noise = Normal::new(0.0, scenario::SOCKET_SIGMA_MM).expect("finite sigma");
+        for r in 0..scenario::SOCKET_ROWS {
+            let contact = centre
+                + Vector3::new(
+                    noise.sample(&mut rng),
+                    noise.sample(&mut rng),
+                    noise.sample(&mut rng),
+                );
+            let mut q = m.q;
+            if r > 0 {
+                for (j, v) in q.iter_mut().enumerate() {
+                    let deg: f64 = match j {
+                        1 | 2 => 8.0,
+                        3..=5 => 40.0,
+                        _ => 0.0,
+                    };
+                    *v += rng.random_range(-deg..=deg).to_radians();
+                }
+            }
+            let mut converged = false;
+            for _ in 0..50 {
+                let e = contact - fk.compute(truth, &q);
+                if e.norm() < 1e-10 {
+                    converged = true;
+                    break;
+                }
+                let cols: [Vector3<f64>; N] = std::array::from_fn(|j| fk.reading_column(truth, j));
+                let jac = nalgebra::SMatrix::<f64, 3, N>::from_columns(&cols);
+                let jjt = jac * jac.transpose();
+                let step = jac.transpose() * jjt.try_inverse().expect("a reachable socket") * e;
+                for (v, d) in q.iter_mut().zip(step.iter()) {
+                    *v += d;
+                }
+            }
+            assert!(converged, "socket rows: Newton steps reach the socket");
+            out.push(q);
+        }
+    }
+    out
+}
+
+/// The f64 constraint run of stage 3d from the nominal robot: its end, values of
+/// `scenario::params()` and which of them it held.
+fn socket_fit(
+    readings: &[[f64; N]],
+) -> (kinecal::identify::lm::LmProgress<f64>, Vec<f64>, Vec<bool>) {
+    let rows: Vec<ConstraintRow<f64, N>> = readings
+        .iter()
+        .map(|q| ConstraintRow::new(*q, scenario::SOCKET_SIGMA_MM))
+        .collect();
+    let set = scenario::params();
+    let mut lm = Levenberg::<f64, N, kinecal::Inline<0>, _>::new(
+        scenario::nominal(),
+        FixedLm::<f64, P>::new(set.clone()),
+        LmConfig::for_constraints(),
+    )
+    .expect("solver");
+    let mut scratch = vec![0.0; constraint_scratch_len(P)];
+    let progress = lm
+        .run_constraints(&rows, &scenario::socket_groups(), &mut scratch)
+        .expect("socket run");
+    let values = set
+        .iter()
+        .map(|p| value(lm.robot(), *p).expect("a value"))
+        .collect();
+    let held = (0..P).map(|k| !lm.is_active(k)).collect();
+    (progress, values, held)
 }
 
 /// Parses the CSV exactly as the firmware does (same reader, `f64`).
@@ -270,6 +351,14 @@ fn reference(csv: &[u8], truth: &Robot<f64, N>) -> (String, String) {
          the firmware's tolerance"
     );
 
+    // The socket session (stage 3d): readings at the true robot's sockets, and the f64 run.
+    let sockets = socket_readings(truth, &id);
+    let (socket_progress, socket_values, socket_held) = socket_fit(&sockets);
+    assert!(
+        socket_progress.stopped.is_some() && socket_held.iter().filter(|h| **h).count() >= 5,
+        "socket run: {socket_progress:?}, held {socket_held:?}"
+    );
+
     let rows: Vec<[f64; 4]> = truth
         .joints()
         .iter()
@@ -386,6 +475,29 @@ fn reference(csv: &[u8], truth: &Robot<f64, N>) -> (String, String) {
         "pub const POSE6D_AXES: [[f64; 3]; 3] = {};",
         arr3(&[a.x.into(), a.y.into(), a.z.into()])
     );
+
+    let _ = writeln!(
+        o,
+        "/// Stage 3d: the socket session's joint readings (rad), the f64 run's iterations, its \
+         values of `scenario::params()` (rad, mm) and which of them it held."
+    );
+    let _ = writeln!(
+        o,
+        "pub const SOCKET_Q: [[f64; {N}]; {}] = {};",
+        sockets.len(),
+        arrn(&sockets)
+    );
+    let _ = writeln!(
+        o,
+        "pub const SOCKET_ITERATIONS: u32 = {};",
+        socket_progress.iteration
+    );
+    let _ = writeln!(
+        o,
+        "pub const SOCKET_VALUES: [f64; {P}] = {:?};",
+        socket_values
+    );
+    let _ = writeln!(o, "pub const SOCKET_HELD: [bool; {P}] = {:?};", socket_held);
 
     let rms = [
         rms_error(&nominal, &id),

@@ -273,3 +273,25 @@ pub fn pose6d_observations<T: Real>(
         push(m);
     }
 }
+
+/// Stage 3d, calibration without a tracker: the arm touches [`SOCKETS`] fixed sockets (unknown
+/// points) [`SOCKET_ROWS`] times each, from as many wrist orientations. The joint readings are
+/// the host's (src/generate.rs: the true robot's tool point at the socket, found by Newton
+/// steps from the first identification poses with the wrist turned, each contact off the
+/// socket by noise of [`SOCKET_SIGMA_MM`]); the
+/// firmware calibrates [`params`] from the nominal model in idle slices and must reach the
+/// host's `f64` values, holding what sockets cannot see (the base's share of the first row,
+/// and one length: the scale).
+pub const SOCKETS: usize = 4;
+pub const SOCKET_ROWS: usize = 8;
+/// The contact's uncertainty, mm (every row alike).
+pub const SOCKET_SIGMA_MM: f64 = 0.01;
+
+/// The socket session's groups: socket `k` is rows `k·SOCKET_ROWS..(k+1)·SOCKET_ROWS`.
+pub fn socket_groups<T: Real>() -> [kinecal::io::constraint::ConstraintGroup<T>; SOCKETS] {
+    core::array::from_fn(|k| kinecal::io::constraint::ConstraintGroup {
+        kind: kinecal::io::constraint::ConstraintKind::Socket,
+        first: (k * SOCKET_ROWS) as u32,
+        len: SOCKET_ROWS as u32,
+    })
+}

@@ -8,6 +8,7 @@ mod pso_sim;
 mod bpnn;
 mod c_abi;
 mod compensate;
+mod constraint_lm;
 mod csv_parse;
 mod fuzz_corpus;
 mod hardening;

@@ -100,41 +100,43 @@ impl<T: Real> Scratch<'_, T> {
         }
     }
 
-    /// Adds rows with columns `cols` (one or three arrays), weight `w2` and residuals `r`
-    /// (`Jᵀr` takes `w2 · cᵀr`).
-    fn add(jtj: &mut [T], jtr: &mut [T], n: usize, cols: &[&[T]], w2: T, r: &[T]) {
+    /// Adds three rows with columns `c` (weight `w2`, residuals `r`: `Jᵀr` takes
+    /// `w2 · cᵀr`) to the lower triangle.
+    #[inline(never)]
+    fn add3(jtj: &mut [T], jtr: &mut [T], n: usize, c: [&[T]; 3], w2: T, r: [T; 3]) {
+        let [cx, cy, cz] = c;
         for i in 0..n {
-            let mut g = T::zero();
-            for (c, rr) in cols.iter().zip(r) {
-                g += c[i] * *rr;
-            }
-            jtr[i] += w2 * g;
+            let (xi, yi, zi) = (w2 * cx[i], w2 * cy[i], w2 * cz[i]);
+            jtr[i] += xi * r[0] + yi * r[1] + zi * r[2];
             let row = &mut jtj[i * n..i * n + i + 1];
-            for (j, v) in row.iter_mut().enumerate() {
-                let mut h = T::zero();
-                for c in cols {
-                    h += c[i] * c[j];
-                }
-                *v += w2 * h;
+            let cols = cx[..=i].iter().zip(&cy[..=i]).zip(&cz[..=i]);
+            for (v, ((x, y), z)) in row.iter_mut().zip(cols) {
+                *v += xi * *x + yi * *y + zi * *z;
             }
         }
     }
 
-    /// Subtracts `f · Σ_c c cᵀ` from the group's `JᵀJ` (lower triangle).
-    fn downdate(jtj: &mut [T], n: usize, cols: &[&[T]], f: T) {
+    /// Adds `f · c cᵀ` to the lower triangle and `f · r · c` to `Jᵀr` (one row, or with a
+    /// negative `f` and no residual, a downdate).
+    #[inline(never)]
+    fn add1(jtj: &mut [T], jtr: Option<&mut [T]>, n: usize, c: &[T], f: T, r: T) {
+        if let Some(jtr) = jtr {
+            for (g, ci) in jtr[..n].iter_mut().zip(c) {
+                *g += f * r * *ci;
+            }
+        }
         for i in 0..n {
-            for j in 0..=i {
-                let mut h = T::zero();
-                for c in cols {
-                    h += c[i] * c[j];
-                }
-                jtj[i * n + j] -= f * h;
+            let fi = f * c[i];
+            let row = &mut jtj[i * n..i * n + i + 1];
+            for (v, cj) in row.iter_mut().zip(&c[..=i]) {
+                *v += fi * *cj;
             }
         }
     }
 }
 
 /// The model's scaled columns at the pose `fk` last computed, into `out`.
+#[inline(never)]
 fn columns_into<T: Real, const N: usize, V: ValueStorage>(
     fk: &ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
@@ -215,6 +217,7 @@ pub(super) fn accumulate_group<T: Real, const N: usize, V: ValueStorage, S: LmSt
 
 /// A socket: one sweep, columns and points taken relative to the first row's (the
 /// projection is invariant to the shift, and the sums stay small).
+#[inline(never)]
 fn socket<T: Real, const N: usize, V: ValueStorage>(
     fk: &mut ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
@@ -249,7 +252,7 @@ fn socket<T: Real, const N: usize, V: ValueStorage>(
         }
         let e = p - p0;
         let cols = [&*sc.cur[0], &*sc.cur[1], &*sc.cur[2]];
-        Scratch::add(sc.jtj, sc.jtr, n, &cols, w2, &[-e.x, -e.y, -e.z]);
+        Scratch::add3(sc.jtj, sc.jtr, n, cols, w2, [-e.x, -e.y, -e.z]);
         w_sum += w2;
         e_sum += e * w2;
         cost += w2 * e.norm_squared();
@@ -259,7 +262,9 @@ fn socket<T: Real, const N: usize, V: ValueStorage>(
     }
     let inv = T::one() / w_sum;
     let sums = [&*sc.sum[0], &*sc.sum[1], &*sc.sum[2]];
-    Scratch::downdate(sc.jtj, n, &sums, inv);
+    for c in sums {
+        Scratch::add1(sc.jtj, None, n, c, -inv, T::zero());
+    }
     for k in 0..n {
         sc.jtr[k] += inv * (sums[0][k] * e_sum.x + sums[1][k] * e_sum.y + sums[2][k] * e_sum.z);
     }
@@ -276,6 +281,7 @@ struct PlaneFit<T: Real> {
     spread: [T; 3],
 }
 
+#[inline(never)]
 fn fit_plane<T: Real, const N: usize, V: ValueStorage>(
     fk: &mut ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
@@ -322,6 +328,7 @@ fn fit_plane<T: Real, const N: usize, V: ValueStorage>(
 }
 
 /// A plane: a sweep of points for the plane, then one of columns.
+#[inline(never)]
 fn plane<T: Real, const N: usize, V: ValueStorage>(
     fk: &mut ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
@@ -352,21 +359,22 @@ fn plane<T: Real, const N: usize, V: ValueStorage>(
             sc.first[1][k] += w2 * tau1 * d;
             sc.first[2][k] += w2 * tau2 * d;
         }
-        Scratch::add(sc.jtj, sc.jtr, n, &[&*sc.cur[0]], w2, &[-rho]);
+        Scratch::add1(sc.jtj, Some(&mut *sc.jtr), n, sc.cur[0], w2, -rho);
     }
-    Scratch::downdate(sc.jtj, n, &[&*sc.sum[0]], T::one() / fit.w_sum);
+    Scratch::add1(sc.jtj, None, n, sc.sum[0], -T::one() / fit.w_sum, T::zero());
     // A tilt the points do not spread along (collinear points) is not projected out: its
     // coupling is as small as its spread.
     let floor = T::EPS * (fit.spread[1] + fit.spread[2]).abs();
     for (t, spread) in [(1, fit.spread[1]), (2, fit.spread[2])] {
         if spread > floor && spread > T::zero() {
-            Scratch::downdate(sc.jtj, n, &[&*sc.first[t]], T::one() / spread);
+            Scratch::add1(sc.jtj, None, n, sc.first[t], -T::one() / spread, T::zero());
         }
     }
     fit.spread[0].max(T::zero())
 }
 
 /// A distance: both rows' columns, then the one residual.
+#[inline(never)]
 fn distance<T: Real, const N: usize, V: ValueStorage>(
     fk: &mut ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
@@ -397,11 +405,12 @@ fn distance<T: Real, const N: usize, V: ValueStorage>(
         sc.raw[k] += w2 * (ua * ua + ub * ub);
         sc.sum[0][k] = ua - ub;
     }
-    Scratch::add(sc.jtj, sc.jtr, n, &[&*sc.sum[0]], w2, &[-rho]);
+    Scratch::add1(sc.jtj, Some(&mut *sc.jtr), n, sc.sum[0], w2, -rho);
     w2 * rho * rho
 }
 
 /// A tracker point: the ordinary three rows.
+#[inline(never)]
 fn tracker_point<T: Real, const N: usize, V: ValueStorage>(
     fk: &mut ForwardKinematics<T, N>,
     robot: &Robot<T, N, V>,
@@ -424,7 +433,7 @@ fn tracker_point<T: Real, const N: usize, V: ValueStorage>(
                 + sc.cur[2][k] * sc.cur[2][k]);
     }
     let cols = [&*sc.cur[0], &*sc.cur[1], &*sc.cur[2]];
-    Scratch::add(sc.jtj, sc.jtr, n, &cols, w2, &[r.x, r.y, r.z]);
+    Scratch::add3(sc.jtj, sc.jtr, n, cols, w2, [r.x, r.y, r.z]);
     w2 * r.norm_squared()
 }
 

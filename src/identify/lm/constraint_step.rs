@@ -54,10 +54,11 @@ impl<T: Real, const N: usize, V: ValueStorage, Storage: LmStorage<T>, Penalty: L
 {
     /// [`Self::step`] over a constraint session: `groups` of `rows` (the same slices on every
     /// call of a run), with `scratch` of at least [`constraint_scratch_len`] numbers for the
-    /// parameters (the caller's; its contents need not survive between calls). Does at most
-    /// `budget` rows of work, whole groups at a time (a group larger than the budget is done
-    /// alone: a call's work is at most the larger of the budget and the largest group), or a
-    /// solve, and returns the progress.
+    /// parameters (the caller's; its contents need not survive between calls). Does one kind
+    /// of work and returns the progress: at most `budget` rows, whole groups at a time (a
+    /// group larger than the budget is done alone: a call's work is at most the larger of the
+    /// budget and the largest group); or the end of a pass (the identifiability analysis, the
+    /// acceptance of a step); or a solve.
     ///
     /// A socket's centre and a plane's normal and offset are estimated with the model (see
     /// [`super::constraint`]; [`super::constraint_shape`] gives them at the result). What the
@@ -84,38 +85,29 @@ impl<T: Real, const N: usize, V: ValueStorage, Storage: LmStorage<T>, Penalty: L
         if budget == 0 {
             return Ok(self.progress());
         }
-        let mut left = budget;
-        let mut worked = false;
-        loop {
-            match self.phase {
-                Phase::Done(_) => break,
-                Phase::Accumulate | Phase::Confirm(_) | Phase::Reanalyse | Phase::Evaluate => {
-                    if self.next == 0 {
-                        self.clear_normal_equations();
-                    }
-                    while self.next < self.n_poses {
-                        let g = &groups[self.next];
-                        let len = g.len as usize;
-                        if worked && len > left {
-                            break;
-                        }
-                        self.accumulate_group(rows, g, scratch);
-                        self.next += 1;
-                        left = left.saturating_sub(len);
-                        worked = true;
-                    }
-                    if self.next < self.n_poses {
+        // One kind of work per call: groups (up to the budget), the end of a pass (the
+        // analysis), or a solve.
+        match self.phase {
+            Phase::Done(_) => {}
+            Phase::Solve => self.solve(),
+            _ if self.next == self.n_poses => self.end_pass(),
+            _ => {
+                if self.next == 0 {
+                    self.clear_normal_equations();
+                }
+                let mut left = budget;
+                let mut worked = false;
+                while self.next < self.n_poses {
+                    let g = &groups[self.next];
+                    let len = g.len as usize;
+                    if worked && len > left {
                         break;
                     }
-                    self.end_pass();
+                    self.accumulate_group(rows, g, scratch);
+                    self.next += 1;
+                    left = left.saturating_sub(len);
+                    worked = true;
                 }
-                Phase::Solve => {
-                    self.solve();
-                    break;
-                }
-            }
-            if left == 0 {
-                break;
             }
         }
         Ok(self.progress())

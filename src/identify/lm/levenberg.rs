@@ -472,6 +472,7 @@ impl<T: Real, const N: usize, V: ValueStorage, Storage: LmStorage<T>, Penalty: L
 
     /// The end of a pass: of a candidate's, accept or reject it; of the estimate's, decide what
     /// comes next.
+    #[inline(never)]
     pub(super) fn end_pass(&mut self) {
         if self.phase == Phase::Evaluate {
             self.cand_cost = self.acc_cost;
@@ -565,6 +566,7 @@ impl<T: Real, const N: usize, V: ValueStorage, Storage: LmStorage<T>, Penalty: L
 
     /// Solves the damped normal equations ([`super::solve`]) and moves on: to the candidate's
     /// pass, to the end of the run, or (a step the model refuses) to a harder damping.
+    #[inline(never)]
     pub(super) fn solve(&mut self) {
         let outcome = solve(
             &self.cfg,

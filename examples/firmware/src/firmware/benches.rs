@@ -78,6 +78,7 @@ pub(super) fn benches(
     report("lm_pose6d_f32", stateful.lm_pose6d);
     report("lm_point_multi_f32", stateful.lm_point_multi);
     report("lm_remaster_f32", stateful.lm_remaster);
+    report("lm_socket_f32", stateful.lm_socket);
     report("pso_particle_f32", stateful.pso_particle);
 
     let x = scenario::net_input::<f32>();

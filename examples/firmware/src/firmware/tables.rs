@@ -2,7 +2,7 @@
 
 use super::fail;
 use crate::reference as host;
-use crate::scenario::{self, N, P, TICKS};
+use crate::scenario::{self, N, P, SOCKETS, SOCKET_ROWS, TICKS};
 use kinecal::{Frame, Joint, Robot};
 use nalgebra::Vector3;
 
@@ -15,6 +15,8 @@ pub(super) static TRUE_ROWS: [[f32; 4]; N] = to_f32(&host::TRUE_ROWS);
 pub(super) static COMMANDS: [[f32; N]; TICKS] = to_f32(&host::COMMANDS);
 pub(super) static POSE6D_VALUES: [[f32; P]; 1] = to_f32(&[host::POSE6D_VALUES]);
 pub(super) static POSE6D_AXES: [[f32; 3]; 3] = to_f32(&host::POSE6D_AXES);
+pub(super) static SOCKET_Q: [[f32; N]; SOCKETS * SOCKET_ROWS] = to_f32(&host::SOCKET_Q);
+pub(super) static SOCKET_VALUES: [[f32; P]; 1] = to_f32(&[host::SOCKET_VALUES]);
 
 pub(super) const fn to_f32<const R: usize, const C: usize>(a: &[[f64; C]; R]) -> [[f32; C]; R] {
     let mut out = [[0.0; C]; R];

@@ -62,7 +62,7 @@ pub fn identify<const N: usize>(
     crate::constraints::shapes::check_lengths(&nominal, &session.groups, &data_origin)?;
     let (ident, valid) = match validate {
         Some(v) => (session.groups, v),
-        None => split(session, options)?,
+        None => split_groups(session, &options.holdout, options.seed)?,
     };
     if ident.is_empty() {
         crate::refuse!("--holdout leaves no groups to identify from: hold out fewer");
@@ -152,16 +152,18 @@ pub fn identify<const N: usize>(
     })
 }
 
-/// The groups `holdout` keeps out (whole groups, by identify's rule and seed).
-fn split<const N: usize>(
+/// The groups `holdout` keeps out (whole groups, by identify's rule and `seed`): the
+/// identification groups and the held-out ones.
+pub(crate) fn split_groups<const N: usize>(
     session: Session<N>,
-    options: &Options,
+    holdout: &crate::calibration::inputs::HoldoutArgs,
+    seed: u64,
 ) -> anyhow::Result<(Vec<Group<N>>, Vec<Group<N>>)> {
     let mask = crate::calibration::held_out_mask(
         session.groups.len(),
-        options.holdout.holdout,
-        options.holdout.split,
-        options.seed,
+        holdout.holdout,
+        holdout.split,
+        seed,
     )?;
     let (mut ident, mut valid) = (Vec::new(), Vec::new());
     for (g, held) in session.groups.into_iter().zip(mask) {
@@ -232,7 +234,7 @@ fn parameters<const N: usize>(
 
 /// Before/after figures: the RMS of the identification rows against the fit's shapes, and per
 /// held-out group its residual against its own refitted shape (mm).
-fn residuals<const N: usize>(
+pub(crate) fn residuals<const N: usize>(
     robot: &HostRobot<N>,
     ident: &[Group<N>],
     shapes: &[Shape],
@@ -256,7 +258,7 @@ fn residuals<const N: usize>(
 }
 
 /// Per kind: counts and RMS before and after; the fitted socket centres and planes.
-fn constraints<const N: usize>(
+pub(crate) fn constraints<const N: usize>(
     groups: &[Group<N>],
     (nominal, before): (&HostRobot<N>, &[Shape]),
     (robot, after): (&HostRobot<N>, &[Shape]),
@@ -297,7 +299,9 @@ fn constraints<const N: usize>(
 
 /// The rows as measurements (joint readings and temperatures) for the acceptance check's joint
 /// ranges and the thermal-expansion term's reference.
-fn measurements<const N: usize>(groups: &[Group<N>]) -> Vec<kinecal::Measurement<f64, N>> {
+pub(crate) fn measurements<const N: usize>(
+    groups: &[Group<N>],
+) -> Vec<kinecal::Measurement<f64, N>> {
     groups
         .iter()
         .flat_map(|g| g.rows.iter())

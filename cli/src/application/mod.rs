@@ -11,6 +11,7 @@
 //! - [`demo`]: `kinecal demo`, the BPNN-PSO paper's simulation and its four methods.
 //! - [`report`]: `kinecal report`, the calibration report of an identified model.
 
+pub mod constraint_report;
 pub mod constraints;
 pub mod demo;
 pub mod export;

@@ -43,11 +43,16 @@ impl HoldoutArgs {
 
     /// The held-out poses in words (`the last 316 poses`, `every 5th pose`, `316 random poses`).
     pub fn describe(&self, held: usize) -> String {
+        self.describe_in(held, ("pose", "poses"))
+    }
+
+    /// [`Self::describe`] counting in `unit` (singular, plural): `("group", "groups")`.
+    pub fn describe_in(&self, held: usize, (one, many): (&str, &str)) -> String {
         use crate::calibration::SplitKind;
         match self.split {
-            SplitKind::Last => format!("the last {held} poses"),
-            SplitKind::Random => format!("{held} poses chosen at random"),
-            SplitKind::Every(k) => format!("every {k}th pose ({held} poses)"),
+            SplitKind::Last => format!("the last {held} {many}"),
+            SplitKind::Random => format!("{held} {many} chosen at random"),
+            SplitKind::Every(k) => format!("every {k}th {one} ({held} {many})"),
         }
     }
 }

@@ -12,6 +12,7 @@ pub mod check;
 pub mod compensate;
 pub mod constraint_check;
 pub mod constraint_identify;
+pub mod constraint_report;
 pub mod constraint_validate;
 pub mod demo;
 pub mod diagnose;
@@ -108,6 +109,9 @@ pub fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
         Command::Study(a) => boxed(study::run(a)),
         Command::Import(a) => boxed(import::run(a)),
         Command::Export(a) => boxed(export::run(a, cli.json)),
+        Command::Report(a) if crate::constraints::read::is_constraint_file(&a.input.data) => {
+            boxed(constraint_report::run(a))
+        }
         Command::Report(a) => boxed(report::run(a)),
         Command::Validate(a) if crate::constraints::read::is_constraint_file(&a.input.data) => {
             boxed(constraint_validate::run(a))

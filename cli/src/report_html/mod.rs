@@ -15,6 +15,7 @@
 //! [`build`] computes everything from in-memory robots and observations; the command
 //! (`crate::commands::report`) loads the files, `demo` passes its own.
 
+pub mod constraint_page;
 pub mod findings;
 pub mod iso9283;
 pub mod page;

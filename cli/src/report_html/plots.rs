@@ -80,6 +80,15 @@ fn panel<'a, 'b>(
 /// Histograms of the position errors (mm) of named series, one panel each on its own scale
 /// (errors before calibration are ten times those after).
 pub fn histogram(title: &str, series: &[(String, &[f64])]) -> anyhow::Result<String> {
+    histogram_of(title, series, ("position error (mm)", "poses"))
+}
+
+/// [`histogram`] with its axes named `labels` (x, y).
+pub fn histogram_of(
+    title: &str,
+    series: &[(String, &[f64])],
+    labels: (&str, &str),
+) -> anyhow::Result<String> {
     let bins = 30usize;
     let mut svg = String::new();
     {
@@ -96,12 +105,7 @@ pub fn histogram(title: &str, series: &[(String, &[f64])]) -> anyhow::Result<Str
             }
             let top = c.iter().copied().max().unwrap_or(1).max(1) as f64;
             let colour = if k == 0 { BEFORE } else { AFTER };
-            let mut chart = panel(
-                area,
-                name,
-                (0.0..hi * 1.02, 0.0..top * 1.08),
-                ("position error (mm)", "poses"),
-            )?;
+            let mut chart = panel(area, name, (0.0..hi * 1.02, 0.0..top * 1.08), labels)?;
             chart
                 .draw_series(c.iter().enumerate().map(|(b, &n)| {
                     Rectangle::new(

@@ -742,3 +742,115 @@ fn a_misstated_unit_on_a_constraint_file_is_refused_with_the_fix() {
         );
     }
 }
+
+#[test]
+fn report_on_a_constraint_session_shows_each_kind_as_identify_judged_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, _) = session(dir.path(), "socket:4x10,plane:3x15,distance:30", 3);
+    let robot = data_file("er20.toml");
+    let (model, page) = (dir.path().join("model.toml"), dir.path().join("page.html"));
+    let split = ["--holdout", "0.25", "--split", "random", "--seed", "4"];
+    let mut args = vec!["--out", s(&model)];
+    args.extend_from_slice(&split);
+    let v = identify(&data, &args);
+    let report = |model: &Path, page: &Path| {
+        let mut a = vec![
+            "report",
+            "--robot",
+            s(&robot),
+            "--data",
+            s(&data),
+            "--model",
+            s(model),
+            "--out",
+            s(page),
+            "--json",
+        ];
+        a.extend_from_slice(&split);
+        kinecal(&a)
+    };
+    let out = report(&model, &page);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let r = json_of(&out);
+    // The page's figures are identify's: the same split, the same model.
+    let close = |a: &serde_json::Value, b: &serde_json::Value| {
+        let (a, b) = (a.as_f64().unwrap(), b.as_f64().unwrap());
+        (a - b).abs() <= 1e-9 * b.abs().max(1.0)
+    };
+    for set in ["before", "after"] {
+        for key in [
+            "identification_rms_mm",
+            "validation_rms_mm",
+            "validation_max_mm",
+        ] {
+            assert!(close(&r[set][key], &v[set][key]), "{set}.{key}: {r} vs {v}");
+        }
+    }
+    for key in ["n_identification", "n_validation", "n_identification_rows"] {
+        assert_eq!(r[key], v[key], "{key}");
+    }
+    let kinds = r["constraints"]["kinds"].as_array().unwrap();
+    let want = v["constraints"]["kinds"].as_array().unwrap();
+    assert_eq!(kinds.len(), 3);
+    for (a, b) in kinds.iter().zip(want) {
+        assert_eq!(a["kind"], b["kind"]);
+        assert!(close(&a["after_rms_mm"], &b["after_rms_mm"]), "{a} vs {b}");
+    }
+    // Held out per kind: the groups add up, and the calibrated model is better on each kind.
+    let held = r["held_out"].as_array().unwrap();
+    let groups: u64 = held.iter().map(|k| k["groups"].as_u64().unwrap()).sum();
+    assert_eq!(groups, v["n_validation"].as_u64().unwrap());
+    for k in held {
+        assert!(
+            k["after_rms_mm"].as_f64().unwrap() * 3.0 < k["before_rms_mm"].as_f64().unwrap(),
+            "{k}"
+        );
+    }
+    assert_eq!(r["converged"], true);
+    let base: Vec<String> = r["cannot_determine"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| n.as_str().unwrap().to_string())
+        .collect();
+    for b in BASE {
+        assert!(base.contains(&b.to_string()), "{b}: {base:?}");
+    }
+    assert!(!r["changed"].as_array().unwrap().is_empty());
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert_eq!(r["bytes"].as_u64().unwrap() as usize, html.len());
+    for needle in ["Held-out", "socket", "plane", "distance", "<svg", "base.x"] {
+        assert!(html.contains(needle), "{needle} not on the page");
+    }
+    // Another robot's truth as the "model": worse than the nominal robot on the held-out
+    // groups, exit 3, and the page says so.
+    let other = dir.path().join("other");
+    std::fs::create_dir(&other).unwrap();
+    let (_, wrong) = session(&other, "socket:2x4", 11);
+    let bad_page = dir.path().join("bad.html");
+    let out = report(&wrong, &bad_page);
+    assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+    let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(r["held_out_worse"], true, "{r}");
+    let html = std::fs::read_to_string(&bad_page).unwrap();
+    assert!(
+        html.contains("Not a calibration"),
+        "the page hides the verdict"
+    );
+    // Flags that belong to tracker sessions are refused in one line.
+    let out = kinecal(&[
+        "report",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(&data),
+        "--model",
+        s(&model),
+        "--out",
+        s(&dir.path().join("x.html")),
+        "--validate",
+        s(&data),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(stderr(&out).trim().lines().count(), 1, "{}", stderr(&out));
+}

@@ -12,6 +12,7 @@ pub mod check;
 pub mod compensate;
 pub mod constraint_check;
 pub mod constraint_identify;
+pub mod constraint_plan;
 pub mod constraint_report;
 pub mod constraint_validate;
 pub mod demo;
@@ -105,7 +106,7 @@ pub fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
         Command::Diagnose(a) => boxed(diagnose::run(a)),
         Command::Frames(a) => boxed(frames::run(a)),
         Command::Compensate(a) => boxed(compensate::run(a)),
-        Command::Plan(a) => boxed(plan::run(a)),
+        Command::Plan(a) => plan::run(a),
         Command::Study(a) => boxed(study::run(a)),
         Command::Import(a) => boxed(import::run(a)),
         Command::Export(a) => boxed(export::run(a, cli.json)),

@@ -30,8 +30,8 @@ pub struct Args {
     #[arg(long, value_delimiter = ',', num_args = 1..)]
     pub estimate: Vec<String>,
     /// Number of measurement poses to plan.
-    #[arg(long)]
-    pub poses: usize,
+    #[arg(long, required_unless_present = "constraints")]
+    pub poses: Option<usize>,
     /// Design criterion.
     #[arg(long, value_enum)]
     pub criterion: CriterionArg,
@@ -41,7 +41,7 @@ pub struct Args {
         long = "work",
         value_name = "Q1,…,QN",
         allow_hyphen_values = true,
-        required = true
+        required_unless_present = "constraints"
     )]
     pub work: Vec<String>,
     /// Random seed (pool and random designs).
@@ -74,6 +74,18 @@ pub struct Args {
     /// exchange passes).
     #[arg(long)]
     pub no_refine: bool,
+    /// Plan a session without a tracker instead: socket:GROUPSxROWS, plane:GROUPSxROWS,
+    /// distance:PAIRS, point:ROWS, comma-separated (as `simulate --constraints`); --out gets
+    /// the constraint file to measure (lengths and tracker coordinates left empty).
+    #[arg(long, value_name = "KIND:COUNT,…", conflicts_with_all = ["scene", "noise_from", "estimate"])]
+    pub constraints: Option<crate::constraints::simulate::SessionPlan>,
+    /// A constraint plan's candidate rows per row it needs (the pool it selects from).
+    #[arg(long, default_value_t = 4, requires = "constraints")]
+    pub candidates: usize,
+    /// The tool-point accuracy (mm) a constraint session should reach: the report says how
+    /// many times its groups that takes.
+    #[arg(long, requires = "constraints")]
+    pub accuracy_mm: Option<f64>,
 }
 
 impl Args {
@@ -81,7 +93,7 @@ impl Args {
     pub fn request(&self) -> Request {
         Request {
             estimate: self.estimate.clone(),
-            poses: self.poses,
+            poses: self.poses.unwrap_or(0),
             criterion: self.criterion,
             work: self.work.clone(),
             seed: self.seed,
@@ -118,7 +130,16 @@ fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Re
 }
 
 /// Runs the subcommand: writes the planned poses and returns their predicted accuracy.
-pub fn run(args: &Args) -> anyhow::Result<PlanReport> {
+pub fn run(args: &Args) -> anyhow::Result<Box<dyn crate::reports::Report>> {
+    if args.constraints.is_some() {
+        return super::constraint_plan::run(args)
+            .map(|r| Box::new(r) as Box<dyn crate::reports::Report>);
+    }
+    run_poses(args).map(|r| Box::new(r) as Box<dyn crate::reports::Report>)
+}
+
+/// `plan` of tracker poses.
+fn run_poses(args: &Args) -> anyhow::Result<PlanReport> {
     crate::output::atomic::refuse_overwriting_inputs(
         "--out",
         &args.out,

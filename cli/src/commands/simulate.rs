@@ -71,6 +71,12 @@ pub struct Args {
     /// socket:4x10,plane:3x15,distance:30); --noise-mm is each contact's or length's σ.
     #[arg(long, value_name = "KIND:COUNT,…")]
     pub constraints: Option<crate::constraints::simulate::SessionPlan>,
+    /// Instead of tracker points, the session `plan --constraints` planned, measured on the
+    /// true robot: each row reached from its planned readings (a socket where the nominal
+    /// robot puts its group, a plane through its points), lengths and tracker points the
+    /// truth's; --noise-mm is each contact's or length's σ.
+    #[arg(long, value_name = "PLAN.csv", conflicts_with = "constraints")]
+    pub plan: Option<PathBuf>,
 }
 
 impl Args {
@@ -101,6 +107,33 @@ fn simulate_with_joints<const N: usize>(
     let req = args.request();
     let robot = args.robot.display().to_string();
     let s = simulate_request(file, &nominal, &req, &robot, &mut crate::Stderr)?;
+    if let Some(path) = &args.plan {
+        let origin = path.display().to_string();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| crate::refused(format!("{origin}: cannot read: {e}")))?;
+        let planned = crate::constraints::simulate::read_plan::<N>(&text, &origin)?;
+        let session = crate::constraints::simulate::session_from_plan(
+            &s.truth,
+            &nominal,
+            &planned,
+            args.noise_mm,
+            args.seed,
+        )?;
+        crate::output::atomic::write_atomic(&args.out, session.as_bytes())
+            .map_err(|e| anyhow!("{}: cannot write: {e}", args.out.display()))?;
+        if let Some(t) = &args.truth {
+            s.truth_file.save(t)?;
+        }
+        let out = args.out.display().to_string();
+        let truth = args.truth.as_ref().map(|t| t.display().to_string());
+        return Ok(SimulateReport::of(
+            &s,
+            &req,
+            file.base_known(),
+            planned.len(),
+            (&out, truth.as_deref()),
+        ));
+    }
     let rows = match &args.constraints {
         Some(plan) => {
             if !args.sweeps.is_empty() {

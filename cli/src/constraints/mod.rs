@@ -7,7 +7,8 @@
 //! - [`shapes`]: socket centres and planes fitted to predicted tool points, row errors;
 //! - [`system`]: the weighted residuals and Jacobian of a session;
 //! - [`fit`]: identifiability and the Levenberg–Marquardt fit;
-//! - [`simulate`]: constraint sessions from a robot with known errors;
+//! - [`simulate`]: constraint sessions from a robot with known errors (or measured at a plan);
+//! - [`plan`]: which rows to measure (`plan --constraints`);
 //! - [`residual_table`]: what `identify --residuals` writes for a constraint file;
 //! - [`report`]: the reports of `check`, `identify` and `validate` on a constraint file (which
 //!   `commands::constraint_check`, `commands::constraint_identify` and
@@ -15,6 +16,7 @@
 
 pub mod check;
 pub mod fit;
+pub mod plan;
 pub mod read;
 pub mod report;
 pub mod residual_table;

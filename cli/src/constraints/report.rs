@@ -330,3 +330,131 @@ impl fmt::Display for ConstraintCheckReport {
         Ok(())
     }
 }
+
+/// `plan --constraints --accuracy-mm`: how many times the planned session's groups the
+/// accuracy takes.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct AccuracyNeed {
+    pub target_mm: f64,
+    /// The plan with that many groups predicts the target (false: not within the most repeats
+    /// tried).
+    pub reached: bool,
+    pub times_the_groups: usize,
+    pub rows: usize,
+    pub predicted_tool_mm: f64,
+}
+
+/// `plan --constraints`.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct ConstraintPlanReport {
+    pub out: String,
+    pub criterion: String,
+    /// Groups per kind and the rows to measure.
+    pub sockets: [usize; 2],
+    pub planes: [usize; 2],
+    pub distances: usize,
+    pub points: usize,
+    pub rows: usize,
+    /// Candidate rows the plan chose among.
+    pub pool_rows: usize,
+    pub estimated: Vec<String>,
+    /// What such a session cannot determine (held by `identify`).
+    pub cannot_determine: Vec<String>,
+    /// Predicted tool-point σ (mm) over random poses: the plan, and the random choice of as
+    /// many rows from the same candidates.
+    pub predicted_tool_mm: f64,
+    pub random_tool_mm: f64,
+    pub exchanges: usize,
+    pub passes: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub accuracy: Option<AccuracyNeed>,
+}
+
+impl ConstraintPlanReport {
+    /// The report of `design`, planned for `session` by `criterion`, written to `out`;
+    /// parameters named by `name`.
+    pub fn of<const N: usize>(
+        design: &super::plan::SessionDesign<N>,
+        session: super::simulate::SessionPlan,
+        criterion: &str,
+        out: &str,
+        accuracy: Option<AccuracyNeed>,
+        name: impl Fn(kinecal::Param) -> String,
+    ) -> Self {
+        let names =
+            |ps: &[kinecal::Param]| -> Vec<String> { ps.iter().map(|p| name(*p)).collect() };
+        Self {
+            out: out.into(),
+            criterion: criterion.into(),
+            sockets: [session.sockets.0, session.sockets.1],
+            planes: [session.planes.0, session.planes.1],
+            distances: session.distances,
+            points: session.points,
+            rows: design.rows(),
+            pool_rows: design.pool_rows,
+            estimated: names(&design.estimated),
+            cannot_determine: names(&design.held),
+            predicted_tool_mm: design.planned_tool_mm,
+            random_tool_mm: design.random_tool_mm,
+            exchanges: design.exchanges,
+            passes: design.passes,
+            accuracy,
+        }
+    }
+}
+
+impl crate::reports::Report for ConstraintPlanReport {
+    fn to_json(&self) -> serde_json::Value {
+        crate::reports::json_value(self)
+    }
+    fn non_finite(&self) -> Option<String> {
+        crate::reports::finite::first_non_finite(self)
+    }
+}
+
+impl fmt::Display for ConstraintPlanReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "planned {} rows ({} criterion, from {} candidates) into {}",
+            self.rows, self.criterion, self.pool_rows, self.out
+        )?;
+        writeln!(
+            f,
+            "predicted tool-point σ over random poses: {} mm (a random choice of as many rows: {} mm)",
+            sig(self.predicted_tool_mm, 3),
+            sig(self.random_tool_mm, 3)
+        )?;
+        if !self.cannot_determine.is_empty() {
+            writeln!(
+                f,
+                "such a session cannot determine: {}",
+                self.cannot_determine.join(", ")
+            )?;
+        }
+        if let Some(a) = &self.accuracy {
+            if a.times_the_groups == 1 && a.reached {
+                writeln!(f, "{} mm is reached with this session", sig(a.target_mm, 3))?;
+            } else if a.reached {
+                writeln!(
+                    f,
+                    "{} mm takes {}× the groups: {} rows (predicted {} mm)",
+                    sig(a.target_mm, 3),
+                    a.times_the_groups,
+                    a.rows,
+                    sig(a.predicted_tool_mm, 3)
+                )?;
+            } else {
+                writeln!(
+                    f,
+                    "{} mm is not reached with {}× the groups ({} mm): add distances or points, \
+                     or measure with less noise",
+                    sig(a.target_mm, 3),
+                    a.times_the_groups,
+                    sig(a.predicted_tool_mm, 3)
+                )?;
+            }
+        }
+        Ok(())
+    }
+}

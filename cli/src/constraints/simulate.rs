@@ -225,7 +225,7 @@ fn fk<const N: usize>(robot: &HostRobot<N>, q: &[f64; N], temp_c: Option<f64>) -
 
 /// Joint readings (rounded as written) that bring `robot`'s tool point to `target` at the
 /// temperature `temp_c`, started from `around` moved by up to ±`spread_deg` per joint at random.
-fn reach<const N: usize, R: Rng>(
+pub(crate) fn reach<const N: usize, R: Rng>(
     robot: &HostRobot<N>,
     target: &Vector3<f64>,
     around: &[f64; N],
@@ -278,4 +278,136 @@ fn group_rows<const N: usize>(
         "simulate --constraints: no socket or plane of {rows} reachable rows found in {TRIES} \
          draws: try another --seed or fewer rows"
     )
+}
+
+/// One row of a planned session (`plan --constraints` writes them): kind, group, joint
+/// readings (rad).
+pub type PlannedRow<const N: usize> = (String, String, [f64; N]);
+
+/// Reads a planned session: `kind,group,q1..qN,…` with the readings in degrees (lengths and
+/// tracker coordinates, still unmeasured, are not read).
+pub fn read_plan<const N: usize>(text: &str, origin: &str) -> anyhow::Result<Vec<PlannedRow<N>>> {
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let Some((_, header)) = lines.next() else {
+        crate::refuse!("{origin}: empty plan");
+    };
+    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
+    if cols.len() < 2 + N || cols[0] != "kind" || cols[1] != "group" {
+        crate::refuse!(
+            "{origin}: not a plan of `plan --constraints` for {N} joints (header kind,group,q1,…)"
+        );
+    }
+    let mut out = Vec::new();
+    for (i, line) in lines {
+        let c: Vec<&str> = line.split(',').map(str::trim).collect();
+        let q: Option<Vec<f64>> = c
+            .get(2..2 + N)
+            .map(|v| v.iter().filter_map(|x| x.parse::<f64>().ok()).collect());
+        match q {
+            Some(q) if q.len() == N && q.iter().all(|v| v.is_finite()) => {
+                let q: [f64; N] = std::array::from_fn(|j| q[j].to_radians());
+                out.push((c[0].to_string(), c[1].to_string(), q));
+            }
+            _ => crate::refuse!("{origin}: line {}: expected {N} joint readings", i + 1),
+        }
+    }
+    Ok(out)
+}
+
+/// The session a planned one gives on `truth`: each socket is where the nominal robot puts
+/// its group's tool points (their mean), each plane the plane through them, and every row is
+/// the truth's joint readings that reach it from the planned ones (the ball seated in the
+/// socket, the probe on the plane; `noise_mm` off each contact); a distance's length and a
+/// tracker point are the truth's at the planned readings, with noise.
+pub fn session_from_plan<const N: usize>(
+    truth: &HostRobot<N>,
+    nominal: &HostRobot<N>,
+    plan: &[PlannedRow<N>],
+    noise_mm: f64,
+    seed: u64,
+) -> anyhow::Result<String> {
+    let mut s = Streams::new(seed);
+    let mut out = String::from("kind,group");
+    for j in 1..=N {
+        let _ = write!(out, ",q{j}");
+    }
+    out.push_str(",length_mm,sigma_mm,x,y,z\n");
+    let sigma = if noise_mm > 0.0 {
+        format!("{noise_mm}")
+    } else {
+        String::new()
+    };
+    let mut groups: Vec<(&str, &str, Vec<[f64; N]>)> = Vec::new();
+    for (kind, group, q) in plan {
+        match groups.iter_mut().find(|g| g.0 == kind && g.1 == group) {
+            Some(g) => g.2.push(*q),
+            None => groups.push((kind, group, vec![*q])),
+        }
+    }
+    let noise = |rng: &mut rand_xoshiro::Xoshiro256PlusPlus| {
+        noise_mm * rng.sample::<f64, _>(StandardNormal)
+    };
+    for (kind, group, qs) in &groups {
+        let nominal_points: Vec<Vector3<f64>> = qs.iter().map(|q| fk(nominal, q, None)).collect();
+        let line = |out: &mut String, q: &[f64; N], tail: &str| {
+            let _ = write!(out, "{kind},{group}");
+            for v in q {
+                let _ = write!(out, ",{}", quantize_deg(v.to_degrees()));
+            }
+            let _ = writeln!(out, "{tail}");
+        };
+        match *kind {
+            "socket" | "plane" => {
+                let shape = super::shapes::fit(
+                    if *kind == "socket" {
+                        super::read::Kind::Socket
+                    } else {
+                        super::read::Kind::Plane
+                    },
+                    &nominal_points,
+                );
+                for (q, p) in qs.iter().zip(&nominal_points) {
+                    let e = Vector3::from_fn(|_, _| noise(&mut s.noise));
+                    let target = match shape {
+                        super::shapes::Shape::Centre(c) => c + e,
+                        super::shapes::Shape::Plane(n, d) => p - n * (n.dot(p) - d) + n * e.x,
+                        super::shapes::Shape::None => *p,
+                    };
+                    let Some(q) = reach(truth, &target, q, 2.0, None, &mut s.configs) else {
+                        crate::refuse!(
+                            "simulate --plan: the true robot cannot reach {kind} {group} near its planned readings"
+                        );
+                    };
+                    line(&mut out, &q, &format!(",,{sigma},,,"));
+                }
+            }
+            "distance" => {
+                let [a, b] = qs.as_slice() else {
+                    crate::refuse!(
+                        "simulate --plan: distance {group} has {} rows, not 2",
+                        qs.len()
+                    );
+                };
+                let length = (fk(truth, a, None) - fk(truth, b, None)).norm() + noise(&mut s.noise);
+                for q in [a, b] {
+                    line(&mut out, q, &format!(",{length:.6},{sigma},,,"));
+                }
+            }
+            "point" => {
+                for q in qs {
+                    let p = fk(truth, q, None) + Vector3::from_fn(|_, _| noise(&mut s.noise));
+                    line(
+                        &mut out,
+                        q,
+                        &format!(",,{sigma},{:.8},{:.8},{:.8}", p.x, p.y, p.z),
+                    );
+                }
+            }
+            other => crate::refuse!("simulate --plan: unknown kind `{other}` (group {group})"),
+        }
+    }
+    Ok(out)
 }

@@ -854,3 +854,99 @@ fn report_on_a_constraint_session_shows_each_kind_as_identify_judged_it() {
     assert_eq!(out.status.code(), Some(2));
     assert_eq!(stderr(&out).trim().lines().count(), 1, "{}", stderr(&out));
 }
+
+/// `plan --constraints SPEC --criterion CRITERION` of the ER20 into `out`, its JSON.
+fn plan_session(out: &Path, spec: &str, criterion: &str, extra: &[&str]) -> serde_json::Value {
+    let robot = data_file("er20.toml");
+    let mut args = vec![
+        "plan",
+        "--robot",
+        s(&robot),
+        "--constraints",
+        spec,
+        "--criterion",
+        criterion,
+        "--out",
+        s(out),
+        "--json",
+    ];
+    args.extend_from_slice(extra);
+    json_of(&kinecal_ok(&args))
+}
+
+#[test]
+fn a_planned_socket_session_calibrates_better_than_a_random_one_as_predicted() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let spec = "socket:4x8,distance:16";
+    let (planned, random) = (d.join("plan.csv"), d.join("random.csv"));
+    let p = plan_session(&planned, spec, "d", &[]);
+    let r = plan_session(&random, spec, "random", &[]);
+    assert_eq!(p["rows"], 64);
+    assert_eq!(p["pool_rows"], 256);
+    let (p_sigma, r_sigma) = (
+        p["predicted_tool_mm"].as_f64().unwrap(),
+        r["predicted_tool_mm"].as_f64().unwrap(),
+    );
+    // The same candidates: the random plan is the planner's starting point.
+    assert_eq!(p["random_tool_mm"], r["predicted_tool_mm"]);
+    assert!(p_sigma < 0.8 * r_sigma, "{p_sigma} vs {r_sigma}");
+    for b in BASE {
+        assert!(
+            names(&p["cannot_determine"]).contains(&b.to_string()),
+            "{b}: {p}"
+        );
+    }
+    // Each plan measured on three robots with different errors, identified, and judged on
+    // fresh poses against the truth (aligned: the base is not seen).
+    let robot = data_file("er20.toml");
+    let mut realised = [0.0f64; 2];
+    for seed in 1..=3u64 {
+        for (k, plan) in [&planned, &random].into_iter().enumerate() {
+            let (data, truth, model) = (
+                d.join(format!("s{k}{seed}.csv")),
+                d.join(format!("t{k}{seed}.toml")),
+                d.join(format!("m{k}{seed}.toml")),
+            );
+            let seed_text = seed.to_string();
+            kinecal_ok(&[
+                "simulate",
+                "--robot",
+                s(&robot),
+                "--plan",
+                s(plan),
+                "--geom-errors",
+                "--noise-mm",
+                "0.01",
+                "--seed",
+                &seed_text,
+                "--out",
+                s(&data),
+                "--truth",
+                s(&truth),
+            ]);
+            identify(&data, &["--out", s(&model)]);
+            let e = tool_point_rms(&model, &truth, false);
+            println!("seed {seed}: {} plan: {e:.5} mm", ["planned", "random"][k]);
+            realised[k] += e * e / 3.0;
+        }
+    }
+    let (pe, re) = (realised[0].sqrt(), realised[1].sqrt());
+    println!(
+        "planned: predicted {p_sigma:.5} mm, realised {pe:.5} mm; random: predicted {r_sigma:.5} \
+         mm, realised {re:.5} mm"
+    );
+    assert!(pe < re, "planned {pe} mm, random {re} mm");
+    for (what, predicted, got) in [("planned", p_sigma, pe), ("random", r_sigma, re)] {
+        assert!(
+            got > 0.4 * predicted && got < 2.5 * predicted,
+            "{what}: realised {got} mm, predicted {predicted} mm"
+        );
+    }
+    // The accuracy a user asks for: how many times the groups it takes, planned.
+    let a = plan_session(&d.join("more.csv"), spec, "d", &["--accuracy-mm", "0.006"]);
+    let need = &a["accuracy"];
+    assert_eq!(need["reached"], true, "{a}");
+    assert!(need["times_the_groups"].as_u64().unwrap() >= 2, "{a}");
+    assert!(need["predicted_tool_mm"].as_f64().unwrap() <= 0.006, "{a}");
+}

@@ -180,7 +180,7 @@ pub(crate) fn split_groups<const N: usize>(
 /// the joint range of the identification rows; returns the parameters that are not effect
 /// values (an axis tilt's). Thermal expansion needs a `temp_c` on every row (its reference is
 /// the rows' mean temperature unless given).
-fn add_effects<const N: usize>(
+pub(crate) fn add_effects<const N: usize>(
     nominal: &mut HostRobot<N>,
     requests: &[crate::calibration::EffectRequest],
     ident: &[Group<N>],

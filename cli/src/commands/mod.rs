@@ -11,6 +11,7 @@
 pub mod check;
 pub mod compensate;
 pub mod constraint_check;
+pub mod constraint_diagnose;
 pub mod constraint_identify;
 pub mod constraint_plan;
 pub mod constraint_report;
@@ -103,6 +104,9 @@ pub fn dispatch(cli: &Cli) -> anyhow::Result<Box<dyn Report>> {
             boxed(constraint_identify::run(a))
         }
         Command::Identify(a) => boxed(identify::run(a)),
+        Command::Diagnose(a) if crate::constraints::read::is_constraint_file(&a.input.data) => {
+            boxed(constraint_diagnose::run(a))
+        }
         Command::Diagnose(a) => boxed(diagnose::run(a)),
         Command::Frames(a) => boxed(frames::run(a)),
         Command::Compensate(a) => boxed(compensate::run(a)),

@@ -7,6 +7,7 @@
 //! - [`shapes`]: socket centres and planes fitted to predicted tool points, row errors;
 //! - [`system`]: the weighted residuals and Jacobian of a session;
 //! - [`fit`]: identifiability and the Levenberg–Marquardt fit;
+//! - [`diagnose`]: the discrepancy search on cross-validated groups;
 //! - [`simulate`]: constraint sessions from a robot with known errors (or measured at a plan);
 //! - [`plan`]: which rows to measure (`plan --constraints`);
 //! - [`residual_table`]: what `identify --residuals` writes for a constraint file;
@@ -15,6 +16,7 @@
 //!   `commands::constraint_validate` run).
 
 pub mod check;
+pub mod diagnose;
 pub mod fit;
 pub mod plan;
 pub mod read;

@@ -22,7 +22,7 @@ pub fn load_as<const N: usize, V: kinecal::ValueStorage>(
     let origin = path.display().to_string();
     if crate::formats::measurements::is_constraint_file(path) {
         crate::refuse!(
-            "{origin}: a constraint file (kind column): check, identify, validate and report read \
+            "{origin}: a constraint file (kind column): check, identify, validate, report and diagnose read \
              constraint files; give this command tracker points (x, y, z per row)"
         );
     }

@@ -614,7 +614,7 @@ fn commands_that_need_tracker_points_refuse_a_constraint_file_with_the_fix() {
     let dir = tempfile::tempdir().unwrap();
     let (data, _) = session(dir.path(), "socket:4x10", 3);
     let out = kinecal(&[
-        "diagnose",
+        "frames",
         "--robot",
         s(&data_file("er20.toml")),
         "--data",
@@ -949,4 +949,82 @@ fn a_planned_socket_session_calibrates_better_than_a_random_one_as_predicted() {
     assert_eq!(need["reached"], true, "{a}");
     assert!(need["times_the_groups"].as_u64().unwrap() >= 2, "{a}");
     assert!(need["predicted_tool_mm"].as_f64().unwrap() <= 0.006, "{a}");
+}
+
+/// `diagnose --json` on the constraint session `data` (extra flags appended), asserting exit 0.
+fn diagnose(data: &Path, extra: &[&str]) -> serde_json::Value {
+    let robot = data_file("er20.toml");
+    let mut args = vec![
+        "diagnose",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(data),
+        "--json",
+    ];
+    args.extend_from_slice(extra);
+    json_of(&kinecal_ok(&args))
+}
+
+#[test]
+fn diagnose_finds_a_cyclic_error_in_a_socket_session_and_nothing_in_a_geometric_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let split = ["--holdout", "0.25", "--split", "random"];
+    // Joint 2's cyclic error (a = 0.002, b = -0.001 rad) and no other error.
+    let cyclic = dir.path().join("cyclic");
+    std::fs::create_dir(&cyclic).unwrap();
+    let (data, _) = session_of(
+        &cyclic,
+        "socket:4x10,distance:40",
+        7,
+        &["--effect", "joint-cyclic:2:0.002,-0.001:1"],
+    );
+    let model = dir.path().join("model.toml");
+    let mut args = split.to_vec();
+    args.extend_from_slice(&["--out", s(&model)]);
+    let v = diagnose(&data, &args);
+    println!("{v}");
+    assert_eq!(v["count_unit"], "groups");
+    assert_eq!(names(&v["found"]), ["joint-cyclic:2:1"], "{v}");
+    let (a, b) = (
+        v["values"]["joint-cyclic2.n1.a"].as_f64().unwrap(),
+        v["values"]["joint-cyclic2.n1.b"].as_f64().unwrap(),
+    );
+    assert!(
+        (a - 0.002).abs() < 2e-4 && (b + 0.001).abs() < 2e-4,
+        "a = {a}, b = {b}"
+    );
+    // The held-out groups' gap shrinks to the noise (0.01 mm per contact).
+    let h = &v["held_out"];
+    let (geometric, extended) = (
+        h["geometric_mm"].as_f64().unwrap(),
+        h["extended_mm"].as_f64().unwrap(),
+    );
+    assert!(extended * 10.0 < geometric, "{h}");
+    assert!(extended < 0.03, "{h}");
+    assert_eq!(v["held_out_worse"], false);
+    // The model written carries the effect: identify on it starts at the noise.
+    let text = std::fs::read_to_string(&model).unwrap();
+    assert!(text.contains("joint-cyclic"), "{text}");
+    // Geometry alone: nothing is found, the best candidate is named and refused.
+    let plain = dir.path().join("plain");
+    std::fs::create_dir(&plain).unwrap();
+    let (data, _) = session(&plain, "socket:4x10,distance:40", 7);
+    let w = diagnose(&data, &split);
+    assert!(names(&w["found"]).is_empty(), "{w}");
+    let rounds = w["rounds"].as_array().unwrap();
+    assert_eq!(rounds.len(), 1, "{w}");
+    assert_eq!(rounds[0]["accepted"], false);
+    // Flags of tracker sessions are refused in one line.
+    let out = kinecal(&[
+        "diagnose",
+        "--robot",
+        s(&data_file("er20.toml")),
+        "--data",
+        s(&data),
+        "--plots",
+        s(dir.path()),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(stderr(&out).trim().lines().count(), 1, "{}", stderr(&out));
 }

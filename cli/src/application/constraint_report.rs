@@ -4,19 +4,16 @@
 //! the parameters it changed and what these constraints cannot determine; one self-contained
 //! HTML page ([`crate::report_html::constraint_page`]) and its figures as a summary.
 
-use super::constraints::{constraints, measurements, residuals, split_groups};
-use crate::calibration::acceptance::{judge, Acceptance};
+use super::constraints::{constraints, residuals, split_groups};
+use crate::calibration::acceptance::judge;
 use crate::calibration::inputs::HoldoutArgs;
-use crate::calibration::Residuals;
+use crate::constraints::effects::measurements;
 use crate::constraints::fit::shapes_of;
 use crate::constraints::read::{by_kind, Group, Session};
-use crate::constraints::report::Constraints;
+use crate::constraints::report::{Change, ConstraintReportSummary, HeldOutKind};
 use crate::constraints::shapes::{errors, held_out_error, points, rms};
 use crate::formats::robot_file::RobotFile;
-use crate::output::numfmt::sig;
 use crate::HostRobot;
-use serde::Serialize;
-use std::fmt;
 use std::time::Instant;
 
 /// What the report reads: the robot file and its nominal model, the calibrated model, the
@@ -37,58 +34,6 @@ pub struct Options {
     /// A model that misses the identification rows by more than this RMS (mm) is not a
     /// calibration of these data.
     pub stall_rms_mm: f64,
-}
-
-/// One kind of constraint among the held-out groups: each group against its own refitted
-/// shape (a distance's length error), RMS over the groups.
-#[derive(Clone, Debug, Serialize, PartialEq)]
-pub struct HeldOutKind {
-    pub kind: String,
-    pub groups: usize,
-    pub before_rms_mm: f64,
-    pub after_rms_mm: f64,
-}
-
-/// A parameter the model changed: its value in the robot file and in the model (mm or
-/// degrees; an effect's value in its own unit).
-#[derive(Clone, Debug, Serialize, PartialEq)]
-pub struct Change {
-    pub name: String,
-    pub unit: String,
-    pub nominal: f64,
-    pub model: f64,
-}
-
-/// `kinecal report` on a constraint file: what the page shows.
-#[derive(Clone, Debug, Serialize, PartialEq)]
-pub struct ConstraintReportSummary {
-    /// The page written.
-    pub out: Option<String>,
-    pub bytes: usize,
-    pub seconds: f64,
-    pub count_unit: String,
-    pub n_identification: usize,
-    pub n_validation: usize,
-    pub n_identification_rows: usize,
-    pub n_validation_rows: usize,
-    /// The nominal robot and the model, by `identify`'s keys on a constraint file.
-    pub before: Residuals,
-    pub after: Residuals,
-    /// Per kind on the identification groups, and the shapes the model fits to them.
-    pub constraints: Constraints,
-    /// Per kind on the held-out groups.
-    pub held_out: Vec<HeldOutKind>,
-    pub changed: Vec<Change>,
-    /// What these identification groups cannot determine at the nominal model (held by
-    /// `identify`).
-    pub cannot_determine: Vec<String>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub acceptance: Option<Acceptance>,
-    /// The model predicts the held-out groups worse than the nominal robot.
-    pub held_out_worse: Option<bool>,
-    /// The model is a calibration of these data (`false`: exit 3).
-    pub converged: bool,
-    pub figures: usize,
 }
 
 /// The page and its summary.
@@ -231,48 +176,4 @@ fn changes<const N: usize>(
             })
         })
         .collect()
-}
-
-impl crate::reports::Report for ConstraintReportSummary {
-    fn to_json(&self) -> serde_json::Value {
-        crate::reports::json_value(self)
-    }
-    fn converged(&self) -> bool {
-        self.converged
-    }
-    fn non_finite(&self) -> Option<String> {
-        crate::reports::finite::first_non_finite(self)
-    }
-}
-
-impl fmt::Display for ConstraintReportSummary {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        if let Some(out) = &self.out {
-            writeln!(f, "wrote {out} ({} bytes)", self.bytes)?;
-        }
-        writeln!(
-            f,
-            "{} identification groups ({} rows): RMS {} -> {} mm",
-            self.n_identification,
-            self.n_identification_rows,
-            sig(self.before.identification_rms_mm, 4),
-            sig(self.after.identification_rms_mm, 4)
-        )?;
-        if let (Some(b), Some(a)) = (self.before.validation_rms_mm, self.after.validation_rms_mm) {
-            writeln!(
-                f,
-                "{} held-out groups ({} rows): RMS {} -> {} mm",
-                self.n_validation,
-                self.n_validation_rows,
-                sig(b, 4),
-                sig(a, 4)
-            )?;
-        }
-        if let Some(a) = &self.acceptance {
-            if let Some(m) = &a.message {
-                writeln!(f, "{m}")?;
-            }
-        }
-        Ok(())
-    }
 }

@@ -5,8 +5,9 @@
 //! nominal robot; the page says so).
 
 use super::report::Args;
-use crate::application::constraint_report::{report, ConstraintReportSummary, Inputs, Options};
+use crate::application::constraint_report::{report, Inputs, Options};
 use crate::constraints::read;
+use crate::constraints::report::ConstraintReportSummary;
 use crate::formats::robot_file::load_robot;
 use crate::reports::path_text;
 use crate::with_joints;

@@ -129,17 +129,9 @@ fn plan_with_joints<const N: usize>(args: &Args, file: &RobotFile) -> anyhow::Re
     Ok(PlanReport::of(&p, &req, &args.out.display().to_string()))
 }
 
-/// Runs the subcommand: writes the planned poses and returns their predicted accuracy.
-pub fn run(args: &Args) -> anyhow::Result<Box<dyn crate::reports::Report>> {
-    if args.constraints.is_some() {
-        return super::constraint_plan::run(args)
-            .map(|r| Box::new(r) as Box<dyn crate::reports::Report>);
-    }
-    run_poses(args).map(|r| Box::new(r) as Box<dyn crate::reports::Report>)
-}
-
-/// `plan` of tracker poses.
-fn run_poses(args: &Args) -> anyhow::Result<PlanReport> {
+/// Runs the subcommand: writes the planned poses and returns their predicted accuracy (a
+/// constraint session's plan is `super::constraint_plan`'s).
+pub fn run(args: &Args) -> anyhow::Result<PlanReport> {
     crate::output::atomic::refuse_overwriting_inputs(
         "--out",
         &args.out,

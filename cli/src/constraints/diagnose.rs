@@ -73,7 +73,7 @@ pub fn fit_with<const N: usize>(
     groups: &[Group<N>],
 ) -> anyhow::Result<Fitted<N>> {
     let mut robot = nominal.clone();
-    let extra = crate::application::constraints::add_effects(&mut robot, effects, groups)?;
+    let extra = super::effects::add_effects(&mut robot, effects, groups)?;
     let base_unknown =
         !(file.base_known() && groups.iter().any(|g| g.kind == super::read::Kind::Point));
     let params = candidates(&robot, file, base_unknown, &extra)?;
@@ -115,7 +115,7 @@ fn requests<const N: usize>(
     groups: &[Group<N>],
     max_order: u16,
 ) -> Vec<(EffectRequest, String)> {
-    let rows = crate::application::constraints::measurements(groups);
+    let rows = super::effects::measurements(groups);
     let cfg = CatalogueConfig {
         max_cyclic_order: max_order,
         table_intervals: Vec::new(),

@@ -8,6 +8,7 @@
 //! - [`system`]: the weighted residuals and Jacobian of a session;
 //! - [`fit`]: identifiability and the Levenberg–Marquardt fit;
 //! - [`diagnose`]: the discrepancy search on cross-validated groups;
+//! - [`effects`]: `--effect` requests on a session (its joint ranges, its temperatures);
 //! - [`simulate`]: constraint sessions from a robot with known errors (or measured at a plan);
 //! - [`plan`]: which rows to measure (`plan --constraints`);
 //! - [`residual_table`]: what `identify --residuals` writes for a constraint file;
@@ -17,6 +18,7 @@
 
 pub mod check;
 pub mod diagnose;
+pub mod effects;
 pub mod fit;
 pub mod plan;
 pub mod read;

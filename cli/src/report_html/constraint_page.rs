@@ -3,7 +3,7 @@
 //! and held-out figures, the fitted shapes, the parameters the model changed and what the
 //! constraints cannot determine.
 
-use crate::application::constraint_report::ConstraintReportSummary;
+use crate::constraints::report::ConstraintReportSummary;
 use crate::output::numfmt::sig;
 use minijinja::{context, Environment, Value};
 

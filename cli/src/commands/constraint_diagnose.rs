@@ -6,7 +6,7 @@
 
 use super::diagnose::Args;
 use crate::calibration::acceptance::NO_DIFFERENCE_MM;
-use crate::constraints::diagnose::{fit_with, request_text, search, SearchOptions};
+use crate::constraints::diagnose::{fit_with, request_text, search, Round, SearchOptions};
 use crate::constraints::read;
 use crate::constraints::shapes::{held_out_error, rms};
 use crate::formats::robot_file::{load_robot, RobotFile};
@@ -16,19 +16,6 @@ use crate::with_joints;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt;
-
-/// One round of the search.
-#[derive(Clone, Debug, Serialize, PartialEq)]
-pub struct RoundReport {
-    pub effect: String,
-    pub label: String,
-    pub candidates: usize,
-    pub cv_rms_before_mm: f64,
-    pub cv_rms_after_mm: f64,
-    pub p: f64,
-    pub threshold: f64,
-    pub accepted: bool,
-}
 
 /// The held-out groups' RMS (mm): the nominal robot, the geometric fit, the extended model.
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -50,7 +37,7 @@ pub struct ConstraintDiagnoseReport {
     /// was found: each group against its own shape refitted to the model fitted without it.
     pub cv_rms_geometric_mm: f64,
     pub cv_rms_final_mm: f64,
-    pub rounds: Vec<RoundReport>,
+    pub rounds: Vec<Round>,
     /// The effects found, as `--effect` requests, and their values in the extended model.
     pub found: Vec<String>,
     pub values: BTreeMap<String, f64>,
@@ -61,17 +48,7 @@ pub struct ConstraintDiagnoseReport {
     pub out: Option<String>,
 }
 
-impl crate::reports::Report for ConstraintDiagnoseReport {
-    fn to_json(&self) -> serde_json::Value {
-        crate::reports::json_value(self)
-    }
-    fn converged(&self) -> bool {
-        !self.held_out_worse
-    }
-    fn non_finite(&self) -> Option<String> {
-        crate::reports::finite::first_non_finite(self)
-    }
-}
+crate::reports::judged_report!(ConstraintDiagnoseReport, |r| !r.held_out_worse);
 
 impl fmt::Display for ConstraintDiagnoseReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -236,20 +213,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
         folds: args.folds,
         cv_rms_geometric_mm: s.cv_rms_geometric_mm,
         cv_rms_final_mm: s.cv_rms_final_mm,
-        rounds: s
-            .rounds
-            .iter()
-            .map(|r| RoundReport {
-                effect: r.effect.clone(),
-                label: r.label.clone(),
-                candidates: r.candidates,
-                cv_rms_before_mm: r.cv_rms_before_mm,
-                cv_rms_after_mm: r.cv_rms_after_mm,
-                p: r.p,
-                threshold: r.threshold,
-                accepted: r.accepted,
-            })
-            .collect(),
+        rounds: s.rounds,
         found: s.found.iter().map(request_text).collect(),
         values,
         held_out,

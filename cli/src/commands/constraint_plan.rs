@@ -95,26 +95,14 @@ fn accuracy_need<'a, const N: usize>(
     while predicted > target && m < MOST_REPEATS {
         let next = ((m as f64) * (predicted / target).powi(2)).ceil() as usize;
         m = next.clamp(m + 1, MOST_REPEATS);
-        let times = SessionPlan {
-            sockets: (session.sockets.0 * m, session.sockets.1),
-            planes: (session.planes.0 * m, session.planes.1),
-            distances: session.distances * m,
-            points: session.points * m,
-        };
-        let d = plan(file, nominal, &request(times))?;
+        let d = plan(file, nominal, &request(session.times(m)))?;
         predicted = d.planned_tool_mm;
         rows = d.rows();
     }
     // The estimate may overshoot: one time fewer, if that reaches the target too.
     if m > 2 && predicted <= target {
         let fewer = m - 1;
-        let times = SessionPlan {
-            sockets: (session.sockets.0 * fewer, session.sockets.1),
-            planes: (session.planes.0 * fewer, session.planes.1),
-            distances: session.distances * fewer,
-            points: session.points * fewer,
-        };
-        let d = plan(file, nominal, &request(times))?;
+        let d = plan(file, nominal, &request(session.times(fewer)))?;
         if d.planned_tool_mm <= target {
             (m, predicted, rows) = (fewer, d.planned_tool_mm, d.rows());
         }

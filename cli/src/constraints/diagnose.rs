@@ -41,7 +41,7 @@ pub struct SearchOptions {
 }
 
 /// One round: the best candidate and what it did to the cross-validated RMS.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Round {
     /// The best candidate (an `--effect` request: `joint-cyclic:2:1`) and its label.
     pub effect: String,

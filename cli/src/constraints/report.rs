@@ -177,17 +177,7 @@ pub struct ConstraintValidateReport {
     pub worse_than_nominal: bool,
 }
 
-impl crate::reports::Report for ConstraintValidateReport {
-    fn to_json(&self) -> serde_json::Value {
-        crate::reports::json_value(self)
-    }
-    fn converged(&self) -> bool {
-        !self.worse_than_nominal
-    }
-    fn non_finite(&self) -> Option<String> {
-        crate::reports::finite::first_non_finite(self)
-    }
-}
+crate::reports::judged_report!(ConstraintValidateReport, |r| !r.worse_than_nominal);
 
 impl fmt::Display for ConstraintValidateReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -275,14 +265,7 @@ impl ConstraintCheckReport {
     }
 }
 
-impl crate::reports::Report for ConstraintCheckReport {
-    fn to_json(&self) -> serde_json::Value {
-        crate::reports::json_value(self)
-    }
-    fn non_finite(&self) -> Option<String> {
-        crate::reports::finite::first_non_finite(self)
-    }
-}
+crate::reports::plain_report!(ConstraintCheckReport);
 
 impl fmt::Display for ConstraintCheckReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -403,14 +386,7 @@ impl ConstraintPlanReport {
     }
 }
 
-impl crate::reports::Report for ConstraintPlanReport {
-    fn to_json(&self) -> serde_json::Value {
-        crate::reports::json_value(self)
-    }
-    fn non_finite(&self) -> Option<String> {
-        crate::reports::finite::first_non_finite(self)
-    }
-}
+crate::reports::plain_report!(ConstraintPlanReport);
 
 impl fmt::Display for ConstraintPlanReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -511,17 +487,7 @@ pub struct ConstraintReportSummary {
     pub figures: usize,
 }
 
-impl crate::reports::Report for ConstraintReportSummary {
-    fn to_json(&self) -> serde_json::Value {
-        crate::reports::json_value(self)
-    }
-    fn converged(&self) -> bool {
-        self.converged
-    }
-    fn non_finite(&self) -> Option<String> {
-        crate::reports::finite::first_non_finite(self)
-    }
-}
+crate::reports::judged_report!(ConstraintReportSummary, |r| r.converged);
 
 impl fmt::Display for ConstraintReportSummary {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

@@ -63,6 +63,16 @@ impl std::str::FromStr for SessionPlan {
 }
 
 impl SessionPlan {
+    /// The session with `m` times its groups (rows per group unchanged).
+    pub fn times(self, m: usize) -> Self {
+        Self {
+            sockets: (self.sockets.0 * m, self.sockets.1),
+            planes: (self.planes.0 * m, self.planes.1),
+            distances: self.distances * m,
+            points: self.points * m,
+        }
+    }
+
     /// Rows of the session.
     pub fn rows(&self) -> usize {
         self.sockets.0 * self.sockets.1

@@ -75,6 +75,26 @@ macro_rules! plain_report {
 }
 pub(crate) use plain_report;
 
+/// Implements [`Report`] for a report struct whose verdict is `converged` (an expression of
+/// the report bound to the given name).
+macro_rules! judged_report {
+    ($t:ty, |$r:ident| $converged:expr) => {
+        impl $crate::reports::Report for $t {
+            fn to_json(&self) -> serde_json::Value {
+                $crate::reports::json_value(self)
+            }
+            fn converged(&self) -> bool {
+                let $r = self;
+                $converged
+            }
+            fn non_finite(&self) -> Option<String> {
+                $crate::reports::finite::first_non_finite(self)
+            }
+        }
+    };
+}
+pub(crate) use judged_report;
+
 /// The `--json` object of a failing command: `{"error": "<the one-line reason>"}`.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct ErrorReport {

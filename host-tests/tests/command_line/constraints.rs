@@ -47,19 +47,17 @@ fn session_of(dir: &Path, spec: &str, seed: u64, errors: &[&str]) -> (PathBuf, P
     (data, truth)
 }
 
-/// `identify --json` on `data` (extra flags appended), asserting exit 0.
-fn identify(data: &Path, extra: &[&str]) -> serde_json::Value {
+/// `COMMAND --robot er20.toml --data DATA --json` (extra flags appended), asserting exit 0.
+fn json_on(command: &str, data: &Path, extra: &[&str]) -> serde_json::Value {
     let robot = data_file("er20.toml");
-    let mut args = vec![
-        "identify",
-        "--robot",
-        s(&robot),
-        "--data",
-        s(data),
-        "--json",
-    ];
+    let mut args = vec![command, "--robot", s(&robot), "--data", s(data), "--json"];
     args.extend_from_slice(extra);
     json_of(&kinecal_ok(&args))
+}
+
+/// `identify --json` on `data` (extra flags appended), asserting exit 0.
+fn identify(data: &Path, extra: &[&str]) -> serde_json::Value {
+    json_on("identify", data, extra)
 }
 
 fn names(v: &serde_json::Value) -> Vec<String> {
@@ -542,14 +540,7 @@ fn constraint_temperatures_missing_on_a_row_or_implausible_are_refused() {
 
 /// `check --json` of `data` on the ER20, asserting exit 0.
 fn check(data: &Path) -> serde_json::Value {
-    json_of(&kinecal_ok(&[
-        "check",
-        "--robot",
-        s(&data_file("er20.toml")),
-        "--data",
-        s(data),
-        "--json",
-    ]))
+    json_on("check", data, &[])
 }
 
 #[test]
@@ -953,17 +944,7 @@ fn a_planned_socket_session_calibrates_better_than_a_random_one_as_predicted() {
 
 /// `diagnose --json` on the constraint session `data` (extra flags appended), asserting exit 0.
 fn diagnose(data: &Path, extra: &[&str]) -> serde_json::Value {
-    let robot = data_file("er20.toml");
-    let mut args = vec![
-        "diagnose",
-        "--robot",
-        s(&robot),
-        "--data",
-        s(data),
-        "--json",
-    ];
-    args.extend_from_slice(extra);
-    json_of(&kinecal_ok(&args))
+    json_on("diagnose", data, extra)
 }
 
 #[test]

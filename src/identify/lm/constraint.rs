@@ -91,6 +91,15 @@ fn cut<T: Real>(buf: &mut [T], n: usize) -> Option<Scratch<'_, T>> {
 }
 
 impl<T: Real> Scratch<'_, T> {
+    /// Adds the current row's squared column norms, weighted by `w2`, to `raw`.
+    fn add_raw(&mut self, w2: T) {
+        let [x, y, z] = &self.cur;
+        let columns = x.iter().zip(y.iter()).zip(z.iter());
+        for (r, ((a, b), c)) in self.raw.iter_mut().zip(columns) {
+            *r += w2 * (*a * *a + *b * *b + *c * *c);
+        }
+    }
+
     fn clear(&mut self) {
         self.jtj.fill(T::zero());
         self.jtr.fill(T::zero());
@@ -232,12 +241,7 @@ fn socket<T: Real, const N: usize, V: ValueStorage>(
         let p = point(fk, robot, row);
         columns_into(fk, robot, set, &mut sc.cur);
         let w2 = weight(row);
-        for k in 0..n {
-            let c2 = sc.cur[0][k] * sc.cur[0][k]
-                + sc.cur[1][k] * sc.cur[1][k]
-                + sc.cur[2][k] * sc.cur[2][k];
-            sc.raw[k] += w2 * c2;
-        }
+        sc.add_raw(w2);
         if i == 0 {
             p0 = p;
             for a in 0..3 {
@@ -426,12 +430,7 @@ fn tracker_point<T: Real, const N: usize, V: ValueStorage>(
     let r = at - point(fk, robot, row);
     columns_into(fk, robot, set, &mut sc.cur);
     let w2 = weight(row);
-    for k in 0..n {
-        sc.raw[k] = w2
-            * (sc.cur[0][k] * sc.cur[0][k]
-                + sc.cur[1][k] * sc.cur[1][k]
-                + sc.cur[2][k] * sc.cur[2][k]);
-    }
+    sc.add_raw(w2);
     let cols = [&*sc.cur[0], &*sc.cur[1], &*sc.cur[2]];
     Scratch::add3(sc.jtj, sc.jtr, n, cols, w2, [r.x, r.y, r.z]);
     w2 * r.norm_squared()

@@ -26,6 +26,21 @@ pub struct HeldOut {
     pub extended_mm: f64,
 }
 
+/// An effect found, in the order added.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct FoundEffect {
+    /// An id of docs/formats.md "Effects".
+    pub effect: String,
+    /// 1-based (thermal expansion, which acts on no joint, is listed on joint 1).
+    pub joint: usize,
+    /// The `--effect` request that adds it.
+    pub request: String,
+    /// Its values in the extended model (name → value).
+    pub values: BTreeMap<String, f64>,
+    /// The cross-validated RMS (mm) once it was added.
+    pub validation_rms_mm: f64,
+}
+
 /// `diagnose` on a constraint file.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct ConstraintDiagnoseReport {
@@ -33,14 +48,21 @@ pub struct ConstraintDiagnoseReport {
     pub n_identification: usize,
     pub n_validation: usize,
     pub folds: usize,
+    /// What `baseline_validation_rms_mm` and `final_validation_rms_mm` are over: `held-out
+    /// groups` when groups were held out, else `cross-validated groups`.
+    pub validation: String,
+    /// The geometric fit's and the extended model's RMS (mm) on those groups.
+    pub baseline_validation_rms_mm: f64,
+    pub final_validation_rms_mm: f64,
+    /// What the rows' stated σ alone would leave in the same RMS sense (mm): a socket group
+    /// `σ√(3(K−1)/K)`, a plane `σ√((K−3)/K)`, a distance `σ`, a point `σ√3`.
+    pub noise_floor_mm: f64,
     /// Cross-validated RMS over the identification groups (mm), geometry alone and with what
     /// was found: each group against its own shape refitted to the model fitted without it.
     pub cv_rms_geometric_mm: f64,
     pub cv_rms_final_mm: f64,
     pub rounds: Vec<Round>,
-    /// The effects found, as `--effect` requests, and their values in the extended model.
-    pub found: Vec<String>,
-    pub values: BTreeMap<String, f64>,
+    pub found: Vec<FoundEffect>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub held_out: Option<HeldOut>,
     /// The extended model predicts the held-out groups worse than the geometric fit.
@@ -76,6 +98,11 @@ impl fmt::Display for ConstraintDiagnoseReport {
                 sig(r.threshold, 2)
             )?;
         }
+        writeln!(
+            f,
+            "noise floor of the stated σ: {} mm",
+            sig(self.noise_floor_mm, 4)
+        )?;
         if self.found.is_empty() {
             writeln!(f, "nothing significant is missing from the geometry")?;
         }
@@ -180,6 +207,41 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
         .filter(|p| matches!(p, kinecal::Param::Effect(_) | kinecal::Param::Beta(_)))
         .collect();
     let values = crate::calibration::named_values(&extended.robot, &effect_params);
+    let accepted: Vec<&Round> = s.rounds.iter().filter(|r| r.accepted).collect();
+    let found = s
+        .found
+        .iter()
+        .zip(&accepted)
+        .map(|(req, round)| {
+            let joint = req.joint + 1;
+            let prefix = match req.kind.as_str() {
+                "axis-tilt" => format!("beta{joint}"),
+                "joint-cyclic" => format!("joint-cyclic{joint}.n{}.", req.arg.unwrap_or(1.0)),
+                k if k == crate::formats::robot_file::THERMAL => k.to_string(),
+                k => format!("{k}{joint}"),
+            };
+            FoundEffect {
+                effect: req.kind.clone(),
+                joint,
+                request: request_text(req),
+                values: values
+                    .iter()
+                    .filter(|(n, _)| n.starts_with(&prefix))
+                    .map(|(n, v)| (n.clone(), *v))
+                    .collect(),
+                validation_rms_mm: round.cv_rms_after_mm,
+            }
+        })
+        .collect();
+    let (validation, baseline, final_rms) = match &held_out {
+        Some(h) => ("held-out groups", h.geometric_mm, h.extended_mm),
+        None => (
+            "cross-validated groups",
+            s.cv_rms_geometric_mm,
+            s.cv_rms_final_mm,
+        ),
+    };
+    let noise_floor_mm = noise_floor(&ident);
     let out = match &args.out {
         Some(path) => {
             let tilts: Vec<usize> = extended
@@ -211,13 +273,36 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
         n_identification: ident.len(),
         n_validation: valid.len(),
         folds: args.folds,
+        validation: validation.into(),
+        baseline_validation_rms_mm: baseline,
+        final_validation_rms_mm: final_rms,
+        noise_floor_mm,
         cv_rms_geometric_mm: s.cv_rms_geometric_mm,
         cv_rms_final_mm: s.cv_rms_final_mm,
         rounds: s.rounds,
-        found: s.found.iter().map(request_text).collect(),
-        values,
+        found,
         held_out,
         held_out_worse,
         out,
     })
+}
+
+/// What the rows' stated σ alone leaves in each group's error, as RMS over the groups (mm; see
+/// [`ConstraintDiagnoseReport::noise_floor_mm`]).
+fn noise_floor<const N: usize>(groups: &[read::Group<N>]) -> f64 {
+    let e: Vec<f64> = groups
+        .iter()
+        .map(|g| {
+            let k = g.rows.len() as f64;
+            let sigma = rms(&g.rows.iter().map(|r| r.sigma_mm).collect::<Vec<f64>>());
+            let share = match g.kind {
+                read::Kind::Socket => 3.0 * (k - 1.0) / k,
+                read::Kind::Plane => ((k - 3.0) / k).max(0.0),
+                read::Kind::Distance => 1.0,
+                read::Kind::Point => 3.0,
+            };
+            sigma * share.sqrt()
+        })
+        .collect();
+    rms(&e)
 }

@@ -60,6 +60,14 @@ fn run_with_joints<const N: usize>(
         work: &work,
     };
     let design = plan(file, &nominal, &request(session))?;
+    if !design.planned_tool_mm.is_finite() {
+        crate::refuse!(
+            "plan --constraints: {} rows cannot determine the {} parameters such a session \
+             could estimate: plan more groups or rows",
+            design.rows(),
+            design.estimated.len()
+        );
+    }
     crate::output::atomic::write_atomic(&args.out, design.csv(args.noise_mm).as_bytes())
         .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", args.out.display()))?;
     let need = match args.accuracy_mm {

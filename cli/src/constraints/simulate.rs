@@ -305,7 +305,15 @@ pub fn read_plan<const N: usize>(text: &str, origin: &str) -> anyhow::Result<Vec
         crate::refuse!("{origin}: empty plan");
     };
     let cols: Vec<&str> = header.split(',').map(str::trim).collect();
-    if cols.len() < 2 + N || cols[0] != "kind" || cols[1] != "group" {
+    let readings = cols
+        .iter()
+        .skip(2)
+        .take_while(|c| {
+            c.strip_prefix('q')
+                .is_some_and(|d| d.parse::<usize>().is_ok())
+        })
+        .count();
+    if cols.len() < 2 + N || cols[0] != "kind" || cols[1] != "group" || readings != N {
         crate::refuse!(
             "{origin}: not a plan of `plan --constraints` for {N} joints (header kind,group,q1,…)"
         );

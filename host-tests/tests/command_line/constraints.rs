@@ -966,10 +966,16 @@ fn diagnose_finds_a_cyclic_error_in_a_socket_session_and_nothing_in_a_geometric_
     let v = diagnose(&data, &args);
     println!("{v}");
     assert_eq!(v["count_unit"], "groups");
-    assert_eq!(names(&v["found"]), ["joint-cyclic:2:1"], "{v}");
+    // The keys of diagnose on tracker points: found in the order added, each with its
+    // effect, joint, values and validation RMS.
+    let found = v["found"].as_array().unwrap();
+    assert_eq!(found.len(), 1, "{v}");
+    assert_eq!(found[0]["effect"], "joint-cyclic");
+    assert_eq!(found[0]["joint"], 2);
+    assert_eq!(found[0]["request"], "joint-cyclic:2:1");
     let (a, b) = (
-        v["values"]["joint-cyclic2.n1.a"].as_f64().unwrap(),
-        v["values"]["joint-cyclic2.n1.b"].as_f64().unwrap(),
+        found[0]["values"]["joint-cyclic2.n1.a"].as_f64().unwrap(),
+        found[0]["values"]["joint-cyclic2.n1.b"].as_f64().unwrap(),
     );
     assert!(
         (a - 0.002).abs() < 2e-4 && (b + 0.001).abs() < 2e-4,
@@ -983,6 +989,15 @@ fn diagnose_finds_a_cyclic_error_in_a_socket_session_and_nothing_in_a_geometric_
     );
     assert!(extended * 10.0 < geometric, "{h}");
     assert!(extended < 0.03, "{h}");
+    assert_eq!(v["validation"], "held-out groups");
+    assert_eq!(v["baseline_validation_rms_mm"], h["geometric_mm"]);
+    assert_eq!(v["final_validation_rms_mm"], h["extended_mm"]);
+    // Down to what the stated σ leaves.
+    let floor = v["noise_floor_mm"].as_f64().unwrap();
+    assert!(
+        extended < 2.0 * floor && floor > 0.005,
+        "{extended} mm, floor {floor} mm"
+    );
     assert_eq!(v["held_out_worse"], false);
     // The model written carries the effect: identify on it starts at the noise.
     let text = std::fs::read_to_string(&model).unwrap();
@@ -992,7 +1007,7 @@ fn diagnose_finds_a_cyclic_error_in_a_socket_session_and_nothing_in_a_geometric_
     std::fs::create_dir(&plain).unwrap();
     let (data, _) = session(&plain, "socket:4x10,distance:40", 7);
     let w = diagnose(&data, &split);
-    assert!(names(&w["found"]).is_empty(), "{w}");
+    assert!(w["found"].as_array().unwrap().is_empty(), "{w}");
     let rounds = w["rounds"].as_array().unwrap();
     assert_eq!(rounds.len(), 1, "{w}");
     assert_eq!(rounds[0]["accepted"], false);

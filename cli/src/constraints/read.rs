@@ -283,6 +283,19 @@ pub fn parse<const N: usize>(
     for (g, ls) in groups.iter_mut().zip(&lengths) {
         check_group(g, ls, origin, units.length())?;
     }
+    // Radians read as degrees: a session of any size touches its sockets, planes and bars from
+    // poses that span far more than ±6.3° (a unit given explicitly is never second-guessed).
+    let rows: Vec<&Row<N>> = groups.iter().flat_map(|g| g.rows.iter()).collect();
+    let widest = rows
+        .iter()
+        .flat_map(|r| r.q.iter())
+        .fold(0.0f64, |m, q| m.max(q.to_degrees().abs()));
+    if units.angle_unit.is_none() && rows.len() >= 8 && widest <= 2.0 * PI + 1e-9 {
+        crate::refuse!(
+            "{origin}: joint readings look like radians (every reading lies within ±6.28): pass \
+             --angle-unit rad (or --angle-unit deg to keep them)"
+        );
+    }
     Ok(Session { groups })
 }
 

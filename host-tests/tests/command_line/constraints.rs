@@ -299,6 +299,24 @@ fn joint_readings_in_radians_are_read_with_angle_unit() {
         r["after"]["identification_rms_mm"].as_f64().unwrap(),
     );
     assert!((a - b).abs() < 0.05 * a, "calibrated {a} vs {b}");
+    // Without --angle-unit the radians are refused, and the reason says which flag (not the
+    // lengths, which then look 20 times too long).
+    for command in ["identify", "diagnose", "check"] {
+        let out = kinecal(&[
+            command,
+            "--robot",
+            s(&data_file("er20.toml")),
+            "--data",
+            s(&rad_file),
+        ]);
+        assert_eq!(out.status.code(), Some(2), "{command}");
+        let e = stderr(&out);
+        assert!(
+            e.contains("look like radians") && e.contains("--angle-unit rad"),
+            "{command}: {e}"
+        );
+        assert_eq!(e.trim().lines().count(), 1, "{e}");
+    }
 }
 
 #[test]

@@ -4,10 +4,8 @@
 //! the parameters it changed and what these constraints cannot determine; one self-contained
 //! HTML page ([`crate::report_html::constraint_page`]) and its figures as a summary.
 
-use super::constraints::{constraints, residuals, split_groups};
-use crate::calibration::acceptance::judge;
+use super::constraints::{constraints, judge_groups, residuals, split_groups};
 use crate::calibration::inputs::HoldoutArgs;
-use crate::constraints::effects::measurements;
 use crate::constraints::fit::shapes_of;
 use crate::constraints::read::{by_kind, Group, Session};
 use crate::constraints::report::{Change, ConstraintReportSummary, HeldOutKind};
@@ -61,16 +59,7 @@ pub fn report<const N: usize>(options: &Options, inputs: Inputs<N>) -> anyhow::R
     let (before_shapes, after_shapes) = (shapes_of(&nominal, &ident), shapes_of(&model, &ident));
     let before = residuals(&nominal, &ident, &before_shapes, &valid);
     let after = residuals(&model, &ident, &after_shapes, &valid);
-    let acceptance = judge(
-        (
-            before.validation_rms_mm,
-            after.validation_rms_mm,
-            after.identification_rms_mm,
-        ),
-        &measurements(&ident),
-        &measurements(&valid),
-        Vec::new(),
-    );
+    let acceptance = judge_groups(&before, &after, &ident, &valid);
     let held_out_worse = acceptance.as_ref().map(|a| a.held_out_worse);
     let checked = crate::constraints::check::check(
         &file,

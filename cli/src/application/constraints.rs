@@ -91,16 +91,7 @@ pub fn identify<const N: usize>(
     let before = residuals(&nominal, &ident, &before_shapes, &valid);
     let after = residuals(&fitted.robot, &ident, &fitted.shapes, &valid);
     let name = |p: &Param| p.name(&fitted.robot).to_string();
-    let acceptance = crate::calibration::acceptance::judge(
-        (
-            before.validation_rms_mm,
-            after.validation_rms_mm,
-            after.identification_rms_mm,
-        ),
-        &measurements(&ident),
-        &measurements(&valid),
-        Vec::new(),
-    );
+    let acceptance = judge_groups(&before, &after, &ident, &valid);
     let all = crate::calibration::model_params(&fitted.robot, &file.tilt_joints());
     let report = ConstraintIdentifyReport {
         method: "lm".into(),
@@ -197,6 +188,26 @@ fn parameters<const N: usize>(
         },
     )?;
     Ok(params)
+}
+
+/// The acceptance of a model on held-out groups (`before`, `after`: the starting model's and
+/// the model's figures), with the joint ranges of the identification and held-out rows.
+pub(crate) fn judge_groups<const N: usize>(
+    before: &Residuals,
+    after: &Residuals,
+    ident: &[Group<N>],
+    valid: &[Group<N>],
+) -> Option<crate::calibration::acceptance::Acceptance> {
+    crate::calibration::acceptance::judge(
+        (
+            before.validation_rms_mm,
+            after.validation_rms_mm,
+            after.identification_rms_mm,
+        ),
+        &measurements(ident),
+        &measurements(valid),
+        Vec::new(),
+    )
 }
 
 /// Before/after figures: the RMS of the identification rows against the fit's shapes, and per

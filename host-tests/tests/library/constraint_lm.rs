@@ -200,14 +200,9 @@ fn sockets_and_distances_calibrate_as_tracker_points_of_the_same_poses() {
     // A rigid motion of the whole robot changes no socket residual nor distance: the base pose
     // is held, and the first joint's row (which the base's motion mixes with, as for tracker
     // points); otherwise the same number as tracker points hold.
-    for p in [
-        Param::BaseX,
-        Param::BaseY,
-        Param::BaseZ,
-        Param::BaseRx,
-        Param::BaseRy,
-        Param::BaseRz,
-    ] {
+    let base: Vec<Param> = params.iter().copied().filter(|p| p.is_base()).collect();
+    assert_eq!(base.len(), 6);
+    for p in base {
         assert!(held.contains(&p), "{p:?} not held: {held:?}");
         assert!(!tracker_held.contains(&p), "{p:?} held by the tracker LM");
     }

@@ -461,7 +461,8 @@ impl<T: Real, const N: usize, V: ValueStorage, Storage: LmStorage<T>, Penalty: L
     fn accumulate<M: Observation<T, N>>(&mut self, m: &M) {
         let full = self.full_columns();
         let gradient_only = self.gradient_only();
-        let (columns, mut sums) = split_parts::<_, Storage>(self.st.parts(), full, gradient_only);
+        let (columns, mut sums) =
+            split_parts::<_, Storage>(self.st.parts(), full, gradient_only, false);
         let robot = if self.phase == Phase::Evaluate {
             &self.candidate
         } else {

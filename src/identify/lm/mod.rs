@@ -99,6 +99,6 @@ pub use penalty::{
 pub use residual::{observation_cost, rms_error, rms_orientation_error};
 pub use status::{LmError, LmProgress, LmStop};
 pub use storage::{
-    add_dense_rows, FixedLm, LmParts, LmPartsRef, LmStorage, LM_FLAG_VECTORS, LM_INDEX_VECTORS,
-    LM_VECTORS,
+    add_batch_rows, add_dense_rows, FixedLm, LmParts, LmPartsRef, LmStorage, LM_FLAG_VECTORS,
+    LM_INDEX_VECTORS, LM_VECTORS,
 };

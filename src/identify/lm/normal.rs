@@ -38,16 +38,51 @@ pub(super) struct NormalSums<'a, T, S> {
     pub cy: &'a mut [T],
     pub cz: &'a mut [T],
     pub nz: &'a mut [usize],
+    /// Rows collected for [`LmStorage::add_batch`] (`S::BATCH_ROWS` rows of `stride`, then
+    /// their residuals); empty: every pose's rows are added at once.
+    pub batch: &'a mut [T],
+    /// Rows collected in `batch` and not yet added.
+    pub batched: usize,
     pub kernel: PhantomData<S>,
 }
 
+impl<T: Real, S: LmStorage<T>> NormalSums<'_, T, S> {
+    /// Adds the rows collected in the batch (none: nothing to do) to the normal equations of
+    /// the first `n` parameters.
+    pub fn flush(&mut self, n: usize) {
+        if self.batched == 0 {
+            return;
+        }
+        let (rows, residuals) = self.batch.split_at(S::BATCH_ROWS * self.stride);
+        S::add_batch(
+            (&mut *self.jtj, &mut *self.jtr),
+            self.stride,
+            n,
+            &rows[..self.batched * self.stride],
+            &residuals[..self.batched],
+        );
+        self.batched = 0;
+    }
+}
+
 /// A storage's arrays as what one pose reads (the parameters, scales, estimated set) and where
-/// it adds (the normal equations and their per-pose scratch).
+/// it adds (the normal equations and their per-pose scratch). `batched`: the rows of dense
+/// poses are collected and added in blocks when the storage does that
+/// ([`LmStorage::BATCH_ROWS`]) and has the room; the caller then flushes the sums at the end.
 pub(super) fn split_parts<T: Real, S: LmStorage<T>>(
     p: LmParts<'_, T>,
     full: bool,
     gradient_only: bool,
+    batched: bool,
 ) -> (Columns<'_, T>, NormalSums<'_, T, S>) {
+    let room = S::BATCH_ROWS
+        .checked_mul(p.stride + 1)
+        .is_some_and(|need| p.batch.len() >= need);
+    let batch = if batched && S::BATCH_ROWS >= 3 && room && !gradient_only {
+        p.batch
+    } else {
+        &mut []
+    };
     let columns = Columns {
         params: p.params,
         scale: p.scale,
@@ -65,6 +100,8 @@ pub(super) fn split_parts<T: Real, S: LmStorage<T>>(
         cy: p.cy,
         cz: p.cz,
         nz: p.nz,
+        batch,
+        batched: 0,
         kernel: PhantomData,
     };
     (columns, sums)
@@ -239,12 +276,23 @@ fn accumulate_rows<R: Rows, T: Real, const N: usize, V: ValueStorage, S: LmStora
     let s = out.stride;
     // Column k is (cx[k], cy[k], cz[k]) (zero when it does not enter); `nz`: the entering
     // non-zero ones. Tables (only a robot with room for effects can have one) touch two knots
-    // of many: their columns are set apart.
+    // of many: their columns are set apart. A pass that collects rows for a block update
+    // writes the columns straight into the batch's next three rows.
     let with_tables =
         V::CAPACITY > 0 && robot.effects().iter().any(|e| e.kind == EffectKind::Table);
+    let batching = S::BATCH_ROWS > 0 && !out.batch.is_empty() && !with_tables;
     let k_nz = if with_tables {
         columns_with_tables::<R, T, N, V, S>(fk, robot, set, weight, out)
     } else {
+        let b = out.batched;
+        let (dx, dy, dz) = if batching {
+            // `batched + 3 ≤ S::BATCH_ROWS` rows of `s` (a full batch is added at once).
+            let (x, rest) = out.batch[b * s..(b + 3) * s].split_at_mut(s);
+            let (y, z) = rest.split_at_mut(s);
+            (x, y, z)
+        } else {
+            (&mut *out.cx, &mut *out.cy, &mut *out.cz)
+        };
         let mut k_nz = 0;
         for k in 0..n {
             let mut c = scaled(R::column(fk, robot, params[k]), scale[k], reach);
@@ -258,11 +306,17 @@ fn accumulate_rows<R: Rows, T: Real, const N: usize, V: ValueStorage, S: LmStora
                 out.nz[k_nz] = k;
                 k_nz += 1;
             }
-            (out.cx[k], out.cy[k], out.cz[k]) = (c.x, c.y, c.z);
+            (dx[k], dy[k], dz[k]) = (c.x, c.y, c.z);
         }
         k_nz
     };
-    let (cx, cy, cz, nz) = (&out.cx[..n], &out.cy[..n], &out.cz[..n], &out.nz[..k_nz]);
+    let (cx, cy, cz) = if batching {
+        let rows = &out.batch[out.batched * s..(out.batched + 3) * s];
+        (&rows[..n], &rows[s..s + n], &rows[2 * s..2 * s + n])
+    } else {
+        (&out.cx[..n], &out.cy[..n], &out.cz[..n])
+    };
+    let nz = &out.nz[..k_nz];
     if gradient_only {
         for &i in nz {
             out.jtr[i] += Vector3::new(cx[i], cy[i], cz[i]).dot(&r);
@@ -272,7 +326,19 @@ fn accumulate_rows<R: Rows, T: Real, const N: usize, V: ValueStorage, S: LmStora
     // Most columns enter (the geometric case): whole contiguous rows, zero columns adding
     // nothing. Few (tables touch two knots of many): only the pairs that do.
     if 2 * k_nz >= n {
-        S::add_rows((out.jtj, out.jtr), s, (cx, cy, cz), [r.x, r.y, r.z], nz);
+        if batching {
+            // The rows join the batch (the zero columns add nothing there either); a full
+            // batch is added.
+            let b = out.batched;
+            let residuals = &mut out.batch[S::BATCH_ROWS * s..];
+            residuals[b..b + 3].copy_from_slice(&[r.x, r.y, r.z]);
+            out.batched += 3;
+            if out.batched + 3 > S::BATCH_ROWS {
+                out.flush(n);
+            }
+        } else {
+            S::add_rows((out.jtj, out.jtr), s, (cx, cy, cz), [r.x, r.y, r.z], nz);
+        }
         return r.norm_squared();
     }
     // Sparse (a model with effects, where tables touch few of many columns): how many of the

@@ -129,10 +129,12 @@ impl<T: Real, const N: usize, V: ValueStorage> Pass<'_, T, N, V> {
             part.storage.parts(),
             self.columns.full,
             self.columns.gradient_only,
+            true,
         );
         for m in poses {
             part.cost += accumulate_pose(fk, self.robot, m, &self.columns, &mut sums);
         }
+        sums.flush(n);
         part.poses += poses.len();
         Ok(())
     }

@@ -66,6 +66,10 @@ pub struct LmParts<'a, T> {
     /// `held[k]`: the caller holds parameter k at its start value
     /// ([`crate::identify::lm::Levenberg::hold`]).
     pub held: &'a mut [bool],
+    /// Room for the rows a pass collects before adding them in one block
+    /// ([`LmStorage::BATCH_ROWS`] rows of `stride` entries, then their `BATCH_ROWS` residuals);
+    /// empty when the storage adds every pose's rows at once (the default, firmware).
+    pub batch: &'a mut [T],
 }
 
 /// Read-only view of the parts a report or a snapshot needs (fields as in [`LmParts`]).
@@ -117,6 +121,23 @@ pub trait LmStorage<T: Real> {
         })
     }
 
+    /// Rows (three per point, three per orientation) a pass over a slice of poses
+    /// ([`crate::identify::lm::Pass::accumulate`]) collects in [`LmParts::batch`] before adding
+    /// them to the normal equations in one block by [`LmStorage::add_batch`]: one load and store
+    /// of `JᵀJ` per block instead of per pose, a matrix product a host can run at its
+    /// processor's speed. 0 (the default): every pose's rows are added at once by
+    /// [`LmStorage::add_rows`], as the solver's own passes always do. The sums are the same up
+    /// to rounding (their order differs).
+    const BATCH_ROWS: usize = 0;
+
+    /// Adds `residuals.len()` collected rows (row `b` at `rows[b·stride..b·stride + n]`, its
+    /// residual `residuals[b]`) to `JᵀJ` (lower triangle, first `n` rows) and `Jᵀr`:
+    /// [`add_batch_rows`] (the default). A host may override it with a faster kernel that
+    /// forms the same sums.
+    fn add_batch(sums: (&mut [T], &mut [T]), stride: usize, n: usize, rows: &[T], residuals: &[T]) {
+        add_batch_rows(sums, stride, n, rows, residuals);
+    }
+
     /// Adds one pose's rows to `JᵀJ` (lower triangle) and `Jᵀr` as [`add_dense_rows`] does
     /// (the default). A host may override it with that same function compiled for wider vector
     /// instructions: the same products and sums in the same order, so bit-identical sums.
@@ -165,6 +186,34 @@ pub fn add_dense_rows<T: Real>(
         let cols = cx[..=i].iter().zip(&cy[..=i]).zip(&cz[..=i]);
         for (v, ((x, y), z)) in row.iter_mut().zip(cols) {
             *v += xi * *x + yi * *y + zi * *z;
+        }
+    }
+}
+
+/// Adds collected rows to the normal equations ([`LmStorage::add_batch`]): for each row `b`
+/// (`rows[b·stride..b·stride + n]`, residual `residuals[b]`), `jtr[i] += row[i]·residuals[b]`
+/// and, for every `j ≤ i < n`, `jtj[i·stride + j] += row[i]·row[j]`. Rows or sums shorter than
+/// that leave the rest alone.
+pub fn add_batch_rows<T: Real>(
+    (jtj, jtr): (&mut [T], &mut [T]),
+    stride: usize,
+    n: usize,
+    rows: &[T],
+    residuals: &[T],
+) {
+    for (b, &r) in residuals.iter().enumerate() {
+        let Some(row) = rows.get(b * stride..b * stride + n) else {
+            return;
+        };
+        for (i, &xi) in row.iter().enumerate() {
+            if let Some(v) = jtr.get_mut(i) {
+                *v += xi * r;
+            }
+            if let Some(out) = jtj.get_mut(i * stride..i * stride + i + 1) {
+                for (v, &xj) in out.iter_mut().zip(row) {
+                    *v += xi * xj;
+                }
+            }
         }
     }
 }
@@ -230,6 +279,7 @@ impl<T: Real, const P: usize> LmStorage<T> for FixedLm<T, P> {
             active,
             before,
             held,
+            batch: &mut [],
         }
     }
 

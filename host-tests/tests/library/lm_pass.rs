@@ -109,10 +109,15 @@ fn a_run_in_parts_is_the_run_of_step() {
     }
 }
 
+/// The host's passes (8 parts on both cores, each part's rows added in blocks of 16 poses) end
+/// where `step` does. Seed 8: a problem whose identifiability analysis is not on a knife edge.
+/// With seeds 4 to 7 the weakly determined wrist parameters (`d5`, `α6`, `θ5`) are held or
+/// estimated according to the order of summation alone: 3, 7 or 8 parts, rows in blocks or
+/// one pose at a time each choose one of them, minima within 0.3 % in cost of each other.
 #[test]
 fn the_host_runs_large_data_in_parts_with_the_same_outcome() {
     let n = kinecal_cli::compute::parallel::PARALLEL_MIN_POSES + 1000;
-    let (start, params, data) = problem(n, 4);
+    let (start, params, data) = problem(n, 8);
     let mut whole = solver(&start, &params);
     let end = whole.run(&data).unwrap();
     let mut host = solver(&start, &params);

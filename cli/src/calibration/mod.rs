@@ -43,6 +43,36 @@ impl ErrorStats {
             max_mm: errors.iter().cloned().fold(0.0, f64::max),
         })
     }
+
+    /// [`ErrorStats::of`] the [`pose_errors`] of `robot` on `data`, without holding the
+    /// errors: each part of the data ([`crate::compute::parallel::map_parts`]) is summed on
+    /// its thread and the parts' sums are added in order. The same figures as `of`; bit for
+    /// bit when the data are one part (fewer than
+    /// [`crate::compute::parallel::PARALLEL_MIN_POSES`] poses), else to rounding.
+    pub fn of_model<const N: usize, V: kinecal::ValueStorage>(
+        robot: &Robot<f64, N, V>,
+        data: &[Measurement<f64, N>],
+    ) -> Option<Self> {
+        if data.is_empty() {
+            return None;
+        }
+        let parts = crate::compute::parallel::map_parts(data, |part| {
+            let e: Vec<f64> = pose_error_vectors_of(robot, part)
+                .map(|v| v.norm())
+                .collect();
+            (
+                e.iter().map(|e| e * e).sum::<f64>(),
+                e.iter().sum::<f64>(),
+                e.iter().cloned().fold(0.0, f64::max),
+            )
+        });
+        let n = data.len() as f64;
+        Some(Self {
+            rms_mm: (parts.iter().map(|p| p.0).sum::<f64>() / n).sqrt(),
+            mean_mm: parts.iter().map(|p| p.1).sum::<f64>() / n,
+            max_mm: parts.iter().map(|p| p.2).fold(0.0, f64::max),
+        })
+    }
 }
 
 /// Per-pose 3-D position errors (mm) of `robot` on `data`: the lengths of
@@ -64,17 +94,23 @@ pub fn pose_error_vectors<const N: usize, V: kinecal::ValueStorage>(
     data: &[Measurement<f64, N>],
 ) -> Vec<nalgebra::Vector3<f64>> {
     crate::compute::parallel::map_parts(data, |part| {
-        let mut fk = ForwardKinematics::new();
-        part.iter()
-            .map(
-                |m| match fk.compute_at(robot, &m.q, m.tool as usize, m.temp_c) {
-                    Some(p) => m.point - p,
-                    None => nalgebra::Vector3::repeat(f64::NAN),
-                },
-            )
-            .collect::<Vec<_>>()
+        pose_error_vectors_of(robot, part).collect::<Vec<_>>()
     })
     .concat()
+}
+
+/// [`pose_error_vectors`] of one part of the data, on the calling thread.
+fn pose_error_vectors_of<'a, const N: usize, V: kinecal::ValueStorage>(
+    robot: &'a Robot<f64, N, V>,
+    data: &'a [Measurement<f64, N>],
+) -> impl Iterator<Item = nalgebra::Vector3<f64>> + 'a {
+    let mut fk = ForwardKinematics::new();
+    data.iter().map(
+        move |m| match fk.compute_at(robot, &m.q, m.tool as usize, m.temp_c) {
+            Some(p) => m.point - p,
+            None => nalgebra::Vector3::repeat(f64::NAN),
+        },
+    )
 }
 
 /// Every parameter of a model by name, in report order: base, the MDH rows, the tool point,
@@ -155,8 +191,8 @@ impl Residuals {
         ident: &[Measurement<f64, N>],
         valid: &[Measurement<f64, N>],
     ) -> Self {
-        let i = ErrorStats::of(&pose_errors(robot, ident));
-        let v = ErrorStats::of(&pose_errors(robot, valid));
+        let i = ErrorStats::of_model(robot, ident);
+        let v = ErrorStats::of_model(robot, valid);
         let io = ErrorStats::of(&orientation_errors_deg(robot, ident));
         let vo = ErrorStats::of(&orientation_errors_deg(robot, valid));
         Self {

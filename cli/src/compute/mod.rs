@@ -1,10 +1,15 @@
 //! The desktop's computing kit under every application module: both cores for passes over many
 //! poses ([`parallel`]), the library LM's storage sized from the problem on the heap
-//! ([`vec_lm`]), models' effect values on the heap ([`host_values`]), dense factorisations
-//! arranged as matrix products ([`dense`]) and point-set registration ([`registration`]).
+//! ([`vec_lm`]) with its vector kernels ([`rows_avx2`], [`batch_avx2`]), models' effect values
+//! on the heap ([`host_values`]), large lists on huge pages ([`huge_pages`]), dense
+//! factorisations arranged as matrix products ([`dense`]) and point-set registration
+//! ([`registration`]).
 
+#[cfg(target_arch = "x86_64")]
+pub mod batch_avx2;
 pub mod dense;
 pub mod host_values;
+pub mod huge_pages;
 pub mod parallel;
 pub mod registration;
 #[cfg(target_arch = "x86_64")]

@@ -347,7 +347,7 @@ pub fn read_bytes<const N: usize>(bytes: &[u8]) -> Result<Dataset<N>, CsvError> 
     let (prefix, body) = bytes.split_at(body_start);
     let parts = split_at_lines(body, crate::compute::parallel::PARTS);
     let read = crate::compute::parallel::map_each(&parts, |part| {
-        let lines = part.iter().filter(|b| **b == b'\n').count() as u32;
+        let lines = memchr::memchr_iter(b'\n', part).count() as u32;
         (read_records::<N, _>(prefix.chain(*part)), lines)
     });
     // The parts in order: the first error (its line counted from the file's start) is the
@@ -370,7 +370,7 @@ pub fn read_bytes<const N: usize>(bytes: &[u8]) -> Result<Dataset<N>, CsvError> 
             .unwrap_or_default(),
         // One allocation of the final size: growing it part by part would hold the old and
         // the new list at once (and up to twice the records).
-        records: Vec::with_capacity(total),
+        records: crate::compute::huge_pages::with_capacity(total),
     };
     // Each part's records moved to their place on several threads (a part's reader numbers
     // the prefix's lines too, as the whole file's reader does: its lines are shifted by the

@@ -378,7 +378,7 @@ fn observe_each_once<const N: usize>(
     observe_record: impl Fn(&Record<N>, &mut Vec<Measurement<f64, N>>) -> anyhow::Result<()> + Sync,
 ) -> anyhow::Result<(Vec<Measurement<f64, N>>, Vec<Pose>)> {
     let n = records.len();
-    let mut measurements: Vec<Measurement<f64, N>> = Vec::with_capacity(n);
+    let mut measurements: Vec<Measurement<f64, N>> = crate::compute::huge_pages::with_capacity(n);
     let slots = &mut measurements.spare_capacity_mut()[..n];
     let parts = crate::compute::parallel::PARTS;
     let size = n.div_ceil(parts).max(1);

@@ -25,6 +25,7 @@ mod one_reflector;
 mod report;
 mod reports;
 mod robot_file;
+mod thermal_tracker;
 mod units;
 mod unknown_tool;
 mod ur10_distances;

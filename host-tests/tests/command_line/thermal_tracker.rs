@@ -1,0 +1,53 @@
+//! `identify --effect thermal-expansion` on a tracker file with a `temp_c` column: a simulated
+//! warm-up of a steel ER20 (15 → 35 °C, 1.2e-5 per kelvin) gives its expansion back, the
+//! held-out poses reach the noise floor with the term and stay well above it without.
+
+use crate::common::*;
+
+#[test]
+fn thermal_expansion_is_fitted_from_a_warming_tracker_session() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = data_file("er20.toml");
+    let data = dir.path().join("warm.csv");
+    let c = 1.2e-5;
+    kinecal_ok(&[
+        "simulate",
+        "--robot",
+        s(&robot),
+        "--poses",
+        "400",
+        "--noise-mm",
+        "0.01",
+        "--seed",
+        "21",
+        "--geom-errors",
+        "--temperature",
+        "15:35",
+        "--effect",
+        &format!("thermal-expansion:0:{c}"),
+        "--out",
+        s(&data),
+    ]);
+    let head = std::fs::read_to_string(&data).unwrap();
+    assert!(head.lines().next().unwrap().ends_with(",temp_c"), "{head}");
+    // Every 5th pose held out: the session's temperatures on both sides.
+    let split = ["--json", "--holdout", "0.2", "--split", "every:5"];
+    let plain = json_of(&run_on("identify", &robot, &data, &split));
+    let mut with_term = split.to_vec();
+    with_term.extend(["--effect", "thermal-expansion"]);
+    let v = json_of(&run_on("identify", &robot, &data, &with_term));
+    assert_eq!(v["converged"], true, "{v}");
+    let fitted = v["parameters"]["thermal-expansion1"].as_f64().unwrap();
+    let held = |v: &serde_json::Value| v["after"]["validation_rms_mm"].as_f64().unwrap();
+    // Noise 0.01 mm per axis: a held-out floor near 0.0173 mm.
+    let floor = 0.01 * 3f64.sqrt();
+    eprintln!(
+        "tracker warm-up 15 -> 35 °C: c = {fitted:e} per K (truth {c:e}); held-out RMS {} mm \
+         without the term, {} mm with it (floor {floor:.4})",
+        held(&plain),
+        held(&v)
+    );
+    assert!((fitted - c).abs() < 0.05 * c, "c = {fitted:e}");
+    assert!(held(&v) < 1.2 * floor, "{v}");
+    assert!(held(&plain) > 2.0 * held(&v), "{plain}");
+}

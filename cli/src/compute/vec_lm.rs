@@ -136,20 +136,18 @@ impl<T: Real> LmStorage<T> for VecLm<T> {
         rows: &[usize],
     ) {
         #[cfg(target_arch = "x86_64")]
-        if std::any::TypeId::of::<T>() == std::any::TypeId::of::<f64>() {
-            let f = |v: &[T]| -> &[f64] {
-                // SAFETY: `T` is `f64` (checked just above): the same type, length and layout.
-                unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<f64>(), v.len()) }
-            };
-            let f_mut = |v: &mut [T]| -> &mut [f64] {
-                // SAFETY: as above; a reborrow of the caller's exclusive borrow.
-                unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<f64>(), v.len()) }
-            };
-            let r64 = f(&r);
+        if let (Some(jtj), Some(jtr), Some(cx), Some(cy), Some(cz), Some(r64)) = (
+            as_f64_mut(&mut *sums.0),
+            as_f64_mut(&mut *sums.1),
+            as_f64(columns.0),
+            as_f64(columns.1),
+            as_f64(columns.2),
+            as_f64(&r),
+        ) {
             if crate::compute::rows_avx2::add_rows_f64(
-                (f_mut(&mut *sums.0), f_mut(&mut *sums.1)),
+                (jtj, jtr),
                 stride,
-                (f(columns.0), f(columns.1), f(columns.2)),
+                (cx, cy, cz),
                 [r64[0], r64[1], r64[2]],
                 rows,
             ) {
@@ -174,22 +172,13 @@ impl<T: Real> LmStorage<T> for VecLm<T> {
     /// ([`crate::compute::batch_avx2`]), else the library's loop.
     fn add_batch(sums: (&mut [T], &mut [T]), stride: usize, n: usize, rows: &[T], residuals: &[T]) {
         #[cfg(target_arch = "x86_64")]
-        if std::any::TypeId::of::<T>() == std::any::TypeId::of::<f64>() {
-            let f = |v: &[T]| -> &[f64] {
-                // SAFETY: `T` is `f64` (checked just above): the same type, length and layout.
-                unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<f64>(), v.len()) }
-            };
-            let f_mut = |v: &mut [T]| -> &mut [f64] {
-                // SAFETY: as above; a reborrow of the caller's exclusive borrow.
-                unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<f64>(), v.len()) }
-            };
-            if crate::compute::batch_avx2::add_batch_f64(
-                (f_mut(&mut *sums.0), f_mut(&mut *sums.1)),
-                stride,
-                n,
-                f(rows),
-                f(residuals),
-            ) {
+        if let (Some(jtj), Some(jtr), Some(rows), Some(residuals)) = (
+            as_f64_mut(&mut *sums.0),
+            as_f64_mut(&mut *sums.1),
+            as_f64(rows),
+            as_f64(residuals),
+        ) {
+            if crate::compute::batch_avx2::add_batch_f64((jtj, jtr), stride, n, rows, residuals) {
                 return;
             }
         }
@@ -225,6 +214,24 @@ impl<T: Real> LmStorage<T> for VecLm<T> {
         }
         Ok(())
     }
+}
+
+/// `v` as the `f64`s it is when `T` is `f64` (the type of the AVX2 kernels), else `None`.
+#[cfg(target_arch = "x86_64")]
+fn as_f64<T: Real>(v: &[T]) -> Option<&[f64]> {
+    (std::any::TypeId::of::<T>() == std::any::TypeId::of::<f64>()).then(|| {
+        // SAFETY: `T` is `f64` (checked just above): the same type, length and layout.
+        unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<f64>(), v.len()) }
+    })
+}
+
+/// [`as_f64`] for writing.
+#[cfg(target_arch = "x86_64")]
+fn as_f64_mut<T: Real>(v: &mut [T]) -> Option<&mut [f64]> {
+    (std::any::TypeId::of::<T>() == std::any::TypeId::of::<f64>()).then(|| {
+        // SAFETY: as in `as_f64`; a reborrow of the caller's exclusive borrow.
+        unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<f64>(), v.len()) }
+    })
 }
 
 /// The library's default [`LmStorage::solve_work`] (the trait's provided method, reached

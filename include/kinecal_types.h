@@ -424,6 +424,13 @@ typedef struct kc_compensate_config {
   // Singular when the scaled Jacobian's conditioning falls below `singular · reach`, >= 0.
   // Default 0.01.
   float singular;
+  // 1: the model is compensated at `temperature_c` (its thermal-expansion term, if it has
+  // one, scales every length by 1 + c·(T − T0)); 0 (the default, and what a zeroed
+  // configuration says): at the term's reference temperature T0.
+  uint8_t at_temperature;
+  // The temperature (°C) when `at_temperature` is 1, finite: the controller's sensor.
+  // Default 0 (not read).
+  float temperature_c;
 } kc_compensate_config;
 
 // Where the tool should go, in the measurement frame.

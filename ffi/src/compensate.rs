@@ -57,6 +57,13 @@ pub struct kc_compensate_config {
     /// Singular when the scaled Jacobian's conditioning falls below `singular · reach`, >= 0.
     /// Default 0.01.
     pub singular: f32,
+    /// 1: the model is compensated at `temperature_c` (its thermal-expansion term, if it has
+    /// one, scales every length by 1 + c·(T − T0)); 0 (the default, and what a zeroed
+    /// configuration says): at the term's reference temperature T0.
+    pub at_temperature: u8,
+    /// The temperature (°C) when `at_temperature` is 1, finite: the controller's sensor.
+    /// Default 0 (not read).
+    pub temperature_c: f32,
 }
 
 impl From<Config<f32>> for kc_compensate_config {
@@ -69,6 +76,8 @@ impl From<Config<f32>> for kc_compensate_config {
             max_step_rad: c.max_step,
             orientation_scale_mm: c.orientation_scale.unwrap_or(0.0),
             singular: c.singular,
+            at_temperature: u8::from(c.temperature_c.is_some()),
+            temperature_c: c.temperature_c.unwrap_or(0.0),
         }
     }
 }
@@ -81,9 +90,10 @@ fn config_of(c: &kc_compensate_config) -> Kc<Config<f32>> {
         c.max_step_rad,
         c.orientation_scale_mm,
         c.singular,
+        c.temperature_c,
     ])?;
     let iterations = u8::try_from(c.iterations).map_err(|_| KC_INVALID_ARGUMENT)?;
-    if iterations == 0 || c.orientation_scale_mm < 0.0 {
+    if iterations == 0 || c.orientation_scale_mm < 0.0 || c.at_temperature > 1 {
         return Err(KC_INVALID_ARGUMENT);
     }
     let cfg = Config {
@@ -98,9 +108,7 @@ fn config_of(c: &kc_compensate_config) -> Kc<Config<f32>> {
             Some(c.orientation_scale_mm)
         },
         singular: c.singular,
-        // The C configuration has no temperature yet: models are compensated at their
-        // thermal-expansion term's reference temperature.
-        temperature_c: None,
+        temperature_c: (c.at_temperature == 1).then_some(c.temperature_c),
     };
     if cfg.is_valid() {
         Ok(cfg)

@@ -368,3 +368,100 @@ fn handles_are_checked_for_null_alignment_and_initialisation() {
         assert!(!m.to_bytes().is_empty() && m.to_bytes() != b"unknown status");
     }
 }
+
+/// A model with a thermal-expansion term, loaded from its binary form, compensated at the
+/// temperature the configuration gives (`at_temperature`, `temperature_c`): the library's
+/// command at that temperature bit for bit, and at 35 °C not the command at the reference.
+/// A default configuration compensates at the reference; a flag other than 0 or 1 and a
+/// non-finite temperature are refused.
+#[test]
+fn compensation_at_a_temperature_is_the_library_s() {
+    use kinecal::io::model_blob;
+    use kinecal::model::effects::EffectKind;
+    let mut model: Robot<f32, 6, kinecal::Inline<KC_MAX_EFFECT_VALUES>> =
+        lib_robot(1.0).with_capacity().expect("capacity");
+    // Steel, referred to 20 °C.
+    model
+        .effects_mut()
+        .push(EffectKind::Thermal, 0, 6, 0, 20.0, 0.0, &[1.2e-5])
+        .expect("thermal term");
+    let mut blob = vec![0u8; model_blob::encoded_len(&model)];
+    model_blob::encode(&model, &mut blob).expect("encoded");
+    let mut r = handle::<kc_robot>();
+    // SAFETY: valid pointers (here and below).
+    assert_eq!(
+        unsafe { kc_robot_load(&mut *r, blob.as_ptr(), blob.len()) },
+        KC_OK
+    );
+    let nominal = lib_robot(0.0);
+    let mut fk = ForwardKinematics::<f32, 6>::new();
+    let mut c_cfg = kc_compensate_config::from(Config::<f32>::default());
+    assert_eq!((c_cfg.at_temperature, c_cfg.temperature_c), (0, 0.0));
+    c_cfg.at_temperature = 1;
+    c_cfg.temperature_c = 35.0;
+    let warm = Config {
+        temperature_c: Some(35.0),
+        ..Config::default()
+    };
+    let mut moved = 0.0f32;
+    for q in poses(8, 5) {
+        fk.compute(&nominal, &q);
+        let p = fk.flange_pose().o;
+        let target = Target::Point(p);
+        let c_target = kc_target {
+            kind: 0,
+            xyz_mm: [p.x, p.y, p.z],
+            rot: [0.0; 9],
+        };
+        let want = compensate(&model, &target, &q, &warm).expect("compensated");
+        let at_reference = compensate(&model, &target, &q, &Config::default()).expect("ok");
+        let (mut got, mut got_ref) = (kc_solution::default(), kc_solution::default());
+        // SAFETY: as above.
+        let (s, s_ref) = unsafe {
+            (
+                kc_compensate(&*r, &c_target, q.as_ptr(), &c_cfg, &mut got),
+                kc_compensate(&*r, &c_target, q.as_ptr(), std::ptr::null(), &mut got_ref),
+            )
+        };
+        assert_eq!((s, s_ref), (KC_OK, KC_OK));
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&got.q[..6]), bits(&want.q));
+        assert_eq!(bits(&got_ref.q[..6]), bits(&at_reference.q));
+        moved = moved.max(
+            want.q
+                .iter()
+                .zip(&at_reference.q)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f32::max),
+        );
+    }
+    // 15 K of steel moves the commands by tens of µrad: the temperature was used.
+    assert!(moved > 1e-5, "largest change {moved} rad");
+    let q = poses(1, 5)[0];
+    let c_target = kc_target {
+        kind: 0,
+        xyz_mm: [1000.0, 0.0, 1000.0],
+        rot: [0.0; 9],
+    };
+    for (bad, why) in [
+        (
+            kc_compensate_config {
+                at_temperature: 2,
+                ..c_cfg
+            },
+            KC_INVALID_ARGUMENT,
+        ),
+        (
+            kc_compensate_config {
+                temperature_c: f32::NAN,
+                ..c_cfg
+            },
+            KC_NOT_FINITE,
+        ),
+    ] {
+        let mut got = kc_solution::default();
+        // SAFETY: as above.
+        let s = unsafe { kc_compensate(&*r, &c_target, q.as_ptr(), &bad, &mut got) };
+        assert_eq!(s, why);
+    }
+}

@@ -33,15 +33,7 @@ pub struct ErrorStats {
 
 impl ErrorStats {
     pub fn of(errors: &[f64]) -> Option<Self> {
-        if errors.is_empty() {
-            return None;
-        }
-        let n = errors.len() as f64;
-        Some(Self {
-            rms_mm: (errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt(),
-            mean_mm: errors.iter().sum::<f64>() / n,
-            max_mm: errors.iter().cloned().fold(0.0, f64::max),
-        })
+        Self::of_sums(&[Sums::of(errors)], errors.len())
     }
 
     /// [`ErrorStats::of`] the [`pose_errors`] of `robot` on `data`, without holding the
@@ -60,18 +52,42 @@ impl ErrorStats {
             let e: Vec<f64> = pose_error_vectors_of(robot, part)
                 .map(|v| v.norm())
                 .collect();
-            (
-                e.iter().map(|e| e * e).sum::<f64>(),
-                e.iter().sum::<f64>(),
-                e.iter().cloned().fold(0.0, f64::max),
-            )
+            Sums::of(&e)
         });
-        let n = data.len() as f64;
+        Self::of_sums(&parts, data.len())
+    }
+
+    /// The statistics of `n` errors from the sums of their parts, added in order; `None`
+    /// for none.
+    fn of_sums(parts: &[Sums], n: usize) -> Option<Self> {
+        if n == 0 {
+            return None;
+        }
+        let n = n as f64;
         Some(Self {
-            rms_mm: (parts.iter().map(|p| p.0).sum::<f64>() / n).sqrt(),
-            mean_mm: parts.iter().map(|p| p.1).sum::<f64>() / n,
-            max_mm: parts.iter().map(|p| p.2).fold(0.0, f64::max),
+            rms_mm: (parts.iter().map(|p| p.squares).sum::<f64>() / n).sqrt(),
+            mean_mm: parts.iter().map(|p| p.sum).sum::<f64>() / n,
+            max_mm: parts.iter().map(|p| p.max).fold(0.0, f64::max),
         })
+    }
+}
+
+/// What [`ErrorStats`] needs of a run of errors: the sums of their squares and of themselves,
+/// and the largest.
+#[derive(Clone, Copy, Debug)]
+struct Sums {
+    squares: f64,
+    sum: f64,
+    max: f64,
+}
+
+impl Sums {
+    fn of(errors: &[f64]) -> Self {
+        Self {
+            squares: errors.iter().map(|e| e * e).sum(),
+            sum: errors.iter().sum(),
+            max: errors.iter().cloned().fold(0.0, f64::max),
+        }
     }
 }
 

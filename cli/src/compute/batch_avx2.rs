@@ -9,9 +9,11 @@
 //! them); `host-tests/scripts/scale_identify.sh` measures what it saves.
 
 #[cfg(target_arch = "x86_64")]
+use crate::compute::rows_avx2::tail;
+#[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::{
     __m256d, __m256i, _mm256_fmadd_pd, _mm256_loadu_pd, _mm256_maskload_pd, _mm256_maskstore_pd,
-    _mm256_set1_pd, _mm256_setr_epi64x, _mm256_setzero_pd, _mm256_storeu_pd,
+    _mm256_set1_pd, _mm256_setzero_pd, _mm256_storeu_pd,
 };
 
 /// `add_batch_rows` for `f64` with AVX2 and FMA; `false`, with nothing done, when the
@@ -48,15 +50,6 @@ pub fn add_batch_f64(
     true
 }
 
-/// Lane mask of four `f64` lanes: lane `l` on when `l < on`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn first_lanes(on: usize) -> __m256i {
-    let on = on.min(4) as i64;
-    let lane = |l: i64| if l < on { -1 } else { 0 };
-    _mm256_setr_epi64x(lane(0), lane(1), lane(2), lane(3))
-}
-
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn kernel(
@@ -70,7 +63,7 @@ unsafe fn kernel(
     let (m, g, b0) = (jtj.as_mut_ptr(), jtr.as_mut_ptr(), rows.as_ptr());
     // `Jᵀr`, four entries at a time.
     for i in (0..n).step_by(4) {
-        let mask = first_lanes(n - i);
+        let mask = tail(n - i);
         let mut acc = _mm256_maskload_pd(g.wrapping_add(i), mask);
         for (b, &r) in residuals.iter().enumerate() {
             let x = _mm256_maskload_pd(b0.wrapping_add(b * s + i), mask);
@@ -88,9 +81,9 @@ unsafe fn kernel(
             let keep = |r: usize, v: usize| -> __m256i {
                 let i = i0 + r;
                 if i >= n || i < j0 + 4 * v {
-                    first_lanes(0)
+                    tail(0)
                 } else {
-                    first_lanes(i - j0 - 4 * v + 1)
+                    tail(i - j0 - 4 * v + 1)
                 }
             };
             let masks = [0, 1, 2, 3].map(|r| [keep(r, 0), keep(r, 1)]);
@@ -105,10 +98,7 @@ unsafe fn kernel(
             }
             // The columns this block reads exist up to `n`: whole vectors where they can be.
             let full = j0 + 8 <= n;
-            let cmask = [
-                first_lanes(n.saturating_sub(j0)),
-                first_lanes(n.saturating_sub(j0 + 4)),
-            ];
+            let cmask = [tail(n.saturating_sub(j0)), tail(n.saturating_sub(j0 + 4))];
             if top < j0 + 4 {
                 // The block's right half lies above the diagonal for all its rows (the
                 // triangle's edge): only the left half.

@@ -125,10 +125,11 @@ unsafe fn kernel(
     }
 }
 
-/// The lanes `0..len` (`len` 1 to 3) of a masked load or store.
+/// The lanes `0..len` of a masked load or store (none for 0, all four from 4 on; also
+/// `crate::compute::batch_avx2`'s masks).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn tail(len: usize) -> __m256i {
+pub(crate) unsafe fn tail(len: usize) -> __m256i {
     let on = |lane: usize| if lane < len { -1 } else { 0 };
     _mm256_setr_epi64x(on(0), on(1), on(2), on(3))
 }

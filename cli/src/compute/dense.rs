@@ -6,7 +6,7 @@
 //! where nearly everything is a matrix product (blocked, vectorised kernels), is several times
 //! faster.
 
-use nalgebra::{Cholesky, DMatrix, Dyn};
+use nalgebra::{Cholesky, DMatrix, DMatrixView, DMatrixViewMut, Dyn};
 
 /// Rows per block.
 pub const BLOCK: usize = 64;
@@ -76,12 +76,27 @@ pub fn cholesky(mut h: DMatrix<f64>) -> Option<Cholesky<f64, Dyn>> {
             LowerFactor::new(l11)?.solve_in_place(&mut l21t);
             let l21 = l21t.transpose();
             h.view_mut((end, start), (p - end, nb)).copy_from(&l21);
-            // The trailing matrix `A22 − L21 L21ᵀ`.
-            h.view_mut((end, end), (p - end, p - end))
-                .gemm(-1.0, &l21, &l21t, 1.0);
+            // The trailing matrix `A22 − L21 L21ᵀ` (its lower triangle).
+            sub_gram_lower(
+                h.view_mut((end, end), (p - end, p - end)),
+                l21.as_view(),
+                l21t.as_view(),
+            );
         }
     }
     Some(Cholesky::pack_dirty(h))
+}
+
+/// `S − A Aᵀ` into the square `s`, on and below its diagonal blocks of [`BLOCK`] columns
+/// only (half the products of the whole; the rest of the upper triangle is left as it was).
+/// `at` is `Aᵀ`.
+pub fn sub_gram_lower(mut s: DMatrixViewMut<f64>, a: DMatrixView<f64>, at: DMatrixView<f64>) {
+    let n = s.nrows();
+    for j0 in (0..n).step_by(BLOCK) {
+        let w = BLOCK.min(n - j0);
+        s.view_mut((j0, j0), (n - j0, w))
+            .gemm(-1.0, &a.rows(j0, n - j0), &at.columns(j0, w), 1.0);
+    }
 }
 
 /// `H⁻¹` from the Cholesky factor `H = L Lᵀ`: `L⁻ᵀ L⁻¹`. `None` when not finite.

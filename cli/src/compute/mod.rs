@@ -6,6 +6,7 @@
 //! ([`registration`]).
 
 #[cfg(target_arch = "x86_64")]
+pub mod banded;
 pub mod batch_avx2;
 pub mod dense;
 pub mod host_values;

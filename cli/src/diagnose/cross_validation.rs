@@ -13,7 +13,8 @@
 //! is accurate to second order, so the screen ranks candidates like the refits do at a fraction
 //! of the cost; only the best few are refitted.
 
-use crate::compute::dense::{cholesky, cholesky_inverse, LowerFactor};
+use crate::compute::banded::{is_banded, BandedFactor};
+use crate::compute::dense::{cholesky, cholesky_inverse, sub_gram_lower, LowerFactor};
 use crate::compute::parallel;
 pub use crate::diagnose::folds::{subset, Folds};
 use crate::diagnose::linear::{
@@ -106,8 +107,15 @@ impl PoseColumns {
     }
 }
 
-/// Cholesky factor `L` of one fold's penalised training matrix and `L⁻¹(g − Π x)`.
-type FoldFactor = (LowerFactor, DVector<f64>);
+/// One fold's penalised training normal equations `H δ = g − Π x` (`H` with the tiny ridge),
+/// the Cholesky factor `L` of `H` and `L⁻¹(g − Π x)`.
+#[derive(Debug)]
+struct FoldFactor {
+    h: DMatrix<f64>,
+    rhs: DVector<f64>,
+    l: LowerFactor,
+    z: DVector<f64>,
+}
 
 /// The current model linearised at its full-data solution, with per-fold factors.
 #[derive(Debug)]
@@ -146,9 +154,9 @@ impl Linearised {
             let mut h = &tr.a + &pen;
             add_tiny_ridge(&mut h);
             let rhs = &tr.g - &pen * &x;
-            let l = LowerFactor::new(cholesky(h)?.unpack_dirty())?;
+            let l = LowerFactor::new(cholesky(h.clone())?.unpack_dirty())?;
             let z = l.l().solve_lower_triangular(&rhs)?;
-            Some((l, z))
+            Some(FoldFactor { h, rhs, l, z })
         });
         Self {
             fold_poses,
@@ -170,6 +178,18 @@ impl Linearised {
     /// [`PoseKinematics::columns`] lays them out); `table`: the extra columns are a table's
     /// knots, penalised like this.
     pub fn screen(&self, extra: &PoseColumns, m: usize, table: Option<TablePenalty>) -> Vec<f64> {
+        self.screen_by(extra, m, table, None)
+    }
+
+    /// [`Self::screen`], solving each fold's system by `elimination` (`None`: the cheaper one
+    /// for this candidate, [`Elimination::cheaper`]). Both give the same errors up to rounding.
+    pub fn screen_by(
+        &self,
+        extra: &PoseColumns,
+        m: usize,
+        table: Option<TablePenalty>,
+        elimination: Option<Elimination>,
+    ) -> Vec<f64> {
         let n = self.blocks.len() - 1;
         debug_assert_eq!(
             extra.poses(),
@@ -200,9 +220,23 @@ impl Linearised {
                             df[(*cj, *ci)] += v;
                         }
                     }
-                    let bc = &mut bf[ci * p..(ci + 1) * p];
-                    for (gj, gv) in self.columns.pose(i) {
-                        bc[*gj] += gv.dot(cv);
+                }
+                // B's columns two at a time (a table's two knots around the reading), so that
+                // the model's columns are read once per pair.
+                let model = self.columns.pose(i);
+                let mut rest = cols;
+                while let [(c1, v1), (c2, v2), tail @ ..] = rest {
+                    let (o1, o2) = (c1 * p, c2 * p);
+                    for (gj, gv) in model {
+                        bf[o1 + gj] += dot3(gv, v1);
+                        bf[o2 + gj] += dot3(gv, v2);
+                    }
+                    rest = tail;
+                }
+                if let [(c1, v1)] = rest {
+                    let bc = &mut bf[c1 * p..(c1 + 1) * p];
+                    for (gj, gv) in model {
+                        bc[*gj] += dot3(gv, v1);
                     }
                 }
             }
@@ -210,7 +244,7 @@ impl Linearised {
         let (bt, dt, et) = (sum(&b), sum(&d), sum(&e));
         let mut out = vec![f64::INFINITY; n];
         for (f, ((mut btr, mut dtr), mut etr)) in b.into_iter().zip(d).zip(e).enumerate() {
-            let Some((factor, z)) = &self.factors[f] else {
+            let Some(factor) = &self.factors[f] else {
                 continue;
             };
             // The training blocks: totals minus the fold's own (in place).
@@ -223,41 +257,24 @@ impl Linearised {
                 add_table_penalty(&mut pen, m, &diag, tp);
                 dtr += pen;
             }
-            let l = factor.l();
-            let (dp, dc) = if m > 0 {
-                // y = L⁻¹ B (in place), then the Schur complement D − yᵀy.
-                let mut y = btr;
-                factor.solve_in_place(&mut y);
-                let yt = y.transpose();
-                let mut s = dtr;
-                s.gemm(-1.0, &yt, &y, 1.0);
-                add_tiny_ridge(&mut s);
-                let mut rhs = etr;
-                rhs.gemv(-1.0, &yt, z, 1.0);
-                let Some(sc) = cholesky(s) else { continue };
-                let dc = sc.solve(&rhs);
-                let mut t = z.clone();
-                t.gemv(-1.0, &y, &dc, 1.0);
-                if !l.tr_solve_lower_triangular_mut(&mut t) {
-                    continue;
-                }
-                (t, dc)
-            } else {
-                let Some(dp) = l.tr_solve_lower_triangular(z) else {
-                    continue;
-                };
-                (dp, DVector::zeros(0))
+            let eliminate = elimination.unwrap_or_else(|| Elimination::cheaper(p, m, &dtr));
+            let solved = match eliminate {
+                _ if m == 0 => factor
+                    .l
+                    .l()
+                    .tr_solve_lower_triangular(&factor.z)
+                    .map(|dp| (dp, DVector::zeros(0))),
+                Elimination::Candidate => eliminate_candidate(factor, btr, dtr, etr),
+                Elimination::Model => eliminate_model(factor, btr, dtr, etr),
             };
+            let Some((dp, dc)) = solved else { continue };
+            let (dp, dc) = (dp.as_slice(), dc.as_slice());
             for &i in &self.fold_poses[f] {
                 let mut sq = 0.0;
                 for b in self.blocks[i]..self.blocks[i + 1] {
                     let mut pred = self.residuals[b];
-                    for (j, c) in self.columns.pose(b) {
-                        pred -= c * dp[*j];
-                    }
-                    for (j, c) in extra.pose(b) {
-                        pred -= c * dc[*j];
-                    }
+                    subtract_columns(&mut pred, self.columns.pose(b), dp);
+                    subtract_columns(&mut pred, extra.pose(b), dc);
                     sq += pred.norm_squared();
                 }
                 out[i] = sq;
@@ -265,6 +282,104 @@ impl Linearised {
         }
         out
     }
+}
+
+/// `a · b`, written out: the screen's inner loops run it billions of times on large data.
+#[inline(always)]
+fn dot3(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+    a.x * b.x + a.y * b.y + a.z * b.z
+}
+
+/// `pred −= Σ c · x[j]` over the sparse columns `(j, c)`.
+#[inline(always)]
+fn subtract_columns(pred: &mut Vector3<f64>, columns: &[(usize, Vector3<f64>)], x: &[f64]) {
+    let (mut px, mut py, mut pz) = (pred.x, pred.y, pred.z);
+    for (j, c) in columns {
+        let s = x[*j];
+        px -= c.x * s;
+        py -= c.y * s;
+        pz -= c.z * s;
+    }
+    *pred = Vector3::new(px, py, pz);
+}
+
+/// How the screen solves a fold's training system with a candidate's `m` columns appended,
+/// `[H B; Bᵀ D] [δp; δc] = [g; e]`: by one of the two Schur complements.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Elimination {
+    /// The model's parameters first, on the factor of `H` the round keeps: `D − BᵀH⁻¹B`
+    /// (`p²m + pm² + m³/3` operations).
+    Model,
+    /// The candidate's first, when `D` is a band (a table's knots): `H − B D⁻¹ Bᵀ`, a new
+    /// `p × p` factor (`p²m + p³/3`), the cheaper for a table with more knots than about half
+    /// the model's parameters.
+    Candidate,
+}
+
+impl Elimination {
+    /// The one with fewer operations for `p` model parameters and the candidate block `d`.
+    pub fn cheaper(p: usize, m: usize, d: &DMatrix<f64>) -> Self {
+        let (pf, mf) = (p as f64, m as f64);
+        if pf * pf * pf < 3.0 * pf * mf * mf + mf * mf * mf && is_banded(d, TABLE_BAND) {
+            Elimination::Candidate
+        } else {
+            Elimination::Model
+        }
+    }
+}
+
+/// Half-bandwidth of a table's block of the normal matrix: a reading's rows touch the two
+/// knots around it, and the smoothness penalty (second differences) couples knots two apart.
+const TABLE_BAND: usize = 2;
+
+/// [`Elimination::Model`]: `y = L⁻¹ B`, the Schur complement `D − yᵀy` for `δc`, then `δp`.
+fn eliminate_model(
+    factor: &FoldFactor,
+    btr: DMatrix<f64>,
+    dtr: DMatrix<f64>,
+    etr: DVector<f64>,
+) -> Option<(DVector<f64>, DVector<f64>)> {
+    let mut y = btr;
+    factor.l.solve_in_place(&mut y);
+    let yt = y.transpose();
+    let mut s = dtr;
+    sub_gram_lower(s.as_view_mut(), yt.as_view(), y.as_view());
+    add_tiny_ridge(&mut s);
+    let mut rhs = etr;
+    rhs.gemv(-1.0, &yt, &factor.z, 1.0);
+    let dc = cholesky(s)?.solve(&rhs);
+    let mut t = factor.z.clone();
+    t.gemv(-1.0, &y, &dc, 1.0);
+    factor
+        .l
+        .l()
+        .tr_solve_lower_triangular_mut(&mut t)
+        .then_some((t, dc))
+}
+
+/// [`Elimination::Candidate`]: `D = R Rᵀ` (band), `W = B R⁻ᵀ`, the Schur complement
+/// `H − W Wᵀ` for `δp`, then `δc = R⁻ᵀ(R⁻¹e − Wᵀ δp)`.
+fn eliminate_candidate(
+    factor: &FoldFactor,
+    btr: DMatrix<f64>,
+    mut dtr: DMatrix<f64>,
+    etr: DVector<f64>,
+) -> Option<(DVector<f64>, DVector<f64>)> {
+    add_tiny_ridge(&mut dtr);
+    let r = BandedFactor::new(&dtr, TABLE_BAND)?;
+    let mut w = btr;
+    r.solve_right_transposed(&mut w);
+    let mut we = etr;
+    r.solve_lower(&mut we);
+    let mut s = factor.h.clone();
+    sub_gram_lower(s.as_view_mut(), w.as_view(), w.transpose().as_view());
+    let mut rhs = factor.rhs.clone();
+    rhs.gemv(-1.0, &w, &we, 1.0);
+    let dp = cholesky(s)?.solve(&rhs);
+    let mut dc = we;
+    dc.gemv_tr(-1.0, &w, &dp, 1.0);
+    r.solve_upper(&mut dc);
+    Some((dp, dc))
 }
 
 fn sum<R: nalgebra::Dim, C: nalgebra::Dim>(

@@ -28,3 +28,24 @@ fn blocked_factor_and_solves_match_the_unblocked_ones() {
     );
     assert!(cholesky(-h).is_none(), "negative definite");
 }
+
+/// The lower-triangle update is the whole product's below the diagonal blocks and leaves the
+/// upper triangle beyond them alone.
+#[test]
+fn lower_gram_update_matches_the_full_product_below_the_diagonal() {
+    let (n, k) = (2 * BLOCK + 9, 37);
+    let a = DMatrix::from_fn(n, k, |i, j| ((i * 7 + j * 13) % 19) as f64 - 9.0);
+    let s0 = DMatrix::from_fn(n, n, |i, j| (i + 3 * j) as f64);
+    let full = &s0 - &a * a.transpose();
+    let mut s = s0.clone();
+    sub_gram_lower(s.as_view_mut(), a.as_view(), a.transpose().as_view());
+    for j in 0..n {
+        for i in 0..n {
+            if i >= j {
+                assert_eq!(s[(i, j)], full[(i, j)], "({i}, {j})");
+            } else if i / BLOCK != j / BLOCK {
+                assert_eq!(s[(i, j)], s0[(i, j)], "({i}, {j}) written");
+            }
+        }
+    }
+}

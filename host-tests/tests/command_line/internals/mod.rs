@@ -2,6 +2,7 @@
 //! format, statistics and acceptance, selection, number formatting, the diagnose explanations.
 
 mod acceptance;
+mod banded;
 mod batch_avx2;
 mod convention;
 mod demo_report;

@@ -10,7 +10,7 @@ use kinecal::Measurement;
 use kinecal_cli::commands::diagnose::{run, Args};
 use kinecal_cli::diagnose::candidates::{catalogue, Candidate, CandidateKind, CatalogueConfig};
 use kinecal_cli::diagnose::cross_validation::{
-    candidate_columns, refit_errors, rms, Folds, Linearised,
+    candidate_columns, refit_errors, rms, Elimination, Folds, Linearised,
 };
 use kinecal_cli::diagnose::fit_geometry;
 use kinecal_cli::diagnose::linear::{squared_errors, Problem, TablePenalty};
@@ -21,6 +21,7 @@ use kinecal_cli::diagnose::significance::{
 use kinecal_cli::formats::measurements;
 use kinecal_cli::formats::robot_file::RobotFile;
 use kinecal_cli::simulation::{simulate, EffectArg, GeomErrors, Simulation};
+use nalgebra::DMatrix;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use rand_xoshiro::Xoshiro256PlusPlus;

@@ -90,6 +90,81 @@ fn linearised_screen_agrees_with_full_refits() {
     }
 }
 
+/// The screen's two ways of solving a fold's system (the model's parameters eliminated first,
+/// or a table's knots first, on their band factor) give the same held-out errors: for tables
+/// with fewer and with more knots than the model has parameters, on a model without and with a
+/// table of its own (whose knots are then model parameters).
+#[test]
+fn both_eliminations_of_the_screen_agree() {
+    let knots = [2e-4, -1e-4, 3e-4, 0.0, -2e-4, 1e-4, -3e-4];
+    let (_, d) = simulated(
+        vec![
+            effect("joint-table", 3, &knots, 1),
+            effect("joint-compliance", 2, &[3e-4], 1),
+        ],
+        0.01,
+        23,
+        400,
+    );
+    let (geo, held) = fit_geometry(&er20(), true, &[], &d).unwrap();
+    let mut params: Vec<Param> = ParamSet::<64>::full(6, false).unwrap().as_slice().to_vec();
+    params.retain(|p| !held.contains(p));
+    let (lo, hi) = (0..6).fold(([f64::MAX; 6], [f64::MIN; 6]), |(mut lo, mut hi), j| {
+        for m in &d {
+            lo[j] = lo[j].min(m.q[j]);
+            hi[j] = hi[j].max(m.q[j]);
+        }
+        (lo, hi)
+    });
+    let table = |joint: usize, knots: usize| Candidate {
+        kind: CandidateKind::Table {
+            start: lo[joint],
+            step: (hi[joint] - lo[joint]) / (knots - 1) as f64,
+            knots,
+        },
+        joint,
+    };
+    // The model: the geometry alone, then with a 40-knot table on joint 3.
+    let mut with_table = geo.clone();
+    let own = table(2, 40).add_to(&mut with_table).unwrap();
+    let mut params_t = params.clone();
+    params_t.extend(own);
+    for (robot, params) in [(geo.clone(), params), (with_table, params_t)] {
+        let problem = Problem::new(&robot, &params, TablePenalty::default()).unwrap();
+        let current = fit(&robot, &problem, &d, 20).unwrap().robot;
+        let lin = Linearised::new(&current, &problem, &d, &Folds::new(&d, 5, 0));
+        let p = problem.len();
+        for c in [table(1, 6), table(1, 30), table(1, 90), table(4, 150)] {
+            let mut robot_c = current.clone();
+            let extra = c.add_to(&mut robot_c).unwrap();
+            let m = extra.len();
+            let cols = candidate_columns(&robot_c, &extra, &d);
+            let pen = Some(TablePenalty::default());
+            let by_model = lin.screen_by(&cols, m, pen, Some(Elimination::Model));
+            let by_knots = lin.screen_by(&cols, m, pen, Some(Elimination::Candidate));
+            let worst = by_model
+                .iter()
+                .zip(&by_knots)
+                .map(|(a, b)| (a - b).abs() / a.max(1e-12))
+                .fold(0.0, f64::max);
+            eprintln!("p {p}, m {m}: worst relative difference {worst:.2e}");
+            assert!(by_model.iter().all(|e| e.is_finite()), "p {p}, m {m}");
+            assert!(worst < 1e-6, "p {p}, m {m}: {worst}");
+        }
+    }
+    // The cheaper one: the knots first only for a band with many knots.
+    let band = |m: usize| DMatrix::<f64>::identity(m, m);
+    assert_eq!(Elimination::cheaper(60, 10, &band(10)), Elimination::Model);
+    assert_eq!(
+        Elimination::cheaper(60, 150, &band(150)),
+        Elimination::Candidate
+    );
+    let mut dense = band(150);
+    dense[(140, 3)] = 0.5;
+    dense[(3, 140)] = 0.5;
+    assert_eq!(Elimination::cheaper(60, 150, &dense), Elimination::Model);
+}
+
 /// A table on the grid the data were made with is recovered: the residual drops to the noise
 /// and the knot values match the truth up to the part `theta` takes (a constant).
 #[test]

@@ -2,11 +2,11 @@
 //! poses ([`parallel`]), the library LM's storage sized from the problem on the heap
 //! ([`vec_lm`]) with its vector kernels ([`rows_avx2`], [`batch_avx2`]), models' effect values
 //! on the heap ([`host_values`]), large lists on huge pages ([`huge_pages`]), dense
-//! factorisations arranged as matrix products ([`dense`]) and point-set registration
-//! ([`registration`]).
+//! factorisations arranged as matrix products ([`dense`]), band factors ([`banded`]) and
+//! point-set registration ([`registration`]).
 
-#[cfg(target_arch = "x86_64")]
 pub mod banded;
+#[cfg(target_arch = "x86_64")]
 pub mod batch_avx2;
 pub mod dense;
 pub mod host_values;

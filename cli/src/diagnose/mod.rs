@@ -532,10 +532,9 @@ pub fn diagnose_with_progress<const N: usize>(
             let extra = c.add_to(&mut robot_c).ok()?;
             let cols = kinematics.columns(&robot_c, &extra);
             let table = matches!(c.kind, CandidateKind::Table { .. }).then_some(cfg.penalty);
-            let e = lin.screen(&cols, extra.len(), table);
             Some(Screened {
                 candidate: *c,
-                linear_rms_mm: rms(&e),
+                linear_rms_mm: lin.screen_rms(&cols, extra.len(), table),
             })
         };
         let mut screened: Vec<Screened> = parallel::map_each(&cands, screen)

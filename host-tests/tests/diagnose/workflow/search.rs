@@ -74,6 +74,12 @@ fn linearised_screen_agrees_with_full_refits() {
         let extra = c.add_to(&mut robot_c).unwrap();
         let cols = candidate_columns(&robot_c, &extra, &d);
         let screened = rms(&lin.screen(&cols, extra.len(), None));
+        // The round's figure, from the folds' normal sums, is the same RMS.
+        let from_sums = lin.screen_rms(&cols, extra.len(), None);
+        assert!(
+            (from_sums / screened - 1.0).abs() < 1e-8,
+            "{from_sums} vs {screened}"
+        );
         let mut p = problem.params.clone();
         p.extend(extra);
         let problem_c = Problem::new(&robot_c, &p, TablePenalty::default()).unwrap();
@@ -147,9 +153,19 @@ fn both_eliminations_of_the_screen_agree() {
                 .zip(&by_knots)
                 .map(|(a, b)| (a - b).abs() / a.max(1e-12))
                 .fold(0.0, f64::max);
-            eprintln!("p {p}, m {m}: worst relative difference {worst:.2e}");
+            // The RMS from the folds' normal sums is the per-pose errors' RMS.
+            let from_sums = lin.screen_rms(&cols, m, pen);
+            let sums_off = (from_sums / rms(&by_model) - 1.0).abs();
+            eprintln!(
+                "p {p}, m {m}: worst relative difference {worst:.2e}, RMS from sums {sums_off:.2e}"
+            );
             assert!(by_model.iter().all(|e| e.is_finite()), "p {p}, m {m}");
             assert!(worst < 1e-6, "p {p}, m {m}: {worst}");
+            assert!(
+                sums_off < 1e-8,
+                "p {p}, m {m}: {from_sums} vs {}",
+                rms(&by_model)
+            );
         }
     }
     // The cheaper one: the knots first only for a band with many knots.

@@ -82,10 +82,11 @@ pub struct Config {
     pub refit_iterations: u32,
     /// With a noise floor from repeated poses: stop once the held-out RMS is within this factor.
     pub floor_tolerance: f64,
-    /// Besides being significant, an addition must cut the held-out mean squared error by at
-    /// least this fraction: a real but negligible gain (a parameter that moves the predictions
-    /// by nanometres) is not worth a model term.
-    pub min_improvement: f64,
+    /// Besides being significant, an addition must lower the held-out RMS by at least this
+    /// fraction (0.02: 0.100 → 0.098 mm, a change a user sees in the report's three digits):
+    /// a real but negligible gain is not worth a model term, and a term that gains almost
+    /// nothing is a term whose size the data hardly determine.
+    pub min_rms_drop: f64,
     /// The largest size of each kind of finding that is accepted
     /// ([`plausibility::implausible`]).
     pub plausible: plausibility::Limits,
@@ -103,7 +104,7 @@ impl Default for Config {
             penalty: TablePenalty::default(),
             refit_iterations: 20,
             floor_tolerance: 1.05,
-            min_improvement: 0.01,
+            min_rms_drop: 0.02,
             plausible: plausibility::Limits::default(),
         }
     }
@@ -287,20 +288,15 @@ impl<const N: usize> Diagnosis<N> {
     }
 }
 
-/// Which tested candidate to add: among those that pass the test (p ≤ `threshold`, mean gain
-/// ≥ `min_gain` mm²), the one with the fewest parameters whose held-out mean squared error is
+/// Which tested candidate to add: among those that pass the test (p ≤ `threshold`) and reach a
+/// held-out RMS of at most `max_rms` mm, the one with the fewest parameters whose held-out mean squared error is
 /// within one standard error of the best one's (the "one-standard-error rule" of Hastie,
 /// Tibshirani & Friedman, §7.10: the standard error of the best model's cross-validated error).
 /// A table can imitate a scale error or a once-per-turn error; when the data cannot tell them
 /// apart, the simpler effect is the better name. Ties go to the lower held-out error.
-pub fn choose(
-    tested: &[Tested],
-    errors: &[&[f64]],
-    threshold: f64,
-    min_gain: f64,
-) -> Option<usize> {
+pub fn choose(tested: &[Tested], errors: &[&[f64]], threshold: f64, max_rms: f64) -> Option<usize> {
     let ok: Vec<usize> = (0..tested.len())
-        .filter(|&i| tested[i].test.p <= threshold && tested[i].test.mean >= min_gain)
+        .filter(|&i| tested[i].test.p <= threshold && tested[i].validation_rms_mm <= max_rms)
         .collect();
     let best = *ok.iter().min_by(|a, b| {
         tested[**a]
@@ -323,6 +319,17 @@ pub fn choose(
                     .total_cmp(&tested[*b].validation_rms_mm),
             )
         })
+}
+
+/// The candidate of `tested` with the lowest held-out RMS among those that pass the test
+/// (p ≤ `threshold`), with its relative drop of the held-out RMS from `rms`: what [`choose`]
+/// left out only for its size, when it chose nothing.
+pub fn too_small(tested: &[Tested], threshold: f64, rms: f64) -> Option<(&Tested, f64)> {
+    let t = tested
+        .iter()
+        .filter(|t| t.test.p <= threshold && t.validation_rms_mm < rms)
+        .min_by(|a, b| a.validation_rms_mm.total_cmp(&b.validation_rms_mm))?;
+    Some((t, 1.0 - t.validation_rms_mm / rms))
 }
 
 /// Fits the geometry: base started by registration when unknown, then LM over base (when
@@ -609,7 +616,7 @@ pub fn diagnose_with_progress<const N: usize>(
             &tested,
             &fits.iter().map(|f| f.2.as_slice()).collect::<Vec<_>>(),
             threshold,
-            cfg.min_improvement * cur_rms * cur_rms,
+            (1.0 - cfg.min_rms_drop) * cur_rms,
         );
         rounds.push(Round {
             start_rms_mm: cur_rms,
@@ -621,7 +628,16 @@ pub fn diagnose_with_progress<const N: usize>(
             seconds: tr.elapsed().as_secs_f64(),
         });
         let Some(i) = chosen else {
-            stop_reason = "no remaining candidate improves the held-out error significantly".into();
+            stop_reason = match too_small(&tested, threshold, cur_rms) {
+                Some((t, drop)) => format!(
+                    "the best significant candidate, {}, lowers the held-out RMS by only {} % \
+                     (an effect is added from {} %)",
+                    t.candidate.label(),
+                    sig(100.0 * drop, 2),
+                    sig(100.0 * cfg.min_rms_drop, 2)
+                ),
+                None => "no remaining candidate improves the held-out error significantly".into(),
+            };
             break;
         };
         let (robot_c, problem_c, e) = fits.swap_remove(i);

@@ -12,12 +12,12 @@ use kinecal_cli::diagnose::candidates::{catalogue, Candidate, CandidateKind, Cat
 use kinecal_cli::diagnose::cross_validation::{
     candidate_columns, refit_errors, rms, Elimination, Folds, Linearised,
 };
-use kinecal_cli::diagnose::fit_geometry;
 use kinecal_cli::diagnose::linear::{squared_errors, Problem, TablePenalty};
 use kinecal_cli::diagnose::refit::fit;
 use kinecal_cli::diagnose::significance::{
     incomplete_beta, paired_improvement, repeat_noise, student_t_sf,
 };
+use kinecal_cli::diagnose::{choose, fit_geometry, too_small, Config, Tested};
 use kinecal_cli::formats::measurements;
 use kinecal_cli::formats::robot_file::RobotFile;
 use kinecal_cli::simulation::{simulate, EffectArg, GeomErrors, Simulation};

@@ -1,6 +1,8 @@
 //! One case: data with its hidden effects scaled to the noise floor, the diagnosis, what it named.
 
 use super::*;
+use kinecal_cli::diagnose::candidates::{Candidate, CandidateKind};
+use kinecal_cli::diagnose::plausibility::{implausible, Limits};
 
 pub fn sim<const N: usize>(
     l: &Loaded<N>,
@@ -32,37 +34,76 @@ pub fn unexplained<const N: usize>(
 }
 
 /// The data of a case: each hidden effect scaled so that what the geometry cannot absorb has an
-/// RMS of `amplitude` noise floors.
+/// RMS of `amplitude` noise floors; and which of the hidden effects (indices into `c.hidden`)
+/// are then beyond the sizes the search accepts ([`Limits`]): a wrist joint that needs 1.3° of
+/// deflection per metre, or a table of 5.3° peak to peak, to move the tool by ten noise floors.
 pub fn make_data<const N: usize>(
     l: &Loaded<N>,
     poses: usize,
     c: &Case,
-) -> Vec<Measurement<f64, N>> {
-    if let Some(raw) = &c.raw {
-        return sim(l, poses, c.noise_mm, c.seed, raw.clone());
-    }
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(c.seed ^ 0xeff);
-    let floor = 3f64.sqrt() * c.noise_mm;
-    let mut effects = Vec::new();
-    for h in &c.hidden {
-        let j = l.nominal.joints()[h.joint - 1];
-        let mut e = h.unit(&mut rng, j.lower, j.upper);
-        let u = unexplained(l, poses, c.seed, vec![e.clone()]);
-        let k = c.amplitude * floor / u.max(1e-9);
-        e.values.iter_mut().for_each(|v| *v *= k);
-        effects.push(e);
-    }
-    sim(l, poses, c.noise_mm, c.seed, effects)
+) -> (Vec<Measurement<f64, N>>, Vec<usize>) {
+    let effects = match &c.raw {
+        Some(raw) => raw.clone(),
+        None => {
+            let mut rng = Xoshiro256PlusPlus::seed_from_u64(c.seed ^ 0xeff);
+            let floor = 3f64.sqrt() * c.noise_mm;
+            let mut effects = Vec::new();
+            for h in &c.hidden {
+                let j = l.nominal.joints()[h.joint - 1];
+                let mut e = h.unit(&mut rng, j.lower, j.upper);
+                let u = unexplained(l, poses, c.seed, vec![e.clone()]);
+                let k = c.amplitude * floor / u.max(1e-9);
+                e.values.iter_mut().for_each(|v| *v *= k);
+                effects.push(e);
+            }
+            effects
+        }
+    };
+    let beyond = effects
+        .iter()
+        .enumerate()
+        .filter(|(_, e)| beyond_limits(e))
+        .map(|(i, _)| i)
+        .collect();
+    (sim(l, poses, c.noise_mm, c.seed, effects), beyond)
+}
+
+/// Whether the search would refuse `e` as physically implausible for its kind.
+fn beyond_limits(e: &EffectArg) -> bool {
+    let kind = match e.kind.as_str() {
+        "joint-table" => CandidateKind::Table {
+            start: 0.0,
+            step: 1.0,
+            knots: e.values.len(),
+        },
+        "joint-cyclic" => CandidateKind::Cyclic(e.order),
+        "joint-scale" => CandidateKind::Scale,
+        "joint-compliance" => CandidateKind::Compliance,
+        _ => return false,
+    };
+    let c = Candidate {
+        kind,
+        joint: e.joint,
+    };
+    implausible(&c, &e.values, &Limits::default()).is_some()
 }
 
 pub struct Outcome {
     pub named: Vec<String>,
+    /// The plausible hidden effects named exactly, nothing else, and the others refused.
     pub exact: bool,
+    /// The hidden effects beyond the plausibility limits.
+    pub beyond: Vec<String>,
     pub final_rms: f64,
     pub baseline_rms: f64,
     pub floor_est: f64,
     pub floor_true: f64,
     pub seconds: f64,
+    /// The smallest relative drop of the held-out RMS that an added effect gave (1 when none
+    /// was added).
+    pub least_gain: f64,
+    /// Why the search stopped, when a significant candidate was too small to be added.
+    pub too_small: Option<String>,
 }
 
 pub fn named<const N: usize>(d: &Diagnosis<N>) -> Vec<Hidden> {
@@ -108,7 +149,7 @@ pub fn exact(hidden: &[Hidden], found: &[Hidden]) -> bool {
 }
 
 pub fn run_case<const N: usize>(l: &Loaded<N>, poses: usize, c: &Case) -> Outcome {
-    let data = make_data(l, poses, c);
+    let (data, beyond) = make_data(l, poses, c);
     let t = Instant::now();
     let d = diagnose(&l.nominal, l.base_known, &[], &data, &Config::default()).unwrap();
     let seconds = t.elapsed().as_secs_f64();
@@ -117,14 +158,42 @@ pub fn run_case<const N: usize>(l: &Loaded<N>, poses: usize, c: &Case) -> Outcom
         eprintln!("{}", serde_json::to_string_pretty(&r).unwrap());
     }
     let found = named(&d);
+    let refused: Vec<Candidate> = d
+        .rounds
+        .iter()
+        .filter(|r| r.refused.is_some())
+        .filter_map(|r| Some(r.tested.get(r.chosen?)?.candidate))
+        .collect();
+    // An effect beyond the limits must be refused (its family, kind and joint), and the others
+    // named exactly.
+    let plausible: Vec<Hidden> = (0..c.hidden.len())
+        .filter(|i| !beyond.contains(i))
+        .map(|i| c.hidden[i].clone())
+        .collect();
+    let all_refused = beyond.iter().all(|&i| {
+        let h = &c.hidden[i];
+        refused
+            .iter()
+            .any(|r| r.id() == h.kind && r.joint + 1 == h.joint)
+    });
     Outcome {
         named: found.iter().map(|h| h.label()).collect(),
-        exact: exact(&c.hidden, &found),
+        exact: exact(&plausible, &found) && all_refused,
+        beyond: beyond.iter().map(|&i| c.hidden[i].label()).collect(),
         final_rms: d.final_validation_rms_mm,
         baseline_rms: d.baseline_validation_rms_mm,
         floor_est: d.noise_floor_mm,
         floor_true: 3f64.sqrt() * c.noise_mm,
         seconds,
+        least_gain: d
+            .found
+            .iter()
+            .map(|f| 1.0 - f.validation_rms_mm / f.before_rms_mm)
+            .fold(1.0, f64::min),
+        too_small: d
+            .stop_reason
+            .contains("by only")
+            .then(|| d.stop_reason.clone()),
     }
 }
 

@@ -88,9 +88,10 @@ pub fn run_matrix(file: &str) {
                 let Some(c) = cases.get(i) else { break };
                 let o = robots[c.robot].run(poses_of(&m, c), c);
                 eprintln!(
-                    "{}{}{}: named {:?}; held-out {:.4} → {:.4} mm = {:.2}× floor (est {:.4}, true {:.4}: {:.2}×), {:.2} s",
+                    "{}{}{}{}: named {:?}; held-out {:.4} → {:.4} mm = {:.2}× floor (est {:.4}, true {:.4}: {:.2}×), least gain {:.1} %, {:.2} s",
                     if (c.hidden.is_empty() && !o.named.is_empty()) || (!c.hidden.is_empty() && !o.exact) { "MISS " } else { "" },
                     if o.final_rms > 1.25 * o.floor_true { "FAR " } else { "" },
+                    if o.beyond.is_empty() { String::new() } else { format!("BEYOND {:?} ", o.beyond) },
                     describe(&m, c),
                     o.named,
                     o.baseline_rms,
@@ -99,8 +100,12 @@ pub fn run_matrix(file: &str) {
                     o.floor_est,
                     o.floor_true,
                     o.final_rms / o.floor_true,
+                    100.0 * o.least_gain,
                     o.seconds
                 );
+                if let Some(why) = &o.too_small {
+                    eprintln!("  stopped: {why}");
+                }
                 results.lock().unwrap().push((i, o));
             };
             std::thread::Builder::new().spawn_scoped(s, work).unwrap();
@@ -115,18 +120,37 @@ pub fn run_matrix(file: &str) {
     let mut gaps_true = Vec::new();
     let mut gaps_hidden = Vec::new();
     let mut secs = Vec::new();
+    // The smallest held-out RMS drop of an effect named in a case where it was hidden.
+    let mut least_gain = f64::INFINITY;
     // Per kind: cases, named exactly, final held-out / true floor of each.
     let mut by_kind: std::collections::BTreeMap<String, (usize, usize, Vec<f64>)> =
         Default::default();
+    // Cases where a significant candidate was too small to be added (diagnose::Config's margin).
+    let too_small = results
+        .iter()
+        .filter(|(_, o)| o.too_small.is_some())
+        .count();
+    // Cases with a hidden effect beyond the plausibility limits: refused as the search must,
+    // the others named exactly (their final RMS stays above the floor by what was refused).
+    let mut beyond_n = 0;
+    let mut beyond_ok = 0;
     for (i, o) in &results {
         let c = &cases[*i];
         secs.push(o.seconds);
+        if !o.beyond.is_empty() {
+            beyond_n += 1;
+            beyond_ok += usize::from(o.exact);
+            continue;
+        }
         if c.hidden.is_empty() {
             nothing_n += 1;
             false_alarms += usize::from(!o.named.is_empty());
         } else {
             hidden_n += 1;
             hidden_exact += usize::from(o.exact);
+            if o.exact {
+                least_gain = least_gain.min(o.least_gain);
+            }
             let key = if c.hidden.len() > 1 {
                 "two effects".to_string()
             } else {
@@ -175,7 +199,7 @@ pub fn run_matrix(file: &str) {
         }
     );
     println!(
-        "naming rate (hidden effects named exactly, nothing else): {hidden_exact}/{hidden_n} = {:.1} %",
+        "naming rate (plausible hidden effects named exactly, nothing else): {hidden_exact}/{hidden_n} = {:.1} %",
         100.0 * hidden_exact as f64 / hidden_n.max(1) as f64
     );
     for (k, (n, ok, gaps)) in &by_kind {
@@ -186,6 +210,14 @@ pub fn run_matrix(file: &str) {
             "  {k:30} {ok}/{n}   final/true floor mean {mean:.3}, max {max:.3}, ≤ 1.25 in {within}/{n}"
         );
     }
+    println!(
+        "hidden effects beyond the plausibility limits (not counted above): refused, the others named exactly, in {beyond_ok}/{beyond_n} cases"
+    );
+    println!("cases stopped by a significant candidate below the practical margin: {too_small}");
+    println!(
+        "smallest held-out RMS drop of a hidden effect named exactly: {:.1} %",
+        100.0 * least_gain
+    );
     println!(
         "false-alarm rate (something named, nothing hidden): {false_alarms}/{nothing_n} = {:.1} %",
         100.0 * false_alarms as f64 / nothing_n.max(1) as f64

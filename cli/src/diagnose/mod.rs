@@ -13,11 +13,13 @@
 //!    knots ([`crate::diagnose::refit`]); a refit is added only if its
 //!    per-pose held-out improvement passes the one-sided paired t test at `α / m` (Bonferroni
 //!    over the `m` candidates screened in the round, α = 5 %; see [`crate::diagnose::significance`])
-//!    and is not negligible (at least 1 % of the held-out mean squared error); of those, the
+//!    and lowers the held-out RMS by a margin a user notices (`Config::min_rms_drop`, 2 %); of
+//!    those, the
 //!    simplest one within one standard error of the best is added ([`choose`]). The screen's
 //!    candidates and the refits' folds are independent jobs, spread over the cores
 //!    ([`crate::compute::parallel::map_each`]); no result depends on how they were scheduled.
-//! 3. **Stop** when nothing passes, when the held-out RMS reaches the noise floor estimated from
+//! 3. **Stop** when nothing passes (or the best that passes is below the margin: the stop reason
+//!    says by how much), when the held-out RMS reaches the noise floor estimated from
 //!    repeated poses (if the data have any), or after `max_effects` additions.
 //! 4. **Noise floor**: repeated poses, else the final model's cross-validated held-out errors
 //!    with the fold fits' share taken out ([`crate::diagnose::significance::held_out_noise`]); never above
@@ -140,7 +142,7 @@ pub struct Round {
     /// Index into `tested` of the one added (or refused, see `refused`).
     pub chosen: Option<usize>,
     /// Why the chosen candidate was refused as physically implausible (then nothing was added
-    /// this round and its family is not offered again).
+    /// this round and its family is held back, [`held_back`]).
     pub refused: Option<String>,
     pub seconds: f64,
 }
@@ -289,8 +291,8 @@ impl<const N: usize> Diagnosis<N> {
 }
 
 /// Which tested candidate to add: among those that pass the test (p ≤ `threshold`) and reach a
-/// held-out RMS of at most `max_rms` mm, the one with the fewest parameters whose held-out mean squared error is
-/// within one standard error of the best one's (the "one-standard-error rule" of Hastie,
+/// held-out RMS of at most `max_rms` mm, the one with the fewest parameters whose held-out mean
+/// squared error is within one standard error of the best one's (the "one-standard-error rule" of Hastie,
 /// Tibshirani & Friedman, §7.10: the standard error of the best model's cross-validated error).
 /// A table can imitate a scale error or a once-per-turn error; when the data cannot tell them
 /// apart, the simpler effect is the better name. Ties go to the lower held-out error.
@@ -330,6 +332,22 @@ pub fn too_small(tested: &[Tested], threshold: f64, rms: f64) -> Option<(&Tested
         .filter(|t| t.test.p <= threshold && t.validation_rms_mm < rms)
         .min_by(|a, b| a.validation_rms_mm.total_cmp(&b.validation_rms_mm))?;
     Some((t, 1.0 - t.validation_rms_mm / rms))
+}
+
+/// Whether `c`'s family is held back after refusals (`refused`: each refused candidate with the
+/// number of effects found when it was refused; `found` effects now): when it was refused twice,
+/// or once and nothing has been added since.
+pub fn held_back(refused: &[(Candidate, usize)], c: &Candidate, found: usize) -> bool {
+    let at: Vec<usize> = refused
+        .iter()
+        .filter(|(r, _)| r.same_effect(c))
+        .map(|(_, at)| *at)
+        .collect();
+    match at.as_slice() {
+        [] => false,
+        [once] => *once == found,
+        _ => true,
+    }
 }
 
 /// Fits the geometry: base started by registration when unknown, then LM over base (when
@@ -493,8 +511,11 @@ pub fn diagnose_with_progress<const N: usize>(
     let mut errors = baseline_errors.clone();
     let mut free_tilt: Vec<usize> = free_tilt.to_vec();
     let mut found: Vec<Found<N>> = Vec::new();
-    // Candidates refused as physically implausible (their families are not offered again).
-    let mut refused: Vec<Candidate> = Vec::new();
+    // Candidates refused as physically implausible, with the number of effects found by then.
+    // A refused family is held back until another effect has been added (its fit was made with
+    // that effect still missing: a compliance at its limit reads beyond it while a table is
+    // missing); refused a second time, it is dropped.
+    let mut refused: Vec<(Candidate, usize)> = Vec::new();
     let mut rounds = Vec::new();
     let stop_reason;
     loop {
@@ -519,7 +540,7 @@ pub fn diagnose_with_progress<const N: usize>(
             .filter(|c| {
                 !c.present_in(&current, &free_tilt)
                     && !found.iter().any(|f| f.candidate.same_effect(c))
-                    && !refused.iter().any(|r| r.same_effect(c))
+                    && !held_back(&refused, c, found.len())
             })
             .collect();
         if cands.is_empty() {
@@ -633,8 +654,8 @@ pub fn diagnose_with_progress<const N: usize>(
                     "the best significant candidate, {}, lowers the held-out RMS by only {} % \
                      (an effect is added from {} %)",
                     t.candidate.label(),
-                    sig(100.0 * drop, 2),
-                    sig(100.0 * cfg.min_rms_drop, 2)
+                    sig(100.0 * drop, 3),
+                    sig(100.0 * cfg.min_rms_drop, 3)
                 ),
                 None => "no remaining candidate improves the held-out error significantly".into(),
             };
@@ -646,9 +667,9 @@ pub fn diagnose_with_progress<const N: usize>(
         let t = &tested[i];
         let values = t.candidate.values(&after);
         if let Some(why) = plausibility::implausible(&t.candidate, &values, &cfg.plausible) {
-            // Significant but no physical effect of its kind: refused, and the search goes on
-            // without its family.
-            refused.push(t.candidate);
+            // Significant but no physical effect of its kind: refused, and its family is held
+            // back until another effect has been added ([`held_back`]).
+            refused.push((t.candidate, found.len()));
             if let Some(r) = rounds.last_mut() {
                 r.refused = Some(why);
             }

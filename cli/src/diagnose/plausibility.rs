@@ -3,7 +3,8 @@
 //! A significant gain is not enough: a joint-angle table varying by 17° peak to peak next to a
 //! reflector on the joint's axis, or a joint deflecting by 13° per metre of lever arm, fits
 //! the noise of a few poses the effect barely moves, and no gearbox or bearing does that. Such
-//! a finding is refused with its reason and its family is not offered again. The limits are
+//! a finding is refused with its reason; its family is held back until another effect has been
+//! added, and dropped when refused a second time (`diagnose::held_back`). The limits are
 //! an order of magnitude above what industrial arms show (gear transmission errors and
 //! eccentricities of a few arc minutes, compliances of 1e-4 to 1e-3 rad per metre of the tool
 //! weight's lever arm, scale errors of parts per thousand, expansion of steel and aluminium

@@ -68,7 +68,8 @@ pub fn make_data<const N: usize>(
     (sim(l, poses, c.noise_mm, c.seed, effects), beyond)
 }
 
-/// Whether the search would refuse `e` as physically implausible for its kind.
+/// Whether `e` at its true size is beyond the plausibility limits (the search judges its fitted
+/// size, which may come in on the other side of a limit).
 fn beyond_limits(e: &EffectArg) -> bool {
     let kind = match e.kind.as_str() {
         "joint-table" => CandidateKind::Table {

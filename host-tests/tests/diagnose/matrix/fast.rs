@@ -80,6 +80,49 @@ fn fast_grid_tables_named_exactly_at_the_floor() {
     assert_picks(&m, &pick, 161);
 }
 
+/// A finding refused as implausible while another effect is still missing is offered again
+/// once that effect has been added: the grid matrix's UR10 case of seed 9260 hides a joint-2
+/// table (20° at 5°) and a joint-4 compliance at the 1° per m limit, whose first fit, with the
+/// table missing, reads 1.06° per m and is refused; after the table it is named, and the model
+/// ends at the floor.
+#[test]
+fn a_refused_finding_is_offered_again_after_another_is_added() {
+    use kinecal_cli::diagnose::candidates::CandidateKind;
+    let m = load_matrix_file("diagnose_matrix_grid.toml");
+    let ur10 = robot_index(&m, "ur10");
+    let hidden = vec!["joint-grid:2:20:5", "joint-compliance:4"];
+    let c = Case {
+        robot: ur10,
+        hidden: hidden.iter().map(|s| Hidden::parse(s)).collect(),
+        noise_mm: 0.04,
+        amplitude: 5.0,
+        seed: 9260,
+        raw: None,
+    };
+    let l = load_robot::<6>(&m.robots[ur10]);
+    let (data, beyond) = make_data(&l, poses_of(&m, &c), &c);
+    assert!(
+        beyond.is_empty(),
+        "the compliance is within the limits at its true size"
+    );
+    let d = diagnose(&l.nominal, l.base_known, &[], &data, &Config::default()).unwrap();
+    let compliance_4 = |k: CandidateKind, j: usize| k == CandidateKind::Compliance && j == 3;
+    let first = &d.rounds[0];
+    let refused = first.tested[first.chosen.expect("a candidate chosen")].candidate;
+    assert!(
+        first.refused.is_some() && compliance_4(refused.kind, refused.joint),
+        "round 1: {:?} refused: {:?}",
+        refused,
+        first.refused
+    );
+    let order: Vec<_> = d.found.iter().map(|f| f.candidate).collect();
+    assert_eq!(order.len(), 2, "{order:?}");
+    assert!(matches!(order[0].kind, CandidateKind::Table { .. }) && order[0].joint == 1);
+    assert!(compliance_4(order[1].kind, order[1].joint), "{order:?}");
+    // Named exactly, at the floor.
+    assert_picks(&m, &[(ur10, hidden, 0.04, 5.0)], 9260);
+}
+
 /// The index of the robot called `name` in `m`.
 pub fn robot_index(m: &Matrix, name: &str) -> usize {
     m.robots

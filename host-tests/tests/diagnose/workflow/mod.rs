@@ -17,7 +17,7 @@ use kinecal_cli::diagnose::refit::fit;
 use kinecal_cli::diagnose::significance::{
     incomplete_beta, paired_improvement, repeat_noise, student_t_sf,
 };
-use kinecal_cli::diagnose::{choose, fit_geometry, too_small, Config, Tested};
+use kinecal_cli::diagnose::{choose, fit_geometry, held_back, too_small, Config, Tested};
 use kinecal_cli::formats::measurements;
 use kinecal_cli::formats::robot_file::RobotFile;
 use kinecal_cli::simulation::{simulate, EffectArg, GeomErrors, Simulation};

@@ -111,6 +111,23 @@ fn a_finding_must_lower_the_held_out_rms_noticeably() {
     assert!(too_small(&unsure, threshold, start).is_none());
 }
 
+/// A family refused as implausible is held back until another effect has been added, then
+/// offered once more; refused a second time, it is held back for good. Other families are not.
+#[test]
+fn a_refused_family_is_offered_once_more_after_a_finding() {
+    let on = |kind, joint| Candidate { kind, joint };
+    let compliance = on(CandidateKind::Compliance, 3);
+    let other = on(CandidateKind::Compliance, 2);
+    assert!(!held_back(&[], &compliance, 0));
+    let once = [(compliance, 0)];
+    assert!(held_back(&once, &compliance, 0), "nothing added since");
+    assert!(!held_back(&once, &compliance, 1), "a table added since");
+    assert!(!held_back(&once, &other, 0), "another joint");
+    let twice = [(compliance, 0), (compliance, 1)];
+    assert!(held_back(&twice, &compliance, 2));
+    assert!(held_back(&twice, &compliance, 5));
+}
+
 /// Chi-square quantiles of the interval against tables.
 #[test]
 fn chi_square_quantiles_match_tables() {

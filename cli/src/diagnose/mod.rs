@@ -5,25 +5,25 @@
 //!    MDH rows + tool are fitted by the library's Levenberg–Marquardt; parameters the data
 //!    cannot determine are held (its identifiability analysis).
 //! 2. **Rounds.** With deterministic k-fold cross-validation (k = 5): every candidate of the
-//!    catalogue ([`crate::diagnose::candidates`]) is screened by one linearised step from the current
-//!    solution ([`crate::diagnose::cross_validation::Linearised`]), and the best grids of the most
-//!    promising joint tables have their knots' phase refined the same way ([`phase_search_starts`]);
-//!    the best few (3 effect families)
-//!    are refitted fold by fold by the library's Levenberg–Marquardt with a penalty on table
-//!    knots ([`crate::diagnose::refit`]); a refit is added only if its
-//!    per-pose held-out improvement passes the one-sided paired t test at `α / m` (Bonferroni
-//!    over the `m` candidates screened in the round, α = 5 %; see [`crate::diagnose::significance`])
-//!    and lowers the held-out RMS by a margin a user notices (`Config::min_rms_drop`, 2 %); of
-//!    those, the
-//!    simplest one within one standard error of the best is added ([`choose`]). The screen's
-//!    candidates and the refits' folds are independent jobs, spread over the cores
-//!    ([`crate::compute::parallel::map_each`]); no result depends on how they were scheduled.
+//!    catalogue ([`crate::diagnose::candidates`]) is screened by one linearised step from the
+//!    current solution ([`crate::diagnose::cross_validation::Linearised`]), and the best grids of
+//!    the most promising joint tables have their knots' phase refined the same way
+//!    ([`phase_search_starts`]); the best few (3 effect families) are refitted fold by fold by the
+//!    library's Levenberg–Marquardt with a penalty on table knots ([`crate::diagnose::refit`]); a
+//!    refit is added only if its per-pose held-out improvement passes the one-sided paired t test
+//!    at `α / m` (Bonferroni over the `m` candidates screened in the round, α = 5 %; see
+//!    [`crate::diagnose::significance`]) and lowers the held-out RMS by a margin a user notices
+//!    (`Config::min_rms_drop`, 2 %); of those, the simplest one within one standard error of the
+//!    best is added ([`choose`]). The screen's candidates and the refits' folds are independent
+//!    jobs, spread over the cores ([`crate::compute::parallel::map_each`]); no result depends on
+//!    how they were scheduled.
 //! 3. **Stop** when nothing passes (or the best that passes is below the margin: the stop reason
-//!    says by how much), when the held-out RMS reaches the noise floor estimated from
-//!    repeated poses (if the data have any), or after `max_effects` additions.
+//!    says by how much), when the held-out RMS reaches the noise floor estimated from repeated
+//!    poses (if the data have any), or after `max_effects` additions.
 //! 4. **Noise floor**: repeated poses, else the final model's cross-validated held-out errors
-//!    with the fold fits' share taken out ([`crate::diagnose::significance::held_out_noise`]); never above
-//!    the final held-out RMS (a floor the model already beats on unseen poses is no floor).
+//!    with the fold fits' share taken out ([`crate::diagnose::significance::held_out_noise`]);
+//!    never above the final held-out RMS (a floor the model already beats on unseen poses is no
+//!    floor).
 //!
 //! One fit per parameter set: the model the baseline held-out RMS is of ([`Diagnosis::
 //! baseline_model`]) is fitted once, and when nothing is added it *is* the final model.
@@ -212,6 +212,9 @@ pub struct Diagnosis<const N: usize> {
     pub effective_parameters: f64,
     pub rounds: Vec<Round>,
     pub stop_reason: String,
+    /// When the search stopped because its best significant candidate lowered the held-out RMS
+    /// by less than [`Config::min_rms_drop`]: that candidate and its relative drop.
+    pub below_margin: Option<(Candidate, f64)>,
     pub folds: Folds,
     pub geometry_seconds: f64,
     pub seconds: f64,
@@ -292,8 +295,9 @@ impl<const N: usize> Diagnosis<N> {
 
 /// Which tested candidate to add: among those that pass the test (p ≤ `threshold`) and reach a
 /// held-out RMS of at most `max_rms` mm, the one with the fewest parameters whose held-out mean
-/// squared error is within one standard error of the best one's (the "one-standard-error rule" of Hastie,
-/// Tibshirani & Friedman, §7.10: the standard error of the best model's cross-validated error).
+/// squared error is within one standard error of the best one's (the "one-standard-error rule"
+/// of Hastie, Tibshirani & Friedman, §7.10: the standard error of the best model's
+/// cross-validated error).
 /// A table can imitate a scale error or a once-per-turn error; when the data cannot tell them
 /// apart, the simpler effect is the better name. Ties go to the lower held-out error.
 pub fn choose(tested: &[Tested], errors: &[&[f64]], threshold: f64, max_rms: f64) -> Option<usize> {
@@ -518,6 +522,7 @@ pub fn diagnose_with_progress<const N: usize>(
     let mut refused: Vec<(Candidate, usize)> = Vec::new();
     let mut rounds = Vec::new();
     let stop_reason;
+    let mut below_margin = None;
     loop {
         let cur_rms = rms(&errors);
         if let Some((sigma, _)) = repeat {
@@ -649,11 +654,12 @@ pub fn diagnose_with_progress<const N: usize>(
             seconds: tr.elapsed().as_secs_f64(),
         });
         let Some(i) = chosen else {
-            stop_reason = match too_small(&tested, threshold, cur_rms) {
-                Some((t, drop)) => format!(
+            below_margin = too_small(&tested, threshold, cur_rms).map(|(t, d)| (t.candidate, d));
+            stop_reason = match below_margin {
+                Some((c, drop)) => format!(
                     "the best significant candidate, {}, lowers the held-out RMS by only {} % \
                      (an effect is added from {} %)",
-                    t.candidate.label(),
+                    c.label(),
                     sig(100.0 * drop, 3),
                     sig(100.0 * cfg.min_rms_drop, 3)
                 ),
@@ -743,6 +749,7 @@ pub fn diagnose_with_progress<const N: usize>(
         final_validation_rms_mm: final_rms,
         final_errors: errors,
         found,
+        below_margin,
         model: final_fit.robot,
         free_tilt,
         noise_floor_mm,

@@ -191,10 +191,7 @@ pub fn run_case<const N: usize>(l: &Loaded<N>, poses: usize, c: &Case) -> Outcom
             .iter()
             .map(|f| 1.0 - f.validation_rms_mm / f.before_rms_mm)
             .fold(1.0, f64::min),
-        too_small: d
-            .stop_reason
-            .contains("by only")
-            .then(|| d.stop_reason.clone()),
+        too_small: d.below_margin.map(|_| d.stop_reason.clone()),
     }
 }
 

@@ -146,3 +146,40 @@ fn chi_square_quantiles_match_tables() {
         assert!((x / q - 1.0).abs() < 0.01, "χ²({nu}) {p}: {x} vs {q}");
     }
 }
+
+/// The whole search stops at the margin and says why: with `min_rms_drop` raised to 99.9 % no
+/// candidate can be added, so a hidden joint-2 compliance that passes the test is reported as
+/// below the margin (`Diagnosis::below_margin`, the stop reason with its figure) and nothing is
+/// found; at the default margin the same data name it.
+#[test]
+fn the_search_reports_a_significant_candidate_below_the_margin() {
+    let (_, d) = simulated(
+        vec![effect("joint-compliance", 2, &[3e-4], 1)],
+        0.01,
+        41,
+        200,
+    );
+    let strict = Config {
+        min_rms_drop: 0.999,
+        ..Config::default()
+    };
+    let r = kinecal_cli::diagnose::diagnose(&er20(), true, &[], &d, &strict).unwrap();
+    assert!(r.found.is_empty(), "{:?}", r.found.len());
+    let (c, drop) = r
+        .below_margin
+        .expect("a significant candidate below the margin");
+    assert!(drop > 0.02 && drop < 0.999, "{drop}");
+    assert!(
+        r.stop_reason.contains(&c.label()) && r.stop_reason.contains("by only"),
+        "{}",
+        r.stop_reason
+    );
+    let r = kinecal_cli::diagnose::diagnose(&er20(), true, &[], &d, &Config::default()).unwrap();
+    assert!(r.below_margin.is_none());
+    let names: Vec<(&str, usize)> = r
+        .found
+        .iter()
+        .map(|f| (f.candidate.id(), f.candidate.joint))
+        .collect();
+    assert!(names.contains(&("joint-compliance", 1)), "{names:?}");
+}

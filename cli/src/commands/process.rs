@@ -28,6 +28,7 @@ fn print_stdout(text: &str) {
 /// (not to be taken as calibrated; the report is still printed). A failing command prints
 /// `kinecal: <reason>` on stderr and, with `--json`, `{"error": "<reason>"}` on stdout.
 pub fn main() {
+    crate::compute::heap::keep_freed_blocks();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) => usage_error(e),

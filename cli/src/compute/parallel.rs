@@ -70,6 +70,31 @@ pub fn map_each_mut<I: Send, R: Send>(items: &mut [I], f: impl Fn(&mut I) -> R +
     })
 }
 
+/// [`map_each`] with the items taken largest first (by `size`), the results in the items'
+/// order: the longest jobs start first, so that no core is left alone with one of them at the
+/// end.
+pub fn map_each_largest_first<I: Sync, R: Send>(
+    items: &[I],
+    size: impl Fn(&I) -> usize,
+    f: impl Fn(&I) -> R + Sync,
+) -> Vec<R> {
+    let order = largest_first(items, size);
+    let results = map_each(&order, |&i| f(&items[i]));
+    let mut out: Vec<Option<R>> = (0..items.len()).map(|_| None).collect();
+    for (i, r) in order.into_iter().zip(results) {
+        out[i] = Some(r);
+    }
+    out.into_iter().flatten().collect()
+}
+
+/// The indices of `items` by decreasing `size`, equal sizes in the items' order: the order
+/// [`map_each_largest_first`] hands them out in.
+pub fn largest_first<I>(items: &[I], size: impl Fn(&I) -> usize) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..items.len()).collect();
+    order.sort_by_key(|&i| std::cmp::Reverse(size(&items[i])));
+    order
+}
+
 /// `f` of each of the [`PARTS`] contiguous parts of `items` on [`workers`] threads, results in
 /// order; `f` of all of them at once below [`PARALLEL_MIN_POSES`] items.
 pub fn map_parts<I: Sync, R: Send>(items: &[I], f: impl Fn(&[I]) -> R + Sync) -> Vec<R> {

@@ -570,7 +570,12 @@ pub fn diagnose_with_progress<const N: usize>(
                 linear_rms_mm: lin.screen_rms(&cols, extra.len(), table),
             })
         };
-        let mut screened: Vec<Screened> = parallel::map_each(&cands, screen)
+        // The tables with the most knots first (the screen's cost grows with them).
+        let size = |c: &Candidate| match c.kind {
+            CandidateKind::Table { knots, .. } => knots,
+            _ => 1,
+        };
+        let mut screened: Vec<Screened> = parallel::map_each_largest_first(&cands, size, screen)
             .into_iter()
             .flatten()
             .collect();

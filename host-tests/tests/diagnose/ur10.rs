@@ -163,3 +163,66 @@ fn diagnose_own_split_on_subsets() {
         failures.join("\n")
     );
 }
+
+/// The arithmetic of the search's screens on the whole series (2,773 poses, its own 5-fold
+/// split): per round, the multiply-adds of every screened candidate's fold solves, each by the
+/// cheaper of the two eliminations (`Elimination`: `p²m + pm² + m³/3` with the model's
+/// parameters first, `p²m + p³/3` with a table's knots first, per fold), for `p` model
+/// parameters and `m` candidate values. The phase shifts and the refits are not counted. On
+/// 2026-11-29 this came to 12.0 G multiply-adds, growing with `p` as the tables the rounds
+/// add (50–95 knots each) join the model: two cores at a few G multiply-adds per second each
+/// need more than 1 s for it alone.
+#[test]
+#[ignore = "a minute on real data: cargo test -p kinecal-host --test diagnose ur10::screen_arithmetic -- --ignored --nocapture"]
+fn screen_arithmetic_on_the_whole_series() {
+    let dir = ur10_dir();
+    let (file, nominal) = load_robot::<6>(&dir.join("robot.toml")).unwrap();
+    let all = measurements::load::<6>(&dir.join("ur10_random_poses.csv"))
+        .unwrap()
+        .measurements::<f64>();
+    let cfg = Config::default();
+    let d = diagnose(&nominal, file.base_known(), &file.tilt_joints(), &all, &cfg).unwrap();
+    let values = |c: &kinecal_cli::diagnose::candidates::Candidate| {
+        c.add_to(&mut d.geometric.clone()).map_or(0, |v| v.len())
+    };
+    let added: Vec<usize> = d.found.iter().map(|f| values(&f.candidate)).collect();
+    let mut p = d.params.len() - added.iter().sum::<usize>();
+    let folds = cfg.folds as f64;
+    let (mut total, mut next) = (0.0, 0);
+    for (r, round) in d.rounds.iter().enumerate() {
+        let pf = p as f64;
+        let work: f64 = round
+            .screened
+            .iter()
+            .map(|s| {
+                let m = values(&s.candidate) as f64;
+                let model_first = pf * pf * m + pf * m * m + m * m * m / 3.0;
+                let knots_first = pf * pf * m + pf * pf * pf / 3.0;
+                folds * model_first.min(knots_first)
+            })
+            .sum();
+        total += work;
+        eprintln!(
+            "round {}: p = {p}, {} screened, {:.2} G multiply-adds, {:.2} s",
+            r + 1,
+            round.screened.len(),
+            work / 1e9,
+            round.seconds
+        );
+        // A round that chose a candidate and did not refuse it added the next finding.
+        if round.chosen.is_some() && round.refused.is_none() {
+            p += added.get(next).copied().unwrap_or(0);
+            next += 1;
+        }
+    }
+    eprintln!("total: {:.1} G multiply-adds", total / 1e9);
+    assert_eq!(next, d.found.len(), "one finding per round that added one");
+    assert_eq!(p, d.params.len());
+    let joints: Vec<usize> = d.found.iter().map(|f| f.candidate.joint + 1).collect();
+    assert!(
+        d.found
+            .iter()
+            .all(|f| matches!(f.candidate.kind, CandidateKind::Table { .. })),
+        "{joints:?}"
+    );
+}

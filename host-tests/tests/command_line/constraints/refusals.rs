@@ -1,0 +1,165 @@
+//! What cannot be right in a constraint file is refused with a one-line reason that says what
+//! to do: malformed groups, radians, a misstated unit, commands that need tracker points.
+
+use super::*;
+
+/// One row of a hand-made constraint file: kind, group, length_mm.
+type Cells<'a> = (&'a str, &'a str, &'a str);
+
+/// A constraint file of the ER20 with `rows` (kind, group, length) at one pose each.
+fn file_of(dir: &Path, rows: &[(&str, &str, &str)]) -> PathBuf {
+    let mut text = String::from("kind,group,q1,q2,q3,q4,q5,q6,length_mm\n");
+    for (k, (kind, group, length)) in rows.iter().enumerate() {
+        let q = 10.0 + k as f64;
+        text.push_str(&format!(
+            "{kind},{group},{q},{q},{q},{q},{q},{q},{length}\n"
+        ));
+    }
+    write(dir, "bad.csv", &text)
+}
+
+#[test]
+fn malformed_groups_are_refused_with_the_fix() {
+    let dir = tempfile::tempdir().unwrap();
+    let socket3 = [("socket", "s1", ""); 3];
+    let distance3 = [("distance", "d1", "500"); 3];
+    let lengths = [("distance", "d1", "500"), ("distance", "d1", "501")];
+    let missing = [("distance", "d1", "500"), ("distance", "d1", "")];
+    let negative = [("distance", "d1", "-5"), ("distance", "d1", "-5")];
+    let unknown = [("sphere", "s1", ""); 4];
+    let badname = [("socket", "s 1", ""); 4];
+    let cases: [(&[Cells], &str); 7] = [
+        (&socket3, "at least 4"),
+        (&distance3, "exactly 2"),
+        (&lengths, "same length_mm"),
+        (&missing, "length_mm on both rows"),
+        (&negative, "must be > 0"),
+        (&unknown, "unknown"),
+        (&badname, "letters, digits"),
+    ];
+    for (rows, why) in cases {
+        let data = file_of(dir.path(), rows);
+        let o = kinecal(&[
+            "identify",
+            "--robot",
+            s(&data_file("er20.toml")),
+            "--data",
+            s(&data),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{rows:?}: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(e.contains(why), "{rows:?}: {e}");
+        assert_eq!(e.trim().lines().count(), 1, "one line: {e}");
+    }
+}
+
+#[test]
+fn joint_readings_in_radians_are_read_with_angle_unit() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, _) = session(dir.path(), "distance:40", 9);
+    let text = std::fs::read_to_string(&data).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let mut rad = format!("{header}\n");
+    for l in lines {
+        let cells: Vec<String> = l
+            .split(',')
+            .enumerate()
+            .map(|(k, c)| {
+                if (2..8).contains(&k) {
+                    format!("{}", c.parse::<f64>().unwrap().to_radians())
+                } else {
+                    c.to_string()
+                }
+            })
+            .collect();
+        rad.push_str(&cells.join(","));
+        rad.push('\n');
+    }
+    let rad_file = write(dir.path(), "rad.csv", &rad);
+    let deg = identify(&data, &[]);
+    let r = identify(&rad_file, &["--angle-unit", "rad"]);
+    let (a, b) = (
+        deg["before"]["identification_rms_mm"].as_f64().unwrap(),
+        r["before"]["identification_rms_mm"].as_f64().unwrap(),
+    );
+    assert!((a - b).abs() < 1e-6 * a, "nominal {a} vs {b}");
+    // Both fits end at the same minimum to the convergence tolerance; degrees read as radians
+    // would put every tool point metres away.
+    let (a, b) = (
+        deg["after"]["identification_rms_mm"].as_f64().unwrap(),
+        r["after"]["identification_rms_mm"].as_f64().unwrap(),
+    );
+    assert!((a - b).abs() < 0.05 * a, "calibrated {a} vs {b}");
+    // Without --angle-unit the radians are refused, and the reason says which flag (not the
+    // lengths, which then look 20 times too long).
+    for command in ["identify", "diagnose", "check"] {
+        let out = kinecal(&[
+            command,
+            "--robot",
+            s(&data_file("er20.toml")),
+            "--data",
+            s(&rad_file),
+        ]);
+        assert_eq!(out.status.code(), Some(2), "{command}");
+        let e = stderr(&out);
+        assert!(
+            e.contains("look like radians") && e.contains("--angle-unit rad"),
+            "{command}: {e}"
+        );
+        assert_eq!(e.trim().lines().count(), 1, "{e}");
+    }
+}
+
+#[test]
+fn commands_that_need_tracker_points_refuse_a_constraint_file_with_the_fix() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, _) = session(dir.path(), "socket:4x10", 3);
+    let out = kinecal(&[
+        "frames",
+        "--robot",
+        s(&data_file("er20.toml")),
+        "--data",
+        s(&data),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let e = stderr(&out);
+    assert!(
+        e.contains("a constraint file (kind column)") && e.contains("tracker points"),
+        "{e}"
+    );
+    assert_eq!(e.trim().lines().count(), 1, "{e}");
+}
+
+#[test]
+fn a_misstated_unit_on_a_constraint_file_is_refused_with_the_fix() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, _) = session(dir.path(), "socket:4x10,distance:20", 3);
+    let robot = data_file("er20.toml");
+    let run = |cmd: &str, flag: &str, value: &str| {
+        let mut args = vec![cmd, "--robot", s(&robot), "--data", s(&data), flag, value];
+        if cmd == "validate" {
+            args.extend(["--model", s(&robot)]);
+        }
+        kinecal(&args)
+    };
+    for cmd in ["check", "identify", "validate"] {
+        // Degrees read as radians.
+        let out = run(cmd, "--angle-unit", "rad");
+        assert_eq!(out.status.code(), Some(2), "{cmd}: {}", stderr(&out));
+        assert!(
+            stderr(&out).contains("look like degrees; leave --angle-unit rad out"),
+            "{cmd}: {}",
+            stderr(&out)
+        );
+        // Millimetre lengths read as metres.
+        let out = run(cmd, "--length-unit", "m");
+        assert_eq!(out.status.code(), Some(2), "{cmd}: {}", stderr(&out));
+        assert!(
+            stderr(&out)
+                .contains("look like millimetres read as metres; leave --length-unit m out"),
+            "{cmd}: {}",
+            stderr(&out)
+        );
+    }
+}

@@ -242,6 +242,10 @@ pub fn run<const N: usize>(
             })
         },
     )?;
+    // A tracker that drifted is no effect of the arm: the search took it for noise.
+    if let Some(w) = super::time_trend::warning(&d.model, &search, d.noise_floor_mm) {
+        tell.line(&format!("warning: {data_origin}: {w}"));
+    }
     let holdout = if held.is_empty() {
         None
     } else {

@@ -10,6 +10,7 @@ use kinecal::model::effects::EffectKind;
 use kinecal::model::param::Param;
 use kinecal::{ForwardKinematics, Measurement};
 use kinecal_cli::diagnose::candidates::CandidateKind;
+use kinecal_cli::diagnose::time_trend::{trend, warning};
 use kinecal_cli::formats::robot_file::RobotFile;
 use kinecal_cli::simulation::{simulate_at, GeomErrors, Simulation};
 use nalgebra::Vector3;
@@ -303,4 +304,65 @@ fn an_implausible_table_is_refused_with_its_reason() {
         json.contains("\"refused\":{\"candidate\":\"joint-table"),
         "{json}"
     );
+}
+
+/// A tracker that drifts during a warm-up is not taken for thermal expansion. The arm does not
+/// expand; the measured points move along one direction over the session, linearly in time
+/// (0.06 mm and 0.3 mm end to end), while the temperature rises from 15 to 35 °C. Expansion
+/// would move every point away from the base in proportion to its distance, a drift moves all
+/// of them alike: the search must not name `thermal-expansion` (a fit of it would read a
+/// plausible few 1e-6 per kelvin). It has no drift term either, so the drift stays in the
+/// noise floor it estimates; `time_trend` measures it (size within 10 %, direction) and warns.
+/// Without a drift: no warning.
+#[test]
+fn a_drifting_tracker_in_a_warm_up_is_not_taken_for_thermal_expansion() {
+    for drift_mm in [0.06, 0.3] {
+        let (_, mut data) = warm_up(0.0, (15.0, 35.0), 13);
+        let n = data.len();
+        let dir = Vector3::new(1.0, 0.5, 0.2).normalize();
+        for (i, m) in data.iter_mut().enumerate() {
+            m.point += dir * (drift_mm * (i as f64 / (n - 1) as f64 - 0.5));
+        }
+        let d = kinecal_cli::diagnose::diagnose(&er20(), true, &[], &data, &Default::default())
+            .unwrap();
+        let found: Vec<String> = d.found.iter().map(|f| f.candidate.label()).collect();
+        eprintln!(
+            "tracker drifting {drift_mm} mm: geometry {:.4} mm, final {:.4} mm, floor {:.4} mm, found {found:?}",
+            d.baseline_validation_rms_mm, d.final_validation_rms_mm, d.noise_floor_mm,
+        );
+        assert!(
+            !d.found
+                .iter()
+                .any(|f| matches!(f.candidate.kind, CandidateKind::Thermal { .. })),
+            "{drift_mm} mm: {found:?}"
+        );
+        // The drift is measured and named in a warning.
+        let t = trend(&d.model, &data).unwrap();
+        let est = t.drift_mm.norm();
+        assert!(t.p < 1e-6, "{drift_mm} mm: p {}", t.p);
+        assert!(
+            (est - drift_mm).abs() < 0.1 * drift_mm + 0.005,
+            "{est} vs {drift_mm}"
+        );
+        assert!(t.drift_mm.normalize().dot(&dir) > 0.95, "{}", t.drift_mm);
+        let w = warning(&d.model, &data, d.noise_floor_mm).expect("a warning");
+        eprintln!("  warning: {w}");
+        assert!(w.contains("drift") && w.contains("tracker"), "{w}");
+    }
+    // The rows of a drifting session shuffled (every 7th, round and round): no trend left.
+    let (_, mut data) = warm_up(0.0, (15.0, 35.0), 13);
+    let n = data.len();
+    for (i, m) in data.iter_mut().enumerate() {
+        m.point += Vector3::new(0.3 * (i as f64 / (n - 1) as f64 - 0.5), 0.0, 0.0);
+    }
+    let shuffled: Vec<_> = (0..n).map(|i| data[(7 * i) % n]).collect();
+    let d = kinecal_cli::diagnose::diagnose(&er20(), true, &[], &shuffled, &Default::default())
+        .unwrap();
+    assert_eq!(warning(&d.model, &shuffled, d.noise_floor_mm), None);
+    // Without a drift: no warning.
+    let (_, still) = warm_up(0.0, (15.0, 35.0), 13);
+    let d =
+        kinecal_cli::diagnose::diagnose(&er20(), true, &[], &still, &Default::default()).unwrap();
+    assert_eq!(warning(&d.model, &still, d.noise_floor_mm), None);
+    assert!(trend(&d.model, &still).unwrap().p > 1e-3);
 }

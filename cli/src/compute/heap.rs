@@ -4,9 +4,9 @@
 //! blocks are freed) by mapping fresh pages, and returns them when it is freed. `diagnose`'s
 //! screen builds several such blocks per candidate and fold (the `p × m` blocks of the
 //! normal equations, a `p × p` copy), hundreds of thousands in a search: on the UR10 series
-//! (2,773 poses) the page faults took 0.6–0.8 s of system time in a 3.4 s run. With blocks up to
+//! (2,773 poses) the page faults took 0.6–0.9 s of system time in a 3.4 s run. With blocks under
 //! 4 MiB taken from the heap (the screen's blocks are under 1 MiB) and freed memory kept until
-//! 32 MiB of it lie unused at the top, the system time is 0.1–0.2 s
+//! 32 MiB of it lie unused at the top, the system time is 0.07–0.2 s
 //! (`GLIBC_TUNABLES=glibc.malloc.mmap_threshold=4194304:glibc.malloc.trim_threshold=33554432`
 //! measures the same). Larger blocks (a million poses' lists) are still mapped and returned:
 //! with 64 MiB and 256 MiB the million-pose `identify` of `.ci/run`'s memory guard peaked at

@@ -15,8 +15,8 @@
 //!    [`crate::diagnose::significance`]) and lowers the held-out RMS by a margin a user notices
 //!    (`Config::min_rms_drop`, 2 %); of those, the simplest one within one standard error of the
 //!    best is added ([`choose`]). The screen's candidates and the refits' folds are independent
-//!    jobs, spread over the cores ([`crate::compute::parallel::map_each`]); no result depends on
-//!    how they were scheduled.
+//!    jobs, spread over the cores ([`crate::compute::parallel::map_each`], the catalogue's tables
+//!    with the most knots first); no result depends on how they were scheduled.
 //! 3. **Stop** when nothing passes (or the best that passes is below the margin: the stop reason
 //!    says by how much), when the held-out RMS reaches the noise floor estimated from repeated
 //!    poses (if the data have any), or after `max_effects` additions.

@@ -98,6 +98,18 @@ pub fn student_t_sf(t: f64, nu: f64) -> f64 {
     }
 }
 
+/// `P(F > f)` for Fisher's F with `d1` and `d2` degrees of freedom: `I_x(d2/2, d1/2)` at
+/// `x = d2 / (d2 + d1·f)`.
+pub fn f_sf(f: f64, d1: f64, d2: f64) -> f64 {
+    if f.is_nan() || !(d1 > 0.0 && d2 > 0.0) {
+        return f64::NAN;
+    }
+    if f <= 0.0 {
+        return 1.0;
+    }
+    incomplete_beta(0.5 * d2, 0.5 * d1, d2 / (d2 + d1 * f))
+}
+
 /// The regularised incomplete beta function `I_x(a, b)` (continued fraction, Lentz).
 pub fn incomplete_beta(a: f64, b: f64, x: f64) -> f64 {
     if x <= 0.0 {

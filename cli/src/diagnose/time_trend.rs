@@ -1,12 +1,13 @@
 //! A drift of the residuals along the rows' order: a laser tracker or a base that moved while
-//! the session was measured. It is no effect of the arm, so the catalogue has no candidate for
-//! it and the search would take it for noise (its noise floor includes it). [`trend`] fits
-//! `r_i = r̄ + b·(i − ī)` per axis to a model's point residuals in the order of the
-//! observations and tests `b = 0` (F test, 3 and 3n − 6 degrees of freedom); [`warning`] says
-//! so when the drift is significant and large enough to matter beside the noise floor.
-//! Rows measured in order are in time order; a file whose rows were shuffled shows no trend.
+//! the session was measured, or an arm that warmed beyond what the rows' `temp_c` records. The
+//! catalogue has no candidate for it, so the search would take it for noise (a noise floor
+//! from held-out errors includes it). [`trend`] fits `r_i = r̄ + b·(i − ī)` per axis to a
+//! model's point residuals in the order of the observations and tests `b = 0` (F test, 3 and
+//! 3n − 6 − the model's effective parameters degrees of freedom, the rows taken as independent);
+//! [`warning`] says so when the drift is significant and large enough to matter beside the
+//! noise floor. Rows measured in order are in time order; rows shuffled show no trend.
 
-use super::significance::incomplete_beta;
+use super::significance::f_sf;
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use nalgebra::Vector3;
 
@@ -22,11 +23,13 @@ pub struct TimeTrend {
     pub p: f64,
 }
 
-/// The trend of `robot`'s point residuals (measured − model, mm) over `data` in their order;
-/// `None` with fewer than 4 observations or residuals that are not finite.
+/// The trend of `robot`'s point residuals (measured − model, mm) over `data` in their order,
+/// for a model fitted to them with `fitted` effective parameters (taken from the test's
+/// degrees of freedom); `None` with fewer than 4 observations, or residuals that are not finite.
 pub fn trend<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
+    fitted: f64,
 ) -> Option<TimeTrend> {
     let n = data.len();
     if n < 4 {
@@ -52,11 +55,15 @@ pub fn trend<const N: usize, V: kinecal::ValueStorage>(
     }
     let b = str / stt;
     let ss_trend = b.norm_squared() * stt;
-    let (df1, df2) = (3.0, 3.0 * n as f64 - 6.0);
+    let fitted = if fitted.is_finite() {
+        fitted.max(0.0)
+    } else {
+        0.0
+    };
+    let (df1, df2) = (3.0, (3.0 * n as f64 - 6.0 - fitted).max(1.0));
     let ss_rest = (ss - ss_trend).max(0.0);
     let p = if ss_rest > 0.0 {
-        let f = (ss_trend / df1) / (ss_rest / df2);
-        incomplete_beta(df2 / 2.0, df1 / 2.0, df2 / (df2 + df1 * f))
+        f_sf((ss_trend / df1) / (ss_rest / df2), df1, df2)
     } else if ss_trend > 0.0 {
         0.0
     } else {
@@ -70,23 +77,28 @@ pub fn trend<const N: usize, V: kinecal::ValueStorage>(
     (out.drift_mm.iter().all(|x| x.is_finite()) && out.p.is_finite()).then_some(out)
 }
 
-/// Below this probability a trend is significant.
+/// Below this probability a trend is significant: one test per search, strict enough that
+/// rows that are not quite independent (the F test takes them as independent) seldom raise a
+/// false warning; the null tests of `evidence::a_drifting_tracker` stay far above it.
 pub const TREND_P: f64 = 1e-3;
 
 /// A trend smaller than this share of the noise floor is not worth a word: removing it would
-/// lower the RMS by less than 2 %, the search's practical margin
+/// lower the RMS by about 2 % or less (`1 − √(1 − 0.2²)`), the search's practical margin
 /// ([`crate::diagnose::Config::min_rms_drop`]).
 pub const TREND_SHARE: f64 = 0.2;
 
-/// The warning for `robot`'s residuals over `data` when they drift significantly
-/// ([`TREND_P`]) by at least [`TREND_SHARE`] of `noise_floor_mm`; `None` otherwise.
+/// The warning for the residuals of `robot` (fitted with `fitted` effective parameters) over
+/// `data` when they drift significantly ([`TREND_P`]) by at least [`TREND_SHARE`] of
+/// `noise_floor_mm` (any size when the floor is not a finite number); `None` otherwise.
 pub fn warning<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
+    fitted: f64,
     noise_floor_mm: f64,
 ) -> Option<String> {
-    let t = trend(robot, data)?;
-    if !(t.p < TREND_P && t.rms_mm >= TREND_SHARE * noise_floor_mm) {
+    let t = trend(robot, data, fitted)?;
+    let large = !noise_floor_mm.is_finite() || t.rms_mm >= TREND_SHARE * noise_floor_mm;
+    if !(t.p < TREND_P && large) {
         return None;
     }
     let d = t.drift_mm;
@@ -97,9 +109,10 @@ pub fn warning<const N: usize, V: kinecal::ValueStorage>(
     };
     Some(format!(
         "the residuals drift along the rows' order by {} mm from the first row to the last \
-         (x {}, y {}, z {} mm; {} mm RMS, {p}): no effect of the arm but a tracker or a base \
-         that moved during the session, and the noise floor of {} mm includes it; check the \
-         tracker's drift (re-measure its reference) or split the session where it moved",
+         (x {}, y {}, z {} mm; {} mm RMS beside a noise floor of {} mm, {p}), which the model \
+         does not explain: a tracker or a base that moved during the session, or the arm \
+         warming beyond what `temp_c` records. Check the tracker's drift (re-measure its \
+         reference), or split the session where it moved",
         crate::output::numfmt::sig(d.norm(), 3),
         crate::output::numfmt::sig(d.x, 3),
         crate::output::numfmt::sig(d.y, 3),

@@ -242,10 +242,6 @@ pub fn run<const N: usize>(
             })
         },
     )?;
-    // A tracker that drifted is no effect of the arm: the search took it for noise.
-    if let Some(w) = super::time_trend::warning(&d.model, &search, d.noise_floor_mm) {
-        tell.line(&format!("warning: {data_origin}: {w}"));
-    }
     let holdout = if held.is_empty() {
         None
     } else {
@@ -275,6 +271,15 @@ pub fn run<const N: usize>(
         }
     }
     let converged = geometry_fits(&d, opts.stall_rms_mm);
+    // A tracker that drifted is no effect of the arm: the search took it for noise. (Not when
+    // the geometry did not fit: its residuals are no measure of the tracker.)
+    if converged {
+        let w =
+            super::time_trend::warning(&d.model, &search, d.effective_parameters, d.noise_floor_mm);
+        if let Some(w) = w {
+            tell.line(&format!("warning: {data_origin}: {w}"));
+        }
+    }
     let all = if full && converged {
         tell.stage("fitting the model to all observations");
         Some(all_observations(

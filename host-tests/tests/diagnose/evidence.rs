@@ -312,8 +312,8 @@ fn an_implausible_table_is_refused_with_its_reason() {
 /// would move every point away from the base in proportion to its distance, a drift moves all
 /// of them alike: the search must not name `thermal-expansion` (a fit of it would read a
 /// plausible few 1e-6 per kelvin). It has no drift term either, so the drift stays in the
-/// noise floor it estimates; `time_trend` measures it (size within 10 %, direction) and warns.
-/// Without a drift: no warning.
+/// noise floor it estimates; `time_trend` measures it (size within 10 % and 0.005 mm, direction
+/// within 18°) and warns. The rows shuffled, or no drift: no warning.
 #[test]
 fn a_drifting_tracker_in_a_warm_up_is_not_taken_for_thermal_expansion() {
     for drift_mm in [0.06, 0.3] {
@@ -337,7 +337,7 @@ fn a_drifting_tracker_in_a_warm_up_is_not_taken_for_thermal_expansion() {
             "{drift_mm} mm: {found:?}"
         );
         // The drift is measured and named in a warning.
-        let t = trend(&d.model, &data).unwrap();
+        let t = trend(&d.model, &data, d.effective_parameters).unwrap();
         let est = t.drift_mm.norm();
         assert!(t.p < 1e-6, "{drift_mm} mm: p {}", t.p);
         assert!(
@@ -345,24 +345,53 @@ fn a_drifting_tracker_in_a_warm_up_is_not_taken_for_thermal_expansion() {
             "{est} vs {drift_mm}"
         );
         assert!(t.drift_mm.normalize().dot(&dir) > 0.95, "{}", t.drift_mm);
-        let w = warning(&d.model, &data, d.noise_floor_mm).expect("a warning");
+        let w =
+            warning(&d.model, &data, d.effective_parameters, d.noise_floor_mm).expect("a warning");
         eprintln!("  warning: {w}");
         assert!(w.contains("drift") && w.contains("tracker"), "{w}");
+        // Without the size threshold (a floor that is not a number) it warns too.
+        assert!(warning(&d.model, &data, d.effective_parameters, f64::NAN).is_some());
     }
-    // The rows of a drifting session shuffled (every 7th, round and round): no trend left.
+    // The rows of a drifting session shuffled (a seeded random order): no trend left.
     let (_, mut data) = warm_up(0.0, (15.0, 35.0), 13);
     let n = data.len();
     for (i, m) in data.iter_mut().enumerate() {
         m.point += Vector3::new(0.3 * (i as f64 / (n - 1) as f64 - 0.5), 0.0, 0.0);
     }
-    let shuffled: Vec<_> = (0..n).map(|i| data[(7 * i) % n]).collect();
+    let mut shuffled = data.clone();
+    {
+        use rand::seq::SliceRandom;
+        use rand::SeedableRng;
+        shuffled.shuffle(&mut rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(5));
+    }
     let d = kinecal_cli::diagnose::diagnose(&er20(), true, &[], &shuffled, &Default::default())
         .unwrap();
-    assert_eq!(warning(&d.model, &shuffled, d.noise_floor_mm), None);
+    let fitted = d.effective_parameters;
+    let p = trend(&d.model, &shuffled, fitted).unwrap().p;
+    assert!(p > 1e-3, "shuffled: p {p}");
+    assert_eq!(warning(&d.model, &shuffled, fitted, d.noise_floor_mm), None);
     // Without a drift: no warning.
     let (_, still) = warm_up(0.0, (15.0, 35.0), 13);
     let d =
         kinecal_cli::diagnose::diagnose(&er20(), true, &[], &still, &Default::default()).unwrap();
-    assert_eq!(warning(&d.model, &still, d.noise_floor_mm), None);
-    assert!(trend(&d.model, &still).unwrap().p > 1e-3);
+    let fitted = d.effective_parameters;
+    assert_eq!(warning(&d.model, &still, fitted, d.noise_floor_mm), None);
+    assert!(trend(&d.model, &still, fitted).unwrap().p > 1e-3);
+}
+
+/// The trend test's F distribution against table values: the upper 5 % and 1 % points of
+/// F(3, 6) are 4.757 and 9.780, the 5 % point of F(3, 60) is 2.758.
+#[test]
+fn the_trend_tests_f_tail_matches_the_tables() {
+    use kinecal_cli::diagnose::significance::f_sf;
+    for (f, d1, d2, p) in [
+        (4.757, 3.0, 6.0, 0.05),
+        (9.780, 3.0, 6.0, 0.01),
+        (2.758, 3.0, 60.0, 0.05),
+    ] {
+        let got = f_sf(f, d1, d2);
+        assert!((got - p).abs() < 2e-4, "F({d1}, {d2}) > {f}: {got} vs {p}");
+    }
+    assert_eq!(f_sf(0.0, 3.0, 6.0), 1.0);
+    assert!(f_sf(1e9, 3.0, 6.0) < 1e-12);
 }

@@ -8,7 +8,8 @@
 //! noise floor. Rows measured in order are in time order; rows shuffled show no trend.
 
 use super::significance::f_sf;
-use kinecal::{ForwardKinematics, Measurement, Robot};
+use crate::calibration::pose_error_vectors;
+use kinecal::{Measurement, Robot};
 use nalgebra::Vector3;
 
 /// The linear trend of the point residuals along the observations' order.
@@ -35,14 +36,7 @@ pub fn trend<const N: usize, V: kinecal::ValueStorage>(
     if n < 4 {
         return None;
     }
-    let mut fk = ForwardKinematics::new();
-    let r: Vec<Vector3<f64>> = data
-        .iter()
-        .map(|m| {
-            let p = fk.compute_at(robot, &m.q, m.tool as usize, m.temp_c)?;
-            Some(m.point - p)
-        })
-        .collect::<Option<_>>()?;
+    let r = pose_error_vectors(robot, data);
     let mean = r.iter().sum::<Vector3<f64>>() / n as f64;
     let mid = (n - 1) as f64 / 2.0;
     let (mut stt, mut str, mut ss) = (0.0, Vector3::zeros(), 0.0);

@@ -36,7 +36,7 @@
 #define KC_PARAMS_ALL 44
 
 // Bytes of a `kc_fk` (see `KC_ROBOT_SIZE`).
-#define KC_FK_SIZE 504
+#define KC_FK_SIZE 512
 
 // Bytes of a `kc_param_set` (see `KC_ROBOT_SIZE`).
 #define KC_PARAM_SET_SIZE 192
@@ -47,7 +47,7 @@
 #define KC_LM_MAX_PARAMS 24
 
 // Bytes of a `kc_lm` (see `KC_ROBOT_SIZE`).
-#define KC_LM_SIZE 9136
+#define KC_LM_SIZE 9144
 
 #if defined(KC_LM_FULL)
 // Room for identified parameters in a `kc_lm_full`: every geometric parameter of a 7-joint
@@ -58,7 +58,7 @@
 
 #if defined(KC_LM_FULL)
 // Bytes of a `kc_lm_full` (see `KC_ROBOT_SIZE`).
-#define KC_LM_FULL_SIZE 21520
+#define KC_LM_FULL_SIZE 21528
 #endif
 
 // Bytes of a `kc_tracker` (see `KC_ROBOT_SIZE`).

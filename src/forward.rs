@@ -17,6 +17,11 @@
 //! move away from the base origin by the factor `s` while no orientation changes. Without a
 //! temperature (`None`) the model is evaluated at its reference temperature (`s = 1`).
 //!
+//! A model with a `base-drift` term is evaluated at the time [`ForwardKinematics::time_s`]:
+//! the base, every joint frame and the point translate by `v·(t − t0)` (the tracker drifted).
+//! Without a time (`None`) nothing moves, which is how compensation evaluates it: the drift is
+//! the measuring session's, not the arm's.
+//!
 //! ```
 //! use kinecal::forward::{point, ForwardKinematics};
 //! use kinecal::model::param::Param;
@@ -89,6 +94,29 @@ pub struct ForwardKinematics<T: Real, const N: usize> {
     /// `T − T0` of the last evaluation of a model with a thermal-expansion term, °C (0 without
     /// a temperature or without the term; not written for models without value capacity).
     pub delta_t: T,
+    /// Time (s) the next evaluation is at, for a model with a base-drift term; `None`: at the
+    /// term's reference time (no drift). Set by the caller, kept across evaluations.
+    pub time_s: Option<T>,
+}
+
+/// When an observation was taken: the temperature and time a model's thermal-expansion and
+/// base-drift terms are evaluated at ([`ForwardKinematics::compute_at`]). A temperature alone
+/// converts into it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Conditions<T> {
+    /// The arm's temperature, °C.
+    pub temp_c: Option<T>,
+    /// The time, s (the session's clock, a data file's `t_s`).
+    pub time_s: Option<T>,
+}
+
+impl<T> From<Option<T>> for Conditions<T> {
+    fn from(temp_c: Option<T>) -> Self {
+        Self {
+            temp_c,
+            time_s: None,
+        }
+    }
 }
 
 impl<T: Real, const N: usize> Default for ForwardKinematics<T, N> {
@@ -104,6 +132,7 @@ impl<T: Real, const N: usize> Default for ForwardKinematics<T, N> {
             temp_c: None,
             expansion: T::one(),
             delta_t: T::zero(),
+            time_s: None,
         }
     }
 }
@@ -234,8 +263,23 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
                     self.delta_t = T::zero();
                 }
             }
+            if let (Some((_, v, t0)), Some(t)) = (effects.drift(), self.time_s) {
+                self.drift(v, t - t0);
+            }
         }
         self.point
+    }
+
+    /// Translates the base, every joint frame and the point by `v·dt` (a base-drift term at
+    /// `dt` seconds from its reference time; out of line: only models with the term pay).
+    #[inline(never)]
+    fn drift(&mut self, v: [T; 3], dt: T) {
+        let d = Vector3::new(v[0], v[1], v[2]) * dt;
+        self.base.o += d;
+        for f in self.frames.iter_mut() {
+            f.o += d;
+        }
+        self.point += d;
     }
 
     /// Sets [`Self::expansion`] and [`Self::delta_t`] from the term `(c, T0)` and
@@ -273,16 +317,19 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
         }
     }
 
-    /// [`Self::compute_point`] at temperature `temp_c` (°C; `None`: the reference temperature):
-    /// sets [`Self::temp_c`] first.
+    /// [`Self::compute_point`] at the conditions `at` (a temperature `Option<T>` in °C, or
+    /// [`Conditions`] with a time too; `None`: the terms' references): sets [`Self::temp_c`]
+    /// and [`Self::time_s`] first.
     pub fn compute_at<V: ValueStorage>(
         &mut self,
         robot: &Robot<T, N, V>,
         q: &[T; N],
         k: usize,
-        temp_c: Option<T>,
+        at: impl Into<Conditions<T>>,
     ) -> Option<Vector3<T>> {
-        self.temp_c = temp_c;
+        let at = at.into();
+        self.temp_c = at.temp_c;
+        self.time_s = at.time_s;
         self.compute_point(robot, q, k)
     }
 
@@ -560,8 +607,9 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
     /// its joint `j`, so the column goes through the couplings); for the thermal-expansion
     /// value `c`, `(T − T0) · (p − b) / s` at the temperature [`Self::temp_c`]: the point's
     /// offset from the base origin at the reference temperature, times `T − T0` (zero without
-    /// a temperature). Out of line, so that the geometric columns (the
-    /// LM's inner loop) do not pay for it.
+    /// a temperature); for base-drift value `k` (axis `a`), `(t − t0)` along axis `a` at the
+    /// time [`Self::time_s`] (zero without a time). Out of line, so that the geometric columns
+    /// (the LM's inner loop) do not pay for it.
     #[inline(never)]
     fn effect_column<V: ValueStorage>(
         &self,
@@ -579,8 +627,29 @@ impl<T: Real, const N: usize> ForwardKinematics<T, N> {
                     Ok((self.point - self.base.o) * (dt / (T::one() + c * dt)))
                 }
                 (Some((i, ..)), None) if i == k as usize => Ok(Vector3::zeros()),
-                _ => Err(ParamError::OutOfRange),
+                _ => self.drift_column(robot, k as usize),
             },
+        }
+    }
+
+    /// The column of base-drift value `k`: `(t − t0)` along its axis (zero without a time).
+    fn drift_column<V: ValueStorage>(
+        &self,
+        robot: &Robot<T, N, V>,
+        k: usize,
+    ) -> Result<Vector3<T>, ParamError> {
+        let Some((first, _, t0)) = robot.effects().drift() else {
+            return Err(ParamError::OutOfRange);
+        };
+        let dt = match self.time_s {
+            Some(t) => t - t0,
+            None => T::zero(),
+        };
+        match k.checked_sub(first) {
+            Some(0) => Ok(Vector3::x() * dt),
+            Some(1) => Ok(Vector3::y() * dt),
+            Some(2) => Ok(Vector3::z() * dt),
+            _ => Err(ParamError::OutOfRange),
         }
     }
 

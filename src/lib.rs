@@ -64,7 +64,7 @@ pub mod model;
 pub mod num;
 pub mod planning;
 
-pub use forward::ForwardKinematics;
+pub use forward::{Conditions, ForwardKinematics};
 pub use io::measurement::{Measurement, Observation};
 pub use model::coupling::{CouplingError, Couplings};
 pub use model::effects::{Effect, EffectKind, Effects};

@@ -11,7 +11,7 @@ use kinecal::{ForwardKinematics, Param};
 use nalgebra::Vector3;
 
 /// Bytes of a [`kc_fk`] (see `KC_ROBOT_SIZE`).
-pub const KC_FK_SIZE: usize = 504;
+pub const KC_FK_SIZE: usize = 512;
 
 /// A forward-kinematics workspace (`ForwardKinematics<f32, N>`): the frames of the last pose
 /// computed, which [`kc_fk_jacobian`] differentiates. It takes the joint count of the robot it

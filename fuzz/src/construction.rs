@@ -128,7 +128,9 @@ pub fn run(data: &[u8]) {
                     EffectKind::Cyclic,
                     EffectKind::Compliance,
                     EffectKind::Table,
-                ][u.int_in_range(0..=3usize).unwrap_or(0)];
+                    EffectKind::Thermal,
+                    EffectKind::Drift,
+                ][u.int_in_range(0..=5usize).unwrap_or(0)];
                 let joint = u.int_in_range(0..=N + 1).unwrap_or(0);
                 let n_joints = if u.ratio(1u8, 4).unwrap_or(false) {
                     N + 2

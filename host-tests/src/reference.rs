@@ -277,6 +277,8 @@ impl RefRobot {
                     // The reference evaluates at the term's reference temperature, where the
                     // expansion changes no length: a correction of zero.
                     EffectKind::Thermal => RefEffect::Scale { joint, s: 0.0 },
+                    // Likewise at the base-drift term's reference time: no translation.
+                    EffectKind::Drift => RefEffect::Scale { joint, s: 0.0 },
                 }
             })
             .collect();

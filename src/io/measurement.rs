@@ -40,6 +40,12 @@ pub trait Observation<T: Real, const N: usize> {
     fn temperature(&self) -> Option<T> {
         None
     }
+    /// When the observation was taken (s, the session's clock), for a model with a base-drift
+    /// term; `None`: at the term's reference time.
+    #[inline(always)]
+    fn time(&self) -> Option<T> {
+        None
+    }
     /// True when every number is finite (weights not negative, the orientation a rotation).
     fn is_valid(&self) -> bool;
 }
@@ -66,6 +72,9 @@ pub struct Measurement<T: Real, const N: usize> {
     /// The arm's temperature (°C, a data file's `temp_c`), for a model with a
     /// thermal-expansion term; `None`: at the term's reference temperature.
     pub temp_c: Option<T>,
+    /// When it was taken (s, a data file's `t_s`), for a model with a base-drift term; `None`:
+    /// at the term's reference time.
+    pub time_s: Option<T>,
 }
 
 impl<T: Real, const N: usize> Default for Measurement<T, N> {
@@ -85,6 +94,7 @@ impl<T: Real, const N: usize> Measurement<T, N> {
             orientation: None,
             orientation_weight: T::zero(),
             temp_c: None,
+            time_s: None,
         }
     }
 
@@ -103,7 +113,7 @@ impl<T: Real, const N: usize> Measurement<T, N> {
     }
 
     /// True when every number is finite, the weights are not negative and the orientation
-    /// (if any) is a rotation (and the temperature, if any, finite).
+    /// (if any) is a rotation (and the temperature and time, if any, finite).
     pub fn is_finite(&self) -> bool {
         let w_ok = self.weight.iter().all(|w| w.finite() && *w >= T::zero());
         let o_ok = match &self.orientation {
@@ -119,6 +129,16 @@ impl<T: Real, const N: usize> Measurement<T, N> {
             && w_ok
             && o_ok
             && self.temp_c.is_none_or(|t| t.finite())
+            && self.time_s.is_none_or(|t| t.finite())
+    }
+
+    /// The temperature and time the model is evaluated at for this observation.
+    #[inline(always)]
+    pub fn conditions(&self) -> crate::Conditions<T> {
+        crate::Conditions {
+            temp_c: self.temp_c,
+            time_s: self.time_s,
+        }
     }
 }
 
@@ -148,6 +168,10 @@ impl<T: Real, const N: usize> Observation<T, N> for Measurement<T, N> {
     #[inline(always)]
     fn temperature(&self) -> Option<T> {
         self.temp_c
+    }
+    #[inline(always)]
+    fn time(&self) -> Option<T> {
+        self.time_s
     }
     fn is_valid(&self) -> bool {
         self.is_finite()

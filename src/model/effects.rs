@@ -8,6 +8,10 @@
 //! `thermal-expansion` is in the list but is no joint correction: it scales every length of the
 //! model by `1 + c·(T − T0)` at the temperature `T` of an evaluation ([`Effects::expansion`];
 //! forward kinematics applies it and gives its column).
+//!
+//! `base-drift` is in the list for the same reason: the base moves by `v·(t − t0)` at the time
+//! `t` of an evaluation (a tracker that drifts during a session, [`Effects::drift`]); forward
+//! kinematics applies it and gives its columns.
 
 use crate::model::value_storage::{ValueBuffer, ValueStorage};
 use crate::Real;
@@ -32,6 +36,11 @@ pub enum EffectKind {
     /// arm expands with its temperature `T` (°C). One value, `c` per kelvin; `T0` (°C) is
     /// kept in [`Effect::start`]; always on joint 0 (it acts on no joint).
     Thermal,
+    /// The base translates by `v·(t − t0)` at the observation's time `t` (s): the measuring
+    /// instrument drifting during a session. Three values, `v` in mm per second along the
+    /// measurement frame's x, y, z; `t0` (s) is kept in [`Effect::start`]; always on joint 0.
+    /// In `f32` give times from the session's start: a Unix time resolves only to 128 s there.
+    Drift,
 }
 
 impl EffectKind {
@@ -43,6 +52,7 @@ impl EffectKind {
             EffectKind::Compliance => "joint-compliance",
             EffectKind::Table => "joint-table",
             EffectKind::Thermal => "thermal-expansion",
+            EffectKind::Drift => "base-drift",
         }
     }
 
@@ -54,6 +64,7 @@ impl EffectKind {
             "joint-compliance" => EffectKind::Compliance,
             "joint-table" => EffectKind::Table,
             "thermal-expansion" => EffectKind::Thermal,
+            "base-drift" => EffectKind::Drift,
             _ => return None,
         })
     }
@@ -69,13 +80,14 @@ pub struct Effect<T: Real> {
     /// Harmonic order `n` (cyclic only, ≥ 1).
     pub order: u16,
     /// Position of the lowest knot, rad (table only); the reference temperature `T0`, °C
-    /// (thermal-expansion only).
+    /// (thermal-expansion only); the reference time `t0`, s (base-drift only).
     pub start: T,
     /// Knot spacing, rad (table only, > 0).
     pub step: T,
     /// Index of the first value in the list's values.
     pub first: u16,
-    /// Number of values: 1 (scale, compliance, thermal), 2 (cyclic: a, b), knots (table).
+    /// Number of values: 1 (scale, compliance, thermal), 2 (cyclic: a, b), 3 (drift: vx, vy,
+    /// vz), knots (table).
     pub len: u16,
 }
 
@@ -111,6 +123,13 @@ impl<T: Real> Effect<T> {
         (k, u - T::of(k as f64))
     }
 }
+
+/// Largest magnitude of a base-drift velocity component, mm/s (a tracker that drifts 1 mm
+/// per second measures nothing; real drifts are micrometres per minute).
+pub const MAX_DRIFT_SPEED: f64 = 1.0;
+
+/// Largest magnitude of a base-drift reference time, s (Unix times until the year 2286).
+pub const MAX_DRIFT_TIME: f64 = 1e10;
 
 /// Most values one effect list holds, whatever its storage's capacity (value indices are `u16`).
 pub const MAX_VALUES: usize = u16::MAX as usize;
@@ -215,6 +234,18 @@ impl<T: Real, V: ValueStorage> Effects<T, V> {
         Some((T::one() + c * dt, dt))
     }
 
+    /// The base-drift term, if any: the index of its first value in [`Self::values`], the
+    /// drift velocity `v` (mm/s, measurement frame) and the reference time `t0` (s).
+    #[inline]
+    pub fn drift(&self) -> Option<(usize, [T; 3], T)> {
+        let e = self.list.iter().find(|e| e.kind == EffectKind::Drift)?;
+        let v = self.values_in(e)?;
+        match v {
+            [x, y, z] => Some((e.first as usize, [*x, *y, *z], e.start)),
+            _ => None,
+        }
+    }
+
     /// True when some effect needs the lever arms τ (a compliance term).
     pub fn needs_lever_arms(&self) -> bool {
         self.list.iter().any(|e| e.kind == EffectKind::Compliance)
@@ -248,7 +279,9 @@ impl<T: Real, V: ValueStorage> Effects<T, V> {
     /// ±[`crate::model::bounds::MAX_ANGLE`]. On error nothing changes. `start`/`step` matter for
     /// tables only, `order` for cyclic only; a thermal-expansion term is on joint 0, one per
     /// list, its `start` the reference temperature (°C) and its value `c` (per kelvin) below
-    /// 1e-2 in magnitude.
+    /// 1e-2 in magnitude; a base-drift term is on joint 0, one per list, its `start` the
+    /// reference time (s, within ±[`MAX_DRIFT_TIME`]) and its three values (mm/s) below
+    /// [`MAX_DRIFT_SPEED`] in magnitude.
     #[allow(clippy::too_many_arguments)]
     pub fn push(
         &mut self,
@@ -359,8 +392,10 @@ impl<T: Real, V: ValueStorage> Effects<T, V> {
     }
 
     /// The shape checks of [`Effects::push`]: the value count of the kind, order and step (a
-    /// thermal-expansion term on joint 0, once per list, `|c| < 1e-2`), and every number finite
-    /// and within ±[`crate::model::bounds::MAX_ANGLE`].
+    /// thermal-expansion term on joint 0, once per list, `|c| < 1e-2`; a base-drift term on
+    /// joint 0, once per list, `|v| <` [`MAX_DRIFT_SPEED`]), and every number finite and within
+    /// ±[`crate::model::bounds::MAX_ANGLE`] (a drift's reference time within
+    /// ±[`MAX_DRIFT_TIME`]: a Unix time in seconds fits).
     fn check_shape(
         &self,
         kind: EffectKind,
@@ -380,14 +415,23 @@ impl<T: Real, V: ValueStorage> Effects<T, V> {
                     && values[0].abs() < T::of(1e-2)
                     && self.thermal().is_none()
             }
+            EffectKind::Drift => {
+                values.len() == 3
+                    && joint == 0
+                    && values.iter().all(|v| v.abs() < T::of(MAX_DRIFT_SPEED))
+                    && self.drift().is_none()
+            }
         };
         let bound = T::of(crate::model::bounds::MAX_ANGLE);
+        let start_bound = if kind == EffectKind::Drift {
+            T::of(MAX_DRIFT_TIME)
+        } else {
+            bound
+        };
         // `!(|v| <= bound)`: NaN fails too.
         if !ok_len
-            || [start, step]
-                .iter()
-                .chain(values)
-                .any(|v| !(v.abs() <= bound))
+            || !(start.abs() <= start_bound)
+            || [step].iter().chain(values).any(|v| !(v.abs() <= bound))
         {
             return Err(EffectError::Shape);
         }
@@ -417,7 +461,7 @@ impl<T: Real, V: ValueStorage> Effects<T, V> {
                     let (k, w) = e.segment(q[j]);
                     v[k] * (T::one() - w) + v[k + 1] * w
                 }
-                EffectKind::Thermal => T::zero(),
+                EffectKind::Thermal | EffectKind::Drift => T::zero(),
             };
         }
         dq
@@ -437,7 +481,7 @@ impl<T: Real, V: ValueStorage> Effects<T, V> {
             };
             g[j] += match e.kind {
                 EffectKind::Scale => v[0],
-                EffectKind::Compliance | EffectKind::Thermal => T::zero(),
+                EffectKind::Compliance | EffectKind::Thermal | EffectKind::Drift => T::zero(),
                 EffectKind::Cyclic => {
                     let n = T::of(e.order as f64);
                     let (s, c) = (q[j] * n).sincos();
@@ -459,8 +503,9 @@ impl<T: Real, V: ValueStorage> Effects<T, V> {
     }
 
     /// Basis function `φ` of value `k` (global value index) at readings `q`, lever arms `tau`:
-    /// `∂dq_joint/∂v_k`. Returns the joint it acts on; `None` for a thermal-expansion value
-    /// (no joint correction: its column is [`crate::ForwardKinematics::column`]'s).
+    /// `∂dq_joint/∂v_k`. Returns the joint it acts on; `None` for a thermal-expansion or
+    /// base-drift value (no joint correction: its column is
+    /// [`crate::ForwardKinematics::column`]'s).
     pub fn basis<const N: usize>(&self, k: usize, q: &[T; N], tau: &[T; N]) -> Option<(usize, T)> {
         let e = self.list.iter().find(|e| e.range().contains(&k))?;
         let j = e.joint as usize;
@@ -469,7 +514,7 @@ impl<T: Real, V: ValueStorage> Effects<T, V> {
         }
         let i = k - e.first as usize;
         let phi = match e.kind {
-            EffectKind::Thermal => return None,
+            EffectKind::Thermal | EffectKind::Drift => return None,
             EffectKind::Scale => q[j],
             EffectKind::Compliance => tau[j],
             EffectKind::Cyclic => {

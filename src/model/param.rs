@@ -242,6 +242,9 @@ impl<T: Real, const N: usize, V: ValueStorage> fmt::Display for ParamName<'_, T,
                                 if i == 0 { 'a' } else { 'b' }
                             ),
                             EffectKind::Table => write!(f, "joint-table{j}[{i}]"),
+                            EffectKind::Drift => {
+                                write!(f, "base-drift.v{}", ["x", "y", "z"].get(i).unwrap_or(&"?"))
+                            }
                             kind => write!(f, "{}{j}", kind.id()),
                         }
                     }

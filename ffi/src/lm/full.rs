@@ -28,7 +28,7 @@ pub const KC_LM_FULL_MAX_PARAMS: usize = 44;
 
 /// Bytes of a [`kc_lm_full`] (see `KC_ROBOT_SIZE`).
 #[cfg(feature = "lm-full")]
-pub const KC_LM_FULL_SIZE: usize = 21520;
+pub const KC_LM_FULL_SIZE: usize = 21528;
 
 /// As [`kc_lm`] with room for `KC_LM_FULL_MAX_PARAMS` parameters (twice the memory; the
 /// `kc_lm_full_*` functions are those of `kc_lm`). Only in a static library built with the

@@ -48,7 +48,7 @@ pub(super) trait Solver<const P: usize>: handle::Handle<Inner = Solvers<P>> {}
 impl<const P: usize, H: handle::Handle<Inner = Solvers<P>>> Solver<P> for H {}
 
 /// Bytes of a [`kc_lm`] (see `KC_ROBOT_SIZE`).
-pub const KC_LM_SIZE: usize = 9136;
+pub const KC_LM_SIZE: usize = 9144;
 
 /// A Levenberg–Marquardt identification (`Levenberg<f32, 6, Inline<0>, FixedLm<f32,
 /// KC_LM_MAX_PARAMS>>`): a streaming stepper that does a bounded slice of work per

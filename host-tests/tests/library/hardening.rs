@@ -270,12 +270,13 @@ fn a_value_buffer_that_breaks_its_contract_is_refused_not_a_panic() {
 #[test]
 fn a_list_without_value_capacity_stays_empty() {
     let mut e = Effects::<f64, kinecal::Inline<0>>::for_joints(6);
-    let pushes: [(EffectKind, u16, f64, f64, &[f64]); 6] = [
+    let pushes: [(EffectKind, u16, f64, f64, &[f64]); 7] = [
         (EffectKind::Scale, 1, 0.0, 0.0, &[1e-3]),
         (EffectKind::Compliance, 1, 0.0, 0.0, &[1e-3]),
         (EffectKind::Cyclic, 1, 0.0, 0.0, &[1e-3, 1e-3]),
         (EffectKind::Table, 1, 0.0, 0.1, &[1e-3, 1e-3]),
         (EffectKind::Thermal, 1, 20.0, 0.0, &[1e-5]),
+        (EffectKind::Drift, 1, 1.7e9, 0.0, &[1e-5, 0.0, 0.0]),
         (EffectKind::Scale, 1, 0.0, 0.0, &[]),
     ];
     for (kind, order, start, step, values) in pushes {

@@ -92,6 +92,9 @@ fn round_trip<const N: usize>(original: &HostRobot<N>) {
         // Half the poses at the reference temperature, half at 10 … 40 °C (thermal expansion).
         let t = (i % 2 == 1).then_some(10.0 + (i % 31) as f64);
         (fa.temp_c, fb.temp_c) = (t, t);
+        // A third at a time of a session (a base-drift term), Unix seconds.
+        let when = (i % 3 == 1).then_some(1.7e9 + 1.5 * i as f64);
+        (fa.time_s, fb.time_s) = (when, when);
         let (a, b) = (fa.compute(original, &q), fb.compute(&decoded, &q));
         assert_eq!(a, b, "FK differs at {q:?}");
         assert_eq!(fa.tool_pose(original), fb.tool_pose(&decoded));
@@ -128,6 +131,31 @@ fn six_joints_every_effect_kind_coupling_tool_points_and_axes() {
     r.set_tool_axes(Frame::from_xyz_rpy([0.0; 3], [0.1, -0.2, 0.7]))
         .unwrap();
     round_trip(&r);
+}
+
+/// A base-drift term (a session's tracker drift) round-trips with its reference time in Unix
+/// seconds: the blob keeps it in an f64, and the decoded model moves with the time as the
+/// original does.
+#[test]
+fn a_base_drift_term_round_trips_with_a_unix_reference_time() {
+    let mut r = model::<6>(crate::common::ER20_TILTED_PLACED);
+    r.effects_mut()
+        .push(
+            EffectKind::Drift,
+            0,
+            6,
+            1,
+            1.7e9 + 0.25,
+            0.0,
+            &[2e-5, -1e-5, 3e-6],
+        )
+        .unwrap();
+    round_trip(&r);
+    let blob = blob_of(&r);
+    let mut decoded = r.clone();
+    model_blob::decode(&blob, &mut decoded).unwrap();
+    assert_eq!(decoded.effects().drift(), r.effects().drift());
+    assert_eq!(decoded.effects().drift().unwrap().2, 1.7e9 + 0.25);
 }
 
 #[test]
@@ -247,9 +275,8 @@ fn records_unknown_informational_and_malformed() {
     let mut t = target.clone();
     model_blob::decode(&info, &mut t).unwrap();
     assert_eq!(t, r);
-    // A correction this library does not know (the next tag after thermal-expansion's) is
-    // refused.
-    let next = tag::THERMAL_EXPANSION + 1;
+    // A correction this library does not know (the next tag after base-drift's) is refused.
+    let next = tag::BASE_DRIFT + 1;
     refused(
         &with_record(&blob, next, &[0; 32]),
         &target,

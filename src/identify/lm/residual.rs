@@ -18,10 +18,11 @@ pub(super) fn residual<T: Real, const N: usize, V: ValueStorage, M: Observation<
     robot: &Robot<T, N, V>,
     m: &M,
 ) -> Option<(Vector3<T>, Option<Vector3<T>>)> {
-    // Only a model with value capacity can have a thermal-expansion term (the firmware's has
-    // none: no instruction here).
+    // Only a model with value capacity can have a thermal-expansion or base-drift term (the
+    // firmware's has none: no instruction here).
     if V::CAPACITY > 0 {
         fk.temp_c = m.temperature();
+        fk.time_s = m.time();
     }
     let p = if m.tool() == 0 {
         fk.compute(robot, m.q())
@@ -77,7 +78,15 @@ pub fn rms_error<T: Real, const N: usize, V: ValueStorage, M: Observation<T, N>>
     for m in data {
         // An observation of a point the robot does not have has no error: NaN, not a number.
         let p = fk
-            .compute_at(robot, m.q(), m.tool(), m.temperature())
+            .compute_at(
+                robot,
+                m.q(),
+                m.tool(),
+                crate::Conditions {
+                    temp_c: m.temperature(),
+                    time_s: m.time(),
+                },
+            )
             .unwrap_or(Vector3::repeat(T::of(f64::NAN)));
         s += (m.point() - p).norm_squared();
     }
@@ -97,7 +106,15 @@ pub fn rms_orientation_error<T: Real, const N: usize, V: ValueStorage, M: Observ
             continue;
         };
         if fk
-            .compute_at(robot, m.q(), m.tool(), m.temperature())
+            .compute_at(
+                robot,
+                m.q(),
+                m.tool(),
+                crate::Conditions {
+                    temp_c: m.temperature(),
+                    time_s: m.time(),
+                },
+            )
             .is_none()
         {
             return Some(T::of(f64::NAN));

@@ -69,6 +69,8 @@ pub mod tag {
     pub const JOINT_TABLE: u16 = 0x0013;
     /// `thermal-expansion` (effect payload: joint 0, start the reference temperature T0, °C).
     pub const THERMAL_EXPANSION: u16 = 0x0014;
+    /// `base-drift` (effect payload: joint 0, start the reference time t0, s; vx, vy, vz mm/s).
+    pub const BASE_DRIFT: u16 = 0x0015;
     /// Tags with this bit set carry information only: decoders skip those they do not know.
     pub const INFORMATIONAL: u16 = 0x8000;
 }
@@ -85,6 +87,7 @@ pub(crate) const fn effect_tag(kind: EffectKind) -> u16 {
         EffectKind::Compliance => tag::JOINT_COMPLIANCE,
         EffectKind::Table => tag::JOINT_TABLE,
         EffectKind::Thermal => tag::THERMAL_EXPANSION,
+        EffectKind::Drift => tag::BASE_DRIFT,
     }
 }
 
@@ -96,6 +99,7 @@ pub(crate) const fn effect_kind(tag: u16) -> Option<EffectKind> {
         tag::JOINT_COMPLIANCE => Some(EffectKind::Compliance),
         tag::JOINT_TABLE => Some(EffectKind::Table),
         tag::THERMAL_EXPANSION => Some(EffectKind::Thermal),
+        tag::BASE_DRIFT => Some(EffectKind::Drift),
         _ => None,
     }
 }

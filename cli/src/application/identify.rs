@@ -178,7 +178,13 @@ pub fn identify<const N: usize>(
         .as_slice()
         .to_vec();
     params.extend(existing_effect_params(&nominal, &params));
-    params.extend(extra.iter().copied());
+    // The requested effects are in the model already (and so among its effect values above):
+    // a parameter listed twice would be held as confounded with itself.
+    for p in &extra {
+        if !params.contains(p) {
+            params.push(*p);
+        }
+    }
     // What only 6-D observations see (the rotation about the tool axis, theta of the last
     // joint against the tool point) is in the full set or joins here; the identifiability
     // analysis holds what the data cannot determine.

@@ -170,6 +170,10 @@ pub fn identify<const N: usize>(
             extra.extend(crate::calibration::thermal::add(&mut nominal, req, &ident)?);
             continue;
         }
+        if req.kind == crate::calibration::drift::DRIFT {
+            extra.extend(crate::calibration::drift::add(&mut nominal, &ident)?);
+            continue;
+        }
         let range = joint_range(&ident, req.joint);
         extra.extend(add_effect(&mut nominal, req, range)?);
     }

@@ -4,6 +4,7 @@
 pub mod acceptance;
 pub mod check;
 pub mod coupling_hint;
+pub mod drift;
 pub mod inputs;
 pub mod method;
 pub mod prior;
@@ -122,7 +123,7 @@ fn pose_error_vectors_of<'a, const N: usize, V: kinecal::ValueStorage>(
 ) -> impl Iterator<Item = nalgebra::Vector3<f64>> + 'a {
     let mut fk = ForwardKinematics::new();
     data.iter().map(
-        move |m| match fk.compute_at(robot, &m.q, m.tool as usize, m.temp_c) {
+        move |m| match fk.compute_at(robot, &m.q, m.tool as usize, m.conditions()) {
             Some(p) => m.point - p,
             None => nalgebra::Vector3::repeat(f64::NAN),
         },
@@ -168,7 +169,7 @@ pub fn orientation_errors_deg<const N: usize, V: kinecal::ValueStorage>(
         part.iter()
             .filter_map(|m| {
                 let o = m.orientation.as_ref()?;
-                fk.compute_at(robot, &m.q, m.tool as usize, m.temp_c)?;
+                fk.compute_at(robot, &m.q, m.tool as usize, m.conditions())?;
                 Some(
                     kinecal::model::frame::orientation_error(o, &fk.tool_pose(robot))
                         .norm()
@@ -611,6 +612,9 @@ impl std::str::FromStr for EffectRequest {
         if let Some(r) = thermal::parse_request(s) {
             return r;
         }
+        if let Some(r) = drift::parse_request(s) {
+            return r;
+        }
         let mut it = s.split(':');
         let kind = it.next().unwrap_or_default().to_string();
         let joint: usize = it
@@ -632,7 +636,7 @@ impl std::str::FromStr for EffectRequest {
         anyhow::ensure!(joint >= 1, "--effect {s}: joints are numbered from 1");
         anyhow::ensure!(
             kind == "axis-tilt" || kinecal::EffectKind::from_id(&kind).is_some(),
-            "--effect {s}: unknown effect '{kind}' (joint-compliance, joint-cyclic, joint-scale, axis-tilt, joint-table, thermal-expansion)"
+            "--effect {s}: unknown effect '{kind}' (joint-compliance, joint-cyclic, joint-scale, axis-tilt, joint-table, thermal-expansion, base-drift)"
         );
         if let Some(a) = arg {
             match kind.as_str() {

@@ -76,9 +76,9 @@ impl ResidualTable {
                 for m in p.of(all) {
                     let tool = m.tool as usize;
                     let start_mm = fk
-                        .compute_at(start, &m.q, tool, m.temp_c)
+                        .compute_at(start, &m.q, tool, m.conditions())
                         .map_or(f64::NAN, |q| (m.point - q).norm());
-                    let Some(q) = fk.compute_at(model, &m.q, tool, m.temp_c) else {
+                    let Some(q) = fk.compute_at(model, &m.q, tool, m.conditions()) else {
                         continue;
                     };
                     let e = m.point - q;

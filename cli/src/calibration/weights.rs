@@ -87,7 +87,7 @@ fn rows<const N: usize, V: kinecal::ValueStorage>(
     let mut fk = ForwardKinematics::new();
     let (mut pos, mut rot) = (Vec::new(), Vec::new());
     for (m, s) in data.iter().zip(stated) {
-        let Some(p) = fk.compute_at(robot, &m.q, m.tool as usize, m.temp_c) else {
+        let Some(p) = fk.compute_at(robot, &m.q, m.tool as usize, m.conditions()) else {
             continue;
         };
         let r = m.point - p;

@@ -46,6 +46,11 @@ pub struct Args {
     /// referred to the mean temperature.
     #[arg(long, value_name = "A:B", value_parser = crate::simulation::request::parse_temperature, allow_hyphen_values = true)]
     pub temperature: Option<(f64, f64)>,
+    /// The poses are taken evenly over this many seconds, in their order: each row gets a
+    /// `t_s` column (from 0), and a `--effect base-drift:0:VX,VY,VZ` (the tracker drifting, mm
+    /// per second) is referred to the mean time.
+    #[arg(long, value_name = "SECONDS")]
+    pub session_s: Option<f64>,
     /// Output measurement CSV.
     #[arg(long)]
     pub out: PathBuf,
@@ -89,6 +94,7 @@ impl Args {
             geom_errors: self.geom_errors,
             effects: self.effects.clone(),
             temperature: self.temperature,
+            session_s: self.session_s,
             sweeps: self.sweeps.clone(),
             sweep_points: self.sweep_points,
             sweep_span_deg: self.sweep_span_deg,
@@ -107,6 +113,11 @@ fn simulate_with_joints<const N: usize>(
     let req = args.request();
     let robot = args.robot.display().to_string();
     let s = simulate_request(file, &nominal, &req, &robot, &mut crate::Stderr)?;
+    if args.session_s.is_some() && (args.plan.is_some() || args.constraints.is_some()) {
+        crate::refuse!(
+            "--session-s applies to tracker points: a constraint session has no tracker to drift"
+        );
+    }
     if let Some(path) = &args.plan {
         let origin = path.display().to_string();
         let text = std::fs::read_to_string(path)

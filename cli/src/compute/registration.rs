@@ -69,7 +69,7 @@ pub fn fit_base<const N: usize, V: kinecal::ValueStorage>(
         let mut fk = ForwardKinematics::<f64, N>::new();
         part.iter()
             .map(|m| {
-                fk.compute_at(&placed, &m.q, m.tool as usize, m.temp_c)
+                fk.compute_at(&placed, &m.q, m.tool as usize, m.conditions())
                     .unwrap_or(Vector3::repeat(f64::NAN))
             })
             .collect::<Vec<_>>()
@@ -92,7 +92,7 @@ pub fn fit_tool_axes<const N: usize, V: kinecal::ValueStorage>(
     let mut n = 0;
     for m in data {
         let Some(o) = &m.orientation else { continue };
-        fk.compute_at(robot, &m.q, m.tool as usize, m.temp_c)?;
+        fk.compute_at(robot, &m.q, m.tool as usize, m.conditions())?;
         sum += fk.flange_pose().rotation().transpose() * o.rotation();
         n += 1;
     }

@@ -24,7 +24,7 @@ pub fn fit_tool_point<const N: usize, V: kinecal::ValueStorage>(
     let mut sum = Vector3::zeros();
     let mut n = 0usize;
     for m in data.iter().filter(|m| m.tool == 0) {
-        let o = fk.compute_at(&flange, &m.q, 0, m.temp_c)?;
+        let o = fk.compute_at(&flange, &m.q, 0, m.conditions())?;
         sum += fk.flange_pose().rotation().transpose() * (m.point - o);
         n += 1;
     }

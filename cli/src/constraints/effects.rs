@@ -18,6 +18,12 @@ pub fn add_effects<const N: usize>(
     let rows = measurements(ident);
     let mut extra = Vec::new();
     for req in requests {
+        if req.kind == crate::calibration::drift::DRIFT {
+            crate::refuse!(
+                "--effect base-drift: a constraint session has no tracker to drift (the arm \
+                 measures its own sockets, planes and lengths): leave it out"
+            );
+        }
         if req.kind == crate::formats::robot_file::THERMAL {
             if rows.iter().all(|m| m.temp_c.is_none()) {
                 crate::refuse!(

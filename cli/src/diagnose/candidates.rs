@@ -33,6 +33,12 @@
 //! - `thermal-expansion` once (it acts on no joint: listed on joint 1), when every pose has a
 //!   temperature and they span at least [`CatalogueConfig::min_temperature_span_c`]; its
 //!   reference temperature is the data's mean, so that `c` does not trade with the lengths.
+//! - `base-drift` once (the measuring instrument drifting: listed on joint 1), when every pose
+//!   has a time (`t_s`) and they span a positive time; its reference time is the data's mean,
+//!   so that the drift does not trade with the base position. It is told apart from
+//!   thermal expansion by the pattern: a drift moves every point alike, an expansion moves each
+//!   point in proportion to its distance from the base origin; and from a base error by the
+//!   time: a drift grows along the session, a base error is the same at every row.
 
 use crate::formats::robot_file::AXIS_TILT;
 use crate::output::numfmt::sig;
@@ -55,6 +61,8 @@ pub enum CandidateKind {
     Table { start: f64, step: f64, knots: usize },
     /// Every length scales by `1 + c·(T − reference)` (°C).
     Thermal { reference: f64 },
+    /// The base translates by `v·(t − reference)` (s): the tracker drifting.
+    Drift { reference: f64 },
 }
 
 /// One candidate: a kind on a joint (0-based).
@@ -126,6 +134,7 @@ impl Candidate {
             CandidateKind::Tilt => AXIS_TILT,
             CandidateKind::Table { .. } => "joint-table",
             CandidateKind::Thermal { .. } => "thermal-expansion",
+            CandidateKind::Drift { .. } => "base-drift",
         }
     }
 
@@ -138,6 +147,7 @@ impl Candidate {
             CandidateKind::Tilt => None,
             CandidateKind::Table { .. } => Some(EffectKind::Table),
             CandidateKind::Thermal { .. } => Some(EffectKind::Thermal),
+            CandidateKind::Drift { .. } => Some(EffectKind::Drift),
         }
     }
 
@@ -157,6 +167,9 @@ impl Candidate {
                 "thermal-expansion (reference {} °C)",
                 round_sig(reference, 4)
             ),
+            CandidateKind::Drift { .. } => {
+                "base-drift (the tracker moving during the session)".into()
+            }
             _ => format!("{} on joint {j}", self.id()),
         }
     }
@@ -197,6 +210,7 @@ impl Candidate {
             CandidateKind::Cyclic(n) => (n, 0.0, 0.0, 2),
             CandidateKind::Table { start, step, knots } => (1, start, step, knots),
             CandidateKind::Thermal { reference } => (1, reference, 0.0, 1),
+            CandidateKind::Drift { reference } => (1, reference, 0.0, 3),
             _ => (1, 0.0, 0.0, 1),
         };
         let kind = self
@@ -249,7 +263,9 @@ impl Candidate {
                 let (s, c) = (q * n as f64).sin_cos();
                 v(0) * s + v(1) * c
             }
-            CandidateKind::Tilt | CandidateKind::Thermal { .. } => 0.0,
+            CandidateKind::Tilt | CandidateKind::Thermal { .. } | CandidateKind::Drift { .. } => {
+                0.0
+            }
             CandidateKind::Table { start, step, knots } => {
                 if knots < 2 || values.len() < knots {
                     return 0.0;
@@ -295,6 +311,13 @@ impl Candidate {
                     "the arm's lengths grow with its temperature (thermal expansion {} ppm per kelvin from {} °C; steel ≈ 12, aluminium ≈ 23)",
                     if v0.is_finite() { sig(v0 * 1e6, 3) } else { "-".into() },
                     round_sig(reference, 4)
+                )
+            }
+            CandidateKind::Drift { .. } => {
+                let v = (v0 * v0 + values.iter().skip(1).map(|x| x * x).sum::<f64>()).sqrt();
+                format!(
+                    "the measuring instrument drifted during the session ({} mm per hour against the robot: re-register the tracker, warm it up, or shorten the session)",
+                    if v.is_finite() { sig(v * 3600.0, 3) } else { "-".into() }
                 )
             }
             CandidateKind::Table { start, step, knots } => {
@@ -356,10 +379,17 @@ pub fn catalogue<const N: usize, V: kinecal::ValueStorage>(
             joint: 0,
         });
     }
+    if let Some(reference) = crate::calibration::drift::mean_time(data) {
+        out.push(Candidate {
+            kind: CandidateKind::Drift { reference },
+            joint: 0,
+        });
+    }
     let mut tau_max = [0.0f64; N];
     let mut fk = ForwardKinematics::new();
     for m in data {
-        fk.compute_at(robot, &m.q, 0, m.temp_c).unwrap_or_default();
+        fk.compute_at(robot, &m.q, 0, m.conditions())
+            .unwrap_or_default();
         let tau = fk.lever_arms();
         for j in 0..N {
             tau_max[j] = tau_max[j].max(tau[j].abs());

@@ -478,7 +478,7 @@ impl<const N: usize> PoseKinematics<N> {
         let poses = data
             .iter()
             .map(|m| {
-                fk.compute_at(&probe, &m.q, m.tool as usize, m.temp_c);
+                fk.compute_at(&probe, &m.q, m.tool as usize, m.conditions());
                 fk
             })
             .collect();

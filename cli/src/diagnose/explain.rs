@@ -125,7 +125,9 @@ pub fn per_pose<const N: usize>(
     let mut fk0 = ForwardKinematics::new();
     data.iter()
         .map(|m| {
-            let p = fk.compute_at(robot, &m.q, 0, m.temp_c).unwrap_or_default();
+            let p = fk
+                .compute_at(robot, &m.q, 0, m.conditions())
+                .unwrap_or_default();
             let r = m.point - p;
             let tau = fk.lever_arms().get(j).copied().unwrap_or(0.0);
             let q = m.q.get(j).copied().unwrap_or(0.0);
@@ -137,6 +139,13 @@ pub fn per_pose<const N: usize>(
                     .thermal()
                     .and_then(|(k, ..)| fk.column(robot, Param::Effect(k as u16)).ok())
                     .unwrap_or_default(),
+                // Per unit of speed along the fitted drift: the time from the reference.
+                CandidateKind::Drift { reference } => {
+                    let v =
+                        nalgebra::Vector3::from_iterator(values.iter().copied().chain([0.0; 3]));
+                    let dt = m.time_s.map_or(0.0, |t| t - reference);
+                    v.try_normalize(0.0).unwrap_or_default() * dt
+                }
                 _ => fk.reading_column(robot, j),
             };
             let n2 = dir.norm_squared();
@@ -146,13 +155,20 @@ pub fn per_pose<const N: usize>(
                     let beta = values.first().copied().unwrap_or(0.0);
                     (
                         beta,
-                        (p - fk0.compute_at(r0, &m.q, 0, m.temp_c).unwrap_or_default()).norm(),
+                        (p - fk0
+                            .compute_at(r0, &m.q, 0, m.conditions())
+                            .unwrap_or_default())
+                        .norm(),
                     )
                 }
                 (None, CandidateKind::Tilt) => (0.0, 0.0),
                 (_, CandidateKind::Thermal { .. }) => {
                     let c = values.first().copied().unwrap_or(0.0);
                     (c, (dir * c).norm())
+                }
+                (_, CandidateKind::Drift { .. }) => {
+                    let speed = values.iter().map(|v| v * v).sum::<f64>().sqrt();
+                    (0.0, dir.norm() * speed)
                 }
                 _ => {
                     let dq = c.correction(&values, q, tau);
@@ -198,7 +214,10 @@ pub fn knots(c: &Candidate, values: &[f64], lo: f64, hi: f64) -> Vec<(f64, f64)>
 pub fn curve(c: &Candidate, values: &[f64], lo: f64, hi: f64) -> Vec<(f64, f64)> {
     if matches!(
         c.kind,
-        CandidateKind::Compliance | CandidateKind::Tilt | CandidateKind::Thermal { .. }
+        CandidateKind::Compliance
+            | CandidateKind::Tilt
+            | CandidateKind::Thermal { .. }
+            | CandidateKind::Drift { .. }
     ) || hi.is_nan()
         || lo.is_nan()
         || hi < lo
@@ -438,6 +457,11 @@ fn short_text(
                 fmt_deg(v0.abs())
             )
         }
+        CandidateKind::Drift { .. } => format!(
+            "the tracker drifted against the robot by {} mm per hour, up to {} mm from its mean position at the poses measured (not the arm's: not written to the model)",
+            sig(values.iter().map(|v| v * v).sum::<f64>().sqrt() * 3600.0, 3),
+            sig(e.tool_max_mm, 3)
+        ),
     }
 }
 
@@ -474,6 +498,7 @@ pub fn explain<const N: usize>(
         CandidateKind::Table { .. } | CandidateKind::Scale => spread(&mut grid.iter().map(|p| p.1)),
         CandidateKind::Compliance => spread(&mut poses.iter().map(|p| p.dq)),
         CandidateKind::Tilt | CandidateKind::Thermal { .. } => v0.abs(),
+        CandidateKind::Drift { .. } => values.iter().map(|v| v * v).sum::<f64>().sqrt(),
     };
     let n = poses.len().max(1) as f64;
     let tool_rms_mm = (poses.iter().map(|p| p.tool_mm * p.tool_mm).sum::<f64>() / n).sqrt();

@@ -196,7 +196,7 @@ impl Problem {
     ) -> Vector3<f64> {
         cols.clear();
         let p = fk
-            .compute_at(robot, &m.q, m.tool as usize, m.temp_c)
+            .compute_at(robot, &m.q, m.tool as usize, m.conditions())
             .unwrap_or_default();
         let weighted = m.weight != Vector3::repeat(1.0);
         let r = m.point - p;

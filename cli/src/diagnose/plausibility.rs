@@ -28,6 +28,8 @@ pub struct Limits {
     pub tilt_deg: f64,
     /// Thermal expansion (per kelvin).
     pub expansion_per_k: f64,
+    /// Drift of the measuring instrument (mm per hour).
+    pub drift_mm_per_h: f64,
 }
 
 impl Default for Limits {
@@ -39,6 +41,7 @@ impl Default for Limits {
             compliance_deg_per_m: 1.0,
             tilt_deg: 2.0,
             expansion_per_k: 1e-4,
+            drift_mm_per_h: 10.0,
         }
     }
 }
@@ -108,5 +111,15 @@ pub fn implausible(c: &Candidate, values: &[f64], limits: &Limits) -> Option<Str
                 sig(limits.expansion_per_k * 1e6, 3)
             )
         }),
+        CandidateKind::Drift { .. } => {
+            let per_h = values.iter().map(|v| v * v).sum::<f64>().sqrt() * 3600.0;
+            (per_h > limits.drift_mm_per_h).then(|| {
+                format!(
+                    "a drift of {} mm per hour is beyond the {} mm per hour of a working tracker: the robot or the tracker was moved during the session",
+                    sig(per_h, 3),
+                    sig(limits.drift_mm_per_h, 3)
+                )
+            })
+        }
     }
 }

@@ -106,12 +106,17 @@ pub fn warning<const N: usize, V: kinecal::ValueStorage>(
          (x {}, y {}, z {} mm; {} mm RMS beside a noise floor of {} mm, {p}), which the model \
          does not explain: a tracker or a base that moved during the session, or the arm \
          warming beyond what `temp_c` records. Check the tracker's drift (re-measure its \
-         reference), or split the session where it moved",
+         reference), or split the session where it moved{}",
         crate::output::numfmt::sig(d.norm(), 3),
         crate::output::numfmt::sig(d.x, 3),
         crate::output::numfmt::sig(d.y, 3),
         crate::output::numfmt::sig(d.z, 3),
         crate::output::numfmt::sig(t.rms_mm, 3),
         crate::output::numfmt::sig(noise_floor_mm, 3),
+        if data.iter().all(|m| m.time_s.is_some()) {
+            ""
+        } else {
+            "; with each row's time in a `t_s` column, diagnose fits the drift (`base-drift`)"
+        },
     ))
 }

@@ -23,6 +23,10 @@ pub const XYZ_DECIMALS: usize = 8;
 /// thermal-expansion term is evaluated at.
 pub const TEMPERATURE_COLUMN: &str = "temp_c";
 
+/// The extra column carrying the time (s, the session's clock) of each row: what a model's
+/// base-drift term is evaluated at.
+pub const TIME_COLUMN: &str = "t_s";
+
 /// One measured pose in file units.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Record<const N: usize> {
@@ -66,18 +70,24 @@ impl<const N: usize> Dataset<N> {
         self.records.is_empty()
     }
 
-    /// All records in library units (rad, mm), with the [`TEMPERATURE_COLUMN`] (when the
-    /// file has it and the cell is not empty) as each measurement's `temp_c`.
+    /// All records in library units (rad, mm), with the [`TEMPERATURE_COLUMN`] and the
+    /// [`TIME_COLUMN`] (when the file has them and the cell is not empty) as each
+    /// measurement's `temp_c` and `time_s`.
     pub fn measurements<T: Real>(&self) -> Vec<Measurement<T, N>> {
         let temp = self
             .extra_names
             .iter()
             .position(|n| n == TEMPERATURE_COLUMN);
+        let time = self.extra_names.iter().position(|n| n == TIME_COLUMN);
         self.records
             .iter()
             .map(|r| {
                 let mut m: Measurement<T, N> = r.measurement();
                 m.temp_c = temp
+                    .and_then(|k| r.extra.get(k).copied())
+                    .filter(|t| t.is_finite())
+                    .map(T::of);
+                m.time_s = time
                     .and_then(|k| r.extra.get(k).copied())
                     .filter(|t| t.is_finite())
                     .map(T::of);

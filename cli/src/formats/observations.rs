@@ -235,6 +235,9 @@ pub fn observe<const N: usize>(
     }
     // The arm's temperature, for a model with a thermal-expansion term (an empty cell: none).
     let temp = col(ds, crate::formats::measurements::TEMPERATURE_COLUMN);
+    // The time, for a model with a base-drift term (an empty cell: none).
+    let time = col(ds, crate::formats::measurements::TIME_COLUMN);
+    const MAX_TIME: f64 = kinecal::model::effects::MAX_DRIFT_TIME;
     // One record's observations (one, or one per reflector seen), onto `obs`; the refusal
     // names the line.
     let observe_record =
@@ -284,6 +287,10 @@ pub fn observe<const N: usize>(
             if let Some(t) = temp_c.filter(|t| t.abs() > 1e3) {
                 crate::refuse!("{}: not a temperature in °C: {t}", at("temp_c"));
             }
+            let time_s = time.map(get).filter(|t| !t.is_nan());
+            if let Some(t) = time_s.filter(|t| t.abs() > MAX_TIME) {
+                crate::refuse!("{}: not a time in seconds: {t}", at("t_s"));
+            }
             if named {
                 for (k, c) in points.iter().enumerate() {
                     let p = c.map(get);
@@ -309,6 +316,7 @@ pub fn observe<const N: usize>(
                     m.tool = k as u8;
                     m.weight = weight;
                     m.temp_c = temp_c;
+                    m.time_s = time_s;
                     if let (1, Some((o, w))) = (points.len(), orientation) {
                         m.orientation = Some(o);
                         m.orientation_weight = w;
@@ -319,6 +327,7 @@ pub fn observe<const N: usize>(
                 let mut m = Measurement::new(q, Vector3::from(r.xyz_mm));
                 m.weight = weight;
                 m.temp_c = temp_c;
+                m.time_s = time_s;
                 if let Some((o, w)) = orientation {
                     m.orientation = Some(o);
                     m.orientation_weight = w;

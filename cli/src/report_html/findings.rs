@@ -45,6 +45,9 @@ pub struct FoundJson {
     /// Thermal-expansion: the reference temperature (°C).
     #[serde(default)]
     pub reference_c: Option<f64>,
+    /// Base-drift: the reference time (s).
+    #[serde(default)]
+    pub reference_s: Option<f64>,
 }
 
 /// A finding as the page shows it.
@@ -162,6 +165,16 @@ fn candidate(f: &FoundJson, joints: usize, origin: &str) -> anyhow::Result<Candi
         }
         return Ok(Candidate {
             kind: CandidateKind::Thermal { reference },
+            joint: 0,
+        });
+    }
+    if f.effect == "base-drift" {
+        let reference = f.reference_s.filter(|t| t.is_finite()).unwrap_or(0.0);
+        if f.values.len() != 3 {
+            crate::refuse!("{origin}: the base-drift finding needs 3 values");
+        }
+        return Ok(Candidate {
+            kind: CandidateKind::Drift { reference },
             joint: 0,
         });
     }

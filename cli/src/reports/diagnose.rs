@@ -78,7 +78,7 @@ pub struct DiagnoseReport {
 pub struct FoundEffect {
     /// The effect id (docs/formats.md), `axis-tilt` included.
     pub effect: String,
-    /// 1-based (0 for `thermal-expansion`, which acts on no joint).
+    /// 1-based (0 for `thermal-expansion` and `base-drift`, which act on no joint).
     pub joint: usize,
     pub values: Vec<f64>,
     /// Held-out RMS after adding it (mm).
@@ -101,6 +101,9 @@ pub struct FoundEffect {
     /// Thermal-expansion: the reference temperature T0 (°C) its value `c` (per kelvin) is from.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reference_c: Option<f64>,
+    /// Base-drift: the reference time t0 (s) its velocity (mm per second) is from.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_s: Option<f64>,
     /// The finding in a technician's words with its size, period, where it acts and the share
     /// of the held-out gap it closed ([`crate::diagnose::explain`]); present when the report
     /// was made with the search's data ([`DiagnoseReport::with_explanations`]).
@@ -243,6 +246,7 @@ impl DiagnoseReport {
                 let c = &f.candidate;
                 let (mut order, mut step_deg, mut start_deg, mut knots) = (None, None, None, None);
                 let mut reference_c = None;
+                let mut reference_s = None;
                 match c.kind {
                     CandidateKind::Cyclic(n) => order = Some(n),
                     CandidateKind::Table {
@@ -257,9 +261,13 @@ impl DiagnoseReport {
                         knots = Some(k);
                     }
                     CandidateKind::Thermal { reference } => reference_c = Some(reference),
+                    CandidateKind::Drift { reference } => reference_s = Some(reference),
                     _ => {}
                 }
-                let thermal = matches!(c.kind, CandidateKind::Thermal { .. });
+                let thermal = matches!(
+                    c.kind,
+                    CandidateKind::Thermal { .. } | CandidateKind::Drift { .. }
+                );
                 FoundEffect {
                     effect: c.id().to_string(),
                     joint: if thermal { 0 } else { c.joint + 1 },
@@ -275,6 +283,7 @@ impl DiagnoseReport {
                     start_deg,
                     knots,
                     reference_c,
+                    reference_s,
                     explanation: None,
                 }
             })

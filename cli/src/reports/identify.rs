@@ -347,7 +347,14 @@ impl fmt::Display for IdentifyReport {
                 }
             )?;
             for c in moved {
-                let unit = if c.free_start && !c.length && c.name.contains('[') {
+                // Effect values are in their raw units (docs/formats.md#effects): rad, rad
+                // per m, per kelvin; a drift in mm per second.
+                let effect = ["joint-", "thermal-expansion", "base-drift"]
+                    .iter()
+                    .any(|k| c.name.starts_with(k));
+                let unit = if c.name.starts_with("base-drift") {
+                    " mm/s"
+                } else if effect || (c.free_start && !c.length && c.name.contains('[')) {
                     ""
                 } else if c.length {
                     " mm"
@@ -373,6 +380,23 @@ impl fmt::Display for IdentifyReport {
                     c.sigma.map_or("-".into(), |s| sig(s, 2)),
                 )?;
             }
+        }
+        let drift: Vec<f64> = self
+            .changes
+            .iter()
+            .filter(|c| c.name.starts_with("base-drift"))
+            .map(|c| c.calibrated * 3600.0)
+            .collect();
+        if drift.len() == 3 {
+            writeln!(f)?;
+            writeln!(
+                f,
+                "the tracker drifted {} mm per hour against the robot (x {}, y {}, z {} in the measurement frame): fitted with the model, not written to it (it is this session's, not the arm's)",
+                sig(drift.iter().map(|v| v * v).sum::<f64>().sqrt(), 3),
+                sig(drift[0], 3),
+                sig(drift[1], 3),
+                sig(drift[2], 3)
+            )?;
         }
         if !self.held.is_empty() {
             writeln!(f)?;

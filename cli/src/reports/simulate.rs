@@ -56,7 +56,11 @@ impl SimulateReport {
                 .iter()
                 .map(|e| SimulatedEffect {
                     effect: e.kind.clone(),
-                    joint: if e.kind == THERMAL { 0 } else { e.joint + 1 },
+                    joint: if e.kind == THERMAL || e.kind == kinecal::EffectKind::Drift.id() {
+                        0
+                    } else {
+                        e.joint + 1
+                    },
                     values: e.values.clone(),
                     order: e.order,
                 })

@@ -157,7 +157,7 @@ impl FromStr for EffectArg {
         let kind = parts[0].trim();
         if EffectKind::from_id(kind).is_none() && kind != crate::formats::robot_file::AXIS_TILT {
             return Err(format!(
-                "`--effect {s}`: unknown kind `{kind}` (joint-scale, joint-cyclic, joint-compliance, joint-table, axis-tilt, thermal-expansion)"
+                "`--effect {s}`: unknown kind `{kind}` (joint-scale, joint-cyclic, joint-compliance, joint-table, axis-tilt, thermal-expansion, base-drift)"
             ));
         }
         let joint: usize = parts[1]
@@ -170,6 +170,13 @@ impl FromStr for EffectArg {
                 "`--effect {s}`: thermal-expansion acts on no joint: thermal-expansion:0:C (C per kelvin)"
             ));
         }
+        let drift = kind == EffectKind::Drift.id();
+        if drift && (joint != 0 || parts.len() != 3) {
+            return Err(format!(
+                "`--effect {s}`: base-drift acts on no joint: base-drift:0:VX,VY,VZ (mm per second, with --session-s)"
+            ));
+        }
+        let thermal = thermal || drift;
         if joint == 0 && !thermal {
             return Err(format!("`--effect {s}`: joints are numbered from 1"));
         }
@@ -221,11 +228,12 @@ impl FromStr for EffectArg {
                 values.len() == 1
             }
             "joint-cyclic" => values.len() == 2,
+            "base-drift" => values.len() == 3,
             _ => values.len() >= 2,
         };
         if !want {
             return Err(format!(
-                "`--effect {s}`: wrong number of values (scale, compliance, axis-tilt: 1; cyclic: a,b; table: ≥ 2 knots)"
+                "`--effect {s}`: wrong number of values (scale, compliance, axis-tilt: 1; cyclic: a,b; base-drift: vx,vy,vz; table: ≥ 2 knots)"
             ));
         }
         Ok(EffectArg {
@@ -310,12 +318,26 @@ pub fn measure_at<const N: usize, V: kinecal::ValueStorage, R: Rng>(
     sigma_mm: f64,
     rng: &mut R,
 ) -> Vec<Vector3<f64>> {
+    measure_when(robot, configs, (temps, &[]), sigma_mm, rng)
+}
+
+/// [`measure_at`] with the time `when.1[i]` (s) of pose `i` too (none beyond the slice): what
+/// a model's base-drift term is evaluated at.
+pub fn measure_when<const N: usize, V: kinecal::ValueStorage, R: Rng>(
+    robot: &Robot<f64, N, V>,
+    configs: &[[f64; N]],
+    when: (&[f64], &[f64]),
+    sigma_mm: f64,
+    rng: &mut R,
+) -> Vec<Vector3<f64>> {
+    let (temps, times) = when;
     let mut fk = ForwardKinematics::<f64, N>::new();
     configs
         .iter()
         .enumerate()
         .map(|(i, q)| {
             fk.temp_c = temps.get(i).copied();
+            fk.time_s = times.get(i).copied();
             let p = fk.compute(robot, q);
             if sigma_mm > 0.0 {
                 let n: [f64; 3] = std::array::from_fn(|_| rng.sample::<f64, _>(StandardNormal));
@@ -403,8 +425,38 @@ pub fn simulate_at<const N: usize>(
     sim: &Simulation,
     temperature: Option<(f64, f64)>,
 ) -> anyhow::Result<(HostRobot<N>, Dataset<N>)> {
+    simulate_session(nominal, sim, temperature, None)
+}
+
+/// The times (s) of `count` poses taken evenly over `session_s` seconds from 0, rounded to
+/// the millisecond as a tracker's clock writes them.
+pub fn session_times(session_s: f64, count: usize) -> anyhow::Result<Vec<f64>> {
+    if !(session_s.is_finite() && session_s > 0.0 && session_s <= 1e7) {
+        crate::refuse!(
+            "--session-s: the session must last a finite number of seconds above 0 and at most 1e7, got {session_s}"
+        );
+    }
+    let n = count.max(2) - 1;
+    Ok((0..count)
+        .map(|i| (session_s * i as f64 / n as f64 * 1e3).round() / 1e3)
+        .collect())
+}
+
+/// [`simulate_at`] with the poses taken evenly over `session_s` seconds, in their order: every
+/// row gets a `t_s` (from 0), and a base-drift effect of the true robot (the tracker drifting)
+/// is referred to the mean time.
+pub fn simulate_session<const N: usize>(
+    nominal: &HostRobot<N>,
+    sim: &Simulation,
+    temperature: Option<(f64, f64)>,
+    session_s: Option<f64>,
+) -> anyhow::Result<(HostRobot<N>, Dataset<N>)> {
     let temps = match temperature {
         Some(t) => warm_up(t, sim.poses)?,
+        None => Vec::new(),
+    };
+    let times = match session_s {
+        Some(d) => session_times(d, sim.poses)?,
         None => Vec::new(),
     };
     if !(sim.noise_mm.is_finite() && sim.noise_mm >= 0.0) {
@@ -431,15 +483,46 @@ pub fn simulate_at<const N: usize>(
                 .map_err(|err| anyhow!("effect thermal-expansion: {err:?}"))?;
             continue;
         }
+        if e.kind == EffectKind::Drift.id() {
+            if times.is_empty() {
+                crate::refuse!(
+                    "--effect base-drift needs --session-s: the rows' times the drift grows with"
+                );
+            }
+            let reference = times.iter().sum::<f64>() / times.len() as f64;
+            truth
+                .effects_mut()
+                .push(EffectKind::Drift, 0, N, 1, reference, 0.0, &e.values)
+                .map_err(|err| {
+                    anyhow!(
+                        "effect base-drift (mm per second, each below {}): {err:?}",
+                        kinecal::model::effects::MAX_DRIFT_SPEED
+                    )
+                })?;
+            continue;
+        }
         add_effect(&mut truth, e)?;
     }
     let configs = random_configurations(&truth, sim.poses, &mut rng.configs);
-    let points = measure_at(&truth, &configs, &temps, sim.noise_mm, &mut rng.noise);
+    let points = measure_when(
+        &truth,
+        &configs,
+        (&temps, &times),
+        sim.noise_mm,
+        &mut rng.noise,
+    );
     let mut ds = dataset(&configs, &points);
     if !temps.is_empty() {
         ds.extra_names
             .push(crate::formats::measurements::TEMPERATURE_COLUMN.to_string());
         for (r, t) in ds.records.iter_mut().zip(&temps) {
+            r.extra.push(*t);
+        }
+    }
+    if !times.is_empty() {
+        ds.extra_names
+            .push(crate::formats::measurements::TIME_COLUMN.to_string());
+        for (r, t) in ds.records.iter_mut().zip(&times) {
             r.extra.push(*t);
         }
     }

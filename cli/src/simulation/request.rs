@@ -23,6 +23,8 @@ pub struct Request {
     pub effects: Vec<String>,
     /// The arm warms (or cools) linearly from the first to the second temperature (°C).
     pub temperature: Option<(f64, f64)>,
+    /// The poses are taken evenly over this many seconds: each row gets a `t_s`.
+    pub session_s: Option<f64>,
     /// Instead of random poses, single-joint sweeps of these joints (1-based).
     pub sweeps: Vec<usize>,
     pub sweep_points: usize,
@@ -42,6 +44,7 @@ impl Default for Request {
             geom_errors: false,
             effects: Vec::new(),
             temperature: None,
+            session_s: None,
             sweeps: Vec::new(),
             sweep_points: 24,
             sweep_span_deg: 360.0,
@@ -134,10 +137,13 @@ pub fn simulate_request<const N: usize>(
         geom_errors: req.geom_errors.then(GeomErrors::default),
         effects: effects.clone(),
     };
-    let (truth, mut data) = super::simulate_at(nominal, &sim, req.temperature)?;
+    let (truth, mut data) = super::simulate_session(nominal, &sim, req.temperature, req.session_s)?;
     if !req.sweeps.is_empty() {
         if req.temperature.is_some() {
             crate::refuse!("--temperature applies to random poses, not to --sweeps");
+        }
+        if req.session_s.is_some() {
+            crate::refuse!("--session-s applies to random poses, not to --sweeps");
         }
         let rest: [f64; N] = if req.rest.is_empty() {
             super::sweeps::default_rest(&truth)

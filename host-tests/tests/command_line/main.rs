@@ -13,6 +13,7 @@ mod constraints;
 mod couplings;
 mod csv_hardening;
 mod documented_examples;
+mod drifting_tracker;
 mod effect_requests;
 mod exit_status;
 mod frames;

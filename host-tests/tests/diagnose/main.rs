@@ -5,6 +5,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod drift;
 mod evidence;
 mod explain;
 mod grids;

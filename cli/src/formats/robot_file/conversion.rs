@@ -115,6 +115,10 @@ impl RobotFile {
         });
         let mut effects: Vec<EffectSpec> = Vec::new();
         for (i, e) in robot.effects().iter().enumerate() {
+            // The tracker's drift is the session's, not the robot's (calibration::drift).
+            if e.kind == EffectKind::Drift {
+                continue;
+            }
             let table = e.kind == EffectKind::Table;
             let thermal = e.kind == EffectKind::Thermal;
             effects.push(EffectSpec {

@@ -209,6 +209,12 @@ impl RobotFile {
             let p = Place::Effect(i);
             let what = format!("effect `{}` on joint {}", e.kind, e.joint);
             let thermal = e.kind == THERMAL;
+            if e.kind == kinecal::EffectKind::Drift.id() {
+                return issue(
+                    p,
+                    format!("{what}: base-drift is a tracker's drift during one session, not part of a robot: identify and diagnose estimate it from the data's t_s (--effect base-drift) and do not write it"),
+                );
+            }
             if thermal {
                 if e.joint != 0 {
                     return issue(

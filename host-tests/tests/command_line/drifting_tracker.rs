@@ -1,0 +1,150 @@
+//! `identify --effect base-drift` on a tracker file with a `t_s` column: a simulated session of
+//! an hour whose tracker drifts (0.22 mm per hour) gives the drift back, the held-out poses
+//! reach the noise floor with the term and stay well above it without, and the model written
+//! leaves the drift out (it is the session's, not the arm's). What cannot be right is refused.
+
+use crate::common::*;
+
+/// The true drift, mm per second along the measurement frame's x, y, z.
+const DRIFT: [f64; 3] = [5e-5, -3e-5, 2e-5];
+
+fn drifting_session(dir: &std::path::Path, robot: &std::path::Path) -> std::path::PathBuf {
+    let data = dir.join("drift.csv");
+    kinecal_ok(&[
+        "simulate",
+        "--robot",
+        s(robot),
+        "--poses",
+        "400",
+        "--noise-mm",
+        "0.01",
+        "--seed",
+        "23",
+        "--geom-errors",
+        "--session-s",
+        "3600",
+        "--effect",
+        &format!("base-drift:0:{},{},{}", DRIFT[0], DRIFT[1], DRIFT[2]),
+        "--out",
+        s(&data),
+    ]);
+    data
+}
+
+#[test]
+fn a_drifting_tracker_is_fitted_from_the_rows_times_and_not_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = data_file("er20.toml");
+    let data = drifting_session(dir.path(), &robot);
+    let text = std::fs::read_to_string(&data).unwrap();
+    assert!(text.lines().next().unwrap().ends_with(",t_s"), "{text}");
+    assert!(text.lines().last().unwrap().ends_with(",3600"), "{text}");
+    // Every 5th pose held out: the session's times on both sides.
+    let split = ["--json", "--holdout", "0.2", "--split", "every:5"];
+    let plain = json_of(&run_on("identify", &robot, &data, &split));
+    let model = dir.path().join("model.toml");
+    let mut with_term = split.to_vec();
+    with_term.extend(["--effect", "base-drift", "--out", s(&model)]);
+    let v = json_of(&run_on("identify", &robot, &data, &with_term));
+    assert_eq!(v["converged"], true, "{v}");
+    let fitted: Vec<f64> = ["vx", "vy", "vz"]
+        .iter()
+        .map(|a| v["parameters"][format!("base-drift.{a}")].as_f64().unwrap())
+        .collect();
+    let held = |v: &serde_json::Value| v["after"]["validation_rms_mm"].as_f64().unwrap();
+    let floor = 0.01 * 3f64.sqrt();
+    eprintln!(
+        "tracker drifting {DRIFT:?} mm/s: fitted {fitted:?}; held-out RMS {} mm without the \
+         term, {} mm with it (floor {floor:.4})",
+        held(&plain),
+        held(&v)
+    );
+    // The session's 3,600 s tell the speed to ~1e-6 mm/s (0.01 mm noise over 400 poses).
+    for (f, t) in fitted.iter().zip(DRIFT) {
+        assert!((f - t).abs() < 3e-6, "{fitted:?} vs {DRIFT:?}");
+    }
+    let unidentifiable = v["unidentifiable"].as_array().unwrap();
+    assert!(
+        !unidentifiable
+            .iter()
+            .any(|n| n.as_str().unwrap().starts_with("base-drift")),
+        "{v}"
+    );
+    assert!(held(&v) < 1.2 * floor, "{v}");
+    assert!(held(&plain) > 2.0 * held(&v), "{plain}");
+    // The model written has no drift, and reads back.
+    let written = std::fs::read_to_string(&model).unwrap();
+    assert!(!written.contains("base-drift"), "{written}");
+    let back = run_on("check", &model, &data, &[]);
+    assert!(back.status.success(), "{}", stderr(&back));
+}
+
+#[test]
+fn a_drift_that_cannot_be_right_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = data_file("er20.toml");
+    // No t_s column: nothing to fit a drift to.
+    let still = dir.path().join("still.csv");
+    kinecal_ok(&[
+        "simulate",
+        "--robot",
+        s(&robot),
+        "--poses",
+        "60",
+        "--seed",
+        "2",
+        "--out",
+        s(&still),
+    ]);
+    let out = run_on("identify", &robot, &still, &["--effect", "base-drift"]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("t_s"), "{}", stderr(&out));
+    // On a joint, or with an argument.
+    for bad in ["base-drift:2", "base-drift:0:5"] {
+        let out = run_on("identify", &robot, &still, &["--effect", bad]);
+        assert_eq!(out.status.code(), Some(2), "{bad}: {}", stderr(&out));
+    }
+    // A robot file that carries a drift: it belongs to a session, not to a robot.
+    let text = std::fs::read_to_string(&robot).unwrap();
+    let drifting = dir.path().join("drifting.toml");
+    std::fs::write(
+        &drifting,
+        format!(
+            "{text}\n[[effects]]\nkind = \"base-drift\"\njoint = 0\nvalues = [0.0, 0.0, 0.0]\n"
+        ),
+    )
+    .unwrap();
+    let out = run_on("check", &drifting, &still, &[]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("--effect base-drift"),
+        "{}",
+        stderr(&out)
+    );
+    // A simulated drift needs the rows' times.
+    let out = kinecal(&[
+        "simulate",
+        "--robot",
+        s(&robot),
+        "--poses",
+        "10",
+        "--effect",
+        "base-drift:0:1e-5,0,0",
+        "--out",
+        s(&dir.path().join("x.csv")),
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    // A time cell that is no time.
+    let mut rows: Vec<String> = std::fs::read_to_string(drifting_session(dir.path(), &robot))
+        .unwrap()
+        .lines()
+        .map(str::to_string)
+        .collect();
+    let last = rows.len() - 1;
+    rows[last] = format!("{},1e300", rows[last].rsplit_once(',').unwrap().0);
+    let broken = dir.path().join("broken.csv");
+    std::fs::write(&broken, rows.join("\n")).unwrap();
+    let out = run_on("identify", &robot, &broken, &["--effect", "base-drift"]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("t_s"), "{}", stderr(&out));
+}

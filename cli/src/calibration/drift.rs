@@ -54,9 +54,12 @@ pub fn add<const N: usize, V: kinecal::ValueStorage>(
     data: &[Measurement<f64, N>],
 ) -> anyhow::Result<Vec<Param>> {
     let Some(mean) = mean_time(data) else {
+        let without = data.iter().filter(|m| m.time_s.is_none()).count();
         crate::refuse!(
-            "--effect base-drift: the data need a t_s column with each row's time (seconds) on \
-             every row, and not all the same"
+            "--effect base-drift: the data need each row's time in seconds in a t_s column, on \
+             every row and not all the same ({without} of {} rows have none: an empty cell, or \
+             not a number such as a date)",
+            data.len()
         );
     };
     if robot.effects().drift().is_some() {
@@ -70,13 +73,4 @@ pub fn add<const N: usize, V: kinecal::ValueStorage>(
     Ok((first..first + 3)
         .map(|k| Param::Effect(k as u16))
         .collect())
-}
-
-/// The drift velocity of `robot`'s base-drift term in mm per hour (measurement frame) and its
-/// reference time (s); `None` without the term.
-pub fn per_hour<const N: usize, V: kinecal::ValueStorage>(
-    robot: &Robot<f64, N, V>,
-) -> Option<([f64; 3], f64)> {
-    let (_, v, t0) = robot.effects().drift()?;
-    Some((v.map(|x| x * 3600.0), t0))
 }

@@ -60,7 +60,8 @@ impl HoldoutArgs {
 /// Identification and held-out poses: all of `all` against the `validate` file's poses, or
 /// `all` split by `holdout` (`--holdout`, `--split`, and the command's seed), or all and none;
 /// each set with its own observation list (the identification set's is `all`'s, compacted in
-/// place).
+/// place). The `validate` file is another session: its rows' times are dropped, so that a
+/// base-drift term fitted to this session (`calibration::drift`) does not move its poses.
 pub fn split_sets<const N: usize>(
     all: crate::formats::observations::Observed<N>,
     validate: Option<crate::formats::observations::Observed<N>>,
@@ -69,13 +70,16 @@ pub fn split_sets<const N: usize>(
     crate::formats::observations::Observed<N>,
     crate::formats::observations::Observed<N>,
 )> {
-    if let Some(v) = validate {
+    if let Some(mut v) = validate {
         // The command line's parser refuses the pair before; callers in memory get here.
         if holdout.holds_out() || holdout.split != crate::calibration::SplitKind::Last {
             crate::refuse!(
                 "--holdout and --split cannot be used with --validate: the validation set is \
                  the held-out data; give one or the other"
             );
+        }
+        for m in v.measurements.iter_mut() {
+            m.time_s = None;
         }
         return Ok((all, v));
     }

@@ -63,7 +63,10 @@ fn pso_with<const N: usize, V: kinecal::ValueStorage, const D: usize>(
             .with_capacity::<kinecal::Inline<0>>()
             .map_err(|e| anyhow::anyhow!("{e:?}"))?
     } else {
-        anyhow::bail!("PSO searches geometry only; the model has joint corrections: use lm")
+        anyhow::bail!(
+            "PSO searches geometry only; the model has effects (joint corrections, thermal \
+             expansion or a drift): use lm"
+        )
     };
     let mut cfg = PsoConfig::<f64, D>::calibration(params.as_slice())
         .map_err(|e| anyhow::anyhow!("{e:?}"))?;

@@ -19,7 +19,7 @@ use kinecal::Robot;
 
 /// The groups, as listed in messages.
 const GROUPS: &str = "base, tool, geometry, theta, alpha, a, d, beta, effects, joint-tableN, \
-                      joint-cyclicN, joint-scaleN, joint-complianceN";
+                      joint-cyclicN, joint-scaleN, joint-complianceN, base-drift";
 
 /// `--fix`, `--free`, `--only` and `--prior` on the command line (`identify`, and `report`
 /// given what identify was given).
@@ -138,6 +138,8 @@ fn resolve<const N: usize, V: kinecal::ValueStorage>(
         "d" => column(|p| matches!(p, Param::D(_))),
         "beta" => column(|p| matches!(p, Param::Beta(_))),
         "effects" => column(|p| matches!(p, Param::Effect(_))),
+        // The drift acts on no joint: its group has no joint number.
+        "base-drift" => effect_group("base-drift1", robot).unwrap_or_default(),
         _ => {
             let by_name: Vec<Param> = all
                 .iter()

@@ -110,14 +110,14 @@ fn simulate_with_joints<const N: usize>(
     let nominal = file
         .to_robot::<N>()
         .map_err(|e| anyhow!("{}: {e}", args.robot.display()))?;
-    let req = args.request();
-    let robot = args.robot.display().to_string();
-    let s = simulate_request(file, &nominal, &req, &robot, &mut crate::Stderr)?;
     if args.session_s.is_some() && (args.plan.is_some() || args.constraints.is_some()) {
         crate::refuse!(
             "--session-s applies to tracker points: a constraint session has no tracker to drift"
         );
     }
+    let req = args.request();
+    let robot = args.robot.display().to_string();
+    let s = simulate_request(file, &nominal, &req, &robot, &mut crate::Stderr)?;
     if let Some(path) = &args.plan {
         let origin = path.display().to_string();
         let text = std::fs::read_to_string(path)

@@ -55,6 +55,7 @@ pub fn measurements<const N: usize>(groups: &[Group<N>]) -> Vec<kinecal::Measure
         .map(|r| {
             let mut m = kinecal::Measurement::from_deg(&r.q.map(f64::to_degrees), &[0.0; 3]);
             m.temp_c = r.temp_c;
+            // No time: base-drift is refused on constraint sessions (no tracker to drift).
             m
         })
         .collect()

@@ -497,13 +497,14 @@ pub fn explain<const N: usize>(
         CandidateKind::Cyclic(_) => 2.0 * v0.hypot(values.get(1).copied().unwrap_or(0.0)),
         CandidateKind::Table { .. } | CandidateKind::Scale => spread(&mut grid.iter().map(|p| p.1)),
         CandidateKind::Compliance => spread(&mut poses.iter().map(|p| p.dq)),
-        CandidateKind::Tilt | CandidateKind::Thermal { .. } => v0.abs(),
-        CandidateKind::Drift { .. } => values.iter().map(|v| v * v).sum::<f64>().sqrt(),
+        CandidateKind::Tilt => v0.abs(),
+        // No joint angle: no size in degrees (JSON null); the size is at the tool.
+        CandidateKind::Thermal { .. } | CandidateKind::Drift { .. } => f64::NAN,
     };
     let n = poses.len().max(1) as f64;
     let tool_rms_mm = (poses.iter().map(|p| p.tool_mm * p.tool_mm).sum::<f64>() / n).sqrt();
     let tool_max_mm = poses.iter().fold(0.0f64, |a, p| a.max(p.tool_mm));
-    let tool_peak_to_peak_mm = (c.kind != CandidateKind::Tilt)
+    let tool_peak_to_peak_mm = (ptp_rad.is_finite() && c.kind != CandidateKind::Tilt)
         .then(|| poses.iter().fold(0.0f64, |a, p| a.max(p.lever_mm)) * ptp_rad);
     let period_deg = match c.kind {
         CandidateKind::Cyclic(n) => Some(360.0 / f64::from(n.max(1))),

@@ -30,6 +30,13 @@ pub fn write_all<const N: usize>(
     per_pose_errors(&p, &d.baseline_errors, &d.final_errors)?;
     out.push(p);
     for (k, f) in d.found.iter().enumerate() {
+        // A joint-angle plot means nothing for what acts on no joint angle.
+        if matches!(
+            f.candidate.kind,
+            CandidateKind::Thermal { .. } | CandidateKind::Drift { .. }
+        ) {
+            continue;
+        }
         let p = dir.join(format!(
             "effect_{}_{}_joint{}.svg",
             k + 1,

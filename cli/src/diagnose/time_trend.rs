@@ -1,7 +1,7 @@
 //! A drift of the residuals along the rows' order: a laser tracker or a base that moved while
-//! the session was measured, or an arm that warmed beyond what the rows' `temp_c` records. The
-//! catalogue has no candidate for it, so the search would take it for noise (a noise floor
-//! from held-out errors includes it). [`trend`] fits `r_i = r̄ + b·(i − ī)` per axis to a
+//! the session was measured, or an arm that warmed beyond what the rows' `temp_c` records.
+//! Without each row's time (`t_s`) the catalogue cannot offer `base-drift`, so the search
+//! would take a drift for noise (a noise floor from held-out errors includes it). [`trend`] fits `r_i = r̄ + b·(i − ī)` per axis to a
 //! model's point residuals in the order of the observations and tests `b = 0` (F test, 3 and
 //! 3n − 6 − the model's effective parameters degrees of freedom, the rows taken as independent);
 //! [`warning`] says so when the drift is significant and large enough to matter beside the

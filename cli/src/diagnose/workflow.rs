@@ -271,8 +271,8 @@ pub fn run<const N: usize>(
         }
     }
     let converged = geometry_fits(&d, opts.stall_rms_mm);
-    // A tracker that drifted is no effect of the arm: the search took it for noise. (Not when
-    // the geometry did not fit: its residuals are no measure of the tracker.)
+    // A tracker that drifted while the rows carry no time (`t_s`): the search took it for
+    // noise. (Not when the geometry did not fit: its residuals are no measure of the tracker.)
     if converged {
         let w =
             super::time_trend::warning(&d.model, &search, d.effective_parameters, d.noise_floor_mm);

@@ -206,7 +206,9 @@ impl Change {
 
     /// The data alone determine it no better than `mm` (lengths) or `deg` (angles) 1-σ.
     pub fn barely_determined(&self, mm: f64, deg: f64) -> bool {
-        let effect = self.name.starts_with("joint-");
+        let effect = ["joint-", "thermal-expansion", "base-drift"]
+            .iter()
+            .any(|k| self.name.starts_with(k));
         let tolerance = if self.length { mm } else { deg };
         !effect
             && match self.data_sigma {
@@ -381,21 +383,25 @@ impl fmt::Display for IdentifyReport {
                 )?;
             }
         }
-        let drift: Vec<f64> = self
+        // +v is how the robot's base appeared to move in the tracker's frame (the tracker
+        // itself moved by −v).
+        let drift: Vec<&Change> = self
             .changes
             .iter()
             .filter(|c| c.name.starts_with("base-drift"))
-            .map(|c| c.calibrated * 3600.0)
             .collect();
-        if drift.len() == 3 {
+        if drift.len() == 3 && drift.iter().any(|c| c.calibrated != 0.0) {
+            let v: Vec<f64> = drift.iter().map(|c| c.calibrated * 3600.0).collect();
+            let sd = drift.iter().filter_map(|c| c.sigma).fold(0.0f64, f64::max) * 3600.0;
             writeln!(f)?;
             writeln!(
                 f,
-                "the tracker drifted {} mm per hour against the robot (x {}, y {}, z {} in the measurement frame): fitted with the model, not written to it (it is this session's, not the arm's)",
-                sig(drift.iter().map(|v| v * v).sum::<f64>().sqrt(), 3),
-                sig(drift[0], 3),
-                sig(drift[1], 3),
-                sig(drift[2], 3)
+                "the robot's base appeared to move by {} mm per hour in the measurement frame (x {}, y {}, z {} mm per hour, 1-σ up to {}): the tracker drifting (or the robot moving) during the session; fitted with the model, not written to it (it is this session's, not the arm's)",
+                sig(v.iter().map(|x| x * x).sum::<f64>().sqrt(), 3),
+                sig(v[0], 3),
+                sig(v[1], 3),
+                sig(v[2], 3),
+                sig(sd, 2)
             )?;
         }
         if !self.held.is_empty() {

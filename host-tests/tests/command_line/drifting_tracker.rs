@@ -59,10 +59,15 @@ fn a_drifting_tracker_is_fitted_from_the_rows_times_and_not_written() {
         held(&plain),
         held(&v)
     );
-    // The session's 3,600 s tell the speed to ~1e-6 mm/s (0.01 mm noise over 400 poses).
-    for (f, t) in fitted.iter().zip(DRIFT) {
-        assert!((f - t).abs() < 3e-6, "{fitted:?} vs {DRIFT:?}");
-    }
+    // The session's 3,600 s tell the velocity within 2 % (0.01 mm noise over 400 poses).
+    let err: f64 = fitted
+        .iter()
+        .zip(DRIFT)
+        .map(|(f, t)| (f - t).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let speed: f64 = DRIFT.iter().map(|t| t * t).sum::<f64>().sqrt();
+    assert!(err < 0.02 * speed, "{fitted:?} vs {DRIFT:?}");
     let unidentifiable = v["unidentifiable"].as_array().unwrap();
     assert!(
         !unidentifiable
@@ -147,4 +152,80 @@ fn a_drift_that_cannot_be_right_is_refused() {
     let out = run_on("identify", &robot, &broken, &["--effect", "base-drift"]);
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(stderr(&out).contains("t_s"), "{}", stderr(&out));
+}
+
+/// A `--validate` file is another session with its own clock: the drift fitted to this
+/// session is not applied to it (the times would otherwise put it hours away from this
+/// session's reference time).
+#[test]
+fn the_drift_is_not_carried_to_another_session() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = data_file("er20.toml");
+    let session = |name: &str, seed: &str, effect: Option<String>| {
+        let path = dir.path().join(name);
+        let mut args = vec![
+            "simulate",
+            "--robot",
+            s(&robot),
+            "--poses",
+            "300",
+            "--noise-mm",
+            "0.01",
+            "--seed",
+            seed,
+            "--session-s",
+            "3600",
+            // The same arm in both sessions (not seed-dependent): a joint-2 cyclic error.
+            "--effect",
+            "joint-cyclic:2:0.0004,-0.0002",
+            "--out",
+            s(&path),
+        ];
+        let effect = effect.unwrap_or_default();
+        if !effect.is_empty() {
+            args.extend(["--effect", effect.as_str()]);
+        }
+        kinecal_ok(&args);
+        path
+    };
+    let drift = format!("base-drift:0:{},{},{}", DRIFT[0], DRIFT[1], DRIFT[2]);
+    let first = session("first.csv", "5", Some(drift));
+    let next = session("next.csv", "6", None);
+    let v = json_of(&run_on(
+        "identify",
+        &robot,
+        &first,
+        &[
+            "--json",
+            "--effect",
+            "base-drift",
+            "--effect",
+            "joint-cyclic:2",
+            "--validate",
+            s(&next),
+        ],
+    ));
+    let held = v["after"]["validation_rms_mm"].as_f64().unwrap();
+    let floor = 0.01 * 3f64.sqrt();
+    eprintln!("next session: held-out RMS {held} mm (floor {floor:.4})");
+    // The fitted drift applied at the next session's times (0 … 3,600 s from a reference of
+    // 1,800 s) would move its poses by up to 0.11 mm.
+    assert!(held < 1.2 * floor, "{v}");
+}
+
+/// `--fix base-drift` holds the whole term (the group has no joint number).
+#[test]
+fn the_drift_is_a_parameter_group() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = data_file("er20.toml");
+    let data = drifting_session(dir.path(), &robot);
+    let v = json_of(&run_on(
+        "identify",
+        &robot,
+        &data,
+        &["--json", "--effect", "base-drift", "--fix", "base-drift"],
+    ));
+    for a in ["vx", "vy", "vz"] {
+        assert_eq!(v["parameters"][format!("base-drift.{a}")], 0.0, "{v}");
+    }
 }

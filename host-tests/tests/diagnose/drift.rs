@@ -229,7 +229,7 @@ fn diagnose_tells_a_drifting_tracker_from_a_warming_arm() {
             let (_, got, _) = d.model.effects().drift().expect("the drift in the model");
             let err = (Vector3::from(got) - Vector3::from(v)).norm();
             eprintln!("  drift {got:?} mm/s against {v:?}");
-            assert!(err < 0.05 * Vector3::from(v).norm(), "{got:?} vs {v:?}");
+            assert!(err < 0.03 * Vector3::from(v).norm(), "{got:?} vs {v:?}");
         }
     }
 }

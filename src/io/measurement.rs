@@ -46,6 +46,14 @@ pub trait Observation<T: Real, const N: usize> {
     fn time(&self) -> Option<T> {
         None
     }
+    /// The temperature and time the model is evaluated at for this observation.
+    #[inline(always)]
+    fn conditions(&self) -> crate::Conditions<T> {
+        crate::Conditions {
+            temp_c: self.temperature(),
+            time_s: self.time(),
+        }
+    }
     /// True when every number is finite (weights not negative, the orientation a rotation).
     fn is_valid(&self) -> bool;
 }
@@ -132,13 +140,11 @@ impl<T: Real, const N: usize> Measurement<T, N> {
             && self.time_s.is_none_or(|t| t.finite())
     }
 
-    /// The temperature and time the model is evaluated at for this observation.
+    /// The temperature and time the model is evaluated at for this observation
+    /// ([`Observation::conditions`], without importing the trait).
     #[inline(always)]
     pub fn conditions(&self) -> crate::Conditions<T> {
-        crate::Conditions {
-            temp_c: self.temp_c,
-            time_s: self.time_s,
-        }
+        Observation::conditions(self)
     }
 }
 

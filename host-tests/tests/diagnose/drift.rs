@@ -6,41 +6,24 @@
 //! expansion moves each point in proportion to its distance from the base origin; and a drift
 //! grows with the time, a base error is the same in every row.
 
+use super::evidence::{er20, warm_robot};
 use kinecal_cli::HostRobot;
 
 use kinecal::model::effects::{EffectError, EffectKind};
 use kinecal::model::param::Param;
 use kinecal::{Conditions, ForwardKinematics, Measurement};
 use kinecal_cli::diagnose::candidates::CandidateKind;
-use kinecal_cli::formats::robot_file::RobotFile;
 use kinecal_cli::simulation::{simulate_session, GeomErrors, Simulation};
 use nalgebra::Vector3;
-use std::path::PathBuf;
-
-fn er20() -> HostRobot<6> {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data");
-    RobotFile::load(&dir.join("er20.toml"))
-        .unwrap()
-        .to_robot::<6>()
-        .unwrap()
-}
 
 const Q: [f64; 6] = [0.3, -0.5, 0.4, 1.1, -0.7, 0.9];
 /// A session's reference time in Unix seconds.
 const T0: f64 = 1.7e9;
 const V: [f64; 3] = [4e-5, -2e-5, 1e-5];
 
-/// The placed ER20 with a steel thermal-expansion term and a base-drift term.
+/// The placed, warm ER20 of `evidence` with a base-drift term.
 fn drifting_robot() -> HostRobot<6> {
-    let mut r = er20();
-    r.set_base(kinecal::Frame::from_xyz_rpy(
-        [2000.0, -300.0, 100.0],
-        [0.0, 0.0, 0.4],
-    ))
-    .unwrap();
-    r.effects_mut()
-        .push(EffectKind::Thermal, 0, 6, 1, 25.0, 0.0, &[1.2e-5])
-        .unwrap();
+    let mut r = warm_robot();
     r.effects_mut()
         .push(EffectKind::Drift, 0, 6, 1, T0, 0.0, &V)
         .unwrap();
@@ -94,7 +77,12 @@ fn columns_match_finite_differences_at_a_time() {
         (Param::Effect(first as u16 + 2), 1e-6),
         (Param::Effect(thermal), 1e-7),
         (Param::BaseX, 1e-3),
+        (Param::BaseRx, 1e-6),
+        (Param::BaseRy, 1e-6),
         (Param::BaseRz, 1e-6),
+        (Param::Alpha(3), 1e-6),
+        (Param::Beta(1), 1e-6),
+        (Param::D(3), 1e-3),
         (Param::A(2), 1e-3),
         (Param::Theta(2), 1e-6),
         (Param::ToolZ, 1e-3),

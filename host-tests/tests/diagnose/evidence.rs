@@ -16,7 +16,7 @@ use kinecal_cli::simulation::{simulate_at, GeomErrors, Simulation};
 use nalgebra::Vector3;
 use std::path::PathBuf;
 
-fn er20() -> HostRobot<6> {
+pub fn er20() -> HostRobot<6> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data");
     RobotFile::load(&dir.join("er20.toml"))
         .unwrap()
@@ -27,7 +27,8 @@ fn er20() -> HostRobot<6> {
 /// Steel: 1.2e-5 per kelvin.
 const STEEL: f64 = 1.2e-5;
 
-fn warm_robot() -> HostRobot<6> {
+/// The ER20 placed 2 m from the tracker with a steel thermal-expansion term (T0 = 25 °C).
+pub fn warm_robot() -> HostRobot<6> {
     let mut r = er20();
     r.set_base(kinecal::Frame::from_xyz_rpy(
         [2000.0, -300.0, 100.0],

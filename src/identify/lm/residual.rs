@@ -78,15 +78,7 @@ pub fn rms_error<T: Real, const N: usize, V: ValueStorage, M: Observation<T, N>>
     for m in data {
         // An observation of a point the robot does not have has no error: NaN, not a number.
         let p = fk
-            .compute_at(
-                robot,
-                m.q(),
-                m.tool(),
-                crate::Conditions {
-                    temp_c: m.temperature(),
-                    time_s: m.time(),
-                },
-            )
+            .compute_at(robot, m.q(), m.tool(), m.conditions())
             .unwrap_or(Vector3::repeat(T::of(f64::NAN)));
         s += (m.point() - p).norm_squared();
     }
@@ -106,15 +98,7 @@ pub fn rms_orientation_error<T: Real, const N: usize, V: ValueStorage, M: Observ
             continue;
         };
         if fk
-            .compute_at(
-                robot,
-                m.q(),
-                m.tool(),
-                crate::Conditions {
-                    temp_c: m.temperature(),
-                    time_s: m.time(),
-                },
-            )
+            .compute_at(robot, m.q(), m.tool(), m.conditions())
             .is_none()
         {
             return Some(T::of(f64::NAN));

@@ -1,10 +1,12 @@
 //! Measurement, sweep and target files through their doors (docs/formats.md, "Measurement
 //! CSV"): read (in kinecal's layout, or another through `--map`), a stated base checked
 //! ("Base"), the units checked and converted ("Units and the plausibility check"), then the
-//! order of the angles of 6-D rows ("The convention check").
+//! order of the angles of 6-D rows ("The convention check"); measurements lose the rows whose
+//! tracker reading did not update ("Stale readings").
 
 use crate::formats::measurements::{self, Dataset};
 use crate::formats::rotation_order::RotationOrder;
+use crate::formats::stale;
 use crate::formats::units::{accept, convert, FileKind, UnitArgs};
 use kinecal::Robot;
 use std::path::Path;
@@ -44,6 +46,7 @@ pub fn load_as<const N: usize, V: kinecal::ValueStorage>(
     if measured {
         let stated = Some((m.raw_angles.as_slice(), m.rotation, map.as_path()));
         convention(&ds, stated, nominal, &origin)?;
+        return Ok(without_stale(ds, nominal, &origin));
     }
     Ok(ds)
 }
@@ -66,8 +69,23 @@ pub fn accept_dataset<const N: usize, V: kinecal::ValueStorage>(
     let ds = accept(ds, origin, units, nominal, base_known, kind)?;
     if measured {
         convention(&ds, None, nominal, origin)?;
+        return Ok(without_stale(ds, nominal, origin));
     }
     Ok(ds)
+}
+
+/// Measurements without the rows whose tracker reading did not update ([`stale`]), the
+/// warning that names them told on stderr.
+fn without_stale<const N: usize, V: kinecal::ValueStorage>(
+    ds: Dataset<N>,
+    nominal: &Robot<f64, N, V>,
+    origin: &str,
+) -> Dataset<N> {
+    let (ds, warning) = stale::leave_out(ds, nominal, origin);
+    if let Some(w) = warning {
+        crate::Tell::line(&mut crate::Stderr, &w);
+    }
+    ds
 }
 
 /// A measurement file (`check`, `identify`, `diagnose`) in mm and degrees; see [`load_as`].

@@ -14,6 +14,7 @@ pub mod placement;
 pub mod prior;
 pub mod robot_file;
 pub mod rotation_order;
+pub mod stale;
 pub mod units;
 pub mod urdf;
 

@@ -27,6 +27,7 @@ mod one_reflector;
 mod report;
 mod reports;
 mod robot_file;
+mod stale_readings;
 mod thermal_tracker;
 mod units;
 mod unknown_tool;

@@ -1,0 +1,107 @@
+//! Rows whose tracker reading did not update (docs/formats.md, "Stale readings"): a row that
+//! repeats an earlier row's measured point to the last digit although the robot moved is left
+//! out with a warning naming its line, and the commands compute exactly what they compute on the
+//! file without it; a pose measured twice is kept.
+
+use crate::common::*;
+
+/// A simulated session (ER20, 200 poses, noise 0.01 mm, geometric errors).
+fn session(dir: &std::path::Path) -> (std::path::PathBuf, Vec<String>) {
+    let data = dir.join("session.csv");
+    let robot = data_file("er20.toml");
+    simulate(
+        &robot,
+        Some(200),
+        Some(0.01),
+        Some(31),
+        &["--geom-errors"],
+        &data,
+    );
+    let lines = std::fs::read_to_string(&data)
+        .unwrap()
+        .lines()
+        .map(str::to_string)
+        .collect();
+    (data, lines)
+}
+
+/// Line `k` (1-based, the header is line 1) with its x, y, z cells replaced by line `from`'s.
+fn with_point_of(lines: &[String], k: usize, from: usize) -> String {
+    let cells: Vec<&str> = lines[k - 1].split(',').collect();
+    let source: Vec<&str> = lines[from - 1].split(',').collect();
+    let n = cells.len();
+    let mut out: Vec<&str> = cells[..n - 3].to_vec();
+    out.extend_from_slice(&source[n - 3..]);
+    out.join(",")
+}
+
+#[test]
+fn a_stale_reading_is_left_out_and_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, lines) = session(dir.path());
+    assert_eq!(lines[0], "q1,q2,q3,q4,q5,q6,x,y,z", "{}", lines[0]);
+    // Lines 50 and 121 repeat the points of lines 49 and 120.
+    let mut stale = lines.clone();
+    stale[49] = with_point_of(&lines, 50, 49);
+    stale[120] = with_point_of(&lines, 121, 120);
+    let stale_file = write(dir.path(), "stale.csv", &(stale.join("\n") + "\n"));
+    // The same file without those two rows.
+    let clean: Vec<String> = lines
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != 49 && *i != 120)
+        .map(|(_, l)| l.clone())
+        .collect();
+    let clean_file = write(dir.path(), "clean.csv", &(clean.join("\n") + "\n"));
+    let robot = data_file("er20.toml");
+    let args = ["--json", "--holdout", "0.2", "--split", "every:5"];
+    let out = run_on("identify", &robot, &stale_file, &args);
+    let warned = stderr(&out);
+    eprintln!("{warned}");
+    assert!(
+        warned.contains("2 row(s) repeat an earlier row's measured point")
+            && warned.contains("line 50 repeats line 49")
+            && warned.contains("line 121 repeats line 120")
+            && warned.contains("left out"),
+        "{warned}"
+    );
+    assert_eq!(warned.matches("warning:").count(), 1, "{warned}");
+    let v = json_of(&out);
+    let c = json_of(&run_on("identify", &robot, &clean_file, &args));
+    assert!(
+        !stderr(&run_on("identify", &robot, &clean_file, &args)).contains("repeat"),
+        "the clean file is not warned about"
+    );
+    for key in ["n_identification", "n_validation"] {
+        assert_eq!(v[key], c[key], "{key}: {v} {c}");
+    }
+    let n = |k: &str| v[k].as_u64().unwrap();
+    assert_eq!(n("n_identification") + n("n_validation"), 198);
+    for phase in ["before", "after"] {
+        for key in ["identification_rms_mm", "validation_rms_mm"] {
+            assert_eq!(v[phase][key], c[phase][key], "{phase}.{key}");
+        }
+    }
+    assert_eq!(v["parameters"], c["parameters"]);
+    let checked = json_of(&run_on("check", &robot, &stale_file, &["--json"]));
+    assert_eq!(checked["poses"], 198, "{checked}");
+}
+
+#[test]
+fn a_pose_measured_twice_is_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, lines) = session(dir.path());
+    // Line 80 measured again: the same point, the joints a ten-thousandth of a degree apart
+    // (the last digit the file keeps moves), and once more with the very same readings.
+    let cells: Vec<String> = lines[79].split(',').map(str::to_string).collect();
+    let mut nudged = cells.clone();
+    let q1: f64 = cells[0].parse().unwrap();
+    nudged[0] = format!("{}", q1 + 1e-4);
+    let mut twice = lines.clone();
+    twice.insert(80, nudged.join(","));
+    twice.insert(81, lines[79].clone());
+    let file = write(dir.path(), "twice.csv", &(twice.join("\n") + "\n"));
+    let out = run_on("check", &data_file("er20.toml"), &file, &["--json"]);
+    assert!(!stderr(&out).contains("repeat"), "{}", stderr(&out));
+    assert_eq!(json_of(&out)["poses"], 202);
+}

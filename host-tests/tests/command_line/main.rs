@@ -32,6 +32,7 @@ mod thermal_tracker;
 mod units;
 mod unknown_tool;
 mod ur10_distances;
+mod ur10_series;
 mod urdf;
 mod urdf_tracker_frame;
 mod vendor_files;

@@ -1,13 +1,16 @@
-//! Tracker readings that did not update (docs/formats.md, "Stale readings"): a row whose
-//! measured point equals an earlier row's to the last digit although the robot moved between
-//! the two poses. A tracker that loses the target, or a logger that misses a reading, repeats
-//! the last point; such a row carries another pose's point, and one of them in a few thousand
-//! raises every held-out figure. It is left out, with a warning that names its line.
+//! Readings that did not update (docs/formats.md, "Stale readings"): a row whose measured
+//! point equals an earlier row's to the last digit although the robot moved between the two
+//! poses, or whose joint readings equal an earlier row's to the last digit although the tracker
+//! saw the tool far from where it saw it then. A tracker that loses the target, or a logger
+//! that misses a reading, repeats the last one; such a row pairs one pose's joints with another
+//! pose's point, and one of them in a few thousand raises every held-out figure. It is left
+//! out, with a warning that names its line.
 
 use crate::formats::measurements::Dataset;
 use kinecal::forward::ForwardKinematics;
 use kinecal::{Robot, ValueStorage};
 use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
 
 /// How far (mm, by the nominal model) the tool must move between two rows for the same measured
 /// point to be a stale reading rather than one pose measured twice. A pose repeated within the
@@ -22,52 +25,103 @@ pub const MOVED_MM: f64 = 0.1;
 /// the tracker's last digit in all three coordinates.
 pub const TURNED_DEG: f64 = 1.0;
 
-/// A row left out: its index in the dataset, the index of the earlier row whose point it
-/// repeats, and the joint that turned most between the two (index, degrees).
+/// How far apart (mm) the tracker must see the tool at the same joint readings for the later row
+/// to carry joint readings that did not update: a pose measured again lands within the robot's
+/// repeatability and the tracker's noise, hundredths of a millimetre.
+pub const APART_MM: f64 = 1.0;
+
+/// What a row left out repeats of an earlier row.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Repeated {
+    /// The measured point, while joint `joint` (index) turned `turned_deg` between the two rows.
+    Point { joint: usize, turned_deg: f64 },
+    /// The joint readings, while the tracker saw the tool `apart_mm` from the earlier point.
+    Joints { apart_mm: f64 },
+}
+
+/// A row left out: its index in the dataset, the index of the earlier row it repeats, and what.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stale {
     pub index: usize,
     pub copy_of: usize,
-    pub joint: usize,
-    pub turned_deg: f64,
+    pub repeated: Repeated,
 }
 
-/// The rows of `ds` (mm, degrees) whose measured point repeats an earlier row's exactly while a
-/// joint turned [`TURNED_DEG`] or more between the two, or `nominal` puts the tool [`MOVED_MM`]
-/// or more away from that row's (the distance does not depend on the base, so a nominal model
-/// without one serves).
+/// The rows of `ds` (mm, degrees) that repeat an earlier row's measured point (`x`, `y`, `z`;
+/// the columns of several named reflectors are not read) exactly while a joint turned
+/// [`TURNED_DEG`] or more between the two, or `nominal` puts the tool [`MOVED_MM`] or more away
+/// from that row's (the distance does not depend on the base, so a nominal model without one
+/// serves); or an earlier row's joint readings exactly while the two points are [`APART_MM`] or
+/// more apart.
 pub fn find<const N: usize, V: ValueStorage>(
     ds: &Dataset<N>,
     nominal: &Robot<f64, N, V>,
 ) -> Vec<Stale> {
-    let mut first: HashMap<[u64; 3], usize> = HashMap::new();
+    // +0.0 and −0.0 are the same reading. The maps hold a hash of each reading and the first
+    // row that had it (16 bytes a row, not the readings: a million-row file costs tens of MB
+    // here, freed before the fit); a hash that matches is checked against the readings.
+    let bits = |v: f64| (v + 0.0).to_bits();
+    let hash = |key: &[u64]| {
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        key.hash(&mut h);
+        h.finish()
+    };
+    let mut first_point: HashMap<u64, u32> = HashMap::new();
+    let mut first_joints: HashMap<u64, u32> = HashMap::new();
     let mut fk = ForwardKinematics::<f64, N>::new();
     let mut stale = Vec::new();
     for (i, r) in ds.records.iter().enumerate() {
-        // +0.0 and −0.0 are the same reading.
-        let key = r.xyz_mm.map(|c| (c + 0.0).to_bits());
-        let Some(&j) = first.get(&key) else {
-            first.insert(key, i);
+        // Rows of several named reflectors carry their points elsewhere (NaN here).
+        if !r.xyz_mm.iter().all(|c| c.is_finite()) {
             continue;
-        };
-        let earlier = &ds.records[j];
-        let (joint, turned_deg) = r
-            .q_deg
-            .iter()
-            .zip(earlier.q_deg)
-            .map(|(a, b)| (a - b).abs())
-            .enumerate()
-            .fold((0, 0.0), |m, (k, d)| if d > m.1 { (k, d) } else { m });
-        let here = fk.compute(nominal, &r.q_deg.map(f64::to_radians));
-        let there = fk.compute(nominal, &earlier.q_deg.map(f64::to_radians));
-        // NaN (a reading the model cannot place) counts as not moved.
-        if turned_deg >= TURNED_DEG || (here - there).norm() >= MOVED_MM {
-            stale.push(Stale {
-                index: i,
-                copy_of: j,
-                joint,
-                turned_deg,
-            });
+        }
+        let same_point = |j: usize| ds.records[j].xyz_mm.map(bits) == r.xyz_mm.map(bits);
+        let same_joints = |j: usize| ds.records[j].q_deg.map(bits) == r.q_deg.map(bits);
+        let point = *first_point
+            .entry(hash(&r.xyz_mm.map(bits)))
+            .or_insert(i as u32) as usize;
+        let joints = *first_joints
+            .entry(hash(&r.q_deg.map(bits)))
+            .or_insert(i as u32) as usize;
+        let point = if same_point(point) { point } else { i };
+        let joints = if same_joints(joints) { joints } else { i };
+        if point != i {
+            let earlier = &ds.records[point];
+            let (joint, turned_deg) = r
+                .q_deg
+                .iter()
+                .zip(earlier.q_deg)
+                .map(|(a, b)| (a - b).abs())
+                .enumerate()
+                .fold((0, 0.0), |m, (k, d)| if d > m.1 { (k, d) } else { m });
+            let here = fk.compute(nominal, &r.q_deg.map(f64::to_radians));
+            let there = fk.compute(nominal, &earlier.q_deg.map(f64::to_radians));
+            // NaN (a reading the model cannot place) counts as not moved.
+            if turned_deg >= TURNED_DEG || (here - there).norm() >= MOVED_MM {
+                stale.push(Stale {
+                    index: i,
+                    copy_of: point,
+                    repeated: Repeated::Point { joint, turned_deg },
+                });
+                continue;
+            }
+        }
+        if joints != i {
+            let earlier = &ds.records[joints];
+            let apart_mm = r
+                .xyz_mm
+                .iter()
+                .zip(earlier.xyz_mm)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f64>()
+                .sqrt();
+            if apart_mm >= APART_MM {
+                stale.push(Stale {
+                    index: i,
+                    copy_of: joints,
+                    repeated: Repeated::Joints { apart_mm },
+                });
+            }
         }
     }
     stale
@@ -89,13 +143,17 @@ pub fn leave_out<const N: usize, V: ValueStorage>(
         .iter()
         .take(5)
         .map(|s| {
-            format!(
-                "line {} repeats line {}, joint {} {:.3}° away",
-                line(s.index),
-                line(s.copy_of),
-                s.joint + 1,
-                s.turned_deg
-            )
+            let (here, there) = (line(s.index), line(s.copy_of));
+            match s.repeated {
+                Repeated::Point { joint, turned_deg } => format!(
+                    "line {here} repeats line {there}'s point, joint {} {turned_deg:.3}° away",
+                    joint + 1
+                ),
+                Repeated::Joints { apart_mm } => format!(
+                    "line {here} repeats line {there}'s joint readings, the point {apart_mm:.3} mm \
+                     away"
+                ),
+            }
         })
         .collect();
     let more = if stale.len() > named.len() {
@@ -104,9 +162,9 @@ pub fn leave_out<const N: usize, V: ValueStorage>(
         String::new()
     };
     let warning = format!(
-        "warning: {origin}: {} row(s) repeat an earlier row's measured point to the last digit \
-         although the robot moved ({}{more}): readings the tracker did not update, left out; \
-         delete them from the file or measure those poses again",
+        "warning: {origin}: {} row(s) repeat an earlier row's reading to the last digit although \
+         the robot moved ({}{more}): readings that did not update, left out; delete them from the \
+         file or measure those poses again",
         stale.len(),
         named.join("; ")
     );

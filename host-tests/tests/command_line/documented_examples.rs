@@ -209,6 +209,26 @@ fn convention_message(b: &Block, dir: &Path) {
     same_message(&doc, &e, "data/ur10/ur10_random_poses_6d.csv", s(&data));
 }
 
+/// The warning of "Stale readings": `check` on the UR10 series B as published, from the
+/// repository root (the file named as the command line names it).
+fn stale_message(b: &Block, _: &Path) {
+    let o = std::process::Command::new(crate::common::bin())
+        .args([
+            "check",
+            "--robot",
+            "data/ur10/robot.toml",
+            "--data",
+            "data/ur10/published/series_b/measurements_joint_configurations.csv",
+            "--map",
+            "data/ur10/published/ur10_positions.map.toml",
+        ])
+        .current_dir(repo_root())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    same_message(&b.text, &stderr(&o), "", "");
+}
+
 /// The cell file of "Cell file": `plan` reads it for the ER20.
 fn cell_example(b: &Block, dir: &Path) {
     let cell = write(dir, "cell.toml", &b.text);
@@ -253,6 +273,7 @@ fn every_example_of_formats_md_runs() {
             ("sh", _) => |b: &Block, _: &Path| shell_example(b),
             ("text", l) if l.contains("orientation angles look composed") => convention_message,
             ("toml", l) if l.starts_with("[tracker]") => cell_example,
+            ("text", l) if l.contains("row(s) repeat an") => stale_message,
             _ => panic!(
                 "docs/formats.md example {} ({}, `{first}`) has no case here: add one",
                 k + 1,

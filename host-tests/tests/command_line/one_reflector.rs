@@ -51,6 +51,8 @@ fn a_single_named_reflector_is_read_and_its_columns_are_not_extra() {
         "--json",
     ]));
     assert_eq!(named_check["extra_columns"], serde_json::json!(["temp_c"]));
+    // Every row kept: the named reflector's points are not taken for repeated readings.
+    assert_eq!(named_check["poses"], 30, "{named_check}");
     // The same points: the same nominal error.
     let (a, b) = (
         named_check["nominal_rms_mm"].as_f64().unwrap(),

@@ -1,7 +1,8 @@
-//! Rows whose tracker reading did not update (docs/formats.md, "Stale readings"): a row that
-//! repeats an earlier row's measured point to the last digit although the robot moved is left
-//! out with a warning naming its line, and the commands compute exactly what they compute on the
-//! file without it; a pose measured twice is kept.
+//! Readings that did not update (docs/formats.md, "Stale readings"): a row that repeats an
+//! earlier row's measured point to the last digit although the robot moved, or its joint
+//! readings although the tracker saw the tool elsewhere, is left out with a warning naming its
+//! line, and the commands compute exactly what they compute on the file without it; a pose
+//! measured twice is kept.
 
 use crate::common::*;
 
@@ -40,16 +41,17 @@ fn a_stale_reading_is_left_out_and_named() {
     let dir = tempfile::tempdir().unwrap();
     let (_, lines) = session(dir.path());
     assert_eq!(lines[0], "q1,q2,q3,q4,q5,q6,x,y,z", "{}", lines[0]);
-    // Lines 50 and 121 repeat the points of lines 49 and 120.
+    // Lines 50 and 121 repeat the points of lines 49 and 120, line 160 the joints of line 159.
     let mut stale = lines.clone();
     stale[49] = with_point_of(&lines, 50, 49);
     stale[120] = with_point_of(&lines, 121, 120);
+    stale[159] = with_point_of(&lines, 159, 160);
     let stale_file = write(dir.path(), "stale.csv", &(stale.join("\n") + "\n"));
-    // The same file without those two rows.
+    // The same file without those three rows.
     let clean: Vec<String> = lines
         .iter()
         .enumerate()
-        .filter(|(i, _)| *i != 49 && *i != 120)
+        .filter(|(i, _)| ![49, 120, 159].contains(i))
         .map(|(_, l)| l.clone())
         .collect();
     let clean_file = write(dir.path(), "clean.csv", &(clean.join("\n") + "\n"));
@@ -59,9 +61,10 @@ fn a_stale_reading_is_left_out_and_named() {
     let warned = stderr(&out);
     eprintln!("{warned}");
     assert!(
-        warned.contains("2 row(s) repeat an earlier row's measured point")
-            && warned.contains("line 50 repeats line 49")
-            && warned.contains("line 121 repeats line 120")
+        warned.contains("3 row(s) repeat an earlier row's reading")
+            && warned.contains("line 50 repeats line 49's point, joint")
+            && warned.contains("line 121 repeats line 120's point, joint")
+            && warned.contains("line 160 repeats line 159's joint readings, the point")
             && warned.contains("left out"),
         "{warned}"
     );
@@ -76,7 +79,7 @@ fn a_stale_reading_is_left_out_and_named() {
         assert_eq!(v[key], c[key], "{key}: {v} {c}");
     }
     let n = |k: &str| v[k].as_u64().unwrap();
-    assert_eq!(n("n_identification") + n("n_validation"), 198);
+    assert_eq!(n("n_identification") + n("n_validation"), 197);
     for phase in ["before", "after"] {
         for key in ["identification_rms_mm", "validation_rms_mm"] {
             assert_eq!(v[phase][key], c[phase][key], "{phase}.{key}");
@@ -84,7 +87,7 @@ fn a_stale_reading_is_left_out_and_named() {
     }
     assert_eq!(v["parameters"], c["parameters"]);
     let checked = json_of(&run_on("check", &robot, &stale_file, &["--json"]));
-    assert_eq!(checked["poses"], 198, "{checked}");
+    assert_eq!(checked["poses"], 197, "{checked}");
 }
 
 #[test]
@@ -92,16 +95,23 @@ fn a_pose_measured_twice_is_kept() {
     let dir = tempfile::tempdir().unwrap();
     let (_, lines) = session(dir.path());
     // Line 80 measured again: the same point, the joints a ten-thousandth of a degree apart
-    // (the last digit the file keeps moves), and once more with the very same readings.
+    // (the last digit the file keeps moves); once more with the very same readings.
     let cells: Vec<String> = lines[79].split(',').map(str::to_string).collect();
     let mut nudged = cells.clone();
     let q1: f64 = cells[0].parse().unwrap();
     nudged[0] = format!("{}", q1 + 1e-4);
+    // And at the very same joint readings, the point 0.05 mm further along x (the robot's
+    // repeatability and the tracker's noise).
+    let mut again = cells.clone();
+    let n = cells.len();
+    let x: f64 = cells[n - 3].parse().unwrap();
+    again[n - 3] = format!("{}", x + 0.05);
     let mut twice = lines.clone();
     twice.insert(80, nudged.join(","));
     twice.insert(81, lines[79].clone());
+    twice.insert(82, again.join(","));
     let file = write(dir.path(), "twice.csv", &(twice.join("\n") + "\n"));
     let out = run_on("check", &data_file("er20.toml"), &file, &["--json"]);
     assert!(!stderr(&out).contains("repeat"), "{}", stderr(&out));
-    assert_eq!(json_of(&out)["poses"], 202);
+    assert_eq!(json_of(&out)["poses"], 203);
 }

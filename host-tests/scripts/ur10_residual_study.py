@@ -6,7 +6,9 @@
 
 An independent numpy model (not kinecal's code): the nominal MDH chain of data/ur10/robot.toml,
 its base found by a rigid fit and then base, the 24 MDH values and the tool point fitted by
-scipy's Levenberg-Marquardt to every pose of a series (positions). At that fit, linearised:
+scipy's Levenberg-Marquardt to every pose of a series (positions; some of the 33 values are
+redundant, e.g. joint 1's row and the base, and the damping picks one of the equivalent fits:
+only the residual is used). At that fit, linearised:
 per-joint correction tables on joints 1-5 (knots every 3.6 deg, ridge 1e-3 of the mean
 diagonal), then each further term added to the tables, in-sample RMS (3-D, mm):
 
@@ -14,11 +16,13 @@ diagonal), then each further term added to the tables, in-sample RMS (3-D, mm):
   as a clock; series B and D have no usable time);
 - backlash: each joint's angle error of +-b by the sign of its last move (row to row);
 - wave generator: the best single sine of order 50-400 per turn on one joint (a harmonic
-  drive's wave generator turns ~100 times per turn of the joint);
+  drive's wave generator turns ~100 times per turn of the joint), against the geometry's
+  residual (not after the tables);
 - gravity pose: joints 2-4's angle errors as sines and cosines (1st and 2nd order) of the
   links' angles against gravity, q2, q2+q3 and q2+q3+q4 (36 values).
 
-And the scatter of repeated poses (the joints within 1e-4 rad of each other).
+And the scatter of repeated poses (the joint readings rounded to the same multiples of
+1e-4 rad).
 """
 import collections
 import csv
@@ -90,7 +94,8 @@ def load(series):
     v = np.array([[float(c.replace(",", ".")) for c in r] for r in rows[1:] if r])
     q = v[:, [h.index(c) for c in JOINTS]]
     p = v[:, [h.index(c) for c in ["measurement_x", "measurement_y", "measurement_z"]]]
-    # Rows repeating an earlier row's point exactly (docs/formats.md, "Stale readings").
+    # Rows repeating an earlier row's point exactly while a joint turned 1 deg or more (the
+    # rule of docs/formats.md, "Stale readings", that series B's two rows meet).
     first, keep = {}, []
     for i, row in enumerate(p):
         k = tuple(row)

@@ -1,10 +1,12 @@
 //! Readings that did not update (docs/formats.md, "Stale readings"): a row whose measured
 //! point equals an earlier row's to the last digit although the robot moved between the two
-//! poses, or whose joint readings equal an earlier row's to the last digit although the tracker
+//! poses, or whose joint readings equal the row before's to the last digit although the tracker
 //! saw the tool far from where it saw it then. A tracker that loses the target, or a logger
-//! that misses a reading, repeats the last one; such a row pairs one pose's joints with another
+//! that misses a reading, repeats its last one; such a row pairs one pose's joints with another
 //! pose's point, and one of them in a few thousand raises every held-out figure. It is left
-//! out, with a warning that names its line.
+//! out, with a warning that names its line. Joint readings are compared with the row before
+//! only: a pose visited again later in a session (a cycle of an ISO 9283 test) may have drifted
+//! by any amount, but no real reading repeats another's point to the last digit.
 
 use crate::formats::measurements::Dataset;
 use kinecal::forward::ForwardKinematics;
@@ -26,8 +28,8 @@ pub const MOVED_MM: f64 = 0.1;
 pub const TURNED_DEG: f64 = 1.0;
 
 /// How far apart (mm) the tracker must see the tool at the same joint readings for the later row
-/// to carry joint readings that did not update: a pose measured again lands within the robot's
-/// repeatability and the tracker's noise, hundredths of a millimetre.
+/// to carry joint readings that did not update: a pose measured again at once lands within the
+/// robot's repeatability and the tracker's noise, hundredths of a millimetre.
 pub const APART_MM: f64 = 1.0;
 
 /// What a row left out repeats of an earlier row.
@@ -39,7 +41,8 @@ pub enum Repeated {
     Joints { apart_mm: f64 },
 }
 
-/// A row left out: its index in the dataset, the index of the earlier row it repeats, and what.
+/// A row left out: its index in the dataset, the index of the (kept) row whose reading it
+/// repeats, and what.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stale {
     pub index: usize,
@@ -47,46 +50,45 @@ pub struct Stale {
     pub repeated: Repeated,
 }
 
+/// Whether two readings are equal to the last digit (+0.0 and −0.0 alike).
+fn same(a: &[f64], b: &[f64]) -> bool {
+    a.iter().zip(b).all(|(x, y)| x == y)
+}
+
 /// The rows of `ds` (mm, degrees) that repeat an earlier row's measured point (`x`, `y`, `z`;
 /// the columns of several named reflectors are not read) exactly while a joint turned
 /// [`TURNED_DEG`] or more between the two, or `nominal` puts the tool [`MOVED_MM`] or more away
 /// from that row's (the distance does not depend on the base, so a nominal model without one
-/// serves); or an earlier row's joint readings exactly while the two points are [`APART_MM`] or
-/// more apart.
+/// serves); or the joint readings of the row before (the last row kept) exactly while the two
+/// points are [`APART_MM`] or more apart. Only rows kept are compared with.
 pub fn find<const N: usize, V: ValueStorage>(
     ds: &Dataset<N>,
     nominal: &Robot<f64, N, V>,
 ) -> Vec<Stale> {
-    // +0.0 and −0.0 are the same reading. The maps hold a hash of each reading and the first
-    // row that had it (16 bytes a row, not the readings: a million-row file costs tens of MB
-    // here, freed before the fit); a hash that matches is checked against the readings.
-    let bits = |v: f64| (v + 0.0).to_bits();
-    let hash = |key: &[u64]| {
+    // A hash of each point kept and the first row that had it (16 bytes a row, not the
+    // readings: a million-row file costs tens of MB here, freed before the fit); a hash that
+    // matches is checked against the readings.
+    let hash = |p: &[f64; 3]| {
         let mut h = std::collections::hash_map::DefaultHasher::new();
-        key.hash(&mut h);
+        p.map(|c| (c + 0.0).to_bits()).hash(&mut h);
         h.finish()
     };
     let mut first_point: HashMap<u64, u32> = HashMap::new();
-    let mut first_joints: HashMap<u64, u32> = HashMap::new();
     let mut fk = ForwardKinematics::<f64, N>::new();
-    let mut stale = Vec::new();
+    let mut stale: Vec<Stale> = Vec::new();
+    let mut last_kept: Option<usize> = None;
     for (i, r) in ds.records.iter().enumerate() {
         // Rows of several named reflectors carry their points elsewhere (NaN here).
         if !r.xyz_mm.iter().all(|c| c.is_finite()) {
             continue;
         }
-        let same_point = |j: usize| ds.records[j].xyz_mm.map(bits) == r.xyz_mm.map(bits);
-        let same_joints = |j: usize| ds.records[j].q_deg.map(bits) == r.q_deg.map(bits);
-        let point = *first_point
-            .entry(hash(&r.xyz_mm.map(bits)))
-            .or_insert(i as u32) as usize;
-        let joints = *first_joints
-            .entry(hash(&r.q_deg.map(bits)))
-            .or_insert(i as u32) as usize;
-        let point = if same_point(point) { point } else { i };
-        let joints = if same_joints(joints) { joints } else { i };
-        if point != i {
-            let earlier = &ds.records[point];
+        let key = hash(&r.xyz_mm);
+        let repeats_point = first_point
+            .get(&key)
+            .map(|&j| j as usize)
+            .filter(|&j| same(&ds.records[j].xyz_mm, &r.xyz_mm));
+        if let Some(j) = repeats_point {
+            let earlier = &ds.records[j];
             let (joint, turned_deg) = r
                 .q_deg
                 .iter()
@@ -100,29 +102,31 @@ pub fn find<const N: usize, V: ValueStorage>(
             if turned_deg >= TURNED_DEG || (here - there).norm() >= MOVED_MM {
                 stale.push(Stale {
                     index: i,
-                    copy_of: point,
+                    copy_of: j,
                     repeated: Repeated::Point { joint, turned_deg },
                 });
                 continue;
             }
         }
-        if joints != i {
-            let earlier = &ds.records[joints];
+        if let Some(j) = last_kept.filter(|&j| same(&ds.records[j].q_deg, &r.q_deg)) {
             let apart_mm = r
                 .xyz_mm
                 .iter()
-                .zip(earlier.xyz_mm)
+                .zip(ds.records[j].xyz_mm)
                 .map(|(a, b)| (a - b) * (a - b))
                 .sum::<f64>()
                 .sqrt();
             if apart_mm >= APART_MM {
                 stale.push(Stale {
                     index: i,
-                    copy_of: joints,
+                    copy_of: j,
                     repeated: Repeated::Joints { apart_mm },
                 });
+                continue;
             }
         }
+        first_point.entry(key).or_insert(i as u32);
+        last_kept = Some(i);
     }
     stale
 }
@@ -163,8 +167,8 @@ pub fn leave_out<const N: usize, V: ValueStorage>(
     };
     let warning = format!(
         "warning: {origin}: {} row(s) repeat an earlier row's reading to the last digit although \
-         the robot moved ({}{more}): readings that did not update, left out; delete them from the \
-         file or measure those poses again",
+         the other reading changed ({}{more}): readings that did not update, left out; delete \
+         them from the file or measure those poses again",
         stale.len(),
         named.join("; ")
     );

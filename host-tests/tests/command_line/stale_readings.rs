@@ -1,6 +1,6 @@
 //! Readings that did not update (docs/formats.md, "Stale readings"): a row that repeats an
-//! earlier row's measured point to the last digit although the robot moved, or its joint
-//! readings although the tracker saw the tool elsewhere, is left out with a warning naming its
+//! earlier row's measured point to the last digit although the robot moved, or the row before's
+//! joint readings although the tracker saw the tool elsewhere, is left out with a warning naming its
 //! line, and the commands compute exactly what they compute on the file without it; a pose
 //! measured twice is kept.
 
@@ -41,17 +41,25 @@ fn a_stale_reading_is_left_out_and_named() {
     let dir = tempfile::tempdir().unwrap();
     let (_, lines) = session(dir.path());
     assert_eq!(lines[0], "q1,q2,q3,q4,q5,q6,x,y,z", "{}", lines[0]);
-    // Lines 50 and 121 repeat the points of lines 49 and 120, line 160 the joints of line 159.
+    // Lines 50 and 51 repeat the point of line 49 (a run), line 121 that of line 120, line 160
+    // the joints of line 159; line 181 the point of line 180 with q2 half a degree on (under
+    // the 1° of a turned joint: the nominal tool moved millimetres).
     let mut stale = lines.clone();
     stale[49] = with_point_of(&lines, 50, 49);
+    stale[50] = with_point_of(&lines, 51, 49);
     stale[120] = with_point_of(&lines, 121, 120);
     stale[159] = with_point_of(&lines, 159, 160);
+    let mut cells: Vec<String> = lines[179].split(',').map(str::to_string).collect();
+    cells[1] = format!("{:.6}", cells[1].parse::<f64>().unwrap() + 0.5);
+    stale[180] = cells.join(",");
+    // Line 191 takes line 100's point, far from its neighbours.
+    stale[190] = with_point_of(&lines, 191, 100);
     let stale_file = write(dir.path(), "stale.csv", &(stale.join("\n") + "\n"));
-    // The same file without those three rows.
-    let clean: Vec<String> = lines
+    // The same file without those six rows.
+    let clean: Vec<String> = stale
         .iter()
         .enumerate()
-        .filter(|(i, _)| ![49, 120, 159].contains(i))
+        .filter(|(i, _)| ![49, 50, 120, 159, 180, 190].contains(i))
         .map(|(_, l)| l.clone())
         .collect();
     let clean_file = write(dir.path(), "clean.csv", &(clean.join("\n") + "\n"));
@@ -61,10 +69,13 @@ fn a_stale_reading_is_left_out_and_named() {
     let warned = stderr(&out);
     eprintln!("{warned}");
     assert!(
-        warned.contains("3 row(s) repeat an earlier row's reading")
+        warned.contains("6 row(s) repeat an earlier row's reading")
             && warned.contains("line 50 repeats line 49's point, joint")
+            && warned.contains("line 51 repeats line 49's point, joint")
             && warned.contains("line 121 repeats line 120's point, joint")
             && warned.contains("line 160 repeats line 159's joint readings, the point")
+            && warned.contains("line 181 repeats line 180's point, joint 2 0.500° away")
+            && warned.contains("; 1 more)")
             && warned.contains("left out"),
         "{warned}"
     );
@@ -79,7 +90,7 @@ fn a_stale_reading_is_left_out_and_named() {
         assert_eq!(v[key], c[key], "{key}: {v} {c}");
     }
     let n = |k: &str| v[k].as_u64().unwrap();
-    assert_eq!(n("n_identification") + n("n_validation"), 197);
+    assert_eq!(n("n_identification") + n("n_validation"), 194);
     for phase in ["before", "after"] {
         for key in ["identification_rms_mm", "validation_rms_mm"] {
             assert_eq!(v[phase][key], c[phase][key], "{phase}.{key}");
@@ -87,7 +98,7 @@ fn a_stale_reading_is_left_out_and_named() {
     }
     assert_eq!(v["parameters"], c["parameters"]);
     let checked = json_of(&run_on("check", &robot, &stale_file, &["--json"]));
-    assert_eq!(checked["poses"], 197, "{checked}");
+    assert_eq!(checked["poses"], 194, "{checked}");
 }
 
 #[test]

@@ -11,8 +11,8 @@
 use crate::formats::measurements::Dataset;
 use kinecal::forward::ForwardKinematics;
 use kinecal::{Robot, ValueStorage};
-use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
+use rustc_hash::{FxBuildHasher, FxHashMap, FxHasher};
+use std::hash::{Hash, Hasher};
 
 /// How far (mm, by the nominal model) the tool must move between two rows for the same measured
 /// point to be a stale reading rather than one pose measured twice. A pose repeated within the
@@ -50,30 +50,11 @@ pub struct Stale {
     pub repeated: Repeated,
 }
 
-/// A 64-bit hash of a point's three coordinates (+0.0 and −0.0 alike), mixed in every bit.
+/// A 64-bit hash of a point's three coordinates (+0.0 and −0.0 alike).
 fn point_hash(p: &[f64; 3]) -> u64 {
-    let [a, b, c] = p.map(|v| (v + 0.0).to_bits());
-    let mut h = (a ^ b.rotate_left(21) ^ c.rotate_left(42)).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-    h ^= h >> 32;
-    h.wrapping_mul(0xd6e8_feb8_6659_fd93) ^ (h >> 29)
-}
-
-/// The hasher of a map whose keys are hashes already ([`point_hash`]).
-#[derive(Default)]
-struct KeyIsHash(u64);
-
-impl Hasher for KeyIsHash {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 = self.0.rotate_left(8) ^ u64::from(b);
-        }
-    }
-    fn write_u64(&mut self, v: u64) {
-        self.0 = v;
-    }
+    let mut h = FxHasher::default();
+    p.map(|v| (v + 0.0).to_bits()).hash(&mut h);
+    h.finish()
 }
 
 /// Whether two readings are equal to the last digit (+0.0 and −0.0 alike).
@@ -93,10 +74,9 @@ pub fn find<const N: usize, V: ValueStorage>(
 ) -> Vec<Stale> {
     // A hash of each point kept and the first row that had it (16 bytes a row, not the
     // readings: a million-row file costs tens of MB here, freed before the fit); a hash that
-    // matches is checked against the readings. The key is a hash already: the map uses it as
-    // it is, and is sized once (a million rows cost `check` no time it could measure).
-    let mut first_point: HashMap<u64, u32, BuildHasherDefault<KeyIsHash>> =
-        HashMap::with_capacity_and_hasher(ds.records.len(), Default::default());
+    // matches is checked against the readings. The map is sized once.
+    let mut first_point: FxHashMap<u64, u32> =
+        FxHashMap::with_capacity_and_hasher(ds.records.len(), FxBuildHasher);
     let mut fk = ForwardKinematics::<f64, N>::new();
     let mut stale: Vec<Stale> = Vec::new();
     let mut last_kept: Option<usize> = None;

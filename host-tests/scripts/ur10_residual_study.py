@@ -8,18 +8,28 @@ An independent numpy model (not kinecal's code): the nominal MDH chain of data/u
 its base found by a rigid fit and then base, the 24 MDH values and the tool point fitted by
 scipy's Levenberg-Marquardt to every pose of a series (positions; some of the 33 values are
 redundant, e.g. joint 1's row and the base, and the damping picks one of the equivalent fits:
-only the residual is used). At that fit, linearised:
-per-joint correction tables on joints 1-5 (knots every 3.6 deg, ridge 1e-3 of the mean
-diagonal), then each further term added to the tables, in-sample RMS (3-D, mm):
+only the residual is used). At that fit, linearised (the 33 values' columns refitted with
+every term, so that a term cannot take over what the geometry explains): per-joint correction tables on joints 1-5 (knots
+every 3.6 deg, ridge 1e-3 of the terms' mean diagonal), then each further term added to the
+tables. Each is reported in-sample and held out (5-fold cross-validation over the poses, each
+fold's poses predicted by the fit to the other four), 3-D RMS in mm:
 
 - drift: the base translating in proportion to the row's place in the file (the rows' order
   as a clock; series B and D have no usable time);
 - backlash: each joint's angle error of +-b by the sign of its last move (row to row);
+- gravity pose: joints 2-4's angle errors as sines and cosines (1st and 2nd order) of the
+  links' angles against gravity, q2, q2+q3 and q2+q3+q4 (36 values; these assume joints 2-4
+  parallel and horizontal, as the UR10's);
+- compliance: joint 2's angle error in proportion to the moment of a downward load at the
+  tool point (the catalogue's `joint-compliance`, which `diagnose` adds on series B and D; 1
+  value);
+- link gravity: joints 2-4's angle errors in proportion to the moments, about each of them, of
+  downward loads at the origins of the joints beyond it and at the tool point (12 values: a
+  compliance times point masses, the general form of `joint-compliance`, which loads the tool
+  point only);
 - wave generator: the best single sine of order 50-400 per turn on one joint (a harmonic
   drive's wave generator turns ~100 times per turn of the joint), against the geometry's
-  residual (not after the tables);
-- gravity pose: joints 2-4's angle errors as sines and cosines (1st and 2nd order) of the
-  links' angles against gravity, q2, q2+q3 and q2+q3+q4 (36 values).
+  residual (not after the tables; in-sample).
 
 And the scatter of repeated poses (the joint readings rounded to the same multiples of
 1e-4 rad).
@@ -110,9 +120,30 @@ def rms(v):
     return float(np.sqrt((v.reshape(-1, 3) ** 2).sum(1).mean()))
 
 
-def residual_after(M, y, ridge=1e-3):
+def residual_after(M, y, ridge=1e-3, geometric=0):
+    """y less its fit by the columns of M; the ridge (relative to their mean diagonal) on the
+    columns after the first `geometric`."""
     A_ = M.T @ M
-    return y - M @ np.linalg.solve(A_ + ridge * np.mean(np.diag(A_)) * np.eye(len(A_)), M.T @ y)
+    d = np.r_[np.zeros(geometric), np.ones(len(A_) - geometric)]
+    w = ridge * np.mean(np.diag(A_)[geometric:]) if len(A_) > geometric else 0.0
+    return y - M @ np.linalg.solve(A_ + w * np.diag(d) + 1e-12 * np.eye(len(A_)), M.T @ y)
+
+
+def held_out(M, y, geometric, folds=5, seed=1):
+    """3-D RMS of each pose's residual predicted by the fit to the other folds' poses."""
+    n = len(y) // 3
+    parts = np.array_split(np.random.default_rng(seed).permutation(n), folds)
+    se = 0.0
+    for test in parts:
+        train = np.setdiff1d(np.arange(n), test)
+        rows = lambda ii: (3 * ii[:, None] + np.arange(3)).ravel()
+        A_, b = M[rows(train)], y[rows(train)]
+        AtA = A_.T @ A_
+        d = np.r_[np.zeros(geometric), np.ones(len(AtA) - geometric)]
+        w = 1e-3 * np.mean(np.diag(AtA)[geometric:]) if len(AtA) > geometric else 0.0
+        coef = np.linalg.solve(AtA + w * np.diag(d) + 1e-12 * np.eye(len(AtA)), A_.T @ b)
+        se += ((y[rows(test)] - M[rows(test)] @ coef) ** 2).sum()
+    return float(np.sqrt(se / n))
 
 
 def study(series):
@@ -125,6 +156,18 @@ def study(series):
     x = least_squares(lambda x: (fk(x, q)[0] - p).ravel(), x, method="lm", x_scale=scale).x
     tip, frames = fk(x, q)
     r = (p - tip).ravel()
+    # The 33 values' columns (central differences in the scaled values), as an orthonormal
+    # basis of what they can change: the redundant directions (joint 1's row and the base, ...)
+    # dropped, so that no fold's fit is singular.
+    Jg = np.stack([((fk(x + h, q)[0] - fk(x - h, q)[0]) / (2e-6)).ravel()
+                   for h in np.eye(33) * scale * 1e-6], 1)
+    U, sv, _ = np.linalg.svd(Jg, full_matrices=False)
+    Jg = U[:, sv > 1e-9 * sv[0]]
+    ng = Jg.shape[1]
+
+    def both(F):  # in-sample and held-out RMS with the geometry refitted beside F
+        M = np.hstack([Jg, F]) if F is not None else Jg
+        return rms(residual_after(M, r, geometric=ng)), held_out(M, r, ng)
     G = np.stack([np.cross(z, tip - o) for z, o in frames], 1)  # n x joint x 3: dp/dq_j
 
     def along(j, w):  # joint j's angle error w (n x k) as columns of the 3n rows
@@ -139,9 +182,10 @@ def study(series):
         return H
 
     T = np.hstack([along(j, hats(j)) for j in range(5)])
-    tables = rms(residual_after(T, r))
-    print(f"series {series}: {n} poses; geometry {rms(r):.4f} mm, + tables on joints 1-5 "
-          f"{tables:.4f} mm")
+    g_in, g_out = both(None)
+    t_in, t_out = both(T)
+    print(f"series {series}: {n} poses (in-sample / held out, mm); geometry {g_in:.4f} / "
+          f"{g_out:.4f}, + tables on joints 1-5 {t_in:.4f} / {t_out:.4f} ({t_out / g_out:.3f}x)")
     clock = np.arange(n) / n
     drift = np.tile(np.eye(3), (n, 1)) * np.repeat(clock, 3)[:, None]
     moved = np.sign(np.vstack([np.zeros(6), np.diff(q, axis=0)]))
@@ -149,8 +193,18 @@ def study(series):
     links = [q[:, 1], q[:, 1] + q[:, 2], q[:, 1] + q[:, 2] + q[:, 3]]
     gravity = np.hstack([along(j, np.stack([f(k * phi) for phi in links for k in (1, 2)
                                             for f in (np.sin, np.cos)], 1)) for j in (1, 2, 3)])
-    for name, F in [("drift", drift), ("backlash", backlash), ("gravity pose", gravity)]:
-        print(f"  + {name} ({F.shape[1]} values): {rms(residual_after(np.hstack([T, F]), r)):.4f} mm")
+    # Downward loads (the base frame's -z, tilted by the fitted base) at the origins of the
+    # joints beyond j and at the tool point, their moments about axis j in m.
+    down = -rpy(*x[3:6])[:, 2]
+    link = np.hstack([along(j, np.stack([np.cross(frames[j][0], o - frames[j][1]) @ down / 1000
+                                         for o in [f[1] for f in frames[j + 1:]] + [tip]], 1))
+                      for j in (1, 2, 3)])
+    compliance = link[:, [4]]  # joint 2, the tool point's moment only: `joint-compliance`
+    for name, F in [("drift", drift), ("backlash", backlash), ("gravity pose", gravity),
+                    ("compliance, joint 2", compliance), ("link gravity", link)]:
+        f_in, f_out = both(np.hstack([T, F]))
+        print(f"  + {name} ({F.shape[1]} values): {f_in:.4f} / {f_out:.4f} mm "
+              f"({f_out / g_out:.3f}x)")
     for j in range(6):
         best = max((1 - rms(residual_after(along(j, np.stack([np.sin(m * q[:, j]),
                                                               np.cos(m * q[:, j])], 1)), r)) ** 2

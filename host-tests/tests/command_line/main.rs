@@ -12,6 +12,7 @@ mod constraint_reference;
 mod constraints;
 mod couplings;
 mod csv_hardening;
+mod dated_times;
 mod documented_examples;
 mod drifting_tracker;
 mod effect_requests;

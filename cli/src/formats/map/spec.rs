@@ -32,6 +32,7 @@ struct RawUnits {
     length: Option<String>,
     orientation: Option<String>,
     rotation: Option<String>,
+    time: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -87,11 +88,15 @@ impl Delimiter {
 
 /// Units of the file's kinds of values; `None` = not stated (the defaults, mm and degrees,
 /// then questioned by the plausibility check as without a map).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Debug, PartialEq, Eq, Default)]
 pub struct MapUnits {
     pub joints: Option<AngleUnit>,
     pub length: Option<LengthUnit>,
     pub orientation: Option<AngleUnit>,
+    /// How `t_s` is written: `None` in seconds (numbers), or a date and time pattern
+    /// (`%Y%m%d%H%M%S`, chrono's `strftime` specifiers) read as seconds since 1970-01-01
+    /// 00:00:00 of the same clock.
+    pub time: Option<String>,
 }
 
 /// A map file, read and checked.
@@ -192,6 +197,7 @@ impl MapFile {
             length: None,
             orientation: None,
             rotation: None,
+            time: None,
         });
         let angle = |what: &str, v: Option<String>| -> anyhow::Result<Option<AngleUnit>> {
             match v.as_deref() {
@@ -203,6 +209,24 @@ impl MapFile {
                 ))),
             }
         };
+        let time = match u.time {
+            None => None,
+            Some(t) if t == "s" => None,
+            Some(t) => {
+                use chrono::format::{Item, StrftimeItems};
+                let mut items = StrftimeItems::new(&t);
+                let specifiers = items
+                    .clone()
+                    .filter(|i| !matches!(i, Item::Literal(_) | Item::Space(_)))
+                    .count();
+                if !t.contains('%') || specifiers == 0 || items.any(|i| matches!(i, Item::Error)) {
+                    crate::refuse!(
+                        "{origin}: [units] time = {t:?}: give \"s\" (seconds) or the pattern the file writes its times in, such as \"%Y-%m-%d %H:%M:%S\" or \"%Y%m%d%H%M%S\" (docs/formats.md, \"Files in other layouts\")"
+                    );
+                }
+                Some(t)
+            }
+        };
         let units = MapUnits {
             joints: angle("joints", u.joints)?,
             orientation: angle("orientation", u.orientation)?,
@@ -212,6 +236,7 @@ impl MapFile {
                 Some("m") => Some(LengthUnit::M),
                 Some(o) => crate::refuse!("{origin}: [units] length = {o:?}: give \"mm\" or \"m\""),
             },
+            time,
         };
         let rotation = match u.rotation.as_deref() {
             None => RotationOrder::KINECAL,

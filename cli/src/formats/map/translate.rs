@@ -4,7 +4,8 @@
 //!
 //! What the map converts here: the orientation (its unit and the order of its three angles),
 //! the per-axis angle σ (combined into one `srot_deg`) and the columns named with their unit
-//! (`sx_mm`, `length_mm`, …). Joint readings and positions are left as written: the map's
+//! (`sx_mm`, `length_mm`, …), a time written as a date (`t_s` in seconds since 1970-01-01
+//! 00:00:00 of the file's clock). Joint readings and positions are left as written: the map's
 //! `joints` and `length` act as `--angle-unit` and `--length-unit` at the units door.
 
 use super::layout::{cell_text, number, Line};
@@ -26,6 +27,8 @@ enum Kind {
     TargetAngle(usize),
     /// An angular 1-σ (`srot_deg`).
     AngleSigma,
+    /// `t_s` written as a date and time (the map's `[units] time` pattern).
+    Time,
 }
 
 fn kind_of(name: &str) -> Kind {
@@ -230,6 +233,14 @@ fn plan(
             required: false,
         });
     }
+    if let Some(pattern) = &map.units.time {
+        match columns.iter_mut().find(|c| c.name == "t_s") {
+            Some(c) => c.kind = Kind::Time,
+            None => crate::refuse!(
+                "{map_origin}: [units] time = {pattern:?} but no t_s column: name the file's time column in [columns], t_s = \"its name\""
+            ),
+        }
+    }
     for group in [
         [
             Kind::Orientation(0),
@@ -262,6 +273,7 @@ fn values(
     columns: &[Column],
     cells: &[&str],
     decimal_comma: bool,
+    time: Option<&str>,
 ) -> Result<Vec<Option<f64>>, usize> {
     let cell = |k: usize, required: bool, c: usize| -> Result<Option<f64>, usize> {
         match cells.get(k) {
@@ -278,6 +290,13 @@ fn values(
         .iter()
         .enumerate()
         .map(|(c, col)| match col.source {
+            Source::Cell(k) if col.kind == Kind::Time => {
+                match (cells.get(k).map(|t| cell_text(t)), time) {
+                    (None | Some(""), _) => Ok(None),
+                    (Some(t), Some(pattern)) => seconds_of(t, pattern).map(Some).ok_or(c),
+                    (Some(_), None) => Err(c),
+                }
+            }
             Source::Cell(k) => match cell(k, col.required, c)? {
                 None if col.required => Err(c),
                 v => Ok(v),
@@ -294,6 +313,21 @@ fn values(
             }
         })
         .collect()
+}
+
+/// Seconds since 1970-01-01 00:00:00 of the time `text` states, read with the strftime
+/// `pattern` (a date alone is its midnight); `None` when the text does not match it.
+fn seconds_of(text: &str, pattern: &str) -> Option<f64> {
+    use chrono::{NaiveDate, NaiveDateTime};
+    let t = NaiveDateTime::parse_from_str(text, pattern)
+        .ok()
+        .or_else(|| {
+            NaiveDate::parse_from_str(text, pattern)
+                .ok()?
+                .and_hms_opt(0, 0, 0)
+        })?
+        .and_utc();
+    Some(t.timestamp() as f64 + f64::from(t.timestamp_subsec_nanos()) * 1e-9)
 }
 
 /// Converts one row's values in place (see the module documentation); returns the measured
@@ -394,11 +428,22 @@ pub fn translate(
     for line in body {
         newline_to(&mut text, line.number);
         let cells = delimiter.split(line.text);
-        let mut v = values(&columns, &cells, map.decimal_comma).map_err(|c| {
+        let mut v = values(
+            &columns,
+            &cells,
+            map.decimal_comma,
+            map.units.time.as_deref(),
+        )
+        .map_err(|c| {
             let col = &columns[c];
             let k = col.file_column();
             let what = match cells.get(k - 1) {
                 None => "no cell".to_string(),
+                Some(t) if col.kind == Kind::Time => format!(
+                    "'{}' is not a time as [units] time = {:?} in {map_origin} writes it",
+                    cell_text(t).chars().take(40).collect::<String>(),
+                    map.units.time.as_deref().unwrap_or("")
+                ),
                 Some(t) => {
                     let t = cell_text(t);
                     let mut s =

@@ -1,0 +1,175 @@
+//! A tracker file whose time column is a date and time (`2021-03-04 12:00:07`), read with a
+//! map's `[units] time` pattern (docs/formats.md, "Files in other layouts"): the rows get the
+//! same `t_s` (seconds since 1970-01-01 00:00:00 of the file's clock) as a file that writes
+//! those seconds, so `identify --effect base-drift` gives the same figures and finds the
+//! simulated drift. A time that does not match the pattern, a pattern that is none, and a
+//! date written as digits in a `t_s` column are refused in one line.
+
+use crate::common::*;
+use std::path::{Path, PathBuf};
+
+/// The true drift, mm per second along the measurement frame's x, y, z.
+const DRIFT: [f64; 3] = [4e-5, 3e-5, -2e-5];
+/// 2021-03-04 12:00:00 as seconds since 1970-01-01 00:00:00 (18,690 days).
+const START: i64 = 18_690 * 86_400 + 12 * 3_600;
+
+/// A simulated hour of a drifting tracker; returns the header and the rows with `t_s`
+/// rounded to whole seconds after `START` (the time column last).
+fn session(dir: &Path) -> (String, Vec<(Vec<String>, i64)>) {
+    let robot = data_file("er20.toml");
+    let data = dir.join("sim.csv");
+    kinecal_ok(&[
+        "simulate",
+        "--robot",
+        s(&robot),
+        "--poses",
+        "300",
+        "--noise-mm",
+        "0.01",
+        "--seed",
+        "31",
+        "--session-s",
+        "3600",
+        "--effect",
+        &format!("base-drift:0:{},{},{}", DRIFT[0], DRIFT[1], DRIFT[2]),
+        "--out",
+        s(&data),
+    ]);
+    let text = std::fs::read_to_string(&data).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let head = header.strip_suffix(",t_s").expect(header).to_string();
+    let rows = lines
+        .map(|l| {
+            let mut cells: Vec<String> = l.split(',').map(String::from).collect();
+            let t: f64 = cells.pop().unwrap().parse().unwrap();
+            (cells, t.round() as i64)
+        })
+        .collect();
+    (head, rows)
+}
+
+/// `2021-03-04 12:mm:ss` (or 13:00:00) of a time in seconds after `START`.
+fn date(t: i64) -> String {
+    let (h, m, s) = (12 + t / 3600, (t % 3600) / 60, t % 60);
+    format!("2021-03-04 {h:02}:{m:02}:{s:02}")
+}
+
+fn files(dir: &Path) -> (PathBuf, PathBuf, PathBuf) {
+    let (head, rows) = session(dir);
+    let mut seconds = format!("{head},t_s\n");
+    let mut dated = format!("{};stamp\n", head.replace(',', ";"));
+    for (cells, t) in &rows {
+        seconds.push_str(&format!("{},{}\n", cells.join(","), START + t));
+        dated.push_str(&format!("{};{}\n", cells.join(";"), date(*t)));
+    }
+    let map =
+        "delimiter = \";\"\n[columns]\nt_s = \"stamp\"\n[units]\ntime = \"%Y-%m-%d %H:%M:%S\"\n";
+    (
+        write(dir, "seconds.csv", &seconds),
+        write(dir, "dated.csv", &dated),
+        write(dir, "dated.map.toml", map),
+    )
+}
+
+/// `identify --json` without its timings.
+fn without_timings(out: &std::process::Output) -> serde_json::Value {
+    fn strip(v: &mut serde_json::Value) {
+        if let Some(o) = v.as_object_mut() {
+            o.retain(|k, _| !k.contains("seconds"));
+            o.values_mut().for_each(strip);
+        } else if let Some(a) = v.as_array_mut() {
+            a.iter_mut().for_each(strip);
+        }
+    }
+    let mut v = json_of(out);
+    strip(&mut v);
+    v
+}
+
+#[test]
+fn dates_give_the_seconds_they_stand_for_and_the_drift() {
+    let dir = tempfile::tempdir().unwrap();
+    let (seconds, dated, map) = files(dir.path());
+    let robot = data_file("er20.toml");
+    let args = ["--json", "--effect", "base-drift"];
+    let a = without_timings(&run_on("identify", &robot, &seconds, &args));
+    let mut with_map = args.to_vec();
+    with_map.extend(["--map", s(&map)]);
+    let b = without_timings(&run_on("identify", &robot, &dated, &with_map));
+    assert_eq!(a, b);
+    let fitted: Vec<f64> = ["vx", "vy", "vz"]
+        .iter()
+        .map(|c| b["parameters"][format!("base-drift.{c}")].as_f64().unwrap())
+        .collect();
+    let err = fitted
+        .iter()
+        .zip(DRIFT)
+        .map(|(f, t)| (f - t).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let speed = DRIFT.iter().map(|t| t * t).sum::<f64>().sqrt();
+    assert!(err < 0.03 * speed, "{fitted:?} vs {DRIFT:?}");
+}
+
+#[test]
+fn times_that_cannot_be_right_are_refused_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let (seconds, dated, map) = files(dir.path());
+    let robot = data_file("er20.toml");
+    let map_text = std::fs::read_to_string(&map).unwrap();
+    // Line 6's time in another layout.
+    let text = std::fs::read_to_string(&dated).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    lines[5] = lines[5].replace("2021-03-04 ", "04.03.2021 ");
+    let other = write(dir.path(), "other.csv", &(lines.join("\n") + "\n"));
+    let no_pattern = write(
+        dir.path(),
+        "none.toml",
+        &map_text.replace("%Y-%m-%d %H:%M:%S", "date"),
+    );
+    let no_column = write(
+        dir.path(),
+        "nocol.toml",
+        &map_text.replace("t_s = \"stamp\"\n", ""),
+    );
+    // Digits of a date and time in a t_s column: 20210304120007.
+    let digits = std::fs::read_to_string(&seconds)
+        .unwrap()
+        .lines()
+        .enumerate()
+        .map(|(i, l)| match (i, l.rsplit_once(',')) {
+            (0, _) | (_, None) => l.to_string(),
+            (_, Some((rest, t))) => {
+                let t: i64 = t.parse::<i64>().unwrap() - START;
+                let d = date(t).replace(['-', ' ', ':'], "");
+                format!("{rest},{d}")
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+        + "\n";
+    let digits = write(dir.path(), "digits.csv", &digits);
+    for (data, map, says) in [
+        (&other, Some(&map), "other.csv:6:"),
+        (
+            &dated,
+            Some(&no_pattern),
+            "[units] time = \"date\": give \"s\"",
+        ),
+        (&dated, Some(&no_column), "but no t_s column"),
+        (&digits, None, "a date and time written as digits?"),
+    ] {
+        let mut args = vec!["--effect", "base-drift"];
+        if let Some(m) = map {
+            args.extend(["--map", s(m)]);
+        }
+        let out = run_on("identify", &robot, data, &args);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{says}: {err}");
+        assert!(
+            err.contains(says) && err.trim().lines().count() == 1,
+            "{says}: {err}"
+        );
+    }
+}

@@ -61,10 +61,11 @@ pub enum GapBasis {
 /// The explanation of one found effect (the `explanation` object of `diagnose --json`).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Explanation {
-    /// Peak to peak of the correction over the covered range (degrees); axis-tilt: the tilt.
-    pub peak_to_peak_deg: f64,
+    /// Peak to peak of the correction over the covered range (degrees); axis-tilt: the tilt;
+    /// none for thermal expansion and a base drift (no joint angle: their size is at the tool).
+    pub peak_to_peak_deg: Option<f64>,
     /// Half of it: the "±" (degrees).
-    pub amplitude_deg: f64,
+    pub amplitude_deg: Option<f64>,
     /// RMS and largest tool displacement the correction makes at the data's poses (mm).
     pub tool_rms_mm: f64,
     pub tool_max_mm: f64,
@@ -408,8 +409,8 @@ fn short_text(
     tau_max: f64,
 ) -> String {
     let j = c.joint + 1;
-    let amp = fmt_deg(e.amplitude_deg.to_radians());
-    let ptp = fmt_deg(e.peak_to_peak_deg.to_radians());
+    let deg = |d: Option<f64>| d.map_or_else(String::new, |d| fmt_deg(d.to_radians()));
+    let (amp, ptp) = (deg(e.amplitude_deg), deg(e.peak_to_peak_deg));
     let v0 = values.first().copied().unwrap_or(0.0);
     match c.kind {
         CandidateKind::Cyclic(1) => format!(
@@ -540,8 +541,8 @@ pub fn explain<const N: usize>(
         .collect();
     let (gap, gap_basis) = gap_closed(f.before_rms_mm, f.validation_rms_mm, noise_floor_mm);
     let mut e = Explanation {
-        peak_to_peak_deg: ptp_rad.to_degrees(),
-        amplitude_deg: ptp_rad.to_degrees() / 2.0,
+        peak_to_peak_deg: ptp_rad.is_finite().then(|| ptp_rad.to_degrees()),
+        amplitude_deg: ptp_rad.is_finite().then(|| ptp_rad.to_degrees() / 2.0),
         tool_rms_mm,
         tool_max_mm,
         tool_peak_to_peak_mm,

@@ -226,7 +226,8 @@ pub fn effect_residuals<const N: usize>(
         _ => format!("joint {} angle error (°)", j + 1),
     };
     let (ptp, tool) = (
-        fmt_deg(e.peak_to_peak_deg.to_radians()),
+        e.peak_to_peak_deg
+            .map_or_else(String::new, |d| fmt_deg(d.to_radians())),
         distinct_figures([e.tool_rms_mm, e.tool_max_mm]),
     );
     // Drawn in memory, then written atomically (never a torn SVG).

@@ -51,3 +51,45 @@ fn thermal_expansion_is_fitted_from_a_warming_tracker_session() {
     assert!(held(&v) < 1.2 * floor, "{v}");
     assert!(held(&plain) > 2.0 * held(&v), "{plain}");
 }
+
+/// `diagnose` on the command line names the expansion of a warm-up and exits 0: the finding
+/// turns no joint, so its `explanation` has no angle (`peak_to_peak_deg` null) and its size at
+/// the tool (a non-finite angle once made every such finding exit 1, found on UR10 series A).
+#[test]
+fn diagnose_names_thermal_expansion_on_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = data_file("er20.toml");
+    let data = dir.path().join("warm.csv");
+    kinecal_ok(&[
+        "simulate",
+        "--robot",
+        s(&robot),
+        "--poses",
+        "400",
+        "--noise-mm",
+        "0.01",
+        "--seed",
+        "22",
+        "--temperature",
+        "15:35",
+        "--effect",
+        "thermal-expansion:0:1.2e-5",
+        "--out",
+        s(&data),
+    ]);
+    let v = json_of(&run_on("diagnose", &robot, &data, &["--json"]));
+    let found = v["found"].as_array().unwrap();
+    let f = found
+        .iter()
+        .find(|f| f["effect"] == "thermal-expansion")
+        .unwrap_or_else(|| panic!("{v}"));
+    let e = &f["explanation"];
+    assert!(
+        e["peak_to_peak_deg"].is_null() && e["amplitude_deg"].is_null(),
+        "{e}"
+    );
+    assert!(e["tool_max_mm"].as_f64().unwrap() > 0.0, "{e}");
+    let text = kinecal_ok(&["diagnose", "--robot", s(&robot), "--data", s(&data)]);
+    let out = String::from_utf8_lossy(&text.stdout);
+    assert!(out.contains("expands with its temperature"), "{out}");
+}

@@ -97,7 +97,8 @@ def load(series):
         rows = list(csv.reader(open(os.path.join(ROOT, "ur10_random_poses.csv"))))
         v = np.array([[float(c) for c in r[:9]] for r in rows[1:] if r])
         return np.radians(v[:, :6]), v[:, 6:9]
-    name = {"B": "series_b/measurements_joint_configurations.csv",
+    name = {"A": "series_a/measurements_grid.csv",
+            "B": "series_b/measurements_joint_configurations.csv",
             "D": "series_d/measurements_iso_cubes.csv"}[series]
     rows = list(csv.reader(open(os.path.join(ROOT, "published", name), newline=""), delimiter=";"))
     h = rows[0]
@@ -223,5 +224,5 @@ def study(series):
 
 
 if __name__ == "__main__":
-    for s in sys.argv[1:] or ["B", "C", "D"]:
+    for s in sys.argv[1:] or ["A", "B", "C", "D"]:
         study(s)

@@ -251,8 +251,5 @@ fn diagnose_names_the_drift_on_the_command_line() {
     assert!(e["tool_max_mm"].as_f64().unwrap() > 0.0, "{e}");
     let text = kinecal_ok(&["diagnose", "--robot", s(&robot), "--data", s(&data)]);
     let out = String::from_utf8_lossy(&text.stdout);
-    assert!(
-        out.contains("racker drifted against the robot"),
-        "{out}"
-    );
+    assert!(out.contains("racker drifted against the robot"), "{out}");
 }

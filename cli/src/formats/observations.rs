@@ -240,106 +240,107 @@ pub fn observe<const N: usize>(
     const MAX_TIME: f64 = kinecal::model::effects::MAX_DRIFT_TIME;
     // One record's observations (one, or one per reflector seen), onto `obs`; the refusal
     // names the line.
-    let observe_record = |r: &Record<N>,
-                          obs: &mut Vec<Measurement<f64, N>>|
-     -> anyhow::Result<()> {
-        let at = |c: &str| format!("{origin}:{}: {c}", r.line);
-        let get = |k: usize| r.extra.get(k).copied().unwrap_or(f64::NAN);
-        let weight = if has_sig {
-            let s = sig.map(|c| c.map_or(f64::NAN, get));
-            if let Some(k) = s.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
-                crate::refuse!(
-                    "{}: a 1-σ must be a positive number, got {} (or give --ignore-sigma)",
-                    at(["sx_mm", "sy_mm", "sz_mm"][k]),
-                    s[k]
-                );
-            }
-            Vector3::new(1.0 / s[0], 1.0 / s[1], 1.0 / s[2])
-        } else {
-            Vector3::repeat(1.0)
-        };
-        let orientation = if six_d {
-            let a = rot.map(|c| c.map_or(f64::NAN, get));
-            if let Some(k) = a.iter().position(|v| !v.is_finite() || v.abs() > 1e4) {
-                crate::refuse!(
-                    "{}: not an angle in degrees: {}",
-                    at(["rx_deg", "ry_deg", "rz_deg"][k]),
-                    a[k]
-                );
-            }
-            let w = if has_sig {
-                let s = srot_of(&get);
-                if !(s.is_finite() && s > 0.0) {
+    let observe_record =
+        |r: &Record<N>, obs: &mut Vec<Measurement<f64, N>>| -> anyhow::Result<()> {
+            let at = |c: &str| format!("{origin}:{}: {c}", r.line);
+            let get = |k: usize| r.extra.get(k).copied().unwrap_or(f64::NAN);
+            let weight = if has_sig {
+                let s = sig.map(|c| c.map_or(f64::NAN, get));
+                if let Some(k) = s.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
                     crate::refuse!(
-                        "{}: a 1-σ must be a positive number, got {s} (or give --ignore-sigma)",
-                        at("srot_deg")
+                        "{}: a 1-σ must be a positive number, got {} (or give --ignore-sigma)",
+                        at(["sx_mm", "sy_mm", "sz_mm"][k]),
+                        s[k]
                     );
                 }
-                1.0 / s.to_radians()
+                Vector3::new(1.0 / s[0], 1.0 / s[1], 1.0 / s[2])
             } else {
-                deg_weight_mm.to_degrees()
+                Vector3::repeat(1.0)
             };
-            Some((Frame::from_xyz_rpy([0.0; 3], a.map(f64::to_radians)), w))
-        } else {
-            None
-        };
-        let q = r.q_deg.map(f64::to_radians);
-        let temp_c = temp.map(get).filter(|t| !t.is_nan());
-        if let Some(t) = temp_c.filter(|t| t.abs() > 1e3) {
-            crate::refuse!("{}: not a temperature in °C: {t}", at("temp_c"));
-        }
-        let time_s = time.map(get).filter(|t| !t.is_nan());
-        if let Some(t) = time_s.filter(|t| t.abs() > MAX_TIME) {
-            crate::refuse!(
-                    "{}: not a time in seconds: {t} (a date and time written as digits? read the file with --map and its pattern in [units] time, docs/formats.md \"Files in other layouts\")",
+            let orientation = if six_d {
+                let a = rot.map(|c| c.map_or(f64::NAN, get));
+                if let Some(k) = a.iter().position(|v| !v.is_finite() || v.abs() > 1e4) {
+                    crate::refuse!(
+                        "{}: not an angle in degrees: {}",
+                        at(["rx_deg", "ry_deg", "rz_deg"][k]),
+                        a[k]
+                    );
+                }
+                let w = if has_sig {
+                    let s = srot_of(&get);
+                    if !(s.is_finite() && s > 0.0) {
+                        crate::refuse!(
+                            "{}: a 1-σ must be a positive number, got {s} (or give --ignore-sigma)",
+                            at("srot_deg")
+                        );
+                    }
+                    1.0 / s.to_radians()
+                } else {
+                    deg_weight_mm.to_degrees()
+                };
+                Some((Frame::from_xyz_rpy([0.0; 3], a.map(f64::to_radians)), w))
+            } else {
+                None
+            };
+            let q = r.q_deg.map(f64::to_radians);
+            let temp_c = temp.map(get).filter(|t| !t.is_nan());
+            if let Some(t) = temp_c.filter(|t| t.abs() > 1e3) {
+                crate::refuse!("{}: not a temperature in °C: {t}", at("temp_c"));
+            }
+            let time_s = time.map(get).filter(|t| !t.is_nan());
+            if let Some(t) = time_s.filter(|t| t.abs() > MAX_TIME) {
+                crate::refuse!(
+                    "{}: not a time in seconds: {t} (a date and time written as digits? read \
+                     the file with --map and its pattern in [units] time, docs/formats.md \
+                     \"Files in other layouts\"; milliseconds? divide by 1000)",
                     at("t_s")
                 );
-        }
-        if named {
-            for (k, c) in points.iter().enumerate() {
-                let p = c.map(get);
-                let seen = p.iter().filter(|v| v.is_finite()).count();
-                if seen == 0 {
-                    continue;
-                }
-                if seen < 3 {
-                    crate::refuse!(
+            }
+            if named {
+                for (k, c) in points.iter().enumerate() {
+                    let p = c.map(get);
+                    let seen = p.iter().filter(|v| v.is_finite()).count();
+                    if seen == 0 {
+                        continue;
+                    }
+                    if seen < 3 {
+                        crate::refuse!(
                         "{}: reflector `{}` has some coordinates and not others: leave all three \
                          cells empty where it was not seen",
                         at(&format!("x_{}", names[k])),
                         names[k]
                     );
+                    }
+                    if let Some(v) = p.iter().find(|v| v.abs() > 1e6) {
+                        crate::refuse!(
+                            "{}: {v} is not a position in millimetres",
+                            at(&format!("x_{}", names[k]))
+                        );
+                    }
+                    let mut m = Measurement::new(q, Vector3::from(p));
+                    m.tool = k as u8;
+                    m.weight = weight;
+                    m.temp_c = temp_c;
+                    m.time_s = time_s;
+                    if let (1, Some((o, w))) = (points.len(), orientation) {
+                        m.orientation = Some(o);
+                        m.orientation_weight = w;
+                    }
+                    obs.push(m);
                 }
-                if let Some(v) = p.iter().find(|v| v.abs() > 1e6) {
-                    crate::refuse!(
-                        "{}: {v} is not a position in millimetres",
-                        at(&format!("x_{}", names[k]))
-                    );
-                }
-                let mut m = Measurement::new(q, Vector3::from(p));
-                m.tool = k as u8;
+            } else {
+                let mut m = Measurement::new(q, Vector3::from(r.xyz_mm));
                 m.weight = weight;
                 m.temp_c = temp_c;
                 m.time_s = time_s;
-                if let (1, Some((o, w))) = (points.len(), orientation) {
+                if let Some((o, w)) = orientation {
                     m.orientation = Some(o);
                     m.orientation_weight = w;
                 }
                 obs.push(m);
             }
-        } else {
-            let mut m = Measurement::new(q, Vector3::from(r.xyz_mm));
-            m.weight = weight;
-            m.temp_c = temp_c;
-            m.time_s = time_s;
-            if let Some((o, w)) = orientation {
-                m.orientation = Some(o);
-                m.orientation_weight = w;
-            }
-            obs.push(m);
-        }
-        Ok(())
-    };
+            Ok(())
+        };
     let (measurements, poses) = if named || ds.records.len() < PARALLEL_MIN_RECORDS {
         let mut poses = Vec::with_capacity(ds.records.len());
         let mut measurements = Vec::with_capacity(ds.records.len());

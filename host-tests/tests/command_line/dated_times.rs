@@ -151,11 +151,15 @@ fn times_that_cannot_be_right_are_refused_in_one_line() {
         + "\n";
     let digits = write(dir.path(), "digits.csv", &digits);
     for (data, map, says) in [
-        (&other, Some(&map), "other.csv:6:"),
+        (
+            &other,
+            Some(&map),
+            "other.csv:6:10: '04.03.2021 12:00:48' in column `stamp` (kinecal's t_s) does not match",
+        ),
         (
             &dated,
             Some(&no_pattern),
-            "[units] time = \"date\": give \"s\"",
+            "[units] time = \"date\": no date or time specifier",
         ),
         (&dated, Some(&no_column), "but no t_s column"),
         (&digits, None, "a date and time written as digits?"),
@@ -170,6 +174,101 @@ fn times_that_cannot_be_right_are_refused_in_one_line() {
         assert!(
             err.contains(says) && err.trim().lines().count() == 1,
             "{says}: {err}"
+        );
+    }
+}
+
+/// The `t_s` that a map's pattern reads from a few rows of the UR10 series C (its joints and
+/// points, the times in `stamp`), as `identify` reads them.
+fn times(dir: &Path, stamps: &[&str], pattern: &str) -> anyhow::Result<Vec<f64>> {
+    use kinecal_cli::formats::loading::load_measurements;
+    use kinecal_cli::formats::robot_file::RobotFile;
+    use kinecal_cli::formats::units::UnitArgs;
+    let text = std::fs::read_to_string(ur10_dir().join("ur10_random_poses.csv")).unwrap();
+    let mut lines = text.lines();
+    let mut out = format!("{},stamp\n", lines.next().unwrap());
+    for (l, t) in lines.zip(stamps) {
+        out.push_str(&format!("{l},{t}\n"));
+    }
+    let data = write(dir, "stamped.csv", &out);
+    let map = write(
+        dir,
+        "stamped.map.toml",
+        &format!("delimiter = \",\"\n[columns]\nt_s = \"stamp\"\n[units]\ntime = {pattern:?}\n"),
+    );
+    let robot = RobotFile::load(&ur10_dir().join("robot.toml"))?.to_robot::<6>()?;
+    let units = UnitArgs {
+        map: Some(map),
+        ..UnitArgs::default()
+    };
+    let ds = load_measurements::<6, _>(&data, &units, &robot, false)?;
+    Ok(ds.extra("t_s").unwrap())
+}
+
+/// What each pattern reads: seconds since 1970-01-01 00:00:00 of the stated clock, fractions
+/// of a second, a date alone as its midnight, an offset as the instant it names; an empty
+/// cell is a row without a time.
+#[test]
+fn each_pattern_gives_the_seconds_it_states() {
+    let dir = tempfile::tempdir().unwrap();
+    let s0 = START as f64; // 2021-03-04 12:00:00
+    for (stamps, pattern, want) in [
+        (
+            &[
+                "2021-03-04 12:00:07",
+                "2021-03-04 13:01:00",
+                "2021-03-05 12:00:00",
+            ][..],
+            "%Y-%m-%d %H:%M:%S",
+            vec![s0 + 7.0, s0 + 3660.0, s0 + 86_400.0],
+        ),
+        (
+            &["20210304120007", "20210304120008", "20210304120009"][..],
+            "%Y%m%d%H%M%S",
+            vec![s0 + 7.0, s0 + 8.0, s0 + 9.0],
+        ),
+        (
+            &[
+                "04.03.2021 12:00:07.25",
+                "04.03.2021 12:00:07.5",
+                "04.03.2021 12:00:08",
+            ][..],
+            "%d.%m.%Y %H:%M:%S%.f",
+            vec![s0 + 7.25, s0 + 7.5, s0 + 8.0],
+        ),
+        (
+            &["2021-03-04", "2021-03-05", "2021-03-06"][..],
+            "%Y-%m-%d",
+            vec![s0 - 43_200.0, s0 + 43_200.0, s0 + 129_600.0],
+        ),
+        (
+            &[
+                "2021-03-04 13:00:07 +0100",
+                "2021-03-04 12:00:07 +0000",
+                "2021-03-04 12:00:07 -0130",
+            ][..],
+            "%Y-%m-%d %H:%M:%S %z",
+            vec![s0 + 7.0, s0 + 7.0, s0 + 7.0 + 5400.0],
+        ),
+    ] {
+        let got = times(dir.path(), stamps, pattern).unwrap();
+        assert_eq!(&got[..3], &want[..], "{pattern}");
+        assert!(got[3..].iter().all(|t| t.is_nan()), "{pattern}: {got:?}");
+    }
+    // Patterns that cannot give comparable times are refused when the map is read.
+    for (pattern, says) in [
+        ("%H:%M:%S", "a time of day without the date"),
+        ("%Y-%m-%d %I:%M:%S", "without AM/PM"),
+        ("%Q", "not a pattern chrono can read"),
+        ("date", "no date or time specifier"),
+    ] {
+        let err = times(dir.path(), &["2021-03-04 12:00:07"], pattern).unwrap_err();
+        let text = format!("{err:#}");
+        assert!(
+            text.contains(says)
+                && text.contains("give \"s\" (seconds)")
+                && text.lines().count() == 1,
+            "{pattern}: {text}"
         );
     }
 }

@@ -99,6 +99,80 @@ pub struct MapUnits {
     pub time: Option<String>,
 }
 
+/// What a time pattern (`[units] time`, chrono's strftime specifiers) states.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimeFields {
+    /// A date alone: its midnight.
+    Date,
+    /// A date and a time of day, with no zone (read as they are).
+    DateTime,
+    /// An instant: a zone offset (`%z`, RFC 3339 or 2822) or seconds since 1970 (`%s`).
+    Instant,
+}
+
+impl TimeFields {
+    /// Classifies `pattern`, or says why it cannot be one: no specifier, one chrono does not
+    /// know, a time of day without a date, a 12-hour clock without AM/PM.
+    pub fn of(pattern: &str) -> Result<TimeFields, &'static str> {
+        use chrono::format::{Fixed, Item, Numeric, StrftimeItems};
+        let (mut date, mut time, mut instant, mut hour12, mut am_pm, mut any) =
+            (false, false, false, false, false, false);
+        for item in StrftimeItems::new(pattern) {
+            match item {
+                Item::Error => return Err("not a pattern chrono can read"),
+                Item::Literal(_) | Item::OwnedLiteral(_) | Item::Space(_) | Item::OwnedSpace(_) => {
+                }
+                Item::Numeric(n, _) => {
+                    any = true;
+                    match n {
+                        Numeric::Hour | Numeric::Minute | Numeric::Second | Numeric::Nanosecond => {
+                            time = true
+                        }
+                        Numeric::Hour12 => (time, hour12) = (true, true),
+                        Numeric::Timestamp => instant = true,
+                        _ => date = true,
+                    }
+                }
+                Item::Fixed(f) => {
+                    any = true;
+                    match f {
+                        Fixed::LowerAmPm | Fixed::UpperAmPm => am_pm = true,
+                        Fixed::Nanosecond
+                        | Fixed::Nanosecond3
+                        | Fixed::Nanosecond6
+                        | Fixed::Nanosecond9 => time = true,
+                        Fixed::TimezoneOffset
+                        | Fixed::TimezoneOffsetColon
+                        | Fixed::TimezoneOffsetDoubleColon
+                        | Fixed::TimezoneOffsetTripleColon
+                        | Fixed::TimezoneOffsetColonZ
+                        | Fixed::TimezoneOffsetZ
+                        | Fixed::RFC2822
+                        | Fixed::RFC3339 => instant = true,
+                        _ => date = true,
+                    }
+                }
+            }
+        }
+        if !any {
+            return Err("no date or time specifier (%Y, %m, %d, %H, …)");
+        }
+        if hour12 && !am_pm {
+            return Err("a 12-hour clock (%I) without AM/PM (%p)");
+        }
+        if !date && !instant {
+            return Err("a time of day without the date: the rows' times must be comparable");
+        }
+        Ok(if instant {
+            TimeFields::Instant
+        } else if time {
+            TimeFields::DateTime
+        } else {
+            TimeFields::Date
+        })
+    }
+}
+
 /// A map file, read and checked.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MapFile {
@@ -212,20 +286,12 @@ impl MapFile {
         let time = match u.time {
             None => None,
             Some(t) if t == "s" => None,
-            Some(t) => {
-                use chrono::format::{Item, StrftimeItems};
-                let mut items = StrftimeItems::new(&t);
-                let specifiers = items
-                    .clone()
-                    .filter(|i| !matches!(i, Item::Literal(_) | Item::Space(_)))
-                    .count();
-                if !t.contains('%') || specifiers == 0 || items.any(|i| matches!(i, Item::Error)) {
-                    crate::refuse!(
-                        "{origin}: [units] time = {t:?}: give \"s\" (seconds) or the pattern the file writes its times in, such as \"%Y-%m-%d %H:%M:%S\" or \"%Y%m%d%H%M%S\" (docs/formats.md, \"Files in other layouts\")"
-                    );
-                }
-                Some(t)
-            }
+            Some(t) => match TimeFields::of(&t) {
+                Ok(_) => Some(t),
+                Err(why) => crate::refuse!(
+                    "{origin}: [units] time = {t:?}: {why}; give \"s\" (seconds) or the pattern the file writes its times in, such as \"%Y-%m-%d %H:%M:%S\" or \"%Y%m%d%H%M%S\" (docs/formats.md, \"Files in other layouts\")"
+                ),
+            },
         };
         let units = MapUnits {
             joints: angle("joints", u.joints)?,

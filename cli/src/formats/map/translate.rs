@@ -9,7 +9,7 @@
 //! `joints` and `length` act as `--angle-unit` and `--length-unit` at the units door.
 
 use super::layout::{cell_text, number, Line};
-use super::spec::{ColumnRef, MapFile};
+use super::spec::{ColumnRef, MapFile, TimeFields};
 use crate::formats::rotation_order::RotationOrder;
 use crate::formats::units::{mm_of_m, AngleUnit, LengthUnit};
 use std::fmt::Write as _;
@@ -237,7 +237,7 @@ fn plan(
         match columns.iter_mut().find(|c| c.name == "t_s") {
             Some(c) => c.kind = Kind::Time,
             None => crate::refuse!(
-                "{map_origin}: [units] time = {pattern:?} but no t_s column: name the file's time column in [columns], t_s = \"its name\""
+                "{map_origin}: [units] time = {pattern:?} but no t_s column: name the file's time column in [columns], t_s = \"its name\" (or its 1-based number)"
             ),
         }
     }
@@ -316,17 +316,21 @@ fn values(
 }
 
 /// Seconds since 1970-01-01 00:00:00 of the time `text` states, read with the strftime
-/// `pattern` (a date alone is its midnight); `None` when the text does not match it.
+/// `pattern` ([`TimeFields`]: a date alone is its midnight; with a zone offset, UTC); `None`
+/// when the text does not match it.
 fn seconds_of(text: &str, pattern: &str) -> Option<f64> {
-    use chrono::{NaiveDate, NaiveDateTime};
-    let t = NaiveDateTime::parse_from_str(text, pattern)
-        .ok()
-        .or_else(|| {
-            NaiveDate::parse_from_str(text, pattern)
-                .ok()?
-                .and_hms_opt(0, 0, 0)
-        })?
-        .and_utc();
+    use chrono::{DateTime, NaiveDate, NaiveDateTime};
+    let t = match TimeFields::of(pattern).ok()? {
+        TimeFields::Instant => DateTime::parse_from_str(text, pattern)
+            .ok()
+            .map(|t| t.to_utc())
+            .or_else(|| Some(NaiveDateTime::parse_from_str(text, pattern).ok()?.and_utc()))?,
+        TimeFields::DateTime => NaiveDateTime::parse_from_str(text, pattern).ok()?.and_utc(),
+        TimeFields::Date => NaiveDate::parse_from_str(text, pattern)
+            .ok()?
+            .and_hms_opt(0, 0, 0)?
+            .and_utc(),
+    };
     Some(t.timestamp() as f64 + f64::from(t.timestamp_subsec_nanos()) * 1e-9)
 }
 
@@ -437,13 +441,17 @@ pub fn translate(
         .map_err(|c| {
             let col = &columns[c];
             let k = col.file_column();
+            if let (Some(t), Kind::Time) = (cells.get(k - 1), col.kind) {
+                return crate::refused(format!(
+                    "{data}:{}:{k}: '{}' in column {} (kinecal's t_s) does not match [units] time = {:?} of {map_origin}: correct the cell, or give the pattern the file writes its times in",
+                    line.number,
+                    cell_text(t).chars().take(40).collect::<String>(),
+                    col.file_name,
+                    map.units.time.as_deref().unwrap_or("")
+                ));
+            }
             let what = match cells.get(k - 1) {
                 None => "no cell".to_string(),
-                Some(t) if col.kind == Kind::Time => format!(
-                    "'{}' is not a time as [units] time = {:?} in {map_origin} writes it",
-                    cell_text(t).chars().take(40).collect::<String>(),
-                    map.units.time.as_deref().unwrap_or("")
-                ),
                 Some(t) => {
                     let t = cell_text(t);
                     let mut s =

@@ -502,6 +502,11 @@ pub fn explain<const N: usize>(
         // No joint angle: no size in degrees (JSON null); the size is at the tool.
         CandidateKind::Thermal { .. } | CandidateKind::Drift { .. } => f64::NAN,
     };
+    // A non-finite size of a joint's correction stays visible (the report guard names it).
+    let turns_a_joint = !matches!(
+        c.kind,
+        CandidateKind::Thermal { .. } | CandidateKind::Drift { .. }
+    );
     let n = poses.len().max(1) as f64;
     let tool_rms_mm = (poses.iter().map(|p| p.tool_mm * p.tool_mm).sum::<f64>() / n).sqrt();
     let tool_max_mm = poses.iter().fold(0.0f64, |a, p| a.max(p.tool_mm));
@@ -541,8 +546,8 @@ pub fn explain<const N: usize>(
         .collect();
     let (gap, gap_basis) = gap_closed(f.before_rms_mm, f.validation_rms_mm, noise_floor_mm);
     let mut e = Explanation {
-        peak_to_peak_deg: ptp_rad.is_finite().then(|| ptp_rad.to_degrees()),
-        amplitude_deg: ptp_rad.is_finite().then(|| ptp_rad.to_degrees() / 2.0),
+        peak_to_peak_deg: turns_a_joint.then(|| ptp_rad.to_degrees()),
+        amplitude_deg: turns_a_joint.then(|| ptp_rad.to_degrees() / 2.0),
         tool_rms_mm,
         tool_max_mm,
         tool_peak_to_peak_mm,

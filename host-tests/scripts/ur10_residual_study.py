@@ -15,7 +15,8 @@ tables. Each is reported in-sample and held out (5-fold cross-validation over th
 fold's poses predicted by the fit to the other four), 3-D RMS in mm:
 
 - drift: the base translating in proportion to the row's place in the file (the rows' order
-  as a clock; series B and D have no usable time);
+  as a clock: series B and D have no usable time, and series A's last rows are out of time
+  order);
 - backlash: each joint's angle error of +-b by the sign of its last move (row to row);
 - gravity pose: joints 2-4's angle errors as sines and cosines (1st and 2nd order) of the
   links' angles against gravity, q2, q2+q3 and q2+q3+q4 (36 values; these assume joints 2-4

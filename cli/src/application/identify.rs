@@ -288,15 +288,22 @@ pub fn identify<const N: usize>(
         .map(|c| c.name.clone())
         .collect();
     let stalled = after.identification_rms_mm > opts.stall_rms_mm;
-    let converged = fit.solver_converged() && !stalled && after.identification_rms_mm.is_finite();
+    // A fit that stretched or shrank the arm is no calibration, however small its error.
+    let resized = crate::calibration::arm_size::resized(&nominal, &fit.robot);
+    let converged = fit.solver_converged()
+        && !stalled
+        && resized.is_none()
+        && after.identification_rms_mm.is_finite();
     let verdict = Verdict {
         converged,
-        stop: stop_text(
-            &fit,
-            after.identification_rms_mm,
-            stalled,
-            opts.stall_rms_mm,
-        ),
+        stop: resized.unwrap_or_else(|| {
+            stop_text(
+                &fit,
+                after.identification_rms_mm,
+                stalled,
+                opts.stall_rms_mm,
+            )
+        }),
         suspicious,
         out: None,
     };

@@ -2,6 +2,7 @@
 //! before and after in the units and keys of docs/formats.md "Command line: exit status and JSON".
 
 pub mod acceptance;
+pub mod arm_size;
 pub mod check;
 pub mod coupling_hint;
 pub mod drift;

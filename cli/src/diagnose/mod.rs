@@ -176,6 +176,10 @@ pub enum NoiseSource {
 /// The outcome of the workflow.
 #[derive(Clone, Debug)]
 pub struct Diagnosis<const N: usize> {
+    /// Why the geometric fit is no calibration of the robot file's arm: it stretched or shrank
+    /// the links (`calibration::arm_size`; points in another length unit than stated, or
+    /// another robot); then nothing is diagnosed (exit 3).
+    pub resized: Option<String>,
     /// Geometry fitted to all poses by the library's LM (base when unknown, rows, tool): where
     /// the search starts from.
     pub geometric: HostRobot<N>,
@@ -492,6 +496,7 @@ pub fn diagnose_with_progress<const N: usize>(
     );
     on_progress(Progress::Geometry);
     let (geometric, held) = fit_geometry(nominal, base_known, free_tilt, data)?;
+    let resized = crate::calibration::arm_size::resized(nominal, &geometric);
     let geometry_seconds = t0.elapsed().as_secs_f64();
     let mut params: Vec<Param> = ParamSet::<64>::full(N, !base_known)
         .map_err(|e| anyhow::anyhow!("{e:?}"))?
@@ -747,6 +752,7 @@ pub fn diagnose_with_progress<const N: usize>(
     };
     Ok(Diagnosis {
         geometric,
+        resized,
         baseline_model,
         unidentifiable: held,
         params: problem.params.clone(),

@@ -131,10 +131,12 @@ impl<const N: usize> Diagnosed<N> {
     }
 }
 
-/// Whether the geometric fit of `d` found the robot: its held-out RMS is finite and at most
-/// `stall_rms_mm`.
+/// Whether the geometric fit of `d` found the robot: it kept the arm's size
+/// ([`Diagnosis::resized`]) and its held-out RMS is finite and at most `stall_rms_mm`.
 pub fn geometry_fits<const N: usize>(d: &Diagnosis<N>, stall_rms_mm: f64) -> bool {
-    d.baseline_validation_rms_mm.is_finite() && d.baseline_validation_rms_mm <= stall_rms_mm
+    d.resized.is_none()
+        && d.baseline_validation_rms_mm.is_finite()
+        && d.baseline_validation_rms_mm <= stall_rms_mm
 }
 
 /// Refuses (exit 2) a plots folder that names a file.

@@ -4,6 +4,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod arm_size;
 mod atomic_out;
 mod cartesian;
 mod cli_check_simulate;

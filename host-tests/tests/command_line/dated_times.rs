@@ -18,23 +18,19 @@ const START: i64 = 18_690 * 86_400 + 12 * 3_600;
 fn session(dir: &Path) -> (String, Vec<(Vec<String>, i64)>) {
     let robot = data_file("er20.toml");
     let data = dir.join("sim.csv");
-    kinecal_ok(&[
-        "simulate",
-        "--robot",
-        s(&robot),
-        "--poses",
-        "300",
-        "--noise-mm",
-        "0.01",
-        "--seed",
-        "31",
-        "--session-s",
-        "3600",
-        "--effect",
-        &format!("base-drift:0:{},{},{}", DRIFT[0], DRIFT[1], DRIFT[2]),
-        "--out",
-        s(&data),
-    ]);
+    simulate(
+        &robot,
+        Some(300),
+        Some(0.01),
+        Some(31),
+        &[
+            "--session-s",
+            "3600",
+            "--effect",
+            &format!("base-drift:0:{},{},{}", DRIFT[0], DRIFT[1], DRIFT[2]),
+        ],
+        &data,
+    );
     let text = std::fs::read_to_string(&data).unwrap();
     let mut lines = text.lines();
     let header = lines.next().unwrap();
@@ -72,31 +68,16 @@ fn files(dir: &Path) -> (PathBuf, PathBuf, PathBuf) {
     )
 }
 
-/// `identify --json` without its timings.
-fn without_timings(out: &std::process::Output) -> serde_json::Value {
-    fn strip(v: &mut serde_json::Value) {
-        if let Some(o) = v.as_object_mut() {
-            o.retain(|k, _| !k.contains("seconds"));
-            o.values_mut().for_each(strip);
-        } else if let Some(a) = v.as_array_mut() {
-            a.iter_mut().for_each(strip);
-        }
-    }
-    let mut v = json_of(out);
-    strip(&mut v);
-    v
-}
-
 #[test]
 fn dates_give_the_seconds_they_stand_for_and_the_drift() {
     let dir = tempfile::tempdir().unwrap();
     let (seconds, dated, map) = files(dir.path());
     let robot = data_file("er20.toml");
     let args = ["--json", "--effect", "base-drift"];
-    let a = without_timings(&run_on("identify", &robot, &seconds, &args));
+    let a = json_without_timings(&run_on("identify", &robot, &seconds, &args));
     let mut with_map = args.to_vec();
     with_map.extend(["--map", s(&map)]);
-    let b = without_timings(&run_on("identify", &robot, &dated, &with_map));
+    let b = json_without_timings(&run_on("identify", &robot, &dated, &with_map));
     assert_eq!(a, b);
     let fitted: Vec<f64> = ["vx", "vy", "vz"]
         .iter()

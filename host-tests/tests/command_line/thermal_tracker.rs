@@ -60,36 +60,17 @@ fn diagnose_names_thermal_expansion_on_the_command_line() {
     let dir = tempfile::tempdir().unwrap();
     let robot = data_file("er20.toml");
     let data = dir.path().join("warm.csv");
-    kinecal_ok(&[
-        "simulate",
-        "--robot",
-        s(&robot),
-        "--poses",
-        "400",
-        "--noise-mm",
-        "0.01",
-        "--seed",
-        "22",
+    let effect = [
         "--temperature",
         "15:35",
         "--effect",
         "thermal-expansion:0:1.2e-5",
-        "--out",
-        s(&data),
-    ]);
-    let v = json_of(&run_on("diagnose", &robot, &data, &["--json"]));
-    let found = v["found"].as_array().unwrap();
-    let f = found
-        .iter()
-        .find(|f| f["effect"] == "thermal-expansion")
-        .unwrap_or_else(|| panic!("{v}"));
-    let e = &f["explanation"];
-    assert!(
-        e["peak_to_peak_deg"].is_null() && e["amplitude_deg"].is_null(),
-        "{e}"
+    ];
+    simulate(&robot, Some(400), Some(0.01), Some(22), &effect, &data);
+    assert_diagnose_names_without_angle(
+        &robot,
+        &data,
+        "thermal-expansion",
+        "expands with its temperature",
     );
-    assert!(e["tool_max_mm"].as_f64().unwrap() > 0.0, "{e}");
-    let text = kinecal_ok(&["diagnose", "--robot", s(&robot), "--data", s(&data)]);
-    let out = String::from_utf8_lossy(&text.stdout);
-    assert!(out.contains("expands with its temperature"), "{out}");
 }

@@ -137,17 +137,7 @@ fn vendor_map(order: RotationOrder, per_axis: bool) -> String {
 
 /// `identify --json` without its timings.
 fn identify_json(args: &[&str]) -> serde_json::Value {
-    fn strip(v: &mut serde_json::Value) {
-        if let Some(o) = v.as_object_mut() {
-            o.retain(|k, _| !k.contains("seconds"));
-            o.values_mut().for_each(strip);
-        } else if let Some(a) = v.as_array_mut() {
-            a.iter_mut().for_each(strip);
-        }
-    }
-    let mut v = json_of(&kinecal(args));
-    strip(&mut v);
-    v
+    json_without_timings(&kinecal(args))
 }
 
 #[test]

@@ -176,3 +176,41 @@ pub fn effect(
         grid: None,
     }
 }
+
+/// The JSON report of a successful run without its timings (every key containing "seconds"),
+/// for comparing two runs' figures.
+pub fn json_without_timings(out: &Output) -> serde_json::Value {
+    fn strip(v: &mut serde_json::Value) {
+        if let Some(o) = v.as_object_mut() {
+            o.retain(|k, _| !k.contains("seconds"));
+            o.values_mut().for_each(strip);
+        } else if let Some(a) = v.as_array_mut() {
+            a.iter_mut().for_each(strip);
+        }
+    }
+    let mut v = json_of(out);
+    strip(&mut v);
+    v
+}
+
+/// `diagnose` on `data` names `effect`, which turns no joint: its explanation has no angle
+/// (`peak_to_peak_deg`, `amplitude_deg` null) and a size at the tool, and the text output
+/// says `phrase`.
+pub fn assert_diagnose_names_without_angle(robot: &Path, data: &Path, effect: &str, phrase: &str) {
+    let v = json_of(&run_on("diagnose", robot, data, &["--json"]));
+    let f = v["found"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|f| f["effect"] == effect)
+        .unwrap_or_else(|| panic!("{effect} not named: {v}"));
+    let e = &f["explanation"];
+    assert!(
+        e["peak_to_peak_deg"].is_null() && e["amplitude_deg"].is_null(),
+        "{e}"
+    );
+    assert!(e["tool_max_mm"].as_f64().unwrap() > 0.0, "{e}");
+    let text = kinecal_ok(&["diagnose", "--robot", s(robot), "--data", s(data)]);
+    let out = String::from_utf8_lossy(&text.stdout);
+    assert!(out.contains(phrase), "{out}");
+}

@@ -58,7 +58,7 @@ pub fn add<const N: usize, V: kinecal::ValueStorage>(
         crate::refuse!(
             "--effect base-drift: the data need each row's time in seconds in a t_s column, on \
              every row and not all the same ({without} of {} rows have none: an empty cell, or \
-             not a number such as a date)",
+             not a number such as a date, which a --map file's [units] time reads)",
             data.len()
         );
     };

@@ -121,7 +121,7 @@ fn simulate_with_joints<const N: usize>(
     if let Some(path) = &args.plan {
         let origin = path.display().to_string();
         let text = std::fs::read_to_string(path)
-            .map_err(|e| crate::refused(format!("{origin}: cannot read: {e}")))?;
+            .map_err(|e| crate::refused(crate::formats::cannot_read(&origin, &e)))?;
         let planned = crate::constraints::simulate::read_plan::<N>(&text, &origin)?;
         let session = crate::constraints::simulate::session_from_plan(
             &s.truth,

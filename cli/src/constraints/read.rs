@@ -116,7 +116,7 @@ pub fn load<const N: usize>(
 ) -> anyhow::Result<Session<N>> {
     let origin = path.display().to_string();
     let text = std::fs::read_to_string(path)
-        .map_err(|e| crate::refused(format!("{origin}: cannot read: {e}")))?;
+        .map_err(|e| crate::refused(crate::formats::cannot_read(&origin, &e)))?;
     parse(&text, &origin, units, tools)
 }
 

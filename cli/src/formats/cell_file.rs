@@ -231,7 +231,7 @@ impl SceneFile {
     pub fn load(path: &Path, joints: usize) -> anyhow::Result<SceneFile> {
         let origin = path.display().to_string();
         let text = std::fs::read_to_string(path)
-            .map_err(|e| crate::refused(format!("{origin}: cannot read: {e}")))?;
+            .map_err(|e| crate::refused(crate::formats::cannot_read(&origin, &e)))?;
         Self::parse(&text, &origin, joints)
     }
 

@@ -295,7 +295,7 @@ pub fn load<const N: usize>(path: &Path) -> anyhow::Result<Dataset<N>> {
     // An input that cannot be read is refused like a malformed one (exit status 2): the user
     // must fix the path or the file.
     let file =
-        FileBytes::open(path).map_err(|e| crate::refused(format!("{origin}: cannot read: {e}")))?;
+        FileBytes::open(path).map_err(|e| crate::refused(super::cannot_read(&origin, &e)))?;
     let bytes = file.bytes();
     let bytes = bytes.strip_prefix(&[0xEF, 0xBB, 0xBF]).unwrap_or(bytes);
     // Malformed content is refused input (exit status 2, docs/formats.md "Command line: exit status and JSON").
@@ -445,7 +445,7 @@ fn split_at_lines(bytes: &[u8], parts: usize) -> Vec<&[u8]> {
 /// The joint count a measurement file is for: the largest `K` of its `qK` columns.
 pub fn joint_count(path: &Path) -> anyhow::Result<usize> {
     let origin = path.display().to_string();
-    let f = open_skipping_bom(path).map_err(|e| anyhow!("{origin}: cannot read: {e}"))?;
+    let f = open_skipping_bom(path).map_err(|e| crate::refused(super::cannot_read(&origin, &e)))?;
     for (i, l) in BufReader::new(f).split(b'\n').enumerate() {
         let l = l.map_err(|e| anyhow!("{origin}:{}:1: cannot read: {e}", i + 1))?;
         let text = String::from_utf8_lossy(&l);

@@ -20,14 +20,25 @@ pub mod urdf;
 
 use std::path::Path;
 
+/// The one-line reason a file `origin` could not be read, with what to do about it.
+pub fn cannot_read(origin: &str, e: &std::io::Error) -> String {
+    use std::io::ErrorKind;
+    let todo = match e.kind() {
+        ErrorKind::IsADirectory => "a folder: give the file in it",
+        ErrorKind::NotFound => "no such file: check the path",
+        ErrorKind::PermissionDenied => "not readable by this user: check its permissions",
+        _ => "give a readable file",
+    };
+    format!("{origin}: cannot read ({e}): {todo}")
+}
+
 /// Reads at most `max` bytes of the file at `path`: refused (exit status 2) when it cannot be
 /// read or is larger, naming `what` it should be. The file is never read whole before its
 /// size is known to be within `max` (an endless `/dev/stdin` or a multi-gigabyte file stops at
 /// `max + 1` bytes).
 pub fn read_limited(path: &Path, max: u64, what: &str) -> anyhow::Result<Vec<u8>> {
     use std::io::Read as _;
-    let cannot =
-        |e: std::io::Error| crate::refused(format!("{}: cannot read: {e}", path.display()));
+    let cannot = |e: std::io::Error| crate::refused(cannot_read(&path.display().to_string(), &e));
     let mut bytes = Vec::new();
     std::fs::File::open(path)
         .map_err(cannot)?

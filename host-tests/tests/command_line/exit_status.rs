@@ -24,6 +24,12 @@ fn unreadable_inputs_are_refused_naming_the_file() {
     let missing = dir.path().join("no_such.csv");
     let out = kinecal(&["check", "--robot", s(&robot), "--data", s(&missing)]);
     assert_refused(&out, "no_such.csv");
+    assert!(stderr(&out).contains("no such file: check the path"));
+    // A folder where a file belongs: named, with what to do.
+    for command in ["check", "identify", "diagnose"] {
+        let out = kinecal(&[command, "--robot", s(&robot), "--data", s(dir.path())]);
+        assert_refused(&out, "a folder: give the file in it");
+    }
 
     let missing_robot = dir.path().join("no_such_robot.toml");
     let out = kinecal(&["check", "--robot", s(&missing_robot), "--data", s(&missing)]);

@@ -69,8 +69,8 @@ pub fn load<const N: usize>(
     let map = spec::MapFile::load(map_path)?;
     let (origin, map_origin) = (data.display().to_string(), map_path.display().to_string());
     let units = units(&map, flags, &map_origin)?;
-    let mut bytes =
-        std::fs::read(data).map_err(|e| crate::refused(format!("{origin}: cannot read: {e}")))?;
+    let mut bytes = std::fs::read(data)
+        .map_err(|e| crate::refused(crate::formats::cannot_read(&origin, &e)))?;
     if bytes.starts_with(&[0xEF, 0xBB, 0xBF]) {
         bytes.drain(..3);
     }

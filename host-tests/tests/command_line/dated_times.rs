@@ -109,6 +109,12 @@ fn times_that_cannot_be_right_are_refused_in_one_line() {
         "none.toml",
         &map_text.replace("%Y-%m-%d %H:%M:%S", "date"),
     );
+    let spaced = write(dir.path(), "spaced.csv", &text.replace(';', " "));
+    let spaced_map = write(
+        dir.path(),
+        "spaced.toml",
+        &map_text.replace("delimiter = \";\"", "delimiter = \" \""),
+    );
     let no_column = write(
         dir.path(),
         "nocol.toml",
@@ -143,6 +149,7 @@ fn times_that_cannot_be_right_are_refused_in_one_line() {
             "[units] time = \"date\": no date or time specifier",
         ),
         (&dated, Some(&no_column), "but no t_s column"),
+        (&spaced, Some(&spaced_map), "has spaces, but"),
         (&digits, None, "a date and time written as digits?"),
     ] {
         let mut args = vec!["--effect", "base-drift"];
@@ -241,6 +248,7 @@ fn each_pattern_gives_the_seconds_it_states() {
         ("%H:%M:%S", "a time of day without the date"),
         ("%Y-%m-%d %I:%M:%S", "without AM/PM"),
         ("%Q", "not a pattern chrono can read"),
+        ("%Y-%m-%d %H:%M:%S.%f", "write %.f for a point"),
         ("date", "no date or time specifier"),
     ] {
         let err = times(dir.path(), &["2021-03-04 12:00:07"], pattern).unwrap_err();

@@ -117,7 +117,13 @@ impl TimeFields {
         use chrono::format::{Fixed, Item, Numeric, StrftimeItems};
         let (mut date, mut time, mut instant, mut hour12, mut am_pm, mut any) =
             (false, false, false, false, false, false);
+        let mut after_separator = false;
         for item in StrftimeItems::new(pattern) {
+            if matches!(item, Item::Numeric(Numeric::Nanosecond, _)) && after_separator {
+                return Err("%f after a point or comma counts nanoseconds, not a fraction: write %.f for a point, %3f, %6f or %9f for that many digits after a comma");
+            }
+            after_separator = matches!(&item, Item::Literal(l) if l.ends_with(['.', ',']))
+                || matches!(&item, Item::OwnedLiteral(l) if l.ends_with(['.', ',']));
             match item {
                 Item::Error => return Err("not a pattern chrono can read"),
                 Item::Literal(_) | Item::OwnedLiteral(_) | Item::Space(_) | Item::OwnedSpace(_) => {

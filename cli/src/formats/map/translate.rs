@@ -9,7 +9,7 @@
 //! `joints` and `length` act as `--angle-unit` and `--length-unit` at the units door.
 
 use super::layout::{cell_text, number, Line};
-use super::spec::{ColumnRef, MapFile, TimeFields};
+use super::spec::{ColumnRef, Delimiter, MapFile, TimeFields};
 use crate::formats::rotation_order::RotationOrder;
 use crate::formats::units::{mm_of_m, AngleUnit, LengthUnit};
 use std::fmt::Write as _;
@@ -412,6 +412,13 @@ pub fn translate(
     let width = header
         .as_ref()
         .map_or_else(|| delimiter.split(first.text).len(), Vec::len);
+    if let (Delimiter::Space, Some(pattern)) = (delimiter, &map.units.time) {
+        if pattern.contains(char::is_whitespace) {
+            crate::refuse!(
+                "{map_origin}: [units] time = {pattern:?} has spaces, but {data}'s cells are separated by spaces: a time would be split; give the file's other delimiter, or a pattern without spaces"
+            );
+        }
+    }
     let columns = plan(map, n, header.as_deref(), width, origins)?;
     let body = if map.header { &lines[1..] } else { lines };
     let line_shift = u32::from(!map.header);

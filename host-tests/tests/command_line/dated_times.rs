@@ -249,6 +249,8 @@ fn each_pattern_gives_the_seconds_it_states() {
         ("%Y-%m-%d %I:%M:%S", "without AM/PM"),
         ("%Q", "not a pattern chrono can read"),
         ("%Y-%m-%d %H:%M:%S.%f", "write %.f for a point"),
+        ("%H:%M:%S,%3f", "a time of day without the date"),
+        ("%Y-%m-%d %H:%M:%S %Z", "write %z for its offset"),
         ("date", "no date or time specifier"),
     ] {
         let err = times(dir.path(), &["2021-03-04 12:00:07"], pattern).unwrap_err();

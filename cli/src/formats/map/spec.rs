@@ -143,10 +143,17 @@ impl TimeFields {
                     any = true;
                     match f {
                         Fixed::LowerAmPm | Fixed::UpperAmPm => am_pm = true,
+                        // `Internal`: chrono's %3f, %6f, %9f (digits without a point).
                         Fixed::Nanosecond
                         | Fixed::Nanosecond3
                         | Fixed::Nanosecond6
-                        | Fixed::Nanosecond9 => time = true,
+                        | Fixed::Nanosecond9
+                        | Fixed::Internal(_) => time = true,
+                        Fixed::TimezoneName => {
+                            return Err(
+                                "%Z, a zone's name, cannot be read: write %z for its offset",
+                            )
+                        }
                         Fixed::TimezoneOffset
                         | Fixed::TimezoneOffsetColon
                         | Fixed::TimezoneOffsetDoubleColon

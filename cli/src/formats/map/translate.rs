@@ -273,7 +273,7 @@ fn values(
     columns: &[Column],
     cells: &[&str],
     decimal_comma: bool,
-    time: Option<&str>,
+    time: Option<(&str, TimeFields)>,
 ) -> Result<Vec<Option<f64>>, usize> {
     let cell = |k: usize, required: bool, c: usize| -> Result<Option<f64>, usize> {
         match cells.get(k) {
@@ -293,7 +293,9 @@ fn values(
             Source::Cell(k) if col.kind == Kind::Time => {
                 match (cells.get(k).map(|t| cell_text(t)), time) {
                     (None | Some(""), _) => Ok(None),
-                    (Some(t), Some(pattern)) => seconds_of(t, pattern).map(Some).ok_or(c),
+                    (Some(t), Some((pattern, fields))) => {
+                        seconds_of(t, pattern, fields).map(Some).ok_or(c)
+                    }
                     (Some(_), None) => Err(c),
                 }
             }
@@ -316,11 +318,11 @@ fn values(
 }
 
 /// Seconds since 1970-01-01 00:00:00 of the time `text` states, read with the strftime
-/// `pattern` ([`TimeFields`]: a date alone is its midnight; with a zone offset, UTC); `None`
-/// when the text does not match it.
-fn seconds_of(text: &str, pattern: &str) -> Option<f64> {
+/// `pattern`, which states `fields` (a date alone is its midnight; with a zone offset, UTC);
+/// `None` when the text does not match it.
+fn seconds_of(text: &str, pattern: &str, fields: TimeFields) -> Option<f64> {
     use chrono::{DateTime, NaiveDate, NaiveDateTime};
-    let t = match TimeFields::of(pattern).ok()? {
+    let t = match fields {
         TimeFields::Instant => DateTime::parse_from_str(text, pattern)
             .ok()
             .map(|t| t.to_utc())
@@ -420,6 +422,12 @@ pub fn translate(
         }
     }
     let columns = plan(map, n, header.as_deref(), width, origins)?;
+    // The pattern classified once (the map was checked when read: `of` accepts it).
+    let time = map
+        .units
+        .time
+        .as_deref()
+        .and_then(|p| Some((p, TimeFields::of(p).ok()?)));
     let body = if map.header { &lines[1..] } else { lines };
     let line_shift = u32::from(!map.header);
     let mut text = String::new();
@@ -443,7 +451,7 @@ pub fn translate(
             &columns,
             &cells,
             map.decimal_comma,
-            map.units.time.as_deref(),
+            time,
         )
         .map_err(|c| {
             let col = &columns[c];

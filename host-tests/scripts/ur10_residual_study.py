@@ -188,6 +188,8 @@ def study(series):
     t_in, t_out = both(T)
     print(f"series {series}: {n} poses (in-sample / held out, mm); geometry {g_in:.4f} / "
           f"{g_out:.4f}, + tables on joints 1-5 {t_in:.4f} / {t_out:.4f} ({t_out / g_out:.3f}x)")
+    print(f"  the geometric fit's largest residual: {np.abs(r.reshape(-1, 3)).max(0).max():.2f} "
+          f"mm on one axis, {np.linalg.norm(r.reshape(-1, 3), axis=1).max():.2f} mm 3-D")
     clock = np.arange(n) / n
     drift = np.tile(np.eye(3), (n, 1)) * np.repeat(clock, 3)[:, None]
     moved = np.sign(np.vstack([np.zeros(6), np.diff(q, axis=0)]))

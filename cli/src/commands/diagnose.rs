@@ -112,7 +112,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
     let mut stages = Spinner::new("diagnose");
     let w = workflow::run(inputs, &args.options(), &mut stages)?;
     let mut report = DiagnoseReport::of_workflow(&w, args.stall_rms_mm);
-    if let Some(why) = w.diagnosis.resized.as_ref().filter(|_| !report.converged) {
+    if let Some(why) = &report.resized {
         eprintln!("error: the geometric fit {why}; nothing is diagnosed (exit 3)");
     } else if !report.converged {
         // A geometric model that cannot reach the data is not "missing an effect": the data

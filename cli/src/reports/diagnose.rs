@@ -45,6 +45,10 @@ pub struct DiagnoseReport {
     pub poses: usize,
     /// The geometric model fits the data (`false`: nothing is diagnosed, exit 3).
     pub converged: bool,
+    /// Why the geometric fit is no calibration of the robot file's arm, when it stretched or
+    /// shrank its links (`calibration::arm_size`; then `converged` is false).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub resized: Option<String>,
     /// Errors on the poses kept out of the whole search (`--holdout`, `--validate`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub holdout: Option<HoldoutReport>,
@@ -359,6 +363,7 @@ impl DiagnoseReport {
             seconds: d.seconds,
             poses: d.folds.of.len(),
             converged: crate::diagnose::workflow::geometry_fits(d, stall_rms_mm),
+            resized: d.resized.clone(),
             holdout: None,
             held_out_worse: None,
             acceptance: None,
@@ -438,6 +443,9 @@ impl fmt::Display for DiagnoseReport {
             "{} poses, {}-fold cross-validation",
             self.poses, self.folds
         )?;
+        if let Some(why) = &self.resized {
+            return writeln!(f, "The geometric fit {why}: nothing is diagnosed.");
+        }
         if !self.converged {
             return writeln!(
                 f,

@@ -38,6 +38,22 @@ fn points_in_another_unit_than_declared_are_no_calibration() {
     );
     for (name, per_mm) in [("m.csv", 1000.0), ("cm.csv", 10.0)] {
         let data = rows_in(dir.path(), name, per_mm);
+        // The reason is in the report too (the JSON that Python and scripts read).
+        let out = run_on(
+            "diagnose",
+            &robot,
+            &data,
+            &["--json", "--length-unit", "mm"],
+        );
+        assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert!(
+            v["converged"] == false
+                && v["resized"]
+                    .as_str()
+                    .is_some_and(|r| r.contains("made the arm's links")),
+            "{v}"
+        );
         for (command, extra) in [
             ("identify", ["--length-unit", "mm"]),
             ("identify", ["--map", s(&map)]),

@@ -22,9 +22,11 @@ use crate::diagnose::linear::{
     TablePenalty,
 };
 use crate::diagnose::refit::fold_errors;
+use crate::diagnose::table_screen::{AlongReading, ReadingProducts};
 use kinecal::model::effects::{Effect, EffectKind};
 use kinecal::{ForwardKinematics, Measurement, Param, Robot};
 use nalgebra::{DMatrix, DVector, Vector3};
+use std::sync::OnceLock;
 
 /// Held-out squared error (mm²) of every pose: for each fold, `problem` is refitted from
 /// `start` on the other folds and the fold's poses are predicted.
@@ -69,6 +71,8 @@ pub struct PoseColumns {
     /// Pose `i`'s columns are `entries[offsets[i]..offsets[i + 1]]`.
     offsets: Vec<usize>,
     entries: Vec<(usize, Vector3<f64>)>,
+    /// A table candidate's columns as scalars along its joint's reading direction.
+    along: Option<AlongReading>,
 }
 
 impl PoseColumns {
@@ -79,6 +83,7 @@ impl PoseColumns {
         Self {
             offsets,
             entries: Vec::with_capacity(entries),
+            along: None,
         }
     }
 
@@ -87,6 +92,7 @@ impl PoseColumns {
         Self {
             offsets: vec![0; poses + 1],
             entries: Vec::new(),
+            along: None,
         }
     }
 
@@ -104,6 +110,20 @@ impl PoseColumns {
     /// The columns of pose `i`.
     pub fn pose(&self, i: usize) -> &[(usize, Vector3<f64>)] {
         &self.entries[self.offsets[i]..self.offsets[i + 1]]
+    }
+
+    /// The columns as a table's along its joint's reading direction, when they were built so
+    /// ([`PoseKinematics::columns`] of a table).
+    pub fn along(&self) -> Option<&AlongReading> {
+        self.along.as_ref()
+    }
+
+    /// The scalars of pose `i`'s columns along the reading direction (empty without
+    /// [`Self::along`]).
+    fn scalars(&self, i: usize) -> &[f64] {
+        self.along
+            .as_ref()
+            .map_or(&[], |a| &a.scalars[self.offsets[i]..self.offsets[i + 1]])
     }
 }
 
@@ -134,6 +154,9 @@ pub struct Linearised {
     /// Each fold's own normal sums (its held-out poses).
     own: Vec<Normal>,
     p: usize,
+    /// Per joint, the products of its reading directions with the model's columns and the
+    /// residuals, formed at the first table on that joint the screen compares.
+    reading: Vec<OnceLock<ReadingProducts>>,
 }
 
 impl Linearised {
@@ -171,7 +194,23 @@ impl Linearised {
             factors,
             own: per_fold,
             p,
+            reading: (0..N).map(|_| OnceLock::new()).collect(),
         }
+    }
+
+    /// The products of `along`'s directions with the model's columns and residuals (formed
+    /// once per joint and round); `None` when none were formed for these directions.
+    fn reading_products(&self, along: &AlongReading) -> Option<&ReadingProducts> {
+        let products = self.reading.get(along.joint)?.get_or_init(|| {
+            ReadingProducts::new((0..self.residuals.len()).map(|b| {
+                (
+                    self.columns.pose(b),
+                    &self.residuals[b],
+                    &along.directions[b],
+                )
+            }))
+        });
+        products.fits(&along.directions).then_some(products)
     }
 
     /// Held-out squared errors of the current model itself (linearised refits).
@@ -235,6 +274,10 @@ impl Linearised {
         let mut b = vec![DMatrix::<f64>::zeros(p, m); k];
         let mut d = vec![DMatrix::<f64>::zeros(m, m); k];
         let mut e = vec![DVector::<f64>::zeros(m); k];
+        let reading = extra
+            .along()
+            .filter(|a| a.directions.len() == self.residuals.len())
+            .and_then(|a| self.reading_products(a));
         // Fold by fold, so that only one fold's blocks are being written at a time.
         for (f, poses) in self.fold_poses.iter().enumerate() {
             let (bf, df, ef) = (b[f].as_mut_slice(), &mut d[f], &mut e[f]);
@@ -243,6 +286,10 @@ impl Linearised {
                 .flat_map(|&i| self.blocks[i]..self.blocks[i + 1])
             {
                 let cols = extra.pose(i);
+                if let Some(products) = reading {
+                    products.add_block(i, cols, extra.scalars(i), p, bf, df, ef);
+                    continue;
+                }
                 let r = &self.residuals[i];
                 for (x, (ci, cv)) in cols.iter().enumerate() {
                     ef[*ci] += cv.dot(r);
@@ -506,33 +553,72 @@ impl<const N: usize> PoseKinematics<N> {
         let reach = robot.reach();
         let scale: Vec<f64> = params.iter().map(|p| p.scale(reach)).collect();
         let table = table_of(robot, params);
-        let per_pose = if table.is_some() { 2 } else { params.len() };
-        let mut out = PoseColumns::with_capacity(self.poses.len(), per_pose * self.poses.len());
+        if let Some(e) = table {
+            return self.table_columns(robot, e, &scale);
+        }
+        let mut out = PoseColumns::with_capacity(self.poses.len(), params.len() * self.poses.len());
         for (fk, (w, wo)) in self.poses.iter().zip(&self.weights) {
             let point = |c: Vector3<f64>| w.map_or(c, |w| c.component_mul(&w));
-            match table {
-                Some(e) => out.push_pose(
-                    table_columns(e, fk.q, fk.reading_column(robot, e.joint as usize), &scale)
-                        .map(|(k, c)| (k, point(c))),
-                ),
-                None => out.push_pose(params.iter().enumerate().filter_map(|(k, p)| {
-                    non_zero(k, point(fk.column(robot, *p).ok()? / scale[k]))
-                })),
-            }
+            out.push_pose(
+                params
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(k, p)| non_zero(k, point(fk.column(robot, *p).ok()? / scale[k]))),
+            );
             let Some(wo) = *wo else { continue };
-            match table {
-                Some(e) => out.push_pose(table_columns(
-                    e,
-                    fk.q,
-                    fk.reading_rotation_column(robot, e.joint as usize) * wo,
-                    &scale,
-                )),
-                None => out.push_pose(params.iter().enumerate().filter_map(|(k, p)| {
-                    non_zero(k, fk.rotation_column(robot, *p).ok()? * (wo / scale[k]))
-                })),
-            }
+            out.push_pose(params.iter().enumerate().filter_map(|(k, p)| {
+                non_zero(k, fk.rotation_column(robot, *p).ok()? * (wo / scale[k]))
+            }));
         }
         out
+    }
+
+    /// [`Self::columns`] of table `e`'s knots (`scale` per knot), with their scalars along
+    /// the joint's reading direction ([`PoseColumns::along`]): only the two knots around a
+    /// block's reading can be non-zero, so they are computed as [`ForwardKinematics::column`]
+    /// would (`d · φ_k / scale_k`, `d` the block's weighted column of the corrected reading)
+    /// without asking it for every knot of a table of up to 200.
+    fn table_columns<V: kinecal::ValueStorage>(
+        &self,
+        robot: &Robot<f64, N, V>,
+        e: &Effect<f64>,
+        scale: &[f64],
+    ) -> PoseColumns {
+        let (j, blocks) = (e.joint as usize, self.blocks());
+        let mut out = PoseColumns::with_capacity(self.poses.len(), 2 * blocks);
+        let mut along = AlongReading {
+            joint: j,
+            directions: Vec::with_capacity(blocks),
+            scalars: Vec::with_capacity(2 * blocks),
+        };
+        let mut push = |d: Vector3<f64>, q: &[f64; N]| {
+            let (seg, w) = e.segment(q[j]);
+            let knots = [(seg, 1.0 - w), (seg + 1, w)]
+                .into_iter()
+                .filter_map(|(k, phi)| {
+                    let s = phi / scale[k];
+                    non_zero(k, d * s).map(|c| (c, s))
+                });
+            out.push_pose(knots.map(|(c, s)| {
+                along.scalars.push(s);
+                c
+            }));
+            along.directions.push(d);
+        };
+        for (fk, (w, wo)) in self.poses.iter().zip(&self.weights) {
+            let jc = fk.reading_column(robot, j);
+            push(w.map_or(jc, |w| jc.component_mul(&w)), &fk.q);
+            if let Some(wo) = *wo {
+                push(fk.reading_rotation_column(robot, j) * wo, &fk.q);
+            }
+        }
+        out.along = Some(along);
+        out
+    }
+
+    /// The number of blocks of rows: one per position observation, two per 6-D one.
+    fn blocks(&self) -> usize {
+        self.poses.len() + self.weights.iter().filter(|(_, wo)| wo.is_some()).count()
     }
 }
 
@@ -565,22 +651,6 @@ fn table_of<'r, const N: usize, V: kinecal::ValueStorage>(
         .find(|e| e.kind == EffectKind::Table && e.first == *first)?;
     let knots = (e.first..e.first + e.len).map(Param::Effect);
     (knots.eq(params.iter().copied()) && (e.joint as usize) < N).then_some(e)
-}
-
-/// The non-zero scaled columns of table `e`'s knots (`scale` per knot) at one pose whose
-/// readings are `q`: only the two knots around the reading can be non-zero, so they are
-/// computed as [`ForwardKinematics::column`] would (`jc · φ_k`, `jc` the block's column of the
-/// corrected reading) without asking it for every knot of a table of up to 200.
-fn table_columns<'a, const N: usize>(
-    e: &Effect<f64>,
-    q: [f64; N],
-    jc: Vector3<f64>,
-    scale: &'a [f64],
-) -> impl Iterator<Item = (usize, Vector3<f64>)> + 'a {
-    let (seg, w) = e.segment(q[e.joint as usize]);
-    [(seg, 1.0 - w), (seg + 1, w)]
-        .into_iter()
-        .filter_map(move |(k, phi)| non_zero(k, jc * phi / scale[k]))
 }
 
 /// `(k, c)` unless the column `c` is zero (a pose that does not excite the parameter).

@@ -40,6 +40,7 @@ pub mod refit;
 pub mod residual_plots;
 pub mod search_weights;
 pub mod significance;
+pub mod table_screen;
 pub mod time_trend;
 pub mod workflow;
 

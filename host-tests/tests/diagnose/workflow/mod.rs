@@ -10,7 +10,7 @@ use kinecal::Measurement;
 use kinecal_cli::commands::diagnose::{run, Args};
 use kinecal_cli::diagnose::candidates::{catalogue, Candidate, CandidateKind, CatalogueConfig};
 use kinecal_cli::diagnose::cross_validation::{
-    candidate_columns, refit_errors, rms, Elimination, Folds, Linearised,
+    candidate_columns, refit_errors, rms, Elimination, Folds, Linearised, PoseColumns,
 };
 use kinecal_cli::diagnose::linear::{squared_errors, Problem, TablePenalty};
 use kinecal_cli::diagnose::refit::fit;

@@ -147,6 +147,21 @@ fn both_eliminations_of_the_screen_agree() {
             let cols = candidate_columns(&robot_c, &extra, &d);
             let pen = Some(TablePenalty::default());
             let by_model = lin.screen_by(&cols, m, pen, Some(Elimination::Model));
+            // The table's shortcut (its columns as scalars along the reading direction, their
+            // products with the model's formed once per joint) against the general sums of the
+            // same columns.
+            let mut general = PoseColumns::with_capacity(cols.poses(), 0);
+            for b in 0..cols.poses() {
+                general.push_pose(cols.pose(b).iter().copied());
+            }
+            assert!(cols.along().is_some() && general.along().is_none());
+            let by_general = lin.screen_by(&general, m, pen, Some(Elimination::Model));
+            let shortcut_off = by_model
+                .iter()
+                .zip(&by_general)
+                .map(|(a, b)| (a - b).abs() / a.max(1e-12))
+                .fold(0.0, f64::max);
+            assert!(shortcut_off < 1e-9, "p {p}, m {m}: {shortcut_off}");
             let by_knots = lin.screen_by(&cols, m, pen, Some(Elimination::Candidate));
             let worst = by_model
                 .iter()

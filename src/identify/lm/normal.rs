@@ -141,14 +141,14 @@ impl<T: Real> Reach<T> {
     }
 }
 
-/// Column `c` of a parameter with scale `s`, scaled (`c / s`): with the reach given (a
-/// pass over many poses), unchanged for lengths (scale 1) and by the reach's inverse for the
-/// rest (a division per column and pose was a fifth of an identify on the host); else, and
-/// for any other scale, divided.
+/// Column `c` of a parameter with scale `s`, scaled (`c / s`): unchanged for lengths (scale 1:
+/// the division would give `c` exactly); with the reach given (a pass over many poses), by
+/// the reach's inverse for the rest (a division per column and pose was a fifth of an identify
+/// on the host); else, and for any other scale, divided.
 #[inline(always)]
 fn scaled<T: Real>(c: Vector3<T>, s: T, reach: Option<Reach<T>>) -> Vector3<T> {
     match reach {
-        Some(_) if s == T::one() => c,
+        _ if s == T::one() => c,
         Some(r) if s == r.mm => c * r.inverse,
         _ => c / s,
     }

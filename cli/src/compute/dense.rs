@@ -9,7 +9,7 @@
 use nalgebra::{Cholesky, DMatrix, DMatrixView, DMatrixViewMut, Dyn};
 
 /// Rows per block.
-pub const BLOCK: usize = 64;
+pub const BLOCK: usize = 32;
 
 /// A lower-triangular factor `L` prepared for solves with many right-hand sides: the inverses
 /// of its diagonal blocks are formed once (by substitution), so that a solve is matrix
@@ -31,10 +31,7 @@ impl LowerFactor {
             .step_by(BLOCK)
             .map(|start| {
                 let nb = BLOCK.min(p - start);
-                let mut inv = DMatrix::identity(nb, nb);
-                l.view((start, start), (nb, nb))
-                    .solve_lower_triangular_mut(&mut inv)
-                    .then_some(inv)
+                lower_inverse(l.view((start, start), (nb, nb)))
             })
             .collect::<Option<_>>()?;
         Some(Self { l, block_inverses })
@@ -57,6 +54,31 @@ impl LowerFactor {
             rows.copy_from(&solved);
         }
     }
+}
+
+/// The inverse of the lower-triangular `l` (its strict upper triangle is ignored), column by
+/// column by forward substitution from the column's diagonal on (the rows above it are zero):
+/// a sixth of `n³` multiply-adds, a third of solving for the identity's columns in full, with
+/// the same operations on the rows that are not zero. `None` when a diagonal element is zero.
+fn lower_inverse(l: DMatrixView<f64>) -> Option<DMatrix<f64>> {
+    let n = l.nrows();
+    let l = l.clone_owned();
+    let columns: Vec<&[f64]> = l.as_slice().chunks_exact(n.max(1)).collect();
+    let mut inv = DMatrix::identity(n, n);
+    for (j, x) in inv.as_mut_slice().chunks_exact_mut(n.max(1)).enumerate() {
+        for (k, lk) in columns.iter().enumerate().skip(j) {
+            let diag = lk[k];
+            if diag == 0.0 {
+                return None;
+            }
+            let xk = x[k] / diag;
+            x[k] = xk;
+            for (xi, li) in x[k + 1..].iter_mut().zip(&lk[k + 1..]) {
+                *xi -= li * xk;
+            }
+        }
+    }
+    Some(inv)
 }
 
 /// The Cholesky factor of the symmetric positive-definite `h` (only its lower triangle is

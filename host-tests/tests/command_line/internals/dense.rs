@@ -27,6 +27,10 @@ fn blocked_factor_and_solves_match_the_unblocked_ones() {
         "inverse"
     );
     assert!(cholesky(-h).is_none(), "negative definite");
+    // A zero on the diagonal, in a later block: no factor to solve with.
+    let mut singular = lb.clone_owned();
+    singular[(BLOCK + 3, BLOCK + 3)] = 0.0;
+    assert!(LowerFactor::new(singular).is_none(), "zero diagonal");
 }
 
 /// The lower-triangle update is the whole product's below the diagonal blocks and leaves the

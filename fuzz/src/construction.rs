@@ -188,6 +188,7 @@ pub fn run(data: &[u8]) {
         activation_tolerance: any_f64(&mut u, 1e-4, 1e-4),
         keep_curvature: u.ratio(1u8, 2).unwrap_or(false),
         complete_passes: u.ratio(1u8, 2).unwrap_or(false),
+        scale_by_products: u.ratio(1u8, 2).unwrap_or(false),
     };
     let lm = FixedLevenberg::<f64, N, V, 16>::fixed(
         robot.clone(),

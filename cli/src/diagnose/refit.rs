@@ -35,6 +35,7 @@ pub fn refit_config(max_iterations: u32) -> LmConfig<f64> {
         initial_damping: 1e-6,
         max_analyses: 0,
         keep_curvature: true,
+        scale_by_products: true,
         ..LmConfig::default()
     }
 }

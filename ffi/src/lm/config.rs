@@ -57,6 +57,7 @@ pub(super) fn lm_config_of(c: &kc_lm_config) -> Kc<LmConfig<f32>> {
         keep_curvature: c.keep_curvature != 0,
         // The library's default: a controller's slices cost what they did.
         complete_passes: false,
+        scale_by_products: false,
     };
     crate::finite(&[
         c.cost_tolerance,

@@ -40,6 +40,12 @@ pub struct LmConfig<T: Real> {
     /// with `keep_curvature`. Default off (a firmware's slices stay as they were); the
     /// command line's fits turn it on.
     pub complete_passes: bool,
+    /// Scale the angle columns by the reach's inverse in the solver's own passes
+    /// ([`super::Levenberg::step`]), as a [`super::Pass`] does, instead of dividing them by
+    /// the reach: a division per angle column and pose is a fifth of a pass's work where the
+    /// passes are many (the discrepancy search's refits); the results differ in the last bits.
+    /// Default off (a firmware's and `identify`'s numbers stay as they were).
+    pub scale_by_products: bool,
 }
 
 impl<T: Real> LmConfig<T> {
@@ -89,6 +95,7 @@ impl<T: Real> Default for LmConfig<T> {
             activation_tolerance: T::of(1e-4),
             keep_curvature: false,
             complete_passes: false,
+            scale_by_products: false,
         }
     }
 }

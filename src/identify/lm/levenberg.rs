@@ -461,8 +461,12 @@ impl<T: Real, const N: usize, V: ValueStorage, Storage: LmStorage<T>, Penalty: L
     fn accumulate<M: Observation<T, N>>(&mut self, m: &M) {
         let full = self.full_columns();
         let gradient_only = self.gradient_only();
-        let (columns, mut sums) =
+        let (mut columns, mut sums) =
             split_parts::<_, Storage>(self.st.parts(), full, gradient_only, false);
+        if self.cfg.scale_by_products {
+            let n = columns.params.len().min(columns.scale.len());
+            columns.reach = Reach::of_scales(&columns.scale[..n]);
+        }
         let robot = if self.phase == Phase::Evaluate {
             &self.candidate
         } else {

@@ -99,7 +99,14 @@ pub(super) fn phase_search<F>(
                 }
             }
         }
-        let results = parallel::map_each(&variants, |(i, v)| screen(v).map(|s| (*i, s)));
+        // The tables with the most knots first, as the round's screen takes them: each level
+        // waits for its last variant, and a large one taken last would leave a core idle.
+        let knots = |(_, v): &(usize, Candidate)| match v.kind {
+            CandidateKind::Table { knots, .. } => knots,
+            _ => 1,
+        };
+        let results =
+            parallel::map_each_largest_first(&variants, knots, |(i, v)| screen(v).map(|s| (*i, s)));
         for (i, s) in results.into_iter().flatten() {
             // A shift must earn its place: the data cannot tell phases apart that change the
             // held-out mean squared error by less than 1 %, and a grid on round angles is the

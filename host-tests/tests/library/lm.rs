@@ -261,6 +261,22 @@ fn snapshot_at_every_step_restores_to_a_bit_identical_run() {
     assert_eq!(target.robot(), &before_robot);
 }
 
+/// The nominal ER20, 60 poses of a perturbed one (σ 0.01 mm, drawn from `seed`) and every
+/// parameter with the base.
+fn perturbed_session(
+    seed: u64,
+) -> (
+    Robot<f64, 6, kinecal::Inline<64>>,
+    Vec<Measurement<f64, 6>>,
+    ParamSet<64>,
+) {
+    let nominal = er20();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+    let truth = perturbed(&nominal, &mut rng);
+    let data = measure(&truth, 60, 0.01, &mut rng);
+    (nominal, data, ParamSet::<64>::full(6, true).unwrap())
+}
+
 /// With `complete_passes` every pass forms the held columns in full, so what the run leaves
 /// is the complete normal matrix at its final model (what the covariance and confounding
 /// reports read) without a confirming pass of its own: equal, unscaled, to the first pass of
@@ -269,11 +285,7 @@ fn snapshot_at_every_step_restores_to_a_bit_identical_run() {
 /// the model the run without the option reaches with its extra passes.
 #[test]
 fn the_normal_matrix_left_is_complete_at_the_final_model() {
-    let nominal = er20();
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
-    let truth = perturbed(&nominal, &mut rng);
-    let data = measure(&truth, 60, 0.01, &mut rng);
-    let set = ParamSet::<64>::full(6, true).unwrap();
+    let (nominal, data, set) = perturbed_session(3);
     let cfg = LmConfig {
         complete_passes: true,
         ..LmConfig::default()
@@ -331,11 +343,7 @@ fn the_normal_matrix_left_is_complete_at_the_final_model() {
 /// for bit, so the option really changes the arithmetic it claims to.
 #[test]
 fn scaling_by_products_fits_what_dividing_fits() {
-    let nominal = er20();
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
-    let truth = perturbed(&nominal, &mut rng);
-    let data = measure(&truth, 60, 0.01, &mut rng);
-    let set = ParamSet::<64>::full(6, true).unwrap();
+    let (nominal, data, set) = perturbed_session(11);
     let cfg = LmConfig {
         scale_by_products: true,
         ..LmConfig::default()

@@ -42,8 +42,8 @@ pub struct LmConfig<T: Real> {
     pub complete_passes: bool,
     /// Scale the angle columns by the reach's inverse in the solver's own passes
     /// ([`super::Levenberg::step`]), as a [`super::Pass`] does, instead of dividing them by
-    /// the reach: a division per angle column and pose is a fifth of a pass's work where the
-    /// passes are many (the discrepancy search's refits); the results differ in the last bits.
+    /// the reach: no division per angle column and pose where the passes are many (the
+    /// discrepancy search's thousands of refits); the results differ in the last bits.
     /// Default off (a firmware's and `identify`'s numbers stay as they were).
     pub scale_by_products: bool,
 }

@@ -96,6 +96,14 @@ fn linearised_screen_agrees_with_full_refits() {
     }
 }
 
+/// The largest difference of `b`'s errors from `a`'s, relative to `a`'s.
+fn worst_relative(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| (a - b).abs() / a.max(1e-12))
+        .fold(0.0, f64::max)
+}
+
 /// The screen's two ways of solving a fold's system (the model's parameters eliminated first,
 /// or a table's knots first, on their band factor) give the same held-out errors: for tables
 /// with fewer and with more knots than the model has parameters, on a model without and with a
@@ -156,18 +164,10 @@ fn both_eliminations_of_the_screen_agree() {
             }
             assert!(cols.along().is_some() && general.along().is_none());
             let by_general = lin.screen_by(&general, m, pen, Some(Elimination::Model));
-            let shortcut_off = by_model
-                .iter()
-                .zip(&by_general)
-                .map(|(a, b)| (a - b).abs() / a.max(1e-12))
-                .fold(0.0, f64::max);
+            let shortcut_off = worst_relative(&by_model, &by_general);
             assert!(shortcut_off < 1e-9, "p {p}, m {m}: {shortcut_off}");
             let by_knots = lin.screen_by(&cols, m, pen, Some(Elimination::Candidate));
-            let worst = by_model
-                .iter()
-                .zip(&by_knots)
-                .map(|(a, b)| (a - b).abs() / a.max(1e-12))
-                .fold(0.0, f64::max);
+            let worst = worst_relative(&by_model, &by_knots);
             // The RMS from the folds' normal sums is the per-pose errors' RMS.
             let from_sums = lin.screen_rms(&cols, m, pen);
             let sums_off = (from_sums / rms(&by_model) - 1.0).abs();

@@ -7,8 +7,13 @@
 #
 # e.g. an older commit built with `git worktree add /tmp/old <commit>` and
 # `CARGO_TARGET_DIR=/tmp/old_target cargo build --release -p kinecal-cli` there, against
-# target/release/kinecal. Needs python3; the CPU time needs GNU time (/usr/bin/time).
-set -euo pipefail
+# target/release/kinecal. The builds take turns starting each round. Needs python3 and GNU time
+# (/usr/bin/time).
+set -uo pipefail
+if [ $# -lt 3 ]; then
+    echo "usage: $0 RUNS KINECAL KINECAL [KINECAL…]" >&2
+    exit 2
+fi
 runs=$1
 shift
 here=$(cd "$(dirname "$0")/../.." && pwd)
@@ -16,20 +21,29 @@ log=$(mktemp)
 out=$(mktemp)
 times=$(mktemp)
 trap 'rm -f "$log" "$out" "$times"' EXIT
-for _ in $(seq "$runs"); do
-    for bin in "$@"; do
+bins=("$@")
+for round in $(seq "$runs"); do
+    # Rotate the order every round, so that no build always runs first.
+    k=$(( (round - 1) % ${#bins[@]} ))
+    for bin in "${bins[@]:k}" "${bins[@]:0:k}"; do
         /usr/bin/time -o "$times" -f "%U %S" "$bin" diagnose --robot "$here/data/ur10/robot.toml" \
             --data "$here/data/ur10/ur10_random_poses.csv" --json > "$out" 2> /dev/null
-        cpu=$(tail -1 "$times" | awk '{print $1 + $2}')
+        status=$?
+        # 0, or 3 (a result judged no calibration): both print the report.
+        if [ "$status" != 0 ] && [ "$status" != 3 ]; then
+            echo "$bin: diagnose exited with $status" >&2
+            exit 1
+        fi
+        cpu=$(grep -v "status" "$times" | tail -1 | awk '{print $1 + $2}')
         seconds=$(python3 -c "import json, sys; print(json.load(open(sys.argv[1]))['seconds'])" "$out")
-        echo "$bin $seconds $cpu" >> "$log"
+        printf '%s\t%s\t%s\n' "$bin" "$seconds" "$cpu" >> "$log"
     done
 done
 python3 - "$log" <<'PY'
 import statistics, sys
 runs = {}
 for line in open(sys.argv[1]):
-    b, s, c = line.split()
+    b, s, c = line.rstrip("\n").split("\t")
     runs.setdefault(b, []).append((float(s), float(c)))
 for b, v in runs.items():
     s = [x[0] for x in v]

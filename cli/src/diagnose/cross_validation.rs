@@ -96,8 +96,10 @@ impl PoseColumns {
         }
     }
 
-    /// Appends the next pose, with these columns.
+    /// Appends the next pose, with these columns (the columns are then no longer known to lie
+    /// along a reading direction: [`Self::along`] is cleared).
     pub fn push_pose(&mut self, columns: impl IntoIterator<Item = (usize, Vector3<f64>)>) {
+        self.along = None;
         self.entries.extend(columns);
         self.offsets.push(self.entries.len());
     }
@@ -198,6 +200,22 @@ impl Linearised {
         }
     }
 
+    /// Whether the screen of `extra` takes the table shortcut (its columns along a reading
+    /// direction, with products formed for those directions), for tests.
+    #[doc(hidden)]
+    pub fn takes_table_shortcut(&self, extra: &PoseColumns) -> bool {
+        self.shortcut(extra).is_some()
+    }
+
+    /// The reading products `extra`'s sums are formed from, when it is a table's columns
+    /// along reading directions with products for them.
+    fn shortcut(&self, extra: &PoseColumns) -> Option<&ReadingProducts> {
+        extra
+            .along()
+            .filter(|a| a.directions.len() == self.residuals.len())
+            .and_then(|a| self.reading_products(a))
+    }
+
     /// The products of `along`'s directions with the model's columns and residuals (formed
     /// once per joint and round); `None` when none were formed for these directions.
     fn reading_products(&self, along: &AlongReading) -> Option<&ReadingProducts> {
@@ -274,10 +292,7 @@ impl Linearised {
         let mut b = vec![DMatrix::<f64>::zeros(p, m); k];
         let mut d = vec![DMatrix::<f64>::zeros(m, m); k];
         let mut e = vec![DVector::<f64>::zeros(m); k];
-        let reading = extra
-            .along()
-            .filter(|a| a.directions.len() == self.residuals.len())
-            .and_then(|a| self.reading_products(a));
+        let reading = self.shortcut(extra);
         // Fold by fold, so that only one fold's blocks are being written at a time.
         for (f, poses) in self.fold_poses.iter().enumerate() {
             let (bf, df, ef) = (b[f].as_mut_slice(), &mut d[f], &mut e[f]);
@@ -287,7 +302,8 @@ impl Linearised {
             {
                 let cols = extra.pose(i);
                 if let Some(products) = reading {
-                    products.add_block(i, cols, extra.scalars(i), p, bf, df, ef);
+                    let model = self.columns.pose(i);
+                    products.add_block(i, model, cols, extra.scalars(i), p, bf, df, ef);
                     continue;
                 }
                 let r = &self.residuals[i];

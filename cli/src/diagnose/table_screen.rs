@@ -29,11 +29,11 @@ pub struct AlongReading {
 pub struct ReadingProducts {
     /// The directions the products were formed with.
     directions: Vec<Vector3<f64>>,
-    /// Block `b`'s model columns `index[offsets[b]..offsets[b + 1]]` (increasing) and their
-    /// products `d_bᵀ ∂p/∂x` in `value`; the first `dense[b]` of them are the columns `0, 1, …`
-    /// (the geometry's, which nearly every pose excites), added as one run.
+    /// Block `b`'s products `d_bᵀ ∂p/∂x` with its model columns, in their order, are
+    /// `value[offsets[b]..offsets[b + 1]]` (the columns' indices are the model's own, not
+    /// copied); the first `dense[b]` columns are `0, 1, …` (the geometry's, which nearly every
+    /// pose excites), added as one run.
     offsets: Vec<usize>,
-    index: Vec<usize>,
     value: Vec<f64>,
     dense: Vec<usize>,
     /// `d_bᵀ d_b` and `d_bᵀ r_b` per block.
@@ -56,7 +56,6 @@ impl ReadingProducts {
         let mut out = Self {
             directions: Vec::with_capacity(n),
             offsets: Vec::with_capacity(n + 1),
-            index: Vec::new(),
             value: Vec::new(),
             dense: Vec::with_capacity(n),
             dd: Vec::with_capacity(n),
@@ -64,11 +63,10 @@ impl ReadingProducts {
         };
         out.offsets.push(0);
         for (columns, r, d) in blocks {
-            out.index.extend(columns.iter().map(|(j, _)| *j));
             out.value.extend(columns.iter().map(|(_, c)| dot3(c, d)));
             let dense = columns.iter().enumerate().take_while(|(k, (j, _))| k == j);
             out.dense.push(dense.count());
-            out.offsets.push(out.index.len());
+            out.offsets.push(out.value.len());
             out.directions.push(*d);
             out.dd.push(dot3(d, d));
             out.dr.push(dot3(d, r));
@@ -82,13 +80,15 @@ impl ReadingProducts {
     }
 
     /// Adds block `b`'s share of a table candidate to a fold's own sums: `bf` is `B = JᵀC`
-    /// (`p × m`, column-major), `df` is `D = CᵀC` and `ef` is `e = Cᵀr`; `columns` are the
+    /// (`p × m`, column-major), `df` is `D = CᵀC` and `ef` is `e = Cᵀr`; `model` are the
+    /// model's columns at the block (those the products were formed with), `columns` the
     /// candidate's entries at the block and `scalars` their scalars.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     pub fn add_block(
         &self,
         b: usize,
+        model: &[(usize, Vector3<f64>)],
         columns: &[(usize, Vector3<f64>)],
         scalars: &[f64],
         p: usize,
@@ -109,9 +109,9 @@ impl ReadingProducts {
         }
         let (start, end) = (self.offsets[b], self.offsets[b + 1]);
         let dense = self.dense[b];
-        let (run, index, value) = (
+        let (run, sparse, value) = (
             &self.value[start..start + dense],
-            &self.index[start + dense..end],
+            &model[dense..],
             &self.value[start + dense..end],
         );
         for ((c, _), s) in columns.iter().zip(scalars) {
@@ -119,7 +119,7 @@ impl ReadingProducts {
             for (x, g) in bc[..dense].iter_mut().zip(run) {
                 *x += s * g;
             }
-            for (gj, g) in index.iter().zip(value) {
+            for ((gj, _), g) in sparse.iter().zip(value) {
                 bc[*gj] += s * g;
             }
         }

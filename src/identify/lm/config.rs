@@ -40,10 +40,11 @@ pub struct LmConfig<T: Real> {
     /// with `keep_curvature`. Default off (a firmware's slices stay as they were); the
     /// command line's fits turn it on.
     pub complete_passes: bool,
-    /// Scale the angle columns by the reach's inverse in the solver's own passes
-    /// ([`super::Levenberg::step`]), as a [`super::Pass`] does, instead of dividing them by
-    /// the reach: no division per angle column and pose where the passes are many (the
-    /// discrepancy search's thousands of refits); the results differ in the last bits.
+    /// Scale the columns of angles and effect values by the reach's inverse in the solver's
+    /// own passes ([`super::Levenberg::step`]), as a [`super::Pass`] does, instead of dividing
+    /// them by the reach: one division per pose instead of one per such column and pose, where
+    /// the passes are many (the discrepancy search's thousands of refits); the results differ
+    /// in the last bits.
     /// Default off (a firmware's and `identify`'s numbers stay as they were).
     pub scale_by_products: bool,
 }

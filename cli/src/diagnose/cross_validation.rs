@@ -22,7 +22,7 @@ use crate::diagnose::linear::{
     TablePenalty,
 };
 use crate::diagnose::refit::fold_errors;
-use crate::diagnose::table_screen::{AlongReading, ReadingProducts};
+use crate::diagnose::table_screen::{dot3, AlongReading, ReadingProducts};
 use kinecal::model::effects::{Effect, EffectKind};
 use kinecal::{ForwardKinematics, Measurement, Param, Robot};
 use nalgebra::{DMatrix, DVector, Vector3};
@@ -393,12 +393,6 @@ impl Linearised {
             (ssr / n as f64).sqrt()
         }
     }
-}
-
-/// `a · b`, written out: the screen's inner loops run it billions of times on large data.
-#[inline(always)]
-fn dot3(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
-    a.x * b.x + a.y * b.y + a.z * b.z
 }
 
 /// `pred −= Σ c · x[j]` over the sparse columns `(j, c)`.

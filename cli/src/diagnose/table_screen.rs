@@ -126,8 +126,8 @@ impl ReadingProducts {
     }
 }
 
-/// `a · b`, written out.
+/// `a · b`, written out: the screen's inner loops run it billions of times on large data.
 #[inline(always)]
-fn dot3(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+pub(crate) fn dot3(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
     a.x * b.x + a.y * b.y + a.z * b.z
 }

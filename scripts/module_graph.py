@@ -9,7 +9,9 @@ re-exports such as `kinecal::Robot`), and checks the architecture that `src/lib.
 - no import circle between folders (layers) or between files;
 - each library layer uses only the layers listed before it in `LIBRARY_LAYERS`;
 - each command-line layer uses only the layers listed before it in `CLI_LAYERS` (and the
-  library).
+  library);
+- no Rust source file in the workspace is longer than `MAX_LINES` lines (a longer file holds
+  several concepts: split it).
 
 Usage: python3 scripts/module_graph.py [--svg-dir docs]
 Exit status 1 and a message naming the edge when a rule is broken. `--svg` needs Graphviz.
@@ -27,6 +29,11 @@ LIBRARY_LAYERS = ["num", "model", "forward", "io", "identify", "compensate", "fr
 # Bottom to top, as cli/src/lib.rs lists them (lib.rs itself holds the error types and macros).
 CLI_LAYERS = ["lib", "output", "compute", "formats", "simulation", "calibration", "diagnose",
               "plan", "reports", "constraints", "report_html", "application", "frames", "compensation", "commands", "main"]
+
+# The longest a Rust source file may be, tests included.
+MAX_LINES = 800
+# Folders of the workspace that hold no source of ours.
+NOT_SOURCE = {"target", ".git", "node_modules"}
 
 # Crate-root re-exports of the library and the file that defines each.
 ROOT_REEXPORTS = {
@@ -218,6 +225,19 @@ def render(text, path):
     path.write_text(svg.stdout)
 
 
+def long_files():
+    """Every Rust file of the workspace longer than `MAX_LINES` lines, as a problem."""
+    problems = []
+    for path in sorted(ROOT.rglob("*.rs")):
+        rel = path.relative_to(ROOT)
+        if NOT_SOURCE & set(rel.parts):
+            continue
+        lines = path.read_text(encoding="utf-8").count("\n")
+        if lines > MAX_LINES:
+            problems.append(f"{rel} has {lines} lines, over {MAX_LINES}: split it by concept")
+    return problems
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--svg-dir", type=pathlib.Path,
@@ -230,6 +250,7 @@ def main():
     cli_edges = {(s, t) for s, t in cli_edges if "lib" not in (s, t)}
     problems = check("library", lib_nodes, lib_edges, LIBRARY_LAYERS)
     problems += check("cli", cli_nodes, cli_edges, CLI_LAYERS)
+    problems += long_files()
     if a.svg_dir:
         a.svg_dir.mkdir(parents=True, exist_ok=True)
         for name, title, nodes, edges, layers in [
@@ -243,7 +264,8 @@ def main():
         print("module graph:", p, file=sys.stderr)
     if problems:
         sys.exit(1)
-    print("no import circle; every layer uses only the layers below it")
+    print("no import circle; every layer uses only the layers below it; "
+          f"no Rust file over {MAX_LINES} lines")
 
 
 if __name__ == "__main__":

@@ -7,10 +7,9 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use kinecal::model::param::{Param, ParamSet};
 use kinecal_cli::diagnose::candidates::{catalogue, CandidateKind};
-use kinecal_cli::diagnose::cross_validation::{
-    refit_errors, rms, Folds, Linearised, PoseKinematics,
-};
+use kinecal_cli::diagnose::cross_validation::{refit_errors, rms, Folds, Linearised};
 use kinecal_cli::diagnose::linear::Problem;
+use kinecal_cli::diagnose::pose_columns::PoseKinematics;
 use kinecal_cli::diagnose::refit::fit;
 use kinecal_cli::diagnose::{diagnose, fit_geometry, Config};
 use kinecal_cli::formats::measurements;

@@ -36,6 +36,7 @@ pub mod linear;
 pub mod observations;
 pub mod phase;
 pub mod plausibility;
+pub mod pose_columns;
 pub mod refit;
 pub mod residual_plots;
 pub mod search_weights;
@@ -54,9 +55,10 @@ use crate::diagnose::candidates::{
     catalogue, coverage, shifted, Candidate, CandidateKind, CatalogueConfig,
 };
 use crate::diagnose::cross_validation::{
-    fold_inflation, refit_errors, refit_errors_each, rms, Folds, Linearised, PoseKinematics,
+    fold_inflation, refit_errors, refit_errors_each, rms, Folds, Linearised,
 };
 use crate::diagnose::linear::{Problem, TablePenalty};
+use crate::diagnose::pose_columns::PoseKinematics;
 use crate::diagnose::refit::fit;
 use crate::diagnose::significance::{
     held_out_noise, noise_floor_interval, paired_improvement, repeat_noise, PairedTest,

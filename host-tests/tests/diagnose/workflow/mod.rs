@@ -9,10 +9,9 @@ use kinecal::model::param::{Param, ParamSet};
 use kinecal::Measurement;
 use kinecal_cli::commands::diagnose::{run, Args};
 use kinecal_cli::diagnose::candidates::{catalogue, Candidate, CandidateKind, CatalogueConfig};
-use kinecal_cli::diagnose::cross_validation::{
-    candidate_columns, refit_errors, rms, Elimination, Folds, Linearised, PoseColumns,
-};
+use kinecal_cli::diagnose::cross_validation::{refit_errors, rms, Elimination, Folds, Linearised};
 use kinecal_cli::diagnose::linear::{squared_errors, Problem, TablePenalty};
+use kinecal_cli::diagnose::pose_columns::{candidate_columns, PoseColumns};
 use kinecal_cli::diagnose::refit::fit;
 use kinecal_cli::diagnose::significance::{
     incomplete_beta, paired_improvement, repeat_noise, student_t_sf,

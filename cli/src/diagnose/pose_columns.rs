@@ -1,0 +1,244 @@
+//! The candidate's columns of the identification Jacobian at every pose, read off one set of
+//! forward kinematics per round ([`PoseKinematics`]) and laid out block after block
+//! ([`PoseColumns`]): what the linearised screen ([`crate::diagnose::cross_validation::Linearised`])
+//! appends to the current model's normal equations.
+
+use crate::diagnose::table_screen::AlongReading;
+use kinecal::model::effects::{Effect, EffectKind};
+use kinecal::{ForwardKinematics, Measurement, Param, Robot};
+use nalgebra::Vector3;
+
+/// The sparse scaled columns `(column index, ∂p/∂x)` of every block of rows (one per position
+/// observation, the point's then the orientation's for a 6-D one), block after block in one
+/// buffer: the screen builds one set per candidate, and a vector per block would cost thousands
+/// of allocations each time. Here a "pose" is one such block.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PoseColumns {
+    /// Pose `i`'s columns are `entries[offsets[i]..offsets[i + 1]]`.
+    offsets: Vec<usize>,
+    entries: Vec<(usize, Vector3<f64>)>,
+    /// A table candidate's columns as scalars along its joint's reading direction.
+    along: Option<AlongReading>,
+}
+
+impl PoseColumns {
+    /// No pose yet, room for `poses` poses with `entries` columns in all.
+    pub fn with_capacity(poses: usize, entries: usize) -> Self {
+        let mut offsets = Vec::with_capacity(poses + 1);
+        offsets.push(0);
+        Self {
+            offsets,
+            entries: Vec::with_capacity(entries),
+            along: None,
+        }
+    }
+
+    /// `poses` poses without columns.
+    pub fn empty(poses: usize) -> Self {
+        Self {
+            offsets: vec![0; poses + 1],
+            entries: Vec::new(),
+            along: None,
+        }
+    }
+
+    /// Appends the next pose, with these columns (the columns are then no longer known to lie
+    /// along a reading direction: [`Self::along`] is cleared).
+    pub fn push_pose(&mut self, columns: impl IntoIterator<Item = (usize, Vector3<f64>)>) {
+        self.along = None;
+        self.entries.extend(columns);
+        self.offsets.push(self.entries.len());
+    }
+
+    /// The number of poses.
+    pub fn poses(&self) -> usize {
+        self.offsets.len() - 1
+    }
+
+    /// The columns of pose `i`.
+    pub fn pose(&self, i: usize) -> &[(usize, Vector3<f64>)] {
+        &self.entries[self.offsets[i]..self.offsets[i + 1]]
+    }
+
+    /// The columns as a table's along its joint's reading direction, when they were built so
+    /// ([`PoseKinematics::columns`] of a table).
+    pub fn along(&self) -> Option<&AlongReading> {
+        self.along.as_ref()
+    }
+
+    /// The scalars of pose `i`'s columns along the reading direction (empty without
+    /// [`Self::along`]).
+    pub(crate) fn scalars(&self, i: usize) -> &[f64] {
+        self.along
+            .as_ref()
+            .map_or(&[], |a| &a.scalars[self.offsets[i]..self.offsets[i + 1]])
+    }
+}
+
+/// The scaled columns of `params` at every pose of `data` for `robot` (for a candidate: the
+/// robot with the candidate added at zero values, so the points are the current model's).
+pub fn candidate_columns<const N: usize, V: kinecal::ValueStorage>(
+    robot: &Robot<f64, N, V>,
+    params: &[Param],
+    data: &[Measurement<f64, N>],
+) -> PoseColumns {
+    PoseKinematics::new(robot, data).columns(robot, params)
+}
+
+/// The forward kinematics of every pose at one model, computed once for the whole screen of a
+/// round.
+///
+/// A candidate joins the model at zero values, so the candidate robot's frames and points are
+/// the model's own: only its Jacobian columns are new, and [`ForwardKinematics::column`] reads
+/// them off the frames (plus the candidate's effect definition). The frames are computed with
+/// the lever arms (a zero compliance term is added when the model has none, which changes no
+/// angle), so that a compliance candidate's columns can be read off them too.
+#[derive(Clone, Debug)]
+pub struct PoseKinematics<const N: usize> {
+    poses: Vec<ForwardKinematics<f64, N>>,
+    /// Each observation's point weights (None: unit) and, for a 6-D one, its orientation's.
+    weights: Vec<(Option<Vector3<f64>>, Option<f64>)>,
+}
+
+impl<const N: usize> PoseKinematics<N> {
+    pub fn new<V: kinecal::ValueStorage>(
+        robot: &Robot<f64, N, V>,
+        data: &[Measurement<f64, N>],
+    ) -> Self {
+        let probe = with_lever_arms(robot);
+        let mut fk = ForwardKinematics::new();
+        let poses = data
+            .iter()
+            .map(|m| {
+                fk.compute_at(&probe, &m.q, m.tool as usize, m.conditions());
+                fk
+            })
+            .collect();
+        let weights = data
+            .iter()
+            .map(|m| {
+                (
+                    (m.weight != Vector3::repeat(1.0)).then_some(m.weight),
+                    m.orientation.map(|_| m.orientation_weight),
+                )
+            })
+            .collect();
+        Self { poses, weights }
+    }
+
+    /// The non-zero scaled columns of `params` at every observation for `robot` (the model
+    /// the frames were computed for, possibly with a candidate added at zero values), weighted
+    /// as [`crate::diagnose::linear::Problem::pose_rows`] weighs them: one block per position
+    /// observation, the point's then the orientation's for a 6-D one.
+    pub fn columns<V: kinecal::ValueStorage>(
+        &self,
+        robot: &Robot<f64, N, V>,
+        params: &[Param],
+    ) -> PoseColumns {
+        let reach = robot.reach();
+        let scale: Vec<f64> = params.iter().map(|p| p.scale(reach)).collect();
+        let table = table_of(robot, params);
+        if let Some(e) = table {
+            return self.table_columns(robot, e, &scale);
+        }
+        let mut out = PoseColumns::with_capacity(self.poses.len(), params.len() * self.poses.len());
+        for (fk, (w, wo)) in self.poses.iter().zip(&self.weights) {
+            let point = |c: Vector3<f64>| w.map_or(c, |w| c.component_mul(&w));
+            out.push_pose(
+                params
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(k, p)| non_zero(k, point(fk.column(robot, *p).ok()? / scale[k]))),
+            );
+            let Some(wo) = *wo else { continue };
+            out.push_pose(params.iter().enumerate().filter_map(|(k, p)| {
+                non_zero(k, fk.rotation_column(robot, *p).ok()? * (wo / scale[k]))
+            }));
+        }
+        out
+    }
+
+    /// [`Self::columns`] of table `e`'s knots (`scale` per knot), with their scalars along
+    /// the joint's reading direction ([`PoseColumns::along`]): only the two knots around a
+    /// block's reading can be non-zero, so they are computed as [`ForwardKinematics::column`]
+    /// would (`d · φ_k / scale_k`, `d` the block's weighted column of the corrected reading)
+    /// without asking it for every knot of a table of up to 200.
+    fn table_columns<V: kinecal::ValueStorage>(
+        &self,
+        robot: &Robot<f64, N, V>,
+        e: &Effect<f64>,
+        scale: &[f64],
+    ) -> PoseColumns {
+        let (j, blocks) = (e.joint as usize, self.blocks());
+        let mut out = PoseColumns::with_capacity(self.poses.len(), 2 * blocks);
+        let mut along = AlongReading {
+            joint: j,
+            directions: Vec::with_capacity(blocks),
+            scalars: Vec::with_capacity(2 * blocks),
+        };
+        let mut push = |d: Vector3<f64>, q: &[f64; N]| {
+            let (seg, w) = e.segment(q[j]);
+            let knots = [(seg, 1.0 - w), (seg + 1, w)]
+                .into_iter()
+                .filter_map(|(k, phi)| {
+                    let s = phi / scale[k];
+                    non_zero(k, d * s).map(|c| (c, s))
+                });
+            out.push_pose(knots.map(|(c, s)| {
+                along.scalars.push(s);
+                c
+            }));
+            along.directions.push(d);
+        };
+        for (fk, (w, wo)) in self.poses.iter().zip(&self.weights) {
+            let jc = fk.reading_column(robot, j);
+            push(w.map_or(jc, |w| jc.component_mul(&w)), &fk.q);
+            if let Some(wo) = *wo {
+                push(fk.reading_rotation_column(robot, j) * wo, &fk.q);
+            }
+        }
+        out.along = Some(along);
+        out
+    }
+
+    /// The number of blocks of rows: one per position observation, two per 6-D one.
+    fn blocks(&self) -> usize {
+        self.poses.len() + self.weights.iter().filter(|(_, wo)| wo.is_some()).count()
+    }
+}
+
+/// `robot` with the lever arms in its forward kinematics: itself when a compliance term needs
+/// them, otherwise with a zero compliance term on the first joint. (When there is no room for
+/// one, no compliance candidate fits either, so no column needs them.)
+fn with_lever_arms<const N: usize, V: kinecal::ValueStorage>(
+    robot: &Robot<f64, N, V>,
+) -> Robot<f64, N, V> {
+    let mut probe = robot.clone();
+    if N > 0 && !robot.effects().needs_lever_arms() {
+        let _ = probe
+            .effects_mut()
+            .push(EffectKind::Compliance, 0, N, 1, 0.0, 0.0, &[0.0]);
+    }
+    probe
+}
+
+/// The table of `robot` whose knots are exactly `params` (in order), if they are one.
+fn table_of<'r, const N: usize, V: kinecal::ValueStorage>(
+    robot: &'r Robot<f64, N, V>,
+    params: &[Param],
+) -> Option<&'r Effect<f64>> {
+    let Some(Param::Effect(first)) = params.first() else {
+        return None;
+    };
+    let e = robot
+        .effects()
+        .iter()
+        .find(|e| e.kind == EffectKind::Table && e.first == *first)?;
+    let knots = (e.first..e.first + e.len).map(Param::Effect);
+    (knots.eq(params.iter().copied()) && (e.joint as usize) < N).then_some(e)
+}
+
+/// `(k, c)` unless the column `c` is zero (a pose that does not excite the parameter).
+fn non_zero(k: usize, c: Vector3<f64>) -> Option<(usize, Vector3<f64>)> {
+    (c.norm_squared() > 0.0).then_some((k, c))
+}

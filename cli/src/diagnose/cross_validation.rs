@@ -142,26 +142,39 @@ impl Linearised {
 
     /// The reading products `extra`'s sums are formed from, when it is a table's columns
     /// along reading directions with products for them.
-    fn shortcut(&self, extra: &PoseColumns) -> Option<&ReadingProducts> {
-        extra
+    fn shortcut<'a>(
+        &'a self,
+        extra: &'a PoseColumns,
+    ) -> Option<(&'a ReadingProducts, &'a AlongReading)> {
+        let along = extra
             .along()
-            .filter(|a| a.directions.len() == self.residuals.len())
-            .and_then(|a| self.reading_products(a))
+            .filter(|a| a.directions.len() == self.residuals.len())?;
+        Some((self.reading_products(along)?, along))
     }
 
-    /// The products of `along`'s directions with the model's columns and residuals (formed
-    /// once per joint and round); `None` when none were formed for these directions.
+    /// The products of `along`'s directions with the model's columns and residuals, per fold
+    /// in the order of the readings (formed once per joint and round); `None` when none were
+    /// formed for these directions and readings.
     fn reading_products(&self, along: &AlongReading) -> Option<&ReadingProducts> {
         let products = self.reading.get(along.joint)?.get_or_init(|| {
-            ReadingProducts::new((0..self.residuals.len()).map(|b| {
-                (
-                    self.columns.pose(b),
-                    &self.residuals[b],
-                    &along.directions[b],
-                )
-            }))
+            let blocks: Vec<_> = (0..self.residuals.len())
+                .map(|b| {
+                    (
+                        self.columns.pose(b),
+                        &self.residuals[b],
+                        &along.directions[b],
+                    )
+                })
+                .collect();
+            let folds = self.fold_poses.iter().map(|poses| {
+                poses
+                    .iter()
+                    .flat_map(|&i| self.blocks[i]..self.blocks[i + 1])
+                    .collect()
+            });
+            ReadingProducts::new(self.p, &blocks, &along.readings, folds)
         });
-        products.fits(&along.directions).then_some(products)
+        products.fits(along).then_some(products)
     }
 
     /// Held-out squared errors of the current model itself (linearised refits).
@@ -229,16 +242,15 @@ impl Linearised {
         // Fold by fold, so that only one fold's blocks are being written at a time.
         for (f, poses) in self.fold_poses.iter().enumerate() {
             let (bf, df, ef) = (b[f].as_mut_slice(), &mut d[f], &mut e[f]);
+            if let Some((products, along)) = reading {
+                products.add_fold(f, along, bf, df, ef);
+                continue;
+            }
             for i in poses
                 .iter()
                 .flat_map(|&i| self.blocks[i]..self.blocks[i + 1])
             {
                 let cols = extra.pose(i);
-                if let Some(products) = reading {
-                    let model = self.columns.pose(i);
-                    products.add_block(i, model, cols, extra.scalars(i), p, bf, df, ef);
-                    continue;
-                }
                 let r = &self.residuals[i];
                 for (x, (ci, cv)) in cols.iter().enumerate() {
                     ef[*ci] += cv.dot(r);

@@ -7,18 +7,29 @@ use crate::diagnose::table_screen::AlongReading;
 use kinecal::model::effects::{Effect, EffectKind};
 use kinecal::{ForwardKinematics, Measurement, Param, Robot};
 use nalgebra::Vector3;
+use std::sync::OnceLock;
 
 /// The sparse scaled columns `(column index, ∂p/∂x)` of every block of rows (one per position
 /// observation, the point's then the orientation's for a 6-D one), block after block in one
 /// buffer: the screen builds one set per candidate, and a vector per block would cost thousands
 /// of allocations each time. Here a "pose" is one such block.
-#[derive(Clone, Debug, PartialEq)]
+///
+/// A table candidate's columns are kept as its grid and each block's reading and direction
+/// ([`AlongReading`]): the screen's sums need nothing else, and the listed columns are
+/// written out only when first asked for ([`Self::pose`]).
+#[derive(Clone, Debug)]
 pub struct PoseColumns {
-    /// Pose `i`'s columns are `entries[offsets[i]..offsets[i + 1]]`.
+    /// The listed columns (for a table: written out from `along` when first asked for).
+    listed: OnceLock<Listed>,
+    /// A table candidate's columns along its joint's reading direction.
+    along: Option<AlongReading>,
+}
+
+/// Pose `i`'s columns are `entries[offsets[i]..offsets[i + 1]]`.
+#[derive(Clone, Debug)]
+struct Listed {
     offsets: Vec<usize>,
     entries: Vec<(usize, Vector3<f64>)>,
-    /// A table candidate's columns as scalars along its joint's reading direction.
-    along: Option<AlongReading>,
 }
 
 impl PoseColumns {
@@ -26,38 +37,71 @@ impl PoseColumns {
     pub fn with_capacity(poses: usize, entries: usize) -> Self {
         let mut offsets = Vec::with_capacity(poses + 1);
         offsets.push(0);
-        Self {
+        Self::listed(Listed {
             offsets,
             entries: Vec::with_capacity(entries),
-            along: None,
-        }
+        })
     }
 
     /// `poses` poses without columns.
     pub fn empty(poses: usize) -> Self {
-        Self {
+        Self::listed(Listed {
             offsets: vec![0; poses + 1],
             entries: Vec::new(),
+        })
+    }
+
+    fn listed(listed: Listed) -> Self {
+        Self {
+            listed: OnceLock::from(listed),
             along: None,
         }
+    }
+
+    /// A table's columns, `along` its joint's reading directions.
+    pub fn of_table(along: AlongReading) -> Self {
+        Self {
+            listed: OnceLock::new(),
+            along: Some(along),
+        }
+    }
+
+    /// The listed columns, written out from [`Self::along`] if not yet.
+    fn entries(&self) -> &Listed {
+        self.listed.get_or_init(|| {
+            self.along.as_ref().map_or_else(
+                || Listed {
+                    offsets: vec![0],
+                    entries: Vec::new(),
+                },
+                list_table,
+            )
+        })
     }
 
     /// Appends the next pose, with these columns (the columns are then no longer known to lie
     /// along a reading direction: [`Self::along`] is cleared).
     pub fn push_pose(&mut self, columns: impl IntoIterator<Item = (usize, Vector3<f64>)>) {
+        self.entries();
         self.along = None;
-        self.entries.extend(columns);
-        self.offsets.push(self.entries.len());
+        let listed = self.listed.get_mut().expect("written out above");
+        listed.entries.extend(columns);
+        listed.offsets.push(listed.entries.len());
     }
 
     /// The number of poses.
     pub fn poses(&self) -> usize {
-        self.offsets.len() - 1
+        match (&self.along, self.listed.get()) {
+            (_, Some(listed)) => listed.offsets.len() - 1,
+            (Some(along), None) => along.directions.len(),
+            (None, None) => 0,
+        }
     }
 
     /// The columns of pose `i`.
     pub fn pose(&self, i: usize) -> &[(usize, Vector3<f64>)] {
-        &self.entries[self.offsets[i]..self.offsets[i + 1]]
+        let listed = self.entries();
+        &listed.entries[listed.offsets[i]..listed.offsets[i + 1]]
     }
 
     /// The columns as a table's along its joint's reading direction, when they were built so
@@ -65,14 +109,29 @@ impl PoseColumns {
     pub fn along(&self) -> Option<&AlongReading> {
         self.along.as_ref()
     }
+}
 
-    /// The scalars of pose `i`'s columns along the reading direction (empty without
-    /// [`Self::along`]).
-    pub(crate) fn scalars(&self, i: usize) -> &[f64] {
-        self.along
-            .as_ref()
-            .map_or(&[], |a| &a.scalars[self.offsets[i]..self.offsets[i + 1]])
+/// A table's listed columns: at each block only the two knots around its reading can be
+/// non-zero, `d · φ_k / scale_k` (`d` the block's weighted column of the corrected reading),
+/// as [`ForwardKinematics::column`] would compute them without asking it for every knot of a
+/// table of up to 200.
+fn list_table(along: &AlongReading) -> Listed {
+    let blocks = along.directions.len();
+    let mut offsets = Vec::with_capacity(blocks + 1);
+    offsets.push(0);
+    let mut entries = Vec::with_capacity(2 * blocks);
+    let (e, scale) = (&along.table, &along.scales);
+    for (d, &q) in along.directions.iter().zip(&along.readings) {
+        let (seg, w) = e.segment(q);
+        entries.extend(
+            [(seg, 1.0 - w), (seg + 1, w)]
+                .into_iter()
+                .filter(|&(_, phi)| phi != 0.0)
+                .filter_map(|(k, phi)| non_zero(k, d * (phi / scale[k]))),
+        );
+        offsets.push(entries.len());
     }
+    Listed { offsets, entries }
 }
 
 /// The scaled columns of `params` at every pose of `data` for `robot` (for a candidate: the
@@ -158,11 +217,9 @@ impl<const N: usize> PoseKinematics<N> {
         out
     }
 
-    /// [`Self::columns`] of table `e`'s knots (`scale` per knot), with their scalars along
-    /// the joint's reading direction ([`PoseColumns::along`]): only the two knots around a
-    /// block's reading can be non-zero, so they are computed as [`ForwardKinematics::column`]
-    /// would (`d · φ_k / scale_k`, `d` the block's weighted column of the corrected reading)
-    /// without asking it for every knot of a table of up to 200.
+    /// [`Self::columns`] of table `e`'s knots (`scale` per knot), along the joint's reading
+    /// direction ([`PoseColumns::of_table`]): each block's weighted column of the corrected
+    /// reading and its reading.
     fn table_columns<V: kinecal::ValueStorage>(
         &self,
         robot: &Robot<f64, N, V>,
@@ -170,35 +227,27 @@ impl<const N: usize> PoseKinematics<N> {
         scale: &[f64],
     ) -> PoseColumns {
         let (j, blocks) = (e.joint as usize, self.blocks());
-        let mut out = PoseColumns::with_capacity(self.poses.len(), 2 * blocks);
         let mut along = AlongReading {
             joint: j,
             directions: Vec::with_capacity(blocks),
-            scalars: Vec::with_capacity(2 * blocks),
-        };
-        let mut push = |d: Vector3<f64>, q: &[f64; N]| {
-            let (seg, w) = e.segment(q[j]);
-            let knots = [(seg, 1.0 - w), (seg + 1, w)]
-                .into_iter()
-                .filter_map(|(k, phi)| {
-                    let s = phi / scale[k];
-                    non_zero(k, d * s).map(|c| (c, s))
-                });
-            out.push_pose(knots.map(|(c, s)| {
-                along.scalars.push(s);
-                c
-            }));
-            along.directions.push(d);
+            readings: Vec::with_capacity(blocks),
+            table: *e,
+            scales: scale.to_vec(),
         };
         for (fk, (w, wo)) in self.poses.iter().zip(&self.weights) {
             let jc = fk.reading_column(robot, j);
-            push(w.map_or(jc, |w| jc.component_mul(&w)), &fk.q);
+            along
+                .directions
+                .push(w.map_or(jc, |w| jc.component_mul(&w)));
+            along.readings.push(fk.q[j]);
             if let Some(wo) = *wo {
-                push(fk.reading_rotation_column(robot, j) * wo, &fk.q);
+                along
+                    .directions
+                    .push(fk.reading_rotation_column(robot, j) * wo);
+                along.readings.push(fk.q[j]);
             }
         }
-        out.along = Some(along);
-        out
+        PoseColumns::of_table(along)
     }
 
     /// The number of blocks of rows: one per position observation, two per 6-D one.

@@ -1,6 +1,7 @@
 //! One case: data with its hidden effects scaled to the noise floor, the diagnosis, what it named.
 
 use super::*;
+use kinecal::Param;
 use kinecal_cli::diagnose::candidates::{Candidate, CandidateKind};
 use kinecal_cli::diagnose::plausibility::{implausible, Limits};
 
@@ -41,7 +42,7 @@ pub fn make_data<const N: usize>(
     l: &Loaded<N>,
     poses: usize,
     c: &Case,
-) -> (Vec<Measurement<f64, N>>, Vec<usize>) {
+) -> (Vec<Measurement<f64, N>>, Vec<usize>, Vec<EffectArg>) {
     let effects = match &c.raw {
         Some(raw) => raw.clone(),
         None => {
@@ -65,7 +66,75 @@ pub fn make_data<const N: usize>(
         .filter(|(_, e)| beyond_limits(e))
         .map(|(i, _)| i)
         .collect();
-    (sim(l, poses, c.noise_mm, c.seed, effects), beyond)
+    (
+        sim(l, poses, c.noise_mm, c.seed, effects.clone()),
+        beyond,
+        effects,
+    )
+}
+
+/// Poses of a fresh session of the same robot and effects as a case's data: the next poses of
+/// the same streams (configurations and noise are drawn pose by pose, so the first `poses` of
+/// a longer simulation are the case's own).
+pub const FRESH_POSES: usize = 2000;
+
+/// The held-out RMS (mm) of a model on `FRESH_POSES` poses of the case's robot that the search
+/// never saw.
+fn fresh_rms<const N: usize>(
+    l: &Loaded<N>,
+    poses: usize,
+    c: &Case,
+    effects: &[EffectArg],
+    model: &kinecal_cli::HostRobot<N>,
+) -> f64 {
+    let all = sim(l, poses + FRESH_POSES, c.noise_mm, c.seed, effects.to_vec());
+    kinecal::identify::lm::rms_error(model, &all[poses..])
+}
+
+/// The true effects on their true grids, fitted with the search's geometry parameters: their
+/// cross-validated held-out RMS (mm) on the search's folds (what no search can beat on these
+/// folds), and the fitted model (`None` when a hidden effect is not a grid table, a compliance
+/// or a scale).
+fn oracle<const N: usize>(
+    d: &Diagnosis<N>,
+    data: &[Measurement<f64, N>],
+    effects: &[EffectArg],
+) -> Option<(f64, kinecal_cli::HostRobot<N>)> {
+    use kinecal_cli::diagnose::cross_validation::{refit_errors, rms, Folds};
+    use kinecal_cli::diagnose::linear::Problem;
+    let cfg = Config::default();
+    let mut robot = d.geometric.clone();
+    // The search's geometry parameters (its effects' values are the named effects').
+    let mut params: Vec<Param> = d
+        .params
+        .iter()
+        .copied()
+        .filter(|p| !matches!(p, Param::Effect(_)))
+        .collect();
+    for e in effects {
+        let kind = match (e.kind.as_str(), e.grid) {
+            ("joint-table", Some((start, step))) => CandidateKind::Table {
+                start,
+                step,
+                knots: e.values.len(),
+            },
+            ("joint-compliance", _) => CandidateKind::Compliance,
+            ("joint-scale", _) => CandidateKind::Scale,
+            _ => return None,
+        };
+        let c = Candidate {
+            kind,
+            joint: e.joint,
+        };
+        params.extend(c.add_to(&mut robot).ok()?);
+    }
+    let problem = Problem::new(&robot, &params, cfg.penalty).ok()?;
+    let fitted = kinecal_cli::diagnose::refit::fit(&robot, &problem, data, cfg.refit_iterations)
+        .ok()?
+        .robot;
+    let folds = Folds::new(data, cfg.folds, cfg.seed);
+    let errors = refit_errors(&fitted, &problem, data, &folds, cfg.refit_iterations).ok()?;
+    Some((rms(&errors), fitted))
 }
 
 /// Whether `e` at its true size is beyond the plausibility limits (the search judges its fitted
@@ -105,6 +174,12 @@ pub struct Outcome {
     pub least_gain: f64,
     /// Why the search stopped, when a significant candidate was too small to be added.
     pub too_small: Option<String>,
+    /// The final model's RMS (mm) on fresh poses of the same robot (never seen by the search).
+    pub fresh_rms: f64,
+    /// The true effects on their true grids (when they are grid tables, compliances or
+    /// scales), fitted with the search's geometry: their cross-validated held-out RMS (mm) on
+    /// the search's folds, and their RMS on the fresh poses.
+    pub oracle: Option<(f64, f64)>,
 }
 
 pub fn named<const N: usize>(d: &Diagnosis<N>) -> Vec<Hidden> {
@@ -150,7 +225,7 @@ pub fn exact(hidden: &[Hidden], found: &[Hidden]) -> bool {
 }
 
 pub fn run_case<const N: usize>(l: &Loaded<N>, poses: usize, c: &Case) -> Outcome {
-    let (data, beyond) = make_data(l, poses, c);
+    let (data, beyond, effects) = make_data(l, poses, c);
     let t = Instant::now();
     let d = diagnose(&l.nominal, l.base_known, &[], &data, &Config::default()).unwrap();
     let seconds = t.elapsed().as_secs_f64();
@@ -192,6 +267,9 @@ pub fn run_case<const N: usize>(l: &Loaded<N>, poses: usize, c: &Case) -> Outcom
             .map(|f| 1.0 - f.validation_rms_mm / f.before_rms_mm)
             .fold(1.0, f64::min),
         too_small: d.below_margin.map(|_| d.stop_reason.clone()),
+        fresh_rms: fresh_rms(l, poses, c, &effects, &d.model),
+        oracle: oracle(&d, &data, &effects)
+            .map(|(cv, fitted)| (cv, fresh_rms(l, poses, c, &effects, &fitted))),
     }
 }
 

@@ -100,7 +100,7 @@ fn a_refused_finding_is_offered_again_after_another_is_added() {
         raw: None,
     };
     let l = load_robot::<6>(&m.robots[ur10]);
-    let (data, beyond) = make_data(&l, poses_of(&m, &c), &c);
+    let (data, beyond, _) = make_data(&l, poses_of(&m, &c), &c);
     assert!(
         beyond.is_empty(),
         "the compliance is within the limits at its true size"

@@ -88,7 +88,7 @@ pub fn run_matrix(file: &str) {
                 let Some(c) = cases.get(i) else { break };
                 let o = robots[c.robot].run(poses_of(&m, c), c);
                 eprintln!(
-                    "{}{}{}{}: named {:?}; held-out {:.4} → {:.4} mm = {:.2}× floor (est {:.4}, true {:.4}: {:.2}×), least gain {:.1} %, {:.2} s",
+                    "{}{}{}{}: named {:?}; held-out {:.4} → {:.4} mm = {:.2}× floor (est {:.4}, true {:.4}: {:.2}×), true effects cross-validated {}, fresh poses {:.2}× true floor (true effects {}), least gain {:.1} %, {:.2} s",
                     if (c.hidden.is_empty() && !o.named.is_empty()) || (!c.hidden.is_empty() && !o.exact) { "MISS " } else { "" },
                     if o.final_rms > 1.25 * o.floor_true { "FAR " } else { "" },
                     if o.beyond.is_empty() { String::new() } else { format!("BEYOND {:?} ", o.beyond) },
@@ -100,6 +100,9 @@ pub fn run_matrix(file: &str) {
                     o.floor_est,
                     o.floor_true,
                     o.final_rms / o.floor_true,
+                    o.oracle.map_or("-".to_string(), |(r, _)| format!("{:.2}×", r / o.floor_true)),
+                    o.fresh_rms / o.floor_true,
+                    o.oracle.map_or("-".to_string(), |(_, r)| format!("{:.2}×", r / o.floor_true)),
                     100.0 * o.least_gain,
                     o.seconds
                 );
@@ -119,6 +122,10 @@ pub fn run_matrix(file: &str) {
     let mut gaps_est = Vec::new();
     let mut gaps_true = Vec::new();
     let mut gaps_hidden = Vec::new();
+    // The hidden cases' final model on fresh poses, and of those above 1.25× the true floor in
+    // cross-validation: the true effects' cross-validated figure and the fresh poses'.
+    let mut fresh_hidden: Vec<(f64, Option<f64>)> = Vec::new();
+    let mut far: Vec<(Option<f64>, f64)> = Vec::new();
     let mut secs = Vec::new();
     // The smallest held-out RMS drop of an effect named in a case where it was hidden.
     let mut least_gain = 1.0f64;
@@ -170,6 +177,16 @@ pub fn run_matrix(file: &str) {
             e.1 += usize::from(o.exact);
             e.2.push(o.final_rms / o.floor_true);
             gaps_hidden.push(o.final_rms / o.floor_true);
+            fresh_hidden.push((
+                o.fresh_rms / o.floor_true,
+                o.oracle.map(|(_, r)| r / o.floor_true),
+            ));
+            if o.final_rms > 1.25 * o.floor_true {
+                far.push((
+                    o.oracle.map(|(r, _)| r / o.floor_true),
+                    o.fresh_rms / o.floor_true,
+                ));
+            }
         }
         gaps_est.push(o.final_rms / o.floor_est);
         gaps_true.push(o.final_rms / o.floor_true);
@@ -210,6 +227,42 @@ pub fn run_matrix(file: &str) {
         println!(
             "  {k:30} {ok}/{n}   final/true floor mean {mean:.3}, max {max:.3}, ≤ 1.25 in {within}/{n}"
         );
+    }
+    if !fresh_hidden.is_empty() {
+        let within = fresh_hidden.iter().filter(|(g, _)| *g <= 1.25).count();
+        let max = fresh_hidden.iter().map(|(g, _)| *g).fold(0.0, f64::max);
+        let truth: Vec<f64> = fresh_hidden.iter().filter_map(|(_, t)| *t).collect();
+        let truth_within = truth.iter().filter(|t| **t <= 1.25).count();
+        let truth_max = truth.iter().copied().fold(0.0, f64::max);
+        println!(
+            "on {} fresh poses, of the cases with something hidden: the final model ≤ 1.25× the true floor in {within}/{}, max {max:.3}; the true effects fitted to the same data in {truth_within}/{}, max {truth_max:.3}",
+            cases::FRESH_POSES,
+            fresh_hidden.len(),
+            truth.len()
+        );
+        for (g, t) in fresh_hidden.iter().filter(|(g, _)| *g > 1.25) {
+            println!(
+                "  final model {g:.2}×, true effects {}",
+                t.map_or("-".to_string(), |t| format!("{t:.2}×"))
+            );
+        }
+    }
+    if !far.is_empty() {
+        let oracle_far = far
+            .iter()
+            .filter(|(o, _)| o.is_some_and(|o| o > 1.25))
+            .count();
+        let fresh_far = far.iter().filter(|(_, f)| *f > 1.25).count();
+        println!(
+            "of the {} hidden cases above 1.25× the true floor cross-validated: the true effects on their true grids are above it too in {oracle_far}, and the final model is above it on fresh poses in {fresh_far}",
+            far.len()
+        );
+        for (o, f) in &far {
+            println!(
+                "  true effects cross-validated {}, final model on fresh poses {f:.2}×",
+                o.map_or("-".to_string(), |o| format!("{o:.2}×"))
+            );
+        }
     }
     println!(
         "hidden effects beyond the plausibility limits (not counted above): refused, the others named exactly, in {beyond_ok}/{beyond_n} cases"

@@ -148,7 +148,7 @@ impl Linearised {
     ) -> Option<(&'a ReadingProducts, &'a AlongReading)> {
         let along = extra
             .along()
-            .filter(|a| a.directions.len() == self.residuals.len())?;
+            .filter(|a| a.blocks.directions.len() == self.residuals.len())?;
         Some((self.reading_products(along)?, along))
     }
 
@@ -158,13 +158,7 @@ impl Linearised {
     fn reading_products(&self, along: &AlongReading) -> Option<&ReadingProducts> {
         let products = self.reading.get(along.joint)?.get_or_init(|| {
             let blocks: Vec<_> = (0..self.residuals.len())
-                .map(|b| {
-                    (
-                        self.columns.pose(b),
-                        &self.residuals[b],
-                        &along.directions[b],
-                    )
-                })
+                .map(|b| (self.columns.pose(b), &self.residuals[b]))
                 .collect();
             let folds = self.fold_poses.iter().map(|poses| {
                 poses
@@ -172,7 +166,7 @@ impl Linearised {
                     .flat_map(|&i| self.blocks[i]..self.blocks[i + 1])
                     .collect()
             });
-            ReadingProducts::new(self.p, &blocks, &along.readings, folds)
+            ReadingProducts::new(self.p, &blocks, &along.blocks, folds)
         });
         products.fits(along).then_some(products)
     }

@@ -3,11 +3,11 @@
 //! ([`PoseColumns`]): what the linearised screen ([`crate::diagnose::cross_validation::Linearised`])
 //! appends to the current model's normal equations.
 
-use crate::diagnose::table_screen::AlongReading;
+use crate::diagnose::table_screen::{AlongReading, ReadingBlocks};
 use kinecal::model::effects::{Effect, EffectKind};
 use kinecal::{ForwardKinematics, Measurement, Param, Robot};
 use nalgebra::Vector3;
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 /// The sparse scaled columns `(column index, ∂p/∂x)` of every block of rows (one per position
 /// observation, the point's then the orientation's for a 6-D one), block after block in one
@@ -93,7 +93,7 @@ impl PoseColumns {
     pub fn poses(&self) -> usize {
         match (&self.along, self.listed.get()) {
             (_, Some(listed)) => listed.offsets.len() - 1,
-            (Some(along), None) => along.directions.len(),
+            (Some(along), None) => along.blocks.directions.len(),
             (None, None) => 0,
         }
     }
@@ -116,12 +116,12 @@ impl PoseColumns {
 /// as [`ForwardKinematics::column`] would compute them without asking it for every knot of a
 /// table of up to 200.
 fn list_table(along: &AlongReading) -> Listed {
-    let blocks = along.directions.len();
+    let blocks = along.blocks.directions.len();
     let mut offsets = Vec::with_capacity(blocks + 1);
     offsets.push(0);
     let mut entries = Vec::with_capacity(2 * blocks);
     let (e, scale) = (&along.table, &along.scales);
-    for (d, &q) in along.directions.iter().zip(&along.readings) {
+    for (d, &q) in along.blocks.directions.iter().zip(&along.blocks.readings) {
         let (seg, w) = e.segment(q);
         entries.extend(
             [(seg, 1.0 - w), (seg + 1, w)]
@@ -157,6 +157,10 @@ pub struct PoseKinematics<const N: usize> {
     poses: Vec<ForwardKinematics<f64, N>>,
     /// Each observation's point weights (None: unit) and, for a 6-D one, its orientation's.
     weights: Vec<(Option<Vector3<f64>>, Option<f64>)>,
+    /// Per joint, its reading directions and readings at every block, formed at the first
+    /// table on it: they depend only on the frames (and the couplings), the same for every
+    /// candidate added at zero values.
+    along: Vec<OnceLock<Arc<ReadingBlocks>>>,
 }
 
 impl<const N: usize> PoseKinematics<N> {
@@ -182,7 +186,11 @@ impl<const N: usize> PoseKinematics<N> {
                 )
             })
             .collect();
-        Self { poses, weights }
+        Self {
+            poses,
+            weights,
+            along: (0..N).map(|_| OnceLock::new()).collect(),
+        }
     }
 
     /// The non-zero scaled columns of `params` at every observation for `robot` (the model
@@ -226,28 +234,40 @@ impl<const N: usize> PoseKinematics<N> {
         e: &Effect<f64>,
         scale: &[f64],
     ) -> PoseColumns {
-        let (j, blocks) = (e.joint as usize, self.blocks());
-        let mut along = AlongReading {
+        let j = e.joint as usize;
+        let along = AlongReading {
             joint: j,
-            directions: Vec::with_capacity(blocks),
-            readings: Vec::with_capacity(blocks),
+            blocks: Arc::clone(
+                self.along[j].get_or_init(|| Arc::new(self.reading_blocks(robot, j))),
+            ),
             table: *e,
             scales: scale.to_vec(),
         };
+        PoseColumns::of_table(along)
+    }
+
+    /// Joint `j`'s weighted reading column and reading at every block of rows.
+    fn reading_blocks<V: kinecal::ValueStorage>(
+        &self,
+        robot: &Robot<f64, N, V>,
+        j: usize,
+    ) -> ReadingBlocks {
+        let blocks = self.blocks();
+        let mut out = ReadingBlocks {
+            directions: Vec::with_capacity(blocks),
+            readings: Vec::with_capacity(blocks),
+        };
         for (fk, (w, wo)) in self.poses.iter().zip(&self.weights) {
             let jc = fk.reading_column(robot, j);
-            along
-                .directions
-                .push(w.map_or(jc, |w| jc.component_mul(&w)));
-            along.readings.push(fk.q[j]);
+            out.directions.push(w.map_or(jc, |w| jc.component_mul(&w)));
+            out.readings.push(fk.q[j]);
             if let Some(wo) = *wo {
-                along
-                    .directions
+                out.directions
                     .push(fk.reading_rotation_column(robot, j) * wo);
-                along.readings.push(fk.q[j]);
+                out.readings.push(fk.q[j]);
             }
         }
-        PoseColumns::of_table(along)
+        out
     }
 
     /// The number of blocks of rows: one per position observation, two per 6-D one.

@@ -19,22 +19,30 @@
 
 use kinecal::model::effects::Effect;
 use nalgebra::{DMatrix, DVector, Vector3};
+use std::sync::Arc;
 
 /// A table candidate's columns along its joint's reading direction: block `b`'s columns are
-/// the hat functions of `table`'s knots at `readings[b]`, over the knots' `scales`, times
-/// `directions[b]`.
+/// the hat functions of `table`'s knots at `blocks.readings[b]`, over the knots' `scales`,
+/// times `blocks.directions[b]`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AlongReading {
     /// The table's joint (0-based).
     pub joint: usize,
-    /// Each block's direction (the weighted reading column).
-    pub directions: Vec<Vector3<f64>>,
-    /// Each block's reading of the joint (rad), as the table reads it.
-    pub readings: Vec<f64>,
+    /// Each block's direction and reading, shared by every table on the joint in a round.
+    pub blocks: Arc<ReadingBlocks>,
     /// The table (its grid: `start`, `step`, `len` knots).
     pub table: Effect<f64>,
     /// Each knot's column scale.
     pub scales: Vec<f64>,
+}
+
+/// One joint's reading at every block of rows, and the block's direction: the weighted column
+/// of the corrected reading (`∂p/∂r_j`), what every table on the joint is a multiple of.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReadingBlocks {
+    pub directions: Vec<Vector3<f64>>,
+    /// The joint's reading (rad), as a table reads it.
+    pub readings: Vec<f64>,
 }
 
 /// The per-block products of one joint's reading directions with the model's columns and the
@@ -42,20 +50,15 @@ pub struct AlongReading {
 #[derive(Debug)]
 pub struct ReadingProducts {
     /// The directions and readings the products were formed with.
-    directions: Vec<Vector3<f64>>,
-    readings: Vec<f64>,
+    blocks: Arc<ReadingBlocks>,
     /// The number of model columns, and of those (from column 0 on) summed per knot interval.
     p: usize,
     dense: usize,
     folds: Vec<FoldReadings>,
 }
 
-/// One block of rows: its model columns `(column, ∂p/∂x)`, its residual and its direction.
-pub type Block<'a> = (
-    &'a [(usize, Vector3<f64>)],
-    &'a Vector3<f64>,
-    &'a Vector3<f64>,
-);
+/// One block of rows: its model columns `(column, ∂p/∂x)` and its residual.
+pub type Block<'a> = (&'a [(usize, Vector3<f64>)], &'a Vector3<f64>);
 
 /// One fold's blocks, sorted by their readings.
 #[derive(Debug)]
@@ -78,20 +81,21 @@ struct FoldReadings {
 }
 
 impl ReadingProducts {
-    /// The products over `blocks` (each block's model columns, residual and direction), with
-    /// the blocks of each fold (`folds`, indices into `blocks`) sorted by `readings`; `p`
-    /// model columns.
+    /// The products over `blocks` (each block's model columns and residual), with the
+    /// directions and readings of `along`, and the blocks of each fold (`folds`, indices into
+    /// `blocks`) sorted by reading; `p` model columns.
     pub fn new<'a>(
         p: usize,
         blocks: &[Block<'a>],
-        readings: &[f64],
+        along: &Arc<ReadingBlocks>,
         folds: impl Iterator<Item = Vec<usize>>,
     ) -> Self {
+        let (readings, directions) = (&along.readings, &along.directions);
         // The columns most blocks have, in one run from column 0 (the geometry's): through
         // the running sums; the others, sparse, block by block.
         let dense = blocks
             .iter()
-            .map(|(columns, _, _)| {
+            .map(|(columns, _)| {
                 let run = columns.iter().enumerate().take_while(|(k, (j, _))| k == j);
                 run.count()
             })
@@ -110,7 +114,7 @@ impl ReadingProducts {
                 let (mut offsets, mut sparse) = (Vec::with_capacity(n + 1), Vec::new());
                 offsets.push(0);
                 for (i, &b) in members.iter().enumerate() {
-                    let (columns, r, d) = blocks[b];
+                    let ((columns, r), d) = (blocks[b], &directions[b]);
                     let (last, next) = sum_g.split_at_mut((i + 1) * dense);
                     next[..dense].copy_from_slice(&last[i * dense..]);
                     let (last_q, next_q) = sum_qg.split_at_mut((i + 1) * dense);
@@ -142,8 +146,7 @@ impl ReadingProducts {
             })
             .collect();
         Self {
-            directions: blocks.iter().map(|(_, _, d)| **d).collect(),
-            readings: readings.to_vec(),
+            blocks: Arc::clone(along),
             p,
             dense,
             folds,
@@ -152,7 +155,7 @@ impl ReadingProducts {
 
     /// Whether these products were formed with `along`'s directions and readings.
     pub fn fits(&self, along: &AlongReading) -> bool {
-        self.directions == along.directions && self.readings == along.readings
+        Arc::ptr_eq(&self.blocks, &along.blocks) || self.blocks == along.blocks
     }
 
     /// Fold `f`'s own sums of the table candidate `along`: `bf` is `B = JᵀC` (`p × m`,

@@ -77,7 +77,7 @@ impl Default for Options {
 }
 
 /// What [`identify`] fits, in memory: the robot file and its model, the observations (already
-/// in mm and degrees, through [`crate::formats::units`] and [`observe`]) and, optionally, the
+/// in mm and degrees, through [`crate::formats::units`] and [`crate::formats::observations::observe`]) and, optionally, the
 /// observations to validate on; each named as error messages name it (a path, or what the
 /// caller calls it).
 pub struct Inputs<const N: usize> {

@@ -117,7 +117,7 @@ const READ_COLUMNS: [&str; 10] = [
 ];
 
 /// The columns of the file that kinecal carries along without reading them (`temp_c`, a
-/// timestamp…): every column but the joints, the point and [`READ_COLUMNS`], and but `x_NAME`,
+/// timestamp…): every column but the joints, the point and `READ_COLUMNS`, and but `x_NAME`,
 /// `y_NAME`, `z_NAME` of the robot file's reflectors `tools`.
 pub fn carried_columns(extra: &[String], tools: &[String]) -> Vec<String> {
     let reflector = |c: &str| {

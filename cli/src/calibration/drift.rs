@@ -38,13 +38,7 @@ pub fn parse_request(s: &str) -> Option<anyhow::Result<EffectRequest>> {
 /// Mean time (s) of `data` when every observation has one and they span a positive time:
 /// the reference of a base-drift term.
 pub fn mean_time<const N: usize>(data: &[Measurement<f64, N>]) -> Option<f64> {
-    let t: Vec<f64> = data.iter().map(|m| m.time_s).collect::<Option<_>>()?;
-    let (lo, hi) = t
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
-            (a.min(*x), b.max(*x))
-        });
-    (!t.is_empty() && hi > lo).then(|| t.iter().sum::<f64>() / t.len() as f64)
+    crate::calibration::stats::mean_if_spread(data.iter().map(|m| m.time_s), |span| span > 0.0)
 }
 
 /// Adds a base-drift term at `v = 0` to `robot`, referred to the mean time of `data`; returns

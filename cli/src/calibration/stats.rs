@@ -12,6 +12,22 @@ use kinecal::{Measurement, Robot};
 use nalgebra::Vector3;
 use serde::Serialize;
 
+/// The mean of a column every row logs (a time, a temperature), when each row has one and
+/// their spread `highest − lowest` is `enough`; `None` otherwise (a reference the data cannot
+/// give).
+pub fn mean_if_spread(
+    values: impl Iterator<Item = Option<f64>>,
+    enough: impl Fn(f64) -> bool,
+) -> Option<f64> {
+    let t: Vec<f64> = values.collect::<Option<_>>()?;
+    let (lo, hi) = t
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(*x), b.max(*x))
+        });
+    (!t.is_empty() && enough(hi - lo)).then(|| t.iter().sum::<f64>() / t.len() as f64)
+}
+
 /// Statistics of one quantity over the poses (mm).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Figures {

@@ -39,7 +39,7 @@ pub struct Args {
 const MAX_URDF_BYTES: u64 = 64 << 20;
 
 /// Reads a URDF file (refused with exit status 2 when it cannot be read or parsed, or is
-/// larger than [`MAX_URDF_BYTES`]: never read whole before that is known).
+/// larger than `MAX_URDF_BYTES`: never read whole before that is known).
 pub fn read_urdf(path: &Path) -> anyhow::Result<(String, Urdf)> {
     let text = crate::formats::read_text_limited(path, MAX_URDF_BYTES, "a URDF file")?;
     let urdf = Urdf::parse(&text, &path.display().to_string())?;

@@ -464,13 +464,9 @@ pub fn temperature_reference<const N: usize>(
     data: &[Measurement<f64, N>],
     min_span: f64,
 ) -> Option<f64> {
-    let t: Vec<f64> = data.iter().map(|m| m.temp_c).collect::<Option<_>>()?;
-    let (lo, hi) = t
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
-            (a.min(*x), b.max(*x))
-        });
-    (!t.is_empty() && hi - lo >= min_span).then(|| t.iter().sum::<f64>() / t.len() as f64)
+    crate::calibration::stats::mean_if_spread(data.iter().map(|m| m.temp_c), |span| {
+        span >= min_span
+    })
 }
 
 /// The joint range `data` cover: lowest and highest reading of each joint (rad).

@@ -178,8 +178,8 @@ impl Linearised {
 
     /// Held-out squared errors (one per observation) with `m` extra columns
     /// (`extra.pose(b)`: block `b`'s non-zero ones, indices `0..m`, blocks as
-    /// [`PoseKinematics::columns`] lays them out); `table`: the extra columns are a table's
-    /// knots, penalised like this.
+    /// [`crate::diagnose::pose_columns::PoseKinematics::columns`] lays them out); `table`: the
+    /// extra columns are a table's knots, penalised like this.
     pub fn screen(&self, extra: &PoseColumns, m: usize, table: Option<TablePenalty>) -> Vec<f64> {
         self.screen_by(extra, m, table, None)
     }

@@ -5,7 +5,7 @@
 
 use crate::diagnose::table_screen::{AlongReading, ReadingBlocks};
 use kinecal::model::effects::{Effect, EffectKind};
-use kinecal::{ForwardKinematics, Measurement, Param, Robot};
+use kinecal::{Couplings, ForwardKinematics, Measurement, Param, Robot};
 use nalgebra::Vector3;
 use std::sync::{Arc, OnceLock};
 
@@ -158,9 +158,12 @@ pub struct PoseKinematics<const N: usize> {
     /// Each observation's point weights (None: unit) and, for a 6-D one, its orientation's.
     weights: Vec<(Option<Vector3<f64>>, Option<f64>)>,
     /// Per joint, its reading directions and readings at every block, formed at the first
-    /// table on it: they depend only on the frames (and the couplings), the same for every
+    /// table on it: they depend only on the frames and the couplings, the same for every
     /// candidate added at zero values.
     along: Vec<OnceLock<Arc<ReadingBlocks>>>,
+    /// The couplings of the model the frames were computed for (a robot with others gets its
+    /// own reading blocks, not the shared ones).
+    couplings: Couplings<f64, N>,
 }
 
 impl<const N: usize> PoseKinematics<N> {
@@ -190,6 +193,7 @@ impl<const N: usize> PoseKinematics<N> {
             poses,
             weights,
             along: (0..N).map(|_| OnceLock::new()).collect(),
+            couplings: *robot.couplings(),
         }
     }
 
@@ -237,9 +241,11 @@ impl<const N: usize> PoseKinematics<N> {
         let j = e.joint as usize;
         let along = AlongReading {
             joint: j,
-            blocks: Arc::clone(
-                self.along[j].get_or_init(|| Arc::new(self.reading_blocks(robot, j))),
-            ),
+            blocks: if *robot.couplings() == self.couplings {
+                Arc::clone(self.along[j].get_or_init(|| Arc::new(self.reading_blocks(robot, j))))
+            } else {
+                Arc::new(self.reading_blocks(robot, j))
+            },
             table: *e,
             scales: scale.to_vec(),
         };

@@ -74,8 +74,9 @@ struct FoldReadings {
     /// blocks: entries `i·dense..(i + 1)·dense`.
     sum_g: Vec<f64>,
     sum_qg: Vec<f64>,
-    /// Block `i`'s products with its other model columns (an earlier table's knots, two per
-    /// block): `sparse[offsets[i]..offsets[i + 1]]`, `(column, g)`.
+    /// Block `i`'s products with its columns from `dense` on (an earlier table's knots, two
+    /// per block, and any effect after the geometry): `sparse[offsets[i]..offsets[i + 1]]`,
+    /// `(column, g)`.
     offsets: Vec<usize>,
     sparse: Vec<(usize, f64)>,
 }
@@ -91,8 +92,10 @@ impl ReadingProducts {
         folds: impl Iterator<Item = Vec<usize>>,
     ) -> Self {
         let (readings, directions) = (&along.readings, &along.directions);
-        // The columns most blocks have, in one run from column 0 (the geometry's): through
-        // the running sums; the others, sparse, block by block.
+        // The columns `0..dense`, `dense` the longest run from column 0 of any block (the
+        // geometry's, which nearly every block excites): through the running sums, whatever
+        // a block has of them; the others, sparse, block by block. The split decides only the
+        // speed: every entry goes to one of the two by its index.
         let dense = blocks
             .iter()
             .map(|(columns, _)| {
@@ -160,7 +163,8 @@ impl ReadingProducts {
 
     /// Fold `f`'s own sums of the table candidate `along`: `bf` is `B = JᵀC` (`p × m`,
     /// column-major, `m` the knots), `df` is `D = CᵀC` and `ef` is `e = Cᵀr`, all added to.
-    // The comparisons are `Effect::segment`'s, a NaN included.
+    // The comparisons are `Effect::segment`'s. The readings are finite (the files' readers
+    // refuse others); a NaN reading would give meaningless sums, without a panic.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     pub fn add_fold<'a>(
         &'a self,

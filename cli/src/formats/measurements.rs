@@ -525,7 +525,7 @@ fn csv_text<const N: usize>(data: &Dataset<N>, q_text: Put, xyz_text: Put) -> St
     s
 }
 
-/// The dataset a file that [`write`] writes for `data` reads back to: its numbers as the file
+/// The dataset a file that [`write()`] writes for `data` reads back to: its numbers as the file
 /// keeps them ([`to_csv_string`]), in memory.
 pub fn as_written<const N: usize>(data: &Dataset<N>) -> anyhow::Result<Dataset<N>> {
     read_bytes::<N>(to_csv_string(data).as_bytes())

@@ -12,7 +12,7 @@ pub struct ImportReport {
     pub base_link: String,
     pub tip_link: String,
     pub joints: usize,
-    /// The URDF's revolute joints, base first (row i of the robot file is joint_names[i]).
+    /// The URDF's revolute joints, base first (row i of the robot file is `joint_names[i]`).
     pub joint_names: Vec<String>,
     /// Fixed joints folded into the base, tool or neighbouring rows.
     pub fixed_folded: Vec<String>,

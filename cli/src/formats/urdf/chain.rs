@@ -122,7 +122,7 @@ fn default_tip(urdf: &Urdf, base: &str, path: &str) -> anyhow::Result<String> {
     crate::refuse!("{path}: the joint tree from '{base}' is too deep or has a cycle")
 }
 
-/// The chain from `base` (default: the root link) to `tip` (default: see [`default_tip`]),
+/// The chain from `base` (default: the root link) to `tip` (default: see `default_tip`),
 /// checked: every joint on it revolute, continuous or fixed, none mimicking another, at least
 /// two and at most eight revolute joints, the tip rigidly after the last revolute joint.
 pub fn find<'a>(

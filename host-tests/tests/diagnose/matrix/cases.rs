@@ -78,23 +78,29 @@ pub fn make_data<const N: usize>(
 /// a longer simulation are the case's own).
 pub const FRESH_POSES: usize = 2000;
 
-/// The held-out RMS (mm) of a model on `FRESH_POSES` poses of the case's robot that the search
-/// never saw.
-fn fresh_rms<const N: usize>(
+/// `FRESH_POSES` poses of the case's robot and effects that the search never saw.
+fn fresh_poses<const N: usize>(
     l: &Loaded<N>,
     poses: usize,
     c: &Case,
     effects: &[EffectArg],
-    model: &kinecal_cli::HostRobot<N>,
-) -> f64 {
-    let all = sim(l, poses + FRESH_POSES, c.noise_mm, c.seed, effects.to_vec());
-    kinecal::identify::lm::rms_error(model, &all[poses..])
+) -> Vec<Measurement<f64, N>> {
+    let mut all = sim(l, poses + FRESH_POSES, c.noise_mm, c.seed, effects.to_vec());
+    all.split_off(poses)
 }
 
-/// The true effects on their true grids, fitted with the search's geometry parameters: their
-/// cross-validated held-out RMS (mm) on the search's folds (what no search can beat on these
-/// folds), and the fitted model (`None` when a hidden effect is not a grid table, a compliance
-/// or a scale).
+/// The RMS error (mm) of a model on fresh poses.
+fn fresh_rms<const N: usize>(
+    fresh: &[Measurement<f64, N>],
+    model: &kinecal_cli::HostRobot<N>,
+) -> f64 {
+    kinecal::identify::lm::rms_error(model, fresh)
+}
+
+/// The true effects on their true grids, fitted with the search's geometry parameters (and the
+/// nominal model's own effects): their cross-validated held-out RMS (mm) on the search's folds,
+/// a reference for what the right structure reaches on these folds, and the fitted model
+/// (`None` when a hidden effect is not a grid table, a compliance or a scale).
 fn oracle<const N: usize>(
     d: &Diagnosis<N>,
     data: &[Measurement<f64, N>],
@@ -104,12 +110,14 @@ fn oracle<const N: usize>(
     use kinecal_cli::diagnose::linear::Problem;
     let cfg = Config::default();
     let mut robot = d.geometric.clone();
-    // The search's geometry parameters (its effects' values are the named effects').
+    // The search's geometry parameters and the nominal model's effects (the named effects'
+    // values come after those).
+    let own = d.geometric.effects().values().len();
     let mut params: Vec<Param> = d
         .params
         .iter()
         .copied()
-        .filter(|p| !matches!(p, Param::Effect(_)))
+        .filter(|p| !matches!(p, Param::Effect(k) if *k as usize >= own))
         .collect();
     for e in effects {
         let kind = match (e.kind.as_str(), e.grid) {
@@ -175,7 +183,7 @@ pub struct Outcome {
     /// Why the search stopped, when a significant candidate was too small to be added.
     pub too_small: Option<String>,
     /// The final model's RMS (mm) on fresh poses of the same robot (never seen by the search).
-    pub fresh_rms: f64,
+    pub fresh_rms: Option<f64>,
     /// The true effects on their true grids (when they are grid tables, compliances or
     /// scales), fitted with the search's geometry: their cross-validated held-out RMS (mm) on
     /// the search's folds, and their RMS on the fresh poses.
@@ -224,8 +232,18 @@ pub fn exact(hidden: &[Hidden], found: &[Hidden]) -> bool {
     a == b
 }
 
-pub fn run_case<const N: usize>(l: &Loaded<N>, poses: usize, c: &Case) -> Outcome {
+pub fn run_case<const N: usize>(
+    l: &Loaded<N>,
+    poses: usize,
+    c: &Case,
+    against_truth: bool,
+) -> Outcome {
     let (data, beyond, effects) = make_data(l, poses, c);
+    let fresh = if against_truth {
+        fresh_poses(l, poses, c, &effects)
+    } else {
+        Vec::new()
+    };
     let t = Instant::now();
     let d = diagnose(&l.nominal, l.base_known, &[], &data, &Config::default()).unwrap();
     let seconds = t.elapsed().as_secs_f64();
@@ -267,9 +285,11 @@ pub fn run_case<const N: usize>(l: &Loaded<N>, poses: usize, c: &Case) -> Outcom
             .map(|f| 1.0 - f.validation_rms_mm / f.before_rms_mm)
             .fold(1.0, f64::min),
         too_small: d.below_margin.map(|_| d.stop_reason.clone()),
-        fresh_rms: fresh_rms(l, poses, c, &effects, &d.model),
-        oracle: oracle(&d, &data, &effects)
-            .map(|(cv, fitted)| (cv, fresh_rms(l, poses, c, &effects, &fitted))),
+        fresh_rms: against_truth.then(|| fresh_rms(&fresh, &d.model)),
+        oracle: against_truth
+            .then(|| oracle(&d, &data, &effects))
+            .flatten()
+            .map(|(cv, fitted)| (cv, fresh_rms(&fresh, &fitted))),
     }
 }
 

@@ -191,10 +191,12 @@ pub enum Arm {
 }
 
 impl Arm {
-    pub fn run(&self, poses: usize, c: &Case) -> Outcome {
+    /// The case's outcome; `against_truth`: with the true effects' figures and both models
+    /// on fresh poses ([`Outcome::fresh_rms`], [`Outcome::oracle`]), which the matrices print.
+    pub fn run(&self, poses: usize, c: &Case, against_truth: bool) -> Outcome {
         match self {
-            Arm::Six(l) => run_case(l, poses, c),
-            Arm::Seven(l) => run_case(l, poses, c),
+            Arm::Six(l) => run_case(l, poses, c, against_truth),
+            Arm::Seven(l) => run_case(l, poses, c, against_truth),
         }
     }
 }

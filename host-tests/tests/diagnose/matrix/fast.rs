@@ -146,7 +146,7 @@ pub fn assert_picks(m: &Matrix, pick: &[(usize, Vec<&str>, f64, f64)], seed0: u6
             seed: seed0 + i as u64,
             raw: None,
         };
-        let o = robots[*r].run(poses_of(m, &c), &c);
+        let o = robots[*r].run(poses_of(m, &c), &c, false);
         let line = format!(
             "{}: named {:?}; held-out {:.4} → {:.4} mm, floor {:.4} (true {:.4}), {:.2} s",
             describe(m, &c),

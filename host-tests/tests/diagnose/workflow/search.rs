@@ -171,9 +171,9 @@ fn both_eliminations_of_the_screen_agree() {
             let cols = candidate_columns(&robot_c, &extra, &d);
             let pen = Some(TablePenalty::default());
             let by_model = lin.screen_by(&cols, m, pen, Some(Elimination::Model));
-            // The table's shortcut (its columns as scalars along the reading direction, their
-            // products with the model's formed once per joint) against the general sums of the
-            // same columns.
+            // The table's shortcut (its columns along the joint's reading directions: per fold,
+            // running sums over the blocks sorted by reading, formed once per joint) against the
+            // general sums of the same columns.
             let mut general = PoseColumns::with_capacity(cols.poses(), 0);
             for b in 0..cols.poses() {
                 general.push_pose(cols.pose(b).iter().copied());
@@ -316,8 +316,8 @@ fn the_table_shortcut_takes_orientations_and_weights() {
     for joint in [5, 1] {
         let c = Candidate {
             kind: CandidateKind::Table {
-                start: -180.0,
-                step: 12.0,
+                start: (-180f64).to_radians(),
+                step: 12f64.to_radians(),
                 knots: 31,
             },
             joint,

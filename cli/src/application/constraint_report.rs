@@ -6,10 +6,11 @@
 
 use super::constraints::{constraints, judge_groups, residuals, split_groups};
 use crate::calibration::inputs::HoldoutArgs;
+use crate::calibration::stats::rms;
 use crate::constraints::fit::shapes_of;
 use crate::constraints::read::{by_kind, Group, Session};
 use crate::constraints::report::{Change, ConstraintReportSummary, HeldOutKind};
-use crate::constraints::shapes::{errors, held_out_error, points, rms};
+use crate::constraints::shapes::{errors, held_out_error, points};
 use crate::formats::robot_file::RobotFile;
 use crate::HostRobot;
 use std::time::Instant;

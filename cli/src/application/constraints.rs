@@ -7,13 +7,14 @@
 use super::identify::Options;
 use crate::calibration::method::Method;
 use crate::calibration::selection::Selection;
+use crate::calibration::stats::rms;
 use crate::calibration::{named_values, Residuals};
 use crate::constraints::effects::{add_effects, measurements};
 use crate::constraints::read::{self, Group, Session};
 use crate::constraints::report::{
     ConstraintIdentifyReport, Constraints, FittedPlane, FittedSocket, KindSummary,
 };
-use crate::constraints::shapes::{errors, held_out_error, points, rms, Shape};
+use crate::constraints::shapes::{errors, held_out_error, points, Shape};
 use crate::formats::robot_file::RobotFile;
 use crate::HostRobot;
 use kinecal::Param;

@@ -12,6 +12,11 @@ use kinecal::{Measurement, Robot};
 use nalgebra::Vector3;
 use serde::Serialize;
 
+/// Root mean square of `values` (NaN when there are none): the one place it is written.
+pub fn rms(values: &[f64]) -> f64 {
+    (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
+}
+
 /// The mean of a column every row logs (a time, a temperature), when each row has one and
 /// their spread `highest − lowest` is `enough`; `None` otherwise (a reference the data cannot
 /// give).
@@ -67,7 +72,7 @@ fn axis(values: &[f64]) -> Figures {
     let n = values.len().max(1) as f64;
     let abs: Vec<f64> = values.iter().map(|v| v.abs()).collect();
     Figures {
-        rms: (values.iter().map(|v| v * v).sum::<f64>() / n).sqrt(),
+        rms: if values.is_empty() { 0.0 } else { rms(values) },
         mean: values.iter().sum::<f64>() / n,
         max: abs.iter().copied().fold(0.0, f64::max),
         p95: quantile(&abs, 0.95),

@@ -6,9 +6,10 @@
 
 use super::diagnose::Args;
 use crate::calibration::acceptance::NO_DIFFERENCE_MM;
+use crate::calibration::stats::rms;
 use crate::constraints::diagnose::{fit_with, request_text, search, Round, SearchOptions};
 use crate::constraints::read;
-use crate::constraints::shapes::{held_out_error, rms};
+use crate::constraints::shapes::held_out_error;
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::output::numfmt::sig;
 use crate::reports::path_text;

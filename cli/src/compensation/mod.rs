@@ -338,7 +338,7 @@ pub fn compensate_set<const N: usize, V: kinecal::ValueStorage>(
         if v.is_empty() {
             0.0
         } else {
-            (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
+            crate::calibration::stats::rms(v)
         }
     };
     let rms_corr = if ncorr > 0 {

@@ -6,7 +6,8 @@
 
 use super::fit::{candidates, shapes_of, unidentifiable};
 use super::read::{by_kind, Session};
-use super::shapes::{errors, points, rms};
+use super::shapes::{errors, points};
+use crate::calibration::stats::rms;
 use crate::formats::robot_file::RobotFile;
 use crate::HostRobot;
 

@@ -17,7 +17,8 @@
 
 use super::fit::{candidates, fit, Fitted};
 use super::read::Group;
-use super::shapes::{held_out_error, rms};
+use super::shapes::held_out_error;
+use crate::calibration::stats::rms;
 use crate::calibration::EffectRequest;
 use crate::diagnose::candidates::{catalogue, CandidateKind, CatalogueConfig};
 use crate::diagnose::significance::paired_improvement;

@@ -156,7 +156,7 @@ impl Figures {
             .copied()
             .unwrap_or(f64::NAN);
         Figures {
-            rms_mm: super::shapes::rms(&a),
+            rms_mm: crate::calibration::stats::rms(&a),
             mean_mm: a.iter().sum::<f64>() / n,
             max_mm: a.last().copied().unwrap_or(f64::NAN),
             p95_mm: p95,

@@ -3,6 +3,7 @@
 //! it in millimetres.
 
 use super::read::{Group, Kind};
+use crate::calibration::stats::rms;
 use crate::HostRobot;
 use kinecal::ForwardKinematics;
 use nalgebra::{Matrix3, Vector3};
@@ -100,11 +101,6 @@ pub fn held_out_error<const N: usize>(robot: &HostRobot<N>, g: &Group<N>) -> f64
     let shape = fit(g.kind, &pts);
     let e = errors(g, &pts, &shape);
     rms(&e)
-}
-
-/// Root mean square (NaN when empty).
-pub fn rms(e: &[f64]) -> f64 {
-    (e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64).sqrt()
 }
 
 /// Refuses (exit 2) distance groups whose stated lengths are, in the median, more than 20 times

@@ -228,7 +228,7 @@ pub fn stated_noise_mm<const N: usize>(
             path.display()
         );
     }
-    let rms = (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt();
+    let rms = crate::calibration::stats::rms(&values);
     crate::check_positive("--noise-from (the RMS of its σ)", rms, crate::MAX_NOISE_MM)?;
     Ok(rms)
 }

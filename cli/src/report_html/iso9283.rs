@@ -101,7 +101,7 @@ pub fn accuracy<const N: usize>(
     Some(Accuracy {
         poses: l.len(),
         mean_mm: mean,
-        rms_mm: (l.iter().map(|x| x * x).sum::<f64>() / n).sqrt(),
+        rms_mm: crate::calibration::stats::rms(&l),
         p95_mm: quantile(&l, 0.95),
         max_mm: l.iter().copied().fold(0.0, f64::max),
         s_mm: s,

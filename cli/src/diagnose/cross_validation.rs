@@ -284,10 +284,9 @@ impl Linearised {
             // The training blocks: totals minus the fold's own.
             let (btr, mut dtr, etr) = (&bt - bf, &dt - df, &et - ef);
             if let (Some(tp), true) = (table, m > 0) {
+                // Added in place: each entry of the band once, as `dtr + Π` would.
                 let diag = dtr.diagonal();
-                let mut pen = DMatrix::zeros(m, m);
-                add_table_penalty(&mut pen, m, &diag, tp);
-                dtr += pen;
+                add_table_penalty(&mut dtr, m, &diag, tp);
             }
             let eliminate = elimination.unwrap_or_else(|| Elimination::cheaper(p, m, &dtr));
             let solved = match eliminate {

@@ -156,18 +156,21 @@ impl Linearised {
     /// in the order of the readings (formed once per joint and round); `None` when none were
     /// formed for these directions and readings.
     fn reading_products(&self, along: &AlongReading) -> Option<&ReadingProducts> {
-        let products = self.reading.get(along.joint)?.get_or_init(|| {
-            let blocks: Vec<_> = (0..self.residuals.len())
-                .map(|b| (self.columns.pose(b), &self.residuals[b]))
-                .collect();
-            let folds = self.fold_poses.iter().map(|poses| {
-                poses
-                    .iter()
-                    .flat_map(|&i| self.blocks[i]..self.blocks[i + 1])
-                    .collect()
+        let products = self
+            .reading
+            .get(along.table.joint as usize)?
+            .get_or_init(|| {
+                let blocks: Vec<_> = (0..self.residuals.len())
+                    .map(|b| (self.columns.pose(b), &self.residuals[b]))
+                    .collect();
+                let folds = self.fold_poses.iter().map(|poses| {
+                    poses
+                        .iter()
+                        .flat_map(|&i| self.blocks[i]..self.blocks[i + 1])
+                        .collect()
+                });
+                ReadingProducts::new(self.p, &blocks, &along.blocks, folds)
             });
-            ReadingProducts::new(self.p, &blocks, &along.blocks, folds)
-        });
         products.fits(along).then_some(products)
     }
 

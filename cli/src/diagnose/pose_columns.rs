@@ -240,7 +240,6 @@ impl<const N: usize> PoseKinematics<N> {
     ) -> PoseColumns {
         let j = e.joint as usize;
         let along = AlongReading {
-            joint: j,
             blocks: if *robot.couplings() == self.couplings {
                 Arc::clone(self.along[j].get_or_init(|| Arc::new(self.reading_blocks(robot, j))))
             } else {

@@ -26,8 +26,6 @@ use std::sync::Arc;
 /// times `blocks.directions[b]`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AlongReading {
-    /// The table's joint (0-based).
-    pub joint: usize,
     /// Each block's direction and reading, shared by every table on the joint in a round.
     pub blocks: Arc<ReadingBlocks>,
     /// The table (its grid: `start`, `step`, `len` knots).

@@ -196,3 +196,71 @@ fn bad_parts_and_bad_poses_get_typed_errors() {
     pass.accumulate(&mut fk, &data[..3], &mut part).unwrap();
     assert_eq!(lm.complete_pass(&[part]), Err(LmError::TooFewMeasurements));
 }
+
+/// A pass in parts reads a table's columns from one segment look-up per pose when its knots
+/// follow in order (decided once for the pass) and knot by knot otherwise: either way its
+/// normal matrix is `JᵀJ` of the columns [`ForwardKinematics::column`] gives. Orders: the
+/// usual one; the knots reversed (the first knot last); a geometric parameter between two
+/// knots; the first knot alone at the front.
+#[test]
+fn a_pass_in_parts_reads_table_knots_in_any_order() {
+    use kinecal::model::effects::EffectKind;
+    let (mut robot, geometric, data) = problem(150, 9);
+    let (lo, hi) = (robot.joints()[1].lower, robot.joints()[1].upper);
+    let values: Vec<f64> = (0..12).map(|i| 1e-4 * (i as f64 - 5.5)).collect();
+    robot
+        .effects_mut()
+        .push(EffectKind::Table, 1, 6, 1, lo, (hi - lo) / 11.0, &values)
+        .unwrap();
+    let mut base: Vec<Param> = geometric.clone();
+    base.retain(|p| !matches!(p, Param::Theta(1)));
+    let knots = |r: std::ops::Range<u16>| r.map(Param::Effect).collect::<Vec<_>>();
+    let split = |at: usize| {
+        let mut p = base[..base.len() - 1].to_vec();
+        p.extend(knots(0..at as u16));
+        p.push(*base.last().unwrap());
+        p.extend(knots(at as u16..12));
+        p
+    };
+    let orders = [
+        [base.clone(), knots(0..12)].concat(),
+        [base.clone(), knots(0..12).into_iter().rev().collect()].concat(),
+        split(5),
+        [knots(0..1), base.clone(), knots(1..12)].concat(),
+    ];
+    let reach = robot.reach();
+    for params in orders {
+        let mut lm = solver(&robot, &params);
+        let mut part = PassPart::new(VecLm::for_pass(lm.params()));
+        let pass = lm.pass().unwrap();
+        pass.accumulate(&mut ForwardKinematics::new(), &data, &mut part)
+            .unwrap();
+        lm.complete_pass(&[part]).unwrap();
+        let mut fk = ForwardKinematics::new();
+        let n = params.len();
+        let mut a = vec![0.0; n * n];
+        for m in &data {
+            fk.compute(&robot, &m.q);
+            let cols: Vec<_> = params
+                .iter()
+                .map(|p| fk.column(&robot, *p).unwrap() / p.scale(reach))
+                .collect();
+            for i in 0..n {
+                for k in 0..=i {
+                    a[i * n + k] += cols[i].dot(&cols[k]);
+                }
+            }
+        }
+        for i in 0..n {
+            for k in 0..=i {
+                let (got, want) = (lm.normal_matrix(i, k), a[i * n + k]);
+                assert!(
+                    (got - want).abs() <= 1e-9 * (1.0 + want.abs()),
+                    "{:?} and {:?}: {got} against {want}",
+                    params[i],
+                    params[k]
+                );
+            }
+        }
+    }
+}

@@ -5,7 +5,9 @@
 
 use super::analysis::{analyse, estimate_all, held_column_grew};
 use super::config::LmConfig;
-use super::normal::{accumulate_pose, clear_normal_equations, split_parts, Columns, Reach};
+use super::normal::{
+    accumulate_pose, clear_normal_equations, split_parts, tables_in_order, Columns, Reach,
+};
 use super::pass::{Pass, PassKind, PassPart};
 use super::penalty::{check_penalty, LmPenalty, NoPenalty, PenaltyError, PenaltyPartsRef};
 use super::residual::check_observations;
@@ -337,14 +339,15 @@ impl<T: Real, const N: usize, V: ValueStorage, Storage: LmStorage<T>, Penalty: L
             return None;
         }
         let p = self.st.parts_ref();
+        let robot = if kind == PassKind::Candidate {
+            &self.candidate
+        } else {
+            &self.robot
+        };
         Some(Pass {
             kind,
             id: self.evaluations,
-            robot: if kind == PassKind::Candidate {
-                &self.candidate
-            } else {
-                &self.robot
-            },
+            robot,
             columns: Columns {
                 params: p.params,
                 scale: p.scale,
@@ -352,6 +355,7 @@ impl<T: Real, const N: usize, V: ValueStorage, Storage: LmStorage<T>, Penalty: L
                 active: p.active,
                 full: self.full_columns(),
                 gradient_only: self.gradient_only(),
+                tables_in_order: tables_in_order(robot, p.params),
             },
         })
     }

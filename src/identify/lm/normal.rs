@@ -91,6 +91,7 @@ pub(super) fn split_parts<T: Real, S: LmStorage<T>>(
         active: p.active,
         full,
         gradient_only,
+        tables_in_order: false,
     };
     let sums = NormalSums {
         stride: p.stride,
@@ -121,6 +122,10 @@ pub(super) struct Columns<'a, T> {
     pub full: bool,
     /// Only `Jᵀr` (and the cost): `JᵀJ` is left as it is (a solver keeping its curvature).
     pub gradient_only: bool,
+    /// Every table whose first knot is among `params` has all its knots follow in order
+    /// ([`tables_in_order`], decided once for a pass over many poses): each pose then skips
+    /// that check. `false`: each pose checks.
+    pub tables_in_order: bool,
 }
 
 /// A robot's reach (mm per rad: the scale of angles and effect values) and its inverse.
@@ -271,6 +276,7 @@ fn accumulate_rows<R: Rows, T: Real, const N: usize, V: ValueStorage, S: LmStora
         active,
         full,
         gradient_only,
+        ..
     } = *set;
     let n = params.len();
     let s = out.stride;
@@ -385,6 +391,7 @@ fn columns_with_tables<R: Rows, T: Real, const N: usize, V: ValueStorage, S: LmS
         reach,
         active,
         full,
+        tables_in_order,
         ..
     } = *set;
     let n = params.len();
@@ -408,7 +415,7 @@ fn columns_with_tables<R: Rows, T: Real, const N: usize, V: ValueStorage, S: LmS
     let mut k = 0;
     while k < n {
         if let Param::Effect(v) = params[k] {
-            if let Some(e) = table_run_at(robot, params, k, v) {
+            if let Some(e) = table_run_at(robot, params, k, v, tables_in_order) {
                 let (len, j) = (e.len as usize, e.joint as usize);
                 out.cx[k..k + len].fill(T::zero());
                 out.cy[k..k + len].fill(T::zero());
@@ -437,13 +444,15 @@ fn columns_with_tables<R: Rows, T: Real, const N: usize, V: ValueStorage, S: LmS
 }
 
 /// The table whose first knot is effect value `v` = `params[k]`, when all its knots follow in
-/// order from position `k` (and its joint exists).
+/// order from position `k` (and its joint exists). `in_order`: [`tables_in_order`] holds for
+/// `robot` and `params`, so the knots after the first need no look.
 #[inline]
 fn table_run_at<'r, T: Real, const N: usize, V: ValueStorage>(
     robot: &'r Robot<T, N, V>,
     params: &[Param],
     k: usize,
     v: u16,
+    in_order: bool,
 ) -> Option<&'r Effect<T>> {
     let e = robot
         .effects()
@@ -451,11 +460,38 @@ fn table_run_at<'r, T: Real, const N: usize, V: ValueStorage>(
         .find(|e| e.kind == EffectKind::Table && e.first == v)?;
     let len = e.len as usize;
     let run = params.get(k..k + len)?;
-    let consecutive = run
-        .iter()
-        .enumerate()
-        .all(|(i, p)| *p == Param::Effect(v.wrapping_add(i as u16)));
+    let consecutive = in_order
+        || run
+            .iter()
+            .enumerate()
+            .all(|(i, p)| *p == Param::Effect(v.wrapping_add(i as u16)));
     (consecutive && (e.joint as usize) < N && len >= 2).then_some(e)
+}
+
+/// Whether every table of `robot` whose first knot is among `params` has all its knots follow
+/// it in order (the usual parameter order), as [`table_run_at`] would check at each pose:
+/// `O(params)` once for a pass instead of once per pose.
+pub(super) fn tables_in_order<T: Real, const N: usize, V: ValueStorage>(
+    robot: &Robot<T, N, V>,
+    params: &[Param],
+) -> bool {
+    params.iter().enumerate().all(|(k, p)| {
+        let Param::Effect(v) = *p else {
+            return true;
+        };
+        let Some(e) = robot
+            .effects()
+            .iter()
+            .find(|e| e.kind == EffectKind::Table && e.first == v)
+        else {
+            return true;
+        };
+        params.get(k..k + e.len as usize).is_some_and(|run| {
+            run.iter()
+                .enumerate()
+                .all(|(i, p)| *p == Param::Effect(v.wrapping_add(i as u16)))
+        })
+    })
 }
 
 /// The table segment of the last table looked up at one pose: consecutive knots of a table

@@ -4,6 +4,14 @@
 //! a thousandth as long) or to another robot's data. `identify` and `diagnose` report such a
 //! fit as no calibration (exit 3) instead of reporting its tiny error as one; the unit stated
 //! is not replaced (a unit given is never second-guessed).
+//!
+//! Nor does a calibration turn a joint's angle by more than a few degrees or move a link by
+//! more than a few millimetres ([`moved`]: 10° and 100 mm at most, the limits by which `validate`
+//! and `report` tell a model of this robot from another one). A fit that did was fitted to
+//! data that do not follow the robot file's conventions: a joint whose sign or zero differs
+//! in the data, joint columns in another order, or a wrong angle in the file. The geometry
+//! can imitate such a mistake closely (a negated wrist joint fits to 0.7 mm with the wrist's
+//! offsets turned by 180°), so the fit's small error is no evidence against it.
 
 use crate::output::numfmt::sig;
 use kinecal::Robot;
@@ -16,8 +24,50 @@ pub fn link_lengths<const N: usize, V: kinecal::ValueStorage>(robot: &Robot<f64,
     robot.joints().iter().map(|j| j.a.abs() + j.d.abs()).sum()
 }
 
+/// The largest change of a joint's `a` or `d` (mm) a calibration makes.
+pub const MOST_LENGTH_CHANGE_MM: f64 = 100.0;
+/// The largest change of a joint's `α` or `θ` (degrees) a calibration makes.
+pub const MOST_ANGLE_CHANGE_DEG: f64 = 10.0;
+
+/// The first joint parameter of `fitted` that differs from `nominal`'s beyond
+/// [`MOST_LENGTH_CHANGE_MM`] or [`MOST_ANGLE_CHANGE_DEG`] (angles compared modulo 360°), as
+/// "theta4 differs by 178.9°"; `None` when every one is within them. The last joint's `d` and
+/// `θ` are not compared: with the tool unknown they take up the reflector's offset along and
+/// about the flange axis (a tool started on the axis moves `d6` by the tool's length), which
+/// no convention limits.
+pub fn moved<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStorage>(
+    nominal: &Robot<f64, N, V>,
+    fitted: &Robot<f64, N, W>,
+) -> Option<String> {
+    let wrap = |a: f64| {
+        (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
+    };
+    for (j, (a, b)) in nominal.joints().iter().zip(fitted.joints()).enumerate() {
+        let last = j + 1 == N;
+        for (name, d) in [("a", b.a - a.a), ("d", b.d - a.d)] {
+            if name == "d" && last {
+                continue;
+            }
+            if d.is_nan() || d.abs() > MOST_LENGTH_CHANGE_MM {
+                return Some(format!("{name}{} differs by {} mm", j + 1, sig(d, 4)));
+            }
+        }
+        for (name, d) in [("alpha", b.alpha - a.alpha), ("theta", b.theta - a.theta)] {
+            if name == "theta" && last {
+                continue;
+            }
+            let d = wrap(d).to_degrees();
+            if d.is_nan() || d.abs() > MOST_ANGLE_CHANGE_DEG {
+                return Some(format!("{name}{} differs by {}°", j + 1, sig(d, 4)));
+            }
+        }
+    }
+    None
+}
+
 /// Why `fitted` cannot be a calibration of `nominal`, or `None`: the reason, as the rest of a
-/// sentence that starts "the fit".
+/// sentence that starts "the fit". The arm's size first ([`MOST_CHANGE`]: a unit), then one
+/// joint's parameters ([`moved`]: a convention).
 pub fn resized<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStorage>(
     nominal: &Robot<f64, N, V>,
     fitted: &Robot<f64, N, W>,
@@ -25,12 +75,22 @@ pub fn resized<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStorag
     let (was, is) = (link_lengths(nominal), link_lengths(fitted));
     let ratio = is / was;
     if was <= 0.0 || !is.is_finite() || (ratio - 1.0).abs() <= MOST_CHANGE {
-        return None;
+        return moved(nominal, fitted).map(|what| {
+            format!(
+                "moved the geometry beyond what a calibration moves ({what}; at most \
+                 {MOST_ANGLE_CHANGE_DEG}° and {MOST_LENGTH_CHANGE_MM} mm): the data do not \
+                 follow the robot file's conventions; check each joint's sign and zero in the \
+                 data, the joint columns' order (--map), coupled joints ([[couplings]], see \
+                 `kinecal check`), the base and the robot file's angles"
+            )
+        });
     }
     Some(format!(
         "made the arm's links {} times as long as the robot file says (Σ|a|+|d| {} → {} mm): no \
          arm changes size, so the points are in another length unit than the one stated (give \
-         --length-unit, or length in the --map file) or the robot file describes another robot",
+         --length-unit, or length in the --map file), the data do not follow the robot file's \
+         conventions (axes swapped or mirrored, joint columns in another order, a joint's sign) \
+         or the robot file describes another robot",
         sig(ratio, 2),
         sig(was, 4),
         sig(is, 4)

@@ -27,15 +27,14 @@ pub fn joint_count(robot: &Path, model: &Path) -> anyhow::Result<usize> {
 }
 
 /// Refuses (exit 2) a model whose geometry is far from the robot file's: not an identified
-/// model of this robot (lengths beyond 100 mm, angles beyond 10°, or other tool points).
+/// model of this robot (other tool points, or a joint's parameter beyond
+/// [`crate::calibration::arm_size::moved`]'s limits, which `identify` and `diagnose` do not
+/// report as a calibration either).
 pub fn same_robot<const N: usize>(
     robot: &HostRobot<N>,
     model: &HostRobot<N>,
     paths: (&Path, &Path),
 ) -> anyhow::Result<()> {
-    let wrap = |a: f64| {
-        (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
-    };
     let refuse = |what: String| -> anyhow::Result<()> {
         crate::refuse!(
             "{}: not an identified model of {} ({what}): give the model that `kinecal identify \
@@ -52,26 +51,8 @@ pub fn same_robot<const N: usize>(
             robot.tool_point_count()
         ));
     }
-    for (j, (a, b)) in robot.joints().iter().zip(model.joints()).enumerate() {
-        for (name, d) in [("a", b.a - a.a), ("d", b.d - a.d)] {
-            if d.is_nan() || d.abs() > 100.0 {
-                return refuse(format!(
-                    "{name}{} differs by {} mm",
-                    j + 1,
-                    crate::number_text(d)
-                ));
-            }
-        }
-        for (name, d) in [("alpha", b.alpha - a.alpha), ("theta", b.theta - a.theta)] {
-            let d = wrap(d).to_degrees();
-            if d.is_nan() || d.abs() > 10.0 {
-                return refuse(format!(
-                    "{name}{} differs by {}°",
-                    j + 1,
-                    crate::number_text(d)
-                ));
-            }
-        }
+    if let Some(what) = crate::calibration::arm_size::moved(robot, model) {
+        return refuse(what);
     }
     Ok(())
 }

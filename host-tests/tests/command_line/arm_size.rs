@@ -75,3 +75,76 @@ fn points_in_another_unit_than_declared_are_no_calibration() {
         }
     }
 }
+
+/// The first `n` rows of the UR10 series C file with the reading of joint index `j` negated
+/// (a controller whose convention for that joint is the other sign; `j` beyond the joints: as
+/// recorded).
+fn negated_joint(dir: &Path, name: &str, n: usize, j: usize) -> PathBuf {
+    let text = std::fs::read_to_string(ur10_dir().join("ur10_random_poses.csv")).unwrap();
+    let mut lines = text.lines();
+    let mut out = format!("{}\n", lines.next().unwrap());
+    for l in lines.take(n) {
+        let mut cells: Vec<String> = l.split(',').map(String::from).collect();
+        if let Some(c) = cells.get_mut(j) {
+            *c = format!("{:?}", -c.parse::<f64>().unwrap());
+        }
+        out.push_str(&cells.join(","));
+        out.push('\n');
+    }
+    write(dir, name, &out)
+}
+
+/// A joint whose sign in the data is not the robot file's, or a wrong angle in the robot file:
+/// the geometry imitates the mistake (q5 negated fits 200 rows to 0.7 mm by turning θ4 by 179°
+/// and moving d5 by 210 mm; with q4 negated `diagnose` went on to name effects), so `identify`
+/// and `diagnose` used to exit 0 with a model that `validate` then refused as not of this
+/// robot. Both now exit 3 with the joint parameter that moved and what to check; the same rows
+/// with the sign as recorded calibrate (exit 0).
+#[test]
+fn a_joint_sign_or_angle_against_the_robot_file_is_no_calibration() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = ur10_dir().join("robot.toml");
+    let text = std::fs::read_to_string(&robot).unwrap();
+    // alpha5 = -90 in the file, written +90.
+    let (at, _) = text.match_indices("alpha_deg").nth(4).unwrap();
+    let line_end = at + text[at..].find('\n').unwrap();
+    assert!(
+        text[at..line_end].contains("-90"),
+        "{}",
+        &text[at..line_end]
+    );
+    let flipped = format!(
+        "{}{}{}",
+        &text[..at],
+        text[at..line_end].replace("-90", "90"),
+        &text[line_end..]
+    );
+    let wrong_alpha = write(dir.path(), "alpha5.toml", &flipped);
+    let as_recorded = negated_joint(dir.path(), "ok.csv", 400, 99);
+    let cases = [
+        (robot.clone(), negated_joint(dir.path(), "q5.csv", 200, 4)),
+        (robot.clone(), negated_joint(dir.path(), "q4.csv", 400, 3)),
+        (wrong_alpha, as_recorded.clone()),
+    ];
+    for (robot_file, data) in &cases {
+        for command in ["identify", "diagnose"] {
+            let out = run_on(command, robot_file, data, &["--json"]);
+            let err = stderr(&out);
+            assert_eq!(out.status.code(), Some(3), "{command} {data:?}: {err}");
+            let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+            assert_eq!(v["converged"], false, "{command} {data:?}");
+            let line = err.lines().find(|l| l.starts_with("error:")).unwrap();
+            assert!(
+                (line.contains("beyond what a calibration moves")
+                    && line.contains("differs by")
+                    && line.contains("sign and zero"))
+                    || line.contains("made the arm's links"),
+                "{command} {data:?}: {line}"
+            );
+        }
+    }
+    for command in ["identify", "diagnose"] {
+        let out = run_on(command, &robot, &as_recorded, &[]);
+        assert_eq!(out.status.code(), Some(0), "{command}: {}", stderr(&out));
+    }
+}

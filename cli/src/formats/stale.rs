@@ -6,7 +6,10 @@
 //! pose's point, and one of them in a few thousand raises every held-out figure. It is left
 //! out, with a warning that names its line. Joint readings are compared with the row before
 //! only: a pose visited again later in a session (a cycle of an ISO 9283 test) may have drifted
-//! by any amount, but no real reading repeats another's point to the last digit.
+//! by any amount, but no real reading repeats another's point to the last digit. For the same
+//! reason a row equal to an earlier one in its joint readings and its point is a copy (a row
+//! pasted twice, a file appended to itself), not a pose measured twice: kept, it would make a
+//! noise floor of 0 mm out of the repeated poses. It is left out too.
 
 use crate::formats::measurements::Dataset;
 use kinecal::forward::ForwardKinematics;
@@ -39,6 +42,8 @@ pub enum Repeated {
     Point { joint: usize, turned_deg: f64 },
     /// The joint readings, while the tracker saw the tool `apart_mm` from the earlier point.
     Joints { apart_mm: f64 },
+    /// The whole row: the same joint readings and the same point (a copy).
+    Row,
 }
 
 /// A row left out: its index in the dataset, the index of the (kept) row whose reading it
@@ -99,6 +104,14 @@ pub fn find<const N: usize, V: ValueStorage>(
                 .map(|(a, b)| (a - b).abs())
                 .enumerate()
                 .fold((0, 0.0), |m, (k, d)| if d > m.1 { (k, d) } else { m });
+            if same(&r.q_deg, &earlier.q_deg) {
+                stale.push(Stale {
+                    index: i,
+                    copy_of: j,
+                    repeated: Repeated::Row,
+                });
+                continue;
+            }
             let here = fk.compute(nominal, &r.q_deg.map(f64::to_radians));
             let there = fk.compute(nominal, &earlier.q_deg.map(f64::to_radians));
             // NaN (a reading the model cannot place) counts as not moved.
@@ -160,6 +173,7 @@ pub fn leave_out<const N: usize, V: ValueStorage>(
                     "line {here} repeats line {there}'s joint readings, the point {apart_mm:.3} mm \
                      away"
                 ),
+                Repeated::Row => format!("line {here} repeats line {there} entirely"),
             }
         })
         .collect();
@@ -168,10 +182,23 @@ pub fn leave_out<const N: usize, V: ValueStorage>(
     } else {
         String::new()
     };
+    let copies = stale.iter().filter(|s| s.repeated == Repeated::Row).count();
+    let what = match (copies, stale.len() - copies) {
+        (0, _) => "although the other reading changed",
+        (_, 0) => "in the joint readings and the point alike",
+        _ => "in one reading or both",
+    };
+    let why = match (copies, stale.len() - copies) {
+        (0, _) => "readings that did not update",
+        (_, 0) => {
+            "copies of a row, not poses measured again (no two real readings agree to the \
+                   last digit)"
+        }
+        _ => "readings that did not update and copies of a row",
+    };
     let warning = format!(
-        "warning: {origin}: {} row(s) repeat an earlier row's reading to the last digit although \
-         the other reading changed ({}{more}): readings that did not update, left out; delete \
-         them from the file or measure those poses again",
+        "warning: {origin}: {} row(s) repeat an earlier row's reading to the last digit {what} \
+         ({}{more}): {why}, left out; delete them from the file or measure those poses again",
         stale.len(),
         named.join("; ")
     );

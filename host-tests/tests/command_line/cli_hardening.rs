@@ -335,15 +335,30 @@ fn one_pose_repeated_cannot_determine_a_model() {
         "same.csv",
         &format!("{header}\n{}", format!("{first}\n").repeat(60)),
     );
-    // The base known: 60 rows, one distinct pose.
-    assert_refused(&identify(&robot, &same, &[]), "1 distinct");
+    // The 59 copies are left out, and named; one pose is refused with its reason.
+    let refused = |out: Output, names: &str| {
+        let e = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{e}");
+        let lines: Vec<&str> = e.trim_end().lines().collect();
+        assert_eq!(lines.len(), 2, "{e}");
+        assert!(lines[0].starts_with("warning:") && lines[0].contains("59 row(s) repeat"));
+        assert!(
+            lines[1].starts_with("kinecal:") && lines[1].contains(names),
+            "{e}"
+        );
+    };
+    // The base known: one distinct pose.
+    refused(identify(&robot, &same, &[]), "1 poses to identify");
     // The base unknown: no placement from one point.
     let unplaced = write(
         dir.path(),
         "unplaced.toml",
         ER20_PLACED.split("[base]").next().unwrap(),
     );
-    assert_refused(&identify(&unplaced, &same, &[]), "at one place");
+    refused(
+        identify(&unplaced, &same, &[]),
+        "needs at least 3 points, got 1",
+    );
 }
 
 #[test]

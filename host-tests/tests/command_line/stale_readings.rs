@@ -1,8 +1,8 @@
 //! Readings that did not update (docs/formats.md, "Stale readings"): a row that repeats an
 //! earlier row's measured point to the last digit although the robot moved, or the row before's
 //! joint readings although the tracker saw the tool elsewhere, is left out with a warning naming its
-//! line, and the commands compute exactly what they compute on the file without it; a pose
-//! measured twice is kept.
+//! line, and the commands compute exactly what they compute on the file without it; so is a
+//! row that repeats an earlier one entirely (a copy). A pose measured twice is kept.
 
 use crate::common::*;
 
@@ -106,7 +106,7 @@ fn a_pose_measured_twice_is_kept() {
     let dir = tempfile::tempdir().unwrap();
     let (_, lines) = session(dir.path());
     // Line 80 measured again: the same point, the joints a ten-thousandth of a degree apart
-    // (the last digit the file keeps moves); once more with the very same readings.
+    // (the last digit the file keeps moves).
     let cells: Vec<String> = lines[79].split(',').map(str::to_string).collect();
     let mut nudged = cells.clone();
     let q1: f64 = cells[0].parse().unwrap();
@@ -119,10 +119,57 @@ fn a_pose_measured_twice_is_kept() {
     again[n - 3] = format!("{}", x + 0.05);
     let mut twice = lines.clone();
     twice.insert(80, nudged.join(","));
-    twice.insert(81, lines[79].clone());
-    twice.insert(82, again.join(","));
+    twice.insert(81, again.join(","));
     let file = write(dir.path(), "twice.csv", &(twice.join("\n") + "\n"));
     let out = run_on("check", &data_file("er20.toml"), &file, &["--json"]);
     assert!(!stderr(&out).contains("repeat"), "{}", stderr(&out));
-    assert_eq!(json_of(&out)["poses"], 203);
+    assert_eq!(json_of(&out)["poses"], 202);
+}
+
+/// A row equal to an earlier one in its joint readings and its point is a copy (no two real
+/// readings agree to the last digit): rows pasted twice, or the file appended to itself, are
+/// left out with a warning naming them, and `identify` and `diagnose` compute what they compute
+/// on the file without them. Kept, the copies gave `diagnose` a noise floor of 0 mm "from the
+/// scatter of the repeated poses".
+#[test]
+fn copied_rows_are_left_out_and_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let (clean, lines) = session(dir.path());
+    let mut pasted = lines.clone();
+    for k in [150, 90, 30] {
+        pasted.insert(k + 1, lines[k].clone());
+    }
+    let pasted = write(dir.path(), "pasted.csv", &(pasted.join("\n") + "\n"));
+    let appended = [&lines[..], &lines[1..]].concat();
+    let appended = write(dir.path(), "appended.csv", &(appended.join("\n") + "\n"));
+    let robot = data_file("er20.toml");
+    for (file, named, count) in [
+        (&pasted, "line 32 repeats line 31 entirely", 3),
+        (&appended, "line 202 repeats line 2 entirely", 200),
+    ] {
+        let args = ["--json", "--holdout", "0.2", "--split", "every:5"];
+        let out = run_on("identify", &robot, file, &args);
+        let warned = stderr(&out);
+        assert!(
+            warned.contains(&format!("{count} row(s) repeat an earlier row's reading"))
+                && warned.contains(named)
+                && warned.contains("copies of a row")
+                && warned.contains("left out"),
+            "{warned}"
+        );
+        let (v, c) = (
+            json_of(&out),
+            json_of(&run_on("identify", &robot, &clean, &args)),
+        );
+        for phase in ["before", "after"] {
+            for key in ["identification_rms_mm", "validation_rms_mm"] {
+                assert_eq!(v[phase][key], c[phase][key], "{phase}.{key}");
+            }
+        }
+        let d = json_of(&run_on("diagnose", &robot, file, &["--json"]));
+        let dc = json_of(&run_on("diagnose", &robot, &clean, &["--json"]));
+        assert!(d["noise_floor_mm"].as_f64().unwrap() > 0.005, "{d}");
+        assert_eq!(d["noise_floor_mm"], dc["noise_floor_mm"]);
+        assert_eq!(d["final_validation_rms_mm"], dc["final_validation_rms_mm"]);
+    }
 }

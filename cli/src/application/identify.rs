@@ -7,7 +7,7 @@ use crate::calibration::method::Method;
 use crate::calibration::selection::hold_first_row;
 use crate::calibration::selection::Selection;
 use crate::calibration::{add_effect, named_values, weights, EffectRequest, Fit, Residuals};
-use crate::formats::observations::{ObservationArgs, Observed};
+use crate::formats::observations::{ObservationArgs, Observed, Pose};
 use crate::formats::robot_file::RobotFile;
 use crate::reports::identify::{Change, IdentifyReport, ObservationSummary, PointResiduals};
 use crate::HostRobot;
@@ -288,8 +288,17 @@ pub fn identify<const N: usize>(
         .map(|c| c.name.clone())
         .collect();
     let stalled = after.identification_rms_mm > opts.stall_rms_mm;
-    // A fit that stretched or shrank the arm is no calibration, however small its error.
-    let resized = crate::calibration::arm_size::resized(&nominal, &fit.robot);
+    // A fit that a few gross outliers pulled is no calibration (what else it says follows from
+    // them); nor is one that stretched or shrank the arm, however small its error. The poses
+    // held out of the same file are searched too; a `--validate` file's are of another session,
+    // whose errors say whether the model holds there.
+    let searched: &[(&[Pose], &[Measurement<f64, N>])] = if validated {
+        &[(&ident_set, &ident)]
+    } else {
+        &[(&ident_set, &ident), (&valid_set, &valid)]
+    };
+    let resized = crate::calibration::outliers::reason(&fit.robot, searched)
+        .or_else(|| crate::calibration::arm_size::resized(&nominal, &fit.robot));
     let converged = fit.solver_converged()
         && !stalled
         && resized.is_none()

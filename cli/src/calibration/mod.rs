@@ -8,6 +8,7 @@ pub mod coupling_hint;
 pub mod drift;
 pub mod inputs;
 pub mod method;
+pub mod outliers;
 pub mod prior;
 pub mod pso_search;
 pub mod replay;

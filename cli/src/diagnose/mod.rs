@@ -180,8 +180,10 @@ pub enum NoiseSource {
 #[derive(Clone, Debug)]
 pub struct Diagnosis<const N: usize> {
     /// Why the geometric fit is no calibration of the robot file's arm: it stretched or shrank
-    /// the links (`calibration::arm_size`; points in another length unit than stated, or
-    /// another robot); then nothing is diagnosed (exit 3).
+    /// the links or moved a joint's parameter beyond a calibration (`calibration::arm_size`:
+    /// points in another length unit than stated, data against the file's conventions, or
+    /// another robot; the workflow adds gross outliers, `calibration::outliers`); then nothing
+    /// is diagnosed (exit 3).
     pub resized: Option<String>,
     /// Geometry fitted to all poses by the library's LM (base when unknown, rows, tool): where
     /// the search starts from.

@@ -244,6 +244,12 @@ pub fn run<const N: usize>(
             })
         },
     )?;
+    // A few gross outliers pull the geometry (what else it says follows from them), and the
+    // search would take them for noise.
+    let sets = [(&search_poses.poses[..], &search[..])];
+    if let Some(why) = crate::calibration::outliers::reason(&d.geometric, &sets) {
+        d.resized = Some(why);
+    }
     let holdout = if held.is_empty() {
         None
     } else {

@@ -45,8 +45,9 @@ pub struct DiagnoseReport {
     pub poses: usize,
     /// The geometric model fits the data (`false`: nothing is diagnosed, exit 3).
     pub converged: bool,
-    /// Why the geometric fit is no calibration of the robot file's arm, when it stretched or
-    /// shrank its links (`calibration::arm_size`; then `converged` is false).
+    /// Why the geometric fit is no calibration of the robot file's arm: it stretched or shrank
+    /// its links or moved a joint's parameter beyond a calibration (`calibration::arm_size`), or
+    /// gross outliers pulled it (`calibration::outliers`); then `converged` is false.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub resized: Option<String>,
     /// Errors on the poses kept out of the whole search (`--holdout`, `--validate`).

@@ -26,6 +26,7 @@ mod internals;
 mod map_everywhere;
 mod observations_cli;
 mod one_reflector;
+mod outliers;
 mod report;
 mod reports;
 mod robot_file;

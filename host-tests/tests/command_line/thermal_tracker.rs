@@ -74,3 +74,46 @@ fn diagnose_names_thermal_expansion_on_the_command_line() {
         "expands with its temperature",
     );
 }
+
+/// A `temp_c` column logged in degrees Fahrenheit (a room at 70 °F) is refused with its line
+/// and the conversion, by every command that reads it; the same rows in °C are read.
+#[test]
+fn a_temperature_column_in_fahrenheit_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(ur10_dir().join("ur10_random_poses.csv")).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    assert!(header.ends_with(",temp_c"), "{header}");
+    let rows: Vec<&str> = lines.take(100).collect();
+    let fahrenheit: Vec<String> = rows
+        .iter()
+        .map(|l| {
+            let (head, c) = l.rsplit_once(',').unwrap();
+            format!("{head},{:.2}", c.parse::<f64>().unwrap() * 1.8 + 32.0)
+        })
+        .collect();
+    let f = write(
+        dir.path(),
+        "f.csv",
+        &format!("{header}\n{}\n", fahrenheit.join("\n")),
+    );
+    let c = write(
+        dir.path(),
+        "c.csv",
+        &format!("{header}\n{}\n", rows.join("\n")),
+    );
+    let robot = ur10_dir().join("robot.toml");
+    for command in ["check", "identify", "diagnose"] {
+        let out = run_on(command, &robot, &f, &[]);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{command}: {err}");
+        assert!(
+            err.trim_end().lines().count() == 1
+                && err.contains("f.csv:2: temp_c")
+                && err.contains("Fahrenheit"),
+            "{command}: {err}"
+        );
+    }
+    let out = run_on("check", &robot, &c, &[]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+}

@@ -204,6 +204,25 @@ pub fn run<const N: usize>(
             .join(", ")
         ));
     }
+    // Each fold fits the geometry to the other folds' poses: at most 4 parameters a joint, 6
+    // of the base and 3 of the tool, 3 equations a pose (said here, in the user's terms,
+    // rather than by the fit that would fail).
+    let (n, k) = (search_poses.poses.len(), opts.folds.max(2));
+    let least = ((4 * N + 9) * k).div_ceil(3 * (k - 1)) + 1;
+    if n < least {
+        crate::refuse!(
+            "{data_origin}: {n} poses are too few for diagnose: each of its {k} \
+             cross-validation folds fits the geometry (up to {} parameters) to the other folds' \
+             poses, which needs at least {least}; measure more poses (kinecal plan suggests \
+             them){}",
+            4 * N + 9,
+            if opts.folds > 2 {
+                ", or give fewer --folds"
+            } else {
+                ""
+            }
+        );
+    }
     crate::check_count("--folds", opts.folds, 2, search.len().max(2))?;
     if !(opts.alpha > 0.0 && opts.alpha < 1.0) {
         crate::refuse!("--alpha {}: must be between 0 and 1", opts.alpha);

@@ -3,7 +3,7 @@
 //! never replace inputs and are written atomically, implausible files are refused, and no
 //! command exits 0 with a non-finite figure (docs/formats.md, "Exit status" and "Limits").
 
-use crate::common::{kinecal, s, simulate, stderr, write, ER20_PLACED};
+use crate::common::{kinecal, run_on, s, simulate, stderr, ur10_dir, write, ER20_PLACED};
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
@@ -479,5 +479,26 @@ fn a_robot_file_in_metres_is_refused_by_every_reader() {
     }
     // The same file in millimetres is read.
     let out = kinecal(&["check", "--robot", s(&mm), "--data", s(&data)]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+}
+
+/// `diagnose` on too few poses for its folds' geometric fits: one line, exit 2, saying how many
+/// it needs (it said `--folds 5: must be 2 to 3` to a user who gave no `--folds`, or exited 1
+/// with `identification: TooFewMeasurements`).
+#[test]
+fn diagnose_on_too_few_poses_says_how_many_it_needs() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(ur10_dir().join("ur10_random_poses.csv")).unwrap();
+    let robot = ur10_dir().join("robot.toml");
+    for n in [3, 10, 14] {
+        let rows: Vec<&str> = text.lines().take(n + 1).collect();
+        let data = write(dir.path(), &format!("n{n}.csv"), &(rows.join("\n") + "\n"));
+        let out = run_on("diagnose", &robot, &data, &[]);
+        assert_refused(&out, &format!("{n} poses are too few for diagnose"));
+        assert!(stderr(&out).contains("at least 15"), "{}", stderr(&out));
+    }
+    let rows: Vec<&str> = text.lines().take(41).collect();
+    let data = write(dir.path(), "n40.csv", &(rows.join("\n") + "\n"));
+    let out = run_on("diagnose", &robot, &data, &[]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
 }

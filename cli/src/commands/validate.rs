@@ -27,12 +27,12 @@ pub struct Args {
     pub obs: ObservationArgs,
 }
 
-/// Runs the subcommand; the report's `worse_than_nominal` makes the command exit with 3, with
-/// the reason on stderr.
+/// Runs the subcommand; the report's `worse_than_nominal` or `data_mismatch` makes the command
+/// exit with 3, with the reason on stderr.
 pub fn run(args: &Args) -> anyhow::Result<ValidateReport> {
     let n = crate::calibration::replay::joint_count(&args.input.robot, &args.model)?;
     let report = with_joints!(n, N => run_with_joints::<N>(args))?;
-    if report.worse_than_nominal {
+    if report.worse_than_nominal || report.data_mismatch {
         eprintln!("error: {} (exit 3)", report.verdict);
     }
     Ok(report)

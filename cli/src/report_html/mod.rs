@@ -582,10 +582,14 @@ pub fn build<const N: usize>(inp: Inputs<'_, N>) -> anyhow::Result<Built> {
         .as_ref()
         .map(|(v, origin)| validation::section(v, origin));
     if let Some(v) = validation.as_ref().filter(|v| v.worse_than_nominal) {
-        warnings.push(format!(
-            "On another session ({}) the model predicts worse than the nominal robot: {}.",
-            v.data_file, v.verdict
-        ));
+        warnings.push(if v.data_mismatch {
+            format!("On another session ({}): {}.", v.data_file, v.verdict)
+        } else {
+            format!(
+                "On another session ({}) the model predicts worse than the nominal robot: {}.",
+                v.data_file, v.verdict
+            )
+        });
     }
     let mut sources = inp.sources.files.clone();
     sources.push(("model name".into(), inp.model_name.clone()));

@@ -127,7 +127,11 @@ pub struct Validation {
     pub register: String,
     pub registered: String,
     pub poses: usize,
+    /// The verdict is bad: the model is worse than the nominal robot, or neither describes
+    /// the session (`data_mismatch`).
     pub worse_than_nominal: bool,
+    /// Neither robot describes the session (the validation report's `data_mismatch`).
+    pub data_mismatch: bool,
     pub verdict: String,
     pub rows: Vec<ValidationRow>,
     /// Several reflectors: name, model RMS, nominal RMS.

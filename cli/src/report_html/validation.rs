@@ -69,7 +69,8 @@ pub fn section(v: &ValidateReport, origin: &str) -> Validation {
             v.registered.join(", ")
         },
         poses: v.poses,
-        worse_than_nominal: v.worse_than_nominal,
+        worse_than_nominal: v.worse_than_nominal || v.data_mismatch,
+        data_mismatch: v.data_mismatch,
         verdict: v.verdict.clone(),
         rows: vec![row("model", &v.model), row("nominal", &v.nominal)],
         points: v

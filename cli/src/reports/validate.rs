@@ -12,6 +12,13 @@ use std::fmt;
 /// The reason `validate` gives when the model is worse than the nominal robot (stderr, exit 3).
 pub const RECALIBRATE: &str = "the robot or the set-up changed since calibration: recalibrate";
 
+/// Above this position RMS (mm) after registration, for the model and the nominal robot alike,
+/// neither describes the session. A calibrated model leaves tenths of a millimetre, a nominal
+/// robot a few millimetres (the UR10 5.5 mm), a robot re-mastered by 0.4° about 10 mm; swapped
+/// or mirrored axes, joint columns in another order, a joint's sign or another unit leave 60
+/// to 300 mm, where which of two wrong robots is the less wrong says nothing.
+pub const MISMATCH_RMS_MM: f64 = 25.0;
+
 /// `kinecal validate`: both robots registered onto the session the same way, and their errors.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ValidateReport {
@@ -33,6 +40,10 @@ pub struct ValidateReport {
     pub per_point: BTreeMap<String, PointFigures>,
     /// The model's position RMS is above the nominal robot's (strictly): exit 3.
     pub worse_than_nominal: bool,
+    /// Both robots' position RMS are above [`MISMATCH_RMS_MM`]: the data do not fit the robot
+    /// file at all (exit 3).
+    #[serde(default)]
+    pub data_mismatch: bool,
     /// The verdict in one line.
     pub verdict: String,
 }
@@ -161,7 +172,16 @@ impl ValidateReport {
             nominal: (&v.nominal).into(),
             per_point,
             worse_than_nominal: v.worse_than_nominal,
-            verdict: if v.worse_than_nominal {
+            data_mismatch: m > MISMATCH_RMS_MM && n > MISMATCH_RMS_MM,
+            verdict: if m > MISMATCH_RMS_MM && n > MISMATCH_RMS_MM {
+                format!(
+                    "the data do not fit the robot file ({figures}; above {MISMATCH_RMS_MM} mm \
+                     neither robot describes the session): check the units, the axes (swapped \
+                     or mirrored), the joint columns' order and signs and the couplings \
+                     (`kinecal check`); if they are right, the robot changed beyond what a \
+                     calibration corrects"
+                )
+            } else if v.worse_than_nominal {
                 format!("{RECALIBRATE} ({figures})")
             } else {
                 format!("the model still holds ({figures})")
@@ -174,9 +194,10 @@ impl super::Report for ValidateReport {
     fn to_json(&self) -> serde_json::Value {
         super::json_value(self)
     }
-    /// A model worse than the nominal robot must not be used: exit 3.
+    /// A model worse than the nominal robot must not be used, and data that neither robot
+    /// describes judge nothing: exit 3.
     fn converged(&self) -> bool {
-        !self.worse_than_nominal
+        !self.worse_than_nominal && !self.data_mismatch
     }
     fn non_finite(&self) -> Option<String> {
         first_non_finite(self)

@@ -549,6 +549,30 @@ fn ur10_model_beats_the_nominal_robot_on_the_poses_it_never_saw() {
         assert!(f("model", "rms_mm") < f("nominal", "rms_mm"));
         assert!(f("model", "rms_mm") < 0.6, "{}", f("model", "rms_mm"));
     }
+    // The same rows with x and y swapped: neither robot describes them (276 mm each), and
+    // which is the less wrong judges nothing. It was "the model still holds", exit 0.
+    let swapped: Vec<String> = rows[1000..]
+        .iter()
+        .map(|l| {
+            let mut c: Vec<&str> = l.split(',').collect();
+            c.swap(6, 7);
+            c.join(",")
+        })
+        .collect();
+    let s3 = write(
+        dir.path(),
+        "swapped.csv",
+        &format!("{head}\n{}\n", swapped.join("\n")),
+    );
+    let out = validate(&robot, &model, &s3, &[]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    let j = json_any(&out);
+    assert_eq!(j["data_mismatch"], true, "{j}");
+    assert!(
+        err.contains("the data do not fit the robot file") && err.contains("swapped"),
+        "{err}"
+    );
 }
 
 /// The figures of the page's cell `key` (`td[data-key=…]`), as printed.

@@ -7,9 +7,10 @@
 //! out, with a warning that names its line. Joint readings are compared with the row before
 //! only: a pose visited again later in a session (a cycle of an ISO 9283 test) may have drifted
 //! by any amount, but no real reading repeats another's point to the last digit. For the same
-//! reason a row equal to an earlier one in its joint readings and its point is a copy (a row
-//! pasted twice, a file appended to itself), not a pose measured twice: kept, it would make a
-//! noise floor of 0 mm out of the repeated poses. It is left out too.
+//! reason a row equal to an earlier one in its joint readings, its point and every other
+//! column (time, temperature, σ) is a copy (a row pasted twice, a file appended to itself),
+//! not a pose measured twice: kept, it would make a noise floor of 0 mm out of the repeated
+//! poses. It is left out too.
 
 use crate::formats::measurements::Dataset;
 use kinecal::forward::ForwardKinematics;
@@ -62,6 +63,15 @@ fn point_hash(p: &[f64; 3]) -> u64 {
     h.finish()
 }
 
+/// Whether two rows' other columns (`t_s`, `temp_c`, σ …) are the same, empty cells (NaN)
+/// alike: a copy repeats them all; a pose measured again at another time does not.
+fn same_bits(a: &[f64], b: &[f64]) -> bool {
+    a.len() == b.len()
+        && a.iter()
+            .zip(b)
+            .all(|(x, y)| (x + 0.0).to_bits() == (y + 0.0).to_bits())
+}
+
 /// Whether two readings are equal to the last digit (+0.0 and −0.0 alike).
 fn same(a: &[f64], b: &[f64]) -> bool {
     a.iter().zip(b).all(|(x, y)| x == y)
@@ -104,7 +114,7 @@ pub fn find<const N: usize, V: ValueStorage>(
                 .map(|(a, b)| (a - b).abs())
                 .enumerate()
                 .fold((0, 0.0), |m, (k, d)| if d > m.1 { (k, d) } else { m });
-            if same(&r.q_deg, &earlier.q_deg) {
+            if same(&r.q_deg, &earlier.q_deg) && same_bits(&r.extra, &earlier.extra) {
                 stale.push(Stale {
                     index: i,
                     copy_of: j,

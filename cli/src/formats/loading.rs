@@ -69,9 +69,39 @@ pub fn accept_dataset<const N: usize, V: kinecal::ValueStorage>(
     let ds = accept(ds, origin, units, nominal, base_known, kind)?;
     if measured {
         convention(&ds, None, nominal, origin)?;
-        return Ok(without_stale(ds, nominal, origin));
+        let ds = without_stale(ds, nominal, origin);
+        if let Some(w) = warm(&ds, origin) {
+            crate::Tell::line(&mut crate::Stderr, &w);
+        }
+        return Ok(ds);
     }
     Ok(ds)
+}
+
+/// Above this `temp_c` (°C) a file is warned about: a room logged in degrees Fahrenheit reads
+/// 65–80, while air around a robot being calibrated is cooler. An arm's own sensors (motors,
+/// links) can read that warm, so it is not refused
+/// ([`crate::formats::observations::MAX_TEMP_C`] is what no arm reaches).
+pub const WARM_C: f64 = 50.0;
+
+/// The warning for a `temp_c` column that reaches [`WARM_C`], naming the warmest row's line.
+fn warm<const N: usize>(ds: &Dataset<N>, origin: &str) -> Option<String> {
+    let k = ds
+        .extra_names
+        .iter()
+        .position(|n| n == crate::formats::measurements::TEMPERATURE_COLUMN)?;
+    let (line, t) = ds
+        .records
+        .iter()
+        .filter_map(|r| r.extra.get(k).map(|t| (r.line, *t)))
+        .filter(|(_, t)| t.is_finite())
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    (t > WARM_C).then(|| {
+        format!(
+            "warning: {origin}: temp_c reaches {t} °C (line {line}): kinecal reads °C; if the \
+             column is in degrees Fahrenheit, convert it, (F − 32) × 5/9"
+        )
+    })
 }
 
 /// Measurements without the rows whose tracker reading did not update ([`stale`]), the

@@ -146,12 +146,12 @@ fn col<const N: usize>(ds: &Dataset<N>, name: &str) -> Option<usize> {
     ds.extra_names.iter().position(|n| n == name)
 }
 
-/// The lowest and highest `temp_c` (°C) read as a temperature: air around a robot being
-/// calibrated. A room logged in degrees Fahrenheit (65–80 °F) lies above the range; read as
-/// °C, a thermal-expansion term would be referred to 70 °C and fitted to a spread 1.8 times
-/// too wide.
-pub const MIN_TEMP_C: f64 = -30.0;
-pub const MAX_TEMP_C: f64 = 60.0;
+/// The lowest and highest `temp_c` (°C) read as a temperature: no robot is calibrated colder
+/// or warmer. Warmer than [`crate::formats::loading::WARM_C`] is warned about (a room logged
+/// in degrees Fahrenheit reads 65–80; read as °C, a thermal-expansion term would be referred
+/// to 70 °C and fitted to a spread 1.8 times too wide).
+pub const MIN_TEMP_C: f64 = -40.0;
+pub const MAX_TEMP_C: f64 = 150.0;
 
 /// The observations of `ds` (already in mm and degrees) for the robot `file`. Refused (exit 2)
 /// with a one-line reason naming the file, line and column for what cannot be right.
@@ -294,8 +294,8 @@ pub fn observe<const N: usize>(
             if let Some(t) = temp_c.filter(|t| !(MIN_TEMP_C..=MAX_TEMP_C).contains(t)) {
                 crate::refuse!(
                     "{}: {t} °C is not the temperature of a robot being calibrated ({MIN_TEMP_C} \
-                     to {MAX_TEMP_C} °C): degrees Fahrenheit? give °C, (F − 32) × 5/9; or \
-                     leave the column out",
+                     to {MAX_TEMP_C} °C): give °C (from degrees Fahrenheit: (F − 32) × 5/9), \
+                     or leave the column out",
                     at("temp_c")
                 );
             }

@@ -289,7 +289,8 @@ pub fn identify<const N: usize>(
         .collect();
     let stalled = after.identification_rms_mm > opts.stall_rms_mm;
     // A fit that a few gross outliers pulled is no calibration (what else it says follows from
-    // them); nor is one that stretched or shrank the arm, however small its error. The poses
+    // them); nor is one that stretched or shrank the arm or turned a joint, however small its
+    // error (a file the robot file does not describe: named so before its many outliers). The poses
     // held out of the same file are searched too; a `--validate` file's are of another session,
     // whose errors say whether the model holds there.
     let searched: &[(&[Pose], &[Measurement<f64, N>])] = if validated {
@@ -297,8 +298,9 @@ pub fn identify<const N: usize>(
     } else {
         &[(&ident_set, &ident), (&valid_set, &valid)]
     };
-    let resized = crate::calibration::outliers::reason(&fit.robot, searched)
-        .or_else(|| crate::calibration::arm_size::resized(&nominal, &fit.robot));
+    let resized = crate::calibration::outliers::reason(&fit.robot, searched, true)
+        .or_else(|| crate::calibration::arm_size::resized(&nominal, &fit.robot))
+        .or_else(|| crate::calibration::outliers::reason(&fit.robot, searched, false));
     let converged = fit.solver_converged()
         && !stalled
         && resized.is_none()

@@ -62,16 +62,30 @@ pub fn gross<const N: usize, V: ValueStorage>(
     let limit = (MEDIAN_FACTOR * median).max(MIN_MM);
     let mut far: Vec<Outlier> = all.into_iter().filter(|o| o.distance_mm > limit).collect();
     far.sort_by(|a, b| b.distance_mm.total_cmp(&a.distance_mm));
+    // One row of several reflectors is one wrong reading: named once, at its farthest.
+    let mut seen = std::collections::HashSet::new();
+    far.retain(|o| seen.insert(o.line));
     (far, median)
 }
 
+/// How many outliers are "a few": at most this share of the points (and at least 3). More
+/// than that is no stray reading but a file the robot file does not describe, which the
+/// convention and unit checks name better ([`crate::calibration::arm_size`]).
+pub const FEW: f64 = 0.02;
+
 /// Why a fit of `model` to `sets` is no calibration because of gross outliers, as the rest of
-/// a sentence that starts "the fit", or `None` when there are none.
+/// a sentence that starts "the fit", or `None` when there are none (with `few_only`: also when
+/// there are more than a few, [`FEW`]).
 pub fn reason<const N: usize, V: ValueStorage>(
     model: &Robot<f64, N, V>,
     sets: &[(&[Pose], &[Measurement<f64, N>])],
+    few_only: bool,
 ) -> Option<String> {
     let (far, median) = gross(model, sets);
+    let rows: usize = sets.iter().map(|(p, _)| p.len()).sum();
+    if few_only && far.len() as f64 > (FEW * rows as f64).max(3.0) {
+        return None;
+    }
     let first = far.first()?;
     let named: Vec<String> = far
         .iter()

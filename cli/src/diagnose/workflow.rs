@@ -207,20 +207,18 @@ pub fn run<const N: usize>(
     // Each fold fits the geometry to the other folds' poses: at most 4 parameters a joint, 6
     // of the base and 3 of the tool, 3 equations a pose (said here, in the user's terms,
     // rather than by the fit that would fail).
-    let (n, k) = (search_poses.poses.len(), opts.folds.max(2));
+    if opts.folds < 2 {
+        crate::check_count("--folds", opts.folds, 2, search.len().max(2))?;
+    }
+    let (n, k) = (search_poses.poses.len(), opts.folds);
     let least = ((4 * N + 9) * k).div_ceil(3 * (k - 1)) + 1;
     if n < least {
         crate::refuse!(
             "{data_origin}: {n} poses are too few for diagnose: each of its {k} \
              cross-validation folds fits the geometry (up to {} parameters) to the other folds' \
              poses, which needs at least {least}; measure more poses (kinecal plan suggests \
-             them){}",
-            4 * N + 9,
-            if opts.folds > 2 {
-                ", or give fewer --folds"
-            } else {
-                ""
-            }
+             them)",
+            4 * N + 9
         );
     }
     crate::check_count("--folds", opts.folds, 2, search.len().max(2))?;
@@ -263,11 +261,14 @@ pub fn run<const N: usize>(
             })
         },
     )?;
-    // A few gross outliers pull the geometry (what else it says follows from them), and the
-    // search would take them for noise.
+    // A few gross outliers pull the geometry (what else it says follows from them; many are a
+    // file the robot file does not describe, named so first), and the search would take them
+    // for noise.
     let sets = [(&search_poses.poses[..], &search[..])];
-    if let Some(why) = crate::calibration::outliers::reason(&d.geometric, &sets) {
+    if let Some(why) = crate::calibration::outliers::reason(&d.geometric, &sets, true) {
         d.resized = Some(why);
+    } else if d.resized.is_none() {
+        d.resized = crate::calibration::outliers::reason(&d.geometric, &sets, false);
     }
     let holdout = if held.is_empty() {
         None

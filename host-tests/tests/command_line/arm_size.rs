@@ -10,18 +10,11 @@ use std::path::{Path, PathBuf};
 
 /// The first 400 rows of the UR10 series C file, their points divided by `per_mm`.
 fn rows_in(dir: &Path, name: &str, per_mm: f64) -> PathBuf {
-    let text = std::fs::read_to_string(ur10_dir().join("ur10_random_poses.csv")).unwrap();
-    let mut lines = text.lines();
-    let mut out = format!("{}\n", lines.next().unwrap());
-    for l in lines.take(400) {
-        let mut cells: Vec<String> = l.split(',').map(String::from).collect();
+    ur10_rows(dir, name, 400, |_, cells| {
         for c in &mut cells[6..9] {
             *c = format!("{:?}", c.parse::<f64>().unwrap() / per_mm);
         }
-        out.push_str(&cells.join(","));
-        out.push('\n');
-    }
-    write(dir, name, &out)
+    })
 }
 
 #[test]
@@ -80,18 +73,11 @@ fn points_in_another_unit_than_declared_are_no_calibration() {
 /// (a controller whose convention for that joint is the other sign; `j` beyond the joints: as
 /// recorded).
 fn negated_joint(dir: &Path, name: &str, n: usize, j: usize) -> PathBuf {
-    let text = std::fs::read_to_string(ur10_dir().join("ur10_random_poses.csv")).unwrap();
-    let mut lines = text.lines();
-    let mut out = format!("{}\n", lines.next().unwrap());
-    for l in lines.take(n) {
-        let mut cells: Vec<String> = l.split(',').map(String::from).collect();
-        if let Some(c) = cells.get_mut(j) {
+    ur10_rows(dir, name, n, |_, cells| {
+        if let Some(c) = cells.get_mut(j).filter(|_| j < 6) {
             *c = format!("{:?}", -c.parse::<f64>().unwrap());
         }
-        out.push_str(&cells.join(","));
-        out.push('\n');
-    }
-    write(dir, name, &out)
+    })
 }
 
 /// A joint whose sign in the data is not the robot file's, or a wrong angle in the robot file:

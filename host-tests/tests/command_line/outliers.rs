@@ -9,18 +9,11 @@ use std::path::{Path, PathBuf};
 /// The first `n` rows of the UR10 series C file with `dx` mm added to the `x` of the rows at
 /// the given 0-based indices (line = index + 2).
 fn rows_with(dir: &Path, name: &str, n: usize, off: &[(usize, f64)]) -> PathBuf {
-    let text = std::fs::read_to_string(ur10_dir().join("ur10_random_poses.csv")).unwrap();
-    let mut lines = text.lines();
-    let mut out = format!("{}\n", lines.next().unwrap());
-    for (i, l) in lines.take(n).enumerate() {
-        let mut cells: Vec<String> = l.split(',').map(String::from).collect();
+    ur10_rows(dir, name, n, |i, cells| {
         if let Some((_, dx)) = off.iter().find(|(k, _)| *k == i) {
             cells[6] = format!("{:?}", cells[6].parse::<f64>().unwrap() + dx);
         }
-        out.push_str(&cells.join(","));
-        out.push('\n');
-    }
-    write(dir, name, &out)
+    })
 }
 
 #[test]

@@ -111,6 +111,26 @@ pub fn ur10_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../data/ur10")
 }
 
+/// The header and the first `n` rows of the UR10 series C file (`q1`…`q6`, `x`, `y`, `z`,
+/// `temp_c`), each row's cells passed to `edit` with the row's index, written to `dir/name`.
+pub fn ur10_rows(
+    dir: &Path,
+    name: &str,
+    n: usize,
+    edit: impl Fn(usize, &mut Vec<String>),
+) -> PathBuf {
+    let text = std::fs::read_to_string(ur10_dir().join("ur10_random_poses.csv")).unwrap();
+    let mut lines = text.lines();
+    let mut out = format!("{}\n", lines.next().unwrap());
+    for (i, l) in lines.take(n).enumerate() {
+        let mut cells: Vec<String> = l.split(',').map(String::from).collect();
+        edit(i, &mut cells);
+        out.push_str(&cells.join(","));
+        out.push('\n');
+    }
+    write(dir, name, &out)
+}
+
 /// Runs `kinecal simulate --robot ROBOT [--poses N] [--noise-mm σ] [--seed S] EXTRA… --out OUT`
 /// and asserts that it succeeded; `None` leaves the program's default.
 pub fn simulate(

@@ -205,20 +205,21 @@ pub fn run<const N: usize>(
         ));
     }
     // Each fold fits the geometry to the other folds' poses: at most 4 parameters a joint, 6
-    // of the base and 3 of the tool, 3 equations a pose (said here, in the user's terms,
-    // rather than by the fit that would fail).
+    // of the base when it is unknown and 3 of the tool, 3 equations a pose (said here, in the
+    // user's terms, rather than by the fit that would fail).
     if opts.folds < 2 {
         crate::check_count("--folds", opts.folds, 2, search.len().max(2))?;
     }
     let (n, k) = (search_poses.poses.len(), opts.folds);
-    let least = ((4 * N + 9) * k).div_ceil(3 * (k - 1)) + 1;
+    let geometry = 4 * N + 3 + if file.base_known() { 0 } else { 6 };
+    let least = (geometry * k).div_ceil(3 * (k - 1)) + 1;
     if n < least {
         crate::refuse!(
             "{data_origin}: {n} poses are too few for diagnose: each of its {k} \
              cross-validation folds fits the geometry (up to {} parameters) to the other folds' \
              poses, which needs at least {least}; measure more poses (kinecal plan suggests \
              them)",
-            4 * N + 9
+            geometry
         );
     }
     crate::check_count("--folds", opts.folds, 2, search.len().max(2))?;

@@ -497,6 +497,13 @@ fn diagnose_on_too_few_poses_says_how_many_it_needs() {
         assert_refused(&out, &format!("{n} poses are too few for diagnose"));
         assert!(stderr(&out).contains("at least 15"), "{}", stderr(&out));
     }
+    // With the base in the robot file its 6 parameters are not fitted: 13 poses suffice.
+    let placed = write(dir.path(), "placed.toml", ER20_PLACED);
+    let d12 = dir.path().join("d12.csv");
+    simulate(&placed, Some(12), Some(0.01), Some(1), &[], &d12);
+    let out = run_on("diagnose", &placed, &d12, &[]);
+    assert_refused(&out, "12 poses are too few for diagnose");
+    assert!(stderr(&out).contains("at least 13"), "{}", stderr(&out));
     let rows: Vec<&str> = text.lines().take(41).collect();
     let data = write(dir.path(), "n40.csv", &(rows.join("\n") + "\n"));
     let out = run_on("diagnose", &robot, &data, &[]);

@@ -45,12 +45,7 @@ fn a_few_wrong_rows_are_named_and_no_calibration() {
     ];
     for (data, count, named) in &cases {
         for command in ["identify", "diagnose"] {
-            let out = run_on(command, &robot, data, &["--json"]);
-            let err = stderr(&out);
-            assert_eq!(out.status.code(), Some(3), "{command} {data:?}: {err}");
-            let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-            assert_eq!(v["converged"], false, "{command}");
-            let line = err.lines().find(|l| l.starts_with("error:")).unwrap();
+            let line = no_calibration(command, &robot, data);
             assert!(
                 line.contains(&format!("leaves {count} point(s) far from the model"))
                     && line.contains(named)

@@ -111,6 +111,20 @@ pub fn ur10_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../data/ur10")
 }
 
+/// `kinecal COMMAND --robot ROBOT --data DATA --json`, asserted to be no calibration (exit 3,
+/// JSON `converged: false`): its `error:` line on stderr.
+pub fn no_calibration(command: &str, robot: &Path, data: &Path) -> String {
+    let out = run_on(command, robot, data, &["--json"]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(3), "{command} {data:?}: {err}");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["converged"], false, "{command} {data:?}");
+    err.lines()
+        .find(|l| l.starts_with("error:"))
+        .unwrap_or_else(|| panic!("{command} {data:?}: {err}"))
+        .to_string()
+}
+
 /// The header and the first `n` rows of the UR10 series C file (`q1`…`q6`, `x`, `y`, `z`,
 /// `temp_c`), each row's cells passed to `edit` with the row's index, written to `dir/name`.
 pub fn ur10_rows(

@@ -298,9 +298,11 @@ pub fn identify<const N: usize>(
     } else {
         &[(&ident_set, &ident), (&valid_set, &valid)]
     };
-    let resized = crate::calibration::outliers::reason(&fit.robot, searched, true)
+    let outliers = crate::calibration::outliers::find(&fit.robot, searched);
+    let resized = outliers
+        .few()
         .or_else(|| crate::calibration::arm_size::resized(&nominal, &fit.robot))
-        .or_else(|| crate::calibration::outliers::reason(&fit.robot, searched, false));
+        .or_else(|| outliers.reason());
     let converged = fit.solver_converged()
         && !stalled
         && resized.is_none()

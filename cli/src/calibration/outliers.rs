@@ -29,12 +29,24 @@ pub struct Outlier {
     pub distance_mm: f64,
 }
 
+/// The gross outliers of a fit: one pass over its points, then read by the callers in the
+/// order their reasons come ([`Outliers::few`] first, [`Outliers::reason`] last).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Outliers {
+    /// Farthest first, one per row.
+    pub far: Vec<Outlier>,
+    /// The median distance over every point (mm).
+    pub median_mm: f64,
+    /// Rows searched.
+    pub rows: usize,
+}
+
 /// The gross outliers among the observations of `sets` (each its poses and the observation list
-/// they index) by `model`, farthest first, and the median distance over all of them (mm).
-pub fn gross<const N: usize, V: ValueStorage>(
+/// they index) by `model`.
+pub fn find<const N: usize, V: ValueStorage>(
     model: &Robot<f64, N, V>,
     sets: &[(&[Pose], &[Measurement<f64, N>])],
-) -> (Vec<Outlier>, f64) {
+) -> Outliers {
     let mut fk = ForwardKinematics::new();
     let mut all: Vec<Outlier> = Vec::new();
     for (poses, obs) in sets {
@@ -53,19 +65,28 @@ pub fn gross<const N: usize, V: ValueStorage>(
             }
         }
     }
+    let rows = sets.iter().map(|(p, _)| p.len()).sum();
     let mut d: Vec<f64> = all.iter().map(|o| o.distance_mm).collect();
     if d.is_empty() {
-        return (Vec::new(), 0.0);
+        return Outliers {
+            far: Vec::new(),
+            median_mm: 0.0,
+            rows,
+        };
     }
     let mid = d.len() / 2;
-    let (_, &mut median, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
-    let limit = (MEDIAN_FACTOR * median).max(MIN_MM);
+    let (_, &mut median_mm, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
+    let limit = (MEDIAN_FACTOR * median_mm).max(MIN_MM);
     let mut far: Vec<Outlier> = all.into_iter().filter(|o| o.distance_mm > limit).collect();
     far.sort_by(|a, b| b.distance_mm.total_cmp(&a.distance_mm));
     // One row of several reflectors is one wrong reading: named once, at its farthest.
     let mut seen = std::collections::HashSet::new();
     far.retain(|o| seen.insert(o.line));
-    (far, median)
+    Outliers {
+        far,
+        median_mm,
+        rows,
+    }
 }
 
 /// How many outliers are "a few": at most this share of the points (and at least 3). More
@@ -73,36 +94,37 @@ pub fn gross<const N: usize, V: ValueStorage>(
 /// convention and unit checks name better ([`crate::calibration::arm_size`]).
 pub const FEW: f64 = 0.02;
 
-/// Why a fit of `model` to `sets` is no calibration because of gross outliers, as the rest of
-/// a sentence that starts "the fit", or `None` when there are none (with `few_only`: also when
-/// there are more than a few, [`FEW`]).
-pub fn reason<const N: usize, V: ValueStorage>(
-    model: &Robot<f64, N, V>,
-    sets: &[(&[Pose], &[Measurement<f64, N>])],
-    few_only: bool,
-) -> Option<String> {
-    let (far, median) = gross(model, sets);
-    let rows: usize = sets.iter().map(|(p, _)| p.len()).sum();
-    if few_only && far.len() as f64 > (FEW * rows as f64).max(3.0) {
-        return None;
+impl Outliers {
+    /// [`Self::reason`] when the outliers are a few ([`FEW`]), else `None`.
+    pub fn few(&self) -> Option<String> {
+        if self.far.len() as f64 > (FEW * self.rows as f64).max(3.0) {
+            return None;
+        }
+        self.reason()
     }
-    let first = far.first()?;
-    let named: Vec<String> = far
-        .iter()
-        .take(3)
-        .map(|o| format!("line {} {} mm", o.line, sig(o.distance_mm, 3)))
-        .collect();
-    let more = match far.len() {
-        n if n > named.len() => format!(", {} more", n - named.len()),
-        _ => String::new(),
-    };
-    Some(format!(
-        "leaves {} point(s) far from the model ({}{more}; {}× the median {} mm): a wrong \
-         reading (a lost reflector, a row in another unit or of another pose) pulls every \
-         parameter; delete those rows or measure them again",
-        far.len(),
-        named.join(", "),
-        sig(first.distance_mm / median.max(f64::MIN_POSITIVE), 2),
-        sig(median, 3)
-    ))
+
+    /// Why the fit is no calibration because of gross outliers, as the rest of a sentence
+    /// that starts "the fit", or `None` when there are none.
+    pub fn reason(&self) -> Option<String> {
+        let first = self.far.first()?;
+        let named: Vec<String> = self
+            .far
+            .iter()
+            .take(3)
+            .map(|o| format!("line {} {} mm", o.line, sig(o.distance_mm, 3)))
+            .collect();
+        let more = match self.far.len() {
+            n if n > named.len() => format!(", {} more", n - named.len()),
+            _ => String::new(),
+        };
+        Some(format!(
+            "leaves {} point(s) far from the model ({}{more}; {}× the median {} mm): a wrong \
+             reading (a lost reflector, a row in another unit or of another pose) pulls every \
+             parameter; delete those rows or measure them again",
+            self.far.len(),
+            named.join(", "),
+            sig(first.distance_mm / self.median_mm.max(f64::MIN_POSITIVE), 2),
+            sig(self.median_mm, 3)
+        ))
+    }
 }

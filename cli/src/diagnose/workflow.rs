@@ -265,12 +265,12 @@ pub fn run<const N: usize>(
     // A few gross outliers pull the geometry (what else it says follows from them; many are a
     // file the robot file does not describe, named so first), and the search would take them
     // for noise.
-    let sets = [(&search_poses.poses[..], &search[..])];
-    if let Some(why) = crate::calibration::outliers::reason(&d.geometric, &sets, true) {
-        d.resized = Some(why);
-    } else if d.resized.is_none() {
-        d.resized = crate::calibration::outliers::reason(&d.geometric, &sets, false);
-    }
+    let outliers =
+        crate::calibration::outliers::find(&d.geometric, &[(&search_poses.poses, &search)]);
+    d.resized = outliers
+        .few()
+        .or(d.resized.take())
+        .or_else(|| outliers.reason());
     let holdout = if held.is_empty() {
         None
     } else {

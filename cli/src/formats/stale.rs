@@ -63,18 +63,13 @@ fn point_hash(p: &[f64; 3]) -> u64 {
     h.finish()
 }
 
-/// Whether two rows' other columns (`t_s`, `temp_c`, σ …) are the same, empty cells (NaN)
-/// alike: a copy repeats them all; a pose measured again at another time does not.
-fn same_bits(a: &[f64], b: &[f64]) -> bool {
+/// Whether two readings are equal to the last digit (+0.0 and −0.0 alike; empty cells, NaN,
+/// alike too: a copy repeats a row's other columns, `t_s`, `temp_c`, σ, empty or not).
+fn same(a: &[f64], b: &[f64]) -> bool {
     a.len() == b.len()
         && a.iter()
             .zip(b)
             .all(|(x, y)| (x + 0.0).to_bits() == (y + 0.0).to_bits())
-}
-
-/// Whether two readings are equal to the last digit (+0.0 and −0.0 alike).
-fn same(a: &[f64], b: &[f64]) -> bool {
-    a.iter().zip(b).all(|(x, y)| x == y)
 }
 
 /// The rows of `ds` (mm, degrees) that repeat an earlier row's measured point (`x`, `y`, `z`;
@@ -114,7 +109,7 @@ pub fn find<const N: usize, V: ValueStorage>(
                 .map(|(a, b)| (a - b).abs())
                 .enumerate()
                 .fold((0, 0.0), |m, (k, d)| if d > m.1 { (k, d) } else { m });
-            if same(&r.q_deg, &earlier.q_deg) && same_bits(&r.extra, &earlier.extra) {
+            if same(&r.q_deg, &earlier.q_deg) && same(&r.extra, &earlier.extra) {
                 stale.push(Stale {
                     index: i,
                     copy_of: j,

@@ -148,6 +148,9 @@ pub fn identify<const N: usize>(
             .to_robot::<N>()
             .map_err(|e| anyhow::anyhow!("{robot_origin}: {e}"))?;
     }
+    // The model as the file gives it, before the base and an unknown tool are placed on the
+    // data: what each fold of a cross-validation places on its own poses.
+    let unplaced = nominal.clone();
     let base_unknown = !file.base_known();
     // 6-D data and no `[tool] rpy_deg`: the measured frame's orientation is unknown; started
     // from the data as the base is (and then compared with no tolerance).
@@ -345,16 +348,45 @@ pub fn identify<const N: usize>(
         .filter(|c| c.barely_determined(opts.tolerance_mm, opts.tolerance_deg))
         .map(|c| c.name.clone())
         .collect();
-    report.acceptance = crate::calibration::acceptance::judge(
-        (
-            before.validation_rms_mm,
-            after.validation_rms_mm,
+    // Nothing held out and thin data: judged by cross-validation instead (LM: the stochastic
+    // methods' fits would take each fold as long as the whole).
+    let cross = (valid.is_empty()
+        && converged
+        && opts.method == Method::Lm
+        && crate::calibration::thin_data::thin(ident_poses, estimated))
+    .then(|| {
+        crate::calibration::thin_data::cross_validate(
+            &ident,
+            &pose_of,
+            |train| {
+                let mut start = unplaced.clone();
+                crate::calibration::inputs::place_nominal(&mut start, &file, train, observed.six_d)
+                    .ok()
+                    .map(|_| start)
+            },
+            |train| run_method(train).ok().map(|f| f.robot),
+        )
+    })
+    .flatten();
+    report.acceptance = match &cross {
+        Some(cv) => crate::calibration::acceptance::judge_cross_validated(
+            cv,
             after.identification_rms_mm,
+            (ident_poses, estimated),
+            weak,
         ),
-        &ident,
-        &valid,
-        weak,
-    );
+        None => crate::calibration::acceptance::judge(
+            (
+                before.validation_rms_mm,
+                after.validation_rms_mm,
+                after.identification_rms_mm,
+            ),
+            &ident,
+            &valid,
+            weak,
+        ),
+    };
+    report.cross_validated = cross;
     report.held_out_worse = report.acceptance.as_ref().map(|a| a.held_out_worse);
     // Only what `--residuals` writes: a row per observation (~90 MB for a million).
     let residuals = if opts.residuals {
@@ -528,6 +560,7 @@ fn report<const N: usize>(
         observations: None,
         held_out_worse: None,
         acceptance: None,
+        cross_validated: None,
     }
 }
 

@@ -201,3 +201,68 @@ pub fn judge<const N: usize>(
         weak_parameters: weak,
     })
 }
+
+/// Judges a fit that held nothing out by its cross-validation on thin data
+/// ([`crate::calibration::thin_data`]): worse than the starting model on the poses left out
+/// is no calibration, as on held-out poses; the reason is the data's thinness, with how many
+/// poses would give the fit [`crate::calibration::thin_data::EQUATIONS_PER_PARAMETER`]
+/// equations per parameter (`poses`, `params`: the fit's poses and estimated parameters).
+pub fn judge_cross_validated(
+    cv: &crate::calibration::thin_data::CrossValidated,
+    ident_mm: f64,
+    (poses, params): (usize, usize),
+    weak: Vec<String>,
+) -> Option<Acceptance> {
+    use crate::output::numfmt::sig;
+    let (start, after) = cv.figures()?;
+    let worse = after.is_nan() || start.is_nan() || after > start + NO_DIFFERENCE_MM;
+    let ratio = after / ident_mm.max(f64::MIN_POSITIVE);
+    let much_worse = ratio > MUCH_WORSE && after > ident_mm + NO_DIFFERENCE_MM;
+    let enough = crate::calibration::thin_data::enough_poses(params);
+    let message = (worse || much_worse).then(|| {
+        let head = if worse {
+            format!(
+                "the calibrated model predicts poses left out of its fit worse than the model \
+                 it started from ({}-fold cross-validation: {} mm against {} mm): this is not \
+                 a calibration",
+                cv.folds,
+                sig(after, 4),
+                sig(start, 4)
+            )
+        } else {
+            format!(
+                "the calibrated model predicts poses left out of its fit {}× worse than the \
+                 poses it was fitted to ({}-fold cross-validation: {} mm against {} mm)",
+                sig(ratio, 3),
+                cv.folds,
+                sig(after, 4),
+                sig(ident_mm, 4)
+            )
+        };
+        let mut why = format!(
+            "{poses} poses are thin data for {params} parameters: measure about {enough} \
+             poses spread over the working range, or hold parameters with --fix{}",
+            if worse {
+                "; or the model it started from is already as good as these data can tell"
+            } else {
+                ""
+            }
+        );
+        if !weak.is_empty() {
+            let shown: Vec<&str> = weak.iter().take(6).map(String::as_str).collect();
+            why.push_str(&format!(
+                " (barely determined: {}{})",
+                shown.join(", "),
+                if weak.len() > shown.len() { ", …" } else { "" }
+            ));
+        }
+        format!("{head}; likely: {why}")
+    });
+    Some(Acceptance {
+        held_out_worse: worse,
+        held_out_ratio: ratio,
+        message,
+        outside_ranges: Vec::new(),
+        weak_parameters: weak,
+    })
+}

@@ -16,6 +16,7 @@ pub mod residual_table;
 pub mod selection;
 pub mod stats;
 pub mod thermal;
+pub mod thin_data;
 pub mod validate;
 pub mod weights;
 

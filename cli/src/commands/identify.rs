@@ -134,9 +134,14 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
         if done.report.held_out_worse == Some(true) {
             // Not a calibration: nothing a later step could mistake for one is written.
             eprintln!(
-                "note: {} not written: the model predicts the held-out poses worse than the \
-                 model it started from",
-                out.display()
+                "note: {} not written: the model predicts the {} poses worse than the model it \
+                 started from",
+                out.display(),
+                if done.report.cross_validated.is_some() {
+                    "left-out"
+                } else {
+                    "held-out"
+                }
             );
         } else {
             done.model.save(out)?;

@@ -64,6 +64,10 @@ pub struct IdentifyReport {
     /// With held-out poses: the verdict on them and its likely reasons.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub acceptance: Option<crate::calibration::acceptance::Acceptance>,
+    /// Nothing held out and thin data: the cross-validated figures `acceptance` judges
+    /// (`crate::calibration::thin_data`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cross_validated: Option<crate::calibration::thin_data::CrossValidated>,
 }
 
 /// One reflector's residuals (`per_point`).
@@ -425,11 +429,16 @@ impl fmt::Display for IdentifyReport {
         }
         if let Some(a) = &self.acceptance {
             writeln!(f)?;
+            let what = if self.cross_validated.is_some() {
+                "left-out poses"
+            } else {
+                "held-out poses"
+            };
             match &a.message {
-                Some(m) => writeln!(f, "held-out poses: {m}")?,
+                Some(m) => writeln!(f, "{what}: {m}")?,
                 None => writeln!(
                     f,
-                    "held-out poses: predicted better than by the starting model ({}× the \
+                    "{what}: predicted better than by the starting model ({}× the \
                      identification RMS)",
                     sig(a.held_out_ratio, 3)
                 )?,
@@ -447,8 +456,31 @@ impl IdentifyReport {
     /// poses, χ²/dof far from 1, suspicious parameters, the held-out verdict, not converged.
     pub fn warnings(&self) -> Vec<String> {
         let mut out = Vec::new();
-        if self.n_validation == 0 {
-            out.push(crate::calibration::acceptance::NOT_JUDGED.to_string());
+        match self.cross_validated.as_ref().map(|cv| (cv, cv.figures())) {
+            Some((cv, Some((start, after)))) if self.n_validation == 0 => out.push(format!(
+                "note: nothing was held out and the data are thin, so the fit was \
+                 cross-validated ({} folds): the poses left out are predicted to {} mm RMS, \
+                 against {} mm by the model it started from; --holdout 0.2 (or --validate \
+                 FILE) judges it on unseen data",
+                cv.folds,
+                sig(after, 4),
+                sig(start, 4)
+            )),
+            Some((cv, None)) if self.n_validation == 0 => out.push(format!(
+                "warning: nothing was held out, and the data are too thin to cross-validate \
+                 (leaving out 1 of every {} of its {} poses leaves too few equations to fit): \
+                 its RMS says little about new poses; measure about {} poses spread over the \
+                 working range, or hold parameters with --fix",
+                cv.folds,
+                self.n_identification,
+                crate::calibration::thin_data::enough_poses(
+                    self.changes.len().saturating_sub(self.unidentifiable.len())
+                )
+            )),
+            _ if self.n_validation == 0 => {
+                out.push(crate::calibration::acceptance::NOT_JUDGED.to_string())
+            }
+            _ => {}
         }
         if let Some(c) = self.chi2_per_dof {
             if !(0.25..=4.0).contains(&c) {

@@ -82,7 +82,7 @@ fn a_fit_that_cannot_converge_exits_3_with_its_json() {
         Some(80),
         Some(0.01),
         Some(5),
-        &[],
+        &["--geom-errors"],
         &data,
     );
     let (code, v, err) = identify(&data_file("ur10.toml"), &data, &[]);

@@ -27,6 +27,7 @@ mod map_everywhere;
 mod observations_cli;
 mod one_reflector;
 mod outliers;
+mod thin_data;
 mod report;
 mod reports;
 mod robot_file;

@@ -497,6 +497,7 @@ fn out_writes_limits_as_given_and_reads_back_exactly() {
         "60",
         "--noise-mm",
         "0.01",
+        "--geom-errors",
         "--out",
         &p(&data),
     ]);

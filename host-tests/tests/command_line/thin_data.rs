@@ -1,0 +1,120 @@
+//! Thin data (`cli/src/calibration/thin_data.rs`): when nothing is held out and the data give
+//! fewer than 20 equations per parameter, `identify` cross-validates the fit and judges it on
+//! the poses left out as it judges held-out poses. A robot that matches its file exactly,
+//! fitted on a few noisy poses, used to get exit 0 and a model that predicts new poses worse
+//! than the file; 10 real UR10 poses fitted 23 parameters with nothing said but "nothing was
+//! held out".
+
+use crate::common::*;
+use std::path::{Path, PathBuf};
+
+/// The header and rows `from..to` (0-based) of a simulated CSV, written to `dir/name`.
+fn rows(all: &Path, dir: &Path, name: &str, from: usize, to: usize) -> PathBuf {
+    let text = std::fs::read_to_string(all).unwrap();
+    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+    let mut out = format!("{}\n", lines.next().unwrap());
+    for l in lines.skip(from).take(to - from) {
+        out.push_str(l);
+        out.push('\n');
+    }
+    write(dir, name, &out)
+}
+
+#[test]
+fn a_fit_to_noise_on_thin_data_is_no_calibration() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = write(d, "er20.toml", ER20_PLACED);
+    // The true robot is the file's: anything fitted is noise.
+    let data = d.join("exact.csv");
+    simulate(&robot, Some(40), Some(0.05), Some(4), &[], &data);
+    let model = d.join("m.toml");
+    let out = run_on("identify", &robot, &data, &["--json", "--out", s(&model)]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("predicts poses left out of its fit worse than the model it started from")
+            && err.contains("40 poses are thin data for")
+            && err.contains("not written"),
+        "{err}"
+    );
+    assert!(!model.exists());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let cv = &v["cross_validated"];
+    assert_eq!(cv["folds"], 10);
+    assert!(cv["after_rms_mm"].as_f64().unwrap() > cv["start_rms_mm"].as_f64().unwrap());
+    assert_eq!(v["held_out_worse"], true);
+    // Poses held out on request are judged on themselves, not cross-validated (and find
+    // the same).
+    let out = run_on("identify", &robot, &data, &["--json", "--holdout", "0.25"]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v.get("cross_validated").is_none(), "{v}");
+    assert_eq!(v["n_validation"], 10);
+    assert!(stderr(&out).contains("predicts the held-out poses worse"));
+}
+
+#[test]
+fn the_cross_validated_figure_is_what_new_poses_show() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = write(d, "er20.toml", ER20_PLACED);
+    let all = d.join("all.csv");
+    simulate(
+        &robot,
+        Some(1200),
+        Some(0.02),
+        Some(7),
+        &["--geom-errors"],
+        &all,
+    );
+    let fresh = rows(&all, d, "fresh.csv", 200, 1200);
+    for n in [30, 60] {
+        let data = rows(&all, d, &format!("{n}.csv"), 0, n);
+        let model = d.join(format!("{n}.toml"));
+        let out = run_on("identify", &robot, &data, &["--json", "--out", s(&model)]);
+        assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+        assert!(stderr(&out).contains("the fit was cross-validated (10 folds)"));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let cv = v["cross_validated"]["after_rms_mm"].as_f64().unwrap();
+        let fitted = v["after"]["identification_rms_mm"].as_f64().unwrap();
+        // The model on 1,000 poses of the same robot it was not fitted to (no registration:
+        // the simulated base is the file's).
+        let check = kinecal_ok(&[
+            "validate",
+            "--robot",
+            s(&robot),
+            "--model",
+            s(&model),
+            "--data",
+            s(&fresh),
+            "--register",
+            "none",
+            "--json",
+        ]);
+        let w: serde_json::Value = serde_json::from_slice(&check.stdout).unwrap();
+        let new = w["model"]["rms_mm"].as_f64().unwrap();
+        assert!(cv > fitted, "{n}: {cv} against {fitted}");
+        assert!((cv / new - 1.0).abs() < 0.3, "{n}: {cv} against {new} on new poses");
+    }
+    // Not thin (20 equations per parameter): judged as before, by the note.
+    let data = rows(&all, d, "many.csv", 0, 400);
+    let out = run_on("identify", &robot, &data, &["--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v.get("cross_validated").is_none(), "{v}");
+    assert!(stderr(&out).contains("nothing was held out, so nothing checks"));
+}
+
+#[test]
+fn data_too_thin_to_cross_validate_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = ur10_dir().join("robot.toml");
+    let data = ur10_rows(dir.path(), "ten.csv", 10, |_, _| {});
+    let out = run_on("identify", &robot, &data, &["--json"]);
+    let err = stderr(&out);
+    assert!(
+        err.contains("too thin to cross-validate") && err.contains("measure about"),
+        "{err}"
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["cross_validated"]["after_rms_mm"].is_null(), "{v}");
+}

@@ -48,3 +48,33 @@ fn requested_effects_are_estimated_not_reported_unidentifiable() {
         "{a} {b}"
     );
 }
+
+/// A joint table fitted to readings many turns from zero (a multi-turn joint; the data
+/// file's readings may reach ±1e5°) is written with its `start_deg` there, and the model reads
+/// back: tables used to be refused beyond ±3600° although `identify` wrote them.
+#[test]
+fn a_table_fitted_many_turns_out_reads_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = ur10_dir().join("robot.toml");
+    let data = ur10_rows(dir.path(), "turns.csv", 400, |_, cells| {
+        cells[0] = format!("{:?}", cells[0].parse::<f64>().unwrap() + 36000.0);
+    });
+    let model = dir.path().join("m.toml");
+    let out = run_on(
+        "identify",
+        &robot,
+        &data,
+        &["--effect", "joint-table:1:10", "--out", s(&model)],
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let text = std::fs::read_to_string(&model).unwrap();
+    let start: f64 = text
+        .lines()
+        .find_map(|l| l.strip_prefix("start_deg = "))
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(start > 35000.0, "{start}");
+    let out = run_on("check", &model, &data, &[]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+}

@@ -320,14 +320,16 @@ impl RobotFile {
                         return issue(p, format!("{what}: step_deg is required for joint-table"))
                     }
                 }
+                // A table starts where the data's readings do, and a data file's readings may
+                // reach the reader's bound: a table fitted to them reads back.
                 if e.start_deg
-                    .is_some_and(|s| !(s.is_finite() && s.abs() <= crate::MAX_JOINT_LIMIT_DEG))
+                    .is_some_and(|s| !(s.is_finite() && s.abs() <= crate::MAX_TABLE_START_DEG))
                 {
                     return issue(
                         p,
                         format!(
                             "{what}: start_deg must be a finite angle within ±{} degrees",
-                            crate::MAX_JOINT_LIMIT_DEG
+                            crate::number_text(crate::MAX_TABLE_START_DEG)
                         ),
                     );
                 }

@@ -253,7 +253,11 @@ pub fn judge_cross_validated(
             why.push_str(&format!(
                 " (barely determined: {}{})",
                 shown.join(", "),
-                if weak.len() > shown.len() { ", …" } else { "" }
+                if weak.len() > shown.len() {
+                    ", …"
+                } else {
+                    ""
+                }
             ));
         }
         format!("{head}; likely: {why}")

@@ -75,7 +75,7 @@ pub fn check<const N: usize>(
     // No [base]: fitted by registration; a tool point the file says is unknown: started from
     // the data (crate::compute::tool_start), so the nominal RMS is the geometry's.
     crate::compute::tool_start::place(&mut robot, &meas, fitted, file.tool_unknown())
-        .map_err(|e| anyhow!("{data_origin}: {e}"))?;
+        .map_err(|e| e.context(data_origin.to_string()))?;
     let stats = ErrorStats::of(&pose_errors(&robot, &meas))
         .ok_or_else(|| anyhow!("{data_origin}: no measurements"))?;
     let b = robot.base();

@@ -56,6 +56,24 @@ pub fn fit_rigid(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> anyhow::Result<Frame
     Ok(f)
 }
 
+/// Sets `robot`'s base to [`fit_base`]'s. Registration gives a rotation, so what the robot
+/// refuses is a base beyond its bound (1 km): points far larger than the model's, in another
+/// length unit than the one stated (refused, exit 2, saying so).
+pub fn place_base<const N: usize, V: kinecal::ValueStorage>(
+    robot: &mut Robot<f64, N, V>,
+    data: &[Measurement<f64, N>],
+) -> anyhow::Result<()> {
+    let b = fit_base(robot, data)?;
+    robot.set_base(b).map_err(|_| {
+        crate::refused(format!(
+            "the base that puts the model on the measured points lies {} m away: the points \
+             are not in the length unit stated; check --length-unit or the map's [units] \
+             length",
+            crate::output::numfmt::sig(b.o.norm() / 1000.0, 3)
+        ))
+    })
+}
+
 /// The base pose that places `robot` (its own base ignored) best onto the measurements.
 pub fn fit_base<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,

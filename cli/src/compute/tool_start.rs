@@ -2,7 +2,7 @@
 //! flange frame that best explains the measured points, found with the base (estimated too
 //! when the robot file has none) by alternating the two least-squares fits.
 
-use super::registration::fit_base;
+use super::registration::place_base;
 use kinecal::forward::ForwardKinematics;
 use kinecal::{Measurement, Robot};
 use nalgebra::Vector3;
@@ -40,11 +40,7 @@ pub fn place<const N: usize, V: kinecal::ValueStorage>(
     base: bool,
     tool: bool,
 ) -> anyhow::Result<()> {
-    let set_base = |r: &mut Robot<f64, N, V>| -> anyhow::Result<()> {
-        let b = fit_base(r, data)?;
-        r.set_base(b)
-            .map_err(|e| anyhow::anyhow!("estimated base pose is invalid: {e:?}"))
-    };
+    let set_base = |r: &mut Robot<f64, N, V>| place_base(r, data);
     if !tool {
         return if base { set_base(robot) } else { Ok(()) };
     }

@@ -374,10 +374,7 @@ pub fn fit_geometry<const N: usize>(
 ) -> anyhow::Result<(HostRobot<N>, Vec<Param>)> {
     let mut start = nominal.clone();
     if !base_known {
-        let base = crate::compute::registration::fit_base(nominal, data)?;
-        start
-            .set_base(base)
-            .map_err(|e| anyhow::anyhow!("base registration: {e:?}"))?;
+        crate::compute::registration::place_base(&mut start, data)?;
     }
     let mut params: Vec<Param> = ParamSet::<64>::full(N, !base_known)
         .map_err(|e| anyhow::anyhow!("{e:?}"))?

@@ -135,3 +135,36 @@ fn every_reader_takes_a_map() {
         &sig,
     );
 }
+
+/// Slips of a map that used to pass or end in an internal error: one file column read as two
+/// joints (check exit 0 at 568 mm), and `[units] length = "m"` on millimetres (exit 1,
+/// "estimated base pose is invalid: OutOfRange"). Both are refused (exit 2) by every command
+/// that reads the data, saying what to correct.
+#[test]
+fn a_map_reading_one_column_twice_or_the_wrong_unit_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = crate::common::ur10_dir().join("robot.toml");
+    let data = crate::common::ur10_rows(d, "d.csv", 100, |_, _| {});
+    let twice = write(d, "twice.toml", "[columns]\nq1 = \"q1\"\nq2 = \"q1\"\n");
+    let metres = write(d, "metres.toml", "[units]\nlength = \"m\"\n");
+    for (map, says) in [
+        (&twice, "q1 and q2 name the same column"),
+        (&metres, "not in the length unit stated"),
+    ] {
+        for command in ["check", "identify", "diagnose"] {
+            let out = kinecal(&[
+                command,
+                "--robot",
+                s(&robot),
+                "--data",
+                s(&data),
+                "--map",
+                s(map),
+            ]);
+            let err = stderr(&out);
+            assert_eq!(out.status.code(), Some(2), "{command} {map:?}: {err}");
+            assert!(err.contains(says), "{command} {map:?}: {err}");
+        }
+    }
+}

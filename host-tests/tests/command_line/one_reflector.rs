@@ -10,7 +10,14 @@ fn a_single_named_reflector_is_read_and_its_columns_are_not_extra() {
     let d = dir.path();
     let robot = write(d, "er20.toml", ER20_PLACED);
     let data = d.join("data.csv");
-    simulate(&robot, Some(30), Some(0.01), Some(2), &["--geom-errors"], &data);
+    simulate(
+        &robot,
+        Some(30),
+        Some(0.01),
+        Some(2),
+        &["--geom-errors"],
+        &data,
+    );
     // The same rows with the point as reflector `smr`, stated σ and a temperature.
     let text = std::fs::read_to_string(&data).unwrap();
     let mut lines = text.lines().filter(|l| !l.starts_with('#'));

@@ -173,3 +173,29 @@ fn copied_rows_are_left_out_and_named() {
         assert_eq!(d["final_validation_rms_mm"], dc["final_validation_rms_mm"]);
     }
 }
+
+/// A file whose rows are all one row's copies leaves one pose: `check` refuses it (exit 2) as
+/// `identify` and `diagnose` do; it used to exit 1, as for a fault of its own.
+#[test]
+fn a_file_of_one_row_copied_is_refused_by_check_too() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = crate::common::ur10_dir().join("robot.toml");
+    let first = std::fs::read_to_string(crate::common::ur10_dir().join("ur10_random_poses.csv"))
+        .unwrap()
+        .lines()
+        .nth(1)
+        .unwrap()
+        .to_string();
+    let data = crate::common::ur10_rows(dir.path(), "same.csv", 50, |_, cells| {
+        *cells = first.split(',').map(String::from).collect();
+    });
+    for command in ["check", "identify", "diagnose"] {
+        let out = crate::common::run_on(command, &robot, &data, &[]);
+        assert_eq!(
+            out.status.code(),
+            Some(2),
+            "{command}: {}",
+            crate::common::stderr(&out)
+        );
+    }
+}

@@ -94,7 +94,10 @@ fn the_cross_validated_figure_is_what_new_poses_show() {
         let w: serde_json::Value = serde_json::from_slice(&check.stdout).unwrap();
         let new = w["model"]["rms_mm"].as_f64().unwrap();
         assert!(cv > fitted, "{n}: {cv} against {fitted}");
-        assert!((cv / new - 1.0).abs() < 0.3, "{n}: {cv} against {new} on new poses");
+        assert!(
+            (cv / new - 1.0).abs() < 0.3,
+            "{n}: {cv} against {new} on new poses"
+        );
     }
     // Not thin (20 equations per parameter): judged as before, by the note.
     let data = rows(&all, d, "many.csv", 0, 400);

@@ -141,6 +141,20 @@ fn kinecal_name(name: &str) -> bool {
     (joint || point || KNOWN.contains(&name)) && name.len() <= kinecal::io::csv::NAME_LEN
 }
 
+/// Whether kinecal's column `name` is a joint reading or a coordinate (of a point or an
+/// orientation): no two of them come from one column of a file.
+fn one_of_a_kind(name: &str) -> bool {
+    let joint = name
+        .strip_prefix('q')
+        .is_some_and(|k| !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit()));
+    joint
+        || [
+            "x", "y", "z", "rx_deg", "ry_deg", "rz_deg", "rx", "ry", "rz",
+        ]
+        .contains(&name)
+        || ["x_", "y_", "z_"].iter().any(|p| name.starts_with(p))
+}
+
 /// The columns of the translated file: `q1`…`qN`, `x`, `y`, `z` first, then the others in the
 /// file's order; the file's columns the map does not name are read too when they carry one
 /// of kinecal's names (`q3`, `temp_c`, …); any other column is left out.
@@ -163,6 +177,16 @@ fn plan(
             }
         }
         let k = resolve(r, header, width, key, origins)?;
+        // A joint reading or a coordinate read twice from one column is a slip of the map
+        // (σ columns may share one: a tracker that states one uncertainty).
+        if one_of_a_kind(key) {
+            if let Some((other, _)) = named.iter().find(|(o, c)| *c == k && one_of_a_kind(o)) {
+                crate::refuse!(
+                    "{map_origin}: [columns] {other} and {key} name the same column of {data}: \
+                     each joint reading and coordinate has a column of its own; correct the map"
+                );
+            }
+        }
         match key.as_str() {
             "srx_deg" => per_axis[0] = Some(k),
             "sry_deg" => per_axis[1] = Some(k),

@@ -116,7 +116,9 @@ pub const MAX_ANGLE_DEG: f64 = 720.0;
 pub const MAX_JOINT_LIMIT_DEG: f64 = 3600.0;
 /// Largest magnitude of a joint table's `start_deg`: the largest joint reading a data file
 /// may hold ([`kinecal::io::csv::MAX_ABS_JOINT`]), since a table starts at the readings.
-pub const MAX_TABLE_START_DEG: f64 = kinecal::io::csv::MAX_ABS_JOINT;
+/// The bound is in the file's units; in radians it is the widest in degrees.
+pub const MAX_TABLE_START_DEG: f64 =
+    kinecal::io::csv::MAX_ABS_JOINT * (180.0 / std::f64::consts::PI);
 /// Largest magnitude of an effect value in a robot file or on `simulate --effect` (scale,
 /// rad, rad per metre): a correction of more than a radian is not a calibration effect.
 pub const MAX_EFFECT_VALUE: f64 = 1.0;

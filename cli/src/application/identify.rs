@@ -148,9 +148,6 @@ pub fn identify<const N: usize>(
             .to_robot::<N>()
             .map_err(|e| anyhow::anyhow!("{robot_origin}: {e}"))?;
     }
-    // The model as the file gives it, before the base and an unknown tool are placed on the
-    // data: what each fold of a cross-validation places on its own poses.
-    let unplaced = nominal.clone();
     let base_unknown = !file.base_known();
     // 6-D data and no `[tool] rpy_deg`: the measured frame's orientation is unknown; started
     // from the data as the base is (and then compared with no tolerance).
@@ -348,23 +345,31 @@ pub fn identify<const N: usize>(
         .filter(|c| c.barely_determined(opts.tolerance_mm, opts.tolerance_deg))
         .map(|c| c.name.clone())
         .collect();
-    // Nothing held out and thin data: judged by cross-validation instead (LM: the stochastic
-    // methods' fits would take each fold as long as the whole).
+    // Nothing held out and thin data: judged by cross-validation instead. Each fold's fit is
+    // the LM with the prior from the model placed on the fold's other poses, for every
+    // method (a stochastic search would take each fold as long as the whole), with the
+    // weights and error floors the whole fit settled on.
+    let equations = crate::calibration::thin_data::equations(&ident);
     let cross = (valid.is_empty()
         && converged
-        && opts.method == Method::Lm
-        && crate::calibration::thin_data::thin(ident_poses, estimated))
+        && crate::calibration::thin_data::thin(equations, estimated))
     .then(|| {
         crate::calibration::thin_data::cross_validate(
             &ident,
-            &pose_of,
+            (&fit.robot, &params),
+            estimated,
+            opts.seed,
             |train| {
-                let mut start = unplaced.clone();
+                let mut start = nominal.clone();
                 crate::calibration::inputs::place_nominal(&mut start, &file, train, observed.six_d)
                     .ok()
                     .map(|_| start)
             },
-            |train| run_method(train).ok().map(|f| f.robot),
+            |start, train| {
+                crate::calibration::prior::fit_lm_with_prior(start, &params, &prior_sigma, train)
+                    .ok()
+                    .map(|f| f.robot)
+            },
         )
     })
     .flatten();
@@ -372,7 +377,7 @@ pub fn identify<const N: usize>(
         Some(cv) => crate::calibration::acceptance::judge_cross_validated(
             cv,
             after.identification_rms_mm,
-            (ident_poses, estimated),
+            ident_poses,
             weak,
         ),
         None => crate::calibration::acceptance::judge(

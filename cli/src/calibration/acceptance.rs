@@ -206,11 +206,11 @@ pub fn judge<const N: usize>(
 /// ([`crate::calibration::thin_data`]): worse than the starting model on the poses left out
 /// is no calibration, as on held-out poses; the reason is the data's thinness, with how many
 /// poses would give the fit [`crate::calibration::thin_data::EQUATIONS_PER_PARAMETER`]
-/// equations per parameter (`poses`, `params`: the fit's poses and estimated parameters).
+/// equations per parameter (`poses`: the fit's poses).
 pub fn judge_cross_validated(
     cv: &crate::calibration::thin_data::CrossValidated,
     ident_mm: f64,
-    (poses, params): (usize, usize),
+    poses: usize,
     weak: Vec<String>,
 ) -> Option<Acceptance> {
     use crate::output::numfmt::sig;
@@ -218,7 +218,11 @@ pub fn judge_cross_validated(
     let worse = after.is_nan() || start.is_nan() || after > start + NO_DIFFERENCE_MM;
     let ratio = after / ident_mm.max(f64::MIN_POSITIVE);
     let much_worse = ratio > MUCH_WORSE && after > ident_mm + NO_DIFFERENCE_MM;
-    let enough = crate::calibration::thin_data::enough_poses(params);
+    let params = cv.parameters;
+    let enough = crate::calibration::thin_data::enough_poses(
+        params,
+        cv.equations as f64 / poses.max(1) as f64,
+    );
     let message = (worse || much_worse).then(|| {
         let head = if worse {
             format!(
@@ -240,8 +244,9 @@ pub fn judge_cross_validated(
             )
         };
         let mut why = format!(
-            "{poses} poses are thin data for {params} parameters: measure about {enough} \
-             poses spread over the working range, or hold parameters with --fix{}",
+            "{poses} poses ({} equations) are thin data for {params} parameters: measure about \
+             {enough} poses spread over the working range, or hold parameters with --fix{}",
+            cv.equations,
             if worse {
                 "; or the model it started from is already as good as these data can tell"
             } else {

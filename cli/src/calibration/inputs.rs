@@ -101,7 +101,13 @@ pub fn place_nominal<const N: usize>(
 ) -> anyhow::Result<bool> {
     use anyhow::Context;
     crate::compute::tool_start::place(nominal, ident, !file.base_known(), file.tool_unknown())
-        .context("estimating the base pose and the unknown tool point")?;
+        .context(match (file.base_known(), file.tool_unknown()) {
+            (false, true) => {
+                "placing the model on the data (the base pose and the unknown tool point)"
+            }
+            (true, true) => "placing the unknown tool point on the data",
+            _ => "registering the base pose",
+        })?;
     let tool_axes_unknown = six_d && file.tool.rpy_deg.is_none();
     if tool_axes_unknown {
         if let Some(axes) = crate::compute::registration::fit_tool_axes(nominal, ident) {

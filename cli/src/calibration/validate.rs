@@ -197,11 +197,8 @@ fn register<const N: usize>(
         return Ok((robot.clone(), Vec::new()));
     }
     let mut start = robot.clone();
-    let base = crate::compute::registration::fit_base(&start, data)
+    crate::compute::registration::place_base(&mut start, data)
         .context("registering the base pose")?;
-    start
-        .set_base(base)
-        .map_err(|e| anyhow::anyhow!("registered base pose is invalid: {e:?}"))?;
     if params.contains(&Param::ToolRx) {
         if let Some(axes) = crate::compute::registration::fit_tool_axes(&start, data) {
             start

@@ -32,6 +32,9 @@ pub struct Args {
 pub fn run(args: &Args) -> anyhow::Result<ValidateReport> {
     let n = crate::calibration::replay::joint_count(&args.input.robot, &args.model)?;
     let report = with_joints!(n, N => run_with_joints::<N>(args))?;
+    if let Some(w) = report.thin() {
+        eprintln!("{w}");
+    }
     if report.worse_than_nominal || report.data_mismatch {
         eprintln!("error: {} (exit 3)", report.verdict);
     }

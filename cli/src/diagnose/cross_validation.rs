@@ -13,10 +13,10 @@
 //! is accurate to second order, so the screen ranks candidates like the refits do at a fraction
 //! of the cost; only the best few are refitted.
 
+pub use crate::calibration::folds::{subset, Folds};
 use crate::compute::banded::{is_banded, BandedFactor};
 use crate::compute::dense::{cholesky, cholesky_inverse, sub_gram_lower, LowerFactor};
 use crate::compute::parallel;
-pub use crate::diagnose::folds::{subset, Folds};
 use crate::diagnose::linear::{
     add_table_penalty, add_tiny_ridge, observation_blocks, Normal, NormalSums, Problem,
     TablePenalty,

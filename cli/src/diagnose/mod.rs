@@ -31,7 +31,6 @@
 pub mod candidates;
 pub mod cross_validation;
 pub mod explain;
-pub mod folds;
 pub mod linear;
 pub mod observations;
 pub mod phase;

@@ -11,9 +11,9 @@
 //! fit's first pass is the sum of the other folds' ([`Levenberg::complete_pass`]): one pass
 //! over the poses per model instead of one over 80 % of them per fold.
 
+use crate::calibration::folds::{subset, Folds};
 use crate::compute::parallel::{self, run_lm};
 use crate::compute::vec_lm::{VecLm, VecPenalty};
-use crate::diagnose::folds::{subset, Folds};
 use crate::diagnose::linear::{effective_parameters, squared_errors, Normal, Problem};
 use kinecal::identify::lm::{Levenberg, LmConfig, PassPart};
 use kinecal::{ForwardKinematics, Measurement, Robot};

@@ -458,23 +458,43 @@ impl IdentifyReport {
         let mut out = Vec::new();
         match self.cross_validated.as_ref().map(|cv| (cv, cv.figures())) {
             Some((cv, Some((start, after)))) if self.n_validation == 0 => out.push(format!(
-                "note: nothing was held out and the data are thin, so the fit was \
-                 cross-validated ({} folds): the poses left out are predicted to {} mm RMS, \
-                 against {} mm by the model it started from; --holdout 0.2 (or --validate \
-                 FILE) judges it on unseen data",
+                "note: nothing was held out and the data are thin ({} equations for {} \
+                 parameters), so the fit was cross-validated ({} folds{}): the poses left out \
+                 are predicted to {} mm RMS, against {} mm by the model it started from; \
+                 --holdout 0.2 (or --validate FILE) judges it on unseen data",
+                cv.equations,
+                cv.parameters,
                 cv.folds,
+                if cv.outside > 0 {
+                    format!(
+                        ", {} left-out observation(s) not counted: outside the joint ranges \
+                         of the poses fitted without them, or on an effect value fewer than {} \
+                         of those move",
+                        cv.outside,
+                        crate::calibration::thin_data::MIN_SUPPORT
+                    )
+                } else {
+                    String::new()
+                },
                 sig(after, 4),
                 sig(start, 4)
             )),
             Some((cv, None)) if self.n_validation == 0 => out.push(format!(
-                "warning: nothing was held out, and the data are too thin to cross-validate \
-                 (leaving out 1 of every {} of its {} poses leaves too few equations to fit): \
-                 its RMS says little about new poses; measure about {} poses spread over the \
-                 working range, or hold parameters with --fix",
-                cv.folds,
+                "warning: nothing was held out, and the data are too thin to cross-validate: \
+                 leaving out a {} of its {} poses ({} equations) leaves too few to fit {} \
+                 parameters, so its RMS says little about new poses: measure about {} poses \
+                 spread over the working range, or hold parameters with --fix",
+                if cv.folds >= self.n_identification {
+                    "single one".to_string()
+                } else {
+                    format!("1/{}", cv.folds)
+                },
                 self.n_identification,
+                cv.equations,
+                cv.parameters,
                 crate::calibration::thin_data::enough_poses(
-                    self.changes.len().saturating_sub(self.unidentifiable.len())
+                    cv.parameters,
+                    cv.equations as f64 / self.n_identification.max(1) as f64
                 )
             )),
             _ if self.n_validation == 0 => {

@@ -48,6 +48,29 @@ pub struct ValidateReport {
     pub verdict: String,
 }
 
+impl ValidateReport {
+    /// The warning when the session is thin for its registration (fewer than
+    /// [`crate::calibration::thin_data::EQUATIONS_PER_PARAMETER`] equations, three per
+    /// observation, per registered parameter): the registration absorbs part of either robot's
+    /// errors, and which of two close figures is lower says little.
+    pub fn thin(&self) -> Option<String> {
+        let params = self.registered.len();
+        let thin = params > 0
+            && !self.data_mismatch
+            && crate::calibration::thin_data::thin(3 * self.observations, params);
+        thin.then(|| {
+            format!(
+                "warning: {} observations for {params} registered parameters ({}): the \
+                 registration absorbs part of either robot's errors, so the verdict is \
+                 uncertain; measure about {} poses, or register less (--register base)",
+                self.observations,
+                self.register,
+                crate::calibration::thin_data::enough_poses(params, 3.0)
+            )
+        })
+    }
+}
+
 /// One robot's errors on the session (mm; orientation in degrees with 6-D data), and the
 /// registration fitted.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -34,7 +34,7 @@ fn a_fit_to_noise_on_thin_data_is_no_calibration() {
     assert_eq!(out.status.code(), Some(3), "{err}");
     assert!(
         err.contains("predicts poses left out of its fit worse than the model it started from")
-            && err.contains("40 poses are thin data for")
+            && err.contains("40 poses (120 equations) are thin data for")
             && err.contains("not written"),
         "{err}"
     );
@@ -44,6 +44,9 @@ fn a_fit_to_noise_on_thin_data_is_no_calibration() {
     assert_eq!(cv["folds"], 10);
     assert!(cv["after_rms_mm"].as_f64().unwrap() > cv["start_rms_mm"].as_f64().unwrap());
     assert_eq!(v["held_out_worse"], true);
+    // Any method: the folds are fitted by the LM.
+    let out = run_on("identify", &robot, &data, &["--json", "--method", "pso+lm"]);
+    assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
     // Poses held out on request are judged on themselves, not cross-validated (and find
     // the same).
     let out = run_on("identify", &robot, &data, &["--json", "--holdout", "0.25"]);
@@ -73,7 +76,7 @@ fn the_cross_validated_figure_is_what_new_poses_show() {
         let model = d.join(format!("{n}.toml"));
         let out = run_on("identify", &robot, &data, &["--json", "--out", s(&model)]);
         assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
-        assert!(stderr(&out).contains("the fit was cross-validated (10 folds)"));
+        assert!(stderr(&out).contains("so the fit was cross-validated (10 folds"));
         let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         let cv = v["cross_validated"]["after_rms_mm"].as_f64().unwrap();
         let fitted = v["after"]["identification_rms_mm"].as_f64().unwrap();
@@ -112,12 +115,71 @@ fn data_too_thin_to_cross_validate_are_named() {
     let dir = tempfile::tempdir().unwrap();
     let robot = ur10_dir().join("robot.toml");
     let data = ur10_rows(dir.path(), "ten.csv", 10, |_, _| {});
-    let out = run_on("identify", &robot, &data, &["--json"]);
+    let model = dir.path().join("m.toml");
+    let out = run_on("identify", &robot, &data, &["--json", "--out", s(&model)]);
     let err = stderr(&out);
+    // A warning, not a refusal: nothing shows the model worse (on the session's other 390
+    // poses it is 0.69 mm against the nominal robot's 0.73 mm).
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(model.exists());
     assert!(
-        err.contains("too thin to cross-validate") && err.contains("measure about"),
+        err.contains("too thin to cross-validate")
+            && err.contains("leaving out a single one of its 10 poses (30 equations)")
+            && err.contains("measure about"),
         "{err}"
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(v["cross_validated"]["after_rms_mm"].is_null(), "{v}");
+}
+
+/// Joint tables refitted on 1,500 real UR10 poses (353 parameters: thin). A left-out pose that
+/// its fold's other poses do not support (the home pose at q3 = 0, outside their range; a pose
+/// at q3 = 3° whose 3.6° interval held one other pose) was predicted 160 mm and 15.6 mm off and
+/// made the cross-validation refuse a model 4× better than the geometry on new poses (exit 3).
+/// Not counted, the cross-validated RMS is what the other 1,273 poses of the session show.
+#[test]
+fn poses_the_other_poses_do_not_support_are_not_counted() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = ur10_dir().join("robot.toml");
+    let text = std::fs::read_to_string(ur10_dir().join("ur10_random_poses.csv")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let part =
+        |name: &str, rows: &[&str]| write(d, name, &format!("{}\n{}\n", lines[0], rows.join("\n")));
+    let fitted = part("fitted.csv", &lines[1..1501]);
+    let new = part("new.csv", &lines[1501..]);
+    let geometric = d.join("g.toml");
+    let out = run_on("identify", &robot, &fitted, &["--out", s(&geometric)]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let mut args = vec![
+        "--json".to_string(),
+        "--out".into(),
+        s(&d.join("t.toml")).into(),
+    ];
+    for j in 1..=6 {
+        args.extend(["--effect".into(), format!("joint-table:{j}:3.6")]);
+    }
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let out = run_on("identify", &geometric, &fitted, &args);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let cv = &v["cross_validated"];
+    assert!(cv["outside"].as_u64().unwrap() > 0, "{cv}");
+    let after = cv["after_rms_mm"].as_f64().unwrap();
+    let check = kinecal_ok(&[
+        "validate",
+        "--robot",
+        s(&robot),
+        "--model",
+        s(&d.join("t.toml")),
+        "--data",
+        s(&new),
+        "--json",
+    ]);
+    let w: serde_json::Value = serde_json::from_slice(&check.stdout).unwrap();
+    let on_new = w["model"]["rms_mm"].as_f64().unwrap();
+    assert!(
+        (after / on_new - 1.0).abs() < 0.3,
+        "{after} against {on_new} on new poses"
+    );
 }

@@ -3,7 +3,7 @@
 //! gives the same report as the file in kinecal's layout. (Units through a map are the
 //! vendor_files tests'; here the cells stay the same digits so the reports agree bit for bit.)
 
-use crate::common::{json_of, kinecal, s, simulate, stderr, write, ER20_PLACED};
+use crate::common::{kinecal, s, simulate, stderr, write, ER20_PLACED};
 use std::path::{Path, PathBuf};
 
 /// `file` (kinecal's layout, comma-separated) rewritten as a vendor writes it: `;`-separated,

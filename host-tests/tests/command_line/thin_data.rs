@@ -183,3 +183,31 @@ fn poses_the_other_poses_do_not_support_are_not_counted() {
         "{after} against {on_new} on new poses"
     );
 }
+
+/// `validate` on a session thin for its registration (5 poses for the 9 parameters of
+/// `base+tool`) says its verdict is uncertain; on 200 poses it does not.
+#[test]
+fn validate_on_a_thin_session_says_the_verdict_is_uncertain() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = ur10_dir().join("robot.toml");
+    for (n, warned) in [(5, true), (200, false)] {
+        let data = ur10_rows(dir.path(), &format!("{n}.csv"), n, |_, _| {});
+        let out = kinecal(&[
+            "validate",
+            "--robot",
+            s(&robot),
+            "--model",
+            s(&robot),
+            "--data",
+            s(&data),
+        ]);
+        let err = stderr(&out);
+        assert_eq!(
+            err.contains(&format!(
+                "{n} observations for 9 registered parameters (base+tool)"
+            )) && err.contains("the verdict is uncertain"),
+            warned,
+            "{n}: {err}"
+        );
+    }
+}

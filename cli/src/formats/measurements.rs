@@ -170,6 +170,15 @@ pub fn describe_error(
     let mut col = e.column as usize;
     let mut msg = e.kind.describe().to_string();
     match e.kind {
+        CsvErrorKind::DuplicateColumn | CsvErrorKind::MissingColumn
+            if header.is_some_and(|h| h.iter().all(|c| c.trim().parse::<f64>().is_ok())) =>
+        {
+            msg = format!(
+                "the first line is numbers, not a header: add the header line (q1..q{n}, x, y, \
+                 z, …), or read the file with --map M.toml and header = false"
+            );
+            col = 1;
+        }
         CsvErrorKind::MissingColumn => {
             let name = required_column_name(e.which as usize, n);
             msg = format!(
@@ -182,6 +191,20 @@ pub fn describe_error(
         CsvErrorKind::LineTooLong => {
             msg = format!("line longer than {LINE_CAPACITY} bytes");
             col = LINE_CAPACITY + 1;
+            // The whole file read as one line: its lines end in a carriage return alone.
+            if text_line.is_some_and(|t| t.contains('\r')) {
+                msg.push_str(
+                    " (the lines end in a carriage return alone, an old Mac format: save the \
+                     file with LF or CRLF line ends)",
+                );
+            }
+        }
+        CsvErrorKind::NotText => {
+            if text_line.is_some_and(|t| t.contains('\0')) {
+                msg.push_str(
+                    " (the file looks UTF-16, a zero byte beside each character: save it as UTF-8)",
+                );
+            }
         }
         CsvErrorKind::TooManyJoints => {
             let name = header
@@ -212,6 +235,14 @@ pub fn describe_error(
                     let cell = cell.trim();
                     if !cell.is_empty() && cell.len() <= 40 {
                         msg.push_str(&format!(": '{cell}'"));
+                    }
+                    if e.kind == CsvErrorKind::NotANumber
+                        && cell.len() >= 2
+                        && ['"', '\'']
+                            .iter()
+                            .any(|q| cell.starts_with(*q) && cell.ends_with(*q))
+                    {
+                        msg.push_str(" (a quoted number: write the numbers without quotes)");
                     }
                 }
                 if e.kind == CsvErrorKind::OutOfRange {

@@ -509,3 +509,59 @@ fn diagnose_on_too_few_poses_says_how_many_it_needs() {
     let out = run_on("diagnose", &robot, &data, &[]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
 }
+
+/// Files a spreadsheet or an old tool writes, refused (exit 2) with what to do: lines ending
+/// in a carriage return alone (was "line longer than 4096 bytes"), UTF-16 (was "line is not
+/// UTF-8 text"), quoted numbers (was "not a number … '\"-179.999848\"'"), and no header line
+/// (was "duplicate column in column -90.000210").
+#[test]
+fn files_in_a_form_kinecal_does_not_read_say_what_to_change() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = crate::common::ur10_dir().join("robot.toml");
+    let clean =
+        std::fs::read_to_string(crate::common::ur10_rows(d, "clean.csv", 300, |_, _| {})).unwrap();
+    let utf16: Vec<u8> = [0xFF, 0xFE]
+        .into_iter()
+        .chain(clean.encode_utf16().flat_map(u16::to_le_bytes))
+        .collect();
+    let quoted: String = clean
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 0 {
+                format!("{l}\n")
+            } else {
+                let cells: Vec<String> = l.split(',').map(|c| format!("\"{c}\"")).collect();
+                format!("{}\n", cells.join(","))
+            }
+        })
+        .collect();
+    let headless: String = clean.lines().skip(1).map(|l| format!("{l}\n")).collect();
+    let cases: [(&str, Vec<u8>, &str); 4] = [
+        (
+            "cr.csv",
+            clean.replace('\n', "\r").into_bytes(),
+            "carriage return alone",
+        ),
+        ("utf16.csv", utf16, "save it as UTF-8"),
+        (
+            "quoted.csv",
+            quoted.into_bytes(),
+            "write the numbers without quotes",
+        ),
+        (
+            "headless.csv",
+            headless.into_bytes(),
+            "the first line is numbers, not a header",
+        ),
+    ];
+    for (name, bytes, says) in cases {
+        let path = d.join(name);
+        std::fs::write(&path, bytes).unwrap();
+        let out = crate::common::run_on("check", &robot, &path, &[]);
+        let err = crate::common::stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{name}: {err}");
+        assert!(err.contains(says), "{name}: {err}");
+    }
+}

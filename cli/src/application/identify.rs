@@ -23,6 +23,9 @@ pub const DEFAULT_SEED: u64 = 1;
 pub const DEFAULT_TOLERANCE_MM: f64 = 20.0;
 /// The same for angle parameters, degrees.
 pub const DEFAULT_TOLERANCE_DEG: f64 = 2.0;
+/// A fold of a thin fit's cross-validation that stopped before converging counts when its
+/// poses' RMS is within this factor of the whole fit's (`crate::calibration::thin_data`).
+pub const FOLD_RMS_RATIO: f64 = 1.5;
 /// A fit whose identification RMS stays above this (mm) has stalled.
 pub const DEFAULT_STALL_RMS_MM: f64 = 5.0;
 
@@ -368,6 +371,14 @@ pub fn identify<const N: usize>(
             |start, train| {
                 crate::calibration::prior::fit_lm_with_prior(start, &params, &prior_sigma, train)
                     .ok()
+                    .filter(|f| {
+                        // Settled where the whole fit did: converged, or stopped (at the
+                        // iteration limit: a fold of hundreds of table knots) with the fold's
+                        // poses fitted as well as the whole fit fits all of them.
+                        f.solver_converged()
+                            || Residuals::of(&f.robot, train, &[]).identification_rms_mm
+                                <= FOLD_RMS_RATIO * after.identification_rms_mm + 1e-6
+                    })
                     .map(|f| f.robot)
             },
         )

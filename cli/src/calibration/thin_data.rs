@@ -6,12 +6,13 @@
 //! [`EQUATIONS_PER_PARAMETER`], `identify` leaves each fold of the poses out in turn
 //! ([`crate::calibration::folds`]: repeats of a pose together), places the starting model on
 //! the others and fits it there, and compares the left-out poses' RMS of the two
-//! ([`crate::calibration::acceptance::judge_cross_validated`]). A left-out pose is not
-//! counted where its fold's other poses do not support it: outside their joint ranges, or on
-//! an effect value (a joint table's knot) that fewer than [`MIN_SUPPORT`] of them move. What a
-//! fit does there is extrapolation, which the full fit, covering those poses, does not do (a
-//! UR10 pose at q3 = 3° among 1,500, whose 3.6° table interval held only one other pose, was
-//! predicted 15.6 mm off without it).
+//! ([`crate::calibration::acceptance::judge_cross_validated`]). A left-out observation is
+//! not counted where its fold's other poses do not support the model: on an effect value (a
+//! joint table's knot) that fewer than [`MIN_SUPPORT`] of them move. A fit there rests on one
+//! or two poses (a UR10 pose at q3 = 3° among 1,500, whose 3.6° table interval held one other
+//! pose, was predicted 15.6 mm off without it), which the full fit, with that pose, does not.
+//! When fewer than half are supported the effects are finer than the data, and nothing is
+//! cross-validated (a warning says so).
 
 use crate::calibration::folds::{subset, Folds};
 use crate::calibration::Residuals;
@@ -28,7 +29,7 @@ pub const EQUATIONS_PER_PARAMETER: usize = 20;
 pub const MAX_FOLDS: usize = 10;
 
 /// A left-out observation counts when each effect value it moves is moved by at least this
-/// many of its fold's other observations.
+/// many distinct other poses of its fold.
 pub const MIN_SUPPORT: usize = 3;
 
 /// The cross-validated figures of a fit on thin data.
@@ -40,23 +41,49 @@ pub struct CrossValidated {
     /// parameters.
     pub equations: usize,
     pub parameters: usize,
-    /// Position RMS over the left-out poses: the model the fit started from, placed (base and
-    /// unknown tool registered) on the other poses of each fold. `None` when a fold's other
-    /// poses are too few to fit (or to place) the model: too thin to cross-validate.
+    /// Position RMS over the counted left-out observations: the model the fit started from,
+    /// placed (base and unknown tool registered) on the other poses of each fold. `None`
+    /// when the fit could not be cross-validated ([`Self::not_validated`]).
     pub start_rms_mm: Option<f64>,
     /// The same for the model fitted to the other poses of each fold.
     pub after_rms_mm: Option<f64>,
-    /// Left-out observations their fold's other poses do not support (outside their joint
-    /// ranges, or on an effect value fewer than [`MIN_SUPPORT`] of them move), not counted.
-    pub outside: usize,
+    /// Left-out observations on an effect value fewer than [`MIN_SUPPORT`] other poses of
+    /// their fold move, not counted.
+    pub unsupported: usize,
+    /// Left-out observations in all.
+    pub observations: usize,
+    /// Folds whose other poses could not be fitted: too few equations, or the fit did not
+    /// converge.
+    pub failed_folds: usize,
     /// Wall time of the folds' fits (s).
     pub seconds: f64,
 }
 
+/// Why a thin fit was not cross-validated.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum NotValidated {
+    /// A fold's other poses could not be fitted.
+    FoldsNotFitted,
+    /// Fewer than half the left-out observations are supported: the effects are finer than
+    /// the data.
+    Unsupported,
+}
+
 impl CrossValidated {
-    /// Both figures, when every fold could be fitted.
+    /// Both figures, when the fit could be cross-validated.
     pub fn figures(&self) -> Option<(f64, f64)> {
         Some((self.start_rms_mm?, self.after_rms_mm?))
+    }
+
+    /// Why there are no figures.
+    pub fn not_validated(&self) -> Option<NotValidated> {
+        if self.failed_folds > 0 {
+            Some(NotValidated::FoldsNotFitted)
+        } else if self.figures().is_none() {
+            Some(NotValidated::Unsupported)
+        } else {
+            None
+        }
     }
 }
 
@@ -72,16 +99,25 @@ pub fn thin(equations: usize, params: usize) -> bool {
     equations < EQUATIONS_PER_PARAMETER * params
 }
 
-/// How many more observations like the average of `data`'s give `params` parameters
-/// [`EQUATIONS_PER_PARAMETER`] equations each: the poses to measure, in all.
+/// How many poses of `per_pose` equations give `params` parameters
+/// [`EQUATIONS_PER_PARAMETER`] equations each.
 pub fn enough_poses(params: usize, per_pose: f64) -> usize {
     ((EQUATIONS_PER_PARAMETER * params) as f64 / per_pose.max(1.0)).ceil() as usize
 }
 
+/// One fold's result: squared errors summed over its counted left-out observations (start,
+/// fitted), how many were counted and how many were not supported.
+struct Fold {
+    start_sq: f64,
+    after_sq: f64,
+    counted: usize,
+    unsupported: usize,
+}
+
 /// Cross-validates `parameters` fitted to `data`: `place` puts the starting model on a fold's
-/// other observations, `fit` fits the model from there. The figures are `None` when a fold's
-/// placement or fit fails (too few poses left); `None` altogether below 2 distinct poses. The
-/// folds are fitted on several threads.
+/// other observations, `fit` fits the model from there (`None`: it could not, or did not
+/// converge). `robot` and `params` are the full fit's: which effect values each observation
+/// moves. `None` below 2 distinct poses. The folds are fitted on several threads.
 pub fn cross_validate<const N: usize>(
     data: &[Measurement<f64, N>],
     (robot, params): (&HostRobot<N>, &[kinecal::Param]),
@@ -99,53 +135,59 @@ pub fn cross_validate<const N: usize>(
     let folds = Folds::new(data, distinct.min(MAX_FOLDS), seed);
     let moves = effect_values_moved(robot, params, data);
     let each: Vec<usize> = (0..folds.k).collect();
-    // Per fold: the squared errors summed over its counted left-out observations (start,
-    // fitted), how many were counted, how many lay outside the fold's ranges.
-    let sums = crate::compute::parallel::map_each(&each, |&f| {
+    let results = crate::compute::parallel::map_each(&each, |&f| -> Option<Fold> {
         let (test_at, train_at) = folds.split(f);
         let train = subset(data, &train_at);
         let start = place(&train)?;
         let fitted = fit(&start, &train)?;
-        let ranges = joint_ranges(&train);
-        let mut support = vec![0usize; params.len()];
+        // Each effect value's supporters: distinct poses (a pose's repeats and reflectors
+        // are one).
+        let mut support: Vec<std::collections::BTreeSet<usize>> =
+            vec![Default::default(); params.len()];
         for &i in &train_at {
             for &k in &moves[i] {
-                support[k] += 1;
+                support[k].insert(groups[i]);
             }
         }
-        let (inside, outside): (Vec<_>, Vec<_>) = test_at.iter().partition(|&&i| {
-            within(&ranges, &data[i]) && moves[i].iter().all(|&k| support[k] >= MIN_SUPPORT)
-        });
-        let inside = subset(data, &inside);
+        let (counted, unsupported): (Vec<usize>, Vec<usize>) = test_at
+            .iter()
+            .partition(|&&i| moves[i].iter().all(|&k| support[k].len() >= MIN_SUPPORT));
+        let counted = subset(data, &counted);
         let square = |robot: &HostRobot<N>| {
-            Residuals::of(robot, &[], &inside)
+            Residuals::of(robot, &[], &counted)
                 .validation_rms_mm
-                .map_or(0.0, |v| v * v * inside.len() as f64)
+                .map_or(0.0, |v| v * v * counted.len() as f64)
         };
-        Some((square(&start), square(&fitted), inside.len(), outside.len()))
+        Some(Fold {
+            start_sq: square(&start),
+            after_sq: square(&fitted),
+            counted: counted.len(),
+            unsupported: unsupported.len(),
+        })
     });
     let seconds = t0.elapsed().as_secs_f64();
-    let outside = sums.iter().flatten().map(|s| s.3).sum();
-    let figures = sums
-        .into_iter()
-        .collect::<Option<Vec<_>>>()
-        .and_then(|sums| {
-            let count: usize = sums.iter().map(|s| s.2).sum();
-            let rms = |sq: f64| (sq / count as f64).sqrt();
-            (count > 0).then(|| {
-                (
-                    rms(sums.iter().map(|s| s.0).sum()),
-                    rms(sums.iter().map(|s| s.1).sum()),
-                )
-            })
-        });
+    let failed_folds = results.iter().filter(|r| r.is_none()).count();
+    let done: Vec<Fold> = results.into_iter().flatten().collect();
+    let counted: usize = done.iter().map(|f| f.counted).sum();
+    let unsupported: usize = done.iter().map(|f| f.unsupported).sum();
+    // Figures from every fold, and from at least half of the left-out observations: fewer
+    // say where the data support the model, not how it predicts.
+    let figures = (failed_folds == 0 && 2 * counted >= data.len()).then(|| {
+        let rms = |sq: f64| (sq / counted as f64).sqrt();
+        (
+            rms(done.iter().map(|f| f.start_sq).sum()),
+            rms(done.iter().map(|f| f.after_sq).sum()),
+        )
+    });
     Some(CrossValidated {
         folds: folds.k,
         equations: equations(data),
         parameters,
         start_rms_mm: figures.map(|f| f.0),
         after_rms_mm: figures.map(|f| f.1),
-        outside,
+        unsupported,
+        observations: data.len(),
+        failed_folds,
         seconds,
     })
 }
@@ -188,24 +230,4 @@ fn effect_values_moved<const N: usize>(
     .into_iter()
     .flatten()
     .collect()
-}
-
-/// Each joint's range over `data` (rad). No margin: a joint table extrapolates beyond its
-/// covered range (160 mm at a UR10's home pose just outside a fold's range).
-fn joint_ranges<const N: usize>(data: &[Measurement<f64, N>]) -> [(f64, f64); N] {
-    let mut r = [(f64::INFINITY, f64::NEG_INFINITY); N];
-    for m in data {
-        for (r, q) in r.iter_mut().zip(&m.q) {
-            *r = (r.0.min(*q), r.1.max(*q));
-        }
-    }
-    r
-}
-
-/// Whether every joint reading of `m` lies within `ranges`.
-fn within<const N: usize>(ranges: &[(f64, f64); N], m: &Measurement<f64, N>) -> bool {
-    ranges
-        .iter()
-        .zip(&m.q)
-        .all(|((lo, hi), q)| (*lo..=*hi).contains(q))
 }

@@ -114,6 +114,8 @@ pub struct Validation {
     pub registered: Vec<String>,
     pub poses: usize,
     pub observations: usize,
+    /// Equations of the registration: three per position, three more per orientation.
+    pub equations: usize,
     pub model: Judged,
     pub nominal: Judged,
     /// The model's position RMS is above the nominal robot's: strictly, no margin.
@@ -176,6 +178,7 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
             .collect(),
         poses: observed.poses.len(),
         observations: data.len(),
+        equations: crate::calibration::thin_data::equations(&data),
         model,
         nominal,
         worse_than_nominal,

@@ -456,8 +456,19 @@ impl IdentifyReport {
     /// poses, χ²/dof far from 1, suspicious parameters, the held-out verdict, not converged.
     pub fn warnings(&self) -> Vec<String> {
         let mut out = Vec::new();
-        match self.cross_validated.as_ref().map(|cv| (cv, cv.figures())) {
-            Some((cv, Some((start, after)))) if self.n_validation == 0 => out.push(format!(
+        use crate::calibration::thin_data::{enough_poses, NotValidated, MIN_SUPPORT};
+        let cv = self
+            .cross_validated
+            .as_ref()
+            .filter(|_| self.n_validation == 0);
+        let enough = |cv: &crate::calibration::thin_data::CrossValidated| {
+            enough_poses(
+                cv.parameters,
+                cv.equations as f64 / self.n_identification.max(1) as f64,
+            )
+        };
+        match cv.map(|cv| (cv, cv.figures(), cv.not_validated())) {
+            Some((cv, Some((start, after)), _)) => out.push(format!(
                 "note: nothing was held out and the data are thin ({} equations for {} \
                  parameters), so the fit was cross-validated ({} folds{}): the poses left out \
                  are predicted to {} mm RMS, against {} mm by the model it started from; \
@@ -465,13 +476,11 @@ impl IdentifyReport {
                 cv.equations,
                 cv.parameters,
                 cv.folds,
-                if cv.outside > 0 {
+                if cv.unsupported > 0 {
                     format!(
-                        ", {} left-out observation(s) not counted: outside the joint ranges \
-                         of the poses fitted without them, or on an effect value fewer than {} \
-                         of those move",
-                        cv.outside,
-                        crate::calibration::thin_data::MIN_SUPPORT
+                        "; {} of {} left-out observations not counted: on an effect value \
+                         fewer than {MIN_SUPPORT} of the other poses move",
+                        cv.unsupported, cv.observations
                     )
                 } else {
                     String::new()
@@ -479,23 +488,26 @@ impl IdentifyReport {
                 sig(after, 4),
                 sig(start, 4)
             )),
-            Some((cv, None)) if self.n_validation == 0 => out.push(format!(
+            Some((cv, None, Some(NotValidated::FoldsNotFitted))) => out.push(format!(
                 "warning: nothing was held out, and the data are too thin to cross-validate: \
-                 leaving out a {} of its {} poses ({} equations) leaves too few to fit {} \
-                 parameters, so its RMS says little about new poses: measure about {} poses \
-                 spread over the working range, or hold parameters with --fix",
-                if cv.folds >= self.n_identification {
-                    "single one".to_string()
-                } else {
-                    format!("1/{}", cv.folds)
-                },
-                self.n_identification,
+                 without the poses of one of {} folds, the others ({} equations in all) could \
+                 not be fitted for {} parameters, so the fit's RMS says little about new \
+                 poses: measure about {} poses spread over the working range, or hold \
+                 parameters with --fix",
+                cv.folds,
                 cv.equations,
                 cv.parameters,
-                crate::calibration::thin_data::enough_poses(
-                    cv.parameters,
-                    cv.equations as f64 / self.n_identification.max(1) as f64
-                )
+                enough(cv)
+            )),
+            Some((cv, None, _)) => out.push(format!(
+                "warning: nothing was held out, and the fit could not be cross-validated: {} \
+                 of {} observations lie on an effect value fewer than {MIN_SUPPORT} other \
+                 poses move, so the effects are finer than the data support: use coarser \
+                 tables (a larger step), or measure about {} poses spread over the working \
+                 range",
+                cv.unsupported,
+                cv.observations,
+                enough(cv)
             )),
             _ if self.n_validation == 0 => {
                 out.push(crate::calibration::acceptance::NOT_JUDGED.to_string())

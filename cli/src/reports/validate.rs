@@ -31,6 +31,9 @@ pub struct ValidateReport {
     pub registered: Vec<String>,
     pub poses: usize,
     pub observations: usize,
+    /// Equations of the registration: three per position, three more per orientation.
+    #[serde(default)]
+    pub equations: usize,
     /// The calibrated model, registered.
     pub model: Figures,
     /// The nominal robot, registered the same way.
@@ -48,24 +51,33 @@ pub struct ValidateReport {
     pub verdict: String,
 }
 
+/// Below this many equations per registered parameter `validate` warns that its verdict is
+/// uncertain (30 positions for `base+tool`): the registration absorbs part of either robot's
+/// errors, by about `p/m` of their squares.
+pub const EQUATIONS_PER_REGISTERED: usize = 10;
+
 impl ValidateReport {
     /// The warning when the session is thin for its registration (fewer than
-    /// [`crate::calibration::thin_data::EQUATIONS_PER_PARAMETER`] equations, three per
-    /// observation, per registered parameter): the registration absorbs part of either robot's
-    /// errors, and which of two close figures is lower says little.
+    /// [`EQUATIONS_PER_REGISTERED`] equations per registered parameter).
     pub fn thin(&self) -> Option<String> {
         let params = self.registered.len();
-        let thin = params > 0
-            && !self.data_mismatch
-            && crate::calibration::thin_data::thin(3 * self.observations, params);
+        let thin =
+            params > 0 && !self.data_mismatch && self.equations < EQUATIONS_PER_REGISTERED * params;
         thin.then(|| {
+            let per_pose = self.equations as f64 / self.poses.max(1) as f64;
             format!(
-                "warning: {} observations for {params} registered parameters ({}): the \
+                "warning: {} poses ({} equations) for {params} registered parameters ({}): the \
                  registration absorbs part of either robot's errors, so the verdict is \
-                 uncertain; measure about {} poses, or register less (--register base)",
-                self.observations,
+                 uncertain; measure about {} poses{}",
+                self.poses,
+                self.equations,
                 self.register,
-                crate::calibration::thin_data::enough_poses(params, 3.0)
+                ((EQUATIONS_PER_REGISTERED * params) as f64 / per_pose.max(1.0)).ceil(),
+                if self.register == "base+tool" {
+                    ", or register the base alone (--register base)"
+                } else {
+                    ""
+                }
             )
         })
     }
@@ -191,6 +203,7 @@ impl ValidateReport {
             registered: v.registered.clone(),
             poses: v.poses,
             observations: v.observations,
+            equations: v.equations,
             model: (&v.model).into(),
             nominal: (&v.nominal).into(),
             per_point,

@@ -247,3 +247,23 @@ fn validate_on_a_thin_session_says_the_verdict_is_uncertain() {
         );
     }
 }
+
+/// 6-D rows give six equations each: 60 real UR10 rows with orientations are cross-validated
+/// as 360 equations (thin for 28 parameters), 100 rows (600) are not.
+#[test]
+fn orientations_count_as_equations() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = ur10_dir().join("robot.toml");
+    let text = std::fs::read_to_string(ur10_dir().join("ur10_random_poses_6d.csv")).unwrap();
+    for (n, thin) in [(60, true), (100, false)] {
+        let rows: Vec<&str> = text.lines().take(n + 1).collect();
+        let data = write(dir.path(), &format!("{n}.csv"), &(rows.join("\n") + "\n"));
+        let v = json_of(&run_on("identify", &robot, &data, &["--json"]));
+        let cv = &v["cross_validated"];
+        assert_eq!(!cv.is_null(), thin, "{n}: {cv}");
+        if thin {
+            assert_eq!(cv["equations"], 6 * n);
+            assert!(cv["after_rms_mm"].as_f64().unwrap() < cv["start_rms_mm"].as_f64().unwrap());
+        }
+    }
+}

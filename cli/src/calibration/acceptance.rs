@@ -116,6 +116,30 @@ pub fn outside_ranges<const N: usize>(
         .collect()
 }
 
+/// The verdict's figures on poses a fit did not see: whether the calibrated model predicts them
+/// worse than the starting model (NaN counts as worse), its RMS over the identification RMS,
+/// and whether that is [`MUCH_WORSE`].
+fn compare(start: f64, after: f64, ident_mm: f64) -> (bool, f64, bool) {
+    let worse = after.is_nan() || start.is_nan() || after > start + NO_DIFFERENCE_MM;
+    let ratio = after / ident_mm.max(f64::MIN_POSITIVE);
+    (
+        worse,
+        ratio,
+        ratio > MUCH_WORSE && after > ident_mm + NO_DIFFERENCE_MM,
+    )
+}
+
+/// The first six names, and "…" for more.
+fn first_names(names: &[String]) -> String {
+    let shown: Vec<&str> = names.iter().take(6).map(String::as_str).collect();
+    let more = if names.len() > shown.len() {
+        ", …"
+    } else {
+        ""
+    };
+    format!("{}{more}", shown.join(", "))
+}
+
 /// Judges a fit on its held-out poses: `start_mm` and `after_mm` are the starting and the
 /// calibrated model's held-out RMS, `ident_mm` the calibrated model's identification RMS;
 /// `weak` the parameters the data barely determine. `None` without held-out poses.
@@ -126,10 +150,7 @@ pub fn judge<const N: usize>(
     weak: Vec<String>,
 ) -> Option<Acceptance> {
     let (start, after) = (start_mm?, after_mm?);
-    // NaN counts as worse.
-    let worse = after.is_nan() || start.is_nan() || after > start + NO_DIFFERENCE_MM;
-    let ratio = after / ident_mm.max(f64::MIN_POSITIVE);
-    let much_worse = ratio > MUCH_WORSE && after > ident_mm + NO_DIFFERENCE_MM;
+    let (worse, ratio, much_worse) = compare(start, after, ident_mm);
     let gaps = outside_ranges(ident, valid);
     let message = (worse || much_worse).then(|| {
         use crate::output::numfmt::sig;
@@ -171,16 +192,10 @@ pub fn judge<const N: usize>(
             ));
         }
         if !weak.is_empty() {
-            let shown: Vec<&str> = weak.iter().take(6).map(String::as_str).collect();
             why.push(format!(
-                "parameters the data barely determine ({}{}: 1-σ beyond the tolerance): hold \
+                "parameters the data barely determine ({}: 1-σ beyond the tolerance): hold \
                  them (--fix) or measure poses that move them (plan --estimate)",
-                shown.join(", "),
-                if weak.len() > shown.len() {
-                    ", …"
-                } else {
-                    ""
-                }
+                first_names(&weak)
             ));
         }
         if why.is_empty() {
@@ -215,9 +230,7 @@ pub fn judge_cross_validated(
 ) -> Option<Acceptance> {
     use crate::output::numfmt::sig;
     let (start, after) = cv.figures()?;
-    let worse = after.is_nan() || start.is_nan() || after > start + NO_DIFFERENCE_MM;
-    let ratio = after / ident_mm.max(f64::MIN_POSITIVE);
-    let much_worse = ratio > MUCH_WORSE && after > ident_mm + NO_DIFFERENCE_MM;
+    let (worse, ratio, much_worse) = compare(start, after, ident_mm);
     let params = cv.parameters;
     let enough = crate::calibration::thin_data::enough_poses(
         params,
@@ -254,16 +267,7 @@ pub fn judge_cross_validated(
             }
         );
         if !weak.is_empty() {
-            let shown: Vec<&str> = weak.iter().take(6).map(String::as_str).collect();
-            why.push_str(&format!(
-                " (barely determined: {}{})",
-                shown.join(", "),
-                if weak.len() > shown.len() {
-                    ", …"
-                } else {
-                    ""
-                }
-            ));
+            why.push_str(&format!(" (barely determined: {})", first_names(&weak)));
         }
         format!("{head}; likely: {why}")
     });

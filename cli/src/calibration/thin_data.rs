@@ -102,7 +102,12 @@ pub fn thin(equations: usize, params: usize) -> bool {
 /// How many poses of `per_pose` equations give `params` parameters
 /// [`EQUATIONS_PER_PARAMETER`] equations each.
 pub fn enough_poses(params: usize, per_pose: f64) -> usize {
-    ((EQUATIONS_PER_PARAMETER * params) as f64 / per_pose.max(1.0)).ceil() as usize
+    poses_for(EQUATIONS_PER_PARAMETER * params, per_pose)
+}
+
+/// How many poses of `per_pose` equations give `equations`.
+pub fn poses_for(equations: usize, per_pose: f64) -> usize {
+    (equations as f64 / per_pose.max(1.0)).ceil() as usize
 }
 
 /// One fold's result: squared errors summed over its counted left-out observations (start,

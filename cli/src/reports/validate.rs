@@ -72,7 +72,10 @@ impl ValidateReport {
                 self.poses,
                 self.equations,
                 self.register,
-                ((EQUATIONS_PER_REGISTERED * params) as f64 / per_pose.max(1.0)).ceil(),
+                crate::calibration::thin_data::poses_for(
+                    EQUATIONS_PER_REGISTERED * params,
+                    per_pose
+                ),
                 if self.register == "base+tool" {
                     ", or register the base alone (--register base)"
                 } else {

@@ -305,6 +305,11 @@ pub fn identify<const N: usize>(
     let resized = outliers
         .few()
         .or_else(|| crate::calibration::arm_size::resized(&nominal, &fit.robot))
+        .or_else(|| {
+            (!file.tool_unknown())
+                .then(|| crate::calibration::arm_size::tool_slip(&nominal, &fit.robot))
+                .flatten()
+        })
         .or_else(|| outliers.reason());
     let converged = fit.solver_converged()
         && !stalled

@@ -96,3 +96,73 @@ pub fn resized<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStorag
         sig(is, 4)
     ))
 }
+
+/// A stated tool point shorter than this (mm) that the data put [`TOOL_METRES_RATIO`] times as
+/// far from the flange was written in metres.
+pub const TOOL_METRES_MM: f64 = 2.0;
+/// How many times as far from the flange as stated (at least) a tool written in metres lies.
+pub const TOOL_METRES_RATIO: f64 = 200.0;
+/// A coordinate of the stated tool point at least this far from the flange (mm) whose fitted
+/// value has the other sign, at least half as large, had its sign flipped.
+pub const TOOL_SIGN_MM: f64 = 10.0;
+
+/// Why the tool point `fitted` settled on cannot be the one `nominal` states, written right:
+/// the rest of a sentence that starts "the fit", or `None`. Only for a tool the robot file
+/// states (an unknown tool is started from the data). The tool point is compared in the
+/// nominal flange frame, with the last joint's `d` and `θ` (which take up the tool's offset
+/// along and about the flange axis, [`moved`]) moved back onto it. Two slips are named: a tool
+/// written in metres (a stated point under [`TOOL_METRES_MM`] that the data put at least
+/// [`TOOL_METRES_RATIO`] times as far out), and a coordinate whose sign is flipped (beyond
+/// [`TOOL_SIGN_MM`], fitted on the other side at half its length or more). The geometry
+/// imitates either exactly (UR10's real data fit to the same 0.47 mm with the tool in metres,
+/// `d6` 93 mm longer), so the fit's error is no evidence against them.
+pub fn tool_slip<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStorage>(
+    nominal: &Robot<f64, N, V>,
+    fitted: &Robot<f64, N, W>,
+) -> Option<String> {
+    let (Some(a), Some(b)) = (nominal.joints().last(), fitted.joints().last()) else {
+        return None;
+    };
+    let stated = *nominal.tool();
+    let (s, c) = (b.theta - a.theta).sin_cos();
+    let t = fitted.tool();
+    let found = nalgebra::Vector3::new(c * t.x - s * t.y, s * t.x + c * t.y, t.z + (b.d - a.d));
+    let (was, is) = (stated.norm(), found.norm());
+    if !(was.is_finite() && is.is_finite()) {
+        return None;
+    }
+    let fmt =
+        |v: &nalgebra::Vector3<f64>| format!("[{}, {}, {}]", sig(v.x, 4), sig(v.y, 4), sig(v.z, 4));
+    if was > 0.0 && was < TOOL_METRES_MM && is >= TOOL_METRES_RATIO * was {
+        return Some(format!(
+            "put the tool point {} mm from the flange ({} mm), {} times as far as the robot \
+             file's [tool] xyz_mm = {} says: [tool] is written in metres; give xyz_mm in \
+             millimetres (or write xyz_mm = \"unknown\" to have it fitted)",
+            sig(is, 4),
+            fmt(&found),
+            sig(is / was, 3),
+            fmt(&stated)
+        ));
+    }
+    let flipped: Vec<&str> = ["x", "y", "z"]
+        .into_iter()
+        .enumerate()
+        .filter(|&(i, _)| {
+            stated[i].abs() >= TOOL_SIGN_MM
+                && found[i] * stated[i] < 0.0
+                && found[i].abs() >= 0.5 * stated[i].abs()
+        })
+        .map(|(_, n)| n)
+        .collect();
+    (!flipped.is_empty()).then(|| {
+        format!(
+            "put the tool point at {} mm in the flange frame, where the robot file's [tool] \
+             xyz_mm = {} has the other sign in {}: the sign is flipped in the robot file (or \
+             the flange frame differs); correct [tool] xyz_mm (or write xyz_mm = \"unknown\" \
+             to have it fitted)",
+            fmt(&found),
+            fmt(&stated),
+            flipped.join(", ")
+        )
+    })
+}

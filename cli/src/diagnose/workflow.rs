@@ -270,6 +270,11 @@ pub fn run<const N: usize>(
     d.resized = outliers
         .few()
         .or(d.resized.take())
+        .or_else(|| {
+            (!file.tool_unknown())
+                .then(|| crate::calibration::arm_size::tool_slip(&nominal, &d.geometric))
+                .flatten()
+        })
         .or_else(|| outliers.reason());
     let holdout = if held.is_empty() {
         None

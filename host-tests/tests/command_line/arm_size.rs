@@ -129,3 +129,68 @@ fn a_joint_sign_or_angle_against_the_robot_file_is_no_calibration() {
         assert_eq!(out.status.code(), Some(0), "{command}: {}", stderr(&out));
     }
 }
+
+/// A `[tool]` written in metres or with a sign flipped: the last joint's `d` (and the fitted
+/// tool coordinates) take up the difference, so the fit is as close as with the right tool
+/// (the real UR10 rows fit to 0.47 mm with the tool in metres, `d6` 93 mm longer) and used to
+/// exit 0 with a "moved further than a manufacturing tolerance" warning. `identify` and
+/// `diagnose` now exit 3 naming `[tool]` and the slip (`arm_size::tool_slip`); the right tool,
+/// and one that is only approximately right, calibrate.
+#[test]
+fn a_tool_in_metres_or_with_its_sign_flipped_is_no_calibration() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = ur10_dir().join("robot.toml");
+    let text = std::fs::read_to_string(&robot).unwrap();
+    let stated = "xyz_mm = [0.0, 0.0, 109.0]";
+    assert!(text.contains(stated));
+    let with_tool = |name: &str, xyz: &str| {
+        write(
+            dir.path(),
+            name,
+            &text.replace(stated, &format!("xyz_mm = {xyz}")),
+        )
+    };
+    let rows = ur10_rows(dir.path(), "rows.csv", 400, |_, _| {});
+    for (name, xyz, phrase) in [
+        ("metres.toml", "[0.0, 0.0, 0.109]", "written in metres"),
+        ("sign.toml", "[0.0, 0.0, -109.0]", "has the other sign in z"),
+    ] {
+        let wrong = with_tool(name, xyz);
+        for command in ["identify", "diagnose"] {
+            let line = no_calibration(command, &wrong, &rows);
+            assert!(
+                line.contains(phrase) && line.contains("[tool] xyz_mm"),
+                "{command} {name}: {line}"
+            );
+        }
+    }
+    // A tool 20 mm off (the real reflector sits 16 mm nearer the flange than the file says) is
+    // no slip of units or sign.
+    let approximate = with_tool("approximate.toml", "[0.0, 0.0, 129.0]");
+    for robot_file in [&robot, &approximate] {
+        for command in ["identify", "diagnose"] {
+            let out = run_on(command, robot_file, &rows, &[]);
+            assert_eq!(out.status.code(), Some(0), "{command}: {}", stderr(&out));
+        }
+    }
+    // Across the flange axis: the tool's x fitted on the other side of the flange.
+    let across = write(
+        dir.path(),
+        "across.toml",
+        &text.replace(stated, "xyz_mm = [60.0, 0.0, 109.0]"),
+    );
+    let data = dir.path().join("across.csv");
+    simulate(
+        &across,
+        Some(300),
+        Some(0.05),
+        Some(3),
+        &["--geom-errors"],
+        &data,
+    );
+    let flipped = with_tool("flipped.toml", "[-60.0, 0.0, 109.0]");
+    let line = no_calibration("identify", &flipped, &data);
+    assert!(line.contains("has the other sign in x"), "{line}");
+    let out = run_on("identify", &across, &data, &[]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+}

@@ -171,3 +171,55 @@ fn a_map_reading_one_column_twice_or_the_wrong_unit_is_refused() {
         }
     }
 }
+
+/// A map key that is none of kinecal's column names (`temp` for `temp_c`, `X` for `x`, `sx_m`
+/// for `sx_mm`) used to be carried along as an extra column, its values silently unread: the
+/// temperature left out of a `thermal-expansion` fit, the σ out of the weights. It is refused
+/// (exit 2) naming the key and the name it most likely meant; a name near none of kinecal's
+/// gets the list of them instead of a guess.
+#[test]
+fn a_map_key_kinecal_does_not_read_is_refused_with_the_name_meant() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = crate::common::ur10_dir().join("robot.toml");
+    let data = crate::common::ur10_rows(d, "d.csv", 100, |_, _| {});
+    for (key, says) in [
+        ("temp", "did you mean temp_c?"),
+        ("X", "did you mean x?"),
+        ("sx_m", "did you mean sx_mm?"),
+        ("foo", "its names are q1 … q6, x, y, z"),
+    ] {
+        let map = write(d, "m.toml", &format!("[columns]\n{key} = \"temp_c\"\n"));
+        for command in ["check", "identify"] {
+            let out = kinecal(&[
+                command,
+                "--robot",
+                s(&robot),
+                "--data",
+                s(&data),
+                "--map",
+                s(&map),
+            ]);
+            let err = stderr(&out);
+            assert_eq!(out.status.code(), Some(2), "{command} {key}: {err}");
+            assert!(
+                err.contains(&format!(
+                    "[columns] {key}: kinecal reads no column of that name"
+                )) && err.contains(says),
+                "{command} {key}: {err}"
+            );
+        }
+    }
+    // kinecal's own names pass, further reflectors' and the per-axis angle σ among them.
+    let map = write(d, "ok.toml", "[columns]\ntemp_c = \"temp_c\"\n");
+    let out = kinecal(&[
+        "check",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(&data),
+        "--map",
+        s(&map),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+}

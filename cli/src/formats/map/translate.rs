@@ -123,13 +123,16 @@ fn resolve(
     }
 }
 
-/// Whether a header cell is already one of kinecal's column names (docs/formats.md,
-/// "Measurement CSV", "Sweep files", "Target and command files"), read as it is.
+/// kinecal's column names besides `qK` and `x_NAME` (docs/formats.md, "Measurement CSV",
+/// "Sweep files", "Target and command files").
+const KNOWN_NAMES: [&str; 17] = [
+    "x", "y", "z", "rx_deg", "ry_deg", "rz_deg", "sx_mm", "sy_mm", "sz_mm", "srot_deg", "temp_c",
+    "t_s", "sweep", "rx", "ry", "rz", "tool",
+];
+
+/// Whether a header cell is already one of kinecal's column names ([`KNOWN_NAMES`], `qK`,
+/// `x_NAME`), read as it is.
 fn kinecal_name(name: &str) -> bool {
-    const KNOWN: [&str; 17] = [
-        "x", "y", "z", "rx_deg", "ry_deg", "rz_deg", "sx_mm", "sy_mm", "sz_mm", "srot_deg",
-        "temp_c", "t_s", "sweep", "rx", "ry", "rz", "tool",
-    ];
     let joint = name
         .strip_prefix('q')
         .is_some_and(|k| !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit()));
@@ -138,7 +141,53 @@ fn kinecal_name(name: &str) -> bool {
             !r.is_empty() && r.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_')
         })
     });
-    (joint || point || KNOWN.contains(&name)) && name.len() <= kinecal::io::csv::NAME_LEN
+    (joint || point || KNOWN_NAMES.contains(&name)) && name.len() <= kinecal::io::csv::NAME_LEN
+}
+
+/// Refuses (exit 2) a `[columns]` key that is none of kinecal's column names: a slip (`temp`
+/// for `temp_c`, `X` for `x`) would otherwise be carried along unread and its column's values
+/// silently left out of the fit. Names the closest of kinecal's names when one is near.
+fn unknown_name(key: &str, n: usize, map_origin: &str) -> anyhow::Result<()> {
+    const PER_AXIS: [&str; 3] = ["srx_deg", "sry_deg", "srz_deg"];
+    if kinecal_name(key) || PER_AXIS.contains(&key) {
+        return Ok(());
+    }
+    let names: Vec<String> = (1..=n)
+        .map(|j| format!("q{j}"))
+        .chain(
+            KNOWN_NAMES
+                .iter()
+                .chain(PER_AXIS.iter())
+                .map(|s| s.to_string()),
+        )
+        .collect();
+    let lower = key.to_ascii_lowercase();
+    let near = names
+        .iter()
+        .map(|m| {
+            let d = strsim::damerau_levenshtein(&lower, m);
+            // `temp` for `temp_c`, `sx_m` for `sx_mm`: a name cut short is as near as a typo.
+            let cut = m.starts_with(&lower) && lower.len() >= 2;
+            (if cut { d.min(1) } else { d }, m)
+        })
+        // Two edits make a short name into most others (`foo`, `tool`): one for short names.
+        .filter(|(d, m)| *d <= if lower.len() >= 5 { 2 } else { 1 } && *d < m.len())
+        .min_by_key(|(d, _)| *d)
+        .map(|(_, m)| m);
+    match near {
+        Some(m) => crate::refuse!(
+            "{map_origin}: [columns] {key}: kinecal reads no column of that name (did you mean \
+             {m}?): name the file's column by kinecal's name for it (docs/formats.md, \
+             \"Measurement CSV\"), or leave it out"
+        ),
+        None => crate::refuse!(
+            "{map_origin}: [columns] {key}: kinecal reads no column of that name: its names are \
+             q1 … q{n}, x, y, z, x_NAME … for further reflectors, rx_deg, ry_deg, rz_deg, sx_mm, \
+             sy_mm, sz_mm, srot_deg (or srx_deg, sry_deg, srz_deg), temp_c, t_s, sweep, tool, and \
+             rx, ry, rz of targets (docs/formats.md, \"Measurement CSV\"); leave out the columns \
+             kinecal does not read"
+        ),
+    }
 }
 
 /// Whether kinecal's column `name` is a joint reading or a coordinate (of a point or an
@@ -169,6 +218,7 @@ fn plan(
     let mut named: Vec<(String, usize)> = Vec::new();
     let mut per_axis = [None; 3];
     for (key, r) in &map.columns {
+        unknown_name(key, n, map_origin)?;
         if let Some(j) = key.strip_prefix('q').and_then(|k| k.parse::<usize>().ok()) {
             if j == 0 || j > n {
                 crate::refuse!(

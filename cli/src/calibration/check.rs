@@ -12,6 +12,7 @@ use crate::calibration::{pose_errors, ErrorStats};
 use crate::formats::measurements::Dataset;
 use crate::formats::observations::{observe, ObservationArgs};
 use crate::formats::robot_file::RobotFile;
+use crate::output::numfmt::sig;
 use crate::HostRobot;
 use anyhow::anyhow;
 
@@ -41,6 +42,54 @@ pub struct Checked {
     pub coupling_hint: Option<CouplingHint>,
 }
 
+/// The poses of a measurement set with a reading outside the joint limits the robot file
+/// states (only stated limits are checked: without them nothing is known to violate).
+#[derive(Clone, Debug, PartialEq)]
+pub struct OutsideLimits {
+    /// How many poses have such a reading.
+    pub poses: usize,
+    /// The first of them: its line, the joint (1-based), the reading and the limits (degrees).
+    pub first: (u32, usize, f64, [f64; 2]),
+}
+
+impl OutsideLimits {
+    /// The poses of `ds` outside `file`'s joint limits, `None` when there are none.
+    pub fn of<const N: usize>(file: &RobotFile, ds: &Dataset<N>) -> Option<OutsideLimits> {
+        let stated: Vec<(usize, [f64; 2])> = file
+            .joints
+            .iter()
+            .enumerate()
+            .filter_map(|(i, j)| j.limits_deg.map(|l| (i, l)))
+            .collect();
+        let beyond = |r: &crate::formats::measurements::Record<N>| {
+            stated
+                .iter()
+                .find(|(i, [lo, hi])| !(r.q_deg[*i] >= *lo && r.q_deg[*i] <= *hi))
+                .map(|(i, l)| (r.line, i + 1, r.q_deg[*i], *l))
+        };
+        let first = ds.records.iter().find_map(beyond)?;
+        Some(OutsideLimits {
+            poses: ds.records.iter().filter(|r| beyond(r).is_some()).count(),
+            first,
+        })
+    }
+
+    /// The warning `identify`, `diagnose` and `report` give (`check` lists the count with the
+    /// joint ranges), naming the first such reading.
+    pub fn warning(&self, poses: usize, data: &str, robot: &str) -> String {
+        let (line, j, q, [lo, hi]) = self.first;
+        format!(
+            "warning: {data}: {} of {poses} poses have readings outside the joint limits of \
+             {robot} (line {line}: q{j} = {}°, limits {}° to {}°): check the joints' unit, sign \
+             and zero in the data, or limits_deg in the robot file",
+            self.poses,
+            sig(q, 6),
+            sig(lo, 6),
+            sig(hi, 6)
+        )
+    }
+}
+
 /// Checks the measurement set `ds` (named `data_origin` in messages; in mm and degrees, through
 /// the doors of [`crate::formats::loading`]) against the robot file `file` and its model
 /// `robot`. Refuses (exit 2) an empty set.
@@ -55,22 +104,7 @@ pub fn check<const N: usize>(
     }
     // Several reflectors: every point seen, each against its own tool point.
     let meas = observe(ds, file, &ObservationArgs::default(), data_origin)?.all();
-    // Only limits the robot file states are checked: without them nothing is known to violate.
-    let stated: Vec<(usize, [f64; 2])> = file
-        .joints
-        .iter()
-        .enumerate()
-        .filter_map(|(i, j)| j.limits_deg.map(|l| (i, l)))
-        .collect();
-    let outside = ds
-        .records
-        .iter()
-        .filter(|r| {
-            stated
-                .iter()
-                .any(|(i, [lo, hi])| !(r.q_deg[*i] >= *lo && r.q_deg[*i] <= *hi))
-        })
-        .count();
+    let outside = OutsideLimits::of(file, ds).map_or(0, |o| o.poses);
     let fitted = !file.base_known();
     // No [base]: fitted by registration; a tool point the file says is unknown: started from
     // the data (crate::compute::tool_start), so the nominal RMS is the geometry's.

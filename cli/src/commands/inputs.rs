@@ -44,6 +44,14 @@ pub fn load_observed<const N: usize>(
 ) -> anyhow::Result<crate::formats::observations::Observed<N>> {
     let ds =
         crate::formats::loading::load_measurements(path, &input.units, nominal, file.base_known())?;
+    if let Some(o) = crate::calibration::check::OutsideLimits::of(file, &ds) {
+        let w = o.warning(
+            ds.len(),
+            &path.display().to_string(),
+            &input.robot.display().to_string(),
+        );
+        crate::Tell::line(&mut crate::Stderr, &w);
+    }
     crate::formats::observations::observe(&ds, file, obs, &path.display().to_string())
 }
 

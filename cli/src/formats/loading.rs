@@ -70,7 +70,10 @@ pub fn accept_dataset<const N: usize, V: kinecal::ValueStorage>(
     if measured {
         convention(&ds, None, nominal, origin)?;
         let ds = without_stale(ds, nominal, origin);
-        if let Some(w) = warm(&ds, origin) {
+        for w in [warm(&ds, origin), clock_back(&ds, origin)]
+            .into_iter()
+            .flatten()
+        {
             crate::Tell::line(&mut crate::Stderr, &w);
         }
         return Ok(ds);
@@ -102,6 +105,40 @@ fn warm<const N: usize>(ds: &Dataset<N>, origin: &str) -> Option<String> {
              column is in degrees Fahrenheit, convert it, (F − 32) × 5/9"
         )
     })
+}
+
+/// The warning for a `t_s` column that goes back in time along the rows (rows sorted by
+/// something else, or sessions with clocks of their own joined), naming the largest step back.
+/// `diagnose`'s drift check reads the rows' order as time, and `base-drift` reads `t_s` as one
+/// clock: either is misled.
+fn clock_back<const N: usize>(ds: &Dataset<N>, origin: &str) -> Option<String> {
+    let k = ds
+        .extra_names
+        .iter()
+        .position(|n| n == crate::formats::measurements::TIME_COLUMN)?;
+    let times: Vec<(u32, f64)> = ds
+        .records
+        .iter()
+        .filter_map(|r| r.extra.get(k).map(|t| (r.line, *t)))
+        .filter(|(_, t)| t.is_finite())
+        .collect();
+    let backs: Vec<((u32, f64), (u32, f64))> = times
+        .windows(2)
+        .filter(|w| w[1].1 < w[0].1)
+        .map(|w| (w[0], w[1]))
+        .collect();
+    let ((_, from), (line, to)) = *backs
+        .iter()
+        .max_by(|a, b| (a.0 .1 - a.1 .1).total_cmp(&(b.0 .1 - b.1 .1)))?;
+    Some(format!(
+        "warning: {origin}: t_s goes back in time {} time{} along the rows (the largest step \
+         from {from} s to {to} s, line {line}): rows sorted by something else, or sessions \
+         with clocks of their own joined; diagnose's drift check reads the rows' order as time \
+         and base-drift reads t_s as one clock: sort the rows by time, or give each session a \
+         file of its own",
+        backs.len(),
+        if backs.len() == 1 { "" } else { "s" }
+    ))
 }
 
 /// Measurements without the rows whose tracker reading did not update ([`stale`]), the

@@ -31,6 +31,7 @@ mod report;
 mod reports;
 mod robot_file;
 mod stale_readings;
+mod suspicious_readings;
 mod thermal_tracker;
 mod thin_data;
 mod units;

@@ -1,0 +1,89 @@
+//! Readings that may be right but usually are not are warned about by every command that fits
+//! or judges a model, not only by `check`: joint readings outside the robot file's limits
+//! (another angle unit, a multi-turn count, a joint's zero) and a `t_s` that goes back in time
+//! (rows sorted by something else, sessions with clocks of their own joined). Both used to pass
+//! `identify` and `diagnose` in silence.
+
+use crate::common::*;
+
+/// The UR10 file with joint limits of ±180° (its readings reach −234° on joint 1).
+fn narrow_limits(dir: &std::path::Path) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(ur10_dir().join("robot.toml")).unwrap();
+    assert!(text.contains("limits_deg = [-360.0, 360.0]"), "{text}");
+    write(
+        dir,
+        "narrow.toml",
+        &text.replace(
+            "limits_deg = [-360.0, 360.0]",
+            "limits_deg = [-180.0, 180.0]",
+        ),
+    )
+}
+
+#[test]
+fn readings_outside_the_joint_limits_are_warned_about_by_every_fitting_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = narrow_limits(dir.path());
+    let data = ur10_rows(dir.path(), "d.csv", 200, |_, _| {});
+    // How many rows have a reading beyond ±180°, counted here from the file.
+    let text = std::fs::read_to_string(&data).unwrap();
+    let beyond = text
+        .lines()
+        .skip(1)
+        .filter(|l| {
+            l.split(',')
+                .take(6)
+                .any(|c| c.parse::<f64>().unwrap().abs() > 180.0)
+        })
+        .count();
+    assert!(beyond > 0);
+    let said = format!("{beyond} of 200 poses have readings outside the joint limits of");
+    for command in ["identify", "diagnose", "validate"] {
+        let mut args = vec![command, "--robot", s(&robot), "--data", s(&data)];
+        if command == "validate" {
+            args.extend(["--model", s(&robot)]);
+        }
+        let out = kinecal(&args);
+        let err = stderr(&out);
+        assert!(
+            err.contains(&said) && err.contains("limits -180") && err.contains("line "),
+            "{command}: {err}"
+        );
+    }
+    // Within the limits the file states: nothing said.
+    let wide = ur10_dir().join("robot.toml");
+    let out = run_on("identify", &wide, &data, &[]);
+    assert!(
+        !stderr(&out).contains("outside the joint limits"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+#[test]
+fn a_clock_that_goes_back_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = ur10_dir().join("robot.toml");
+    // Two sessions of 100 rows, each with its clock from 0 s, joined.
+    let with_time = |name: &str, t: fn(usize) -> usize| {
+        let path = ur10_rows(dir.path(), name, 200, |i, cells| {
+            cells.push(t(i).to_string())
+        });
+        let text = std::fs::read_to_string(&path).unwrap();
+        let (head, rest) = text.split_once('\n').unwrap();
+        write(dir.path(), name, &format!("{head},t_s\n{rest}"))
+    };
+    let joined = with_time("joined.csv", |i| (i % 100) * 10);
+    for command in ["check", "identify", "diagnose"] {
+        let out = run_on(command, &robot, &joined, &[]);
+        let err = stderr(&out);
+        assert!(
+            err.contains("t_s goes back in time 1 time along the rows")
+                && err.contains("from 990 s to 0 s, line 102"),
+            "{command}: {err}"
+        );
+    }
+    let in_order = with_time("in_order.csv", |i| i * 10);
+    let out = run_on("check", &robot, &in_order, &[]);
+    assert!(!stderr(&out).contains("t_s goes back"), "{}", stderr(&out));
+}

@@ -307,7 +307,13 @@ pub fn identify<const N: usize>(
         .or_else(|| crate::calibration::arm_size::resized(&nominal, &fit.robot))
         .or_else(|| {
             (!file.tool_unknown())
-                .then(|| crate::calibration::arm_size::tool_slip(&nominal, &fit.robot))
+                .then(|| {
+                    crate::calibration::arm_size::tool_slip(
+                        &nominal,
+                        &fit.robot,
+                        &file.tool_names(),
+                    )
+                })
                 .flatten()
         })
         .or_else(|| outliers.reason());

@@ -97,72 +97,89 @@ pub fn resized<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStorag
     ))
 }
 
-/// A stated tool point shorter than this (mm) that the data put [`TOOL_METRES_RATIO`] times as
-/// far from the flange was written in metres.
+/// A stated tool point shorter than this (mm) that the data put where its coordinates read as
+/// metres would be ([`TOOL_SLIP_MARGIN`]) was written in metres.
 pub const TOOL_METRES_MM: f64 = 2.0;
-/// How many times as far from the flange as stated (at least) a tool written in metres lies.
-pub const TOOL_METRES_RATIO: f64 = 200.0;
 /// A coordinate of the stated tool point at least this far from the flange (mm) whose fitted
-/// value has the other sign, at least half as large, had its sign flipped.
+/// value is its negative ([`TOOL_SLIP_MARGIN`]) had its sign flipped.
 pub const TOOL_SIGN_MM: f64 = 10.0;
+/// How close (relative) the fitted tool point comes to the slip's reading of the stated one:
+/// the real UR10 reflector sits 93 mm from the flange where its file says 109 mm (15 %).
+pub const TOOL_SLIP_MARGIN: f64 = 0.3;
 
-/// Why the tool point `fitted` settled on cannot be the one `nominal` states, written right:
-/// the rest of a sentence that starts "the fit", or `None`. Only for a tool the robot file
-/// states (an unknown tool is started from the data). The tool point is compared in the
-/// nominal flange frame, with the last joint's `d` and `θ` (which take up the tool's offset
-/// along and about the flange axis, [`moved`]) moved back onto it. Two slips are named: a tool
-/// written in metres (a stated point under [`TOOL_METRES_MM`] that the data put at least
-/// [`TOOL_METRES_RATIO`] times as far out), and a coordinate whose sign is flipped (beyond
-/// [`TOOL_SIGN_MM`], fitted on the other side at half its length or more). The geometry
+/// Why a tool point `fitted` settled on cannot be the one `nominal` states, written right:
+/// the rest of a sentence that starts "the fit", or `None`. Only for tool points the robot
+/// file states (an unknown tool is started from the data); `names` are the `[[tools]]` names
+/// (empty for one `[tool]`). Each point is compared in the nominal flange frame, with the last
+/// joint's `d` and `θ` (which take up the tool's offset along and about the flange axis,
+/// [`moved`]) moved back onto it. Two slips are named, each only when the fitted point lies
+/// where the slip puts it, within [`TOOL_SLIP_MARGIN`]: a point under [`TOOL_METRES_MM`] that
+/// lies as far out as its coordinates read in metres (`[0, 0, 0.109]` fitted at 93 mm), and a
+/// coordinate of at least [`TOOL_SIGN_MM`] fitted at its negative (z; or x or y, where joint
+/// N's zero turned by 180° in the data looks the same, and is named too). The geometry
 /// imitates either exactly (UR10's real data fit to the same 0.47 mm with the tool in metres,
 /// `d6` 93 mm longer), so the fit's error is no evidence against them.
 pub fn tool_slip<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStorage>(
     nominal: &Robot<f64, N, V>,
     fitted: &Robot<f64, N, W>,
+    names: &[String],
 ) -> Option<String> {
     let (Some(a), Some(b)) = (nominal.joints().last(), fitted.joints().last()) else {
         return None;
     };
-    let stated = *nominal.tool();
     let (s, c) = (b.theta - a.theta).sin_cos();
-    let t = fitted.tool();
-    let found = nalgebra::Vector3::new(c * t.x - s * t.y, s * t.x + c * t.y, t.z + (b.d - a.d));
-    let (was, is) = (stated.norm(), found.norm());
-    if !(was.is_finite() && is.is_finite()) {
-        return None;
-    }
     let fmt =
         |v: &nalgebra::Vector3<f64>| format!("[{}, {}, {}]", sig(v.x, 4), sig(v.y, 4), sig(v.z, 4));
-    if was > 0.0 && was < TOOL_METRES_MM && is >= TOOL_METRES_RATIO * was {
-        return Some(format!(
-            "put the tool point {} mm from the flange ({} mm), {} times as far as the robot \
-             file's [tool] xyz_mm = {} says: [tool] is written in metres; give xyz_mm in \
-             millimetres (or write xyz_mm = \"unknown\" to have it fitted)",
-            sig(is, 4),
-            fmt(&found),
-            sig(is / was, 3),
-            fmt(&stated)
-        ));
-    }
-    let flipped: Vec<&str> = ["x", "y", "z"]
-        .into_iter()
-        .enumerate()
-        .filter(|&(i, _)| {
-            stated[i].abs() >= TOOL_SIGN_MM
-                && found[i] * stated[i] < 0.0
-                && found[i].abs() >= 0.5 * stated[i].abs()
+    let points = nominal.tool_point_count().min(fitted.tool_point_count());
+    (0..points).find_map(|k| {
+        let (stated, t) = (*nominal.tool_point(k)?, fitted.tool_point(k)?);
+        let found = nalgebra::Vector3::new(c * t.x - s * t.y, s * t.x + c * t.y, t.z + (b.d - a.d));
+        let was = stated.norm();
+        if !(was.is_finite() && found.norm().is_finite()) {
+            return None;
+        }
+        let (entry, unknown) = match names.get(k) {
+            Some(n) => (format!("[[tools]] {n:?}'s xyz_mm"), ""),
+            None => (
+                "[tool] xyz_mm".to_string(),
+                " (or write xyz_mm = \"unknown\" to have it fitted)",
+            ),
+        };
+        let as_metres = stated * 1000.0;
+        if was > 0.0
+            && was < TOOL_METRES_MM
+            && (found - as_metres).norm() <= TOOL_SLIP_MARGIN * as_metres.norm()
+        {
+            return Some(format!(
+                "put the tool point {} mm from the flange ({} mm), where the robot file's \
+                 {entry} = {} puts it if read in metres: it is written in metres; give it in \
+                 millimetres{unknown}",
+                sig(found.norm(), 4),
+                fmt(&found),
+                fmt(&stated)
+            ));
+        }
+        let flipped: Vec<usize> = (0..3)
+            .filter(|&i| {
+                stated[i].abs() >= TOOL_SIGN_MM
+                    && (found[i] + stated[i]).abs() <= TOOL_SLIP_MARGIN * stated[i].abs()
+            })
+            .collect();
+        let axes: Vec<&str> = flipped.iter().map(|&i| ["x", "y", "z"][i]).collect();
+        (!flipped.is_empty()).then(|| {
+            let zero = if flipped.iter().any(|&i| i < 2) {
+                format!(", or joint {N}'s zero in the data is 180° from the robot file's")
+            } else {
+                String::new()
+            };
+            format!(
+                "put the tool point at {} mm in the flange frame, the robot file's {entry} = {} \
+                 with the other sign in {}: that sign is flipped in the robot file{zero}; \
+                 correct it{unknown}",
+                fmt(&found),
+                fmt(&stated),
+                axes.join(", ")
+            )
         })
-        .map(|(_, n)| n)
-        .collect();
-    (!flipped.is_empty()).then(|| {
-        format!(
-            "put the tool point at {} mm in the flange frame, where the robot file's [tool] \
-             xyz_mm = {} has the other sign in {}: the sign is flipped in the robot file (or \
-             the flange frame differs); correct [tool] xyz_mm (or write xyz_mm = \"unknown\" \
-             to have it fitted)",
-            fmt(&found),
-            fmt(&stated),
-            flipped.join(", ")
-        )
     })
 }

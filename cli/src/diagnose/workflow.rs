@@ -272,7 +272,13 @@ pub fn run<const N: usize>(
         .or(d.resized.take())
         .or_else(|| {
             (!file.tool_unknown())
-                .then(|| crate::calibration::arm_size::tool_slip(&nominal, &d.geometric))
+                .then(|| {
+                    crate::calibration::arm_size::tool_slip(
+                        &nominal,
+                        &d.geometric,
+                        &file.tool_names(),
+                    )
+                })
                 .flatten()
         })
         .or_else(|| outliers.reason());

@@ -153,7 +153,11 @@ fn a_tool_in_metres_or_with_its_sign_flipped_is_no_calibration() {
     let rows = ur10_rows(dir.path(), "rows.csv", 400, |_, _| {});
     for (name, xyz, phrase) in [
         ("metres.toml", "[0.0, 0.0, 0.109]", "written in metres"),
-        ("sign.toml", "[0.0, 0.0, -109.0]", "has the other sign in z"),
+        (
+            "sign.toml",
+            "[0.0, 0.0, -109.0]",
+            "with the other sign in z",
+        ),
     ] {
         let wrong = with_tool(name, xyz);
         for command in ["identify", "diagnose"] {
@@ -164,15 +168,43 @@ fn a_tool_in_metres_or_with_its_sign_flipped_is_no_calibration() {
             );
         }
     }
-    // A tool 20 mm off (the real reflector sits 16 mm nearer the flange than the file says) is
-    // no slip of units or sign.
+    // One of several reflectors ([[tools]]) is named as such, without the `"unknown"` that
+    // [[tools]] does not take.
+    let named = write(
+        dir.path(),
+        "named.toml",
+        &text.replace(
+            "[tool]\nxyz_mm = [0.0, 0.0, 109.0]",
+            "[[tools]]\nname = \"smr\"\nxyz_mm = [0.0, 0.0, 0.109]",
+        ),
+    );
+    let rows_text = std::fs::read_to_string(&rows).unwrap();
+    let named_rows = write(
+        dir.path(),
+        "named.csv",
+        &rows_text.replacen(",x,y,z,", ",x_smr,y_smr,z_smr,", 1),
+    );
+    let line = no_calibration("identify", &named, &named_rows);
+    assert!(
+        line.contains("[[tools]] \"smr\"'s xyz_mm") && !line.contains("unknown"),
+        "{line}"
+    );
+    // No slip: a tool 20 mm off (the real reflector sits 16 mm nearer the flange than the file
+    // says), a point under 2 mm that the data do not put where metres would, and an off-axis
+    // coordinate 20 mm off across zero (12 mm stated, about -8 mm fitted: not -12).
     let approximate = with_tool("approximate.toml", "[0.0, 0.0, 129.0]");
+    let small = with_tool("small.toml", "[0.3, 0.2, 0.0]");
     for robot_file in [&robot, &approximate] {
         for command in ["identify", "diagnose"] {
             let out = run_on(command, robot_file, &rows, &[]);
             assert_eq!(out.status.code(), Some(0), "{command}: {}", stderr(&out));
         }
     }
+    // (The small point is 0.36 mm off the flange axis where the truth has 0.34 mm on the other
+    // side: identify fits it, diagnose's geometry turns alpha6 by 10.7° and is refused for it.)
+    let out = run_on("identify", &small, &rows, &[]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert!(!stderr(&out).contains("metres"), "{}", stderr(&out));
     // Across the flange axis: the tool's x fitted on the other side of the flange.
     let across = write(
         dir.path(),
@@ -190,7 +222,38 @@ fn a_tool_in_metres_or_with_its_sign_flipped_is_no_calibration() {
     );
     let flipped = with_tool("flipped.toml", "[-60.0, 0.0, 109.0]");
     let line = no_calibration("identify", &flipped, &data);
-    assert!(line.contains("has the other sign in x"), "{line}");
-    let out = run_on("identify", &across, &data, &[]);
-    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    // Across the axis a flipped sign and joint 6's zero turned by 180° look the same.
+    assert!(
+        line.contains("with the other sign in x") && line.contains("joint 6's zero"),
+        "{line}"
+    );
+    let off = write(
+        dir.path(),
+        "off.toml",
+        &text.replace(stated, "xyz_mm = [12.0, 0.0, 109.0]"),
+    );
+    let data = dir.path().join("off.csv");
+    let truth = with_tool("truth.toml", "[-8.0, 0.0, 109.0]");
+    simulate(
+        &truth,
+        Some(300),
+        Some(0.05),
+        Some(4),
+        &["--geom-errors"],
+        &data,
+    );
+    for robot_file in [&across, &off] {
+        let data = if robot_file == &across {
+            dir.path().join("across.csv")
+        } else {
+            data.clone()
+        };
+        let out = run_on("identify", robot_file, &data, &[]);
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{robot_file:?}: {}",
+            stderr(&out)
+        );
+    }
 }

@@ -33,7 +33,7 @@ pub fn load_as<const N: usize, V: kinecal::ValueStorage>(
         let ds = measurements::load::<N>(path)?;
         return accept_dataset(ds, &origin, units, nominal, base_known, kind);
     };
-    let m = crate::formats::map::load::<N>(path, map, units)?;
+    let m = crate::formats::map::load::<N>(path, map, units, kind)?;
     if measured && base_known {
         placement(&m.dataset, &m.units, nominal, &origin)?;
     }
@@ -46,9 +46,21 @@ pub fn load_as<const N: usize, V: kinecal::ValueStorage>(
     if measured {
         let stated = Some((m.raw_angles.as_slice(), m.rotation, map.as_path()));
         convention(&ds, stated, nominal, &origin)?;
-        return Ok(without_stale(ds, nominal, &origin));
+        return Ok(told(without_stale(ds, nominal, &origin), &origin));
     }
     Ok(ds)
+}
+
+/// `ds` after the warnings about its columns ([`warm`], [`clock_back`]) are told on stderr:
+/// the same for a file in kinecal's layout and one read through a map.
+fn told<const N: usize>(ds: Dataset<N>, origin: &str) -> Dataset<N> {
+    for w in [warm(&ds, origin), clock_back(&ds, origin)]
+        .into_iter()
+        .flatten()
+    {
+        crate::Tell::line(&mut crate::Stderr, &w);
+    }
+    ds
 }
 
 /// A dataset already read in kinecal's layout (a file, or arrays handed over by the Python
@@ -69,14 +81,7 @@ pub fn accept_dataset<const N: usize, V: kinecal::ValueStorage>(
     let ds = accept(ds, origin, units, nominal, base_known, kind)?;
     if measured {
         convention(&ds, None, nominal, origin)?;
-        let ds = without_stale(ds, nominal, origin);
-        for w in [warm(&ds, origin), clock_back(&ds, origin)]
-            .into_iter()
-            .flatten()
-        {
-            crate::Tell::line(&mut crate::Stderr, &w);
-        }
-        return Ok(ds);
+        return Ok(told(without_stale(ds, nominal, origin), origin));
     }
     Ok(ds)
 }
@@ -107,6 +112,9 @@ fn warm<const N: usize>(ds: &Dataset<N>, origin: &str) -> Option<String> {
     })
 }
 
+/// A step back in `t_s` shorter than this (s) is a clock's jitter, not rows out of time order.
+pub const CLOCK_JITTER_S: f64 = 1.0;
+
 /// The warning for a `t_s` column that goes back in time along the rows (rows sorted by
 /// something else, or sessions with clocks of their own joined), naming the largest step back.
 /// `diagnose`'s drift check reads the rows' order as time, and `base-drift` reads `t_s` as one
@@ -124,7 +132,7 @@ fn clock_back<const N: usize>(ds: &Dataset<N>, origin: &str) -> Option<String> {
         .collect();
     let backs: Vec<((u32, f64), (u32, f64))> = times
         .windows(2)
-        .filter(|w| w[1].1 < w[0].1)
+        .filter(|w| w[1].1 < w[0].1 - CLOCK_JITTER_S)
         .map(|w| (w[0], w[1]))
         .collect();
     let ((_, from), (line, to)) = *backs

@@ -12,7 +12,7 @@ pub mod translate;
 
 use crate::formats::measurements::{self, Dataset};
 use crate::formats::rotation_order::RotationOrder;
-use crate::formats::units::UnitArgs;
+use crate::formats::units::{FileKind, UnitArgs};
 use kinecal::io::csv::CsvError;
 use std::path::Path;
 
@@ -58,13 +58,15 @@ fn units(map: &spec::MapFile, flags: &UnitArgs, map_origin: &str) -> anyhow::Res
     })
 }
 
-/// Reads the file at `data` for an `N`-joint robot through the map at `map_path` (the data
+/// Reads the file at `data` (a file of `kind`) for an `N`-joint robot through the map at
+/// `map_path` (the data
 /// file's units not converted yet: see [`Mapped::units`]). Malformed input is refused (exit
 /// 2) with a one-line reason naming the file, line and column.
 pub fn load<const N: usize>(
     data: &Path,
     map_path: &Path,
     flags: &UnitArgs,
+    kind: FileKind,
 ) -> anyhow::Result<Mapped<N>> {
     let map = spec::MapFile::load(map_path)?;
     let (origin, map_origin) = (data.display().to_string(), map_path.display().to_string());
@@ -77,7 +79,7 @@ pub fn load<const N: usize>(
     let text = String::from_utf8(bytes)
         .map_err(|_| crate::refused(format!("{origin}: not UTF-8 text: not a measurement file")))?;
     let lines = layout::content_lines(&text);
-    let t = translate::translate(&map, &lines, N, (&origin, &map_origin))?;
+    let t = translate::translate(&map, &lines, (N, kind), (&origin, &map_origin))?;
     let shift = t.line_shift;
     let mut dataset = measurements::read_bytes::<N>(t.text.as_bytes()).map_err(|e| {
         let line = e.line.saturating_sub(shift);

@@ -11,7 +11,7 @@
 use super::layout::{cell_text, number, Line};
 use super::spec::{ColumnRef, Delimiter, MapFile, TimeFields};
 use crate::formats::rotation_order::RotationOrder;
-use crate::formats::units::{mm_of_m, AngleUnit, LengthUnit};
+use crate::formats::units::{mm_of_m, AngleUnit, FileKind, LengthUnit};
 use std::fmt::Write as _;
 
 /// What kind of value a kinecal column holds, for its conversion.
@@ -144,13 +144,33 @@ fn kinecal_name(name: &str) -> bool {
     (joint || point || KNOWN_NAMES.contains(&name)) && name.len() <= kinecal::io::csv::NAME_LEN
 }
 
-/// Refuses (exit 2) a `[columns]` key that is none of kinecal's column names: a slip (`temp`
-/// for `temp_c`, `X` for `x`) would otherwise be carried along unread and its column's values
-/// silently left out of the fit. Names the closest of kinecal's names when one is near.
-fn unknown_name(key: &str, n: usize, map_origin: &str) -> anyhow::Result<()> {
+/// Refuses (exit 2) a `[columns]` key that is none of the column names kinecal reads in a
+/// file of `kind`: a slip (`temp` for `temp_c`, `X` for `x`, a target's `rx` for a measured
+/// `rx_deg`) would otherwise be carried along unread and its column's values silently left
+/// out of the fit. Names the closest of kinecal's names when one is near (a name cut short
+/// first: `temp` is `temp_c`).
+fn unknown_name(key: &str, (n, kind): (usize, FileKind), map_origin: &str) -> anyhow::Result<()> {
     const PER_AXIS: [&str; 3] = ["srx_deg", "sry_deg", "srz_deg"];
-    if kinecal_name(key) || PER_AXIS.contains(&key) {
+    // A target's orientation, read by compensate only; `tool` is a constraint file's column,
+    // and constraint files are not read through a map.
+    let target = ["rx", "ry", "rz"];
+    let read_here = |m: &str| m != "tool" && (kind == FileKind::Targets || !target.contains(&m));
+    if (kinecal_name(key) || PER_AXIS.contains(&key)) && read_here(key) {
         return Ok(());
+    }
+    if target.contains(&key) {
+        crate::refuse!(
+            "{map_origin}: [columns] {key}: a target file's orientation (compensate); a measured \
+             orientation is {key}_deg: use {key}_deg as the key"
+        );
+    }
+    if key.len() > kinecal::io::csv::NAME_LEN {
+        crate::refuse!(
+            "{map_origin}: [columns] {key}: longer than kinecal's {} bytes for a column name \
+             (a reflector's x_NAME included): shorten the reflector's name here and in the \
+             robot file's [[tools]]",
+            kinecal::io::csv::NAME_LEN
+        );
     }
     let names: Vec<String> = (1..=n)
         .map(|j| format!("q{j}"))
@@ -158,6 +178,7 @@ fn unknown_name(key: &str, n: usize, map_origin: &str) -> anyhow::Result<()> {
             KNOWN_NAMES
                 .iter()
                 .chain(PER_AXIS.iter())
+                .filter(|m| read_here(m))
                 .map(|s| s.to_string()),
         )
         .collect();
@@ -166,26 +187,27 @@ fn unknown_name(key: &str, n: usize, map_origin: &str) -> anyhow::Result<()> {
         .iter()
         .map(|m| {
             let d = strsim::damerau_levenshtein(&lower, m);
-            // `temp` for `temp_c`, `sx_m` for `sx_mm`: a name cut short is as near as a typo.
+            // `temp` for `temp_c`, `sx_m` for `sx_mm`: a name cut short is as near as a typo,
+            // and nearer than another name as many edits away.
             let cut = m.starts_with(&lower) && lower.len() >= 2;
-            (if cut { d.min(1) } else { d }, m)
+            ((if cut { d.min(1) } else { d }, !cut), m)
         })
         // Two edits make a short name into most others (`foo`, `tool`): one for short names.
-        .filter(|(d, m)| *d <= if lower.len() >= 5 { 2 } else { 1 } && *d < m.len())
-        .min_by_key(|(d, _)| *d)
+        .filter(|((d, _), m)| *d <= if lower.len() >= 5 { 2 } else { 1 } && *d < m.len())
+        .min_by_key(|(rank, _)| *rank)
         .map(|(_, m)| m);
     match near {
         Some(m) => crate::refuse!(
             "{map_origin}: [columns] {key}: kinecal reads no column of that name (did you mean \
-             {m}?): name the file's column by kinecal's name for it (docs/formats.md, \
-             \"Measurement CSV\"), or leave it out"
+             {m}?): use kinecal's name as the key, {m} = \"the file's column name\" \
+             (docs/formats.md, \"Measurement CSV\"), or leave it out"
         ),
         None => crate::refuse!(
             "{map_origin}: [columns] {key}: kinecal reads no column of that name: its names are \
              q1 … q{n}, x, y, z, x_NAME … for further reflectors, rx_deg, ry_deg, rz_deg, sx_mm, \
-             sy_mm, sz_mm, srot_deg (or srx_deg, sry_deg, srz_deg), temp_c, t_s, sweep, tool, and \
-             rx, ry, rz of targets (docs/formats.md, \"Measurement CSV\"); leave out the columns \
-             kinecal does not read"
+             sy_mm, sz_mm, srot_deg (or srx_deg, sry_deg, srz_deg), temp_c, t_s, sweep, and \
+             rx, ry, rz of targets (docs/formats.md, \"Measurement CSV\"); use one as the key, \
+             or leave out the columns kinecal does not read"
         ),
     }
 }
@@ -209,7 +231,7 @@ fn one_of_a_kind(name: &str) -> bool {
 /// of kinecal's names (`q3`, `temp_c`, …); any other column is left out.
 fn plan(
     map: &MapFile,
-    n: usize,
+    (n, kind): (usize, FileKind),
     header: Option<&[String]>,
     width: usize,
     origins: (&str, &str),
@@ -218,7 +240,7 @@ fn plan(
     let mut named: Vec<(String, usize)> = Vec::new();
     let mut per_axis = [None; 3];
     for (key, r) in &map.columns {
-        unknown_name(key, n, map_origin)?;
+        unknown_name(key, (n, kind), map_origin)?;
         if let Some(j) = key.strip_prefix('q').and_then(|k| k.parse::<usize>().ok()) {
             if j == 0 || j > n {
                 crate::refuse!(
@@ -463,7 +485,7 @@ fn convert(map: &MapFile, columns: &[Column], v: &mut [Option<f64>]) -> Option<[
 pub fn translate(
     map: &MapFile,
     lines: &[Line<'_>],
-    n: usize,
+    (n, kind): (usize, FileKind),
     origins: (&str, &str),
 ) -> anyhow::Result<Translated> {
     let (data, map_origin) = origins;
@@ -495,7 +517,7 @@ pub fn translate(
             );
         }
     }
-    let columns = plan(map, n, header.as_deref(), width, origins)?;
+    let columns = plan(map, (n, kind), header.as_deref(), width, origins)?;
     // The pattern classified once (the map was checked when read: `of` accepts it).
     let time = map
         .units

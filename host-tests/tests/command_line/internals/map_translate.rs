@@ -3,6 +3,7 @@
 use kinecal_cli::formats::map::layout::content_lines;
 use kinecal_cli::formats::map::spec::MapFile;
 use kinecal_cli::formats::map::translate::*;
+use kinecal_cli::formats::units::FileKind;
 
 fn map(text: &str) -> MapFile {
     MapFile::parse(text, "M.toml").unwrap()
@@ -15,7 +16,13 @@ fn a_vendor_layout_becomes_kinecal_s() {
     );
     let file =
         "time;j1;j2;mx;my;mz;sdx;a;b;c;temp_c\n\n1;0,5;-1,25;1,5;0,25;-0,75;0,00002;3;0;4;21,5\n";
-    let t = translate(&m, &content_lines(file), 2, ("D.csv", "M.toml")).unwrap();
+    let t = translate(
+        &m,
+        &content_lines(file),
+        (2, FileKind::Measurements),
+        ("D.csv", "M.toml"),
+    )
+    .unwrap();
     let names: Vec<&str> = t.columns.iter().map(|c| c.name.as_str()).collect();
     assert_eq!(
         names,
@@ -31,7 +38,13 @@ fn a_vendor_layout_becomes_kinecal_s() {
 #[test]
 fn without_a_header_columns_are_numbers_and_lines_shift_by_one() {
     let m = map("header = false\n[columns]\nq1 = 2\nx = 3\ny = 4\nz = 5\n");
-    let t = translate(&m, &content_lines("# c\n9 10 11 12 13\n"), 1, ("D", "M")).unwrap();
+    let t = translate(
+        &m,
+        &content_lines("# c\n9 10 11 12 13\n"),
+        (1, FileKind::Measurements),
+        ("D", "M"),
+    )
+    .unwrap();
     assert_eq!(t.text, "q1,x,y,z\n\n10.0,11.0,12.0,13.0\n");
     assert_eq!(t.line_shift, 1);
 }
@@ -40,19 +53,29 @@ fn without_a_header_columns_are_numbers_and_lines_shift_by_one() {
 fn mistakes_name_the_file_line_and_column() {
     let m = map("[columns]\nq1 = \"j\"\nx = \"a\"\ny = \"b\"\nz = \"c\"\n");
     let lines = "j;a;b;c\n1;2;3;4\n1;2,5;3;4\n";
-    let e = translate(&m, &content_lines(lines), 1, ("D.csv", "M.toml"))
-        .err()
-        .unwrap()
-        .to_string();
+    let e = translate(
+        &m,
+        &content_lines(lines),
+        (1, FileKind::Measurements),
+        ("D.csv", "M.toml"),
+    )
+    .err()
+    .unwrap()
+    .to_string();
     assert_eq!(
         e,
         "D.csv:3:2: not a number: '2,5' (a decimal comma? say decimal = \",\" in M.toml) in column `a` (kinecal's x); delimiter \";\""
     );
     let m = map("[columns]\nq1 = \"joint\"\n");
-    let e = translate(&m, &content_lines(lines), 1, ("D.csv", "M.toml"))
-        .err()
-        .unwrap()
-        .to_string();
+    let e = translate(
+        &m,
+        &content_lines(lines),
+        (1, FileKind::Measurements),
+        ("D.csv", "M.toml"),
+    )
+    .err()
+    .unwrap()
+    .to_string();
     assert!(
         e.starts_with(
             "M.toml: [columns] q1 = \"joint\": D.csv has no such column (its header: j, a, b, c)"
@@ -60,9 +83,14 @@ fn mistakes_name_the_file_line_and_column() {
         "{e}"
     );
     let m = map("[columns]\nq1 = \"j\"\n");
-    let e = translate(&m, &content_lines(lines), 1, ("D.csv", "M.toml"))
-        .err()
-        .unwrap()
-        .to_string();
+    let e = translate(
+        &m,
+        &content_lines(lines),
+        (1, FileKind::Measurements),
+        ("D.csv", "M.toml"),
+    )
+    .err()
+    .unwrap()
+    .to_string();
     assert!(e.starts_with("D.csv: no column for x"), "{e}");
 }

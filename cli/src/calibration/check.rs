@@ -55,21 +55,31 @@ pub struct OutsideLimits {
 impl OutsideLimits {
     /// The poses of `ds` outside `file`'s joint limits, `None` when there are none.
     pub fn of<const N: usize>(file: &RobotFile, ds: &Dataset<N>) -> Option<OutsideLimits> {
+        Self::of_rows(file, ds.records.iter().map(|r| (r.line, r.q_deg)))
+    }
+
+    /// The rows (each its line and joint readings in degrees) outside `file`'s joint limits,
+    /// `None` when there are none.
+    pub fn of_rows<const N: usize>(
+        file: &RobotFile,
+        rows: impl Iterator<Item = (u32, [f64; N])> + Clone,
+    ) -> Option<OutsideLimits> {
         let stated: Vec<(usize, [f64; 2])> = file
             .joints
             .iter()
             .enumerate()
             .filter_map(|(i, j)| j.limits_deg.map(|l| (i, l)))
+            .filter(|(i, _)| *i < N)
             .collect();
-        let beyond = |r: &crate::formats::measurements::Record<N>| {
+        let beyond = |(line, q): (u32, [f64; N])| {
             stated
                 .iter()
-                .find(|(i, [lo, hi])| !(r.q_deg[*i] >= *lo && r.q_deg[*i] <= *hi))
-                .map(|(i, l)| (r.line, i + 1, r.q_deg[*i], *l))
+                .find(|(i, [lo, hi])| !(q[*i] >= *lo && q[*i] <= *hi))
+                .map(|(i, l)| (line, i + 1, q[*i], *l))
         };
-        let first = ds.records.iter().find_map(beyond)?;
+        let first = rows.clone().find_map(beyond)?;
         Some(OutsideLimits {
-            poses: ds.records.iter().filter(|r| beyond(r).is_some()).count(),
+            poses: rows.filter_map(beyond).count(),
             first,
         })
     }

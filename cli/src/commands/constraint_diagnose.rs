@@ -168,6 +168,12 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
     let input = &args.input;
     let (file, nominal) = load_robot::<N>(&input.robot)?;
     let session = read::load::<N>(&input.data, &input.units, &file.tool_names())?;
+    super::inputs::warn_outside_limits(
+        crate::calibration::check::OutsideLimits::of_rows(&file, session.joint_rows()),
+        session.rows(),
+        &input.data,
+        &input.robot,
+    );
     let origin = path_text(&input.data);
     crate::constraints::shapes::check_lengths(&nominal, &session.groups, &origin)?;
     let (ident, valid) =

@@ -20,6 +20,12 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintIden
     let (file, nominal) = load_robot::<N>(&args.input.robot)?;
     let tools = file.tool_names();
     let session = read::load::<N>(&args.input.data, &args.input.units, &tools)?;
+    super::inputs::warn_outside_limits(
+        crate::calibration::check::OutsideLimits::of_rows(&file, session.joint_rows()),
+        session.rows(),
+        &args.input.data,
+        &args.input.robot,
+    );
     let validate = match &args.validate {
         Some(v) if !read::is_constraint_file(v) => crate::refuse!(
             "--validate {}: not a constraint file (no kind column) while --data is one",

@@ -52,6 +52,12 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintRepo
     let (_, model) = load_robot::<N>(&args.model)?;
     crate::calibration::replay::same_robot(&nominal, &model, (&input.robot, &args.model))?;
     let session = read::load::<N>(&input.data, &input.units, &file.tool_names())?;
+    super::inputs::warn_outside_limits(
+        crate::calibration::check::OutsideLimits::of_rows(&file, session.joint_rows()),
+        session.rows(),
+        &input.data,
+        &input.robot,
+    );
     let held = crate::calibration::held_out_mask(
         session.groups.len(),
         args.holdout.holdout,

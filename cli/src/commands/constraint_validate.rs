@@ -31,6 +31,12 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintVali
     let (file, nominal) = load_robot::<N>(&args.input.robot)?;
     let (_, model) = load_robot::<N>(&args.model)?;
     let session = read::load::<N>(&args.input.data, &args.input.units, &file.tool_names())?;
+    super::inputs::warn_outside_limits(
+        crate::calibration::check::OutsideLimits::of_rows(&file, session.joint_rows()),
+        session.rows(),
+        &args.input.data,
+        &args.input.robot,
+    );
     check_lengths(&nominal, &session.groups, &path_text(&args.input.data))?;
     let errors = |robot| -> Vec<f64> {
         session

@@ -44,14 +44,12 @@ pub fn load_observed<const N: usize>(
 ) -> anyhow::Result<crate::formats::observations::Observed<N>> {
     let ds =
         crate::formats::loading::load_measurements(path, &input.units, nominal, file.base_known())?;
-    if let Some(o) = crate::calibration::check::OutsideLimits::of(file, &ds) {
-        let w = o.warning(
-            ds.len(),
-            &path.display().to_string(),
-            &input.robot.display().to_string(),
-        );
-        crate::Tell::line(&mut crate::Stderr, &w);
-    }
+    warn_outside_limits(
+        crate::calibration::check::OutsideLimits::of(file, &ds),
+        ds.len(),
+        path,
+        &input.robot,
+    );
     crate::formats::observations::observe(&ds, file, obs, &path.display().to_string())
 }
 
@@ -79,4 +77,23 @@ pub fn load_split<const N: usize>(
         holdout,
         &input.data.display().to_string(),
     )
+}
+
+/// Tells on stderr that `outside` of the `poses` poses of `data` have readings beyond the
+/// joint limits the robot file `robot` states (every command that fits or judges a model;
+/// `check` lists the count with the joint ranges).
+pub fn warn_outside_limits(
+    outside: Option<crate::calibration::check::OutsideLimits>,
+    poses: usize,
+    data: &std::path::Path,
+    robot: &std::path::Path,
+) {
+    if let Some(o) = outside {
+        let w = o.warning(
+            poses,
+            &data.display().to_string(),
+            &robot.display().to_string(),
+        );
+        crate::Tell::line(&mut crate::Stderr, &w);
+    }
 }

@@ -54,12 +54,12 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ValidateReport
         file.base_known() && args.register == Register::None,
     )?;
     let origin = input.data.display().to_string();
-    if let Some(o) = crate::calibration::check::OutsideLimits::of(&file, &ds) {
-        eprintln!(
-            "{}",
-            o.warning(ds.len(), &origin, &input.robot.display().to_string())
-        );
-    }
+    super::inputs::warn_outside_limits(
+        crate::calibration::check::OutsideLimits::of(&file, &ds),
+        ds.len(),
+        &input.data,
+        &input.robot,
+    );
     let observed = observe(&ds, &file, &args.obs, &origin)?;
     super::inputs::any_rows(&observed.poses, &input.data)?;
     let (robot_origin, model_origin) = (

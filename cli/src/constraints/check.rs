@@ -60,17 +60,9 @@ pub fn check<const N: usize>(
             })
         })
         .collect();
-    // Only limits the robot file states are checked: without them nothing is known to violate.
-    let outside_limits = rows()
-        .filter(|r| {
-            file.joints.iter().enumerate().any(|(i, j)| {
-                j.limits_deg.is_some_and(|[lo, hi]| {
-                    let q = r.q.get(i).map_or(0.0, |q| q.to_degrees());
-                    !(q >= lo && q <= hi)
-                })
-            })
-        })
-        .count();
+    let outside_limits =
+        crate::calibration::check::OutsideLimits::of_rows(file, session.joint_rows())
+            .map_or(0, |o| o.poses);
     let shapes = shapes_of(nominal, groups);
     let row_errors = |k: usize| errors(&groups[k], &points(nominal, &groups[k]), &shapes[k]);
     let mut kinds = Vec::new();

@@ -102,6 +102,15 @@ impl<const N: usize> Session<N> {
     pub fn rows(&self) -> usize {
         self.groups.iter().map(|g| g.rows.len()).sum()
     }
+
+    /// Each row's line and joint readings (degrees), for the joint-limit check.
+    pub fn joint_rows(&self) -> impl Iterator<Item = (u32, [f64; N])> + Clone + '_ {
+        self.groups.iter().flat_map(|g| {
+            g.rows
+                .iter()
+                .map(|r| (r.line as u32, r.q.map(f64::to_degrees)))
+        })
+    }
 }
 
 pub use crate::formats::measurements::is_constraint_file;

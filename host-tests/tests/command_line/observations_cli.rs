@@ -388,8 +388,16 @@ fn three_reflectors_on_thin_data_are_cross_validated_per_point() {
         j.theta += rng.random_range(-0.05f64..0.05).to_radians();
         truth.set_joint(i, j).unwrap();
     }
-    let data = write(dir.path(), "thin.csv", &three_reflector_rows(&truth, 40, 42));
-    let fresh = write(dir.path(), "fresh.csv", &three_reflector_rows(&truth, 400, 43));
+    let data = write(
+        dir.path(),
+        "thin.csv",
+        &three_reflector_rows(&truth, 40, 42),
+    );
+    let fresh = write(
+        dir.path(),
+        "fresh.csv",
+        &three_reflector_rows(&truth, 400, 43),
+    );
     let points = std::fs::read_to_string(&data)
         .unwrap()
         .lines()

@@ -38,10 +38,14 @@ fn readings_outside_the_joint_limits_are_warned_about_by_every_fitting_command()
         .count();
     assert!(beyond > 0);
     let said = format!("{beyond} of 200 poses have readings outside the joint limits of");
-    for command in ["identify", "diagnose", "validate"] {
+    let page = dir.path().join("report.html");
+    for command in ["identify", "diagnose", "validate", "report"] {
         let mut args = vec![command, "--robot", s(&robot), "--data", s(&data)];
-        if command == "validate" {
+        if command == "validate" || command == "report" {
             args.extend(["--model", s(&robot)]);
+        }
+        if command == "report" {
+            args.extend(["--out", s(&page)]);
         }
         let out = kinecal(&args);
         let err = stderr(&out);
@@ -65,7 +69,7 @@ fn a_clock_that_goes_back_is_named() {
     let dir = tempfile::tempdir().unwrap();
     let robot = ur10_dir().join("robot.toml");
     // Two sessions of 100 rows, each with its clock from 0 s, joined.
-    let with_time = |name: &str, t: fn(usize) -> usize| {
+    let with_time = |name: &str, t: fn(usize) -> f64| {
         let path = ur10_rows(dir.path(), name, 200, |i, cells| {
             cells.push(t(i).to_string())
         });
@@ -73,7 +77,7 @@ fn a_clock_that_goes_back_is_named() {
         let (head, rest) = text.split_once('\n').unwrap();
         write(dir.path(), name, &format!("{head},t_s\n{rest}"))
     };
-    let joined = with_time("joined.csv", |i| (i % 100) * 10);
+    let joined = with_time("joined.csv", |i| ((i % 100) * 10) as f64);
     for command in ["check", "identify", "diagnose"] {
         let out = run_on(command, &robot, &joined, &[]);
         let err = stderr(&out);
@@ -83,7 +87,25 @@ fn a_clock_that_goes_back_is_named() {
             "{command}: {err}"
         );
     }
-    let in_order = with_time("in_order.csv", |i| i * 10);
-    let out = run_on("check", &robot, &in_order, &[]);
-    assert!(!stderr(&out).contains("t_s goes back"), "{}", stderr(&out));
+    // Through a map as in kinecal's layout (the file's time column under another name).
+    let text = std::fs::read_to_string(&joined).unwrap();
+    let renamed = write(
+        dir.path(),
+        "renamed.csv",
+        &text.replacen(",t_s", ",time", 1),
+    );
+    let map = write(dir.path(), "time.toml", "[columns]\nt_s = \"time\"\n");
+    let out = run_on("identify", &robot, &renamed, &["--map", s(&map)]);
+    assert!(
+        stderr(&out).contains("from 990 s to 0 s, line 102"),
+        "{}",
+        stderr(&out)
+    );
+    // In time order, or back by less than a second (a clock's jitter): nothing said.
+    let in_order = with_time("in_order.csv", |i| (i * 10) as f64);
+    let jitter = with_time("jitter.csv", |i| i as f64 * 0.3 - (i % 2) as f64 * 0.5);
+    for data in [&in_order, &jitter] {
+        let out = run_on("check", &robot, data, &[]);
+        assert!(!stderr(&out).contains("t_s goes back"), "{}", stderr(&out));
+    }
 }

@@ -42,6 +42,42 @@ pub struct Identified {
     pub residuals: Option<String>,
 }
 
+/// Why `fitted` (its constraints met to `rms_mm` RMS) is no calibration of the robot file's
+/// model `nominal`, as the rest of a sentence that starts "the fit", or `None`: the tracker
+/// path's guards ([`crate::calibration::arm_size`]): a fit that stretched the arm (a
+/// `length_mm` in another unit), turned a joint or misplaced a stated tool point, or that left
+/// the constraints above `stall_rms_mm` from met (two sockets under one group name).
+pub fn no_calibration<const N: usize>(
+    (file, nominal): (&RobotFile, &HostRobot<N>),
+    fitted: &HostRobot<N>,
+    rms_mm: f64,
+    stall_rms_mm: f64,
+) -> Option<String> {
+    crate::calibration::arm_size::resized(nominal, fitted)
+        .map(|why| {
+            format!("{why}; in a constraint file also each group's label and the unit of length_mm")
+        })
+        .or_else(|| {
+            (!file.tool_unknown())
+                .then(|| {
+                    crate::calibration::arm_size::tool_slip(nominal, fitted, &file.tool_names())
+                })
+                .flatten()
+        })
+        .or_else(|| {
+            (!(rms_mm <= stall_rms_mm)).then(|| {
+                format!(
+                    "left the constraints {} mm RMS from met, above --stall-rms-mm {}: check \
+                     each group's label (two sockets or planes under one name, a distance row \
+                     in the wrong group), the length unit of length_mm, the tool and coupled \
+                     joints",
+                    crate::output::numfmt::sig(rms_mm, 4),
+                    crate::output::numfmt::sig(stall_rms_mm, 3)
+                )
+            })
+        })
+}
+
 /// Fits the model and the shapes to the identification groups and judges the model on the
 /// held-out ones. Refuses another method than LM, misstated lengths and empty identification
 /// sets; prints nothing.
@@ -93,6 +129,12 @@ pub fn identify<const N: usize>(
     let after = residuals(&fitted.robot, &ident, &fitted.shapes, &valid);
     let name = |p: &Param| p.name(&fitted.robot).to_string();
     let acceptance = judge_groups(&before, &after, &ident, &valid);
+    let refused = no_calibration(
+        (&file, &nominal),
+        &fitted.robot,
+        after.identification_rms_mm,
+        options.stall_rms_mm,
+    );
     let all = crate::calibration::model_params(&fitted.robot, &file.tilt_joints());
     let report = ConstraintIdentifyReport {
         method: "lm".into(),
@@ -108,8 +150,8 @@ pub fn identify<const N: usize>(
         parameters: named_values(&fitted.robot, &all),
         estimated: fitted.estimated.iter().map(name).collect(),
         unidentifiable: fitted.unidentifiable.iter().map(name).collect(),
-        converged: fitted.converged && after.identification_rms_mm.is_finite(),
-        stop: fitted.stop.clone(),
+        converged: fitted.converged && after.identification_rms_mm.is_finite() && refused.is_none(),
+        stop: refused.unwrap_or_else(|| fitted.stop.clone()),
         held_out_worse: acceptance.as_ref().map(|a| a.held_out_worse),
         acceptance,
         constraints: constraints(

@@ -68,10 +68,15 @@ pub struct ConstraintDiagnoseReport {
     pub held_out: Option<HeldOut>,
     /// The extended model predicts the held-out groups worse than the geometric fit.
     pub held_out_worse: bool,
+    /// Why the geometric fit is no calibration of these data (the arm stretched, a joint
+    /// turned, a tool point misplaced, the constraints far from met), or absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub resized: Option<String>,
     pub out: Option<String>,
 }
 
-crate::reports::judged_report!(ConstraintDiagnoseReport, |r| !r.held_out_worse);
+crate::reports::judged_report!(ConstraintDiagnoseReport, |r| !r.held_out_worse
+    && r.resized.is_none());
 
 impl fmt::Display for ConstraintDiagnoseReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -155,7 +160,9 @@ pub fn run(args: &Args) -> anyhow::Result<ConstraintDiagnoseReport> {
     }
     let file = RobotFile::load(&args.input.robot)?;
     let report = with_joints!(file.joint_count(), N => run_with_joints::<N>(args))?;
-    if report.held_out_worse {
+    if let Some(why) = &report.resized {
+        eprintln!("error: the geometric fit {why}; nothing is diagnosed (exit 3)");
+    } else if report.held_out_worse {
         eprintln!(
             "error: the extended model predicts the held-out groups worse than the geometric \
              fit: not an improvement (exit 3)"
@@ -187,10 +194,19 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
     };
     let s = search(&file, &nominal, &ident, &opts)?;
     let extended = fit_with(&file, &nominal, &s.found, &ident)?;
+    let geometric = fit_with(&file, &nominal, &[], &ident)?;
+    let resized = crate::application::constraints::no_calibration(
+        (&file, &nominal),
+        &geometric.robot,
+        rms(&ident
+            .iter()
+            .map(|g| held_out_error(&geometric.robot, g))
+            .collect::<Vec<f64>>()),
+        crate::application::identify::DEFAULT_STALL_RMS_MM,
+    );
     let held_out = if valid.is_empty() {
         None
     } else {
-        let geometric = fit_with(&file, &nominal, &[], &ident)?;
         let e = |r: &crate::HostRobot<N>| {
             rms(&valid
                 .iter()
@@ -249,7 +265,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
         ),
     };
     let noise_floor_mm = noise_floor(&ident);
-    let out = match &args.out {
+    let out = match args.out.as_ref().filter(|_| resized.is_none()) {
         Some(path) => {
             let tilts: Vec<usize> = extended
                 .estimated
@@ -290,6 +306,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
         found,
         held_out,
         held_out_worse,
+        resized,
         out,
     })
 }

@@ -54,11 +54,22 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintIden
             crate::refused(format!("--residuals {}: cannot write: {e}", path.display()))
         })?;
     }
+    if !report.converged {
+        eprintln!(
+            "error: the fit {}; these numbers are not a calibration (exit 3)",
+            report.stop
+        );
+    }
     if let Some(out) = &args.out {
         if report.held_out_worse == Some(true) {
             eprintln!(
                 "note: {} not written: the model predicts the held-out groups worse than the \
                  model it started from",
+                out.display()
+            );
+        } else if !report.converged {
+            eprintln!(
+                "note: {} not written: these numbers are not a calibration",
                 out.display()
             );
         } else {

@@ -163,3 +163,61 @@ fn a_misstated_unit_on_a_constraint_file_is_refused_with_the_fix() {
         );
     }
 }
+
+/// Labelling and unit slips in a constraint session used to give a nonsense model with exit 0
+/// (two sockets under one name: 89 mm RMS, a4 74 mm; lengths in centimetres: links a tenth as
+/// long). `identify` and `diagnose` now apply the tracker path's guards (the arm's size, a
+/// joint turned or a link moved, the constraints left far from met), exit 3 naming the slip
+/// and what to check, and write no model; the session as simulated calibrates.
+#[test]
+fn a_mislabelled_group_or_lengths_in_another_unit_are_no_calibration() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, _) = session(dir.path(), "socket:4x10,distance:40", 3);
+    let text = std::fs::read_to_string(&data).unwrap();
+    let robot = data_file("er20.toml");
+    // Two sockets under one name.
+    let merged = write(dir.path(), "merged.csv", &text.replace(",s2,", ",s1,"));
+    assert_ne!(text, std::fs::read_to_string(&merged).unwrap());
+    // Every length_mm in centimetres.
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let k = header.iter().position(|c| *c == "length_mm").unwrap();
+    let cm: String = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            let mut cells: Vec<String> = l.split(',').map(String::from).collect();
+            if i > 0 && !cells[k].is_empty() {
+                cells[k] = (cells[k].parse::<f64>().unwrap() / 10.0).to_string();
+            }
+            cells.join(",") + "\n"
+        })
+        .collect();
+    let cm = write(dir.path(), "cm.csv", &cm);
+    for bad in [&merged, &cm] {
+        for command in ["identify", "diagnose"] {
+            let out_model = dir.path().join("m.toml");
+            let _ = std::fs::remove_file(&out_model);
+            let out = kinecal(&[
+                command,
+                "--robot",
+                s(&robot),
+                "--data",
+                s(bad),
+                "--out",
+                s(&out_model),
+            ]);
+            let err = stderr(&out);
+            assert_eq!(out.status.code(), Some(3), "{command} {bad:?}: {err}");
+            assert!(
+                err.lines().any(|l| l.starts_with("error:")
+                    && (l.contains("group's label") || l.contains("length_mm"))),
+                "{command} {bad:?}: {err}"
+            );
+            assert!(!out_model.exists(), "{command} {bad:?} wrote a model");
+        }
+    }
+    for command in ["identify", "diagnose"] {
+        let out = kinecal(&[command, "--robot", s(&robot), "--data", s(&data)]);
+        assert_eq!(out.status.code(), Some(0), "{command}: {}", stderr(&out));
+    }
+}

@@ -24,8 +24,8 @@ pub fn check_match(
     if let Some(what) = mismatch(model, nominal, tol_mm, tol_deg) {
         crate::refuse!(
             "{model_origin}: not a calibration of {source}: {what} (further apart than \
-             --tolerance-mm {tol_mm} / --tolerance-deg {tol_deg}): export the model into the \
-             file it was imported from"
+             --tolerance-mm {tol_mm} / --tolerance-deg {tol_deg}): give the robot file (or the \
+             URDF) the model was calibrated from, or a model identify or diagnose wrote"
         );
     }
     Ok(())

@@ -132,6 +132,11 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
              nominal robot",
             out.display()
         );
+    } else if let Some(out) = args.out.as_ref().filter(|_| !report.converged) {
+        eprintln!(
+            "note: {} not written: the geometric model is no calibration of these data",
+            out.display()
+        );
     } else if let Some(out) = &args.out {
         w.model.save(out)?;
         report.out = Some(out.display().to_string());

@@ -37,7 +37,8 @@ pub struct Args {
     /// gives the nominal column when --robot is not given).
     #[arg(long)]
     pub urdf: Option<PathBuf>,
-    /// dh-table: the nominal robot file (nominal and delta columns).
+    /// The nominal robot file: a model further from it than a calibration moves is refused
+    /// (dh-table, firmware); dh-table also writes its nominal and delta columns.
     #[arg(long)]
     pub robot: Option<PathBuf>,
     /// First link of the chain, as given to `import` (default: the root link).
@@ -94,8 +95,23 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
         rows: 0,
         bytes: None,
     };
+    // The nominal robot file of --robot, the model refused when further from it than a
+    // calibration moves.
+    let nominal_of = |r: &std::path::Path| -> anyhow::Result<RobotFile> {
+        let f = RobotFile::load(r)?;
+        let (n, m) = (f.joints.len(), model.joints.len());
+        if n != m {
+            crate::refuse!("{}: {n} joints, the model {m}", r.display());
+        }
+        export::check_match(&model, &model_origin, &f, &path_text(r), tol)?;
+        Ok(f)
+    };
     let bytes = match args.format {
         Format::Firmware => {
+            // The blob goes to the controller: checked against --robot as the DH table is.
+            if let Some(r) = &args.robot {
+                nominal_of(r)?;
+            }
             let bytes = export::firmware(&model, &model_origin)?;
             (report.format, report.bytes) = ("firmware".into(), Some(bytes.len()));
             bytes
@@ -116,15 +132,7 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
         }
         Format::DhTable => {
             let nominal = match (&args.robot, &args.urdf) {
-                (Some(r), _) => {
-                    let f = RobotFile::load(r)?;
-                    let (n, m) = (f.joints.len(), model.joints.len());
-                    if n != m {
-                        crate::refuse!("{}: {n} joints, the model {m}", r.display());
-                    }
-                    export::check_match(&model, &model_origin, &f, &path_text(r), tol)?;
-                    Some(f)
-                }
+                (Some(r), _) => Some(nominal_of(r)?),
                 (None, Some(u)) => Some(nominal_import(u)?.2.file),
                 (None, None) => {
                     eprintln!("warning: no nominal given: pass --robot R.toml for the nominal and delta columns");

@@ -143,6 +143,13 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
                     "held-out"
                 }
             );
+        } else if !done.report.converged {
+            // No calibration (its reason on the error line): nothing a later step (validate,
+            // export to the controller) could take for one is written.
+            eprintln!(
+                "note: {} not written: these numbers are not a calibration",
+                out.display()
+            );
         } else {
             done.model.save(out)?;
             done.report.out = Some(out.display().to_string());

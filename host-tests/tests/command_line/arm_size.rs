@@ -257,3 +257,69 @@ fn a_tool_in_metres_or_with_its_sign_flipped_is_no_calibration() {
         );
     }
 }
+
+/// What is no calibration is not written where a later step could take it for one: `identify`
+/// used to write `--out` at exit 3 (a model of the arm fitted to a tool in metres, named
+/// "(identified)"), and `validate` and `export --format firmware` then took it. `identify` and
+/// `diagnose` now write no model at exit 3, and `export --format firmware --robot R` refuses a
+/// model further from R than a calibration moves, as `--format dh-table` does.
+#[test]
+fn no_model_is_written_or_exported_for_what_is_no_calibration() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = ur10_dir().join("robot.toml");
+    let text = std::fs::read_to_string(&robot).unwrap();
+    let metres = write(
+        dir.path(),
+        "metres.toml",
+        &text.replace("xyz_mm = [0.0, 0.0, 109.0]", "xyz_mm = [0.0, 0.0, 0.109]"),
+    );
+    let rows = ur10_rows(dir.path(), "rows.csv", 400, |_, _| {});
+    let model = dir.path().join("model.toml");
+    for command in ["identify", "diagnose"] {
+        let out = run_on(command, &metres, &rows, &["--out", s(&model)]);
+        assert_eq!(out.status.code(), Some(3), "{command}: {}", stderr(&out));
+        assert!(!model.exists(), "{command} wrote {model:?}");
+    }
+    let out = run_on("identify", &robot, &rows, &["--out", s(&model)]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert!(model.exists());
+    let blob = dir.path().join("m.kcm");
+    let export = |model: &std::path::Path| {
+        kinecal(&[
+            "export",
+            "--model",
+            s(model),
+            "--format",
+            "firmware",
+            "--robot",
+            s(&robot),
+            "--out",
+            s(&blob),
+        ])
+    };
+    let out = export(&model);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    // The model with its links a tenth as long (lengths in centimetres).
+    let calibrated = std::fs::read_to_string(&model).unwrap();
+    let a3 = calibrated
+        .lines()
+        .filter(|l| l.starts_with("a_mm"))
+        .nth(2)
+        .unwrap()
+        .to_string();
+    let value: f64 = a3.split('=').nth(1).unwrap().trim().parse().unwrap();
+    let shrunk = write(
+        dir.path(),
+        "shrunk.toml",
+        &calibrated.replacen(&a3, &format!("a_mm = {}", value / 10.0), 1),
+    );
+    let _ = std::fs::remove_file(&blob);
+    let out = export(&shrunk);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("not a calibration of") && stderr(&out).contains("a3 is"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!blob.exists());
+}

@@ -304,6 +304,13 @@ pub fn identify<const N: usize>(
     let outliers = crate::calibration::outliers::find(&fit.robot, searched);
     let resized = outliers
         .few()
+        .or_else(|| {
+            crate::calibration::orientation_slip::astray(
+                after.identification_rms_mm,
+                opts.stall_rms_mm,
+                after.identification_rms_deg,
+            )
+        })
         .or_else(|| crate::calibration::arm_size::resized(&nominal, &fit.robot))
         .or_else(|| {
             (!file.tool_unknown())

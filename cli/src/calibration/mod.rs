@@ -9,6 +9,7 @@ pub mod drift;
 pub mod folds;
 pub mod inputs;
 pub mod method;
+pub mod orientation_slip;
 pub mod outliers;
 pub mod prior;
 pub mod pso_search;

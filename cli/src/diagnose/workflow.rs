@@ -267,8 +267,18 @@ pub fn run<const N: usize>(
     // for noise.
     let outliers =
         crate::calibration::outliers::find(&d.geometric, &[(&search_poses.poses, &search)]);
+    // Orientation columns that do not describe the tool frame turn the wrist too: named
+    // before the joint that moved.
+    let fitted = crate::calibration::Residuals::of(&d.geometric, &search, &[]);
     d.resized = outliers
         .few()
+        .or_else(|| {
+            crate::calibration::orientation_slip::astray(
+                fitted.identification_rms_mm,
+                opts.stall_rms_mm,
+                fitted.identification_rms_deg,
+            )
+        })
         .or(d.resized.take())
         .or_else(|| {
             (!file.tool_unknown())

@@ -114,9 +114,14 @@ fn warm<const N: usize>(ds: &Dataset<N>, origin: &str) -> Option<String> {
 
 /// A step back in `t_s` shorter than this (s) is a clock's jitter, not rows out of time order.
 pub const CLOCK_JITTER_S: f64 = 1.0;
+/// `t_s` beyond this (s, 1973 since 1970) are dates: one clock for every session, so rows out
+/// of order there mislead nothing that reads `t_s` (the real series A appends ten rows of
+/// earlier days at its end).
+pub const DATED_S: f64 = 1e8;
 
-/// The warning for a `t_s` column that goes back in time along the rows (rows sorted by
-/// something else, or sessions with clocks of their own joined), naming the largest step back.
+/// The warning for a `t_s` column of relative times (not dates, [`DATED_S`]) that goes back in
+/// time along the rows (rows sorted by something else, or sessions with clocks of their own
+/// joined), naming the largest step back.
 /// `diagnose`'s drift check reads the rows' order as time, and `base-drift` reads `t_s` as one
 /// clock: either is misled.
 fn clock_back<const N: usize>(ds: &Dataset<N>, origin: &str) -> Option<String> {
@@ -130,6 +135,9 @@ fn clock_back<const N: usize>(ds: &Dataset<N>, origin: &str) -> Option<String> {
         .filter_map(|r| r.extra.get(k).map(|t| (r.line, *t)))
         .filter(|(_, t)| t.is_finite())
         .collect();
+    if times.iter().any(|(_, t)| t.abs() > DATED_S) {
+        return None;
+    }
     let backs: Vec<((u32, f64), (u32, f64))> = times
         .windows(2)
         .filter(|w| w[1].1 < w[0].1 - CLOCK_JITTER_S)

@@ -101,10 +101,12 @@ fn a_clock_that_goes_back_is_named() {
         "{}",
         stderr(&out)
     );
-    // In time order, or back by less than a second (a clock's jitter): nothing said.
+    // In time order, back by less than a second (a clock's jitter), or dates (one clock for
+    // every session: the real series A appends rows of earlier days): nothing said.
     let in_order = with_time("in_order.csv", |i| (i * 10) as f64);
     let jitter = with_time("jitter.csv", |i| i as f64 * 0.3 - (i % 2) as f64 * 0.5);
-    for data in [&in_order, &jitter] {
+    let dated = with_time("dated.csv", |i| 1.6e9 + ((i % 100) * 10) as f64);
+    for data in [&in_order, &jitter, &dated] {
         let out = run_on("check", &robot, data, &[]);
         assert!(!stderr(&out).contains("t_s goes back"), "{}", stderr(&out));
     }

@@ -308,7 +308,11 @@ pub fn identify<const N: usize>(
             crate::calibration::orientation_slip::astray(
                 after.identification_rms_mm,
                 opts.stall_rms_mm,
-                after.identification_rms_deg,
+                &crate::calibration::orientation_errors_deg(&fit.robot, &ident),
+                &stated
+                    .iter()
+                    .map(|s| s.orientation_rad.to_degrees())
+                    .collect::<Vec<f64>>(),
             )
         })
         .or_else(|| crate::calibration::arm_size::resized(&nominal, &fit.robot))

@@ -202,7 +202,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
             .iter()
             .map(|g| held_out_error(&geometric.robot, g))
             .collect::<Vec<f64>>()),
-        crate::application::identify::DEFAULT_STALL_RMS_MM,
+        args.stall_rms_mm,
     );
     let held_out = if valid.is_empty() {
         None
@@ -265,7 +265,21 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
         ),
     };
     let noise_floor_mm = noise_floor(&ident);
-    let out = match args.out.as_ref().filter(|_| resized.is_none()) {
+    if let Some(path) = args
+        .out
+        .as_ref()
+        .filter(|_| resized.is_some() || held_out_worse)
+    {
+        eprintln!(
+            "note: {} not written: these numbers are not a calibration",
+            path.display()
+        );
+    }
+    let out = match args
+        .out
+        .as_ref()
+        .filter(|_| resized.is_none() && !held_out_worse)
+    {
         Some(path) => {
             let tilts: Vec<usize> = extended
                 .estimated

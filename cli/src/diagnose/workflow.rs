@@ -270,13 +270,20 @@ pub fn run<const N: usize>(
     // Orientation columns that do not describe the tool frame turn the wrist too: named
     // before the joint that moved.
     let fitted = crate::calibration::Residuals::of(&d.geometric, &search, &[]);
+    // The σ the file states (the search's weights carry the error floors too).
+    let stated: Vec<f64> =
+        crate::calibration::weights::stated(&search_poses.measurements, observed.sigma)
+            .iter()
+            .map(|s| s.orientation_rad.to_degrees())
+            .collect();
     d.resized = outliers
         .few()
         .or_else(|| {
             crate::calibration::orientation_slip::astray(
                 fitted.identification_rms_mm,
                 opts.stall_rms_mm,
-                fitted.identification_rms_deg,
+                &crate::calibration::orientation_errors_deg(&d.geometric, &search),
+                &stated,
             )
         })
         .or(d.resized.take())

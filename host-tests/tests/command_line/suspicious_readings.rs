@@ -110,4 +110,12 @@ fn a_clock_that_goes_back_is_named() {
         let out = run_on("check", &robot, data, &[]);
         assert!(!stderr(&out).contains("t_s goes back"), "{}", stderr(&out));
     }
+    // Dates in an order of their own (more than 1 % of the steps back): named.
+    let shuffled = with_time("shuffled.csv", |i| 1.6e9 + ((i * 37) % 200) as f64 * 10.0);
+    let out = run_on("check", &robot, &shuffled, &[]);
+    assert!(
+        stderr(&out).contains("t_s goes back in time"),
+        "{}",
+        stderr(&out)
+    );
 }

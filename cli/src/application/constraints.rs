@@ -65,7 +65,7 @@ pub fn no_calibration<const N: usize>(
                 .flatten()
         })
         .or_else(|| {
-            (!(rms_mm <= stall_rms_mm)).then(|| {
+            (rms_mm > stall_rms_mm || rms_mm.is_nan()).then(|| {
                 format!(
                     "left the constraints {} mm RMS from met, above --stall-rms-mm {}: check \
                      each group's label (two sockets or planes under one name, a distance row \

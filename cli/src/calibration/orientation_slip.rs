@@ -32,7 +32,7 @@ pub fn astray(
     let stated: Vec<f64> = stated_deg.iter().copied().filter(|s| *s > 0.0).collect();
     let limit =
         MOST_ORIENTATION_RMS_DEG.max(median(&stated).map_or(0.0, |s| 3.0 * s * 3f64.sqrt()));
-    (rms_mm <= stall_rms_mm && !(deg <= limit)).then(|| {
+    (rms_mm <= stall_rms_mm && deg > limit).then(|| {
         format!(
             "met the points ({} mm RMS) but left the orientations {}° off in the median row, \
              where no arm is more than {}° off: the orientation columns do not describe the tool \

@@ -316,17 +316,7 @@ pub fn identify<const N: usize>(
             )
         })
         .or_else(|| crate::calibration::arm_size::resized(&nominal, &fit.robot))
-        .or_else(|| {
-            (!file.tool_unknown())
-                .then(|| {
-                    crate::calibration::arm_size::tool_slip(
-                        &nominal,
-                        &fit.robot,
-                        &file.tool_names(),
-                    )
-                })
-                .flatten()
-        })
+        .or_else(|| crate::calibration::arm_size::stated_tool_slip(&file, &nominal, &fit.robot))
         .or_else(|| outliers.reason());
     let converged = fit.solver_converged()
         && !stalled

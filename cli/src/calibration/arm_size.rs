@@ -183,3 +183,16 @@ pub fn tool_slip<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStor
         })
     })
 }
+
+/// [`tool_slip`] for the tool points the robot file `file` states (none when its tool is
+/// unknown: started from the data), named as the file names them.
+pub fn stated_tool_slip<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStorage>(
+    file: &crate::formats::robot_file::RobotFile,
+    nominal: &Robot<f64, N, V>,
+    fitted: &Robot<f64, N, W>,
+) -> Option<String> {
+    if file.tool_unknown() {
+        return None;
+    }
+    tool_slip(nominal, fitted, &file.tool_names())
+}

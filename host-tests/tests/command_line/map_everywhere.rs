@@ -3,7 +3,7 @@
 //! gives the same report as the file in kinecal's layout. (Units through a map are the
 //! vendor_files tests'; here the cells stay the same digits so the reports agree bit for bit.)
 
-use crate::common::{kinecal, s, simulate, stderr, write, ER20_PLACED};
+use crate::common::{kinecal, run_on, s, simulate, stderr, write, ER20_PLACED};
 use std::path::{Path, PathBuf};
 
 /// `file` (kinecal's layout, comma-separated) rewritten as a vendor writes it: `;`-separated,
@@ -175,8 +175,9 @@ fn a_map_reading_one_column_twice_or_the_wrong_unit_is_refused() {
 /// A map key that is none of kinecal's column names (`temp` for `temp_c`, `X` for `x`, `sx_m`
 /// for `sx_mm`) used to be carried along as an extra column, its values silently unread: the
 /// temperature left out of a `thermal-expansion` fit, the σ out of the weights. It is refused
-/// (exit 2) naming the key and the name it most likely meant; a name near none of kinecal's
-/// gets the list of them instead of a guess.
+/// (exit 2) naming the key and the name it most likely meant (a name cut short first); a name
+/// near none of kinecal's gets the list of them instead of a guess, and a target's `rx` in a
+/// measurement file's map the measured name.
 #[test]
 fn a_map_key_kinecal_does_not_read_is_refused_with_the_name_meant() {
     let dir = tempfile::tempdir().unwrap();
@@ -188,38 +189,46 @@ fn a_map_key_kinecal_does_not_read_is_refused_with_the_name_meant() {
         ("X", "did you mean x?"),
         ("sx_m", "did you mean sx_mm?"),
         ("foo", "its names are q1 … q6, x, y, z"),
+        // A name cut short is nearer than another name one edit away (`rx`).
+        ("srx", "did you mean srx_deg?"),
+        ("rx", "use rx_deg as the key"),
     ] {
         let map = write(d, "m.toml", &format!("[columns]\n{key} = \"temp_c\"\n"));
         for command in ["check", "identify"] {
-            let out = kinecal(&[
-                command,
-                "--robot",
-                s(&robot),
-                "--data",
-                s(&data),
-                "--map",
-                s(&map),
-            ]);
+            let out = run_on(command, &robot, &data, &["--map", s(&map)]);
             let err = stderr(&out);
             assert_eq!(out.status.code(), Some(2), "{command} {key}: {err}");
             assert!(
-                err.contains(&format!(
-                    "[columns] {key}: kinecal reads no column of that name"
-                )) && err.contains(says),
+                err.contains(&format!("[columns] {key}: ")) && err.contains(says),
                 "{command} {key}: {err}"
             );
         }
     }
-    // kinecal's own names pass, further reflectors' and the per-axis angle σ among them.
+    // kinecal's own names pass: temp_c; the per-axis angle σ with the real 6-D rows; a further
+    // reflector's x_NAME with [[tools]] naming it.
     let map = write(d, "ok.toml", "[columns]\ntemp_c = \"temp_c\"\n");
-    let out = kinecal(&[
+    let out = run_on("check", &robot, &data, &["--map", s(&map)]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let published = crate::common::ur10_dir().join("published");
+    let out = run_on(
         "check",
-        "--robot",
-        s(&robot),
-        "--data",
-        s(&data),
-        "--map",
-        s(&map),
-    ]);
+        &robot,
+        &published.join("measurements_random_poses_excerpt.csv"),
+        &["--map", s(&published.join("ur10_series_c.map.toml"))],
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let text = std::fs::read_to_string(&robot).unwrap();
+    assert!(text.contains("[tool]\n"));
+    let named = write(
+        d,
+        "named.toml",
+        &text.replace("[tool]\n", "[[tools]]\nname = \"smr\"\n"),
+    );
+    let map = write(
+        d,
+        "smr.toml",
+        "[columns]\nx_smr = \"x\"\ny_smr = \"y\"\nz_smr = \"z\"\n",
+    );
+    let out = run_on("check", &named, &data, &["--map", s(&map)]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
 }

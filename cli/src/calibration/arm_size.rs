@@ -124,55 +124,50 @@ pub fn tool_slip<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStor
     fitted: &Robot<f64, N, W>,
     names: &[String],
 ) -> Option<String> {
-    let (Some(a), Some(b)) = (nominal.joints().last(), fitted.joints().last()) else {
-        return None;
-    };
-    let (s, c) = (b.theta - a.theta).sin_cos();
-    let fmt =
-        |v: &nalgebra::Vector3<f64>| format!("[{}, {}, {}]", sig(v.x, 4), sig(v.y, 4), sig(v.z, 4));
-    let points = nominal.tool_point_count().min(fitted.tool_point_count());
-    (0..points).find_map(|k| {
-        let (stated, t) = (*nominal.tool_point(k)?, fitted.tool_point(k)?);
-        let found = nalgebra::Vector3::new(c * t.x - s * t.y, s * t.x + c * t.y, t.z + (b.d - a.d));
-        let was = stated.norm();
-        if !(was.is_finite() && found.norm().is_finite()) {
-            return None;
-        }
-        let (entry, unknown) = match names.get(k) {
-            Some(n) => (format!("[[tools]] {n:?}'s xyz_mm"), ""),
-            None => (
-                "[tool] xyz_mm".to_string(),
-                " (or write xyz_mm = \"unknown\" to have it fitted)",
-            ),
-        };
-        let as_metres = stated * 1000.0;
-        if was > 0.0
-            && was < TOOL_METRES_MM
-            && (found - as_metres).norm() <= TOOL_SLIP_MARGIN * as_metres.norm()
-        {
-            return Some(format!(
-                "put the tool point {} mm from the flange ({} mm), where the robot file's \
+    let fmt = point_text;
+    flange_points(nominal, fitted)
+        .into_iter()
+        .enumerate()
+        .find_map(|(k, (stated, found))| {
+            let was = stated.norm();
+            if !(was.is_finite() && found.norm().is_finite()) {
+                return None;
+            }
+            let (entry, unknown) = match names.get(k) {
+                Some(n) => (format!("[[tools]] {n:?}'s xyz_mm"), ""),
+                None => (
+                    "[tool] xyz_mm".to_string(),
+                    " (or write xyz_mm = \"unknown\" to have it fitted)",
+                ),
+            };
+            let as_metres = stated * 1000.0;
+            if was > 0.0
+                && was < TOOL_METRES_MM
+                && (found - as_metres).norm() <= TOOL_SLIP_MARGIN * as_metres.norm()
+            {
+                return Some(format!(
+                    "put the tool point {} mm from the flange ({} mm), where the robot file's \
                  {entry} = {} puts it if read in metres: it is written in metres; give it in \
                  millimetres{unknown}",
-                sig(found.norm(), 4),
-                fmt(&found),
-                fmt(&stated)
-            ));
-        }
-        let flipped: Vec<usize> = (0..3)
-            .filter(|&i| {
-                stated[i].abs() >= TOOL_SIGN_MM
-                    && (found[i] + stated[i]).abs() <= TOOL_SLIP_MARGIN * stated[i].abs()
-            })
-            .collect();
-        let axes: Vec<&str> = flipped.iter().map(|&i| ["x", "y", "z"][i]).collect();
-        (!flipped.is_empty()).then(|| {
-            let zero = if flipped.iter().any(|&i| i < 2) {
-                format!(", or joint {N}'s zero in the data is 180° from the robot file's")
-            } else {
-                String::new()
-            };
-            format!(
+                    sig(found.norm(), 4),
+                    fmt(&found),
+                    fmt(&stated)
+                ));
+            }
+            let flipped: Vec<usize> = (0..3)
+                .filter(|&i| {
+                    stated[i].abs() >= TOOL_SIGN_MM
+                        && (found[i] + stated[i]).abs() <= TOOL_SLIP_MARGIN * stated[i].abs()
+                })
+                .collect();
+            let axes: Vec<&str> = flipped.iter().map(|&i| ["x", "y", "z"][i]).collect();
+            (!flipped.is_empty()).then(|| {
+                let zero = if flipped.iter().any(|&i| i < 2) {
+                    format!(", or joint {N}'s zero in the data is 180° from the robot file's")
+                } else {
+                    String::new()
+                };
+                format!(
                 "put the tool point at {} mm in the flange frame, the robot file's {entry} = {} \
                  with the other sign in {}: that sign is flipped in the robot file{zero}; \
                  correct it{unknown}",
@@ -180,8 +175,36 @@ pub fn tool_slip<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStor
                 fmt(&stated),
                 axes.join(", ")
             )
+            })
         })
-    })
+}
+
+/// A point as `[x, y, z]` with four significant digits (mm).
+pub fn point_text(v: &nalgebra::Vector3<f64>) -> String {
+    format!("[{}, {}, {}]", sig(v.x, 4), sig(v.y, 4), sig(v.z, 4))
+}
+
+/// Each tool point as `nominal` states it and as `fitted` puts it, both in the nominal flange
+/// frame: the fitted point is moved back by the last joint's change of `d` and `θ` (which take
+/// up a tool's offset along and about the flange axis, [`moved`]). Indexed as the tool points;
+/// a point may not be finite.
+pub fn flange_points<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStorage>(
+    nominal: &Robot<f64, N, V>,
+    fitted: &Robot<f64, N, W>,
+) -> Vec<(nalgebra::Vector3<f64>, nalgebra::Vector3<f64>)> {
+    let (Some(a), Some(b)) = (nominal.joints().last(), fitted.joints().last()) else {
+        return Vec::new();
+    };
+    let (s, c) = (b.theta - a.theta).sin_cos();
+    let points = nominal.tool_point_count().min(fitted.tool_point_count());
+    (0..points)
+        .map_while(|k| {
+            let (stated, t) = (*nominal.tool_point(k)?, fitted.tool_point(k)?);
+            let found =
+                nalgebra::Vector3::new(c * t.x - s * t.y, s * t.x + c * t.y, t.z + (b.d - a.d));
+            Some((stated, found))
+        })
+        .collect()
 }
 
 /// [`tool_slip`] for the tool points the robot file `file` states (none when its tool is
@@ -194,5 +217,9 @@ pub fn stated_tool_slip<const N: usize, V: kinecal::ValueStorage, W: kinecal::Va
     if file.tool_unknown() {
         return None;
     }
-    tool_slip(nominal, fitted, &file.tool_names())
+    let names = file.tool_names();
+    // Labels first: an exchanged pair mirrored in one axis (B at y = 52, C at −52) also reads
+    // as a flipped sign.
+    super::reflector_labels::mixed_up(nominal, fitted, &names)
+        .or_else(|| tool_slip(nominal, fitted, &names))
 }

@@ -504,3 +504,59 @@ fn orientation_columns_that_do_not_describe_the_tool_are_no_calibration() {
         }
     }
 }
+
+/// Reflectors whose labels in the data are not the robot file's: B's and C's columns
+/// exchanged, or A logged under B's name too. Every tool point is fitted freely, so such data
+/// fitted to the noise with exit 0 and the model named the points wrongly (tool B at C's
+/// point). `identify` and `diagnose` now exit 3 naming the labels
+/// (`calibration::reflector_labels`); reflectors 4 mm from their stated points calibrate.
+#[test]
+fn reflector_labels_that_are_not_the_robot_files_are_no_calibration() {
+    let dir = tempfile::tempdir().unwrap();
+    let (text, nominal) = three_reflector_robot();
+    let robot = write(dir.path(), "robot.toml", &text);
+    let mut truth = nominal.clone();
+    for k in 0..3 {
+        let p = truth.tool_point(k).unwrap() + Vector3::new(2.0, -2.0, 3.0);
+        truth.set_tool_point(k, p).unwrap();
+    }
+    let rows = three_reflector_rows(&truth, 150, 44);
+    let (header, body) = rows.split_once('\n').unwrap();
+    let right = write(dir.path(), "right.csv", &rows);
+    let swapped_header = header
+        .replace("_B", "_tmp")
+        .replace("_C", "_B")
+        .replace("_tmp", "_C");
+    let swapped = write(
+        dir.path(),
+        "swapped.csv",
+        &format!("{swapped_header}\n{body}"),
+    );
+    let copied: String = rows
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            let mut c: Vec<&str> = l.split(',').collect();
+            if i > 0 {
+                let a: Vec<&str> = c[6..9].to_vec();
+                c.splice(9..12, a);
+            }
+            c.join(",") + "\n"
+        })
+        .collect();
+    let copied = write(dir.path(), "copied.csv", &copied);
+    for command in ["identify", "diagnose"] {
+        let out = run_on(command, &robot, &right, &["--json"]);
+        assert_eq!(out.status.code(), Some(0), "{command}: {}", stderr(&out));
+        let err = crate::common::no_calibration(command, &robot, &swapped);
+        assert!(
+            err.contains("reflector \"B\"") && err.contains("\"C\"") && err.contains("exchanged"),
+            "{command}: {err}"
+        );
+        let err = crate::common::no_calibration(command, &robot, &copied);
+        assert!(
+            err.contains("\"B\"") && err.contains("\"A\"") && err.contains("two names"),
+            "{command}: {err}"
+        );
+    }
+}

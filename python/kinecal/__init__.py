@@ -357,10 +357,12 @@ def compensate(
     f32: bool = False,
     length_unit: Optional[str] = None,
     angle_unit: Optional[str] = None,
+    tool: Optional[str] = None,
 ) -> CommandResult:
     """Corrected joint commands (``kinecal compensate``) that bring ``model`` to the targets
     ``xyz`` (n, 3) (and orientations ``rpy_deg`` (n, 3)) from the controller's seeds
-    ``q_seed`` (n, N). Returns the report and ``q`` (n, N, in the seeds' angle unit),
+    ``q_seed`` (n, N); ``tool`` names the reflector (``[[tools]]``) the targets are for (the
+    first by default). Returns the report and ``q`` (n, N, in the seeds' angle unit),
     ``status`` (list of str), ``error_mm``, ``error_deg`` (n,)."""
     columns = {}
     if rpy_deg is not None:
@@ -369,7 +371,7 @@ def compensate(
     targets = _set(q_seed, xyz, columns, "targets")
     options = dict(
         iterations=iterations, max_step_deg=max_step_deg, accept_mm=accept_mm,
-        stream=stream, f32=f32, length_unit=length_unit, angle_unit=angle_unit,
+        stream=stream, f32=f32, length_unit=length_unit, angle_unit=angle_unit, tool=tool,
     )
     text, converged, q, status, error_mm, error_deg = _native.compensate(model, targets, options)
     return CommandResult(json.loads(text), converged, q=q, status=status, error_mm=error_mm,

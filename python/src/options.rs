@@ -211,6 +211,8 @@ pub struct Compensate {
     pub accept_mm: Option<f64>,
     pub stream: bool,
     pub f32: bool,
+    /// The reflector the targets are for (`--tool`).
+    pub tool: Option<String>,
 }
 
 impl Compensate {

@@ -34,10 +34,16 @@ fn compensate_n<const N: usize>(
     model: &Robot,
     (settings, units): (&Settings, &UnitArgs),
     targets: &Arrays<'_>,
+    tool: Option<&str>,
 ) -> PyResult<(String, bool, Commands)> {
     let file = &model.file;
     let m = model_named::<N>(file, "model").map_err(py_err)?;
     settings.check().map_err(py_err)?;
+    let (m, warning) = kinecal_cli::compensation::reflector::of_reflector(file, &m, tool, "model")
+        .map_err(py_err)?;
+    if let Some(w) = warning {
+        eprintln!("warning: {w}");
+    }
     let origin = "targets";
     let kind = FileKind::Targets;
     let ds = accepted::<N>(targets, origin, units, &m, true, kind)?;
@@ -82,12 +88,13 @@ pub fn compensate<'py>(
     targets: Set<'_>,
     options: &Bound<'py, PyAny>,
 ) -> PyResult<Compensated<'py>> {
-    let settings = options::extract::<options::Compensate>("compensate", options)?.settings();
+    let compensate = options::extract::<options::Compensate>("compensate", options)?;
+    let (settings, tool) = (compensate.settings(), compensate.tool);
     let units = options::extract::<options::Units>("compensate", options)?.args()?;
     let targets = arrays(&targets);
     let n = model.file.joint_count();
     let r: anyhow::Result<PyResult<(String, bool, Commands)>> = py.detach(
-        || with_joints!(n, N => Ok(compensate_n::<N>(model, (&settings, &units), &targets))),
+        || with_joints!(n, N => Ok(compensate_n::<N>(model, (&settings, &units), &targets, tool.as_deref()))),
     );
     let (json, converged, (q, status, e_mm, e_deg)) = r.map_err(py_err)??;
     Ok((

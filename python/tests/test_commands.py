@@ -82,6 +82,38 @@ def test_compensate_equals_cli(sim, cli, tmp_path):
     assert np.abs(truth.fk(res.q) - targets).max() < 0.01
 
 
+def test_compensate_for_a_named_reflector_equals_cli(sim, cli, tmp_path):
+    """A model of three reflectors: ``tool="B"`` takes the targets as B's points, as
+    ``kinecal compensate --tool B`` does, and the commands bring B (not A) to them."""
+    import re
+
+    d, _ = sim
+    text = re.sub(r"\[tool\]\nxyz_mm = [^\n]*\n", "", (d / "truth.toml").read_text())
+    points = {"A": (0.0, 0.0, 100.0), "B": (60.0, 0.0, 80.0), "C": (0.0, -60.0, 80.0)}
+    for name, p in points.items():
+        text += f'\n[[tools]]\nname = "{name}"\nxyz_mm = [{p[0]}, {p[1]}, {p[2]}]\n'
+    (tmp_path / "m.toml").write_text(text)
+    model = kinecal.Robot.from_file(tmp_path / "m.toml")
+    rng = np.random.default_rng(10)
+    seeds = rng.uniform(-60, 60, size=(20, model.joints))
+    # The targets of B: the robot with B's point as its only tool, at the seeds moved 0.2°.
+    (tmp_path / "b.toml").write_text(
+        re.sub(r"xyz_mm = [^\n]*", "xyz_mm = [60.0, 0.0, 80.0]", (d / "truth.toml").read_text(),
+               count=1))
+    only_b = kinecal.Robot.from_file(tmp_path / "b.toml")
+    targets = only_b.fk(seeds + 0.2)
+    kinecal.write_csv(tmp_path / "t.csv", seeds, targets)
+    res = kinecal.compensate(model, seeds, targets, tool="B")
+    code, ref = cli("compensate", "--model", tmp_path / "m.toml", "--targets", tmp_path / "t.csv",
+                    "--tool", "B", "--out", tmp_path / "q.csv")
+    assert code == 0, ref
+    assert_same(res.json, ref)
+    assert res.status == ["ok"] * 20
+    np.testing.assert_allclose(only_b.fk(res.q), targets, atol=0.01)
+    with pytest.raises(Exception, match="no reflector of that name"):
+        kinecal.compensate(model, seeds, targets, tool="D")
+
+
 def test_compensate_cartesian_equals_cli(cell, sim, cli, tmp_path):
     """Targets for a controller that keeps the nominal kinematics: Python's in-memory route
     equals `kinecal compensate --robot NOMINAL --cartesian` row for row, and the sent targets,

@@ -45,6 +45,10 @@ pub struct Args {
     /// ry, rz] in the targets' units, then status).
     #[arg(long, requires = "robot")]
     pub cartesian: bool,
+    /// The reflector the targets are for: a [[tools]] name of the model (default its first;
+    /// a model with several warns).
+    #[arg(long, value_name = "NAME")]
+    pub tool: Option<String>,
     /// Rows are a trajectory: warm-start each from the previous row's correction.
     #[arg(long)]
     pub stream: bool,
@@ -73,6 +77,7 @@ impl Args {
             },
             units: self.units.clone(),
             cartesian: self.cartesian.then(|| self.robot.clone()).flatten(),
+            tool: self.tool.clone(),
         }
     }
 }

@@ -21,6 +21,8 @@
 //! arrays) returns the summary and the rows; [`run`] reads the files, calls it and writes the
 //! rows ([`Compensated::csv`]).
 
+pub mod reflector;
+
 use crate::formats::loading::load_targets;
 use crate::formats::measurements::Dataset;
 use crate::formats::origin::Origin;
@@ -80,6 +82,9 @@ pub struct Job {
     /// The nominal robot (robot TOML) of a controller that keeps its kinematics: the output is
     /// then the targets to send it instead of joint commands.
     pub cartesian: Option<PathBuf>,
+    /// The `[[tools]]` name of the reflector the targets are for (the first when `None`,
+    /// [`reflector::of_reflector`]).
+    pub tool: Option<String>,
 }
 
 impl Job {
@@ -96,6 +101,7 @@ impl Job {
             settings: Settings::default(),
             units: UnitArgs::default(),
             cartesian: None,
+            tool: None,
         }
     }
 }
@@ -133,6 +139,11 @@ fn run_with_joints<const N: usize>(
         .to_robot::<N>()
         .map_err(|e| anyhow!("{}: {e}", job.model.display()))?;
     job.settings.check()?;
+    let what = job.model.display().to_string();
+    let (robot, warning) = reflector::of_reflector(file, &robot, job.tool.as_deref(), &what)?;
+    if let Some(w) = warning {
+        eprintln!("warning: {w}");
+    }
     let nominal = match &job.cartesian {
         None => None,
         Some(path) => {
@@ -145,10 +156,13 @@ fn run_with_joints<const N: usize>(
                     N
                 );
             }
-            Some(
-                f.to_robot::<N>()
-                    .map_err(|e| anyhow!("{}: {e}", path.display()))?,
-            )
+            let r = f
+                .to_robot::<N>()
+                .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+            // The same reflector of the controller's model; without --tool its first, as the
+            // model's.
+            let what = format!("--robot {}", path.display());
+            Some(reflector::of_reflector(&f, &r, job.tool.as_deref(), &what)?.0)
         }
     };
     let targets = load_targets(&job.targets, &job.units, &robot)?;
@@ -506,6 +520,24 @@ fn target_rows<const N: usize>(
         (Some(a), Some(b), Some(c)) => Some([a, b, c]),
         _ => crate::refuse!("{origin}:{}:1: a pose target needs all of rx, ry, rz; the header has only some of them", origin.header_line()),
     };
+    if !ds.records.is_empty()
+        && ds
+            .records
+            .iter()
+            .all(|r| r.xyz_mm.iter().all(|v| v.is_nan()))
+    {
+        let named = ds.extra_names.iter().any(|n| n.starts_with("x_"));
+        crate::refuse!(
+            "{origin}: missing required columns x, y, z: a targets file gives each target point \
+             as x, y, z{}",
+            if named {
+                " (for a reflector's x_NAME, y_NAME, z_NAME: rename them x, y, z and name the \
+                 reflector with --tool NAME)"
+            } else {
+                ""
+            }
+        );
+    }
     let mut rows = Vec::with_capacity(ds.len());
     for r in &ds.records {
         // Seeds and points a controller could have: a seed of 1e300° would otherwise come back

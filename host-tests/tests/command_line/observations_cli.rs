@@ -560,3 +560,85 @@ fn reflector_labels_that_are_not_the_robot_files_are_no_calibration() {
         );
     }
 }
+
+/// `compensate` with a model of three reflectors took every target as a point of the first,
+/// silently: reflector B's targets came back `limited` (exit 3) with no word of which
+/// reflector they were taken for. Now `--tool NAME` names it (the commands then reach B's
+/// targets to the solver's tolerance), the first is taken with a warning, an unknown name is
+/// refused with the list, and a targets file with `x_B…` instead of `x, y, z` is told so.
+#[test]
+fn compensate_names_the_reflector_the_targets_are_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = write(dir.path(), "model.toml", &three_reflector_robot().0);
+    // The file states no base: the targets are in the robot's base frame.
+    let model = RobotFile::load(&robot).unwrap().to_robot::<6>().unwrap();
+    let mut rng = rand::rngs::StdRng::seed_from_u64(45);
+    let mut fk = ForwardKinematics::<f64, 6>::new();
+    let (mut targets, mut named) = (
+        String::from("q1,q2,q3,q4,q5,q6,x,y,z\n"),
+        String::from("q1,q2,q3,q4,q5,q6,x_B,y_B,z_B\n"),
+    );
+    let mut truth = Vec::new();
+    for _ in 0..20 {
+        let q: [f64; 6] = std::array::from_fn(|_| rng.random_range(-120.0f64..120.0));
+        let p = fk
+            .compute_point(&model, &q.map(f64::to_radians), 1)
+            .unwrap();
+        let seed = q.map(|v| format!("{:.6}", v + 0.3)).join(",");
+        let row = format!("{seed},{:.6},{:.6},{:.6}\n", p.x, p.y, p.z);
+        targets += &row;
+        named += &row;
+        truth.push(q);
+    }
+    let targets = write(dir.path(), "targets.csv", &targets);
+    let named = write(dir.path(), "named.csv", &named);
+    let out = dir.path().join("q.csv");
+    let run = |t: &std::path::Path, extra: &[&str]| {
+        let mut args = vec!["compensate", "--model", s(&robot), "--targets", s(t)];
+        args.extend(["--out", s(&out)]);
+        args.extend(extra);
+        kinecal(&args)
+    };
+    let b = run(&targets, &["--tool", "B"]);
+    assert_eq!(b.status.code(), Some(0), "{}", stderr(&b));
+    assert!(!stderr(&b).contains("warning"), "{}", stderr(&b));
+    let commands = std::fs::read_to_string(&out).unwrap();
+    for (line, q) in commands.lines().skip(1).zip(&truth) {
+        let c: [f64; 6] = std::array::from_fn(|j| {
+            line.split(',')
+                .nth(j)
+                .unwrap()
+                .parse::<f64>()
+                .unwrap()
+                .to_radians()
+        });
+        assert!(line.contains(",ok,"), "{line}");
+        let mut at = |q: &[f64; 6], k| fk.compute_point(&model, q, k).unwrap();
+        let miss = (at(&c, 1) - at(&q.map(f64::to_radians), 1)).norm();
+        assert!(miss < 0.01, "reflector B {miss} mm from its target");
+    }
+    let first = run(&targets, &[]);
+    assert!(
+        stderr(&first).contains("3 reflectors (\"A\", \"B\", \"C\")")
+            && stderr(&first).contains("--tool NAME"),
+        "{}",
+        stderr(&first)
+    );
+    let a = run(&targets, &["--tool", "A"]);
+    assert_eq!(a.status.code(), Some(3), "{}", stderr(&a));
+    let unknown = run(&targets, &["--tool", "D"]);
+    assert_eq!(unknown.status.code(), Some(2));
+    assert!(
+        stderr(&unknown).contains("\"A\", \"B\", \"C\""),
+        "{}",
+        stderr(&unknown)
+    );
+    let columns = run(&named, &["--tool", "B"]);
+    assert_eq!(columns.status.code(), Some(2));
+    assert!(
+        stderr(&columns).contains("missing required columns x, y, z")
+            && stderr(&columns).contains("rename them x, y, z"),
+        "{}",
+        stderr(&columns)
+    );
+}

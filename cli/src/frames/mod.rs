@@ -10,6 +10,8 @@
 //! the report and the robot file with the base found; [`from_files`] reads the files, calls it
 //! and writes that robot file.
 
+mod axes_agree;
+
 use crate::formats::measurements::Dataset;
 use crate::formats::origin::Origin;
 use crate::formats::robot_file::{deg_exact, load_robot, BaseSpec, RobotFile};
@@ -123,6 +125,26 @@ fn explain(e: FramesError, what: &str) -> anyhow::Error {
     crate::refused(format!("{what}: {why}; sweep again"))
 }
 
+/// The joint (1-based) that turned over the rows of `sweep` while the joint it names did
+/// not: the one whose readings span the most, when that is more than a degree.
+fn turned_instead<const N: usize>(
+    sweep: &kinecal::frames::circle_point::Sweep<'_, f64, N>,
+) -> Option<usize> {
+    let span = |j: usize| {
+        let (lo, hi) = sweep
+            .q
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+                (lo.min(q[j]), hi.max(q[j]))
+            });
+        (hi - lo).to_degrees()
+    };
+    let (k, most) = (0..N)
+        .map(|j| (j, span(j)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    (k != sweep.joint && most > 1.0).then_some(k + 1)
+}
+
 fn circle_report(
     joint: usize,
     c: &Circle<f64>,
@@ -215,9 +237,17 @@ pub fn find<const N: usize>(
     // on the flange axis does not move, and has no circle).
     for j in 0..N - 1 {
         if let Some(s) = sweeps.get(j) {
-            let a = s
-                .axis()
-                .map_err(|e| explain(e, &format!("{origin}: sweep of joint {}", j + 1)))?;
+            let a = s.axis().map_err(|e| {
+                if let (FramesError::NoRotation, Some(k)) = (e, turned_instead(&s)) {
+                    return crate::refused(format!(
+                        "{origin}: sweep of joint {}: its rows' `{SWEEP_COLUMN}` names joint {} \
+                         but joint {k} turned on them: correct the {SWEEP_COLUMN} column",
+                        j + 1,
+                        j + 1
+                    ));
+                }
+                explain(e, &format!("{origin}: sweep of joint {}", j + 1))
+            })?;
             judge(j, &a, &mut warnings);
             circles.push(circle_report(
                 j,
@@ -238,6 +268,12 @@ pub fn find<const N: usize>(
         )
     })?;
     let b = base.base;
+    let mut placed = robot.clone();
+    if placed.set_base(b).is_ok() {
+        if let Some(why) = axes_agree::disagreement(&placed, &sweeps) {
+            crate::refuse!("{origin}: {why}");
+        }
+    }
     let xyz = [b.o.x, b.o.y, b.o.z];
     let rpy = b.rpy().map(deg_exact);
 

@@ -129,3 +129,58 @@ fn frames_binary_prints_one_json_object() {
     assert!(mm < 0.1 && deg < 0.01, "{mm} mm {deg}°");
     assert!((v["tool_axial_mm"].as_f64().unwrap() - 201.2).abs() < 0.05);
 }
+
+/// A joint whose sign in the data is the opposite of the robot file's still gives a base from
+/// the sweeps of joints 1 and 2: turned by 180°, exit 0 (the robot placed there missed the
+/// points by 2.4 m). The sweeps of joints 3 to 5 now tell (their axes point away from, or lie
+/// metres from, the model's at that base: exit 2 naming the signs), and rows whose `sweep`
+/// names a joint that did not turn name the one that did.
+#[test]
+fn frames_refuses_a_base_the_other_sweeps_contradict() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot_path = write_robot(dir.path(), &ER20, ER20_TOOL);
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(98);
+    let base = random_base(&mut rng);
+    let truth: Robot<f64, 6, kinecal::Inline<0>> = robot(&ER20, ER20_TOOL, base);
+    let data = sweep_data(
+        &truth,
+        &[20.0, 10.0, -10.0, 30.0, 20.0, 0.0],
+        &[1, 2, 3, 4, 5, 6],
+        24,
+        300.0,
+        0.015,
+        9,
+    )
+    .unwrap();
+    let run = |name: &str, edit: &dyn Fn(&mut measurements::Record<6>)| {
+        let mut d = data.clone();
+        d.records.iter_mut().for_each(edit);
+        let csv = dir.path().join(name);
+        measurements::write(&csv, &d).unwrap();
+        find_frames(&robot_path, &csv, None)
+    };
+    let v = run("right.csv", &|_| {}).unwrap();
+    let found = Frame::from_xyz_rpy(v.base.xyz_mm, v.base.rpy_deg.map(f64::to_radians));
+    assert!(frame_error(&found, &base).0 < 0.1);
+    for joint in [0, 1] {
+        let e = run("negated.csv", &|r| r.q_deg[joint] = -r.q_deg[joint]).unwrap_err();
+        assert_eq!(kinecal_cli::commands::exit_status(&e), 2);
+        let e = format!("{e:#}");
+        assert!(
+            e.contains("turns about an axis") && e.contains("sign"),
+            "joint {} negated: {e}",
+            joint + 1
+        );
+    }
+    let sweep = data.extra_names.iter().position(|n| n == "sweep").unwrap();
+    let e = run("labels.csv", &|r| match r.extra[sweep] as i64 {
+        5 => r.extra[sweep] = 6.0,
+        6 => r.extra[sweep] = 5.0,
+        _ => {}
+    })
+    .unwrap_err();
+    assert!(
+        format!("{e}").contains("names joint 5 but joint 6 turned"),
+        "{e}"
+    );
+}

@@ -1,0 +1,69 @@
+//! The base found must put every swept joint's axis where the sweep measured it. The base is
+//! built from the axes of joints 1 and 2 alone, so a joint whose sign in the data is the
+//! opposite of the robot file's still gives a base: turned by 180° (joint 2 negated gave
+//! `rpy_deg = [0, 0, -160]` where the truth is `[0, 0, 20]`), and the robot placed there misses
+//! the points by metres. The further sweeps tell: each joint's axis, as the robot file at the
+//! base found puts it, must point the way the sweep turned (right-handed about the axis as
+//! the reading increases) and pass through the sweep's circle, within the limits by which a
+//! calibration moves a joint ([`MOST_ANGLE_CHANGE_DEG`], [`MOST_LENGTH_CHANGE_MM`]).
+
+use crate::calibration::arm_size::{MOST_ANGLE_CHANGE_DEG, MOST_LENGTH_CHANGE_MM};
+use crate::output::numfmt::sig;
+use crate::simulation::sweeps::SweepSet;
+use kinecal::frames::circle_point::Line;
+use kinecal::{ForwardKinematics, Robot};
+
+/// A sweep whose axis direction is less certain than this (one standard deviation, degrees)
+/// is not compared.
+pub const MOST_SD_AXIS_DEG: f64 = 1.0;
+
+/// Why the sweeps `sweeps` contradict `placed` (the robot file's model at the base found): the
+/// first swept joint (from joint 3) whose measured axis points more than
+/// [`MOST_ANGLE_CHANGE_DEG`] from the model's, or lies more than [`MOST_LENGTH_CHANGE_MM`] from
+/// it at the circle's centre; `None` when every one agrees. Sweeps the method cannot use are
+/// skipped (they are judged elsewhere), and so are those whose axis direction is less certain
+/// than [`MOST_SD_AXIS_DEG`].
+pub fn disagreement<const N: usize, V: kinecal::ValueStorage>(
+    placed: &Robot<f64, N, V>,
+    sweeps: &SweepSet<N>,
+) -> Option<String> {
+    let mut fk = ForwardKinematics::<f64, N>::new();
+    (2..N).find_map(|j| {
+        let sweep = sweeps.get(j)?;
+        let measured = sweep.axis().ok()?;
+        // A point near the axis (the flange's, with the reflector on it) turns on a circle
+        // too small to give the axis's direction.
+        if !(measured.circle.sd_normal.to_degrees() <= MOST_SD_AXIS_DEG) {
+            return None;
+        }
+        let q = sweep.q.first()?;
+        fk.compute(placed, q);
+        let f = fk.frames.get(j)?;
+        let model = Line::new(f.o, f.z)?;
+        let angle = measured.line.direction.angle(&model.direction).to_degrees();
+        let off = model.distance(&measured.circle.centre);
+        if !(angle.is_finite() && off.is_finite()) {
+            return None;
+        }
+        let k = j + 1;
+        if angle > MOST_ANGLE_CHANGE_DEG {
+            Some(format!(
+                "the sweep of joint {k} turns about an axis {}° from the one the robot file, at \
+                 the base found from joints 1 and 2, gives it: a joint's sign in the data (joint \
+                 1, 2 or {k}) is the opposite of the robot file's, or a row's `sweep` names \
+                 another joint; check the signs of the joint readings and the sweep column",
+                sig(angle, 3)
+            ))
+        } else if off > MOST_LENGTH_CHANGE_MM {
+            Some(format!(
+                "the sweep of joint {k} turns about an axis {} mm from where the robot file, at \
+                 the base found from joints 1 and 2, puts it: a joint's sign or zero in the \
+                 data (joint 1, 2 or one before {k}) differs from the robot file's, or the \
+                 points are in another length unit; check the joint readings and the units",
+                sig(off, 3)
+            ))
+        } else {
+            None
+        }
+    })
+}

@@ -42,6 +42,84 @@ pub fn parse_request(s: &str) -> Option<anyhow::Result<EffectRequest>> {
     }))
 }
 
+/// The largest thermal expansion (per kelvin) a calibration accepts: four times aluminium's
+/// 2.3e-5, eight times steel's 1.2e-5.
+pub const MOST_EXPANSION_PER_K: f64 = 1e-4;
+/// The most negative one: carbon-fibre composites come near −1e-6 per kelvin; no arm's links
+/// shrink by more as they warm.
+pub const MOST_SHRINK_PER_K: f64 = -5e-6;
+
+/// Why the thermal-expansion coefficient of `fitted` cannot be an arm's: the rest of a
+/// sentence that starts "the fit", or `None` (also without the term). A temperature column
+/// that does not follow the arm (rows in another order than their temperatures: the simulated
+/// warm-up read in reverse fitted −1.22e-5 per kelvin with exit 0) gives a coefficient no arm
+/// has.
+pub fn implausible<const N: usize, V: kinecal::ValueStorage>(
+    fitted: &Robot<f64, N, V>,
+) -> Option<String> {
+    let (_, c, _) = fitted.effects().thermal()?;
+    let ppm = crate::output::numfmt::sig(c * 1e6, 3);
+    if !c.is_finite() {
+        return None;
+    }
+    if c < MOST_SHRINK_PER_K {
+        Some(format!(
+            "put the thermal expansion at {ppm} ppm per kelvin: the links would shrink as they \
+             warm, by more than the {} ppm per kelvin of any arm's material; the temp_c column \
+             does not follow the arm's temperature (another sensor's column, or temperatures \
+             not in their rows): check it, or drop --effect thermal-expansion",
+            crate::output::numfmt::sig(-MOST_SHRINK_PER_K * 1e6, 3)
+        ))
+    } else if c > MOST_EXPANSION_PER_K {
+        Some(format!(
+            "put the thermal expansion at {ppm} ppm per kelvin, beyond the {} ppm of any arm's \
+             material: the temp_c column does not follow the arm's temperature, or varies too \
+             little to tell: check it, or drop --effect thermal-expansion",
+            crate::output::numfmt::sig(MOST_EXPANSION_PER_K * 1e6, 3)
+        ))
+    } else {
+        None
+    }
+}
+
+/// Fewer rows than this carrying a temperature change cannot tell an expansion from those
+/// rows' own errors.
+pub const MIN_WARMER_ROWS: usize = 5;
+/// Temperatures within this (K) of each other are one temperature: a sensor's resolution.
+pub const SAME_TEMPERATURE_K: f64 = 0.05;
+
+/// The refusal of a thermal term whose temperature change rests on fewer than
+/// [`MIN_WARMER_ROWS`] rows: those at least a quarter of the largest difference from the
+/// median temperature. One row at 45 °C among rows at 21.00 °C fitted 7.4 ± 3.2 ppm per kelvin
+/// from that row alone, with exit 0. `None` for temperatures that vary on enough rows, or not
+/// at all (the term is then held: no observation moves with it).
+pub fn too_few_rows<const N: usize>(data: &[Measurement<f64, N>]) -> Option<String> {
+    let mut t: Vec<f64> = data.iter().filter_map(|m| m.temp_c).collect();
+    if t.len() != data.len() || t.is_empty() {
+        return None;
+    }
+    t.sort_by(f64::total_cmp);
+    let median = t[t.len() / 2];
+    let far = t.iter().map(|v| (v - median).abs()).fold(0.0, f64::max);
+    if !(far > SAME_TEMPERATURE_K) {
+        return None;
+    }
+    let carrying = t
+        .iter()
+        .filter(|v| (*v - median).abs() >= far / 4.0)
+        .count();
+    (carrying < MIN_WARMER_ROWS).then(|| {
+        format!(
+            "--effect thermal-expansion: temp_c differs from the median {} °C on only {carrying} \
+             of {} rows (by up to {} K): the coefficient would be fitted to those rows alone; \
+             check their temperatures, or measure while the arm's temperature changes",
+            crate::output::numfmt::sig(median, 4),
+            t.len(),
+            crate::output::numfmt::sig(far, 3)
+        )
+    })
+}
+
 /// Mean temperature (°C) of `data` when every observation has one.
 pub fn mean_temperature<const N: usize>(data: &[Measurement<f64, N>]) -> Option<f64> {
     let t: Vec<f64> = data.iter().map(|m| m.temp_c).collect::<Option<_>>()?;
@@ -63,6 +141,9 @@ pub fn add<const N: usize, V: kinecal::ValueStorage>(
     };
     if robot.effects().thermal().is_some() {
         crate::refuse!("--effect thermal-expansion: the robot file has the term already");
+    }
+    if let Some(why) = too_few_rows(data) {
+        crate::refuse!("{why}");
     }
     let reference = req.arg.unwrap_or(mean);
     let first = robot.effects().values().len();

@@ -40,7 +40,7 @@ impl Default for Limits {
             scale: 0.01,
             compliance_deg_per_m: 1.0,
             tilt_deg: 2.0,
-            expansion_per_k: 1e-4,
+            expansion_per_k: crate::calibration::thermal::MOST_EXPANSION_PER_K,
             drift_mm_per_h: 10.0,
         }
     }
@@ -104,6 +104,13 @@ pub fn implausible(c: &Candidate, values: &[f64], limits: &Limits) -> Option<Str
                 sig(limits.tilt_deg, 3)
             )
         }),
+        CandidateKind::Thermal { .. } if v0 < crate::calibration::thermal::MOST_SHRINK_PER_K => {
+            Some(format!(
+                "a thermal expansion of {} ppm per kelvin would shrink the links as they warm, \
+                 which no arm's do: the temp_c column does not follow the arm's temperature",
+                sig(v0 * 1e6, 3)
+            ))
+        }
         CandidateKind::Thermal { .. } => (v0.abs() > limits.expansion_per_k).then(|| {
             format!(
                 "a thermal expansion of {} ppm per kelvin is beyond the {} ppm of any arm's material",

@@ -51,10 +51,23 @@ pub fn load_as<const N: usize, V: kinecal::ValueStorage>(
     Ok(ds)
 }
 
-/// `ds` after the warnings about its columns ([`warm`], [`clock_back`]) are told on stderr:
+/// `ds` after the warnings about its columns ([`warm`], [`clock_back`],
+/// [`super::pace::warning`]) are told on stderr:
 /// the same for a file in kinecal's layout and one read through a map.
 fn told<const N: usize>(ds: Dataset<N>, origin: &str) -> Dataset<N> {
-    for w in [warm(&ds, origin), clock_back(&ds, origin)]
+    let pace = ds
+        .extra_names
+        .iter()
+        .position(|n| n == crate::formats::measurements::TIME_COLUMN)
+        .and_then(|k| {
+            let times: Vec<f64> = ds
+                .records
+                .iter()
+                .map(|r| r.extra.get(k).copied().unwrap_or(f64::NAN))
+                .collect();
+            super::pace::warning(&times, origin)
+        });
+    for w in [warm(&ds, origin), clock_back(&ds, origin), pace]
         .into_iter()
         .flatten()
     {

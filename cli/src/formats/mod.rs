@@ -10,6 +10,7 @@ pub mod map;
 pub mod measurements;
 pub mod observations;
 pub mod origin;
+pub mod pace;
 pub mod placement;
 pub mod prior;
 pub mod robot_file;

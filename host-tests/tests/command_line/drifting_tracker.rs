@@ -240,3 +240,46 @@ fn diagnose_names_the_drift_on_the_command_line() {
     // "The tracker drifted …" begins the finding's sentence.
     assert_diagnose_names_without_angle(&robot, &data, "base-drift", "racker drifted against");
 }
+
+/// `t_s` in milliseconds or hours read as seconds: the drift came out 1000× too small or
+/// 3600× too large with exit 0 and no word. The rows' pace (400 poses over 41 days, or over a
+/// second) is now warned about, naming the unit; the session as simulated (9 s a pose) is not.
+#[test]
+fn a_time_column_in_another_unit_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = data_file("er20.toml");
+    let data = drifting_session(dir.path(), &robot);
+    let text = std::fs::read_to_string(&data).unwrap();
+    let scaled = |name: &str, factor: f64| {
+        let mut out = String::new();
+        for (i, l) in text.lines().enumerate() {
+            let (rest, t) = l.rsplit_once(',').unwrap();
+            let t = if i == 0 {
+                t.to_string()
+            } else {
+                format!("{}", t.parse::<f64>().unwrap() * factor)
+            };
+            out += &format!("{rest},{t}\n");
+        }
+        write(dir.path(), name, &out)
+    };
+    let drift = ["--effect", "base-drift"];
+    let right = run_on("identify", &robot, &data, &drift);
+    assert_eq!(right.status.code(), Some(0), "{}", stderr(&right));
+    assert!(
+        !stderr(&right).contains("t_s advances"),
+        "{}",
+        stderr(&right)
+    );
+    for (name, factor, unit) in [
+        ("ms.csv", 1000.0, "milliseconds"),
+        ("hours.csv", 1.0 / 3600.0, "hours"),
+    ] {
+        let out = run_on("identify", &robot, &scaled(name, factor), &drift);
+        let err = stderr(&out);
+        assert!(
+            err.contains("t_s advances a median of") && err.contains(unit),
+            "{name}: {err}"
+        );
+    }
+}

@@ -126,3 +126,64 @@ fn a_temperature_column_in_fahrenheit_is_named() {
         );
     }
 }
+
+/// A temperature column that does not follow the arm: the warm-up's temperatures in reverse
+/// order fitted a coefficient of −1.2e-5 per kelvin (links shrinking as they warm) with exit 0,
+/// and one row at 45 °C among rows at 21 °C fitted one from that row alone. The first is now no
+/// calibration (exit 3, identify and diagnose's limit), the second refused (exit 2); the
+/// warm-up as simulated is fitted.
+#[test]
+fn a_temperature_column_that_does_not_follow_the_arm_is_no_calibration() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = data_file("er20.toml");
+    let data = dir.path().join("warm.csv");
+    kinecal_ok(&[
+        "simulate",
+        "--robot",
+        s(&robot),
+        "--poses",
+        "400",
+        "--noise-mm",
+        "0.01",
+        "--seed",
+        "22",
+        "--geom-errors",
+        "--temperature",
+        "15:35",
+        "--effect",
+        "thermal-expansion:0:1.2e-5",
+        "--out",
+        s(&data),
+    ]);
+    let text = std::fs::read_to_string(&data).unwrap();
+    let rows: Vec<(&str, &str)> = text.lines().map(|l| l.rsplit_once(',').unwrap()).collect();
+    let with_temps = |name: &str, temps: &dyn Fn(usize) -> String| {
+        let mut out = format!("{},{}\n", rows[0].0, rows[0].1);
+        for (i, (rest, _)) in rows.iter().enumerate().skip(1) {
+            out += &format!("{rest},{}\n", temps(i));
+        }
+        write(dir.path(), name, &out)
+    };
+    let n = rows.len() - 1;
+    let reversed = with_temps("reversed.csv", &|i| rows[n + 1 - i].1.to_string());
+    let glitch = with_temps("glitch.csv", &|i| {
+        if i == 123 { "45.0" } else { "21.00" }.to_string()
+    });
+    let term = ["--json", "--effect", "thermal-expansion"];
+    let right = run_on("identify", &robot, &data, &term);
+    assert_eq!(right.status.code(), Some(0), "{}", stderr(&right));
+    let out = run_on("identify", &robot, &reversed, &term);
+    assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("shrink as they warm"),
+        "{}",
+        stderr(&out)
+    );
+    let out = run_on("identify", &robot, &glitch, &term);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("on only 1 of 400 rows"),
+        "{}",
+        stderr(&out)
+    );
+}

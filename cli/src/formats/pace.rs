@@ -1,0 +1,43 @@
+//! The pace of a `t_s` column: a tracker measures a robot's pose in seconds (the arm moves,
+//! settles, the tracker averages), so a session's rows are about 1 to 60 s apart. A column
+//! whose rows are a median of milliseconds or of hours apart is in another unit than seconds
+//! (milliseconds read as seconds make 400 poses a 41-day session; hours, a 1-second one), and
+//! everything read per second (the base-drift velocity, diagnose's drift) is off by that
+//! factor: the simulated 0.525 mm per hour came out as 0.000525 and as 1,890. The model is not
+//! affected, so it is a warning.
+
+/// A median step between rows shorter than this (s) is not a tracker's pace.
+pub const FASTEST_STEP_S: f64 = 0.2;
+/// A median step between rows longer than this (s) is not a tracker's pace.
+pub const SLOWEST_STEP_S: f64 = 600.0;
+/// Fewer forward steps than this tell no pace.
+pub const MIN_STEPS: usize = 10;
+
+/// The warning for `times` (`t_s` of the rows in file order, seconds as read) whose median
+/// forward step lies outside [`FASTEST_STEP_S`]..[`SLOWEST_STEP_S`]; `origin` names the file.
+pub fn warning(times: &[f64], origin: &str) -> Option<String> {
+    let mut steps: Vec<f64> = times
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|d| d.is_finite() && *d > 0.0)
+        .collect();
+    if steps.len() < MIN_STEPS {
+        return None;
+    }
+    steps.sort_by(f64::total_cmp);
+    let median = steps[steps.len() / 2];
+    let sig = crate::output::numfmt::sig;
+    let unit = if median < FASTEST_STEP_S {
+        "hours or minutes"
+    } else if median > SLOWEST_STEP_S {
+        "milliseconds"
+    } else {
+        return None;
+    };
+    Some(format!(
+        "warning: {origin}: t_s advances a median of {} s from row to row, where a tracker \
+         measures a pose in about 1 to 60 s: if t_s is in {unit}, give it in seconds; the \
+         drift per hour (base-drift, diagnose) is read from it",
+        sig(median, 3)
+    ))
+}

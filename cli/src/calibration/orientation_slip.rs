@@ -23,15 +23,8 @@ pub fn astray(
     errors_deg: &[f64],
     stated_deg: &[f64],
 ) -> Option<String> {
-    let median = |v: &[f64]| -> Option<f64> {
-        let mut v: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-        v.sort_by(f64::total_cmp);
-        (!v.is_empty()).then(|| v[v.len() / 2])
-    };
     let deg = median(errors_deg)?;
-    let stated: Vec<f64> = stated_deg.iter().copied().filter(|s| *s > 0.0).collect();
-    let limit =
-        MOST_ORIENTATION_RMS_DEG.max(median(&stated).map_or(0.0, |s| 3.0 * s * 3f64.sqrt()));
+    let limit = limit_deg(stated_deg);
     (rms_mm <= stall_rms_mm && deg > limit).then(|| {
         format!(
             "met the points ({} mm RMS) but left the orientations {}° off in the median row, \
@@ -45,4 +38,19 @@ pub fn astray(
             sig(limit, 3)
         )
     })
+}
+
+/// The median of the finite values of `v`; `None` for none.
+pub fn median(v: &[f64]) -> Option<f64> {
+    let mut v: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    v.sort_by(f64::total_cmp);
+    (!v.is_empty()).then(|| v[v.len() / 2])
+}
+
+/// How far (degrees) the median row's orientation may be from a model of the tool frame:
+/// [`MOST_ORIENTATION_RMS_DEG`], or three times the rows' median stated angular σ
+/// (`stated_deg`; zeros state none) over three axes when that is more.
+pub fn limit_deg(stated_deg: &[f64]) -> f64 {
+    let stated: Vec<f64> = stated_deg.iter().copied().filter(|s| *s > 0.0).collect();
+    MOST_ORIENTATION_RMS_DEG.max(median(&stated).map_or(0.0, |s| 3.0 * s * 3f64.sqrt()))
 }

@@ -98,6 +98,8 @@ pub struct Judged {
     pub figures: SetFigures,
     /// Orientation errors of 6-D observations (degrees) and their 95th percentile.
     pub orientation: Option<(ErrorStats, f64)>,
+    /// The median row's orientation error (degrees), with 6-D observations.
+    pub orientation_median_deg: Option<f64>,
     /// Several reflectors: each one's position errors, by name.
     pub per_point: Vec<(String, SetFigures)>,
     /// The registration fitted, by name (mm, degrees).
@@ -118,7 +120,8 @@ pub struct Validation {
     pub equations: usize,
     pub model: Judged,
     pub nominal: Judged,
-    /// The model's position RMS is above the nominal robot's: strictly, no margin.
+    /// The model's position RMS, or with 6-D data its orientation RMS, is above the nominal
+    /// robot's: strictly, no margin.
     pub worse_than_nominal: bool,
 }
 
@@ -169,7 +172,26 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
     };
     let model = judge(inp.model)?;
     let nominal = judge(inp.nominal)?;
-    let worse_than_nominal = model.figures.total.rms > nominal.figures.total.rms;
+    // 6-D data judge the orientations too: a model whose tool frame is tens of degrees off
+    // (fitted to orientation columns in radians) "held" on its positions alone. Worse than the
+    // nominal robot's, or, for a model that states a tool orientation, further off in the
+    // median row than a model of the tool frame leaves (a nominal robot without one is no
+    // yardstick: 90° off on the real UR10 rows).
+    let stated: Vec<f64> = weights::stated(&data, observed.sigma)
+        .iter()
+        .map(|s| s.orientation_rad.to_degrees())
+        .collect();
+    let astray = !inp.model.tool_axes_identity()
+        && model
+            .orientation_median_deg
+            .is_some_and(|d| d > crate::calibration::orientation_slip::limit_deg(&stated));
+    let worse_orientation = astray
+        || match (model.orientation, nominal.orientation) {
+            (Some((m, _)), Some((n, _))) => m.rms_mm > n.rms_mm,
+            _ => false,
+        };
+    let worse_than_nominal =
+        model.figures.total.rms > nominal.figures.total.rms || worse_orientation;
     Ok(Validation {
         register: opts.register,
         registered: params
@@ -257,6 +279,7 @@ fn judged<const N: usize>(
     Ok(Judged {
         figures,
         orientation,
+        orientation_median_deg: crate::calibration::orientation_slip::median(&o),
         per_point,
         registration: named_values(robot, params),
         held,

@@ -190,9 +190,17 @@ impl ValidateReport {
             })
             .collect();
         let (m, n) = (v.model.figures.total.rms, v.nominal.figures.total.rms);
+        let orientation = match (v.model.orientation, v.nominal.orientation) {
+            (Some((m, _)), Some((n, _))) => format!(
+                ", orientation RMS {}° with the model, {}° with the nominal robot",
+                sig(m.rms_mm, 4),
+                sig(n.rms_mm, 4)
+            ),
+            _ => String::new(),
+        };
         let figures = format!(
-            "position RMS {} mm with the model, {} mm with the nominal robot, both registered \
-             `{}` on {} poses",
+            "position RMS {} mm with the model, {} mm with the nominal robot{orientation}, both \
+             registered `{}` on {} poses",
             sig(m, 4),
             sig(n, 4),
             v.register.id(),
@@ -219,6 +227,13 @@ impl ValidateReport {
                      or mirrored), the joint columns' order and signs and the couplings \
                      (`kinecal check`); if they are right, the robot changed beyond what a \
                      calibration corrects"
+                )
+            } else if v.worse_than_nominal && m <= n {
+                format!(
+                    "the model's tool orientations do not hold ({figures}; a model of the tool \
+                     frame leaves under a degree, and no more than the nominal robot): its tool frame was fitted to orientation columns that do not \
+                     describe it (radians, another order or frame), or the probe was mounted \
+                     again since: recalibrate"
                 )
             } else if v.worse_than_nominal {
                 format!("{RECALIBRATE} ({figures})")

@@ -317,7 +317,12 @@ pub fn identify<const N: usize>(
         })
         .or_else(|| crate::calibration::arm_size::resized(&nominal, &fit.robot))
         .or_else(|| crate::calibration::arm_size::stated_tool_slip(&file, &nominal, &fit.robot))
-        .or_else(|| crate::calibration::thermal::implausible(&fit.robot))
+        .or_else(|| {
+            crate::calibration::thermal::implausible(
+                &fit.robot,
+                fit.sigma.get("thermal-expansion1").copied(),
+            )
+        })
         .or_else(|| outliers.reason());
     let converged = fit.solver_converged()
         && !stalled

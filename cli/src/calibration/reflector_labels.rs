@@ -10,57 +10,90 @@ use kinecal::Robot;
 
 /// Why the fitted tool points of `fitted` cannot carry the `[[tools]]` names `names` the robot
 /// file gives `nominal`'s points: the rest of a sentence that starts "the fit", or `None`.
-/// Compared in the nominal flange frame ([`flange_points`]), and only for stated points at
-/// least [`TOOL_SIGN_MM`] apart (`d` = their distance):
-/// - a point fitted within [`TOOL_SLIP_MARGIN`]·`d` of another's stated point and further from
-///   its own: the two reflectors' columns are exchanged (or one is logged under the other's
-///   name);
+/// Compared in the nominal flange frame ([`flange_points`]), for stated points at least
+/// [`TOOL_SIGN_MM`] from every other (`d` = the distance to the nearest other):
+/// - every fitted point within [`TOOL_SLIP_MARGIN`]·`d` of a stated point, those stated points
+///   all different and not each its own: the labels are exchanged (two reflectors swapped, or
+///   three in a cycle);
 /// - two points fitted within [`TOOL_SLIP_MARGIN`]·`d` of each other: one reflector is logged
 ///   under both names.
 ///
-/// A reflector that sits a few millimetres from where the file states it (the real UR10's is
-/// 16 mm nearer the flange) moves far less than the distance between two reflectors.
+/// A probe mounted a few millimetres from where the file states it moves every point alike, so
+/// no point takes another's place: one point may come near another's stated point, but the
+/// labels are read as exchanged only when the points as a whole are a reordering of the stated
+/// ones.
 pub fn mixed_up<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStorage>(
     nominal: &Robot<f64, N, V>,
     fitted: &Robot<f64, N, W>,
     names: &[String],
 ) -> Option<String> {
     let points = flange_points(nominal, fitted);
-    if points.len() < 2 || names.len() != points.len() {
+    let n = points.len();
+    if n < 2 || names.len() != n {
         return None;
     }
-    let finite = |k: usize| points[k].0.norm().is_finite() && points[k].1.norm().is_finite();
-    let apart = |k: usize, j: usize| (points[k].0 - points[j].0).norm();
-    let pairs = (0..points.len())
-        .flat_map(|k| (0..points.len()).map(move |j| (k, j)))
-        .filter(|&(k, j)| k != j && finite(k) && finite(j) && apart(k, j) >= TOOL_SIGN_MM);
-    for (k, j) in pairs.clone() {
-        let (own, found) = points[k];
-        let other = points[j].0;
-        let d = apart(k, j);
-        if (found - other).norm() <= TOOL_SLIP_MARGIN * d
-            && (found - other).norm() < (found - own).norm()
-        {
+    if points
+        .iter()
+        .any(|(a, b)| !(a.norm().is_finite() && b.norm().is_finite()))
+    {
+        return None;
+    }
+    let stated = |k: usize| points[k].0;
+    let found = |k: usize| points[k].1;
+    // Each stated point's distance to the nearest other: the scale of a mix-up.
+    let spacing: Vec<f64> = (0..n)
+        .map(|k| {
+            (0..n)
+                .filter(|&j| j != k)
+                .map(|j| (stated(k) - stated(j)).norm())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect();
+    if spacing.iter().any(|d| *d < TOOL_SIGN_MM) {
+        return None;
+    }
+    let nearest: Vec<Option<usize>> = (0..n)
+        .map(|k| {
+            (0..n)
+                .min_by(|&a, &b| {
+                    (found(k) - stated(a))
+                        .norm()
+                        .total_cmp(&(found(k) - stated(b)).norm())
+                })
+                .filter(|&j| (found(k) - stated(j)).norm() <= TOOL_SLIP_MARGIN * spacing[j])
+        })
+        .collect();
+    let taken: Option<Vec<usize>> = nearest.iter().copied().collect();
+    if let Some(taken) = taken {
+        let mut sorted = taken.clone();
+        sorted.sort_unstable();
+        sorted.dedup();
+        let moved: Vec<usize> = (0..n).filter(|&k| taken[k] != k).collect();
+        if sorted.len() == n && !moved.is_empty() {
+            let pairs: Vec<String> = moved
+                .iter()
+                .map(|&k| {
+                    format!(
+                        "{:?} at {} mm, the robot file's {:?}",
+                        names[k],
+                        point_text(&found(k)),
+                        names[taken[k]]
+                    )
+                })
+                .collect();
             return Some(format!(
-                "put reflector {:?}'s point at {} mm in the flange frame, next to the robot \
-                 file's {:?} at {} mm and {} mm from its own {}: the data's columns of {:?} \
-                 hold {:?}'s points (labels exchanged, or one reflector logged under two \
-                 names); check which reflector each column set measured, and name them as \
-                 the robot file's [[tools]] do",
-                names[k],
-                point_text(&found),
-                names[j],
-                point_text(&other),
-                crate::output::numfmt::sig((found - own).norm(), 3),
-                point_text(&own),
-                names[k],
-                names[j],
+                "put each reflector at another's stated point in the flange frame ({}): the \
+                 data's labels of the reflectors are exchanged; check which reflector each \
+                 column set measured, and name the columns as the robot file's [[tools]] do",
+                pairs.join("; ")
             ));
         }
     }
-    pairs
-        .filter(|&(k, j)| k < j)
-        .find(|&(k, j)| (points[k].1 - points[j].1).norm() <= TOOL_SLIP_MARGIN * apart(k, j))
+    (0..n)
+        .flat_map(|k| (k + 1..n).map(move |j| (k, j)))
+        .find(|&(k, j)| {
+            (found(k) - found(j)).norm() <= TOOL_SLIP_MARGIN * spacing[k].min(spacing[j])
+        })
         .map(|(k, j)| {
             format!(
                 "put reflectors {:?} and {:?} at one point, {} mm in the flange frame, where \
@@ -68,8 +101,8 @@ pub fn mixed_up<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStora
                  names; check which reflector each column set measured",
                 names[k],
                 names[j],
-                point_text(&points[k].1),
-                crate::output::numfmt::sig(apart(k, j), 3),
+                point_text(&found(k)),
+                crate::output::numfmt::sig((stated(k) - stated(j)).norm(), 3),
             )
         })
 }

@@ -87,6 +87,9 @@ pub struct Inputs<'a, const N: usize> {
     pub nominal_origin: &'a str,
     pub model: &'a HostRobot<N>,
     pub model_base_known: bool,
+    /// The model file states a tool orientation (`rpy_deg`, even all zeros): 6-D data then
+    /// judge it.
+    pub model_orientation_stated: bool,
     pub model_origin: &'a str,
     pub observed: &'a Observed<N>,
 }
@@ -120,9 +123,12 @@ pub struct Validation {
     pub equations: usize,
     pub model: Judged,
     pub nominal: Judged,
-    /// The model's position RMS, or with 6-D data its orientation RMS, is above the nominal
-    /// robot's: strictly, no margin.
+    /// The model's position RMS is above the nominal robot's (strictly, no margin), or with
+    /// 6-D data the tool orientation the model states is off ([`Validation::orientation_off`]).
     pub worse_than_nominal: bool,
+    /// With 6-D data, the model states a tool orientation and its median row is further off
+    /// than [`crate::calibration::orientation_slip::limit_deg`].
+    pub orientation_off: bool,
 }
 
 /// Registers the model and the nominal robot onto the session the same way (the parameters of
@@ -172,24 +178,19 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
     };
     let model = judge(inp.model)?;
     let nominal = judge(inp.nominal)?;
-    // 6-D data judge the orientations too: a model whose tool frame is tens of degrees off
-    // (fitted to orientation columns in radians) "held" on its positions alone. Worse than the
-    // nominal robot's, or, for a model that states a tool orientation, further off in the
-    // median row than a model of the tool frame leaves (a nominal robot without one is no
-    // yardstick: 90° off on the real UR10 rows).
+    // 6-D data judge the orientations too, of a model that states a tool orientation: one
+    // fitted to angles in radians "held" at 115° on its positions alone. A calibration of the
+    // tool frame leaves its median row within a degree (the real UR10 rows: 0.057°); a model
+    // without a tool orientation, or a positions calibration that moved the orientations by
+    // hundredths of a degree, is judged on its positions.
     let stated: Vec<f64> = weights::stated(&data, observed.sigma)
         .iter()
         .map(|s| s.orientation_rad.to_degrees())
         .collect();
-    let astray = !inp.model.tool_axes_identity()
+    let worse_orientation = inp.model_orientation_stated
         && model
             .orientation_median_deg
             .is_some_and(|d| d > crate::calibration::orientation_slip::limit_deg(&stated));
-    let worse_orientation = astray
-        || match (model.orientation, nominal.orientation) {
-            (Some((m, _)), Some((n, _))) => m.rms_mm > n.rms_mm,
-            _ => false,
-        };
     let worse_than_nominal =
         model.figures.total.rms > nominal.figures.total.rms || worse_orientation;
     Ok(Validation {
@@ -204,6 +205,7 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
         model,
         nominal,
         worse_than_nominal,
+        orientation_off: worse_orientation,
     })
 }
 

@@ -73,6 +73,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ValidateReport
             nominal_origin: &robot_origin,
             model: &model,
             model_base_known: model_file.base_known(),
+            model_orientation_stated: model_file.tool.rpy_deg.is_some(),
             model_origin: &model_origin,
             observed: &observed,
         },

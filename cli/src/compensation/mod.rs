@@ -159,10 +159,18 @@ fn run_with_joints<const N: usize>(
             let r = f
                 .to_robot::<N>()
                 .map_err(|e| anyhow!("{}: {e}", path.display()))?;
-            // The same reflector of the controller's model; without --tool its first, as the
-            // model's.
+            // The controller's model with the same reflector, by name (the model's first
+            // without --tool); one that keeps a single tool (its TCP) is taken as it is.
             let what = format!("--robot {}", path.display());
-            Some(reflector::of_reflector(&f, &r, job.tool.as_deref(), &what)?.0)
+            let name = job
+                .tool
+                .clone()
+                .or_else(|| file.tool_names().first().cloned());
+            if f.tool_names().is_empty() {
+                Some(r)
+            } else {
+                Some(reflector::of_reflector(&f, &r, name.as_deref(), &what)?.0)
+            }
         }
     };
     let targets = load_targets(&job.targets, &job.units, &robot)?;

@@ -257,7 +257,7 @@ pub fn observe<const N: usize>(
                     crate::refuse!(
                         "{}: a 1-σ must be a positive number, got {} (or give --ignore-sigma)",
                         at(["sx_mm", "sy_mm", "sz_mm"][k]),
-                        s[k]
+                        cell_text(s[k])
                     );
                 }
                 Vector3::new(1.0 / s[0], 1.0 / s[1], 1.0 / s[2])
@@ -266,6 +266,14 @@ pub fn observe<const N: usize>(
             };
             let orientation = if six_d {
                 let a = rot.map(|c| c.map_or(f64::NAN, get));
+                if let Some(k) = a.iter().position(|v| v.is_nan()) {
+                    crate::refuse!(
+                        "{}: empty (or not a number): a file with rx_deg, ry_deg, rz_deg needs \
+                         an orientation on every row; fill it in, leave the row out, or fit the \
+                         positions alone with --positions-only",
+                        at(["rx_deg", "ry_deg", "rz_deg"][k])
+                    );
+                }
                 if let Some(k) = a.iter().position(|v| !v.is_finite() || v.abs() > 1e4) {
                     crate::refuse!(
                         "{}: not an angle in degrees: {}",
@@ -277,8 +285,9 @@ pub fn observe<const N: usize>(
                     let s = srot_of(&get);
                     if !(s.is_finite() && s > 0.0) {
                         crate::refuse!(
-                            "{}: a 1-σ must be a positive number, got {s} (or give --ignore-sigma)",
-                            at("srot_deg")
+                            "{}: a 1-σ must be a positive number, got {} (or give --ignore-sigma)",
+                            at("srot_deg"),
+                            cell_text(s)
                         );
                     }
                     1.0 / s.to_radians()
@@ -437,4 +446,14 @@ fn observe_each_once<const N: usize>(
         })
         .collect();
     Ok((measurements, poses))
+}
+
+/// A cell's value as a message shows it: an empty or non-numeric cell (read as NaN) as "an
+/// empty cell".
+fn cell_text(v: f64) -> String {
+    if v.is_nan() {
+        "an empty cell (or not a number)".to_string()
+    } else {
+        v.to_string()
+    }
 }

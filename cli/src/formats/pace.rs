@@ -6,15 +6,22 @@
 //! factor: the simulated 0.525 mm per hour came out as 0.000525 and as 1,890. The model is not
 //! affected, so it is a warning.
 
-/// A median step between rows shorter than this (s) is not a tracker's pace.
+/// A median step between rows shorter than this (s), in a session shorter than
+/// [`SHORTEST_SESSION_S`], is not a tracker's pace: several readings of one pose (0.1 s apart)
+/// or a stream are, but those take minutes in all.
 pub const FASTEST_STEP_S: f64 = 0.2;
-/// A median step between rows longer than this (s) is not a tracker's pace.
-pub const SLOWEST_STEP_S: f64 = 600.0;
+/// A whole session (first to last `t_s`) shorter than this (s) with rows a median of less than
+/// [`FASTEST_STEP_S`] apart: hours or minutes read as seconds (400 poses in 1 s).
+pub const SHORTEST_SESSION_S: f64 = 120.0;
+/// A median step between rows longer than this (s) is not a tracker's pace (a study of one
+/// pose every 12 minutes is).
+pub const SLOWEST_STEP_S: f64 = 3600.0;
 /// Fewer forward steps than this tell no pace.
 pub const MIN_STEPS: usize = 10;
 
 /// The warning for `times` (`t_s` of the rows in file order, seconds as read) whose median
-/// forward step lies outside [`FASTEST_STEP_S`]..[`SLOWEST_STEP_S`]; `origin` names the file.
+/// forward step lies below [`FASTEST_STEP_S`] over a session (the forward steps summed) shorter
+/// than [`SHORTEST_SESSION_S`], or above [`SLOWEST_STEP_S`]; `origin` names the file.
 pub fn warning(times: &[f64], origin: &str) -> Option<String> {
     let mut steps: Vec<f64> = times
         .windows(2)
@@ -24,10 +31,11 @@ pub fn warning(times: &[f64], origin: &str) -> Option<String> {
     if steps.len() < MIN_STEPS {
         return None;
     }
+    let span = steps.iter().sum::<f64>();
     steps.sort_by(f64::total_cmp);
     let median = steps[steps.len() / 2];
     let sig = crate::output::numfmt::sig;
-    let unit = if median < FASTEST_STEP_S {
+    let unit = if median < FASTEST_STEP_S && span < SHORTEST_SESSION_S {
         "hours or minutes"
     } else if median > SLOWEST_STEP_S {
         "milliseconds"

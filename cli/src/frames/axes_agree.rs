@@ -49,21 +49,58 @@ pub fn disagreement<const N: usize, V: kinecal::ValueStorage>(
         if angle > MOST_ANGLE_CHANGE_DEG {
             Some(format!(
                 "the sweep of joint {k} turns about an axis {}° from the one the robot file, at \
-                 the base found from joints 1 and 2, gives it: a joint's sign in the data (joint \
-                 1, 2 or {k}) is the opposite of the robot file's, or a row's `sweep` names \
-                 another joint; check the signs of the joint readings and the sweep column",
+                 the base found from joints 1 and 2, gives it: a joint's sign in the data (one \
+                 of joints 1 to {k}) is the opposite of the robot file's, or a row's `sweep` \
+                 names another joint; check the signs of the joint readings and the sweep \
+                 column",
                 sig(angle, 3)
             ))
         } else if off > MOST_LENGTH_CHANGE_MM {
             Some(format!(
                 "the sweep of joint {k} turns about an axis {} mm from where the robot file, at \
                  the base found from joints 1 and 2, puts it: a joint's sign or zero in the \
-                 data (joint 1, 2 or one before {k}) differs from the robot file's, or the \
-                 points are in another length unit; check the joint readings and the units",
-                sig(off, 3)
+                 data (one of joints 1 to {}) differs from the robot file's, or the points are \
+                 in another length unit; check the joint readings and the units",
+                sig(off, 3),
+                k - 1
             ))
         } else {
             None
         }
+    })
+}
+
+/// Why the swept points contradict `placed` (the robot file's model, its tool as stated, at the
+/// base found): their RMS distance from where the model puts the tool at the rows' readings is
+/// above [`MOST_LENGTH_CHANGE_MM`] (a calibration moves no point that far; joint 2 negated put
+/// the points 2.4 m away). For sweeps of joints 1 and 2 alone, which [`disagreement`] cannot
+/// check; `None` when they agree or there is nothing to compare.
+pub fn points_off<const N: usize, V: kinecal::ValueStorage>(
+    placed: &Robot<f64, N, V>,
+    sweeps: &SweepSet<N>,
+) -> Option<String> {
+    let mut fk = ForwardKinematics::<f64, N>::new();
+    let (mut sum, mut count) = (0.0, 0usize);
+    for j in 0..N {
+        let Some(sweep) = sweeps.get(j) else { continue };
+        for (q, p) in sweep.q.iter().zip(sweep.points) {
+            let d = (fk.compute(placed, q) - p).norm();
+            if d.is_finite() {
+                sum += d * d;
+                count += 1;
+            }
+        }
+    }
+    let rms = (count > 0).then(|| (sum / count as f64).sqrt())?;
+    (rms > MOST_LENGTH_CHANGE_MM).then(|| {
+        format!(
+            "the robot file, at the base found from the sweeps of joints 1 and 2, puts the tool \
+             {} mm RMS from the swept points: a joint's sign or zero in the data differs from \
+             the robot file's (joint 1 or 2 negated turns the base found by 180°), the tool \
+             point is not the one measured (write xyz_mm = \"unknown\" if nobody measured it), \
+             or the points are in another length unit; check the joint readings, the tool and \
+             the units",
+            sig(rms, 3)
+        )
     })
 }

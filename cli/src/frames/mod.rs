@@ -125,8 +125,9 @@ fn explain(e: FramesError, what: &str) -> anyhow::Error {
     crate::refused(format!("{what}: {why}; sweep again"))
 }
 
-/// The joint (1-based) that turned over the rows of `sweep` while the joint it names did
-/// not: the one whose readings span the most, when that is more than a degree.
+/// The joint (1-based) that turned over the rows of `sweep` while the joint it names did not
+/// (its readings span less than a degree: an encoder's jitter): the one whose readings span
+/// the most, when that is more than a degree.
 fn turned_instead<const N: usize>(
     sweep: &kinecal::frames::circle_point::Sweep<'_, f64, N>,
 ) -> Option<usize> {
@@ -142,7 +143,7 @@ fn turned_instead<const N: usize>(
     let (k, most) = (0..N)
         .map(|j| (j, span(j)))
         .max_by(|a, b| a.1.total_cmp(&b.1))?;
-    (k != sweep.joint && most > 1.0).then_some(k + 1)
+    (k != sweep.joint && span(sweep.joint) < 1.0 && most > 1.0).then_some(k + 1)
 }
 
 fn circle_report(
@@ -237,17 +238,17 @@ pub fn find<const N: usize>(
     // on the flange axis does not move, and has no circle).
     for j in 0..N - 1 {
         if let Some(s) = sweeps.get(j) {
-            let a = s.axis().map_err(|e| {
-                if let (FramesError::NoRotation, Some(k)) = (e, turned_instead(&s)) {
-                    return crate::refused(format!(
-                        "{origin}: sweep of joint {}: its rows' `{SWEEP_COLUMN}` names joint {} \
-                         but joint {k} turned on them: correct the {SWEEP_COLUMN} column",
-                        j + 1,
-                        j + 1
-                    ));
-                }
-                explain(e, &format!("{origin}: sweep of joint {}", j + 1))
-            })?;
+            if let Some(k) = turned_instead(&s) {
+                crate::refuse!(
+                    "{origin}: sweep of joint {}: its rows' `{SWEEP_COLUMN}` names joint {} but \
+                     joint {k} turned on them: correct the {SWEEP_COLUMN} column",
+                    j + 1,
+                    j + 1
+                );
+            }
+            let a = s
+                .axis()
+                .map_err(|e| explain(e, &format!("{origin}: sweep of joint {}", j + 1)))?;
             judge(j, &a, &mut warnings);
             circles.push(circle_report(
                 j,
@@ -270,7 +271,12 @@ pub fn find<const N: usize>(
     let b = base.base;
     let mut placed = robot.clone();
     if placed.set_base(b).is_ok() {
-        if let Some(why) = axes_agree::disagreement(&placed, &sweeps) {
+        let stated_tool = !file.tool_unknown();
+        if let Some(why) = axes_agree::disagreement(&placed, &sweeps).or_else(|| {
+            stated_tool
+                .then(|| axes_agree::points_off(&placed, &sweeps))
+                .flatten()
+        }) {
             crate::refuse!("{origin}: {why}");
         }
     }

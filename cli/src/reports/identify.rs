@@ -514,6 +514,17 @@ impl IdentifyReport {
             }
             _ => {}
         }
+        if let Some(c) = self
+            .changes
+            .iter()
+            .find(|c| c.name == "thermal-expansion1")
+            .filter(|_| self.converged)
+        {
+            out.extend(crate::calibration::thermal::undetermined(
+                c.calibrated,
+                c.sigma,
+            ));
+        }
         if let Some(c) = self.chi2_per_dof {
             if !(0.25..=4.0).contains(&c) {
                 out.push(format!(

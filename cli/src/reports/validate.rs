@@ -228,12 +228,14 @@ impl ValidateReport {
                      (`kinecal check`); if they are right, the robot changed beyond what a \
                      calibration corrects"
                 )
-            } else if v.worse_than_nominal && m <= n {
+            } else if v.orientation_off {
                 format!(
-                    "the model's tool orientations do not hold ({figures}; a model of the tool \
-                     frame leaves under a degree, and no more than the nominal robot): its tool frame was fitted to orientation columns that do not \
-                     describe it (radians, another order or frame), or the probe was mounted \
-                     again since: recalibrate"
+                    "the tool orientation the model states does not hold: its median row is {}° \
+                     off, where a calibrated tool frame is within a degree ({figures}); the \
+                     model's rpy_deg was fitted to orientation columns that do not describe the \
+                     tool (radians, another order or frame), or the probe was mounted again \
+                     since: recalibrate, or judge positions alone with --positions-only",
+                    sig(v.model.orientation_median_deg.unwrap_or(f64::NAN), 3)
                 )
             } else if v.worse_than_nominal {
                 format!("{RECALIBRATE} ({figures})")

@@ -550,14 +550,36 @@ fn reflector_labels_that_are_not_the_robot_files_are_no_calibration() {
         assert_eq!(out.status.code(), Some(0), "{command}: {}", stderr(&out));
         let err = crate::common::no_calibration(command, &robot, &swapped);
         assert!(
-            err.contains("reflector \"B\"") && err.contains("\"C\"") && err.contains("exchanged"),
+            err.contains("\"B\" at") && err.contains("file's \"C\"") && err.contains("exchanged"),
             "{command}: {err}"
         );
         let err = crate::common::no_calibration(command, &robot, &copied);
         assert!(
-            err.contains("\"B\"") && err.contains("\"A\"") && err.contains("two names"),
+            err.contains("\"B\"") && err.contains("\"A\"") && err.contains("both names"),
             "{command}: {err}"
         );
+    }
+    // Reflectors 15 mm apart on a probe mounted 11 mm from where the file states it: A lands
+    // near B's stated point, but the points are no reordering of the stated ones.
+    let close = text.replace("xyz_mm = [-30, 52, 120]", "xyz_mm = [75, 0, 110]");
+    assert_ne!(close, text);
+    let close_robot = write(dir.path(), "close.toml", &close);
+    let mut shifted = nominal.clone();
+    shifted
+        .set_tool_point(1, Vector3::new(75.0, 0.0, 110.0))
+        .unwrap();
+    for k in 0..3 {
+        let p = shifted.tool_point(k).unwrap() + Vector3::new(11.0, 0.0, 0.0);
+        shifted.set_tool_point(k, p).unwrap();
+    }
+    let close_data = write(
+        dir.path(),
+        "close.csv",
+        &three_reflector_rows(&shifted, 150, 46),
+    );
+    for command in ["identify", "diagnose"] {
+        let out = run_on(command, &close_robot, &close_data, &[]);
+        assert_eq!(out.status.code(), Some(0), "{command}: {}", stderr(&out));
     }
 }
 
@@ -624,6 +646,23 @@ fn compensate_names_the_reflector_the_targets_are_for() {
         "{}",
         stderr(&first)
     );
+    // A controller that keeps one TCP: its model is taken as it is, and the targets are B's.
+    let single = write(
+        dir.path(),
+        "controller.toml",
+        &(three_reflector_robot()
+            .0
+            .split("[[tools]]")
+            .next()
+            .unwrap()
+            .to_string()
+            + "[tool]\nxyz_mm = [-30, 52, 120]\n"),
+    );
+    let cartesian = run(
+        &targets,
+        &["--tool", "B", "--cartesian", "--robot", s(&single)],
+    );
+    assert_eq!(cartesian.status.code(), Some(0), "{}", stderr(&cartesian));
     let a = run(&targets, &["--tool", "A"]);
     assert_eq!(a.status.code(), Some(3), "{}", stderr(&a));
     let unknown = run(&targets, &["--tool", "D"]);
@@ -645,8 +684,9 @@ fn compensate_names_the_reflector_the_targets_are_for() {
 
 /// `validate` on 6-D rows judged positions alone: a model whose tool frame was 30° off "still
 /// held" (the real UR10's positions met to 0.49 mm). A model that states a tool orientation
-/// now holds only if the median row is within a degree of it and it is no further off than the
-/// nominal robot (exit 3, naming the orientations); the model identified from the rows holds.
+/// now holds only if the median row is within a degree of it (exit 3, naming the
+/// orientation); the model identified from the rows holds, and so does a calibration of the
+/// positions alone, which states none.
 #[test]
 fn validate_judges_the_tool_orientations_of_6d_rows() {
     let dir = tempfile::tempdir().unwrap();
@@ -669,7 +709,10 @@ fn validate_judges_the_tool_orientations_of_6d_rows() {
     let out = run_on("identify", &robot, &fit, &["--out", s(&model)]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     let written = std::fs::read_to_string(&model).unwrap();
-    let (before, after) = written.split_once("rpy_deg = [").unwrap();
+    let tool = written.find("[tool]").unwrap();
+    let (head, section) = written.split_at(tool);
+    let (before, after) = section.split_once("rpy_deg = [").unwrap();
+    let before = format!("{head}{before}");
     let (first, rest) = after.split_once(',').unwrap();
     let turned = format!(
         "{before}rpy_deg = [{}, {rest}",
@@ -681,12 +724,27 @@ fn validate_judges_the_tool_orientations_of_6d_rows() {
         args.extend(["--data", s(&session), "--register", "base"]);
         kinecal(&args)
     };
-    let holds = validate(&model);
-    assert_eq!(holds.status.code(), Some(0), "{}", stderr(&holds));
+    // A calibration of the positions alone states no tool orientation: judged on positions
+    // (its orientations may move by hundredths of a degree against the nominal robot's).
+    let positions = dir.path().join("positions.toml");
+    let out = run_on(
+        "identify",
+        &robot,
+        &fit,
+        &["--positions-only", "--out", s(&positions)],
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let tool_of = |m: &std::path::Path| RobotFile::load(m).unwrap().tool.rpy_deg;
+    assert!(tool_of(&positions).is_none());
+    assert!(tool_of(&model).is_some());
+    for good in [&model, &positions] {
+        let holds = validate(good);
+        assert_eq!(holds.status.code(), Some(0), "{good:?}: {}", stderr(&holds));
+    }
     let off = validate(&turned);
     assert_eq!(off.status.code(), Some(3), "{}", stderr(&off));
     assert!(
-        stderr(&off).contains("tool orientations do not hold"),
+        stderr(&off).contains("the tool orientation the model states does not hold"),
         "{}",
         stderr(&off)
     );

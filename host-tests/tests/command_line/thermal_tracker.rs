@@ -179,6 +179,34 @@ fn a_temperature_column_that_does_not_follow_the_arm_is_no_calibration() {
         "{}",
         stderr(&out)
     );
+    // Over 1 K and 80 noisy poses the data do not determine the coefficient (−10 ± 24 ppm):
+    // a warning, not a refusal.
+    let (ur10, narrow) = (ur10_dir().join("robot.toml"), dir.path().join("narrow.csv"));
+    kinecal_ok(&[
+        "simulate",
+        "--robot",
+        s(&ur10),
+        "--poses",
+        "80",
+        "--noise-mm",
+        "0.05",
+        "--geom-errors",
+        "--temperature",
+        "21:22",
+        "--effect",
+        "thermal-expansion:0:1.2e-5",
+        "--seed",
+        "1",
+        "--out",
+        s(&narrow),
+    ]);
+    let out = run_on("identify", &ur10, &narrow, &term);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("the data do not determine it"),
+        "{}",
+        stderr(&out)
+    );
     let out = run_on("identify", &robot, &glitch, &term);
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(

@@ -133,8 +133,9 @@ fn frames_binary_prints_one_json_object() {
 /// A joint whose sign in the data is the opposite of the robot file's still gives a base from
 /// the sweeps of joints 1 and 2: turned by 180°, exit 0 (the robot placed there missed the
 /// points by 2.4 m). The sweeps of joints 3 to 5 now tell (their axes point away from, or lie
-/// metres from, the model's at that base: exit 2 naming the signs), and rows whose `sweep`
-/// names a joint that did not turn name the one that did.
+/// metres from, the model's at that base: exit 2 naming the signs), so do the points with
+/// sweeps of joints 1 and 2 alone (the stated tool metres from them), and rows whose `sweep`
+/// names a joint that did not turn (within an encoder's jitter) name the one that did.
 #[test]
 fn frames_refuses_a_base_the_other_sweeps_contradict() {
     let dir = tempfile::tempdir().unwrap();
@@ -173,14 +174,44 @@ fn frames_refuses_a_base_the_other_sweeps_contradict() {
         );
     }
     let sweep = data.extra_names.iter().position(|n| n == "sweep").unwrap();
-    let e = run("labels.csv", &|r| match r.extra[sweep] as i64 {
-        5 => r.extra[sweep] = 6.0,
-        6 => r.extra[sweep] = 5.0,
-        _ => {}
+    // Labels exchanged, on readings with an encoder's jitter.
+    let e = run("labels.csv", &|r| {
+        let jitter = (r.xyz_mm[0] * 1e3).sin() * 5e-4;
+        r.q_deg.iter_mut().for_each(|q| *q += jitter);
+        match r.extra[sweep] as i64 {
+            5 => r.extra[sweep] = 6.0,
+            6 => r.extra[sweep] = 5.0,
+            _ => {}
+        }
     })
     .unwrap_err();
     assert!(
         format!("{e}").contains("names joint 5 but joint 6 turned"),
+        "{e}"
+    );
+    // Sweeps of joints 1 and 2 alone (the least `frames` needs): the stated tool tells.
+    let base_only = sweep_data(
+        &truth,
+        &[20.0, 10.0, -10.0, 30.0, 20.0, 0.0],
+        &[1, 2],
+        24,
+        300.0,
+        0.015,
+        10,
+    )
+    .unwrap();
+    let csv = dir.path().join("two.csv");
+    measurements::write(&csv, &base_only).unwrap();
+    find_frames(&robot_path, &csv, None).unwrap();
+    let mut negated = base_only.clone();
+    negated
+        .records
+        .iter_mut()
+        .for_each(|r| r.q_deg[1] = -r.q_deg[1]);
+    measurements::write(&csv, &negated).unwrap();
+    let e = find_frames(&robot_path, &csv, None).unwrap_err();
+    assert!(
+        format!("{e}").contains("mm RMS from the swept points"),
         "{e}"
     );
 }

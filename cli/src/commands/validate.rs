@@ -73,7 +73,10 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ValidateReport
             nominal_origin: &robot_origin,
             model: &model,
             model_base_known: model_file.base_known(),
-            model_orientation_stated: model_file.tool.rpy_deg.is_some(),
+            // Fitted, not copied from the robot file (whose orientation the nominal robot
+            // shares: a positions calibration states the file's).
+            model_orientation_stated: model_file.tool.rpy_deg.is_some()
+                && model_file.tool.rpy_deg != file.tool.rpy_deg,
             model_origin: &model_origin,
             observed: &observed,
         },

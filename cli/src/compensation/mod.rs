@@ -162,10 +162,14 @@ fn run_with_joints<const N: usize>(
             // The controller's model with the same reflector, by name (the model's first
             // without --tool); one that keeps a single tool (its TCP) is taken as it is.
             let what = format!("--robot {}", path.display());
-            let name = job
-                .tool
-                .clone()
-                .or_else(|| file.tool_names().first().cloned());
+            // Without --tool, the model's first by name when this file has it, else its own
+            // first.
+            let name = job.tool.clone().or_else(|| {
+                file.tool_names()
+                    .first()
+                    .filter(|n| f.tool_names().contains(n))
+                    .cloned()
+            });
             if f.tool_names().is_empty() {
                 Some(r)
             } else {

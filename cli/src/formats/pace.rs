@@ -16,6 +16,13 @@ pub const SHORTEST_SESSION_S: f64 = 120.0;
 /// A median step between rows longer than this (s) is not a tracker's pace (a study of one
 /// pose every 12 minutes is).
 pub const SLOWEST_STEP_S: f64 = 3600.0;
+/// A median step longer than this (s) in a session of relative times longer than
+/// [`LONGEST_SESSION_S`]: milliseconds read as seconds (a pose every 2.5 s makes 400 poses an
+/// 11-day session).
+pub const SLOW_STEP_S: f64 = 300.0;
+/// See [`SLOW_STEP_S`]: two days.
+pub const LONGEST_SESSION_S: f64 = 172_800.0;
+
 /// Fewer forward steps than this tell no pace.
 pub const MIN_STEPS: usize = 10;
 
@@ -32,12 +39,18 @@ pub fn warning(times: &[f64], origin: &str) -> Option<String> {
         return None;
     }
     let span = steps.iter().sum::<f64>();
+    // Dates (Unix times) are one clock for several days' sessions.
+    let dated = times
+        .iter()
+        .any(|t| t.abs() > crate::formats::loading::DATED_S);
     steps.sort_by(f64::total_cmp);
     let median = steps[steps.len() / 2];
     let sig = crate::output::numfmt::sig;
     let unit = if median < FASTEST_STEP_S && span < SHORTEST_SESSION_S {
         "hours or minutes"
-    } else if median > SLOWEST_STEP_S {
+    } else if median > SLOWEST_STEP_S
+        || (median > SLOW_STEP_S && span > LONGEST_SESSION_S && !dated)
+    {
         "milliseconds"
     } else {
         return None;

@@ -17,18 +17,19 @@ use kinecal::{ForwardKinematics, Robot};
 /// is not compared.
 pub const MOST_SD_AXIS_DEG: f64 = 1.0;
 
-/// Why the sweeps `sweeps` contradict `placed` (the robot file's model at the base found): the
-/// first swept joint (from joint 3) whose measured axis points more than
-/// [`MOST_ANGLE_CHANGE_DEG`] from the model's, or lies more than [`MOST_LENGTH_CHANGE_MM`] from
-/// it at the circle's centre; `None` when every one agrees. Sweeps the method cannot use are
-/// skipped (they are judged elsewhere), and so are those whose axis direction is less certain
-/// than [`MOST_SD_AXIS_DEG`].
-pub fn disagreement<const N: usize, V: kinecal::ValueStorage>(
+/// Whether the sweeps `sweeps` agree with `placed` (the robot file's model at the base found):
+/// `Err` with why for the first swept joint (from joint 3) whose measured axis points more
+/// than [`MOST_ANGLE_CHANGE_DEG`] from the model's, or lies more than [`MOST_LENGTH_CHANGE_MM`]
+/// from it at the circle's centre; `Ok` with how many were compared when every one agrees.
+/// Sweeps the method cannot use are skipped (they are judged elsewhere), and so are those whose
+/// axis direction is less certain than [`MOST_SD_AXIS_DEG`].
+pub fn compared<const N: usize, V: kinecal::ValueStorage>(
     placed: &Robot<f64, N, V>,
     sweeps: &SweepSet<N>,
-) -> Option<String> {
+) -> Result<usize, String> {
     let mut fk = ForwardKinematics::<f64, N>::new();
-    (2..N).find_map(|j| {
+    let mut count = 0;
+    let why = (2..N).find_map(|j| {
         let sweep = sweeps.get(j)?;
         let measured = sweep.axis().ok()?;
         // A point near the axis (the flange's, with the reflector on it) turns on a circle
@@ -46,6 +47,7 @@ pub fn disagreement<const N: usize, V: kinecal::ValueStorage>(
             return None;
         }
         let k = j + 1;
+        count += 1;
         if angle > MOST_ANGLE_CHANGE_DEG {
             Some(format!(
                 "the sweep of joint {k} turns about an axis {}° from the one the robot file, at \
@@ -67,14 +69,21 @@ pub fn disagreement<const N: usize, V: kinecal::ValueStorage>(
         } else {
             None
         }
-    })
+    });
+    why.map_or(Ok(count), Err)
 }
+
+/// The RMS distance (mm) of the swept points from the model at the base found beyond which
+/// [`points_off`] refuses: a joint negated puts them metres away (2.4 m), while a stated tool
+/// that is wrong, even by its whole length (a reflector 109 mm out where the file says
+/// `[0, 0, 0]`), leaves them nearer.
+pub const POINTS_OFF_MM: f64 = 500.0;
 
 /// Why the swept points contradict `placed` (the robot file's model, its tool as stated, at the
 /// base found): their RMS distance from where the model puts the tool at the rows' readings is
-/// above [`MOST_LENGTH_CHANGE_MM`] (a calibration moves no point that far; joint 2 negated put
-/// the points 2.4 m away). For sweeps of joints 1 and 2 alone, which [`disagreement`] cannot
-/// check; `None` when they agree or there is nothing to compare.
+/// above [`POINTS_OFF_MM`]. Only for sweeps that [`compared`] could not check (joints 1 and 2
+/// alone, or further sweeps on the flange axis); `None` when they agree or there is nothing to
+/// compare.
 pub fn points_off<const N: usize, V: kinecal::ValueStorage>(
     placed: &Robot<f64, N, V>,
     sweeps: &SweepSet<N>,
@@ -92,7 +101,7 @@ pub fn points_off<const N: usize, V: kinecal::ValueStorage>(
         }
     }
     let rms = (count > 0).then(|| (sum / count as f64).sqrt())?;
-    (rms > MOST_LENGTH_CHANGE_MM).then(|| {
+    (rms > POINTS_OFF_MM).then(|| {
         format!(
             "the robot file, at the base found from the sweeps of joints 1 and 2, puts the tool \
              {} mm RMS from the swept points: a joint's sign or zero in the data differs from \

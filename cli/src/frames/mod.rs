@@ -272,11 +272,13 @@ pub fn find<const N: usize>(
     let mut placed = robot.clone();
     if placed.set_base(b).is_ok() {
         let stated_tool = !file.tool_unknown();
-        if let Some(why) = axes_agree::disagreement(&placed, &sweeps).or_else(|| {
-            stated_tool
-                .then(|| axes_agree::points_off(&placed, &sweeps))
-                .flatten()
-        }) {
+        let why = match axes_agree::compared(&placed, &sweeps) {
+            Err(why) => Some(why),
+            // Nothing further to compare: the points at the stated tool tell.
+            Ok(0) if stated_tool => axes_agree::points_off(&placed, &sweeps),
+            Ok(_) => None,
+        };
+        if let Some(why) = why {
             crate::refuse!("{origin}: {why}");
         }
     }

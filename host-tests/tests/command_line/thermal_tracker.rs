@@ -207,6 +207,19 @@ fn a_temperature_column_that_does_not_follow_the_arm_is_no_calibration() {
         "{}",
         stderr(&out)
     );
+    // The real UR10 session's air temperature determines a coefficient no arm has.
+    let out = run_on(
+        "identify",
+        &ur10,
+        &ur10_dir().join("ur10_random_poses.csv"),
+        &term,
+    );
+    assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("beyond the 100 ppm"),
+        "{}",
+        stderr(&out)
+    );
     let out = run_on("identify", &robot, &glitch, &term);
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(

@@ -163,6 +163,12 @@ fn frames_refuses_a_base_the_other_sweeps_contradict() {
     let v = run("right.csv", &|_| {}).unwrap();
     let found = Frame::from_xyz_rpy(v.base.xyz_mm, v.base.rpy_deg.map(f64::to_radians));
     assert!(frame_error(&found, &base).0 < 0.1);
+    // A file that states the tool at the flange (not measured yet): the sweeps measure it.
+    let flange = dir.path().join("flange");
+    std::fs::create_dir(&flange).unwrap();
+    let flange_robot = write_robot(&flange, &ER20, [0.0, 0.0, 0.0]);
+    let csv = dir.path().join("right.csv");
+    find_frames(&flange_robot, &csv, None).unwrap();
     for joint in [0, 1] {
         let e = run("negated.csv", &|r| r.q_deg[joint] = -r.q_deg[joint]).unwrap_err();
         assert_eq!(kinecal_cli::commands::exit_status(&e), 2);

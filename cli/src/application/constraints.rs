@@ -57,7 +57,7 @@ pub fn no_calibration<const N: usize>(
         .map(|why| {
             format!("{why}; in a constraint file also each group's label and the unit of length_mm")
         })
-        .or_else(|| crate::calibration::arm_size::stated_tool_slip(file, nominal, fitted))
+        .or_else(|| crate::calibration::tool_check::stated_tool_slip(file, nominal, fitted))
         .or_else(|| {
             (rms_mm > stall_rms_mm || rms_mm.is_nan()).then(|| {
                 format!(

@@ -316,7 +316,7 @@ pub fn identify<const N: usize>(
             )
         })
         .or_else(|| crate::calibration::arm_size::resized(&nominal, &fit.robot))
-        .or_else(|| crate::calibration::arm_size::stated_tool_slip(&file, &nominal, &fit.robot))
+        .or_else(|| crate::calibration::tool_check::stated_tool_slip(&file, &nominal, &fit.robot))
         .or_else(|| {
             crate::calibration::thermal::implausible(
                 &fit.robot,

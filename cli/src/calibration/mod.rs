@@ -20,6 +20,7 @@ pub mod selection;
 pub mod stats;
 pub mod thermal;
 pub mod thin_data;
+pub mod tool_check;
 pub mod validate;
 pub mod weights;
 

@@ -132,7 +132,7 @@ pub fn too_few_rows<const N: usize>(data: &[Measurement<f64, N>]) -> Option<Stri
     t.sort_by(f64::total_cmp);
     let median = t[t.len() / 2];
     let far = t.iter().map(|v| (v - median).abs()).fold(0.0, f64::max);
-    if !(far > SAME_TEMPERATURE_K) {
+    if far.is_nan() || far <= SAME_TEMPERATURE_K {
         return None;
     }
     let carrying = t

@@ -287,7 +287,7 @@ pub fn run<const N: usize>(
             )
         })
         .or(d.resized.take())
-        .or_else(|| crate::calibration::arm_size::stated_tool_slip(&file, &nominal, &d.geometric))
+        .or_else(|| crate::calibration::tool_check::stated_tool_slip(&file, &nominal, &d.geometric))
         .or_else(|| outliers.reason());
     let holdout = if held.is_empty() {
         None

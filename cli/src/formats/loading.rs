@@ -127,10 +127,9 @@ fn warm<const N: usize>(ds: &Dataset<N>, origin: &str) -> Option<String> {
 
 /// A step back in `t_s` shorter than this (s) is a clock's jitter, not rows out of time order.
 pub const CLOCK_JITTER_S: f64 = 1.0;
-/// `t_s` beyond this (s, 1973 since 1970) are dates: one clock for every session, so a few rows
-/// out of order (at most 1 % of the steps) are not named (the real series A appends ten rows of
-/// earlier days at its end).
-pub const DATED_S: f64 = 1e8;
+/// Dates: a few rows out of order (at most 1 % of the steps) are not named (the real series A
+/// appends ten rows of earlier days at its end).
+pub use super::pace::DATED_S;
 
 /// The warning for a `t_s` column that goes back in time along the rows (rows sorted by
 /// something else, or sessions with clocks of their own joined), naming the largest step

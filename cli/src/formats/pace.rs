@@ -6,6 +6,9 @@
 //! factor: the simulated 0.525 mm per hour came out as 0.000525 and as 1,890. The model is not
 //! affected, so it is a warning.
 
+/// `t_s` beyond this (s, 1973 since 1970) are dates: one clock for every session.
+pub const DATED_S: f64 = 1e8;
+
 /// A median step between rows shorter than this (s), in a session shorter than
 /// [`SHORTEST_SESSION_S`], is not a tracker's pace: several readings of one pose (0.1 s apart)
 /// or a stream are, but those take minutes in all.
@@ -40,9 +43,7 @@ pub fn warning(times: &[f64], origin: &str) -> Option<String> {
     }
     let span = steps.iter().sum::<f64>();
     // Dates (Unix times) are one clock for several days' sessions.
-    let dated = times
-        .iter()
-        .any(|t| t.abs() > crate::formats::loading::DATED_S);
+    let dated = times.iter().any(|t| t.abs() > DATED_S);
     steps.sort_by(f64::total_cmp);
     let median = steps[steps.len() / 2];
     let sig = crate::output::numfmt::sig;

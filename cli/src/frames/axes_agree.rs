@@ -34,7 +34,8 @@ pub fn compared<const N: usize, V: kinecal::ValueStorage>(
         let measured = sweep.axis().ok()?;
         // A point near the axis (the flange's, with the reflector on it) turns on a circle
         // too small to give the axis's direction.
-        if !(measured.circle.sd_normal.to_degrees() <= MOST_SD_AXIS_DEG) {
+        let sd = measured.circle.sd_normal.to_degrees();
+        if sd.is_nan() || sd > MOST_SD_AXIS_DEG {
             return None;
         }
         let q = sweep.q.first()?;

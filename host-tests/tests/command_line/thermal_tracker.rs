@@ -4,30 +4,43 @@
 
 use crate::common::*;
 
+/// Simulates a warm-up session of `robot` into `out`: `(poses, noise_mm, from:to °C)`, its
+/// links expanding by `c` per kelvin, geometric errors from `seed`.
+fn warm_up(
+    robot: &std::path::Path,
+    out: &std::path::Path,
+    (poses, noise_mm, range): (&str, &str, &str),
+    c: f64,
+    seed: u64,
+) {
+    let (effect, seed) = (format!("thermal-expansion:0:{c}"), seed.to_string());
+    kinecal_ok(&[
+        "simulate",
+        "--robot",
+        s(robot),
+        "--poses",
+        poses,
+        "--noise-mm",
+        noise_mm,
+        "--seed",
+        &seed,
+        "--geom-errors",
+        "--temperature",
+        range,
+        "--effect",
+        &effect,
+        "--out",
+        s(out),
+    ]);
+}
+
 #[test]
 fn thermal_expansion_is_fitted_from_a_warming_tracker_session() {
     let dir = tempfile::tempdir().unwrap();
     let robot = data_file("er20.toml");
     let data = dir.path().join("warm.csv");
     let c = 1.2e-5;
-    kinecal_ok(&[
-        "simulate",
-        "--robot",
-        s(&robot),
-        "--poses",
-        "400",
-        "--noise-mm",
-        "0.01",
-        "--seed",
-        "21",
-        "--geom-errors",
-        "--temperature",
-        "15:35",
-        "--effect",
-        &format!("thermal-expansion:0:{c}"),
-        "--out",
-        s(&data),
-    ]);
+    warm_up(&robot, &data, ("400", "0.01", "15:35"), c, 21);
     let head = std::fs::read_to_string(&data).unwrap();
     assert!(head.lines().next().unwrap().ends_with(",temp_c"), "{head}");
     // Every 5th pose held out: the session's temperatures on both sides.
@@ -137,24 +150,7 @@ fn a_temperature_column_that_does_not_follow_the_arm_is_no_calibration() {
     let dir = tempfile::tempdir().unwrap();
     let robot = data_file("er20.toml");
     let data = dir.path().join("warm.csv");
-    kinecal_ok(&[
-        "simulate",
-        "--robot",
-        s(&robot),
-        "--poses",
-        "400",
-        "--noise-mm",
-        "0.01",
-        "--seed",
-        "22",
-        "--geom-errors",
-        "--temperature",
-        "15:35",
-        "--effect",
-        "thermal-expansion:0:1.2e-5",
-        "--out",
-        s(&data),
-    ]);
+    warm_up(&robot, &data, ("400", "0.01", "15:35"), 1.2e-5, 22);
     let text = std::fs::read_to_string(&data).unwrap();
     let rows: Vec<(&str, &str)> = text.lines().map(|l| l.rsplit_once(',').unwrap()).collect();
     let with_temps = |name: &str, temps: &dyn Fn(usize) -> String| {
@@ -182,24 +178,7 @@ fn a_temperature_column_that_does_not_follow_the_arm_is_no_calibration() {
     // Over 1 K and 80 noisy poses the data do not determine the coefficient (−10 ± 24 ppm):
     // a warning, not a refusal.
     let (ur10, narrow) = (ur10_dir().join("robot.toml"), dir.path().join("narrow.csv"));
-    kinecal_ok(&[
-        "simulate",
-        "--robot",
-        s(&ur10),
-        "--poses",
-        "80",
-        "--noise-mm",
-        "0.05",
-        "--geom-errors",
-        "--temperature",
-        "21:22",
-        "--effect",
-        "thermal-expansion:0:1.2e-5",
-        "--seed",
-        "1",
-        "--out",
-        s(&narrow),
-    ]);
+    warm_up(&ur10, &narrow, ("80", "0.05", "21:22"), 1.2e-5, 1);
     let out = run_on("identify", &ur10, &narrow, &term);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     assert!(

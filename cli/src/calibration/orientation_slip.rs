@@ -40,11 +40,11 @@ pub fn astray(
     })
 }
 
-/// The median of the finite values of `v`; `None` for none.
+/// The median of the finite values of `v` ([`crate::calibration::stats::quantile`]); `None`
+/// for none.
 pub fn median(v: &[f64]) -> Option<f64> {
-    let mut v: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-    v.sort_by(f64::total_cmp);
-    (!v.is_empty()).then(|| v[v.len() / 2])
+    let v: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    (!v.is_empty()).then(|| crate::calibration::stats::quantile(&v, 0.5))
 }
 
 /// How far (degrees) the median row's orientation may be from a model of the tool frame:

@@ -125,12 +125,11 @@ pub const SAME_TEMPERATURE_K: f64 = 0.05;
 /// from that row alone, with exit 0. `None` for temperatures that vary on enough rows, or not
 /// at all (the term is then held: no observation moves with it).
 pub fn too_few_rows<const N: usize>(data: &[Measurement<f64, N>]) -> Option<String> {
-    let mut t: Vec<f64> = data.iter().filter_map(|m| m.temp_c).collect();
+    let t: Vec<f64> = data.iter().filter_map(|m| m.temp_c).collect();
     if t.len() != data.len() || t.is_empty() {
         return None;
     }
-    t.sort_by(f64::total_cmp);
-    let median = t[t.len() / 2];
+    let median = super::stats::quantile(&t, 0.5);
     let far = t.iter().map(|v| (v - median).abs()).fold(0.0, f64::max);
     if far.is_nan() || far <= SAME_TEMPERATURE_K {
         return None;

@@ -123,14 +123,11 @@ pub fn check<const N: usize>(
     let stats = ErrorStats::of(&pose_errors(&robot, &meas))
         .ok_or_else(|| anyhow!("{data_origin}: no measurements"))?;
     let b = robot.base();
-    // A missing [[couplings]] entry that explains the data (robot files without couplings).
-    let hint = if file.couplings.is_empty() {
-        file.to_robot::<N>()
-            .ok()
-            .and_then(|r| coupling_hint::detect(&r, &meas, !file.base_known(), file.tool_unknown()))
-    } else {
-        None
-    };
+    // A missing or wrong [[couplings]] entry: another reading of the joints explains the data.
+    let hint = file
+        .to_robot::<N>()
+        .ok()
+        .and_then(|r| coupling_hint::detect(&r, &meas, !file.base_known(), file.tool_unknown()));
     Ok(Checked {
         joints: N,
         poses: ds.len(),

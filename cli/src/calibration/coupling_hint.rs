@@ -6,6 +6,9 @@
 //! read relative to the one before it (`q_j = r_j ± r_{j−1}`), places each candidate like
 //! `check` places the nominal model (point-set registration when the file has no `[base]`),
 //! and reports the candidate that explains the data far better than the file as written.
+//! A file that states couplings is tried without them and with each candidate instead: a
+//! coupling on the wrong joint or with the wrong sign leaves the model hundreds of millimetres
+//! off, which `check` alone would only report as a large RMS.
 
 use crate::calibration::{pose_errors, ErrorStats};
 use crate::output::numfmt::sig;
@@ -27,8 +30,11 @@ pub struct CouplingHint {
     pub joint: usize,
     /// 1-based joint it looks relative to.
     pub from: usize,
-    /// `q_joint = reading_joint + ratio · reading_from`.
+    /// `q_joint = reading_joint + ratio · reading_from`; 0 when the file's couplings are
+    /// better removed (then `joint` and `from` are the file's first coupling).
     pub ratio: f64,
+    /// The file states couplings, and this candidate replaces them.
+    pub replaces_stated: bool,
     /// RMS (mm) of the nominal model with that coupling.
     pub rms_mm: f64,
     /// RMS (mm) of the nominal model as written.
@@ -39,6 +45,25 @@ impl CouplingHint {
     /// The one-line warning `kinecal check` prints.
     pub fn message(&self) -> String {
         let (j, f) = (self.joint, self.from);
+        if self.replaces_stated {
+            let fits = sig(self.rms_mm, 3);
+            let stated = sig(self.nominal_rms_mm, 3);
+            return if self.ratio == 0.0 {
+                format!(
+                    "hint: the robot file's [[couplings]] do not explain the data ({stated} mm); \
+                     without them the data fit {fits} mm: remove them, or check each one's \
+                     joint, from and ratio"
+                )
+            } else {
+                let sign = if self.ratio < 0.0 { '-' } else { '+' };
+                format!(
+                    "hint: the robot file's [[couplings]] do not explain the data ({stated} mm); \
+                     q{j} = J{j} {sign} J{f} alone does ({fits} mm): replace them with \
+                     [[couplings]] joint = {j}, from = {f}, ratio = {:?}",
+                    self.ratio
+                )
+            };
+        }
         let sign = if self.ratio < 0.0 { '-' } else { '+' };
         let what = if j == 3 && f == 2 {
             "J3 looks measured from the horizontal".to_string()
@@ -59,6 +84,7 @@ impl CouplingHint {
             "joint": self.joint,
             "from": self.from,
             "ratio": self.ratio,
+            "replaces_stated": self.replaces_stated,
             "rms_mm": self.rms_mm,
             "nominal_rms_mm": self.nominal_rms_mm,
             "message": self.message(),
@@ -81,8 +107,9 @@ fn rms_placed<const N: usize, V: kinecal::ValueStorage>(
 }
 
 /// The coupling (joint `j` from `j − 1`, ratio ±1) that explains `data` far better than
-/// `robot` (which must have no couplings) does: at most [`MAX_FRACTION`] of its RMS and at
-/// least [`MIN_GAIN_MM`] better. `fit_base` = place each model by registration (the file has
+/// `robot` does: at most [`MAX_FRACTION`] of its RMS and at least [`MIN_GAIN_MM`] better. When
+/// `robot` states couplings, the candidates replace them, and the robot without any coupling
+/// is a candidate too (`ratio` 0). `fit_base` = place each model by registration (the file has
 /// no `[base]`), as `check` does; `tool_unknown`: the tool point is started from the data for
 /// each candidate (the file says it is unknown).
 pub fn detect<const N: usize, V: kinecal::ValueStorage>(
@@ -91,32 +118,53 @@ pub fn detect<const N: usize, V: kinecal::ValueStorage>(
     fit_base: bool,
     tool_unknown: bool,
 ) -> Option<CouplingHint> {
-    if !robot.couplings().is_empty() || data.len() < 6 {
+    if data.len() < 6 {
         return None;
     }
     let stride = data.len().div_ceil(MAX_POSES).max(1);
     let sample: Vec<Measurement<f64, N>> = data.iter().step_by(stride).cloned().collect();
     let nominal = rms_placed(robot, &sample, fit_base, tool_unknown)?;
-    let mut best: Option<CouplingHint> = None;
+    let stated = robot.couplings().iter().next();
+    let mut uncoupled = robot.clone();
+    uncoupled.clear_couplings();
+    let mut candidates: Vec<(usize, usize, f64)> = Vec::new();
+    if let Some((j, f, _)) = stated {
+        candidates.push((j, f, 0.0));
+    }
     for j in 1..N {
-        for ratio in [1.0, -1.0] {
-            let mut r = robot.clone();
-            if r.set_coupling(j, j - 1, ratio).is_err() {
-                continue;
-            }
-            let Some(rms) = rms_placed(&r, &sample, fit_base, tool_unknown) else {
-                continue;
-            };
-            if best.as_ref().is_none_or(|b| rms < b.rms_mm) {
-                best = Some(CouplingHint {
-                    joint: j + 1,
-                    from: j,
-                    ratio,
-                    rms_mm: rms,
-                    nominal_rms_mm: nominal,
-                });
-            }
+        candidates.extend([(j, j - 1, 1.0), (j, j - 1, -1.0)]);
+    }
+    let mut best: Option<CouplingHint> = None;
+    for (j, f, ratio) in candidates {
+        let mut r = uncoupled.clone();
+        if ratio != 0.0 && r.set_coupling(j, f, ratio).is_err() {
+            continue;
+        }
+        if stated.is_some() && same_couplings(&r, robot) {
+            continue;
+        }
+        let Some(rms) = rms_placed(&r, &sample, fit_base, tool_unknown) else {
+            continue;
+        };
+        if best.as_ref().is_none_or(|b| rms < b.rms_mm) {
+            best = Some(CouplingHint {
+                joint: j + 1,
+                from: f + 1,
+                ratio,
+                replaces_stated: stated.is_some(),
+                rms_mm: rms,
+                nominal_rms_mm: nominal,
+            });
         }
     }
     best.filter(|b| b.rms_mm <= MAX_FRACTION * nominal && nominal - b.rms_mm >= MIN_GAIN_MM)
+}
+
+/// `a` and `b` read every joint alike (the same couplings, in any order).
+fn same_couplings<const N: usize, V: kinecal::ValueStorage>(
+    a: &Robot<f64, N, V>,
+    b: &Robot<f64, N, V>,
+) -> bool {
+    let (ca, cb) = (a.couplings(), b.couplings());
+    ca.len() == cb.len() && ca.iter().all(|(j, f, r)| cb.get(j) == Some((f, r)))
 }

@@ -78,6 +78,8 @@ pub struct CouplingHintReport {
     pub joint: usize,
     pub from: usize,
     pub ratio: f64,
+    /// The robot file states couplings and this reading replaces them (`ratio` 0: none).
+    pub replaces_stated: bool,
     pub rms_mm: f64,
     pub nominal_rms_mm: f64,
     /// The one-line warning (also printed on stderr).
@@ -90,6 +92,7 @@ impl From<&CouplingHint> for CouplingHintReport {
             joint: h.joint,
             from: h.from,
             ratio: h.ratio,
+            replaces_stated: h.replaces_stated,
             rms_mm: h.rms_mm,
             nominal_rms_mm: h.nominal_rms_mm,
             message: h.message(),

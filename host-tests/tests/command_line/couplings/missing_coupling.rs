@@ -90,3 +90,59 @@ fn check_hints_at_a_missing_coupling_and_not_on_ur10() {
         assert!(!String::from_utf8_lossy(&out.stderr).contains("hint:"));
     }
 }
+
+/// A file that states a wrong coupling (the sign flipped, half the ratio, the wrong joint)
+/// left `check` at about 850 mm with exit 0 and no word. The hint now names the coupling that
+/// explains the data instead; and a stated coupling the data do not have is named for removal.
+#[test]
+fn check_hints_at_a_wrong_coupling_and_at_one_too_many() {
+    let dir = tempfile::tempdir().unwrap();
+    let (coupled, plain, d) = coupled_data(dir.path(), 150, Some(5));
+    let wrong = [
+        ("ratio = 1.0", "ratio = -1.0"),
+        ("ratio = 1.0", "ratio = 0.5"),
+        ("joint = 3\nfrom = 2", "joint = 4\nfrom = 3"),
+    ];
+    assert!(
+        FANUC_COUPLING.contains("joint = 3\nfrom = 2") && FANUC_COUPLING.contains("ratio = 1.0")
+    );
+    for (i, (from, to)) in wrong.iter().enumerate() {
+        let text = fanuc_text().replace(from, to);
+        let p = write(dir.path(), &format!("wrong{i}.toml"), &text);
+        let out = run_on("check", &p, &d, &["--json"]);
+        let v = json_of(&out);
+        let h = &v["coupling_hint"];
+        assert_eq!(h["replaces_stated"], true, "{to}: {v}");
+        assert_eq!(
+            (h["joint"].as_u64(), h["from"].as_u64()),
+            (Some(3), Some(2)),
+            "{to}: {h}"
+        );
+        assert_eq!(h["ratio"].as_f64(), Some(1.0), "{to}: {h}");
+        assert!(h["rms_mm"].as_f64().unwrap() < 5.0, "{to}: {h}");
+        assert!(h["nominal_rms_mm"].as_f64().unwrap() > 100.0, "{to}: {h}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("[[couplings]] do not explain the data")
+                && err.contains("joint = 3, from = 2, ratio = 1.0"),
+            "{to}: {err}"
+        );
+    }
+    // Uncoupled data with the coupled file: remove the coupling.
+    let d_plain = dir.path().join("d_plain.csv");
+    simulate(
+        &plain,
+        Some(150),
+        Some(0.02),
+        Some(6),
+        &["--geom-errors"],
+        &d_plain,
+    );
+    let out = run_on("check", &coupled, &d_plain, &["--json"]);
+    let h = &json_of(&out)["coupling_hint"];
+    assert_eq!(h["replaces_stated"], true, "{h}");
+    assert_eq!(h["ratio"].as_f64(), Some(0.0), "{h}");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("without them the data fit"));
+    // And the right file still gives no hint.
+    assert!(json_of(&run_on("check", &coupled, &d, &["--json"]))["coupling_hint"].is_null());
+}

@@ -51,6 +51,11 @@ fn run_with_joints<const N: usize>(
         .iter()
         .map(|w| parse_configuration::<N>(w))
         .collect::<anyhow::Result<Vec<_>>>()?;
+    for (q, text) in work.iter().zip(&args.work) {
+        if let Some(w) = crate::plan::design::radians_warning(q, text) {
+            eprintln!("kinecal plan: {w}");
+        }
+    }
     let request = |session: SessionPlan| Request {
         session,
         criterion: args.criterion,

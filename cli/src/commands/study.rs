@@ -103,6 +103,9 @@ pub fn run(args: &Args) -> anyhow::Result<StudyReport> {
     crate::check_count("--threads", args.threads, 1, 256)?;
     crate::check_positive("--noise-mm", args.noise_mm, crate::MAX_NOISE_MM)?;
     let work = design::parse_configuration::<6>(&args.work)?;
+    if let Some(w) = design::radians_warning(&work, &args.work) {
+        eprintln!("kinecal study: {w}");
+    }
     let options = Options {
         settings,
         uppers,

@@ -65,6 +65,27 @@ impl CriterionArg {
     }
 }
 
+/// The warning for a working configuration `q` (radians, as [`parse_configuration`] gives it)
+/// given as `text` on the command line when it looks given in radians: every joint within
+/// ±2π degrees and one at least half a degree from zero (a pose no one designs for in degrees,
+/// `0,-1.57,1.57,0,1.57,0` in radians).
+pub fn radians_warning(q: &[f64], text: &str) -> Option<String> {
+    let deg: Vec<f64> = q.iter().map(|v| v.to_degrees().abs()).collect();
+    let most = deg.iter().fold(0.0f64, |m, v| m.max(*v));
+    (most >= 0.5 && most <= std::f64::consts::TAU + 1e-9).then(|| {
+        // The degrees meant, if the text's numbers are radians.
+        let meant: Vec<String> = q
+            .iter()
+            .map(|v| format!("{:.0}", v.to_degrees().to_degrees() + 0.0))
+            .collect();
+        format!(
+            "warning: --work {text}: every joint within ±{most:.1}°: if these are radians, give \
+             degrees (--work={})",
+            meant.join(",")
+        )
+    })
+}
+
 /// Parses `q1,…,qN` (degrees) into radians.
 pub fn parse_configuration<const N: usize>(text: &str) -> anyhow::Result<[f64; N]> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();

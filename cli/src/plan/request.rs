@@ -134,6 +134,9 @@ pub fn plan_request<const N: usize>(
         .map(|w| parse_configuration::<N>(w))
         .collect::<anyhow::Result<Vec<_>>>()?;
     for (k, q) in work.iter().enumerate() {
+        if let Some(w) = super::design::radians_warning(q, &req.work[k]) {
+            tell.line(&format!("kinecal plan: {w}"));
+        }
         if !robot.within_limits(q) {
             tell.line(&format!(
                 "kinecal plan: warning: working configuration {} is outside the joint limits",

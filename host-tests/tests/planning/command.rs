@@ -399,6 +399,30 @@ fn plan_command_accepts_negative_work_values_and_writes_csv_and_json() {
         rows += 1;
     }
     assert_eq!(rows, 25);
+    assert!(!String::from_utf8_lossy(&output.stderr).contains("radians"));
+    // A configuration in radians was taken as degrees without a word: now warned, with the
+    // degrees meant.
+    let rad = Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
+        .args(["plan", "--robot"])
+        .arg(cell.join("robot.toml"))
+        .arg("--scene")
+        .arg(cell.join("scene.toml"))
+        .args([
+            "--poses",
+            "10",
+            "--criterion",
+            "kpi",
+            "--work=0,-1.57,1.57,0,1.57,0",
+        ])
+        .args(["--pool", "200", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&rad.stderr);
+    assert!(
+        err.contains("if these are radians") && err.contains("--work=0,-90,90,0,90,0"),
+        "{err}"
+    );
     // A malformed work configuration is a one-line error.
     let bad = Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
         .args(["plan", "--robot"])

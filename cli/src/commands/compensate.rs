@@ -102,5 +102,8 @@ pub fn run(args: &Args) -> anyhow::Result<CompensateReport> {
             r.failed, r.targets
         );
     }
+    if let Some(h) = &r.hint {
+        eprintln!("{h}");
+    }
     Ok(r)
 }

@@ -21,6 +21,7 @@
 //! arrays) returns the summary and the rows; [`run`] reads the files, calls it and writes the
 //! rows ([`Compensated::csv`]).
 
+mod frame_hint;
 pub mod reflector;
 
 use crate::formats::loading::load_targets;
@@ -184,7 +185,7 @@ fn run_with_joints<const N: usize>(
         out: job.out.display().to_string(),
         nominal: job.cartesian.as_ref().map(|p| p.display().to_string()),
     };
-    let done = compensate_set(
+    let mut done = compensate_set(
         file,
         &robot,
         nominal.as_ref(),
@@ -192,6 +193,10 @@ fn run_with_joints<const N: usize>(
         (&job.settings, &job.units),
         &names,
     )?;
+    done.report.reflector = job
+        .tool
+        .clone()
+        .or_else(|| file.tool_names().first().cloned());
     crate::output::atomic::write_atomic(&job.out, done.csv(&job.units).as_bytes())
         .map_err(|e| anyhow!("{}: cannot write: {e}", job.out.display()))?;
     Ok(done.report)
@@ -360,6 +365,10 @@ pub fn compensate_set<const N: usize, V: kinecal::ValueStorage>(
     }
     let ok = counts.get("ok").copied().unwrap_or(0);
     let failed = rows.len() - ok;
+    let unreached: Vec<bool> = results.iter().map(|(s, _)| *s != Status::Ok).collect();
+    let hint = (failed > 0)
+        .then(|| frame_hint::frame_hint(robot, &rows, &unreached, file.base_known()))
+        .flatten();
     let rms = |v: &[f64]| {
         if v.is_empty() {
             0.0
@@ -399,6 +408,8 @@ pub fn compensate_set<const N: usize, V: kinecal::ValueStorage>(
         base_known: file.base_known(),
         targets_file: origin.name().to_string(),
         cartesian_nominal: names.nominal.clone(),
+        reflector: None,
+        hint,
     };
     Ok(Compensated {
         report,

@@ -528,19 +528,26 @@ type Put = fn(&mut String, f64) -> std::fmt::Result;
 fn csv_text<const N: usize>(data: &Dataset<N>, q_text: Put, xyz_text: Put) -> String {
     let mut s = String::new();
     let mut head: Vec<String> = (1..=N).map(|i| format!("q{i}")).collect();
-    head.extend(["x", "y", "z"].map(String::from));
+    // Rows of named reflectors only (every x, y, z empty): written without those columns.
+    let xyz = !data
+        .records
+        .iter()
+        .all(|r| r.xyz_mm.iter().all(|v| v.is_nan()));
+    if xyz {
+        head.extend(["x", "y", "z"].map(String::from));
+    }
     head.extend(data.extra_names.iter().cloned());
     s.push_str(&head.join(","));
     s.push('\n');
     for r in &data.records {
-        for q in r.q_deg {
-            let _ = q_text(&mut s, q);
-            s.push(',');
-        }
-        for (k, v) in r.xyz_mm.iter().enumerate() {
+        for (k, q) in r.q_deg.iter().enumerate() {
             if k > 0 {
                 s.push(',');
             }
+            let _ = q_text(&mut s, *q);
+        }
+        for v in r.xyz_mm.iter().filter(|_| xyz) {
+            s.push(',');
             let _ = xyz_text(&mut s, *v);
         }
         for k in 0..data.extra_names.len() {

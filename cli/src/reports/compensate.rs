@@ -49,6 +49,11 @@ pub struct CompensateReport {
     /// `--cartesian`: the nominal robot file whose kinematics the controller keeps (the output
     /// then holds the targets to send it: x, y, z[, rx, ry, rz]).
     pub cartesian_nominal: Option<String>,
+    /// The reflector the targets are points of (`--tool`, or the model's first `[[tools]]`
+    /// name); `None` for a model of one unnamed tool point.
+    pub reflector: Option<String>,
+    /// Why targets were not reached, when they look given in another frame (also printed).
+    pub hint: Option<String>,
 }
 
 impl super::Report for CompensateReport {

@@ -6,6 +6,7 @@
 //! gives three independent Xoshiro streams (configurations, errors, noise), so switching
 //! `--geom-errors` or the noise level does not change the poses.
 
+pub mod reflectors;
 pub mod request;
 pub mod sweeps;
 
@@ -127,6 +128,14 @@ pub fn perturb_geometry<const N: usize, V: kinecal::ValueStorage, R: Rng>(
         t.y + u(e.tool_mm),
         t.z + u(e.tool_mm),
     ));
+    // Further reflectors (`[[tools]]`) alike, drawn after the first: a robot with one tool
+    // point gets the errors it always got.
+    for k in 1..robot.tool_point_count() {
+        if let Some(t) = robot.tool_point(k) {
+            let p = Vector3::new(t.x + u(e.tool_mm), t.y + u(e.tool_mm), t.z + u(e.tool_mm));
+            let _ = out.set_tool_point(k, p);
+        }
+    }
     out
 }
 

@@ -172,7 +172,19 @@ pub fn simulate_request<const N: usize>(
             .filter(|e| e.kind == AXIS_TILT)
             .map(|e| e.joint),
     );
-    let mut truth_file = RobotFile::from_robot(&file.name, &truth, true, &tilt);
+    let names = file.tool_names();
+    if names.len() > 1 {
+        if !req.sweeps.is_empty() {
+            crate::refuse!(
+                "--sweeps follow one point: give a robot file with one [tool] (or one [[tools]] \
+                 entry), not {} reflectors",
+                names.len()
+            );
+        }
+        data = super::reflectors::named_points(&truth, &data, &names, req.noise_mm, req.seed)?;
+    }
+    let mut truth_file =
+        RobotFile::from_robot(&file.name, &truth, true, &tilt).with_tool_names(&names);
     truth_file.tool.rpy_deg = file.tool.rpy_deg;
     Ok(Simulated {
         truth,

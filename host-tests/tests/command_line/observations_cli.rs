@@ -639,6 +639,9 @@ fn compensate_names_the_reflector_the_targets_are_for() {
         let miss = (at(&c, 1) - at(&q.map(f64::to_radians), 1)).norm();
         assert!(miss < 0.01, "reflector B {miss} mm from its target");
     }
+    let v = json_of(&run(&targets, &["--tool", "B", "--json"]));
+    assert_eq!(v["reflector"], "B", "{v}");
+    assert!(v["hint"].is_null(), "{v}");
     let first = run(&targets, &[]);
     assert!(
         stderr(&first).contains("3 reflectors (\"A\", \"B\", \"C\")")
@@ -748,4 +751,141 @@ fn validate_judges_the_tool_orientations_of_6d_rows() {
         "{}",
         stderr(&off)
     );
+}
+
+/// `simulate` from a robot file with three `[[tools]]` wrote only `x, y, z` of the first
+/// reflector and named the reflectors `p1, p2, p3` in the truth file. It now writes every
+/// reflector's columns, moves each point with `--geom-errors`, and keeps the names; each
+/// reflector's readings are the true robot's point (checked here with the library's forward
+/// kinematics of the truth file), and `identify` fits the session to its noise.
+#[test]
+fn simulate_writes_every_named_reflector() {
+    let dir = tempfile::tempdir().unwrap();
+    let (text, nominal) = three_reflector_robot();
+    let robot = write(dir.path(), "robot.toml", &text);
+    let (data, truth) = (dir.path().join("d.csv"), dir.path().join("t.toml"));
+    let args = [
+        "--poses",
+        "150",
+        "--noise-mm",
+        "0",
+        "--geom-errors",
+        "--seed",
+        "4",
+    ];
+    let mut cmd = vec![
+        "simulate",
+        "--robot",
+        s(&robot),
+        "--out",
+        s(&data),
+        "--truth",
+        s(&truth),
+    ];
+    cmd.extend(args);
+    kinecal_ok(&cmd);
+    let csv = std::fs::read_to_string(&data).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    assert_eq!(
+        header[6..],
+        ["x_A", "y_A", "z_A", "x_B", "y_B", "z_B", "x_C", "y_C", "z_C"],
+        "{header:?}"
+    );
+    let file = RobotFile::load(&truth).unwrap();
+    assert_eq!(file.tool_names(), ["A", "B", "C"]);
+    let model = file.to_robot::<6>().unwrap();
+    let mut fk = ForwardKinematics::<f64, 6>::new();
+    for k in 0..3 {
+        let moved = model.tool_point(k).unwrap() - nominal.tool_point(k).unwrap();
+        assert!(
+            moved.norm() > 1e-3 && moved.amax() <= 0.5 + 1e-9,
+            "{k}: {moved}"
+        );
+    }
+    for line in csv.lines().skip(1).take(20) {
+        let v: Vec<f64> = line.split(',').map(|c| c.parse().unwrap()).collect();
+        let q: [f64; 6] = std::array::from_fn(|i| v[i].to_radians());
+        for k in 0..3 {
+            let p = fk.compute_point(&model, &q, k).unwrap();
+            let read = Vector3::new(v[6 + 3 * k], v[7 + 3 * k], v[8 + 3 * k]);
+            assert!(
+                (p - read).norm() < 1e-4,
+                "{line}: reflector {k} {p} vs {read}"
+            );
+        }
+    }
+    let v = json_of(&run_on("identify", &robot, &data, &["--json"]));
+    assert!(
+        v["after"]["identification_rms_mm"].as_f64().unwrap() < 1e-3,
+        "{v}"
+    );
+    // Sweeps follow one point: refused with the reason.
+    let out = kinecal(&[
+        "simulate",
+        "--robot",
+        s(&robot),
+        "--out",
+        s(&data),
+        "--sweeps",
+        "1,2",
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("one [tool]"), "{}", stderr(&out));
+}
+
+/// Targets in the robot base frame given to a model with a `[base]` (the tracker's frame)
+/// came back 100 × `unreachable` with no word on why. The unreached targets now lie metres
+/// from the model's tool at their seeds and within millimetres once the `[base]` places them:
+/// the hint says they look given in the robot base frame. The same targets in the
+/// measurement frame are all reached, without a hint.
+#[test]
+fn compensate_says_when_targets_look_given_in_the_robot_base_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let (text, _) = three_reflector_robot();
+    let text =
+        format!("{text}[base]\nxyz_mm = [400.0, -3000.0, 200.0]\nrpy_deg = [0.0, 0.0, 25.0]\n");
+    let robot = write(dir.path(), "model.toml", &text);
+    let model = RobotFile::load(&robot).unwrap().to_robot::<6>().unwrap();
+    let base = *model.base();
+    let mut rng = rand::rngs::StdRng::seed_from_u64(46);
+    let mut fk = ForwardKinematics::<f64, 6>::new();
+    let header = "q1,q2,q3,q4,q5,q6,x,y,z\n";
+    let (mut measured, mut robot_frame) = (String::from(header), String::from(header));
+    for _ in 0..30 {
+        let q: [f64; 6] = std::array::from_fn(|_| rng.random_range(-120.0f64..120.0));
+        let p = fk
+            .compute_point(&model, &q.map(f64::to_radians), 0)
+            .unwrap();
+        let local = base.inverse().point(&p);
+        let seed = q.map(|v| format!("{:.6}", v + 0.2)).join(",");
+        measured += &format!("{seed},{:.6},{:.6},{:.6}\n", p.x, p.y, p.z);
+        robot_frame += &format!("{seed},{:.6},{:.6},{:.6}\n", local.x, local.y, local.z);
+    }
+    let out = dir.path().join("q.csv");
+    let run = |t: &str, name: &str| {
+        let t = write(dir.path(), name, t);
+        kinecal(&[
+            "compensate",
+            "--model",
+            s(&robot),
+            "--targets",
+            s(&t),
+            "--out",
+            s(&out),
+            "--json",
+        ])
+    };
+    let ok = run(&measured, "measured.csv");
+    assert_eq!(ok.status.code(), Some(0), "{}", stderr(&ok));
+    let v = json_of(&ok);
+    assert!(v["hint"].is_null() && v["failed"] == 0, "{v}");
+    let wrong = run(&robot_frame, "robot_frame.csv");
+    assert_eq!(wrong.status.code(), Some(3), "{}", stderr(&wrong));
+    let v: serde_json::Value = serde_json::from_slice(&wrong.stdout).unwrap();
+    let hint = v["hint"].as_str().expect("a hint");
+    assert!(
+        hint.contains("look given in the robot base frame"),
+        "{hint}"
+    );
+    assert!(stderr(&wrong).contains(hint), "{}", stderr(&wrong));
 }

@@ -54,6 +54,10 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ValidateReport
         file.base_known() && args.register == Register::None,
     )?;
     let origin = input.data.display().to_string();
+    let model_text = args.model.display().to_string();
+    if let Some(w) = crate::formats::table_reach::warning(&ds, &model, &origin, &model_text) {
+        eprintln!("{w}");
+    }
     super::inputs::warn_outside_limits(
         crate::calibration::check::OutsideLimits::of(&file, &ds),
         ds.len(),

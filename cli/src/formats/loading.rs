@@ -92,6 +92,11 @@ pub fn accept_dataset<const N: usize, V: kinecal::ValueStorage>(
         placement(&ds, units, nominal, origin)?;
     }
     let ds = accept(ds, origin, units, nominal, base_known, kind)?;
+    if kind != FileKind::Sweeps {
+        if let Some(w) = super::table_reach::warning(&ds, nominal, origin, "the robot file") {
+            crate::Tell::line(&mut crate::Stderr, &w);
+        }
+    }
     if measured {
         convention(&ds, None, nominal, origin)?;
         return Ok(told(without_stale(ds, nominal, origin), origin));

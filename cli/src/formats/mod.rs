@@ -16,6 +16,7 @@ pub mod prior;
 pub mod robot_file;
 pub mod rotation_order;
 pub mod stale;
+pub mod table_reach;
 pub mod units;
 pub mod urdf;
 

@@ -119,3 +119,54 @@ fn a_clock_that_goes_back_is_named() {
         stderr(&out)
     );
 }
+
+/// A joint table whose `start_deg` is a turn off leaves every reading outside its knots: the
+/// model adds the end value everywhere, and `check`, `validate` and `compensate` said nothing
+/// (validate called such a model holding). Each now warns, naming the knots' range and the
+/// readings'; the table as fitted (its knots over the readings) is not warned about.
+#[test]
+fn a_joint_table_whose_knots_miss_the_readings_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = ur10_rows(dir.path(), "d.csv", 200, |_, _| {});
+    let text = std::fs::read_to_string(&data).unwrap();
+    let q2: Vec<f64> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect();
+    let lo = q2.iter().fold(f64::INFINITY, |a, b| a.min(*b)).floor();
+    let nominal = std::fs::read_to_string(ur10_dir().join("robot.toml")).unwrap();
+    let table = |start: f64| {
+        format!(
+            "{nominal}\n[[effects]]\nkind = \"joint-table\"\njoint = 2\nstep_deg = 10.0\nstart_deg = {start}\nvalues = [{}]\n",
+            vec!["0.0"; 40].join(", ")
+        )
+    };
+    let right = write(dir.path(), "right.toml", &table(lo));
+    let shifted = write(dir.path(), "shifted.toml", &table(lo + 360.0));
+    let warned = |out: &std::process::Output| stderr(out).contains("joint 2's table");
+    let out = run_on("check", &right, &data, &[]);
+    assert!(out.status.success() && !warned(&out), "{}", stderr(&out));
+    let out = run_on("check", &shifted, &data, &[]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let err = stderr(&out);
+    assert!(
+        warned(&out) && err.contains(&format!("0 of {}", q2.len())),
+        "{err}"
+    );
+    assert!(err.contains("start_deg"), "{err}");
+    for (model, expect) in [(&right, false), (&shifted, true)] {
+        let out = kinecal(&[
+            "validate",
+            "--robot",
+            s(&ur10_dir().join("robot.toml")),
+            "--model",
+            s(model),
+            "--data",
+            s(&data),
+            "--register",
+            "base",
+        ]);
+        assert_eq!(warned(&out), expect, "{}", stderr(&out));
+    }
+}

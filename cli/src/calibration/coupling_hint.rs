@@ -35,6 +35,9 @@ pub struct CouplingHint {
     pub ratio: f64,
     /// The file states couplings, and this candidate replaces them.
     pub replaces_stated: bool,
+    /// Every coupling of the candidate, 1-based `(joint, from, ratio)` (empty: none); with
+    /// `replaces_stated`, `joint`, `from` and `ratio` are the one it changes.
+    pub couplings: Vec<(usize, usize, f64)>,
     /// RMS (mm) of the nominal model with that coupling.
     pub rms_mm: f64,
     /// RMS (mm) of the nominal model as written.
@@ -48,19 +51,22 @@ impl CouplingHint {
         if self.replaces_stated {
             let fits = sig(self.rms_mm, 3);
             let stated = sig(self.nominal_rms_mm, 3);
-            return if self.ratio == 0.0 {
+            return if self.couplings.is_empty() {
                 format!(
                     "hint: the robot file's [[couplings]] do not explain the data ({stated} mm); \
                      without them the data fit {fits} mm: remove them, or check each one's \
                      joint, from and ratio"
                 )
             } else {
-                let sign = if self.ratio < 0.0 { '-' } else { '+' };
+                let list: Vec<String> = self
+                    .couplings
+                    .iter()
+                    .map(|(j, f, r)| format!("joint = {j}, from = {f}, ratio = {r:?}"))
+                    .collect();
                 format!(
                     "hint: the robot file's [[couplings]] do not explain the data ({stated} mm); \
-                     q{j} = J{j} {sign} J{f} alone does ({fits} mm): replace them with \
-                     [[couplings]] joint = {j}, from = {f}, ratio = {:?}",
-                    self.ratio
+                     these do ({fits} mm): [[couplings]] {}",
+                    list.join("; ")
                 )
             };
         }
@@ -85,6 +91,7 @@ impl CouplingHint {
             "from": self.from,
             "ratio": self.ratio,
             "replaces_stated": self.replaces_stated,
+            "couplings": self.couplings,
             "rms_mm": self.rms_mm,
             "nominal_rms_mm": self.nominal_rms_mm,
             "message": self.message(),
@@ -106,12 +113,13 @@ fn rms_placed<const N: usize, V: kinecal::ValueStorage>(
     rms.is_finite().then_some(rms)
 }
 
-/// The coupling (joint `j` from `j − 1`, ratio ±1) that explains `data` far better than
-/// `robot` does: at most [`MAX_FRACTION`] of its RMS and at least [`MIN_GAIN_MM`] better. When
-/// `robot` states couplings, the candidates replace them, and the robot without any coupling
-/// is a candidate too (`ratio` 0). `fit_base` = place each model by registration (the file has
-/// no `[base]`), as `check` does; `tool_unknown`: the tool point is started from the data for
-/// each candidate (the file says it is unknown).
+/// The couplings that explain `data` far better than `robot` does: at most [`MAX_FRACTION`]
+/// of its RMS and at least [`MIN_GAIN_MM`] better. Without couplings in `robot`, one coupling
+/// (joint `j` read from `j − 1`, ratio ±1) is tried. With couplings, the candidates change the
+/// stated set by one step: none at all, one removed, one's sign flipped, one replaced by or one
+/// added of those single couplings, or one alone. `fit_base` = place each model by
+/// registration (the file has no `[base]`), as `check` does; `tool_unknown`: the tool point is
+/// started from the data for each candidate (the file says it is unknown).
 pub fn detect<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
@@ -124,40 +132,80 @@ pub fn detect<const N: usize, V: kinecal::ValueStorage>(
     let stride = data.len().div_ceil(MAX_POSES).max(1);
     let sample: Vec<Measurement<f64, N>> = data.iter().step_by(stride).cloned().collect();
     let nominal = rms_placed(robot, &sample, fit_base, tool_unknown)?;
-    let stated = robot.couplings().iter().next();
+    let stated: Vec<(usize, usize, f64)> = robot.couplings().iter().collect();
     let mut uncoupled = robot.clone();
     uncoupled.clear_couplings();
-    let mut candidates: Vec<(usize, usize, f64)> = Vec::new();
-    if let Some((j, f, _)) = stated {
-        candidates.push((j, f, 0.0));
-    }
-    for j in 1..N {
-        candidates.extend([(j, j - 1, 1.0), (j, j - 1, -1.0)]);
-    }
     let mut best: Option<CouplingHint> = None;
-    for (j, f, ratio) in candidates {
+    for (set, changed) in candidate_sets::<N>(&stated) {
         let mut r = uncoupled.clone();
-        if ratio != 0.0 && r.set_coupling(j, f, ratio).is_err() {
+        if set
+            .iter()
+            .any(|&(j, f, ratio)| r.set_coupling(j, f, ratio).is_err())
+        {
             continue;
         }
-        if stated.is_some() && same_couplings(&r, robot) {
+        if !stated.is_empty() && same_couplings(&r, robot) {
             continue;
         }
         let Some(rms) = rms_placed(&r, &sample, fit_base, tool_unknown) else {
             continue;
         };
         if best.as_ref().is_none_or(|b| rms < b.rms_mm) {
+            let (j, f, ratio) = changed;
             best = Some(CouplingHint {
                 joint: j + 1,
                 from: f + 1,
                 ratio,
-                replaces_stated: stated.is_some(),
+                replaces_stated: !stated.is_empty(),
+                couplings: set.iter().map(|&(j, f, r)| (j + 1, f + 1, r)).collect(),
                 rms_mm: rms,
                 nominal_rms_mm: nominal,
             });
         }
     }
     best.filter(|b| b.rms_mm <= MAX_FRACTION * nominal && nominal - b.rms_mm >= MIN_GAIN_MM)
+}
+
+/// The coupling sets (0-based) to try against the `stated` ones, each with the coupling it
+/// changes (ratio 0: removed); see [`detect`].
+fn candidate_sets<const N: usize>(
+    stated: &[(usize, usize, f64)],
+) -> Vec<(Vec<(usize, usize, f64)>, (usize, usize, f64))> {
+    let singles: Vec<(usize, usize, f64)> = (1..N)
+        .flat_map(|j| [(j, j - 1, 1.0), (j, j - 1, -1.0)])
+        .collect();
+    let mut sets: Vec<(Vec<(usize, usize, f64)>, (usize, usize, f64))> =
+        singles.iter().map(|c| (vec![*c], *c)).collect();
+    if let Some(&(j, f, _)) = stated.first() {
+        sets.push((Vec::new(), (j, f, 0.0)));
+    }
+    if stated.is_empty() {
+        return sets;
+    }
+    // With one stated coupling, removing, flipping or replacing it is among the singles.
+    for (i, &(j, f, r)) in stated.iter().enumerate().filter(|_| stated.len() > 1) {
+        let others: Vec<(usize, usize, f64)> = stated
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| *k != i)
+            .map(|(_, c)| *c)
+            .collect();
+        sets.push((others.clone(), (j, f, 0.0)));
+        let mut flipped = others.clone();
+        flipped.push((j, f, -r));
+        sets.push((flipped, (j, f, -r)));
+        for c in &singles {
+            let mut replaced = others.clone();
+            replaced.push(*c);
+            sets.push((replaced, *c));
+        }
+    }
+    for c in &singles {
+        let mut added = stated.to_vec();
+        added.push(*c);
+        sets.push((added, *c));
+    }
+    sets
 }
 
 /// `a` and `b` read every joint alike (the same couplings, in any order).

@@ -110,6 +110,13 @@ fn simulate_with_joints<const N: usize>(
     let nominal = file
         .to_robot::<N>()
         .map_err(|e| anyhow!("{}: {e}", args.robot.display()))?;
+    let reflectors = file.tool_names().len();
+    if reflectors > 1 && (args.plan.is_some() || args.constraints.is_some()) {
+        crate::refuse!(
+            "--constraints and --plan sessions touch with one point: give a robot file with one \
+             [tool] (or one [[tools]] entry), not {reflectors} reflectors"
+        );
+    }
     if args.session_s.is_some() && (args.plan.is_some() || args.constraints.is_some()) {
         crate::refuse!(
             "--session-s applies to tracker points: a constraint session has no tracker to drift"

@@ -55,8 +55,8 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ValidateReport
     )?;
     let origin = input.data.display().to_string();
     let model_text = args.model.display().to_string();
-    if let Some(w) = crate::formats::table_reach::warning(&ds, &model, &origin, &model_text) {
-        eprintln!("{w}");
+    for line in crate::formats::table_reach::lines(&ds, &model, &origin, Some(&model_text)) {
+        eprintln!("{line}");
     }
     super::inputs::warn_outside_limits(
         crate::calibration::check::OutsideLimits::of(&file, &ds),

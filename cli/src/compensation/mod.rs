@@ -141,6 +141,7 @@ fn run_with_joints<const N: usize>(
         .map_err(|e| anyhow!("{}: {e}", job.model.display()))?;
     job.settings.check()?;
     let what = job.model.display().to_string();
+    let all = robot.clone();
     let (robot, warning) = reflector::of_reflector(file, &robot, job.tool.as_deref(), &what)?;
     if let Some(w) = warning {
         eprintln!("warning: {w}");
@@ -193,10 +194,24 @@ fn run_with_joints<const N: usize>(
         (&job.settings, &job.units),
         &names,
     )?;
-    done.report.reflector = job
-        .tool
-        .clone()
-        .or_else(|| file.tool_names().first().cloned());
+    let tool_names = file.tool_names();
+    done.report.reflector = job.tool.clone().or_else(|| tool_names.first().cloned());
+    if done.report.failed > 0 {
+        let chosen = job
+            .tool
+            .as_ref()
+            .and_then(|t| tool_names.iter().position(|n| n == t))
+            .unwrap_or(0);
+        let unreached: Vec<bool> = done
+            .commands
+            .iter()
+            .map(|c| c.status != Status::Ok)
+            .collect();
+        let other = frame_hint::other_reflector(&all, &tool_names, chosen, &targets, &unreached);
+        if other.is_some() {
+            done.report.hint = other;
+        }
+    }
     crate::output::atomic::write_atomic(&job.out, done.csv(&job.units).as_bytes())
         .map_err(|e| anyhow!("{}: cannot write: {e}", job.out.display()))?;
     Ok(done.report)

@@ -46,7 +46,11 @@ pub fn load_as<const N: usize, V: kinecal::ValueStorage>(
     if measured {
         let stated = Some((m.raw_angles.as_slice(), m.rotation, map.as_path()));
         convention(&ds, stated, nominal, &origin)?;
-        return Ok(told(without_stale(ds, nominal, &origin), &origin));
+        let ds = told(without_stale(ds, nominal, &origin), &origin);
+        return Ok(tables_told(ds, nominal, &origin));
+    }
+    if kind == FileKind::Targets {
+        return Ok(tables_told(ds, nominal, &origin));
     }
     Ok(ds)
 }
@@ -92,16 +96,28 @@ pub fn accept_dataset<const N: usize, V: kinecal::ValueStorage>(
         placement(&ds, units, nominal, origin)?;
     }
     let ds = accept(ds, origin, units, nominal, base_known, kind)?;
-    if kind != FileKind::Sweeps {
-        if let Some(w) = super::table_reach::warning(&ds, nominal, origin, "the robot file") {
-            crate::Tell::line(&mut crate::Stderr, &w);
-        }
-    }
     if measured {
         convention(&ds, None, nominal, origin)?;
-        return Ok(told(without_stale(ds, nominal, origin), origin));
+        let ds = told(without_stale(ds, nominal, origin), origin);
+        return Ok(tables_told(ds, nominal, origin));
+    }
+    if kind == FileKind::Targets {
+        return Ok(tables_told(ds, nominal, origin));
     }
     Ok(ds)
+}
+
+/// `ds` after the lines about joint tables of `nominal` whose knots miss its readings
+/// ([`super::table_reach`]) are told on stderr (sweeps are not corrected by tables: none).
+fn tables_told<const N: usize, V: kinecal::ValueStorage>(
+    ds: Dataset<N>,
+    nominal: &Robot<f64, N, V>,
+    origin: &str,
+) -> Dataset<N> {
+    for line in super::table_reach::lines(&ds, nominal, origin, None) {
+        crate::Tell::line(&mut crate::Stderr, &line);
+    }
+    ds
 }
 
 /// Above this `temp_c` (°C) a file is warned about: a room logged in degrees Fahrenheit reads

@@ -80,6 +80,8 @@ pub struct CouplingHintReport {
     pub ratio: f64,
     /// The robot file states couplings and this reading replaces them (`ratio` 0: none).
     pub replaces_stated: bool,
+    /// Every coupling of the reading that fits, 1-based `[joint, from, ratio]`.
+    pub couplings: Vec<(usize, usize, f64)>,
     pub rms_mm: f64,
     pub nominal_rms_mm: f64,
     /// The one-line warning (also printed on stderr).
@@ -93,6 +95,7 @@ impl From<&CouplingHint> for CouplingHintReport {
             from: h.from,
             ratio: h.ratio,
             replaces_stated: h.replaces_stated,
+            couplings: h.couplings.clone(),
             rms_mm: h.rms_mm,
             nominal_rms_mm: h.nominal_rms_mm,
             message: h.message(),

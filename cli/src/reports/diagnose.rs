@@ -358,7 +358,11 @@ impl DiagnoseReport {
                 .iter()
                 .map(|p| p.name(&d.geometric).to_string())
                 .collect(),
-            stop_reason: d.stop_reason.clone(),
+            // A refused geometric fit is why nothing was searched: said where scripts look.
+            stop_reason: d.resized.as_ref().map_or_else(
+                || d.stop_reason.clone(),
+                |why| format!("the geometric fit {why}: nothing is diagnosed"),
+            ),
             rounds,
             geometry_seconds: d.geometry_seconds,
             seconds: d.seconds,
@@ -427,7 +431,7 @@ pub fn summary<const N: usize>(d: &Diagnosis<N>) -> String {
 
 impl super::Report for DiagnoseReport {
     fn to_json(&self) -> serde_json::Value {
-        self.to_value()
+        super::with_accepted(self.to_value(), self)
     }
     fn converged(&self) -> bool {
         self.converged && self.held_out_worse != Some(true)

@@ -252,7 +252,7 @@ fn changes_by_name<S: Serializer>(changes: &[Change], s: S) -> Result<S::Ok, S::
 
 impl super::Report for IdentifyReport {
     fn to_json(&self) -> serde_json::Value {
-        super::json_value(self)
+        super::with_accepted(super::json_value(self), self)
     }
     fn converged(&self) -> bool {
         self.converged && self.held_out_worse != Some(true)

@@ -60,6 +60,17 @@ pub fn json_value<T: Serialize>(report: &T) -> serde_json::Value {
     serde_json::to_value(report).unwrap_or(serde_json::Value::Null)
 }
 
+/// `json` (a report's object) with the key `accepted`: whether `report` may be taken as
+/// calibrated, as the exit status says ([`Report::converged`]). A report's own `converged`
+/// says only that its fit converged; `accepted` is false too when the model predicts the
+/// held-out poses worse than the nominal robot (`held_out_worse`).
+pub fn with_accepted(mut json: serde_json::Value, report: &dyn Report) -> serde_json::Value {
+    if let Some(m) = json.as_object_mut() {
+        m.insert("accepted".to_string(), report.converged().into());
+    }
+    json
+}
+
 /// Implements [`Report`] for report structs that are always "converged".
 macro_rules! plain_report {
     ($($t:ty),*) => {

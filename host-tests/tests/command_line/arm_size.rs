@@ -47,6 +47,13 @@ fn points_in_another_unit_than_declared_are_no_calibration() {
                     .is_some_and(|r| r.contains("made the arm's links")),
             "{v}"
         );
+        // The reason is the stop reason too, where scripts look for why the search stopped.
+        let stop = v["stop_reason"].as_str().unwrap_or_default();
+        assert!(
+            stop.starts_with("the geometric fit") && stop.contains("made the arm's links"),
+            "{v}"
+        );
+        assert_eq!(v["accepted"], false, "{v}");
         for (command, extra) in [
             ("identify", ["--length-unit", "mm"]),
             ("identify", ["--map", s(&map)]),

@@ -831,6 +831,18 @@ fn simulate_writes_every_named_reflector() {
     ]);
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(stderr(&out).contains("one [tool]"), "{}", stderr(&out));
+    // So do constraint sessions (they touch with one point).
+    let out = kinecal(&[
+        "simulate",
+        "--robot",
+        s(&robot),
+        "--out",
+        s(&data),
+        "--constraints",
+        "socket:4x10",
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("one [tool]"), "{}", stderr(&out));
 }
 
 /// Targets in the robot base frame given to a model with a `[base]` (the tracker's frame)
@@ -888,4 +900,42 @@ fn compensate_says_when_targets_look_given_in_the_robot_base_frame() {
         "{hint}"
     );
     assert!(stderr(&wrong).contains(hint), "{}", stderr(&wrong));
+    // Three targets of the measured file out of reach (moved 300 mm further from the base):
+    // just out of reach, no frame hint.
+    let mut lines: Vec<String> = measured.lines().map(String::from).collect();
+    for line in lines.iter_mut().skip(1).take(3) {
+        let mut c: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+        let p = Vector3::new(c[6], c[7], c[8]);
+        let out = p + (p - base.o).normalize() * 300.0;
+        c[6..9].copy_from_slice(&[out.x, out.y, out.z]);
+        *line = c
+            .iter()
+            .map(|v| format!("{v:.6}"))
+            .collect::<Vec<_>>()
+            .join(",");
+    }
+    let few = run(&(lines.join("\n") + "\n"), "few.csv");
+    assert_eq!(few.status.code(), Some(3), "{}", stderr(&few));
+    let v: serde_json::Value = serde_json::from_slice(&few.stdout).unwrap();
+    assert!(
+        v["failed"].as_u64().unwrap() <= 3 && v["hint"].is_null(),
+        "{v}"
+    );
+    // Reflector B's points taken as A's (no --tool): the hint names B.
+    let mut b_points = String::from(header);
+    for line in measured.lines().skip(1) {
+        let c: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+        let q: [f64; 6] = std::array::from_fn(|i| (c[i] - 0.2).to_radians());
+        let p = fk.compute_point(&model, &q, 1).unwrap();
+        let seed = c[..6]
+            .iter()
+            .map(|v| format!("{v:.6}"))
+            .collect::<Vec<_>>()
+            .join(",");
+        b_points += &format!("{seed},{:.6},{:.6},{:.6}\n", p.x, p.y, p.z);
+    }
+    let as_a = run(&b_points, "b_points.csv");
+    let v: serde_json::Value = serde_json::from_slice(&as_a.stdout).unwrap();
+    let hint = v["hint"].as_str().unwrap_or_default();
+    assert!(hint.contains("give --tool B"), "{v}");
 }

@@ -135,15 +135,19 @@ fn a_joint_table_whose_knots_miss_the_readings_is_warned_about() {
         .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
         .collect();
     let lo = q2.iter().fold(f64::INFINITY, |a, b| a.min(*b)).floor();
+    let hi = q2.iter().fold(f64::NEG_INFINITY, |a, b| a.max(*b)).ceil();
     let nominal = std::fs::read_to_string(ur10_dir().join("robot.toml")).unwrap();
-    let table = |start: f64| {
+    let table = |start: f64, knots: usize| {
         format!(
             "{nominal}\n[[effects]]\nkind = \"joint-table\"\njoint = 2\nstep_deg = 10.0\nstart_deg = {start}\nvalues = [{}]\n",
-            vec!["0.0"; 40].join(", ")
+            vec!["0.0"; knots].join(", ")
         )
     };
-    let right = write(dir.path(), "right.toml", &table(lo));
-    let shifted = write(dir.path(), "shifted.toml", &table(lo + 360.0));
+    let right = write(dir.path(), "right.toml", &table(lo, 40));
+    let shifted = write(dir.path(), "shifted.toml", &table(lo + 360.0, 40));
+    // Fitted on other angles of the joint (above the readings, 40° wide): a note, not a
+    // warning about start_deg.
+    let elsewhere = write(dir.path(), "elsewhere.toml", &table(hi + 50.0, 5));
     let warned = |out: &std::process::Output| stderr(out).contains("joint 2's table");
     let out = run_on("check", &right, &data, &[]);
     assert!(out.status.success() && !warned(&out), "{}", stderr(&out));
@@ -154,7 +158,28 @@ fn a_joint_table_whose_knots_miss_the_readings_is_warned_about() {
         warned(&out) && err.contains(&format!("0 of {}", q2.len())),
         "{err}"
     );
-    assert!(err.contains("start_deg"), "{err}");
+    assert!(
+        err.contains("warning:") && err.contains(&format!("start_deg {lo:.1} (-360°)")),
+        "{err}"
+    );
+    let err = stderr(&run_on("check", &elsewhere, &data, &[]));
+    assert!(
+        err.contains("note:") && err.contains("fitted on other angles"),
+        "{err}"
+    );
+    assert!(!err.contains("start_deg"), "{err}");
+    // Read through a map as well (the published layout): the same warning.
+    let map = write(
+        dir.path(),
+        "map.toml",
+        "[columns]\nq1 = \"q1\"\nq2 = \"q2\"\nq3 = \"q3\"\nq4 = \"q4\"\nq5 = \"q5\"\nq6 = \"q6\"\nx = \"x\"\ny = \"y\"\nz = \"z\"\n",
+    );
+    let out = run_on("check", &shifted, &data, &["--map", s(&map)]);
+    assert!(
+        stderr(&out).contains("check its start_deg"),
+        "{}",
+        stderr(&out)
+    );
     for (model, expect) in [(&right, false), (&shifted, true)] {
         let out = kinecal(&[
             "validate",

@@ -101,6 +101,7 @@ fn an_extrapolating_split_ends_at_exit_3_or_no_worse_than_the_start() {
     );
     let worse = j["held_out_worse"].as_bool().unwrap();
     assert_eq!(worse, after > before, "{j}");
+    assert_eq!(j["accepted"], o.status.success(), "{j}");
     if worse {
         assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
         assert!(stderr(&o).contains("not a calibration"), "{}", stderr(&o));
@@ -155,6 +156,8 @@ fn a_model_worse_than_its_start_on_held_out_poses_exits_3() {
     let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(j["held_out_worse"], true);
     assert_eq!(j["converged"], true, "the fit itself converged");
+    // `accepted` says what the exit status says, for scripts that read `converged`.
+    assert_eq!(j["accepted"], false, "{j}");
     assert!(
         j["after"]["validation_rms_mm"].as_f64().unwrap()
             > j["before"]["validation_rms_mm"].as_f64().unwrap()
@@ -175,6 +178,7 @@ fn a_model_worse_than_its_start_on_held_out_poses_exits_3() {
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
     let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(j["held_out_worse"], true);
+    assert_eq!(j["accepted"], false, "{j}");
     assert!(
         j["holdout"]["final_rms_mm"].as_f64().unwrap()
             > j["holdout"]["start_rms_mm"].as_f64().unwrap()

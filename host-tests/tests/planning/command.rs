@@ -423,6 +423,16 @@ fn plan_command_accepts_negative_work_values_and_writes_csv_and_json() {
         err.contains("if these are radians") && err.contains("--work=0,-90,90,0,90,0"),
         "{err}"
     );
+    // A pose near zero in whole degrees is a working configuration, not radians.
+    let near_zero = Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
+        .args(["plan", "--robot"])
+        .arg(cell.join("robot.toml"))
+        .args(["--poses", "10", "--criterion", "kpi", "--work=0,5,2,0,-4,0"])
+        .args(["--pool", "200", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!String::from_utf8_lossy(&near_zero.stderr).contains("radians"));
     // A malformed work configuration is a one-line error.
     let bad = Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
         .args(["plan", "--robot"])

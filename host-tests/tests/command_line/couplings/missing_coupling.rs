@@ -145,4 +145,39 @@ fn check_hints_at_a_wrong_coupling_and_at_one_too_many() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("without them the data fit"));
     // And the right file still gives no hint.
     assert!(json_of(&run_on("check", &coupled, &d, &["--json"]))["coupling_hint"].is_null());
+    // Two couplings (q3 = J3 + J2, q5 = J5 + J4): one flipped, or one left out, is named with
+    // the set that fits.
+    let second = "[[couplings]]\njoint = 5\nfrom = 4\nratio = 1.0\n";
+    let two = write(dir.path(), "two.toml", &format!("{}{second}", fanuc_text()));
+    let d_two = dir.path().join("d_two.csv");
+    simulate(
+        &two,
+        Some(150),
+        Some(0.02),
+        Some(7),
+        &["--geom-errors"],
+        &d_two,
+    );
+    assert!(json_of(&run_on("check", &two, &d_two, &["--json"]))["coupling_hint"].is_null());
+    let flipped = format!("{}{}", fanuc_text(), second.replace("1.0", "-1.0"));
+    for (name, text) in [("flipped.toml", flipped), ("one.toml", fanuc_text())] {
+        let p = write(dir.path(), name, &text);
+        let h = json_of(&run_on("check", &p, &d_two, &["--json"]))["coupling_hint"].clone();
+        assert_eq!(h["replaces_stated"], true, "{name}: {h}");
+        let mut set: Vec<(u64, u64, f64)> = h["couplings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| {
+                (
+                    c[0].as_u64().unwrap(),
+                    c[1].as_u64().unwrap(),
+                    c[2].as_f64().unwrap(),
+                )
+            })
+            .collect();
+        set.sort_by_key(|c| c.0);
+        assert_eq!(set, [(3, 2, 1.0), (5, 4, 1.0)], "{name}: {h}");
+        assert!(h["rms_mm"].as_f64().unwrap() < 5.0, "{name}: {h}");
+    }
 }

@@ -166,16 +166,16 @@ pub fn detect<const N: usize, V: kinecal::ValueStorage>(
     best.filter(|b| b.rms_mm <= MAX_FRACTION * nominal && nominal - b.rms_mm >= MIN_GAIN_MM)
 }
 
+/// One coupling, `(joint, from, ratio)`.
+type Coupling = (usize, usize, f64);
+
 /// The coupling sets (0-based) to try against the `stated` ones, each with the coupling it
 /// changes (ratio 0: removed); see [`detect`].
-fn candidate_sets<const N: usize>(
-    stated: &[(usize, usize, f64)],
-) -> Vec<(Vec<(usize, usize, f64)>, (usize, usize, f64))> {
+fn candidate_sets<const N: usize>(stated: &[Coupling]) -> Vec<(Vec<Coupling>, Coupling)> {
     let singles: Vec<(usize, usize, f64)> = (1..N)
         .flat_map(|j| [(j, j - 1, 1.0), (j, j - 1, -1.0)])
         .collect();
-    let mut sets: Vec<(Vec<(usize, usize, f64)>, (usize, usize, f64))> =
-        singles.iter().map(|c| (vec![*c], *c)).collect();
+    let mut sets: Vec<(Vec<Coupling>, Coupling)> = singles.iter().map(|c| (vec![*c], *c)).collect();
     if let Some(&(j, f, _)) = stated.first() {
         sets.push((Vec::new(), (j, f, 0.0)));
     }

@@ -116,10 +116,14 @@ fn rms_placed<const N: usize, V: kinecal::ValueStorage>(
 /// The couplings that explain `data` far better than `robot` does: at most [`MAX_FRACTION`]
 /// of its RMS and at least [`MIN_GAIN_MM`] better. Without couplings in `robot`, one coupling
 /// (joint `j` read from `j − 1`, ratio ±1) is tried. With couplings, the candidates change the
-/// stated set by one step: none at all, one removed, one's sign flipped, one replaced by or one
-/// added of those single couplings, or one alone. `fit_base` = place each model by
-/// registration (the file has no `[base]`), as `check` does; `tool_unknown`: the tool point is
-/// started from the data for each candidate (the file says it is unknown).
+/// stated set by one step: none at all; one stated coupling removed, its ratio negated, doubled
+/// or halved, or moved to another joint pair `j ← j − 1` with its ratio; one replaced by, or one
+/// added of, those single ±1 couplings; or one alone. A candidate must beat the one before it
+/// by more than [`TIE_MM`] or 1 %: of two sets that fit alike (a coupling of a joint that
+/// moves no measured point, as joint 6 with the reflector on its axis) the smaller change wins.
+/// `fit_base` = place each model by registration (the file has no `[base]`), as `check` does;
+/// `tool_unknown`: the tool point is started from the data for each candidate (the file says
+/// it is unknown).
 pub fn detect<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
@@ -132,11 +136,17 @@ pub fn detect<const N: usize, V: kinecal::ValueStorage>(
     let stride = data.len().div_ceil(MAX_POSES).max(1);
     let sample: Vec<Measurement<f64, N>> = data.iter().step_by(stride).cloned().collect();
     let nominal = rms_placed(robot, &sample, fit_base, tool_unknown)?;
-    let stated: Vec<(usize, usize, f64)> = robot.couplings().iter().collect();
+    let stated: Vec<Coupling> = robot.couplings().iter().collect();
     let mut uncoupled = robot.clone();
     uncoupled.clear_couplings();
     let mut best: Option<CouplingHint> = None;
-    for (set, changed) in candidate_sets::<N>(&stated) {
+    let mut tried: Vec<Vec<Coupling>> = Vec::new();
+    for (mut set, changed) in candidate_sets::<N>(&stated) {
+        set.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.cmp(&b.1)));
+        if tried.contains(&set) {
+            continue;
+        }
+        tried.push(set.clone());
         let mut r = uncoupled.clone();
         if set
             .iter()
@@ -150,7 +160,10 @@ pub fn detect<const N: usize, V: kinecal::ValueStorage>(
         let Some(rms) = rms_placed(&r, &sample, fit_base, tool_unknown) else {
             continue;
         };
-        if best.as_ref().is_none_or(|b| rms < b.rms_mm) {
+        if best
+            .as_ref()
+            .is_none_or(|b| rms < b.rms_mm - TIE_MM.max(0.01 * b.rms_mm))
+        {
             let (j, f, ratio) = changed;
             best = Some(CouplingHint {
                 joint: j + 1,
@@ -166,34 +179,45 @@ pub fn detect<const N: usize, V: kinecal::ValueStorage>(
     best.filter(|b| b.rms_mm <= MAX_FRACTION * nominal && nominal - b.rms_mm >= MIN_GAIN_MM)
 }
 
+/// Two candidates whose RMS differ by less than this (mm, or 1 % of the RMS) fit alike.
+pub const TIE_MM: f64 = 0.01;
+
 /// One coupling, `(joint, from, ratio)`.
 type Coupling = (usize, usize, f64);
 
 /// The coupling sets (0-based) to try against the `stated` ones, each with the coupling it
-/// changes (ratio 0: removed); see [`detect`].
+/// changes (ratio 0: removed), the smallest changes first; see [`detect`].
 fn candidate_sets<const N: usize>(stated: &[Coupling]) -> Vec<(Vec<Coupling>, Coupling)> {
-    let singles: Vec<(usize, usize, f64)> = (1..N)
+    let singles: Vec<Coupling> = (1..N)
         .flat_map(|j| [(j, j - 1, 1.0), (j, j - 1, -1.0)])
         .collect();
-    let mut sets: Vec<(Vec<Coupling>, Coupling)> = singles.iter().map(|c| (vec![*c], *c)).collect();
+    let mut sets: Vec<(Vec<Coupling>, Coupling)> = Vec::new();
     if let Some(&(j, f, _)) = stated.first() {
         sets.push((Vec::new(), (j, f, 0.0)));
     }
-    if stated.is_empty() {
-        return sets;
-    }
-    // With one stated coupling, removing, flipping or replacing it is among the singles.
-    for (i, &(j, f, r)) in stated.iter().enumerate().filter(|_| stated.len() > 1) {
-        let others: Vec<(usize, usize, f64)> = stated
+    for (i, &(j, f, r)) in stated.iter().enumerate() {
+        let others: Vec<Coupling> = stated
             .iter()
             .enumerate()
             .filter(|(k, _)| *k != i)
             .map(|(_, c)| *c)
             .collect();
+        let with = |c: Coupling| {
+            let mut v = others.clone();
+            v.push(c);
+            (v, c)
+        };
         sets.push((others.clone(), (j, f, 0.0)));
-        let mut flipped = others.clone();
-        flipped.push((j, f, -r));
-        sets.push((flipped, (j, f, -r)));
+        sets.extend([-r, 2.0 * r, 0.5 * r].map(|ratio| with((j, f, ratio))));
+        sets.extend((1..N).filter(|&k| k != j).map(|k| with((k, k - 1, r))));
+    }
+    for (i, _) in stated.iter().enumerate() {
+        let others: Vec<Coupling> = stated
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| *k != i)
+            .map(|(_, c)| *c)
+            .collect();
         for c in &singles {
             let mut replaced = others.clone();
             replaced.push(*c);
@@ -205,6 +229,7 @@ fn candidate_sets<const N: usize>(stated: &[Coupling]) -> Vec<(Vec<Coupling>, Co
         added.push(*c);
         sets.push((added, *c));
     }
+    sets.extend(singles.iter().map(|c| (vec![*c], *c)));
     sets
 }
 

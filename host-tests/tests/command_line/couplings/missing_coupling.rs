@@ -89,6 +89,24 @@ fn check_hints_at_a_missing_coupling_and_not_on_ur10() {
         assert!(v["coupling_hint"].is_null(), "{csv}: {v}");
         assert!(!String::from_utf8_lossy(&out.stderr).contains("hint:"));
     }
+    // The UR10 file with a coupling its data do not have: "remove it". A coupling of joint 6
+    // on joint 5 fits as well (the reflector is on joint 6's axis: it moves no point) and is
+    // not proposed.
+    let text = std::fs::read_to_string(ur10.join("robot.toml")).unwrap();
+    let coupled_ur10 = write(
+        dir.path(),
+        "ur10-coupled.toml",
+        &format!("{text}\n{FANUC_COUPLING}"),
+    );
+    let v = json_of(&run_on(
+        "check",
+        &coupled_ur10,
+        &ur10.join("ur10_random_poses.csv"),
+        &["--json"],
+    ));
+    let h = &v["coupling_hint"];
+    assert_eq!(h["ratio"].as_f64(), Some(0.0), "{h}");
+    assert_eq!(h["couplings"], serde_json::json!([]), "{h}");
 }
 
 /// A file that states a wrong coupling (the sign flipped, half the ratio, the wrong joint)

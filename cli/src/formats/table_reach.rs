@@ -5,7 +5,7 @@
 //! every reading outside: the model then applies one constant where it was fitted to a curve,
 //! and `check` or `validate` report only a larger error. A session that moves the joint over
 //! other angles than the one the table was fitted on is no mistake, but its readings outside
-//! the knots are not corrected by the table either: said as a note.
+//! the knots are not corrected by the table either: said as a note, with no cause claimed.
 
 use crate::formats::measurements::Dataset;
 use kinecal::model::effects::EffectKind;
@@ -16,8 +16,8 @@ pub const MIN_SHARE: f64 = 0.5;
 
 /// One line per table of `model` (its file named `model_origin`, if given) whose knots hold
 /// fewer than [`MIN_SHARE`] of the readings of its joint in `ds` (named `origin`): a warning
-/// naming `start_deg` when the knots a whole number of turns away would hold most of them, a
-/// note otherwise.
+/// naming `start_deg` when the knots of a slipped `start_deg` (one or two turns off, the sign
+/// lost, radians) would hold at least half of them, a note otherwise.
 pub fn lines<const N: usize, V: kinecal::ValueStorage>(
     ds: &Dataset<N>,
     model: &Robot<f64, N, V>,
@@ -60,22 +60,29 @@ pub fn lines<const N: usize, V: kinecal::ValueStorage>(
                 "{origin}: joint {joint}'s table{of} covers {lo:.1}° to {hi:.1}°, but {inside} of \
                  {count} readings of joint {joint} ({min:.1}° to {max:.1}°) fall in it"
             );
-            // The knots a whole number of turns away that would hold most readings.
-            let turned = [-720.0, -360.0, 360.0, 720.0]
+            // The start_deg a slip would have written instead of the one meant: a whole number
+            // of turns off, its sign lost, or the value in radians. The one that holds the most
+            // readings, if at least half.
+            let slips = [
+                (lo - 720.0, "two turns lower"),
+                (lo - 360.0, "a turn lower"),
+                (lo + 360.0, "a turn higher"),
+                (lo + 720.0, "two turns higher"),
+                (-lo, "with the other sign"),
+                (lo.to_degrees(), "read as radians"),
+            ];
+            let meant = slips
                 .into_iter()
-                .map(|s| (s, within(s)))
-                .filter(|(_, n)| !few(*n))
-                .max_by_key(|(_, n)| *n);
-            Some(match turned {
-                Some((shift, n)) => format!(
-                    "warning: {head}; {n} would with start_deg {:.1} ({shift:+}°): check its \
-                     start_deg",
-                    lo + shift
+                .filter(|(start, _)| start.is_finite())
+                .map(|(start, how)| (start, how, within(start - lo)))
+                .filter(|(_, _, n)| !few(*n))
+                .max_by_key(|(_, _, n)| *n);
+            Some(match meant {
+                Some((start, how, n)) => format!(
+                    "warning: {head}; {n} would with start_deg {start:.1} ({how}): check its \
+                     start_deg"
                 ),
-                None => format!(
-                    "note: {head}: the others get its end value (the table was fitted on other \
-                     angles of the joint)"
-                ),
+                None => format!("note: {head}: the others get its end value"),
             })
         })
         .collect()

@@ -159,12 +159,19 @@ fn a_joint_table_whose_knots_miss_the_readings_is_warned_about() {
         "{err}"
     );
     assert!(
-        err.contains("warning:") && err.contains(&format!("start_deg {lo:.1} (-360°)")),
+        err.contains("warning:") && err.contains(&format!("start_deg {lo:.1} (a turn lower)")),
+        "{err}"
+    );
+    // Its sign lost (a table over 40 knots of 10° holds every reading as written).
+    let unsigned = write(dir.path(), "unsigned.toml", &table(-lo, 40));
+    let err = stderr(&run_on("check", &unsigned, &data, &[]));
+    assert!(
+        err.contains(&format!("start_deg {lo:.1} (with the other sign)")),
         "{err}"
     );
     let err = stderr(&run_on("check", &elsewhere, &data, &[]));
     assert!(
-        err.contains("note:") && err.contains("fitted on other angles"),
+        err.contains("note:") && err.contains("the others get its end value"),
         "{err}"
     );
     assert!(!err.contains("start_deg"), "{err}");

@@ -73,7 +73,7 @@ pub struct ConstraintIdentifyReport {
 
 impl crate::reports::Report for ConstraintIdentifyReport {
     fn to_json(&self) -> serde_json::Value {
-        crate::reports::json_value(self)
+        crate::reports::with_accepted(crate::reports::json_value(self), self)
     }
     fn converged(&self) -> bool {
         self.converged && self.held_out_worse != Some(true)

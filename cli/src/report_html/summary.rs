@@ -68,7 +68,7 @@ fn rows_by_name<S: Serializer>(rows: &[ParamRow], s: S) -> Result<S::Ok, S::Erro
 
 impl crate::reports::Report for ReportSummary {
     fn to_json(&self) -> serde_json::Value {
-        crate::reports::json_value(self)
+        crate::reports::with_accepted(crate::reports::json_value(self), self)
     }
     fn converged(&self) -> bool {
         self.converged

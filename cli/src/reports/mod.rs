@@ -87,12 +87,12 @@ macro_rules! plain_report {
 pub(crate) use plain_report;
 
 /// Implements [`Report`] for a report struct whose verdict is `converged` (an expression of
-/// the report bound to the given name).
+/// the report bound to the given name); its JSON carries the verdict as `accepted`.
 macro_rules! judged_report {
     ($t:ty, |$r:ident| $converged:expr) => {
         impl $crate::reports::Report for $t {
             fn to_json(&self) -> serde_json::Value {
-                $crate::reports::json_value(self)
+                $crate::reports::with_accepted($crate::reports::json_value(self), self)
             }
             fn converged(&self) -> bool {
                 let $r = self;

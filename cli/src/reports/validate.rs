@@ -248,7 +248,7 @@ impl ValidateReport {
 
 impl super::Report for ValidateReport {
     fn to_json(&self) -> serde_json::Value {
-        super::json_value(self)
+        super::with_accepted(super::json_value(self), self)
     }
     /// A model worse than the nominal robot must not be used, and data that neither robot
     /// describes judge nothing: exit 3.

@@ -81,13 +81,37 @@ pub trait Tell {
     fn stage(&mut self, _what: &str) {}
 }
 
-/// [`Tell`] on stderr: every line printed at once, stages not shown.
+/// [`Tell`] on stderr: every line printed at once, stages not shown; inside [`captured`],
+/// kept for the caller instead.
 pub struct Stderr;
 
 impl Tell for Stderr {
     fn line(&mut self, text: &str) {
-        eprintln!("{text}");
+        let kept = CAPTURED.with(|c| match c.borrow_mut().as_mut() {
+            Some(lines) => {
+                lines.push(text.to_string());
+                true
+            }
+            None => false,
+        });
+        if !kept {
+            eprintln!("{text}");
+        }
     }
+}
+
+std::thread_local! {
+    /// The lines [`Stderr`] keeps on this thread while [`captured`] runs.
+    static CAPTURED: std::cell::RefCell<Option<Vec<String>>> = const { std::cell::RefCell::new(None) };
+}
+
+/// Runs `work` with the lines told to [`Stderr`] on this thread kept, not printed: its result
+/// and those lines, in order (the Python package raises them as warnings).
+pub fn captured<R>(work: impl FnOnce() -> R) -> (R, Vec<String>) {
+    let outer = CAPTURED.with(|c| c.borrow_mut().replace(Vec::new()));
+    let r = work();
+    let lines = CAPTURED.with(|c| std::mem::replace(&mut *c.borrow_mut(), outer));
+    (r, lines.unwrap_or_default())
 }
 
 /// Exit status of a command that ran but whose result must not be trusted as calibrated

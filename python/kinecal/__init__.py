@@ -27,7 +27,7 @@ from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from . import _native
-from ._errors import KinecalError, NotConvergedWarning, RefusedError
+from ._errors import DataWarning, KinecalError, NotConvergedWarning, RefusedError
 
 Robot = _native.Robot
 
@@ -49,6 +49,7 @@ __all__ = [
     "KinecalError",
     "RefusedError",
     "NotConvergedWarning",
+    "DataWarning",
 ]
 
 PathLike = Union[str, "os.PathLike[str]"]

@@ -13,3 +13,9 @@ class RefusedError(KinecalError, ValueError):
 class NotConvergedWarning(UserWarning):
     """``identify`` (or ``diagnose``) did not converge: the numbers are not a calibration
     (the command line's exit status 3). ``result.converged`` is False."""
+
+
+class DataWarning(UserWarning):
+    """Something suspicious in the input that kinecal did not refuse (a unit, a table's
+    knots, a reflector, a pace of time stamps …): the line the command line prints on stderr
+    as ``warning: …`` (or ``note: …``), raised through Python's warnings machinery."""

@@ -150,7 +150,7 @@ pub fn identify(
     let data = arrays(&data);
     let validate = validate.as_ref().map(arrays);
     let n = robot.file.joint_count();
-    let done = py.detach(|| {
+    let done = crate::detached(py, || {
         let r: anyhow::Result<PyResult<(String, String, bool)>> = with_joints!(n, N => Ok(
             identify_n::<N>(robot, (&opts, &units), &data, validate.as_ref()).and_then(|d| {
                 let model = d.model.to_toml().map_err(py_err)?;
@@ -159,7 +159,7 @@ pub fn identify(
             })
         ));
         r
-    });
+    })?;
     done.map_err(py_err)?
 }
 
@@ -191,8 +191,10 @@ pub fn check(
     let units = options::extract::<options::Units>("check", options)?.args()?;
     let data = arrays(&data);
     let n = robot.file.joint_count();
-    let r: anyhow::Result<PyResult<(String, bool)>> =
-        py.detach(|| with_joints!(n, N => Ok(check_n::<N>(robot, &units, &data))));
+    let r: anyhow::Result<PyResult<(String, bool)>> = crate::detached(
+        py,
+        || with_joints!(n, N => Ok(check_n::<N>(robot, &units, &data))),
+    )?;
     r.map_err(py_err)?
 }
 
@@ -257,13 +259,13 @@ pub fn diagnose(
     let validate = validate.as_ref().map(arrays);
     let n = robot.file.joint_count();
     let plots = kw.plots.as_deref();
-    let r: anyhow::Result<PyResult<Diagnosed>> = py.detach(|| {
+    let r: anyhow::Result<PyResult<Diagnosed>> = crate::detached(py, || {
         with_joints!(n, N => Ok(diagnose_n::<N>(
             robot,
             (&opts, &units, plots),
             &data,
             validate.as_ref()
         )))
-    });
+    })?;
     r.map_err(py_err)?
 }

@@ -48,6 +48,24 @@ pub(crate) fn error(class: &str, text: String) -> PyErr {
     )
 }
 
+/// Runs `work` without the GIL, the application's warnings (the lines the command line prints
+/// on stderr: units, tables, reflectors …) kept; then raises each as `kinecal.DataWarning`
+/// through Python's warnings machinery (filters, `warnings.catch_warnings`, `-W error`), at
+/// the caller of the package's function, instead of printing it.
+pub(crate) fn detached<T: Send>(py: Python<'_>, work: impl FnOnce() -> T + Send) -> PyResult<T> {
+    let (r, lines) = py.detach(|| kinecal_cli::captured(work));
+    if !lines.is_empty() {
+        let category = py.import("kinecal._errors")?.getattr("DataWarning")?;
+        for line in lines {
+            let text = line.strip_prefix("warning: ").unwrap_or(&line);
+            let message = std::ffi::CString::new(text.replace('\0', " "))
+                .map_err(|e| PyErr::new::<pyo3::exceptions::PyValueError, _>(e.to_string()))?;
+            PyErr::warn(py, &category, &message, 2)?;
+        }
+    }
+    Ok(r)
+}
+
 /// Refused input (`kinecal.RefusedError`) with the reason `text`.
 pub(crate) fn refused(text: String) -> PyErr {
     error("RefusedError", text)

@@ -39,10 +39,11 @@ fn compensate_n<const N: usize>(
     let file = &model.file;
     let m = model_named::<N>(file, "model").map_err(py_err)?;
     settings.check().map_err(py_err)?;
+    let all = m.clone();
     let (m, warning) = kinecal_cli::compensation::reflector::of_reflector(file, &m, tool, "model")
         .map_err(py_err)?;
     if let Some(w) = warning {
-        eprintln!("warning: {w}");
+        kinecal_cli::Tell::line(&mut Stderr, &format!("warning: {w}"));
     }
     let origin = "targets";
     let kind = FileKind::Targets;
@@ -54,8 +55,9 @@ fn compensate_n<const N: usize>(
         nominal: None,
     };
     let no_nominal: Option<&HostRobot<N>> = None;
-    let done =
+    let mut done =
         compensate_set(file, &m, no_nominal, &ds, (settings, units), &names).map_err(py_err)?;
+    kinecal_cli::compensation::name_reflector(&mut done, file, &all, tool, &ds);
     let c = &done.commands;
     let q = Array2::from_shape_fn((c.len(), N), |(i, j)| c[i].q[j]);
     let status = c.iter().map(|r| r.status.as_str().to_string()).collect();
@@ -93,9 +95,10 @@ pub fn compensate<'py>(
     let units = options::extract::<options::Units>("compensate", options)?.args()?;
     let targets = arrays(&targets);
     let n = model.file.joint_count();
-    let r: anyhow::Result<PyResult<(String, bool, Commands)>> = py.detach(
+    let r: anyhow::Result<PyResult<(String, bool, Commands)>> = crate::detached(
+        py,
         || with_joints!(n, N => Ok(compensate_n::<N>(model, (&settings, &units), &targets, tool.as_deref()))),
-    );
+    )?;
     let (json, converged, (q, status, e_mm, e_deg)) = r.map_err(py_err)??;
     Ok((
         json,
@@ -137,8 +140,10 @@ pub fn frames(
     let units = options::extract::<options::Units>("frames", options)?.args()?;
     let sweeps = arrays(&sweeps);
     let n = robot.file.joint_count();
-    let r: anyhow::Result<PyResult<(String, String)>> =
-        py.detach(|| with_joints!(n, N => Ok(frames_n::<N>(robot, &units, &sweeps))));
+    let r: anyhow::Result<PyResult<(String, String)>> = crate::detached(
+        py,
+        || with_joints!(n, N => Ok(frames_n::<N>(robot, &units, &sweeps))),
+    )?;
     r.map_err(py_err)?
 }
 
@@ -176,8 +181,10 @@ pub fn plan<'py>(
 ) -> PyResult<(String, Bound<'py, PyArray2<f64>>)> {
     let req = options::extract::<options::Plan>("plan", options)?.request()?;
     let n = robot.file.joint_count();
-    let r: anyhow::Result<PyResult<(String, Array2<f64>)>> =
-        py.detach(|| with_joints!(n, N => Ok(plan_n::<N>(robot, &req, scene.as_deref()))));
+    let r: anyhow::Result<PyResult<(String, Array2<f64>)>> = crate::detached(
+        py,
+        || with_joints!(n, N => Ok(plan_n::<N>(robot, &req, scene.as_deref()))),
+    )?;
     let (json, q) = r.map_err(py_err)??;
     Ok((json, q.into_pyarray(py)))
 }
@@ -235,8 +242,10 @@ pub fn simulate<'py>(
 ) -> PyResult<Simulated<'py>> {
     let req = options::extract::<options::Simulate>("simulate", options)?.request();
     let n = robot.file.joint_count();
-    let r: anyhow::Result<PyResult<(String, Owned, String)>> =
-        py.detach(|| with_joints!(n, N => Ok(simulate_n::<N>(robot, &req))));
+    let r: anyhow::Result<PyResult<(String, Owned, String)>> = crate::detached(
+        py,
+        || with_joints!(n, N => Ok(simulate_n::<N>(robot, &req))),
+    )?;
     let (json, (q, xyz, names, extra), truth) = r.map_err(py_err)??;
     Ok((
         json,

@@ -207,3 +207,26 @@ def test_diagnose_validate_and_6d_equal_cli(ur10, cli, tmp_path):
     assert "observations" in res.json and res.json["holdout"]["poses"] == 100
     if "out" in ref:
         assert res.robot == kinecal.Robot.from_file(tmp_path / "ext.toml")
+
+
+def test_the_command_lines_warnings_are_python_warnings(sim, tmp_path):
+    """What the command line prints on stderr comes to Python as ``kinecal.DataWarning``:
+    here a model of three reflectors given targets without ``tool=`` (the targets are taken
+    as the first reflector's, and the warning names the others). Nothing is printed."""
+    import re
+    import warnings
+
+    d, _ = sim
+    text = re.sub(r"\[tool\]\nxyz_mm = [^\n]*\n", "", (d / "truth.toml").read_text())
+    for name, p in {"A": (0.0, 0.0, 100.0), "B": (60.0, 0.0, 80.0)}.items():
+        text += f'\n[[tools]]\nname = "{name}"\nxyz_mm = [{p[0]}, {p[1]}, {p[2]}]\n'
+    (tmp_path / "m.toml").write_text(text)
+    model = kinecal.Robot.from_file(tmp_path / "m.toml")
+    seeds = np.random.default_rng(11).uniform(-60, 60, size=(10, model.joints))
+    targets = model.fk(seeds + 0.2)
+    with pytest.warns(kinecal.DataWarning, match="--tool NAME"):
+        res = kinecal.compensate(model, seeds, targets)
+    assert res.json["reflector"] == "A"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        kinecal.compensate(model, seeds, targets, tool="A")

@@ -144,7 +144,7 @@ fn run_with_joints<const N: usize>(
     let all = robot.clone();
     let (robot, warning) = reflector::of_reflector(file, &robot, job.tool.as_deref(), &what)?;
     if let Some(w) = warning {
-        eprintln!("warning: {w}");
+        crate::Tell::line(&mut crate::Stderr, &format!("warning: {w}"));
     }
     let nominal = match &job.cartesian {
         None => None,
@@ -194,27 +194,40 @@ fn run_with_joints<const N: usize>(
         (&job.settings, &job.units),
         &names,
     )?;
-    let tool_names = file.tool_names();
-    done.report.reflector = job.tool.clone().or_else(|| tool_names.first().cloned());
-    if done.report.failed > 0 {
-        let chosen = job
-            .tool
-            .as_ref()
-            .and_then(|t| tool_names.iter().position(|n| n == t))
-            .unwrap_or(0);
-        let unreached: Vec<bool> = done
-            .commands
-            .iter()
-            .map(|c| c.status != Status::Ok)
-            .collect();
-        let other = frame_hint::other_reflector(&all, &tool_names, chosen, &targets, &unreached);
-        if other.is_some() {
-            done.report.hint = other;
-        }
-    }
+    name_reflector(&mut done, file, &all, job.tool.as_deref(), &targets);
     crate::output::atomic::write_atomic(&job.out, done.csv(&job.units).as_bytes())
         .map_err(|e| anyhow!("{}: cannot write: {e}", job.out.display()))?;
     Ok(done.report)
+}
+
+/// `done`'s report with the reflector its targets are points of (`tool`, or `file`'s first
+/// `[[tools]]` name; none for one `[tool]`) and, when targets (mm, degrees) were not reached
+/// and lie near another reflector of `all` (the model with every reflector) at their seeds,
+/// the hint that names it.
+pub fn name_reflector<const N: usize, V: kinecal::ValueStorage>(
+    done: &mut Compensated<N>,
+    file: &RobotFile,
+    all: &Robot<f64, N, V>,
+    tool: Option<&str>,
+    targets: &Dataset<N>,
+) {
+    let names = file.tool_names();
+    done.report.reflector = tool.map(String::from).or_else(|| names.first().cloned());
+    if done.report.failed == 0 {
+        return;
+    }
+    let chosen = tool
+        .and_then(|t| names.iter().position(|n| n == t))
+        .unwrap_or(0);
+    let unreached: Vec<bool> = done
+        .commands
+        .iter()
+        .map(|c| c.status != Status::Ok)
+        .collect();
+    let other = frame_hint::other_reflector(all, &names, chosen, targets, &unreached);
+    if other.is_some() {
+        done.report.hint = other;
+    }
 }
 
 /// One target row in library units.

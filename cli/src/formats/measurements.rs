@@ -528,11 +528,13 @@ type Put = fn(&mut String, f64) -> std::fmt::Result;
 fn csv_text<const N: usize>(data: &Dataset<N>, q_text: Put, xyz_text: Put) -> String {
     let mut s = String::new();
     let mut head: Vec<String> = (1..=N).map(|i| format!("q{i}")).collect();
-    // Rows of named reflectors only (every x, y, z empty): written without those columns.
-    let xyz = !data
-        .records
-        .iter()
-        .all(|r| r.xyz_mm.iter().all(|v| v.is_nan()));
+    // Rows of named reflectors only (every x, y, z empty): written without those columns; a
+    // set without rows keeps them (a header of kinecal's layout).
+    let xyz = data.records.is_empty()
+        || !data
+            .records
+            .iter()
+            .all(|r| r.xyz_mm.iter().all(|v| v.is_nan()));
     if xyz {
         head.extend(["x", "y", "z"].map(String::from));
     }

@@ -195,34 +195,27 @@ fn candidate_sets<const N: usize>(stated: &[Coupling]) -> Vec<(Vec<Coupling>, Co
     if let Some(&(j, f, _)) = stated.first() {
         sets.push((Vec::new(), (j, f, 0.0)));
     }
+    // The stated couplings but the i-th, with `c` instead (`c` returned as the change).
+    let instead = |i: usize, c: Option<Coupling>| {
+        let mut v: Vec<Coupling> = stated
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| *k != i)
+            .map(|(_, c)| *c)
+            .collect();
+        v.extend(c);
+        v
+    };
     for (i, &(j, f, r)) in stated.iter().enumerate() {
-        let others: Vec<Coupling> = stated
-            .iter()
-            .enumerate()
-            .filter(|(k, _)| *k != i)
-            .map(|(_, c)| *c)
-            .collect();
-        let with = |c: Coupling| {
-            let mut v = others.clone();
-            v.push(c);
-            (v, c)
-        };
-        sets.push((others.clone(), (j, f, 0.0)));
-        sets.extend([-r, 2.0 * r, 0.5 * r].map(|ratio| with((j, f, ratio))));
-        sets.extend((1..N).filter(|&k| k != j).map(|k| with((k, k - 1, r))));
+        sets.push((instead(i, None), (j, f, 0.0)));
+        let changes = [-r, 2.0 * r, 0.5 * r]
+            .map(|ratio| (j, f, ratio))
+            .into_iter()
+            .chain((1..N).filter(|&k| k != j).map(|k| (k, k - 1, r)));
+        sets.extend(changes.map(|c| (instead(i, Some(c)), c)));
     }
-    for (i, _) in stated.iter().enumerate() {
-        let others: Vec<Coupling> = stated
-            .iter()
-            .enumerate()
-            .filter(|(k, _)| *k != i)
-            .map(|(_, c)| *c)
-            .collect();
-        for c in &singles {
-            let mut replaced = others.clone();
-            replaced.push(*c);
-            sets.push((replaced, *c));
-        }
+    for i in 0..stated.len() {
+        sets.extend(singles.iter().map(|c| (instead(i, Some(*c)), *c)));
     }
     for c in &singles {
         let mut added = stated.to_vec();

@@ -177,30 +177,14 @@ fn simulate_writes_every_named_reflector() {
         v["after"]["identification_rms_mm"].as_f64().unwrap() < 1e-3,
         "{v}"
     );
-    // Sweeps follow one point: refused with the reason.
-    let out = kinecal(&[
-        "simulate",
-        "--robot",
-        s(&robot),
-        "--out",
-        s(&data),
-        "--sweeps",
-        "1,2",
-    ]);
-    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
-    assert!(stderr(&out).contains("one [tool]"), "{}", stderr(&out));
-    // So do constraint sessions (they touch with one point).
-    let out = kinecal(&[
-        "simulate",
-        "--robot",
-        s(&robot),
-        "--out",
-        s(&data),
-        "--constraints",
-        "socket:4x10",
-    ]);
-    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
-    assert!(stderr(&out).contains("one [tool]"), "{}", stderr(&out));
+    // Sweeps and constraint sessions follow one point: refused with the reason.
+    for session in [["--sweeps", "1,2"], ["--constraints", "socket:4x10"]] {
+        let mut args = vec!["simulate", "--robot", s(&robot), "--out", s(&data)];
+        args.extend(session);
+        let out = kinecal(&args);
+        assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+        assert!(stderr(&out).contains("one [tool]"), "{}", stderr(&out));
+    }
 }
 
 /// Targets in the robot base frame given to a model with a `[base]` (the tracker's frame)

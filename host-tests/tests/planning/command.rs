@@ -401,38 +401,25 @@ fn plan_command_accepts_negative_work_values_and_writes_csv_and_json() {
     assert_eq!(rows, 25);
     assert!(!String::from_utf8_lossy(&output.stderr).contains("radians"));
     // A configuration in radians was taken as degrees without a word: now warned, with the
-    // degrees meant.
-    let rad = Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
-        .args(["plan", "--robot"])
-        .arg(cell.join("robot.toml"))
-        .arg("--scene")
-        .arg(cell.join("scene.toml"))
-        .args([
-            "--poses",
-            "10",
-            "--criterion",
-            "kpi",
-            "--work=0,-1.57,1.57,0,1.57,0",
-        ])
-        .args(["--pool", "200", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&rad.stderr);
+    // degrees meant; a pose near zero in whole degrees is a working configuration.
+    let plan_at = |work: &str| {
+        let run = Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
+            .args(["plan", "--robot"])
+            .arg(cell.join("robot.toml"))
+            .args(["--poses", "10", "--criterion", "kpi", "--pool", "200"])
+            .arg(format!("--work={work}"))
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        String::from_utf8_lossy(&run.stderr).to_string()
+    };
+    let err = plan_at("0,-1.57,1.57,0,1.57,0");
     assert!(
         err.contains("if these are radians") && err.contains("--work=0,-90,90,0,90,0"),
         "{err}"
     );
-    // A pose near zero in whole degrees is a working configuration, not radians.
-    let near_zero = Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
-        .args(["plan", "--robot"])
-        .arg(cell.join("robot.toml"))
-        .args(["--poses", "10", "--criterion", "kpi", "--work=0,5,2,0,-4,0"])
-        .args(["--pool", "200", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(!String::from_utf8_lossy(&near_zero.stderr).contains("radians"));
+    assert!(!plan_at("0,5,2,0,-4,0").contains("radians"));
     // A malformed work configuration is a one-line error.
     let bad = Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
         .args(["plan", "--robot"])

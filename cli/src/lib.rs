@@ -108,10 +108,19 @@ std::thread_local! {
 /// Runs `work` with the lines told to [`Stderr`] on this thread kept, not printed: its result
 /// and those lines, in order (the Python package raises them as warnings).
 pub fn captured<R>(work: impl FnOnce() -> R) -> (R, Vec<String>) {
-    let outer = CAPTURED.with(|c| c.borrow_mut().replace(Vec::new()));
+    /// Puts the outer capture (or none) back when dropped, also when `work` panics.
+    struct Restore(Option<Vec<String>>);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            let outer = self.0.take();
+            CAPTURED.with(|c| *c.borrow_mut() = outer);
+        }
+    }
+    let restore = Restore(CAPTURED.with(|c| c.borrow_mut().replace(Vec::new())));
     let r = work();
-    let lines = CAPTURED.with(|c| std::mem::replace(&mut *c.borrow_mut(), outer));
-    (r, lines.unwrap_or_default())
+    let lines = CAPTURED.with(|c| c.borrow_mut().take()).unwrap_or_default();
+    drop(restore);
+    (r, lines)
 }
 
 /// Exit status of a command that ran but whose result must not be trusted as calibrated

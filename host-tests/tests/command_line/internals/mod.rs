@@ -4,6 +4,7 @@
 mod acceptance;
 mod banded;
 mod batch_avx2;
+mod captured;
 mod convention;
 mod demo_report;
 mod dense;

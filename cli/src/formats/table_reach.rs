@@ -28,6 +28,7 @@ pub fn lines<const N: usize, V: kinecal::ValueStorage>(
         return Vec::new();
     }
     let of = model_origin.map_or(String::new(), |m| format!(" in {m}"));
+    let ranges = ds.joint_ranges_deg();
     model
         .effects()
         .iter()
@@ -50,11 +51,7 @@ pub fn lines<const N: usize, V: kinecal::ValueStorage>(
             if !few(inside) {
                 return None;
             }
-            let (min, max) = readings
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), q| {
-                    (a.min(*q), b.max(*q))
-                });
+            let (min, max) = ranges[j];
             let (count, joint) = (readings.len(), j + 1);
             let head = format!(
                 "{origin}: joint {joint}'s table{of} covers {lo:.1}° to {hi:.1}°, but {inside} of \

@@ -201,7 +201,7 @@ fn bad_parts_and_bad_poses_get_typed_errors() {
 /// follow in order (decided once for the pass) and knot by knot otherwise: either way its
 /// normal matrix is `JᵀJ` of the columns [`ForwardKinematics::column`] gives. Orders: the
 /// usual one; the knots reversed (the first knot last); a geometric parameter between two
-/// knots; the first knot alone at the front.
+/// knots; the first knot alone at the front; some knots held (gaps in the run of knots).
 #[test]
 fn a_pass_in_parts_reads_table_knots_in_any_order() {
     use kinecal::model::effects::EffectKind;
@@ -227,6 +227,10 @@ fn a_pass_in_parts_reads_table_knots_in_any_order() {
         [base.clone(), knots(0..12).into_iter().rev().collect()].concat(),
         split(5),
         [knots(0..1), base.clone(), knots(1..12)].concat(),
+        // Knots held (not estimated): the first, two in the middle, the last.
+        [base.clone(), knots(1..12)].concat(),
+        [base.clone(), knots(0..4), knots(6..12)].concat(),
+        [base.clone(), knots(0..11)].concat(),
     ];
     let reach = robot.reach();
     for params in orders {

@@ -430,6 +430,31 @@ fn columns_with_tables<R: Rows, T: Real, const N: usize, V: ValueStorage, S: LmS
                 k += len;
                 continue;
             }
+            if let Some((e, run)) = table_knots_at(robot, params, k, v) {
+                // Some of the table's knots are held (not among `params`): the run holds the
+                // others in increasing order, and only the two around the reading are non-zero.
+                let j = e.joint as usize;
+                out.cx[k..k + run].fill(T::zero());
+                out.cy[k..k + run].fill(T::zero());
+                out.cz[k..k + run].fill(T::zero());
+                let (seg, w) = e.segment(fk.q[j]);
+                let lower = e.first as usize + seg;
+                let jc = R::reading(fk, robot, j);
+                for i in k..k + run {
+                    let Param::Effect(u) = params[i] else { break };
+                    let phi = match (u as usize).checked_sub(lower) {
+                        Some(0) => T::one() - w,
+                        Some(1) => w,
+                        Some(_) => break,
+                        None => continue,
+                    };
+                    if phi != T::zero() {
+                        enter(out, i, scaled(jc * phi, scale[i], reach));
+                    }
+                }
+                k += run;
+                continue;
+            }
         }
         // Parameters were checked against the robot at construction: a column always exists.
         let c = match params[k] {
@@ -466,6 +491,38 @@ fn table_run_at<'r, T: Real, const N: usize, V: ValueStorage>(
             .enumerate()
             .all(|(i, p)| *p == Param::Effect(v.wrapping_add(i as u16)));
     (consecutive && (e.joint as usize) < N && len >= 2).then_some(e)
+}
+
+/// The table holding effect value `v` = `params[k]` and how many positions from `k` on hold
+/// its knots in increasing order (knots held out of `params` leave gaps in the values): what
+/// [`table_run_at`] finds when the table's first knot is not at `k` or some knots are missing.
+#[inline]
+fn table_knots_at<'r, T: Real, const N: usize, V: ValueStorage>(
+    robot: &'r Robot<T, N, V>,
+    params: &[Param],
+    k: usize,
+    v: u16,
+) -> Option<(&'r Effect<T>, usize)> {
+    let end = |e: &Effect<T>| u32::from(e.first) + u32::from(e.len);
+    let e = robot
+        .effects()
+        .iter()
+        .find(|e| e.kind == EffectKind::Table && e.first <= v && u32::from(v) < end(e))?;
+    if e.joint as usize >= N || e.len < 2 {
+        return None;
+    }
+    let mut last = v;
+    let mut run = 1;
+    for p in params.get(k + 1..)? {
+        match *p {
+            Param::Effect(u) if u > last && u32::from(u) < end(e) => {
+                last = u;
+                run += 1;
+            }
+            _ => break,
+        }
+    }
+    Some((e, run))
 }
 
 /// Whether every table of `robot` whose first knot is among `params` has all its knots follow

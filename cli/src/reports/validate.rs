@@ -47,6 +47,11 @@ pub struct ValidateReport {
     /// file at all (exit 3).
     #[serde(default)]
     pub data_mismatch: bool,
+    /// The model's `joint-table` and `joint-cyclic` values look written in degrees: read so,
+    /// the model's position RMS (mm), at most half the nominal robot's and half the model's as
+    /// written.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub effects_as_degrees_rms_mm: Option<f64>,
     /// The verdict in one line.
     pub verdict: String,
 }
@@ -220,6 +225,7 @@ impl ValidateReport {
             per_point,
             worse_than_nominal: v.worse_than_nominal,
             data_mismatch: m > MISMATCH_RMS_MM && n > MISMATCH_RMS_MM,
+            effects_as_degrees_rms_mm: v.effects_as_degrees_rms_mm,
             verdict: if m > MISMATCH_RMS_MM && n > MISMATCH_RMS_MM {
                 format!(
                     "the data do not fit the robot file ({figures}; above {MISMATCH_RMS_MM} mm \
@@ -236,6 +242,14 @@ impl ValidateReport {
                      tool (radians, another order or frame), or the probe was mounted again \
                      since: recalibrate, or judge positions alone with --positions-only",
                     sig(v.model.orientation_median_deg.unwrap_or(f64::NAN), 3)
+                )
+            } else if let Some(r) = v.effects_as_degrees_rms_mm.filter(|_| v.worse_than_nominal) {
+                format!(
+                    "the model's joint-table and joint-cyclic values look written in degrees: \
+                     read as degrees they predict the session to {} mm ({figures}); the file \
+                     holds them in radians (docs/formats.md#effects): multiply them by π/180 and \
+                     validate again",
+                    sig(r, 4)
                 )
             } else if v.worse_than_nominal {
                 format!("{RECALIBRATE} ({figures})")

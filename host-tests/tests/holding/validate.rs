@@ -681,3 +681,65 @@ fn the_report_shows_the_validation_of_another_session() {
     assert_eq!(r.status.code(), Some(2));
     assert!(stderr(&r).contains("bad.json: not the JSON of `kinecal validate --json`"));
 }
+
+/// A model whose `joint-table` values were written in degrees (the file holds radians) makes
+/// the model far worse than the nominal robot: `validate` still exits 3, but says the values
+/// look written in degrees (read so, the model predicts the session at the noise) instead of
+/// "recalibrate". The same model in radians holds; a model whose table is simply wrong (its
+/// sign flipped) gets no such word.
+#[test]
+fn a_model_with_effect_values_in_degrees_is_told_so() {
+    use kinecal_cli::formats::robot_file::EffectSpec;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = write(d, "robot.toml", ER20_PLACED);
+    // A gearbox's transmission error on joint 2: ±0.05° over 12 knots.
+    let knots: Vec<f64> = (0..12)
+        .map(|k| 0.05_f64.to_radians() * (k as f64 * 1.3).sin())
+        .collect();
+    let with_table = |values: Vec<f64>| {
+        move |f: &mut RobotFile| {
+            f.effects.push(EffectSpec {
+                kind: "joint-table".into(),
+                joint: 2,
+                values,
+                order: None,
+                step_deg: Some(30.0),
+                start_deg: Some(-165.0),
+                reference_c: None,
+            })
+        }
+    };
+    let truth = edited(&robot, d, "truth.toml", with_table(knots.clone()));
+    let s2 = write(d, "s2.csv", &session(&truth, 150, 31, (0.02, 0.0), false));
+    let in_degrees = knots.iter().map(|v| v.to_degrees()).collect();
+    let model_deg = edited(&robot, d, "model_deg.toml", with_table(in_degrees));
+    let flipped = knots.iter().map(|v| -3.0 * v).collect();
+    let model_wrong = edited(&robot, d, "model_wrong.toml", with_table(flipped));
+
+    let out = validate(&robot, &model_deg, &s2, &[]);
+    assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+    let j = json_any(&out);
+    let (m, n, r) = (
+        num(&j, &["model", "rms_mm"]),
+        num(&j, &["nominal", "rms_mm"]),
+        num(&j, &["effects_as_degrees_rms_mm"]),
+    );
+    eprintln!("table in degrees: model {m:.3} mm, nominal {n:.3} mm, read as degrees {r:.4} mm");
+    assert!(m > 10.0 * n, "model {m} mm against nominal {n} mm");
+    assert!(r < 0.06, "read as degrees the model is the truth: {r} mm");
+    let err = stderr(&out);
+    assert!(err.contains("look written in degrees"), "{err}");
+    assert!(!err.contains(REASON), "{err}");
+    assert_eq!(j["accepted"], false);
+
+    let ok = validate(&robot, &truth, &s2, &[]);
+    assert_eq!(ok.status.code(), Some(0), "{}", stderr(&ok));
+    assert!(json_of(&ok).get("effects_as_degrees_rms_mm").is_none());
+
+    let wrong = validate(&robot, &model_wrong, &s2, &[]);
+    assert_eq!(wrong.status.code(), Some(3), "{}", stderr(&wrong));
+    assert!(json_any(&wrong).get("effects_as_degrees_rms_mm").is_none());
+    let err = stderr(&wrong);
+    assert!(err.contains(REASON) && !err.contains("degrees"), "{err}");
+}

@@ -42,8 +42,26 @@ pub fn load_observed<const N: usize>(
     (file, nominal): (&crate::formats::robot_file::RobotFile, &HostRobot<N>),
     obs: &crate::formats::observations::ObservationArgs,
 ) -> anyhow::Result<crate::formats::observations::Observed<N>> {
+    load_observed_for(path, input, (file, nominal), obs, None)
+}
+
+/// [`load_observed`], also telling which joint tables of a calibrated `model` (its file named)
+/// miss the file's readings ([`crate::formats::table_reach`]), as `validate` does.
+fn load_observed_for<const N: usize>(
+    path: &std::path::Path,
+    input: &InputArgs,
+    (file, nominal): (&crate::formats::robot_file::RobotFile, &HostRobot<N>),
+    obs: &crate::formats::observations::ObservationArgs,
+    model: Option<(&HostRobot<N>, &std::path::Path)>,
+) -> anyhow::Result<crate::formats::observations::Observed<N>> {
     let ds =
         crate::formats::loading::load_measurements(path, &input.units, nominal, file.base_known())?;
+    if let Some((m, origin)) = model {
+        let (data, model) = (path.display().to_string(), origin.display().to_string());
+        for line in crate::formats::table_reach::lines(&ds, m, &data, Some(&model)) {
+            crate::Tell::line(&mut crate::Stderr, &line);
+        }
+    }
     warn_outside_limits(
         crate::calibration::check::OutsideLimits::of(file, &ds),
         ds.len(),
@@ -55,16 +73,17 @@ pub fn load_observed<const N: usize>(
 
 /// Loads the data (and `validate`) in the units of `input` and splits them: the validation
 /// file's poses are held out, or those `holdout` chooses; refuses (exit 2) empty files and a
-/// split that leaves nothing to identify from.
+/// split that leaves nothing to identify from. The joint tables of the calibrated `model` (its
+/// file named) are checked against each file's readings.
 pub fn load_split<const N: usize>(
     input: &InputArgs,
-    file: &crate::formats::robot_file::RobotFile,
-    nominal: &HostRobot<N>,
+    (file, nominal): (&crate::formats::robot_file::RobotFile, &HostRobot<N>),
+    model: (&HostRobot<N>, &std::path::Path),
     obs: &crate::formats::observations::ObservationArgs,
     validate: Option<&std::path::Path>,
     holdout: (&HoldoutArgs, u64),
 ) -> anyhow::Result<crate::calibration::inputs::Split<N>> {
-    let load = |p: &std::path::Path| load_observed(p, input, (file, nominal), obs);
+    let load = |p: &std::path::Path| load_observed_for(p, input, (file, nominal), obs, Some(model));
     let observed = load(&input.data)?;
     any_rows(&observed.poses, &input.data)?;
     let validate = match validate {

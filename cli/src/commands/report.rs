@@ -80,7 +80,14 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
     let (model_file, model) = load_robot::<N>(&args.model)?;
     replay::same_robot(&nominal, &model, (&input.robot, &args.model))?;
     let (validate, holdout) = (args.validate.as_deref(), (&args.holdout, args.seed));
-    let split = super::inputs::load_split(input, &file, &nominal, &args.obs, validate, holdout)?;
+    let split = super::inputs::load_split(
+        input,
+        (&file, &nominal),
+        (&model, &args.model),
+        &args.obs,
+        validate,
+        holdout,
+    )?;
     let t = |p: &std::path::Path| p.display().to_string();
     let diagnose = match &args.diagnose {
         Some(p) => Some((findings::load(p)?, t(p))),

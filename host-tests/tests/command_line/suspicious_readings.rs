@@ -200,5 +200,25 @@ fn a_joint_table_whose_knots_miss_the_readings_is_warned_about() {
             "base",
         ]);
         assert_eq!(warned(&out), expect, "{}", stderr(&out));
+        // The report page judges the model on the data too: the same line, naming the model.
+        let page = dir.path().join("page.html");
+        let out = kinecal(&[
+            "report",
+            "--robot",
+            s(&ur10_dir().join("robot.toml")),
+            "--model",
+            s(model),
+            "--data",
+            s(&data),
+            "--out",
+            s(&page),
+        ]);
+        let err = stderr(&out);
+        assert_eq!(warned(&out), expect, "{err}");
+        assert_eq!(
+            err.contains(&format!("table in {}", s(model))),
+            expect,
+            "{err}"
+        );
     }
 }

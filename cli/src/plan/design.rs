@@ -68,14 +68,17 @@ impl CriterionArg {
 /// The warning for a working configuration `q` (radians, as [`parse_configuration`] gives it)
 /// given as `text` on the command line when it looks given in radians: every joint within
 /// ±2π degrees (with 0.01 to spare for a rounded 6.2832), at least two of them half a degree
-/// or more from zero, and a value with decimals (`0,-1.57,1.57,0,1.57,0`). A pose near zero
-/// in whole degrees (`0,5,2,0,-4,0`) is a working configuration, not a unit slip.
+/// or more from zero, and a value with decimals (`0,-1.57,1.57,0,1.57,0`) or all of them
+/// whole numbers within ±3 (`0,-1,1,0,1,0`: whole radians). A pose near zero in whole degrees
+/// beyond that (`0,5,2,0,-4,0`) is a working configuration, not a unit slip.
 pub fn radians_warning(q: &[f64], text: &str) -> Option<String> {
     let given: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
     let most = given.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let moved = given.iter().filter(|v| v.abs() >= 0.5).count();
     let decimals = given.iter().any(|v| (v - v.round()).abs() > 1e-9);
-    (most <= std::f64::consts::TAU + 0.01 && moved >= 2 && decimals).then(|| {
+    let whole_radians = !decimals && most <= 3.0;
+    let small = most <= std::f64::consts::TAU + 0.01;
+    (small && moved >= 2 && (decimals || whole_radians)).then(|| {
         // The degrees meant, if the text's numbers are radians ("-0" written as 0).
         let meant: Vec<String> = given
             .iter()

@@ -401,7 +401,7 @@ fn plan_command_accepts_negative_work_values_and_writes_csv_and_json() {
     assert_eq!(rows, 25);
     assert!(!String::from_utf8_lossy(&output.stderr).contains("radians"));
     // A configuration in radians was taken as degrees without a word: now warned, with the
-    // degrees meant; a pose near zero in whole degrees is a working configuration.
+    // degrees meant; a pose near zero in whole degrees beyond ±3 is a working configuration.
     let plan_at = |work: &str| {
         let run = Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
             .args(["plan", "--robot"])
@@ -420,6 +420,9 @@ fn plan_command_accepts_negative_work_values_and_writes_csv_and_json() {
         "{err}"
     );
     assert!(!plan_at("0,5,2,0,-4,0").contains("radians"));
+    // Whole radians too: within ±3, every value whole.
+    let err = plan_at("0,-1,1,0,1,0");
+    assert!(err.contains("--work=0,-57,57,0,57,0"), "{err}");
     // A malformed work configuration is a one-line error.
     let bad = Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
         .args(["plan", "--robot"])

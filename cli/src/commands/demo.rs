@@ -74,6 +74,7 @@ pub fn run(args: &Args) -> anyhow::Result<DemoReport> {
                 ),
             )],
             units: "millimetres and degrees".into(),
+            told: Vec::new(),
         },
         nominal: &d.nominal,
         base_fitted: false,

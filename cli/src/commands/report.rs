@@ -80,14 +80,21 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
     let (model_file, model) = load_robot::<N>(&args.model)?;
     replay::same_robot(&nominal, &model, (&input.robot, &args.model))?;
     let (validate, holdout) = (args.validate.as_deref(), (&args.holdout, args.seed));
-    let split = super::inputs::load_split(
-        input,
-        (&file, &nominal),
-        (&model, &args.model),
-        &args.obs,
-        validate,
-        holdout,
-    )?;
+    // What reading the files tells goes to stderr and onto the page.
+    let (split, told) = crate::captured(|| {
+        super::inputs::load_split(
+            input,
+            (&file, &nominal),
+            (&model, &args.model),
+            &args.obs,
+            validate,
+            holdout,
+        )
+    });
+    for line in &told {
+        crate::Tell::line(&mut crate::Stderr, line);
+    }
+    let split = split?;
     let t = |p: &std::path::Path| p.display().to_string();
     let diagnose = match &args.diagnose {
         Some(p) => Some((findings::load(p)?, t(p))),
@@ -125,6 +132,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
         sources: Sources {
             files,
             units: input.units.described(),
+            told,
         },
         diagnose,
         validation,

@@ -51,6 +51,9 @@ pub struct Sources {
     pub files: Vec<(String, String)>,
     /// The units the data were read in, in words.
     pub units: String,
+    /// What reading the files told (stderr's warnings and notes: joint tables whose knots miss
+    /// the readings, readings beyond the joint limits, suspicious units …), shown on the page.
+    pub told: Vec<String>,
 }
 
 impl Sources {
@@ -543,7 +546,7 @@ pub fn build<const N: usize>(inp: Inputs<'_, N>) -> anyhow::Result<Built> {
 
     let converged =
         after.identification_rms_mm.is_finite() && after.identification_rms_mm <= inp.stall_rms_mm;
-    let mut warnings = Vec::new();
+    let mut warnings = inp.sources.told.clone();
     if !converged {
         warnings.push(format!(
             "The identified model misses the identification poses by {} mm RMS (above {} mm): \

@@ -220,5 +220,13 @@ fn a_joint_table_whose_knots_miss_the_readings_is_warned_about() {
             expect,
             "{err}"
         );
+        // … and on the page, among its warnings.
+        let html = std::fs::read_to_string(&page).unwrap();
+        let doc = scraper::Html::parse_document(&html);
+        let warn = scraper::Selector::parse("p.warn").unwrap();
+        let on_page = doc
+            .select(&warn)
+            .any(|p| p.text().collect::<String>().contains("check its start_deg"));
+        assert_eq!(on_page, expect, "{html}");
     }
 }

@@ -11,6 +11,7 @@
 //! and writes that robot file.
 
 mod axes_agree;
+mod stray_rows;
 
 use crate::formats::measurements::Dataset;
 use crate::formats::origin::Origin;
@@ -229,6 +230,9 @@ pub fn find<const N: usize>(
     origin: &Origin,
 ) -> anyhow::Result<Found> {
     let sweeps = group(origin, data)?;
+    if let Some(why) = stray_rows::strays(robot, data, &origin.to_string()) {
+        crate::refuse!("{why}");
+    }
 
     let mut warnings = Vec::new();
     let mut notes: Vec<String> = Vec::new();

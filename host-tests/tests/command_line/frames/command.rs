@@ -221,3 +221,62 @@ fn frames_refuses_a_base_the_other_sweeps_contradict() {
         "{e}"
     );
 }
+
+/// A few rows whose `sweep` cell names the wrong joint (rows of joint 2's sweep tagged 1) are
+/// refused naming their lines and the sweep they fit, instead of "joint 2 moved during the
+/// sweep … sweep again"; the file with the cells right is found as before.
+#[test]
+fn frames_names_rows_tagged_with_the_wrong_sweep() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot_path = write_robot(dir.path(), &ER20, ER20_TOOL);
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(97);
+    let base = random_base(&mut rng);
+    let truth: Robot<f64, 6, kinecal::Inline<0>> = robot(&ER20, ER20_TOOL, base);
+    let data = sweep_data(
+        &truth,
+        &[20.0, 10.0, -10.0, 30.0, 20.0, 0.0],
+        &[1, 2, 5, 6],
+        24,
+        300.0,
+        0.015,
+        10,
+    )
+    .unwrap();
+    let k = data.extra_names.iter().position(|n| n == "sweep").unwrap();
+    // Rows 3, 8 and 13 of sweep `from` tagged `to`; the lines they sit on (header = line 1).
+    let retag = |from: f64, to: f64| {
+        let mut d = data.clone();
+        let mut lines = Vec::new();
+        let rows = d
+            .records
+            .iter_mut()
+            .enumerate()
+            .filter(|(_, r)| r.extra[k] == from);
+        for (n, (i, r)) in rows.enumerate() {
+            if [3, 8, 13].contains(&n) {
+                r.extra[k] = to;
+                lines.push(i + 2);
+            }
+        }
+        let csv = dir.path().join("retagged.csv");
+        measurements::write(&csv, &d).unwrap();
+        (find_frames(&robot_path, &csv, None), lines)
+    };
+    for (from, to) in [(2.0, 1.0), (5.0, 6.0), (1.0, 2.0)] {
+        let (r, lines) = retag(from, to);
+        let e = format!("{:#}", r.unwrap_err());
+        let named: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+        assert!(
+            e.contains(&format!(
+                "sweep of joint {to}: 3 of its 27 rows (lines {})",
+                named.join(", ")
+            )) && e.contains(&format!("set their `sweep` to {from}")),
+            "{from} tagged {to}: {e}"
+        );
+    }
+    let csv = dir.path().join("right.csv");
+    measurements::write(&csv, &data).unwrap();
+    let v = find_frames(&robot_path, &csv, None).unwrap();
+    let found = Frame::from_xyz_rpy(v.base.xyz_mm, v.base.rpy_deg.map(f64::to_radians));
+    assert!(frame_error(&found, &base).0 < 0.1);
+}

@@ -6,6 +6,7 @@ pub mod arm_size;
 pub mod check;
 pub mod coupling_hint;
 pub mod drift;
+pub mod effects_in_degrees;
 pub mod folds;
 pub mod inputs;
 pub mod method;

@@ -129,11 +129,10 @@ pub struct Validation {
     /// With 6-D data, the model states a tool orientation and its median row is further off
     /// than [`crate::calibration::orientation_slip::limit_deg`].
     pub orientation_off: bool,
-    /// The model is worse than the nominal robot, but with its `joint-table` and
-    /// `joint-cyclic` values read as degrees it predicts the session to at most
-    /// [`DEGREES_GAIN`] of the nominal robot's RMS and of its own as written: that position RMS
-    /// (mm).
-    pub effects_as_degrees_rms_mm: Option<f64>,
+    /// The model is worse than the nominal robot, but with some `joint-table` or
+    /// `joint-cyclic` effects' values read as degrees it predicts the session many times
+    /// better ([`super::effects_in_degrees`]).
+    pub effects_in_degrees: Option<super::effects_in_degrees::InDegrees>,
 }
 
 /// Registers the model and the nominal robot onto the session the same way (the parameters of
@@ -199,16 +198,18 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
     let worse_than_nominal =
         model.figures.total.rms > nominal.figures.total.rms || worse_orientation;
     // A model worse than the nominal robot whose angle-valued effects, read as degrees, predict
-    // the session at least twice as well as the nominal robot and as the model as written: the
-    // values were written in degrees where the file holds radians.
-    let effects_as_degrees_rms_mm = match as_degrees(inp.model) {
-        Some(m) if worse_than_nominal && !worse_orientation => {
-            judge(&m).ok().map(|j| j.figures.total.rms).filter(|r| {
-                *r <= DEGREES_GAIN * nominal.figures.total.rms
-                    && *r <= DEGREES_GAIN * model.figures.total.rms
-            })
-        }
-        _ => None,
+    // the session many times better (and, with a stated tool orientation, hold it): values
+    // written in degrees where the file holds radians.
+    let limit_deg = crate::calibration::orientation_slip::limit_deg(&stated);
+    let effects_in_degrees = if worse_than_nominal {
+        super::effects_in_degrees::best(inp.model, model.figures.total.rms, |m| {
+            let j = judge(m).ok()?;
+            let off = inp.model_orientation_stated
+                && j.orientation_median_deg.is_some_and(|d| d > limit_deg);
+            (!off).then_some(j.figures.total.rms)
+        })
+    } else {
+        None
     };
     Ok(Validation {
         register: opts.register,
@@ -223,47 +224,8 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
         nominal,
         worse_than_nominal,
         orientation_off: worse_orientation,
-        effects_as_degrees_rms_mm,
+        effects_in_degrees,
     })
-}
-
-/// A model whose effect values read as degrees must predict at most this share of its RMS as
-/// written, and of the nominal robot's, to be told so.
-pub const DEGREES_GAIN: f64 = 0.5;
-
-/// The largest effect value must reach this (degrees, as the file's radians read) to be
-/// suspected of degrees: gear transmission errors and eccentricities are arc minutes
-/// (`diagnose::plausibility`), while 0.0017 meant as degrees reads as 0.1°.
-pub const DEGREES_SUSPECT_DEG: f64 = 0.1;
-
-/// `model` with the values of its `joint-table` and `joint-cyclic` effects (radians in the
-/// file) multiplied by π/180, as if they had been written in degrees; `None` when it has none
-/// or none reaches [`DEGREES_SUSPECT_DEG`].
-fn as_degrees<const N: usize>(model: &HostRobot<N>) -> Option<HostRobot<N>> {
-    use kinecal::model::effects::EffectKind;
-    let params: Vec<Param> = model
-        .effects()
-        .iter()
-        .filter(|e| matches!(e.kind, EffectKind::Table | EffectKind::Cyclic))
-        .flat_map(|e| e.range())
-        .filter_map(|k| u16::try_from(k).ok().map(Param::Effect))
-        .collect();
-    let delta: Vec<f64> = params
-        .iter()
-        .map(|p| {
-            kinecal::model::param::value(model, *p).unwrap_or(0.0) * (1.0_f64.to_radians() - 1.0)
-        })
-        .collect();
-    let largest = params
-        .iter()
-        .filter_map(|p| kinecal::model::param::value(model, *p))
-        .fold(0.0_f64, |m, v| m.max(v.abs()));
-    if largest.to_degrees() < DEGREES_SUSPECT_DEG {
-        return None;
-    }
-    let mut m = model.clone();
-    kinecal::model::param::apply_delta(&mut m, &params, &delta).ok()?;
-    Some(m)
 }
 
 /// `robot` with the registration parameters fitted to `data` (unchanged for no parameters),

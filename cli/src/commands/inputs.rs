@@ -58,7 +58,10 @@ fn load_observed_for<const N: usize>(
         crate::formats::loading::load_measurements(path, &input.units, nominal, file.base_known())?;
     if let Some((m, origin)) = model {
         let (data, model) = (path.display().to_string(), origin.display().to_string());
-        for line in crate::formats::table_reach::lines(&ds, m, &data, Some(&model)) {
+        // A table the robot file has too, with the same knots, was told about with it.
+        let reach = crate::formats::table_reach::in_robot_file(nominal);
+        let named = (data.as_str(), Some(model.as_str()));
+        for line in crate::formats::table_reach::lines_except(&ds, m, named, reach) {
             crate::Tell::line(&mut crate::Stderr, &line);
         }
     }

@@ -55,7 +55,9 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ValidateReport
     )?;
     let origin = input.data.display().to_string();
     let model_text = args.model.display().to_string();
-    for line in crate::formats::table_reach::lines(&ds, &model, &origin, Some(&model_text)) {
+    let named = (origin.as_str(), Some(model_text.as_str()));
+    let told = crate::formats::table_reach::in_robot_file(&nominal);
+    for line in crate::formats::table_reach::lines_except(&ds, &model, named, told) {
         eprintln!("{line}");
     }
     super::inputs::warn_outside_limits(

@@ -8,7 +8,7 @@
 //! the knots are not corrected by the table either: said as a note, with no cause claimed.
 
 use crate::formats::measurements::Dataset;
-use kinecal::model::effects::EffectKind;
+use kinecal::model::effects::{Effect, EffectKind};
 use kinecal::Robot;
 
 /// Below this share of a joint's readings within its table's knots a file is told about.
@@ -24,6 +24,29 @@ pub fn lines<const N: usize, V: kinecal::ValueStorage>(
     origin: &str,
     model_origin: Option<&str>,
 ) -> Vec<String> {
+    lines_except(ds, model, (origin, model_origin), |_| false)
+}
+
+/// Whether `nominal` (the robot file, whose tables the loader told about) has a table with the
+/// same knots as `e`: the filter of [`lines_except`] for a calibrated model read beside it.
+pub fn in_robot_file<const N: usize, V: kinecal::ValueStorage>(
+    nominal: &Robot<f64, N, V>,
+) -> impl Fn(&Effect<f64>) -> bool + '_ {
+    move |e| {
+        nominal.effects().iter().any(|n| {
+            (n.kind, n.joint, n.start, n.step, n.len) == (e.kind, e.joint, e.start, e.step, e.len)
+        })
+    }
+}
+
+/// [`lines`] for the tables of `model` that `told` does not pass over (those with the same
+/// knots as a table already told about, in the robot file read beside a calibrated model).
+pub fn lines_except<const N: usize, V: kinecal::ValueStorage>(
+    ds: &Dataset<N>,
+    model: &Robot<f64, N, V>,
+    (origin, model_origin): (&str, Option<&str>),
+    told: impl Fn(&Effect<f64>) -> bool,
+) -> Vec<String> {
     if ds.records.is_empty() {
         return Vec::new();
     }
@@ -33,6 +56,7 @@ pub fn lines<const N: usize, V: kinecal::ValueStorage>(
         .effects()
         .iter()
         .filter(|e| e.kind == EffectKind::Table && e.len >= 2 && usize::from(e.joint) < N)
+        .filter(|e| !told(e))
         .filter_map(|e| {
             let j = usize::from(e.joint);
             let (lo, hi) = (

@@ -76,7 +76,7 @@ pub fn radians_warning(q: &[f64], text: &str) -> Option<String> {
     let most = given.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let moved = given.iter().filter(|v| v.abs() >= 0.5).count();
     let decimals = given.iter().any(|v| (v - v.round()).abs() > 1e-9);
-    let whole_radians = !decimals && most <= 3.0;
+    let whole_radians = !decimals && most <= 3.0 + 1e-9;
     let small = most <= std::f64::consts::TAU + 0.01;
     (small && moved >= 2 && (decimals || whole_radians)).then(|| {
         // The degrees meant, if the text's numbers are radians ("-0" written as 0).

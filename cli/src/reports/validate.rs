@@ -47,9 +47,11 @@ pub struct ValidateReport {
     /// file at all (exit 3).
     #[serde(default)]
     pub data_mismatch: bool,
-    /// The model's `joint-table` and `joint-cyclic` values look written in degrees: read so,
-    /// the model's position RMS (mm), at most half the nominal robot's and half the model's as
-    /// written.
+    /// Effects of the model whose values look written in degrees (`joint 2's joint-table`):
+    /// read so, the model predicts the session many times better than as written.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub effects_in_degrees: Vec<String>,
+    /// The model's position RMS (mm) with those values read as degrees.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub effects_as_degrees_rms_mm: Option<f64>,
     /// The verdict in one line.
@@ -225,7 +227,11 @@ impl ValidateReport {
             per_point,
             worse_than_nominal: v.worse_than_nominal,
             data_mismatch: m > MISMATCH_RMS_MM && n > MISMATCH_RMS_MM,
-            effects_as_degrees_rms_mm: v.effects_as_degrees_rms_mm,
+            effects_in_degrees: v
+                .effects_in_degrees
+                .as_ref()
+                .map_or(Vec::new(), |d| d.effects.clone()),
+            effects_as_degrees_rms_mm: v.effects_in_degrees.as_ref().map(|d| d.rms_mm),
             verdict: if m > MISMATCH_RMS_MM && n > MISMATCH_RMS_MM {
                 format!(
                     "the data do not fit the robot file ({figures}; above {MISMATCH_RMS_MM} mm \
@@ -233,6 +239,19 @@ impl ValidateReport {
                      or mirrored), the joint columns' order and signs and the couplings \
                      (`kinecal check`); if they are right, the robot changed beyond what a \
                      calibration corrects"
+                )
+            } else if let Some(d) = &v.effects_in_degrees {
+                let still = if d.rms_mm > n {
+                    ", still worse than the nominal robot: recalibrate after converting them"
+                } else {
+                    ""
+                };
+                format!(
+                    "the values of {} look written in degrees: read as degrees the model predicts \
+                     the session to {} mm{still} ({figures}); the file holds them in radians \
+                     (docs/formats.md#effects): multiply them by π/180 and validate again",
+                    d.effects.join(", "),
+                    sig(d.rms_mm, 4)
                 )
             } else if v.orientation_off {
                 format!(
@@ -242,14 +261,6 @@ impl ValidateReport {
                      tool (radians, another order or frame), or the probe was mounted again \
                      since: recalibrate, or judge positions alone with --positions-only",
                     sig(v.model.orientation_median_deg.unwrap_or(f64::NAN), 3)
-                )
-            } else if let Some(r) = v.effects_as_degrees_rms_mm.filter(|_| v.worse_than_nominal) {
-                format!(
-                    "the model's joint-table and joint-cyclic values look written in degrees: \
-                     read as degrees they predict the session to {} mm ({figures}); the file \
-                     holds them in radians (docs/formats.md#effects): multiply them by π/180 and \
-                     validate again",
-                    sig(r, 4)
                 )
             } else if v.worse_than_nominal {
                 format!("{RECALIBRATE} ({figures})")

@@ -229,4 +229,21 @@ fn a_joint_table_whose_knots_miss_the_readings_is_warned_about() {
             .any(|p| p.text().collect::<String>().contains("check its start_deg"));
         assert_eq!(on_page, expect, "{html}");
     }
+    // The robot file and the model with the same slipped table: told once, with the robot file.
+    for command in ["validate", "report"] {
+        let page = dir.path().join("page.html");
+        let mut args = vec![command, "--robot", s(&shifted), "--model", s(&shifted)];
+        args.extend(["--data", s(&data), "--register", "base", "--out", s(&page)]);
+        if command == "validate" {
+            args.truncate(args.len() - 2);
+        } else {
+            args.retain(|a| *a != "--register" && *a != "base");
+        }
+        let err = stderr(&kinecal(&args));
+        assert_eq!(
+            err.matches("joint 2's table").count(),
+            1,
+            "{command}: {err}"
+        );
+    }
 }

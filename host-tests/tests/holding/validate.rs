@@ -682,64 +682,119 @@ fn the_report_shows_the_validation_of_another_session() {
     assert!(stderr(&r).contains("bad.json: not the JSON of `kinecal validate --json`"));
 }
 
-/// A model whose `joint-table` values were written in degrees (the file holds radians) makes
-/// the model far worse than the nominal robot: `validate` still exits 3, but says the values
-/// look written in degrees (read so, the model predicts the session at the noise) instead of
-/// "recalibrate". The same model in radians holds; a model whose table is simply wrong (its
-/// sign flipped) gets no such word.
+/// A model whose `joint-table` or `joint-cyclic` values were written in degrees (the file
+/// holds radians) is far worse than the nominal robot: `validate` still exits 3, but names the
+/// effects that look written in degrees (read so, the model predicts the session at the noise)
+/// instead of "recalibrate": one table among right effects, a cyclic term alone, and on 6-D
+/// data with a stated tool orientation (which the slip throws off too). The right model holds;
+/// a table wrong another way (its sign flipped, four times too large) gets the plain verdict.
 #[test]
 fn a_model_with_effect_values_in_degrees_is_told_so() {
     use kinecal_cli::formats::robot_file::EffectSpec;
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let robot = write(d, "robot.toml", ER20_PLACED);
-    // A gearbox's transmission error on joint 2: ±0.05° over 12 knots.
+    // A gearbox's transmission error on joint 2 (±0.05° over 12 knots) and a cyclic error of
+    // joint 3 (0.03°, twice per turn).
     let knots: Vec<f64> = (0..12)
         .map(|k| 0.05_f64.to_radians() * (k as f64 * 1.3).sin())
         .collect();
-    let with_table = |values: Vec<f64>| {
+    let cyclic = vec![0.03_f64.to_radians(), -0.01_f64.to_radians()];
+    let effects = |table: &[f64], ab: &[f64], rpy: Option<[f64; 3]>| {
+        let (table, ab) = (table.to_vec(), ab.to_vec());
         move |f: &mut RobotFile| {
             f.effects.push(EffectSpec {
                 kind: "joint-table".into(),
                 joint: 2,
-                values,
+                values: table,
                 order: None,
                 step_deg: Some(30.0),
                 start_deg: Some(-165.0),
                 reference_c: None,
-            })
+            });
+            f.effects.push(EffectSpec {
+                kind: "joint-cyclic".into(),
+                joint: 3,
+                values: ab,
+                order: Some(2),
+                step_deg: None,
+                start_deg: None,
+                reference_c: None,
+            });
+            f.tool.rpy_deg = rpy;
         }
     };
-    let truth = edited(&robot, d, "truth.toml", with_table(knots.clone()));
+    let deg = |v: &[f64]| v.iter().map(|x| x.to_degrees()).collect::<Vec<_>>();
+    let scaled = |v: &[f64], by: f64| v.iter().map(|x| x * by).collect::<Vec<_>>();
+    let truth = edited(&robot, d, "truth.toml", effects(&knots, &cyclic, None));
     let s2 = write(d, "s2.csv", &session(&truth, 150, 31, (0.02, 0.0), false));
-    let in_degrees = knots.iter().map(|v| v.to_degrees()).collect();
-    let model_deg = edited(&robot, d, "model_deg.toml", with_table(in_degrees));
-    let flipped = knots.iter().map(|v| -3.0 * v).collect();
-    let model_wrong = edited(&robot, d, "model_wrong.toml", with_table(flipped));
-
-    let out = validate(&robot, &model_deg, &s2, &[]);
-    assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
-    let j = json_any(&out);
-    let (m, n, r) = (
-        num(&j, &["model", "rms_mm"]),
-        num(&j, &["nominal", "rms_mm"]),
-        num(&j, &["effects_as_degrees_rms_mm"]),
+    let told = |model: &Path, data: &Path, extra: &[&str]| {
+        let out = validate(&robot, model, data, extra);
+        assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+        let j = json_any(&out);
+        assert_eq!(j["accepted"], false);
+        let err = stderr(&out);
+        let names = j.get("effects_in_degrees").map_or(Vec::new(), names);
+        if !names.is_empty() {
+            let (m, r) = (
+                num(&j, &["model", "rms_mm"]),
+                num(&j, &["effects_as_degrees_rms_mm"]),
+            );
+            eprintln!("{}: model {m:.3} mm, read as degrees {r:.4} mm", s(model));
+            assert!(r < 0.06, "read as degrees the model is the truth: {r} mm");
+            assert!(
+                err.contains("look written in degrees") && !err.contains(REASON),
+                "{err}"
+            );
+        }
+        (names, err)
+    };
+    let table_deg = edited(
+        &robot,
+        d,
+        "table_deg.toml",
+        effects(&deg(&knots), &cyclic, None),
     );
-    eprintln!("table in degrees: model {m:.3} mm, nominal {n:.3} mm, read as degrees {r:.4} mm");
-    assert!(m > 10.0 * n, "model {m} mm against nominal {n} mm");
-    assert!(r < 0.06, "read as degrees the model is the truth: {r} mm");
-    let err = stderr(&out);
-    assert!(err.contains("look written in degrees"), "{err}");
-    assert!(!err.contains(REASON), "{err}");
-    assert_eq!(j["accepted"], false);
+    let (names, _) = told(&table_deg, &s2, &[]);
+    assert_eq!(names, ["joint 2's joint-table"]);
+    let cyclic_deg = edited(
+        &robot,
+        d,
+        "cyclic_deg.toml",
+        effects(&knots, &deg(&cyclic), None),
+    );
+    let (names, _) = told(&cyclic_deg, &s2, &[]);
+    assert_eq!(names, ["joint 3's joint-cyclic of order 2"]);
+    let both = edited(
+        &robot,
+        d,
+        "both_deg.toml",
+        effects(&deg(&knots), &deg(&cyclic), None),
+    );
+    let (names, _) = told(&both, &s2, &[]);
+    assert_eq!(
+        names,
+        ["joint 2's joint-table", "joint 3's joint-cyclic of order 2"]
+    );
+    // 6-D rows and a model that states the tool orientation: the slip turns the tool too.
+    let s6 = write(d, "s6.csv", &session(&truth, 150, 32, (0.02, 0.002), true));
+    let rpy = Some([0.0; 3]);
+    let six = edited(
+        &robot,
+        d,
+        "six_deg.toml",
+        effects(&deg(&knots), &cyclic, rpy),
+    );
+    let (names, _) = told(&six, &s6, &[]);
+    assert_eq!(names, ["joint 2's joint-table"]);
 
     let ok = validate(&robot, &truth, &s2, &[]);
     assert_eq!(ok.status.code(), Some(0), "{}", stderr(&ok));
     assert!(json_of(&ok).get("effects_as_degrees_rms_mm").is_none());
-
-    let wrong = validate(&robot, &model_wrong, &s2, &[]);
-    assert_eq!(wrong.status.code(), Some(3), "{}", stderr(&wrong));
-    assert!(json_any(&wrong).get("effects_as_degrees_rms_mm").is_none());
-    let err = stderr(&wrong);
-    assert!(err.contains(REASON) && !err.contains("degrees"), "{err}");
+    for (name, by) in [("flipped.toml", -3.0), ("four.toml", 4.0)] {
+        let wrong = edited(&robot, d, name, effects(&scaled(&knots, by), &cyclic, None));
+        let (names, err) = told(&wrong, &s2, &[]);
+        assert!(names.is_empty(), "{name}: {names:?}");
+        assert!(err.contains(REASON) && !err.contains("degrees"), "{err}");
+    }
 }

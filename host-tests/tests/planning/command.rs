@@ -423,6 +423,8 @@ fn plan_command_accepts_negative_work_values_and_writes_csv_and_json() {
     // Whole radians too: within ±3, every value whole.
     let err = plan_at("0,-1,1,0,1,0");
     assert!(err.contains("--work=0,-57,57,0,57,0"), "{err}");
+    let err = plan_at("3,-1,1,0,1,0");
+    assert!(err.contains("--work=172,-57,57,0,57,0"), "{err}");
     // A malformed work configuration is a one-line error.
     let bad = Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
         .args(["plan", "--robot"])

@@ -3,8 +3,8 @@
 //! A robot file holds `joint-table` knots and `joint-cyclic` amplitudes in radians
 //! (docs/formats.md#effects). Written in degrees they are 57.3 times too large: a gear's
 //! arc-minute error becomes degrees, the model misses a session by tens of millimetres, and
-//! `validate` would only say "recalibrate". Each such effect alone, and all of them together,
-//! is read as degrees (its values × π/180) and the model judged again: a slip makes the model
+//! `validate` would only say "recalibrate". Each such effect alone (one whose largest value
+//! reads [`SUSPECT_DEG`] or more), and all of them together, is read as degrees (its values × π/180) and the model judged again: a slip makes the model
 //! many times better (the UR10's tables written in degrees: 29.6 → 0.705 mm), where an effect
 //! that is wrong another way (its sign flipped, four times too large) gains a few times at
 //! most, as removing it would.
@@ -38,18 +38,22 @@ pub fn best<const N: usize>(
     model_rms_mm: f64,
     judge: impl Fn(&HostRobot<N>) -> Option<f64>,
 ) -> Option<InDegrees> {
-    let suspects: Vec<&Effect<f64>> = model
+    let angles: Vec<&Effect<f64>> = model
         .effects()
         .iter()
         .filter(|e| matches!(e.kind, EffectKind::Table | EffectKind::Cyclic))
-        .filter(|e| {
-            let values = model.effects().values().get(e.range()).unwrap_or(&[]);
-            values.iter().any(|v| v.abs().to_degrees() >= SUSPECT_DEG)
-        })
         .collect();
-    let mut sets: Vec<Vec<&Effect<f64>>> = suspects.iter().map(|e| vec![*e]).collect();
-    if suspects.len() > 1 {
-        sets.push(suspects.clone());
+    let suspect = |e: &&&Effect<f64>| {
+        let values = model.effects().values().get(e.range()).unwrap_or(&[]);
+        values.iter().any(|v| v.abs().to_degrees() >= SUSPECT_DEG)
+    };
+    let mut sets: Vec<Vec<&Effect<f64>>> =
+        angles.iter().filter(suspect).map(|e| vec![*e]).collect();
+    // A slip of the whole file: every angle-valued effect, the smaller ones too (read as
+    // degrees they are a few hundredths of a degree: their values meant as degrees shrink them,
+    // right ones would be lost and the set predict worse than a single suspect).
+    if !sets.is_empty() && angles.len() > 1 {
+        sets.push(angles.clone());
     }
     sets.into_iter()
         .filter_map(|set| {

@@ -158,6 +158,15 @@ fn run_with_joints<const N: usize>(
                     N
                 );
             }
+            if f.joints == file.joints && f.effects == file.effects && f.couplings == file.couplings
+            {
+                crate::refuse!(
+                    "{}: the same joints and effects as the model {}: the Cartesian corrections \
+                     would all be zero; give --robot the nominal robot file the controller uses",
+                    path.display(),
+                    job.model.display()
+                );
+            }
             let r = f
                 .to_robot::<N>()
                 .map_err(|e| anyhow!("{}: {e}", path.display()))?;

@@ -3,7 +3,9 @@
 //! compensation on the nominal robot placed at the model's base, run to convergence), each sent
 //! target brings the calibrated robot (geometry, effects, coupling) to the original target.
 
-use crate::common::{json_of, kinecal, kinecal_ok, s, write, ER20_PLACED, ER20_TILTED_PLACED};
+use crate::common::{
+    json_of, kinecal, kinecal_ok, s, stderr, write, ER20_PLACED, ER20_TILTED_PLACED,
+};
 use kinecal::compensate::{compensate, Config, Target};
 use kinecal::{ForwardKinematics, Frame};
 use kinecal_cli::formats::robot_file::RobotFile;
@@ -182,5 +184,16 @@ fn robot_without_cartesian_and_cartesian_without_robot_are_refused() {
     assert_eq!(r.status.code(), Some(2), "{r:?}");
     let r = kinecal(&[&base[..], &["--cartesian"]].concat());
     assert_ne!(r.status.code(), Some(0), "{r:?}");
+    assert!(!out.exists());
+    // The model itself as the controller's robot (a copy of it): every correction would be
+    // zero and the targets came back unchanged with exit 0. Refused, saying what to give.
+    let copy = write(dir.path(), "copy.toml", ER20_TILTED_PLACED);
+    let r = kinecal(&[&base[..], &["--cartesian", "--robot", s(&copy)]].concat());
+    assert_eq!(r.status.code(), Some(2), "{r:?}");
+    assert!(
+        stderr(&r).contains("would all be zero; give --robot the nominal robot file"),
+        "{}",
+        stderr(&r)
+    );
     assert!(!out.exists());
 }

@@ -166,7 +166,7 @@ fn a_misstated_unit_on_a_constraint_file_is_refused_with_the_fix() {
 
 /// Labelling and unit slips in a constraint session used to give a nonsense model with exit 0
 /// (two sockets under one name: 89 mm RMS, a4 74 mm; lengths in centimetres: links a tenth as
-/// long). `identify` and `diagnose` now apply the tracker path's guards (the arm's size, a
+/// long; the lengths are now refused as they are read). `identify` and `diagnose` now apply the tracker path's guards (the arm's size, a
 /// joint turned or a link moved, the constraints left far from met), exit 3 naming the slip
 /// and what to check, and write no model; the session as simulated calibrates.
 #[test]
@@ -181,19 +181,68 @@ fn a_mislabelled_group_or_lengths_in_another_unit_are_no_calibration() {
     // Every length_mm in centimetres.
     let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
     let k = header.iter().position(|c| *c == "length_mm").unwrap();
-    let cm: String = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| {
-            let mut cells: Vec<String> = l.split(',').map(String::from).collect();
-            if i > 0 && !cells[k].is_empty() {
-                cells[k] = (cells[k].parse::<f64>().unwrap() / 10.0).to_string();
-            }
-            cells.join(",") + "\n"
-        })
-        .collect();
+    let scaled_lengths = |text: &str, by: f64| -> String {
+        text.lines()
+            .enumerate()
+            .map(|(i, l)| {
+                let mut cells: Vec<String> = l.split(',').map(String::from).collect();
+                if i > 0 && !cells[k].is_empty() {
+                    cells[k] = (cells[k].parse::<f64>().unwrap() * by).to_string();
+                }
+                cells.join(",") + "\n"
+            })
+            .collect()
+    };
+    let cm = scaled_lengths(&text, 0.1);
     let cm = write(dir.path(), "cm.csv", &cm);
-    for bad in [&merged, &cm] {
+    // Lengths in centimetres are refused as they are read (exit 2), naming the unit.
+    for command in ["check", "identify", "diagnose"] {
+        let out = kinecal(&[command, "--robot", s(&robot), "--data", s(&cm)]);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{command}: {err}");
+        assert!(
+            err.contains("1/10 of the nominal robot's distances")
+                && err.contains("they look like centimetres"),
+            "{command}: {err}"
+        );
+    }
+    // Inches, and inches read as metres.
+    let inches = write(dir.path(), "in.csv", &scaled_lengths(&text, 1.0 / 25.4));
+    let err = stderr(&kinecal(&[
+        "check",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(&inches),
+    ]));
+    assert!(
+        err.contains("they look like inches; convert length_mm"),
+        "{err}"
+    );
+    let out = kinecal(&[
+        "check",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(&inches),
+        "--length-unit",
+        "m",
+    ]);
+    assert!(
+        stderr(&out).contains("inches read as metres"),
+        "{}",
+        stderr(&out)
+    );
+    // Lengths 50 % too long: no unit explains them.
+    let long = write(dir.path(), "long.csv", &scaled_lengths(&text, 1.5));
+    let out = kinecal(&["check", "--robot", s(&robot), "--data", s(&long)]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("no length unit explains it"),
+        "{}",
+        stderr(&out)
+    );
+    for bad in [&merged] {
         for command in ["identify", "diagnose"] {
             let out_model = dir.path().join("m.toml");
             let _ = std::fs::remove_file(&out_model);

@@ -546,3 +546,28 @@ fn out_writes_limits_as_given_and_reads_back_exactly() {
         }
     }
 }
+
+/// Joint limits written in radians (every joint within ±6.3°: no arm stops there) are refused
+/// saying so, before `plan` confines a session to ±6.3° of zero; one joint with narrow limits
+/// among others is a robot file like any other.
+#[test]
+fn joint_limits_in_radians_are_refused() {
+    let ur10 = std::fs::read_to_string(crate::common::ur10_dir().join("robot.toml")).unwrap();
+    assert!(ur10.contains("limits_deg = [-360.0, 360.0]"));
+    let radians = ur10.replace(
+        "limits_deg = [-360.0, 360.0]",
+        "limits_deg = [-6.283185, 6.283185]",
+    );
+    let e = format!("{:#}", parse(&radians).unwrap_err());
+    assert!(
+        e.contains("these read as radians") && e.contains("multiply them by 180/π"),
+        "{e}"
+    );
+    let narrow = ur10.replacen(
+        "limits_deg = [-360.0, 360.0]",
+        "limits_deg = [-5.0, 5.0]",
+        1,
+    );
+    parse(&narrow).unwrap();
+    parse(&ur10).unwrap();
+}

@@ -68,6 +68,28 @@ impl RobotFile {
         })
     }
 
+    /// The reason to refuse joint limits written in radians: every joint states `limits_deg`,
+    /// all within ±2π (+0.01 for a rounded 6.2832) and some half a degree or more from zero.
+    /// No arm's joints all stop within ±6.3°; ±6.283 is ±360° in radians.
+    fn limits_in_radians(&self) -> Option<String> {
+        let limits: Vec<[f64; 2]> = self
+            .joints
+            .iter()
+            .map(|j| j.limits_deg)
+            .collect::<Option<_>>()?;
+        let most = limits.iter().flatten().fold(0.0_f64, |m, v| m.max(v.abs()));
+        (most >= 0.5 && most <= std::f64::consts::TAU + 0.01).then(|| {
+            let [lo, hi] = limits[0];
+            format!(
+                "every joint's limits_deg lies within ±{most:.3}° (joint 1: [{}, {}]): robot \
+                 files are in degrees and these read as radians; multiply them by 180/π \
+                 (±6.283 is ±360°)",
+                crate::number_text(lo),
+                crate::number_text(hi)
+            )
+        })
+    }
+
     /// Checks every value: finite numbers, `lower < upper`, 2 to 8 joints, effects on existing
     /// joints with the right number of values.
     pub fn validate(&self) -> Result<(), Issue> {
@@ -120,6 +142,9 @@ impl RobotFile {
             }
         }
         if let Some(m) = self.lengths_in_metres() {
+            return issue(Place::Joints, m);
+        }
+        if let Some(m) = self.limits_in_radians() {
             return issue(Place::Joints, m);
         }
         if !self.tool.rpy_deg.is_none_or(|r| finite(&r)) {

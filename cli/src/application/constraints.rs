@@ -118,6 +118,14 @@ pub fn identify<const N: usize>(
     let t0 = Instant::now();
     let fitted = crate::constraints::fit::fit(&nominal, &ident, &params)?;
     let seconds = t0.elapsed().as_secs_f64();
+    if let Some(w) = fitted
+        .robot
+        .effects()
+        .thermal()
+        .and_then(|(_, c, _)| crate::calibration::thermal::outside_materials(c))
+    {
+        crate::Tell::line(&mut crate::Stderr, &w);
+    }
     let before_shapes = crate::constraints::fit::shapes_of(&nominal, &ident);
     let before = residuals(&nominal, &ident, &before_shapes, &valid);
     let after = residuals(&fitted.robot, &ident, &fitted.shapes, &valid);

@@ -113,6 +113,27 @@ pub fn undetermined(c: f64, sigma: Option<f64>) -> Option<String> {
     ))
 }
 
+/// The warning for a coefficient `c` (per kelvin) fitted to a constraint session (which gives
+/// it no σ yet, so [`implausible`] cannot refuse it) outside
+/// [`MOST_SHRINK_PER_K`]..[`MOST_EXPANSION_PER_K`]: the temperatures reversed fitted −23.7
+/// ppm per kelvin to a simulated warm-up of 23.
+pub fn outside_materials(c: f64) -> Option<String> {
+    let sig = crate::output::numfmt::sig;
+    if (MOST_SHRINK_PER_K..=MOST_EXPANSION_PER_K).contains(&c) || !c.is_finite() {
+        return None;
+    }
+    Some(format!(
+        "warning: the thermal expansion fitted, {} ppm per kelvin, lies outside the {} to {} \
+         ppm of an arm's material (a constraint session gives it no σ, so this is not refused): \
+         the temp_c column does not follow the arm's temperature (rows not in their \
+         temperatures' order, another sensor, °F), or varies too little: check it, or drop \
+         --effect thermal-expansion",
+        sig(c * 1e6, 3),
+        sig(MOST_SHRINK_PER_K * 1e6, 2),
+        sig(MOST_EXPANSION_PER_K * 1e6, 3)
+    ))
+}
+
 /// Fewer rows than this carrying a temperature change cannot tell an expansion from those
 /// rows' own errors.
 pub const MIN_WARMER_ROWS: usize = 5;

@@ -103,13 +103,22 @@ impl fmt::Display for ConstraintDiagnoseReport {
                 sig(r.p, 2),
                 sig(r.threshold, 2)
             )?;
+            if let Some(why) = &r.implausible {
+                writeln!(f, "    refused: {why}")?;
+            }
         }
         writeln!(
             f,
             "noise floor of the stated σ: {} mm",
             sig(self.noise_floor_mm, 4)
         )?;
-        if self.found.is_empty() {
+        if self.rounds.iter().any(|r| r.implausible.is_some()) {
+            writeln!(
+                f,
+                "an effect would fit, but its size is no arm's (refused above): check the column \
+                 it reads before calibrating with it"
+            )?;
+        } else if self.found.is_empty() {
             writeln!(f, "nothing significant is missing from the geometry")?;
         }
         if let Some(h) = &self.held_out {

@@ -54,6 +54,10 @@ pub struct Round {
     pub p: f64,
     pub threshold: f64,
     pub accepted: bool,
+    /// Why a candidate that passed the test was not taken: its fitted size is no arm's (a
+    /// thermal expansion outside the materials' range).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub implausible: Option<String>,
 }
 
 /// The search's outcome.
@@ -144,6 +148,30 @@ fn requests<const N: usize>(
         .collect()
 }
 
+/// Why `effects` fitted to every one of `groups` are no arm's: a thermal expansion outside
+/// [`crate::calibration::thermal::MOST_SHRINK_PER_K`] ..
+/// [`crate::calibration::thermal::MOST_EXPANSION_PER_K`] (a constraint session gives it no σ;
+/// the tracker search refuses the same, `diagnose::plausibility`).
+fn implausible<const N: usize>(
+    file: &RobotFile,
+    nominal: &HostRobot<N>,
+    effects: &[EffectRequest],
+    groups: &[Group<N>],
+) -> Option<String> {
+    use crate::calibration::thermal::{MOST_EXPANSION_PER_K, MOST_SHRINK_PER_K};
+    let fitted = fit_with(file, nominal, effects, groups).ok()?;
+    let (_, c, _) = fitted.robot.effects().thermal()?;
+    (!(MOST_SHRINK_PER_K..=MOST_EXPANSION_PER_K).contains(&c)).then(|| {
+        format!(
+            "the thermal expansion would be {} ppm per kelvin, outside the {} to {} ppm of an \
+             arm's material: the temp_c column does not follow the arm's temperature",
+            crate::output::numfmt::sig(c * 1e6, 3),
+            crate::output::numfmt::sig(MOST_SHRINK_PER_K * 1e6, 2),
+            crate::output::numfmt::sig(MOST_EXPANSION_PER_K * 1e6, 3)
+        )
+    })
+}
+
 /// An `--effect` request as the command line writes it (1-based joint; thermal expansion on
 /// joint 0 with its reference temperature).
 pub fn request_text(r: &EffectRequest) -> String {
@@ -219,7 +247,15 @@ pub fn search<const N: usize>(
         let test = paired_improvement(&sq(&current), &sq(&e));
         let threshold = opts.alpha / open.len() as f64;
         let (before, after) = (rms(&current), rms(&e));
-        let accepted = test.p < threshold && after <= (1.0 - PRACTICAL) * before;
+        let passed = test.p < threshold && after <= (1.0 - PRACTICAL) * before;
+        let implausible = if passed {
+            let mut with = found.clone();
+            with.push(open[k].0.clone());
+            implausible(file, nominal, &with, groups)
+        } else {
+            None
+        };
+        let accepted = passed && implausible.is_none();
         rounds.push(Round {
             effect: request_text(&open[k].0),
             label: open[k].1.clone(),
@@ -229,6 +265,7 @@ pub fn search<const N: usize>(
             p: test.p,
             threshold,
             accepted,
+            implausible,
         });
         if !accepted {
             break;

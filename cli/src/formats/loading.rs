@@ -138,6 +138,12 @@ fn warm<const N: usize>(ds: &Dataset<N>, origin: &str) -> Option<String> {
         .filter_map(|r| r.extra.get(k).map(|t| (r.line, *t)))
         .filter(|(_, t)| t.is_finite())
         .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    warm_line(origin, line, t)
+}
+
+/// The warning for the warmest `temp_c` of a file, `t` on line `line`, when it exceeds
+/// [`WARM_C`] (measurement files here; constraint files in `constraints::read`).
+pub fn warm_line(origin: &str, line: u32, t: f64) -> Option<String> {
     (t > WARM_C).then(|| {
         format!(
             "warning: {origin}: temp_c reaches {t} °C (line {line}): kinecal reads °C; if the \

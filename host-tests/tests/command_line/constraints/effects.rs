@@ -239,3 +239,59 @@ fn constraint_temperatures_missing_on_a_row_or_implausible_are_refused() {
         assert!(stderr(&out).contains(want), "{}", stderr(&out));
     }
 }
+
+/// A constraint session gives the expansion no σ, so an impossible coefficient cannot be
+/// refused as on tracker points; it is warned about (the temperatures reversed fit a
+/// shrinking arm), and `diagnose` refuses the finding instead of calling the geometry complete.
+/// A `temp_c` in °F is warned about as in tracker files. The session as measured gets neither.
+#[test]
+fn impossible_expansions_and_fahrenheit_in_a_constraint_session_are_told() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = warming_distances(dir.path(), 120, 2.0e-5, true);
+    let text = std::fs::read_to_string(&data).unwrap();
+    let rows: Vec<&str> = text.lines().collect();
+    let temps: Vec<&str> = rows[1..]
+        .iter()
+        .map(|l| l.rsplit(',').next().unwrap())
+        .collect();
+    // The same rows with the temperatures in reverse order, and in °F.
+    let (mut reversed, mut fahrenheit) = (rows[0].to_string() + "\n", rows[0].to_string() + "\n");
+    for (i, l) in rows[1..].iter().enumerate() {
+        let head = &l[..l.rfind(',').unwrap()];
+        reversed += &format!("{head},{}\n", temps[temps.len() - 1 - i]);
+        let f = temps[i].parse::<f64>().unwrap() * 9.0 / 5.0 + 32.0;
+        fahrenheit += &format!("{head},{f}\n");
+    }
+    let reversed = write(dir.path(), "reversed.csv", &reversed);
+    let fahrenheit = write(dir.path(), "fahrenheit.csv", &fahrenheit);
+    let robot = data_file("er20.toml");
+    let run = |command: &str, data: &Path| {
+        let mut args = vec![command, "--robot", s(&robot), "--data", s(data)];
+        if command == "identify" {
+            args.extend(["--effect", "thermal-expansion"]);
+        }
+        let out = kinecal(&args);
+        assert!(out.status.success(), "{command}: {}", stderr(&out));
+        (
+            String::from_utf8_lossy(&out.stdout).to_string(),
+            stderr(&out),
+        )
+    };
+    let (_, err) = run("identify", &reversed);
+    assert!(err.contains("lies outside the -5.0 to 100 ppm"), "{err}");
+    let (out, _) = run("diagnose", &reversed);
+    assert!(
+        out.contains("refused: the thermal expansion would be -"),
+        "{out}"
+    );
+    assert!(!out.contains("nothing significant is missing"), "{out}");
+    let (_, err) = run("identify", &fahrenheit);
+    assert!(
+        err.contains("temp_c reaches") && err.contains("Fahrenheit"),
+        "{err}"
+    );
+    let (_, err) = run("identify", &data);
+    assert!(!err.contains("warning"), "{err}");
+    let (out, _) = run("diagnose", &data);
+    assert!(out.contains("found thermal-expansion"), "{out}");
+}

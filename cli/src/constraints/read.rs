@@ -291,9 +291,9 @@ pub fn parse<const N: usize>(
         .flat_map(|g| &g.rows)
         .filter_map(|r| r.temp_c.map(|t| (r.line, t)))
         .max_by(|a, b| a.1.total_cmp(&b.1));
-    if let Some(w) = warmest.and_then(|(line, t)| {
-        crate::formats::loading::warm_line(&origin.to_string(), line as u32, t)
-    }) {
+    if let Some(w) =
+        warmest.and_then(|(line, t)| crate::formats::loading::warm_line(origin, line as u32, t))
+    {
         crate::Tell::line(&mut crate::Stderr, &w);
     }
     if groups.is_empty() {

@@ -78,16 +78,18 @@ impl RobotFile {
             .map(|j| j.limits_deg)
             .collect::<Option<_>>()?;
         let most = limits.iter().flatten().fold(0.0_f64, |m, v| m.max(v.abs()));
-        (most >= 0.5 && most <= std::f64::consts::TAU + 0.01).then(|| {
-            let [lo, hi] = limits[0];
-            format!(
-                "every joint's limits_deg lies within ±{most:.3}° (joint 1: [{}, {}]): robot \
+        (0.5..=std::f64::consts::TAU + 0.01)
+            .contains(&most)
+            .then(|| {
+                let [lo, hi] = limits[0];
+                format!(
+                    "every joint's limits_deg lies within ±{most:.3}° (joint 1: [{}, {}]): robot \
                  files are in degrees and these read as radians; multiply them by 180/π \
                  (±6.283 is ±360°)",
-                crate::number_text(lo),
-                crate::number_text(hi)
-            )
-        })
+                    crate::number_text(lo),
+                    crate::number_text(hi)
+                )
+            })
     }
 
     /// Checks every value: finite numbers, `lower < upper`, 2 to 8 joints, effects on existing

@@ -187,32 +187,26 @@ fn a_joint_table_whose_knots_miss_the_readings_is_warned_about() {
         "{}",
         stderr(&out)
     );
-    for (model, expect) in [(&right, false), (&shifted, true)] {
-        let out = kinecal(&[
-            "validate",
+    let nominal = ur10_dir().join("robot.toml");
+    let page = dir.path().join("page.html");
+    // `command --robot <the UR10's> --model MODEL --data DATA EXTRA…`.
+    let judged = |command: &str, model: &std::path::Path, extra: [&str; 2]| {
+        let args = [
+            command,
             "--robot",
-            s(&ur10_dir().join("robot.toml")),
+            s(&nominal),
             "--model",
             s(model),
             "--data",
             s(&data),
-            "--register",
-            "base",
-        ]);
+        ];
+        kinecal(&[&args[..], &extra[..]].concat())
+    };
+    for (model, expect) in [(&right, false), (&shifted, true)] {
+        let out = judged("validate", model, ["--register", "base"]);
         assert_eq!(warned(&out), expect, "{}", stderr(&out));
         // The report page judges the model on the data too: the same line, naming the model.
-        let page = dir.path().join("page.html");
-        let out = kinecal(&[
-            "report",
-            "--robot",
-            s(&ur10_dir().join("robot.toml")),
-            "--model",
-            s(model),
-            "--data",
-            s(&data),
-            "--out",
-            s(&page),
-        ]);
+        let out = judged("report", model, ["--out", s(&page)]);
         let err = stderr(&out);
         assert_eq!(warned(&out), expect, "{err}");
         assert_eq!(
@@ -231,7 +225,6 @@ fn a_joint_table_whose_knots_miss_the_readings_is_warned_about() {
     }
     // The robot file and the model with the same slipped table: told once, with the robot file.
     for command in ["validate", "report"] {
-        let page = dir.path().join("page.html");
         let mut args = vec![command, "--robot", s(&shifted), "--model", s(&shifted)];
         args.extend(["--data", s(&data), "--register", "base", "--out", s(&page)]);
         if command == "validate" {

@@ -98,7 +98,7 @@ pub fn run(args: &Args) -> anyhow::Result<CompensateReport> {
     }
     if r.failed > 0 {
         eprintln!(
-            "error: {} of {} targets were not reached within --accept-mm (their rows keep the seed with a failure status; exit 3)",
+            "error: {} of {} targets were not reached within --accept-mm (their rows hold the best command found within --max-step-deg of the seed, with a failure status: do not send them; exit 3)",
             r.failed, r.targets
         );
     }

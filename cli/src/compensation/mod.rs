@@ -158,11 +158,15 @@ fn run_with_joints<const N: usize>(
                     N
                 );
             }
-            if f.joints == file.joints && f.effects == file.effects && f.couplings == file.couplings
-            {
+            // The model's own file under another name (only the name may differ).
+            let renamed = RobotFile {
+                name: file.name.clone(),
+                ..f.clone()
+            };
+            if renamed == *file {
                 crate::refuse!(
-                    "{}: the same joints and effects as the model {}: the Cartesian corrections \
-                     would all be zero; give --robot the nominal robot file the controller uses",
+                    "{}: the same robot as the model {}: the Cartesian corrections would all be \
+                     zero; give --robot the nominal robot file the controller uses",
                     path.display(),
                     job.model.display()
                 );

@@ -185,9 +185,12 @@ fn robot_without_cartesian_and_cartesian_without_robot_are_refused() {
     let r = kinecal(&[&base[..], &["--cartesian"]].concat());
     assert_ne!(r.status.code(), Some(0), "{r:?}");
     assert!(!out.exists());
-    // The model itself as the controller's robot (a copy of it): every correction would be
-    // zero and the targets came back unchanged with exit 0. Refused, saying what to give.
-    let copy = write(dir.path(), "copy.toml", ER20_TILTED_PLACED);
+    // The model itself as the controller's robot (a copy of it, renamed): every correction
+    // would be zero and the targets came back unchanged with exit 0. Refused, saying what to
+    // give.
+    let renamed = ER20_TILTED_PLACED.replacen("name = \"", "name = \"controller copy of ", 1);
+    assert_ne!(renamed, ER20_TILTED_PLACED);
+    let copy = write(dir.path(), "copy.toml", &renamed);
     let r = kinecal(&[&base[..], &["--cartesian", "--robot", s(&copy)]].concat());
     assert_eq!(r.status.code(), Some(2), "{r:?}");
     assert!(

@@ -112,6 +112,20 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
             if let Some(r) = &args.robot {
                 nominal_of(r)?;
             }
+            // The firmware feeds the expansion °C from its sensor: a reference temperature
+            // no room has is a model fitted to °F (the loader warned about the data then).
+            let warm = model
+                .effects
+                .iter()
+                .filter_map(|e| e.reference_c)
+                .find(|t| *t > crate::formats::loading::WARM_C);
+            if let Some(t) = warm {
+                eprintln!(
+                    "warning: {model_origin}: the thermal expansion's reference_c is {t} °C: the \
+                     controller feeds its sensor's °C; a model fitted to a temp_c column in °F \
+                     expands wrongly there: convert the column, (F − 32) × 5/9, and calibrate again"
+                );
+            }
             let bytes = export::firmware(&model, &model_origin)?;
             (report.format, report.bytes) = ("firmware".into(), Some(bytes.len()));
             bytes

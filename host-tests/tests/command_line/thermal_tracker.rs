@@ -207,3 +207,31 @@ fn a_temperature_column_that_does_not_follow_the_arm_is_no_calibration() {
         stderr(&out)
     );
 }
+
+/// A model whose thermal expansion is referred to 73.6 °C (fitted to a `temp_c` in °F) sent
+/// to a controller, which feeds its sensor's °C, is warned about by `export --format
+/// firmware`; one referred to 22 °C is not.
+#[test]
+fn exporting_a_model_referred_to_fahrenheit_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let er20 = std::fs::read_to_string(crate::common::data_file("er20.toml")).unwrap();
+    for (reference, warned) in [(73.6, true), (22.0, false)] {
+        let text = format!(
+            "{er20}\n[[effects]]\nkind = \"thermal-expansion\"\njoint = 0\nvalues = [1.3e-5]\nreference_c = {reference}\n"
+        );
+        let model = crate::common::write(dir.path(), "m.toml", &text);
+        let blob = dir.path().join("m.kcm");
+        let out = crate::common::kinecal(&[
+            "export",
+            "--model",
+            s(&model),
+            "--format",
+            "firmware",
+            "--out",
+            s(&blob),
+        ]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let err = stderr(&out);
+        assert_eq!(err.contains("reference_c is 73.6 °C"), warned, "{err}");
+    }
+}

@@ -93,12 +93,18 @@ pub fn implausible<const N: usize, V: kinecal::ValueStorage>(
     }
 }
 
+/// Whether `c` (per kelvin) lies within [`MOST_SHRINK_PER_K`]..[`MOST_EXPANSION_PER_K`], the
+/// range of arms' materials (or is no number, which other checks refuse).
+pub fn within_materials(c: f64) -> bool {
+    (MOST_SHRINK_PER_K..=MOST_EXPANSION_PER_K).contains(&c) || !c.is_finite()
+}
+
 /// The warning for a fitted coefficient `c` (per kelvin, 1-σ `sigma`) outside
 /// [`MOST_SHRINK_PER_K`]..[`MOST_EXPANSION_PER_K`] that [`implausible`] did not refuse (shown
 /// only for a fit it did not refuse): the data do not determine it.
 pub fn undetermined(c: f64, sigma: Option<f64>) -> Option<String> {
     let sig = crate::output::numfmt::sig;
-    if (MOST_SHRINK_PER_K..=MOST_EXPANSION_PER_K).contains(&c) || !c.is_finite() {
+    if within_materials(c) {
         return None;
     }
     Some(format!(
@@ -119,7 +125,7 @@ pub fn undetermined(c: f64, sigma: Option<f64>) -> Option<String> {
 /// ppm per kelvin to a simulated warm-up of 23.
 pub fn outside_materials(c: f64) -> Option<String> {
     let sig = crate::output::numfmt::sig;
-    if (MOST_SHRINK_PER_K..=MOST_EXPANSION_PER_K).contains(&c) || !c.is_finite() {
+    if within_materials(c) {
         return None;
     }
     Some(format!(

@@ -158,10 +158,10 @@ fn implausible<const N: usize>(
     effects: &[EffectRequest],
     groups: &[Group<N>],
 ) -> Option<String> {
-    use crate::calibration::thermal::{MOST_EXPANSION_PER_K, MOST_SHRINK_PER_K};
+    use crate::calibration::thermal::{within_materials, MOST_EXPANSION_PER_K, MOST_SHRINK_PER_K};
     let fitted = fit_with(file, nominal, effects, groups).ok()?;
     let (_, c, _) = fitted.robot.effects().thermal()?;
-    (!(MOST_SHRINK_PER_K..=MOST_EXPANSION_PER_K).contains(&c)).then(|| {
+    (!within_materials(c) || !c.is_finite()).then(|| {
         format!(
             "the thermal expansion would be {} ppm per kelvin, outside the {} to {} ppm of an \
              arm's material: the temp_c column does not follow the arm's temperature",

@@ -41,7 +41,12 @@ pub fn strays<const N: usize>(
     let medians: Vec<Option<[f64; N]>> = (0..N)
         .map(|j| {
             let of: Vec<&[f64; N]> = rows.iter().filter(|r| r.0 == j).map(|r| &r.2).collect();
-            (!of.is_empty()).then(|| std::array::from_fn(|a| median(of.iter().map(|q| q[a]))))
+            (!of.is_empty()).then(|| {
+                std::array::from_fn(|a| {
+                    let column: Vec<f64> = of.iter().map(|q| q[a]).collect();
+                    crate::calibration::stats::quantile(&column, 0.5)
+                })
+            })
         })
         .collect();
     // Whether model angles `q` hold sweep `j`'s held joints.
@@ -90,13 +95,4 @@ pub fn strays<const N: usize>(
             crate::output::numfmt::sig(by.to_degrees(), 3)
         ))
     })
-}
-
-/// The median of `v` (the lower middle for an even count); NaN for none.
-fn median(v: impl Iterator<Item = f64>) -> f64 {
-    let mut v: Vec<f64> = v.collect();
-    v.sort_by(f64::total_cmp);
-    v.get(v.len().saturating_sub(1) / 2)
-        .copied()
-        .unwrap_or(f64::NAN)
 }

@@ -67,6 +67,7 @@ pub fn report<const N: usize>(options: &Options, inputs: Inputs<N>) -> anyhow::R
         &nominal,
         &Session {
             groups: ident.clone(),
+            ..Session::default()
         },
         &data_origin,
     )?;

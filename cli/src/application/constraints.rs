@@ -42,20 +42,27 @@ pub struct Identified {
     pub residuals: Option<String>,
 }
 
-/// Why `fitted` (its constraints met to `rms_mm` RMS) is no calibration of the robot file's
-/// model `nominal`, as the rest of a sentence that starts "the fit", or `None`: the tracker
-/// path's guards ([`crate::calibration::arm_size`]): a fit that stretched the arm (a
-/// `length_mm` in another unit), turned a joint or misplaced a stated tool point, or that left
-/// the constraints above `stall_rms_mm` from met (two sockets under one group name).
+/// Why `fitted` (its constraints met to `rms_mm` RMS, its rows' `outliers`) is no calibration
+/// of the robot file's model `nominal`, as the rest of a sentence that starts "the fit", or
+/// `None`: the tracker path's guards ([`crate::calibration::arm_size`]): a few gross outliers
+/// (a mistyped length), a fit that stretched the arm (a `length_mm` in another unit), turned a
+/// joint or misplaced a stated tool point, that left the constraints above `stall_rms_mm` from
+/// met (two sockets under one group name), or many gross outliers.
 pub fn no_calibration<const N: usize>(
     (file, nominal): (&RobotFile, &HostRobot<N>),
-    fitted: &HostRobot<N>,
+    (fitted, outliers): (&HostRobot<N>, &crate::calibration::outliers::Outliers),
     rms_mm: f64,
     stall_rms_mm: f64,
 ) -> Option<String> {
-    crate::calibration::arm_size::resized(nominal, fitted)
-        .map(|why| {
-            format!("{why}; in a constraint file also each group's label and the unit of length_mm")
+    outliers
+        .few()
+        .or_else(|| {
+            crate::calibration::arm_size::resized(nominal, fitted).map(|why| {
+                format!(
+                    "{why}; in a constraint file also each group's label and the unit of \
+                     length_mm"
+                )
+            })
         })
         .or_else(|| crate::calibration::tool_check::stated_tool_slip(file, nominal, fitted))
         .or_else(|| {
@@ -70,6 +77,7 @@ pub fn no_calibration<const N: usize>(
                 )
             })
         })
+        .or_else(|| outliers.reason())
 }
 
 /// Fits the model and the shapes to the identification groups and judges the model on the
@@ -92,6 +100,7 @@ pub fn identify<const N: usize>(
         );
     }
     crate::constraints::shapes::check_lengths(&nominal, &session.groups, &data_origin)?;
+    let session_sigma_stated = session.sigma_stated;
     let (ident, valid) = match validate {
         Some(v) => (session.groups, v),
         None => split_groups(session, &options.holdout, options.seed)?,
@@ -109,8 +118,10 @@ pub fn identify<const N: usize>(
             .to_robot::<N>()
             .map_err(|e| anyhow::anyhow!("{}: {e}", file.name))?;
     }
+    let sigma_stated = session_sigma_stated;
     let ident_session = Session {
         groups: ident.clone(),
+        sigma_stated,
     };
     let base_unknown = !(file.base_known() && ident_session.has_points());
     let extra = add_effects(&mut nominal, &options.effects, &ident)?;
@@ -131,12 +142,23 @@ pub fn identify<const N: usize>(
     let after = residuals(&fitted.robot, &ident, &fitted.shapes, &valid);
     let name = |p: &Param| p.name(&fitted.robot).to_string();
     let acceptance = judge_groups(&before, &after, &ident, &valid);
+    let outliers = crate::constraints::outliers::find(&fitted.robot, &ident, &fitted.shapes);
     let refused = no_calibration(
         (&file, &nominal),
-        &fitted.robot,
+        (&fitted.robot, &outliers),
         after.identification_rms_mm,
         options.stall_rms_mm,
     );
+    let chi2_per_dof = sigma_stated
+        .then(|| {
+            crate::constraints::outliers::chi2_per_dof(
+                &fitted.robot,
+                &ident,
+                &fitted.shapes,
+                &fitted.estimated,
+            )
+        })
+        .flatten();
     let all = crate::calibration::model_params(&fitted.robot, &file.tilt_joints());
     let report = ConstraintIdentifyReport {
         method: "lm".into(),
@@ -153,6 +175,8 @@ pub fn identify<const N: usize>(
         estimated: fitted.estimated.iter().map(name).collect(),
         unidentifiable: fitted.unidentifiable.iter().map(name).collect(),
         converged: fitted.converged && after.identification_rms_mm.is_finite() && refused.is_none(),
+        stray_points: outliers.strays().filter(|_| refused.is_none()),
+        chi2_per_dof,
         stop: refused.unwrap_or_else(|| fitted.stop.clone()),
         held_out_worse: acceptance.as_ref().map(|a| a.held_out_worse),
         acceptance,

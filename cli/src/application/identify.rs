@@ -353,6 +353,7 @@ pub fn identify<const N: usize>(
     );
     report.per_point = per_point;
     report.chi2_per_dof = chi2_per_dof;
+    report.stray_points = outliers.strays().filter(|_| verdict.converged);
     report.observations = Some(ObservationSummary::new(
         &observed,
         ident.len(),
@@ -591,6 +592,7 @@ fn report<const N: usize>(
         fitness_history: fit.history.clone(),
         per_point: None,
         chi2_per_dof: None,
+        stray_points: None,
         observations: None,
         held_out_worse: None,
         acceptance: None,

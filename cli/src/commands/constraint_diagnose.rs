@@ -58,6 +58,8 @@ pub struct ConstraintDiagnoseReport {
     /// What the rows' stated σ alone would leave in the same RMS sense (mm): a socket group
     /// `σ√(3(K−1)/K)`, a plane `σ√((K−3)/K)`, a distance `σ`, a point `σ√3`.
     pub noise_floor_mm: f64,
+    /// Whether the file states σ (`sigma_mm`); else the floor is of the default σ.
+    pub sigma_stated: bool,
     /// Cross-validated RMS over the identification groups (mm), geometry alone and with what
     /// was found: each group against its own shape refitted to the model fitted without it.
     pub cv_rms_geometric_mm: f64,
@@ -109,14 +111,38 @@ impl fmt::Display for ConstraintDiagnoseReport {
         }
         writeln!(
             f,
-            "noise floor of the stated σ: {} mm",
+            "noise floor of the {} σ: {} mm",
+            if self.sigma_stated {
+                "stated"
+            } else {
+                "default (no sigma_mm column)"
+            },
             sig(self.noise_floor_mm, 4)
         )?;
+        let gap = self.cv_rms_final_mm / self.noise_floor_mm;
         if self.rounds.iter().any(|r| r.implausible.is_some()) {
             writeln!(
                 f,
                 "an effect would fit, but its size is no arm's (refused above): check the column \
                  it reads before calibrating with it"
+            )?;
+        } else if gap > UNEXPLAINED {
+            writeln!(
+                f,
+                "the groups are left {}× the noise floor{}, and no effect of the catalogue \
+                 explains {}: check each group's length_mm and label (a mistyped length, a row \
+                 of another socket), then sigma_mm",
+                sig(gap, 3),
+                if self.found.is_empty() {
+                    ""
+                } else {
+                    " with what was found"
+                },
+                if self.found.is_empty() {
+                    "it"
+                } else {
+                    "the rest"
+                }
             )?;
         } else if self.found.is_empty() {
             writeln!(f, "nothing significant is missing from the geometry")?;
@@ -137,6 +163,11 @@ impl fmt::Display for ConstraintDiagnoseReport {
         Ok(())
     }
 }
+
+/// How many times the noise floor of the σ the cross-validated RMS may stay before the report
+/// says the session holds something no effect explains (a fit with the right model and σ
+/// cross-validates near 1×; fold fits add a share of the order of parameters over groups).
+pub const UNEXPLAINED: f64 = 3.0;
 
 /// Runs `diagnose` on the constraint file `args.input.data`.
 pub fn run(args: &Args) -> anyhow::Result<ConstraintDiagnoseReport> {
@@ -192,6 +223,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
     );
     let origin = path_text(&input.data);
     crate::constraints::shapes::check_lengths(&nominal, &session.groups, &origin)?;
+    let sigma_stated = session.sigma_stated;
     let (ident, valid) =
         crate::application::constraints::split_groups(session, &args.holdout, args.seed)?;
     let opts = SearchOptions {
@@ -204,9 +236,10 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
     let s = search(&file, &nominal, &ident, &opts)?;
     let extended = fit_with(&file, &nominal, &s.found, &ident)?;
     let geometric = fit_with(&file, &nominal, &[], &ident)?;
+    let outliers = crate::constraints::outliers::find(&geometric.robot, &ident, &geometric.shapes);
     let resized = crate::application::constraints::no_calibration(
         (&file, &nominal),
-        &geometric.robot,
+        (&geometric.robot, &outliers),
         rms(&ident
             .iter()
             .map(|g| held_out_error(&geometric.robot, g))
@@ -274,6 +307,17 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
         ),
     };
     let noise_floor_mm = noise_floor(&ident);
+    if resized.is_none() {
+        let strays =
+            crate::constraints::outliers::find(&extended.robot, &ident, &extended.shapes).strays();
+        if let Some(s) = strays {
+            eprintln!(
+                "warning: {}: {}",
+                origin,
+                s.warning(crate::constraints::outliers::CAUSES)
+            );
+        }
+    }
     if let Some(path) = args
         .out
         .as_ref()
@@ -323,6 +367,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
         baseline_validation_rms_mm: baseline,
         final_validation_rms_mm: final_rms,
         noise_floor_mm,
+        sigma_stated,
         cv_rms_geometric_mm: s.cv_rms_geometric_mm,
         cv_rms_final_mm: s.cv_rms_final_mm,
         rounds: s.rounds,

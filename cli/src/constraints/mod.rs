@@ -7,6 +7,7 @@
 //! - [`shapes`]: socket centres and planes fitted to predicted tool points, row errors;
 //! - [`system`]: the weighted residuals and Jacobian of a session;
 //! - [`fit`]: identifiability and the Levenberg–Marquardt fit;
+//! - [`outliers`]: rows far from their constraints, χ² of the stated σ;
 //! - [`diagnose`]: the discrepancy search on cross-validated groups;
 //! - [`effects`]: `--effect` requests on a session (its joint ranges, its temperatures);
 //! - [`simulate`]: constraint sessions from a robot with known errors (or measured at a plan);
@@ -20,6 +21,7 @@ pub mod check;
 pub mod diagnose;
 pub mod effects;
 pub mod fit;
+pub mod outliers;
 pub mod plan;
 pub mod read;
 pub mod report;

@@ -90,6 +90,8 @@ pub struct Group<const N: usize> {
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct Session<const N: usize> {
     pub groups: Vec<Group<N>>,
+    /// The file has a `sigma_mm` column (else every row has [`DEFAULT_SIGMA_MM`]).
+    pub sigma_stated: bool,
 }
 
 impl<const N: usize> Session<N> {
@@ -315,7 +317,10 @@ pub fn parse<const N: usize>(
              --angle-unit rad (or --angle-unit deg to keep them)"
         );
     }
-    Ok(Session { groups })
+    Ok(Session {
+        groups,
+        sigma_stated: sigma_col.is_some(),
+    })
 }
 
 /// The rules of one group: row counts per kind, one positive length per distance group.

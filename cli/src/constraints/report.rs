@@ -62,6 +62,14 @@ pub struct ConstraintIdentifyReport {
     pub unidentifiable: Vec<String>,
     pub converged: bool,
     pub stop: String,
+    /// With a `sigma_mm` column: the weighted cost per degree of freedom (≈ 1 when the stated
+    /// σ explain the residuals).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub chi2_per_dof: Option<f64>,
+    /// A few rows far beyond the others' errors, under the gross outliers' millimetre
+    /// ([`super::outliers`]): warned about.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stray_points: Option<crate::calibration::outliers::Strays>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub held_out_worse: Option<bool>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -125,6 +133,13 @@ impl fmt::Display for ConstraintIdentifyReport {
                 self.unidentifiable.join(", ")
             )?;
         }
+        if let Some(c) = self.chi2_per_dof {
+            writeln!(
+                f,
+                "χ²/dof with the file's σ: {} (≈ 1 when the σ explain the residuals)",
+                sig(c, 3)
+            )?;
+        }
         if let Some(m) = self.acceptance.as_ref().and_then(|a| a.message.as_ref()) {
             writeln!(f, "{m}")?;
         }
@@ -133,6 +148,26 @@ impl fmt::Display for ConstraintIdentifyReport {
             writeln!(f, "model written to {o}")?;
         }
         Ok(())
+    }
+}
+
+impl ConstraintIdentifyReport {
+    /// The warnings of a converged fit about its rows, one message each as stderr shows them:
+    /// a few rows far from their constraints, χ²/dof far from 1.
+    pub fn warnings(&self) -> Vec<String> {
+        let strays = self
+            .stray_points
+            .as_ref()
+            .map(|s| s.warning(super::outliers::CAUSES));
+        let chi2 = self
+            .chi2_per_dof
+            .filter(|_| self.converged)
+            .and_then(super::outliers::chi2_warning);
+        strays
+            .into_iter()
+            .chain(chi2)
+            .map(|w| format!("warning: {w}"))
+            .collect()
     }
 }
 

@@ -326,6 +326,17 @@ pub fn run<const N: usize>(
         if let Some(w) = w {
             tell.line(&format!("warning: {data_origin}: {w}"));
         }
+        // A few rows far beyond the final model's typical error, under the gross outliers'
+        // millimetre: the search took them for noise (they raise the noise floor).
+        let strays =
+            crate::calibration::outliers::find(&d.model, &[(&search_poses.poses, &search)])
+                .strays();
+        if let Some(s) = strays {
+            tell.line(&format!(
+                "warning: {data_origin}: {}",
+                s.warning(crate::calibration::outliers::TRACKER_CAUSES)
+            ));
+        }
     }
     let all = if full && converged {
         tell.stage("fitting the model to all observations");

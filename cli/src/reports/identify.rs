@@ -54,6 +54,10 @@ pub struct IdentifyReport {
     /// σ fit the residuals).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub chi2_per_dof: Option<f64>,
+    /// A few points far beyond the others' distance from the fitted model, under the gross
+    /// outliers' millimetre (`crate::calibration::outliers`): warned about.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stray_points: Option<crate::calibration::outliers::Strays>,
     /// What the observations were (6-D, weighted, how many points).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub observations: Option<ObservationSummary>,
@@ -540,6 +544,12 @@ impl IdentifyReport {
                     }
                 ));
             }
+        }
+        if let Some(s) = &self.stray_points {
+            out.push(format!(
+                "warning: {}",
+                s.warning(crate::calibration::outliers::TRACKER_CAUSES)
+            ));
         }
         if !self.suspicious.is_empty() {
             out.push(format!(

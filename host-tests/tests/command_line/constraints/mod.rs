@@ -15,6 +15,7 @@ use std::path::{Path, PathBuf};
 mod calibration;
 mod check_and_report;
 mod effects;
+mod outliers;
 mod plan_and_diagnose;
 mod refusals;
 

@@ -101,6 +101,7 @@ pub fn identify<const N: usize>(
     }
     crate::constraints::shapes::check_lengths(&nominal, &session.groups, &data_origin)?;
     let session_sigma_stated = session.sigma_stated;
+    let validated = validate.is_some();
     let (ident, valid) = match validate {
         Some(v) => (session.groups, v),
         None => split_groups(session, &options.holdout, options.seed)?,
@@ -142,13 +143,20 @@ pub fn identify<const N: usize>(
     let after = residuals(&fitted.robot, &ident, &fitted.shapes, &valid);
     let name = |p: &Param| p.name(&fitted.robot).to_string();
     let acceptance = judge_groups(&before, &after, &ident, &valid);
-    let outliers = crate::constraints::outliers::find(&fitted.robot, &ident, &fitted.shapes);
+    // The groups held out of the same file are searched too; a `--validate` file's are of
+    // another session, whose errors say whether the model holds there.
+    let outliers = crate::constraints::outliers::find(
+        &fitted.robot,
+        &ident,
+        if validated { &[] } else { &valid },
+    );
     let refused = no_calibration(
         (&file, &nominal),
         (&fitted.robot, &outliers),
         after.identification_rms_mm,
         options.stall_rms_mm,
     );
+    let stray_points = outliers.strays().filter(|_| refused.is_none());
     let chi2_per_dof = sigma_stated
         .then(|| {
             crate::constraints::outliers::chi2_per_dof(
@@ -175,7 +183,17 @@ pub fn identify<const N: usize>(
         estimated: fitted.estimated.iter().map(name).collect(),
         unidentifiable: fitted.unidentifiable.iter().map(name).collect(),
         converged: fitted.converged && after.identification_rms_mm.is_finite() && refused.is_none(),
-        stray_points: outliers.strays().filter(|_| refused.is_none()),
+        stray_points: stray_points.clone(),
+        warnings: stray_points
+            .iter()
+            .map(|s| s.warning())
+            .chain(
+                chi2_per_dof
+                    .filter(|_| refused.is_none())
+                    .and_then(|c| crate::constraints::outliers::chi2_warning(c, &ident)),
+            )
+            .map(|w| format!("warning: {w}"))
+            .collect(),
         chi2_per_dof,
         stop: refused.unwrap_or_else(|| fitted.stop.clone()),
         held_out_worse: acceptance.as_ref().map(|a| a.held_out_worse),

@@ -354,6 +354,19 @@ pub fn identify<const N: usize>(
     report.per_point = per_point;
     report.chi2_per_dof = chi2_per_dof;
     report.stray_points = outliers.strays().filter(|_| verdict.converged);
+    // A reflector or a tracker that moved at one row: the fit took the mean of the two parts.
+    if verdict.converged {
+        let lines: Vec<u32> = ident_set
+            .iter()
+            .flat_map(|p| std::iter::repeat_n(p.line, p.count as usize))
+            .collect();
+        report.notes.extend(crate::diagnose::row_step::warning(
+            &fit.robot,
+            (&ident, &lines),
+            estimated as f64,
+            (report.after.identification_rms_mm, "the fit's RMS"),
+        ));
+    }
     report.observations = Some(ObservationSummary::new(
         &observed,
         ident.len(),
@@ -593,6 +606,7 @@ fn report<const N: usize>(
         per_point: None,
         chi2_per_dof: None,
         stray_points: None,
+        notes: Vec::new(),
         observations: None,
         held_out_worse: None,
         acceptance: None,

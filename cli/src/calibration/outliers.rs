@@ -39,6 +39,11 @@ pub const STRAY_MIN_MM: f64 = 0.1;
 pub struct Outlier {
     pub line: u32,
     pub distance_mm: f64,
+    /// The distance in units of the rows' typical σ: `distance_mm` times the median weight
+    /// over the point's (equal to it for rows of equal weight). A row whose stated σ is large
+    /// is judged by it.
+    #[serde(skip)]
+    pub scaled_mm: f64,
 }
 
 /// The gross outliers of a fit: one pass over its points, then read by the callers in the
@@ -54,7 +59,7 @@ pub struct Outliers {
     /// Rows searched.
     pub rows: usize,
     /// What such a point may be, as the end of "a wrong reading (…)".
-    pub causes: &'static str,
+    pub causes: String,
 }
 
 /// The causes of a wrong tracker reading.
@@ -67,15 +72,19 @@ pub struct Strays {
     pub rows: Vec<Outlier>,
     /// The median distance over every point (mm).
     pub median_mm: f64,
+    /// What such a point may be ([`Outliers::causes`]).
+    #[serde(skip)]
+    pub causes: String,
 }
 
 impl Strays {
     /// The warning, without a leading "warning: ".
-    pub fn warning(&self, causes: &str) -> String {
+    pub fn warning(&self) -> String {
+        let causes = &self.causes;
         format!(
             "{} point(s) lie far from the model against the others ({}; the median is {} mm), \
-             though under the {MIN_MM} mm that refuses a fit: a wrong reading ({causes}) \
-             pulls every parameter and raises every figure of the fit; check those rows, and \
+             though under the {MIN_MM} mm that refuses a fit: wrong readings ({causes}), or an \
+             effect the model misses near those poses (kinecal diagnose); check those rows, and \
              delete or measure them again if they are wrong",
             self.rows.len(),
             named(&self.rows, self.median_mm),
@@ -94,7 +103,7 @@ fn named(rows: &[Outlier], median_mm: f64) -> String {
                 "line {} {} mm, {}× the median",
                 o.line,
                 sig(o.distance_mm, 3),
-                sig(o.distance_mm / median_mm.max(f64::MIN_POSITIVE), 2)
+                sig(o.scaled_mm / median_mm.max(f64::MIN_POSITIVE), 2)
             )
         })
         .collect();
@@ -113,29 +122,41 @@ pub fn find<const N: usize, V: ValueStorage>(
     let mut fk = ForwardKinematics::new();
     let mut all: Vec<Outlier> = Vec::new();
     for (poses, obs) in sets {
+        // A set's weights are of one kind (stated σ, error floors or none): each point is
+        // judged against the set's median weight.
+        let weights: Vec<f64> = obs.iter().map(|m| m.weight.mean()).collect();
+        let typical = crate::calibration::stats::quantile(&weights, 0.5);
         for p in poses.iter() {
             for m in p.of(obs) {
                 let Some(q) = fk.compute_at(model, &m.q, m.tool as usize, m.conditions()) else {
                     continue;
                 };
-                let d = (m.point - q).norm();
-                if d.is_finite() {
+                let e = m.point - q;
+                let d = e.norm();
+                let scaled = if typical > 0.0 && typical.is_finite() {
+                    e.component_mul(&m.weight).norm() / typical
+                } else {
+                    d
+                };
+                if d.is_finite() && scaled.is_finite() {
                     all.push(Outlier {
                         line: p.line,
                         distance_mm: d,
+                        scaled_mm: scaled,
                     });
                 }
             }
         }
     }
     let rows = sets.iter().map(|(p, _)| p.len()).sum();
-    of_distances(all, rows, TRACKER_CAUSES)
+    of_distances(all, rows, TRACKER_CAUSES.to_string())
 }
 
 /// The gross outliers and strays among the points `all` (each its row's line and its distance
-/// from the model, mm) of `rows` rows.
-pub fn of_distances(all: Vec<Outlier>, rows: usize, causes: &'static str) -> Outliers {
-    let mut d: Vec<f64> = all.iter().map(|o| o.distance_mm).collect();
+/// from the model, mm, as it is and scaled by its σ) of `rows` rows: beyond [`MEDIAN_FACTOR`]
+/// times the median in scaled distance, then sorted by their distance in mm.
+pub fn of_distances(all: Vec<Outlier>, rows: usize, causes: String) -> Outliers {
+    let mut d: Vec<f64> = all.iter().map(|o| o.scaled_mm).collect();
     if d.is_empty() {
         return Outliers {
             far: Vec::new(),
@@ -148,7 +169,7 @@ pub fn of_distances(all: Vec<Outlier>, rows: usize, causes: &'static str) -> Out
     let mid = d.len() / 2;
     let (_, &mut median_mm, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
     let limit = MEDIAN_FACTOR * median_mm;
-    let mut beyond: Vec<Outlier> = all.into_iter().filter(|o| o.distance_mm > limit).collect();
+    let mut beyond: Vec<Outlier> = all.into_iter().filter(|o| o.scaled_mm > limit).collect();
     beyond.sort_by(|a, b| b.distance_mm.total_cmp(&a.distance_mm));
     // One row of several reflectors is one wrong reading: named once, at its farthest.
     let mut seen = std::collections::HashSet::new();
@@ -192,6 +213,7 @@ impl Outliers {
             || Strays {
                 rows: self.stray.clone(),
                 median_mm: self.median_mm,
+                causes: self.causes.clone(),
             },
         )
     }
@@ -215,7 +237,7 @@ impl Outliers {
              reading ({}) pulls every parameter; delete those rows or measure them again",
             self.far.len(),
             named.join(", "),
-            sig(first.distance_mm / self.median_mm.max(f64::MIN_POSITIVE), 2),
+            sig(first.scaled_mm / self.median_mm.max(f64::MIN_POSITIVE), 2),
             sig(self.median_mm, 3),
             self.causes
         ))

@@ -60,6 +60,13 @@ pub struct ConstraintDiagnoseReport {
     pub noise_floor_mm: f64,
     /// Whether the file states σ (`sigma_mm`); else the floor is of the default σ.
     pub sigma_stated: bool,
+    /// With stated σ: χ²/dof of the extended model fitted to every identification group
+    /// (absent with fewer than 10 degrees of freedom).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub chi2_per_dof: Option<f64>,
+    /// What a wrong row may be in this session (the text's advice).
+    #[serde(skip)]
+    pub causes: String,
     /// Cross-validated RMS over the identification groups (mm), geometry alone and with what
     /// was found: each group against its own shape refitted to the model fitted without it.
     pub cv_rms_geometric_mm: f64,
@@ -75,6 +82,15 @@ pub struct ConstraintDiagnoseReport {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub resized: Option<String>,
     pub out: Option<String>,
+}
+
+impl ConstraintDiagnoseReport {
+    /// χ²/dof of the extended model when the rows stay far from their constraints
+    /// ([`crate::constraints::outliers::chi2_far`], above 1).
+    fn unexplained_chi2(&self) -> Option<f64> {
+        self.chi2_per_dof
+            .filter(|c| *c > 1.0 && crate::constraints::outliers::chi2_far(*c))
+    }
 }
 
 crate::reports::judged_report!(ConstraintDiagnoseReport, |r| !r.held_out_worse
@@ -115,24 +131,24 @@ impl fmt::Display for ConstraintDiagnoseReport {
             if self.sigma_stated {
                 "stated"
             } else {
-                "default (no sigma_mm column)"
+                "default (no sigma_mm given)"
             },
             sig(self.noise_floor_mm, 4)
         )?;
-        let gap = self.cv_rms_final_mm / self.noise_floor_mm;
         if self.rounds.iter().any(|r| r.implausible.is_some()) {
             writeln!(
                 f,
                 "an effect would fit, but its size is no arm's (refused above): check the column \
                  it reads before calibrating with it"
             )?;
-        } else if gap > UNEXPLAINED {
+        } else if let Some(c) = self.unexplained_chi2() {
             writeln!(
                 f,
-                "the groups are left {}× the noise floor{}, and no effect of the catalogue \
-                 explains {}: check each group's length_mm and label (a mistyped length, a row \
-                 of another socket), then sigma_mm",
-                sig(gap, 3),
+                "the rows are {}× farther from their constraints than the stated σ explain \
+                 (χ²/dof {}{}), and no effect of the catalogue explains {}: check the rows \
+                 ({}), then sigma_mm",
+                sig(c.sqrt(), 3),
+                sig(c, 3),
                 if self.found.is_empty() {
                     ""
                 } else {
@@ -142,7 +158,8 @@ impl fmt::Display for ConstraintDiagnoseReport {
                     "it"
                 } else {
                     "the rest"
-                }
+                },
+                self.causes
             )?;
         } else if self.found.is_empty() {
             writeln!(f, "nothing significant is missing from the geometry")?;
@@ -163,11 +180,6 @@ impl fmt::Display for ConstraintDiagnoseReport {
         Ok(())
     }
 }
-
-/// How many times the noise floor of the σ the cross-validated RMS may stay before the report
-/// says the session holds something no effect explains (a fit with the right model and σ
-/// cross-validates near 1×; fold fits add a share of the order of parameters over groups).
-pub const UNEXPLAINED: f64 = 3.0;
 
 /// Runs `diagnose` on the constraint file `args.input.data`.
 pub fn run(args: &Args) -> anyhow::Result<ConstraintDiagnoseReport> {
@@ -236,7 +248,9 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
     let s = search(&file, &nominal, &ident, &opts)?;
     let extended = fit_with(&file, &nominal, &s.found, &ident)?;
     let geometric = fit_with(&file, &nominal, &[], &ident)?;
-    let outliers = crate::constraints::outliers::find(&geometric.robot, &ident, &geometric.shapes);
+    // The search's groups only, as on tracker points: the held-out groups' errors under the
+    // geometry hold what the search is to find.
+    let outliers = crate::constraints::outliers::find(&geometric.robot, &ident, &[]);
     let resized = crate::application::constraints::no_calibration(
         (&file, &nominal),
         (&geometric.robot, &outliers),
@@ -308,14 +322,9 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
     };
     let noise_floor_mm = noise_floor(&ident);
     if resized.is_none() {
-        let strays =
-            crate::constraints::outliers::find(&extended.robot, &ident, &extended.shapes).strays();
+        let strays = crate::constraints::outliers::find(&extended.robot, &ident, &[]).strays();
         if let Some(s) = strays {
-            eprintln!(
-                "warning: {}: {}",
-                origin,
-                s.warning(crate::constraints::outliers::CAUSES)
-            );
+            eprintln!("warning: {origin}: {}", s.warning());
         }
     }
     if let Some(path) = args
@@ -368,6 +377,17 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
         final_validation_rms_mm: final_rms,
         noise_floor_mm,
         sigma_stated,
+        chi2_per_dof: sigma_stated
+            .then(|| {
+                crate::constraints::outliers::chi2_per_dof(
+                    &extended.robot,
+                    &ident,
+                    &extended.shapes,
+                    &extended.estimated,
+                )
+            })
+            .flatten(),
+        causes: crate::constraints::outliers::causes(&ident),
         cv_rms_geometric_mm: s.cv_rms_geometric_mm,
         cv_rms_final_mm: s.cv_rms_final_mm,
         rounds: s.rounds,

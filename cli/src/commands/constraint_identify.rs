@@ -43,7 +43,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintIden
     };
     let mut done = identify(&args.options(), inputs)?;
     let report = &mut done.report;
-    for w in report.warnings() {
+    for w in &report.warnings {
         eprintln!("{w}");
     }
     if let Some(m) = report.acceptance.as_ref().and_then(|a| a.message.as_ref()) {

@@ -90,7 +90,7 @@ pub struct Group<const N: usize> {
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct Session<const N: usize> {
     pub groups: Vec<Group<N>>,
-    /// The file has a `sigma_mm` column (else every row has [`DEFAULT_SIGMA_MM`]).
+    /// Some row of the file gives `sigma_mm` (else every row has [`DEFAULT_SIGMA_MM`]).
     pub sigma_stated: bool,
 }
 
@@ -163,6 +163,8 @@ pub fn parse<const N: usize>(
         .map(|j| required(&format!("q{j}")))
         .collect::<anyhow::Result<Vec<usize>>>()?;
     let (length_col, sigma_col, tool_col) = (col("length_mm"), col("sigma_mm"), col("tool"));
+    // Stated when some row gives a σ (a column of empty cells states none).
+    let mut sigma_stated = false;
     let xyz_cols = [col("x"), col("y"), col("z")];
     let temp_col = col("temp_c");
     let mut groups: Vec<Group<N>> = Vec::new();
@@ -222,7 +224,10 @@ pub fn parse<const N: usize>(
             .transpose()?
             .flatten()
         {
-            Some(s) if s > 0.0 => s * mm,
+            Some(s) if s > 0.0 => {
+                sigma_stated = true;
+                s * mm
+            }
             Some(s) => crate::refuse!("{origin}:{line}: sigma_mm {s} must be > 0"),
             None => DEFAULT_SIGMA_MM,
         };
@@ -319,7 +324,7 @@ pub fn parse<const N: usize>(
     }
     Ok(Session {
         groups,
-        sigma_stated: sigma_col.is_some(),
+        sigma_stated,
     })
 }
 

@@ -70,6 +70,10 @@ pub struct ConstraintIdentifyReport {
     /// ([`super::outliers`]): warned about.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stray_points: Option<crate::calibration::outliers::Strays>,
+    /// The warnings of a converged fit about its rows, one message each as stderr shows them:
+    /// a few rows far from their constraints, χ²/dof far from 1.
+    #[serde(skip)]
+    pub warnings: Vec<String>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub held_out_worse: Option<bool>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -133,7 +137,7 @@ impl fmt::Display for ConstraintIdentifyReport {
                 self.unidentifiable.join(", ")
             )?;
         }
-        if let Some(c) = self.chi2_per_dof {
+        if let Some(c) = self.chi2_per_dof.filter(|_| self.converged) {
             writeln!(
                 f,
                 "χ²/dof with the file's σ: {} (≈ 1 when the σ explain the residuals)",
@@ -148,26 +152,6 @@ impl fmt::Display for ConstraintIdentifyReport {
             writeln!(f, "model written to {o}")?;
         }
         Ok(())
-    }
-}
-
-impl ConstraintIdentifyReport {
-    /// The warnings of a converged fit about its rows, one message each as stderr shows them:
-    /// a few rows far from their constraints, χ²/dof far from 1.
-    pub fn warnings(&self) -> Vec<String> {
-        let strays = self
-            .stray_points
-            .as_ref()
-            .map(|s| s.warning(super::outliers::CAUSES));
-        let chi2 = self
-            .chi2_per_dof
-            .filter(|_| self.converged)
-            .and_then(super::outliers::chi2_warning);
-        strays
-            .into_iter()
-            .chain(chi2)
-            .map(|w| format!("warning: {w}"))
-            .collect()
     }
 }
 

@@ -38,6 +38,7 @@ pub mod plausibility;
 pub mod pose_columns;
 pub mod refit;
 pub mod residual_plots;
+pub mod row_step;
 pub mod search_weights;
 pub mod significance;
 pub mod table_screen;

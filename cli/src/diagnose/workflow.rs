@@ -318,11 +318,24 @@ pub fn run<const N: usize>(
         }
     }
     let converged = geometry_fits(&d, opts.stall_rms_mm);
-    // A tracker that drifted while the rows carry no time (`t_s`): the search took it for
-    // noise. (Not when the geometry did not fit: its residuals are no measure of the tracker.)
+    // A reflector or a tracker that moved at one row, or a tracker that drifted while the rows
+    // carry no time (`t_s`): the search took it for noise. (Not when the geometry did not fit:
+    // its residuals are no measure of the tracker.)
     if converged {
-        let w =
-            super::time_trend::warning(&d.model, &search, d.effective_parameters, d.noise_floor_mm);
+        let lines: Vec<u32> = search_poses
+            .poses
+            .iter()
+            .flat_map(|p| std::iter::repeat_n(p.line, p.count as usize))
+            .collect();
+        let w = super::row_step::warning(
+            &d.model,
+            (&search, &lines),
+            d.effective_parameters,
+            (d.noise_floor_mm, "a noise floor"),
+        )
+        .or_else(|| {
+            super::time_trend::warning(&d.model, &search, d.effective_parameters, d.noise_floor_mm)
+        });
         if let Some(w) = w {
             tell.line(&format!("warning: {data_origin}: {w}"));
         }
@@ -332,10 +345,7 @@ pub fn run<const N: usize>(
             crate::calibration::outliers::find(&d.model, &[(&search_poses.poses, &search)])
                 .strays();
         if let Some(s) = strays {
-            tell.line(&format!(
-                "warning: {data_origin}: {}",
-                s.warning(crate::calibration::outliers::TRACKER_CAUSES)
-            ));
+            tell.line(&format!("warning: {data_origin}: {}", s.warning()));
         }
     }
     let all = if full && converged {

@@ -58,6 +58,9 @@ pub struct IdentifyReport {
     /// outliers' millimetre (`crate::calibration::outliers`): warned about.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stray_points: Option<crate::calibration::outliers::Strays>,
+    /// Further warnings about the data (a step along the rows' order), without "warning: ".
+    #[serde(skip)]
+    pub notes: Vec<String>,
     /// What the observations were (6-D, weighted, how many points).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub observations: Option<ObservationSummary>,
@@ -545,11 +548,9 @@ impl IdentifyReport {
                 ));
             }
         }
+        out.extend(self.notes.iter().map(|n| format!("warning: {n}")));
         if let Some(s) = &self.stray_points {
-            out.push(format!(
-                "warning: {}",
-                s.warning(crate::calibration::outliers::TRACKER_CAUSES)
-            ));
+            out.push(format!("warning: {}", s.warning()));
         }
         if !self.suspicious.is_empty() {
             out.push(format!(

@@ -66,7 +66,8 @@ fn a_few_wrong_rows_are_named_and_no_calibration() {
 /// Strays: a few points ten times the median from the model but under the 1 mm that refuses
 /// a fit (three rows 0.8–0.9 mm off among 300 with 0.02 mm noise, 40 σ) used to pass without
 /// a word and doubled `diagnose`'s noise floor. They are warned about, naming their lines; the
-/// fit stands (exit 0); the rows as simulated draw no warning.
+/// fit stands (exit 0); the rows as simulated draw no warning, nor do the moved rows when the
+/// file states them as coarse as they are.
 #[test]
 fn a_few_rows_under_a_millimetre_off_are_warned_about() {
     let dir = tempfile::tempdir().unwrap();
@@ -110,6 +111,21 @@ fn a_few_rows_under_a_millimetre_off_are_warned_about() {
             "{command}: {err}"
         );
     }
+    // The same rows stated with their own σ of 0.5 mm (the others 0.02 mm) are no strays:
+    // each point is judged by its σ.
+    let sigma: String = edited
+        .lines()
+        .enumerate()
+        .map(|(k, l)| match k {
+            0 => format!("{l},sx_mm,sy_mm,sz_mm\n"),
+            _ if moved.iter().any(|(i, _)| *i + 1 == k) => format!("{l},0.5,0.5,0.5\n"),
+            _ => format!("{l},0.02,0.02,0.02\n"),
+        })
+        .collect();
+    let stated = write(dir.path(), "stated.csv", &sigma);
+    let out = run_on("identify", &robot, &stated, &[]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert!(!stderr(&out).contains("point(s)"), "{}", stderr(&out));
     let v = json_of(&run_on("identify", &robot, &strays, &["--json"]));
     let mut named: Vec<u64> = v["stray_points"]["rows"]
         .as_array()

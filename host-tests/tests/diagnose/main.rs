@@ -12,5 +12,6 @@ mod grids;
 mod matrix;
 mod observations;
 mod orientation;
+mod row_step;
 mod ur10;
 mod workflow;

@@ -1,0 +1,105 @@
+//! A step along the rows' order (`cli/src/diagnose/row_step.rs`), against known truth: 300 UR10
+//! rows whose second half was measured with the reflector moved on the flange, or with the
+//! tracker moved, used to calibrate with exit 0 and a "noise floor" of the step's size. Both
+//! commands now name the rows between which it happened and the frame it is fixed in; the same
+//! robot in both halves draws no word.
+
+use crate::common::*;
+use std::path::{Path, PathBuf};
+
+/// A session of `truth` for 150 rows, then of `truth` with `edit` applied to its text.
+fn halves(dir: &Path, name: &str, truth: &Path, edit: impl Fn(&str) -> String) -> PathBuf {
+    let second = write(
+        dir,
+        "second.toml",
+        &edit(&std::fs::read_to_string(truth).unwrap()),
+    );
+    let (a, b) = (dir.join("a.csv"), dir.join("b.csv"));
+    simulate(truth, Some(150), Some(0.02), Some(31), &[], &a);
+    simulate(&second, Some(150), Some(0.02), Some(32), &[], &b);
+    let first = std::fs::read_to_string(a).unwrap();
+    let rest = std::fs::read_to_string(b).unwrap();
+    let rows: String = rest.lines().skip(1).map(|l| format!("{l}\n")).collect();
+    write(dir, name, &format!("{first}{rows}"))
+}
+
+/// `text` with the `xyz_mm` line after `[section]` replaced by `xyz`.
+fn with_xyz(text: &str, section: &str, xyz: &str) -> String {
+    let mut out = String::new();
+    let mut inside = false;
+    for line in text.lines() {
+        if line.starts_with('[') {
+            inside = line == section;
+        }
+        if inside && line.starts_with("xyz_mm") {
+            out.push_str(&format!("xyz_mm = {xyz}\n"));
+        } else {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    out
+}
+
+#[test]
+fn a_moved_reflector_or_tracker_is_named_at_its_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = ur10_dir().join("robot.toml");
+    let (base, truth) = (dir.path().join("base.csv"), dir.path().join("truth.toml"));
+    simulate(
+        &robot,
+        Some(10),
+        Some(0.02),
+        Some(30),
+        &["--geom-errors", "--truth", s(&truth)],
+        &base,
+    );
+    let text = std::fs::read_to_string(&truth).unwrap();
+    assert!(text.contains("[tool]") && text.contains("[base]"), "{text}");
+    let tool = |t: &str| {
+        let line = t.lines().skip_while(|l| *l != "[tool]").nth(1).unwrap();
+        let v: Vec<f64> = line
+            .trim_start_matches("xyz_mm = [")
+            .trim_end_matches(']')
+            .split(',')
+            .map(|x| x.trim().parse().unwrap())
+            .collect();
+        format!("[{}, {}, {}]", v[0] + 0.8, v[1] - 0.6, v[2] + 0.5)
+    };
+    let moved = tool(&text);
+    let cases = [
+        (
+            halves(dir.path(), "reflector.csv", &truth, |t| {
+                with_xyz(t, "[tool]", &moved)
+            }),
+            Some("in the flange's axes: x 0.7"),
+        ),
+        (
+            halves(dir.path(), "tracker.csv", &truth, |t| {
+                with_xyz(t, "[base]", "[0.3, -0.2, 0.25]")
+            }),
+            Some("in the measurement frame: x 0.29"),
+        ),
+        (
+            halves(dir.path(), "still.csv", &truth, str::to_string),
+            None,
+        ),
+    ];
+    for (data, frame) in &cases {
+        for command in ["identify", "diagnose"] {
+            let out = run_on(command, &robot, data, &[]);
+            let err = stderr(&out);
+            assert_eq!(out.status.code(), Some(0), "{command}: {err}");
+            match frame {
+                Some(f) => assert!(
+                    err.contains("the residuals step by")
+                        && err.contains("between lines 151 and 152")
+                        && err.contains(f),
+                    "{command} {}: {err}",
+                    data.display()
+                ),
+                None => assert!(!err.contains("step"), "{command}: {err}"),
+            }
+        }
+    }
+}

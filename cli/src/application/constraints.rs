@@ -188,6 +188,14 @@ pub fn identify<const N: usize>(
             .iter()
             .map(|s| s.warning())
             .chain(
+                crate::constraints::bar_scale::warning(
+                    &nominal,
+                    (&fitted.robot, &fitted.estimated),
+                    &ident,
+                )
+                .filter(|_| refused.is_none()),
+            )
+            .chain(
                 chi2_per_dof
                     .filter(|_| refused.is_none())
                     .and_then(|c| crate::constraints::outliers::chi2_warning(c, &ident)),
@@ -213,10 +221,14 @@ pub fn identify<const N: usize>(
             &valid,
         )
     });
+    // A base the constraints could not see is written only as the robot file gave it: a model
+    // without `[base]` takes targets in the robot base frame (`compensate` says so), where a
+    // `[base]` of zeros would pass for a measured one.
+    let base_seen = !fitted.unidentifiable.iter().any(|p| p.is_base());
     let mut model = RobotFile::from_robot(
         &format!("{} (identified)", file.name),
         &fitted.robot,
-        true,
+        file.base_known() || base_seen,
         &file.tilt_joints(),
     )
     .with_tool_names(&file.tool_names());

@@ -326,6 +326,13 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
         if let Some(s) = strays {
             eprintln!("warning: {origin}: {}", s.warning());
         }
+        if let Some(w) = crate::constraints::bar_scale::warning(
+            &nominal,
+            (&extended.robot, &extended.estimated),
+            &ident,
+        ) {
+            eprintln!("warning: {origin}: {w}");
+        }
     }
     if let Some(path) = args
         .out
@@ -352,10 +359,13 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
                 })
                 .chain(file.tilt_joints())
                 .collect();
+            // A base the constraints could not see only as the robot file gave it (see
+            // `application::constraints::identify`).
+            let base_seen = !extended.unidentifiable.iter().any(|p| p.is_base());
             let mut model = RobotFile::from_robot(
                 &format!("{} (diagnosed)", file.name),
                 &extended.robot,
-                true,
+                file.base_known() || base_seen,
                 &tilts,
             )
             .with_tool_names(&file.tool_names());

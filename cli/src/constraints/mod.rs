@@ -3,6 +3,7 @@
 //! library's forward kinematics and identification Jacobian columns.
 //!
 //! - [`read`]: the file, its rules and units;
+//! - [`bar_scale`]: an arm scaled as a whole by bar lengths off by one factor;
 //! - [`check`]: what a session holds and how far the nominal model is from it (`check`);
 //! - [`shapes`]: socket centres and planes fitted to predicted tool points, row errors;
 //! - [`system`]: the weighted residuals and Jacobian of a session;
@@ -17,6 +18,7 @@
 //!   `commands::constraint_check`, `commands::constraint_identify` and
 //!   `commands::constraint_validate` run).
 
+pub mod bar_scale;
 pub mod check;
 pub mod diagnose;
 pub mod effects;

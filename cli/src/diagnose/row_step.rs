@@ -1,17 +1,20 @@
-//! A step in the residuals along the rows' order: a reflector re-seated or knocked mid-session
-//! (the step is fixed in the flange frame), or a tracker or base bumped (fixed in the
-//! measurement frame). A fit takes the mean of the two parts, and the search takes what is left
-//! for noise: 300 rows with the reflector moved 1.1 mm after row 150 calibrated with exit 0, and
-//! `diagnose` reported a "noise floor" of 0.56 mm (25 times the tracker's noise) and nothing
-//! missing.
+//! A change of the residuals along the rows' order that the model does not explain: a step (a
+//! reflector re-seated or knocked, fixed in the flange frame; a tracker or base bumped, fixed in
+//! the measurement frame) or a creep in the flange frame (a reflector loosening in its nest). A
+//! fit takes the mean of the parts, and the search takes what is left for noise: 300 rows with
+//! the reflector moved 1.1 mm after row 150 calibrated with exit 0, and `diagnose` reported a
+//! "noise floor" of 0.56 mm (25 times the tracker's noise) and nothing missing. (A creep in the
+//! measurement frame is a drifting tracker: [`super::time_trend`].)
 //!
-//! [`step`] splits the point residuals at every observation that leaves at least [`MIN_PART`]
-//! of them on each side, in both frames, and keeps the split whose two means differ most (the
-//! between-parts sum of squares `k(n−k)/n·|r̄₁ − r̄₂|²`). Its F test (3 and 3n − 9 − the model's
-//! effective parameters degrees of freedom) is multiplied by the number of splits tried
-//! (Bonferroni) and by 2 frames. A linear drift also splits best somewhere (the best split of
-//! a ramp holds 3/4 of it): a step is reported only where it explains more than the linear trend
-//! of the same frame ([`super::time_trend`] warns about a trend).
+//! [`change`] splits the point residuals between every two rows (not between the reflectors of
+//! one row) that leave at least [`MIN_ROWS`] observations on each side, in both frames, and
+//! keeps the split whose two means differ most (the between-parts sum of squares
+//! `k(n−k)/n·|r̄₁ − r̄₂|²`). Its F test (3 and 3n − 9 − the model's effective parameters degrees
+//! of freedom) is multiplied by the number of splits tried (Bonferroni) and by 2 frames. A
+//! linear drift also splits best somewhere (the best split of a ramp holds 3/4 of it), and a
+//! step is fitted by a line to 3/4 too: where the line explains more, the change is a creep
+//! (reported in the flange frame only). A split at the least part's edge may stand for a step
+//! before it: the text then names the rows up to it, not one line.
 
 use super::significance::f_sf;
 use super::time_trend::TREND_P;
@@ -19,19 +22,17 @@ use crate::calibration::pose_error_vectors;
 use kinecal::{ForwardKinematics, Measurement, Robot};
 use nalgebra::Vector3;
 
-/// The least share of the observations each side of a split holds (and at least 10).
-pub const MIN_PART: f64 = 0.05;
+/// The fewest observations each side of a split holds.
+pub const MIN_ROWS: usize = 10;
 
-/// A step smaller than this share of the noise floor (RMS over the observations) is not
-/// warned about. A step adds to the floor (`floor² ≈ noise² + step²`): at half of it the step
-/// is over half the noise, as a moved reflector's or a bumped tracker's is. The real UR10 series
-/// C has a significant step smaller than that, near where its rows' temperature starts to
-/// climb.
-pub const STEP_SHARE: f64 = 0.5;
+/// A step (or a creep from the first row to the last) smaller than this share of the noise
+/// floor is not warned about. A step adds to the floor (`floor² ≈ noise² + k(n−k)/n²·step²`),
+/// so a step as large as the floor is larger than the noise. The real UR10 series C has a
+/// significant step smaller than its floor, near where its rows' temperature starts to climb.
+pub const STEP_SHARE: f64 = 1.0;
 
-/// The frame a step is fixed in.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
+/// The frame a change is fixed in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StepFrame {
     /// The flange's axes: the measured point moved on the arm (the reflector).
     Flange,
@@ -39,32 +40,35 @@ pub enum StepFrame {
     Measurement,
 }
 
-/// The strongest step of the residuals along the rows' order.
+/// The strongest change of the residuals along the rows' order.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RowStep {
-    /// The first observation after the step (0-based).
-    pub at: usize,
+    /// The first observation after the step (0-based); `None` for a creep.
+    pub at: Option<usize>,
+    /// The split sits at the least part's edge: the step may lie before it.
+    pub at_edge: bool,
     pub frame: StepFrame,
-    /// Mean residual after the step less before it, in the frame's axes (mm).
-    pub step_mm: Vector3<f64>,
-    /// RMS of the step over the observations (mm): what removing it would take from the
-    /// residuals' mean square.
-    pub rms_mm: f64,
-    /// Probability of a step at least this strong anywhere in residuals without one.
+    /// Mean residual after the step less before it, or the creep from the first observation
+    /// to the last, in the frame's axes (mm).
+    pub change_mm: Vector3<f64>,
+    /// Probability of a change at least this strong in residuals without one.
     pub p: f64,
 }
 
-/// Sums of one frame's residuals: the best split and its between-parts sum of squares, the
-/// linear trend's, the total.
+/// One frame's sums: the best split, its between-parts sum of squares, the linear trend's and
+/// its slope, the total.
 struct Split {
     at: usize,
     between: f64,
-    trend: f64,
-    total: f64,
     step: Vector3<f64>,
+    trend: f64,
+    slope: Vector3<f64>,
+    total: f64,
 }
 
-fn best_split(r: &[Vector3<f64>], min: usize) -> Option<Split> {
+/// The best split of `r` between observations `k − 1` and `k` where `cut[k]` (a new row), each
+/// side at least `min` long; `None` when there is none.
+fn best_split(r: &[Vector3<f64>], cut: &[bool], min: usize) -> Option<Split> {
     let n = r.len();
     let mean = r.iter().sum::<Vector3<f64>>() / n as f64;
     let mid = (n - 1) as f64 / 2.0;
@@ -76,13 +80,14 @@ fn best_split(r: &[Vector3<f64>], min: usize) -> Option<Split> {
         stt += t * t;
         str += e * t;
     }
-    let trend = (str / stt).norm_squared() * stt;
+    let slope = str / stt;
+    let trend = slope.norm_squared() * stt;
     let mut before = Vector3::zeros();
     let mut best: Option<Split> = None;
     for (k, ri) in r.iter().enumerate().take(n - min) {
         before += ri - mean;
         let k1 = k + 1;
-        if k1 < min {
+        if k1 < min || !cut[k1] {
             continue;
         }
         // Deviations from the overall mean: the first part's sum s, the second's −s.
@@ -92,27 +97,28 @@ fn best_split(r: &[Vector3<f64>], min: usize) -> Option<Split> {
             best = Some(Split {
                 at: k1,
                 between,
-                trend,
-                total,
                 step: -before * (1.0 / a + 1.0 / b),
+                trend,
+                slope,
+                total,
             });
         }
     }
     best
 }
 
-/// The strongest step of `robot`'s point residuals over `data` in their order, in the flange
-/// or the measurement frame, for a model fitted with `fitted` effective parameters; `None` with
-/// fewer than 20 observations, residuals that are not finite, or no step that explains more
-/// than a linear trend.
-pub fn step<const N: usize, V: kinecal::ValueStorage>(
+/// The strongest change of `robot`'s point residuals over `data` in their order (observations
+/// on the file's lines `lines`, one row's reflectors on one line), in the flange or the
+/// measurement frame, for a model fitted with `fitted` effective parameters; `None` with fewer
+/// than `2·MIN_ROWS` observations, residuals that are not finite, or a change that a linear
+/// drift of the measurement frame explains better (see the module).
+pub fn change<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
-    data: &[Measurement<f64, N>],
+    (data, lines): (&[Measurement<f64, N>], &[u32]),
     fitted: f64,
 ) -> Option<RowStep> {
     let n = data.len();
-    let min = ((MIN_PART * n as f64).ceil() as usize).max(10);
-    if n < 2 * min {
+    if n < 2 * MIN_ROWS || lines.len() != n {
         return None;
     }
     let measured = pose_error_vectors(robot, data);
@@ -129,80 +135,132 @@ pub fn step<const N: usize, V: kinecal::ValueStorage>(
             Vector3::new(f.x.dot(r), f.y.dot(r), f.z.dot(r))
         })
         .collect();
+    let cut: Vec<bool> = (0..n).map(|k| k == 0 || lines[k] != lines[k - 1]).collect();
     let fitted = if fitted.is_finite() {
         fitted.max(0.0)
     } else {
         0.0
     };
-    let df2 = (3.0 * n as f64 - 9.0 - fitted).max(1.0);
-    let tries = 2.0 * (n + 1 - 2 * min) as f64;
+    let tries = 2.0
+        * cut[MIN_ROWS..=n - MIN_ROWS]
+            .iter()
+            .filter(|c| **c)
+            .count()
+            .max(1) as f64;
+    let f_p = |ss: f64, rest: f64, df2: f64, times: f64| {
+        if rest > 0.0 {
+            (f_sf((ss / 3.0) / (rest / df2), 3.0, df2) * times).min(1.0)
+        } else {
+            0.0
+        }
+    };
     [
         (StepFrame::Flange, &flange),
         (StepFrame::Measurement, &measured),
     ]
     .into_iter()
     .filter_map(|(frame, r)| {
-        let s = best_split(r, min)?;
-        let rest = (s.total - s.between).max(0.0);
-        let p = if rest > 0.0 {
-            (f_sf((s.between / 3.0) / (rest / df2), 3.0, df2) * tries).min(1.0)
-        } else {
-            0.0
-        };
-        (s.between > s.trend && p.is_finite()).then_some(RowStep {
-            at: s.at,
-            frame,
-            step_mm: s.step,
-            rms_mm: (s.between / n as f64).sqrt(),
-            p,
+        let s = best_split(r, &cut, MIN_ROWS)?;
+        let df2 = (3.0 * n as f64 - 9.0 - fitted).max(1.0);
+        if s.between > s.trend {
+            let p = f_p(s.between, s.total - s.between, df2, tries);
+            let edge = s.at == MIN_ROWS || s.at == n - MIN_ROWS;
+            return Some((
+                s.between,
+                RowStep {
+                    at: Some(s.at),
+                    at_edge: edge,
+                    frame,
+                    change_mm: s.step,
+                    p,
+                },
+            ));
+        }
+        // A creep: the flange frame's only (the measurement frame's is time_trend's).
+        (frame == StepFrame::Flange).then(|| {
+            let p = f_p(s.trend, s.total - s.trend, df2, 2.0);
+            (
+                s.trend,
+                RowStep {
+                    at: None,
+                    at_edge: false,
+                    frame,
+                    change_mm: s.slope * (n - 1) as f64,
+                    p,
+                },
+            )
         })
     })
-    .max_by(|a, b| a.rms_mm.total_cmp(&b.rms_mm))
+    .filter(|(_, s)| s.p.is_finite())
+    .max_by(|a, b| a.0.total_cmp(&b.0))
+    .map(|(_, s)| s)
 }
 
-/// The warning for a significant step ([`TREND_P`]) of at least [`STEP_SHARE`] of
-/// `noise_floor_mm` (any size when the floor is not a finite number) in the residuals of
-/// `robot` over `data`, whose observations stand on the file's lines `lines`; `None` otherwise.
-/// `floor` names the floor in the text (`diagnose`'s noise floor, or `identify`'s RMS).
+/// The warning for a significant change ([`TREND_P`]) at least [`STEP_SHARE`] of `floor_mm`
+/// (any size when the floor is not a finite number) in the residuals of `robot` over `data`,
+/// whose observations stand on the file's lines `lines`; `None` otherwise. `floor` names the
+/// floor in the text (`diagnose`'s noise floor, or `identify`'s RMS).
 pub fn warning<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     (data, lines): (&[Measurement<f64, N>], &[u32]),
     fitted: f64,
-    (noise_floor_mm, floor): (f64, &str),
+    (floor_mm, floor): (f64, &str),
 ) -> Option<String> {
-    let s = step(robot, data, fitted)?;
-    let large = !noise_floor_mm.is_finite() || s.rms_mm >= STEP_SHARE * noise_floor_mm;
+    let s = change(robot, (data, lines), fitted)?;
+    let size = s.change_mm.norm();
+    let large = !floor_mm.is_finite() || size >= STEP_SHARE * floor_mm;
     if !(s.p < TREND_P && large) {
         return None;
     }
-    let (before, after) = (lines.get(s.at - 1)?, lines.get(s.at)?);
     let sig = |x: f64| crate::output::numfmt::sig(x, 3);
-    let (what, axes) = match s.frame {
-        StepFrame::Flange => (
-            "the measured point moved on the arm (a reflector re-seated, knocked or turned in \
-             its nest)",
-            "the flange's axes",
-        ),
-        StepFrame::Measurement => (
-            "the tracker or the robot's base moved (bumped, re-placed)",
-            "the measurement frame",
-        ),
+    let axes = match s.frame {
+        StepFrame::Flange => "the flange's axes",
+        StepFrame::Measurement => "the measurement frame",
     };
     let p = if s.p < 1e-16 {
         "p < 1e-16".to_string()
     } else {
         format!("p = {}", sig(s.p))
     };
+    let figures = format!(
+        "in {axes}: x {}, y {}, z {} mm; beside {floor} of {} mm, {p}",
+        sig(s.change_mm.x),
+        sig(s.change_mm.y),
+        sig(s.change_mm.z),
+        sig(floor_mm),
+    );
+    let what = match (s.at, s.frame) {
+        (None, _) => {
+            return Some(format!(
+                "the residuals creep along the rows' order by {} mm from the first row to the \
+                 last ({figures}), which the model does not explain: the measured point moves on \
+                 the arm (a reflector loosening in its nest, a probe's tip wearing). Fix it and \
+                 re-measure",
+                sig(size)
+            ))
+        }
+        (Some(_), StepFrame::Flange) => {
+            "the measured point moved on the arm (a reflector re-seated, knocked or turned in \
+             its nest)"
+        }
+        (Some(_), StepFrame::Measurement) => {
+            "the tracker or the robot's base moved (bumped, re-placed), or drifted and then \
+             settled"
+        }
+    };
+    let at = s.at?;
+    let (before, after) = (*lines.get(at - 1)?, *lines.get(at)?);
+    let between = if !s.at_edge {
+        format!("between lines {before} and {after}")
+    } else if at == MIN_ROWS {
+        format!("at line {after} or before it")
+    } else {
+        format!("at line {before} or after it")
+    };
     Some(format!(
-        "the residuals step by {} mm between lines {before} and {after} (in {axes}: x {}, y {}, \
-         z {} mm; {} mm RMS beside {floor} of {} mm, {p}), which the model does not \
-         explain: {what} between those rows. Split the file there and calibrate from one part, \
-         or re-measure after fixing it",
-        sig(s.step_mm.norm()),
-        sig(s.step_mm.x),
-        sig(s.step_mm.y),
-        sig(s.step_mm.z),
-        sig(s.rms_mm),
-        sig(noise_floor_mm),
+        "the residuals step by {} mm {between} ({figures}), which the model does not explain: \
+         {what}. Split the file there and calibrate from one part, or re-measure after \
+         fixing it",
+        sig(size),
     ))
 }

@@ -1,26 +1,41 @@
 //! A step along the rows' order (`cli/src/diagnose/row_step.rs`), against known truth: 300 UR10
 //! rows whose second half was measured with the reflector moved on the flange, or with the
 //! tracker moved, used to calibrate with exit 0 and a "noise floor" of the step's size. Both
-//! commands now name the rows between which it happened and the frame it is fixed in; the same
-//! robot in both halves draws no word.
+//! commands now name the rows between which it happened and the frame it is fixed in; a
+//! reflector creeping over five parts of the session is told as a creep; the same robot in both
+//! halves draws no word.
 
 use crate::common::*;
 use std::path::{Path, PathBuf};
 
 /// A session of `truth` for 150 rows, then of `truth` with `edit` applied to its text.
 fn halves(dir: &Path, name: &str, truth: &Path, edit: impl Fn(&str) -> String) -> PathBuf {
-    let second = write(
-        dir,
-        "second.toml",
-        &edit(&std::fs::read_to_string(truth).unwrap()),
-    );
-    let (a, b) = (dir.join("a.csv"), dir.join("b.csv"));
-    simulate(truth, Some(150), Some(0.02), Some(31), &[], &a);
-    simulate(&second, Some(150), Some(0.02), Some(32), &[], &b);
-    let first = std::fs::read_to_string(a).unwrap();
-    let rest = std::fs::read_to_string(b).unwrap();
-    let rows: String = rest.lines().skip(1).map(|l| format!("{l}\n")).collect();
-    write(dir, name, &format!("{first}{rows}"))
+    let text = std::fs::read_to_string(truth).unwrap();
+    parts(dir, name, &[text.clone(), edit(&text)], 150)
+}
+
+/// Sessions of `rows` rows of each robot file text of `truths`, one after the other.
+fn parts(dir: &Path, name: &str, truths: &[String], rows: usize) -> PathBuf {
+    let mut all = String::new();
+    for (k, t) in truths.iter().enumerate() {
+        let (robot, data) = (
+            dir.join(format!("part{k}.toml")),
+            dir.join(format!("part{k}.csv")),
+        );
+        std::fs::write(&robot, t).unwrap();
+        simulate(
+            &robot,
+            Some(rows),
+            Some(0.02),
+            Some(31 + k as u64),
+            &[],
+            &data,
+        );
+        let text = std::fs::read_to_string(data).unwrap();
+        let skip = usize::from(k > 0);
+        all.extend(text.lines().skip(skip).map(|l| format!("{l}\n")));
+    }
+    write(dir, name, &all)
 }
 
 /// `text` with the `xyz_mm` line after `[section]` replaced by `xyz`.
@@ -56,7 +71,7 @@ fn a_moved_reflector_or_tracker_is_named_at_its_row() {
     );
     let text = std::fs::read_to_string(&truth).unwrap();
     assert!(text.contains("[tool]") && text.contains("[base]"), "{text}");
-    let tool = |t: &str| {
+    let tool = |t: &str, f: f64| {
         let line = t.lines().skip_while(|l| *l != "[tool]").nth(1).unwrap();
         let v: Vec<f64> = line
             .trim_start_matches("xyz_mm = [")
@@ -64,9 +79,18 @@ fn a_moved_reflector_or_tracker_is_named_at_its_row() {
             .split(',')
             .map(|x| x.trim().parse().unwrap())
             .collect();
-        format!("[{}, {}, {}]", v[0] + 0.8, v[1] - 0.6, v[2] + 0.5)
+        format!(
+            "[{}, {}, {}]",
+            v[0] + 0.8 * f,
+            v[1] - 0.6 * f,
+            v[2] + 0.5 * f
+        )
     };
-    let moved = tool(&text);
+    let moved = tool(&text, 1.0);
+    // A reflector creeping: a quarter of the move in each of five parts.
+    let creeping: Vec<String> = (0..5)
+        .map(|k| with_xyz(&text, "[tool]", &tool(&text, 0.25 * k as f64)))
+        .collect();
     let cases = [
         (
             halves(dir.path(), "reflector.csv", &truth, |t| {
@@ -84,6 +108,10 @@ fn a_moved_reflector_or_tracker_is_named_at_its_row() {
             halves(dir.path(), "still.csv", &truth, str::to_string),
             None,
         ),
+        (
+            parts(dir.path(), "creeping.csv", &creeping, 60),
+            Some("creep along the rows' order"),
+        ),
     ];
     for (data, frame) in &cases {
         for command in ["identify", "diagnose"] {
@@ -91,6 +119,10 @@ fn a_moved_reflector_or_tracker_is_named_at_its_row() {
             let err = stderr(&out);
             assert_eq!(out.status.code(), Some(0), "{command}: {err}");
             match frame {
+                Some(f) if f.starts_with("creep") => assert!(
+                    err.contains(f) && err.contains("in the flange's axes: x 0."),
+                    "{command}: {err}"
+                ),
                 Some(f) => assert!(
                     err.contains("the residuals step by")
                         && err.contains("between lines 151 and 152")

@@ -132,3 +132,60 @@ fn held_out_groups_are_predicted_better_than_by_the_nominal_robot() {
         "{w}"
     );
 }
+
+/// A base the constraints cannot see is not written as if measured: the UR10's file has no
+/// `[base]`, and neither has the model of its ball-bar session (it used to get `[base]` of
+/// zeros, which `compensate` took for the measurement frame's); the ER20's file has one, and the
+/// model keeps it as the file gives it.
+#[test]
+fn an_unseen_base_is_written_only_as_the_robot_file_gives_it() {
+    let dir = tempfile::tempdir().unwrap();
+    for (robot, with_base) in [
+        (crate::common::ur10_dir().join("robot.toml"), false),
+        (data_file("er20.toml"), true),
+    ] {
+        let (data, model) = (dir.path().join("bars.csv"), dir.path().join("model.toml"));
+        kinecal_ok(&[
+            "simulate",
+            "--robot",
+            s(&robot),
+            "--constraints",
+            "distance:40",
+            "--geom-errors",
+            "--noise-mm",
+            "0.01",
+            "--seed",
+            "5",
+            "--out",
+            s(&data),
+        ]);
+        for command in ["identify", "diagnose"] {
+            let _ = std::fs::remove_file(&model);
+            kinecal_ok(&[
+                command,
+                "--robot",
+                s(&robot),
+                "--data",
+                s(&data),
+                "--out",
+                s(&model),
+            ]);
+            let text = std::fs::read_to_string(&model).unwrap();
+            assert_eq!(
+                text.contains("[base]"),
+                with_base,
+                "{command} {}: {text}",
+                robot.display()
+            );
+            if with_base {
+                let (_, written) = load_robot::<6>(&model).unwrap();
+                let (_, given) = load_robot::<6>(&robot).unwrap();
+                let (w, g) = (written.base(), given.base());
+                assert!(
+                    (w.o - g.o).norm() < 1e-9 && (w.z - g.z).norm() < 1e-12,
+                    "{text}"
+                );
+            }
+        }
+    }
+}

@@ -40,7 +40,19 @@ pub struct Checked {
     /// A `[[couplings]]` entry that would explain the data far better (robot files without
     /// couplings only); the command line prints its message.
     pub coupling_hint: Option<CouplingHint>,
+    /// With the base fitted: the RMS (mm) of the nominal points placed by the best mirrored
+    /// map, when it is under [`MIRRORED_SHARE`] of the nominal RMS (the data are mirrored).
+    pub mirrored_rms_mm: Option<f64>,
 }
+
+/// How small a share of the nominal RMS the mirrored placement must leave for the data to be
+/// called mirrored: a robot file that describes the data leaves a few millimetres either way,
+/// and mirrored data of an arm a metre long leave hundreds rigidly (series D with `x` and `y`
+/// exchanged by the map: 368 mm).
+pub const MIRRORED_SHARE: f64 = 0.2;
+
+/// The least nominal RMS (mm) at which mirrored data are looked for.
+pub const MIRRORED_FROM_MM: f64 = 10.0;
 
 /// The poses of a measurement set with a reading outside the joint limits the robot file
 /// states (only stated limits are checked: without them nothing is known to violate).
@@ -122,6 +134,19 @@ pub fn check<const N: usize>(
         .map_err(|e| e.context(data_origin.to_string()))?;
     let stats = ErrorStats::of(&pose_errors(&robot, &meas))
         .ok_or_else(|| anyhow!("{data_origin}: no measurements"))?;
+    // Mirrored data (an axis's sign flipped, two columns exchanged): no rigid placement fits
+    // them, a mirrored one does. Only a fitted base can tell (a stated one places them wrong
+    // for every reason).
+    let mirrored_rms_mm = (fitted && stats.rms_mm > MIRRORED_FROM_MM)
+        .then(|| {
+            let errors = crate::calibration::pose_error_vectors(&robot, &meas);
+            let measured: Vec<nalgebra::Vector3<f64>> = meas.iter().map(|m| m.point).collect();
+            let model: Vec<nalgebra::Vector3<f64>> =
+                measured.iter().zip(&errors).map(|(p, e)| p - e).collect();
+            crate::compute::registration::mirrored_rms(&model, &measured)
+        })
+        .flatten()
+        .filter(|m| *m < MIRRORED_SHARE * stats.rms_mm);
     let b = robot.base();
     // A missing or wrong [[couplings]] entry: another reading of the joints explains the data.
     let hint = file
@@ -147,6 +172,7 @@ pub fn check<const N: usize>(
         }),
         nominal: stats,
         coupling_hint: hint,
+        mirrored_rms_mm,
     })
 }
 

@@ -32,6 +32,16 @@ fn check_with_joints<const N: usize>(
     if let Some(h) = &checked.coupling_hint {
         eprintln!("{}", h.message());
     }
+    if let Some(m) = checked.mirrored_rms_mm {
+        eprintln!(
+            "hint: {data}: the data fit the nominal robot mirrored ({} mm RMS against {} mm \
+             placed rigidly): an axis of the points has its sign flipped or two are exchanged \
+             (the x, y, z columns' order and signs, or the --map's); no calibration can \
+             fit them",
+            crate::output::numfmt::sig(m, 3),
+            crate::output::numfmt::sig(checked.nominal.rms_mm, 3)
+        );
+    }
     Ok(CheckReport::of(
         &checked,
         file,

@@ -56,6 +56,38 @@ pub fn fit_rigid(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> anyhow::Result<Frame
     Ok(f)
 }
 
+/// The RMS (mm) of `b` against `a` placed by the best *mirrored* orthogonal map (a reflection
+/// times a rotation, and a shift): small where the best rigid placement leaves much, when the
+/// points `b` are `a` mirrored (an axis's sign flipped, two axes exchanged). Which axis cannot be
+/// told: any two mirrorings differ by a rotation. `None` with fewer than 3 points or points that
+/// are not finite.
+pub fn mirrored_rms(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> Option<f64> {
+    if a.len() != b.len()
+        || a.len() < 3
+        || a.iter().chain(b).any(|p| !p.iter().all(|c| c.is_finite()))
+    {
+        return None;
+    }
+    let n = a.len() as f64;
+    let ca = a.iter().sum::<Vector3<f64>>() / n;
+    let cb = b.iter().sum::<Vector3<f64>>() / n;
+    let mut h = Matrix3::zeros();
+    for (pa, pb) in a.iter().zip(b) {
+        h += (pa - ca) * (pb - cb).transpose();
+    }
+    let svd = h.svd(true, true);
+    let (u, vt) = (svd.u?, svd.v_t?);
+    let v = vt.transpose();
+    let d = (v * u.transpose()).determinant().signum();
+    let r = v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -d)) * u.transpose();
+    let sq: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(pa, pb)| (r * (pa - ca) + cb - pb).norm_squared())
+        .sum();
+    Some((sq / n).sqrt())
+}
+
 /// Sets `robot`'s base to [`fit_base`]'s. Registration gives a rotation, so what the robot
 /// refuses is a base beyond its bound (1 km): points far larger than the model's, in another
 /// length unit than the one stated (refused, exit 2, saying so).

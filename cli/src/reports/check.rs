@@ -39,6 +39,11 @@ pub struct CheckReport {
     /// A `[[couplings]]` entry that would explain the data far better (robot files without
     /// couplings only).
     pub coupling_hint: Option<CouplingHintReport>,
+    /// With the base fitted: the RMS (mm) the nominal model leaves when the data are placed by a
+    /// mirrored map, present when far under `nominal_rms_mm` (an axis of the data mirrored or
+    /// two exchanged).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mirrored_rms_mm: Option<f64>,
     /// The joint limits the robot file states (degrees), per joint (text only).
     #[serde(skip)]
     pub limits_deg: Vec<Option<[f64; 2]>>,
@@ -67,6 +72,7 @@ impl CheckReport {
             nominal_mean_mm: c.nominal.mean_mm,
             nominal_max_mm: c.nominal.max_mm,
             coupling_hint: c.coupling_hint.as_ref().map(CouplingHintReport::from),
+            mirrored_rms_mm: c.mirrored_rms_mm,
             limits_deg: file.joints.iter().map(|j| j.limits_deg).collect(),
         }
     }

@@ -24,6 +24,7 @@ mod host_values;
 mod identify_start;
 mod internals;
 mod map_everywhere;
+mod mirrored_data;
 mod named_reflectors;
 mod observations_cli;
 mod one_reflector;

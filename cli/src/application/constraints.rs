@@ -100,7 +100,7 @@ pub fn identify<const N: usize>(
         );
     }
     crate::constraints::shapes::check_lengths(&nominal, &session.groups, &data_origin)?;
-    let session_sigma_stated = session.sigma_stated;
+    let sigma_stated = session.sigma_stated;
     let validated = validate.is_some();
     let (ident, valid) = match validate {
         Some(v) => (session.groups, v),
@@ -119,7 +119,6 @@ pub fn identify<const N: usize>(
             .to_robot::<N>()
             .map_err(|e| anyhow::anyhow!("{}: {e}", file.name))?;
     }
-    let sigma_stated = session_sigma_stated;
     let ident_session = Session {
         groups: ident.clone(),
         sigma_stated,

@@ -28,13 +28,7 @@ pub fn fit_rigid(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> anyhow::Result<Frame
     if a.iter().chain(b).any(|p| !p.iter().all(|c| c.is_finite())) {
         crate::refuse!("point-set registration: a point is not a finite number: check the data");
     }
-    let n = a.len() as f64;
-    let ca = a.iter().sum::<Vector3<f64>>() / n;
-    let cb = b.iter().sum::<Vector3<f64>>() / n;
-    let mut h = Matrix3::zeros();
-    for (pa, pb) in a.iter().zip(b) {
-        h += (pa - ca) * (pb - cb).transpose();
-    }
+    let (ca, cb, h) = cross_covariance(a, b);
     let svd = h.svd(true, true);
     let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
         bail!("point-set registration: SVD failed");
@@ -56,6 +50,22 @@ pub fn fit_rigid(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> anyhow::Result<Frame
     Ok(f)
 }
 
+/// The centroids of `a` and `b` (equally long, not empty) and their cross-covariance
+/// `Σ (a − ā)(b − b̄)ᵀ`: what both registrations decompose.
+fn cross_covariance(
+    a: &[Vector3<f64>],
+    b: &[Vector3<f64>],
+) -> (Vector3<f64>, Vector3<f64>, Matrix3<f64>) {
+    let n = a.len() as f64;
+    let ca = a.iter().sum::<Vector3<f64>>() / n;
+    let cb = b.iter().sum::<Vector3<f64>>() / n;
+    let mut h = Matrix3::zeros();
+    for (pa, pb) in a.iter().zip(b) {
+        h += (pa - ca) * (pb - cb).transpose();
+    }
+    (ca, cb, h)
+}
+
 /// The RMS (mm) of `b` against `a` placed by the best *mirrored* orthogonal map (a reflection
 /// times a rotation, and a shift): small where the best rigid placement leaves much, when the
 /// points `b` are `a` mirrored (an axis's sign flipped, two axes exchanged). Which axis cannot be
@@ -69,12 +79,7 @@ pub fn mirrored_rms(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> Option<f64> {
         return None;
     }
     let n = a.len() as f64;
-    let ca = a.iter().sum::<Vector3<f64>>() / n;
-    let cb = b.iter().sum::<Vector3<f64>>() / n;
-    let mut h = Matrix3::zeros();
-    for (pa, pb) in a.iter().zip(b) {
-        h += (pa - ca) * (pb - cb).transpose();
-    }
+    let (ca, cb, h) = cross_covariance(a, b);
     let svd = h.svd(true, true);
     let (u, vt) = (svd.u?, svd.v_t?);
     let v = vt.transpose();

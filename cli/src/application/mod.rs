@@ -6,11 +6,13 @@
 //! - [`identify`]: `kinecal identify` on tracker observations.
 //! - [`constraints`]: `kinecal identify` on constraint observations (sockets, planes,
 //!   distances).
+//! - [`constraint_diagnose`]: `kinecal diagnose` on constraint observations.
 //! - [`export`]: `kinecal export`'s checks and outputs (URDF, DH table, firmware model).
 //! - [`study`]: `kinecal study`, the measurement-planning study over a grid of arms.
 //! - [`demo`]: `kinecal demo`, the BPNN-PSO paper's simulation and its four methods.
 //! - [`report`]: `kinecal report`, the calibration report of an identified model.
 
+pub mod constraint_diagnose;
 pub mod constraint_report;
 pub mod constraints;
 pub mod demo;

@@ -10,6 +10,7 @@
 //! - [`fit`]: identifiability and the Levenberg–Marquardt fit;
 //! - [`outliers`]: rows far from their constraints, χ² of the stated σ;
 //! - [`diagnose`]: the discrepancy search on cross-validated groups;
+//! - [`diagnose_report`]: its report (`diagnose` on a constraint file);
 //! - [`effects`]: `--effect` requests on a session (its joint ranges, its temperatures);
 //! - [`simulate`]: constraint sessions from a robot with known errors (or measured at a plan);
 //! - [`plan`]: which rows to measure (`plan --constraints`);
@@ -21,6 +22,7 @@
 pub mod bar_scale;
 pub mod check;
 pub mod diagnose;
+pub mod diagnose_report;
 pub mod effects;
 pub mod fit;
 pub mod outliers;

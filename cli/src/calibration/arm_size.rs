@@ -116,7 +116,11 @@ pub const TOOL_SLIP_MARGIN: f64 = 0.3;
 /// where the slip puts it, within [`TOOL_SLIP_MARGIN`]: a point under [`TOOL_METRES_MM`] that
 /// lies as far out as its coordinates read in metres (`[0, 0, 0.109]` fitted at 93 mm), and a
 /// coordinate of at least [`TOOL_SIGN_MM`] fitted at its negative (z; or x or y, where joint
-/// N's zero turned by 180° in the data looks the same, and is named too). The geometry
+/// N's zero turned by 180° in the data looks the same, and is named too); then a point whose
+/// distance along the last axis from its joint's origin (`d_N + z`) was fitted at its negative
+/// (the axis reversed: a joint before it turned by 180° in the data, UR10's joint 5), and any
+/// point other than the flange's origin (a start) fitted more than [`MOST_LENGTH_CHANGE_MM`]
+/// from the stated one. The geometry
 /// imitates either exactly (UR10's real data fit to the same 0.47 mm with the tool in metres,
 /// `d6` 93 mm longer), so the fit's error is no evidence against them.
 pub fn tool_slip<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStorage>(
@@ -161,20 +165,51 @@ pub fn tool_slip<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStor
                 })
                 .collect();
             let axes: Vec<&str> = flipped.iter().map(|&i| ["x", "y", "z"][i]).collect();
-            (!flipped.is_empty()).then(|| {
+            if !flipped.is_empty() {
                 let zero = if flipped.iter().any(|&i| i < 2) {
                     format!(", or joint {N}'s zero in the data is 180° from the robot file's")
                 } else {
                     String::new()
                 };
+                return Some(format!(
+                    "put the tool point at {} mm in the flange frame, the robot file's {entry} = \
+                     {} with the other sign in {}: that sign is flipped in the robot file{zero}; \
+                     correct it{unknown}",
+                    fmt(&found),
+                    fmt(&stated),
+                    axes.join(", ")
+                ));
+            }
+            // Along the last axis from its joint's origin: d_N + z, as stated and as fitted.
+            let last_d = nominal.joints().last().map_or(0.0, |j| j.d);
+            let (along, fitted_along) = (last_d + stated.z, last_d + found.z);
+            if along.abs() >= TOOL_SIGN_MM
+                && (fitted_along + along).abs() <= TOOL_SLIP_MARGIN * along.abs()
+            {
+                return Some(format!(
+                    "put the tool point {} mm along joint {N}'s axis from its origin, where the \
+                     robot file puts it at {} mm (d{N} + z of {entry}): the axis points the \
+                     other way in the data, so a joint before it is turned by 180° (its zero in \
+                     the data differs from the robot file's by 180°, as a wrist joint's can) or \
+                     its sign is flipped; check the joints' zeros and signs in the data (--map)",
+                    sig(fitted_along, 4),
+                    sig(along, 4)
+                ));
+            }
+            let off = (found - stated).norm();
+            // A point stated at the flange's origin is taken as a start (as many robot files
+            // without a measured tool state it), not as a measured offset.
+            (was > 0.0 && off > MOST_LENGTH_CHANGE_MM).then(|| {
                 format!(
-                "put the tool point at {} mm in the flange frame, the robot file's {entry} = {} \
-                 with the other sign in {}: that sign is flipped in the robot file{zero}; \
-                 correct it{unknown}",
-                fmt(&found),
-                fmt(&stated),
-                axes.join(", ")
-            )
+                    "put the tool point {} mm from where the robot file's {entry} = {} puts it \
+                     (at {} mm in the flange frame; a stated tool moves {MOST_LENGTH_CHANGE_MM} \
+                     mm at most): the data do not follow the robot file's conventions (a \
+                     joint's zero or sign) or were measured with another tool; check the data's \
+                     joints and the tool point{unknown}",
+                    sig(off, 4),
+                    fmt(&stated),
+                    fmt(&found)
+                )
             })
         })
 }

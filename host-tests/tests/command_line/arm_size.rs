@@ -265,6 +265,58 @@ fn a_tool_in_metres_or_with_its_sign_flipped_is_no_calibration() {
     }
 }
 
+/// A wrist joint's zero turned by 180° in the data (q5 + 180°, wrapped into the joint's range)
+/// reverses the flange axis: with the reflector on that axis the geometry imitates it by
+/// negating `d6 + z` (`d6` 92.2 → −310 mm), the one length the size check leaves free, and the
+/// rows fit to 0.6 mm. `identify` and `diagnose` used to exit 0 with that model; they now exit
+/// 3 naming the reversed axis. A stated tool point that the data put far from where the file
+/// says (150 mm across the flange) is no calibration either; within a few millimetres it is.
+#[test]
+fn a_reversed_flange_axis_or_a_tool_far_from_the_stated_one_is_no_calibration() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = ur10_dir().join("robot.toml");
+    let turned = ur10_rows(dir.path(), "q5.csv", 300, |_, cells| {
+        let q: f64 = cells[4].parse().unwrap();
+        let q = if q + 180.0 > 180.0 {
+            q - 180.0
+        } else {
+            q + 180.0
+        };
+        cells[4] = format!("{q:?}");
+    });
+    for command in ["identify", "diagnose"] {
+        let line = no_calibration(command, &robot, &turned);
+        assert!(
+            line.contains("along joint 6's axis") && line.contains("points the other way"),
+            "{command}: {line}"
+        );
+    }
+    let text = std::fs::read_to_string(&robot).unwrap();
+    let stated = "xyz_mm = [0.0, 0.0, 109.0]";
+    let far = write(
+        dir.path(),
+        "far.toml",
+        &text.replace(stated, "xyz_mm = [150.0, 0.0, 109.0]"),
+    );
+    let rows = ur10_rows(dir.path(), "rows.csv", 300, |_, _| {});
+    for command in ["identify", "diagnose"] {
+        let line = no_calibration(command, &far, &rows);
+        // (diagnose's geometric fit turns theta5 by 10.8° to reach it: refused for that first.)
+        assert!(
+            line.contains("from where the robot file's [tool] xyz_mm = [150")
+                || (command == "diagnose" && line.contains("beyond what a calibration moves")),
+            "{command}: {line}"
+        );
+    }
+    let near = write(
+        dir.path(),
+        "near.toml",
+        &text.replace(stated, "xyz_mm = [3.0, 0.0, 109.0]"),
+    );
+    let out = run_on("identify", &near, &rows, &[]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+}
+
 /// What is no calibration is not written where a later step could take it for one: `identify`
 /// used to write `--out` at exit 3 (a model of the arm fitted to a tool in metres, named
 /// "(identified)"), and `validate` and `export --format firmware` then took it. `identify` and

@@ -55,9 +55,10 @@ pub fn diagnose<const N: usize>(options: &Options, inputs: Inputs<N>) -> anyhow:
     let (ident, valid) =
         super::constraints::split_groups(session, &options.holdout, options.search.seed)?;
     let opts = options.search;
+    let geometric = fit_with(&file, &nominal, &[], &ident)?;
+    crate::constraints::fit::refuse_exact(&geometric, &ident, &origin)?;
     let s = search(&file, &nominal, &ident, &opts)?;
     let extended = fit_with(&file, &nominal, &s.found, &ident)?;
-    let geometric = fit_with(&file, &nominal, &[], &ident)?;
     // The search's groups only, as on tracker points: the held-out groups' errors under the
     // geometry hold what the search is to find.
     let outliers = crate::constraints::outliers::find(&geometric.robot, &ident, &[]);

@@ -129,6 +129,7 @@ pub fn identify<const N: usize>(
     let t0 = Instant::now();
     let fitted = crate::constraints::fit::fit(&nominal, &ident, &params)?;
     let seconds = t0.elapsed().as_secs_f64();
+    crate::constraints::fit::refuse_exact(&fitted, &ident, &data_origin)?;
     if let Some(w) = fitted
         .robot
         .effects()

@@ -135,10 +135,14 @@ pub fn unidentifiable<const N: usize>(
         if free.is_empty() {
             break;
         }
-        let mut a = DMatrix::zeros(seen.nrows(), free.len());
+        // At least as many rows as columns (zeros below): a wide matrix's SVD has only as many
+        // singular values as rows, and would hide the directions that fewer equations than
+        // parameters leave undetermined.
+        let mut a = DMatrix::zeros(seen.nrows().max(free.len()), free.len());
         for (c, &k) in free.iter().enumerate() {
             let col = seen.column(k);
-            a.set_column(c, &(col / col.norm()));
+            a.view_mut((0, c), (col.nrows(), 1))
+                .copy_from(&(col / col.norm()));
         }
         let svd = a.svd(false, true);
         let s = &svd.singular_values;
@@ -157,6 +161,47 @@ pub fn unidentifiable<const N: usize>(
         free.remove(pick);
     }
     Ok(held)
+}
+
+/// The equations of `groups` left once their shapes' unknowns and the `estimated` parameters
+/// have taken theirs: at 0 or below, a fit meets every constraint exactly whatever the robot
+/// (a plane of 8 rows takes 3 for itself, two planes leave 10 for 10 parameters).
+pub fn spare_equations<const N: usize>(
+    groups: &[Group<N>],
+    shapes: &[Shape],
+    estimated: &[Param],
+) -> i64 {
+    super::system::rows(groups) as i64
+        - shapes.iter().map(|s| s.unknowns() as i64).sum::<i64>()
+        - estimated.len() as i64
+}
+
+/// Refuses a fit of `groups` that has no equation to spare ([`spare_equations`]): its error
+/// is zero whatever the data, so it is no calibration and no test of one.
+pub fn refuse_exact<const N: usize>(
+    fitted: &Fitted<N>,
+    groups: &[Group<N>],
+    origin: &str,
+) -> anyhow::Result<()> {
+    let spare = spare_equations(groups, &fitted.shapes, &fitted.estimated);
+    if spare >= 1 {
+        return Ok(());
+    }
+    let rows = super::system::rows(groups);
+    let unknowns: usize = fitted.shapes.iter().map(|s| s.unknowns()).sum();
+    let shapes = if unknowns > 0 {
+        format!("{unknowns} of them taken by the sockets' centres and the planes, the rest")
+    } else {
+        "all of them".to_string()
+    };
+    crate::refuse!(
+        "{origin}: {} groups give {rows} equations, {shapes} by the {} parameters they \
+         determine: the fit meets every constraint exactly whatever the robot; measure more \
+         rows or groups (a socket's row adds 3 equations, a plane's or a distance's 1), or \
+         hold parameters with --fix",
+        groups.len(),
+        fitted.estimated.len()
+    );
 }
 
 /// Fits `params` of `start` and the groups' shapes to `groups`; holds what the data cannot

@@ -270,3 +270,47 @@ fn a_mislabelled_group_or_lengths_in_another_unit_are_no_calibration() {
         assert_eq!(out.status.code(), Some(0), "{command}: {}", stderr(&out));
     }
 }
+
+/// A session with no equation to spare: two planes of 8 rows give 16 equations, 6 of them
+/// taken by the planes; the other 10 are met exactly by the 10 parameters they determine, and
+/// `identify` used to report an RMS of 5e-14 mm with exit 0 and write the model. Three
+/// distances (3 equations) used to "determine" 22 parameters (the identifiability analysis
+/// looked only at as many directions as there were equations) and fit to 2e-13 mm. Both are
+/// refused with exit 2 by `identify` and `diagnose`, naming the equations and parameters; a
+/// session with equations to spare (two sockets of 6 rows: 36 equations, 6 for the centres,
+/// 16 parameters) fits.
+#[test]
+fn a_session_that_any_robot_meets_exactly_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let (planes, _) = session(dir.path(), "plane:2x8", 5);
+    let robot = data_file("er20.toml");
+    for command in ["identify", "diagnose"] {
+        let out = kinecal(&[command, "--robot", s(&robot), "--data", s(&planes)]);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{command}: {err}");
+        assert!(
+            err.contains(
+                "2 groups give 16 equations, 6 of them taken by the sockets' centres \
+                          and the planes, the rest by the 10 parameters"
+            ) && err.contains("exactly whatever the robot"),
+            "{command}: {err}"
+        );
+    }
+    // Three bar lengths of a larger session (its first three distance groups, 6 rows).
+    let dir2 = tempfile::tempdir().unwrap();
+    let (bars, _) = session(dir2.path(), "distance:10", 5);
+    let text = std::fs::read_to_string(&bars).unwrap();
+    let three: Vec<&str> = text.lines().take(7).collect();
+    let three = write(dir2.path(), "three.csv", &(three.join("\n") + "\n"));
+    let out = kinecal(&["identify", "--robot", s(&robot), "--data", s(&three)]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("3 groups give 3 equations, all of them by the 3 parameters"),
+        "{err}"
+    );
+    let dir3 = tempfile::tempdir().unwrap();
+    let (sockets, _) = session(dir3.path(), "socket:2x6", 5);
+    let v = identify(&sockets, &[]);
+    assert_eq!(v["converged"], true);
+}

@@ -49,6 +49,19 @@ pub fn compensate_cartesian<'py>(
             nominal.file.joint_count()
         )));
     }
+    // A model of another robot (or one typed wrong) is refused as `export` and the command
+    // line refuse it.
+    kinecal_cli::application::export::check_match(
+        &model.file,
+        "model",
+        &nominal.file,
+        "nominal",
+        (
+            kinecal_cli::application::export::MATCH_TOLERANCE_MM,
+            kinecal_cli::application::export::MATCH_TOLERANCE_DEG,
+        ),
+    )
+    .map_err(crate::py_err)?;
     let to_rad = |a: f64| if rad { a } else { a.to_radians() };
     let from_rad = |a: f64| if rad { a } else { a.to_degrees() };
     type Sent = (Array2<f64>, Vec<String>);

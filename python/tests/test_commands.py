@@ -140,6 +140,19 @@ def test_compensate_cartesian_equals_cli(cell, sim, cli, tmp_path):
     # The nominal controller's joints for the sent targets put the true robot on the targets.
     q = kinecal.compensate(cell, seeds[ok], sent[ok]).q
     assert np.abs(truth.fk(q) - targets[ok]).max() < 0.01
+    # A nominal robot the model is no calibration of (a link 100 mm longer) is refused, as
+    # the command line and `export` refuse it.
+    import re
+
+    text = (CELL / "robot.toml").read_text()
+    first_a = re.search(r"a_mm = ([-0-9.]+)", text.split("[[joints]]", 2)[2])
+    assert first_a, text
+    longer = text.replace(first_a.group(0), f"a_mm = {float(first_a.group(1)) + 100.0}", 1)
+    assert longer != text
+    (tmp_path / "longer.toml").write_text(longer)
+    other = kinecal.Robot.from_file(tmp_path / "longer.toml")
+    with pytest.raises(kinecal.RefusedError, match="not a calibration of nominal"):
+        kinecal.compensate_cartesian(truth, other, seeds, targets)
 
 
 def test_frames_equals_cli(cell, cli, tmp_path):

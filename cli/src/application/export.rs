@@ -10,6 +10,13 @@ use crate::formats::urdf::parse::Urdf;
 use crate::formats::urdf::splice;
 use crate::formats::{dh_table, firmware_model};
 
+/// How far (mm) a model's row may lie from the nominal's for `export` and `compensate
+/// --cartesian` to take it for a calibration of it (a manufacturing tolerance, as `identify`'s
+/// suspicious changes).
+pub const MATCH_TOLERANCE_MM: f64 = 20.0;
+/// The same for angles (degrees).
+pub const MATCH_TOLERANCE_DEG: f64 = 2.0;
+
 /// Refuses `model` (named `model_origin`) when a row value lies further than the tolerances
 /// (mm, degrees) from `nominal` (named `source`): a calibration moves rows by millimetres and
 /// tenths of a degree, so a larger difference means the model was made for another robot (or

@@ -45,6 +45,13 @@ pub struct Args {
     /// ry, rz] in the targets' units, then status).
     #[arg(long, requires = "robot")]
     pub cartesian: bool,
+    /// A model row further than this from --robot's (mm) is taken for a model of another
+    /// robot and refused, as by `export` (with --cartesian).
+    #[arg(long, default_value_t = crate::application::export::MATCH_TOLERANCE_MM)]
+    pub tolerance_mm: f64,
+    /// The same for angles, degrees.
+    #[arg(long, default_value_t = crate::application::export::MATCH_TOLERANCE_DEG)]
+    pub tolerance_deg: f64,
     /// The reflector the targets are for: a [[tools]] name of the model (default its first;
     /// a model with several warns).
     #[arg(long, value_name = "NAME")]
@@ -77,6 +84,7 @@ impl Args {
             },
             units: self.units.clone(),
             cartesian: self.cartesian.then(|| self.robot.clone()).flatten(),
+            tolerance: (self.tolerance_mm, self.tolerance_deg),
             tool: self.tool.clone(),
         }
     }

@@ -53,10 +53,10 @@ pub struct Args {
     /// A model row further than this from the nominal (the URDF's import, or --robot) is
     /// taken for a model of another robot or convention and refused (a manufacturing
     /// tolerance, as in `identify`).
-    #[arg(long, default_value_t = 20.0)]
+    #[arg(long, default_value_t = crate::application::export::MATCH_TOLERANCE_MM)]
     pub tolerance_mm: f64,
     /// The same for angles, degrees.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = crate::application::export::MATCH_TOLERANCE_DEG)]
     pub tolerance_deg: f64,
 }
 

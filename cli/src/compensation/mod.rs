@@ -83,6 +83,9 @@ pub struct Job {
     /// The nominal robot (robot TOML) of a controller that keeps its kinematics: the output is
     /// then the targets to send it instead of joint commands.
     pub cartesian: Option<PathBuf>,
+    /// How far (mm, degrees) a row of the model may lie from the nominal's of
+    /// [`Self::cartesian`] ([`crate::application::export::check_match`]).
+    pub tolerance: (f64, f64),
     /// The `[[tools]]` name of the reflector the targets are for (the first when `None`,
     /// [`reflector::of_reflector`]).
     pub tool: Option<String>,
@@ -102,6 +105,10 @@ impl Job {
             settings: Settings::default(),
             units: UnitArgs::default(),
             cartesian: None,
+            tolerance: (
+                crate::application::export::MATCH_TOLERANCE_MM,
+                crate::application::export::MATCH_TOLERANCE_DEG,
+            ),
             tool: None,
         }
     }
@@ -171,6 +178,15 @@ fn run_with_joints<const N: usize>(
                     job.model.display()
                 );
             }
+            crate::check_positive("--tolerance-mm", job.tolerance.0, 1e6)?;
+            crate::check_positive("--tolerance-deg", job.tolerance.1, 1e6)?;
+            crate::application::export::check_match(
+                file,
+                &what,
+                &f,
+                &path.display().to_string(),
+                job.tolerance,
+            )?;
             let r = f
                 .to_robot::<N>()
                 .map_err(|e| anyhow!("{}: {e}", path.display()))?;

@@ -200,3 +200,58 @@ fn robot_without_cartesian_and_cartesian_without_robot_are_refused() {
     );
     assert!(!out.exists());
 }
+
+/// A model that is no calibration of the controller's robot (a link 100 mm longer: another
+/// robot, or a row typed wrong) used to shift every target by ~100 mm with status ok and exit
+/// 0 once --max-step-deg let the corrections reach; `export` refused the same pair. Refused
+/// now with `export`'s reason and its tolerances; a model within them passes.
+#[test]
+fn a_model_of_another_robot_is_refused_as_export_refuses_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = write(dir.path(), "model.toml", ER20_TILTED_PLACED);
+    let targets = write(
+        dir.path(),
+        "t.csv",
+        "q1,q2,q3,q4,q5,q6,x,y,z\n0,-40,50,0,60,0,900,0,900\n",
+    );
+    let out = dir.path().join("o.csv");
+    let nominal_with = |name: &str, extra_mm: f64| {
+        let mut f = RobotFile::load(&model).unwrap();
+        f.name = format!("controller {name}");
+        f.joints[2].a_mm += extra_mm;
+        let path = dir.path().join(name);
+        std::fs::write(&path, f.to_toml().unwrap()).unwrap();
+        path
+    };
+    let run = |nominal: &std::path::Path| {
+        kinecal(&[
+            "compensate",
+            "--model",
+            s(&model),
+            "--targets",
+            s(&targets),
+            "--out",
+            s(&out),
+            "--cartesian",
+            "--robot",
+            s(nominal),
+            "--max-step-deg",
+            "30",
+        ])
+    };
+    let far = nominal_with("far.toml", -100.0);
+    let r = run(&far);
+    assert_eq!(r.status.code(), Some(2), "{r:?}");
+    assert!(
+        stderr(&r).contains("not a calibration of") && stderr(&r).contains("a3 is"),
+        "{}",
+        stderr(&r)
+    );
+    assert!(!out.exists());
+    // Within the tolerances the check passes (this target lies off the placed robot's reach:
+    // compensate then says so with exit 3, not 2).
+    let near = nominal_with("near.toml", -0.5);
+    let r = run(&near);
+    assert_eq!(r.status.code(), Some(3), "{}", stderr(&r));
+    assert!(!stderr(&r).contains("not a calibration"), "{}", stderr(&r));
+}

@@ -55,9 +55,12 @@ def test_six_commands_make_no_files(no_files, tmp_path):
     sw = kinecal.simulate(cell, sweeps=[1, 2, 5, 6], noise_mm=0.002, seed=4).measurements
     framed = kinecal.frames(cell, sw.q, sw.xyz, sw.columns["sweep"])
     assert framed.robot.base_known
-    p = kinecal.plan(cell, CELL / "scene.toml", 6, "d", [[0, -60, 90, 0, 30, 0]], pool=100,
+    p = kinecal.plan(cell, CELL / "scene.toml", 10, "d", [[0, -60, 90, 0, 30, 0]], pool=100,
                      passes=2, seed=1)
-    assert p.q.shape == (6, 6)
+    assert p.q.shape == (10, 6)
+    # Fewer equations than the directions a design is to determine: refused, not predicted.
+    with pytest.raises(kinecal.RefusedError, match="plan at least"):
+        kinecal.plan(cell, CELL / "scene.toml", 3, "d", [[0, -60, 90, 0, 30, 0]], pool=100)
     assert list(no_files.iterdir()) == []
     # The plots are the caller's output: written into the folder it names, nothing else.
     plots = tmp_path / "plots"

@@ -528,6 +528,10 @@ pub fn plan<const N: usize, V: kinecal::ValueStorage>(
             params.len()
         );
     }
+    // A random design cannot know the directions yet: every parameter counts.
+    if req.criterion.criterion().is_none() {
+        too_few_poses(req.poses, params.len(), "parameters it plans for")?;
+    }
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(req.seed);
     let max_draws = 2_000_000 + 2_000 * req.pool.max(req.poses) as u64;
     let (poses, draws, pool_size, passes, exchanges, basis_rank) = match req.criterion.criterion() {
@@ -563,6 +567,11 @@ pub fn plan<const N: usize, V: kinecal::ValueStorage>(
                 );
             }
             let basis = pool_basis(&pool.candidates, params.len())?;
+            too_few_poses(
+                req.poses,
+                basis.rank(),
+                "directions the cell's poses determine",
+            )?;
             basis.reduce_pool(&mut pool.candidates);
             let work: Vec<PoseRows<f64, PCAP>> = work_rows(&robot, params, req.work)?
                 .iter()
@@ -621,6 +630,22 @@ pub fn plan<const N: usize, V: kinecal::ValueStorage>(
         exchanges,
         basis_rank,
     })
+}
+
+/// Refuses a design of `poses` poses whose equations (3 per pose) cannot determine `directions`
+/// (`what` they are): its predicted accuracy would cover only the few directions it does
+/// determine (one pose predicted a tool σ smaller than ten poses did), and `identify` refuses
+/// such a session.
+fn too_few_poses(poses: usize, directions: usize, what: &str) -> anyhow::Result<()> {
+    let need = directions.div_ceil(3);
+    if poses < need {
+        crate::refuse!(
+            "--poses {poses}: {} equations (3 per pose) for the {directions} {what}: plan at \
+             least {need} poses (identify refuses fewer), better three to five times as many",
+            3 * poses
+        );
+    }
+    Ok(())
 }
 
 /// The CSV text of planned poses: `q1…qN` (degrees, 9 decimals), incidence, clearance.

@@ -704,3 +704,46 @@ fn plan_takes_the_noise_from_the_trackers_stated_sigma() {
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("sx_mm") && err.contains("--noise-mm"), "{err}");
 }
+
+/// A design with fewer equations than the directions it is to determine: one pose predicted a
+/// tool σ of 0.0097 mm where ten predicted 0.0158 mm (the prediction covers only the
+/// directions a design determines), and `identify` refuses such a session. Refused now (exit
+/// 2) with how many poses are needed, for every criterion; at that number it plans, and its
+/// prediction covers every direction of the pool.
+#[test]
+fn a_design_with_fewer_equations_than_directions_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p.csv");
+    let cell = cell_dir();
+    let run = |poses: &str, criterion: &str| {
+        Command::new(env!("CARGO_BIN_EXE_kinecal-under-test"))
+            .args(["plan", "--robot"])
+            .arg(cell.join("robot.toml"))
+            .args(["--poses", poses, "--criterion", criterion])
+            .args(["--work=0,-60,90,0,30,0", "--pool", "300", "--json", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap()
+    };
+    let mut need = 0;
+    for (poses, criterion) in [("1", "d"), ("3", "kpi"), ("2", "random")] {
+        let o = run(poses, criterion);
+        let err = String::from_utf8_lossy(&o.stderr).to_string();
+        assert_eq!(o.status.code(), Some(2), "{criterion}: {err}");
+        assert!(err.contains("plan at least"), "{err}");
+        assert!(!out.exists());
+        if criterion == "d" {
+            let at = err.find("plan at least ").unwrap() + "plan at least ".len();
+            need = err[at..]
+                .split(' ')
+                .next()
+                .unwrap()
+                .parse::<usize>()
+                .unwrap();
+        }
+    }
+    let o = run(&need.to_string(), "d");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["identifiable_directions"].as_u64().unwrap() as usize > 3 * (need - 1));
+}

@@ -43,7 +43,15 @@ pub struct Checked {
     /// With the base fitted: the RMS (mm) of the nominal points placed by the best mirrored
     /// map, when it is under [`MIRRORED_SHARE`] of the nominal RMS (the data are mirrored).
     pub mirrored_rms_mm: Option<f64>,
+    /// With the base fitted: the scale and RMS (mm) of the best similarity placement of the
+    /// nominal points on the data, when the scale is off 1 by more than [`SCALED_OFF`] and the
+    /// RMS under [`MIRRORED_SHARE`] of the nominal RMS (the points in another length unit).
+    pub scaled: Option<(f64, f64)>,
 }
+
+/// How far from 1 the scale between the data and the nominal points must be for a length unit
+/// to be suspected: no arm is a tenth larger or smaller than its robot file.
+pub const SCALED_OFF: f64 = 0.1;
 
 /// How small a share of the nominal RMS the mirrored placement must leave for the data to be
 /// called mirrored: a robot file that describes the data leaves a few millimetres either way,
@@ -137,16 +145,23 @@ pub fn check<const N: usize>(
     // Mirrored data (an axis's sign flipped, two columns exchanged): no rigid placement fits
     // them, a mirrored one does. Only a fitted base can tell (a stated one places them wrong
     // for every reason).
-    let mirrored_rms_mm = (fitted && stats.rms_mm > MIRRORED_FROM_MM)
-        .then(|| {
-            let errors = crate::calibration::pose_error_vectors(&robot, &meas);
-            let measured: Vec<nalgebra::Vector3<f64>> = meas.iter().map(|m| m.point).collect();
-            let model: Vec<nalgebra::Vector3<f64>> =
-                measured.iter().zip(&errors).map(|(p, e)| p - e).collect();
-            crate::compute::registration::mirrored_rms(&model, &measured)
-        })
-        .flatten()
+    let placed = (fitted && stats.rms_mm > MIRRORED_FROM_MM).then(|| {
+        let errors = crate::calibration::pose_error_vectors(&robot, &meas);
+        let measured: Vec<nalgebra::Vector3<f64>> = meas.iter().map(|m| m.point).collect();
+        let model: Vec<nalgebra::Vector3<f64>> =
+            measured.iter().zip(&errors).map(|(p, e)| p - e).collect();
+        (model, measured)
+    });
+    let mirrored_rms_mm = placed
+        .as_ref()
+        .and_then(|(model, measured)| crate::compute::registration::mirrored_rms(model, measured))
         .filter(|m| *m < MIRRORED_SHARE * stats.rms_mm);
+    // Points in another length unit (inches, centimetres read as millimetres): a similarity
+    // with a scale far from 1 places the nominal points where no rigid placement does.
+    let scaled = placed
+        .as_ref()
+        .and_then(|(model, measured)| crate::compute::registration::scaled_fit(model, measured))
+        .filter(|(s, rms)| (s - 1.0).abs() > SCALED_OFF && *rms < MIRRORED_SHARE * stats.rms_mm);
     let b = robot.base();
     // A missing or wrong [[couplings]] entry: another reading of the joints explains the data.
     let hint = file
@@ -173,6 +188,7 @@ pub fn check<const N: usize>(
         nominal: stats,
         coupling_hint: hint,
         mirrored_rms_mm,
+        scaled,
     })
 }
 

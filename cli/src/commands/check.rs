@@ -42,6 +42,16 @@ fn check_with_joints<const N: usize>(
             crate::output::numfmt::sig(checked.nominal.rms_mm, 3)
         );
     }
+    if let Some((scale, rms)) = checked.scaled {
+        eprintln!(
+            "hint: {data}: the data fit the nominal robot scaled by {} ({} mm RMS against {} mm \
+             placed rigidly): {}; no calibration can fit them",
+            crate::output::numfmt::sig(scale, 3),
+            crate::output::numfmt::sig(rms, 3),
+            crate::output::numfmt::sig(checked.nominal.rms_mm, 3),
+            crate::formats::units::scale_cause(scale)
+        );
+    }
     Ok(CheckReport::of(
         &checked,
         file,

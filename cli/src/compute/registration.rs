@@ -93,6 +93,43 @@ pub fn mirrored_rms(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> Option<f64> {
     Some((sq / n).sqrt())
 }
 
+/// The scale and RMS (mm) of `b` against `a` placed by the best *similarity* (a rotation, a
+/// shift and one scale factor, Umeyama's): `b ≈ s·R·a + t`. A scale far from 1 that leaves a
+/// far smaller RMS than the rigid placement says the points `b` are in another length unit
+/// than `a`'s (inches read as millimetres: 0.0394). `None` with fewer than 3 points, points
+/// that are not finite or `a` at one place.
+pub fn scaled_fit(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> Option<(f64, f64)> {
+    if a.len() != b.len()
+        || a.len() < 3
+        || a.iter().chain(b).any(|p| !p.iter().all(|c| c.is_finite()))
+    {
+        return None;
+    }
+    let n = a.len() as f64;
+    let (ca, cb, h) = cross_covariance(a, b);
+    let svd = h.svd(true, true);
+    let (u, vt) = (svd.u?, svd.v_t?);
+    let v = vt.transpose();
+    let d = (v * u.transpose()).determinant().signum();
+    let r = v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * u.transpose();
+    let spread: f64 = a.iter().map(|p| (p - ca).norm_squared()).sum();
+    if spread <= 0.0 {
+        return None;
+    }
+    let scale = a
+        .iter()
+        .zip(b)
+        .map(|(pa, pb)| (r * (pa - ca)).dot(&(pb - cb)))
+        .sum::<f64>()
+        / spread;
+    let sq: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(pa, pb)| (scale * (r * (pa - ca)) + cb - pb).norm_squared())
+        .sum();
+    Some((scale, (sq / n).sqrt()))
+}
+
 /// Sets `robot`'s base to [`fit_base`]'s. Registration gives a rotation, so what the robot
 /// refuses is a base beyond its bound (1 km): points far larger than the model's, in another
 /// length unit than the one stated (refused, exit 2, saying so).

@@ -645,6 +645,44 @@ pub fn suspect<const N: usize, V: kinecal::ValueStorage>(
     Some(s)
 }
 
+/// What the scale `s` of measured points against a robot's (measured ≈ s × model) says about
+/// their length unit, as the rest of a sentence: a unit slip named when `s` lies within 10 % of
+/// its factor (inches, centimetres or metres read as millimetres, millimetres read as metres),
+/// else a robot file of another size.
+pub fn scale_cause(s: f64) -> String {
+    let slips: [(f64, &str); 4] = [
+        (
+            1.0 / 25.4,
+            "the points look given in inches (× 25.4 gives millimetres): convert x, y, z to \
+             millimetres",
+        ),
+        (
+            0.1,
+            "the points look given in centimetres (× 10 gives millimetres): convert x, y, z to \
+             millimetres",
+        ),
+        (
+            0.001,
+            "the points look given in metres: give --length-unit m, or length = \"m\" in the \
+             --map file",
+        ),
+        (
+            1000.0,
+            "the points look given in millimetres but read as metres: drop --length-unit m (or \
+             the --map file's length = \"m\")",
+        ),
+    ];
+    slips
+        .iter()
+        .find(|(f, _)| (s / f - 1.0).abs() <= 0.1)
+        .map(|(_, why)| why.to_string())
+        .unwrap_or_else(|| {
+            "no length unit explains that scale: the robot file may describe another robot \
+             (check its link lengths) or the points are not the tool's"
+                .to_string()
+        })
+}
+
 /// Millimetres of a length in metres by moving the decimal point of its shortest decimal
 /// text: `0.38397123` m is exactly the number `383.97123` would be, so a file in metres gives
 /// the very numbers of the same file in millimetres (`x * 1000.0` can be one ulp off).

@@ -44,6 +44,13 @@ pub struct CheckReport {
     /// two exchanged).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mirrored_rms_mm: Option<f64>,
+    /// With the base fitted: the scale of the best similarity placement of the nominal points
+    /// on the data and the RMS (mm) it leaves, present when the scale is a tenth or more off 1
+    /// and the RMS far under `nominal_rms_mm` (the points in another length unit).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub length_scale: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scaled_rms_mm: Option<f64>,
     /// The joint limits the robot file states (degrees), per joint (text only).
     #[serde(skip)]
     pub limits_deg: Vec<Option<[f64; 2]>>,
@@ -73,6 +80,8 @@ impl CheckReport {
             nominal_max_mm: c.nominal.max_mm,
             coupling_hint: c.coupling_hint.as_ref().map(CouplingHintReport::from),
             mirrored_rms_mm: c.mirrored_rms_mm,
+            length_scale: c.scaled.map(|(s, _)| s),
+            scaled_rms_mm: c.scaled.map(|(_, r)| r),
             limits_deg: file.joints.iter().map(|j| j.limits_deg).collect(),
         }
     }

@@ -54,3 +54,42 @@ fn check_names_data_that_fit_only_mirrored() {
         assert!(m < 0.2 * rms && rms > 10.0, "{v}");
     }
 }
+
+/// Points in inches or centimetres read as millimetres: `check` said only "RMS 866 mm" with exit
+/// 0 (its units check weighs millimetres against metres). The nominal points placed by the best
+/// similarity fit them at a scale of 1/25.4 or 1/10: `check` names the unit (stderr hint, JSON
+/// `length_scale`, `scaled_rms_mm`); the rows in millimetres, and the same rows 2 % larger (a
+/// robot file of about the right size), draw no such hint.
+#[test]
+fn check_names_points_in_inches_or_centimetres() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = ur10_dir().join("robot.toml");
+    let scaled = |name: &str, per_mm: f64| {
+        ur10_rows(dir.path(), name, 300, move |_, cells| {
+            for c in &mut cells[6..9] {
+                *c = format!("{:?}", c.parse::<f64>().unwrap() / per_mm);
+            }
+        })
+    };
+    for (name, per_mm, unit) in [("in.csv", 25.4, "inches"), ("cm.csv", 10.0, "centimetres")] {
+        let data = scaled(name, per_mm);
+        let out = run_on("check", &robot, &data, &["--json"]);
+        assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+        let err = stderr(&out);
+        assert!(
+            err.contains(&format!("the points look given in {unit}")),
+            "{name}: {err}"
+        );
+        let v = json_of(&out);
+        let s = v["length_scale"].as_f64().unwrap();
+        assert!((s * per_mm - 1.0).abs() < 0.01, "{name}: scale {s}");
+        assert!(v["scaled_rms_mm"].as_f64().unwrap() < 1.0, "{v}");
+    }
+    for (name, per_mm) in [("mm.csv", 1.0), ("large.csv", 1.0 / 1.02)] {
+        let data = scaled(name, per_mm);
+        let out = run_on("check", &robot, &data, &["--json"]);
+        assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+        assert!(!stderr(&out).contains("scaled by"), "{}", stderr(&out));
+        assert!(json_of(&out).get("length_scale").is_none());
+    }
+}

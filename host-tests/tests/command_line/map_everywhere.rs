@@ -147,9 +147,11 @@ fn a_map_reading_one_column_twice_or_the_wrong_unit_is_refused() {
     let data = crate::common::ur10_rows(d, "d.csv", 100, |_, _| {});
     let twice = write(d, "twice.toml", "[columns]\nq1 = \"q1\"\nq2 = \"q1\"\n");
     let metres = write(d, "metres.toml", "[units]\nlength = \"m\"\n");
+    let inches = write(d, "inches.toml", "[units]\nlength = \"in\"\n");
     for (map, says) in [
         (&twice, "q1 and q2 name the same column"),
         (&metres, "not in the length unit stated"),
+        (&inches, "inches: multiply x, y, z by 25.4"),
     ] {
         for command in ["check", "identify", "diagnose", "validate"] {
             let mut args = vec![
@@ -192,6 +194,9 @@ fn a_map_key_kinecal_does_not_read_is_refused_with_the_name_meant() {
         // A name cut short is nearer than another name one edit away (`rx`).
         ("srx", "did you mean srx_deg?"),
         ("rx", "use rx_deg as the key"),
+        // A quaternion component is no typo of q1: named as one.
+        ("qw", "a quaternion component"),
+        ("Quat_X", "a quaternion component"),
     ] {
         let map = write(d, "m.toml", &format!("[columns]\n{key} = \"temp_c\"\n"));
         for command in ["check", "identify"] {

@@ -313,7 +313,19 @@ impl MapFile {
                 None => None,
                 Some("mm") => Some(LengthUnit::Mm),
                 Some("m") => Some(LengthUnit::M),
-                Some(o) => crate::refuse!("{origin}: [units] length = {o:?}: give \"mm\" or \"m\""),
+                Some(o) => {
+                    let convert = match o.to_ascii_lowercase().as_str() {
+                        "in" | "inch" | "inches" | "\"" => {
+                            " (inches: multiply x, y, z by 25.4 and give \"mm\")"
+                        }
+                        "cm" => " (centimetres: multiply x, y, z by 10 and give \"mm\")",
+                        "ft" | "feet" => " (feet: multiply x, y, z by 304.8 and give \"mm\")",
+                        _ => "",
+                    };
+                    crate::refuse!(
+                        "{origin}: [units] length = {o:?}: give \"mm\" or \"m\", the units kinecal reads{convert}"
+                    )
+                }
             },
             time,
         };

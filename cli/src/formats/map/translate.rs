@@ -172,6 +172,17 @@ fn unknown_name(key: &str, (n, kind): (usize, FileKind), map_origin: &str) -> an
             kinecal::io::csv::NAME_LEN
         );
     }
+    // A quaternion component (`qw` would be taken for a typo of `q1`): kinecal reads angles.
+    let bare = key.to_ascii_lowercase().replace(['_', '-', '.'], "");
+    let quaternion = ["qw", "qx", "qy", "qz", "quatw", "quatx", "quaty", "quatz"];
+    if quaternion.contains(&bare.as_str()) {
+        crate::refuse!(
+            "{map_origin}: [columns] {key}: a quaternion component; kinecal reads orientations \
+             as fixed-axis angles rx_deg, ry_deg, rz_deg (docs/formats.md, \"Observations\"): \
+             convert the quaternion to them (mind its order, w first or last), or leave the \
+             orientation out for a positions calibration"
+        );
+    }
     let names: Vec<String> = (1..=n)
         .map(|j| format!("q{j}"))
         .chain(

@@ -66,31 +66,43 @@ fn cross_covariance(
     (ca, cb, h)
 }
 
-/// The RMS (mm) of `b` against `a` placed by the best *mirrored* orthogonal map (a reflection
-/// times a rotation, and a shift): small where the best rigid placement leaves much, when the
-/// points `b` are `a` mirrored (an axis's sign flipped, two axes exchanged). Which axis cannot be
-/// told: any two mirrorings differ by a rotation. `None` with fewer than 3 points or points that
-/// are not finite.
-pub fn mirrored_rms(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> Option<f64> {
+/// The centroids of `a` and `b` and the orthogonal map that best turns `a`'s spread onto `b`'s:
+/// a rotation, or with `mirrored` a reflection times a rotation. `None` with fewer than 3
+/// points, sets of different lengths or points that are not finite.
+fn orthogonal_map(
+    a: &[Vector3<f64>],
+    b: &[Vector3<f64>],
+    mirrored: bool,
+) -> Option<(Vector3<f64>, Vector3<f64>, Matrix3<f64>)> {
     if a.len() != b.len()
         || a.len() < 3
         || a.iter().chain(b).any(|p| !p.iter().all(|c| c.is_finite()))
     {
         return None;
     }
-    let n = a.len() as f64;
     let (ca, cb, h) = cross_covariance(a, b);
     let svd = h.svd(true, true);
     let (u, vt) = (svd.u?, svd.v_t?);
     let v = vt.transpose();
     let d = (v * u.transpose()).determinant().signum();
-    let r = v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -d)) * u.transpose();
+    let last = if mirrored { -d } else { d };
+    let r = v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, last)) * u.transpose();
+    Some((ca, cb, r))
+}
+
+/// The RMS (mm) of `b` against `a` placed by the best *mirrored* orthogonal map (a reflection
+/// times a rotation, and a shift): small where the best rigid placement leaves much, when the
+/// points `b` are `a` mirrored (an axis's sign flipped, two axes exchanged). Which axis cannot be
+/// told: any two mirrorings differ by a rotation. `None` with fewer than 3 points or points that
+/// are not finite.
+pub fn mirrored_rms(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> Option<f64> {
+    let (ca, cb, r) = orthogonal_map(a, b, true)?;
     let sq: f64 = a
         .iter()
         .zip(b)
         .map(|(pa, pb)| (r * (pa - ca) + cb - pb).norm_squared())
         .sum();
-    Some((sq / n).sqrt())
+    Some((sq / a.len() as f64).sqrt())
 }
 
 /// The scale and RMS (mm) of `b` against `a` placed by the best *similarity* (a rotation, a
@@ -99,19 +111,7 @@ pub fn mirrored_rms(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> Option<f64> {
 /// than `a`'s (inches read as millimetres: 0.0394). `None` with fewer than 3 points, points
 /// that are not finite or `a` at one place.
 pub fn scaled_fit(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> Option<(f64, f64)> {
-    if a.len() != b.len()
-        || a.len() < 3
-        || a.iter().chain(b).any(|p| !p.iter().all(|c| c.is_finite()))
-    {
-        return None;
-    }
-    let n = a.len() as f64;
-    let (ca, cb, h) = cross_covariance(a, b);
-    let svd = h.svd(true, true);
-    let (u, vt) = (svd.u?, svd.v_t?);
-    let v = vt.transpose();
-    let d = (v * u.transpose()).determinant().signum();
-    let r = v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * u.transpose();
+    let (ca, cb, r) = orthogonal_map(a, b, false)?;
     let spread: f64 = a.iter().map(|p| (p - ca).norm_squared()).sum();
     if spread <= 0.0 {
         return None;
@@ -127,7 +127,7 @@ pub fn scaled_fit(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> Option<(f64, f64)> 
         .zip(b)
         .map(|(pa, pb)| (scale * (r * (pa - ca)) + cb - pb).norm_squared())
         .sum();
-    Some((scale, (sq / n).sqrt()))
+    Some((scale, (sq / a.len() as f64).sqrt()))
 }
 
 /// Sets `robot`'s base to [`fit_base`]'s. Registration gives a rotation, so what the robot

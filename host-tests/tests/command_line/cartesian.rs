@@ -161,16 +161,24 @@ fn cartesian_targets_through_the_nominal_ik_reach_the_targets_on_the_calibrated_
     }
 }
 
-#[test]
-fn robot_without_cartesian_and_cartesian_without_robot_are_refused() {
-    let dir = tempfile::tempdir().unwrap();
-    let model = write(dir.path(), "model.toml", ER20_TILTED_PLACED);
+/// The tilted, placed ER20 as the model, one target (beyond its placed reach) and where the
+/// commands would go, in `dir`.
+fn one_target(
+    dir: &std::path::Path,
+) -> (std::path::PathBuf, std::path::PathBuf, std::path::PathBuf) {
+    let model = write(dir, "model.toml", ER20_TILTED_PLACED);
     let targets = write(
-        dir.path(),
+        dir,
         "t.csv",
         "q1,q2,q3,q4,q5,q6,x,y,z\n0,-40,50,0,60,0,900,0,900\n",
     );
-    let out = dir.path().join("o.csv");
+    (model, targets, dir.join("o.csv"))
+}
+
+#[test]
+fn robot_without_cartesian_and_cartesian_without_robot_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let (model, targets, out) = one_target(dir.path());
     let base = [
         "compensate",
         "--model",
@@ -208,13 +216,7 @@ fn robot_without_cartesian_and_cartesian_without_robot_are_refused() {
 #[test]
 fn a_model_of_another_robot_is_refused_as_export_refuses_it() {
     let dir = tempfile::tempdir().unwrap();
-    let model = write(dir.path(), "model.toml", ER20_TILTED_PLACED);
-    let targets = write(
-        dir.path(),
-        "t.csv",
-        "q1,q2,q3,q4,q5,q6,x,y,z\n0,-40,50,0,60,0,900,0,900\n",
-    );
-    let out = dir.path().join("o.csv");
+    let (model, targets, out) = one_target(dir.path());
     let nominal_with = |name: &str, extra_mm: f64| {
         let mut f = RobotFile::load(&model).unwrap();
         f.name = format!("controller {name}");

@@ -53,9 +53,9 @@ pub fn compared<const N: usize, V: kinecal::ValueStorage>(
             Some(format!(
                 "the sweep of joint {k} turns about an axis {}° from the one the robot file, at \
                  the base found from joints 1 and 2, gives it: a joint's sign in the data (one \
-                 of joints 1 to {k}) is the opposite of the robot file's, or a row's `sweep` \
-                 names another joint; check the signs of the joint readings and the sweep \
-                 column",
+                 of joints 1 to {k}) is the opposite of the robot file's, its zero is 180° from \
+                 the file's, or a row's `sweep` names another joint; check the signs and zeros \
+                 of the joint readings and the sweep column",
                 sig(angle, 3)
             ))
         } else if off > MOST_LENGTH_CHANGE_MM {

@@ -578,7 +578,20 @@ pub fn translate(
                     let t = cell_text(t);
                     let mut s =
                         format!("not a number: '{}'", t.chars().take(40).collect::<String>());
-                    if !map.decimal_comma && t.contains(',') && !t.contains('.') {
+                    let unit_word = ["rad", "deg", "°", "mm", "m", "s", "degc", "°c", "in"]
+                        .contains(&t.trim().trim_matches(['[', ']', '(', ')']).to_lowercase().as_str());
+                    if unit_word {
+                        s.push_str(
+                            " (a row of units under the header? put # at the start of that line \
+                             and state the units in the map's [units])",
+                        );
+                    } else if t.contains(',') && t.contains('.') {
+                        // "1.144,21" or "1,144.21": one of them groups thousands.
+                        s.push_str(
+                            " (a thousands separator: the cell holds both '.' and ','; write \
+                             the numbers without grouping)",
+                        );
+                    } else if !map.decimal_comma && t.contains(',') {
                         s.push_str(&format!(
                             " (a decimal comma? say decimal = \",\" in {map_origin})"
                         ));

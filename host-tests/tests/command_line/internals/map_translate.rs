@@ -9,6 +9,19 @@ fn map(text: &str) -> MapFile {
     MapFile::parse(text, "M.toml").unwrap()
 }
 
+/// The refusal of translating measurement `lines` ("D.csv") with map `m` ("M.toml").
+fn error_of(m: &MapFile, lines: &str) -> String {
+    translate(
+        m,
+        &content_lines(lines),
+        (1, FileKind::Measurements),
+        ("D.csv", "M.toml"),
+    )
+    .err()
+    .unwrap()
+    .to_string()
+}
+
 #[test]
 fn a_vendor_layout_becomes_kinecal_s() {
     let m = map(
@@ -53,29 +66,28 @@ fn without_a_header_columns_are_numbers_and_lines_shift_by_one() {
 fn mistakes_name_the_file_line_and_column() {
     let m = map("[columns]\nq1 = \"j\"\nx = \"a\"\ny = \"b\"\nz = \"c\"\n");
     let lines = "j;a;b;c\n1;2;3;4\n1;2,5;3;4\n";
-    let e = translate(
-        &m,
-        &content_lines(lines),
-        (1, FileKind::Measurements),
-        ("D.csv", "M.toml"),
-    )
-    .err()
-    .unwrap()
-    .to_string();
+    let e = error_of(&m, lines);
     assert_eq!(
         e,
         "D.csv:3:2: not a number: '2,5' (a decimal comma? say decimal = \",\" in M.toml) in column `a` (kinecal's x); delimiter \";\""
     );
+    // Both separators in one cell: a thousands separator, whichever the decimal one is.
+    for decimal in ["", "decimal = \",\"\n"] {
+        let m = map(&format!(
+            "{decimal}[columns]\nq1 = \"j\"\nx = \"a\"\ny = \"b\"\nz = \"c\"\n"
+        ));
+        let e = error_of(&m, "j;a;b;c\n1;1.144,25;3;4\n");
+        assert!(e.contains("'1.144,25' (a thousands separator"), "{e}");
+    }
+    // A row of units under the header.
+    let m = map("[columns]\nq1 = \"j\"\nx = \"a\"\ny = \"b\"\nz = \"c\"\n");
+    let e = error_of(&m, "j;a;b;c\n[deg];mm;mm;mm\n1;2;3;4\n");
+    assert!(
+        e.contains("D.csv:2:1: not a number: '[deg]' (a row of units under the header?"),
+        "{e}"
+    );
     let m = map("[columns]\nq1 = \"joint\"\n");
-    let e = translate(
-        &m,
-        &content_lines(lines),
-        (1, FileKind::Measurements),
-        ("D.csv", "M.toml"),
-    )
-    .err()
-    .unwrap()
-    .to_string();
+    let e = error_of(&m, lines);
     assert!(
         e.starts_with(
             "M.toml: [columns] q1 = \"joint\": D.csv has no such column (its header: j, a, b, c)"
@@ -83,14 +95,6 @@ fn mistakes_name_the_file_line_and_column() {
         "{e}"
     );
     let m = map("[columns]\nq1 = \"j\"\n");
-    let e = translate(
-        &m,
-        &content_lines(lines),
-        (1, FileKind::Measurements),
-        ("D.csv", "M.toml"),
-    )
-    .err()
-    .unwrap()
-    .to_string();
+    let e = error_of(&m, lines);
     assert!(e.starts_with("D.csv: no column for x"), "{e}");
 }

@@ -132,7 +132,10 @@ pub fn diagnose<const N: usize>(options: &Options, inputs: Inputs<N>) -> anyhow:
         ),
     };
     let noise_floor_mm = noise_floor(&ident);
-    let mut warnings = Vec::new();
+    let mut warnings: Vec<String> = crate::constraints::fit::thin_warning(&geometric, &ident)
+        .map(|w| format!("{origin}: {w}"))
+        .into_iter()
+        .collect();
     if resized.is_none() {
         let strays = crate::constraints::outliers::find(&extended.robot, &ident, &[]).strays();
         if let Some(s) = strays {

@@ -188,6 +188,10 @@ pub fn identify<const N: usize>(
             .iter()
             .map(|s| s.warning())
             .chain(
+                crate::constraints::fit::thin_warning(&fitted, &ident)
+                    .filter(|_| refused.is_none()),
+            )
+            .chain(
                 crate::constraints::bar_scale::warning(
                     &nominal,
                     (&fitted.robot, &fitted.estimated),

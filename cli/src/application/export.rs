@@ -39,12 +39,19 @@ pub fn check_match(
 }
 
 /// The first row value of `model` further than the tolerances from `nominal`, described.
-fn mismatch(model: &RobotFile, nominal: &RobotFile, tol_mm: f64, tol_deg: f64) -> Option<String> {
+pub fn mismatch(
+    model: &RobotFile,
+    nominal: &RobotFile,
+    tol_mm: f64,
+    tol_deg: f64,
+) -> Option<String> {
     let wrap = |d: f64| (d + 180.0).rem_euclid(360.0) - 180.0;
     // With the tool unknown, the last joint's d and θ take up the reflector's offset along and
     // about the flange axis (crate::calibration::arm_size::moved): not compared.
     let last = nominal.joints.len().saturating_sub(1);
-    let free_end = nominal.tool_unknown();
+    // A tool stated at the flange's origin is a start as well (identify moves `d_N` by the
+    // reflector's offset from it).
+    let free_end = nominal.tool_unknown() || nominal.tool.xyz_mm == [0.0; 3];
     for (i, (m, n)) in model.joints.iter().zip(&nominal.joints).enumerate() {
         let rows = [
             ("alpha", m.alpha_deg, n.alpha_deg, true),

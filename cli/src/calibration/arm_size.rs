@@ -116,11 +116,9 @@ pub const TOOL_SLIP_MARGIN: f64 = 0.3;
 /// where the slip puts it, within [`TOOL_SLIP_MARGIN`]: a point under [`TOOL_METRES_MM`] that
 /// lies as far out as its coordinates read in metres (`[0, 0, 0.109]` fitted at 93 mm), and a
 /// coordinate of at least [`TOOL_SIGN_MM`] fitted at its negative (z; or x or y, where joint
-/// N's zero turned by 180° in the data looks the same, and is named too); then a point whose
-/// distance along the last axis from its joint's origin (`d_N + z`) was fitted at its negative
-/// (the axis reversed: a joint before it turned by 180° in the data, UR10's joint 5), and any
-/// point other than the flange's origin (a start) fitted more than [`MOST_LENGTH_CHANGE_MM`]
-/// from the stated one. The geometry
+/// N's zero turned by 180° in the data looks the same, and is named too); then any point
+/// other than the flange's origin (a start) fitted more than [`MOST_LENGTH_CHANGE_MM`] from the
+/// stated one, once a reversed flange axis ([`axis_reversed`]) is ruled out. The geometry
 /// imitates either exactly (UR10's real data fit to the same 0.47 mm with the tool in metres,
 /// `d6` 93 mm longer), so the fit's error is no evidence against them.
 pub fn tool_slip<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStorage>(
@@ -180,21 +178,10 @@ pub fn tool_slip<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStor
                     axes.join(", ")
                 ));
             }
-            // Along the last axis from its joint's origin: d_N + z, as stated and as fitted.
+            // The axis reversed in the data ([`axis_reversed`]), after a flipped sign of z.
             let last_d = nominal.joints().last().map_or(0.0, |j| j.d);
-            let (along, fitted_along) = (last_d + stated.z, last_d + found.z);
-            if along.abs() >= TOOL_SIGN_MM
-                && (fitted_along + along).abs() <= TOOL_SLIP_MARGIN * along.abs()
-            {
-                return Some(format!(
-                    "put the tool point {} mm along joint {N}'s axis from its origin, where the \
-                     robot file puts it at {} mm (d{N} + z of {entry}): the axis points the \
-                     other way in the data, so a joint before it is turned by 180° (its zero in \
-                     the data differs from the robot file's by 180°, as a wrist joint's can) or \
-                     its sign is flipped; check the joints' zeros and signs in the data (--map)",
-                    sig(fitted_along, 4),
-                    sig(along, 4)
-                ));
+            if let Some(why) = reversed::<N>(last_d + stated.z, last_d + found.z) {
+                return Some(why);
             }
             let off = (found - stated).norm();
             // A point stated at the flange's origin is taken as a start (as many robot files
@@ -212,6 +199,46 @@ pub fn tool_slip<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStor
                 )
             })
         })
+}
+
+/// Why the tool points `fitted` settled on lie on the other side of the last joint's origin
+/// than `nominal` puts them (`d_N + z` of the other sign, at least [`TOOL_SIGN_MM`] either
+/// way), or `None`: the flange axis points the other way in the data, a joint before it turned
+/// by 180° (UR10 rows with q5 + 180° fit to 0.6 mm with `d6` at −310 mm, or at −185 mm with the
+/// tool stated at the flange). No reflector sits behind the wrist, so this holds for tools
+/// stated, started at the flange or unknown (`tool_stated` false: the robot file's point is
+/// taken at the flange, since the start `nominal` holds came from the same data).
+pub fn axis_reversed<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStorage>(
+    nominal: &Robot<f64, N, V>,
+    fitted: &Robot<f64, N, W>,
+    tool_stated: bool,
+) -> Option<String> {
+    let last_d = nominal.joints().last()?.d;
+    flange_points(nominal, fitted)
+        .into_iter()
+        .find_map(|(stated, found)| {
+            let stated_z = if tool_stated { stated.z } else { 0.0 };
+            reversed::<N>(last_d + stated_z, last_d + found.z)
+        })
+}
+
+/// [`axis_reversed`] for one point: `along` and `fitted_along` its `d_N + z` (mm) as the file
+/// puts it and as the fit does.
+fn reversed<const N: usize>(along: f64, fitted_along: f64) -> Option<String> {
+    (along.abs() >= TOOL_SIGN_MM
+        && fitted_along.abs() >= TOOL_SIGN_MM
+        && along.signum() != fitted_along.signum())
+    .then(|| {
+        format!(
+            "put the tool point {} mm along joint {N}'s axis from its origin, on the other side \
+             of it than the robot file's {} mm (d{N} + the tool's z): the axis points the other \
+             way in the data, so a joint before it is turned by 180° (its zero in the data \
+             differs from the robot file's by 180°, as a wrist joint's can) or its sign is \
+             flipped; check the joints' zeros and signs in the data (--map)",
+            sig(fitted_along, 4),
+            sig(along, 4)
+        )
+    })
 }
 
 /// A point as `[x, y, z]` with four significant digits (mm).

@@ -43,8 +43,8 @@ pub struct Checked {
     /// With the base fitted: the RMS (mm) of the nominal points placed by the best mirrored
     /// map, when it is under [`MIRRORED_SHARE`] of the nominal RMS (the data are mirrored).
     pub mirrored_rms_mm: Option<f64>,
-    /// With the base fitted: the scale and RMS (mm) of the best similarity placement of the
-    /// nominal points on the data, when the scale is off 1 by more than [`SCALED_OFF`] and the
+    /// The scale and RMS (mm, rescaled to the model's size) of the best similarity placement of
+    /// the nominal points on the data, when the scale is off 1 by more than [`SCALED_OFF`] and the
     /// RMS under [`MIRRORED_SHARE`] of the nominal RMS (the points in another length unit).
     pub scaled: Option<(f64, f64)>,
 }
@@ -145,7 +145,7 @@ pub fn check<const N: usize>(
     // Mirrored data (an axis's sign flipped, two columns exchanged): no rigid placement fits
     // them, a mirrored one does. Only a fitted base can tell (a stated one places them wrong
     // for every reason).
-    let placed = (fitted && stats.rms_mm > MIRRORED_FROM_MM).then(|| {
+    let placed = (stats.rms_mm > MIRRORED_FROM_MM).then(|| {
         let errors = crate::calibration::pose_error_vectors(&robot, &meas);
         let measured: Vec<nalgebra::Vector3<f64>> = meas.iter().map(|m| m.point).collect();
         let model: Vec<nalgebra::Vector3<f64>> =
@@ -154,13 +154,17 @@ pub fn check<const N: usize>(
     });
     let mirrored_rms_mm = placed
         .as_ref()
+        .filter(|_| fitted)
         .and_then(|(model, measured)| crate::compute::registration::mirrored_rms(model, measured))
         .filter(|m| *m < MIRRORED_SHARE * stats.rms_mm);
     // Points in another length unit (inches, centimetres read as millimetres): a similarity
-    // with a scale far from 1 places the nominal points where no rigid placement does.
+    // with a scale far from 1 places the nominal points where no rigid placement does, with the
+    // base stated or fitted (a similarity finds its own placement). Its RMS is in the data's
+    // unit: rescaled to the model's millimetres.
     let scaled = placed
         .as_ref()
         .and_then(|(model, measured)| crate::compute::registration::scaled_fit(model, measured))
+        .map(|(s, rms)| (s, rms / s))
         .filter(|(s, rms)| (s - 1.0).abs() > SCALED_OFF && *rms < MIRRORED_SHARE * stats.rms_mm);
     let b = robot.base();
     // A missing or wrong [[couplings]] entry: another reading of the joints explains the data.

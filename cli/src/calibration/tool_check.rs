@@ -12,8 +12,10 @@ pub fn stated_tool_slip<const N: usize, V: kinecal::ValueStorage, W: kinecal::Va
     nominal: &Robot<f64, N, V>,
     fitted: &Robot<f64, N, W>,
 ) -> Option<String> {
+    // A reversed flange axis puts an unknown tool behind the wrist as well (a stated one is
+    // checked for it in `tool_slip`, after a flipped sign).
     if file.tool_unknown() {
-        return None;
+        return super::arm_size::axis_reversed(nominal, fitted, false);
     }
     let names = file.tool_names();
     // Labels first: an exchanged pair mirrored in one axis (B at y = 52, C at −52) also reads

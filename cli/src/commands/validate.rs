@@ -91,6 +91,23 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ValidateReport
             obs: args.obs.clone(),
         },
     )?;
+    // A model far worse than the robot file that also lies beyond a manufacturing tolerance of
+    // it may be of another robot (or typed wrong): "recalibrate" alone would send the user to
+    // measure again.
+    if v.worse_than_nominal {
+        if let Some(what) = crate::application::export::mismatch(
+            &model_file,
+            &file,
+            crate::application::export::MATCH_TOLERANCE_MM,
+            crate::application::export::MATCH_TOLERANCE_DEG,
+        ) {
+            eprintln!(
+                "note: {model_origin} lies beyond a manufacturing tolerance of {robot_origin} \
+                 ({what}): if it was not calibrated from this robot file, give the one it was, \
+                 or correct the value; `export` refuses the pair"
+            );
+        }
+    }
     Ok(ValidateReport::of(
         &v,
         (&robot_origin, &model_origin, &origin),

@@ -528,10 +528,6 @@ pub fn plan<const N: usize, V: kinecal::ValueStorage>(
             params.len()
         );
     }
-    // A random design cannot know the directions yet: every parameter counts.
-    if req.criterion.criterion().is_none() {
-        too_few_poses(req.poses, params.len(), "parameters it plans for")?;
-    }
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(req.seed);
     let max_draws = 2_000_000 + 2_000 * req.pool.max(req.poses) as u64;
     let (poses, draws, pool_size, passes, exchanges, basis_rank) = match req.criterion.criterion() {
@@ -621,6 +617,15 @@ pub fn plan<const N: usize, V: kinecal::ValueStorage>(
     };
     let qs: Vec<[f64; N]> = poses.iter().map(|c| c.q).collect();
     let evaluation = evaluate(&robot, params, &qs, req.work, req.sigma)?;
+    // A random design has no pool to tell the directions: one whose every equation went to a
+    // direction of its own has none to spare, and more directions are left undetermined.
+    if req.criterion.criterion().is_none() && evaluation.rank >= 3 * req.poses {
+        too_few_poses(
+            req.poses,
+            evaluation.rank + 1,
+            "directions or more a design determines",
+        )?;
+    }
     Ok(Plan {
         poses,
         evaluation,
@@ -634,14 +639,14 @@ pub fn plan<const N: usize, V: kinecal::ValueStorage>(
 
 /// Refuses a design of `poses` poses whose equations (3 per pose) cannot determine `directions`
 /// (`what` they are): its predicted accuracy would cover only the few directions it does
-/// determine (one pose predicted a tool σ smaller than ten poses did), and `identify` refuses
-/// such a session.
+/// determine (one pose predicted a tool σ smaller than ten poses did).
 fn too_few_poses(poses: usize, directions: usize, what: &str) -> anyhow::Result<()> {
     let need = directions.div_ceil(3);
     if poses < need {
         crate::refuse!(
             "--poses {poses}: {} equations (3 per pose) for the {directions} {what}: plan at \
-             least {need} poses (identify refuses fewer), better three to five times as many",
+             least {need} poses (fewer determine only some, and the predicted accuracy leaves \
+             the others out), better three to five times as many",
             3 * poses
         );
     }

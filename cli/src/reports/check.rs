@@ -44,8 +44,8 @@ pub struct CheckReport {
     /// two exchanged).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mirrored_rms_mm: Option<f64>,
-    /// With the base fitted: the scale of the best similarity placement of the nominal points
-    /// on the data and the RMS (mm) it leaves, present when the scale is a tenth or more off 1
+    /// The scale of the best similarity placement of the nominal points on the data and the RMS
+    /// it leaves (mm of the model, the data rescaled), present when the scale is a tenth or more off 1
     /// and the RMS far under `nominal_rms_mm` (the points in another length unit).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub length_scale: Option<f64>,

@@ -83,7 +83,9 @@ fn check_names_points_in_inches_or_centimetres() {
         let v = json_of(&out);
         let s = v["length_scale"].as_f64().unwrap();
         assert!((s * per_mm - 1.0).abs() < 0.01, "{name}: scale {s}");
-        assert!(v["scaled_rms_mm"].as_f64().unwrap() < 1.0, "{v}");
+        // In the model's millimetres: the nominal robot's own error on the real rows.
+        let rms = v["scaled_rms_mm"].as_f64().unwrap();
+        assert!(rms < 0.05 * v["nominal_rms_mm"].as_f64().unwrap(), "{v}");
     }
     for (name, per_mm) in [("mm.csv", 1.0), ("large.csv", 1.0 / 1.02)] {
         let data = scaled(name, per_mm);

@@ -314,3 +314,45 @@ fn a_session_that_any_robot_meets_exactly_is_refused() {
     let v = identify(&sockets, &[]);
     assert_eq!(v["converged"], true);
 }
+
+/// A session with a few equations to spare but fewer than ten (18 distances for 17
+/// parameters fitted to 0.0005 mm at 0.05 mm noise, exit 0 and no word) is warned about, naming
+/// how many are left; with ten or more it is not. Distance sessions of 14 to 30 bars of the
+/// ER20: one equation per bar, so the spare ones are the bars less the parameters estimated.
+#[test]
+fn a_session_with_few_equations_to_spare_is_warned_about() {
+    let robot = data_file("er20.toml");
+    let mut warned = 0;
+    for bars in (14..=30).step_by(2) {
+        let dir = tempfile::tempdir().unwrap();
+        let (data, _) = session(dir.path(), &format!("distance:{bars}"), 3);
+        let out = kinecal(&[
+            "identify",
+            "--robot",
+            s(&robot),
+            "--data",
+            s(&data),
+            "--json",
+        ]);
+        let err = stderr(&out);
+        if out.status.code() == Some(2) {
+            assert!(err.contains("exactly whatever the robot"), "{bars}: {err}");
+            continue;
+        }
+        assert_eq!(out.status.code(), Some(0), "{bars}: {err}");
+        let v = json_of(&out);
+        let spare = v["n_identification"].as_i64().unwrap()
+            - v["estimated"].as_array().unwrap().len() as i64;
+        let says = format!("only {spare} of the session's equations are left");
+        if spare < 10 {
+            assert!(err.contains(&says), "{bars} bars, {spare} spare: {err}");
+            warned += 1;
+        } else {
+            assert!(
+                !err.contains("of the session's equations are left"),
+                "{bars}: {err}"
+            );
+        }
+    }
+    assert!(warned > 0);
+}

@@ -171,9 +171,16 @@ pub fn spare_equations<const N: usize>(
     shapes: &[Shape],
     estimated: &[Param],
 ) -> i64 {
-    super::system::rows(groups) as i64
-        - shapes.iter().map(|s| s.unknowns() as i64).sum::<i64>()
-        - estimated.len() as i64
+    let (rows, unknowns) = equations(groups, shapes);
+    rows as i64 - unknowns as i64 - estimated.len() as i64
+}
+
+/// The equations of `groups` and how many of them their `shapes`' unknowns take.
+fn equations<const N: usize>(groups: &[Group<N>], shapes: &[Shape]) -> (usize, usize) {
+    (
+        super::system::rows(groups),
+        shapes.iter().map(|s| s.unknowns()).sum(),
+    )
 }
 
 /// Refuses a fit of `groups` that has no equation to spare ([`spare_equations`]): its error
@@ -183,12 +190,10 @@ pub fn refuse_exact<const N: usize>(
     groups: &[Group<N>],
     origin: &str,
 ) -> anyhow::Result<()> {
-    let spare = spare_equations(groups, &fitted.shapes, &fitted.estimated);
-    if spare >= 1 {
+    let (rows, unknowns) = equations(groups, &fitted.shapes);
+    if rows > unknowns + fitted.estimated.len() {
         return Ok(());
     }
-    let rows = super::system::rows(groups);
-    let unknowns: usize = fitted.shapes.iter().map(|s| s.unknowns()).sum();
     let shapes = if unknowns > 0 {
         format!("{unknowns} of them taken by the sockets' centres and the planes, the rest")
     } else {

@@ -10,7 +10,6 @@ use crate::robot::{model, Robot};
 use crate::{error, py_err};
 use kinecal_cli::application::identify::{self as identification, Identified, Inputs};
 use kinecal_cli::calibration::check::check as check_set;
-use kinecal_cli::commands::non_finite_error;
 use kinecal_cli::diagnose::workflow;
 use kinecal_cli::formats::loading::accept_dataset;
 use kinecal_cli::formats::measurements::Dataset;
@@ -28,7 +27,7 @@ use std::path::Path;
 /// figure that is not finite is an error, as on the command line.
 pub fn finish(r: anyhow::Result<Box<dyn Report>>) -> PyResult<(String, bool)> {
     let r = r.map_err(py_err)?;
-    if let Some(e) = non_finite_error(r.as_ref()) {
+    if let Some(e) = kinecal_cli::reports::ErrorReport::non_finite(r.as_ref()) {
         return Err(error("KinecalError", e.error));
     }
     let text = serde_json::to_string(&r.to_json()).map_err(|e| py_err(e.into()))?;

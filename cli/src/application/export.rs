@@ -17,10 +17,10 @@ pub const MATCH_TOLERANCE_MM: f64 = 20.0;
 /// The same for angles (degrees).
 pub const MATCH_TOLERANCE_DEG: f64 = 2.0;
 
-/// Refuses `model` (named `model_origin`) when a row value lies further than the tolerances
-/// (mm, degrees) from `nominal` (named `source`): a calibration moves rows by millimetres and
-/// tenths of a degree, so a larger difference means the model was made for another robot (or
-/// another MDH convention).
+/// Refuses `model` (named `model_origin`) when its joints are not as many as `nominal`'s (named
+/// `source`), or when a row value lies further than the tolerances (mm, degrees) from
+/// `nominal`'s: a calibration moves rows by millimetres and tenths of a degree, so a larger
+/// difference means the model was made for another robot (or another MDH convention).
 pub fn check_match(
     model: &RobotFile,
     model_origin: &str,
@@ -28,6 +28,13 @@ pub fn check_match(
     source: &str,
     (tol_mm, tol_deg): (f64, f64),
 ) -> anyhow::Result<()> {
+    let (m, n) = (model.joints.len(), nominal.joints.len());
+    if m != n {
+        crate::refuse!(
+            "{model_origin}: the model has {m} joints, {source} {n}: give the robot file the \
+             model was calibrated from (for a URDF, the --base-link/--tip-link given to import)"
+        );
+    }
     if let Some(what) = mismatch(model, nominal, tol_mm, tol_deg) {
         crate::refuse!(
             "{model_origin}: not a calibration of {source}: {what} (further apart than \
@@ -149,6 +156,22 @@ pub fn dh_table(model: &RobotFile, nominal: Option<&RobotFile>, as_json: bool) -
         dh_table::to_csv(&rows)
     };
     (text, rows.len())
+}
+
+/// The warning for a model whose thermal expansion is referred to a temperature no room has
+/// (above [`crate::formats::loading::WARM_C`]): the firmware feeds the expansion the °C of its
+/// sensor, so such a model was fitted to a `temp_c` column in °F and expands wrongly there.
+pub fn warm_reference(model: &RobotFile, origin: &str) -> Option<String> {
+    let t = model
+        .effects
+        .iter()
+        .filter_map(|e| e.reference_c)
+        .find(|t| *t > crate::formats::loading::WARM_C)?;
+    Some(format!(
+        "{origin}: the thermal expansion's reference_c is {t} °C: the controller feeds its \
+         sensor's °C; a model fitted to a temp_c column in °F expands wrongly there: convert the \
+         column, (F − 32) × 5/9, and calibrate again"
+    ))
 }
 
 /// The binary model firmware loads (`kc_robot_load`); `origin` names the model in a refusal.

@@ -10,6 +10,7 @@
 //! - [`export`]: `kinecal export`'s checks and outputs (URDF, DH table, firmware model).
 //! - [`study`]: `kinecal study`, the measurement-planning study over a grid of arms.
 //! - [`demo`]: `kinecal demo`, the BPNN-PSO paper's simulation and its four methods.
+//! - [`simulate`]: `kinecal simulate`, the true robot and a session measured on it.
 //! - [`report`]: `kinecal report`, the calibration report of an identified model.
 
 pub mod constraint_diagnose;
@@ -19,4 +20,5 @@ pub mod demo;
 pub mod export;
 pub mod identify;
 pub mod report;
+pub mod simulate;
 pub mod study;

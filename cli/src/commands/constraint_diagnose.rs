@@ -9,6 +9,7 @@ use crate::constraints::diagnose::SearchOptions;
 pub use crate::constraints::diagnose_report::ConstraintDiagnoseReport;
 use crate::constraints::read;
 use crate::formats::robot_file::{load_robot, RobotFile};
+use crate::reports::model_out::{save, NOT_A_CALIBRATION};
 use crate::reports::path_text;
 use crate::with_joints;
 
@@ -89,17 +90,6 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintDiag
     for w in &warnings {
         eprintln!("warning: {w}");
     }
-    if let Some(path) = &args.out {
-        match model {
-            Some(model) => {
-                model.save(path)?;
-                report.out = Some(path.display().to_string());
-            }
-            None => eprintln!(
-                "note: {} not written: these numbers are not a calibration",
-                path.display()
-            ),
-        }
-    }
+    report.out = save(args.out.as_deref(), model.as_ref().ok_or(NOT_A_CALIBRATION))?;
     Ok(report)
 }

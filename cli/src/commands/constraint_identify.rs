@@ -7,6 +7,7 @@ use crate::application::constraints::{identify, Inputs};
 use crate::constraints::read;
 use crate::constraints::report::ConstraintIdentifyReport;
 use crate::formats::robot_file::{load_robot, RobotFile};
+use crate::reports::model_out::{save, unfit};
 use crate::with_joints;
 
 /// Runs `identify` on the constraint file `args.input.data`.
@@ -63,22 +64,16 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintIden
             report.stop
         );
     }
-    if let Some(out) = &args.out {
-        if report.held_out_worse == Some(true) {
-            eprintln!(
-                "note: {} not written: the model predicts the held-out groups worse than the \
-                 model it started from",
-                out.display()
-            );
-        } else if !report.converged {
-            eprintln!(
-                "note: {} not written: these numbers are not a calibration",
-                out.display()
-            );
-        } else {
-            done.model.save(out)?;
-            report.out = Some(out.display().to_string());
-        }
-    }
+    let worse = report.held_out_worse == Some(true);
+    let unfit = unfit(
+        worse,
+        report.converged,
+        "held-out groups",
+        "the model it started from",
+    );
+    report.out = save(
+        args.out.as_deref(),
+        unfit.as_deref().map_or(Ok(&done.model), Err),
+    )?;
     Ok(done.report)
 }

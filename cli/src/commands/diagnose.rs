@@ -126,21 +126,13 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
             sig(args.stall_rms_mm, 3)
         );
     }
-    if let Some(out) = args.out.as_ref().filter(|_| w.held_out_worse()) {
-        eprintln!(
-            "note: {} not written: the model predicts the held-out poses worse than the \
-             nominal robot",
-            out.display()
-        );
-    } else if let Some(out) = args.out.as_ref().filter(|_| !report.converged) {
-        eprintln!(
-            "note: {} not written: the geometric model is no calibration of these data",
-            out.display()
-        );
-    } else if let Some(out) = &args.out {
-        w.model.save(out)?;
-        report.out = Some(out.display().to_string());
-    }
+    let unfit = if w.held_out_worse() {
+        Some("the model predicts the held-out poses worse than the nominal robot")
+    } else {
+        (!report.converged).then_some("the geometric model is no calibration of these data")
+    };
+    report.out =
+        crate::reports::model_out::save(args.out.as_deref(), unfit.map_or(Ok(&w.model), Err))?;
     if let Some(dir) = &args.plots {
         stages.stage("writing the plots");
         let files = crate::diagnose::residual_plots::write_all(dir, &w.diagnosis, &w.search)?;

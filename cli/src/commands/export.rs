@@ -76,33 +76,18 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
         let (text, urdf) = read_urdf(path)?;
         let (base, tip) = (args.base_link.as_deref(), args.tip_link.as_deref());
         let (imp, _, tip, _) = import_chain(&urdf, path, base, tip, [0.0; 3])?;
-        if imp.file.joints.len() != model.joints.len() {
-            crate::refuse!(
-                "{model_origin}: the model has {} joints, the URDF chain {}: pass the \
-                 --base-link/--tip-link given to import",
-                model.joints.len(),
-                imp.file.joints.len()
-            );
-        }
         export::check_match(&model, &model_origin, &imp.file, &path_text(path), tol)?;
         Ok((text, urdf, imp, tip))
     };
+    let out = path_text(&args.out);
     let mut report = ExportReport {
-        format: String::new(),
-        out: path_text(&args.out),
-        joints_rewritten: Vec::new(),
-        dropped: Vec::new(),
-        rows: 0,
-        bytes: None,
+        out,
+        ..ExportReport::default()
     };
     // The nominal robot file of --robot, the model refused when further from it than a
     // calibration moves.
     let nominal_of = |r: &std::path::Path| -> anyhow::Result<RobotFile> {
         let f = RobotFile::load(r)?;
-        let (n, m) = (f.joints.len(), model.joints.len());
-        if n != m {
-            crate::refuse!("{}: {n} joints, the model {m}", r.display());
-        }
         export::check_match(&model, &model_origin, &f, &path_text(r), tol)?;
         Ok(f)
     };
@@ -112,19 +97,8 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
             if let Some(r) = &args.robot {
                 nominal_of(r)?;
             }
-            // The firmware feeds the expansion °C from its sensor: a reference temperature
-            // no room has is a model fitted to °F (the loader warned about the data then).
-            let warm = model
-                .effects
-                .iter()
-                .filter_map(|e| e.reference_c)
-                .find(|t| *t > crate::formats::loading::WARM_C);
-            if let Some(t) = warm {
-                eprintln!(
-                    "warning: {model_origin}: the thermal expansion's reference_c is {t} °C: the \
-                     controller feeds its sensor's °C; a model fitted to a temp_c column in °F \
-                     expands wrongly there: convert the column, (F − 32) × 5/9, and calibrate again"
-                );
+            if let Some(w) = export::warm_reference(&model, &model_origin) {
+                eprintln!("warning: {w}");
             }
             let bytes = export::firmware(&model, &model_origin)?;
             (report.format, report.bytes) = ("firmware".into(), Some(bytes.len()));

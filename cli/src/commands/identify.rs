@@ -11,6 +11,7 @@ use crate::calibration::EffectRequest;
 use crate::formats::observations::ObservationArgs;
 use crate::formats::robot_file::{load_robot, RobotFile};
 use crate::reports::identify::IdentifyReport;
+use crate::reports::model_out::save;
 use crate::with_joints;
 use std::path::PathBuf;
 
@@ -130,31 +131,11 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
             |e| crate::refused(format!("--residuals {}: cannot write: {e}", path.display())),
         )?;
     }
-    if let Some(out) = &args.out {
-        if done.report.held_out_worse == Some(true) {
-            // Not a calibration: nothing a later step could mistake for one is written.
-            eprintln!(
-                "note: {} not written: the model predicts the {} poses worse than the model it \
-                 started from",
-                out.display(),
-                if done.report.cross_validated.is_some() {
-                    "left-out"
-                } else {
-                    "held-out"
-                }
-            );
-        } else if !done.report.converged {
-            // No calibration (its reason on the error line): nothing a later step (validate,
-            // export to the controller) could take for one is written.
-            eprintln!(
-                "note: {} not written: these numbers are not a calibration",
-                out.display()
-            );
-        } else {
-            done.model.save(out)?;
-            done.report.out = Some(out.display().to_string());
-        }
-    }
+    let unfit = done.report.unfit();
+    done.report.out = save(
+        args.out.as_deref(),
+        unfit.as_deref().map_or(Ok(&done.model), Err),
+    )?;
     for w in done.report.warnings() {
         eprintln!("{w}");
     }

@@ -32,7 +32,7 @@ pub mod validate;
 mod process;
 mod spinner;
 
-pub use process::{exit_status, main, non_finite_error};
+pub use process::{exit_status, main};
 pub(crate) use spinner::Spinner;
 
 use crate::reports::Report;

@@ -1,7 +1,7 @@
 //! The `kinecal` process ([`main`]): the report printed, the exit status set (docs/formats.md).
 
 use super::{dispatch, Cli};
-use crate::reports::{ErrorReport, Report};
+use crate::reports::ErrorReport;
 use clap::Parser;
 
 fn print_json(v: &serde_json::Value) {
@@ -38,7 +38,7 @@ pub fn main() {
     // the main thread's ordinary stack is enough.
     match dispatch(&cli) {
         Ok(report) if report.non_finite().is_some() => {
-            let error = non_finite_error(report.as_ref()).unwrap_or(ErrorReport {
+            let error = ErrorReport::non_finite(report.as_ref()).unwrap_or(ErrorReport {
                 error: String::new(),
             });
             eprintln!("{error}");
@@ -97,19 +97,6 @@ fn usage_error(e: clap::Error) -> ! {
     };
     print_json(&crate::reports::json_value(&error));
     std::process::exit(crate::EXIT_REFUSED);
-}
-
-/// The error that replaces a report with a figure that is not a finite number (the command
-/// exits with status 1), `None` when every figure is finite.
-pub fn non_finite_error(report: &dyn Report) -> Option<ErrorReport> {
-    let field = report.non_finite()?;
-    Some(ErrorReport {
-        error: format!(
-            "the result is not a finite number ({field}): the inputs are out of any plausible \
-             range for a calibration; check the magnitudes and units of the robot file and the \
-             data"
-        ),
-    })
 }
 
 /// A last line of defence: a panic (a bug: every input problem is meant to be refused with a

@@ -96,14 +96,11 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
     }
     let split = split?;
     let t = |p: &std::path::Path| p.display().to_string();
-    let diagnose = match &args.diagnose {
-        Some(p) => Some((findings::load(p)?, t(p))),
-        None => None,
-    };
-    let validation = match &args.validate_json {
-        Some(p) => Some((crate::report_html::validation::load(p)?, t(p))),
-        None => None,
-    };
+    let diagnose = args.diagnose.as_deref();
+    let diagnose = diagnose.map(|p| anyhow::Ok((findings::load(p)?, t(p))));
+    let validation = args.validate_json.as_deref();
+    let validation =
+        validation.map(|p| anyhow::Ok((crate::report_html::validation::load(p)?, t(p))));
     let held_out = match &args.validate {
         Some(v) => Some(t(v)),
         None if args.holdout.holds_out() => Some(format!(
@@ -134,8 +131,8 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
             units: input.units.described(),
             told,
         },
-        diagnose,
-        validation,
+        diagnose: diagnose.transpose()?,
+        validation: validation.transpose()?,
     };
     let built = report(&options, inputs)?;
     crate::output::atomic::write_atomic(&args.out, built.html.as_bytes())

@@ -1,16 +1,13 @@
-//! `kinecal simulate`: measurement data from a robot with known errors (docs/formats.md).
-//!
-//! The true robot is the file's model, with `--geom-errors` (uniform: alpha/theta ±0.1°,
-//! a/d ±0.8 mm, tool ±0.5 mm per coordinate) and then each `--effect` applied. `--effect`
-//! units: joint-scale dimensionless, joint-cyclic a and b in rad (`:ORDER` for harmonics),
-//! joint-compliance rad per metre of lever arm, axis-tilt the joint's beta in rad, joint-table
-//! knot corrections in rad spread evenly from the lower to the upper joint limit. The work is
-//! [`crate::simulation::request`].
+//! `kinecal simulate`: measurement data from a robot with known errors (docs/formats.md): the
+//! flags become a [`Request`] and a [`Session`], [`crate::application::simulate`] does the work,
+//! this module writes the files.
 
+use crate::application::simulate::{simulate, Session};
 use crate::formats::measurements;
 use crate::formats::robot_file::RobotFile;
+use crate::reports::path_text;
 use crate::reports::simulate::SimulateReport;
-use crate::simulation::request::{simulate_request, Request};
+use crate::simulation::request::Request;
 use crate::with_joints;
 use anyhow::anyhow;
 use std::path::PathBuf;
@@ -110,93 +107,40 @@ fn simulate_with_joints<const N: usize>(
     let nominal = file
         .to_robot::<N>()
         .map_err(|e| anyhow!("{}: {e}", args.robot.display()))?;
-    let reflectors = file.tool_names().len();
-    if reflectors > 1 && (args.plan.is_some() || args.constraints.is_some()) {
-        crate::refuse!(
-            "--constraints and --plan sessions touch with one point: give a robot file with one \
-             [tool] (or one [[tools]] entry), not {reflectors} reflectors"
-        );
-    }
-    if args.session_s.is_some() && (args.plan.is_some() || args.constraints.is_some()) {
-        crate::refuse!(
-            "--session-s applies to tracker points: a constraint session has no tracker to drift"
-        );
-    }
+    let session = match (&args.plan, &args.constraints) {
+        (Some(path), _) => {
+            let origin = path.display().to_string();
+            let text = std::fs::read_to_string(path)
+                .map_err(|e| crate::refused(crate::formats::cannot_read(&origin, &e)))?;
+            Session::Planned { text, origin }
+        }
+        (None, Some(plan)) => Session::Constraints(*plan),
+        (None, None) => Session::Tracker,
+    };
     let req = args.request();
     let robot = args.robot.display().to_string();
-    let s = simulate_request(file, &nominal, &req, &robot, &mut crate::Stderr)?;
-    if let Some(path) = &args.plan {
-        let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| crate::refused(crate::formats::cannot_read(&origin, &e)))?;
-        let planned = crate::constraints::simulate::read_plan::<N>(&text, &origin)?;
-        let session = crate::constraints::simulate::session_from_plan(
-            &s.truth,
-            &nominal,
-            &planned,
-            args.noise_mm,
-            args.seed,
-        )?;
-        crate::output::atomic::write_atomic(&args.out, session.as_bytes())
-            .map_err(|e| anyhow!("{}: cannot write: {e}", args.out.display()))?;
-        if let Some(t) = &args.truth {
-            s.truth_file.save(t)?;
-        }
-        let out = args.out.display().to_string();
-        let truth = args.truth.as_ref().map(|t| t.display().to_string());
-        return Ok(SimulateReport::of(
-            &s,
-            &req,
-            file.base_known(),
-            planned.len(),
-            (&out, truth.as_deref()),
-        ));
+    let done = simulate((file, &nominal, &robot), &req, &session, &mut crate::Stderr)?;
+    match &done.session_csv {
+        Some(csv) => crate::output::atomic::write_atomic(&args.out, csv.as_bytes())
+            .map_err(|e| anyhow!("{}: cannot write: {e}", args.out.display()))?,
+        None => measurements::write(&args.out, &done.sim.data)?,
     }
-    let rows = match &args.constraints {
-        Some(plan) => {
-            if !args.sweeps.is_empty() {
-                crate::refuse!("--constraints does not combine with --sweeps");
-            }
-            let text = crate::constraints::simulate::session(
-                &s.truth,
-                plan,
-                args.noise_mm,
-                args.seed,
-                args.temperature,
-            )?;
-            crate::output::atomic::write_atomic(&args.out, text.as_bytes())
-                .map_err(|e| anyhow!("{}: cannot write: {e}", args.out.display()))?;
-            plan.rows()
-        }
-        None => {
-            measurements::write(&args.out, &s.data)?;
-            s.data.len()
-        }
-    };
     if let Some(t) = &args.truth {
-        s.truth_file.save(t)?;
+        done.sim.truth_file.save(t)?;
     }
-    let out = args.out.display().to_string();
-    let truth = args.truth.as_ref().map(|t| t.display().to_string());
-    Ok(SimulateReport::of(
-        &s,
-        &req,
-        file.base_known(),
-        rows,
-        (&out, truth.as_deref()),
-    ))
+    let (out, truth) = (path_text(&args.out), args.truth.as_deref().map(path_text));
+    let (sim, base, rows) = (&done.sim, file.base_known(), done.rows);
+    let written = (out.as_str(), truth.as_deref());
+    Ok(SimulateReport::of(sim, &req, base, rows, written))
 }
 
 /// Runs the subcommand: writes the files and returns what was written.
 pub fn run(args: &Args) -> anyhow::Result<SimulateReport> {
-    use crate::output::atomic::same_file;
-    if same_file(&args.out, &args.robot)
-        || args
-            .truth
-            .as_deref()
-            .is_some_and(|t| same_file(t, &args.robot) || same_file(t, &args.out))
-    {
-        crate::refuse!("--out and --truth must not overwrite the robot file or each other");
+    use crate::output::atomic::refuse_overwriting_inputs as refuse_over;
+    refuse_over("--out", &args.out, &[("robot", &args.robot)])?;
+    let (robot, out) = (args.robot.as_path(), args.out.as_path());
+    if let Some(t) = &args.truth {
+        refuse_over("--truth", t, &[("robot", robot), ("--out", out)])?;
     }
     let file = RobotFile::load(&args.robot)?;
     args.request().checked(file.joint_count())?;

@@ -459,6 +459,18 @@ impl fmt::Display for IdentifyReport {
 }
 
 impl IdentifyReport {
+    /// Why the fitted model is no calibration, as the note of a `--out` not written says
+    /// (`None`: it is one).
+    pub fn unfit(&self) -> Option<String> {
+        let unseen = match self.cross_validated {
+            Some(_) => "left-out poses",
+            None => "held-out poses",
+        };
+        let worse = self.held_out_worse == Some(true);
+        let started = "the model it started from";
+        crate::reports::model_out::unfit(worse, self.converged, unseen, started)
+    }
+
     /// The warnings of a finished fit, one message each as stderr shows them: no held-out
     /// poses, χ²/dof far from 1, suspicious parameters, the held-out verdict, not converged.
     pub fn warnings(&self) -> Vec<String> {

@@ -17,6 +17,7 @@ pub mod diagnose;
 pub mod finite;
 pub mod frames;
 pub mod identify;
+pub mod model_out;
 pub mod plan;
 pub mod simulate;
 pub mod study;
@@ -116,6 +117,19 @@ impl ErrorReport {
     /// The report of `e`: its whole chain on one line, as `kinecal: …` on stderr shows it.
     pub fn of(e: &anyhow::Error) -> Self {
         Self { error: one_line(e) }
+    }
+
+    /// The error that replaces a report with a figure that is not a finite number (the command
+    /// exits with status 1), `None` when every figure is finite.
+    pub fn non_finite(report: &dyn Report) -> Option<Self> {
+        let field = report.non_finite()?;
+        Some(ErrorReport {
+            error: format!(
+                "the result is not a finite number ({field}): the inputs are out of any plausible \
+                 range for a calibration; check the magnitudes and units of the robot file and the \
+                 data"
+            ),
+        })
     }
 }
 

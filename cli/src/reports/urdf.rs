@@ -59,7 +59,7 @@ impl fmt::Display for ImportReport {
 }
 
 /// `kinecal export`: what was written and what could not go into it.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct ExportReport {
     /// `urdf`, `dh-table` or `firmware`.
     pub format: String,

@@ -65,12 +65,27 @@ fn run_with_joints<const N: usize>(
         work: &work,
     };
     let design = plan(file, &nominal, &request(session))?;
-    if !design.planned_tool_mm.is_finite() {
+    let (free, k) = (session.free_equations(), design.estimated.len());
+    if !design.planned_tool_mm.is_finite() || free <= k {
+        let shapes = session.sockets.0 + session.planes.0 > 0;
         crate::refuse!(
-            "plan --constraints: {} rows cannot determine the {} parameters such a session \
-             could estimate: plan more groups or rows",
+            "plan --constraints: {} rows give {free} equations{}, which cannot determine the {k} \
+             parameters such a session could estimate (identify refuses it): plan more groups or \
+             rows (a socket's row or a point adds 3 equations, a plane's row or a distance 1)",
             design.rows(),
-            design.estimated.len()
+            if shapes {
+                " once the sockets' centres and the planes have taken theirs"
+            } else {
+                ""
+            }
+        );
+    }
+    if free < k + crate::constraints::fit::MIN_SPARE as usize {
+        eprintln!(
+            "warning: plan --constraints: {free} equations for {k} parameters leave {} to spare: \
+             identify will fit such a session nearly exactly whatever the robot; plan more groups \
+             or rows",
+            free - k
         );
     }
     crate::output::atomic::write_atomic(&args.out, design.csv(args.noise_mm).as_bytes())

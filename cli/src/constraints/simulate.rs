@@ -80,6 +80,17 @@ impl SessionPlan {
             + 2 * self.distances
             + self.points
     }
+
+    /// Equations of the session left once each socket's centre and each plane have taken
+    /// their 3 (as [`super::fit::spare_equations`] counts a session read from a file): 3 per
+    /// socket row and per point, 1 per plane row and per distance.
+    pub fn free_equations(&self) -> usize {
+        let ((sg, sr), (pg, pr)) = (self.sockets, self.planes);
+        sg * (3 * sr).saturating_sub(3)
+            + pg * pr.saturating_sub(3)
+            + self.distances
+            + 3 * self.points
+    }
 }
 
 /// Tries per row (seeds) and per group (locations, planes) before giving up.

@@ -99,6 +99,61 @@ fn a_planned_socket_session_calibrates_better_than_a_random_one_as_predicted() {
     assert!(need["predicted_tool_mm"].as_f64().unwrap() <= 0.006, "{a}");
 }
 
+/// A planned session with no more equations than the parameters it is for is refused (exit 2)
+/// with its count, as `identify` refuses such a session measured, and one with fewer than 10 to
+/// spare is warned about (identify's warning); the count is a socket's row 3, a plane's row and
+/// a distance 1, less 3 for each socket centre and plane.
+#[test]
+fn a_plan_that_any_robot_meets_exactly_is_refused_and_a_thin_one_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let (robot, out) = (data_file("er20.toml"), dir.path().join("p.csv"));
+    let plan = |spec: &str, criterion: &str| {
+        let args = ["plan", "--robot", s(&robot), "--constraints", spec];
+        kinecal(&[&args[..], &["--criterion", criterion, "--out", s(&out)]].concat())
+    };
+    for (spec, equations) in [("distance:16", 16), ("plane:2x5", 4), ("socket:1x4", 9)] {
+        for criterion in ["random", "d"] {
+            let o = plan(spec, criterion);
+            let err = stderr(&o);
+            assert_eq!(o.status.code(), Some(2), "{spec} {criterion}: {err}");
+            assert!(
+                err.contains(&format!("give {equations} equations"))
+                    && err.contains("identify refuses it"),
+                "{spec}: {err}"
+            );
+        }
+    }
+    let warned = |spec: &str| {
+        let o = plan(spec, "d");
+        assert!(o.status.success(), "{spec}: {}", stderr(&o));
+        stderr(&o).contains("to spare")
+    };
+    // The ER20's distance sessions are for 18 parameters, socket sessions for 16.
+    assert!(warned("distance:22") && warned("socket:2x4"));
+    assert!(!warned("distance:28") && !warned("socket:3x4"));
+    // The refused plan's session, measured, is refused by identify as well.
+    let (data, truth) = (dir.path().join("d.csv"), dir.path().join("t.toml"));
+    let sim = [
+        "simulate",
+        "--robot",
+        s(&robot),
+        "--constraints",
+        "distance:16",
+    ];
+    let more = [
+        "--geom-errors",
+        "--noise-mm",
+        "0.01",
+        "--out",
+        s(&data),
+        "--truth",
+        s(&truth),
+    ];
+    kinecal_ok(&[&sim[..], &more[..]].concat());
+    let o = kinecal(&["identify", "--robot", s(&robot), "--data", s(&data)]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}
+
 /// `diagnose --json` on the constraint session `data` (extra flags appended), asserting exit 0.
 fn diagnose(data: &Path, extra: &[&str]) -> serde_json::Value {
     json_on("diagnose", data, extra)

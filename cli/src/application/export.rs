@@ -58,7 +58,8 @@ pub fn mismatch(
     let last = nominal.joints.len().saturating_sub(1);
     // A tool stated at the flange's origin is a start as well (identify moves `d_N` by the
     // reflector's offset from it).
-    let free_end = nominal.tool_unknown() || nominal.tool.xyz_mm == [0.0; 3];
+    let stated = nalgebra::Vector3::from(nominal.tool.xyz_mm);
+    let free_end = nominal.tool_unknown() || crate::calibration::arm_size::tool_is_a_start(&stated);
     for (i, (m, n)) in model.joints.iter().zip(&nominal.joints).enumerate() {
         let rows = [
             ("alpha", m.alpha_deg, n.alpha_deg, true),

@@ -107,6 +107,13 @@ pub const TOOL_SIGN_MM: f64 = 10.0;
 /// the real UR10 reflector sits 93 mm from the flange where its file says 109 mm (15 %).
 pub const TOOL_SLIP_MARGIN: f64 = 0.3;
 
+/// Whether a stated tool point is only a start: one at the flange's origin (as many robot files
+/// without a measured tool state it), which a fit moves by the whole reflector offset (the last
+/// joint's `d` takes up its part along the flange axis), not a measured offset to hold it to.
+pub fn tool_is_a_start(stated: &nalgebra::Vector3<f64>) -> bool {
+    stated.norm() == 0.0
+}
+
 /// Why a tool point `fitted` settled on cannot be the one `nominal` states, written right:
 /// the rest of a sentence that starts "the fit", or `None`. Only for tool points the robot
 /// file states (an unknown tool is started from the data); `names` are the `[[tools]]` names
@@ -184,9 +191,7 @@ pub fn tool_slip<const N: usize, V: kinecal::ValueStorage, W: kinecal::ValueStor
                 return Some(why);
             }
             let off = (found - stated).norm();
-            // A point stated at the flange's origin is taken as a start (as many robot files
-            // without a measured tool state it), not as a measured offset.
-            (was > 0.0 && off > MOST_LENGTH_CHANGE_MM).then(|| {
+            (!tool_is_a_start(&stated) && off > MOST_LENGTH_CHANGE_MM).then(|| {
                 format!(
                     "put the tool point {} mm from where the robot file's {entry} = {} puts it \
                      (at {} mm in the flange frame; a stated tool moves {MOST_LENGTH_CHANGE_MM} \

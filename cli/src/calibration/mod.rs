@@ -14,6 +14,7 @@ pub mod orientation_slip;
 pub mod outliers;
 pub mod prior;
 pub mod pso_search;
+pub mod recalibration;
 pub mod reflector_labels;
 pub mod replay;
 pub mod residual_table;

@@ -35,7 +35,7 @@ pub const MIN_MM: f64 = 1.0;
 pub const STRAY_MIN_MM: f64 = 0.1;
 
 /// A point far from the model: its line in the data file and its distance (mm).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Outlier {
     pub line: u32,
     pub distance_mm: f64,

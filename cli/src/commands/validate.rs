@@ -27,15 +27,16 @@ pub struct Args {
     pub obs: ObservationArgs,
 }
 
-/// Runs the subcommand; the report's `worse_than_nominal` or `data_mismatch` makes the command
-/// exit with 3, with the reason on stderr.
+/// Runs the subcommand; a report that is no acceptance (`worse_than_nominal`, `data_mismatch`,
+/// `changed_since_calibration`, `gross_outliers`) makes the command exit with 3, with the
+/// reason on stderr.
 pub fn run(args: &Args) -> anyhow::Result<ValidateReport> {
     let n = crate::calibration::replay::joint_count(&args.input.robot, &args.model)?;
     let report = with_joints!(n, N => run_with_joints::<N>(args))?;
     if let Some(w) = report.thin() {
         eprintln!("{w}");
     }
-    if report.worse_than_nominal || report.data_mismatch {
+    if !crate::reports::Report::converged(&report) {
         eprintln!("error: {} (exit 3)", report.verdict);
     }
     Ok(report)

@@ -585,7 +585,7 @@ pub fn build<const N: usize>(inp: Inputs<'_, N>) -> anyhow::Result<Built> {
         .as_ref()
         .map(|(v, origin)| validation::section(v, origin));
     if let Some(v) = validation.as_ref().filter(|v| v.worse_than_nominal) {
-        warnings.push(if v.data_mismatch {
+        warnings.push(if v.other_verdict {
             format!("On another session ({}): {}.", v.data_file, v.verdict)
         } else {
             format!(

@@ -127,9 +127,13 @@ pub struct Validation {
     pub register: String,
     pub registered: String,
     pub poses: usize,
-    /// The verdict is bad: the model is worse than the nominal robot, or neither describes
-    /// the session (`data_mismatch`).
+    /// The verdict is bad: the model is worse than the nominal robot, neither describes the
+    /// session (`data_mismatch`), the robot changed since calibration, or the session holds
+    /// wrong readings.
     pub worse_than_nominal: bool,
+    /// The verdict is bad for another reason than the model being worse than the nominal
+    /// robot: the page repeats the verdict alone.
+    pub other_verdict: bool,
     /// Neither robot describes the session (the validation report's `data_mismatch`).
     pub data_mismatch: bool,
     pub verdict: String,

@@ -69,8 +69,14 @@ pub fn section(v: &ValidateReport, origin: &str) -> Validation {
             v.registered.join(", ")
         },
         poses: v.poses,
-        worse_than_nominal: v.worse_than_nominal || v.data_mismatch,
+        worse_than_nominal: v.worse_than_nominal
+            || v.data_mismatch
+            || v.changed_since_calibration
+            || !v.gross_outliers.is_empty(),
         data_mismatch: v.data_mismatch,
+        other_verdict: v.data_mismatch
+            || v.changed_since_calibration
+            || !v.gross_outliers.is_empty(),
         verdict: v.verdict.clone(),
         rows: vec![row("model", &v.model), row("nominal", &v.nominal)],
         points: v

@@ -2,6 +2,8 @@
 //! also reads back (`Deserialize`): `kinecal report --validate-json V.json` shows it.
 
 use super::finite::first_non_finite;
+use crate::calibration::outliers::Outlier;
+use crate::calibration::recalibration::Recalibration;
 use crate::calibration::stats::SetFigures;
 use crate::calibration::validate::{Judged, Validation};
 use crate::output::numfmt::sig;
@@ -54,6 +56,20 @@ pub struct ValidateReport {
     /// The model's position RMS (mm) with those values read as degrees.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub effects_as_degrees_rms_mm: Option<f64>,
+    /// The model predicts left-out poses of the session many times worse than the robot
+    /// calibrated again on the others (`recalibration`): the robot changed since its
+    /// calibration, although the model may still beat the nominal robot (exit 3).
+    #[serde(default)]
+    pub changed_since_calibration: bool,
+    /// The model and a new calibration on left-out poses of the session (`folds`,
+    /// `model_rms_mm`, `recalibrated_rms_mm`); absent when the model is worse than the nominal
+    /// robot or the session has gross outliers.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub recalibration: Option<Recalibration>,
+    /// A few rows far from both registered robots (`line`, `distance_mm`): wrong readings that
+    /// pull the registration, so there is no verdict (exit 3).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub gross_outliers: Vec<Outlier>,
     /// The verdict in one line.
     pub verdict: String,
 }
@@ -232,6 +248,9 @@ impl ValidateReport {
                 .as_ref()
                 .map_or(Vec::new(), |d| d.effects.clone()),
             effects_as_degrees_rms_mm: v.effects_in_degrees.as_ref().map(|d| d.rms_mm),
+            changed_since_calibration: v.changed,
+            recalibration: v.recalibration.clone(),
+            gross_outliers: v.gross_outliers.clone(),
             verdict: if m > MISMATCH_RMS_MM && n > MISMATCH_RMS_MM {
                 format!(
                     "the data do not fit the robot file ({figures}; above {MISMATCH_RMS_MM} mm \
@@ -240,6 +259,8 @@ impl ValidateReport {
                      (`kinecal check`); if they are right, the robot changed beyond what a \
                      calibration corrects"
                 )
+            } else if let Some(why) = &v.outlier_reason {
+                format!("no verdict: the registration {why}, and validate again ({figures})")
             } else if let Some(d) = &v.effects_in_degrees {
                 let still = if d.rms_mm > n {
                     ", still worse than the nominal robot: recalibrate after converting them"
@@ -264,6 +285,14 @@ impl ValidateReport {
                 )
             } else if v.worse_than_nominal {
                 format!("{RECALIBRATE} ({figures})")
+            } else if let Some(r) = v.recalibration.as_ref().filter(|_| v.changed) {
+                format!(
+                    "the robot changed since calibration: recalibrate (left-out poses of the \
+                     session: {} mm RMS with the model, {} mm with the robot calibrated again on \
+                     the others; {figures})",
+                    sig(r.model_rms_mm, 4),
+                    sig(r.recalibrated_rms_mm, 4)
+                )
             } else {
                 format!("the model still holds ({figures})")
             },
@@ -275,10 +304,14 @@ impl super::Report for ValidateReport {
     fn to_json(&self) -> serde_json::Value {
         super::with_accepted(super::json_value(self), self)
     }
-    /// A model worse than the nominal robot must not be used, and data that neither robot
-    /// describes judge nothing: exit 3.
+    /// A model worse than the nominal robot or of a robot that changed since must not be
+    /// used, and data that neither robot describes or that hold wrong readings judge nothing:
+    /// exit 3.
     fn converged(&self) -> bool {
-        !self.worse_than_nominal && !self.data_mismatch
+        !self.worse_than_nominal
+            && !self.data_mismatch
+            && !self.changed_since_calibration
+            && self.gross_outliers.is_empty()
     }
     fn non_finite(&self) -> Option<String> {
         first_non_finite(self)

@@ -8,3 +8,4 @@ mod acceptance;
 mod quick_recalibration;
 mod ur10;
 mod validate;
+mod validate_sessions;

@@ -1,0 +1,214 @@
+//! `kinecal validate` on a robot that changed since its calibration although the model still
+//! beats the nominal robot, on a session with a few wrong readings, and on the real UR10 series
+//! (docs/formats.md, "Validation on another session"). Simulated truths: the ER20-like robot
+//! calibrated on session 1 (150 poses, 0.02 mm), then a session 2 of that robot with one thing
+//! changed.
+
+use super::validate::{calibrate, calibrated, edited, json_any, move_setup, num, validate};
+use crate::common::{json_of, kinecal, s, simulate, stderr, ur10_dir, write};
+use std::path::Path;
+
+/// The verdict of a model of a robot that changed since.
+const CHANGED: &str = "the robot changed since calibration: recalibrate";
+
+/// The model's and a new calibration's RMS on left-out poses, from the JSON.
+fn recalibration(j: &serde_json::Value) -> (f64, f64) {
+    (
+        num(j, &["recalibration", "model_rms_mm"]),
+        num(j, &["recalibration", "recalibrated_rms_mm"]),
+    )
+}
+
+/// A joint's zero moved 0.05° and a link 0.5 mm longer since calibration: the model still
+/// predicts the session better than the nominal robot (which carries the robot's errors the
+/// calibration found), yet a new calibration on the session predicts its left-out poses at the
+/// noise and the model more than 10 times worse: exit 3, `changed_since_calibration`, the verdict
+/// saying so (on the report page too). The same robot with the tracker moved and the reflector
+/// moved 10 mm along the flange axis holds.
+#[test]
+fn a_robot_changed_since_calibration_is_refused_though_better_than_nominal() {
+    let c = calibrated();
+    let d = c.dir.path();
+    let setup = |f: &mut kinecal_cli::formats::robot_file::RobotFile| {
+        move_setup(f, [40.0, -10.0, 5.0], [0.2, 0.0, 1.0], [0.0, 0.0, 10.0])
+    };
+    let zero = edited(&c.truth, d, "zero.toml", |f| {
+        f.joints[1].theta_deg += 0.05;
+        setup(f);
+    });
+    let bent = edited(&c.truth, d, "bent.toml", |f| {
+        f.joints[2].a_mm += 0.5;
+        setup(f);
+    });
+    let same = edited(&c.truth, d, "same.toml", setup);
+    for (truth, changed) in [(&zero, true), (&bent, true), (&same, false)] {
+        let data = d.join(format!(
+            "{}.csv",
+            truth.file_stem().unwrap().to_string_lossy()
+        ));
+        simulate(truth, Some(150), Some(0.02), Some(31), &[], &data);
+        let out = validate(&c.robot, &c.model, &data, &[]);
+        let j = json_any(&out);
+        let (m, r) = recalibration(&j);
+        let (model, nominal) = (
+            num(&j, &["model", "rms_mm"]),
+            num(&j, &["nominal", "rms_mm"]),
+        );
+        eprintln!(
+            "{}: model {model:.4} mm, nominal {nominal:.4} mm; left out: model {m:.4} mm, \
+             recalibrated {r:.4} mm",
+            truth.display()
+        );
+        assert_eq!(j["worse_than_nominal"], false, "{j}");
+        assert!(model < nominal, "{model} against {nominal}");
+        // A new calibration on the session reaches the noise (0.035 mm distance RMS).
+        assert!(r < 0.05, "recalibrated {r} mm");
+        assert_eq!(j["changed_since_calibration"], changed, "{j}");
+        if changed {
+            assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+            assert!(m > 10.0 * r, "{m} against {r}");
+            assert!(j["verdict"].as_str().unwrap().starts_with(CHANGED), "{j}");
+            assert!(stderr(&out).contains(CHANGED), "{}", stderr(&out));
+        } else {
+            assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+            assert!(m < 3.0 * r, "{m} against {r}");
+        }
+    }
+    // The report page repeats the verdict, not "the model holds".
+    let v = d.join("zero.json");
+    let out = validate(&c.robot, &c.model, &d.join("zero.csv"), &[]);
+    std::fs::write(&v, &out.stdout).unwrap();
+    let page = d.join("report.html");
+    let args = [
+        "report",
+        "--robot",
+        s(&c.robot),
+        "--model",
+        s(&c.model),
+        "--data",
+        s(&c.s1),
+    ];
+    let more = ["--validate-json", s(&v), "--out", s(&page)];
+    let r = kinecal(&[&args[..], &more[..]].concat());
+    assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(html.contains(CHANGED) && !html.contains("the model holds"));
+}
+
+/// `rows` of the CSV at `from` (1-based data rows) with `x` moved by `dx_mm`, written to `to`;
+/// the file lines of those rows.
+fn with_wrong_rows(from: &Path, to: &Path, rows: &[usize], dx_mm: f64) -> Vec<u64> {
+    let text = std::fs::read_to_string(from).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let x = lines[0].split(',').position(|c| c == "x").unwrap();
+    for &r in rows {
+        let mut cells: Vec<String> = lines[r].split(',').map(String::from).collect();
+        cells[x] = format!("{:.6}", cells[x].parse::<f64>().unwrap() + dx_mm);
+        lines[r] = cells.join(",");
+    }
+    std::fs::write(to, lines.join("\n") + "\n").unwrap();
+    rows.iter().map(|&r| r as u64 + 1).collect()
+}
+
+/// Two rows 200 mm off (or three 100 mm off) among 150 of the unchanged robot pull the
+/// registration of both robots: no verdict (exit 3), the rows named by their lines as
+/// `identify` names them; without them the model holds.
+#[test]
+fn wrong_readings_in_the_session_leave_no_verdict_and_are_named() {
+    let c = calibrated();
+    let d = c.dir.path();
+    let clean = d.join("clean.csv");
+    simulate(&c.truth, Some(150), Some(0.02), Some(41), &[], &clean);
+    assert_eq!(
+        validate(&c.robot, &c.model, &clean, &[]).status.code(),
+        Some(0)
+    );
+    for (rows, dx) in [(vec![35, 146], 200.0), (vec![11, 51, 91], -100.0)] {
+        let bad = d.join("bad.csv");
+        let mut lines = with_wrong_rows(&clean, &bad, &rows, dx);
+        let out = validate(&c.robot, &c.model, &bad, &[]);
+        assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+        let j = json_any(&out);
+        let mut named: Vec<u64> = j["gross_outliers"]
+            .as_array()
+            .unwrap_or_else(|| panic!("gross_outliers: {j}"))
+            .iter()
+            .map(|o| o["line"].as_u64().unwrap())
+            .collect();
+        named.sort_unstable();
+        lines.sort_unstable();
+        assert_eq!(named, lines, "{j}");
+        let verdict = j["verdict"].as_str().unwrap();
+        assert!(verdict.starts_with("no verdict") && verdict.contains("delete those rows"));
+        assert!(j.get("recalibration").is_none(), "{j}");
+    }
+}
+
+/// The real UR10 series: identify on the first 1,000 poses, validate on the 1,773 others (the
+/// same session: the registration has little to do). The model beats the nominal robot.
+#[test]
+fn ur10_model_beats_the_nominal_robot_on_the_poses_it_never_saw() {
+    let d = ur10_dir();
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(d.join("ur10_random_poses.csv")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let (head, rows) = (lines[0], &lines[1..]);
+    assert_eq!(rows.len(), 2773);
+    let part = |r: &[&str]| format!("{head}\n{}\n", r.join("\n"));
+    let s1 = write(dir.path(), "first1000.csv", &part(&rows[..1000]));
+    let s2 = write(dir.path(), "rest.csv", &part(&rows[1000..]));
+    let robot = d.join("robot.toml");
+    let model = calibrate(dir.path(), &robot, &s1, "model.toml");
+    for register in ["base+tool", "base"] {
+        let j = json_of(&validate(&robot, &model, &s2, &["--register", register]));
+        let f = |w: &str, k: &str| num(&j, &[w, k]);
+        eprintln!(
+            "UR10, {register}: model RMS {:.4} mean {:.4} max {:.4} p95 {:.4} mm; nominal RMS \
+             {:.4} mean {:.4} max {:.4} p95 {:.4} mm",
+            f("model", "rms_mm"),
+            f("model", "mean_mm"),
+            f("model", "max_mm"),
+            f("model", "p95_mm"),
+            f("nominal", "rms_mm"),
+            f("nominal", "mean_mm"),
+            f("nominal", "max_mm"),
+            f("nominal", "p95_mm"),
+        );
+        assert_eq!(j["poses"], 1773);
+        assert_eq!(j["worse_than_nominal"], false);
+        assert!(f("model", "rms_mm") < f("nominal", "rms_mm"));
+        assert!(f("model", "rms_mm") < 0.6, "{}", f("model", "rms_mm"));
+        // The same robot: a new calibration on the session predicts it no better.
+        let (m, r) = (
+            f("recalibration", "model_rms_mm"),
+            f("recalibration", "recalibrated_rms_mm"),
+        );
+        eprintln!("UR10, {register}: left out, model {m:.4} mm, calibrated again {r:.4} mm");
+        assert_eq!(j["changed_since_calibration"], false);
+        assert!(m < 1.2 * r, "{m} against {r}");
+    }
+    // The same rows with x and y swapped: neither robot describes them (276 mm each), and
+    // which is the less wrong judges nothing. It was "the model still holds", exit 0.
+    let swapped: Vec<String> = rows[1000..]
+        .iter()
+        .map(|l| {
+            let mut c: Vec<&str> = l.split(',').collect();
+            c.swap(6, 7);
+            c.join(",")
+        })
+        .collect();
+    let s3 = write(
+        dir.path(),
+        "swapped.csv",
+        &format!("{head}\n{}\n", swapped.join("\n")),
+    );
+    let out = validate(&robot, &model, &s3, &[]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    let j = json_any(&out);
+    assert_eq!(j["data_mismatch"], true, "{j}");
+    assert!(
+        err.contains("the data do not fit the robot file") && err.contains("swapped"),
+        "{err}"
+    );
+}

@@ -95,20 +95,53 @@ pub fn mismatch(
 
 /// What a URDF cannot hold of `model`, named (effects other than axis tilts, couplings).
 pub fn dropped(model: &RobotFile) -> Vec<String> {
+    dropped_from(model, "a URDF", "a URDF joint reads its own angle only")
+}
+
+/// What a DH table cannot hold of `model`, named: effects other than axis tilts, couplings, a
+/// tool orientation other than `nominal`'s (a calibrated one) and further reflectors (it holds
+/// the geometric rows, the base and the tool point).
+pub fn dropped_from_dh_table(model: &RobotFile, nominal: Option<&RobotFile>) -> Vec<String> {
+    let mut v = dropped_from(model, "a DH table", "the table has no column for it");
+    let nominal_rpy = nominal.and_then(|n| n.tool.rpy_deg).unwrap_or([0.0; 3]);
+    if let Some(rpy) = model.tool.rpy_deg.filter(|r| *r != nominal_rpy) {
+        v.push(format!(
+            "tool orientation rpy_deg [{:.4}, {:.4}, {:.4}] (the table holds the tool point only)",
+            rpy[0], rpy[1], rpy[2]
+        ));
+    }
+    if model.tools.len() > 1 {
+        let names: Vec<&str> = model.tools.iter().map(|t| t.name.as_str()).collect();
+        v.push(format!(
+            "the [[tools]] reflectors {} (the table holds the [tool] point only)",
+            names.join(", ")
+        ));
+    }
+    v
+}
+
+/// The effects (but axis tilts) and couplings of `model`, each named with why `holder` (with
+/// `coupling_why` for couplings) cannot hold it.
+fn dropped_from(model: &RobotFile, holder: &str, coupling_why: &str) -> Vec<String> {
     let mut v: Vec<String> = model
         .effects
         .iter()
         .filter(|e| e.kind != crate::formats::robot_file::AXIS_TILT)
         .map(|e| {
+            // Thermal expansion and base drift act on no joint (joint 0).
+            let on = match e.joint {
+                0 => String::new(),
+                j => format!(" on joint {j}"),
+            };
             format!(
-                "effect {} on joint {} (non-geometric: a URDF cannot hold it)",
-                e.kind, e.joint
+                "effect {}{on} (non-geometric: {holder} cannot hold it)",
+                e.kind
             )
         })
         .collect();
     v.extend(model.couplings.iter().map(|c| {
         format!(
-            "coupling of joint {} to joint {} (ratio {}: a URDF joint reads its own angle only)",
+            "coupling of joint {} to joint {} (ratio {}: {coupling_why})",
             c.joint, c.from, c.ratio
         )
     }));

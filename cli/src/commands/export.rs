@@ -133,7 +133,11 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
                     .extension()
                     .is_some_and(|e| e.eq_ignore_ascii_case("json"));
             let (text, rows) = export::dh_table(&model, nominal.as_ref(), as_json);
-            (report.format, report.rows) = ("dh-table".into(), rows);
+            let dropped = export::dropped_from_dh_table(&model, nominal.as_ref());
+            for d in &dropped {
+                eprintln!("warning: not exported: {d}");
+            }
+            (report.format, report.rows, report.dropped) = ("dh-table".into(), rows, dropped);
             text.into_bytes()
         }
     };

@@ -15,7 +15,8 @@ pub struct DhRow {
 }
 
 /// The parameters of a file in table order: base x, y, z (mm), rx, ry, rz (deg, the
-/// `rpy_deg` of `[base]`), per joint alpha, a, theta, d, beta, then the tool point.
+/// `rpy_deg` of `[base]`), per joint alpha, a, theta, d, beta (an `axis-tilt` effect's when the
+/// file has one), then the tool point.
 /// `None` where the file has no `[base]`.
 pub fn parameters(f: &RobotFile) -> Vec<(String, &'static str, Option<f64>)> {
     let mut v = Vec::new();
@@ -32,10 +33,18 @@ pub fn parameters(f: &RobotFile) -> Vec<(String, &'static str, Option<f64>)> {
         v.push((format!("joint{n}_a_mm"), "mm", Some(j.a_mm)));
         v.push((format!("joint{n}_theta_deg"), "deg", Some(j.theta_deg)));
         v.push((format!("joint{n}_d_mm"), "mm", Some(j.d_mm)));
+        // A fitted tilt is written as an `axis-tilt` effect (radians), which overrides
+        // `beta_deg` (docs/formats.md, "Effects").
+        let tilt = f
+            .effects
+            .iter()
+            .find(|e| e.kind == crate::formats::robot_file::AXIS_TILT && e.joint == n)
+            .and_then(|e| e.values.first())
+            .map(|b| b.to_degrees());
         v.push((
             format!("joint{n}_beta_deg"),
             "deg",
-            Some(j.beta_deg.unwrap_or(0.0)),
+            Some(tilt.unwrap_or(j.beta_deg.unwrap_or(0.0))),
         ));
     }
     for (k, name) in ["x", "y", "z"].iter().enumerate() {

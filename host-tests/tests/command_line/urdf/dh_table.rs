@@ -99,3 +99,75 @@ fn dh_table_csv_and_json_agree_with_the_files() {
         .iter()
         .all(|r| r[2].is_empty() && r[4].is_empty() && !r[3].is_empty()));
 }
+
+/// What the table cannot hold is warned about and listed in JSON `dropped`, as the URDF export
+/// lists it (it said `"dropped": []` for a model with five joint tables); a tilt fitted as an
+/// `axis-tilt` effect (radians) is the table's `beta_deg` (it read 0).
+#[test]
+fn dh_table_names_what_it_drops_and_keeps_a_fitted_tilt() {
+    use kinecal_cli::formats::robot_file::EffectSpec;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let path = urdf_path("kuka_kr16_2", "kr16_2.urdf");
+    let (robot_path, nominal) = import(d, &path, &[]);
+    let mut model = nominal.clone();
+    let effect = |kind: &str, joint: usize, values: Vec<f64>| EffectSpec {
+        kind: kind.into(),
+        joint,
+        values,
+        order: None,
+        step_deg: None,
+        start_deg: None,
+        reference_c: None,
+    };
+    model.effects = vec![
+        effect("axis-tilt", 3, vec![0.0005]),
+        effect("joint-scale", 2, vec![0.0003]),
+        effect("thermal-expansion", 0, vec![1.2e-5]),
+    ];
+    model.effects[2].reference_c = Some(22.0);
+    let model_path = d.join("model.toml");
+    model.save(&model_path).unwrap();
+    let out = d.join("t.csv");
+    let args = ["export", "--model", s(&model_path), "--format", "dh-table"];
+    let o = kinecal_ok(
+        &[
+            &args[..],
+            &["--robot", s(&robot_path), "--out", s(&out), "--json"],
+        ]
+        .concat(),
+    );
+    let j = crate::common::json_of(&o);
+    let dropped: Vec<&str> = j["dropped"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    assert_eq!(dropped.len(), 2, "{j}");
+    assert!(
+        dropped[0].starts_with("effect joint-scale on joint 2 (non-geometric: a DH table"),
+        "{dropped:?}"
+    );
+    assert!(
+        dropped[1].starts_with("effect thermal-expansion (non-geometric"),
+        "{dropped:?}"
+    );
+    let err = stderr(&o);
+    assert_eq!(
+        err.matches("warning: not exported: effect").count(),
+        2,
+        "{err}"
+    );
+    // With --json the table is JSON too.
+    let table: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let beta = table
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["parameter"] == "joint3_beta_deg")
+        .unwrap();
+    let b = beta["calibrated"].as_f64().unwrap();
+    assert!((b - 0.0005f64.to_degrees()).abs() < 1e-9, "{beta}");
+}

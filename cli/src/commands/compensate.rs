@@ -113,5 +113,8 @@ pub fn run(args: &Args) -> anyhow::Result<CompensateReport> {
     if let Some(h) = &r.hint {
         eprintln!("{h}");
     }
+    if let Some(w) = &r.temperature_warning {
+        eprintln!("warning: {w}");
+    }
     Ok(r)
 }

@@ -56,6 +56,9 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ValidateReport
     )?;
     let origin = input.data.display().to_string();
     let model_text = args.model.display().to_string();
+    if let Some(w) = thermal_without_temperature(&model_file, &ds, &origin) {
+        eprintln!("warning: {w}");
+    }
     let named = (origin.as_str(), Some(model_text.as_str()));
     let told = crate::formats::table_reach::in_robot_file(&nominal);
     for line in crate::formats::table_reach::lines_except(&ds, &model, named, told) {
@@ -112,5 +115,32 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ValidateReport
     Ok(ValidateReport::of(
         &v,
         (&robot_origin, &model_origin, &origin),
+    ))
+}
+
+/// The warning for a model with thermal expansion judged on a session without `temp_c`: the
+/// expansion is evaluated at the model's reference temperature on every row (a session on an
+/// arm 10 K warmer was "held" at 0.226 mm where its temperatures give 0.017 mm).
+fn thermal_without_temperature<const N: usize>(
+    model: &crate::formats::robot_file::RobotFile,
+    ds: &crate::formats::measurements::Dataset<N>,
+    origin: &str,
+) -> Option<String> {
+    let column = crate::formats::measurements::TEMPERATURE_COLUMN;
+    let thermal = model
+        .effects
+        .iter()
+        .find(|e| e.kind == crate::formats::robot_file::THERMAL)?;
+    if ds.extra_names.iter().any(|n| n == column) {
+        return None;
+    }
+    let t0 = thermal
+        .reference_c
+        .unwrap_or(crate::formats::robot_file::DEFAULT_REFERENCE_C);
+    Some(format!(
+        "{origin} has no {column} column: the model's thermal expansion is evaluated at its \
+         reference temperature {} °C on every row, and an arm at another temperature is judged \
+         as if it had changed; give the session's temperatures (a {column} column, °C)",
+        crate::output::numfmt::sig(t0, 4)
     ))
 }

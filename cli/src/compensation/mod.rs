@@ -265,6 +265,9 @@ struct Row {
     point: Vector3<f64>,
     /// Roll, pitch, yaw (rad) for a pose target.
     rpy: Option<[f64; 3]>,
+    /// The arm's temperature (°C) when it moves there (`temp_c`): what the model's thermal
+    /// expansion is evaluated at.
+    temp_c: Option<f64>,
 }
 
 /// What a compensation names in its report and messages: the model, the targets (and where
@@ -467,6 +470,7 @@ pub fn compensate_set<const N: usize, V: kinecal::ValueStorage>(
         cartesian_nominal: names.nominal.clone(),
         reflector: None,
         hint,
+        temperature_warning: temperature_warning(file, &rows, origin),
     };
     Ok(Compensated {
         report,
@@ -544,6 +548,31 @@ fn fmt_num(v: f64) -> String {
     }
 }
 
+/// The warning for a model with thermal expansion and targets without `temp_c`: the expansion
+/// is evaluated at the model's reference temperature there, which a target taken on a warm arm
+/// misses by the expansion (2e-5 per kelvin over 10 K: 0.3–0.5 mm on an ER20).
+fn temperature_warning(file: &RobotFile, rows: &[Row], origin: &Origin) -> Option<String> {
+    let thermal = file
+        .effects
+        .iter()
+        .find(|e| e.kind == crate::formats::robot_file::THERMAL)?;
+    let missing = rows.iter().filter(|r| r.temp_c.is_none()).count();
+    let t0 = thermal
+        .reference_c
+        .unwrap_or(crate::formats::robot_file::DEFAULT_REFERENCE_C);
+    let column = crate::formats::measurements::TEMPERATURE_COLUMN;
+    (missing > 0).then(|| {
+        format!(
+            "{origin}: {missing} of {} targets have no {column} value: the model's thermal \
+             expansion is evaluated at its reference temperature {} °C there, and misses an \
+             arm at another temperature by the expansion; give each target the arm's \
+             temperature when it moves there (a {column} column, °C)",
+            rows.len(),
+            crate::output::numfmt::sig(t0, 4)
+        )
+    })
+}
+
 /// Compensates every row (independently, or as a trajectory), in the robot's scalar type;
 /// results in `f64` with the status.
 fn solve_all<T: Real, const N: usize, V: kinecal::ValueStorage>(
@@ -561,10 +590,13 @@ fn solve_all<T: Real, const N: usize, V: kinecal::ValueStorage>(
                 Some(rpy) => Target::Pose(Frame::from_xyz_rpy([p.x, p.y, p.z], rpy.map(T::of))),
                 None => Target::Point(p),
             };
+            let mut cfg = *cfg;
+            cfg.temperature_c = row.temp_c.map(T::of);
             let r = if stream {
+                tracker.config.temperature_c = cfg.temperature_c;
                 tracker.next(robot, &target, &seed)
             } else {
-                compensate(robot, &target, &seed, cfg)
+                compensate(robot, &target, &seed, &cfg)
             };
             let status = Status::of(&r);
             let best = match &r {
@@ -618,6 +650,10 @@ fn target_rows<const N: usize>(
             }
         );
     }
+    let temp = ds
+        .extra_names
+        .iter()
+        .position(|n| n == crate::formats::measurements::TEMPERATURE_COLUMN);
     let mut rows = Vec::with_capacity(ds.len());
     for r in &ds.records {
         // Seeds and points a controller could have: a seed of 1e300° would otherwise come back
@@ -664,6 +700,9 @@ fn target_rows<const N: usize>(
             seed,
             point: Vector3::from(r.xyz_mm),
             rpy,
+            temp_c: temp
+                .and_then(|i| r.extra.get(i).copied())
+                .filter(|t| t.is_finite()),
         });
     }
     Ok(rows)

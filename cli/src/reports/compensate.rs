@@ -54,6 +54,10 @@ pub struct CompensateReport {
     pub reflector: Option<String>,
     /// Why targets were not reached, when they look given in another frame (also printed).
     pub hint: Option<String>,
+    /// A model with thermal expansion and targets without the arm's temperature (`temp_c`):
+    /// the expansion is evaluated at the model's reference temperature there (also printed).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub temperature_warning: Option<String>,
 }
 
 impl super::Report for CompensateReport {

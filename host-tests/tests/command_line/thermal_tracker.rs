@@ -235,3 +235,109 @@ fn exporting_a_model_referred_to_fahrenheit_is_warned_about() {
         assert_eq!(err.contains("reference_c is 73.6 °C"), warned, "{err}");
     }
 }
+
+/// `compensate` evaluates a model's thermal expansion at each target's `temp_c`: targets of a
+/// warm-up's true arm at 35 °C are reached within 0.01 mm with it, and missed by tenths of
+/// a millimetre without it, with a warning (stderr and JSON `temperature_warning`) naming the
+/// reference temperature used; `validate` warns about a session without temperatures.
+#[test]
+fn compensate_and_validate_use_the_arms_temperature() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = data_file("er20.toml");
+    let (data, truth, model) = (d.join("warm.csv"), d.join("t.toml"), d.join("m.toml"));
+    let sim = [
+        "simulate",
+        "--robot",
+        s(&robot),
+        "--poses",
+        "300",
+        "--noise-mm",
+        "0.01",
+    ];
+    let more = ["--seed", "3", "--geom-errors", "--temperature", "15:35"];
+    let last = [
+        "--effect",
+        "thermal-expansion:0:2e-5",
+        "--out",
+        s(&data),
+        "--truth",
+        s(&truth),
+    ];
+    kinecal_ok(&[&sim[..], &more[..], &last[..]].concat());
+    let fit = ["--effect", "thermal-expansion", "--out", s(&model)];
+    let o = run_on("identify", &robot, &data, &fit);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Targets: the true arm's points at 35 °C (with a temp_c column), and the same without it.
+    let hot = d.join("hot.csv");
+    let sim = [
+        "simulate",
+        "--robot",
+        s(&truth),
+        "--poses",
+        "8",
+        "--noise-mm",
+        "0",
+    ];
+    kinecal_ok(
+        &[
+            &sim[..],
+            &["--seed", "9", "--temperature", "35:35", "--out", s(&hot)],
+        ]
+        .concat(),
+    );
+    let text = std::fs::read_to_string(&hot).unwrap();
+    let plain: String = text
+        .lines()
+        .map(|l| l.rsplit_once(',').unwrap().0.to_string() + "\n")
+        .collect();
+    let cold = write(d, "no_temp.csv", &plain);
+    let truth_robot = kinecal_cli::formats::robot_file::RobotFile::load(&truth)
+        .unwrap()
+        .to_robot::<6>()
+        .unwrap();
+    let mut worst = Vec::new();
+    for (targets, warned) in [(&hot, false), (&cold, true)] {
+        let out = d.join("q.csv");
+        let args = ["compensate", "--model", s(&model), "--targets", s(targets)];
+        let o = kinecal_ok(&[&args[..], &["--out", s(&out), "--json"]].concat());
+        let j = json_of(&o);
+        assert_eq!(j["temperature_warning"].is_string(), warned, "{j}");
+        assert_eq!(
+            stderr(&o).contains("thermal expansion is evaluated at its reference"),
+            warned
+        );
+        // Each command on the true arm at 35 °C against its target.
+        let commands = std::fs::read_to_string(&out).unwrap();
+        let mut fk = kinecal::ForwardKinematics::<f64, 6>::new();
+        fk.temp_c = Some(35.0);
+        let mut max = 0.0f64;
+        for (c, t) in commands.lines().skip(1).zip(text.lines().skip(1)) {
+            let q: Vec<f64> = c
+                .split(',')
+                .take(6)
+                .map(|v| v.parse::<f64>().unwrap().to_radians())
+                .collect();
+            let p: Vec<f64> = t
+                .split(',')
+                .skip(6)
+                .take(3)
+                .map(|v| v.parse().unwrap())
+                .collect();
+            let reached = fk.compute(&truth_robot, &q.try_into().unwrap());
+            max = max.max((reached - nalgebra::Vector3::new(p[0], p[1], p[2])).norm());
+        }
+        worst.push(max);
+    }
+    eprintln!(
+        "targets at 35 °C: worst {:.4} mm with temp_c, {:.4} mm without",
+        worst[0], worst[1]
+    );
+    assert!(worst[0] < 0.01 && worst[1] > 0.1, "{worst:?}");
+    let o = run_on("validate", &robot, &cold, &["--model", s(&model)]);
+    assert!(
+        stderr(&o).contains("has no temp_c column"),
+        "{}",
+        stderr(&o)
+    );
+}

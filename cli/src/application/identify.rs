@@ -480,7 +480,8 @@ fn stop_text<const N: usize>(
     if stalled {
         format!(
             "{how} at an RMS error of {} mm, above {} mm: far above any tracker's noise, so the \
-             model or the data are wrong (units, a coupled joint, the tool, the base)",
+             model or the data are wrong (units, the joint columns' order or signs, a coupled \
+             joint, the tool, the base: `kinecal check` names the likely one)",
             sig(rms_mm, 4),
             sig(stall_rms_mm, 3)
         )

@@ -47,6 +47,9 @@ pub struct Checked {
     /// the nominal points on the data, when the scale is off 1 by more than [`SCALED_OFF`] and the
     /// RMS under [`MIRRORED_SHARE`] of the nominal RMS (the points in another length unit).
     pub scaled: Option<(f64, f64)>,
+    /// Two joint columns exchanged or one negated that explain the data far better, when no
+    /// coupling does better still ([`crate::calibration::column_hint`]).
+    pub column_hint: Option<crate::calibration::column_hint::ColumnHint>,
 }
 
 /// How far from 1 the scale between the data and the nominal points must be for a length unit
@@ -172,7 +175,17 @@ pub fn check<const N: usize>(
         .to_robot::<N>()
         .ok()
         .and_then(|r| coupling_hint::detect(&r, &meas, !file.base_known(), file.tool_unknown()));
+    // Joint columns in another order or sign, when no coupling explains the data better.
+    let column_hint = file
+        .to_robot::<N>()
+        .ok()
+        .and_then(|r| {
+            crate::calibration::column_hint::detect(&r, &meas, fitted, file.tool_unknown())
+        })
+        .filter(|c| hint.as_ref().is_none_or(|h| c.rms_mm < h.rms_mm));
+    let hint = hint.filter(|_| column_hint.is_none());
     Ok(Checked {
+        column_hint,
         joints: N,
         poses: ds.len(),
         extra_columns: carried_columns(&ds.extra_names, &file.tool_names()),

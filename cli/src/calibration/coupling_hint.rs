@@ -101,7 +101,7 @@ impl CouplingHint {
 
 /// RMS (mm) of `robot` on `data`, with the base fitted to the data first when `fit` is set
 /// and the tool point started from them when `tool` is (an unknown tool).
-fn rms_placed<const N: usize, V: kinecal::ValueStorage>(
+pub fn rms_placed<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
     fit: bool,

@@ -4,6 +4,7 @@
 pub mod acceptance;
 pub mod arm_size;
 pub mod check;
+pub mod column_hint;
 pub mod coupling_hint;
 pub mod drift;
 pub mod effects_in_degrees;

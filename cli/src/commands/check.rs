@@ -32,6 +32,9 @@ fn check_with_joints<const N: usize>(
     if let Some(h) = &checked.coupling_hint {
         eprintln!("{}", h.message());
     }
+    if let Some(h) = &checked.column_hint {
+        eprintln!("{}", h.message(&data));
+    }
     if let Some(m) = checked.mirrored_rms_mm {
         eprintln!(
             "hint: {data}: the data fit the nominal robot mirrored ({} mm RMS against {} mm \

@@ -51,6 +51,11 @@ pub struct CheckReport {
     pub length_scale: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub scaled_rms_mm: Option<f64>,
+    /// Two joint columns exchanged (`{"change": {"exchanged": [2, 3]}, …}`) or one negated
+    /// (`{"negated": 3}`) that explain the data far better: `rms_mm` with it, `nominal_rms_mm`
+    /// as written.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub column_hint: Option<crate::calibration::column_hint::ColumnHint>,
     /// The joint limits the robot file states (degrees), per joint (text only).
     #[serde(skip)]
     pub limits_deg: Vec<Option<[f64; 2]>>,
@@ -82,6 +87,7 @@ impl CheckReport {
             mirrored_rms_mm: c.mirrored_rms_mm,
             length_scale: c.scaled.map(|(s, _)| s),
             scaled_rms_mm: c.scaled.map(|(_, r)| r),
+            column_hint: c.column_hint.clone(),
             limits_deg: file.joints.iter().map(|j| j.limits_deg).collect(),
         }
     }

@@ -95,3 +95,77 @@ fn check_names_points_in_inches_or_centimetres() {
         assert!(json_of(&out).get("length_scale").is_none());
     }
 }
+
+/// Joint columns in another order or counted the other way: the ER20's `q2` and `q3`
+/// exchanged left `check` at 1,080 mm with exit 0 and no hint. Every exchange of two columns
+/// and every negated column is tried: `check` names the one that fits (stderr hint, JSON
+/// `column_hint`), and `identify`'s refusal points to `check`; the file as simulated draws no
+/// such hint.
+#[test]
+fn check_names_joint_columns_exchanged_or_negated() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = data_file("er20.toml");
+    let clean = dir.path().join("clean.csv");
+    simulate(
+        &robot,
+        Some(150),
+        Some(0.02),
+        Some(8),
+        &["--geom-errors"],
+        &clean,
+    );
+    let text = std::fs::read_to_string(&clean).unwrap();
+    let edit = |name: &str, f: &dyn Fn(&mut Vec<String>)| {
+        let mut out = String::new();
+        for (k, line) in text.lines().enumerate() {
+            let mut cells: Vec<String> = line.split(',').map(String::from).collect();
+            if k > 0 {
+                f(&mut cells);
+            }
+            out.push_str(&cells.join(","));
+            out.push('\n');
+        }
+        write(dir.path(), name, &out)
+    };
+    let out = run_on("check", &robot, &clean, &["--json"]);
+    assert!(
+        json_of(&out).get("column_hint").is_none(),
+        "{}",
+        stderr(&out)
+    );
+    let exchanged = edit("exchanged.csv", &|c| c.swap(1, 2));
+    let negated = edit("negated.csv", &|c| {
+        c[4] = format!("{:?}", -c[4].parse::<f64>().unwrap());
+    });
+    for (data, words, change) in [
+        (
+            &exchanged,
+            "with columns q2 and q3 exchanged",
+            serde_json::json!({"exchanged": [2, 3]}),
+        ),
+        (
+            &negated,
+            "with q5 negated",
+            serde_json::json!({"negated": 5}),
+        ),
+    ] {
+        let out = run_on("check", &robot, data, &["--json"]);
+        let err = stderr(&out);
+        assert!(err.contains(words), "{err}");
+        let v = json_of(&out);
+        assert_eq!(v["column_hint"]["change"], change, "{v}");
+        let (fits, written) = (
+            v["column_hint"]["rms_mm"].as_f64().unwrap(),
+            v["column_hint"]["nominal_rms_mm"].as_f64().unwrap(),
+        );
+        // The geometric errors remain: a few millimetres, against tens to a thousand.
+        assert!(fits < 6.0 && written > 20.0, "{v}");
+    }
+    let out = run_on("identify", &robot, &exchanged, &[]);
+    assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("the joint columns' order or signs"),
+        "{}",
+        stderr(&out)
+    );
+}

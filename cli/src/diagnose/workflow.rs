@@ -336,8 +336,25 @@ pub fn run<const N: usize>(
         .or_else(|| {
             super::time_trend::warning(&d.model, &search, d.effective_parameters, d.noise_floor_mm)
         });
+        let drift = d
+            .found
+            .iter()
+            .any(|f| matches!(f.candidate.kind, super::CandidateKind::Drift { .. }));
+        // Without temperatures a warming arm (its lengths growing with time) looks like a
+        // drifting tracker or a creeping reflector: say so beside either.
+        let warming = (drift || w.is_some()) && search.iter().all(|m| m.temp_c.is_none());
         if let Some(w) = w {
             tell.line(&format!("warning: {data_origin}: {w}"));
+        }
+        if warming {
+            tell.line(&format!(
+                "warning: {data_origin}: the rows carry no {}: what looks like the tracker \
+                 drifting or the measured point creeping may be the arm warming up (its lengths \
+                 grow with its temperature: 20 K lengthens a metre of steel by 0.24 mm); log the \
+                 arm's temperature in a {} column and diagnose again to tell them apart",
+                crate::formats::measurements::TEMPERATURE_COLUMN,
+                crate::formats::measurements::TEMPERATURE_COLUMN
+            ));
         }
         // A few rows far beyond the final model's typical error, under the gross outliers'
         // millimetre: the search took them for noise (they raise the noise floor).

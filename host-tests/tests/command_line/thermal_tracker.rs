@@ -341,3 +341,55 @@ fn compensate_and_validate_use_the_arms_temperature() {
         stderr(&o)
     );
 }
+
+/// A warm-up logged with `t_s` but no `temp_c` looks like a drifting tracker or a creeping
+/// reflector, which `diagnose` named with confidence: it now says the arm warming may be the
+/// cause and how to tell them apart; with the `temp_c` column it names the expansion and says
+/// nothing of the kind.
+#[test]
+fn diagnose_without_temperatures_names_the_arm_warming_beside_a_drift() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = data_file("er20.toml");
+    let data = d.join("warm.csv");
+    let sim = [
+        "simulate",
+        "--robot",
+        s(&robot),
+        "--poses",
+        "400",
+        "--noise-mm",
+        "0.01",
+    ];
+    let more = [
+        "--seed",
+        "61",
+        "--geom-errors",
+        "--temperature",
+        "15:35",
+        "--session-s",
+        "3600",
+    ];
+    let last = ["--effect", "thermal-expansion:0:1.2e-5", "--out", s(&data)];
+    kinecal_ok(&[&sim[..], &more[..], &last[..]].concat());
+    let text = std::fs::read_to_string(&data).unwrap();
+    let head: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let t = head.iter().position(|c| *c == "temp_c").unwrap();
+    let without: String = text
+        .lines()
+        .map(|l| {
+            let mut c: Vec<&str> = l.split(',').collect();
+            c.remove(t);
+            c.join(",") + "\n"
+        })
+        .collect();
+    let no_temp = write(d, "no_temp.csv", &without);
+    const WARMING: &str = "may be the arm warming up";
+    let o = run_on("diagnose", &robot, &no_temp, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains(WARMING), "{}", stderr(&o));
+    let o = run_on("diagnose", &robot, &data, &["--json"]);
+    assert!(!stderr(&o).contains(WARMING), "{}", stderr(&o));
+    let found = json_of(&o)["found"].to_string();
+    assert!(found.contains("thermal-expansion"), "{found}");
+}

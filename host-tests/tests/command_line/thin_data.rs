@@ -267,3 +267,55 @@ fn orientations_count_as_equations() {
         }
     }
 }
+
+/// A joint table finer than 40 poses can offer (28 knots over joint 2's range; four poses per
+/// knot interval allow 25° at best): "nothing significant is missing" with a noise floor of
+/// 0.49 mm read as a verdict on the arm. The headline now says how coarse the tables offered
+/// were; 400 poses of the same arm find the table, and a clean session's headline has no such
+/// clause.
+#[test]
+fn a_search_on_few_poses_says_how_coarse_its_tables_were() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = data_file("er20.toml");
+    let knots: Vec<String> = (0..28)
+        .map(|k| {
+            let k = k as f64;
+            format!("{:.6}", 0.0006 * (k * 1.3).sin() + 0.0003 * (k * 0.7).cos())
+        })
+        .collect();
+    let table = format!("joint-table:2:{}", knots.join(","));
+    let session = |poses: &str, extra: &[&str], name: &str| {
+        let out = d.join(name);
+        let args = [
+            "--noise-mm",
+            "0.01",
+            "--geom-errors",
+            "--seed",
+            "51",
+            "--out",
+            s(&out),
+        ];
+        let sim = ["simulate", "--robot", s(&robot), "--poses", poses];
+        kinecal_ok(&[&sim[..], &args[..], extra].concat());
+        out
+    };
+    const COARSE: &str = "the finest joint table these poses allow has knots every";
+    let headline = |data: &std::path::Path| {
+        let o = run_on("diagnose", &robot, data, &["--json"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        json_of(&o)["summary"].as_str().unwrap().to_string()
+    };
+    let few = headline(&session("40", &["--effect", &table], "few.csv"));
+    assert!(
+        few.starts_with("Nothing significant") && few.contains(COARSE),
+        "{few}"
+    );
+    let many = headline(&session("400", &["--effect", &table], "many.csv"));
+    assert!(many.contains("1 effect(s) missing"), "{many}");
+    let clean = headline(&session("300", &[], "clean.csv"));
+    assert!(
+        clean.starts_with("Nothing significant") && !clean.contains(COARSE),
+        "{clean}"
+    );
+}

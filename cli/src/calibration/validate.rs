@@ -70,6 +70,15 @@ impl Register {
     }
 }
 
+/// Above this position RMS (mm) with the base alone registered, `--register base` also tries
+/// the tool ([`Validation::tool_moved`]) although the model beats the nominal robot: a probe
+/// moved 60 mm leaves both robots at tens of millimetres.
+pub const MISMATCH_HINT_MM: f64 = 25.0;
+
+/// The share of the model's RMS with the base alone registered under which registering the
+/// tool too explains the session's errors (a reflector moved 10 mm: 9.9 mm → 0.032 mm).
+pub const TOOL_EXPLAINS: f64 = 0.2;
+
 /// The options of [`validate`].
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Options {
@@ -81,6 +90,7 @@ pub struct Options {
 /// What [`validate`] compares: the nominal robot and the calibrated model (library units),
 /// whether each file stated its `[base]`, the session's observations, and the names the
 /// refusals use for the files.
+#[derive(Clone, Copy)]
 pub struct Inputs<'a, const N: usize> {
     pub nominal: &'a HostRobot<N>,
     pub nominal_base_known: bool,
@@ -145,6 +155,13 @@ pub struct Validation {
     pub gross_outliers: Vec<super::outliers::Outlier>,
     /// Why those rows leave no verdict, as the rest of a sentence that starts "the fit".
     pub outlier_reason: Option<String>,
+    /// With `--register base` and a bad verdict: the model's RMS (mm) when the tool is
+    /// registered too, when that is under [`TOOL_EXPLAINS`] of it with the base alone (the
+    /// probe moved since calibration).
+    pub tool_moved: Option<f64>,
+    /// How far (mm) the registration put the model's tool point from where the model states
+    /// it (0 without a tool registration): a new probe or reflector.
+    pub tool_shift_mm: f64,
 }
 
 /// Registers the model and the nominal robot onto the session the same way (the parameters of
@@ -248,8 +265,26 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
     let recalibration = (!worse_than_nominal && outlier_reason.is_none())
         .then(|| super::recalibration::recalibrate(inp.model, &params, &weighted))
         .flatten();
+    let changed = recalibration.as_ref().is_some_and(|r| r.changed());
+    // A bad verdict with the base alone registered that registering the tool too mostly
+    // explains: the probe moved (the robot may have too: the verdict with both says).
+    let bad = worse_than_nominal || changed || model.figures.total.rms > MISMATCH_HINT_MM;
+    let tool_moved = (opts.register == Register::Base && bad && outlier_reason.is_none())
+        .then(|| {
+            let both = Options {
+                register: Register::BaseTool,
+                ..opts.clone()
+            };
+            let v = validate(inp, &both).ok()?;
+            let rms = v.model.figures.total.rms;
+            (rms < TOOL_EXPLAINS * model.figures.total.rms).then_some(rms)
+        })
+        .flatten();
+    let tool_shift_mm = (model_placed.tool() - inp.model.tool()).norm();
     Ok(Validation {
-        changed: recalibration.as_ref().is_some_and(|r| r.changed()),
+        tool_shift_mm,
+        tool_moved,
+        changed,
         recalibration,
         gross_outliers,
         outlier_reason,

@@ -21,6 +21,23 @@ pub const RECALIBRATE: &str = "the robot or the set-up changed since calibration
 /// to 300 mm, where which of two wrong robots is the less wrong says nothing.
 pub const MISMATCH_RMS_MM: f64 = 25.0;
 
+/// A registered tool point this far (mm) from the model's is a new probe or reflector, which the
+/// "changed since calibration" verdict names.
+pub const NEW_TOOL_MM: f64 = 5.0;
+
+/// `verdict` with, when registering the tool too lets the model hold (`--register base`), the
+/// clause that says so.
+fn tool_moved_clause(v: &Validation, verdict: String) -> String {
+    match v.tool_moved {
+        Some(rms) => format!(
+            "{verdict}; registered with the tool too, the model leaves {} mm RMS: the probe or \
+             reflector moved since calibration: validate with --register base+tool",
+            sig(rms, 4)
+        ),
+        None => verdict,
+    }
+}
+
 /// `kinecal validate`: both robots registered onto the session the same way, and their errors.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ValidateReport {
@@ -251,31 +268,33 @@ impl ValidateReport {
             changed_since_calibration: v.changed,
             recalibration: v.recalibration.clone(),
             gross_outliers: v.gross_outliers.clone(),
-            verdict: if m > MISMATCH_RMS_MM && n > MISMATCH_RMS_MM {
-                format!(
+            verdict: tool_moved_clause(
+                v,
+                if m > MISMATCH_RMS_MM && n > MISMATCH_RMS_MM {
+                    format!(
                     "the data do not fit the robot file ({figures}; above {MISMATCH_RMS_MM} mm \
                      neither robot describes the session): check the units, the axes (swapped \
                      or mirrored), the joint columns' order and signs and the couplings \
                      (`kinecal check`); if they are right, the robot changed beyond what a \
                      calibration corrects"
                 )
-            } else if let Some(why) = &v.outlier_reason {
-                format!("no verdict: the registration {why}, and validate again ({figures})")
-            } else if let Some(d) = &v.effects_in_degrees {
-                let still = if d.rms_mm > n {
-                    ", still worse than the nominal robot: recalibrate after converting them"
-                } else {
-                    ""
-                };
-                format!(
+                } else if let Some(why) = &v.outlier_reason {
+                    format!("no verdict: the registration {why}, and validate again ({figures})")
+                } else if let Some(d) = &v.effects_in_degrees {
+                    let still = if d.rms_mm > n {
+                        ", still worse than the nominal robot: recalibrate after converting them"
+                    } else {
+                        ""
+                    };
+                    format!(
                     "the values of {} look written in degrees: read as degrees the model predicts \
                      the session to {} mm{still} ({figures}); the file holds them in radians \
                      (docs/formats.md#effects): multiply them by π/180 and validate again",
                     d.effects.join(", "),
                     sig(d.rms_mm, 4)
                 )
-            } else if v.orientation_off {
-                format!(
+                } else if v.orientation_off {
+                    format!(
                     "the tool orientation the model states does not hold: its median row is {}° \
                      off, where a calibrated tool frame is within a degree ({figures}); the \
                      model's rpy_deg was fitted to orientation columns that do not describe the \
@@ -283,19 +302,30 @@ impl ValidateReport {
                      since: recalibrate, or judge positions alone with --positions-only",
                     sig(v.model.orientation_median_deg.unwrap_or(f64::NAN), 3)
                 )
-            } else if v.worse_than_nominal {
-                format!("{RECALIBRATE} ({figures})")
-            } else if let Some(r) = v.recalibration.as_ref().filter(|_| v.changed) {
-                format!(
-                    "the robot changed since calibration: recalibrate (left-out poses of the \
+                } else if v.worse_than_nominal {
+                    format!("{RECALIBRATE} ({figures})")
+                } else if let Some(r) = v.recalibration.as_ref().filter(|_| v.changed) {
+                    // A new tool: the model's fitted wrist errors act differently at its point.
+                    let tool = if v.tool_shift_mm > NEW_TOOL_MM {
+                        format!(
+                        "; the tool point registered {} mm from the model's: with a new probe or \
+                         reflector, calibrate again with it",
+                        sig(v.tool_shift_mm, 3)
+                    )
+                    } else {
+                        String::new()
+                    };
+                    format!(
+                        "the robot changed since calibration: recalibrate (left-out poses of the \
                      session: {} mm RMS with the model, {} mm with the robot calibrated again on \
-                     the others; {figures})",
-                    sig(r.model_rms_mm, 4),
-                    sig(r.recalibrated_rms_mm, 4)
-                )
-            } else {
-                format!("the model still holds ({figures})")
-            },
+                     the others; {figures}){tool}",
+                        sig(r.model_rms_mm, 4),
+                        sig(r.recalibrated_rms_mm, 4)
+                    )
+                } else {
+                    format!("the model still holds ({figures})")
+                },
+            ),
         }
     }
 }

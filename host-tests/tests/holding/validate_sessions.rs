@@ -68,6 +68,9 @@ fn a_robot_changed_since_calibration_is_refused_though_better_than_nominal() {
             assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
             assert!(m > 10.0 * r, "{m} against {r}");
             assert!(j["verdict"].as_str().unwrap().starts_with(CHANGED), "{j}");
+            // The reflector moved 10 mm too: the verdict names the new tool point.
+            let v = j["verdict"].as_str().unwrap();
+            assert!(v.contains("the tool point registered 10"), "{v}");
             assert!(stderr(&out).contains(CHANGED), "{}", stderr(&out));
         } else {
             assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
@@ -211,4 +214,37 @@ fn ur10_model_beats_the_nominal_robot_on_the_poses_it_never_saw() {
         err.contains("the data do not fit the robot file") && err.contains("swapped"),
         "{err}"
     );
+}
+
+/// `--register base` on a session whose probe moved (10 mm, or 60 mm and 15 mm sideways) said
+/// "recalibrate" or "check the units, the axes …": registering the tool too explains the
+/// session, and the verdict now says so (with `base+tool` the model holds); a robot whose joint
+/// zero moved draws no such clause.
+#[test]
+fn a_moved_probe_is_named_when_only_the_base_is_registered() {
+    let c = calibrated();
+    let d = c.dir.path();
+    const TOOL: &str = "registered with the tool too, the model leaves";
+    let cases: [(&str, [f64; 3], f64, bool); 3] = [
+        ("tool10", [0.0, 0.0, 10.0], 0.0, true),
+        ("tool60", [15.0, 0.0, 60.0], 0.0, true),
+        ("zero", [0.0; 3], 0.05, false),
+    ];
+    for (name, dtool, dtheta, moved) in cases {
+        let truth = edited(&c.truth, d, &format!("{name}.toml"), |f| {
+            move_setup(f, [0.0; 3], [0.0; 3], dtool);
+            f.joints[1].theta_deg += dtheta;
+        });
+        let data = d.join(format!("{name}.csv"));
+        simulate(&truth, Some(150), Some(0.02), Some(51), &[], &data);
+        let out = validate(&c.robot, &c.model, &data, &["--register", "base"]);
+        assert_eq!(out.status.code(), Some(3), "{name}: {}", stderr(&out));
+        let verdict = json_any(&out)["verdict"].as_str().unwrap().to_string();
+        assert_eq!(verdict.contains(TOOL), moved, "{name}: {verdict}");
+        // With the tool registered, the moved probe's sessions hold.
+        if moved {
+            let out = validate(&c.robot, &c.model, &data, &[]);
+            assert_eq!(out.status.code(), Some(0), "{name}: {}", stderr(&out));
+        }
+    }
 }

@@ -78,7 +78,7 @@ pub fn detect<const N: usize, V: kinecal::ValueStorage>(
         let changed: Vec<Measurement<f64, N>> = sample
             .iter()
             .map(|m| {
-                let mut m = m.clone();
+                let mut m = *m;
                 match change {
                     Change::Exchanged(a, b) => m.q.swap(a - 1, b - 1),
                     Change::Negated(j) => m.q[j - 1] = -m.q[j - 1],

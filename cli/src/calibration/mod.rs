@@ -26,6 +26,7 @@ pub mod thin_data;
 pub mod tool_check;
 pub mod validate;
 pub mod weights;
+pub mod wrapped_readings;
 
 use crate::compute::vec_lm::VecLm;
 use kinecal::identify::lm::{Levenberg, LmConfig, LmStop};

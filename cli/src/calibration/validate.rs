@@ -162,6 +162,9 @@ pub struct Validation {
     /// How far (mm) the registration put the model's tool point from where the model states
     /// it (0 without a tool registration): a new probe or reflector.
     pub tool_shift_mm: f64,
+    /// A joint whose readings are a turn (360°) from those the model's scale or table was
+    /// calibrated on, on many rows ([`super::wrapped_readings`]): no verdict.
+    pub wrapped: Option<super::wrapped_readings::Wrapped>,
 }
 
 /// Registers the model and the nominal robot onto the session the same way (the parameters of
@@ -262,7 +265,13 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
     };
     // A model no worse than the nominal robot may still be far worse than the robot calibrated
     // again on the session: it changed since.
-    let recalibration = (!worse_than_nominal && outlier_reason.is_none())
+    // Readings a turn from those the model's scale or table was calibrated on: judged on the
+    // wrong turn, the model says nothing of the robot.
+    let wrapped = outlier_reason
+        .is_none()
+        .then(|| super::wrapped_readings::find(&model_placed, &data))
+        .flatten();
+    let recalibration = (!worse_than_nominal && outlier_reason.is_none() && wrapped.is_none())
         .then(|| super::recalibration::recalibrate(inp.model, &params, &weighted))
         .flatten();
     let changed = recalibration.as_ref().is_some_and(|r| r.changed());
@@ -282,6 +291,7 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
         .flatten();
     let tool_shift_mm = (model_placed.tool() - inp.model.tool()).norm();
     Ok(Validation {
+        wrapped,
         tool_shift_mm,
         tool_moved,
         changed,

@@ -72,11 +72,13 @@ pub fn section(v: &ValidateReport, origin: &str) -> Validation {
         worse_than_nominal: v.worse_than_nominal
             || v.data_mismatch
             || v.changed_since_calibration
-            || !v.gross_outliers.is_empty(),
+            || !v.gross_outliers.is_empty()
+            || v.wrapped_readings.is_some(),
         data_mismatch: v.data_mismatch,
         other_verdict: v.data_mismatch
             || v.changed_since_calibration
-            || !v.gross_outliers.is_empty(),
+            || !v.gross_outliers.is_empty()
+            || v.wrapped_readings.is_some(),
         verdict: v.verdict.clone(),
         rows: vec![row("model", &v.model), row("nominal", &v.nominal)],
         points: v

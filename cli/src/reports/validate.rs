@@ -21,6 +21,16 @@ pub const RECALIBRATE: &str = "the robot or the set-up changed since calibration
 /// to 300 mm, where which of two wrong robots is the less wrong says nothing.
 pub const MISMATCH_RMS_MM: f64 = 25.0;
 
+/// [`crate::calibration::wrapped_readings::Wrapped`] as the report gives it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WrappedReport {
+    pub joint: usize,
+    pub effect: String,
+    pub rows: usize,
+    pub of: usize,
+    pub turned_rms_mm: f64,
+}
+
 /// A registered tool point this far (mm) from the model's is a new probe or reflector, which the
 /// "changed since calibration" verdict names.
 pub const NEW_TOOL_MM: f64 = 5.0;
@@ -87,6 +97,11 @@ pub struct ValidateReport {
     /// pull the registration, so there is no verdict (exit 3).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub gross_outliers: Vec<Outlier>,
+    /// The joint whose readings are a turn (360°) from those the model's scale or table was
+    /// calibrated on, on many rows (`joint`, `effect`, `rows`, `of`, `turned_rms_mm`): no
+    /// verdict (exit 3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wrapped_readings: Option<WrappedReport>,
     /// The verdict in one line.
     pub verdict: String,
 }
@@ -268,6 +283,13 @@ impl ValidateReport {
             changed_since_calibration: v.changed,
             recalibration: v.recalibration.clone(),
             gross_outliers: v.gross_outliers.clone(),
+            wrapped_readings: v.wrapped.as_ref().map(|w| WrappedReport {
+                joint: w.joint,
+                effect: w.effect.to_string(),
+                rows: w.rows,
+                of: w.of,
+                turned_rms_mm: w.turned_rms_mm,
+            }),
             verdict: tool_moved_clause(
                 v,
                 if m > MISMATCH_RMS_MM && n > MISMATCH_RMS_MM {
@@ -277,6 +299,19 @@ impl ValidateReport {
                      or mirrored), the joint columns' order and signs and the couplings \
                      (`kinecal check`); if they are right, the robot changed beyond what a \
                      calibration corrects"
+                )
+                } else if let Some(w) = &v.wrapped {
+                    format!(
+                    "no verdict: {} of {} rows read joint {} a turn (360°) from the readings the \
+                     model's {} was calibrated on (with those readings turned the model leaves \
+                     {} mm RMS): the readings were wrapped (into ±180°, or by another turn) where \
+                     the calibration's were not, or the other way round; unwrap them to the \
+                     calibration's turn (add or subtract 360°) and validate again ({figures})",
+                    w.rows,
+                    w.of,
+                    w.joint,
+                    w.effect,
+                    sig(w.turned_rms_mm, 4)
                 )
                 } else if let Some(why) = &v.outlier_reason {
                     format!("no verdict: the registration {why}, and validate again ({figures})")
@@ -342,6 +377,7 @@ impl super::Report for ValidateReport {
             && !self.data_mismatch
             && !self.changed_since_calibration
             && self.gross_outliers.is_empty()
+            && self.wrapped_readings.is_none()
     }
     fn non_finite(&self) -> Option<String> {
         first_non_finite(self)

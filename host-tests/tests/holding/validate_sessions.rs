@@ -248,3 +248,68 @@ fn a_moved_probe_is_named_when_only_the_base_is_registered() {
         }
     }
 }
+
+/// The same UR10 poses logged with every joint reading wrapped into ±180° (its joints turn
+/// ±360°), against a model with a joint-3 scale fitted on unwrapped readings: the model was
+/// judged on the wrong turn and "still held" at 2.6 mm (0.033 mm unwrapped). `validate` now
+/// finds the rows a turn brings much closer, names the joint and gives no verdict (exit 3);
+/// the unwrapped session holds.
+#[test]
+fn readings_a_turn_from_the_calibrations_leave_no_verdict() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = ur10_dir().join("robot.toml");
+    let (s1, truth, model) = (d.join("s1.csv"), d.join("t.toml"), d.join("m.toml"));
+    let effect = ["--effect", "joint-scale:3:0.001", "--geom-errors"];
+    simulate(
+        &robot,
+        Some(300),
+        Some(0.02),
+        Some(9),
+        &[&effect[..], &["--truth", s(&truth)]].concat(),
+        &s1,
+    );
+    let fit = [
+        "identify",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(&s1),
+        "--effect",
+        "joint-scale:3",
+    ];
+    let o = kinecal(&[&fit[..], &["--out", s(&model)]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s2 = d.join("s2.csv");
+    simulate(&truth, Some(200), Some(0.02), Some(10), &[], &s2);
+    let text = std::fs::read_to_string(&s2).unwrap();
+    let wrapped: String = text
+        .lines()
+        .enumerate()
+        .map(|(k, l)| {
+            if k == 0 {
+                return l.to_string() + "\n";
+            }
+            let mut c: Vec<String> = l.split(',').map(String::from).collect();
+            for q in c.iter_mut().take(6) {
+                let v: f64 = q.parse().unwrap();
+                *q = format!("{:.6}", (v + 180.0).rem_euclid(360.0) - 180.0);
+            }
+            c.join(",") + "\n"
+        })
+        .collect();
+    let s2w = write(d, "s2w.csv", &wrapped);
+    let ok = validate(&robot, &model, &s2, &[]);
+    assert_eq!(ok.status.code(), Some(0), "{}", stderr(&ok));
+    let out = validate(&robot, &model, &s2w, &[]);
+    assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+    let j = json_any(&out);
+    let w = &j["wrapped_readings"];
+    assert_eq!(w["joint"], 3, "{j}");
+    assert_eq!(w["effect"], "joint-scale", "{j}");
+    assert!(w["rows"].as_u64().unwrap() >= 20, "{j}");
+    assert!(
+        j["verdict"].as_str().unwrap().starts_with("no verdict"),
+        "{j}"
+    );
+}

@@ -6,8 +6,10 @@
 //! model; its effects kept as they are). A model of the same robot predicts left-out poses
 //! about as well as a new calibration does; one of a robot that changed (a joint's zero
 //! moved, a link bent) predicts them many times worse, although it may still beat the nominal
-//! robot: a UR10 model with joint 2's zero moved 0.3° since left 5.99 mm where the nominal
+//! robot: an ER20 model with joint 2's zero moved 0.3° since left 5.99 mm where the nominal
 //! robot left 6.89 mm and a new calibration 0.03 mm (`validate` called that "still holds").
+//! Both figures are on left-out poses, so a new calibration's own estimation error counts
+//! against it as the model's counted against it at its calibration.
 
 use super::fit_lm;
 use super::thin_data::cross_validate;
@@ -22,9 +24,12 @@ use serde::{Deserialize, Serialize};
 /// moved 10 mm along the flange axis since 1.84× (its fitted wrist tilts the new offset a
 /// little); a link 1.5 mm longer or a joint's zero 0.3° off leave 80–340×.
 pub const CHANGED_RATIO: f64 = 3.0;
-/// ... and above it by at least this much (mm): noise-free simulated data, whose new
-/// calibration reaches micrometres, are no change.
-pub const CHANGED_MIN_MM: f64 = 0.01;
+/// ... and above it by at least this much (mm). A model carries the estimation error of its
+/// own calibration, which a quieter session does not: a model from 50 poses at 0.05 mm noise
+/// leaves 0.0295 mm on a session of 0.005 mm that a new calibration predicts to 0.0085 mm
+/// (host-tests `validate_sessions::a_quieter_session_of_the_same_robot_holds`). A robot that
+/// changed moves the tool by tenths of a millimetre and more (a joint's zero 0.05°: 1.02 mm).
+pub const CHANGED_MIN_MM: f64 = 0.05;
 
 /// The model against the robot calibrated again on the session, on left-out poses.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -29,6 +29,9 @@ pub struct WrappedReport {
     pub rows: usize,
     pub of: usize,
     pub turned_rms_mm: f64,
+    /// Every joint turned on some row, the one above first.
+    #[serde(default)]
+    pub joints: Vec<usize>,
 }
 
 /// A registered tool point this far (mm) from the model's is a new probe or reflector, which the
@@ -289,6 +292,7 @@ impl ValidateReport {
                 rows: w.rows,
                 of: w.of,
                 turned_rms_mm: w.turned_rms_mm,
+                joints: w.joints.clone(),
             }),
             verdict: tool_moved_clause(
                 v,
@@ -303,15 +307,23 @@ impl ValidateReport {
                 } else if let Some(w) = &v.wrapped {
                     format!(
                     "no verdict: {} of {} rows read joint {} a turn (360°) from the readings the \
-                     model's {} was calibrated on (with those readings turned the model leaves \
-                     {} mm RMS): the readings were wrapped (into ±180°, or by another turn) where \
-                     the calibration's were not, or the other way round; unwrap them to the \
+                     model's {} was calibrated on (with the readings of joint{} {} turned where \
+                     that brings a row much closer, the model leaves {} mm RMS instead of {}): the \
+                     readings were wrapped (into ±180°, or by another turn) where the \
+                     calibration's were not, or the other way round; unwrap them to the \
                      calibration's turn (add or subtract 360°) and validate again ({figures})",
                     w.rows,
                     w.of,
                     w.joint,
                     w.effect,
-                    sig(w.turned_rms_mm, 4)
+                    if w.joints.len() > 1 { "s" } else { "" },
+                    w.joints
+                        .iter()
+                        .map(|j| j.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    sig(w.turned_rms_mm, 4),
+                    sig(w.rms_mm, 4)
                 )
                 } else if let Some(why) = &v.outlier_reason {
                     format!("no verdict: the registration {why}, and validate again ({figures})")

@@ -175,10 +175,12 @@ pub fn check<const N: usize>(
         .to_robot::<N>()
         .ok()
         .and_then(|r| coupling_hint::detect(&r, &meas, !file.base_known(), file.tool_unknown()));
-    // Joint columns in another order or sign, when no coupling explains the data better.
-    let column_hint = file
-        .to_robot::<N>()
-        .ok()
+    // Joint columns in another order or sign, when no coupling explains the data better and
+    // the points are neither mirrored nor in another unit (negating q1 brings mirrored points
+    // closer, never close: 244 mm against 1,229 mm).
+    let column_hint = (mirrored_rms_mm.is_none() && scaled.is_none())
+        .then(|| file.to_robot::<N>().ok())
+        .flatten()
         .and_then(|r| {
             crate::calibration::column_hint::detect(&r, &meas, fitted, file.tool_unknown())
         })

@@ -161,6 +161,13 @@ fn check_names_joint_columns_exchanged_or_negated() {
         // The geometric errors remain: a few millimetres, against tens to a thousand.
         assert!(fits < 6.0 && written > 20.0, "{v}");
     }
+    // Mirrored points (y negated) with the robot file's [base]: negating q1 brings them closer
+    // (244 mm against 1,229 mm) but explains nothing: no column hint.
+    let mirrored = edit("mirrored.csv", &|c| {
+        c[7] = format!("{:?}", -c[7].parse::<f64>().unwrap());
+    });
+    let out = run_on("check", &robot, &mirrored, &["--json"]);
+    assert!(json_of(&out).get("column_hint").is_none(), "{}", stderr(&out));
     let out = run_on("identify", &robot, &exchanged, &[]);
     assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
     assert!(

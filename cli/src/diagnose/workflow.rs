@@ -342,7 +342,12 @@ pub fn run<const N: usize>(
             .any(|f| matches!(f.candidate.kind, super::CandidateKind::Drift { .. }));
         // Without temperatures a warming arm (its lengths growing with time) looks like a
         // drifting tracker or a creeping reflector: say so beside either.
-        let warming = (drift || w.is_some()) && search.iter().all(|m| m.temp_c.is_none());
+        // A step at one row (a bumped tracker, a re-seated reflector) is no warming.
+        let step = w.is_some()
+            && super::row_step::change(&d.model, (&search, &lines), d.effective_parameters)
+                .is_some_and(|s| s.at.is_some());
+        let warming =
+            (drift || (w.is_some() && !step)) && search.iter().all(|m| m.temp_c.is_none());
         if let Some(w) = w {
             tell.line(&format!("warning: {data_origin}: {w}"));
         }

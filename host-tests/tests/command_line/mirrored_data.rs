@@ -167,7 +167,11 @@ fn check_names_joint_columns_exchanged_or_negated() {
         c[7] = format!("{:?}", -c[7].parse::<f64>().unwrap());
     });
     let out = run_on("check", &robot, &mirrored, &["--json"]);
-    assert!(json_of(&out).get("column_hint").is_none(), "{}", stderr(&out));
+    assert!(
+        json_of(&out).get("column_hint").is_none(),
+        "{}",
+        stderr(&out)
+    );
     let out = run_on("identify", &robot, &exchanged, &[]);
     assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
     assert!(

@@ -392,4 +392,36 @@ fn diagnose_without_temperatures_names_the_arm_warming_beside_a_drift() {
     assert!(!stderr(&o).contains(WARMING), "{}", stderr(&o));
     let found = json_of(&o)["found"].to_string();
     assert!(found.contains("thermal-expansion"), "{found}");
+    // A step at one row (the tracker bumped by 0.35 mm after row 100) is no warming.
+    let plain = d.join("plain.csv");
+    let sim = [
+        "simulate",
+        "--robot",
+        s(&robot),
+        "--poses",
+        "200",
+        "--noise-mm",
+        "0.02",
+    ];
+    kinecal_ok(&[&sim[..], &["--seed", "7", "--out", s(&plain)]].concat());
+    let stepped: String = std::fs::read_to_string(&plain)
+        .unwrap()
+        .lines()
+        .enumerate()
+        .map(|(k, l)| {
+            let mut c: Vec<String> = l.split(',').map(String::from).collect();
+            if k > 100 {
+                c[6] = format!("{:.6}", c[6].parse::<f64>().unwrap() + 0.3);
+                c[8] = format!("{:.6}", c[8].parse::<f64>().unwrap() - 0.2);
+            }
+            c.join(",") + "\n"
+        })
+        .collect();
+    let stepped = write(d, "stepped.csv", &stepped);
+    let o = run_on("diagnose", &robot, &stepped, &[]);
+    let err = stderr(&o);
+    assert!(
+        err.contains("the residuals step by") && !err.contains(WARMING),
+        "{err}"
+    );
 }

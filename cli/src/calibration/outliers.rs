@@ -218,6 +218,12 @@ impl Outliers {
         )
     }
 
+    /// The gross outliers named: the first three lines with their distances (and how many
+    /// times the median), and how many more.
+    pub fn far_named(&self) -> String {
+        named(&self.far, self.median_mm)
+    }
+
     /// Why the fit is no calibration because of gross outliers, as the rest of a sentence
     /// that starts "the fit", or `None` when there are none.
     pub fn reason(&self) -> Option<String> {

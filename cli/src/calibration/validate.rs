@@ -153,7 +153,7 @@ pub struct Validation {
     /// A few rows far from both registered robots ([`super::outliers`]): wrong readings,
     /// which pull the registration; no verdict.
     pub gross_outliers: Vec<super::outliers::Outlier>,
-    /// Why those rows leave no verdict, as the rest of a sentence that starts "the fit".
+    /// Why those rows leave no verdict, in words.
     pub outlier_reason: Option<String>,
     /// With `--register base` and a bad verdict: the model's RMS (mm) when the tool is
     /// registered too, when that is under [`TOOL_EXPLAINS`] of it with the base alone (the
@@ -229,11 +229,26 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
     outliers
         .far
         .retain(|o| by_nominal.far.iter().any(|n| n.line == o.line));
-    let gross_outliers = outliers
-        .few()
-        .map(|_| outliers.far.clone())
-        .unwrap_or_default();
-    let outlier_reason = outliers.few();
+    let few = outliers.few().is_some();
+    let gross_outliers = if few {
+        outliers.far.clone()
+    } else {
+        Vec::new()
+    };
+    let outlier_reason = few.then(|| {
+        let what = if params.is_empty() {
+            "decide which of the two robots looks better"
+        } else {
+            "pull the registration of both robots"
+        };
+        format!(
+            "{} row(s) lie far from both robots ({}): wrong readings ({}) {what}; delete those \
+             rows or measure them again",
+            outliers.far.len(),
+            outliers.far_named(),
+            outliers.causes
+        )
+    });
     // 6-D data judge the orientations too, of a model that states a tool orientation: one
     // fitted to angles in radians "held" at 115° on its positions alone. A calibration of the
     // tool frame leaves its median row within a degree (the real UR10 rows: 0.057°); a model

@@ -326,7 +326,7 @@ impl ValidateReport {
                     sig(w.rms_mm, 4)
                 )
                 } else if let Some(why) = &v.outlier_reason {
-                    format!("no verdict: the registration {why}, and validate again ({figures})")
+                    format!("no verdict: {why}, and validate again ({figures})")
                 } else if let Some(d) = &v.effects_in_degrees {
                     let still = if d.rms_mm > n {
                         ", still worse than the nominal robot: recalibrate after converting them"
@@ -352,23 +352,25 @@ impl ValidateReport {
                 } else if v.worse_than_nominal {
                     format!("{RECALIBRATE} ({figures})")
                 } else if let Some(r) = v.recalibration.as_ref().filter(|_| v.changed) {
-                    // A new tool: the model's fitted wrist errors act differently at its point.
-                    let tool = if v.tool_shift_mm > NEW_TOOL_MM {
-                        format!(
-                        "; the tool point registered {} mm from the model's: with a new probe or \
-                         reflector, calibrate again with it",
-                        sig(v.tool_shift_mm, 3)
-                    )
-                    } else {
-                        String::new()
-                    };
-                    format!(
-                        "the robot changed since calibration: recalibrate (left-out poses of the \
-                     session: {} mm RMS with the model, {} mm with the robot calibrated again on \
-                     the others; {figures}){tool}",
+                    let left_out = format!(
+                        "left-out poses of the session: {} mm RMS with the model, {} mm with the \
+                         robot calibrated again on the others; {figures}",
                         sig(r.model_rms_mm, 4),
                         sig(r.recalibrated_rms_mm, 4)
-                    )
+                    );
+                    // A new tool: the model's fitted wrist errors act differently at its
+                    // point, so the robot need not have changed.
+                    if v.tool_shift_mm > NEW_TOOL_MM {
+                        format!(
+                            "the model no longer fits this set-up: recalibrate ({left_out}); the \
+                             tool point registered {} mm from the model's: a new probe or \
+                             reflector, which the model's fitted wrist errors move differently \
+                             (calibrate again with it), or the robot changed since calibration",
+                            sig(v.tool_shift_mm, 3)
+                        )
+                    } else {
+                        format!("the robot changed since calibration: recalibrate ({left_out})")
+                    }
                 } else {
                     format!("the model still holds ({figures})")
                 },

@@ -10,6 +10,8 @@ use std::path::Path;
 
 /// The verdict of a model of a robot that changed since.
 const CHANGED: &str = "the robot changed since calibration: recalibrate";
+/// ... and of one whose registered tool point moved too (a new probe, or the robot changed).
+const NEW_SETUP: &str = "the model no longer fits this set-up: recalibrate";
 
 /// The model's and a new calibration's RMS on left-out poses, from the JSON.
 fn recalibration(j: &serde_json::Value) -> (f64, f64) {
@@ -23,7 +25,8 @@ fn recalibration(j: &serde_json::Value) -> (f64, f64) {
 /// predicts the session better than the nominal robot (which carries the robot's errors the
 /// calibration found), yet a new calibration on the session predicts its left-out poses at the
 /// noise and the model more than 10 times worse: exit 3, `changed_since_calibration`, the verdict
-/// saying so (on the report page too). The same robot with the tracker moved and the reflector
+/// saying so (on the report page too; with the reflector moved 10 mm too, it names the new tool
+/// point beside the robot as a cause). The same robot with the tracker moved and the reflector
 /// moved 10 mm along the flange axis holds.
 #[test]
 fn a_robot_changed_since_calibration_is_refused_though_better_than_nominal() {
@@ -41,7 +44,18 @@ fn a_robot_changed_since_calibration_is_refused_though_better_than_nominal() {
         setup(f);
     });
     let same = edited(&c.truth, d, "same.toml", setup);
-    for (truth, changed) in [(&zero, true), (&bent, true), (&same, false)] {
+    // The joint's zero moved with the probe in place: the verdict blames the robot alone.
+    let zero_only = edited(&c.truth, d, "zero_only.toml", |f| {
+        f.joints[1].theta_deg += 0.05;
+        move_setup(f, [40.0, -10.0, 5.0], [0.2, 0.0, 1.0], [0.0; 3]);
+    });
+    let cases = [
+        (&zero, true),
+        (&bent, true),
+        (&same, false),
+        (&zero_only, true),
+    ];
+    for (truth, changed) in cases {
         let data = d.join(format!(
             "{}.csv",
             truth.file_stem().unwrap().to_string_lossy()
@@ -67,11 +81,21 @@ fn a_robot_changed_since_calibration_is_refused_though_better_than_nominal() {
         if changed {
             assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
             assert!(m > 10.0 * r, "{m} against {r}");
-            assert!(j["verdict"].as_str().unwrap().starts_with(CHANGED), "{j}");
-            // The reflector moved 10 mm too: the verdict names the new tool point.
+            // With the reflector moved 10 mm too, the verdict names the new tool point as a
+            // cause beside the robot.
             let v = j["verdict"].as_str().unwrap();
-            assert!(v.contains("the tool point registered 10"), "{v}");
-            assert!(stderr(&out).contains(CHANGED), "{}", stderr(&out));
+            let lead = if truth == &zero_only {
+                CHANGED
+            } else {
+                NEW_SETUP
+            };
+            assert!(v.starts_with(lead), "{v}");
+            assert_eq!(
+                v.contains("the tool point registered 10"),
+                truth != &zero_only,
+                "{v}"
+            );
+            assert!(stderr(&out).contains(lead), "{}", stderr(&out));
         } else {
             assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
             assert!(m < 3.0 * r, "{m} against {r}");
@@ -95,7 +119,7 @@ fn a_robot_changed_since_calibration_is_refused_though_better_than_nominal() {
     let r = kinecal(&[&args[..], &more[..]].concat());
     assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
     let html = std::fs::read_to_string(&page).unwrap();
-    assert!(html.contains(CHANGED) && !html.contains("the model holds"));
+    assert!(html.contains(NEW_SETUP) && !html.contains("the model holds"));
 }
 
 /// `rows` of the CSV at `from` (1-based data rows) with `x` moved by `dx_mm`, written to `to`;
@@ -144,6 +168,13 @@ fn wrong_readings_in_the_session_leave_no_verdict_and_are_named() {
         let verdict = j["verdict"].as_str().unwrap();
         assert!(verdict.starts_with("no verdict") && verdict.contains("delete those rows"));
         assert!(j.get("recalibration").is_none(), "{j}");
+        // Nothing registered: the rows still decide which robot looks better.
+        let none = json_any(&validate(&c.robot, &c.model, &bad, &["--register", "none"]));
+        let v = none["verdict"].as_str().unwrap();
+        assert!(
+            v.contains("decide which of the two robots looks better"),
+            "{v}"
+        );
     }
 }
 

@@ -110,12 +110,15 @@ pub fn dropped_from_dh_table(model: &RobotFile, nominal: Option<&RobotFile>) -> 
             rpy[0], rpy[1], rpy[2]
         ));
     }
-    if model.tools.len() > 1 {
-        let names: Vec<&str> = model.tools.iter().map(|t| t.name.as_str()).collect();
-        v.push(format!(
-            "the [[tools]] reflectors {} (the table holds the [tool] point only)",
-            names.join(", ")
-        ));
+    if let [first, others @ ..] = model.tools.as_slice() {
+        if !others.is_empty() {
+            let names: Vec<&str> = others.iter().map(|t| t.name.as_str()).collect();
+            v.push(format!(
+                "the [[tools]] reflectors {} (the table holds one tool point, {}'s)",
+                names.join(", "),
+                first.name
+            ));
+        }
     }
     v
 }

@@ -70,10 +70,14 @@ impl Register {
     }
 }
 
-/// Above this position RMS (mm) with the base alone registered, `--register base` also tries
-/// the tool ([`Validation::tool_moved`]) although the model beats the nominal robot: a probe
-/// moved 60 mm leaves both robots at tens of millimetres.
-pub const MISMATCH_HINT_MM: f64 = 25.0;
+/// Above this position RMS (mm) after registration, for the model and the nominal robot alike,
+/// neither describes the session. A calibrated model leaves tenths of a millimetre, a nominal
+/// robot a few millimetres (the UR10 5.5 mm), a robot re-mastered by 0.4° about 10 mm; swapped
+/// or mirrored axes, joint columns in another order, a joint's sign or another unit leave 60
+/// to 300 mm, where which of two wrong robots is the less wrong says nothing. With `--register
+/// base`, a model above it also has the tool tried ([`Validation::tool_moved`]): a probe moved
+/// 60 mm leaves both robots at tens of millimetres.
+pub const MISMATCH_RMS_MM: f64 = 25.0;
 
 /// The share of the model's RMS with the base alone registered under which registering the
 /// tool too explains the session's errors (a reflector moved 10 mm: 9.9 mm → 0.032 mm).
@@ -292,7 +296,7 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
     let changed = recalibration.as_ref().is_some_and(|r| r.changed());
     // A bad verdict with the base alone registered that registering the tool too mostly
     // explains: the probe moved (the robot may have too: the verdict with both says).
-    let bad = worse_than_nominal || changed || model.figures.total.rms > MISMATCH_HINT_MM;
+    let bad = worse_than_nominal || changed || model.figures.total.rms > MISMATCH_RMS_MM;
     let tool_moved = (opts.register == Register::Base && bad && outlier_reason.is_none())
         .then(|| {
             let both = Options {

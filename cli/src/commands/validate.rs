@@ -127,16 +127,10 @@ fn thermal_without_temperature<const N: usize>(
     origin: &str,
 ) -> Option<String> {
     let column = crate::formats::measurements::TEMPERATURE_COLUMN;
-    let thermal = model
-        .effects
-        .iter()
-        .find(|e| e.kind == crate::formats::robot_file::THERMAL)?;
+    let t0 = model.thermal_reference_c()?;
     if ds.extra_names.iter().any(|n| n == column) {
         return None;
     }
-    let t0 = thermal
-        .reference_c
-        .unwrap_or(crate::formats::robot_file::DEFAULT_REFERENCE_C);
     Some(format!(
         "{origin} has no {column} column: the model's thermal expansion is evaluated at its \
          reference temperature {} °C on every row, and an arm at another temperature is judged \

@@ -552,14 +552,8 @@ fn fmt_num(v: f64) -> String {
 /// is evaluated at the model's reference temperature there, which a target taken on a warm arm
 /// misses by the expansion (2e-5 per kelvin over 10 K: 0.3–0.5 mm on an ER20).
 fn temperature_warning(file: &RobotFile, rows: &[Row], origin: &Origin) -> Option<String> {
-    let thermal = file
-        .effects
-        .iter()
-        .find(|e| e.kind == crate::formats::robot_file::THERMAL)?;
+    let t0 = file.thermal_reference_c()?;
     let missing = rows.iter().filter(|r| r.temp_c.is_none()).count();
-    let t0 = thermal
-        .reference_c
-        .unwrap_or(crate::formats::robot_file::DEFAULT_REFERENCE_C);
     let column = crate::formats::measurements::TEMPERATURE_COLUMN;
     (missing > 0).then(|| {
         format!(

@@ -14,12 +14,7 @@ use std::fmt;
 /// The reason `validate` gives when the model is worse than the nominal robot (stderr, exit 3).
 pub const RECALIBRATE: &str = "the robot or the set-up changed since calibration: recalibrate";
 
-/// Above this position RMS (mm) after registration, for the model and the nominal robot alike,
-/// neither describes the session. A calibrated model leaves tenths of a millimetre, a nominal
-/// robot a few millimetres (the UR10 5.5 mm), a robot re-mastered by 0.4° about 10 mm; swapped
-/// or mirrored axes, joint columns in another order, a joint's sign or another unit leave 60
-/// to 300 mm, where which of two wrong robots is the less wrong says nothing.
-pub const MISMATCH_RMS_MM: f64 = 25.0;
+pub use crate::calibration::validate::MISMATCH_RMS_MM;
 
 /// [`crate::calibration::wrapped_readings::Wrapped`] as the report gives it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

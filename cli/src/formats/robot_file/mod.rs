@@ -311,6 +311,13 @@ impl RobotFile {
         self.base.is_some()
     }
 
+    /// The reference temperature T0 (°C) of the file's thermal expansion, `None` without one:
+    /// what the expansion is evaluated at where no temperature is given.
+    pub fn thermal_reference_c(&self) -> Option<f64> {
+        let e = self.effects.iter().find(|e| e.kind == THERMAL)?;
+        Some(e.reference_c.unwrap_or(DEFAULT_REFERENCE_C))
+    }
+
     /// The file says the tool point is unknown (`[tool] xyz_mm = "unknown"`, or a `[tool]`
     /// without `xyz_mm`): it is started from the data, as an unknown base is.
     pub fn tool_unknown(&self) -> bool {

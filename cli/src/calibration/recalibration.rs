@@ -6,8 +6,9 @@
 //! model; its effects kept as they are). A model of the same robot predicts left-out poses
 //! about as well as a new calibration does; one of a robot that changed (a joint's zero
 //! moved, a link bent) predicts them many times worse, although it may still beat the nominal
-//! robot: an ER20 model with joint 2's zero moved 0.3° since left 5.99 mm where the nominal
-//! robot left 6.89 mm and a new calibration 0.03 mm (`validate` called that "still holds").
+//! robot: an ER20 model with joint 2's zero moved 0.05° since predicts left-out poses to 1.02
+//! mm, where the nominal robot leaves 1.81 mm and a new calibration 0.035 mm (`validate` called
+//! that "still holds"; host-tests `validate_sessions`).
 //! Both figures are on left-out poses, so a new calibration's own estimation error counts
 //! against it as the model's counted against it at its calibration.
 
@@ -20,9 +21,9 @@ use serde::{Deserialize, Serialize};
 
 /// The model's left-out RMS above this many times a new calibration's: the robot changed. A
 /// model of the same robot on another session stays well under it: a UR10 geometry from series
-/// B on series D 1.24× (the workspace and the day differ), an ER20 model whose reflector was
-/// moved 10 mm along the flange axis since 1.84× (its fitted wrist tilts the new offset a
-/// little); a link 1.5 mm longer or a joint's zero 0.3° off leave 80–340×.
+/// B on series D 1.24× (the workspace and the day differ), an ER20 model with the tracker and
+/// the reflector moved since 1.02×; a link 0.5 mm longer or a joint's zero 0.05° off leave
+/// 13–29× (host-tests `validate_sessions`).
 pub const CHANGED_RATIO: f64 = 3.0;
 /// ... and above it by at least this much (mm). A model carries the estimation error of its
 /// own calibration, which a quieter session does not: a model from 50 poses at 0.05 mm noise

@@ -282,14 +282,14 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
     } else {
         None
     };
-    // A model no worse than the nominal robot may still be far worse than the robot calibrated
-    // again on the session: it changed since.
     // Readings a turn from those the model's scale or table was calibrated on: judged on the
     // wrong turn, the model says nothing of the robot.
     let wrapped = outlier_reason
         .is_none()
         .then(|| super::wrapped_readings::find(&model_placed, &data))
         .flatten();
+    // A model no worse than the nominal robot may still be far worse than the robot calibrated
+    // again on the session: it changed since.
     let recalibration = (!worse_than_nominal && outlier_reason.is_none() && wrapped.is_none())
         .then(|| super::recalibration::recalibrate(inp.model, &params, &weighted))
         .flatten();

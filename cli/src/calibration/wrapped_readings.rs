@@ -3,8 +3,9 @@
 //! readings into ±180°, where the calibration's readings ran beyond (the UR10's joints turn
 //! ±360°), puts the same arm pose a turn away, and the model corrects it for the wrong turn.
 //! The nominal robot is periodic and does not see it; the model then predicts the session
-//! several times worse than it should (UR10 series B with every reading wrapped: 0.382 mm
-//! against 0.095 mm, "the model still holds"). [`find`] evaluates each row with each such
+//! many times worse than it should (a simulated UR10 with a joint-3 scale of 0.001, every
+//! reading wrapped: 2.71 mm against 0.035 mm unwrapped, "the model still holds"; host-tests
+//! `validate_sessions::readings_a_turn_from_the_calibrations_leave_no_verdict`). [`find`] evaluates each row with each such
 //! joint's reading moved by a turn either way (within the joint's limits) and counts the rows
 //! that the turn brings much closer.
 
@@ -25,7 +26,7 @@ pub const MIN_SHARE: f64 = 0.05;
 /// The session's RMS with the rows turned must be at most this share of the model's: chance
 /// gains of a small scale on 5 % of the rows move it by a few per cent (UR10, a joint-5 scale
 /// on rows of its own session: 0.488 → 0.471 mm), readings wrapped by a turn by half or more
-/// (a joint-3 scale of 0.001: 2.605 → 0.066 mm).
+/// (the joint-3 scale above: 2.71 → 0.319 mm).
 pub const EXPLAINS: f64 = 0.5;
 
 /// Joints whose readings look a turn away from the model's on many rows.

@@ -20,18 +20,8 @@ fn check_names_data_that_fit_only_mirrored() {
         &clean,
     );
     let text = std::fs::read_to_string(&clean).unwrap();
-    let edit = |name: &str, f: &dyn Fn(&mut Vec<String>)| {
-        let mut out = String::new();
-        for (k, line) in text.lines().enumerate() {
-            let mut cells: Vec<String> = line.split(',').map(String::from).collect();
-            if k > 0 {
-                f(&mut cells);
-            }
-            out.push_str(&cells.join(","));
-            out.push('\n');
-        }
-        write(dir.path(), name, &out)
-    };
+    let edit =
+        |name: &str, f: &dyn Fn(&mut Vec<String>)| write(dir.path(), name, &edit_rows(&text, f));
     let swapped = edit("swapped.csv", &|c| c.swap(6, 7));
     let flipped = edit("flipped.csv", &|c| {
         c[8] = format!("{:?}", -c[8].parse::<f64>().unwrap());
@@ -115,18 +105,8 @@ fn check_names_joint_columns_exchanged_or_negated() {
         &clean,
     );
     let text = std::fs::read_to_string(&clean).unwrap();
-    let edit = |name: &str, f: &dyn Fn(&mut Vec<String>)| {
-        let mut out = String::new();
-        for (k, line) in text.lines().enumerate() {
-            let mut cells: Vec<String> = line.split(',').map(String::from).collect();
-            if k > 0 {
-                f(&mut cells);
-            }
-            out.push_str(&cells.join(","));
-            out.push('\n');
-        }
-        write(dir.path(), name, &out)
-    };
+    let edit =
+        |name: &str, f: &dyn Fn(&mut Vec<String>)| write(dir.path(), name, &edit_rows(&text, f));
     let out = run_on("check", &robot, &clean, &["--json"]);
     assert!(
         json_of(&out).get("column_hint").is_none(),

@@ -99,6 +99,21 @@ pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     p
 }
 
+/// The CSV `text` with `f` applied to the cells of each data row (the header kept), as a
+/// user's mistake would change them: columns exchanged, a sign flipped, readings wrapped.
+pub fn edit_rows(text: &str, f: impl Fn(&mut Vec<String>)) -> String {
+    let mut out = String::new();
+    for (k, line) in text.lines().enumerate() {
+        let mut cells: Vec<String> = line.split(',').map(String::from).collect();
+        if k > 0 {
+            f(&mut cells);
+        }
+        out.push_str(&cells.join(","));
+        out.push('\n');
+    }
+    out
+}
+
 /// A file of tests/data/.
 pub fn data_file(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -314,21 +314,12 @@ fn readings_a_turn_from_the_calibrations_leave_no_verdict() {
     let s2 = d.join("s2.csv");
     simulate(&truth, Some(200), Some(0.02), Some(10), &[], &s2);
     let text = std::fs::read_to_string(&s2).unwrap();
-    let wrapped: String = text
-        .lines()
-        .enumerate()
-        .map(|(k, l)| {
-            if k == 0 {
-                return l.to_string() + "\n";
-            }
-            let mut c: Vec<String> = l.split(',').map(String::from).collect();
-            for q in c.iter_mut().take(6) {
-                let v: f64 = q.parse().unwrap();
-                *q = format!("{:.6}", (v + 180.0).rem_euclid(360.0) - 180.0);
-            }
-            c.join(",") + "\n"
-        })
-        .collect();
+    let wrapped = crate::common::edit_rows(&text, |c| {
+        for q in c.iter_mut().take(6) {
+            let v: f64 = q.parse().unwrap();
+            *q = format!("{:.6}", (v + 180.0).rem_euclid(360.0) - 180.0);
+        }
+    });
     let s2w = write(d, "s2w.csv", &wrapped);
     let ok = validate(&robot, &model, &s2, &[]);
     assert_eq!(ok.status.code(), Some(0), "{}", stderr(&ok));
@@ -336,6 +327,13 @@ fn readings_a_turn_from_the_calibrations_leave_no_verdict() {
     assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
     let j = json_any(&out);
     let w = &j["wrapped_readings"];
+    eprintln!(
+        "UR10 joint-3 scale, readings wrapped: model {:.4} mm ({:.4} mm unwrapped), {:.4} mm with \
+         the rows turned",
+        num(&j, &["model", "rms_mm"]),
+        num(&json_any(&ok), &["model", "rms_mm"]),
+        num(&j, &["wrapped_readings", "turned_rms_mm"])
+    );
     assert_eq!(w["joint"], 3, "{j}");
     assert_eq!(w["effect"], "joint-scale", "{j}");
     assert!(w["rows"].as_u64().unwrap() >= 20, "{j}");

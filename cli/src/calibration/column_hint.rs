@@ -7,7 +7,7 @@
 //! the one that explains the data far better than the file as written, by the rule of the
 //! coupling hint ([`super::coupling_hint::MAX_FRACTION`], [`super::coupling_hint::MIN_GAIN_MM`]).
 
-use super::coupling_hint::{rms_placed, MAX_FRACTION, MAX_POSES, MIN_GAIN_MM};
+use super::coupling_hint::{rms_placed, sample, MAX_FRACTION, MIN_GAIN_MM};
 use crate::output::numfmt::sig;
 use kinecal::{Measurement, Robot};
 use serde::Serialize;
@@ -61,11 +61,7 @@ pub fn detect<const N: usize, V: kinecal::ValueStorage>(
     fit_base: bool,
     tool_unknown: bool,
 ) -> Option<ColumnHint> {
-    if data.len() < 6 {
-        return None;
-    }
-    let stride = data.len().div_ceil(MAX_POSES).max(1);
-    let sample: Vec<Measurement<f64, N>> = data.iter().step_by(stride).cloned().collect();
+    let sample = sample(data)?;
     let nominal = rms_placed(robot, &sample, fit_base, tool_unknown)?;
     let mut changes: Vec<Change> = Vec::new();
     for a in 0..N {

@@ -99,6 +99,16 @@ impl CouplingHint {
     }
 }
 
+/// At most [`MAX_POSES`] poses of `data`, evenly spread over it, that a hint tries its
+/// candidates on; `None` for fewer than 6 (too few to tell a candidate from the file).
+pub fn sample<const N: usize>(data: &[Measurement<f64, N>]) -> Option<Vec<Measurement<f64, N>>> {
+    if data.len() < 6 {
+        return None;
+    }
+    let stride = data.len().div_ceil(MAX_POSES).max(1);
+    Some(data.iter().step_by(stride).copied().collect())
+}
+
 /// RMS (mm) of `robot` on `data`, with the base fitted to the data first when `fit` is set
 /// and the tool point started from them when `tool` is (an unknown tool).
 pub fn rms_placed<const N: usize, V: kinecal::ValueStorage>(
@@ -130,11 +140,7 @@ pub fn detect<const N: usize, V: kinecal::ValueStorage>(
     fit_base: bool,
     tool_unknown: bool,
 ) -> Option<CouplingHint> {
-    if data.len() < 6 {
-        return None;
-    }
-    let stride = data.len().div_ceil(MAX_POSES).max(1);
-    let sample: Vec<Measurement<f64, N>> = data.iter().step_by(stride).cloned().collect();
+    let sample = sample(data)?;
     let nominal = rms_placed(robot, &sample, fit_base, tool_unknown)?;
     let stated: Vec<Coupling> = robot.couplings().iter().collect();
     let mut uncoupled = robot.clone();

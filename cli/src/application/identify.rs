@@ -217,6 +217,13 @@ pub fn identify<const N: usize>(
             fix: &opts.fix,
         },
     )?;
+    // Effect values (table knots) that fewer than three poses move are held at their file
+    // values: fitted, they would follow those poses' noise.
+    let effect_values = params
+        .iter()
+        .filter(|p| matches!(p, kinecal::Param::Effect(_)))
+        .count();
+    let thin_held = crate::calibration::thin_data::hold_thin_values(&nominal, &mut params, &ident);
     enough_poses(&ident, params.len(), base_unknown, data_path)?;
     let before = Residuals::of(&nominal, &ident, &valid);
     // The prior: the robot file's `[prior]` (or the defaults) with `--prior` over it; none on
@@ -354,6 +361,13 @@ pub fn identify<const N: usize>(
     report.per_point = per_point;
     report.chi2_per_dof = chi2_per_dof;
     report.stray_points = outliers.strays().filter(|_| verdict.converged);
+    report
+        .notes
+        .extend(crate::calibration::thin_data::held_note(
+            &nominal,
+            &thin_held,
+            effect_values,
+        ));
     // A reflector or a tracker that moved at one row: the fit took the mean of the two parts.
     if verdict.converged {
         let lines: Vec<u32> = ident_set
@@ -400,8 +414,19 @@ pub fn identify<const N: usize>(
                     .ok()
                     .map(|_| start)
             },
-            |start, train| {
-                crate::calibration::prior::fit_lm_with_prior(start, &params, &prior_sigma, train)
+            |start, kept, train| {
+                // The prior of each value the fold estimates (it holds those its poses do
+                // not support).
+                let sigma: Vec<Option<f64>> = kept
+                    .iter()
+                    .map(|p| {
+                        params
+                            .iter()
+                            .position(|q| q == p)
+                            .and_then(|i| prior_sigma[i])
+                    })
+                    .collect();
+                crate::calibration::prior::fit_lm_with_prior(start, kept, &sigma, train)
                     .ok()
                     .filter(|f| {
                         // Settled where the whole fit did: converged, or stopped (at the

@@ -86,9 +86,9 @@ pub fn recalibrate<const N: usize>(
     };
     // A fit stopped at the iteration limit is still a fit (its cost never rose from the
     // registered model's): the figure it gives is no lower than a converged fit's.
-    let fit = |start: &HostRobot<N>, train: &[Measurement<f64, N>]| {
+    let fit = |start: &HostRobot<N>, params: &[Param], train: &[Measurement<f64, N>]| {
         Some(
-            fit_lm(start, &params, train, LmConfig::default())
+            fit_lm(start, params, train, LmConfig::default())
                 .ok()?
                 .robot,
         )

@@ -6,13 +6,14 @@
 //! [`EQUATIONS_PER_PARAMETER`], `identify` leaves each fold of the poses out in turn
 //! ([`crate::calibration::folds`]: repeats of a pose together), places the starting model on
 //! the others and fits it there, and compares the left-out poses' RMS of the two
-//! ([`crate::calibration::acceptance::judge_cross_validated`]). A left-out observation is
-//! not counted where its fold's other poses do not support the model: on an effect value (a
-//! joint table's knot) that fewer than [`MIN_SUPPORT`] of them move. A fit there rests on one
-//! or two poses (a UR10 pose at q3 = 3° among 1,500, whose 3.6° table interval held one other
-//! pose, was predicted 15.6 mm off without it), which the full fit, with that pose, does not.
-//! When fewer than half are supported the effects are finer than the data, and nothing is
-//! cross-validated (a warning says so).
+//! ([`crate::calibration::acceptance::judge_cross_validated`]).
+//!
+//! An effect value (a joint table's knot) that fewer than [`MIN_SUPPORT`] distinct poses move
+//! is held at its starting value ([`hold_thin_values`]), in the whole fit and in each fold's:
+//! fitted, it rests on one or two poses and on their noise (a UR10 pose at q3 = 3° among
+//! 1,500, whose 3.6° table interval held one other pose, was predicted 15.6 mm off without
+//! it). Every left-out observation is counted, predicted with the values its fold held: the
+//! figure is what a new pose there would see.
 
 use crate::calibration::folds::{subset, Folds};
 use crate::calibration::Residuals;
@@ -28,8 +29,7 @@ pub const EQUATIONS_PER_PARAMETER: usize = 20;
 /// At most this many folds (leave-one-out below it).
 pub const MAX_FOLDS: usize = 10;
 
-/// A left-out observation counts when each effect value it moves is moved by at least this
-/// many distinct other poses of its fold.
+/// An effect value is estimated when at least this many distinct poses move it, else held.
 pub const MIN_SUPPORT: usize = 3;
 
 /// The cross-validated figures of a fit on thin data.
@@ -41,14 +41,14 @@ pub struct CrossValidated {
     /// parameters.
     pub equations: usize,
     pub parameters: usize,
-    /// Position RMS over the counted left-out observations: the model the fit started from,
-    /// placed (base and unknown tool registered) on the other poses of each fold. `None`
-    /// when the fit could not be cross-validated ([`Self::not_validated`]).
+    /// Position RMS over the left-out observations: the model the fit started from, placed
+    /// (base and unknown tool registered) on the other poses of each fold. `None` when the
+    /// fit could not be cross-validated ([`Self::not_validated`]).
     pub start_rms_mm: Option<f64>,
     /// The same for the model fitted to the other poses of each fold.
     pub after_rms_mm: Option<f64>,
     /// Left-out observations on an effect value fewer than [`MIN_SUPPORT`] other poses of
-    /// their fold move, not counted.
+    /// their fold move: predicted with that value held at its start.
     pub unsupported: usize,
     /// Left-out observations in all.
     pub observations: usize,
@@ -64,9 +64,6 @@ pub struct CrossValidated {
 pub enum NotValidated {
     /// A fold's other poses could not be fitted.
     FoldsNotFitted,
-    /// Fewer than half the left-out observations are supported: the effects are finer than
-    /// the data.
-    Unsupported,
 }
 
 impl CrossValidated {
@@ -77,13 +74,9 @@ impl CrossValidated {
 
     /// Why there are no figures.
     pub fn not_validated(&self) -> Option<NotValidated> {
-        if self.failed_folds > 0 {
-            Some(NotValidated::FoldsNotFitted)
-        } else if self.figures().is_none() {
-            Some(NotValidated::Unsupported)
-        } else {
-            None
-        }
+        self.figures()
+            .is_none()
+            .then_some(NotValidated::FoldsNotFitted)
     }
 }
 
@@ -110,26 +103,107 @@ pub fn poses_for(equations: usize, per_pose: f64) -> usize {
     (equations as f64 / per_pose.max(1.0)).ceil() as usize
 }
 
-/// One fold's result: squared errors summed over its counted left-out observations (start,
-/// fitted), how many were counted and how many were not supported.
+/// One fold's result: squared errors summed over its left-out observations (start, fitted),
+/// and how many of them move a value the fold held.
 struct Fold {
     start_sq: f64,
     after_sq: f64,
-    counted: usize,
     unsupported: usize,
 }
 
+/// Removes from `params` the effect values that fewer than [`MIN_SUPPORT`] distinct poses of
+/// `data` move (at `robot`), and returns them: they stay at `robot`'s values.
+pub fn hold_thin_values<const N: usize>(
+    robot: &HostRobot<N>,
+    params: &mut Vec<kinecal::Param>,
+    data: &[Measurement<f64, N>],
+) -> Vec<kinecal::Param> {
+    let groups = crate::calibration::folds::pose_groups(data);
+    let moves = effect_values_moved(robot, params, data);
+    let all: Vec<usize> = (0..data.len()).collect();
+    let support = support(params.len(), &moves, &groups, &all);
+    let (kept, held) = split_by_support(params, &support);
+    *params = kept;
+    held
+}
+
+/// What [`hold_thin_values`] held, for the report: `None` when nothing was. `effect_values`:
+/// how many effect values there were to estimate.
+pub fn held_note<const N: usize>(
+    robot: &HostRobot<N>,
+    held: &[kinecal::Param],
+    effect_values: usize,
+) -> Option<String> {
+    if held.is_empty() {
+        return None;
+    }
+    const SHOWN: usize = 6;
+    let mut names: Vec<String> = held
+        .iter()
+        .take(SHOWN)
+        .map(|p| p.name(robot).to_string())
+        .collect();
+    if held.len() > SHOWN {
+        names.push("…".into());
+    }
+    Some(format!(
+        "{} of {effect_values} effect values held at their file values, as fewer than \
+         {MIN_SUPPORT} poses move each ({}): fitted, they would follow those poses' noise; \
+         coarser tables (a larger step) or poses there estimate them",
+        held.len(),
+        names.join(", ")
+    ))
+}
+
+/// Each value of `params`'s supporters among the observations `at`: distinct poses (a pose's
+/// repeats and reflectors are one).
+fn support(
+    params: usize,
+    moves: &[Vec<usize>],
+    groups: &[usize],
+    at: &[usize],
+) -> Vec<std::collections::BTreeSet<usize>> {
+    let mut support: Vec<std::collections::BTreeSet<usize>> = vec![Default::default(); params];
+    for &i in at {
+        for &k in &moves[i] {
+            support[k].insert(groups[i]);
+        }
+    }
+    support
+}
+
+/// `params` split into those estimated and those held: an effect value with fewer than
+/// [`MIN_SUPPORT`] supporters is held (a value no observation moves has none; the others are
+/// never held here).
+fn split_by_support(
+    params: &[kinecal::Param],
+    support: &[std::collections::BTreeSet<usize>],
+) -> (Vec<kinecal::Param>, Vec<kinecal::Param>) {
+    let mut kept = Vec::new();
+    let mut held = Vec::new();
+    for (p, s) in params.iter().zip(support) {
+        if matches!(p, kinecal::Param::Effect(_)) && s.len() < MIN_SUPPORT {
+            held.push(*p);
+        } else {
+            kept.push(*p);
+        }
+    }
+    (kept, held)
+}
+
 /// Cross-validates `parameters` fitted to `data`: `place` puts the starting model on a fold's
-/// other observations, `fit` fits the model from there (`None`: it could not, or did not
-/// converge). `robot` and `params` are the full fit's: which effect values each observation
-/// moves. `None` below 2 distinct poses. The folds are fitted on several threads.
+/// other observations, `fit` fits the given parameters of the model from there (`None`: it
+/// could not, or did not converge). `robot` and `params` are the full fit's: which effect
+/// values each observation moves; each fold holds those its other poses do not support
+/// ([`MIN_SUPPORT`]). `None` below 2 distinct poses. The folds are fitted on several threads.
 pub fn cross_validate<const N: usize>(
     data: &[Measurement<f64, N>],
     (robot, params): (&HostRobot<N>, &[kinecal::Param]),
     parameters: usize,
     seed: u64,
     place: impl Fn(&[Measurement<f64, N>]) -> Option<HostRobot<N>> + Sync,
-    fit: impl Fn(&HostRobot<N>, &[Measurement<f64, N>]) -> Option<HostRobot<N>> + Sync,
+    fit: impl Fn(&HostRobot<N>, &[kinecal::Param], &[Measurement<f64, N>]) -> Option<HostRobot<N>>
+        + Sync,
 ) -> Option<CrossValidated> {
     let t0 = std::time::Instant::now();
     let groups = crate::calibration::folds::pose_groups(data);
@@ -144,41 +218,31 @@ pub fn cross_validate<const N: usize>(
         let (test_at, train_at) = folds.split(f);
         let train = subset(data, &train_at);
         let start = place(&train)?;
-        let fitted = fit(&start, &train)?;
-        // Each effect value's supporters: distinct poses (a pose's repeats and reflectors
-        // are one).
-        let mut support: Vec<std::collections::BTreeSet<usize>> =
-            vec![Default::default(); params.len()];
-        for &i in &train_at {
-            for &k in &moves[i] {
-                support[k].insert(groups[i]);
-            }
-        }
-        let (counted, unsupported): (Vec<usize>, Vec<usize>) = test_at
+        let support = support(params.len(), &moves, &groups, &train_at);
+        let (kept, _) = split_by_support(params, &support);
+        let fitted = fit(&start, &kept, &train)?;
+        let unsupported = test_at
             .iter()
-            .partition(|&&i| moves[i].iter().all(|&k| support[k].len() >= MIN_SUPPORT));
-        let counted = subset(data, &counted);
+            .filter(|&&i| moves[i].iter().any(|&k| support[k].len() < MIN_SUPPORT))
+            .count();
+        let test = subset(data, &test_at);
         let square = |robot: &HostRobot<N>| {
-            Residuals::of(robot, &[], &counted)
+            Residuals::of(robot, &[], &test)
                 .validation_rms_mm
-                .map_or(0.0, |v| v * v * counted.len() as f64)
+                .map_or(0.0, |v| v * v * test.len() as f64)
         };
         Some(Fold {
             start_sq: square(&start),
             after_sq: square(&fitted),
-            counted: counted.len(),
-            unsupported: unsupported.len(),
+            unsupported,
         })
     });
     let seconds = t0.elapsed().as_secs_f64();
     let failed_folds = results.iter().filter(|r| r.is_none()).count();
     let done: Vec<Fold> = results.into_iter().flatten().collect();
-    let counted: usize = done.iter().map(|f| f.counted).sum();
     let unsupported: usize = done.iter().map(|f| f.unsupported).sum();
-    // Figures from every fold, and from at least half of the left-out observations: fewer
-    // say where the data support the model, not how it predicts.
-    let figures = (failed_folds == 0 && 2 * counted >= data.len()).then(|| {
-        let rms = |sq: f64| (sq / counted as f64).sqrt();
+    let figures = (failed_folds == 0).then(|| {
+        let rms = |sq: f64| (sq / data.len() as f64).sqrt();
         (
             rms(done.iter().map(|f| f.start_sq).sum()),
             rms(done.iter().map(|f| f.after_sq).sum()),

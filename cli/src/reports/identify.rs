@@ -475,7 +475,7 @@ impl IdentifyReport {
     /// poses, χ²/dof far from 1, suspicious parameters, the held-out verdict, not converged.
     pub fn warnings(&self) -> Vec<String> {
         let mut out = Vec::new();
-        use crate::calibration::thin_data::{enough_poses, NotValidated, MIN_SUPPORT};
+        use crate::calibration::thin_data::{enough_poses, MIN_SUPPORT};
         let cv = self
             .cross_validated
             .as_ref()
@@ -497,8 +497,8 @@ impl IdentifyReport {
                 cv.folds,
                 if cv.unsupported > 0 {
                     format!(
-                        "; {} of {} left-out observations not counted: on an effect value \
-                         fewer than {MIN_SUPPORT} of the other poses move",
+                        "; {} of {} left-out observations on an effect value fewer than \
+                         {MIN_SUPPORT} of the other poses move, predicted with it held",
                         cv.unsupported, cv.observations
                     )
                 } else {
@@ -507,7 +507,7 @@ impl IdentifyReport {
                 sig(after, 4),
                 sig(start, 4)
             )),
-            Some((cv, None, Some(NotValidated::FoldsNotFitted))) => out.push(format!(
+            Some((cv, None, _)) => out.push(format!(
                 "warning: nothing was held out, and the data are too thin to cross-validate: \
                  without the poses of one of {} folds, the others ({} equations in all) could \
                  not be fitted for {} parameters, so the fit's RMS says little about new \
@@ -516,16 +516,6 @@ impl IdentifyReport {
                 cv.folds,
                 cv.equations,
                 cv.parameters,
-                enough(cv)
-            )),
-            Some((cv, None, _)) => out.push(format!(
-                "warning: nothing was held out, and the fit could not be cross-validated: {} \
-                 of {} observations lie on an effect value fewer than {MIN_SUPPORT} other \
-                 poses move, so the effects are finer than the data support: use coarser \
-                 tables (a larger step), or measure about {} poses spread over the working \
-                 range",
-                cv.unsupported,
-                cv.observations,
                 enough(cv)
             )),
             _ if self.n_validation == 0 => {

@@ -20,6 +20,30 @@ fn rows(all: &Path, dir: &Path, name: &str, from: usize, to: usize) -> PathBuf {
     write(dir, name, &out)
 }
 
+/// `model`'s position RMS on the real UR10 session's rows after the first `from` (base and
+/// tool registered).
+fn new_poses_rms(d: &Path, robot: &Path, model: &Path, from: usize) -> f64 {
+    let text = std::fs::read_to_string(ur10_dir().join("ur10_random_poses.csv")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let new = write(
+        d,
+        "new.csv",
+        &format!("{}\n{}\n", lines[0], lines[from + 1..].join("\n")),
+    );
+    let check = kinecal_ok(&[
+        "validate",
+        "--robot",
+        s(robot),
+        "--model",
+        s(model),
+        "--data",
+        s(&new),
+        "--json",
+    ]);
+    let w: serde_json::Value = serde_json::from_slice(&check.stdout).unwrap();
+    w["model"]["rms_mm"].as_f64().unwrap()
+}
+
 #[test]
 fn a_fit_to_noise_on_thin_data_is_no_calibration() {
     let dir = tempfile::tempdir().unwrap();
@@ -112,34 +136,94 @@ fn the_cross_validated_figure_is_what_new_poses_show() {
     assert!(stderr(&out).contains("nothing was held out, so nothing checks"));
 }
 
-/// Tables finer than the data (0.5° knots on 200 poses): most left-out poses rest on knots
-/// one or two other poses move, so nothing is cross-validated, and the warning says to coarsen
-/// them.
+/// Tables finer than the data (0.5° knots on 200 real UR10 poses): the knots fewer than three
+/// poses move are held at their file values and named, and the cross-validated figure (every
+/// left-out pose counted, predicted with what its fold held) is what the session's other
+/// 1,773 poses show. (They were left out of the figure, and with more than half left out
+/// nothing was cross-validated.)
 #[test]
 fn tables_finer_than_the_data_are_named() {
     let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
     let robot = ur10_dir().join("robot.toml");
-    let data = ur10_rows(dir.path(), "d.csv", 200, |_, _| {});
+    let data = ur10_rows(d, "d.csv", 200, |_, _| {});
+    let model = d.join("m.toml");
     let args = [
         "--json",
         "--effect",
         "joint-table:2:0.5",
         "--effect",
         "joint-table:3:0.5",
+        "--out",
+        s(&model),
     ];
     let out = run_on("identify", &robot, &data, &args);
     let err = stderr(&out);
     assert!(
-        err.contains("the effects are finer than the data support: use coarser tables"),
+        err.contains("effect values held at their file values, as fewer than 3 poses move each")
+            && err.contains("coarser tables (a larger step)"),
         "{err}"
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let cv = &v["cross_validated"];
-    assert!(
-        cv["after_rms_mm"].is_null() && cv["failed_folds"] == 0,
-        "{cv}"
-    );
     assert!(cv["unsupported"].as_u64().unwrap() > 100, "{cv}");
+    let after = cv["after_rms_mm"].as_f64().unwrap();
+    let on_new = new_poses_rms(d, &robot, &model, 200);
+    println!("cross-validated {after:.4} mm; new poses {on_new:.4} mm");
+    assert!(
+        (after / on_new - 1.0).abs() < 0.3,
+        "{after} against {on_new} on new poses"
+    );
+}
+
+/// A table the truth lacks, every 10° on 60 simulated ER20 poses (49 parameters for 180
+/// equations): its knots in intervals with one or two poses were fitted to their noise (a
+/// knot at 0.136°; 0.188 mm RMS and 2.1 mm at worst on new poses of the true robot), and the
+/// poses there were left out of the cross-validated figure, which read 0.070 mm. Held, those
+/// knots cost nothing on new poses, and the figure is not below what new poses show.
+#[test]
+fn a_table_on_thin_data_is_not_fitted_to_single_poses() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = write(d, "er20.toml", ER20_PLACED);
+    let data = d.join("c60.csv");
+    let truth = d.join("truth.toml");
+    let extra = ["--geom-errors", "--truth", s(&truth)];
+    simulate(&robot, Some(60), Some(0.02), Some(71), &extra, &data);
+    let fresh = d.join("fresh.csv");
+    simulate(&truth, Some(1000), Some(0.0), Some(72), &[], &fresh);
+    let model = d.join("m.toml");
+    let args = ["--json", "--effect", "joint-table:2:10", "--out", s(&model)];
+    let out = run_on("identify", &robot, &data, &args);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(
+        err.contains("effect values held at their file values"),
+        "{err}"
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let cv = v["cross_validated"]["after_rms_mm"].as_f64().unwrap();
+    let check = kinecal_ok(&[
+        "validate",
+        "--robot",
+        s(&robot),
+        "--model",
+        s(&model),
+        "--data",
+        s(&fresh),
+        "--register",
+        "none",
+        "--json",
+    ]);
+    let w: serde_json::Value = serde_json::from_slice(&check.stdout).unwrap();
+    let (rms, max) = (
+        w["model"]["rms_mm"].as_f64().unwrap(),
+        w["model"]["max_mm"].as_f64().unwrap(),
+    );
+    println!("cross-validated {cv:.4} mm; new poses {rms:.4} mm RMS, {max:.3} mm at most");
+    // The noise is 0.02 mm: no new pose is far off, and the figure is not optimistic.
+    assert!(rms < 0.05 && max < 0.3, "{rms} {max}");
+    assert!(cv >= rms, "{cv} against {rms} on new poses");
 }
 
 #[test]
@@ -168,9 +252,10 @@ fn data_too_thin_to_cross_validate_are_named() {
 /// its fold's other poses do not support (the home pose at q3 = 0, outside their range; a pose
 /// at q3 = 3° whose 3.6° interval held one other pose) was predicted 160 mm and 15.6 mm off and
 /// made the cross-validation refuse a model 4× better than the geometry on new poses (exit 3).
-/// Not counted, the cross-validated RMS is what the other 1,273 poses of the session show.
+/// Predicted with those knots held, as the whole fit holds the knots fewer than three poses
+/// move, the cross-validated RMS is what the other 1,273 poses of the session show.
 #[test]
-fn poses_the_other_poses_do_not_support_are_not_counted() {
+fn poses_the_other_poses_do_not_support_are_predicted_with_those_knots_held() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let robot = ur10_dir().join("robot.toml");
@@ -213,6 +298,9 @@ fn poses_the_other_poses_do_not_support_are_not_counted() {
     ]);
     let w: serde_json::Value = serde_json::from_slice(&check.stdout).unwrap();
     let on_new = w["model"]["rms_mm"].as_f64().unwrap();
+    println!(
+        "cross-validated {after:.4} mm ({unsupported} with knots held); new poses {on_new:.4} mm"
+    );
     assert!(
         (after / on_new - 1.0).abs() < 0.3,
         "{after} against {on_new} on new poses"

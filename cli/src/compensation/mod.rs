@@ -25,9 +25,11 @@ mod frame_hint;
 pub mod reflector;
 
 use crate::formats::loading::load_targets;
+use crate::formats::map::TargetAngles;
 use crate::formats::measurements::Dataset;
 use crate::formats::origin::Origin;
 use crate::formats::robot_file::RobotFile;
+use crate::formats::rotation_order::RotationOrder;
 use crate::formats::units::{AngleUnit, UnitArgs};
 use crate::reports::compensate::CompensateReport;
 use crate::with_joints;
@@ -209,6 +211,8 @@ fn run_with_joints<const N: usize>(
         }
     };
     let targets = load_targets(&job.targets, &job.units, &robot)?;
+    // With --map the map's units: the commands and targets go back in them.
+    let (units, angles) = crate::formats::map::in_force(&job.units)?;
     let names = Names {
         model: job.model.display().to_string(),
         targets: Origin::file(&job.targets),
@@ -220,11 +224,11 @@ fn run_with_joints<const N: usize>(
         &robot,
         nominal.as_ref(),
         &targets,
-        (&job.settings, &job.units),
+        (&job.settings, &units),
         &names,
     )?;
     name_reflector(&mut done, file, &all, job.tool.as_deref(), &targets);
-    crate::output::atomic::write_atomic(&job.out, done.csv(&job.units).as_bytes())
+    crate::output::atomic::write_atomic(&job.out, done.csv(&units, angles).as_bytes())
         .map_err(|e| anyhow!("{}: cannot write: {e}", job.out.display()))?;
     Ok(done.report)
 }
@@ -313,11 +317,17 @@ pub struct Compensated<const N: usize> {
 impl<const N: usize> Compensated<N> {
     /// The output file's text (`--out`), in the targets' `units`: the joint commands
     /// (`q1`…`qN` with about 1e-9° resolution, `status`, `error_mm`, `error_deg`), or with a
-    /// nominal robot the targets to send it (`x`, `y`, `z`[, `rx`, `ry`, `rz`], `status`).
-    pub fn csv(&self, units: &UnitArgs) -> String {
+    /// nominal robot the targets to send it (`x`, `y`, `z`[, `rx`, `ry`, `rz`], `status`;
+    /// the angles as `angles` says for targets read through a map, else in `units`' angle
+    /// unit and kinecal's order).
+    pub fn csv(&self, units: &UnitArgs, angles: Option<TargetAngles>) -> String {
         let mut csv = String::new();
         if let Some(sent) = &self.sent {
-            write_cartesian(&mut csv, sent, &self.commands, units, self.poses);
+            let angles = angles.unwrap_or(TargetAngles {
+                rotation: RotationOrder::KINECAL,
+                unit: units.angle(),
+            });
+            write_cartesian(&mut csv, sent, &self.commands, (units, angles), self.poses);
             return csv;
         }
         let decimals = match units.angle() {
@@ -512,19 +522,28 @@ fn write_cartesian<const N: usize>(
     csv: &mut String,
     sent: &[Sent],
     commands: &[Command<N>],
-    units: &UnitArgs,
+    (units, angles): (&UnitArgs, TargetAngles),
     poses: bool,
 ) {
     let per_mm = 1.0 / units.length().mm_per_unit();
-    let angle = units.angle();
     let _ = writeln!(csv, "x,y,z,{}status", if poses { "rx,ry,rz," } else { "" });
     for (s, c) in sent.iter().zip(commands) {
         for v in s.point_mm.iter() {
             let _ = write!(csv, "{},", v * per_mm);
         }
         if poses {
-            for a in s.rpy.unwrap_or([f64::NAN; 3]) {
-                let _ = write!(csv, "{},", fmt_plain(angle.from_deg(a.to_degrees())));
+            let stated = s.rpy.map_or([f64::NAN; 3], |rpy| {
+                let deg = rpy.map(f64::to_degrees);
+                if angles.rotation == RotationOrder::KINECAL {
+                    deg
+                } else {
+                    angles
+                        .rotation
+                        .angles_deg(&RotationOrder::KINECAL.matrix(deg))
+                }
+            });
+            for a in stated {
+                let _ = write!(csv, "{},", fmt_plain(angles.unit.from_deg(a)));
             }
         }
         let _ = writeln!(csv, "{}", c.status.as_str());

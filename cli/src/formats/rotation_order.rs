@@ -79,4 +79,21 @@ impl RotationOrder {
             .rpy()
             .map(f64::to_degrees)
     }
+
+    /// The angles (degrees, about x, y, z) that compose `m` in this order: the inverse of
+    /// [`Self::matrix`], the middle angle within ±90°. For `R = R_i(a)·R_j(b)·R_k(c)` with
+    /// parity `s` (+1 for a cyclic order of x, y, z): `b = asin(s·R_ik)`,
+    /// `a = atan2(−s·R_jk, R_kk)`, `c = atan2(−s·R_ij, R_ii)`.
+    pub fn angles_deg(self, m: &Matrix3<f64>) -> [f64; 3] {
+        let [i, j, k] = self.axes;
+        let s = if (j + 3 - i) % 3 == 1 { 1.0 } else { -1.0 };
+        let b = (s * m[(i, k)]).clamp(-1.0, 1.0).asin();
+        let a = (-s * m[(j, k)]).atan2(m[(k, k)]);
+        let c = (-s * m[(i, j)]).atan2(m[(i, i)]);
+        let mut out = [0.0; 3];
+        out[i] = a.to_degrees();
+        out[j] = b.to_degrees();
+        out[k] = c.to_degrees();
+        out
+    }
 }

@@ -9,6 +9,7 @@ use crate::common::{
 use kinecal::compensate::{compensate, Config, Target};
 use kinecal::{ForwardKinematics, Frame};
 use kinecal_cli::formats::robot_file::RobotFile;
+use kinecal_cli::formats::rotation_order::RotationOrder;
 use rand::{RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
@@ -158,6 +159,89 @@ fn cartesian_targets_through_the_nominal_ik_reach_the_targets_on_the_calibrated_
         assert!(moved > 0.1, "the corrections are real ({moved} mm)");
         assert!(worst < 0.01, "{name}: {worst} mm");
         assert!(worst_rad < 1e-5, "{name}: {worst_rad} rad");
+    }
+    let poses = write(dir.path(), "poses.csv", &poses);
+    written_back_in_the_map_s_units(dir.path(), &model_path, &nominal_path, &poses);
+}
+
+/// The rows of `text` (kinecal's layout: degrees, mm, kinecal's angle order) as a vendor
+/// writes them: `;`, decimal commas, joints in radians, points in metres, the orientation in
+/// degrees composed as Rx·Ry·Rz; and the map that reads them.
+fn vendor_poses(text: &str, order: RotationOrder) -> (String, String) {
+    let mut out = String::from("J1;J2;J3;J4;J5;J6;X;Y;Z;A;B;C\n");
+    for line in text.lines().skip(1) {
+        let v = cells(line);
+        let rot = RotationOrder::KINECAL.matrix([v[9], v[10], v[11]]);
+        let mut row: Vec<f64> = v[..6].iter().map(|d| d.to_radians()).collect();
+        row.extend(v[6..9].iter().map(|mm| mm / 1000.0));
+        row.extend(order.angles_deg(&rot));
+        let cells: Vec<String> = row
+            .iter()
+            .map(|x| format!("{x}").replace('.', ","))
+            .collect();
+        out.push_str(&(cells.join(";") + "\n"));
+    }
+    let map = format!(
+        "delimiter = \";\"\ndecimal = \",\"\n[columns]\nq1 = \"J1\"\nq2 = \"J2\"\nq3 = \"J3\"\n\
+         q4 = \"J4\"\nq5 = \"J5\"\nq6 = \"J6\"\nx = \"X\"\ny = \"Y\"\nz = \"Z\"\nrx = \"A\"\n\
+         ry = \"B\"\nrz = \"C\"\n[units]\njoints = \"rad\"\nlength = \"m\"\n\
+         orientation = \"deg\"\nrotation = \"{}\"\n",
+        order.text()
+    );
+    (out, map)
+}
+
+/// Pose targets read through a map (joints in radians, points in metres, angles as Rx·Ry·Rz)
+/// come back in the map's units and order: the joint commands in radians and the cartesian
+/// targets in metres and Rx·Ry·Rz, the same commands and targets as from kinecal's layout.
+/// (They came back in degrees, millimetres and kinecal's order, exit 0.)
+fn written_back_in_the_map_s_units(
+    dir: &std::path::Path,
+    model: &std::path::Path,
+    nominal: &std::path::Path,
+    poses: &std::path::Path,
+) {
+    let order = RotationOrder::parse("Rx*Ry*Rz").unwrap();
+    let (text, map) = vendor_poses(&std::fs::read_to_string(poses).unwrap(), order);
+    let vendor = write(dir, "vendor.csv", &text);
+    let map = write(dir, "vendor.map.toml", &map);
+    let rows = |targets: &std::path::Path, extra: &[&str]| -> Vec<Vec<f64>> {
+        let out = dir.join("out.csv");
+        let base = [
+            "compensate",
+            "--model",
+            s(model),
+            "--targets",
+            s(targets),
+            "--out",
+            s(&out),
+        ];
+        kinecal_ok(&[&base[..], extra].concat());
+        let text = std::fs::read_to_string(&out).unwrap();
+        text.lines().skip(1).map(cells).collect()
+    };
+    let cartesian = ["--robot", s(nominal), "--cartesian"];
+    let with_map = ["--map", s(&map)];
+    let plain = rows(poses, &cartesian);
+    let mapped = rows(&vendor, &[&cartesian[..], &with_map[..]].concat());
+    for (p, m) in plain.iter().zip(&mapped) {
+        for a in 0..3 {
+            assert!((m[a] * 1000.0 - p[a]).abs() < 1e-6, "{m:?} against {p:?}");
+        }
+        let want = RotationOrder::KINECAL.matrix([p[3], p[4], p[5]]);
+        let got = order.matrix([m[3], m[4], m[5]]);
+        assert!((want - got).abs().max() < 1e-9, "{m:?} against {p:?}");
+    }
+    let plain = rows(poses, &[]);
+    let mapped = rows(&vendor, &with_map);
+    assert_eq!(plain.len(), 40);
+    for (p, m) in plain.iter().zip(&mapped) {
+        for j in 0..6 {
+            assert!(
+                (m[j].to_degrees() - p[j]).abs() < 1e-6,
+                "{m:?} against {p:?}"
+            );
+        }
     }
 }
 

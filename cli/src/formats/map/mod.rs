@@ -58,6 +58,33 @@ fn units(map: &spec::MapFile, flags: &UnitArgs, map_origin: &str) -> anyhow::Res
     })
 }
 
+/// How a target file read through a map writes orientations: the order of its three angles
+/// and their unit (what `compensate --cartesian` writes back in).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TargetAngles {
+    pub rotation: RotationOrder,
+    pub unit: crate::formats::units::AngleUnit,
+}
+
+/// The units in force for a file read with `flags`: with `--map`, the map's where it states
+/// them (a contradicting flag is refused, exit 2), and how its target orientations are
+/// written; without, the flags and `None`.
+pub fn in_force(flags: &UnitArgs) -> anyhow::Result<(UnitArgs, Option<TargetAngles>)> {
+    let Some(path) = &flags.map else {
+        return Ok((flags.clone(), None));
+    };
+    let map = spec::MapFile::load(path)?;
+    let units = units(&map, flags, &path.display().to_string())?;
+    let angles = TargetAngles {
+        rotation: map.rotation,
+        unit: map
+            .units
+            .orientation
+            .unwrap_or(crate::formats::units::AngleUnit::Deg),
+    };
+    Ok((units, Some(angles)))
+}
+
 /// Reads the file at `data` (a file of `kind`) for an `N`-joint robot through the map at
 /// `map_path` (the data
 /// file's units not converted yet: see [`Mapped::units`]). Malformed input is refused (exit

@@ -34,3 +34,29 @@ fn converted_angles_give_the_same_rotation() {
     let converted = RotationOrder::KINECAL.matrix([150.437141, -89.806151, 139.676065]);
     assert!((k - converted).norm() < 1e-7);
 }
+
+/// Every order's angles give back the rotation they were taken from (and kinecal's order
+/// its own roll, pitch and yaw).
+#[test]
+fn angles_invert_the_matrix_in_every_order() {
+    let deg = [
+        [10.0, -35.0, 120.0],
+        [-170.0, 80.0, 5.0],
+        [45.0, 0.5, -90.0],
+    ];
+    for order in RotationOrder::all() {
+        for d in deg {
+            let m = RotationOrder::KINECAL.matrix(d);
+            let back = order.matrix(order.angles_deg(&m));
+            assert!((back - m).abs().max() < 1e-12, "{} {d:?}", order.text());
+        }
+        let a = order.angles_deg(&order.matrix([12.0, -24.0, 36.0]));
+        assert!(
+            a.iter()
+                .zip([12.0, -24.0, 36.0])
+                .all(|(x, y)| (x - y).abs() < 1e-9),
+            "{} {a:?}",
+            order.text()
+        );
+    }
+}

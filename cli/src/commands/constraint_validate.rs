@@ -16,6 +16,18 @@ use crate::with_joints;
 pub fn run(args: &Args) -> anyhow::Result<ConstraintValidateReport> {
     let n = crate::calibration::replay::joint_count(&args.input.robot, &args.model)?;
     let report = with_joints!(n, N => run_with_joints::<N>(args))?;
+    if report.changed_since_calibration {
+        if let Some(r) = &report.recalibration {
+            eprintln!(
+                "error: {}: the model predicts the session's groups to {} mm RMS, a calibration \
+                 on its other groups to {} mm ({} folds; exit 3)",
+                crate::reports::validate::RECALIBRATE,
+                crate::output::numfmt::sig(r.model_rms_mm, 4),
+                crate::output::numfmt::sig(r.recalibrated_rms_mm, 4),
+                r.folds
+            );
+        }
+    }
     if report.worse_than_nominal {
         eprintln!(
             "error: the model predicts these constraints worse than the nominal robot ({} mm \
@@ -29,7 +41,7 @@ pub fn run(args: &Args) -> anyhow::Result<ConstraintValidateReport> {
 
 fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintValidateReport> {
     let (file, nominal) = load_robot::<N>(&args.input.robot)?;
-    let (_, model) = load_robot::<N>(&args.model)?;
+    let (model_file, model) = load_robot::<N>(&args.model)?;
     let session = read::load::<N>(&args.input.data, &args.input.units, &file.tool_names())?;
     super::inputs::warn_outside_limits(
         crate::calibration::check::OutsideLimits::of_rows(&file, session.joint_rows()),
@@ -46,7 +58,11 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintVali
             .collect()
     };
     let (m, n) = (Figures::of(&errors(&model)), Figures::of(&errors(&nominal)));
+    let recalibration =
+        crate::constraints::recalibration::recalibrate(&model, &model_file, &session.groups);
     Ok(ConstraintValidateReport {
+        changed_since_calibration: recalibration.as_ref().is_some_and(|r| r.changed()),
+        recalibration,
         count_unit: "groups".into(),
         groups: session.groups.len(),
         // NaN counts as worse.

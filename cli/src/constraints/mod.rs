@@ -28,6 +28,7 @@ pub mod fit;
 pub mod outliers;
 pub mod plan;
 pub mod read;
+pub mod recalibration;
 pub mod report;
 pub mod residual_table;
 pub mod shapes;

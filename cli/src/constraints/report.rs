@@ -194,9 +194,17 @@ pub struct ConstraintValidateReport {
     /// Nothing is registered: a constraint residual does not depend on the base.
     pub registered: Vec<String>,
     pub worse_than_nominal: bool,
+    /// The groups left out fold by fold, predicted by the model and by the robot calibrated
+    /// again on the other groups ([`super::recalibration`]); `None` with fewer than four
+    /// groups or a fold that could not be fitted.
+    pub recalibration: Option<crate::calibration::recalibration::Recalibration>,
+    /// The model predicts the left-out groups so much worse than a new calibration that the
+    /// robot changed since its calibration (exit 3).
+    pub changed_since_calibration: bool,
 }
 
-crate::reports::judged_report!(ConstraintValidateReport, |r| !r.worse_than_nominal);
+crate::reports::judged_report!(ConstraintValidateReport, |r| !r.worse_than_nominal
+    && !r.changed_since_calibration);
 
 impl fmt::Display for ConstraintValidateReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -219,6 +227,16 @@ impl fmt::Display for ConstraintValidateReport {
             writeln!(
                 f,
                 "the model predicts these constraints worse than the nominal robot"
+            )?;
+        }
+        if let Some(r) = &self.recalibration {
+            writeln!(
+                f,
+                "groups left out in {} folds: RMS {} mm with the model, {} mm with the robot \
+                 calibrated again on the other groups",
+                r.folds,
+                sig(r.model_rms_mm, 4),
+                sig(r.recalibrated_rms_mm, 4)
             )?;
         }
         Ok(())

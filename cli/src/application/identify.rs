@@ -330,6 +330,21 @@ pub fn identify<const N: usize>(
                 fit.sigma.get("thermal-expansion1").copied(),
             )
         })
+        .or_else(|| {
+            // Only a chosen subset can hold the base of a session that moved: the full set
+            // estimates it whenever the data call for it.
+            let chosen = !(opts.only.is_empty() && opts.fix.is_empty());
+            chosen
+                .then(|| {
+                    crate::calibration::base_moved::reason(
+                        &fit.robot,
+                        &params,
+                        &ident,
+                        after.identification_rms_mm,
+                    )
+                })
+                .flatten()
+        })
         .or_else(|| outliers.reason());
     let converged = fit.solver_converged()
         && !stalled

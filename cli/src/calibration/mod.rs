@@ -3,6 +3,7 @@
 
 pub mod acceptance;
 pub mod arm_size;
+pub mod base_moved;
 pub mod check;
 pub mod column_hint;
 pub mod coupling_hint;

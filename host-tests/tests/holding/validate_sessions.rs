@@ -431,7 +431,12 @@ fn a_robot_changed_since_calibration_on_constraint_sessions_is_refused() {
         let j = json_any(&out);
         let (m, r) = recalibration(&j);
         println!("{name}: left-out groups {m:.4} mm with the model, {r:.4} mm recalibrated");
-        assert_eq!(out.status.code(), Some(if holds { 0 } else { 3 }), "{}", stderr(&out));
+        assert_eq!(
+            out.status.code(),
+            Some(if holds { 0 } else { 3 }),
+            "{}",
+            stderr(&out)
+        );
         assert_eq!(j["changed_since_calibration"], !holds, "{j}");
         assert_eq!(
             stderr(&out).contains("changed since calibration: recalibrate"),

@@ -33,7 +33,7 @@ pub fn reason<const N: usize>(
     data: &[Measurement<f64, N>],
     rms_mm: f64,
 ) -> Option<String> {
-    if params.iter().any(|p| p.is_base()) || !(rms_mm > MIN_GAIN_MM) {
+    if params.iter().any(|p| p.is_base()) || rms_mm.is_nan() || rms_mm <= MIN_GAIN_MM {
         return None;
     }
     let with_base: Vec<Param> = params.iter().copied().chain(BASE).collect();

@@ -36,14 +36,18 @@ pub fn recalibrate<const N: usize>(
     let k = groups.len().min(MAX_FOLDS);
     let each: Vec<usize> = (0..k).collect();
     let folds = crate::compute::parallel::map_each(&each, |&f| -> Option<(f64, f64, usize)> {
-        let (test, train): (Vec<(usize, &Group<N>)>, Vec<(usize, &Group<N>)>) =
-            groups.iter().enumerate().partition(|(i, _)| i % k == f);
-        let train: Vec<Group<N>> = train.into_iter().map(|(_, g)| g.clone()).collect();
+        let in_fold = |i: usize| i % k == f;
+        let test: Vec<&Group<N>> = (0..groups.len())
+            .filter(|&i| in_fold(i))
+            .map(|i| &groups[i])
+            .collect();
+        let train: Vec<Group<N>> = (0..groups.len())
+            .filter(|&i| !in_fold(i))
+            .map(|i| groups[i].clone())
+            .collect();
         let fitted = super::fit::fit(model, &train, &params).ok()?;
         let square = |robot: &HostRobot<N>| -> f64 {
-            test.iter()
-                .map(|(_, g)| held_out_error(robot, g).powi(2))
-                .sum()
+            test.iter().map(|g| held_out_error(robot, g).powi(2)).sum()
         };
         Some((square(model), square(&fitted.robot), test.len()))
     });

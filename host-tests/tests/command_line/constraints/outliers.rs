@@ -217,12 +217,22 @@ fn only_the_wrong_row_is_named_held_out_groups_are_searched_and_clean_sessions_a
 /// Every bar length 0.5 % or 1 % long (a bar's certificate misread): the fit scales the arm
 /// alike and meets the constraints to the noise, and held-out groups agree. The arm's links
 /// together are then that share longer than the robot file's, which a real arm's are not: both
-/// commands warn; the session as simulated draws no such word.
+/// commands warn; the session as simulated draws no such word, nor does it read with a robot
+/// file whose tool is unknown (the last joint's `d` takes up the tool's 100 mm: the bars were
+/// "1.3 % long" on a UR10).
 #[test]
 fn bar_lengths_off_by_one_factor_are_warned_about() {
     let dir = tempfile::tempdir().unwrap();
     let (data, _) = session(dir.path(), "distance:60", 3);
     let robot = data_file("er20.toml");
+    let er20 = std::fs::read_to_string(&robot).unwrap();
+    let unknown = er20.replace("xyz_mm = [0.0, 0.0, 100.0]", "xyz_mm = \"unknown\"");
+    assert_ne!(unknown, er20);
+    let unknown = write(dir.path(), "unknown_tool.toml", &unknown);
+    let out = kinecal(&["identify", "--robot", s(&unknown), "--data", s(&data)]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(!err.contains("than the robot file says"), "{err}");
     let text = std::fs::read_to_string(&data).unwrap();
     let l = text
         .lines()

@@ -17,6 +17,24 @@ pub const MATCH_TOLERANCE_MM: f64 = 20.0;
 /// The same for angles (degrees).
 pub const MATCH_TOLERANCE_DEG: f64 = 2.0;
 
+/// Refuses (exit 2) a model whose tool point is `"unknown"`: that is a robot file to
+/// calibrate from. `command` (`export`, `compensate`) would treat the flange as the tool:
+/// `consequence` says what it would do.
+pub fn refuse_unknown_tool(
+    model: &RobotFile,
+    model_origin: &str,
+    (command, consequence): (&str, &str),
+) -> anyhow::Result<()> {
+    if model.tool_unknown() {
+        crate::refuse!(
+            "{model_origin}: its [tool] xyz_mm is \"unknown\", so it is a robot file to \
+             calibrate from, not a calibrated model ({consequence}): {command} the model \
+             identify wrote with --out, whose tool is the one found"
+        );
+    }
+    Ok(())
+}
+
 /// Refuses `model` (named `model_origin`) when its joints are not as many as `nominal`'s (named
 /// `source`), or when a row value lies further than the tolerances (mm, degrees) from
 /// `nominal`'s: a calibration moves rows by millimetres and tenths of a degree, so a larger

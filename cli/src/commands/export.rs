@@ -72,6 +72,8 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
     crate::check_positive("--tolerance-deg", tol.1, 1e6)?;
     let model = RobotFile::load(&args.model)?;
     let model_origin = args.model.display().to_string();
+    let flange = "it would be written with the tool at the flange";
+    export::refuse_unknown_tool(&model, &model_origin, ("export", flange))?;
     let nominal_import = |path: &PathBuf| -> anyhow::Result<_> {
         let (text, urdf) = read_urdf(path)?;
         let (base, tip) = (args.base_link.as_deref(), args.tip_link.as_deref());

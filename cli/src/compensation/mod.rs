@@ -128,6 +128,12 @@ pub fn run(job: &Job) -> anyhow::Result<CompensateReport> {
     }
     crate::output::atomic::refuse_overwriting_inputs("--out", &job.out, &inputs)?;
     let file = RobotFile::load(&job.model)?;
+    let flange = "its commands would bring the flange to the targets";
+    crate::application::export::refuse_unknown_tool(
+        &file,
+        &job.model.display().to_string(),
+        ("compensate with", flange),
+    )?;
     let n = file.joint_count();
     with_joints!(n, N => run_with_joints::<N>(job, &file))
 }

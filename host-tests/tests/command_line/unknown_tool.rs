@@ -158,3 +158,60 @@ fn an_unknown_tool_is_written_back_as_unknown() {
     assert!(!back.tool.unknown);
     assert_eq!(back, file);
 }
+
+/// A robot file whose tool is unknown exported as if it were the model: every format wrote the
+/// tool at the flange as "the whole model" (exit 0), and `compensate` aimed the flange at the
+/// targets (exit 3, a hint about frames). Refused, naming the model to use; the model identify
+/// writes from it exports.
+#[test]
+fn a_robot_file_with_an_unknown_tool_is_not_exported() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = write(d, "r.toml", &er20_with_tool("xyz_mm = \"unknown\"\n"));
+    for format in ["firmware", "dh-table"] {
+        let out = d.join(format!("o.{format}"));
+        let args = ["export", "--model", s(&robot), "--format", format];
+        let r = kinecal(&[&args[..], &["--out", s(&out)]].concat());
+        let err = stderr(&r);
+        assert_eq!(r.status.code(), Some(2), "{format}: {err}");
+        assert!(
+            err.contains("is \"unknown\"") && err.contains("export the model identify wrote"),
+            "{err}"
+        );
+        assert!(!out.exists());
+    }
+    let targets = write(
+        d,
+        "t.csv",
+        "q1,q2,q3,q4,q5,q6,x,y,z\n0,-40,50,0,60,0,900,0,900\n",
+    );
+    let args = ["compensate", "--model", s(&robot), "--targets", s(&targets)];
+    let r = kinecal(&[&args[..], &["--out", s(&d.join("q.csv"))]].concat());
+    assert_eq!(r.status.code(), Some(2), "{}", stderr(&r));
+    assert!(
+        stderr(&r).contains("compensate with the model identify wrote"),
+        "{}",
+        stderr(&r)
+    );
+    let model = d.join("m.toml");
+    let data = measured(d);
+    kinecal_ok(&[
+        "identify",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(&data),
+        "--out",
+        s(&model),
+    ]);
+    let out = d.join("m.kcm");
+    kinecal_ok(&[
+        "export",
+        "--model",
+        s(&model),
+        "--format",
+        "firmware",
+        "--out",
+        s(&out),
+    ]);
+}

@@ -122,7 +122,7 @@ pub fn implausible(c: &Candidate, values: &[f64], limits: &Limits) -> Option<Str
             let per_h = values.iter().map(|v| v * v).sum::<f64>().sqrt() * 3600.0;
             (per_h > limits.drift_mm_per_h).then(|| {
                 format!(
-                    "a drift of {} mm per hour is beyond the {} mm per hour of a working tracker: the robot or the tracker was moved during the session",
+                    "a drift of {} mm per hour is beyond the {} mm per hour of a working tracker: the robot or the tracker was moved during the session, or t_s is not in seconds",
                     sig(per_h, 3),
                     sig(limits.drift_mm_per_h, 3)
                 )

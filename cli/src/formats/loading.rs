@@ -69,7 +69,17 @@ fn told<const N: usize>(ds: Dataset<N>, origin: &str) -> Dataset<N> {
                 .iter()
                 .map(|r| r.extra.get(k).copied().unwrap_or(f64::NAN))
                 .collect();
-            super::pace::warning(&times, origin)
+            let moved: Vec<bool> = ds
+                .records
+                .windows(2)
+                .map(|w| {
+                    w[0].q_deg
+                        .iter()
+                        .zip(&w[1].q_deg)
+                        .any(|(a, b)| (a - b).abs() > super::pace::MOVE_DEG)
+                })
+                .collect();
+            super::pace::warning(&times, &moved, origin)
         });
     for w in [warm(&ds, origin), clock_back(&ds, origin), pace]
         .into_iter()

@@ -3,8 +3,9 @@
 //! whose rows are a median of milliseconds or of hours apart is in another unit than seconds
 //! (milliseconds read as seconds make 400 poses a 41-day session; hours, a 1-second one), and
 //! everything read per second (the base-drift velocity, diagnose's drift) is off by that
-//! factor: the simulated 0.525 mm per hour came out as 0.000525 and as 1,890. The model is not
-//! affected, so it is a warning.
+//! factor: the simulated 0.525 mm per hour came out as 0.000525 and as 1,890. Minutes read as
+//! seconds make a median step of a fraction of a second between poses the arm moved to, which
+//! no arm settles in. The model is not affected, so it is a warning.
 
 /// `t_s` beyond this (s, 1973 since 1970) are dates: one clock for every session.
 pub const DATED_S: f64 = 1e8;
@@ -26,13 +27,23 @@ pub const SLOW_STEP_S: f64 = 300.0;
 /// See [`SLOW_STEP_S`]: two days.
 pub const LONGEST_SESSION_S: f64 = 172_800.0;
 
+/// A row whose joints moved more than this (degrees, any joint) from the row before took the
+/// arm a move and a settling: at least [`SETTLED_STEP_S`] (a stream of a moving arm moves its
+/// joints by fractions of a degree from row to row, repeated readings of a pose not at all).
+pub const MOVE_DEG: f64 = 5.0;
+/// See [`MOVE_DEG`]: the median step (s) between such rows below this is minutes or hours
+/// read as seconds (150 poses over an hour logged in minutes: 0.4 "s" apart).
+pub const SETTLED_STEP_S: f64 = 1.0;
+
 /// Fewer forward steps than this tell no pace.
 pub const MIN_STEPS: usize = 10;
 
 /// The warning for `times` (`t_s` of the rows in file order, seconds as read) whose median
 /// forward step lies below [`FASTEST_STEP_S`] over a session (the forward steps summed) shorter
-/// than [`SHORTEST_SESSION_S`], or above [`SLOWEST_STEP_S`]; `origin` names the file.
-pub fn warning(times: &[f64], origin: &str) -> Option<String> {
+/// than [`SHORTEST_SESSION_S`], or above [`SLOWEST_STEP_S`], or whose rows after a move of the
+/// arm ([`MOVE_DEG`]: `moved[i]` for row `i + 1`) are a median of less than
+/// [`SETTLED_STEP_S`] apart; `origin` names the file.
+pub fn warning(times: &[f64], moved: &[bool], origin: &str) -> Option<String> {
     let mut steps: Vec<f64> = times
         .windows(2)
         .map(|w| w[1] - w[0])
@@ -41,13 +52,28 @@ pub fn warning(times: &[f64], origin: &str) -> Option<String> {
     if steps.len() < MIN_STEPS {
         return None;
     }
+    let mut after_moves: Vec<f64> = times
+        .windows(2)
+        .zip(moved)
+        .filter(|(_, &m)| m)
+        .map(|(w, _)| w[1] - w[0])
+        .filter(|d| d.is_finite() && *d > 0.0)
+        .collect();
+    after_moves.sort_by(f64::total_cmp);
+    let moving = (after_moves.len() >= MIN_STEPS).then(|| after_moves[after_moves.len() / 2]);
     let span = steps.iter().sum::<f64>();
     // Dates (Unix times) are one clock for several days' sessions.
     let dated = times.iter().any(|t| t.abs() > DATED_S);
     steps.sort_by(f64::total_cmp);
     let median = steps[steps.len() / 2];
     let sig = crate::output::numfmt::sig;
-    let unit = if median < FASTEST_STEP_S && span < SHORTEST_SESSION_S {
+    let median = match moving {
+        Some(m) if m < SETTLED_STEP_S => m,
+        _ => median,
+    };
+    let unit = if (median < FASTEST_STEP_S && span < SHORTEST_SESSION_S)
+        || moving.is_some_and(|m| m < SETTLED_STEP_S)
+    {
         "hours or minutes"
     } else if median > SLOWEST_STEP_S
         || (median > SLOW_STEP_S && span > LONGEST_SESSION_S && !dated)
@@ -57,9 +83,14 @@ pub fn warning(times: &[f64], origin: &str) -> Option<String> {
         return None;
     };
     Some(format!(
-        "warning: {origin}: t_s advances a median of {} s from row to row, where a tracker \
-         measures a pose in about 1 to 60 s: if t_s is in {unit}, give it in seconds; the \
-         drift per hour (base-drift, diagnose) is read from it",
-        sig(median, 3)
+        "warning: {origin}: t_s advances a median of {} s {}, where a tracker measures a \
+         pose in about 1 to 60 s: if t_s is in {unit}, give it in seconds; the drift per hour \
+         (base-drift, diagnose) is read from it",
+        sig(median, 3),
+        if moving.is_some_and(|m| m < SETTLED_STEP_S) {
+            "from one pose of the arm to the next"
+        } else {
+            "from row to row"
+        }
     ))
 }

@@ -241,9 +241,10 @@ fn diagnose_names_the_drift_on_the_command_line() {
     assert_diagnose_names_without_angle(&robot, &data, "base-drift", "racker drifted against");
 }
 
-/// `t_s` in milliseconds or hours read as seconds: the drift came out 1000× too small or
-/// 3600× too large with exit 0 and no word. The rows' pace (400 poses over 41 days, or over a
-/// second) is now warned about, naming the unit; the session as simulated (9 s a pose) is not.
+/// `t_s` in milliseconds, hours or minutes read as seconds: the drift came out 1000× too small
+/// or 3600× or 60× too large with exit 0 and no word. The rows' pace (400 poses over 41 days,
+/// over a second, or 0.15 s from one pose of the arm to the next) is now warned about, naming
+/// the unit; the session as simulated (9 s a pose) is not.
 #[test]
 fn a_time_column_in_another_unit_is_warned_about() {
     let dir = tempfile::tempdir().unwrap();
@@ -274,6 +275,9 @@ fn a_time_column_in_another_unit_is_warned_about() {
     for (name, factor, unit) in [
         ("ms.csv", 1000.0, "milliseconds"),
         ("hours.csv", 1.0 / 3600.0, "hours"),
+        ("minutes.csv", 1.0 / 60.0, "minutes"),
+        // A pose every 27 s logged in minutes: 0.45 "s" apart over 3 "minutes".
+        ("slow_minutes.csv", 3.0 / 60.0, "minutes"),
     ] {
         let out = run_on("identify", &robot, &scaled(name, factor), &drift);
         let err = stderr(&out);

@@ -141,11 +141,10 @@ pub fn diagnose<const N: usize>(options: &Options, inputs: Inputs<N>) -> anyhow:
         if let Some(s) = strays {
             warnings.push(format!("{origin}: {}", s.warning()));
         }
-        if let Some(w) = crate::constraints::bar_scale::warning(
-            &nominal,
-            (&extended.robot, &extended.estimated),
-            &ident,
-        ) {
+        let (robot, estimated) = (&extended.robot, &extended.estimated);
+        let scale = crate::constraints::bar_scale::warning(&nominal, (robot, estimated), &ident);
+        let offset = crate::constraints::bar_offset::warning(robot, estimated, &ident);
+        for w in scale.into_iter().chain(offset) {
             warnings.push(format!("{origin}: {w}"));
         }
     }

@@ -156,6 +156,13 @@ pub fn identify<const N: usize>(
         after.identification_rms_mm,
         options.stall_rms_mm,
     );
+    // Bar lengths off by one constant look like a few wrong bars to the outlier rule: the
+    // refusal names the constant too.
+    let offset = crate::constraints::bar_offset::warning(&fitted.robot, &fitted.estimated, &ident);
+    let refused = match (refused, &offset) {
+        (Some(r), Some(o)) => Some(format!("{r}; yet {o}")),
+        (r, _) => r,
+    };
     let stray_points = outliers.strays().filter(|_| refused.is_none());
     let chi2_per_dof = sigma_stated
         .then(|| {
@@ -199,6 +206,7 @@ pub fn identify<const N: usize>(
                 )
                 .filter(|_| refused.is_none()),
             )
+            .chain(offset.filter(|_| refused.is_none()))
             .chain(
                 chi2_per_dof
                     .filter(|_| refused.is_none())

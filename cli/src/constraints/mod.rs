@@ -4,6 +4,7 @@
 //!
 //! - [`read`]: the file, its rules and units;
 //! - [`bar_scale`]: an arm scaled as a whole by bar lengths off by one factor;
+//! - [`bar_offset`]: bar lengths off by one constant, which the fit cannot meet;
 //! - [`check`]: what a session holds and how far the nominal model is from it (`check`);
 //! - [`shapes`]: socket centres and planes fitted to predicted tool points, row errors;
 //! - [`system`]: the weighted residuals and Jacobian of a session;
@@ -15,10 +16,12 @@
 //! - [`simulate`]: constraint sessions from a robot with known errors (or measured at a plan);
 //! - [`plan`]: which rows to measure (`plan --constraints`);
 //! - [`residual_table`]: what `identify --residuals` writes for a constraint file;
+//! - [`recalibration`]: whether the robot changed since a model's calibration (`validate`);
 //! - [`report`]: the reports of `check`, `identify` and `validate` on a constraint file (which
 //!   `commands::constraint_check`, `commands::constraint_identify` and
 //!   `commands::constraint_validate` run).
 
+pub mod bar_offset;
 pub mod bar_scale;
 pub mod check;
 pub mod diagnose;

@@ -59,7 +59,7 @@ pub fn warning<const N: usize>(
         }
     }
     let oo = o_perp.norm_squared();
-    if !(oo > 0.0) {
+    if oo.is_nan() || oo <= 0.0 {
         return None;
     }
     let cost = r.norm_squared();

@@ -331,19 +331,7 @@ pub fn identify<const N: usize>(
             )
         })
         .or_else(|| {
-            // Only a chosen subset can hold the base of a session that moved: the full set
-            // estimates it whenever the data call for it.
-            let chosen = !(opts.only.is_empty() && opts.fix.is_empty());
-            chosen
-                .then(|| {
-                    crate::calibration::base_moved::reason(
-                        &fit.robot,
-                        &params,
-                        &ident,
-                        after.identification_rms_mm,
-                    )
-                })
-                .flatten()
+            crate::calibration::base_moved::reason(&fit.robot, &params, &ident, file.base_known())
         })
         .or_else(|| outliers.reason());
     let converged = fit.solver_converged()

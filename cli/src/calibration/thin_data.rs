@@ -147,7 +147,8 @@ pub fn held_note<const N: usize>(
         names.push("…".into());
     }
     Some(format!(
-        "{} of {effect_values} effect values held at their file values, as fewer than \
+        "{} of {effect_values} effect values held at their starting values (a table \
+         --effect adds starts at 0), as fewer than \
          {MIN_SUPPORT} poses move each ({}): fitted, they would follow those poses' noise; \
          coarser tables (a larger step) or poses there estimate them",
         held.len(),

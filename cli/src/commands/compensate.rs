@@ -24,7 +24,8 @@ pub struct Args {
     #[arg(long)]
     pub targets: PathBuf,
     /// Output CSV: q1..qN in the targets' angle unit (degrees, or radians with
-    /// --angle-unit rad), status, error_mm (mm), error_deg (degrees).
+    /// --angle-unit rad or a --map's joints = "rad"), status, error_mm (mm), error_deg
+    /// (degrees).
     #[arg(long)]
     pub out: PathBuf,
     /// Most damped Newton steps per target.

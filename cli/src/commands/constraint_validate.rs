@@ -19,8 +19,9 @@ pub fn run(args: &Args) -> anyhow::Result<ConstraintValidateReport> {
     if report.changed_since_calibration {
         if let Some(r) = &report.recalibration {
             eprintln!(
-                "error: {}: the model predicts the session's groups to {} mm RMS, a calibration \
-                 on its other groups to {} mm ({} folds; exit 3)",
+                "error: {} (or its calibration was much poorer than this session): the model \
+                 predicts the session's groups to {} mm RMS, a calibration on its other groups \
+                 to {} mm ({} folds; exit 3)",
                 crate::reports::validate::RECALIBRATE,
                 crate::output::numfmt::sig(r.model_rms_mm, 4),
                 crate::output::numfmt::sig(r.recalibrated_rms_mm, 4),

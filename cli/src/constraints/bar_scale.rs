@@ -22,8 +22,8 @@ pub const MOST_SCALE: f64 = 0.0015;
 pub const SHORTEST_LINK_MM: f64 = 50.0;
 
 /// The common scale of the `estimated` link lengths (`a`, `d` of at least
-/// [`SHORTEST_LINK_MM`], the last joint's `d` apart) of `fitted` against `nominal`: `Σ f·n / Σ n²`, and `Σ n` (mm); `None`
-/// without such links.
+/// [`SHORTEST_LINK_MM`], the last joint's `d` apart) of `fitted` against `nominal`:
+/// `Σ f·n / Σ n²`, and `Σ n` (mm); `None` without such links.
 pub fn link_scale<const N: usize>(
     nominal: &HostRobot<N>,
     fitted: &HostRobot<N>,

@@ -18,7 +18,7 @@ use kinecal::Param;
 const MAX_FOLDS: usize = 10;
 
 /// [`Recalibration`] of `model` on `groups`. `None` with fewer than four groups, or when a
-/// fold's other groups could not be fitted.
+/// fold's other groups could not be fitted or their fit did not converge.
 pub fn recalibrate<const N: usize>(
     model: &HostRobot<N>,
     file: &crate::formats::robot_file::RobotFile,
@@ -45,7 +45,9 @@ pub fn recalibrate<const N: usize>(
             .filter(|&i| !in_fold(i))
             .map(|i| groups[i].clone())
             .collect();
-        let fitted = super::fit::fit(model, &train, &params).ok()?;
+        let fitted = super::fit::fit(model, &train, &params)
+            .ok()
+            .filter(|f| f.converged)?;
         let square = |robot: &HostRobot<N>| -> f64 {
             test.iter().map(|g| held_out_error(robot, g).powi(2)).sum()
         };

@@ -28,9 +28,10 @@ pub const SLOW_STEP_S: f64 = 300.0;
 pub const LONGEST_SESSION_S: f64 = 172_800.0;
 
 /// A row whose joints moved more than this (degrees, any joint) from the row before took the
-/// arm a move and a settling: at least [`SETTLED_STEP_S`] (a stream of a moving arm moves its
-/// joints by fractions of a degree from row to row, repeated readings of a pose not at all).
-pub const MOVE_DEG: f64 = 5.0;
+/// arm a move and a settling: at least [`SETTLED_STEP_S`] (a stream of a moving arm logged at
+/// 10 Hz moves a joint by a few degrees from row to row, repeated readings of a pose not at
+/// all; 20° in 0.1 s is 200° per second).
+pub const MOVE_DEG: f64 = 20.0;
 /// See [`MOVE_DEG`]: the median step (s) between such rows below this is minutes or hours
 /// read as seconds (150 poses over an hour logged in minutes: 0.4 "s" apart).
 pub const SETTLED_STEP_S: f64 = 1.0;

@@ -83,13 +83,23 @@ impl RotationOrder {
     /// The angles (degrees, about x, y, z) that compose `m` in this order: the inverse of
     /// [`Self::matrix`], the middle angle within ±90°. For `R = R_i(a)·R_j(b)·R_k(c)` with
     /// parity `s` (+1 for a cyclic order of x, y, z): `b = asin(s·R_ik)`,
-    /// `a = atan2(−s·R_jk, R_kk)`, `c = atan2(−s·R_ij, R_ii)`.
+    /// `c = atan2(−s·R_ij, R_ii)` (0 at `b = ±90°`, where only `a ± c` is determined), and
+    /// `a` the angle of what is left, `R·R_k(c)ᵀ·R_j(b)ᵀ`.
     pub fn angles_deg(self, m: &Matrix3<f64>) -> [f64; 3] {
         let [i, j, k] = self.axes;
         let s = if (j + 3 - i) % 3 == 1 { 1.0 } else { -1.0 };
         let b = (s * m[(i, k)]).clamp(-1.0, 1.0).asin();
-        let a = (-s * m[(j, k)]).atan2(m[(k, k)]);
-        let c = (-s * m[(i, j)]).atan2(m[(i, i)]);
+        let c = if b.cos() > 1e-9 {
+            (-s * m[(i, j)]).atan2(m[(i, i)])
+        } else {
+            0.0
+        };
+        let factor = |axis: usize, angle: f64| {
+            *Rotation3::from_axis_angle(&Vector3::ith_axis(axis), angle).matrix()
+        };
+        let rest = m * factor(k, c).transpose() * factor(j, b).transpose();
+        let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
+        let a = rest[(i2, i1)].atan2(rest[(i1, i1)]);
         let mut out = [0.0; 3];
         out[i] = a.to_degrees();
         out[j] = b.to_degrees();

@@ -235,12 +235,23 @@ fn written_back_in_the_map_s_units(
     let plain = rows(poses, &[]);
     let mapped = rows(&vendor, &with_map);
     assert_eq!(plain.len(), 40);
-    for (p, m) in plain.iter().zip(&mapped) {
-        for j in 0..6 {
-            assert!(
-                (m[j].to_degrees() - p[j]).abs() < 1e-6,
-                "{m:?} against {p:?}"
-            );
+    // The joints' unit given by the flag instead of the map: the orientation (degrees, as the
+    // map says) was read as radians and every target failed.
+    let text = std::fs::read_to_string(&map).unwrap();
+    let no_joints = write(
+        dir,
+        "no_joints.map.toml",
+        &text.replace("joints = \"rad\"\n", ""),
+    );
+    let flagged = rows(&vendor, &["--map", s(&no_joints), "--angle-unit", "rad"]);
+    for (p, ms) in plain.iter().zip(mapped.iter().zip(&flagged)) {
+        for m in [ms.0, ms.1] {
+            for j in 0..6 {
+                assert!(
+                    (m[j].to_degrees() - p[j]).abs() < 1e-6,
+                    "{m:?} against {p:?}"
+                );
+            }
         }
     }
 }

@@ -160,7 +160,7 @@ fn tables_finer_than_the_data_are_named() {
     let out = run_on("identify", &robot, &data, &args);
     let err = stderr(&out);
     assert!(
-        err.contains("effect values held at their file values, as fewer than 3 poses move each")
+        err.contains("effect values held at their starting values (a table --effect adds starts at 0), as fewer than 3 poses move each")
             && err.contains("coarser tables (a larger step)"),
         "{err}"
     );
@@ -198,7 +198,7 @@ fn a_table_on_thin_data_is_not_fitted_to_single_poses() {
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(0), "{err}");
     assert!(
-        err.contains("effect values held at their file values"),
+        err.contains("effect values held at their starting values"),
         "{err}"
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();

@@ -224,6 +224,22 @@ fn moved_tracker_is_named(d: &Path, cal_path: &Path, truth: &Arm, planned: &[[f6
         let change = (after.joints()[j].theta - before.joints()[j].theta).to_degrees();
         assert!((change - 0.2).abs() < 0.02, "theta{}: {change}°", j + 1);
     }
+    // A full calibration held at the stated [base] (1.3 mm left, exit 0) is told the same; the
+    // same poses of the robot where the base says pass.
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
+    let poses = random_configurations(&before, 200, &mut rng);
+    for (name, robot, exit) in [("full_moved.csv", &moved, 3), ("full.csv", truth, 0)] {
+        let data = d.join(name);
+        write_measurements(robot, &poses, 6, &data);
+        let out = run_on("identify", cal_path, &data, &[]);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(exit), "{name}: {err}");
+        assert_eq!(
+            err.contains("with the base estimated too"),
+            exit == 3,
+            "{err}"
+        );
+    }
 }
 
 #[test]

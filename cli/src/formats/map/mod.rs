@@ -106,6 +106,15 @@ pub fn load<const N: usize>(
     let text = String::from_utf8(bytes)
         .map_err(|_| crate::refused(format!("{origin}: not UTF-8 text: not a measurement file")))?;
     let lines = layout::content_lines(&text);
+    // A target file's orientation is written in the joints' unit in force, the flag's where
+    // the map states none (compensate reads it so).
+    let map = spec::MapFile {
+        units: spec::MapUnits {
+            joints: units.angle_unit,
+            ..map.units.clone()
+        },
+        ..map
+    };
     let t = translate::translate(&map, &lines, (N, kind), (&origin, &map_origin))?;
     let shift = t.line_shift;
     let mut dataset = measurements::read_bytes::<N>(t.text.as_bytes()).map_err(|e| {

@@ -36,7 +36,8 @@ fn converted_angles_give_the_same_rotation() {
 }
 
 /// Every order's angles give back the rotation they were taken from (and kinecal's order
-/// its own roll, pitch and yaw).
+/// its own roll, pitch and yaw), also where the order's middle angle is ±90° (only the sum or
+/// difference of the other two is determined there).
 #[test]
 fn angles_invert_the_matrix_in_every_order() {
     let deg = [
@@ -45,10 +46,18 @@ fn angles_invert_the_matrix_in_every_order() {
         [45.0, 0.5, -90.0],
     ];
     for order in RotationOrder::all() {
-        for d in deg {
-            let m = RotationOrder::KINECAL.matrix(d);
+        let mut rotations: Vec<_> = deg
+            .iter()
+            .map(|d| RotationOrder::KINECAL.matrix(*d))
+            .collect();
+        for middle in [90.0, -90.0] {
+            let mut d = [25.0, -40.0, 70.0];
+            d[order.axes[1]] = middle;
+            rotations.push(order.matrix(d));
+        }
+        for m in rotations {
             let back = order.matrix(order.angles_deg(&m));
-            assert!((back - m).abs().max() < 1e-12, "{} {d:?}", order.text());
+            assert!((back - m).abs().max() < 1e-12, "{} {m}", order.text());
         }
         let a = order.angles_deg(&order.matrix([12.0, -24.0, 36.0]));
         assert!(

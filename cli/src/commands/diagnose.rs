@@ -98,7 +98,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
     super::inputs::any_rows(&observed.poses, &input.data)?;
     let mut validate = None;
     if let Some(path) = &args.validate {
-        let v = load(path)?;
+        let v = load(path).map_err(super::inputs::units_alike)?;
         super::inputs::any_rows(&v.poses, path)?;
         validate = Some((v, path.display().to_string()));
     }

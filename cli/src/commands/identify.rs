@@ -114,7 +114,10 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<IdentifyReport
     let observed = load(&input.data)?;
     super::inputs::any_rows(&observed.poses, &input.data)?;
     let validate = match &args.validate {
-        Some(v) => Some((load(v)?, v.display().to_string())),
+        Some(v) => Some((
+            load(v).map_err(super::inputs::units_alike)?,
+            v.display().to_string(),
+        )),
         None => None,
     };
     let inputs = Inputs {

@@ -74,6 +74,22 @@ fn load_observed_for<const N: usize>(
     crate::formats::observations::observe(&ds, file, obs, &path.display().to_string())
 }
 
+/// A refusal of the `--validate` file that suggests a unit flag, saying that the flags apply
+/// to both files (following it alone would read the data file in that unit too).
+pub fn units_alike(e: anyhow::Error) -> anyhow::Error {
+    let text = e.to_string();
+    if e.downcast_ref::<crate::Refused>().is_some()
+        && (text.contains("--length-unit") || text.contains("--angle-unit"))
+    {
+        crate::refused(format!(
+            "{text} (the unit flags apply to --data and --validate alike: give the --validate \
+             file in the data file's units)"
+        ))
+    } else {
+        e
+    }
+}
+
 /// Loads the data (and `validate`) in the units of `input` and splits them: the validation
 /// file's poses are held out, or those `holdout` chooses; refuses (exit 2) empty files and a
 /// split that leaves nothing to identify from. The joint tables of the calibrated `model` (its
@@ -90,7 +106,7 @@ pub fn load_split<const N: usize>(
     let observed = load(&input.data)?;
     any_rows(&observed.poses, &input.data)?;
     let validate = match validate {
-        Some(v) => Some((load(v)?, v.display().to_string())),
+        Some(v) => Some((load(v).map_err(units_alike)?, v.display().to_string())),
         None => None,
     };
     crate::calibration::inputs::split_observed(

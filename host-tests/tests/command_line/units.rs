@@ -619,3 +619,37 @@ fn check_warns_about_limits_only_where_the_file_has_them() {
     let v = json_of(&run_on("check", &r, &data, &["--json"]));
     assert_eq!(v["outside_limits"], beyond);
 }
+
+/// A `--validate` file in metres beside data in millimetres: the refusal said "pass
+/// --length-unit m", which then read the data file in metres too. It now says the flags apply
+/// to both files and to give the `--validate` file in the data file's units.
+#[test]
+fn a_validate_file_in_other_units_is_told_to_match_the_data() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = ur10_dir().join("robot.toml");
+    let (data, other) = (d.join("d.csv"), d.join("v.csv"));
+    simulate(&robot, Some(60), Some(0.01), Some(1), &[], &data);
+    simulate(&robot, Some(60), Some(0.01), Some(2), &[], &other);
+    let text = std::fs::read_to_string(&other).unwrap();
+    let mut metres = String::new();
+    for (k, line) in text.lines().filter(|l| !l.starts_with('#')).enumerate() {
+        let mut cells: Vec<String> = line.split(',').map(String::from).collect();
+        if k > 0 {
+            for c in &mut cells[6..9] {
+                *c = format!("{}", c.parse::<f64>().unwrap() / 1000.0);
+            }
+        }
+        metres.push_str(&(cells.join(",") + "\n"));
+    }
+    let v = write(d, "v_m.csv", &metres);
+    let out = run_on("identify", &robot, &data, &["--validate", s(&v)]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--length-unit")
+            && err.contains("apply to --data and --validate alike")
+            && err.trim().lines().count() == 1,
+        "{err}"
+    );
+}

@@ -150,6 +150,12 @@ pub fn parse<const N: usize>(
         crate::refuse!("{origin}: empty file: a header line with kind, group, q1…q{N} is needed");
     };
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
+    if names.len() == 1 && header.contains([';', '\t']) {
+        crate::refuse!(
+            "{origin}: a constraint file separated by `;` or tabs: constraint files are \
+             comma-separated with `.` decimals (--map does not read them); convert it"
+        );
+    }
     let col = |name: &str| names.iter().position(|n| *n == name);
     let required = |name: &str| {
         col(name).ok_or_else(|| {
@@ -162,6 +168,15 @@ pub fn parse<const N: usize>(
     let q_cols = (1..=N)
         .map(|j| required(&format!("q{j}")))
         .collect::<anyhow::Result<Vec<usize>>>()?;
+    // A length column without its unit in the name would be ignored as an extra column.
+    for (written, meant) in [("sigma", "sigma_mm"), ("length", "length_mm")] {
+        if col(written).is_some() && col(meant).is_none() {
+            crate::refuse!(
+                "{origin}: column `{written}`: constraint files name it `{meant}` (millimetres); \
+                 rename it, or it is not read"
+            );
+        }
+    }
     let (length_col, sigma_col, tool_col) = (col("length_mm"), col("sigma_mm"), col("tool"));
     // Stated when some row gives a σ (a column of empty cells states none).
     let mut sigma_stated = false;

@@ -594,5 +594,7 @@ pub fn is_constraint_file(path: &Path) -> bool {
         let t = l.trim().trim_start_matches('\u{feff}').trim().to_string();
         (!t.is_empty() && !t.starts_with('#')).then_some(t)
     });
-    header.is_some_and(|h| h.split(',').any(|c| c.trim() == "kind"))
+    // Split on any delimiter: a constraint file written with `;` or tabs is still one, and is
+    // refused as such by its reader (with what to convert) rather than as tracker points.
+    header.is_some_and(|h| h.split([',', ';', '\t']).any(|c| c.trim() == "kind"))
 }

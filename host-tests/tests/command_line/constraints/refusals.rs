@@ -53,6 +53,60 @@ fn malformed_groups_are_refused_with_the_fix() {
     }
 }
 
+/// A constraint file written with `;` and decimal commas: it was read as tracker points ("the
+/// header needs x, y, z … read it with --map", and with --map "not a number: '' in column x").
+/// It is named a constraint file, told how it must be written, by every command.
+#[test]
+fn a_constraint_file_with_semicolons_is_told_to_be_converted() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = "kind;group;q1;q2;q3;q4;q5;q6;length_mm\n\
+                distance;d1;10,5;20;30;40;50;60;500,25\n\
+                distance;d1;11;21;31;41;51;61;500,25\n";
+    let data = write(dir.path(), "eu.csv", text);
+    for command in ["check", "identify", "validate"] {
+        let robot = data_file("er20.toml");
+        let mut args = vec![command, "--robot", s(&robot), "--data", s(&data)];
+        if command == "validate" {
+            args.extend(["--model", s(&robot)]);
+        }
+        let o = kinecal(&args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{command}: {e}");
+        assert!(
+            e.contains("comma-separated with `.` decimals") && e.trim().lines().count() == 1,
+            "{command}: {e}"
+        );
+    }
+}
+
+/// A `sigma` column (for `sigma_mm`) was ignored without a word (the default 0.01 mm used, no
+/// χ²); `length` for `length_mm` likewise. Refused, naming the column to rename.
+#[test]
+fn a_sigma_or_length_column_without_its_unit_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, _) = session(dir.path(), "distance:12", 4);
+    let text = std::fs::read_to_string(&data).unwrap();
+    for (from, to) in [("length_mm", "length"), ("sigma_mm", "sigma")] {
+        let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+        let mut out = format!("{}\n", lines.next().unwrap().replace(from, to));
+        for l in lines {
+            out.push_str(&format!("{l}\n"));
+        }
+        let file = write(dir.path(), "renamed.csv", &out);
+        let o = kinecal(&[
+            "identify",
+            "--robot",
+            s(&data_file("er20.toml")),
+            "--data",
+            s(&file),
+        ]);
+        let e = stderr(&o);
+        let want = format!("`{from}`");
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        assert!(e.contains(&want) && e.contains("rename it"), "{e}");
+    }
+}
+
 #[test]
 fn joint_readings_in_radians_are_read_with_angle_unit() {
     let dir = tempfile::tempdir().unwrap();

@@ -359,16 +359,21 @@ def compensate(
     length_unit: Optional[str] = None,
     angle_unit: Optional[str] = None,
     tool: Optional[str] = None,
+    temp_c: Any = None,
 ) -> CommandResult:
     """Corrected joint commands (``kinecal compensate``) that bring ``model`` to the targets
     ``xyz`` (n, 3) (and orientations ``rpy_deg`` (n, 3)) from the controller's seeds
     ``q_seed`` (n, N); ``tool`` names the reflector (``[[tools]]``) the targets are for (the
-    first by default). Returns the report and ``q`` (n, N, in the seeds' angle unit),
-    ``status`` (list of str), ``error_mm``, ``error_deg`` (n,)."""
+    first by default); ``temp_c`` (n,) the arm's temperature at each target (°C), at which a
+    model's ``thermal-expansion`` is evaluated (a targets file's ``temp_c`` column). Returns
+    the report and ``q`` (n, N, in the seeds' angle unit), ``status`` (list of str),
+    ``error_mm``, ``error_deg`` (n,)."""
     columns = {}
     if rpy_deg is not None:
         r = np.asarray(rpy_deg, dtype=np.float64).reshape(-1, 3)
         columns = {"rx": r[:, 0], "ry": r[:, 1], "rz": r[:, 2]}
+    if temp_c is not None:
+        columns["temp_c"] = np.asarray(temp_c, dtype=np.float64).reshape(-1)
     targets = _set(q_seed, xyz, columns, "targets")
     options = dict(
         iterations=iterations, max_step_deg=max_step_deg, accept_mm=accept_mm,

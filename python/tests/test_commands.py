@@ -82,6 +82,32 @@ def test_compensate_equals_cli(sim, cli, tmp_path):
     assert np.abs(truth.fk(res.q) - targets).max() < 0.01
 
 
+def test_compensate_takes_the_arm_s_temperature(sim, cli, tmp_path):
+    """A model with thermal expansion: ``temp_c`` per target equals the CLI with a targets file's
+    ``temp_c`` column (it was not taken, and the report warned that none was given); the
+    commands differ from those at the reference temperature by the links' growth."""
+    d, _ = sim
+    text = (d / "truth.toml").read_text() + (
+        '\n[[effects]]\nkind = "thermal-expansion"\njoint = 0\nvalues = [1.2e-5]\n'
+        "reference_c = 20.0\n")
+    (tmp_path / "warm.toml").write_text(text)
+    warm = kinecal.Robot.from_file(tmp_path / "warm.toml")
+    rng = np.random.default_rng(9)
+    seeds = rng.uniform(-60, 60, size=(20, warm.joints))
+    targets = warm.fk(seeds) + rng.normal(0, 0.3, size=(20, 3))
+    temp = np.full(20, 35.0)
+    kinecal.write_csv(tmp_path / "t.csv", seeds, targets, {"temp_c": temp})
+    res = kinecal.compensate(warm, seeds, targets, temp_c=temp)
+    code, ref = cli("compensate", "--model", tmp_path / "warm.toml", "--targets",
+                    tmp_path / "t.csv", "--out", tmp_path / "q.csv")
+    assert code == 0, ref
+    assert_same(res.json, ref)
+    assert res.json.get("temperature_warning") is None
+    cold = kinecal.compensate(warm, seeds, targets)
+    assert cold.json.get("temperature_warning")
+    assert np.abs(res.q - cold.q).max() > 1e-4
+
+
 def test_compensate_for_a_named_reflector_equals_cli(sim, cli, tmp_path):
     """A model of three reflectors: ``tool="B"`` takes the targets as B's points, as
     ``kinecal compensate --tool B`` does, and the commands bring B (not A) to them."""

@@ -373,7 +373,10 @@ pub fn compensate_set<const N: usize, V: kinecal::ValueStorage>(
 ) -> anyhow::Result<Compensated<N>> {
     settings.check()?;
     let origin = &names.targets;
-    let rows = target_rows(targets, origin, units)?;
+    let mut rows = target_rows(targets, origin, units)?;
+    if let Some(w) = onto_limits(&mut rows, robot, targets, origin) {
+        crate::Tell::line(&mut crate::Stderr, &w);
+    }
     if rows.is_empty() {
         crate::refuse!("{origin}: no targets (a header and no rows): give at least one target row");
     }
@@ -632,6 +635,42 @@ fn solve_all<T: Real, const N: usize, V: kinecal::ValueStorage>(
             (status, sol)
         })
         .collect()
+}
+
+/// Moves every seed reading beyond `robot`'s joint limits onto the limit and returns the
+/// warning that says so: a controller does not stand beyond its limits, and a command solved
+/// from there was written beyond them too (a seed at 175.26° on a ±170° joint gave 173.26°,
+/// status `limited`). The commands then stay inside the limits.
+fn onto_limits<const N: usize>(
+    rows: &mut [Row],
+    robot: &HostRobot<N>,
+    targets: &Dataset<N>,
+    origin: &Origin,
+) -> Option<String> {
+    let mut outside = Vec::new();
+    for (row, record) in rows.iter_mut().zip(&targets.records) {
+        for (j, joint) in robot.joints().iter().enumerate() {
+            let q = row.seed[j];
+            let on = q.clamp(joint.lower, joint.upper);
+            if on != q {
+                outside.push((record.line, j, q, joint));
+                row.seed[j] = on;
+            }
+        }
+    }
+    let &(line, j, q, joint) = outside.first()?;
+    let deg = |v: f64| crate::number_text(v.to_degrees());
+    Some(format!(
+        "warning: {origin}: {} seed reading(s) beyond the model's joint limits (line {line}: \
+         q{} = {}° against {}° to {}°): those targets are solved from the limit and their \
+         commands stay inside it; a controller does not stand beyond its limits: check the \
+         seeds' convention (a joint's zero, a turn of ±360°)",
+        outside.len(),
+        j + 1,
+        deg(q),
+        deg(joint.lower),
+        deg(joint.upper)
+    ))
 }
 
 /// The rows of a targets set (already through the targets door): the seeds and points must be

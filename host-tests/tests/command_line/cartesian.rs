@@ -352,3 +352,47 @@ fn a_model_of_another_robot_is_refused_as_export_refuses_it() {
     assert_eq!(r.status.code(), Some(3), "{}", stderr(&r));
     assert!(!stderr(&r).contains("not a calibration"), "{}", stderr(&r));
 }
+
+/// A seed beyond a joint's limit (q1 = 175° on a ±170° joint): the command was solved from it
+/// and written beyond the limit too (173.26°, status `limited`). The seed is moved onto the
+/// limit with a warning that names the line, and every command stays inside the limits; a
+/// target the arm reaches inside them is still met.
+#[test]
+fn a_seed_beyond_a_joint_limit_gives_a_command_inside_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let model_path = write(dir.path(), "model.toml", ER20_TILTED_PLACED);
+    let model = RobotFile::parse(ER20_TILTED_PLACED, "m")
+        .unwrap()
+        .to_robot::<6>()
+        .unwrap();
+    let mut fk = ForwardKinematics::<f64, 6>::new();
+    let reach = [169.5f64, -40.0, 50.0, 10.0, 60.0, 20.0];
+    fk.compute(&model, &reach.map(f64::to_radians));
+    let p = fk.tool_pose(&model).o;
+    let mut text = String::from("q1,q2,q3,q4,q5,q6,x,y,z\n");
+    for q1 in [175.0, 169.0] {
+        text.push_str(&format!("{q1},-40,50,10,60,20,{},{},{}\n", p.x, p.y, p.z));
+    }
+    let targets = write(dir.path(), "t.csv", &text);
+    let out = dir.path().join("q.csv");
+    let r = kinecal(&[
+        "compensate",
+        "--model",
+        s(&model_path),
+        "--targets",
+        s(&targets),
+        "--out",
+        s(&out),
+    ]);
+    let err = stderr(&r);
+    assert!(
+        err.contains("1 seed reading(s) beyond the model's joint limits (line 2: q1 = 175°"),
+        "{err}"
+    );
+    let text = std::fs::read_to_string(&out).unwrap();
+    for line in text.lines().skip(1) {
+        assert!(cells(line)[0] <= 170.0 + 1e-9, "{line}");
+        // From the limit, 0.5° away, the target is met.
+        assert!(line.contains(",ok,"), "{line}");
+    }
+}

@@ -61,6 +61,16 @@ pub enum Param {
 }
 
 impl Param {
+    /// The six parameters of the base pose: origin x, y, z, then rotations about x, y, z.
+    pub const BASE: [Param; 6] = [
+        Param::BaseX,
+        Param::BaseY,
+        Param::BaseZ,
+        Param::BaseRx,
+        Param::BaseRy,
+        Param::BaseRz,
+    ];
+
     /// True for parameters measured in millimetres (the rest are radians or per-radian).
     pub fn is_length(self) -> bool {
         matches!(

@@ -20,15 +20,6 @@ pub const MIN_GAIN_MM: f64 = 0.05;
 /// The comparison is made on at most this many observations (every k-th).
 pub const SAMPLE: usize = 2000;
 
-const BASE: [Param; 6] = [
-    Param::BaseX,
-    Param::BaseY,
-    Param::BaseZ,
-    Param::BaseRx,
-    Param::BaseRy,
-    Param::BaseRz,
-];
-
 /// The reason a fit of `params` (converged at `fitted`) that held the base is no calibration,
 /// or `None`: it estimated the base, or the base explains little. `stated`: the base is the
 /// robot file's (else it was placed on the data before the fit).
@@ -47,7 +38,7 @@ pub fn reason<const N: usize>(
     if rms_mm.is_nan() || rms_mm <= MIN_GAIN_MM {
         return None;
     }
-    let with_base: Vec<Param> = params.iter().copied().chain(BASE).collect();
+    let with_base: Vec<Param> = params.iter().copied().chain(Param::BASE).collect();
     let refit = super::fit_lm(fitted, &with_base, &sample, LmConfig::default()).ok()?;
     let rms_base = Residuals::of(&refit.robot, &sample, &[]).identification_rms_mm;
     (rms_base <= EXPLAINS * rms_mm && rms_mm - rms_base >= MIN_GAIN_MM).then(|| {

@@ -83,14 +83,7 @@ fn universe<const N: usize, V: kinecal::ValueStorage>(
             all.push(p);
         }
     };
-    for p in [
-        Param::BaseX,
-        Param::BaseY,
-        Param::BaseZ,
-        Param::BaseRx,
-        Param::BaseRy,
-        Param::BaseRz,
-    ] {
+    for p in Param::BASE {
         push(p);
     }
     for j in 0..N as u8 {

@@ -49,14 +49,7 @@ impl Register {
         if self == Register::None {
             return p;
         }
-        p.extend([
-            Param::BaseX,
-            Param::BaseY,
-            Param::BaseZ,
-            Param::BaseRx,
-            Param::BaseRy,
-            Param::BaseRz,
-        ]);
+        p.extend(Param::BASE);
         if self == Register::BaseTool {
             p.extend([Param::ToolX, Param::ToolY, Param::ToolZ]);
             if six_d {

@@ -20,6 +20,20 @@ fn rows(all: &Path, dir: &Path, name: &str, from: usize, to: usize) -> PathBuf {
     write(dir, name, &out)
 }
 
+/// `validate`'s JSON of `model` on `fresh`, a session of the robot at its file's base
+/// (nothing registered).
+fn unregistered(robot: &Path, model: &Path, fresh: &Path) -> serde_json::Value {
+    let args = ["validate", "--robot", s(robot), "--model", s(model)];
+    let check = kinecal_ok(
+        &[
+            &args[..],
+            &["--data", s(fresh), "--register", "none", "--json"],
+        ]
+        .concat(),
+    );
+    serde_json::from_slice(&check.stdout).unwrap()
+}
+
 /// `model`'s position RMS on the real UR10 session's rows after the first `from` (base and
 /// tool registered).
 fn new_poses_rms(d: &Path, robot: &Path, model: &Path, from: usize) -> f64 {
@@ -106,19 +120,7 @@ fn the_cross_validated_figure_is_what_new_poses_show() {
         let fitted = v["after"]["identification_rms_mm"].as_f64().unwrap();
         // The model on 1,000 poses of the same robot it was not fitted to (no registration:
         // the simulated base is the file's).
-        let check = kinecal_ok(&[
-            "validate",
-            "--robot",
-            s(&robot),
-            "--model",
-            s(&model),
-            "--data",
-            s(&fresh),
-            "--register",
-            "none",
-            "--json",
-        ]);
-        let w: serde_json::Value = serde_json::from_slice(&check.stdout).unwrap();
+        let w = unregistered(&robot, &model, &fresh);
         let new = w["model"]["rms_mm"].as_f64().unwrap();
         assert!(cv > fitted, "{n}: {cv} against {fitted}");
         // The geometry moves no effect value: every left-out pose counts.
@@ -203,19 +205,7 @@ fn a_table_on_thin_data_is_not_fitted_to_single_poses() {
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let cv = v["cross_validated"]["after_rms_mm"].as_f64().unwrap();
-    let check = kinecal_ok(&[
-        "validate",
-        "--robot",
-        s(&robot),
-        "--model",
-        s(&model),
-        "--data",
-        s(&fresh),
-        "--register",
-        "none",
-        "--json",
-    ]);
-    let w: serde_json::Value = serde_json::from_slice(&check.stdout).unwrap();
+    let w = unregistered(&robot, &model, &fresh);
     let (rms, max) = (
         w["model"]["rms_mm"].as_f64().unwrap(),
         w["model"]["max_mm"].as_f64().unwrap(),

@@ -185,8 +185,17 @@ pub fn parse<const N: usize>(
     let mut groups: Vec<Group<N>> = Vec::new();
     let mut index: BTreeMap<String, usize> = BTreeMap::new();
     let mut lengths: Vec<Vec<Option<f64>>> = Vec::new();
+    // A row that repeats an earlier one cell for cell is a copy (pasted twice): it adds no
+    // information, only weight, and is left out with a warning, as in tracker files.
+    let mut seen: BTreeMap<Vec<&str>, usize> = BTreeMap::new();
+    let mut copies: Vec<(usize, usize)> = Vec::new();
     for (line, text) in lines {
         let cells: Vec<&str> = text.split(',').map(str::trim).collect();
+        if let Some(&first) = seen.get(&cells) {
+            copies.push((line, first));
+            continue;
+        }
+        seen.insert(cells.clone(), line);
         let at = |c: usize| cells.get(c).copied().unwrap_or("");
         let number = |c: usize, name: &str| -> anyhow::Result<Option<f64>> {
             let s = at(c);
@@ -317,6 +326,17 @@ pub fn parse<const N: usize>(
         warmest.and_then(|(line, t)| crate::formats::loading::warm_line(origin, line as u32, t))
     {
         crate::Tell::line(&mut crate::Stderr, &w);
+    }
+    if let Some(&(line, first)) = copies.first() {
+        crate::Tell::line(
+            &mut crate::Stderr,
+            &format!(
+                "warning: {origin}: {} row(s) repeat an earlier row cell for cell (line {line} \
+                 repeats line {first}): copies of a row, not constraints measured again, left \
+                 out; delete them from the file",
+                copies.len()
+            ),
+        );
     }
     if groups.is_empty() {
         crate::refuse!("{origin}: no rows: measure some constraints first");

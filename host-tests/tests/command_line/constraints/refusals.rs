@@ -410,3 +410,41 @@ fn a_session_with_few_equations_to_spare_is_warned_about() {
     }
     assert!(warned > 0);
 }
+
+/// A socket row pasted twice was kept without a word (tracker files drop copies with a
+/// warning): it weighs double. It is left out with a warning naming both lines, and the fit is
+/// the one of the file without it.
+#[test]
+fn a_copied_constraint_row_is_left_out_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, _) = session(dir.path(), "socket:4x10,distance:12", 5);
+    let text = std::fs::read_to_string(&data).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let row = lines.iter().position(|l| l.starts_with("socket,")).unwrap();
+    let mut copied: Vec<&str> = lines.clone();
+    copied.insert(lines.len() - 1, lines[row]);
+    let copied = write(dir.path(), "copied.csv", &(copied.join("\n") + "\n"));
+    let robot = data_file("er20.toml");
+    let fit = |file: &Path| {
+        kinecal(&[
+            "identify",
+            "--robot",
+            s(&robot),
+            "--data",
+            s(file),
+            "--json",
+        ])
+    };
+    let (plain, twice) = (fit(&data), fit(&copied));
+    let err = stderr(&twice);
+    assert!(
+        err.contains(&format!(
+            "1 row(s) repeat an earlier row cell for cell (line {} repeats line {})",
+            lines.len(),
+            row + 1
+        )),
+        "{err}"
+    );
+    let p = |o: &std::process::Output| json_of(o)["parameters"].clone();
+    assert_eq!(p(&plain), p(&twice));
+}

@@ -217,8 +217,9 @@ pub fn identify<const N: usize>(
             fix: &opts.fix,
         },
     )?;
-    // Effect values (table knots) that fewer than three poses move are held at their file
-    // values: fitted, they would follow those poses' noise.
+    // Effect values (table knots) that fewer than three poses move are held at their starting
+    // values (the file's, 0 for a requested table): fitted, they would follow those poses'
+    // noise.
     let effect_values = params
         .iter()
         .filter(|p| matches!(p, kinecal::Param::Effect(_)))

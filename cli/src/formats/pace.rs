@@ -61,20 +61,18 @@ pub fn warning(times: &[f64], moved: &[bool], origin: &str) -> Option<String> {
         .filter(|d| d.is_finite() && *d > 0.0)
         .collect();
     after_moves.sort_by(f64::total_cmp);
-    let moving = (after_moves.len() >= MIN_STEPS).then(|| after_moves[after_moves.len() / 2]);
+    // The median step after the arm's moves, when it is too short to have settled.
+    let unsettled = (after_moves.len() >= MIN_STEPS)
+        .then(|| after_moves[after_moves.len() / 2])
+        .filter(|m| *m < SETTLED_STEP_S);
     let span = steps.iter().sum::<f64>();
     // Dates (Unix times) are one clock for several days' sessions.
     let dated = times.iter().any(|t| t.abs() > DATED_S);
     steps.sort_by(f64::total_cmp);
     let median = steps[steps.len() / 2];
     let sig = crate::output::numfmt::sig;
-    let median = match moving {
-        Some(m) if m < SETTLED_STEP_S => m,
-        _ => median,
-    };
-    let unit = if (median < FASTEST_STEP_S && span < SHORTEST_SESSION_S)
-        || moving.is_some_and(|m| m < SETTLED_STEP_S)
-    {
+    let median = unsettled.unwrap_or(median);
+    let unit = if (median < FASTEST_STEP_S && span < SHORTEST_SESSION_S) || unsettled.is_some() {
         "hours or minutes"
     } else if median > SLOWEST_STEP_S
         || (median > SLOW_STEP_S && span > LONGEST_SESSION_S && !dated)
@@ -88,7 +86,7 @@ pub fn warning(times: &[f64], moved: &[bool], origin: &str) -> Option<String> {
          pose in about 1 to 60 s: if t_s is in {unit}, give it in seconds; the drift per hour \
          (base-drift, diagnose) is read from it",
         sig(median, 3),
-        if moving.is_some_and(|m| m < SETTLED_STEP_S) {
+        if unsettled.is_some() {
             "from one pose of the arm to the next"
         } else {
             "from row to row"

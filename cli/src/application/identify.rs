@@ -120,6 +120,7 @@ pub fn identify<const N: usize>(
         validate,
     } = inputs;
     let validated = validate.is_some();
+    let validate_name = validate.as_ref().map(|(_, name)| name.clone());
     let data_path = std::path::Path::new(&data_origin);
     let crate::calibration::inputs::Split {
         observed,
@@ -227,6 +228,9 @@ pub fn identify<const N: usize>(
     let thin_held = crate::calibration::thin_data::hold_thin_values(&nominal, &mut params, &ident);
     enough_poses(&ident, params.len(), base_unknown, data_path)?;
     let before = Residuals::of(&nominal, &ident, &valid);
+    if let Some(name) = &validate_name {
+        crate::calibration::acceptance::refuse_foreign_held_out(&before, name)?;
+    }
     // The prior: the robot file's `[prior]` (or the defaults) with `--prior` over it; none on
     // what does not start from a file value.
     let prior = file.prior.unwrap_or_default().with_overrides(&opts.prior)?;

@@ -22,6 +22,40 @@ pub const NOT_JUDGED: &str = "note: nothing was held out, so nothing checks that
     predicts data it was not fitted to better than the one it started from: --holdout 0.2 \
     (or --validate FILE) judges it on unseen data";
 
+/// A `--validate` file the starting model misses by more than this many times its RMS on the
+/// identification poses, and by [`FOREIGN_MARGIN_MM`] more, is not of the same set-up or layout.
+pub const FOREIGN_RATIO: f64 = 10.0;
+/// See [`FOREIGN_RATIO`] (mm): a robot's own errors are a few millimetres anywhere in its
+/// workspace; a length unit, a column order or a moved tracker costs tens to hundreds.
+pub const FOREIGN_MARGIN_MM: f64 = 10.0;
+
+/// Refuses held-out poses of a `--validate` file (`name`) that the starting model misses far
+/// more than the identification poses (`before`: its residuals on both): positions in metres
+/// read as millimetres, joints in another order, or another session whose tracker stood
+/// elsewhere. Judged there, any model "predicts the held-out poses better" by a hair at
+/// hundreds of millimetres, which says nothing about the calibration.
+pub fn refuse_foreign_held_out(
+    before: &crate::calibration::Residuals,
+    name: &str,
+) -> anyhow::Result<()> {
+    use crate::output::numfmt::sig;
+    let (ident, Some(held)) = (before.identification_rms_mm, before.validation_rms_mm) else {
+        return Ok(());
+    };
+    if held > FOREIGN_RATIO * ident && held > ident + FOREIGN_MARGIN_MM {
+        crate::refuse!(
+            "--validate {name}: the robot file misses its poses by {} mm RMS against {} mm on \
+             the identification poses: they are not of this set-up, or in another unit or \
+             column layout (the unit flags and --map apply to both files); give held-out poses \
+             of this session in the data file's layout, or judge a model on another session \
+             with kinecal validate",
+            sig(held, 4),
+            sig(ident, 4)
+        );
+    }
+    Ok(())
+}
+
 /// The verdict on the held-out poses.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Acceptance {

@@ -57,6 +57,26 @@ pub fn same_robot<const N: usize>(
     Ok(())
 }
 
+/// Refuses (exit 2) a model equal to the robot file in every value: `validate` would compare
+/// it with itself and its verdict say nothing.
+pub fn not_itself<const N: usize>(
+    robot: &HostRobot<N>,
+    model: &HostRobot<N>,
+    paths: (&Path, &Path),
+) -> anyhow::Result<()> {
+    if robot == model {
+        crate::refuse!(
+            "{} is {} itself (every value equal): the model is compared with the robot its \
+             calibration started from; give the model that `kinecal identify --robot {} --out \
+             M.toml` wrote (or judge the robot file alone with kinecal check)",
+            paths.1.display(),
+            paths.0.display(),
+            paths.0.display()
+        );
+    }
+    Ok(())
+}
+
 /// The parameters identify estimated for `model` (file `model_file`) from the robot file
 /// `file`: its default set, the axis tilts (the file's and the model's), the model's effects,
 /// the tool orientation from 6-D data (`six_d`), the further tool points, narrowed by the

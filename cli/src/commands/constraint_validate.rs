@@ -51,6 +51,9 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ConstraintVali
         &args.input.robot,
     );
     check_lengths(&nominal, &session.groups, &path_text(&args.input.data))?;
+    let paths = (args.input.robot.as_path(), args.model.as_path());
+    crate::calibration::replay::same_robot(&nominal, &model, paths)?;
+    crate::calibration::replay::not_itself(&nominal, &model, paths)?;
     let errors = |robot| -> Vec<f64> {
         session
             .groups

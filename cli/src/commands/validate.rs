@@ -72,6 +72,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ValidateReport
     );
     let observed = observe(&ds, &file, &args.obs, &origin)?;
     super::inputs::any_rows(&observed.poses, &input.data)?;
+    crate::calibration::replay::not_itself(&nominal, &model, (&input.robot, &args.model))?;
     let (robot_origin, model_origin) = (
         input.robot.display().to_string(),
         args.model.display().to_string(),

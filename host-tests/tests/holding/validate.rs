@@ -260,6 +260,25 @@ fn the_same_robot_with_the_setup_moved_is_accepted() {
     assert!(t.contains("the model still holds"), "{t}");
 }
 
+/// `--model` the robot file itself (or a copy of it): every figure compared the robot with
+/// itself, and the verdict said nothing. Refused (exit 2) naming both files; a calibration of
+/// it is judged as before (above).
+#[test]
+fn a_model_equal_to_the_robot_file_is_refused() {
+    let c = calibrated();
+    let d = c.dir.path();
+    let s2 = d.join("s2.csv");
+    simulate(&c.truth, Some(60), Some(0.02), Some(12), &[], &s2);
+    let copy = d.join("copy.toml");
+    std::fs::copy(&c.robot, &copy).unwrap();
+    for model in [&c.robot, &copy] {
+        let out = validate(&c.robot, model, &s2, &[]);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(err.contains("itself") && err.contains("--out"), "{err}");
+    }
+}
+
 /// The robot changed: session 1's truth has theta2 +0.3°, theta3 −0.3° and a3 +1 mm, session
 /// 2's the opposite. The model carries session 1's errors, twice session 2's deviation from
 /// nominal: no base or tool registration absorbs that, the model is genuinely worse than the

@@ -448,3 +448,46 @@ fn a_copied_constraint_row_is_left_out_with_a_warning() {
     let p = |o: &std::process::Output| json_of(o)["parameters"].clone();
     assert_eq!(p(&plain), p(&twice));
 }
+
+/// `validate --model` the robot file itself on a constraint session compared the robot with
+/// itself; a model of another robot (a link 150 mm longer) was not refused either. Both are
+/// now refused (exit 2), as on tracker sessions; the true robot as the model is judged.
+#[test]
+fn validate_refuses_the_robot_itself_or_another_robot_as_the_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, truth) = session(dir.path(), "distance:30", 5);
+    let robot = data_file("er20.toml");
+    let run = |model: &Path| {
+        kinecal(&[
+            "validate",
+            "--robot",
+            s(&robot),
+            "--model",
+            s(model),
+            "--data",
+            s(&data),
+        ])
+    };
+    let out = run(&robot);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("itself"), "{err}");
+    let text = std::fs::read_to_string(&truth).unwrap();
+    let a3 = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("a_mm") && !l.contains("= 0.0"))
+        .unwrap()
+        .to_string();
+    let value: f64 = a3.split('=').nth(1).unwrap().trim().parse().unwrap();
+    let other = write(
+        dir.path(),
+        "other.toml",
+        &text.replacen(&a3, &format!("a_mm = {}", value + 150.0), 1),
+    );
+    let out = run(&other);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("not an identified model"), "{err}");
+    let out = run(&truth);
+    assert_ne!(out.status.code(), Some(2), "{}", stderr(&out));
+}

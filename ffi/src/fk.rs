@@ -137,8 +137,9 @@ unsafe fn fk_point<const N: usize>(
     finite(p.as_slice())
 }
 
-/// The tool pose of `robot` at the caller's `N` readings `q`: point into `out`, row-major
-/// rotation into `rot`.
+/// The tool pose of `robot` at the caller's `N` readings `q` (the library's
+/// `ForwardKinematics::tool_pose`: the flange axes times the robot's tool axes, at the measured
+/// point): point into `out`, row-major rotation into `rot`.
 ///
 /// # Safety
 /// `q` is NULL or `N` floats.
@@ -153,15 +154,19 @@ unsafe fn fk_pose<const N: usize>(
     // SAFETY: the caller's contract.
     let q = unsafe { array_ref::<f32, N>(q) }?;
     fk.compute(robot, q);
-    let f = fk.flange_pose();
+    let f = fk.tool_pose(robot);
     *out = [f.o.x, f.o.y, f.o.z];
     *rot = rot_of(&f);
     finite(out)
 }
 
-/// As [`kc_fk_point`] (`KC_NOT_FINITE` likewise), also the tool orientation (the flange axes in the measurement frame)
-/// as a row-major rotation matrix into `rot_out[9]`: with `xyz_out` the tool pose, usable as
-/// a pose `kc_target`.
+/// As [`kc_fk_point`] (`KC_NOT_FINITE` likewise), also the tool orientation in the measurement
+/// frame as a row-major rotation matrix into `rot_out[9]`: the measured frame's axes, i.e. the
+/// flange axes times the model's tool axes (the robot file's `[tool] rpy_deg`, kept in the
+/// binary model; a robot without one, e.g. from `kc_robot_init`, gives the flange axes). With
+/// `xyz_out` the tool pose, the
+/// frame a pose `kc_target` gives to `kc_compensate`: handed back as a target from the same
+/// readings it is met at those readings.
 ///
 /// # Safety
 /// As [`kc_fk_point`]; `rot_out` is NULL or 9 floats.

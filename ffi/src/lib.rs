@@ -85,7 +85,8 @@ pub enum kc_status {
     /// An argument is out of its range (an index, a code, a length, a setting).
     KC_INVALID_ARGUMENT = 3,
     /// The robot description was refused: a length or angle out of range, joint limits not
-    /// `lower < upper`, a base that is not a rotation, or a refused joint coupling.
+    /// `lower < upper`, a base that is not a rotation, a refused joint coupling, or (a binary
+    /// model) an effect a robot file refuses.
     KC_INVALID_ROBOT = 4,
     /// A float input is NaN or infinite (inputs are checked by their sum: magnitudes above
     /// ~1e37, which no robot quantity has, count as infinite too).
@@ -111,9 +112,16 @@ pub enum kc_status {
     KC_NOT_FOUND = 14,
     /// A handle is not aligned to 8 bytes.
     KC_MISALIGNED = 15,
-    /// A binary model was refused: truncated, corrupted (CRC), of another layout version or
-    /// joint count, or larger than the robot handle holds.
+    /// A binary model was refused: truncated, corrupted (CRC), of another layout version, of
+    /// a joint count this ABI does not hold (6 or 7; the format holds 1 to 7), or larger than
+    /// the robot handle holds.
     KC_MODEL_INVALID = 16,
+    /// The solver (`kc_lm_init`, `kc_lm_full_init`) cannot carry a model's effects (joint
+    /// corrections: joint tables, cyclic, compliance, scale, thermal terms): it identifies
+    /// geometry only and has no room for effect values. Start it from the model without them
+    /// (the robot file exported without its `[[effects]]`, or `kc_robot_init` with the
+    /// model's rows, base and tool and `kc_robot_set_coupling`).
+    KC_EFFECTS_UNSUPPORTED = 17,
 }
 
 pub use kc_status::*;
@@ -151,7 +159,8 @@ pub extern "C" fn kc_status_message(status: u32) -> *const core::ffi::c_char {
         13 => c"handle not initialised",
         14 => c"not found",
         15 => c"handle not aligned to 8 bytes",
-        16 => c"binary model refused (truncated, corrupted, another version or too large)",
+        16 => c"binary model refused (truncated, corrupted, another version, too large, or a joint count the C ABI does not hold: 6 or 7)",
+        17 => c"the solver cannot carry a model's effects (joint corrections): start it from the model without them",
         _ => c"unknown status",
     };
     s.as_ptr()

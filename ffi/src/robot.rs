@@ -308,7 +308,9 @@ fn decoded<const N: usize>(blob: &[u8]) -> Kc<Arm<N>> {
 /// `KC_MODEL_INVALID` (truncated, corrupted: CRC-32, another layout version, a joint count
 /// other than 6 or 7, a record this library does not know, more than
 /// `KC_MAX_EFFECT_VALUES` values, 32 effects or 4 couplings), `KC_NOT_FINITE` (a NaN or
-/// infinite number), `KC_INVALID_ROBOT` (a model `kc_robot_init` would refuse).
+/// infinite number), `KC_INVALID_ROBOT` (a model `kc_robot_init` would refuse, or effects a
+/// robot file refuses: of the wrong shape, the same effect twice, an order, start or step on
+/// a kind that has none).
 ///
 /// # Safety
 /// `r` is NULL or a writable `kc_robot` not otherwise in use; `blob` is NULL or `len` bytes.

@@ -15,8 +15,10 @@ use crate::{kc_status, status};
 ///
 /// Errors: `KC_NULL_POINTER`, `KC_NOT_INITIALIZED` (`start`), `KC_TOO_MANY_PARAMS`,
 /// `KC_INVALID_ARGUMENT` (no parameter, an unknown code or joint, invalid settings),
-/// `KC_NOT_FINITE` (a setting). Checked before `lm` is written: on these errors `lm` is
-/// unchanged.
+/// `KC_NOT_FINITE` (a setting), `KC_EFFECTS_UNSUPPORTED` (`start` carries effects, e.g. a
+/// diagnosed model from `kc_robot_load` with joint tables: the solver identifies geometry only
+/// and cannot carry them; start it from the model without them). Checked before `lm` is
+/// written: on these errors `lm` is unchanged.
 ///
 /// # Safety
 /// Handles NULL or valid (`lm` not otherwise in use); `params` NULL or `n` values; `cfg` NULL or

@@ -3,7 +3,9 @@
 use super::config::{kc_lm_config, lm_config_of};
 use crate::handle::{self, handle};
 use crate::robot::{kc_param, kc_robot, param_of, Arm, Model};
-use crate::{kc_status, KC_DATA_CHANGED, KC_INVALID_ARGUMENT, KC_INVALID_ROBOT, KC_NOT_FINITE};
+use crate::{
+    kc_status, KC_DATA_CHANGED, KC_EFFECTS_UNSUPPORTED, KC_INVALID_ARGUMENT, KC_NOT_FINITE,
+};
 use crate::{obj_ref, slice_ref, Kc, KC_TOO_FEW_MEASUREMENTS, KC_TOO_MANY_PARAMS};
 use kinecal::identify::lm::{FixedLm, Levenberg, LmConfig, LmError};
 use kinecal::model::param::{ParamError, ParamSet};
@@ -92,10 +94,12 @@ fn solver<const N: usize, const P: usize>(
         set.push(param_of(*c)?).map_err(|_| KC_TOO_MANY_PARAMS)?;
     }
     set.check(robot).map_err(|_| KC_INVALID_ARGUMENT)?;
-    // The solver identifies geometry: a robot with joint corrections is refused.
+    // The solver identifies geometry and holds no effect value (`Inline<0>`): a robot with
+    // joint corrections is refused. Every effect has at least one value, so a model with
+    // effects is the only one `with_capacity` refuses here.
     let geometry = robot
         .with_capacity::<kinecal::Inline<0>>()
-        .map_err(|_| KC_INVALID_ROBOT)?;
+        .map_err(|_| KC_EFFECTS_UNSUPPORTED)?;
     Ok(Levenberg::new(geometry, FixedLm::new(set), *cfg))
 }
 

@@ -650,3 +650,43 @@ fn validate_judges_the_tool_orientations_of_6d_rows() {
         stderr(&off)
     );
 }
+
+/// The real 6-D file with its angle columns named as target files name them (`rx, ry, rz`), in
+/// a vendor's `a, b, c` or as a quaternion: calibrated as positions alone without a word.
+/// Refused (exit 2) naming the columns and the three ways out; `--positions-only` calibrates the
+/// positions, and the file as published (`rx_deg…`) is read as 6-D.
+#[test]
+fn orientation_columns_under_other_names_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = ur10_dir().join("robot.toml");
+    let text = std::fs::read_to_string(ur10_dir().join("ur10_random_poses_6d.csv")).unwrap();
+    let head: String = text.lines().take(121).collect::<Vec<_>>().join("\n") + "\n";
+    for (names, quaternion) in [("rx,ry,rz", false), ("A,B,C", false), ("qx,qy,qz", true)] {
+        let mut renamed = head.replacen("rx_deg,ry_deg,rz_deg", names, 1);
+        if quaternion {
+            // A fourth component: the header and every row gain a qw column.
+            renamed = renamed
+                .lines()
+                .enumerate()
+                .map(|(k, l)| format!("{l},{}\n", if k == 0 { "qw" } else { "1" }))
+                .collect();
+        }
+        let data = write(dir.path(), "renamed.csv", &renamed);
+        let out = run_on("identify", &robot, &data, &[]);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{names}: {err}");
+        assert!(
+            err.contains("look like the probe's orientation")
+                && err.contains("--positions-only")
+                && err.trim().lines().count() == 1,
+            "{names}: {err}"
+        );
+        assert_eq!(err.contains("quaternion"), quaternion, "{names}: {err}");
+        let out = run_on("identify", &robot, &data, &["--positions-only", "--json"]);
+        assert_eq!(out.status.code(), Some(0), "{names}: {}", stderr(&out));
+        assert_eq!(json_of(&out)["observations"]["six_d"], false);
+    }
+    let data = write(dir.path(), "published.csv", &head);
+    let j = json_of(&run_on("identify", &robot, &data, &["--json"]));
+    assert_eq!(j["observations"]["six_d"], true);
+}

@@ -5,6 +5,7 @@ use super::{
     ROW_LEN, TOOL_LEN, VERSION,
 };
 use crate::io::snapshot::crc32;
+use crate::model::effects::{EffectError, EffectKind};
 use crate::model::tool::MAX_TOOL_POINTS;
 use crate::ValueStorage;
 use crate::{Frame, Joint, Real, Robot};
@@ -106,8 +107,9 @@ pub fn joint_count(blob: &[u8]) -> Result<usize, BlobError> {
 
 /// Reads the binary model `blob` into `robot`. On any error (truncated, corrupted, another
 /// version, another joint count, a record unknown or malformed, a number not finite, more
-/// values than the storage `V` holds (`V::CAPACITY`), a model [`Robot::new`] refuses) `robot`
-/// is unchanged.
+/// values than the storage `V` holds (`V::CAPACITY`), a model [`Robot::new`] refuses, an
+/// effect a robot file refuses: of the wrong shape, given twice, or with an order, start or
+/// step its kind does not have) `robot` is unchanged.
 ///
 /// Decoded into `f64`, a model written from `f64` equals it exactly (rows, base, tool,
 /// effects, couplings: the forward kinematics agree bit for bit).
@@ -204,13 +206,21 @@ fn record<T: Real, const N: usize, V: ValueStorage>(
                 p.zero()?;
                 let order = p.u16()?;
                 let count = p.u32()? as usize;
-                let (start, step) = (p.real()?, p.real()?);
+                let (start, step) = (p.real::<f64>()?, p.real::<f64>()?);
                 let expected = count
                     .checked_mul(8)
                     .and_then(|b| b.checked_add(EFFECT_HEAD_LEN));
                 if expected != Some(p.buf.len()) {
                     return Err(BlobError::Malformed);
                 }
+                // What a robot file refuses and the effect list would take: a field the kind
+                // does not have, or the same effect again (it would be applied twice).
+                if !fields_fit(kind, order, start, step)
+                    || out.effects().find(kind, joint, order).is_some()
+                {
+                    return Err(EffectError::Shape.into());
+                }
+                let (start, step) = (T::of(start), T::of(step));
                 out.effects_mut()
                     .push_with(kind, joint, N, order, start, step, count, |v| {
                         for x in v.iter_mut() {
@@ -226,4 +236,20 @@ fn record<T: Real, const N: usize, V: ValueStorage>(
         }
     }
     Ok(())
+}
+
+/// Whether an effect record's order, start and step (as written, before any rounding to the
+/// robot's scalar) are those a robot file can give its kind (docs/formats.md, "Binary model"):
+/// an order only on `joint-cyclic` (the others hold 0 or 1: 1 from a robot file, 0 from a
+/// model built in the library), a start only on `joint-table` (the lowest knot),
+/// `thermal-expansion` (T0) and `base-drift` (t0), a step only on `joint-table`.
+/// `joint-cyclic`'s order (at least 1) and a table's step (positive) are the effect list's
+/// checks.
+fn fields_fit(kind: EffectKind, order: u16, start: f64, step: f64) -> bool {
+    match kind {
+        EffectKind::Cyclic => start == 0.0 && step == 0.0,
+        EffectKind::Table => order <= 1,
+        EffectKind::Thermal | EffectKind::Drift => order <= 1 && step == 0.0,
+        EffectKind::Scale | EffectKind::Compliance => order <= 1 && start == 0.0 && step == 0.0,
+    }
 }

@@ -132,7 +132,11 @@ pub enum BlobError {
     /// More effects, effect values, couplings or tool points than the robot has room for.
     Capacity,
     /// The model was refused as [`crate::Robot::new`] and its setters refuse (a base that is
-    /// not a rotation, a length beyond 1 km, a coupling chain, an effect of the wrong shape).
+    /// not a rotation, a length beyond 1 km, a coupling chain, an effect of the wrong shape),
+    /// or as a robot file refuses its effects: the same effect twice (kind and joint, and
+    /// order for `joint-cyclic`), an order on another kind than `joint-cyclic` (0 and 1 are
+    /// no order), a start or step on a kind that has none (`EffectError::Shape`, as the
+    /// effect list refuses a second `thermal-expansion`).
     Refused(RobotError),
 }
 

@@ -174,7 +174,8 @@ pub fn identify<const N: usize>(
             )
         })
         .flatten();
-    let all = crate::calibration::model_params(&fitted.robot, &file.tilt_joints());
+    let tilts = crate::calibration::tilted_joints(&file.tilt_joints(), &fitted.estimated);
+    let all = crate::calibration::model_params(&fitted.robot, &tilts);
     let report = ConstraintIdentifyReport {
         method: "lm".into(),
         count_unit: "groups".into(),
@@ -241,7 +242,7 @@ pub fn identify<const N: usize>(
         &format!("{} (identified)", file.name),
         &fitted.robot,
         file.base_known() || base_seen,
-        &file.tilt_joints(),
+        &tilts,
     )
     .with_tool_names(&file.tool_names());
     if model.tool.rpy_deg.is_none() {

@@ -272,12 +272,13 @@ pub fn identify<const N: usize>(
     } else {
         None
     };
+    let tilts = crate::calibration::tilted_joints(&file.tilt_joints(), &params);
     let model = {
         let mut f = RobotFile::from_robot(
             &format!("{} (identified)", file.name),
             &fit.robot,
             true,
-            &file.tilt_joints(),
+            &tilts,
         )
         .with_tool_names(&observed.names);
         // An identity `rpy_deg` written in the input stays written, and so does `[prior]`.
@@ -358,7 +359,7 @@ pub fn identify<const N: usize>(
     };
     let mut report = report(
         opts.method,
-        &file,
+        (&file, &tilts),
         &fit,
         (ident_poses, valid_poses),
         (before, after),
@@ -609,7 +610,7 @@ fn existing_effect_params<const N: usize>(
 #[allow(clippy::too_many_arguments)]
 fn report<const N: usize>(
     method: Method,
-    file: &RobotFile,
+    (file, tilts): (&RobotFile, &[usize]),
     fit: &Fit<N, HostValues>,
     (ident, valid): (usize, usize),
     (before, after): (Residuals, Residuals),
@@ -617,7 +618,7 @@ fn report<const N: usize>(
     changes: Vec<Change>,
     verdict: &Verdict,
 ) -> IdentifyReport {
-    let params = crate::calibration::model_params(&fit.robot, &file.tilt_joints());
+    let params = crate::calibration::model_params(&fit.robot, tilts);
     IdentifyReport {
         method: method.id().to_string(),
         n_identification: ident,

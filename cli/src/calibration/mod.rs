@@ -142,6 +142,21 @@ fn pose_error_vectors_of<'a, const N: usize, V: kinecal::ValueStorage>(
     )
 }
 
+/// The joints (0-based, ascending) whose axis tilt a model carries as a parameter: the robot
+/// file's `axis-tilt` effects (`file_tilts`) and every tilt a fit estimated (`params`, as
+/// `--effect axis-tilt:J` adds it). The model written carries an `axis-tilt` effect on each, so
+/// that a re-identification frees them again, and the report names each `beta`.
+pub fn tilted_joints(file_tilts: &[usize], params: &[Param]) -> Vec<usize> {
+    let mut v: Vec<usize> = file_tilts.to_vec();
+    v.extend(params.iter().filter_map(|p| match p {
+        Param::Beta(j) => Some(*j as usize),
+        _ => None,
+    }));
+    v.sort_unstable();
+    v.dedup();
+    v
+}
+
 /// Every parameter of a model by name, in report order: base, the MDH rows, the tool point,
 /// the tilts of `tilt_joints` (0-based), effect values, the tool orientation (when not the
 /// identity) and further tool points. The `parameters` of `identify`'s report and the rows

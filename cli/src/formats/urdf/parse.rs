@@ -285,9 +285,14 @@ impl Urdf {
     /// Parses the text of a URDF file (`path` names it in messages). A file with `xacro:`
     /// elements is refused: it has to be expanded first.
     pub fn parse(text: &str, path: &str) -> anyhow::Result<Urdf> {
+        // The expanded file beside it, never over it (`arm.urdf` holding xacro: `arm.expanded.urdf`).
         let stem = path.strip_suffix(".xacro").unwrap_or(path);
-        let stem = stem.strip_suffix(".urdf").unwrap_or(stem);
-        let expand = format!("expand it first: xacro {stem}.urdf.xacro > {stem}.urdf");
+        let out = match stem.strip_suffix(".urdf") {
+            Some(base) if stem.len() < path.len() => format!("{base}.urdf"),
+            Some(base) => format!("{base}.expanded.urdf"),
+            None => format!("{stem}.urdf"),
+        };
+        let expand = format!("expand it first: xacro {path} > {out}");
         prescan(text, path)?;
         let options = roxmltree::ParsingOptions {
             nodes_limit: MAX_NODES,

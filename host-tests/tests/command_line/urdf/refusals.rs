@@ -54,7 +54,12 @@ fn refusals_name_the_joint_or_link() {
         ),
         &[],
     );
-    assert!(e.contains("expand it first: xacro"), "{e}");
+    // The file as given expanded beside it, not over it (the hint named a robot.urdf.xacro
+    // that did not exist and wrote over robot.urdf).
+    assert!(
+        e.contains("robot.urdf > ") && e.contains("robot.expanded.urdf"),
+        "{e}"
+    );
     // Without the namespace declared (an XML error), still named a xacro file.
     let e = refused(
         r#"<robot name="r"><xacro:include filename="arm.xacro"/></robot>"#,

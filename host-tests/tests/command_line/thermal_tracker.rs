@@ -425,3 +425,79 @@ fn diagnose_without_temperatures_names_the_arm_warming_beside_a_drift() {
         "{err}"
     );
 }
+
+/// A robot file with `thermal-expansion` values `[2e-5]` and no `reference_c`: every command
+/// read it at 20 °C, `identify` at the data's mean (a session at 28–32 °C made from the file
+/// itself: `check` 5e-9 mm, identify's "before" 0.158 mm), and wrote that reference. Now
+/// identify's starting model is the file's robot (its "before" at the noise) and the model it
+/// writes keeps 20 °C; a term with a zero coefficient is still referred to the mean.
+#[test]
+fn a_thermal_term_without_reference_means_20_c_in_identify_too() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let text = std::fs::read_to_string(data_file("er20.toml")).unwrap();
+    let with = |c: &str| {
+        format!("{text}\n[[effects]]\nkind = \"thermal-expansion\"\njoint = 0\nvalues = [{c}]\n")
+    };
+    let robot = write(d, "r.toml", &with("2e-5"));
+    let session = |name: &str, errors: bool| {
+        let data = d.join(name);
+        let mut args = vec![
+            "simulate",
+            "--robot",
+            s(&robot),
+            "--poses",
+            "200",
+            "--noise-mm",
+            "0.01",
+            "--seed",
+            "4",
+            "--temperature",
+            "28:32",
+            "--out",
+            s(&data),
+        ];
+        if errors {
+            args.push("--geom-errors");
+        }
+        kinecal_ok(&args);
+        data
+    };
+    // The file's own robot: identify starts at the noise (and cannot improve on it: exit 3).
+    let own = session("own.csv", false);
+    let out = run_on("identify", &robot, &own, &["--holdout", "0.3", "--json"]);
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let before = j["before"]["identification_rms_mm"].as_f64().unwrap();
+    assert!(before < 0.03, "before {before} mm: not the file's robot");
+    // A robot with geometric errors: the model written keeps the file's 20 °C.
+    let data = session("m.csv", true);
+    let cal = d.join("cal.toml");
+    let out = run_on(
+        "identify",
+        &robot,
+        &data,
+        &["--holdout", "0.3", "--out", s(&cal)],
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let reference = |path: &std::path::Path| -> f64 {
+        let written = std::fs::read_to_string(path).unwrap();
+        written
+            .lines()
+            .find_map(|l| l.trim().strip_prefix("reference_c = "))
+            .unwrap_or_else(|| panic!("{written}"))
+            .parse()
+            .unwrap()
+    };
+    assert_eq!(reference(&cal), 20.0);
+    // A zero coefficient (as --effect adds the term) is referred to the data's mean.
+    let zero = write(d, "z.toml", &with("0.0"));
+    let z = d.join("z_cal.toml");
+    let out = run_on(
+        "identify",
+        &zero,
+        &data,
+        &["--holdout", "0.3", "--out", s(&z)],
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert!((28.0..32.0).contains(&reference(&z)), "{}", reference(&z));
+}

@@ -4,11 +4,13 @@
 //! Everything is expressed in the **robot base frame**. A configuration is feasible when
 //! (Jost et al. 2017, §2.2 and §3.2):
 //! - every joint reading is within its limits;
-//! - the **angle of incidence** between the tool z axis (the reflector's central axis) and the
+//! - the **angle of incidence** between the tool z axis (the measured frame's, `[tool] rpy_deg`
+//!   turning the flange's: the reflector's central axis) and the
 //!   beam from the reflector *to the tracker* is at most the tracker's limit. The reflector faces
 //!   the tracker, so the sign matters: a tool pointing away from the tracker is infeasible (the
 //!   paper's condition compares ⁰z with ⁰g, the beam from the reflector to the tracker);
-//! - every robot capsule is above the floor plane (lowest surface point above `floor_z`);
+//! - the measured point and every robot capsule are above the floor plane (the capsules'
+//!   lowest surface points above `floor_z`);
 //! - robot capsules do not touch each other, except those on the same or neighbouring bodies
 //!   (frames adjacent in the sorted list of frames that carry capsules): joint limits keep
 //!   those apart, and their capsules overlap at the joints by construction;
@@ -78,6 +80,9 @@ pub enum Violation {
         /// Index of the link capsule.
         link: u8,
     },
+    /// The measured point (the reflector on the tool) is below the floor: checked with or
+    /// without link capsules, since a cell may give a floor and no capsules.
+    PointBelowFloor,
     /// Link capsules `first` and `second` (of non-neighbouring bodies) touch.
     SelfCollision {
         /// Index of one link capsule.
@@ -273,7 +278,9 @@ impl<T: Real, const C: usize, const O: usize> Scene<T, C, O> {
         let to_base = fk.base.inverse();
         let rel = |f: &Frame<T>| to_base.compose(f);
         let point = to_base.point(&fk.point);
-        let tool = rel(&fk.frames[N - 1]);
+        // The measured frame's z axis (the reflector's), not the flange's: a tool turned by
+        // `[tool] rpy_deg` faces the tracker along its own axis.
+        let tool = rel(&fk.tool_pose(robot));
         let (c, _) = self.cos_incidence(&point, &tool.z);
         out.incidence = c.acos();
         if !(c >= self.cos_max) {
@@ -336,6 +343,7 @@ impl<T: Real, const C: usize, const O: usize> Scene<T, C, O> {
         }
         let placed = &placed[..self.links.len()];
         if let Some(z) = self.floor_z {
+            hit(point.z - z, Violation::PointBelowFloor)?;
             for (k, p) in placed.iter().enumerate() {
                 let d = p.clearance_above(z);
                 hit(d, Violation::Floor { link: k as u8 })?;

@@ -72,7 +72,8 @@ pub fn aim_wrist<T: Real, const N: usize, V: ValueStorage>(
     }
     for _ in 0..20 {
         fk.compute(robot, q);
-        let z = fk.frames[N - 1].z;
+        // The measured frame's z axis (rigid to the flange: the wrist turns it alike).
+        let z = fk.tool_pose(robot).z;
         let to = target - fk.point;
         let len = to.norm();
         if !(len > T::zero()) {

@@ -127,7 +127,7 @@ impl fmt::Display for PlanReport {
             o.o1, o.o2, o.o3, o.o4, o.o5
         )?;
         let clearance = match self.min_clearance_mm {
-            None => "∞ (no scene: joint limits only)".to_string(),
+            None => "∞ (nothing to collide with: no floor, link capsules or obstacles)".to_string(),
             Some(c) if self.collision_avoidance => format!("{c:.1} mm"),
             Some(c) => format!(
                 "{c:.1} mm ({} colliding poses: collisions not avoided)",

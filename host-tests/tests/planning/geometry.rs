@@ -279,6 +279,60 @@ fn incidence_is_measured_against_the_beam_towards_the_tracker() {
     }
 }
 
+/// The incidence is the measured frame's z axis against the beam: a tool turned 20° about y
+/// by `[tool] rpy_deg` (`Robot::set_tool_axes`) faces a tracker 20° off the flange axis head on
+/// (the flange's axis was used: 20° reported, and a tracker on the flange axis accepted at 0°
+/// although the reflector looked 20° away).
+#[test]
+fn incidence_is_measured_along_the_tool_axes() {
+    let mut robot = arm();
+    let turn = 20f64.to_radians();
+    let (s, c) = turn.sin_cos();
+    // The measured frame's axes in the flange frame: a rotation of 20° about y.
+    robot
+        .set_tool_axes(Frame {
+            x: v(c, 0.0, -s),
+            y: v(0.0, 1.0, 0.0),
+            z: v(s, 0.0, c),
+            o: Vector3::zeros(),
+        })
+        .unwrap();
+    let mut fk = ForwardKinematics::new();
+    fk.compute(&robot, &[0.0, 0.0, 0.0]);
+    let r = 3000.0;
+    let along_tool = tracker(1000.0 + r * s, 0.0, 50.0 + r * c);
+    let scene: Scene<f64, 4, 4> = Scene::new(along_tool, None).unwrap();
+    let a = scene.check(&robot, &fk, true);
+    assert!(
+        a.feasible() && a.incidence.to_degrees().abs() < 1e-6,
+        "{a:?}"
+    );
+    let along_flange: Scene<f64, 4, 4> = Scene::new(tracker(1000.0, 0.0, 3000.0), None).unwrap();
+    let b = along_flange.check(&robot, &fk, true);
+    assert!((b.incidence.to_degrees() - 20.0).abs() < 1e-3, "{b:?}");
+}
+
+/// A floor and no link capsules (a cell file with a tracker and `[floor]` only): the measured
+/// point below the floor passed (6 of 40 planned poses under it); it is a violation now, and
+/// its height above the floor the clearance.
+#[test]
+fn the_measured_point_is_kept_above_the_floor_without_capsules() {
+    let robot = arm();
+    let mut fk = ForwardKinematics::new();
+    fk.compute(&robot, &[0.0, 0.0, 0.0]);
+    // The point is at z = 50.
+    let above: Scene<f64, 4, 4> = Scene::new(tracker(1000.0, 0.0, 3000.0), Some(20.0)).unwrap();
+    let a = above.check(&robot, &fk, true);
+    assert!(a.feasible() && (a.clearance - 30.0).abs() < 1e-9, "{a:?}");
+    assert!((above.clearance(&fk) - 30.0).abs() < 1e-9);
+    let over: Scene<f64, 4, 4> = Scene::new(tracker(1000.0, 0.0, 3000.0), Some(60.0)).unwrap();
+    assert_eq!(
+        over.check(&robot, &fk, true).violation,
+        Some(Violation::PointBelowFloor)
+    );
+    assert!((over.clearance(&fk) + 10.0).abs() < 1e-9);
+}
+
 #[test]
 fn neighbouring_bodies_are_not_compared_and_the_beam_ignores_the_reflector_body() {
     let robot = arm();

@@ -105,7 +105,25 @@ pub struct PoseEffect {
     pub residual: f64,
 }
 
-/// Every pose of `data` as `c` (with its values in `robot`) sees it.
+/// The pose (0-based, among `data`'s poses) of every observation of `data`, which lists
+/// observations pose after pose: a pose's further reflectors follow its first with a higher
+/// tool index and the same readings. With one reflector, one pose per observation.
+pub fn pose_numbers<const N: usize>(data: &[Measurement<f64, N>]) -> Vec<usize> {
+    let mut out = Vec::with_capacity(data.len());
+    let mut pose = 0;
+    for (k, m) in data.iter().enumerate() {
+        if k > 0 {
+            let prev = &data[k - 1];
+            if m.tool <= prev.tool || m.q != prev.q {
+                pose += 1;
+            }
+        }
+        out.push(pose);
+    }
+    out
+}
+
+/// Every observation of `data` as `c` (with its values in `robot`) sees it.
 pub fn per_pose<const N: usize>(
     c: &Candidate,
     robot: &HostRobot<N>,
@@ -524,15 +542,17 @@ pub fn explain<const N: usize>(
         .map(|(p, _)| p),
         _ => None,
     };
-    let mut order: Vec<usize> = (0..poses.len())
-        .filter(|&i| poses[i].tool_mm > 0.0)
-        .collect();
-    order.sort_by(|&a, &b| {
-        poses[b]
-            .tool_mm
-            .total_cmp(&poses[a].tool_mm)
-            .then(a.cmp(&b))
-    });
+    // Observations of one pose (several reflectors) count once, as their pose, at the largest
+    // displacement of its points.
+    let pose = pose_numbers(data);
+    let mut largest = vec![0.0f64; pose.last().map_or(0, |p| p + 1)];
+    for (k, e) in poses.iter().enumerate() {
+        if let Some(l) = pose.get(k).and_then(|&p| largest.get_mut(p)) {
+            *l = l.max(e.tool_mm);
+        }
+    }
+    let mut order: Vec<usize> = (0..largest.len()).filter(|&i| largest[i] > 0.0).collect();
+    order.sort_by(|&a, &b| largest[b].total_cmp(&largest[a]).then(a.cmp(&b)));
     let most_affected_poses: Vec<usize> = order
         .into_iter()
         .take(MOST_AFFECTED_POSES)

@@ -215,6 +215,10 @@ pub struct Diagnosis<const N: usize> {
     /// Approximate 95 % interval of the noise floor (mm) and the degrees of freedom behind it.
     pub noise_floor_interval_mm: [f64; 2],
     pub noise_dof: f64,
+    /// The searched observations include orientations (6-D rows): every RMS figure of the
+    /// search and its noise floor are per observation, the point's residual in mm with the
+    /// orientation's weighted in ([`crate::diagnose::search_weights`]), not position RMS.
+    pub orientations_weighted_in: bool,
     /// Family-wise false-alarm rate of each round.
     pub alpha: f64,
     /// Residual RMS of the final model on all poses (mm) and its effective parameter count.
@@ -771,6 +775,7 @@ pub fn diagnose_with_progress<const N: usize>(
         noise_source,
         noise_floor_interval_mm: interval,
         noise_dof: dof,
+        orientations_weighted_in: data.iter().any(|m| m.orientation.is_some()),
         alpha: cfg.alpha,
         fit_rms_mm: (final_fit.ssr / n as f64).sqrt(),
         effective_parameters,

@@ -292,11 +292,19 @@ pub fn run<const N: usize>(
     let holdout = if held.is_empty() {
         None
     } else {
-        tell.stage(&format!("errors on the {} held-out poses", held.len()));
+        tell.stage(&format!(
+            "errors on the {} held-out poses",
+            held_poses.poses.len()
+        ));
         // The starting model: the nominal robot placed as identify places it.
         let mut start = nominal.clone();
         place_nominal(&mut start, &file, &search, false)?;
-        Some(holdout_errors(&mut d, &start, &held))
+        Some(holdout_errors(
+            &mut d,
+            &start,
+            &held,
+            held_poses.poses.len(),
+        ))
     };
     let acceptance = holdout.as_ref().and_then(|h| {
         let rms = |sq: Vec<f64>| (sq.iter().sum::<f64>() / sq.len().max(1) as f64).sqrt();
@@ -510,6 +518,7 @@ fn holdout_errors<const N: usize>(
     d: &mut Diagnosis<N>,
     start: &HostRobot<N>,
     held: &[Measurement<f64, N>],
+    poses: usize,
 ) -> Holdout {
     let rms = |sq: Vec<f64>| (sq.iter().sum::<f64>() / sq.len() as f64).sqrt();
     let start_rms_mm = rms(squared_errors(start, held));
@@ -517,7 +526,7 @@ fn holdout_errors<const N: usize>(
     let final_rms_mm = rms(squared_errors(&d.model, held));
     let noise_floor_capped = d.cap_noise_floor(final_rms_mm);
     Holdout {
-        poses: held.len(),
+        poses,
         start_rms_mm,
         geometric_rms_mm,
         final_rms_mm,

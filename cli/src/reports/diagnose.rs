@@ -28,6 +28,10 @@ pub struct DiagnoseReport {
     pub noise_floor_interval_mm: [f64; 2],
     pub noise_floor_dof: f64,
     pub noise_sigma_mm: f64,
+    /// The search read orientations (6-D rows): its RMS figures and noise floor are per
+    /// observation with the orientation weighted in, not position RMS (those are under
+    /// `observations`).
+    pub figures_include_orientations: bool,
     /// The headline.
     pub summary: String,
     /// One sentence per effect found.
@@ -344,6 +348,7 @@ impl DiagnoseReport {
             noise_floor_interval_mm: d.noise_floor_interval_mm,
             noise_floor_dof: d.noise_dof,
             noise_sigma_mm: d.noise_sigma_mm,
+            figures_include_orientations: d.orientations_weighted_in,
             summary: summary(d),
             sentences: d
                 .found
@@ -438,6 +443,10 @@ fn coarse_tables<const N: usize>(d: &Diagnosis<N>) -> String {
     )
 }
 
+/// What the search's figures are with 6-D rows (see [`Diagnosis::orientations_weighted_in`]).
+pub const WEIGHTED_IN: &str = "per observation, the orientation's residual weighted in as the \
+    point's mm: not position RMS, which `observations` gives";
+
 /// The headline: what is missing, or that nothing is.
 pub fn summary<const N: usize>(d: &Diagnosis<N>) -> String {
     let [base, fin, floor] = distinct_figures([
@@ -446,6 +455,11 @@ pub fn summary<const N: usize>(d: &Diagnosis<N>) -> String {
         d.noise_floor_mm,
     ]);
     let floor = floor_phrase(d.noise_floor_mm, &floor);
+    let floor = if d.orientations_weighted_in {
+        format!("{floor} ({WEIGHTED_IN})")
+    } else {
+        floor
+    };
     if d.found.is_empty() {
         // Why nothing was added: the test found nothing, or the search did not get to test.
         let why = if d.rounds.is_empty() {
@@ -523,7 +537,12 @@ impl fmt::Display for DiagnoseReport {
                     "from the held-out errors less what the fold fits add to them (it also holds whatever the model still misses)"
                 }
             };
-            writeln!(f, "noise floor {floor} mm{interval}, {source}")?;
+            let weighted = if self.figures_include_orientations {
+                format!(" ({WEIGHTED_IN})")
+            } else {
+                String::new()
+            };
+            writeln!(f, "noise floor {floor} mm{interval}{weighted}, {source}")?;
         }
         for r in self.rounds.iter().filter_map(|r| r.refused.as_ref()) {
             writeln!(f, "refused as implausible: {} ({})", r.candidate, r.reason)?;

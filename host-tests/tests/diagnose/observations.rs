@@ -162,6 +162,14 @@ fn six_d_diagnose_fits_the_named_effect_to_orientations() {
     let o = &j["observations"];
     assert_eq!(o["six_d"], true);
     assert_eq!(o["sigma"], true);
+    // The search's figures weigh the orientations in (a 6-D file's noise floor read 4× the
+    // tracker's position noise as "mm"): said in the JSON and in the text.
+    assert_eq!(j["figures_include_orientations"], true);
+    assert!(
+        j["summary"].as_str().unwrap().contains("not position RMS"),
+        "{}",
+        j["summary"]
+    );
     let v = |side: &str, k: &str| o[side][k].as_f64().unwrap();
     // Noise floors: a held-out point's error RMS is √3 σ; an orientation error's, √3 σ_rot.
     let (floor_mm, floor_deg) = (3f64.sqrt() * sp, 3f64.sqrt() * sr);
@@ -257,6 +265,28 @@ fn diagnose_fits_every_reflector() {
     );
     let o = &j["observations"];
     assert_eq!(o["points"], 3);
+    assert_eq!(j["figures_include_orientations"], false);
+    // Poses, not observations: 100 held out (the count read 3 per pose), and the most affected
+    // poses are among the 300 searched (they were observation numbers up to ~900, three of one
+    // pose side by side).
+    assert_eq!(j["holdout"]["poses"], 100);
+    for f in j["found"].as_array().unwrap() {
+        let listed: Vec<u64> = f["explanation"]["most_affected_poses"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p.as_u64().unwrap())
+            .collect();
+        let mut distinct = listed.clone();
+        distinct.sort_unstable();
+        distinct.dedup();
+        assert!(
+            !listed.is_empty()
+                && distinct.len() == listed.len()
+                && listed.iter().all(|&p| (1..=300).contains(&p)),
+            "{listed:?}"
+        );
+    }
     let floor = 3f64.sqrt() * sp;
     let total = o["after"]["validation_rms_mm"].as_f64().unwrap();
     eprintln!("total held-out {total:.4} mm (floor {floor:.4})");

@@ -213,6 +213,26 @@ pub fn dh_table(model: &RobotFile, nominal: Option<&RobotFile>, as_json: bool) -
     (text, rows.len())
 }
 
+/// The C ABI's robots (`kc_robot_load`): 6 or 7 joints.
+pub const C_ABI_JOINTS: [usize; 2] = [6, 7];
+
+/// The warnings of a firmware export: a model the C ABI cannot load (another joint count: its
+/// `kc_robot_load` answers KC_MODEL_INVALID; a Rust firmware decodes it as `Model<N>`), and
+/// [`warm_reference`].
+pub fn firmware_warnings(model: &RobotFile, origin: &str) -> Vec<String> {
+    let n = model.joint_count();
+    let joints = (!C_ABI_JOINTS.contains(&n)).then(|| {
+        format!(
+            "{origin} has {n} joints: the C ABI's kc_robot_load holds 6 or 7 and refuses this \
+             blob (a Rust firmware decodes it with kinecal::io::model_blob::decode for a {n}-joint robot)"
+        )
+    });
+    joints
+        .into_iter()
+        .chain(warm_reference(model, origin))
+        .collect()
+}
+
 /// The warning for a model whose thermal expansion is referred to a temperature no room has
 /// (above [`crate::formats::loading::WARM_C`]): the firmware feeds the expansion the °C of its
 /// sensor, so such a model was fitted to a `temp_c` column in °F and expands wrongly there.

@@ -99,7 +99,7 @@ pub fn run(args: &Args, json: bool) -> anyhow::Result<ExportReport> {
             if let Some(r) = &args.robot {
                 nominal_of(r)?;
             }
-            if let Some(w) = export::warm_reference(&model, &model_origin) {
+            for w in export::firmware_warnings(&model, &model_origin) {
                 eprintln!("warning: {w}");
             }
             let bytes = export::firmware(&model, &model_origin)?;

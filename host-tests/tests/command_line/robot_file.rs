@@ -622,3 +622,37 @@ fn an_estimated_axis_tilt_is_reported_and_written_to_be_freed_again() {
         again["changes"]
     );
 }
+
+/// `export --format firmware` of a 5-joint model wrote a blob (exit 0) that the C ABI's
+/// `kc_robot_load` (6 or 7 joints) refuses as "truncated, corrupted…". It is still written (a
+/// Rust firmware decodes it) with a warning that names the joint count; 6 joints draw none.
+#[test]
+fn a_firmware_export_the_c_abi_cannot_load_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(crate::common::data_file("er20.toml")).unwrap();
+    // The ER20 without its sixth row.
+    let sixth = text.match_indices("[[joints]]").nth(5).unwrap().0;
+    let tool = text.find("[tool]").unwrap();
+    let five = format!("{}{}", &text[..sixth], &text[tool..]);
+    for (name, robot, warned) in [("five.toml", five, true), ("six.toml", text, false)] {
+        let path = crate::common::write(dir.path(), name, &robot);
+        let blob = dir.path().join("m.kcm");
+        let out = crate::common::kinecal(&[
+            "export",
+            "--model",
+            crate::common::s(&path),
+            "--format",
+            "firmware",
+            "--out",
+            crate::common::s(&blob),
+        ]);
+        let err = crate::common::stderr(&out);
+        assert_eq!(out.status.code(), Some(0), "{name}: {err}");
+        assert!(blob.exists());
+        assert_eq!(
+            err.contains("kc_robot_load holds 6 or 7"),
+            warned,
+            "{name}: {err}"
+        );
+    }
+}

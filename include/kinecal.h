@@ -50,7 +50,9 @@ kc_status kc_robot_copy(struct kc_robot *dst, const struct kc_robot *src);
 // `KC_MODEL_INVALID` (truncated, corrupted: CRC-32, another layout version, a joint count
 // other than 6 or 7, a record this library does not know, more than
 // `KC_MAX_EFFECT_VALUES` values, 32 effects or 4 couplings), `KC_NOT_FINITE` (a NaN or
-// infinite number), `KC_INVALID_ROBOT` (a model `kc_robot_init` would refuse).
+// infinite number), `KC_INVALID_ROBOT` (a model `kc_robot_init` would refuse, or effects a
+// robot file refuses: of the wrong shape, the same effect twice, an order, start or step on
+// a kind that has none).
 //
 // # Safety
 // `r` is NULL or a writable `kc_robot` not otherwise in use; `blob` is NULL or `len` bytes.
@@ -152,9 +154,12 @@ kc_status kc_fk_point(struct kc_fk *w,
                       const float *q,
                       float *xyz_out);
 
-// As `kc_fk_point` (`KC_NOT_FINITE` likewise), also the tool orientation (the flange axes in the measurement frame)
-// as a row-major rotation matrix into `rot_out[9]`: with `xyz_out` the tool pose, usable as
-// a pose `kc_target`.
+// As `kc_fk_point` (`KC_NOT_FINITE` likewise), also the tool orientation in the measurement
+// frame as a row-major rotation matrix into `rot_out[9]`: the measured frame's axes, i.e. the
+// flange axes times the model's tool axes (the robot file's `[tool] rpy_deg`, kept in the
+// binary model; a robot without one, e.g. from `kc_robot_init`, gives the flange axes). With
+// `xyz_out` the tool pose: the frame a pose `kc_target` means to `kc_compensate`, so that
+// handed back as a target from the same readings it is met at those readings.
 //
 // # Safety
 // As `kc_fk_point`; `rot_out` is NULL or 9 floats.
@@ -218,8 +223,10 @@ kc_status kc_lm_config_default(struct kc_lm_config *out);
 //
 // Errors: `KC_NULL_POINTER`, `KC_NOT_INITIALIZED` (`start`), `KC_TOO_MANY_PARAMS`,
 // `KC_INVALID_ARGUMENT` (no parameter, an unknown code or joint, invalid settings),
-// `KC_NOT_FINITE` (a setting). Checked before `lm` is written: on these errors `lm` is
-// unchanged.
+// `KC_NOT_FINITE` (a setting), `KC_EFFECTS_UNSUPPORTED` (`start` carries effects, e.g. a
+// diagnosed model from `kc_robot_load` with joint tables: the solver identifies geometry only
+// and cannot carry them; start it from the model without them). Checked before `lm` is
+// written: on these errors `lm` is unchanged.
 //
 // # Safety
 // Handles NULL or valid (`lm` not otherwise in use); `params` NULL or `n` values; `cfg` NULL or

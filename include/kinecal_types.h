@@ -89,7 +89,8 @@ enum kc_status
   // An argument is out of its range (an index, a code, a length, a setting).
   KC_INVALID_ARGUMENT = 3,
   // The robot description was refused: a length or angle out of range, joint limits not
-  // `lower < upper`, a base that is not a rotation, or a refused joint coupling.
+  // `lower < upper`, a base that is not a rotation, a refused joint coupling, or (a binary
+  // model) an effect a robot file refuses.
   KC_INVALID_ROBOT = 4,
   // A float input is NaN or infinite (inputs are checked by their sum: magnitudes above
   // ~1e37, which no robot quantity has, count as infinite too).
@@ -115,9 +116,16 @@ enum kc_status
   KC_NOT_FOUND = 14,
   // A handle is not aligned to 8 bytes.
   KC_MISALIGNED = 15,
-  // A binary model was refused: truncated, corrupted (CRC), of another layout version or
-  // joint count, or larger than the robot handle holds.
+  // A binary model was refused: truncated, corrupted (CRC), of another layout version, of
+  // a joint count this ABI does not hold (6 or 7; the format holds 1 to 7), or larger than
+  // the robot handle holds.
   KC_MODEL_INVALID = 16,
+  // The solver (`kc_lm_init`, `kc_lm_full_init`) cannot carry a model's effects (joint
+  // corrections: joint tables, cyclic, compliance, scale, thermal terms): it identifies
+  // geometry only and has no room for effect values. Start it from the model without them
+  // (the robot file exported without its `[[effects]]`, or `kc_robot_init` with the
+  // model's rows, base and tool and `kc_robot_set_coupling`).
+  KC_EFFECTS_UNSUPPORTED = 17,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -439,9 +447,10 @@ typedef struct kc_target {
   uint8_t kind;
   // The point, mm.
   float xyz_mm[3];
-  // Pose targets only: the tool orientation (the flange axes, as `kc_fk_pose` gives them)
-  // as a row-major rotation matrix (not checked to be one: the command stays within the
-  // step box of the seed whatever the target). Ignored for point targets.
+  // Pose targets only: the tool orientation (the flange axes times the model's tool axes,
+  // as `kc_fk_pose` gives them) as a row-major rotation matrix (not checked to be one: the
+  // command stays within the step box of the seed whatever the target). Ignored for point
+  // targets.
   float rot[9];
 } kc_target;
 

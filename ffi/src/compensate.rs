@@ -32,8 +32,9 @@ pub struct kc_target {
     /// The point, mm.
     pub xyz_mm: [f32; 3],
     /// Pose targets only: the tool orientation (the flange axes times the model's tool axes,
-    /// as `kc_fk_pose` gives them) as a row-major rotation matrix (not checked to be one: the command stays within the
-    /// step box of the seed whatever the target). Ignored for point targets.
+    /// as `kc_fk_pose` gives them) as a row-major rotation matrix (not checked to be one: the
+    /// command stays within the step box of the seed whatever the target). Ignored for point
+    /// targets.
     pub rot: [f32; 9],
 }
 

@@ -164,9 +164,8 @@ unsafe fn fk_pose<const N: usize>(
 /// frame as a row-major rotation matrix into `rot_out[9]`: the measured frame's axes, i.e. the
 /// flange axes times the model's tool axes (the robot file's `[tool] rpy_deg`, kept in the
 /// binary model; a robot without one, e.g. from `kc_robot_init`, gives the flange axes). With
-/// `xyz_out` the tool pose, the
-/// frame a pose `kc_target` gives to `kc_compensate`: handed back as a target from the same
-/// readings it is met at those readings.
+/// `xyz_out` the tool pose: the frame a pose `kc_target` means to `kc_compensate`, so that
+/// handed back as a target from the same readings it is met at those readings.
 ///
 /// # Safety
 /// As [`kc_fk_point`]; `rot_out` is NULL or 9 floats.

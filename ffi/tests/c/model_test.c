@@ -1,5 +1,6 @@
 /* A C client of a binary model (.kcm) through include/kinecal.h: loads it, checks the joint
- * count and the refusals (truncated, corrupted: the handle keeps the model it had), then
+ * count and the refusals (truncated, corrupted: the handle keeps the model it had), checks
+ * that kc_fk_pose's tool pose is a pose target kc_compensate meets at the same readings, then
  * computes forward kinematics and compensated commands for the caller, which compares them
  * with the library's f64 (host-tests/tests/library/model_blob.rs). Strict C99. */
 #include "kinecal.h"
@@ -18,7 +19,7 @@ int kc_model_test(const uint8_t *blob, size_t len, uint32_t joints, const float 
                   const float *seeds, const float *targets, size_t n, float *points,
                   float *commands) {
     uint32_t got = 0;
-    size_t i;
+    size_t i, met;
     float before[3], after[3];
     if (kc_robot_load(&robot, blob, len) != KC_OK) return -1;
     if (kc_robot_joints(&robot, &got) != KC_OK || got != joints) return -2;
@@ -39,6 +40,29 @@ int kc_model_test(const uint8_t *blob, size_t len, uint32_t joints, const float 
     for (i = 0; i < n; i++) {
         if (kc_fk_point(&fk, &robot, q + joints * i, points + 3 * i) != KC_OK) return -12;
     }
+    /* kc_fk_pose gives the tool frame (the flange axes times the model's tool orientation),
+       the frame kc_compensate reads a pose target as: handed back from the same readings, it
+       is met there and the command is those readings. A pose whose 6-D Jacobian is too poorly
+       conditioned (KC_SOLUTION_SINGULAR: a point target there is no such case) is skipped;
+       at least half must be met. */
+    for (i = 0, met = 0; i < n; i++) {
+        kc_target t;
+        kc_solution s;
+        kc_status st;
+        uint32_t j;
+        memset(&t, 0, sizeof t);
+        t.kind = KC_TARGET_POSE;
+        if (kc_fk_pose(&fk, &robot, q + joints * i, t.xyz_mm, t.rot) != KC_OK) return -14;
+        st = kc_compensate(&robot, &t, q + joints * i, NULL, &s);
+        if (st == KC_COMPENSATE_FAILED && s.status == KC_SOLUTION_SINGULAR) continue;
+        if (st != KC_OK) return -15;
+        for (j = 0; j < joints; j++) {
+            float d = s.q[j] - q[joints * i + j];
+            if (d > 1e-4f || d < -1e-4f) return -16;
+        }
+        met++;
+    }
+    if (2 * met < n) return -17;
     for (i = 0; i < n; i++) {
         kc_target t;
         kc_solution s;

@@ -362,7 +362,7 @@ fn handles_are_checked_for_null_alignment_and_initialisation() {
         );
     }
     // Every status has a message.
-    for s in 0..=15 {
+    for s in 0..=17 {
         // SAFETY: the messages are static NUL-terminated strings.
         let m = unsafe { std::ffi::CStr::from_ptr(kc_status_message(s)) };
         assert!(!m.to_bytes().is_empty() && m.to_bytes() != b"unknown status");

@@ -6,8 +6,8 @@
 
 use kinecal::io::model_blob::{self, tag, BlobError, MAX_JOINTS};
 use kinecal::io::snapshot::crc32;
-use kinecal::model::effects::EffectKind;
-use kinecal::{ForwardKinematics, Frame, Robot};
+use kinecal::model::effects::{EffectError, EffectKind};
+use kinecal::{ForwardKinematics, Frame, Robot, RobotError};
 use kinecal_cli::formats::robot_file::RobotFile;
 use kinecal_cli::HostRobot;
 use nalgebra::Vector3;
@@ -314,6 +314,146 @@ fn records_unknown_informational_and_malformed() {
     refused(&resealed(b), &target, BlobError::Malformed);
 }
 
+/// An effect payload: joint (0-based), order, start, step, values.
+fn effect(joint: u8, order: u16, start: f64, step: f64, values: &[f64]) -> Vec<u8> {
+    let mut p = vec![joint, 0];
+    p.extend_from_slice(&order.to_le_bytes());
+    p.extend_from_slice(&(values.len() as u32).to_le_bytes());
+    p.extend_from_slice(&start.to_le_bytes());
+    p.extend_from_slice(&step.to_le_bytes());
+    for v in values {
+        p.extend_from_slice(&v.to_le_bytes());
+    }
+    p
+}
+
+/// The decoder refuses what a robot file refuses ("the same effect is given twice", "`order`
+/// applies to joint-cyclic only", "step_deg/start_deg apply to joint-table only"), as an effect
+/// of the wrong shape, the target unchanged: the same effect again (it would be applied twice:
+/// kind and joint, and order for joint-cyclic), an order above 1 on another kind, a start or
+/// step on a kind that has none. What a robot file or a library model writes still decodes: a
+/// second harmonic order on one joint, order 0 or 1 on the others, a thermal term's T0. The
+/// checks are on the blob's f64, so a start too small for f32 is refused in f32 too.
+#[test]
+fn effects_a_robot_file_refuses_are_refused() {
+    let r = model::<6>(crate::common::ER20_TILTED_PLACED);
+    let blob = blob_of(&r);
+    let target = RobotFile::parse(crate::common::ER20_PLACED, "test")
+        .unwrap()
+        .to_robot::<6>()
+        .unwrap();
+    let shape = BlobError::Refused(RobotError::BadEffect(EffectError::Shape));
+    // The model: scale on joint 1, cyclic of order 2 and 1 on joint 2, compliance on joint 3,
+    // a table on joint 4, thermal expansion (0-based joints below).
+    let table = effect(3, 1, -1.0, 0.2, &[1e-4; 10]);
+    for (tag, payload, why) in [
+        (
+            tag::JOINT_SCALE,
+            effect(0, 1, 0.0, 0.0, &[1e-4]),
+            "scale twice",
+        ),
+        (
+            tag::JOINT_SCALE,
+            effect(0, 0, 0.0, 0.0, &[1e-4]),
+            "scale twice, order 0",
+        ),
+        (
+            tag::JOINT_CYCLIC,
+            effect(1, 2, 0.0, 0.0, &[1e-4, 0.0]),
+            "cyclic order 2 twice",
+        ),
+        (
+            tag::JOINT_CYCLIC,
+            effect(1, 1, 0.0, 0.0, &[1e-4, 0.0]),
+            "cyclic order 1 twice",
+        ),
+        (
+            tag::JOINT_COMPLIANCE,
+            effect(2, 1, 0.0, 0.0, &[1e-4]),
+            "compliance twice",
+        ),
+        (tag::JOINT_TABLE, table.clone(), "table twice"),
+        (
+            tag::THERMAL_EXPANSION,
+            effect(0, 1, 20.0, 0.0, &[1e-5]),
+            "thermal twice",
+        ),
+        (
+            tag::JOINT_SCALE,
+            effect(4, 5, 0.0, 0.0, &[1e-4]),
+            "order on a scale",
+        ),
+        (
+            tag::JOINT_COMPLIANCE,
+            effect(4, 2, 0.0, 0.0, &[1e-4]),
+            "order on a compliance",
+        ),
+        (
+            tag::JOINT_TABLE,
+            effect(4, 2, -1.0, 0.2, &[1e-4; 3]),
+            "order on a table",
+        ),
+        (
+            tag::JOINT_CYCLIC,
+            effect(4, 1, 0.5, 0.0, &[1e-4, 0.0]),
+            "start on a cyclic",
+        ),
+        (
+            tag::JOINT_CYCLIC,
+            effect(4, 1, 0.0, 0.1, &[1e-4, 0.0]),
+            "step on a cyclic",
+        ),
+        (
+            tag::JOINT_SCALE,
+            effect(4, 1, 0.1, 0.0, &[1e-4]),
+            "start on a scale",
+        ),
+        (
+            tag::JOINT_COMPLIANCE,
+            effect(4, 1, 0.0, 0.1, &[1e-4]),
+            "step on a compliance",
+        ),
+    ] {
+        let b = with_record(&blob, tag, &payload);
+        let mut t = target.clone();
+        assert_eq!(model_blob::decode(&b, &mut t), Err(shape), "{why}");
+        assert_eq!(t, target, "{why}");
+    }
+    // A step on a thermal term or a drift (no second one of either: a model without them).
+    let plain = blob_of(&target);
+    for (tag, payload) in [
+        (tag::THERMAL_EXPANSION, effect(0, 1, 20.0, 0.5, &[1e-5])),
+        (tag::BASE_DRIFT, effect(0, 1, 1.7e9, 0.5, &[1e-5, 0.0, 0.0])),
+    ] {
+        refused(&with_record(&plain, tag, &payload), &target, shape);
+    }
+    // Accepted: another harmonic order on a joint that has one, order 0 or 1 on the others
+    // (1 from a robot file, 0 from a model built in the library), a thermal term's and a
+    // drift's reference.
+    for (tag, payload) in [
+        (tag::JOINT_CYCLIC, effect(1, 3, 0.0, 0.0, &[1e-4, 0.0])),
+        (tag::JOINT_SCALE, effect(4, 0, 0.0, 0.0, &[1e-4])),
+        (tag::JOINT_TABLE, effect(4, 0, -1.0, 0.2, &[1e-4; 3])),
+        (tag::BASE_DRIFT, effect(0, 1, 1.7e9, 0.0, &[1e-5, 0.0, 0.0])),
+    ] {
+        let mut t = target.clone();
+        model_blob::decode(&with_record(&blob, tag, &payload), &mut t).unwrap();
+        assert_eq!(t.effects().len(), r.effects().len() + 1);
+    }
+    // A start that rounds to 0 in f32 is refused there as in f64.
+    let tiny = with_record(
+        &blob,
+        tag::JOINT_CYCLIC,
+        &effect(4, 1, 1e-300, 0.0, &[1e-4, 0.0]),
+    );
+    let small: Robot<f32, 6, kinecal::Inline<256>> =
+        target.cast::<f32>().unwrap().with_capacity().unwrap();
+    refused(&tiny, &target, shape);
+    let mut t = small.clone();
+    assert_eq!(model_blob::decode(&tiny, &mut t), Err(shape));
+    assert_eq!(t, small);
+}
+
 #[test]
 fn encoding_into_a_short_buffer_is_refused() {
     let r = model::<6>(crate::common::ER20_TILTED_PLACED);
@@ -362,7 +502,8 @@ ratio = 1.0
 
 /// Runs the C client (`ffi/tests/c/model_test.c`) on the binary model of `model` at `n` poses
 /// drawn from `ranges` (rad; bent arm, no singularity), and checks its forward kinematics and
-/// compensated commands against the library in f64.
+/// compensated commands against the library in f64 (the client itself checks that each pose's
+/// `kc_fk_pose`, handed back to `kc_compensate` as a pose target, is met at its readings).
 fn c_client_matches_f64<const N: usize, V: kinecal::ValueStorage>(
     model: &Robot<f64, N, V>,
     ranges: [(f64, f64); N],
@@ -441,8 +582,13 @@ fn c_client_of_a_diagnosed_model_matches_the_library_in_f64() {
         "t",
     )
     .unwrap();
-    let model = file.to_robot::<6>().unwrap();
+    let mut model = file.to_robot::<6>().unwrap();
     assert_eq!(model.effects().len(), 5);
+    // A tool orientation, as a 6-D calibration writes one (`[tool] rpy_deg`): the C client's
+    // kc_fk_pose must give the tool frame that kc_compensate meets, not the flange's.
+    model
+        .set_tool_axes(Frame::from_xyz_rpy([0.0; 3], [0.2, -0.35, 0.5]))
+        .unwrap();
     let ranges = [
         (-1.5, 1.5),
         (-1.2, -0.2),
@@ -477,11 +623,14 @@ from = 2
 ratio = 0.5
 "#
     );
-    let model = RobotFile::parse(&text, "7")
+    let mut model = RobotFile::parse(&text, "7")
         .unwrap()
         .to_robot::<7>()
         .unwrap();
     assert_eq!(model.effects().len(), 2);
+    model
+        .set_tool_axes(Frame::from_xyz_rpy([0.0; 3], [-0.3, 0.25, -0.6]))
+        .unwrap();
     // Elbow (joint 4) and wrist (joint 6) bent: away from the 7R's singularities.
     let ranges = [
         (-1.5, 1.5),

@@ -17,6 +17,7 @@ mod lm_pass;
 mod lm_penalty;
 mod lm_seed;
 mod model_blob;
+mod model_blob_records;
 mod observations;
 mod pso;
 mod reference_fk;

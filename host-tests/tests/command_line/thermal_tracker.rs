@@ -471,16 +471,17 @@ fn a_thermal_term_without_reference_means_20_c_in_identify_too() {
     assert!(before < 0.03, "before {before} mm: not the file's robot");
     // A robot with geometric errors: the model written keeps the file's 20 °C.
     let data = session("m.csv", true);
-    let cal = d.join("cal.toml");
-    let out = run_on(
-        "identify",
-        &robot,
-        &data,
-        &["--holdout", "0.3", "--out", s(&cal)],
-    );
-    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
-    let reference = |path: &std::path::Path| -> f64 {
-        let written = std::fs::read_to_string(path).unwrap();
+    // The reference_c of the model identify writes from the robot file `from`.
+    let reference = |from: &std::path::Path| -> f64 {
+        let cal = d.join("cal.toml");
+        let out = run_on(
+            "identify",
+            from,
+            &data,
+            &["--holdout", "0.3", "--out", s(&cal)],
+        );
+        assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+        let written = std::fs::read_to_string(&cal).unwrap();
         written
             .lines()
             .find_map(|l| l.trim().strip_prefix("reference_c = "))
@@ -488,16 +489,8 @@ fn a_thermal_term_without_reference_means_20_c_in_identify_too() {
             .parse()
             .unwrap()
     };
-    assert_eq!(reference(&cal), 20.0);
+    assert_eq!(reference(&robot), 20.0);
     // A zero coefficient (as --effect adds the term) is referred to the data's mean.
-    let zero = write(d, "z.toml", &with("0.0"));
-    let z = d.join("z_cal.toml");
-    let out = run_on(
-        "identify",
-        &zero,
-        &data,
-        &["--holdout", "0.3", "--out", s(&z)],
-    );
-    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
-    assert!((28.0..32.0).contains(&reference(&z)), "{}", reference(&z));
+    let zero = reference(&write(d, "z.toml", &with("0.0")));
+    assert!((28.0..32.0).contains(&zero), "{zero}");
 }

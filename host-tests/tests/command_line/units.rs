@@ -620,6 +620,22 @@ fn check_warns_about_limits_only_where_the_file_has_them() {
     assert_eq!(v["outside_limits"], beyond);
 }
 
+/// A copy of the tracker file `path` (6 joints) with its points in metres, `v_m.csv` in `dir`.
+fn in_metres(path: &Path, dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut metres = String::new();
+    for (k, line) in text.lines().filter(|l| !l.starts_with('#')).enumerate() {
+        let mut cells: Vec<String> = line.split(',').map(String::from).collect();
+        if k > 0 {
+            for c in &mut cells[6..9] {
+                *c = format!("{}", c.parse::<f64>().unwrap() / 1000.0);
+            }
+        }
+        metres.push_str(&(cells.join(",") + "\n"));
+    }
+    write(dir, "v_m.csv", &metres)
+}
+
 /// A `--validate` file in metres beside data in millimetres: the refusal said "pass
 /// --length-unit m", which then read the data file in metres too. It now says the flags apply
 /// to both files and to give the `--validate` file in the data file's units.
@@ -631,18 +647,7 @@ fn a_validate_file_in_other_units_is_told_to_match_the_data() {
     let (data, other) = (d.join("d.csv"), d.join("v.csv"));
     simulate(&robot, Some(60), Some(0.01), Some(1), &[], &data);
     simulate(&robot, Some(60), Some(0.01), Some(2), &[], &other);
-    let text = std::fs::read_to_string(&other).unwrap();
-    let mut metres = String::new();
-    for (k, line) in text.lines().filter(|l| !l.starts_with('#')).enumerate() {
-        let mut cells: Vec<String> = line.split(',').map(String::from).collect();
-        if k > 0 {
-            for c in &mut cells[6..9] {
-                *c = format!("{}", c.parse::<f64>().unwrap() / 1000.0);
-            }
-        }
-        metres.push_str(&(cells.join(",") + "\n"));
-    }
-    let v = write(d, "v_m.csv", &metres);
+    let v = in_metres(&other, d);
     let out = run_on("identify", &robot, &data, &["--validate", s(&v)]);
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(2), "{err}");
@@ -667,18 +672,7 @@ fn a_validate_file_the_robot_misses_by_far_is_refused() {
     let (data, other) = (d.join("d.csv"), d.join("v.csv"));
     simulate(&robot, Some(60), Some(0.01), Some(1), &[], &data);
     simulate(&robot, Some(60), Some(0.01), Some(2), &[], &other);
-    let text = std::fs::read_to_string(&other).unwrap();
-    let mut metres = String::new();
-    for (k, line) in text.lines().filter(|l| !l.starts_with('#')).enumerate() {
-        let mut cells: Vec<String> = line.split(',').map(String::from).collect();
-        if k > 0 {
-            for c in &mut cells[6..9] {
-                *c = format!("{}", c.parse::<f64>().unwrap() / 1000.0);
-            }
-        }
-        metres.push_str(&(cells.join(",") + "\n"));
-    }
-    let v = write(d, "v_m.csv", &metres);
+    let v = in_metres(&other, d);
     let args = ["--validate", s(&v), "--length-unit", "mm"];
     let out = run_on("identify", &robot, &data, &args);
     let err = stderr(&out);

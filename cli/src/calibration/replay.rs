@@ -57,24 +57,24 @@ pub fn same_robot<const N: usize>(
     Ok(())
 }
 
-/// Refuses (exit 2) a model equal to the robot file in every value: `validate` would compare
-/// it with itself and its verdict say nothing.
-pub fn not_itself<const N: usize>(
+/// The note for a model equal to the robot file in every value (`None` otherwise): `validate`
+/// then compares the robot file with itself, and only the recalibration verdict (the session
+/// calibrated again, fold by fold) judges it; a calibrated model is what `--model` is for.
+pub fn itself<const N: usize>(
     robot: &HostRobot<N>,
     model: &HostRobot<N>,
     paths: (&Path, &Path),
-) -> anyhow::Result<()> {
-    if robot == model {
-        crate::refuse!(
-            "{} is {} itself (every value equal): the model is compared with the robot its \
-             calibration started from; give the model that `kinecal identify --robot {} --out \
-             M.toml` wrote (or judge the robot file alone with kinecal check)",
+) -> Option<String> {
+    (robot == model).then(|| {
+        format!(
+            "note: {} is {} itself (every value equal): the model and nominal figures are the \
+             same, and only the recalibration verdict judges it; to judge a calibration, give \
+             the model that `kinecal identify --robot {} --out M.toml` wrote",
             paths.1.display(),
             paths.0.display(),
             paths.0.display()
-        );
-    }
-    Ok(())
+        )
+    })
 }
 
 /// The parameters identify estimated for `model` (file `model_file`) from the robot file

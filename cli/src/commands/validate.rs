@@ -72,7 +72,11 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ValidateReport
     );
     let observed = observe(&ds, &file, &args.obs, &origin)?;
     super::inputs::any_rows(&observed.poses, &input.data)?;
-    crate::calibration::replay::not_itself(&nominal, &model, (&input.robot, &args.model))?;
+    if let Some(n) =
+        crate::calibration::replay::itself(&nominal, &model, (&input.robot, &args.model))
+    {
+        eprintln!("{n}");
+    }
     let (robot_origin, model_origin) = (
         input.robot.display().to_string(),
         args.model.display().to_string(),

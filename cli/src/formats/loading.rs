@@ -81,13 +81,54 @@ fn told<const N: usize>(ds: Dataset<N>, origin: &str) -> Dataset<N> {
                 .collect();
             super::pace::warning(&times, &moved, origin)
         });
-    for w in [warm(&ds, origin), clock_back(&ds, origin), pace]
+    let turned = orientation_elsewhere(&ds.extra_names, origin);
+    for w in [warm(&ds, origin), clock_back(&ds, origin), pace, turned]
         .into_iter()
         .flatten()
     {
         crate::Tell::line(&mut crate::Stderr, &w);
     }
     ds
+}
+
+/// Column sets that hold a probe's orientation under other names than `rx_deg`, `ry_deg`,
+/// `rz_deg`: compensate's target columns, radians, a vendor's A, B, C or W, P, R, roll, pitch,
+/// yaw, and quaternions. A file with one of them and no `rx_deg` was calibrated as positions
+/// alone without a word: it is warned about (not refused: the columns may mean something
+/// else, and `check` has no `--positions-only`).
+const ORIENTATION_LOOKALIKES: [&[&str]; 8] = [
+    &["rx", "ry", "rz"],
+    &["rx_rad", "ry_rad", "rz_rad"],
+    &["rot_x", "rot_y", "rot_z"],
+    &["a", "b", "c"],
+    &["w", "p", "r"],
+    &["roll", "pitch", "yaw"],
+    &["qw", "qx", "qy", "qz"],
+    &["q_w", "q_x", "q_y", "q_z"],
+];
+
+/// The warning for extra columns `names` of `origin` that look like an orientation kinecal
+/// does not read (and no `rx_deg`), or `None`.
+fn orientation_elsewhere(names: &[String], origin: &str) -> Option<String> {
+    let has = |c: &str| names.iter().any(|n| n.eq_ignore_ascii_case(c));
+    if has("rx_deg") {
+        return None;
+    }
+    let set = ORIENTATION_LOOKALIKES
+        .iter()
+        .find(|set| set.iter().all(|c| has(c)))?;
+    let listed = set.join(", ");
+    let how = if set.len() == 4 {
+        "a quaternion"
+    } else {
+        "angles or a rotation vector (UR's rx, ry, rz)"
+    };
+    Some(format!(
+        "warning: {origin}: columns {listed} look like the probe's orientation as {how}, which \
+         kinecal reads only from rx_deg, ry_deg, rz_deg (degrees, R = Rz·Ry·Rx): they are \
+         ignored and the positions calibrated alone; to use them, convert them to those \
+         columns (or name angles in a --map with their unit and rotation order)"
+    ))
 }
 
 /// A dataset already read in kinecal's layout (a file, or arrays handed over by the Python

@@ -141,44 +141,6 @@ impl<const N: usize> Observed<N> {
     }
 }
 
-/// Column sets that hold a probe's orientation under other names than `rx_deg`, `ry_deg`,
-/// `rz_deg`: compensate's target columns, radians, a vendor's A, B, C or W, P, R, roll, pitch,
-/// yaw, and quaternions. A file with one of them and no `rx_deg` was calibrated as positions
-/// alone without a word.
-const ORIENTATION_LOOKALIKES: [&[&str]; 8] = [
-    &["rx", "ry", "rz"],
-    &["rx_rad", "ry_rad", "rz_rad"],
-    &["rot_x", "rot_y", "rot_z"],
-    &["a", "b", "c"],
-    &["w", "p", "r"],
-    &["roll", "pitch", "yaw"],
-    &["qw", "qx", "qy", "qz"],
-    &["q_w", "q_x", "q_y", "q_z"],
-];
-
-/// Why extra columns `names` look like an orientation kinecal does not read, or `None`.
-fn orientation_elsewhere(names: &[String]) -> Option<String> {
-    let has = |c: &str| names.iter().any(|n| n.eq_ignore_ascii_case(c));
-    let set = ORIENTATION_LOOKALIKES
-        .iter()
-        .find(|set| set.iter().all(|c| has(c)))?;
-    let listed = set.join(", ");
-    Some(if set.len() == 4 {
-        format!(
-            "columns {listed} look like the probe's orientation as a quaternion, which is read \
-             as angles: convert it to rx_deg, ry_deg, rz_deg (degrees, R = Rz·Ry·Rx), or give \
-             --positions-only to calibrate the positions alone"
-        )
-    } else {
-        format!(
-            "columns {listed} look like the probe's orientation, which is read from rx_deg, \
-             ry_deg, rz_deg (degrees, R = Rz·Ry·Rx): rename them, read the file with a --map \
-             that names them (orientation unit and rotation order), or give --positions-only to \
-             calibrate the positions alone"
-        )
-    })
-}
-
 /// Column index of `name` in the dataset's extra columns.
 fn col<const N: usize>(ds: &Dataset<N>, name: &str) -> Option<usize> {
     ds.extra_names.iter().position(|n| n == name)
@@ -208,11 +170,6 @@ pub fn observe<const N: usize>(
     let names = file.tool_names();
     let rot = ["rx_deg", "ry_deg", "rz_deg"].map(|c| col(ds, c));
     let six_d = rot.iter().any(Option::is_some) && !args.positions_only;
-    if rot.iter().all(Option::is_none) && !args.positions_only {
-        if let Some(why) = orientation_elsewhere(&ds.extra_names) {
-            crate::refuse!("{origin}: {why}");
-        }
-    }
     if six_d && rot.iter().any(Option::is_none) {
         crate::refuse!("{origin}: orientation needs all of rx_deg, ry_deg, rz_deg");
     }

@@ -652,11 +652,12 @@ fn validate_judges_the_tool_orientations_of_6d_rows() {
 }
 
 /// The real 6-D file with its angle columns named as target files name them (`rx, ry, rz`), in
-/// a vendor's `a, b, c` or as a quaternion: calibrated as positions alone without a word.
-/// Refused (exit 2) naming the columns and the three ways out; `--positions-only` calibrates the
-/// positions, and the file as published (`rx_deg…`) is read as 6-D.
+/// a vendor's `a, b, c` or as a quaternion: calibrated as positions alone without a word. Every
+/// command warns now, naming the columns (not refused: they may mean something else, and
+/// `check` has no `--positions-only`), and the file as published (`rx_deg…`) is read as 6-D
+/// without the warning.
 #[test]
-fn orientation_columns_under_other_names_are_refused() {
+fn orientation_columns_under_other_names_are_warned_about() {
     let dir = tempfile::tempdir().unwrap();
     let robot = ur10_dir().join("robot.toml");
     let text = std::fs::read_to_string(ur10_dir().join("ur10_random_poses_6d.csv")).unwrap();
@@ -672,21 +673,22 @@ fn orientation_columns_under_other_names_are_refused() {
                 .collect();
         }
         let data = write(dir.path(), "renamed.csv", &renamed);
-        let out = run_on("identify", &robot, &data, &[]);
-        let err = stderr(&out);
-        assert_eq!(out.status.code(), Some(2), "{names}: {err}");
-        assert!(
-            err.contains("look like the probe's orientation")
-                && err.contains("--positions-only")
-                && err.trim().lines().count() == 1,
-            "{names}: {err}"
-        );
-        assert_eq!(err.contains("quaternion"), quaternion, "{names}: {err}");
-        let out = run_on("identify", &robot, &data, &["--positions-only", "--json"]);
-        assert_eq!(out.status.code(), Some(0), "{names}: {}", stderr(&out));
+        for command in ["identify", "check"] {
+            let out = run_on(command, &robot, &data, &["--json"]);
+            let err = stderr(&out);
+            assert_eq!(out.status.code(), Some(0), "{names} {command}: {err}");
+            let warned = err
+                .lines()
+                .filter(|l| l.contains("look like the probe's orientation"))
+                .count();
+            assert_eq!(warned, 1, "{names} {command}: {err}");
+            assert_eq!(err.contains("quaternion"), quaternion, "{names}: {err}");
+        }
+        let out = run_on("identify", &robot, &data, &["--json"]);
         assert_eq!(json_of(&out)["observations"]["six_d"], false);
     }
     let data = write(dir.path(), "published.csv", &head);
-    let j = json_of(&run_on("identify", &robot, &data, &["--json"]));
-    assert_eq!(j["observations"]["six_d"], true);
+    let out = run_on("identify", &robot, &data, &["--json"]);
+    assert!(!stderr(&out).contains("look like the probe's orientation"));
+    assert_eq!(json_of(&out)["observations"]["six_d"], true);
 }

@@ -109,8 +109,9 @@ pub fn identify<const N: usize>(
     if ident.is_empty() {
         crate::refuse!("--holdout leaves no groups to identify from: hold out fewer");
     }
-    // A thermal-expansion term of the file without `reference_c` is referred to the
-    // identification rows' mean temperature (and written with it), as on tracker points.
+    // A thermal-expansion term of the file without `reference_c` and with a zero coefficient
+    // is referred to the identification rows' mean temperature (and written with it), as on
+    // tracker points.
     let mut file = file;
     if file.with_thermal_reference(crate::calibration::thermal::mean_temperature(
         &measurements(&ident),

@@ -1,10 +1,12 @@
 //! The `thermal-expansion` term on the command line and in identification: every length of
 //! the model scales by `1 + c·(T − T0)` at a row's `temp_c` (`docs/formats.md#effects`).
 //!
-//! Its reference temperature `T0` is the identification data's mean temperature unless given
+//! The reference temperature `T0` of a term `--effect` adds (or a robot file's whose
+//! coefficient is 0) is the identification data's mean temperature unless given
 //! (`--effect thermal-expansion:0:T0`, or `reference_c` in the robot file): at the mean, `c`
 //! and the lengths hardly trade with each other, and the identified lengths are the arm's at
-//! the temperature it usually works at.
+//! the temperature it usually works at. A robot file's term with a coefficient and no
+//! `reference_c` means 20 °C, in `identify` as in every other command.
 
 use super::EffectRequest;
 use crate::formats::robot_file::{RobotFile, THERMAL};

@@ -136,8 +136,9 @@ fn thermal_expansion_is_fitted_from_a_warming_ball_bar_session() {
     assert!((fitted - c).abs() < 0.03 * c, "c = {fitted}");
     assert!(rms(&v) < 0.003, "{v}");
     assert!(rms(&plain) > 5.0 * rms(&v), "{plain}");
-    // The reference is the rows' mean temperature (25 °C, not the file default of 20 °C), and
-    // a robot file whose term has no reference_c gets the same when refitted.
+    // The reference of a term --effect adds is the rows' mean temperature (25 °C, not the
+    // file default of 20 °C); a robot file whose term has a coefficient and no reference_c is
+    // read at 20 °C and refitted there (below).
     let text = std::fs::read_to_string(&model).unwrap();
     assert!(text.contains("reference_c = 25"), "{text}");
     let bare: String = text
@@ -159,8 +160,9 @@ fn thermal_expansion_is_fitted_from_a_warming_ball_bar_session() {
     ]));
     let refitted = v2["parameters"]["thermal-expansion1"].as_f64().unwrap();
     assert!((refitted - c).abs() < 0.03 * c, "c = {refitted}");
+    // A term with a coefficient and no reference_c means 20 °C, as in every command.
     let text = std::fs::read_to_string(&again).unwrap();
-    assert!(text.contains("reference_c = 25"), "{text}");
+    assert!(text.contains("reference_c = 20"), "{text}");
 }
 
 #[test]

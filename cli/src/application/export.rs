@@ -215,10 +215,12 @@ pub fn dh_table(model: &RobotFile, nominal: Option<&RobotFile>, as_json: bool) -
 
 /// The C ABI's robots (`kc_robot_load`): 6 or 7 joints.
 pub const C_ABI_JOINTS: [usize; 2] = [6, 7];
+/// The effect values a C ABI robot holds (`KC_MAX_EFFECT_VALUES` of include/kinecal_types.h).
+pub const C_ABI_EFFECT_VALUES: usize = 1024;
 
-/// The warnings of a firmware export: a model the C ABI cannot load (another joint count: its
-/// `kc_robot_load` answers KC_MODEL_INVALID; a Rust firmware decodes it as `Model<N>`), and
-/// [`warm_reference`].
+/// The warnings of a firmware export: a model the C ABI cannot load (another joint count, or
+/// more effect values than it holds: its `kc_robot_load` refuses it; a Rust firmware decodes it
+/// with room of its own), and [`warm_reference`].
 pub fn firmware_warnings(model: &RobotFile, origin: &str) -> Vec<String> {
     let n = model.joint_count();
     let joints = (!C_ABI_JOINTS.contains(&n)).then(|| {
@@ -227,8 +229,17 @@ pub fn firmware_warnings(model: &RobotFile, origin: &str) -> Vec<String> {
              blob (a Rust firmware decodes it with kinecal::io::model_blob::decode for a {n}-joint robot)"
         )
     });
+    let values: usize = model.effects.iter().map(|e| e.values.len()).sum();
+    let room = (values > C_ABI_EFFECT_VALUES).then(|| {
+        format!(
+            "{origin} has {values} effect values: the C ABI's kc_robot_load holds \
+             {C_ABI_EFFECT_VALUES} and refuses this blob (coarser joint tables fit it; a Rust \
+             firmware decodes it with room of its own)"
+        )
+    });
     joints
         .into_iter()
+        .chain(room)
         .chain(warm_reference(model, origin))
         .collect()
 }

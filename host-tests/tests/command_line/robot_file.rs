@@ -634,6 +634,27 @@ fn a_firmware_export_the_c_abi_cannot_load_is_warned_about() {
     let sixth = text.match_indices("[[joints]]").nth(5).unwrap().0;
     let tool = text.find("[tool]").unwrap();
     let five = format!("{}{}", &text[..sixth], &text[tool..]);
+    // Tables of 681 knots (0.5° over ±170°) on joints 1 and 2: more values than the C ABI holds.
+    let knots = vec!["0.0"; 681].join(", ");
+    let table = |j: usize| {
+        format!("\n[[effects]]\nkind = \"joint-table\"\njoint = {j}\nstep_deg = 0.5\nstart_deg = -170.0\nvalues = [{knots}]\n")
+    };
+    let fine = format!("{text}{}{}", table(1), table(2));
+    let fine_warned = crate::common::write(dir.path(), "fine.toml", &fine);
+    let out = crate::common::kinecal(&[
+        "export",
+        "--model",
+        crate::common::s(&fine_warned),
+        "--format",
+        "firmware",
+        "--out",
+        crate::common::s(&dir.path().join("fine.kcm")),
+    ]);
+    let err = crate::common::stderr(&out);
+    assert!(
+        err.contains("1362 effect values") && err.contains("holds 1024"),
+        "{err}"
+    );
     for (name, robot, warned) in [("five.toml", five, true), ("six.toml", text, false)] {
         let path = crate::common::write(dir.path(), name, &robot);
         let blob = dir.path().join("m.kcm");

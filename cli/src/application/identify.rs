@@ -144,8 +144,8 @@ pub fn identify<const N: usize>(
     ] {
         crate::check_positive(flag, v, 1e6)?;
     }
-    // A thermal-expansion term of the file without `reference_c` is referred to the
-    // identification data's mean temperature (and written with it).
+    // A thermal-expansion term of the file without `reference_c` and with a zero coefficient
+    // is referred to the identification data's mean temperature (and written with it).
     let mut file = file;
     if file.with_thermal_reference(crate::calibration::thermal::mean_temperature(&ident)) {
         nominal = file
@@ -228,9 +228,6 @@ pub fn identify<const N: usize>(
     let thin_held = crate::calibration::thin_data::hold_thin_values(&nominal, &mut params, &ident);
     enough_poses(&ident, params.len(), base_unknown, data_path)?;
     let before = Residuals::of(&nominal, &ident, &valid);
-    if let Some(name) = &validate_name {
-        crate::calibration::acceptance::refuse_foreign_held_out(&before, name)?;
-    }
     // The prior: the robot file's `[prior]` (or the defaults) with `--prior` over it; none on
     // what does not start from a file value.
     let prior = file.prior.unwrap_or_default().with_overrides(&opts.prior)?;
@@ -264,6 +261,9 @@ pub fn identify<const N: usize>(
     let (fit, weighted) = weights::weighted_fit(&mut ident, &pose_of, &stated, how, run_method)?;
     let seconds = t0.elapsed().as_secs_f64();
     let after = Residuals::of(&fit.robot, &ident, &valid);
+    if let Some(name) = &validate_name {
+        crate::calibration::acceptance::refuse_foreign_held_out((&before, &after), name)?;
+    }
     let per_point =
         PointResiduals::per_point(&observed.names, (&nominal, &fit.robot), (&ident, &valid));
     let estimated = params.len().saturating_sub(fit.unidentifiable.len());
@@ -315,8 +315,13 @@ pub fn identify<const N: usize>(
         &[(&ident_set, &ident), (&valid_set, &valid)]
     };
     let outliers = crate::calibration::outliers::find(&fit.robot, searched);
+    let held_lines: Vec<u32> = if validated {
+        Vec::new()
+    } else {
+        valid_set.iter().map(|p| p.line).collect()
+    };
     let resized = outliers
-        .few()
+        .few_given(&held_lines)
         .or_else(|| {
             crate::calibration::orientation_slip::astray(
                 after.identification_rms_mm,
@@ -339,7 +344,7 @@ pub fn identify<const N: usize>(
         .or_else(|| {
             crate::calibration::base_moved::reason(&fit.robot, &params, &ident, file.base_known())
         })
-        .or_else(|| outliers.reason());
+        .or_else(|| outliers.reason_given(&held_lines));
     let converged = fit.solver_converged()
         && !stalled
         && resized.is_none()
@@ -377,18 +382,22 @@ pub fn identify<const N: usize>(
             &thin_held,
             effect_values,
         ));
+    report
+        .notes
+        .extend(crate::calibration::acceptance::narrow_joints(&ident));
     // A reflector or a tracker that moved at one row: the fit took the mean of the two parts.
     if verdict.converged {
         let lines: Vec<u32> = ident_set
             .iter()
             .flat_map(|p| std::iter::repeat_n(p.line, p.count as usize))
             .collect();
-        report.notes.extend(crate::diagnose::row_step::warning(
-            &fit.robot,
-            (&ident, &lines),
-            estimated as f64,
-            (report.after.identification_rms_mm, "the fit's RMS"),
-        ));
+        let floor = (report.after.identification_rms_mm, "the fit's RMS");
+        let at = (ident.as_slice(), lines.as_slice());
+        report.notes.extend(
+            crate::diagnose::row_step::warning(&fit.robot, at, estimated as f64, floor).or_else(
+                || crate::diagnose::zero_step::warning(&fit.robot, at, estimated as f64, floor),
+            ),
+        );
     }
     report.observations = Some(ObservationSummary::new(
         &observed,

@@ -31,10 +31,41 @@ pub struct Inputs<const N: usize> {
     pub model_file: RobotFile,
     pub model: HostRobot<N>,
     pub model_origin: String,
+    /// The robot file's path as given (compared with a validate JSON's).
+    pub robot_origin: String,
+    /// The held-out poses are another file's (`--validate`), not a part of the data file.
+    pub validated: bool,
     pub split: Split<N>,
     pub sources: Sources,
     pub diagnose: Option<(DiagnoseJson, String)>,
     pub validation: Option<(ValidateReport, String)>,
+}
+
+/// Refuses (exit 2) a validate JSON (`origin`) of another robot file or model than the page's
+/// (`robot`, `model`: paths as given, compared by file name): its verdict would be shown as
+/// this model's.
+fn same_files(
+    v: &ValidateReport,
+    origin: &str,
+    (robot, model): (&str, &str),
+) -> anyhow::Result<()> {
+    let name = |p: &str| {
+        std::path::Path::new(p)
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+    };
+    for (what, theirs, ours) in [
+        ("robot file", &v.robot_file, robot),
+        ("model", &v.model_file, model),
+    ] {
+        if name(theirs) != name(ours) {
+            crate::refuse!(
+                "{origin}: a validation of the {what} {theirs}, not {ours}: give the JSON of \
+                 `kinecal validate --robot {robot} --model {model} …`"
+            );
+        }
+    }
+    Ok(())
 }
 
 /// The calibration report of `inputs.model`: the page and its summary. Refuses what identify
@@ -46,11 +77,41 @@ pub fn report<const N: usize>(options: &Options<'_>, inputs: Inputs<N>) -> anyho
         model_file,
         model,
         model_origin,
+        robot_origin,
+        validated,
         split,
         sources,
         diagnose,
         validation,
     } = inputs;
+    if let Some((v, origin)) = &validation {
+        same_files(v, origin, (&robot_origin, &model_origin))?;
+    }
+    if let Some((d, origin)) = &diagnose {
+        let poses = split.ident_poses + split.valid_poses;
+        if let Some(searched) = d.poses.filter(|&p| p > poses) {
+            crate::refuse!(
+                "{origin}: diagnose searched {searched} poses, more than these data hold \
+                 ({poses}): it is of another data file; give the JSON of `kinecal diagnose` on \
+                 these data"
+            );
+        }
+    }
+    // Gross outliers refuse the model as identify refuses its fit (held-out rows of the data
+    // file searched too, named as held out).
+    let held_lines: Vec<u32> = split.valid_set.iter().map(|p| p.line).collect();
+    let outliers = if validated {
+        crate::calibration::outliers::find(&model, &[(&split.ident_set, &split.ident)])
+    } else {
+        crate::calibration::outliers::find(
+            &model,
+            &[
+                (&split.ident_set, &split.ident),
+                (&split.valid_set, &split.valid),
+            ],
+        )
+    };
+    let outliers = outliers.reason_given(if validated { &[] } else { &held_lines });
     let observed = &split.observed;
     // "Before" is the nominal robot placed as identify and check place it.
     let base_unknown = !file.base_known();
@@ -90,6 +151,7 @@ pub fn report<const N: usize>(options: &Options<'_>, inputs: Inputs<N>) -> anyho
         weighting,
         limits_deg: file.joints.iter().map(|j| j.limits_deg).collect(),
         stall_rms_mm: options.stall_rms_mm,
+        outliers,
         diagnose,
         validation,
         ident: split.ident,

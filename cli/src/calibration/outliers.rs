@@ -200,6 +200,32 @@ impl Outliers {
         self.reason()
     }
 
+    /// [`Self::few`] with the rows held out of the fit (`held_out`: their lines) told apart.
+    pub fn few_given(&self, held_out: &[u32]) -> Option<String> {
+        if !self.is_few(self.far.len()) {
+            return None;
+        }
+        self.reason_given(held_out)
+    }
+
+    /// [`Self::reason`], unless every far point is on a row held out of the fit (`held_out`:
+    /// their lines): such rows pulled no parameter, so deleting them is no fix; they are wrong
+    /// readings or poses measured after something changed, and are named so.
+    pub fn reason_given(&self, held_out: &[u32]) -> Option<String> {
+        if self.far.is_empty() || !self.far.iter().all(|o| held_out.contains(&o.line)) {
+            return self.reason();
+        }
+        Some(format!(
+            "leaves {} held-out point(s) far from the model fitted to the other poses ({}; the \
+             median {} mm): wrong readings, or poses measured after the set-up or the robot \
+             changed (their rows together, from one line on); check those rows against the \
+             identified ones (--residuals) before deleting any",
+            self.far.len(),
+            named(&self.far, self.median_mm),
+            sig(self.median_mm, 3),
+        ))
+    }
+
     /// Whether `n` points are "a few" of [`Self::rows`] ([`FEW`]).
     fn is_few(&self, n: usize) -> bool {
         n as f64 <= (FEW * self.rows as f64).max(3.0)

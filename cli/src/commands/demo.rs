@@ -100,6 +100,7 @@ pub fn run(args: &Args) -> anyhow::Result<DemoReport> {
         },
         limits_deg: vec![None; 6],
         stall_rms_mm: 5.0,
+        outliers: None,
         diagnose: None,
         validation: None,
     })?;

@@ -96,8 +96,10 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
     }
     let split = split?;
     let t = |p: &std::path::Path| p.display().to_string();
-    let diagnose = args.diagnose.as_deref();
-    let diagnose = diagnose.map(|p| anyhow::Ok((findings::load(p)?, t(p))));
+    let diagnose = args
+        .diagnose
+        .as_deref()
+        .map(|p| anyhow::Ok((findings::load(p)?, t(p))));
     let validation = args.validate_json.as_deref();
     let validation =
         validation.map(|p| anyhow::Ok((crate::report_html::validation::load(p)?, t(p))));
@@ -125,6 +127,8 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
         model_file,
         model,
         model_origin: t(&args.model),
+        robot_origin: t(&input.robot),
+        validated: args.validate.is_some(),
         split,
         sources: Sources {
             files,
@@ -139,9 +143,9 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
         .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", args.out.display()))?;
     if !built.summary.converged {
         eprintln!(
-            "error: {} misses the identification poses by {} mm RMS: not a calibration of \
-             these data (exit 3; the page says so)",
+            "error: {}: {} (identification RMS {} mm; exit 3, the page says so)",
             args.model.display(),
+            built.summary.verdict,
             crate::output::numfmt::sig(built.summary.after.identification_rms_mm, 4)
         );
     }

@@ -44,6 +44,7 @@ pub mod significance;
 pub mod table_screen;
 pub mod time_trend;
 pub mod workflow;
+pub mod zero_step;
 
 use crate::HostRobot;
 use phase::phase_search;

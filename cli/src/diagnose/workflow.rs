@@ -112,6 +112,8 @@ pub struct Diagnosed<const N: usize> {
     /// The searched observations as the search weighted them (the findings' explanations and
     /// the plots are on them).
     pub search: Vec<Measurement<f64, N>>,
+    /// How many poses the searched observations are (several reflectors: fewer).
+    pub search_poses: usize,
     pub holdout: Option<Holdout>,
     /// The verdict on the held-out poses.
     pub acceptance: Option<Acceptance>,
@@ -242,7 +244,7 @@ pub fn run<const N: usize>(
         ..Config::default()
     };
     cfg.catalogue.max_cyclic_order = opts.max_order;
-    let (poses, folds) = (search.len(), cfg.folds);
+    let (poses, folds) = (search_poses.poses.len(), cfg.folds);
     let mut d = diagnose_with_progress(
         &nominal,
         file.base_known(),
@@ -342,6 +344,14 @@ pub fn run<const N: usize>(
             (d.noise_floor_mm, "a noise floor"),
         )
         .or_else(|| {
+            super::zero_step::warning(
+                &d.model,
+                (&search, &lines),
+                d.effective_parameters,
+                (d.noise_floor_mm, "a noise floor"),
+            )
+        })
+        .or_else(|| {
             super::time_trend::warning(&d.model, &search, d.effective_parameters, d.noise_floor_mm)
         });
         let drift = d
@@ -405,6 +415,7 @@ pub fn run<const N: usize>(
     Ok(Diagnosed {
         diagnosis: d,
         search,
+        search_poses: search_poses.poses.len(),
         holdout,
         acceptance,
         converged,

@@ -117,6 +117,9 @@ pub struct Inputs<'a, const N: usize> {
     pub limits_deg: Vec<Option<[f64; 2]>>,
     /// Above this identification RMS (mm) the model is not a calibration of these data.
     pub stall_rms_mm: f64,
+    /// Why a few gross outliers make the model no calibration of these data (the rest of a
+    /// sentence that starts "the model"), as identify refuses its fit.
+    pub outliers: Option<String>,
     pub diagnose: Option<(findings::DiagnoseJson, String)>,
     /// `kinecal validate --json` on another session, and where it was read from.
     pub validation: Option<(crate::reports::validate::ValidateReport, String)>,
@@ -544,10 +547,10 @@ pub fn build<const N: usize>(inp: Inputs<'_, N>) -> anyhow::Result<Built> {
         None => None,
     };
 
-    let converged =
+    let fits =
         after.identification_rms_mm.is_finite() && after.identification_rms_mm <= inp.stall_rms_mm;
     let mut warnings = inp.sources.told.clone();
-    if !converged {
+    if !fits {
         warnings.push(format!(
             "The identified model misses the identification poses by {} mm RMS (above {} mm): \
              it is not a calibration of these data (wrong model, data or units).",
@@ -594,6 +597,42 @@ pub fn build<const N: usize>(inp: Inputs<'_, N>) -> anyhow::Result<Built> {
             )
         });
     }
+    // Judged on the held-out poses as identify judges them: worse than the nominal robot is no
+    // calibration (identify's exit 3), much worse than the identification poses a warning.
+    let held_out = crate::calibration::acceptance::judge(
+        (
+            before.validation_rms_mm,
+            after.validation_rms_mm,
+            after.identification_rms_mm,
+        ),
+        ident,
+        valid,
+        Vec::new(),
+    );
+    let held_out_worse = held_out.as_ref().is_some_and(|a| a.held_out_worse);
+    if let Some(why) = &inp.outliers {
+        warnings.push(format!("The model {why}."));
+    }
+    if let Some(m) = held_out.and_then(|a| a.message) {
+        warnings.push(format!("Held-out poses: {m}."));
+    }
+    // Another session's verdict (validate's exit status) is the page's too.
+    let session_fails = inp
+        .validation
+        .as_ref()
+        .is_some_and(|(v, _)| !crate::reports::Report::converged(v));
+    let verdict = if !fits {
+        "not a calibration of these data"
+    } else if held_out_worse {
+        "not a calibration: the held-out poses are predicted worse than by the nominal robot"
+    } else if inp.outliers.is_some() {
+        "not a calibration: points far from the model (see the warning)"
+    } else if session_fails {
+        "does not hold on another session (see the validation)"
+    } else {
+        "calibrated"
+    };
+    let converged = verdict == "calibrated";
     let mut sources = inp.sources.files.clone();
     sources.push(("model name".into(), inp.model_name.clone()));
     let page = Page {
@@ -602,11 +641,7 @@ pub fn build<const N: usize>(inp: Inputs<'_, N>) -> anyhow::Result<Built> {
         model_name: inp.model_name.clone(),
         sources,
         headline,
-        verdict: if converged {
-            "calibrated".into()
-        } else {
-            "not a calibration of these data".into()
-        },
+        verdict: verdict.into(),
         converged,
         warnings,
         data,
@@ -645,6 +680,7 @@ pub fn build<const N: usize>(inp: Inputs<'_, N>) -> anyhow::Result<Built> {
                 f.found.iter().filter(|x| x.svg.is_some()).count() + usize::from(f.svg.is_some())
             }),
         converged,
+        verdict: verdict.into(),
     };
     Ok(Built { html, summary })
 }

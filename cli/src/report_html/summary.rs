@@ -44,8 +44,12 @@ pub struct ReportSummary {
     pub findings: usize,
     /// Figures on the page.
     pub figures: usize,
-    /// The model is a calibration of these data (`false`: exit 3).
+    /// The model is a calibration of these data (`false`: exit 3): it fits the identification
+    /// poses, predicts the held-out ones no worse than the nominal robot, and holds on the
+    /// session of `--validate-json`.
     pub converged: bool,
+    /// The page's verdict: "calibrated", or why not.
+    pub verdict: String,
 }
 
 /// Both models on one set of observations.

@@ -218,7 +218,7 @@ impl DiagnoseReport {
         report.acceptance = w.acceptance.clone();
         report.held_out_worse = w.acceptance.as_ref().map(|a| a.held_out_worse);
         report.holdout = w.holdout.as_ref().map(HoldoutReport::from);
-        report.poses = w.search.len();
+        report.poses = w.search_poses;
         report.observations = w.all_observations.as_ref().map(|a| ObservationsReport {
             summary: ObservationSummary::new(
                 &a.observed,

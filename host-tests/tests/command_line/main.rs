@@ -30,6 +30,7 @@ mod observations_cli;
 mod one_reflector;
 mod outliers;
 mod report;
+mod report_verdicts;
 mod reports;
 mod robot_file;
 mod stale_readings;

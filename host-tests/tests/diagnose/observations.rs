@@ -270,6 +270,7 @@ fn diagnose_fits_every_reflector() {
     // poses are among the 300 searched (they were observation numbers up to ~900, three of one
     // pose side by side).
     assert_eq!(j["holdout"]["poses"], 100);
+    assert_eq!(j["poses"], 300);
     for f in j["found"].as_array().unwrap() {
         let listed: Vec<u64> = f["explanation"]["most_affected_poses"]
             .as_array()

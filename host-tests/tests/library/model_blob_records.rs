@@ -211,3 +211,49 @@ fn effects_a_robot_file_refuses_are_refused() {
     assert_eq!(model_blob::decode(&tiny, &mut t), Err(shape));
     assert_eq!(t, small);
 }
+
+/// What the decoder refuses the encoder does not write (the review: a library model with the
+/// same scale twice on a joint, or a cyclic term with a start, was written and then refused on
+/// loading): refused with the same error; one of each is written and read back.
+#[test]
+fn the_encoder_refuses_what_the_decoder_would() {
+    use kinecal::model::effects::EffectKind;
+    let base = RobotFile::parse(crate::common::ER20_TILTED_PLACED, "test")
+        .unwrap()
+        .to_robot::<6>()
+        .unwrap();
+    let shape = BlobError::Refused(RobotError::BadEffect(EffectError::Shape));
+    let mut buf = vec![0u8; 1 << 16];
+    let with = |kind: EffectKind, order: u16, start: f64, twice: bool| {
+        let mut r = base.clone();
+        for _ in 0..1 + usize::from(twice) {
+            r.effects_mut()
+                .push(
+                    kind,
+                    4,
+                    6,
+                    order,
+                    start,
+                    0.0,
+                    &[1e-4, 0.0][..if kind == EffectKind::Cyclic { 2 } else { 1 }],
+                )
+                .unwrap();
+        }
+        r
+    };
+    for (r, why) in [
+        (with(EffectKind::Scale, 1, 0.0, true), "scale twice"),
+        (with(EffectKind::Cyclic, 1, 0.3, false), "start on a cyclic"),
+        (
+            with(EffectKind::Compliance, 2, 0.0, false),
+            "order on a compliance",
+        ),
+    ] {
+        assert_eq!(model_blob::encode(&r, &mut buf), Err(shape), "{why}");
+    }
+    let r = with(EffectKind::Scale, 1, 0.0, false);
+    let n = model_blob::encode(&r, &mut buf).unwrap();
+    let mut back = base.clone();
+    model_blob::decode(&buf[..n], &mut back).unwrap();
+    assert_eq!(back, r);
+}

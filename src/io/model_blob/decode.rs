@@ -245,7 +245,7 @@ fn record<T: Real, const N: usize, V: ValueStorage>(
 /// `thermal-expansion` (T0) and `base-drift` (t0), a step only on `joint-table`.
 /// `joint-cyclic`'s order (at least 1) and a table's step (positive) are the effect list's
 /// checks.
-fn fields_fit(kind: EffectKind, order: u16, start: f64, step: f64) -> bool {
+pub(super) fn fields_fit(kind: EffectKind, order: u16, start: f64, step: f64) -> bool {
     match kind {
         EffectKind::Cyclic => start == 0.0 && step == 0.0,
         EffectKind::Table => order <= 1,

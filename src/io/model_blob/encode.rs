@@ -69,14 +69,25 @@ impl Writer<'_> {
 
 /// Writes `robot` as a binary model into `out` and returns the bytes written
 /// ([`encoded_len`]). [`BlobError::BufferTooSmall`] when `out` is shorter (nothing useful is
-/// written), [`BlobError::Joints`] for more than [`super::MAX_JOINTS`] joints, and
-/// [`BlobError::Capacity`] when the model does not fit the format's 32-bit length.
+/// written), [`BlobError::Joints`] for more than [`super::MAX_JOINTS`] joints,
+/// [`BlobError::Capacity`] when the model does not fit the format's 32-bit length, and an
+/// effect of the wrong shape (`EffectError::Shape`) for what the decoder would refuse: an
+/// effect given twice, or with an order, start or step its kind does not have.
 pub fn encode<T: Real, const N: usize, V: ValueStorage>(
     robot: &Robot<T, N, V>,
     out: &mut [u8],
 ) -> Result<usize, BlobError> {
     if N == 0 || N > MAX_JOINTS {
         return Err(BlobError::Joints(N.min(255) as u8));
+    }
+    // What the decoder refuses is not written (a blob that would not load): an effect with an
+    // order, start or step its kind does not have, or the same effect twice.
+    let effects = robot.effects();
+    for (i, e) in effects.iter().enumerate() {
+        let fits = super::decode::fields_fit(e.kind, e.order, e.start.to_f64(), e.step.to_f64());
+        if !fits || effects.find(e.kind, e.joint as usize, e.order) != Some(i) {
+            return Err(crate::model::effects::EffectError::Shape.into());
+        }
     }
     let len = encoded_len(robot);
     if len > u32::MAX as usize {

@@ -19,7 +19,6 @@
 use super::row_step::{MIN_ROWS, STEP_SHARE};
 use super::significance::f_sf;
 use super::time_trend::TREND_P;
-use crate::calibration::pose_error_vectors;
 use kinecal::{ForwardKinematics, Measurement, Robot};
 
 /// The strongest change of one joint's zero along the rows' order.
@@ -50,60 +49,63 @@ pub fn change<const N: usize, V: kinecal::ValueStorage>(
     if n < 2 * MIN_ROWS || lines.len() != n || N == 0 {
         return None;
     }
-    let r = pose_error_vectors(robot, data);
-    if r.iter().any(|e| !e.iter().all(|x| x.is_finite())) {
-        return None;
-    }
+    // Two passes over the observations, the forward kinematics computed in each: the totals,
+    // then every split from the running sums (no per-observation storage: a million poses).
     let mut fk = ForwardKinematics::new();
-    // Per observation and joint: s = c·r and w = |c|².
-    let mut s = vec![[0.0f64; N]; n];
-    let mut w = vec![[0.0f64; N]; n];
-    for (i, m) in data.iter().enumerate() {
-        fk.compute_at(robot, &m.q, m.tool as usize, m.conditions())?;
+    let mut each = |m: &Measurement<f64, N>, f: &mut dyn FnMut(usize, f64, f64)| -> Option<f64> {
+        let p = fk.compute_at(robot, &m.q, m.tool as usize, m.conditions())?;
+        let r = m.point - p;
+        if !r.iter().all(|x| x.is_finite()) {
+            return None;
+        }
         for j in 0..N {
             let c = fk.reading_column(robot, j);
-            s[i][j] = c.dot(&r[i]);
-            w[i][j] = c.norm_squared();
+            f(j, c.dot(&r), c.norm_squared());
         }
+        Some(r.norm_squared())
+    };
+    let (mut s_all, mut a_all, mut total_ss) = ([0.0f64; N], [0.0f64; N], 0.0);
+    for m in data {
+        total_ss += each(m, &mut |j, s, w| {
+            s_all[j] += s;
+            a_all[j] += w;
+        })?;
     }
     let cut: Vec<bool> = (0..n).map(|k| k == 0 || lines[k] != lines[k - 1]).collect();
-    let total_ss: f64 = r.iter().map(|e| e.norm_squared()).sum();
     let splits = cut[MIN_ROWS..=n - MIN_ROWS].iter().filter(|c| **c).count();
     let tries = (splits.max(1) * N) as f64;
     let mut best: Option<(f64, ZeroStep)> = None;
-    for j in 0..N {
-        let (s_all, a_all) = (0..n).fold((0.0, 0.0), |(a, b), i| (a + s[i][j], b + w[i][j]));
-        if a_all.is_nan() || a_all <= 0.0 {
-            continue;
-        }
-        // Sums from the end: the observations from k on.
-        let (mut s_k, mut a_k) = (0.0, 0.0);
-        for k in (MIN_ROWS..n).rev() {
-            s_k += s[k][j];
-            a_k += w[k][j];
-            if n - k < MIN_ROWS || !cut[k] {
-                continue;
-            }
-            let den = a_k - a_k * a_k / a_all;
-            if den.is_nan() || den <= 0.0 {
-                continue;
-            }
-            let num = s_k - a_k * s_all / a_all;
-            let explained = num * num / den;
-            if best.as_ref().is_none_or(|(e, _)| explained > *e) {
-                let change = num / den;
-                best = Some((
-                    explained,
-                    ZeroStep {
-                        joint: j,
-                        at: k,
-                        change,
-                        tool_rms_mm: change.abs() * (a_k / (n - k) as f64).sqrt(),
-                        p: 1.0,
-                    },
-                ));
+    // Sums of the observations before k; those from k on are the totals less them.
+    let (mut s_before, mut a_before) = ([0.0f64; N], [0.0f64; N]);
+    for (k, m) in data.iter().enumerate() {
+        if k >= MIN_ROWS && n - k >= MIN_ROWS && cut[k] {
+            for j in 0..N {
+                let (s_k, a_k) = (s_all[j] - s_before[j], a_all[j] - a_before[j]);
+                let den = a_k - a_k * a_k / a_all[j];
+                if a_all[j].is_nan() || a_all[j] <= 0.0 || den.is_nan() || den <= 0.0 {
+                    continue;
+                }
+                let num = s_k - a_k * s_all[j] / a_all[j];
+                let explained = num * num / den;
+                if best.as_ref().is_none_or(|(e, _)| explained > *e) {
+                    let change = num / den;
+                    best = Some((
+                        explained,
+                        ZeroStep {
+                            joint: j,
+                            at: k,
+                            change,
+                            tool_rms_mm: change.abs() * (a_k / (n - k) as f64).sqrt(),
+                            p: 1.0,
+                        },
+                    ));
+                }
             }
         }
+        each(m, &mut |j, s, w| {
+            s_before[j] += s;
+            a_before[j] += w;
+        })?;
     }
     let (explained, mut step) = best?;
     let fitted = if fitted.is_finite() {

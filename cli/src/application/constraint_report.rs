@@ -147,7 +147,14 @@ fn changes<const N: usize>(
     nominal: &HostRobot<N>,
     model: &HostRobot<N>,
 ) -> Vec<Change> {
-    crate::calibration::model_params(model, &file.tilt_joints())
+    // The file's tilts and those the model carries (a tilt the fit estimated: `--effect
+    // axis-tilt`).
+    let tilted: Vec<kinecal::Param> = (0..N)
+        .filter(|&j| model.joints()[j].beta != 0.0)
+        .map(|j| kinecal::Param::Beta(j as u8))
+        .collect();
+    let tilts = crate::calibration::tilted_joints(&file.tilt_joints(), &tilted);
+    crate::calibration::model_params(model, &tilts)
         .into_iter()
         .filter_map(|p| {
             let (a, b) = (

@@ -549,6 +549,9 @@ impl fmt::Display for DiagnoseReport {
         }
         writeln!(f, "stopped: {}", self.stop_reason)?;
         if let Some(h) = &self.holdout {
+            if self.figures_include_orientations {
+                writeln!(f, "held-out figures below: {WEIGHTED_IN}")?;
+            }
             if self.found.is_empty() {
                 // One model: nothing was added to the starting model as refitted.
                 writeln!(

@@ -196,6 +196,15 @@ pub fn change<const N: usize, V: kinecal::ValueStorage>(
     .map(|(_, s)| s)
 }
 
+/// A probability as the warnings print it: `p = 0.000123`, or `p < 1e-16`.
+pub fn p_text(p: f64) -> String {
+    if p < 1e-16 {
+        "p < 1e-16".to_string()
+    } else {
+        format!("p = {}", crate::output::numfmt::sig(p, 3))
+    }
+}
+
 /// The warning for a significant change ([`TREND_P`]) at least [`STEP_SHARE`] of `floor_mm`
 /// (any size when the floor is not a finite number) in the residuals of `robot` over `data`,
 /// whose observations stand on the file's lines `lines`; `None` otherwise. `floor` names the
@@ -217,11 +226,7 @@ pub fn warning<const N: usize, V: kinecal::ValueStorage>(
         StepFrame::Flange => "the flange's axes",
         StepFrame::Measurement => "the measurement frame",
     };
-    let p = if s.p < 1e-16 {
-        "p < 1e-16".to_string()
-    } else {
-        format!("p = {}", sig(s.p))
-    };
+    let p = p_text(s.p);
     let figures = format!(
         "in {axes}: x {}, y {}, z {} mm; beside {floor} of {} mm, {p}",
         sig(s.change_mm.x),

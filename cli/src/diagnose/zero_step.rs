@@ -139,11 +139,7 @@ pub fn warning<const N: usize, V: kinecal::ValueStorage>(
     }
     let sig = |x: f64| crate::output::numfmt::sig(x, 3);
     let (before, after) = (*lines.get(z.at - 1)?, *lines.get(z.at)?);
-    let p = if z.p < 1e-16 {
-        "p < 1e-16".to_string()
-    } else {
-        format!("p = {}", sig(z.p))
-    };
+    let p = super::row_step::p_text(z.p);
     Some(format!(
         "the residuals change between lines {before} and {after} as joint {}'s zero changing \
          by {}° would ({} mm RMS at the tool, beside {floor} of {} mm; {p}), which the model \

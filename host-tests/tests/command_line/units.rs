@@ -620,6 +620,17 @@ fn check_warns_about_limits_only_where_the_file_has_them() {
     assert_eq!(v["outside_limits"], beyond);
 }
 
+/// The UR10 robot file, 60 simulated poses in millimetres (`d.csv`) and 60 others in metres
+/// (`v_m.csv`), in `dir`.
+fn session_and_metres(dir: &Path) -> (PathBuf, PathBuf, PathBuf) {
+    let robot = ur10_dir().join("robot.toml");
+    let (data, other) = (dir.join("d.csv"), dir.join("v.csv"));
+    simulate(&robot, Some(60), Some(0.01), Some(1), &[], &data);
+    simulate(&robot, Some(60), Some(0.01), Some(2), &[], &other);
+    let v = in_metres(&other, dir);
+    (robot, data, v)
+}
+
 /// A copy of the tracker file `path` (6 joints) with its points in metres, `v_m.csv` in `dir`.
 fn in_metres(path: &Path, dir: &Path) -> PathBuf {
     let text = std::fs::read_to_string(path).unwrap();
@@ -643,11 +654,7 @@ fn in_metres(path: &Path, dir: &Path) -> PathBuf {
 fn a_validate_file_in_other_units_is_told_to_match_the_data() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let robot = ur10_dir().join("robot.toml");
-    let (data, other) = (d.join("d.csv"), d.join("v.csv"));
-    simulate(&robot, Some(60), Some(0.01), Some(1), &[], &data);
-    simulate(&robot, Some(60), Some(0.01), Some(2), &[], &other);
-    let v = in_metres(&other, d);
+    let (robot, data, v) = session_and_metres(d);
     let out = run_on("identify", &robot, &data, &["--validate", s(&v)]);
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(2), "{err}");
@@ -661,18 +668,14 @@ fn a_validate_file_in_other_units_is_told_to_match_the_data() {
 
 /// A `--validate` file in metres read with `--length-unit mm` forced (the flag is never
 /// second-guessed): every model missed its poses by ~900 mm, and a fit that predicted them
-/// better by a hair was accepted (exit 0). The starting model's miss there against its miss on
-/// the identification poses now refuses the file (exit 2, naming it); the real UR10 session's
-/// other poses, read the same way, are judged as before.
+/// better by a hair was accepted (exit 0). The calibrated model's miss there against the
+/// robot file's on the identification poses now refuses the file (exit 2, naming it); the real
+/// UR10 session's other poses, read the same way, are judged as before.
 #[test]
 fn a_validate_file_the_robot_misses_by_far_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let robot = ur10_dir().join("robot.toml");
-    let (data, other) = (d.join("d.csv"), d.join("v.csv"));
-    simulate(&robot, Some(60), Some(0.01), Some(1), &[], &data);
-    simulate(&robot, Some(60), Some(0.01), Some(2), &[], &other);
-    let v = in_metres(&other, d);
+    let (robot, data, v) = session_and_metres(d);
     let args = ["--validate", s(&v), "--length-unit", "mm"];
     let out = run_on("identify", &robot, &data, &args);
     let err = stderr(&out);

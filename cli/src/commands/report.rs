@@ -96,10 +96,8 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
     }
     let split = split?;
     let t = |p: &std::path::Path| p.display().to_string();
-    let diagnose = args
-        .diagnose
-        .as_deref()
-        .map(|p| anyhow::Ok((findings::load(p)?, t(p))));
+    let diagnose = args.diagnose.as_deref();
+    let diagnose = diagnose.map(|p| anyhow::Ok((findings::load(p)?, t(p))));
     let validation = args.validate_json.as_deref();
     let validation =
         validation.map(|p| anyhow::Ok((crate::report_html::validation::load(p)?, t(p))));
@@ -142,12 +140,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
     crate::output::atomic::write_atomic(&args.out, built.html.as_bytes())
         .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", args.out.display()))?;
     if !built.summary.converged {
-        eprintln!(
-            "error: {}: {} (identification RMS {} mm; exit 3, the page says so)",
-            args.model.display(),
-            built.summary.verdict,
-            crate::output::numfmt::sig(built.summary.after.identification_rms_mm, 4)
-        );
+        eprintln!("{}", built.summary.error_line(&args.model));
     }
     Ok(built.summary)
 }

@@ -70,6 +70,19 @@ fn rows_by_name<S: Serializer>(rows: &[ParamRow], s: S) -> Result<S::Ok, S::Erro
     m.end()
 }
 
+impl ReportSummary {
+    /// The line on stderr of a page whose verdict is not "calibrated" (exit 3): the model
+    /// (`model`), the verdict and its identification RMS.
+    pub fn error_line(&self, model: &std::path::Path) -> String {
+        format!(
+            "error: {}: {} (identification RMS {} mm; exit 3, the page says so)",
+            model.display(),
+            self.verdict,
+            crate::output::numfmt::sig(self.after.identification_rms_mm, 4)
+        )
+    }
+}
+
 impl crate::reports::Report for ReportSummary {
     fn to_json(&self) -> serde_json::Value {
         crate::reports::with_accepted(crate::reports::json_value(self), self)

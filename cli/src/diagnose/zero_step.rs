@@ -1,9 +1,9 @@
 //! A joint whose zero changed at one row: a robot re-mastered, or an encoder that slipped,
 //! in the middle of a session. Its residuals step along the rows' order, but not by one
 //! vector in either frame ([`super::row_step`] sees those): by the joint's column times the
-//! change, different at every pose. A fit takes the mean of the two zeros: 80 ER20 poses, joint
-//! 2 re-mastered by 0.5°, 80 more, calibrated to 4.2 mm RMS at 0.02 mm noise with exit 0, and
-//! `diagnose` called 4.45 mm a "noise floor". (An arm still warming up looks alike: the real
+//! change, different at every pose. A fit takes the mean of the two zeros: 150 UR10 rows, joint
+//! 2 re-mastered by 0.5°, 150 more, calibrated to 3.66 mm RMS at 0.02 mm noise with exit 0
+//! (host-tests `row_step::a_joint_re_mastered_mid_file_is_named_at_its_row`). (An arm still warming up looks alike: the real
 //! UR10 series A's first 74 rows, its first 13 minutes, differ from the rest as joint 2's zero
 //! 0.033° off would, 0.59 mm at the tool beside the fit's 0.44 mm.)
 //!

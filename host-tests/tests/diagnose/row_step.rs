@@ -137,8 +137,8 @@ fn a_moved_reflector_or_tracker_is_named_at_its_row() {
 }
 
 /// Joint 2 re-mastered by +0.5° after 150 of 300 UR10 rows: no step of one vector in either
-/// frame, so nothing was said (identify 4.2 mm RMS at 0.02 mm noise, exit 0; diagnose a
-/// "noise floor" of 4.45 mm). Both name the joint, the change within 5 % and the rows now
+/// frame, so nothing was said (identify 3.66 mm RMS at 0.02 mm noise, exit 0; diagnose took
+/// what was left for noise). Both name the joint, the change within 5 % and the rows now
 /// (`cli/src/diagnose/zero_step.rs`); the same robot in both halves and the real UR10 session
 /// draw no such word.
 #[test]

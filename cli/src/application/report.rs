@@ -33,8 +33,9 @@ pub struct Inputs<const N: usize> {
     pub model_origin: String,
     /// The robot file's path as given (compared with a validate JSON's).
     pub robot_origin: String,
-    /// The held-out poses are another file's (`--validate`), not a part of the data file.
-    pub validated: bool,
+    /// The `--validate` file's name when the held-out poses are another file's, not a part of
+    /// the data file.
+    pub validated: Option<String>,
     pub split: Split<N>,
     pub sources: Sources,
     pub diagnose: Option<(DiagnoseJson, String)>,
@@ -100,7 +101,7 @@ pub fn report<const N: usize>(options: &Options<'_>, inputs: Inputs<N>) -> anyho
     // Gross outliers refuse the model as identify refuses its fit (held-out rows of the data
     // file searched too, named as held out).
     let held_lines: Vec<u32> = split.valid_set.iter().map(|p| p.line).collect();
-    let outliers = if validated {
+    let outliers = if validated.is_some() {
         crate::calibration::outliers::find(&model, &[(&split.ident_set, &split.ident)])
     } else {
         crate::calibration::outliers::find(
@@ -111,11 +112,22 @@ pub fn report<const N: usize>(options: &Options<'_>, inputs: Inputs<N>) -> anyho
             ],
         )
     };
-    let outliers = outliers.reason_given(if validated { &[] } else { &held_lines });
+    let outliers = outliers.reason_given(if validated.is_some() {
+        &[]
+    } else {
+        &held_lines
+    });
     let observed = &split.observed;
     // "Before" is the nominal robot placed as identify and check place it.
     let base_unknown = !file.base_known();
     place_nominal(&mut nominal, &file, &split.ident, observed.six_d)?;
+    // A --validate file in another unit or layout is refused as identify refuses it.
+    if let Some(name) = &validated {
+        let (ident, valid) = (&split.ident, &split.valid);
+        let before = crate::calibration::Residuals::of(&nominal, ident, valid);
+        let after = crate::calibration::Residuals::of(&model, ident, valid);
+        crate::calibration::acceptance::refuse_foreign_held_out((&before, &after), name)?;
+    }
     let how = (observed.six_d, base_unknown);
     let selected = options.parameters.selection();
     let (tilts, estimated) = replay::estimated(&file, (&model_file, &model), how, &selected)?;

@@ -45,11 +45,20 @@ pub fn refuse_foreign_held_out(
     ),
     name: &str,
 ) -> anyhow::Result<()> {
-    use crate::output::numfmt::sig;
     let Some(held) = after.validation_rms_mm else {
         return Ok(());
     };
     let (start, fitted) = (before.identification_rms_mm, after.identification_rms_mm);
+    refuse_foreign_rms((start, fitted, held), name)
+}
+
+/// [`refuse_foreign_held_out`] on the figures alone: the starting and the calibrated model's
+/// RMS on the identification poses, the calibrated model's on the `--validate` file's (mm).
+pub fn refuse_foreign_rms(
+    (start, fitted, held): (f64, f64, f64),
+    name: &str,
+) -> anyhow::Result<()> {
+    use crate::output::numfmt::sig;
     if held > FOREIGN_RATIO * start && held > fitted + FOREIGN_MARGIN_MM {
         crate::refuse!(
             "--validate {name}: the calibrated model misses its poses by {} mm RMS against {} \

@@ -126,7 +126,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ReportSummary>
         model,
         model_origin: t(&args.model),
         robot_origin: t(&input.robot),
-        validated: args.validate.is_some(),
+        validated: args.validate.as_deref().map(t),
         split,
         sources: Sources {
             files,

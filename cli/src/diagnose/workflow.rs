@@ -169,12 +169,12 @@ pub fn run<const N: usize>(
         validate,
     } = inputs;
     any_rows(&observed.poses, Path::new(&data_origin))?;
-    let validate = match validate {
+    let (validate, validate_name) = match validate {
         Some((v, origin)) => {
             any_rows(&v.poses, Path::new(&origin))?;
-            Some(v)
+            (Some(v), Some(origin))
         }
-        None => None,
+        None => (None, None),
     };
     let kind = observed.kind();
     let (search_poses, held_poses) = split_sets(observed, validate, (&opts.holdout, opts.seed))?;
@@ -301,12 +301,17 @@ pub fn run<const N: usize>(
         // The starting model: the nominal robot placed as identify places it.
         let mut start = nominal.clone();
         place_nominal(&mut start, &file, &search, false)?;
-        Some(holdout_errors(
-            &mut d,
-            &start,
-            &held,
-            held_poses.poses.len(),
-        ))
+        let h = holdout_errors(&mut d, &start, &held, held_poses.poses.len());
+        // A --validate file in another unit or layout, judged as identify judges it.
+        if let Some(name) = &validate_name {
+            let start_rms = rms_of(squared_errors(&start, &search));
+            let fitted_rms = rms_of(squared_errors(&d.baseline_model, &search));
+            crate::calibration::acceptance::refuse_foreign_rms(
+                (start_rms, fitted_rms, h.geometric_rms_mm),
+                name,
+            )?;
+        }
+        Some(h)
     };
     let acceptance = holdout.as_ref().and_then(|h| {
         let rms = |sq: Vec<f64>| (sq.iter().sum::<f64>() / sq.len().max(1) as f64).sqrt();
@@ -521,6 +526,11 @@ fn all_observations<const N: usize>(
     })
 }
 
+/// The RMS of squared errors (0 for none).
+fn rms_of(sq: Vec<f64>) -> f64 {
+    (sq.iter().sum::<f64>() / sq.len().max(1) as f64).sqrt()
+}
+
 /// The errors of the nominal robot `start` (placed as identify places it), of the starting
 /// model as the search fitted it (the same fit as the final model when nothing is added) and
 /// of the final model on the `held` poses; lowers `d`'s noise floor
@@ -531,7 +541,7 @@ fn holdout_errors<const N: usize>(
     held: &[Measurement<f64, N>],
     poses: usize,
 ) -> Holdout {
-    let rms = |sq: Vec<f64>| (sq.iter().sum::<f64>() / sq.len() as f64).sqrt();
+    let rms = rms_of;
     let start_rms_mm = rms(squared_errors(start, held));
     let geometric_rms_mm = rms(squared_errors(&d.baseline_model, held));
     let final_rms_mm = rms(squared_errors(&d.model, held));

@@ -743,3 +743,39 @@ fn a_validate_file_the_robot_misses_by_far_is_refused() {
         stderr(&out)
     );
 }
+
+/// diagnose and report judge a `--validate` file as identify does: in metres beside data in
+/// millimetres (the file read with `--length-unit mm`), diagnose searched and reported a
+/// held-out RMS of 3 m with exit 0, report drew its page. Both refuse it now (exit 2, naming
+/// it); the same 200 real UR10 poses in millimetres are judged as before.
+#[test]
+fn diagnose_and_report_refuse_a_validate_file_in_metres() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // The real session's rows 1-400 searched and fitted, 401-600 held out.
+    let rows: Vec<String> = std::fs::read_to_string(ur10_dir().join("ur10_random_poses.csv"))
+        .unwrap()
+        .lines()
+        .map(String::from)
+        .collect();
+    let a = write(d, "a.csv", &(rows[..401].join("\n") + "\n"));
+    let b = [&rows[..1], &rows[401..601]].concat().join("\n") + "\n";
+    let b = write(d, "b.csv", &b);
+    let metres = in_metres(&b, d);
+    let robot = ur10_dir().join("robot.toml");
+    let (model, page) = (d.join("m.toml"), d.join("r.html"));
+    let out = run_on("identify", &robot, &a, &["--out", s(&model)]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    for (held, code) in [(&metres, 2), (&b, 0)] {
+        let validate = ["--validate", s(held), "--length-unit", "mm"];
+        let report = [&validate[..], &["--model", s(&model), "--out", s(&page)]].concat();
+        for (command, args) in [("diagnose", &validate[..]), ("report", &report[..])] {
+            let out = run_on(command, &robot, &a, args);
+            let err = stderr(&out);
+            assert_eq!(out.status.code(), Some(code), "{command}: {err}");
+            let refused = err.contains("v_m.csv") && err.contains("misses its poses");
+            assert_eq!(refused, code == 2, "{command}: {err}");
+        }
+        assert_eq!(page.exists(), code == 0, "a page of a refused file");
+    }
+}

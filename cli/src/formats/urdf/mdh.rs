@@ -18,8 +18,11 @@ use super::parse::{rpy_of, UrdfJoint};
 use crate::formats::robot_file::{deg_short, BaseSpec, JointSpec, RobotFile, ToolSpec};
 use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
-/// Axes closer to parallel than this (|z_i × z_i+1|) are treated as parallel.
-const PARALLEL: f64 = 1e-11;
+/// Axes closer to parallel than this (|z_i × z_i+1|, about 0.06°) take the parallel
+/// convention with the tilt in the next row's `beta` (Hayati's): their common normal lies
+/// about (offset / angle) away, metres to kilometres for a `rpy` of π written with 7 to 10
+/// digits, and the rows would carry that length.
+const PARALLEL: f64 = 1e-3;
 
 /// The import of a chain: the robot file and the transforms export needs (millimetres).
 #[derive(Clone, Debug)]
@@ -197,9 +200,11 @@ pub fn import(chain: &Chain, tool_mm: [f64; 3], name: &str) -> Imported {
             let (q, zn) = lines[i + 1];
             let c = z.cross(&zn);
             if c.norm() < PARALLEL {
-                // Parallel: the normal through the incoming foot.
+                // (Nearly) parallel: x_i from the incoming foot to where axis i+1 meets the
+                // plane through it normal to z_i (exactly the normal for parallel axes; the
+                // tilt goes into the next row's beta).
                 let o = foot;
-                let w = (q - o) - zn * (q - o).dot(&zn);
+                let w = (q - o) - zn * ((q - o).dot(&z) / zn.dot(&z));
                 let x = perpendicular(w, z, x_prev);
                 let x = if w.norm() > 1e-9 {
                     x

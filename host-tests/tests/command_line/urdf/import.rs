@@ -147,3 +147,78 @@ fn random_geometry_with_fixed_joints_and_odd_axes_is_imported_exactly() {
     }
     eprintln!("random URDFs: worst point difference {worst_all:.3e} mm");
 }
+
+/// Joints 2 and 3 parallel as a CAD export writes them: the roll of joint 3's origin is π with
+/// 7 to 10 digits (rtb-data's Lynxmotion AL5D writes `3.141592653`), or tilted by up to
+/// 0.05°. Their common normal lay metres to kilometres away and the import was refused
+/// ("parameters must be finite numbers", "d_mm = 1.18e8 is implausible"); the parallel
+/// convention with the tilt in beta imports them exactly, with every length of the arm's size.
+#[test]
+fn nearly_parallel_axes_import_exactly_with_the_tilt_in_beta() {
+    let urdf = |roll: &str, pitch: &str| {
+        let j = |name: &str, parent: &str, child: &str, xyz: &str, rpy: &str| {
+            format!(
+                "<joint name=\"{name}\" type=\"revolute\"><parent link=\"{parent}\"/><child \
+                 link=\"{child}\"/><origin xyz=\"{xyz}\" rpy=\"{rpy}\"/><axis xyz=\"0 0 1\"/>\
+                 <limit lower=\"-3\" upper=\"3\" effort=\"1\" velocity=\"1\"/></joint>\n"
+            )
+        };
+        let h = "1.5707963267948966";
+        [
+            "<?xml version=\"1.0\"?>\n<robot name=\"arm\">\n".to_string(),
+            ["base_link", "l1", "l2", "l3", "l4", "l5", "l6", "tool0"]
+                .iter()
+                .map(|l| format!("<link name=\"{l}\"/>\n"))
+                .collect(),
+            j("j1", "base_link", "l1", "0 0 0.4", "0 0 0"),
+            j("j2", "l1", "l2", "0.15 0 0", &format!("{h} 0 0")),
+            j("j3", "l2", "l3", "0.6 0.02 0", &format!("{roll} {pitch} 0")),
+            j("j4", "l3", "l4", "0.5 0 0", &format!("0 {h} 0")),
+            j("j5", "l4", "l5", "0 0 0", &format!("0 -{h} 0")),
+            j("j6", "l5", "l6", "0 0 0", &format!("0 {h} 0")),
+            "<joint name=\"jt\" type=\"fixed\"><parent link=\"l6\"/><child link=\"tool0\"/>\
+             <origin xyz=\"0 0 0.1\" rpy=\"0 0 0\"/></joint>\n</robot>\n"
+                .to_string(),
+        ]
+        .concat()
+    };
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
+    for (roll, pitch) in [
+        ("3.141592653589793", "0"),
+        ("3.141592653", "0"),
+        ("3.14159265", "0"),
+        ("3.1415926", "0"),
+        ("3.14159", "0"),
+        ("3.1408", "0"),
+        ("3.141592653589793", "1e-9"),
+        ("3.141592653589793", "0.0008"),
+    ] {
+        let text = urdf(roll, pitch);
+        let dir = tempfile::tempdir().unwrap();
+        let path = crate::common::write(dir.path(), "arm.urdf", &text);
+        let (_, robot) = import(dir.path(), &path, &[]);
+        for (i, j) in robot.joints.iter().enumerate() {
+            assert!(
+                j.d_mm.abs() < 2000.0 && j.a_mm.abs() < 2000.0,
+                "roll {roll}, pitch {pitch}: joint {}: a {} mm, d {} mm",
+                i + 1,
+                j.a_mm,
+                j.d_mm
+            );
+        }
+        let chain = RefChain::new(&text, "base_link", "tool0");
+        let (mut worst_mm, mut worst_rad) = (0.0f64, 0.0f64);
+        for _ in 0..100 {
+            let q = random_q(&mut rng, &chain.limits());
+            let t = chain.pose(&q);
+            let (p, r) = library_pose(&robot, &q);
+            worst_mm = worst_mm.max((p - point_of(&t, [0.0; 3])).norm());
+            worst_rad = worst_rad.max(angle_between(&r, &rotation_of(&t)));
+        }
+        assert!(worst_mm < 1e-6, "roll {roll}, pitch {pitch}: {worst_mm} mm");
+        assert!(
+            worst_rad < 1e-8,
+            "roll {roll}, pitch {pitch}: {worst_rad} rad"
+        );
+    }
+}

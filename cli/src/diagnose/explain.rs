@@ -5,8 +5,10 @@
 //! "joint-table on joint 2".
 //!
 //! Definitions (and why):
-//! - **Size in degrees.** The correction `dq_j` of the fit right after the effect was added
-//!   ([`Found::after`], the model the search tested) over the joint range the data cover (a
+//! - **Size in degrees.** The correction `dq_j` of the final model (the diagnosis' `model`,
+//!   fitted with every found effect: the one written; the fit right after the effect was added
+//!   may give it what a later effect takes back: series A's joint-4 table read 0.65° peak to
+//!   peak there, 0.19° in the written model) over the joint range the data cover (a
 //!   dense grid plus a table's knots): its peak to peak and half of it (the "±"). A joint-cyclic
 //!   term repeats, so it is the sine's own size, `2·√(a² + b²)`, whatever part of the turn the
 //!   data saw. Compliance: `k·τ` over the poses' lever arms. Axis-tilt: the tilt angle itself.
@@ -484,17 +486,18 @@ fn short_text(
     }
 }
 
-/// The explanation of `f` on the `data` the search ran on, with the diagnosis' noise floor
-/// (mm, held-out RMS sense; not finite when none was estimated).
+/// The explanation of `f` as the final `model` holds it, on the `data` the search ran on, with
+/// the diagnosis' noise floor (mm, held-out RMS sense; not finite when none was estimated).
 pub fn explain<const N: usize>(
     f: &Found<N>,
+    model: &HostRobot<N>,
     data: &[Measurement<f64, N>],
     noise_floor_mm: f64,
 ) -> Explanation {
     let c = &f.candidate;
     let j = c.joint;
-    let values = c.values(&f.after);
-    let poses = per_pose(c, &f.after, data);
+    let values = c.values(model);
+    let poses = per_pose(c, model, data);
     let (lo, hi) = covered_range(j, data);
     let grid = if lo.is_finite() && hi.is_finite() {
         curve(c, &values, lo, hi)

@@ -236,9 +236,10 @@ pub struct Diagnosis<const N: usize> {
 }
 
 impl<const N: usize> Found<N> {
-    /// One sentence: what is missing, how much it helps, how sure.
-    pub fn sentence(&self, noise_floor_mm: f64) -> String {
-        let values = self.candidate.values(&self.after);
+    /// One sentence: what is missing (its size as the final `model` holds it), how much it
+    /// helps, how sure.
+    pub fn sentence(&self, model: &HostRobot<N>, noise_floor_mm: f64) -> String {
+        let values = self.candidate.values(model);
         let [before, after, floor] =
             distinct_figures([self.before_rms_mm, self.validation_rms_mm, noise_floor_mm]);
         let alpha = self.threshold * self.candidates_compared as f64;

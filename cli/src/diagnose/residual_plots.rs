@@ -13,6 +13,7 @@ use crate::diagnose::candidates::{fmt_deg, Candidate, CandidateKind};
 use crate::diagnose::explain::{curve, explain, knots, per_pose, Explanation, PoseEffect};
 use crate::diagnose::{distinct_figures, Diagnosis, Found};
 use crate::output::numfmt::sig;
+use crate::HostRobot;
 use anyhow::anyhow;
 use kinecal::Measurement;
 use plotters::prelude::*;
@@ -43,7 +44,8 @@ pub fn write_all<const N: usize>(
             f.candidate.id(),
             f.candidate.joint + 1
         ));
-        effect_residuals(&p, f, data, &explain(f, data, d.noise_floor_mm))?;
+        let e = explain(f, &d.model, data, d.noise_floor_mm);
+        effect_residuals(&p, (f, &d.model), data, &e)?;
         out.push(p);
     }
     Ok(out)
@@ -147,18 +149,18 @@ fn robust_span(ys: &[f64]) -> (f64, f64) {
 /// first clause.
 pub fn effect_residuals<const N: usize>(
     path: &Path,
-    f: &Found<N>,
+    (f, model): (&Found<N>, &HostRobot<N>),
     data: &[Measurement<f64, N>],
     e: &Explanation,
 ) -> anyhow::Result<()> {
     let c = &f.candidate;
     let j = c.joint;
-    let values = c.values(&f.after);
+    let values = c.values(model);
     let before: Vec<(f64, f64)> = per_pose(c, &f.before, data)
         .iter()
         .map(|p| (variable(c, p), p.residual.to_degrees()))
         .collect();
-    let after_poses = per_pose(c, &f.after, data);
+    let after_poses = per_pose(c, model, data);
     let partial: Vec<(f64, f64)> = after_poses
         .iter()
         .map(|p| (variable(c, p), (p.residual + p.dq).to_degrees()))

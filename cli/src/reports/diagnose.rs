@@ -286,7 +286,7 @@ impl DiagnoseReport {
                     p_value: f.test.p,
                     p_threshold: f.threshold,
                     candidates_compared: f.candidates_compared,
-                    sentence: f.sentence(d.noise_floor_mm),
+                    sentence: f.sentence(&d.model, d.noise_floor_mm),
                     order,
                     step_deg,
                     start_deg,
@@ -353,7 +353,7 @@ impl DiagnoseReport {
             sentences: d
                 .found
                 .iter()
-                .map(|f| f.sentence(d.noise_floor_mm))
+                .map(|f| f.sentence(&d.model, d.noise_floor_mm))
                 .collect(),
             folds: d.folds.k,
             fit_rms_mm: d.fit_rms_mm,
@@ -395,7 +395,7 @@ impl DiagnoseReport {
     ) -> Self {
         if data.len() == d.folds.of.len() {
             for (r, f) in self.found.iter_mut().zip(&d.found) {
-                r.explanation = Some(explain(f, data, d.noise_floor_mm));
+                r.explanation = Some(explain(f, &d.model, data, d.noise_floor_mm));
             }
         }
         self

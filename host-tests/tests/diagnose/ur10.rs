@@ -62,7 +62,7 @@ fn ur10_tables_cut_the_held_out_error_below_045_of_the_geometric_fit() {
         serde_json::to_string_pretty(&report["rounds"]).unwrap()
     );
     for f in &d.found {
-        eprintln!("{}", f.sentence(d.noise_floor_mm));
+        eprintln!("{}", f.sentence(&d.model, d.noise_floor_mm));
     }
     eprintln!("chosen grids: {}", grids(&d));
     eprintln!(

@@ -51,14 +51,22 @@ def main() -> int:
     print(f"  held-out errors from fk: RMS {np.sqrt(np.mean(errors ** 2)):.3f} mm, "
           f"95 % below {np.percentile(errors, 95):.3f} mm")
 
+    # diagnose keeps the last 1,773 poses out of the whole search. Its headline figures
+    # (baseline/final_validation_rms_mm, each finding's validation_rms_mm) are cross-validated
+    # over the 1,000 searched poses; the held-out poses' own figures are in diag.holdout.
     t = time.perf_counter()
     diag = kinecal.diagnose(robot, data.q, data.xyz, holdout=1773)
-    print(f"diagnose in {time.perf_counter() - t:.1f} s: held-out "
-          f"{diag.baseline_validation_rms_mm:.3f} mm -> {diag.final_validation_rms_mm:.3f} mm, "
-          f"noise floor {diag.noise_floor_mm:.3f} mm")
-    for f in diag.found:
-        print(f"  found {f['effect']} on joint {f['joint']}: held-out "
-              f"{f['validation_rms_mm']:.3f} mm")
+    print(f"diagnose in {time.perf_counter() - t:.1f} s")
+    b, f = diag.cross_validated_rms_mm
+    print(f"  cross-validated RMS (searched poses) {b:.3f} mm -> {f:.3f} mm")
+    h = diag.holdout
+    print(f"  held-out RMS ({h['poses']} poses, not searched) {h['geometric_rms_mm']:.3f} mm "
+          f"-> {h['final_rms_mm']:.3f} mm")
+    capped = " (lowered to the held-out final RMS)" if h["noise_floor_capped"] else ""
+    print(f"  noise floor {diag.noise_floor_mm:.3f} mm{capped}")
+    for found in diag.found:
+        print(f"  found {found['effect']} on joint {found['joint']}: cross-validated "
+              f"{found['validation_rms_mm']:.3f} mm")
 
     try:
         import matplotlib

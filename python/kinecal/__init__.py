@@ -36,6 +36,7 @@ __all__ = [
     "Measurements",
     "IdentifyResult",
     "CommandResult",
+    "DiagnoseResult",
     "identify",
     "diagnose",
     "compensate",
@@ -139,6 +140,47 @@ def _as_set(data: Any, what: str):
     raise RefusedError(f"{what}: give Measurements, (q, xyz) or (q, xyz, columns)")
 
 
+def _words(value: Any) -> List[Any]:
+    """A list option (``fix``, ``free``, ``only``, ``prior``, ``effects`` …): a single string is
+    one item (``fix="theta1"`` is ``fix=["theta1"]``), not a list of its characters."""
+    if value is None:
+        return []
+    if isinstance(value, (str, bytes)):
+        return [value.decode() if isinstance(value, bytes) else value]
+    return list(value)
+
+
+def _locate_temperatures(e: KinecalError, sets: Sequence[Tuple[str, Any]]) -> KinecalError:
+    """A refusal for want of a temperature on every row (a thermal-expansion term), with the
+    first row of each set whose ``temp_c`` is NaN named as the other refusals name cells
+    (``data:LINE``, row i on line i + 2 of the file the arrays make, and the row)."""
+    text = str(e)
+    if "temp_c" not in text or "every row" not in text:
+        return e
+    where = []
+    for name, columns in sets:
+        t = None if not columns else columns.get("temp_c")
+        if t is None:
+            continue
+        rows = np.flatnonzero(~np.isfinite(np.asarray(t, dtype=np.float64).reshape(-1)))
+        if rows.size:
+            where.append(
+                f"{name}:{rows[0] + 2}: no temp_c (NaN; row {rows[0]} of the arrays, "
+                f"{rows.size} such row{'s' if rows.size > 1 else ''})"
+            )
+    if not where:
+        return e
+    return type(e)(f"{text}; {'; '.join(where)}")
+
+
+def _columns_of(data: Any) -> Optional[Mapping[str, Any]]:
+    if isinstance(data, Measurements):
+        return data.columns
+    if isinstance(data, (tuple, list)) and len(data) == 3:
+        return data[2]
+    return None
+
+
 # --------------------------------------------------------------------------------------------
 # identify
 
@@ -231,7 +273,8 @@ def identify(
     by name (``rx_deg``…, ``sx_mm``…, ``x_NAME``…); ``method``: ``lm``, ``pso``, ``bpnn-pso``
     or ``pso+lm``; ``holdout``: hold out poses (fraction < 1 or count), ``split`` which ones
     (``last``, ``random``, ``every:K``); ``fix``, ``free``, ``only``: parameter names or groups
-    (``base``, ``tool``, ``geometry``, ``theta``, ``effects``, ``joint-table2`` …); ``prior``:
+    (``base``, ``tool``, ``geometry``, ``theta``, ``effects``, ``joint-table2`` …; a list, or
+    one name as a string); ``prior``:
     ``["off"]`` or ``["length_mm=1", "angle_deg=0.1"]``; ``validate``: a separate measurement set (``(q, xyz)``, ``(q, xyz, columns)`` or
     :class:`Measurements`); ``effects``: ``"KIND:JOINT[:ARG]"`` as ``--effect``; the other
     options as the command line's flags (None = its default). Refused input raises
@@ -241,14 +284,20 @@ def identify(
     data = _set(q, xyz, columns)
     val = None if validate is None else _as_set(validate, "validate")
     options = dict(
-        method=method, holdout=holdout, split=split, effects=list(effects), seed=seed,
-        fix=list(fix), free=list(free), only=list(only), prior=list(prior),
+        method=method, holdout=holdout, split=split, effects=_words(effects), seed=seed,
+        fix=_words(fix), free=_words(free), only=_words(only), prior=_words(prior),
         tolerance_mm=tolerance_mm, tolerance_deg=tolerance_deg, stall_rms_mm=stall_rms_mm,
         length_unit=length_unit, angle_unit=angle_unit, deg_weight_mm=deg_weight_mm,
         sigma_as_stated=sigma_as_stated, positions_only=positions_only,
         ignore_sigma=ignore_sigma,
     )
-    text, model, converged = _native.identify(robot, data, val, options)
+    try:
+        text, model, converged = _native.identify(robot, data, val, options)
+    except RefusedError as e:
+        located = _locate_temperatures(e, [("data", columns), ("validate", _columns_of(validate))])
+        if located is e:
+            raise
+        raise located from None
     result = IdentifyResult(json.loads(text), Robot.from_toml(model, "identified model"), converged)
     if warn:
         if result.suspicious:
@@ -306,6 +355,61 @@ def _warn_not_converged(converged: bool, what: str) -> None:
         warnings.warn(what, NotConvergedWarning, stacklevel=3)
 
 
+class DiagnoseResult(CommandResult):
+    """The result of :func:`diagnose`: the keys of ``kinecal diagnose --json`` as attributes,
+    ``json``, ``robot`` (the extended model; None when it predicts the held-out poses worse),
+    ``converged`` and ``text`` (the report as the command line prints it without ``--json``).
+
+    Two kinds of error figures, not to be confused:
+
+    * **cross-validated** (k-fold over the poses the search used; the search's yardstick):
+      ``baseline_validation_rms_mm``, ``final_validation_rms_mm``, each ``found[i]``'s
+      ``validation_rms_mm`` and ``before_validation_rms_mm``, the rounds' figures, ``summary``
+      and ``sentences`` ("cross-validated RMS …"). ``validation`` in these keys means
+      cross-validated, whereas :func:`identify`'s ``validation_rms_mm`` is held-out.
+      :attr:`cross_validated_rms_mm` is ``(baseline, final)``.
+    * **held-out** (poses kept out of the whole search: ``holdout=`` or ``validate=``): the dict
+      ``holdout`` (``poses``, ``start_rms_mm`` the nominal robot, ``geometric_rms_mm`` the
+      starting model refitted, ``final_rms_mm`` the extended model, ``noise_floor_capped``);
+      :attr:`held_out_rms_mm` is ``(geometric, final)``, None without held-out poses.
+
+    ``noise_floor_mm``: with ``holdout["noise_floor_capped"]`` it was lowered to the held-out
+    final RMS (their errors are the noise plus the model's), so "final ≈ noise floor" on the
+    held-out poses then holds by construction and is no evidence."""
+
+    @property
+    def cross_validated_rms_mm(self) -> Tuple[float, float]:
+        """``(baseline, final)``: the cross-validated RMS (mm) of the starting model and of the
+        extended model over the searched poses (``baseline_validation_rms_mm``,
+        ``final_validation_rms_mm``)."""
+        return (self.json["baseline_validation_rms_mm"], self.json["final_validation_rms_mm"])
+
+    @property
+    def held_out_rms_mm(self) -> Optional[Tuple[float, float]]:
+        """``(geometric, final)``: the RMS (mm) on the held-out poses of the starting model
+        refitted and of the extended model (``holdout``); None without held-out poses."""
+        h = self.json.get("holdout")
+        return None if h is None else (h["geometric_rms_mm"], h["final_rms_mm"])
+
+    def __repr__(self) -> str:
+        b, f = self.cross_validated_rms_mm
+        parts = [
+            f"found={len(self.json.get('found') or [])}",
+            f"cross-validated RMS {b:.4g} -> {f:.4g} mm",
+        ]
+        h = self.json.get("holdout")
+        if h is not None:
+            parts.append(
+                f"held-out ({h['poses']} poses) RMS {h['geometric_rms_mm']:.4g} -> "
+                f"{h['final_rms_mm']:.4g} mm"
+            )
+        floor = self.json.get("noise_floor_mm")
+        if floor is not None:
+            capped = " (capped at the held-out final RMS)" if h and h["noise_floor_capped"] else ""
+            parts.append(f"noise floor {floor:.4g} mm{capped}")
+        return f"DiagnoseResult(converged={self.converged}, {', '.join(parts)})"
+
+
 def diagnose(
     robot: Robot,
     q: Any,
@@ -314,6 +418,7 @@ def diagnose(
     columns: Optional[Mapping[str, Any]] = None,
     validate: Any = None,
     holdout: Optional[float] = None,
+    split: Optional[str] = None,
     seed: Optional[int] = None,
     folds: Optional[int] = None,
     alpha: Optional[float] = None,
@@ -322,34 +427,57 @@ def diagnose(
     stall_rms_mm: Optional[float] = None,
     length_unit: Optional[str] = None,
     angle_unit: Optional[str] = None,
+    deg_weight_mm: Optional[float] = None,
+    sigma_as_stated: bool = False,
+    positions_only: bool = False,
+    ignore_sigma: bool = False,
     plots: Optional[PathLike] = None,
     warn: bool = True,
-) -> CommandResult:
+) -> DiagnoseResult:
     """The discrepancy workflow (``kinecal diagnose``): fits the geometry, names the missing
-    effects, adds them. Returns the report (``baseline_validation_rms_mm``, ``found``,
-    ``final_validation_rms_mm``, ``noise_floor_mm`` …) and ``robot``, the extended model."""
+    effects, adds them. Returns a :class:`DiagnoseResult`: the report (``found``,
+    ``baseline_validation_rms_mm`` and ``final_validation_rms_mm`` cross-validated,
+    ``holdout`` the held-out poses' figures, ``noise_floor_mm`` …) and ``robot``, the extended
+    model. ``holdout`` / ``split`` / ``validate`` keep poses out of the whole search as in
+    :func:`identify`; ``positions_only``, ``ignore_sigma``, ``sigma_as_stated``,
+    ``deg_weight_mm``: how orientation and σ columns are used, as ``--positions-only`` …"""
     data = _set(q, xyz, columns)
     val = None if validate is None else _as_set(validate, "validate")
     # Messages and the report name the sets `data` and `validate`; nothing is written but
     # the plots.
     options = dict(
-        holdout=holdout, seed=seed, folds=folds, alpha=alpha, max_order=max_order,
+        holdout=holdout, split=split, seed=seed, folds=folds, alpha=alpha, max_order=max_order,
         max_effects=max_effects, stall_rms_mm=stall_rms_mm, length_unit=length_unit,
         angle_unit=angle_unit, plots=None if plots is None else os.fspath(plots),
+        deg_weight_mm=deg_weight_mm, sigma_as_stated=sigma_as_stated,
+        positions_only=positions_only, ignore_sigma=ignore_sigma,
     )
-    text, toml, converged = _native.diagnose(robot, data, val, options)
+    try:
+        text, toml, converged, printed = _native.diagnose(robot, data, val, options)
+    except RefusedError as e:
+        located = _locate_temperatures(e, [("data", columns), ("validate", _columns_of(validate))])
+        if located is e:
+            raise
+        raise located from None
     report = json.loads(text)
     model = None if toml is None else Robot.from_toml(toml, "model")
     if warn:
         _warn_not_converged(converged, "diagnose: the geometric model does not fit the data")
-    return CommandResult(report, converged, robot=model)
+    return DiagnoseResult(report, converged, robot=model, text=printed)
+
+
+def _unreached(failed: int, targets: int, hint: Optional[str]) -> str:
+    """The command line's error for targets not reached (``kinecal compensate`` exits 3), and
+    its hint when the targets look given in another frame."""
+    text = _native.unreached_error(failed, targets) or ""
+    return text if not hint else f"{text}\n{hint}"
 
 
 def compensate(
     model: Robot,
     q_seed: Any,
     xyz: Any,
-    rpy_deg: Any = None,
+    rpy: Any = None,
     *,
     iterations: Optional[int] = None,
     max_step_deg: Optional[float] = None,
@@ -360,17 +488,50 @@ def compensate(
     angle_unit: Optional[str] = None,
     tool: Optional[str] = None,
     temp_c: Any = None,
+    rpy_deg: Any = None,
+    warn: bool = True,
 ) -> CommandResult:
     """Corrected joint commands (``kinecal compensate``) that bring ``model`` to the targets
-    ``xyz`` (n, 3) (and orientations ``rpy_deg`` (n, 3)) from the controller's seeds
-    ``q_seed`` (n, N); ``tool`` names the reflector (``[[tools]]``) the targets are for (the
-    first by default); ``temp_c`` (n,) the arm's temperature at each target (°C), at which a
-    model's ``thermal-expansion`` is evaluated (a targets file's ``temp_c`` column). Returns
-    the report and ``q`` (n, N, in the seeds' angle unit), ``status`` (list of str),
-    ``error_mm``, ``error_deg`` (n,)."""
-    columns = {}
+    ``xyz`` (n, 3) (and orientations ``rpy`` (n, 3): fixed-axis roll, pitch, yaw) from the
+    controller's seeds ``q_seed`` (n, N).
+
+    Units: ``rpy`` is in ``angle_unit``, as the seeds are (degrees by default; radians with
+    ``angle_unit="rad"``), as ``--angle-unit`` covers a targets file's ``rx``, ``ry``, ``rz``.
+    ``rpy_deg=`` is the former name of ``rpy`` and still works, with the same meaning: it too
+    is read in ``angle_unit`` (radians with ``angle_unit="rad"``, which warns with
+    :class:`DataWarning` since the name says degrees). ``tool`` names the reflector
+    (``[[tools]]``) the targets are for (the first by default); ``temp_c`` (n,) the arm's
+    temperature at each target (°C), at which a model's ``thermal-expansion`` is evaluated (a
+    targets file's ``temp_c`` column; a model with the term and targets without it warn with
+    :class:`DataWarning`, as the command line prints ``warning: …``).
+
+    Returns the report and ``q`` (n, N, in the seeds' angle unit), ``status`` (list of str),
+    ``error_mm``, ``error_deg`` (n,), ``converged`` (every target reached).
+
+    Targets not reached (a status other than ``ok``): the command line writes their rows (the
+    best command found, with a failure status) and exits 3, "do not send them". Like every
+    exit-3 outcome in this package (:func:`identify`'s and :func:`diagnose`'s fits that did not
+    converge) the result is returned with ``converged=False`` and a
+    :class:`NotConvergedWarning` carrying the command line's error (and its hint), unless
+    ``warn=False``; only refused input (exit 2, nothing written) raises. Keep the rows whose
+    ``status`` is ``ok``, or make it an exception with
+    ``warnings.simplefilter("error", kinecal.NotConvergedWarning)``."""
     if rpy_deg is not None:
-        r = np.asarray(rpy_deg, dtype=np.float64).reshape(-1, 3)
+        if rpy is not None:
+            raise RefusedError("compensate: give the orientations once, as rpy= (rpy_deg= is its "
+                               "former name)")
+        rpy = rpy_deg
+        if angle_unit == "rad":
+            warnings.warn(
+                "compensate: rpy_deg is read in angle_unit, here radians (angle_unit=\"rad\" "
+                "covers the orientations as --angle-unit covers a targets file's rx, ry, rz): "
+                "pass them as rpy= in radians",
+                DataWarning,
+                stacklevel=2,
+            )
+    columns = {}
+    if rpy is not None:
+        r = np.asarray(rpy, dtype=np.float64).reshape(-1, 3)
         columns = {"rx": r[:, 0], "ry": r[:, 1], "rz": r[:, 2]}
     if temp_c is not None:
         columns["temp_c"] = np.asarray(temp_c, dtype=np.float64).reshape(-1)
@@ -380,7 +541,14 @@ def compensate(
         stream=stream, f32=f32, length_unit=length_unit, angle_unit=angle_unit, tool=tool,
     )
     text, converged, q, status, error_mm, error_deg = _native.compensate(model, targets, options)
-    return CommandResult(json.loads(text), converged, q=q, status=status, error_mm=error_mm,
+    report = json.loads(text)
+    if warn and not converged:
+        warnings.warn(
+            _unreached(report["failed"], report["targets"], report.get("hint")),
+            NotConvergedWarning,
+            stacklevel=2,
+        )
+    return CommandResult(report, converged, q=q, status=status, error_mm=error_mm,
                          error_deg=error_deg)
 
 
@@ -391,16 +559,27 @@ def compensate_cartesian(
     targets: Any,
     *,
     angle_unit: str = "deg",
+    temp_c: Any = None,
+    warn: bool = True,
 ) -> Tuple[np.ndarray, List[str]]:
     """Targets for a controller that keeps its ``nominal`` kinematics (``kinecal compensate
     --robot NOMINAL --cartesian``): for each target (n, 3: x, y, z mm; or n, 6 with rx, ry, rz in
     ``angle_unit``), the point (and orientation) that the nominal robot, placed at ``model``'s
     base, reaches at the joints that bring ``model`` to the target, from the seeds ``q_seed``
-    (n, N). In memory, the same library function as the command line. Returns the targets to
-    send (a failed row keeps its target) and each row's status."""
+    (n, N); ``temp_c`` (°C, one value or one per target) the arm's temperature, at which a
+    model's ``thermal-expansion`` is evaluated (without it, at its reference temperature, and
+    :class:`DataWarning` says so). In memory, the same library function as the command line.
+    Returns the targets to send (a failed row keeps its target) and each row's status. Rows
+    not reached: the command line exits 3 ("do not send them"); here, as for
+    :func:`compensate`, a :class:`NotConvergedWarning` carries its error (``warn=False`` to
+    silence)."""
     q = np.ascontiguousarray(np.asarray(q_seed, dtype=np.float64))
     t = np.ascontiguousarray(np.asarray(targets, dtype=np.float64))
-    return _native.compensate_cartesian(model, nominal, q, t, angle_unit)
+    sent, status = _native.compensate_cartesian(model, nominal, q, t, angle_unit, temp_c)
+    failed = sum(1 for s in status if s != "ok")
+    if warn and failed:
+        warnings.warn(_unreached(failed, len(status), None), NotConvergedWarning, stacklevel=2)
+    return sent, status
 
 
 def frames(
@@ -441,6 +620,7 @@ def plan(
     ``criterion`` ``random``, ``d``, ``o1``, ``a`` or ``kpi``; ``work``: working
     configurations (degrees). Returns the report (``criterion``, ``poses``, ``kpi_trace_mm2``,
     ``min_clearance_mm``, ``max_incidence_deg`` …) and ``q`` (poses, N) in degrees."""
+    work = [work] if len(work) and np.ndim(work[0]) == 0 else work  # one configuration
     options = dict(
         poses=int(poses), criterion=criterion, work=[[float(v) for v in w] for w in work],
         seed=seed, noise_mm=noise_mm, pool=pool, passes=passes,
@@ -461,13 +641,23 @@ def simulate(
     sweeps: Optional[Sequence[int]] = None,
     sweep_points: Optional[int] = None,
     sweep_span_deg: Optional[float] = None,
+    temperature: Optional[Tuple[float, float]] = None,
+    session_s: Optional[float] = None,
 ) -> CommandResult:
-    """Measurement data from a robot with known errors (``kinecal simulate``). Returns the
-    report, ``measurements`` (:class:`Measurements`) and ``truth`` (the true :class:`Robot`)."""
+    """Measurement data from a robot with known errors (``kinecal simulate``): ``effects``
+    ``"KIND:JOINT:V1[,V2…]"`` as ``--effect`` (a list, or one as a string), ``temperature``
+    ``(from_c, to_c)`` an arm warming linearly over the poses (a ``temp_c`` column, as
+    ``--temperature FROM:TO``), ``session_s`` the poses' time span (a ``t_s`` column). Returns
+    the report, ``measurements`` (:class:`Measurements`) and ``truth`` (the true
+    :class:`Robot`)."""
+    if isinstance(sweeps, (int, np.integer)):
+        sweeps = [sweeps]
     options = dict(
         poses=poses, noise_mm=noise_mm, seed=seed, geom_errors=geom_errors,
-        effects=list(effects), sweep_points=sweep_points, sweep_span_deg=sweep_span_deg,
+        effects=_words(effects), sweep_points=sweep_points, sweep_span_deg=sweep_span_deg,
         sweeps=[] if sweeps is None else [int(s) for s in sweeps],
+        temperature=None if temperature is None else tuple(float(t) for t in temperature),
+        session_s=session_s,
     )
     text, (q, xyz, names, extra), truth = _native.simulate(robot, options)
     data = Measurements(q, xyz, {n: extra[:, k].copy() for k, n in enumerate(names)})

@@ -11,8 +11,12 @@ class RefusedError(KinecalError, ValueError):
 
 
 class NotConvergedWarning(UserWarning):
-    """``identify`` (or ``diagnose``) did not converge: the numbers are not a calibration
-    (the command line's exit status 3). ``result.converged`` is False."""
+    """An outcome the command line reports with exit status 3: ``identify`` (or ``diagnose``)
+    did not converge, so the numbers are not a calibration; or ``compensate`` did not reach
+    every target, so the failed rows' commands must not be sent. The result is returned, as
+    the command line writes its output, with ``result.converged`` False; the message is the
+    command line's error. ``warnings.simplefilter("error", NotConvergedWarning)`` makes it an
+    exception."""
 
 
 class DataWarning(UserWarning):

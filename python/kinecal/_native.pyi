@@ -1,7 +1,7 @@
 """Type stubs of the native module (PyO3); the public API is re-exported by ``kinecal``."""
 
 from os import PathLike
-from typing import List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -57,10 +57,16 @@ class Robot:
     @property
     def limits_deg(self) -> _F64:
         """(N, 2) joint limits, degrees."""
-    def fk(self, q: _Array, angle_unit: str = "deg") -> _F64:
-        """Measured point (n, 3) mm at joint readings q (n, N); (3,) for one pose (N,)."""
+    def fk(self, q: _Array, angle_unit: str = "deg", temp_c: Optional[_Array] = None) -> _F64:
+        """Measured point (n, 3) mm at joint readings q (n, N); (3,) for one pose (N,).
+        ``temp_c`` (°C, one value or one per pose): where a thermal-expansion term is
+        evaluated (without it: its reference temperature, with a ``DataWarning``)."""
     def jacobian(
-        self, q: _Array, params: Optional[Sequence[str]] = None, angle_unit: str = "deg"
+        self,
+        q: _Array,
+        params: Union[str, Sequence[str], None] = None,
+        angle_unit: str = "deg",
+        temp_c: Optional[_Array] = None,
     ) -> Tuple[_F64, List[str]]:
         """Identification Jacobian (n, 3, P) (mm per mm / per rad) and the parameter names."""
     def parameter_names(self) -> List[str]:
@@ -77,22 +83,19 @@ def write_csv(
     extra: Optional[_F64] = None,
 ) -> None: ...
 def identify(
-    robot: Robot,
-    argv: List[str],
-    data: _Set,
-    validate: Optional[_Set] = None,
+    robot: Robot, data: _Set, validate: Optional[_Set], options: Dict[str, Any]
 ) -> Tuple[str, str, bool]: ...
-def check(robot: Robot, argv: List[str], data: _Set) -> Tuple[str, bool]: ...
+def check(robot: Robot, data: _Set, options: Dict[str, Any]) -> Tuple[str, bool]: ...
 def diagnose(
-    robot: Robot, argv: List[str], data: _Set, validate: Optional[_Set] = None
-) -> Tuple[str, Optional[str], bool]: ...
+    robot: Robot, data: _Set, validate: Optional[_Set], options: Dict[str, Any]
+) -> Tuple[str, Optional[str], bool, str]: ...
 def compensate(
-    model: Robot, argv: List[str], targets: _Set
+    model: Robot, targets: _Set, options: Dict[str, Any]
 ) -> Tuple[str, bool, _F64, List[str], _F64, _F64]: ...
-def frames(robot: Robot, argv: List[str], sweeps: _Set) -> Tuple[str, str]: ...
-def plan(robot: Robot, argv: List[str]) -> Tuple[str, _F64]: ...
+def frames(robot: Robot, sweeps: _Set, options: Dict[str, Any]) -> Tuple[str, str]: ...
+def plan(robot: Robot, scene: Optional[_Path], options: Dict[str, Any]) -> Tuple[str, _F64]: ...
 def simulate(
-    robot: Robot, argv: List[str]
+    robot: Robot, options: Dict[str, Any]
 ) -> Tuple[str, Tuple[_F64, _F64, List[str], _F64], str]: ...
 def compensate_cartesian(
     model: Robot,
@@ -100,4 +103,6 @@ def compensate_cartesian(
     seeds: _Array,
     targets: _Array,
     angle_unit: str = "deg",
+    temp_c: Optional[_Array] = None,
 ) -> Tuple[_F64, List[str]]: ...
+def unreached_error(failed: int, targets: int) -> Optional[str]: ...

@@ -16,9 +16,11 @@ use pyo3::prelude::*;
 /// that the robot `model` describes reaches it: where the nominal robot, placed at the model's
 /// base, puts the tool at the compensated command (from the seeds: the controller's nominal
 /// joints, n × N in `angle_unit`). Returns the sent targets (a failed row keeps its target) and
-/// each row's status (`ok`, `singular`, `unreachable`, `limited`, `invalid`).
+/// each row's status (`ok`, `singular`, `unreachable`, `limited`, `invalid`). `temp_c`: the
+/// arm's temperature (°C; one value or one per target) at which the model's thermal expansion
+/// is evaluated (without it, at its reference temperature, and a model with the term warns).
 #[pyfunction]
-#[pyo3(signature = (model, nominal, seeds, targets, angle_unit = "deg"))]
+#[pyo3(signature = (model, nominal, seeds, targets, angle_unit = "deg", temp_c = None))]
 pub fn compensate_cartesian<'py>(
     py: Python<'py>,
     model: &Robot,
@@ -26,6 +28,7 @@ pub fn compensate_cartesian<'py>(
     seeds: &Bound<'py, PyAny>,
     targets: &Bound<'py, PyAny>,
     angle_unit: &str,
+    temp_c: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<(Bound<'py, PyArray2<f64>>, Vec<String>)> {
     let rad = radians(angle_unit)?;
     let (seeds, _) = array2(py, seeds, "seeds")?;
@@ -62,6 +65,8 @@ pub fn compensate_cartesian<'py>(
         ),
     )
     .map_err(crate::py_err)?;
+    let at = ("compensate_cartesian", 2);
+    let temps = crate::robot::temperatures(py, &model.file, temp_c, t.nrows(), at)?;
     let to_rad = |a: f64| if rad { a } else { a.to_radians() };
     let from_rad = |a: f64| if rad { a } else { a.to_degrees() };
     type Sent = (Array2<f64>, Vec<String>);
@@ -88,7 +93,11 @@ pub fn compensate_cartesian<'py>(
             } else {
                 Target::Point(nalgebra::Vector3::from(p))
             };
-            let r = nominal_target(&m, &nom, &target, seed, &Config::default());
+            let config = Config {
+                temperature_c: temps.as_ref().map(|t| t[i]),
+                ..Config::default()
+            };
+            let r = nominal_target(&m, &nom, &target, seed, &config);
             let sent = match &r {
                 Ok((sent, _)) => match sent {
                     Target::Pose(f) => {
@@ -112,4 +121,11 @@ pub fn compensate_cartesian<'py>(
     })()));
     let (out, status) = r.map_err(crate::py_err)??;
     Ok((out.into_pyarray(py), status))
+}
+
+/// The command line's error for `failed` of `targets` not reached (`kinecal compensate` prints
+/// it and exits 3): one text for both front ends.
+#[pyfunction]
+pub fn unreached_error(failed: usize, targets: usize) -> Option<String> {
+    kinecal_cli::reports::compensate::unreached_error(failed, targets)
 }

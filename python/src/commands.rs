@@ -197,8 +197,9 @@ pub fn check(
     r.map_err(py_err)?
 }
 
-/// `(json_text, extended model TOML or None, converged)` of `diagnose`.
-type Diagnosed = (String, Option<String>, bool);
+/// `(json_text, extended model TOML or None, converged, text)` of `diagnose`; `text` is the
+/// report as the command line prints it without `--json` (its held-out lines included).
+type Diagnosed = (String, Option<String>, bool, String);
 
 fn diagnose_n<const N: usize>(
     robot: &Robot,
@@ -232,15 +233,17 @@ fn diagnose_n<const N: usize>(
             .map_err(py_err)?;
         report.plots = Some(files.iter().map(|p| p.display().to_string()).collect());
     }
+    let text = report.to_string();
     let (json, converged) = finish(Ok(Box::new(report)))?;
-    Ok((json, model, converged))
+    Ok((json, model, converged, text))
 }
 
 /// `kinecal diagnose` on arrays: `data` and `validate` the measurement sets, `options` the
-/// keyword arguments of `kinecal.diagnose` ([`options::Diagnose`], [`options::Units`]; nothing
-/// is written but the plots, into the folder `plots` names). Returns `(json_text, model_toml,
-/// converged)`; `model_toml` is None when the extended model predicts the held-out poses worse
-/// than the nominal robot (the command line does not write it then).
+/// keyword arguments of `kinecal.diagnose` ([`options::Diagnose`], [`options::Observations`],
+/// [`options::Units`]; nothing is written but the plots, into the folder `plots` names).
+/// Returns `(json_text, model_toml, converged, text)`; `model_toml` is None when the extended
+/// model predicts the held-out poses worse than the nominal robot (the command line does not
+/// write it then).
 #[pyfunction]
 #[pyo3(signature = (robot, data, validate, options))]
 pub fn diagnose(
@@ -251,7 +254,8 @@ pub fn diagnose(
     options: &Bound<'_, PyAny>,
 ) -> PyResult<Diagnosed> {
     let kw: options::Diagnose = options::extract("diagnose", options)?;
-    let opts = kw.options()?;
+    let obs: options::Observations = options::extract("diagnose", options)?;
+    let opts = kw.options(&obs)?;
     let units = options::extract::<options::Units>("diagnose", options)?.args()?;
     workflow::check_plots_dir(kw.plots.as_deref()).map_err(py_err)?;
     let data = arrays(&data);

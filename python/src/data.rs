@@ -53,8 +53,16 @@ pub fn dataset<const N: usize>(a: &Arrays<'_>, origin: &str) -> PyResult<Dataset
             "{origin}: extra column names without values"
         )));
     }
-    let bad = |row: usize, col: &str, kind: CsvErrorKind| {
-        refused(format!("{origin}: row {row}, {col}: {}", kind.describe()))
+    // Named as the command line names the cell of the file these arrays make (write_csv):
+    // `ORIGIN:LINE:COLUMN: …`, row i on line i + 2 (the header is line 1), q1…qN in columns
+    // 1…N and x, y, z after them; then the arrays' own row, 0-based.
+    let bad = |row: usize, col: usize, name: &str, v: f64, kind: CsvErrorKind| {
+        refused(format!(
+            "{origin}:{}:{}: {} in column `{name}`: {v} (row {row} of the arrays)",
+            row + 2,
+            col + 1,
+            kind.describe()
+        ))
     };
     let mut records = Vec::with_capacity(n);
     for i in 0..n {
@@ -63,10 +71,10 @@ pub fn dataset<const N: usize>(a: &Arrays<'_>, origin: &str) -> PyResult<Dataset
             let v = a.q[[i, j]];
             let col = format!("q{}", j + 1);
             if !v.is_finite() {
-                return Err(bad(i, &col, CsvErrorKind::NotFinite));
+                return Err(bad(i, j, &col, v, CsvErrorKind::NotFinite));
             }
             if v.abs() > MAX_ABS_JOINT {
-                return Err(bad(i, &col, CsvErrorKind::OutOfRange));
+                return Err(bad(i, j, &col, v, CsvErrorKind::OutOfRange));
             }
             *q = v;
         }
@@ -75,10 +83,10 @@ pub fn dataset<const N: usize>(a: &Arrays<'_>, origin: &str) -> PyResult<Dataset
             let v = a.xyz[[i, c]];
             let col = ["x", "y", "z"][c];
             if !v.is_finite() {
-                return Err(bad(i, col, CsvErrorKind::NotFinite));
+                return Err(bad(i, N + c, col, v, CsvErrorKind::NotFinite));
             }
             if v.abs() > MAX_ABS_MM {
-                return Err(bad(i, col, CsvErrorKind::OutOfRange));
+                return Err(bad(i, N + c, col, v, CsvErrorKind::OutOfRange));
             }
             *x = v;
         }

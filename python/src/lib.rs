@@ -54,16 +54,19 @@ pub(crate) fn error(class: &str, text: String) -> PyErr {
 /// the caller of the package's function, instead of printing it.
 pub(crate) fn detached<T: Send>(py: Python<'_>, work: impl FnOnce() -> T + Send) -> PyResult<T> {
     let (r, lines) = py.detach(|| kinecal_cli::captured(work));
-    if !lines.is_empty() {
-        let category = py.import("kinecal._errors")?.getattr("DataWarning")?;
-        for line in lines {
-            let text = line.strip_prefix("warning: ").unwrap_or(&line);
-            let message = std::ffi::CString::new(text.replace('\0', " "))
-                .map_err(|e| PyErr::new::<pyo3::exceptions::PyValueError, _>(e.to_string()))?;
-            PyErr::warn(py, &category, &message, 2)?;
-        }
+    for line in lines {
+        data_warning(py, line.strip_prefix("warning: ").unwrap_or(&line), 2)?;
     }
     Ok(r)
+}
+
+/// Raises `text` as `kinecal.DataWarning` through Python's warnings machinery, attributed
+/// `stacklevel` frames up (1: the caller of the native function).
+pub(crate) fn data_warning(py: Python<'_>, text: &str, stacklevel: i32) -> PyResult<()> {
+    let category = py.import("kinecal._errors")?.getattr("DataWarning")?;
+    let message = std::ffi::CString::new(text.replace('\0', " "))
+        .map_err(|e| PyErr::new::<pyo3::exceptions::PyValueError, _>(e.to_string()))?;
+    PyErr::warn(py, &category, &message, stacklevel)
 }
 
 /// Refused input (`kinecal.RefusedError`) with the reason `text`.
@@ -84,5 +87,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(producers::plan, m)?)?;
     m.add_function(wrap_pyfunction!(producers::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(cartesian::compensate_cartesian, m)?)?;
+    m.add_function(wrap_pyfunction!(cartesian::unreached_error, m)?)?;
     Ok(())
 }

@@ -177,6 +177,7 @@ impl Identify {
 #[pyo3(from_item_all)]
 pub struct Diagnose {
     pub holdout: Option<f64>,
+    pub split: Option<String>,
     pub seed: Option<u64>,
     pub folds: Option<usize>,
     pub alpha: Option<f64>,
@@ -187,17 +188,17 @@ pub struct Diagnose {
 }
 
 impl Diagnose {
-    pub fn options(&self) -> PyResult<DiagnoseOptions> {
+    pub fn options(&self, obs: &Observations) -> PyResult<DiagnoseOptions> {
         let d = DiagnoseOptions::default();
         Ok(DiagnoseOptions {
             seed: self.seed.unwrap_or(d.seed),
-            holdout: holdout(self.holdout, None)?,
+            holdout: holdout(self.holdout, self.split.as_deref())?,
             folds: self.folds.unwrap_or(d.folds),
             alpha: self.alpha.unwrap_or(d.alpha),
             max_order: self.max_order.unwrap_or(d.max_order),
             max_effects: self.max_effects.unwrap_or(d.max_effects),
             stall_rms_mm: self.stall_rms_mm.unwrap_or(d.stall_rms_mm),
-            obs: d.obs,
+            obs: obs.args(),
         })
     }
 }
@@ -277,24 +278,38 @@ pub struct Simulate {
     pub seed: Option<u64>,
     pub geom_errors: bool,
     pub effects: Vec<String>,
+    /// The arm warms (or cools) linearly from the first to the second temperature (°C).
+    pub temperature: Option<(f64, f64)>,
+    /// The poses are taken evenly over this many seconds (a `t_s` column).
+    pub session_s: Option<f64>,
     pub sweeps: Vec<usize>,
     pub sweep_points: Option<usize>,
     pub sweep_span_deg: Option<f64>,
 }
 
 impl Simulate {
-    pub fn request(&self) -> SimulateRequest {
+    pub fn request(&self) -> PyResult<SimulateRequest> {
         let d = SimulateRequest::default();
-        SimulateRequest {
+        // Checked as the command line checks `--temperature A:B`.
+        let temperature = self
+            .temperature
+            .map(|(a, b)| {
+                kinecal_cli::simulation::request::parse_temperature(&format!("{a}:{b}"))
+                    .map_err(refused)
+            })
+            .transpose()?;
+        Ok(SimulateRequest {
             poses: self.poses.unwrap_or(d.poses),
             noise_mm: self.noise_mm.unwrap_or(d.noise_mm),
             seed: self.seed.unwrap_or(d.seed),
             geom_errors: self.geom_errors,
             effects: self.effects.clone(),
+            temperature,
+            session_s: self.session_s,
             sweeps: self.sweeps.clone(),
             sweep_points: self.sweep_points.unwrap_or(d.sweep_points),
             sweep_span_deg: self.sweep_span_deg.unwrap_or(d.sweep_span_deg),
             ..d
-        }
+        })
     }
 }

@@ -58,6 +58,10 @@ fn compensate_n<const N: usize>(
     let mut done =
         compensate_set(file, &m, no_nominal, &ds, (settings, units), &names).map_err(py_err)?;
     kinecal_cli::compensation::name_reflector(&mut done, file, &all, tool, &ds);
+    // The command line prints it as `warning: …`: the caller gets it as a DataWarning.
+    if let Some(w) = &done.report.temperature_warning {
+        kinecal_cli::Tell::line(&mut Stderr, &format!("warning: {w}"));
+    }
     let c = &done.commands;
     let q = Array2::from_shape_fn((c.len(), N), |(i, j)| c[i].q[j]);
     let status = c.iter().map(|r| r.status.as_str().to_string()).collect();
@@ -240,7 +244,7 @@ pub fn simulate<'py>(
     robot: &Robot,
     options: &Bound<'py, PyAny>,
 ) -> PyResult<Simulated<'py>> {
-    let req = options::extract::<options::Simulate>("simulate", options)?.request();
+    let req = options::extract::<options::Simulate>("simulate", options)?.request()?;
     let n = robot.file.joint_count();
     let r: anyhow::Result<PyResult<(String, Owned, String)>> = crate::detached(
         py,

@@ -83,12 +83,16 @@ fn fk_n<const N: usize>(
     file: &RobotFile,
     q: ArrayView2<'_, f64>,
     radians: bool,
+    temp_c: Option<&[f64]>,
 ) -> PyResult<Array2<f64>> {
     let robot = model::<N>(file).map_err(py_err)?;
     let qs = readings::<N>(q, radians, "q")?;
     let mut fk = ForwardKinematics::<f64, N>::new();
     let mut out = Array2::zeros((qs.len(), 3));
     for (k, q) in qs.iter().enumerate() {
+        // A thermal-expansion term is evaluated at the pose's temperature (None: at its
+        // reference), as identify evaluates a measurement with a `temp_c`.
+        fk.temp_c = temp_c.map(|t| t[k]);
         let p = fk.compute(&robot, q);
         for a in 0..3 {
             out[[k, a]] = p[a];
@@ -134,7 +138,7 @@ fn jacobian_n<const N: usize>(
     file: &RobotFile,
     q: ArrayView2<'_, f64>,
     names: Option<Vec<String>>,
-    radians: bool,
+    (radians, temp_c): (bool, Option<&[f64]>),
 ) -> PyResult<(Array3<f64>, Vec<String>)> {
     let robot = model::<N>(file).map_err(py_err)?;
     let params = params_of::<N>(file, &robot, names)?;
@@ -143,6 +147,7 @@ fn jacobian_n<const N: usize>(
     let mut cols = vec![nalgebra_zero(); params.len()];
     let mut out = Array3::zeros((qs.len(), 3, params.len()));
     for (k, q) in qs.iter().enumerate() {
+        fk.temp_c = temp_c.map(|t| t[k]);
         fk.compute(&robot, q);
         fk.identification_jacobian(&robot, &params, &mut cols)
             .map_err(|e| refused(format!("jacobian: {e:?}")))?;
@@ -164,6 +169,74 @@ pub fn radians(angle_unit: &str) -> PyResult<bool> {
         u => Err(refused(format!(
             "angle_unit {u:?}: give \"deg\" or \"rad\""
         ))),
+    }
+}
+
+/// The arm's temperature (°C) at each of `n` poses from `temp_c` (one number for all, or one
+/// per pose; `None`: not given), refused when it is not finite (naming the row) or its count
+/// is not the poses'. Without it, a model with a thermal-expansion term warns
+/// (`kinecal.DataWarning`, `stacklevel` frames up) that the term is evaluated at its
+/// reference temperature, as `compensate` warns for targets without `temp_c`.
+pub fn temperatures(
+    py: Python<'_>,
+    file: &RobotFile,
+    temp_c: Option<&Bound<'_, PyAny>>,
+    n: usize,
+    (what, stacklevel): (&str, i32),
+) -> PyResult<Option<Vec<f64>>> {
+    let Some(t) = temp_c.filter(|t| !t.is_none()) else {
+        if let Some(t0) = file.thermal_reference_c() {
+            crate::data_warning(
+                py,
+                &format!(
+                    "{what}: the model has a thermal expansion and no temp_c was given: it is \
+                     evaluated at its reference temperature {t0} °C, and misses an arm at \
+                     another temperature by the expansion; pass temp_c= (the arm's \
+                     temperature, °C: one value, or one per pose)"
+                ),
+                stacklevel,
+            )?;
+        }
+        return Ok(None);
+    };
+    let kw = pyo3::types::PyDict::new(py);
+    kw.set_item("dtype", "float64")?;
+    let v: Vec<f64> = py
+        .import("numpy")?
+        .call_method("asarray", (t,), Some(&kw))
+        .and_then(|a| a.call_method1("reshape", (-1,)))
+        .and_then(|a| a.call_method0("tolist"))
+        .and_then(|a| a.extract())
+        .map_err(|e| refused(format!("temp_c: not a number or an array of numbers ({e})")))?;
+    let v = match v.len() {
+        1 => vec![v[0]; n],
+        k if k == n => v,
+        k => {
+            return Err(refused(format!(
+                "temp_c: {k} values for {n} poses: give one temperature (°C), or one per row of q"
+            )))
+        }
+    };
+    if let Some(i) = v.iter().position(|t| !t.is_finite()) {
+        return Err(refused(format!(
+            "temp_c: row {i}: {}: give the arm's temperature (°C) at every pose",
+            kinecal::io::csv::CsvErrorKind::NotFinite.describe()
+        )));
+    }
+    Ok(Some(v))
+}
+
+/// Parameter names: a list, or one name as a string.
+fn names_of(params: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<String>>> {
+    match params.filter(|p| !p.is_none()) {
+        None => Ok(None),
+        Some(p) => match p.extract::<String>() {
+            Ok(one) => Ok(Some(vec![one])),
+            Err(_) => p
+                .extract::<Vec<String>>()
+                .map(Some)
+                .map_err(|e| refused(format!("params: give parameter names, a list of str ({e})"))),
+        },
     }
 }
 
@@ -355,19 +428,25 @@ impl Robot {
     /// pose, (N,)) in degrees, or radians with `angle_unit="rad"`. Returns (n, 3) (or (3,)),
     /// mm, in the measurement frame (the robot base frame when the file has no `[base]`).
     /// Couplings and joint corrections of the file are applied to the readings, as everywhere.
-    #[pyo3(signature = (q, angle_unit = "deg"))]
+    /// `temp_c`: the arm's temperature (°C; one value, or one per pose), at which a
+    /// `thermal-expansion` term is evaluated (a measurement's `temp_c`); without it the term is
+    /// evaluated at its reference temperature, and `kinecal.DataWarning` says so.
+    #[pyo3(signature = (q, angle_unit = "deg", temp_c = None))]
     fn fk<'py>(
         &self,
         py: Python<'py>,
         q: &Bound<'py, PyAny>,
         angle_unit: &str,
+        temp_c: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let radians = radians(angle_unit)?;
         let (q, one) = array2(py, q, "q")?;
         let q = q.readonly();
         let n = self.file.joint_count();
+        let t = temperatures(py, &self.file, temp_c, q.as_array().nrows(), ("fk", 1))?;
+        let t = t.as_deref();
         let r: anyhow::Result<PyResult<Array2<f64>>> =
-            with_joints!(n, N => Ok(fk_n::<N>(&self.file, q.as_array(), radians)));
+            with_joints!(n, N => Ok(fk_n::<N>(&self.file, q.as_array(), radians, t)));
         let out = r.map_err(py_err)??;
         let out = out.into_pyarray(py).into_any();
         if one {
@@ -382,20 +461,31 @@ impl Robot {
     /// the derivative of the measured point (mm) by each parameter in `params` (names as
     /// `identify` prints them: `base.x`, `alpha2`, `d6`, `tool.z`, …; lengths per mm, angles
     /// per radian) or, by default, by the parameters `identify` estimates for this robot.
-    #[pyo3(signature = (q, params = None, angle_unit = "deg"))]
+    /// `temp_c` as for `fk`: the temperature (°C) a `thermal-expansion` term is evaluated at.
+    #[pyo3(signature = (q, params = None, angle_unit = "deg", temp_c = None))]
     fn jacobian<'py>(
         &self,
         py: Python<'py>,
         q: &Bound<'py, PyAny>,
-        params: Option<Vec<String>>,
+        params: Option<&Bound<'py, PyAny>>,
         angle_unit: &str,
+        temp_c: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
         let radians = radians(angle_unit)?;
+        let params = names_of(params)?;
         let (q, one) = array2(py, q, "q")?;
         let q = q.readonly();
         let n = self.file.joint_count();
+        let t = temperatures(
+            py,
+            &self.file,
+            temp_c,
+            q.as_array().nrows(),
+            ("jacobian", 1),
+        )?;
+        let at = (radians, t.as_deref());
         let r: anyhow::Result<PyResult<(Array3<f64>, Vec<String>)>> =
-            with_joints!(n, N => Ok(jacobian_n::<N>(&self.file, q.as_array(), params, radians)));
+            with_joints!(n, N => Ok(jacobian_n::<N>(&self.file, q.as_array(), params, at)));
         let (a, names) = r.map_err(py_err)??;
         let p = names.len();
         let a = a.into_pyarray(py).into_any();

@@ -60,11 +60,13 @@ def test_nan_and_magnitudes(ur):
     robot, d = ur
     q = d.q.copy()
     q[3, 1] = np.nan
-    with pytest.raises(kinecal.RefusedError, match=r"row 3, q2: NaN or infinite value"):
+    with pytest.raises(kinecal.RefusedError,
+                       match=r"^data:5:2: NaN or infinite value in column `q2`: NaN \(row 3 of"):
         kinecal.identify(robot, q, d.xyz)
     xyz = d.xyz.copy()
     xyz[7, 2] = 1e9
-    with pytest.raises(kinecal.RefusedError, match=r"row 7, z: implausible magnitude"):
+    with pytest.raises(kinecal.RefusedError,
+                       match=r"^data:9:9: implausible magnitude in column `z`: .*\(row 7 of"):
         kinecal.identify(robot, d.q, xyz)
     with pytest.raises(ValueError, match="NaN or infinite value"):
         robot.fk([[0, 0, np.inf, 0, 0, 0]])

@@ -105,11 +105,8 @@ pub fn run(args: &Args) -> anyhow::Result<CompensateReport> {
             args.model.display()
         );
     }
-    if r.failed > 0 {
-        eprintln!(
-            "error: {} of {} targets were not reached within --accept-mm (their rows hold the best command found within --max-step-deg of the seed, with a failure status: do not send them; exit 3)",
-            r.failed, r.targets
-        );
+    if let Some(e) = &r.error {
+        eprintln!("error: {e}");
     }
     if let Some(h) = &r.hint {
         eprintln!("{h}");

@@ -490,6 +490,7 @@ pub fn compensate_set<const N: usize, V: kinecal::ValueStorage>(
         reflector: None,
         hint,
         temperature_warning: temperature_warning(file, &rows, origin),
+        error: crate::reports::compensate::unreached_error(failed, rows.len()),
     };
     Ok(Compensated {
         report,

@@ -58,6 +58,21 @@ pub struct CompensateReport {
     /// the expansion is evaluated at the model's reference temperature there (also printed).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub temperature_warning: Option<String>,
+    /// Targets were not reached: [`unreached_error`] (also printed; exit 3).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+}
+
+/// The error when `failed` of `targets` were not reached (the command line prints it as
+/// `error: …` and exits 3; Python warns with it): their commands must not be sent.
+pub fn unreached_error(failed: usize, targets: usize) -> Option<String> {
+    (failed > 0).then(|| {
+        format!(
+            "{failed} of {targets} targets were not reached within --accept-mm (their rows hold \
+             the best command found within --max-step-deg of the seed, with a failure status: do \
+             not send them; exit 3)"
+        )
+    })
 }
 
 impl super::Report for CompensateReport {

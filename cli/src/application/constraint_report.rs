@@ -60,7 +60,7 @@ pub fn report<const N: usize>(options: &Options, inputs: Inputs<N>) -> anyhow::R
     let (before_shapes, after_shapes) = (shapes_of(&nominal, &ident), shapes_of(&model, &ident));
     let before = residuals(&nominal, &ident, &before_shapes, &valid);
     let after = residuals(&model, &ident, &after_shapes, &valid);
-    let acceptance = judge_groups(&before, &after, &ident, &valid);
+    let acceptance = judge_groups(&before, &after, &ident, &valid, Vec::new());
     let held_out_worse = acceptance.as_ref().map(|a| a.held_out_worse);
     let checked = crate::constraints::check::check(
         &file,

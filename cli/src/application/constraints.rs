@@ -16,6 +16,7 @@ use crate::constraints::report::{
 };
 use crate::constraints::shapes::{errors, held_out_error, points, Shape};
 use crate::formats::robot_file::RobotFile;
+use crate::reports::identify::Change;
 use crate::HostRobot;
 use kinecal::Param;
 use std::time::Instant;
@@ -143,7 +144,6 @@ pub fn identify<const N: usize>(
     let before = residuals(&nominal, &ident, &before_shapes, &valid);
     let after = residuals(&fitted.robot, &ident, &fitted.shapes, &valid);
     let name = |p: &Param| p.name(&fitted.robot).to_string();
-    let acceptance = judge_groups(&before, &after, &ident, &valid);
     // The groups held out of the same file are searched too; a `--validate` file's are of
     // another session, whose errors say whether the model holds there.
     let outliers = crate::constraints::outliers::find(
@@ -157,13 +157,49 @@ pub fn identify<const N: usize>(
         after.identification_rms_mm,
         options.stall_rms_mm,
     );
+    // Rows far from their group's other rows at the robot file's model (a wrong group label)
+    // pull any fit: a failed fit names them and their likely cause rather than what they made
+    // it do (an arm 1.3 times as long, a bar offset, outliers of any kind).
+    let far_rows = crate::constraints::far_rows::find(
+        &nominal,
+        &[&ident[..], if validated { &[] } else { &valid[..] }].concat(),
+    );
+    let far = crate::constraints::far_rows::warning(&far_rows);
     // Bar lengths off by one constant look like a few wrong bars to the outlier rule: the
     // refusal names the constant too.
     let offset = crate::constraints::bar_offset::warning(&fitted.robot, &fitted.estimated, &ident);
-    let refused = match (refused, &offset) {
-        (Some(r), Some(o)) => Some(format!("{r}; yet {o}")),
-        (r, _) => r,
+    let refused = match (refused, &far, &offset) {
+        (Some(_), Some(f), _) => Some(format!(
+            "was pulled by {}: {f}",
+            if far_rows.len() == 1 {
+                "a row far from its group"
+            } else {
+                "rows far from their groups"
+            }
+        )),
+        (Some(r), _, Some(o)) => Some(format!("{r}; yet {o}")),
+        (r, _, _) => r,
     };
+    let changes = changes(&nominal, &fitted, &file, base_unknown);
+    let suspicious: Vec<String> = changes
+        .iter()
+        .filter(|c| c.beyond_tolerance(options.tolerance_mm, options.tolerance_deg))
+        .map(|c| c.name.clone())
+        .collect();
+    // The tool point and the last joint's d that moved beyond a tolerance: a probe other than
+    // the robot file's tool.
+    let last_d = Param::D(N as u8 - 1).name(&nominal).to_string();
+    let tool_moved: Vec<String> = suspicious
+        .iter()
+        .filter(|n| n.starts_with("tool") || **n == last_d)
+        .cloned()
+        .collect();
+    let weak: Vec<String> = changes
+        .iter()
+        .filter(|c| c.barely_determined(options.tolerance_mm, options.tolerance_deg))
+        .map(|c| c.name.clone())
+        .collect();
+    let acceptance = judge_groups(&before, &after, &ident, &valid, weak);
     let stray_points = outliers.strays().filter(|_| refused.is_none());
     let chi2_per_dof = sigma_stated
         .then(|| {
@@ -187,10 +223,12 @@ pub fn identify<const N: usize>(
         before,
         after,
         iterations: fitted.iterations,
+        evaluations: fitted.evaluations,
         seconds,
         parameters: named_values(&fitted.robot, &all),
         estimated: fitted.estimated.iter().map(name).collect(),
         unidentifiable: fitted.unidentifiable.iter().map(name).collect(),
+        suspicious: suspicious.clone(),
         converged: fitted.converged && after.identification_rms_mm.is_finite() && refused.is_none(),
         stray_points: stray_points.clone(),
         warnings: stray_points
@@ -210,9 +248,18 @@ pub fn identify<const N: usize>(
             )
             .chain(offset.filter(|_| refused.is_none()))
             .chain(
-                chi2_per_dof
-                    .filter(|_| refused.is_none())
-                    .and_then(|c| crate::constraints::outliers::chi2_warning(c, &ident)),
+                chi2_per_dof.filter(|_| refused.is_none()).and_then(|c| {
+                    crate::constraints::outliers::chi2_warning(c, &ident, &tool_moved)
+                }),
+            )
+            .chain(far.filter(|_| refused.is_none()))
+            .chain(crate::calibration::acceptance::narrow_joints(
+                &measurements(&ident),
+            ))
+            .chain(held_free(&nominal, options, &fitted.unidentifiable))
+            .chain(
+                crate::reports::identify::suspicious_warning(&suspicious)
+                    .filter(|_| refused.is_none()),
             )
             .map(|w| format!("warning: {w}"))
             .collect(),
@@ -304,12 +351,14 @@ fn parameters<const N: usize>(
 }
 
 /// The acceptance of a model on held-out groups (`before`, `after`: the starting model's and
-/// the model's figures), with the joint ranges of the identification and held-out rows.
+/// the model's figures), with the joint ranges of the identification and held-out rows and the
+/// parameters the data barely determine (`weak`).
 pub(crate) fn judge_groups<const N: usize>(
     before: &Residuals,
     after: &Residuals,
     ident: &[Group<N>],
     valid: &[Group<N>],
+    weak: Vec<String>,
 ) -> Option<crate::calibration::acceptance::Acceptance> {
     crate::calibration::acceptance::judge(
         (
@@ -319,8 +368,87 @@ pub(crate) fn judge_groups<const N: usize>(
         ),
         &measurements(ident),
         &measurements(valid),
-        Vec::new(),
+        weak,
     )
+}
+
+/// What each estimated parameter of `fitted` did from `nominal`, with its 1-σ from the data
+/// (file units), as the tracker report's [`Change`] (whose tolerance tests name the suspicious
+/// and the barely determined parameters): a base estimated from tracker points of an unknown
+/// base, a tool point the file leaves unknown and effect values are not held to a tolerance.
+fn changes<const N: usize>(
+    nominal: &HostRobot<N>,
+    fitted: &crate::constraints::fit::Fitted<N>,
+    file: &RobotFile,
+    base_unknown: bool,
+) -> Vec<Change> {
+    fitted
+        .estimated
+        .iter()
+        .zip(&fitted.data_sigma)
+        .filter_map(|(p, sigma)| {
+            let value = |r: &HostRobot<N>| kinecal::model::param::value(r, *p);
+            let unit = |v: f64| match p {
+                Param::Effect(_) => v,
+                _ if p.is_length() => v,
+                _ => v.to_degrees(),
+            };
+            let (a, b) = (unit(value(nominal)?), unit(value(&fitted.robot)?));
+            let tool_point = matches!(p, Param::ToolX | Param::ToolY | Param::ToolZ);
+            Some(Change {
+                name: p.name(&fitted.robot).to_string(),
+                length: p.is_length(),
+                free_start: matches!(p, Param::Effect(_))
+                    || (p.is_base() && base_unknown)
+                    || (tool_point && file.tool_unknown()),
+                nominal: a,
+                calibrated: b,
+                change: b - a,
+                sigma: sigma.map(unit),
+                data_sigma: sigma.map(unit),
+                prior_sigma: None,
+                data_share: None,
+            })
+        })
+        .collect()
+}
+
+/// The one-line warning when parameters `--free` names are held all the same (`held`: what the
+/// constraints cannot determine at the robot file's model), or `None`.
+fn held_free<const N: usize>(
+    nominal: &HostRobot<N>,
+    options: &Options,
+    held: &[Param],
+) -> Option<String> {
+    let freed =
+        crate::calibration::selection::named("--free", &options.free, nominal).unwrap_or_default();
+    let names: Vec<String> = held
+        .iter()
+        .filter(|p| freed.contains(p))
+        .map(|p| p.name(nominal).to_string())
+        .collect();
+    if names.is_empty() {
+        return None;
+    }
+    // A tool point on the last joint's axis: that joint's alpha and a move no point there.
+    let tool = nominal.tool();
+    let on_axis = tool.x.hypot(tool.y) < 1e-6
+        && held
+            .iter()
+            .any(|p| matches!(p, Param::Alpha(j) | Param::A(j) if *j as usize + 1 == N));
+    Some(format!(
+        "--free {}: held all the same: these constraints cannot determine {} at the robot \
+         file's model, where what a fit can estimate is decided{}; if the probe measured is \
+         not the robot file's tool, give its nominal offset in [tool] and run again",
+        names.join(", "),
+        if names.len() == 1 { "it" } else { "them" },
+        if on_axis {
+            " (its tool point lies on the last joint's axis, where that joint's alpha and a \
+             move no tool point)"
+        } else {
+            ""
+        }
+    ))
 }
 
 /// Before/after figures: the RMS of the identification rows against the fit's shapes, and per

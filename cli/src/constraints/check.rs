@@ -2,7 +2,8 @@
 //! joint ranges, rows outside the robot file's joint limits), how far the nominal model is from
 //! it per kind (each group against the shape fitted to its own predicted points, as `identify`
 //! reports its "before"), and which parameters its constraints cannot determine at the nominal
-//! model (the analysis `identify` starts from).
+//! model (the analysis `identify` starts from), and the socket and plane rows far from their
+//! group's other rows there (a wrong group label, [`super::far_rows`]).
 
 use super::fit::{candidates, shapes_of, unidentifiable};
 use super::read::{by_kind, Session};
@@ -37,6 +38,9 @@ pub struct ConstraintChecked {
     /// The parameters `identify` would estimate that these constraints cannot determine at the
     /// nominal model (names as `identify` prints them).
     pub cannot_determine: Vec<String>,
+    /// Socket and plane rows far from their group's other rows at the nominal model
+    /// ([`super::far_rows`]): rows under the wrong group label.
+    pub far_rows: Vec<super::far_rows::FarRow>,
 }
 
 /// Checks the constraint session `session` (named `origin` in messages) against the robot file
@@ -91,5 +95,6 @@ pub fn check<const N: usize>(
         kinds,
         nominal_rms_mm: rms(&all),
         cannot_determine,
+        far_rows: super::far_rows::find(nominal, groups),
     })
 }

@@ -43,6 +43,13 @@ pub struct Fitted<const N: usize> {
     /// The parameters held because the data cannot determine them.
     pub unidentifiable: Vec<Param>,
     pub iterations: usize,
+    /// Evaluations of the residuals of all rows (the identifiability analysis's included).
+    pub evaluations: usize,
+    /// 1-σ of each estimated parameter from the data (model units: mm, rad, raw), in the order
+    /// of `estimated`: the covariance `s²(JᵀWJ)⁻¹` at the fit, shapes' unknowns included, `s²`
+    /// the weighted cost per degree of freedom, as on tracker points; `None` where the normal
+    /// matrix cannot be inverted.
+    pub data_sigma: Vec<Option<f64>>,
     pub converged: bool,
     /// How the iteration ended, in words.
     pub stop: String,
@@ -249,6 +256,8 @@ pub fn fit<const N: usize>(
     let mut robot = start.clone();
     let mut shapes = shapes_of(&robot, groups);
     let (mut r, mut jac) = evaluate(&robot, groups, &shapes, &estimated, true)?;
+    // The analysis's evaluation and this one.
+    let mut evaluations = 2;
     let mut cost = r.norm_squared();
     let mut lambda = 1e-3;
     let mut iterations = 0;
@@ -276,6 +285,7 @@ pub fn fit<const N: usize>(
             }
             let trial_shapes = step_shapes(&shapes, &delta.as_slice()[np..]);
             let (tr, _) = evaluate(&trial, groups, &trial_shapes, &estimated, false)?;
+            evaluations += 1;
             let trial_cost = tr.norm_squared();
             if trial_cost.is_finite() && trial_cost < cost {
                 let drop = (cost - trial_cost) / cost.max(f64::MIN_POSITIVE);
@@ -301,14 +311,50 @@ pub fn fit<const N: usize>(
             break;
         }
         (r, jac) = evaluate(&robot, groups, &shapes, &estimated, true)?;
+        evaluations += 1;
     }
+    // The Jacobian at the model and shapes reached (the loop's is one step behind).
+    let (r, jac) = evaluate(&robot, groups, &shapes, &estimated, true)?;
+    evaluations += 1;
+    let data_sigma = sigmas(&r, &jac, np);
     Ok(Fitted {
         robot,
         shapes,
         estimated,
         unidentifiable: held,
         iterations,
+        evaluations,
+        data_sigma,
         converged,
         stop,
     })
+}
+
+/// The first `np` unknowns' 1-σ from the weighted residuals `r` and their Jacobian `jac`:
+/// `s²(JᵀJ)⁻¹` with `s²` the cost per degree of freedom, the columns scaled to unit norm for
+/// the inversion (`None` each when it fails or no degree of freedom is left).
+fn sigmas(r: &DVector<f64>, jac: &DMatrix<f64>, np: usize) -> Vec<Option<f64>> {
+    let n = jac.ncols();
+    let dof = r.len().saturating_sub(n);
+    let norms: Vec<f64> = (0..n).map(|k| jac.column(k).norm()).collect();
+    if dof == 0 || norms.iter().any(|v| *v <= 0.0 || !v.is_finite()) {
+        return vec![None; np];
+    }
+    let s2 = r.norm_squared() / dof as f64;
+    let mut scaled = jac.clone();
+    for (k, v) in norms.iter().enumerate() {
+        scaled.column_mut(k).scale_mut(1.0 / v);
+    }
+    let Some(inv) = (scaled.transpose() * &scaled)
+        .cholesky()
+        .map(|c| c.inverse())
+    else {
+        return vec![None; np];
+    };
+    (0..np)
+        .map(|k| {
+            let v = s2 * inv[(k, k)] / (norms[k] * norms[k]);
+            (v.is_finite() && v >= 0.0).then(|| v.sqrt())
+        })
+        .collect()
 }

@@ -27,6 +27,7 @@ pub mod check;
 pub mod diagnose;
 pub mod diagnose_report;
 pub mod effects;
+pub mod far_rows;
 pub mod fit;
 pub mod outliers;
 pub mod plan;

@@ -147,8 +147,23 @@ pub fn chi2_far(chi2: f64) -> bool {
 }
 
 /// The χ² warning (without "warning: ") when `chi2` is far from 1 ([`chi2_far`]) in a session
-/// of `groups`.
-pub fn chi2_warning<const N: usize>(chi2: f64, groups: &[Group<N>]) -> Option<String> {
+/// of `groups`; `tool_moved`: the tool's coordinates and the last joint's `d` that moved beyond
+/// a manufacturing tolerance, named first among the causes (a probe other than the robot
+/// file's tool: the fit holds what it cannot see at the file's tool, and misses the rest).
+pub fn chi2_warning<const N: usize>(
+    chi2: f64,
+    groups: &[Group<N>],
+    tool_moved: &[String],
+) -> Option<String> {
+    let tool = if tool_moved.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "a probe other than the robot file's tool ({} moved further than a manufacturing \
+             tolerance explains: give the probe's nominal offset in [tool] and run again), ",
+            tool_moved.join(", ")
+        )
+    };
     chi2_far(chi2).then(|| {
         format!(
             "χ²/dof = {} with the file's sigma_mm: the rows are {}× {} their constraints than \
@@ -162,8 +177,8 @@ pub fn chi2_warning<const N: usize>(chi2: f64, groups: &[Group<N>]) -> Option<St
             },
             if chi2 > 1.0 {
                 format!(
-                    "wrong rows ({}), an effect the model misses (kinecal diagnose), or σ too \
-                     small",
+                    "{tool}wrong rows ({}), an effect the model misses (kinecal diagnose), or σ \
+                     too small",
                     causes(groups)
                 )
             } else {

@@ -55,11 +55,16 @@ pub struct ConstraintIdentifyReport {
     pub before: Residuals,
     pub after: Residuals,
     pub iterations: usize,
+    /// Evaluations of the residuals of all rows (`identify`'s key on tracker points).
+    pub evaluations: usize,
     pub seconds: f64,
     pub parameters: BTreeMap<String, f64>,
     /// The parameters estimated (the others are held at their file values).
     pub estimated: Vec<String>,
     pub unidentifiable: Vec<String>,
+    /// Parameters that moved further from the robot file's values than a manufacturing
+    /// tolerance explains (`--tolerance-mm`, `--tolerance-deg`), as on tracker points.
+    pub suspicious: Vec<String>,
     pub converged: bool,
     pub stop: String,
     /// With a `sigma_mm` column: the weighted cost per degree of freedom (≈ 1 when the stated
@@ -263,6 +268,8 @@ pub struct ConstraintCheckReport {
     pub joints: usize,
     pub groups: usize,
     pub rows: usize,
+    /// The poses measured: every row is one (`check`'s key on tracker points).
+    pub poses: usize,
     pub joint_ranges_deg: Vec<[f64; 2]>,
     pub outside_limits: usize,
     pub kinds: Vec<KindFigures>,
@@ -272,6 +279,9 @@ pub struct ConstraintCheckReport {
     /// What `identify` would hold: the parameters these constraints cannot determine at the
     /// nominal model.
     pub cannot_determine: Vec<String>,
+    /// Socket and plane rows far from their group's other rows at the nominal model (a wrong
+    /// group label).
+    pub far_rows: Vec<super::far_rows::FarRow>,
 }
 
 impl ConstraintCheckReport {
@@ -284,6 +294,7 @@ impl ConstraintCheckReport {
             joints: c.joints,
             groups: c.groups,
             rows: c.rows,
+            poses: c.rows,
             joint_ranges_deg: c.joint_ranges_deg.clone(),
             outside_limits: c.outside_limits,
             kinds: c
@@ -298,6 +309,7 @@ impl ConstraintCheckReport {
                 .collect(),
             nominal_rms_mm: c.nominal_rms_mm,
             cannot_determine: c.cannot_determine.clone(),
+            far_rows: c.far_rows.clone(),
         }
     }
 }
@@ -320,6 +332,9 @@ impl fmt::Display for ConstraintCheckReport {
                 k.rows,
                 sig(k.nominal_rms_mm, 4)
             )?;
+        }
+        if let Some(w) = super::far_rows::warning(&self.far_rows) {
+            writeln!(f, "warning: {w}")?;
         }
         writeln!(
             f,

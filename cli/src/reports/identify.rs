@@ -554,13 +554,8 @@ impl IdentifyReport {
         if let Some(s) = &self.stray_points {
             out.push(format!("warning: {}", s.warning()));
         }
-        if !self.suspicious.is_empty() {
-            out.push(format!(
-                "warning: {} moved further than a manufacturing tolerance explains: check the \
-                 units, the tool point and the robot file (--tolerance-mm/--tolerance-deg set \
-                 the limit)",
-                self.suspicious.join(", ")
-            ));
+        if let Some(w) = suspicious_warning(&self.suspicious) {
+            out.push(format!("warning: {w}"));
         }
         if let Some(m) = self.acceptance.as_ref().and_then(|a| a.message.as_ref()) {
             let level = if self.held_out_worse == Some(true) {
@@ -578,4 +573,16 @@ impl IdentifyReport {
         }
         out
     }
+}
+
+/// The warning about parameters that moved beyond a manufacturing tolerance (tracker and
+/// constraint sessions alike), or `None` when none did.
+pub fn suspicious_warning(suspicious: &[String]) -> Option<String> {
+    (!suspicious.is_empty()).then(|| {
+        format!(
+            "{} moved further than a manufacturing tolerance explains: check the units, the tool \
+             point and the robot file (--tolerance-mm/--tolerance-deg set the limit)",
+            suspicious.join(", ")
+        )
+    })
 }

@@ -18,6 +18,7 @@ mod effects;
 mod outliers;
 mod plan_and_diagnose;
 mod refusals;
+mod session_checks;
 
 /// The base pose names `identify` prints.
 const BASE: [&str; 6] = [

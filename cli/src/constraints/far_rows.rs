@@ -1,0 +1,130 @@
+//! Rows far from their group's other rows at the robot file's model: a socket's rows meet in
+//! one point and a plane's lie in one plane, to the robot file's errors (millimetres). A row
+//! that lies hundreds of millimetres from where the others meet is under the wrong group label
+//! (or its socket or plane moved), whatever the calibration: `check` names it, and so does
+//! `identify` when its fit fails (instead of units or a bar offset: a socket row relabelled to
+//! a socket 1 m away made the fit stretch the arm 1.3 times).
+//!
+//! Each row of a socket or plane group of at least 4 rows is compared with the shape fitted to
+//! the group's other rows (a wrong row would pull a shape fitted to all of them, and with it
+//! the good rows' errors), and named when it lies more than [`FAR_MM`] and more than
+//! [`FAR_FACTOR`] times the other rows' RMS (and the session's median row error) from it.
+
+use super::read::{Group, Kind};
+use super::shapes::{errors, fit as fit_shape, points};
+use crate::calibration::stats::{quantile, rms};
+use crate::HostRobot;
+use serde::Serialize;
+
+/// Least distance (mm) of a far row from its group's other rows' shape.
+pub const FAR_MM: f64 = 20.0;
+/// Least ratio of that distance over the other rows' RMS and the session's median row error.
+pub const FAR_FACTOR: f64 = 10.0;
+
+/// A row far from its group's other rows at the robot file's model.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FarRow {
+    /// Line of the file.
+    pub line: usize,
+    pub kind: String,
+    pub group: String,
+    /// Its distance from the shape of the group's other rows (mm).
+    pub distance_mm: f64,
+    /// The RMS of the other rows against that shape (mm).
+    pub others_rms_mm: f64,
+}
+
+/// The rows of `groups` far from their group's other rows at `robot` (see the module), in the
+/// groups' order.
+pub fn find<const N: usize>(robot: &HostRobot<N>, groups: &[Group<N>]) -> Vec<FarRow> {
+    let judged = |g: &&Group<N>| matches!(g.kind, Kind::Socket | Kind::Plane) && g.rows.len() >= 4;
+    let pts: Vec<_> = groups.iter().map(|g| points(robot, g)).collect();
+    // The session's typical row error, each group against its own shape.
+    let all: Vec<f64> = groups
+        .iter()
+        .zip(&pts)
+        .filter(|(g, _)| judged(g))
+        .flat_map(|(g, p)| errors(g, p, &fit_shape(g.kind, p)))
+        .map(f64::abs)
+        .filter(|e| e.is_finite())
+        .collect();
+    if all.is_empty() {
+        return Vec::new();
+    }
+    let typical = quantile(&all, 0.5);
+    let mut far = Vec::new();
+    for (g, p) in groups.iter().zip(&pts).filter(|(g, _)| judged(g)) {
+        for k in 0..p.len() {
+            let others: Vec<_> = (0..p.len()).filter(|&i| i != k).map(|i| p[i]).collect();
+            let e = errors(g, p, &fit_shape(g.kind, &others));
+            let others_rms = rms(&(0..e.len())
+                .filter(|&i| i != k)
+                .map(|i| e[i])
+                .collect::<Vec<f64>>());
+            let d = e[k].abs();
+            if d > FAR_MM && d > FAR_FACTOR * others_rms.max(typical) {
+                far.push(FarRow {
+                    line: g.rows[k].line,
+                    kind: g.kind.id().into(),
+                    group: g.name.clone(),
+                    distance_mm: d,
+                    others_rms_mm: others_rms,
+                });
+            }
+        }
+    }
+    far
+}
+
+/// The sentence naming the first rows of `far` (without "warning: "), `None` without any.
+pub fn warning(far: &[FarRow]) -> Option<String> {
+    use crate::output::numfmt::sig;
+    let head = match far {
+        [] => return None,
+        [r] => {
+            let (from, others) = if r.kind == "plane" {
+                ("the plane of its group's other rows", "they lie within")
+            } else {
+                ("where its group's other rows meet", "they meet within")
+            };
+            format!(
+                "line {} ({} {}) lies {} mm from {from} at the robot file's model ({others} {} \
+                 mm RMS)",
+                r.line,
+                r.kind,
+                r.group,
+                sig(r.distance_mm, 4),
+                sig(r.others_rms_mm, 3)
+            )
+        }
+        _ => {
+            let named: Vec<String> = far
+                .iter()
+                .take(5)
+                .map(|r| {
+                    format!(
+                        "{} ({} {}, {} mm)",
+                        r.line,
+                        r.kind,
+                        r.group,
+                        sig(r.distance_mm, 4)
+                    )
+                })
+                .collect();
+            let more = if far.len() > named.len() {
+                format!(" and {} more", far.len() - named.len())
+            } else {
+                String::new()
+            };
+            format!(
+                "lines {}{more} lie far from their group's other rows at the robot file's model \
+                 (a socket's rows meet in one point, a plane's lie in one plane)",
+                named.join(", ")
+            )
+        }
+    };
+    Some(format!(
+        "{head}: a row under the wrong group label, or a socket or plane that moved; correct \
+         its group or leave the row out"
+    ))
+}

@@ -396,3 +396,50 @@ fn the_trend_tests_f_tail_matches_the_tables() {
     assert_eq!(f_sf(0.0, 3.0, 6.0), 1.0);
     assert!(f_sf(1e9, 3.0, 6.0) < 1e-12);
 }
+
+/// A large effect a robot can have leaves the geometry above `--stall-rms-mm` (5 mm) where
+/// the data are right: a joint-1 gear ratio 0.3 % off (a third of the plausible 1 %) on the
+/// ER20 leaves it 5.5 mm, and diagnose found the scale and reached the noise floor, then said
+/// "nothing is diagnosed, check the units" (exit 3, no model). Named and written now; data
+/// that no model of the catalogue fits (8 mm of noise in every coordinate) stay refused.
+#[test]
+fn a_large_plausible_effect_beyond_the_stall_limit_is_named_not_refused() {
+    use crate::common::{data_file, json_of, run_on, s, simulate, stderr};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = data_file("er20.toml");
+    let (data, model) = (d.join("d.csv"), d.join("m.toml"));
+    let scale = ["--geom-errors", "--effect", "joint-scale:1:0.003"];
+    simulate(&robot, Some(150), Some(0.02), Some(80), &scale, &data);
+    let j = json_of(&run_on(
+        "diagnose",
+        &robot,
+        &data,
+        &["--json", "--out", s(&model)],
+    ));
+    assert!(
+        j["baseline_validation_rms_mm"].as_f64().unwrap() > 5.0,
+        "{j}"
+    );
+    assert_eq!(j["converged"], true, "{j}");
+    let found = &j["found"][0];
+    assert_eq!(
+        (&found["effect"], &found["joint"]),
+        (&"joint-scale".into(), &1.into())
+    );
+    let value = found["values"][0].as_f64().unwrap();
+    assert!((value / 0.003 - 1.0).abs() < 0.01, "{value}");
+    assert!(model.exists(), "the model is written");
+    // Should not fire: noise no effect explains stays refused as a geometry that does not fit.
+    let noisy = d.join("noisy.csv");
+    simulate(
+        &robot,
+        Some(150),
+        Some(8.0),
+        Some(80),
+        &["--geom-errors"],
+        &noisy,
+    );
+    let out = run_on("diagnose", &robot, &noisy, &[]);
+    assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+}

@@ -201,7 +201,7 @@ fn a_joint_re_mastered_mid_file_is_named_at_its_row() {
 fn structured_residuals_of_random_poses_are_no_re_mastering() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let robot = data_file("kr16.toml");
+    let robot = data_file("kr16_urdf.toml");
     let mut named = Vec::new();
     for seed in 60..90 {
         let data = d.join(format!("s{seed}.csv"));

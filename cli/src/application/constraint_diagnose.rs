@@ -70,7 +70,11 @@ pub fn diagnose<const N: usize>(options: &Options, inputs: Inputs<N>) -> anyhow:
             .map(|g| held_out_error(&geometric.robot, g))
             .collect::<Vec<f64>>()),
         options.stall_rms_mm,
-    );
+    )
+    .or_else(|| {
+        let fit = (&geometric.robot, &geometric.estimated[..]);
+        crate::constraints::bar_scale::refusal(&nominal, fit, &ident)
+    });
     let held_out = if valid.is_empty() {
         None
     } else {
@@ -142,9 +146,8 @@ pub fn diagnose<const N: usize>(options: &Options, inputs: Inputs<N>) -> anyhow:
             warnings.push(format!("{origin}: {}", s.warning()));
         }
         let (robot, estimated) = (&extended.robot, &extended.estimated);
-        let scale = crate::constraints::bar_scale::warning(&nominal, (robot, estimated), &ident);
         let offset = crate::constraints::bar_offset::warning(robot, estimated, &ident);
-        for w in scale.into_iter().chain(offset) {
+        if let Some(w) = offset {
             warnings.push(format!("{origin}: {w}"));
         }
     }

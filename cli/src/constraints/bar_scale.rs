@@ -4,8 +4,10 @@
 //! same bar, agree. A bar 1 % long made a model 4 times worse than the nominal robot on the true
 //! robot, with exit 0; 0.2 % long threw away most of the calibration's gain. Nothing in the
 //! session can tell, but a real arm's links do not all deviate from their drawing by one
-//! factor, so a fitted arm whose estimated links share a scale more than [`MOST_SCALE`] from
-//! the robot file's is warned about.
+//! factor, so a fit whose estimated links share a scale more than [`MOST_SCALE`] from the
+//! robot file's is no calibration ([`refusal`]: exit 3; a bar 0.3 % long with sockets made a
+//! model 3.3 mm from the true arm against the nominal robot's 2.2 mm, and the warning alone
+//! let it pass with exit 0).
 
 use super::read::{Group, Kind};
 use crate::output::numfmt::sig;
@@ -77,6 +79,21 @@ pub fn warning<const N: usize>(
             sig(total, 5),
             sig((change * total).abs(), 2),
             if change > 0.0 { "more" } else { "less" },
+        )
+    })
+}
+
+/// Why a fit that scaled the arm (see [`warning`]) is no calibration, after "the fit …", or
+/// `None`.
+pub fn refusal<const N: usize>(
+    nominal: &HostRobot<N>,
+    fitted: (&HostRobot<N>, &[Param]),
+    groups: &[Group<N>],
+) -> Option<String> {
+    warning(nominal, fitted, groups).map(|w| {
+        format!(
+            "scaled the arm: {w}; if the certificate is right, the robot file describes another \
+             arm: correct its lengths"
         )
     })
 }

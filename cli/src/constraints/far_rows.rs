@@ -5,10 +5,14 @@
 //! `identify` when its fit fails (instead of units or a bar offset: a socket row relabelled to
 //! a socket 1 m away made the fit stretch the arm 1.3 times).
 //!
-//! Each row of a socket or plane group of at least 4 rows is compared with the shape fitted to
-//! the group's other rows (a wrong row would pull a shape fitted to all of them, and with it
-//! the good rows' errors), and named when it lies more than [`FAR_MM`] and more than
-//! [`FAR_FACTOR`] times the other rows' RMS (and the session's median row error) from it.
+//! Each row of a socket group of at least 4 rows, or a plane group of at least
+//! [`PLANE_ROWS`], is compared with the shape fitted to the group's other rows (a wrong row
+//! would pull a shape fitted to all of them, and with it the good rows' errors), and named
+//! when it lies more than [`FAR_MM`] and more than [`FAR_FACTOR`] times the other rows' RMS
+//! (and the session's median row error) from it. Three rows meet any plane exactly, and the
+//! robot file's few millimetres tilt it: a fourth row 28 mm from it was named on correct data.
+//! Far rows beyond [`MOST_SHARE`] of the rows judged are the robot file's (another arm), not
+//! labels: none is named then.
 
 use super::read::{Group, Kind};
 use super::shapes::{errors, fit as fit_shape, points};
@@ -20,6 +24,10 @@ use serde::Serialize;
 pub const FAR_MM: f64 = 20.0;
 /// Least ratio of that distance over the other rows' RMS and the session's median row error.
 pub const FAR_FACTOR: f64 = 10.0;
+/// Least rows of a plane group judged (the others leave three more than a plane takes).
+pub const PLANE_ROWS: usize = 7;
+/// Most far rows, as a share of the rows judged, that are named as labels.
+pub const MOST_SHARE: f64 = 0.05;
 
 /// A row far from its group's other rows at the robot file's model.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -37,7 +45,11 @@ pub struct FarRow {
 /// The rows of `groups` far from their group's other rows at `robot` (see the module), in the
 /// groups' order.
 pub fn find<const N: usize>(robot: &HostRobot<N>, groups: &[Group<N>]) -> Vec<FarRow> {
-    let judged = |g: &&Group<N>| matches!(g.kind, Kind::Socket | Kind::Plane) && g.rows.len() >= 4;
+    let judged = |g: &&Group<N>| match g.kind {
+        Kind::Socket => g.rows.len() >= 4,
+        Kind::Plane => g.rows.len() >= PLANE_ROWS,
+        _ => false,
+    };
     let pts: Vec<_> = groups.iter().map(|g| points(robot, g)).collect();
     // The session's typical row error, each group against its own shape.
     let all: Vec<f64> = groups
@@ -72,6 +84,10 @@ pub fn find<const N: usize>(robot: &HostRobot<N>, groups: &[Group<N>]) -> Vec<Fa
                 });
             }
         }
+    }
+    let rows: usize = groups.iter().filter(judged).map(|g| g.rows.len()).sum();
+    if far.len() as f64 > (MOST_SHARE * rows as f64).max(2.0) {
+        return Vec::new();
     }
     far
 }

@@ -244,13 +244,15 @@ fn a_socket_row_under_the_wrong_label_is_named_by_check_and_identify() {
             && text.contains("the wrong group label"),
         "{text}"
     );
-    // identify refuses, naming the row rather than units or a bar offset.
+    // identify refuses, naming the row first (what the fit's own refusal says follows it).
     let out = kinecal(&["identify", "--robot", s(&robot), "--data", s(&wrong)]);
     assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
     let err = stderr(&out);
     let error = err.lines().find(|l| l.starts_with("error:")).unwrap();
     assert!(
-        error.contains(&format!("line {line} (socket s2)")) && !error.contains("length_mm"),
+        error.starts_with(&format!(
+            "error: the fit was pulled by a row far from its group: line {line} (socket s2)"
+        )),
         "{error}"
     );
     // Should not fire: the sessions as simulated, sockets with distances and with planes.

@@ -13,15 +13,20 @@
 //! `S_k, A_k` from `k` on, `δ = (S_k − A_k S/A) / (A_k − A_k²/A)` and the squared error it
 //! explains `(S_k − A_k S/A)² / (A_k − A_k²/A)`. The numerator `S_k − A_k S/A = Σ d_i s_i`
 //! (`d_i = 1 − A_k/A` from `k` on, `−A_k/A` before) is judged against its variance from the
-//! `s_i` themselves, `V = (1 − A_k/A)² Q_k + (A_k/A)² (Q − Q_k)` with `Q` the sums of `s_i²`
-//! (a sandwich estimate): what the model still misses is structured along the joints' columns
+//! `s_i` themselves, less the zero `μ` and its change `δ` fitted to them (`e_i = s_i − w_i μ`
+//! before `k`, `s_i − w_i (μ + δ)` from `k` on): `V = (1 − A_k/A)² Σ_{≥k} e_i² + (A_k/A)²
+//! Σ_{<k} e_i²`, from running sums of `s_i², s_i w_i, w_i²` (a sandwich estimate, scaled by
+//! `3n / (3n − p − 2)` for the fit's parameters `p`): what the model still misses is structured
+//! along the joints' columns
 //! (an unmodelled cyclic error of joint 1 moves the tool along joint 1's column), so `s_i`
 //! scatters far more than `σ²|c_i|²` with σ from all three coordinates says, and an F test
 //! on that σ called a split of random poses a re-mastering (p = 7e-8 on a KR16 of 150 random
-//! poses). The best joint and row by `(Σ d_i s_i)² / V` (every row boundary leaving
-//! [`super::row_step::MIN_ROWS`] observations each side) is F-tested (1 and `n − 1 −` the
-//! model's effective parameters degrees of freedom), Bonferroni-corrected for the joints and
-//! rows tried.
+//! poses); with the raw `s_i²` the step itself inflated `V`, and 40 rows could name no step at
+//! all. `t² = (Σ d_i s_i)² / V` has the degrees of freedom of the fewer side's rows less one
+//! (`V` rests on them: ten rows at a file's end that agree by chance were significant against
+//! `n − 2`); the best joint and row by its normal equivalent (every row boundary leaving
+//! [`super::row_step::MIN_ROWS`] observations each side) is F-tested (1 and those degrees of
+//! freedom), Bonferroni-corrected for the joints and rows tried.
 
 use super::row_step::{MIN_ROWS, STEP_SHARE};
 use super::significance::f_sf;
@@ -71,40 +76,65 @@ pub fn change<const N: usize, V: kinecal::ValueStorage>(
         }
         Some(r.norm_squared())
     };
-    let (mut s_all, mut a_all, mut q_all) = ([0.0f64; N], [0.0f64; N], [0.0f64; N]);
+    // Per joint the sums of s, w, s², s·w and w² over all observations.
+    let add = |sums: &mut [[f64; 5]; N], j: usize, s: f64, w: f64| {
+        for (t, v) in sums[j].iter_mut().zip([s, w, s * s, s * w, w * w]) {
+            *t += v;
+        }
+    };
+    let mut all = [[0.0f64; 5]; N];
     for m in data {
-        each(m, &mut |j, s, w| {
-            s_all[j] += s;
-            a_all[j] += w;
-            q_all[j] += s * s;
-        })?;
+        each(m, &mut |j, s, w| add(&mut all, j, s, w))?;
     }
     let cut: Vec<bool> = (0..n).map(|k| k == 0 || lines[k] != lines[k - 1]).collect();
     let splits = cut[MIN_ROWS..=n - MIN_ROWS].iter().filter(|c| **c).count();
     let tries = (splits.max(1) * N) as f64;
-    let mut best: Option<(f64, ZeroStep)> = None;
+    let fitted = if fitted.is_finite() {
+        fitted.max(0.0)
+    } else {
+        0.0
+    };
+    // The residuals come from a fit of `fitted` parameters (and the zero and its change here)
+    // to 3n coordinates: their squares understate the scatter by that share.
+    let coordinates = 3.0 * n as f64;
+    let dof_scale = coordinates / (coordinates - fitted - 2.0).max(1.0);
+    let mut best: Option<((f64, f64, f64), ZeroStep)> = None;
     // Sums of the observations before k; those from k on are the totals less them.
-    let (mut s_before, mut a_before, mut q_before) = ([0.0f64; N], [0.0f64; N], [0.0f64; N]);
+    let mut before = [[0.0f64; 5]; N];
     for (k, m) in data.iter().enumerate() {
         if k >= MIN_ROWS && n - k >= MIN_ROWS && cut[k] {
             for j in 0..N {
-                let (s_k, a_k) = (s_all[j] - s_before[j], a_all[j] - a_before[j]);
-                let den = a_k - a_k * a_k / a_all[j];
-                if a_all[j].is_nan() || a_all[j] <= 0.0 || den.is_nan() || den <= 0.0 {
+                let [s, a, q, p, r] = all[j];
+                let [s_b, a_b, q_b, p_b, r_b] = before[j];
+                let (s_k, a_k, q_k, p_k, r_k) = (s - s_b, a - a_b, q - q_b, p - p_b, r - r_b);
+                let den = a_k - a_k * a_k / a;
+                if a.is_nan() || a <= 0.0 || den.is_nan() || den <= 0.0 {
                     continue;
                 }
-                let num = s_k - a_k * s_all[j] / a_all[j];
-                let share = a_k / a_all[j];
-                let v =
-                    (1.0 - share).powi(2) * (q_all[j] - q_before[j]) + share * share * q_before[j];
+                let num = s_k - a_k * s / a;
+                // The zero μ of the whole file and its change δ from row k on, and what each
+                // side's projections leave of them.
+                let change = num / den;
+                let zero = (s - change * a_k) / a;
+                let after_zero = zero + change;
+                let v_after =
+                    (q_k - 2.0 * after_zero * p_k + after_zero * after_zero * r_k).max(0.0);
+                let v_before = (q_b - 2.0 * zero * p_b + zero * zero * r_b).max(0.0);
+                let share = a_k / a;
+                let v = ((1.0 - share).powi(2) * v_after + share * share * v_before) * dof_scale;
                 if v.is_nan() || v <= 0.0 {
                     continue;
                 }
+                // The variance rests on the fewer side's rows: t with that many degrees of
+                // freedom, ranked by its normal equivalent (a few rows at the file's end
+                // agree by chance far more often than F(1, n − 2) says).
                 let statistic = num * num / v;
-                if best.as_ref().is_none_or(|(e, _)| statistic > *e) {
-                    let change = num / den;
+                let dof = (k.min(n - k) as f64 - 1.0).max(1.0);
+                let z =
+                    statistic.sqrt() * (1.0 - 0.25 / dof) / (1.0 + statistic / (2.0 * dof)).sqrt();
+                if best.as_ref().is_none_or(|(e, _)| z > e.0) {
                     best = Some((
-                        statistic,
+                        (z, statistic, dof),
                         ZeroStep {
                             joint: j,
                             at: k,
@@ -116,20 +146,10 @@ pub fn change<const N: usize, V: kinecal::ValueStorage>(
                 }
             }
         }
-        each(m, &mut |j, s, w| {
-            s_before[j] += s;
-            a_before[j] += w;
-            q_before[j] += s * s;
-        })?;
+        each(m, &mut |j, s, w| add(&mut before, j, s, w))?;
     }
-    let (statistic, mut step) = best?;
-    let fitted = if fitted.is_finite() {
-        fitted.max(0.0)
-    } else {
-        0.0
-    };
-    let df2 = (n as f64 - 1.0 - fitted).max(1.0);
-    step.p = (f_sf(statistic, 1.0, df2) * tries).min(1.0);
+    let ((_, statistic, dof), mut step) = best?;
+    step.p = (f_sf(statistic, 1.0, dof) * tries).min(1.0);
     step.p.is_finite().then_some(step)
 }
 

@@ -5,7 +5,10 @@
 //! MDH frames are then Craig's: z_i along axis i (the URDF axis direction, so q keeps the
 //! URDF's sign), x_i along the common normal from axis i to axis i+1, the origin O_i where
 //! that normal meets axis i; for parallel axes O_i is where the previous normal meets axis i
-//! (d chosen so the normal passes through it); for the last joint x_N = x_{N-1} and d_N = 0.
+//! (d chosen so the normal passes through it), and so for nearly parallel axes ([`PARALLEL`],
+//! [`NEARLY_PARALLEL`]), x_i then pointing to where axis i+1 meets the plane normal to z_i
+//! through O_i and the tilt in the next row's beta (Hayati's convention); for the last joint
+//! x_N = x_{N-1} and d_N = 0.
 //! Frame 0 has z_0 = z_1, its origin at the foot of the base link's origin on axis 1 and x_0
 //! the base link's x made perpendicular to z_1: so row 1 has alpha = a = 0 and `[base]` (the
 //! pose of frame 0 in the base link) is the identity for the usual arm whose first axis is
@@ -23,6 +26,32 @@ use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaterni
 /// about (offset / angle) away, metres to kilometres for a `rpy` of π written with 7 to 10
 /// digits, and the rows would carry that length.
 const PARALLEL: f64 = 1e-3;
+/// Axes within this of parallel (|z_i · z_i+1|, 25°) whose common normal meets them farther
+/// than [`FAR_REACH`] times the arm's extent from the joints take the parallel convention too:
+/// `rpy = "3.14 0 0"` (1.6e-3 rad from π) put it 12.6 m away on a 1.3 m arm.
+const NEARLY_PARALLEL: f64 = 0.9;
+/// See [`NEARLY_PARALLEL`].
+const FAR_REACH: f64 = 2.0;
+
+/// Whether the common normal of the nearly parallel axes `(p, z)` and `(q, zn)` meets them
+/// farther than [`FAR_REACH`] times `extent` from the incoming foot on axis i, or from axis
+/// i+1's point (mm; see [`NEARLY_PARALLEL`]).
+fn far_normal(
+    (p, z): (Vector3<f64>, Vector3<f64>),
+    (q, zn): (Vector3<f64>, Vector3<f64>),
+    (foot, extent): (Vector3<f64>, f64),
+) -> bool {
+    let b = z.dot(&zn);
+    if b.abs() < NEARLY_PARALLEL {
+        return false;
+    }
+    let r = p - q;
+    let (dd, e) = (z.dot(&r), zn.dot(&r));
+    let den = 1.0 - b * b;
+    let (t, s) = ((b * e - dd) / den, (e - b * dd) / den);
+    let far = FAR_REACH * extent;
+    !((p + z * t - foot).norm() <= far && (zn * s).norm() <= far)
+}
 
 /// The import of a chain: the robot file and the transforms export needs (millimetres).
 #[derive(Clone, Debug)]
@@ -191,6 +220,11 @@ pub fn import(chain: &Chain, tool_mm: [f64; 3], name: &str) -> Imported {
             base.rpy_deg[2].to_radians(),
         ),
     );
+    // The arm's extent: the farthest joint from the tip (at least 100 mm).
+    let extent = lines
+        .iter()
+        .map(|(p, _)| (p - tip.translation.vector).norm())
+        .fold(100.0f64, f64::max);
     let mut frames: Vec<Isometry3<f64>> = Vec::with_capacity(n);
     let mut foot = o0; // where the incoming normal meets axis i
     let mut x_prev = x0;
@@ -199,7 +233,7 @@ pub fn import(chain: &Chain, tool_mm: [f64; 3], name: &str) -> Imported {
         let (o, x, next_foot) = if i + 1 < n {
             let (q, zn) = lines[i + 1];
             let c = z.cross(&zn);
-            if c.norm() < PARALLEL {
+            if c.norm() < PARALLEL || far_normal((p, z), (q, zn), (foot, extent)) {
                 // (Nearly) parallel: x_i from the incoming foot to where axis i+1 meets the
                 // plane through it normal to z_i (exactly the normal for parallel axes; the
                 // tilt goes into the next row's beta).

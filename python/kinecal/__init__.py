@@ -466,10 +466,10 @@ def diagnose(
     return DiagnoseResult(report, converged, robot=model, text=printed)
 
 
-def _unreached(failed: int, targets: int, hint: Optional[str]) -> str:
+def _unreached(failed: int, targets: int, hint: Optional[str], cartesian: bool = False) -> str:
     """The command line's error for targets not reached (``kinecal compensate`` exits 3), and
     its hint when the targets look given in another frame."""
-    text = _native.unreached_error(failed, targets) or ""
+    text = _native.unreached_error(failed, targets, cartesian) or ""
     return text if not hint else f"{text}\n{hint}"
 
 
@@ -578,7 +578,8 @@ def compensate_cartesian(
     sent, status = _native.compensate_cartesian(model, nominal, q, t, angle_unit, temp_c)
     failed = sum(1 for s in status if s != "ok")
     if warn and failed:
-        warnings.warn(_unreached(failed, len(status), None), NotConvergedWarning, stacklevel=2)
+        warnings.warn(_unreached(failed, len(status), None, cartesian=True), NotConvergedWarning,
+                      stacklevel=2)
     return sent, status
 
 

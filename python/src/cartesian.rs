@@ -124,8 +124,9 @@ pub fn compensate_cartesian<'py>(
 }
 
 /// The command line's error for `failed` of `targets` not reached (`kinecal compensate` prints
-/// it and exits 3): one text for both front ends.
+/// it and exits 3; `cartesian`: `--cartesian`'s rows): one text for both front ends.
 #[pyfunction]
-pub fn unreached_error(failed: usize, targets: usize) -> Option<String> {
-    kinecal_cli::reports::compensate::unreached_error(failed, targets)
+#[pyo3(signature = (failed, targets, cartesian = false))]
+pub fn unreached_error(failed: usize, targets: usize, cartesian: bool) -> Option<String> {
+    kinecal_cli::reports::compensate::unreached_error(failed, targets, cartesian)
 }

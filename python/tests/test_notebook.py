@@ -75,7 +75,8 @@ def test_unreached_cartesian_targets_warn(cell):
     rng = np.random.default_rng(5)
     seeds = rng.uniform(-60, 60, size=(4, cell.joints))
     far = cell.fk(seeds) + [60.0, 0.0, 0.0]
-    with pytest.warns(kinecal.NotConvergedWarning, match="4 of 4 targets were not reached"):
+    with pytest.warns(kinecal.NotConvergedWarning,
+                      match="4 of 4 targets were not reached.*keep the target"):
         sent, status = kinecal.compensate_cartesian(cell, cell, seeds, far)
     assert all(s != "ok" for s in status)
     np.testing.assert_array_equal(sent, far)
@@ -165,7 +166,7 @@ def test_diagnose_names_held_out_and_cross_validated(cell, cli, tmp_path):
     assert f"cross-validated RMS {diag.baseline_validation_rms_mm:.4g}" in text
     # The command line's text report, held-out lines included.
     assert "held-out poses (60), not searched" in diag.text
-    assert diag.summary in diag.text or "cross-validated" in diag.text
+    assert "cross-validated RMS" in diag.text
     # Without held-out poses there are none.
     assert kinecal.diagnose(cell, d.q[:150], d.xyz[:150], max_effects=1).held_out_rms_mm is None
 

@@ -490,7 +490,11 @@ pub fn compensate_set<const N: usize, V: kinecal::ValueStorage>(
         reflector: None,
         hint,
         temperature_warning: temperature_warning(file, &rows, origin),
-        error: crate::reports::compensate::unreached_error(failed, rows.len()),
+        error: crate::reports::compensate::unreached_error(
+            failed,
+            rows.len(),
+            names.nominal.is_some(),
+        ),
     };
     Ok(Compensated {
         report,

@@ -64,13 +64,19 @@ pub struct CompensateReport {
 }
 
 /// The error when `failed` of `targets` were not reached (the command line prints it as
-/// `error: …` and exits 3; Python warns with it): their commands must not be sent.
-pub fn unreached_error(failed: usize, targets: usize) -> Option<String> {
+/// `error: …` and exits 3; Python warns with it): their commands, or with `cartesian` the
+/// targets to send a controller that keeps its nominal kinematics, must not be sent.
+pub fn unreached_error(failed: usize, targets: usize, cartesian: bool) -> Option<String> {
+    let rows = if cartesian {
+        "their rows keep the target, with a failure status"
+    } else {
+        "their rows hold the best command found within --max-step-deg of the seed, with a \
+         failure status"
+    };
     (failed > 0).then(|| {
         format!(
-            "{failed} of {targets} targets were not reached within --accept-mm (their rows hold \
-             the best command found within --max-step-deg of the seed, with a failure status: do \
-             not send them; exit 3)"
+            "{failed} of {targets} targets were not reached within --accept-mm ({rows}: do not \
+             send them; exit 3)"
         )
     })
 }

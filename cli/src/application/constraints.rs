@@ -181,8 +181,8 @@ pub fn identify<const N: usize>(
         (r, _, _) => r,
     };
     // A fit that scaled every link by one factor from bar lengths alone is the bar's
-    // certificate, not the arm: a model worse than the nominal robot (a bar 0.3 % long: 3.3 mm
-    // from the true arm against the nominal's 2.2 mm) is not reported as a calibration.
+    // certificate, not the arm: such a model, which can be worse than the nominal robot, is not
+    // reported as a calibration.
     let refused = refused.or_else(|| {
         let fit = (&fitted.robot, &fitted.estimated[..]);
         crate::constraints::bar_scale::refusal(&nominal, fit, &ident)

@@ -5,9 +5,8 @@
 //! robot, with exit 0; 0.2 % long threw away most of the calibration's gain. Nothing in the
 //! session can tell, but a real arm's links do not all deviate from their drawing by one
 //! factor, so a fit whose estimated links share a scale more than [`MOST_SCALE`] from the
-//! robot file's is no calibration ([`refusal`]: exit 3; a bar 0.3 % long with sockets made a
-//! model 3.3 mm from the true arm against the nominal robot's 2.2 mm, and the warning alone
-//! let it pass with exit 0).
+//! robot file's is no calibration ([`refusal`]: exit 3; a warning alone let such a model, which
+//! can be worse than the nominal robot, pass with exit 0).
 
 use super::read::{Group, Kind};
 use crate::output::numfmt::sig;

@@ -217,9 +217,8 @@ fn only_the_wrong_row_is_named_held_out_groups_are_searched_and_clean_sessions_a
 /// Every bar length 0.3 %, 0.5 % or 1 % long (a bar's certificate misread): the fit scales
 /// the arm alike and meets the constraints to the noise, and held-out groups agree. The arm's
 /// links together are then that share longer than the robot file's, which a real arm's are
-/// not, and the model is worse than the nominal robot (an outside tester's 0.3 %: 3.3 mm from
-/// the true arm against 2.2 mm): both commands say so and exit 3 (a warning with exit 0
-/// before); the session as simulated draws no such word, nor does it read with a robot file
+/// not, and the model can be worse than the nominal robot: both commands say so and exit 3 (a
+/// warning with exit 0 before); the session as simulated draws no such word, nor does it read with a robot file
 /// whose tool is unknown (the last joint's `d` takes up the tool's 100 mm: the bars were "1.3 %
 /// long" on a UR10).
 #[test]

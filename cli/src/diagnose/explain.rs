@@ -21,7 +21,7 @@
 //!   uniform grid over the covered range, mean and linear trend removed, scanned for the
 //!   single sinusoid that explains most of what is left (a periodogram on a fine frequency
 //!   grid, so a period need not divide the range); reported only when that harmonic carries at
-//!   least 80 % of the variance (irregular tables' best sines carry 57–77 %, and "repeats
+//!   least 80 % of the variance (an irregular table's best sine carries less, and "repeats
 //!   every 70°" sent a technician after a cause that is not there), the range spans at least
 //!   two periods and the period is at least two knot steps (a table cannot hold a shorter
 //!   one). Otherwise there is no single period.

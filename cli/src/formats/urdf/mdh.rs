@@ -28,7 +28,7 @@ use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaterni
 const PARALLEL: f64 = 1e-3;
 /// Axes within this of parallel (|z_i · z_i+1|, 25°) whose common normal meets them farther
 /// than [`FAR_REACH`] times the arm's extent from the joints take the parallel convention too:
-/// `rpy = "3.14 0 0"` (1.6e-3 rad from π) put it 12.6 m away on a 1.3 m arm.
+/// `rpy = "3.14 0 0"` (1.6e-3 rad from π) put it metres beyond a 1.3 m arm.
 const NEARLY_PARALLEL: f64 = 0.9;
 /// See [`NEARLY_PARALLEL`].
 const FAR_REACH: f64 = 2.0;

@@ -40,6 +40,12 @@ pub struct Config<T: Real> {
     pub temperature_c: Option<T>,
 }
 
+/// The coldest and warmest arm temperature (°C) a compensation takes: no robot works colder or
+/// warmer (the command line refuses such a `temp_c` too).
+pub const MIN_TEMP_C: f64 = -40.0;
+/// See [`MIN_TEMP_C`].
+pub const MAX_TEMP_C: f64 = 150.0;
+
 impl<T: Real> Default for Config<T> {
     fn default() -> Self {
         Self {
@@ -57,6 +63,9 @@ impl<T: Real> Default for Config<T> {
 
 impl<T: Real> Config<T> {
     /// True when every setting is finite and in range.
+    /// Whether every setting is usable: finite, the limits positive, a temperature within
+    /// [`MIN_TEMP_C`]..=[`MAX_TEMP_C`] (a sensor reading outside is broken or in another unit:
+    /// −273 °C missed a target by 7.7 mm with `KC_OK`).
     pub fn is_valid(&self) -> bool {
         let nonneg = |x: T| finite(x) && x >= T::zero();
         let pos = |x: T| finite(x) && x > T::zero();
@@ -66,6 +75,8 @@ impl<T: Real> Config<T> {
             && pos(self.max_step)
             && nonneg(self.singular)
             && self.orientation_scale.is_none_or(pos)
-            && self.temperature_c.is_none_or(finite)
+            && self
+                .temperature_c
+                .is_none_or(|t| finite(t) && t >= T::of(MIN_TEMP_C) && t <= T::of(MAX_TEMP_C))
     }
 }

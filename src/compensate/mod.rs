@@ -95,7 +95,7 @@ mod target;
 mod tracker;
 
 pub use cartesian::{nominal_reach, nominal_target};
-pub use config::Config;
+pub use config::{Config, MAX_TEMP_C, MIN_TEMP_C};
 pub use newton::{compensate, compensate_from};
 pub use outcome::{CompensateError, Solution, Status};
 pub use target::{Target, FAR};

@@ -278,6 +278,8 @@ struct Row {
     /// The arm's temperature (°C) when it moves there (`temp_c`): what the model's thermal
     /// expansion is evaluated at.
     temp_c: Option<f64>,
+    /// The targets file's line.
+    line: u32,
 }
 
 /// What a compensation names in its report and messages: the model, the targets (and where
@@ -585,6 +587,22 @@ fn fmt_num(v: f64) -> String {
 /// is evaluated at the model's reference temperature there, which a target taken on a warm arm
 /// misses by the expansion (2e-5 per kelvin over 10 K: 0.3–0.5 mm on an ER20).
 fn temperature_warning(file: &RobotFile, rows: &[Row], origin: &Origin) -> Option<String> {
+    // A warm column is told whatever the model (degrees Fahrenheit read as °C).
+    let warm = rows
+        .iter()
+        .filter_map(|r| r.temp_c.map(|t| (r.line, t)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .and_then(|(line, t)| crate::formats::loading::warm_line(&origin.to_string(), line, t))
+        .map(|w| w.trim_start_matches("warning: ").to_string());
+    let missing = missing_temperatures(file, rows, origin);
+    match (missing, warm) {
+        (Some(m), Some(w)) => Some(format!("{m}; {w}")),
+        (m, w) => m.or(w),
+    }
+}
+
+/// [`temperature_warning`]'s part for targets without a temperature.
+fn missing_temperatures(file: &RobotFile, rows: &[Row], origin: &Origin) -> Option<String> {
     let t0 = file.thermal_reference_c()?;
     let missing = rows.iter().filter(|r| r.temp_c.is_none()).count();
     let column = crate::formats::measurements::TEMPERATURE_COLUMN;
@@ -759,13 +777,22 @@ fn target_rows<const N: usize>(
                 Some(v.map(|a| units.angle().to_deg(a).to_radians()))
             }
         };
+        let temp_c = temp
+            .and_then(|i| r.extra.get(i).copied())
+            .filter(|t| t.is_finite());
+        use crate::formats::observations::{MAX_TEMP_C, MIN_TEMP_C};
+        if let Some(t) = temp_c.filter(|t| !(MIN_TEMP_C..=MAX_TEMP_C).contains(t)) {
+            crate::refuse!(
+                "{origin}:{}: temp_c {t} °C is not the temperature of a robot at work                  ({MIN_TEMP_C} to {MAX_TEMP_C} °C): give °C (from degrees Fahrenheit: (F − 32)                  × 5/9), or leave the column out",
+                r.line
+            );
+        }
         rows.push(Row {
             seed,
             point: Vector3::from(r.xyz_mm),
             rpy,
-            temp_c: temp
-                .and_then(|i| r.extra.get(i).copied())
-                .filter(|t| t.is_finite()),
+            temp_c,
+            line: r.line,
         });
     }
     Ok(rows)

@@ -150,8 +150,8 @@ fn col<const N: usize>(ds: &Dataset<N>, name: &str) -> Option<usize> {
 /// or warmer. Warmer than [`crate::formats::loading::WARM_C`] is warned about (a room logged
 /// in degrees Fahrenheit reads 65–80; read as °C, a thermal-expansion term would be referred
 /// to 70 °C and fitted to a spread 1.8 times too wide).
-pub const MIN_TEMP_C: f64 = -40.0;
-pub const MAX_TEMP_C: f64 = 150.0;
+pub const MIN_TEMP_C: f64 = kinecal::compensate::MIN_TEMP_C;
+pub const MAX_TEMP_C: f64 = kinecal::compensate::MAX_TEMP_C;
 
 /// The observations of `ds` (already in mm and degrees) for the robot `file`. Refused (exit 2)
 /// with a one-line reason naming the file, line and column for what cannot be right.

@@ -75,8 +75,9 @@ pub fn unreached_error(failed: usize, targets: usize, cartesian: bool) -> Option
     };
     (failed > 0).then(|| {
         format!(
-            "{failed} of {targets} targets were not reached within --accept-mm ({rows}: do not \
-             send them; exit 3)"
+            "{failed} of {targets} targets were not reached within --accept-mm, or only near a \
+             singularity, past a joint limit or --max-step-deg (each row's status says which; \
+             {rows}: do not send them; exit 3)"
         )
     })
 }

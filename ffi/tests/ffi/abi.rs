@@ -458,6 +458,22 @@ fn compensation_at_a_temperature_is_the_library_s() {
             },
             KC_NOT_FINITE,
         ),
+        // A sensor reading no arm works at (broken, or in kelvin or °F): refused, not a
+        // command 7.7 mm off with KC_OK.
+        (
+            kc_compensate_config {
+                temperature_c: -273.15,
+                ..c_cfg
+            },
+            KC_INVALID_ARGUMENT,
+        ),
+        (
+            kc_compensate_config {
+                temperature_c: 151.0,
+                ..c_cfg
+            },
+            KC_INVALID_ARGUMENT,
+        ),
     ] {
         let mut got = kc_solution::default();
         // SAFETY: as above.

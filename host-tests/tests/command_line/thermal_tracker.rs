@@ -340,6 +340,27 @@ fn compensate_and_validate_use_the_arms_temperature() {
         "{}",
         stderr(&o)
     );
+    // A targets file logged in °F (77) is warned about; one no arm works at (160) refused, as
+    // a measurement file's: compensate took any temp_c with status ok and exit 0.
+    for (t, code) in [("77", 0), ("160", 2)] {
+        let at: String = plain
+            .lines()
+            .enumerate()
+            .map(|(k, l)| format!("{l},{}\n", if k == 0 { "temp_c" } else { t }))
+            .collect();
+        let targets = write(d, &format!("t{t}.csv"), &at);
+        let out = d.join("q.csv");
+        let args = ["compensate", "--model", s(&model), "--targets", s(&targets)];
+        let o = kinecal(&[&args[..], &["--out", s(&out)]].concat());
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(code), "{err}");
+        let told = if code == 0 {
+            "temp_c reaches 77 °C"
+        } else {
+            "160 °C is not"
+        };
+        assert!(err.contains(told), "{err}");
+    }
 }
 
 /// A warm-up logged with `t_s` but no `temp_c` looks like a drifting tracker or a creeping

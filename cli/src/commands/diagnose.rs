@@ -46,8 +46,8 @@ pub struct Args {
     #[arg(long, default_value_t = workflow::DEFAULT_MAX_EFFECTS)]
     pub max_effects: usize,
     /// A geometric fit whose held-out RMS stays above this has not found the robot (units, a
-    /// coupled joint, the tool, the base) unless the effects found leave a tenth of it, under
-    /// this: otherwise nothing is diagnosed from it and the command exits 3.
+    /// coupled joint, the tool, the base) unless the effects found leave a tenth of it or a
+    /// fifth of this: otherwise nothing is diagnosed from it and the command exits 3.
     #[arg(long, default_value_t = crate::reports::diagnose::DEFAULT_STALL_RMS_MM)]
     pub stall_rms_mm: f64,
     /// Orientation and σ columns: how the search and the final fit to all observations weigh

@@ -11,8 +11,9 @@
 //! when it lies more than [`FAR_MM`] and more than [`FAR_FACTOR`] times the other rows' RMS
 //! (and the session's median row error) from it. Three rows meet any plane exactly, and the
 //! robot file's few millimetres tilt it: a fourth row 28 mm from it was named on correct data.
-//! Far rows beyond [`MOST_SHARE`] of the rows judged are the robot file's (another arm), not
-//! labels: none is named then.
+//! Worst first: a row named is left out of the shapes the others are judged against. Far rows
+//! beyond [`MOST_SHARE`] of the rows judged (and beyond 2) are the robot file's (another arm),
+//! not labels: none is named then.
 
 use super::read::{Group, Kind};
 use super::shapes::{errors, fit as fit_shape, points};
@@ -66,23 +67,44 @@ pub fn find<const N: usize>(robot: &HostRobot<N>, groups: &[Group<N>]) -> Vec<Fa
     let typical = quantile(&all, 0.5);
     let mut far = Vec::new();
     for (g, p) in groups.iter().zip(&pts).filter(|(g, _)| judged(g)) {
-        for k in 0..p.len() {
-            let others: Vec<_> = (0..p.len()).filter(|&i| i != k).map(|i| p[i]).collect();
-            let e = errors(g, p, &fit_shape(g.kind, &others));
-            let others_rms = rms(&(0..e.len())
-                .filter(|&i| i != k)
-                .map(|i| e[i])
-                .collect::<Vec<f64>>());
-            let d = e[k].abs();
-            if d > FAR_MM && d > FAR_FACTOR * others_rms.max(typical) {
-                far.push(FarRow {
-                    line: g.rows[k].line,
-                    kind: g.kind.id().into(),
-                    group: g.name.clone(),
-                    distance_mm: d,
-                    others_rms_mm: others_rms,
-                });
+        // Worst first: each row against the shape of the rows neither it nor one already
+        // named, while the rows a shape takes remain (one wrong row tilts a plane of few rows
+        // far enough to make a good row look far).
+        let least = if g.kind == Kind::Plane {
+            PLANE_ROWS - 1
+        } else {
+            3
+        };
+        let mut named: Vec<usize> = Vec::new();
+        while p.len() - named.len() > least {
+            let mut worst: Option<(f64, usize, f64)> = None;
+            for k in (0..p.len()).filter(|k| !named.contains(k)) {
+                let keep = |i: &usize| *i != k && !named.contains(i);
+                let others: Vec<_> = (0..p.len()).filter(keep).map(|i| p[i]).collect();
+                let e = errors(g, p, &fit_shape(g.kind, &others));
+                let others_rms = rms(&(0..e.len())
+                    .filter(keep)
+                    .map(|i| e[i])
+                    .collect::<Vec<f64>>());
+                let d = e[k].abs();
+                if d > FAR_MM
+                    && d > FAR_FACTOR * others_rms.max(typical)
+                    && worst.is_none_or(|(w, _, _)| d > w)
+                {
+                    worst = Some((d, k, others_rms));
+                }
             }
+            let Some((d, k, others_rms)) = worst else {
+                break;
+            };
+            named.push(k);
+            far.push(FarRow {
+                line: g.rows[k].line,
+                kind: g.kind.id().into(),
+                group: g.name.clone(),
+                distance_mm: d,
+                others_rms_mm: others_rms,
+            });
         }
     }
     let rows: usize = groups.iter().filter(judged).map(|g| g.rows.len()).sum();

@@ -31,7 +31,7 @@ const PARALLEL: f64 = 1e-3;
 /// `rpy = "3.14 0 0"` (1.6e-3 rad from π) put it metres beyond a 1.3 m arm.
 const NEARLY_PARALLEL: f64 = 0.9;
 /// See [`NEARLY_PARALLEL`].
-const FAR_REACH: f64 = 2.0;
+const FAR_REACH: f64 = 1.0;
 
 /// Whether the common normal of the nearly parallel axes `(p, z)` and `(q, zn)` meets them
 /// farther than [`FAR_REACH`] times `extent` from the incoming foot on axis i, or from axis

@@ -150,7 +150,7 @@ fn random_geometry_with_fixed_joints_and_odd_axes_is_imported_exactly() {
 
 /// Joints 2 and 3 parallel as a CAD export writes them: the roll of joint 3's origin is π with
 /// 7 to 10 digits (rtb-data's Lynxmotion AL5D writes `3.141592653`), or tilted by up to
-/// 0.6°. Their common normal lay metres to kilometres away and the import was refused
+/// 23°. Their common normal lay metres to kilometres away and the import was refused
 /// ("parameters must be finite numbers", "d_mm = 1.18e8 is implausible"); the parallel
 /// convention with the tilt in beta imports them exactly, with every length of the arm's size.
 #[test]
@@ -197,6 +197,8 @@ fn nearly_parallel_axes_import_exactly_with_the_tilt_in_beta() {
         ("3.14", "0"),
         ("3.141592653589793", "0.0011"),
         ("3.141592653589793", "0.01"),
+        ("3.141592653589793", "0.25"),
+        ("3.141592653589793", "0.4"),
     ] {
         let text = urdf(roll, pitch);
         let dir = tempfile::tempdir().unwrap();

@@ -64,8 +64,8 @@ impl<T: Real> Default for Config<T> {
 impl<T: Real> Config<T> {
     /// True when every setting is finite and in range.
     /// Whether every setting is usable: finite, the limits positive, a temperature within
-    /// [`MIN_TEMP_C`]..=[`MAX_TEMP_C`] (a sensor reading outside is broken or in another unit:
-    /// −273 °C missed a target by 7.7 mm with `KC_OK`).
+    /// [`MIN_TEMP_C`]..=[`MAX_TEMP_C`] (a sensor reading outside is broken or in another unit,
+    /// and the thermal term would move the command by millimetres).
     pub fn is_valid(&self) -> bool {
         let nonneg = |x: T| finite(x) && x >= T::zero();
         let pos = |x: T| finite(x) && x > T::zero();

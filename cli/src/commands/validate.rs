@@ -28,8 +28,8 @@ pub struct Args {
 }
 
 /// Runs the subcommand; a report that is no acceptance (`worse_than_nominal`, `data_mismatch`,
-/// `changed_since_calibration`, `gross_outliers`) makes the command exit with 3, with the
-/// reason on stderr.
+/// `changed_since_calibration`, `too_few_to_judge`, `gross_outliers`) makes the command exit
+/// with 3, with the reason on stderr.
 pub fn run(args: &Args) -> anyhow::Result<ValidateReport> {
     let n = crate::calibration::replay::joint_count(&args.input.robot, &args.model)?;
     let report = with_joints!(n, N => run_with_joints::<N>(args))?;

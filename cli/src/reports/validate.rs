@@ -86,6 +86,12 @@ pub struct ValidateReport {
     /// calibration, although the model may still beat the nominal robot (exit 3).
     #[serde(default)]
     pub changed_since_calibration: bool,
+    /// The session is too short to calibrate the robot again on part of it, the check that
+    /// tells whether it changed since: no verdict (exit 3). Eight poses of a robot whose joint
+    /// 2 was re-mastered by 0.1° said "the model still holds" at 90 times the unchanged
+    /// robot's RMS.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub too_few_to_judge: bool,
     /// The model and a new calibration on left-out poses of the session (`folds`,
     /// `model_rms_mm`, `recalibrated_rms_mm`); absent when the model is worse than the nominal
     /// robot or the session has gross outliers.
@@ -251,6 +257,15 @@ impl ValidateReport {
             ),
             _ => String::new(),
         };
+        // Nothing else decided, and the recalibration check could not run.
+        let unjudged = v.recalibration.is_none()
+            && !v.worse_than_nominal
+            && v.outlier_reason.is_none()
+            && v.gross_outliers.is_empty()
+            && v.wrapped.is_none()
+            && v.effects_in_degrees.is_none()
+            && !v.orientation_off
+            && !(m > MISMATCH_RMS_MM && n > MISMATCH_RMS_MM);
         let figures = format!(
             "position RMS {} mm with the model, {} mm with the nominal robot{orientation}, both \
              registered `{}` on {} poses",
@@ -279,6 +294,7 @@ impl ValidateReport {
                 .map_or(Vec::new(), |d| d.effects.clone()),
             effects_as_degrees_rms_mm: v.effects_in_degrees.as_ref().map(|d| d.rms_mm),
             changed_since_calibration: v.changed,
+            too_few_to_judge: unjudged,
             recalibration: v.recalibration.clone(),
             gross_outliers: v.gross_outliers.clone(),
             wrapped_readings: v.wrapped.as_ref().map(|w| WrappedReport {
@@ -366,6 +382,14 @@ impl ValidateReport {
                     } else {
                         format!("the robot changed since calibration: recalibrate ({left_out})")
                     }
+                } else if unjudged {
+                    format!(
+                        "no verdict: {} poses are too few to calibrate the robot again on part \
+                         of them, the check that tells whether it changed since calibration \
+                         ({figures}); measure more poses (as many as the model has parameters \
+                         on each part), then validate again",
+                        v.poses
+                    )
                 } else {
                     format!("the model still holds ({figures})")
                 },
@@ -385,6 +409,7 @@ impl super::Report for ValidateReport {
         !self.worse_than_nominal
             && !self.data_mismatch
             && !self.changed_since_calibration
+            && !self.too_few_to_judge
             && self.gross_outliers.is_empty()
             && self.wrapped_readings.is_none()
     }

@@ -448,3 +448,33 @@ fn a_robot_changed_since_calibration_on_constraint_sessions_is_refused() {
         assert!(r < 0.03, "{r}");
     }
 }
+
+/// A session too short to calibrate the robot again on part of it (10 poses): the check that
+/// tells whether the robot changed cannot run, and "the model still holds" with exit 0 was said
+/// of a robot whose joint 2 was re-mastered by 0.1° (8 UR10 poses, 90 times the unchanged
+/// robot's RMS). No verdict now for the unchanged robot (exit 3, `too_few_to_judge`); the
+/// re-mastered one is no better than the nominal robot there (exit 3); 40 poses of the
+/// unchanged robot hold.
+#[test]
+fn a_session_too_short_to_judge_gives_no_verdict() {
+    let c = calibrated();
+    let d = c.dir.path();
+    let moved = edited(&c.truth, d, "remastered.toml", |f| {
+        f.joints[1].theta_deg += 0.1
+    });
+    for (truth, poses, code, unjudged) in [
+        (&c.truth, 10, 3, true),
+        (&moved, 10, 3, false),
+        (&c.truth, 40, 0, false),
+    ] {
+        let data = d.join(format!("s{poses}.csv"));
+        simulate(truth, Some(poses), Some(0.02), Some(31), &[], &data);
+        let out = validate(&c.robot, &c.model, &data, &[]);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(code), "{poses} poses: {err}");
+        let j = json_any(&out);
+        assert_eq!(j["too_few_to_judge"] == true, unjudged, "{j}");
+        assert_eq!(err.contains("no verdict"), unjudged, "{err}");
+        assert!(!err.contains("still holds") || code == 0, "{err}");
+    }
+}

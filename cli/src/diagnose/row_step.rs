@@ -205,6 +205,13 @@ pub fn p_text(p: f64) -> String {
     }
 }
 
+/// Whether a change of probability `p` and size `size_mm` at the tool is told: significant
+/// ([`TREND_P`]) and at least [`STEP_SHARE`] of `floor_mm` (any size when the floor is not a
+/// finite number); for this module's steps and [`super::zero_step`]'s.
+pub fn worth_telling(p: f64, size_mm: f64, floor_mm: f64) -> bool {
+    p < TREND_P && (!floor_mm.is_finite() || size_mm >= STEP_SHARE * floor_mm)
+}
+
 /// The warning for a significant change ([`TREND_P`]) at least [`STEP_SHARE`] of `floor_mm`
 /// (any size when the floor is not a finite number) in the residuals of `robot` over `data`,
 /// whose observations stand on the file's lines `lines`; `None` otherwise. `floor` names the
@@ -217,8 +224,7 @@ pub fn warning<const N: usize, V: kinecal::ValueStorage>(
 ) -> Option<String> {
     let s = change(robot, (data, lines), fitted)?;
     let size = s.change_mm.norm();
-    let large = !floor_mm.is_finite() || size >= STEP_SHARE * floor_mm;
-    if !(s.p < TREND_P && large) {
+    if !worth_telling(s.p, size, floor_mm) {
         return None;
     }
     let sig = |x: f64| crate::output::numfmt::sig(x, 3);

@@ -28,9 +28,8 @@
 //! [`super::row_step::MIN_ROWS`] observations each side) is F-tested (1 and those degrees of
 //! freedom), Bonferroni-corrected for the joints and rows tried.
 
-use super::row_step::{MIN_ROWS, STEP_SHARE};
+use super::row_step::MIN_ROWS;
 use super::significance::f_sf;
-use super::time_trend::TREND_P;
 use kinecal::{ForwardKinematics, Measurement, Robot};
 
 /// The strongest change of one joint's zero along the rows' order.
@@ -153,9 +152,8 @@ pub fn change<const N: usize, V: kinecal::ValueStorage>(
     step.p.is_finite().then_some(step)
 }
 
-/// The warning for a significant change of a joint's zero ([`TREND_P`]) whose size at the
-/// tool is at least [`STEP_SHARE`] of `floor_mm` (any size when the floor is not a finite
-/// number), or `None`; as [`super::row_step::warning`].
+/// The warning for a change of a joint's zero worth telling
+/// ([`super::row_step::worth_telling`]), or `None`; as [`super::row_step::warning`].
 pub fn warning<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     (data, lines): (&[Measurement<f64, N>], &[u32]),
@@ -163,8 +161,7 @@ pub fn warning<const N: usize, V: kinecal::ValueStorage>(
     (floor_mm, floor): (f64, &str),
 ) -> Option<String> {
     let z = change(robot, (data, lines), fitted)?;
-    let large = !floor_mm.is_finite() || z.tool_rms_mm >= STEP_SHARE * floor_mm;
-    if !(z.p < TREND_P && large) {
+    if !super::row_step::worth_telling(z.p, z.tool_rms_mm, floor_mm) {
         return None;
     }
     let sig = |x: f64| crate::output::numfmt::sig(x, 3);

@@ -399,7 +399,9 @@ kc_status kc_compensate_config_default(struct kc_compensate_config *out);
 //
 // `KC_OK`: the target is met. `KC_COMPENSATE_FAILED`: it is not (singular, unreachable,
 // limited: `out->status`); `*out` holds the best safe command (within the step box around the
-// seed). `KC_NOT_FINITE` / `KC_INVALID_ARGUMENT` (NaN, a bad setting, a target more than 1000
+// seed; a seed beyond a joint limit by more than `max_step` gets the command `max_step` towards
+// the range, still beyond the limit: `LIMITED`, creep or stop, the controller's limit check
+// decides). `KC_NOT_FINITE` / `KC_INVALID_ARGUMENT` (NaN, a bad setting, a target more than 1000
 // reaches away, an unknown target kind, NaN in a pose's matrix): nothing was
 // computed and `*out` is unchanged: hold the previous command.
 //

@@ -272,6 +272,9 @@ pub fn name_reflector<const N: usize, V: kinecal::ValueStorage>(
 /// One target row in library units.
 struct Row {
     seed: Vec<f64>,
+    /// The seed as the file gave it, when it lay beyond a joint limit and `seed` was moved
+    /// onto the limit: a command further than `--max-step-deg` from it is a jump.
+    reading: Option<Vec<f64>>,
     point: Vector3<f64>,
     /// Roll, pitch, yaw (rad) for a pose target.
     rpy: Option<[f64; 3]>,
@@ -412,6 +415,7 @@ pub fn compensate_set<const N: usize, V: kinecal::ValueStorage>(
     } else {
         solve_all(robot, &rows, &cfg, settings.stream)
     };
+    let results = no_jumps(results, &rows, cfg.max_step);
     let seconds = started.elapsed().as_secs_f64();
 
     // Joint commands in the targets' angle unit.
@@ -660,6 +664,30 @@ fn solve_all<T: Real, const N: usize, V: kinecal::ValueStorage>(
         .collect()
 }
 
+/// Marks `limited` every row whose command lies more than `max_step` (rad) from its seed as the
+/// file gave it (a seed beyond a joint limit, moved onto it by [`onto_limits`]): from the
+/// controller's reading that command is a jump, which `ok` must never be.
+fn no_jumps<const N: usize>(
+    mut results: Vec<(Status, Option<Solution<f64, N>>)>,
+    rows: &[Row],
+    max_step: f64,
+) -> Vec<(Status, Option<Solution<f64, N>>)> {
+    for ((status, sol), row) in results.iter_mut().zip(rows) {
+        let (Some(reading), Some(sol)) = (&row.reading, sol) else {
+            continue;
+        };
+        let jump = sol
+            .q
+            .iter()
+            .zip(reading)
+            .any(|(q, r)| (q - r).abs() > max_step * (1.0 + 1e-9));
+        if jump && *status == Status::Ok {
+            *status = Status::Limited;
+        }
+    }
+    results
+}
+
 /// Moves every seed reading beyond `robot`'s joint limits onto the limit and returns the
 /// warning that says so: a controller does not stand beyond its limits, and a command solved
 /// from there was written beyond them too (a seed at 175.26° on a ±170° joint gave 173.26°,
@@ -677,6 +705,7 @@ fn onto_limits<const N: usize>(
             let on = q.clamp(joint.lower, joint.upper);
             if on != q {
                 outside.push((record.line, j, q, joint));
+                row.reading.get_or_insert_with(|| row.seed.clone());
                 row.seed[j] = on;
             }
         }
@@ -686,7 +715,8 @@ fn onto_limits<const N: usize>(
     Some(format!(
         "warning: {origin}: {} seed reading(s) beyond the model's joint limits (line {line}: \
          q{} = {}° against {}° to {}°): those targets are solved from the limit and their \
-         commands stay inside it; a controller does not stand beyond its limits: check the \
+         commands stay inside it (status limited where the command lies more than \
+         --max-step-deg from the reading); a controller does not stand beyond its limits: check the \
          seeds' convention (a joint's zero, a turn of ±360°)",
         outside.len(),
         j + 1,
@@ -788,6 +818,7 @@ fn target_rows<const N: usize>(
             );
         }
         rows.push(Row {
+            reading: None,
             seed,
             point: Vector3::from(r.xyz_mm),
             rpy,

@@ -356,7 +356,9 @@ fn a_model_of_another_robot_is_refused_as_export_refuses_it() {
 /// A seed beyond a joint's limit (q1 = 175° on a ±170° joint): the command was solved from it
 /// and written beyond the limit too (173.26°, status `limited`). The seed is moved onto the
 /// limit with a warning that names the line, and every command stays inside the limits; a
-/// target the arm reaches inside them is still met.
+/// target the arm reaches inside them is still met, but from the controller's reading (175°) its
+/// command (169.5°) is a 5.5° jump against `--max-step-deg` 2: `limited`, never `ok`, exit 3 (it
+/// was `ok` with exit 0; the C ABI answers `LIMITED` there too).
 #[test]
 fn a_seed_beyond_a_joint_limit_gives_a_command_inside_it() {
     let dir = tempfile::tempdir().unwrap();
@@ -383,16 +385,24 @@ fn a_seed_beyond_a_joint_limit_gives_a_command_inside_it() {
         s(&targets),
         "--out",
         s(&out),
+        "--max-step-deg",
+        "2",
     ]);
     let err = stderr(&r);
+    assert_eq!(r.status.code(), Some(3), "{err}");
     assert!(
         err.contains("1 seed reading(s) beyond the model's joint limits (line 2: q1 = 175°"),
         "{err}"
     );
     let text = std::fs::read_to_string(&out).unwrap();
-    for line in text.lines().skip(1) {
+    let lines: Vec<&str> = text.lines().skip(1).collect();
+    assert_eq!(lines.len(), 2, "{text}");
+    for line in &lines {
         assert!(cells(line)[0] <= 170.0 + 1e-9, "{line}");
-        // From the limit, 0.5° away, the target is met.
-        assert!(line.contains(",ok,"), "{line}");
     }
+    // From the limit, 0.5° away, the target is met, 5.5° from the reading: limited.
+    assert!(lines[0].contains(",limited,"), "{}", lines[0]);
+    assert!((cells(lines[0])[0] - 169.5).abs() < 0.1, "{}", lines[0]);
+    // The seed inside the limit, 0.5° from the answer: met, ok.
+    assert!(lines[1].contains(",ok,"), "{}", lines[1]);
 }

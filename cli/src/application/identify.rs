@@ -477,6 +477,24 @@ pub fn identify<const N: usize>(
             weak,
         ),
     };
+    // Poses that barely move some joints: is the model known across their ranges?
+    let held_names: Vec<String> = fit.held.iter().map(|h| h.name.clone()).collect();
+    let (estimated_params, estimated_prior): (Vec<kinecal::Param>, Vec<Option<f64>>) = params
+        .iter()
+        .zip(&prior_sigma)
+        .filter(|(p, _)| !held_names.contains(&p.name(&fit.robot).to_string()))
+        .unzip();
+    if let Some(m) = crate::calibration::extrapolation::check(
+        (&nominal, &fit.robot),
+        (&estimated_params, &estimated_prior),
+        (&ident, &valid),
+        after.identification_rms_mm / 3f64.sqrt(),
+    ) {
+        report.acceptance = Some(crate::calibration::extrapolation::refuse(
+            report.acceptance.take(),
+            m,
+        ));
+    }
     report.cross_validated = cross;
     report.held_out_worse = report.acceptance.as_ref().map(|a| a.held_out_worse);
     // Only what `--residuals` writes: a row per observation (~90 MB for a million).

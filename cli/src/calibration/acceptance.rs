@@ -88,6 +88,10 @@ pub struct Acceptance {
     pub outside_ranges: Vec<JointRangeGap>,
     /// Parameters the data barely determine (1-σ from the data beyond the tolerance).
     pub weak_parameters: Vec<String>,
+    /// The model is not determined across the joint ranges (poses that barely move some
+    /// joints: [`crate::calibration::extrapolation`]); what `held_out_worse` then says.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub extrapolated: bool,
 }
 
 /// A joint whose held-out readings leave the identification poses' range.
@@ -135,10 +139,24 @@ pub const NARROW_DEG: f64 = 30.0;
 /// moves them is extrapolated (a 7-joint arm identified with joint 3 at 0° is 0.49 mm off over
 /// the workspace, and `validate` there says the robot changed).
 pub fn narrow_joints<const N: usize>(ident: &[Measurement<f64, N>]) -> Option<String> {
+    let narrow = narrow_list(ident);
+    (!narrow.is_empty()).then(|| {
+        format!(
+            "the identification poses move {} less than {NARROW_DEG}°: the model is \
+             calibrated at those readings only, and poses elsewhere are extrapolated (judged \
+             there, it looks like a changed robot); measure poses across each joint's range \
+             (kinecal plan)",
+            narrow.join(", ")
+        )
+    })
+}
+
+/// The joints that move less than [`NARROW_DEG`] in `ident`, each as "joint j lo…hi°".
+pub fn narrow_list<const N: usize>(ident: &[Measurement<f64, N>]) -> Vec<String> {
     if ident.is_empty() {
-        return None;
+        return Vec::new();
     }
-    let narrow: Vec<String> = joint_ranges(ident)
+    joint_ranges(ident)
         .iter()
         .enumerate()
         .filter(|(_, (lo, hi))| (hi - lo).to_degrees() < NARROW_DEG)
@@ -150,16 +168,7 @@ pub fn narrow_joints<const N: usize>(ident: &[Measurement<f64, N>]) -> Option<St
                 hi.to_degrees()
             )
         })
-        .collect();
-    (!narrow.is_empty()).then(|| {
-        format!(
-            "the identification poses move {} less than {NARROW_DEG}°: the model is \
-             calibrated at those readings only, and poses elsewhere are extrapolated (judged \
-             there, it looks like a changed robot); measure poses across each joint's range \
-             (kinecal plan)",
-            narrow.join(", ")
-        )
-    })
+        .collect()
 }
 
 /// Joints along which more than a few held-out poses lie clearly outside the range the
@@ -305,6 +314,7 @@ pub fn judge<const N: usize>(
         message,
         outside_ranges: gaps,
         weak_parameters: weak,
+        extrapolated: false,
     })
 }
 
@@ -368,5 +378,6 @@ pub fn judge_cross_validated(
         message,
         outside_ranges: Vec::new(),
         weak_parameters: weak,
+        extrapolated: false,
     })
 }

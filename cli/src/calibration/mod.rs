@@ -9,6 +9,7 @@ pub mod column_hint;
 pub mod coupling_hint;
 pub mod drift;
 pub mod effects_in_degrees;
+pub mod extrapolation;
 pub mod folds;
 pub mod inputs;
 pub mod method;

@@ -127,7 +127,9 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
             sig(args.stall_rms_mm, 3)
         );
     }
-    let unfit = if w.held_out_worse() {
+    let unfit = if w.acceptance.as_ref().is_some_and(|a| a.extrapolated) {
+        Some("the model is not determined across the joint ranges")
+    } else if w.held_out_worse() {
         Some("the model predicts the held-out poses worse than the nominal robot")
     } else {
         (!report.converged).then_some("the geometric model is no calibration of these data")

@@ -352,6 +352,26 @@ pub fn run<const N: usize>(
             Vec::new(),
         )
     });
+    // Poses that barely move some joints: is the model known across their ranges? (The
+    // search's geometry has no prior: the data alone determine it.)
+    let acceptance = match crate::calibration::acceptance::narrow_list(&search).is_empty() {
+        true => acceptance,
+        false => {
+            let mut start = nominal.clone();
+            place_nominal(&mut start, &file, &search, false)?;
+            let params = crate::calibration::model_params(&d.model, &file.tilt_joints());
+            let noise = rms_of(squared_errors(&d.model, &search)) / 3f64.sqrt();
+            match crate::calibration::extrapolation::check(
+                (&start, &d.model),
+                (&params, &vec![None; params.len()]),
+                (&search, &held),
+                noise,
+            ) {
+                Some(m) => Some(crate::calibration::extrapolation::refuse(acceptance, m)),
+                None => acceptance,
+            }
+        }
+    };
     if let Some(a) = &acceptance {
         if let Some(m) = &a.message {
             let worse = a.held_out_worse;

@@ -609,12 +609,28 @@ pub fn build<const N: usize>(inp: Inputs<'_, N>) -> anyhow::Result<Built> {
         valid,
         Vec::new(),
     );
+    // Poses that barely move some joints: judged across the joint ranges as identify judges.
+    let held_out = match crate::calibration::extrapolation::check(
+        (inp.nominal, inp.model),
+        (&inp.estimated, &inp.prior),
+        (ident, valid),
+        after.identification_rms_mm / 3f64.sqrt(),
+    ) {
+        Some(m) => Some(crate::calibration::extrapolation::refuse(held_out, m)),
+        None => held_out,
+    };
     let held_out_worse = held_out.as_ref().is_some_and(|a| a.held_out_worse);
+    let extrapolated = held_out.as_ref().is_some_and(|a| a.extrapolated);
     if let Some(why) = &inp.outliers {
         warnings.push(format!("The model {why}."));
     }
     if let Some(m) = held_out.and_then(|a| a.message) {
-        warnings.push(format!("Held-out poses: {m}."));
+        let on = if extrapolated {
+            "Across the joint ranges"
+        } else {
+            "Held-out poses"
+        };
+        warnings.push(format!("{on}: {m}."));
     }
     // Another session's verdict (validate's exit status) is the page's too.
     let session_fails = inp
@@ -623,6 +639,8 @@ pub fn build<const N: usize>(inp: Inputs<'_, N>) -> anyhow::Result<Built> {
         .is_some_and(|(v, _)| !crate::reports::Report::converged(v));
     let verdict = if !fits {
         "not a calibration of these data"
+    } else if extrapolated {
+        "not a calibration: the model is not determined across the joint ranges"
     } else if held_out_worse {
         "not a calibration: the held-out poses are predicted worse than by the nominal robot"
     } else if inp.outliers.is_some() {

@@ -436,7 +436,9 @@ impl fmt::Display for IdentifyReport {
         }
         if let Some(a) = &self.acceptance {
             writeln!(f)?;
-            let what = if self.cross_validated.is_some() {
+            let what = if a.extrapolated {
+                "poses across the joint ranges"
+            } else if self.cross_validated.is_some() {
                 "left-out poses"
             } else {
                 "held-out poses"
@@ -463,6 +465,9 @@ impl IdentifyReport {
     /// (`None`: it is one).
     pub fn unfit(&self) -> Option<String> {
         let unseen = match self.cross_validated {
+            _ if self.acceptance.as_ref().is_some_and(|a| a.extrapolated) => {
+                "poses across the joint ranges (as far as these poses tell)"
+            }
             Some(_) => "left-out poses",
             None => "held-out poses",
         };

@@ -5,12 +5,12 @@ use crate::common::*;
 use std::path::{Path, PathBuf};
 
 /// The ER20-like 6R without `[base]` (its pose is then fitted to the data).
-fn er20_unplaced() -> String {
+pub(crate) fn er20_unplaced() -> String {
     ER20_PLACED.split("[base]").next().unwrap().to_string()
 }
 
 /// `text` with joint `j`'s (1-based) limits set to `lo`…`hi` degrees.
-fn with_limits(text: &str, limits: &[(usize, f64, f64)]) -> String {
+pub(crate) fn with_limits(text: &str, limits: &[(usize, f64, f64)]) -> String {
     let mut v: toml::Table = toml::from_str(text).unwrap();
     let joints = v.get_mut("joints").unwrap().as_array_mut().unwrap();
     for &(j, lo, hi) in limits {
@@ -35,7 +35,7 @@ fn rms(v: &[f64]) -> f64 {
 }
 
 /// A true robot (the ER20 with geometric errors, placed) as a robot file.
-fn truth(dir: &Path) -> PathBuf {
+pub(crate) fn truth(dir: &Path) -> PathBuf {
     let placed = write(dir, "placed.toml", ER20_PLACED);
     let t = dir.join("truth.toml");
     simulate(

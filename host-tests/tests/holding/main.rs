@@ -5,6 +5,7 @@
 mod common;
 
 mod acceptance;
+mod extrapolation;
 mod quick_recalibration;
 mod ur10;
 mod validate;

@@ -99,7 +99,15 @@ pub struct Inputs<'a, const N: usize> {
     pub model_orientation_stated: bool,
     pub model_origin: &'a str,
     pub observed: &'a Observed<N>,
+    /// The check for a reflector or tracker that moved at one row (the diagnose layer's
+    /// `row_step::warning`): run on the model registered onto the session.
+    pub step_check: Option<StepCheck<N>>,
 }
+
+/// A row-step check: the registered robot, the observations and their file lines, the number
+/// of parameters fitted, and the floor (mm) with its name; `Some(warning)` for a step.
+pub type StepCheck<const N: usize> =
+    fn(&HostRobot<N>, (&[Measurement<f64, N>], &[u32]), f64, (f64, &str)) -> Option<String>;
 
 /// One robot registered onto the session, and its errors there.
 #[derive(Clone, Debug, PartialEq)]
@@ -121,6 +129,8 @@ pub struct Judged {
 /// The result of [`validate`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Validation {
+    /// The session's residuals step at one row: the warning that names it.
+    pub step: Option<String>,
     pub register: Register,
     /// Names of the parameters fitted (the same for both robots).
     pub registered: Vec<String>,
@@ -302,7 +312,19 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
         })
         .flatten();
     let tool_shift_mm = (model_placed.tool() - inp.model.tool()).norm();
+    // A reflector re-seated or a tracker bumped halfway: neither registration describes the
+    // session (a 3 mm step "held" at 1.5 mm with exit 0).
+    let step = inp.step_check.and_then(|check| {
+        let lines: Vec<u32> = observed
+            .poses
+            .iter()
+            .flat_map(|p| std::iter::repeat_n(p.line, p.count as usize))
+            .collect();
+        let floor = (model.figures.total.rms, "the model's RMS");
+        check(&model_placed, (&data, &lines), params.len() as f64, floor)
+    });
     Ok(Validation {
+        step,
         wrapped,
         tool_shift_mm,
         tool_moved,

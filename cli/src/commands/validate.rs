@@ -94,6 +94,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<ValidateReport
                 && model_file.tool.rpy_deg != file.tool.rpy_deg,
             model_origin: &model_origin,
             observed: &observed,
+            step_check: Some(crate::diagnose::row_step::warning),
         },
         &Options {
             register: args.register,

@@ -92,6 +92,11 @@ pub struct ValidateReport {
     /// robot's RMS.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub too_few_to_judge: bool,
+    /// The session's residuals step at one row (a reflector re-seated, the tracker bumped):
+    /// the warning that names the rows; no verdict (exit 3). A 3 mm reflector step halfway
+    /// through a session "held" at 1.5 mm.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub session_step: Option<String>,
     /// The model and a new calibration on left-out poses of the session (`folds`,
     /// `model_rms_mm`, `recalibrated_rms_mm`); absent when the model is worse than the nominal
     /// robot or the session has gross outliers.
@@ -295,6 +300,7 @@ impl ValidateReport {
             effects_as_degrees_rms_mm: v.effects_in_degrees.as_ref().map(|d| d.rms_mm),
             changed_since_calibration: v.changed,
             too_few_to_judge: unjudged,
+            session_step: v.step.clone(),
             recalibration: v.recalibration.clone(),
             gross_outliers: v.gross_outliers.clone(),
             wrapped_readings: v.wrapped.as_ref().map(|w| WrappedReport {
@@ -338,6 +344,8 @@ impl ValidateReport {
                 )
                 } else if let Some(why) = &v.outlier_reason {
                     format!("no verdict: {why}, and validate again ({figures})")
+                } else if let Some(step) = &v.step {
+                    format!("no verdict: {step}; validate each part ({figures})")
                 } else if let Some(d) = &v.effects_in_degrees {
                     let still = if d.rms_mm > n {
                         ", still worse than the nominal robot: recalibrate after converting them"
@@ -410,6 +418,7 @@ impl super::Report for ValidateReport {
             && !self.data_mismatch
             && !self.changed_since_calibration
             && !self.too_few_to_judge
+            && self.session_step.is_none()
             && self.gross_outliers.is_empty()
             && self.wrapped_readings.is_none()
     }

@@ -478,3 +478,53 @@ fn a_session_too_short_to_judge_gives_no_verdict() {
         assert!(!err.contains("still holds") || code == 0, "{err}");
     }
 }
+
+/// A later session whose reflector was re-seated 3 mm along the flange axis, or whose tracker
+/// was bumped 1.5 mm, after its first 100 of 200 poses: "the model still holds" (1.5 mm and
+/// 0.75 mm RMS, exit 0, no warning; explorer 14.4). Neither registration describes such a
+/// session: no verdict now (exit 3, `session_step`, the lines named), while the same session
+/// without the step holds.
+#[test]
+fn a_session_that_steps_at_one_row_gives_no_verdict() {
+    let c = calibrated();
+    let d = c.dir.path();
+    let first = d.join("first.csv");
+    simulate(&c.truth, Some(100), Some(0.02), Some(41), &[], &first);
+    let reseated = edited(&c.truth, d, "reseated.toml", |f| {
+        move_setup(f, [0.0; 3], [0.0; 3], [0.0, 0.0, 3.0])
+    });
+    let bumped = edited(&c.truth, d, "bumped.toml", |f| {
+        move_setup(f, [1.5, 0.0, 0.0], [0.0; 3], [0.0; 3])
+    });
+    for (second, step) in [(&c.truth, false), (&reseated, true), (&bumped, true)] {
+        let rest = d.join("rest.csv");
+        simulate(second, Some(100), Some(0.02), Some(42), &[], &rest);
+        let rows: String = std::fs::read_to_string(&rest)
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| format!("{l}\n"))
+            .collect();
+        let data = write(
+            d,
+            "session.csv",
+            &format!("{}{rows}", std::fs::read_to_string(&first).unwrap()),
+        );
+        let out = validate(&c.robot, &c.model, &data, &[]);
+        let err = stderr(&out);
+        let j = json_any(&out);
+        if step {
+            assert_eq!(out.status.code(), Some(3), "{err}");
+            let told = j["session_step"].as_str().unwrap_or_default().to_string();
+            assert!(told.contains("between lines 101 and 102"), "{j}");
+            assert!(
+                j["verdict"].as_str().unwrap().starts_with("no verdict"),
+                "{j}"
+            );
+            assert!(!err.contains("still holds"), "{err}");
+        } else {
+            assert_eq!(out.status.code(), Some(0), "{err}");
+            assert!(j.get("session_step").is_none(), "{j}");
+        }
+    }
+}

@@ -23,7 +23,7 @@ pub(crate) fn with_limits(text: &str, limits: &[(usize, f64, f64)]) -> String {
 }
 
 /// The rows of CSV `b` appended to CSV `a` (same header) as a new file.
-fn concat(dir: &Path, name: &str, a: &Path, b: &Path) -> PathBuf {
+pub(crate) fn concat(dir: &Path, name: &str, a: &Path, b: &Path) -> PathBuf {
     let a = std::fs::read_to_string(a).unwrap();
     let b = std::fs::read_to_string(b).unwrap();
     let rows: String = b.lines().skip(1).map(|l| format!("{l}\n")).collect();

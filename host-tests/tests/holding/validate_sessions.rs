@@ -499,17 +499,7 @@ fn a_session_that_steps_at_one_row_gives_no_verdict() {
     for (second, step) in [(&c.truth, false), (&reseated, true), (&bumped, true)] {
         let rest = d.join("rest.csv");
         simulate(second, Some(100), Some(0.02), Some(42), &[], &rest);
-        let rows: String = std::fs::read_to_string(&rest)
-            .unwrap()
-            .lines()
-            .skip(1)
-            .map(|l| format!("{l}\n"))
-            .collect();
-        let data = write(
-            d,
-            "session.csv",
-            &format!("{}{rows}", std::fs::read_to_string(&first).unwrap()),
-        );
+        let data = crate::acceptance::concat(d, "session.csv", &first, &rest);
         let out = validate(&c.robot, &c.model, &data, &[]);
         let err = stderr(&out);
         let j = json_any(&out);

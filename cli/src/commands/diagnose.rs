@@ -6,7 +6,6 @@ use super::Spinner;
 use crate::diagnose::workflow::{self, check_plots_dir, Inputs, Options};
 use crate::formats::observations::ObservationArgs;
 use crate::formats::robot_file::{load_robot, RobotFile};
-use crate::output::numfmt::sig;
 use crate::reports::diagnose::DiagnoseReport;
 use crate::{with_joints, Tell};
 use std::path::PathBuf;
@@ -113,24 +112,15 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
     let mut stages = Spinner::new("diagnose");
     let w = workflow::run(inputs, &args.options(), &mut stages)?;
     let mut report = DiagnoseReport::of_workflow(&w, args.stall_rms_mm);
-    if let Some(why) = &report.resized {
-        eprintln!("error: the geometric fit {why}; nothing is diagnosed (exit 3)");
-    } else if !report.converged {
-        // A geometric model that cannot reach the data is not "missing an effect": the data
-        // or the model are wrong, and a noise floor of metres is no finding (exit 3).
-        eprintln!(
-            "error: the geometric model does not fit the data (held-out RMS {} mm, above \
-             --stall-rms-mm {}): check the units (--length-unit, --angle-unit), coupled joints \
-             ([[couplings]], see `kinecal check`), the tool and the base; nothing is diagnosed \
-             (exit 3)",
-            sig(w.diagnosis.baseline_validation_rms_mm, 4),
-            sig(args.stall_rms_mm, 3)
-        );
+    if let Some(e) = report.error_line(args.stall_rms_mm) {
+        eprintln!("error: {e}");
     }
     let unfit = if w.acceptance.as_ref().is_some_and(|a| a.extrapolated) {
         Some("the model is not determined across the joint ranges")
     } else if w.held_out_worse() {
         Some("the model predicts the held-out poses worse than the nominal robot")
+    } else if report.unexplained.is_some() {
+        Some("an effect the data need was refused as implausible")
     } else {
         (!report.converged).then_some("the geometric model is no calibration of these data")
     };

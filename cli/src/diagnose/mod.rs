@@ -22,13 +22,14 @@
 //!    poses (if the data have any), or after `max_effects` additions.
 //! 4. **Noise floor**: repeated poses, else the final model's cross-validated held-out errors
 //!    with the fold fits' share taken out ([`crate::diagnose::significance::held_out_noise`]);
-//!    never above the final held-out RMS (a floor the model already beats on unseen poses is no
-//!    floor).
+//!    never above the final held-out RMS, nor a refused finding's (a floor a model already
+//!    beats on unseen poses is no floor; [`refusal`]).
 //!
 //! One fit per parameter set: the model the baseline held-out RMS is of ([`Diagnosis::
 //! baseline_model`]) is fitted once, and when nothing is added it *is* the final model.
 
 pub mod candidates;
+pub mod choice;
 pub mod cross_validation;
 pub mod explain;
 pub mod linear;
@@ -37,6 +38,7 @@ pub mod phase;
 pub mod plausibility;
 pub mod pose_columns;
 pub mod refit;
+pub mod refusal;
 pub mod residual_plots;
 pub mod row_step;
 pub mod search_weights;
@@ -47,6 +49,7 @@ pub mod workflow;
 pub mod zero_step;
 
 use crate::HostRobot;
+pub use choice::{choose, too_small};
 use phase::phase_search;
 pub use phase::phase_search_starts;
 
@@ -220,6 +223,9 @@ pub struct Diagnosis<const N: usize> {
     /// search and its noise floor are per observation, the point's residual in mm with the
     /// orientation's weighted in ([`crate::diagnose::search_weights`]), not position RMS.
     pub orientations_weighted_in: bool,
+    /// The points' coordinates are weighted unequally (stated σ that differ between axes or
+    /// rows): the figures are σ-weighted distances, not position RMS.
+    pub positions_weighted: bool,
     /// Family-wise false-alarm rate of each round.
     pub alpha: f64,
     /// Residual RMS of the final model on all poses (mm) and its effective parameter count.
@@ -307,51 +313,6 @@ impl<const N: usize> Diagnosis<N> {
         self.noise_floor_interval_mm[0] = self.noise_floor_interval_mm[0].min(held_out_rms_mm);
         true
     }
-}
-
-/// Which tested candidate to add: among those that pass the test (p ≤ `threshold`) and reach a
-/// held-out RMS of at most `max_rms` mm, the one with the fewest parameters whose held-out mean
-/// squared error is within one standard error of the best one's (the "one-standard-error rule"
-/// of Hastie, Tibshirani & Friedman, §7.10: the standard error of the best model's
-/// cross-validated error).
-/// A table can imitate a scale error or a once-per-turn error; when the data cannot tell them
-/// apart, the simpler effect is the better name. Ties go to the lower held-out error.
-pub fn choose(tested: &[Tested], errors: &[&[f64]], threshold: f64, max_rms: f64) -> Option<usize> {
-    let ok: Vec<usize> = (0..tested.len())
-        .filter(|&i| tested[i].test.p <= threshold && tested[i].validation_rms_mm <= max_rms)
-        .collect();
-    let best = *ok.iter().min_by(|a, b| {
-        tested[**a]
-            .validation_rms_mm
-            .total_cmp(&tested[**b].validation_rms_mm)
-    })?;
-    let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len().max(1) as f64;
-    let eb = errors[best];
-    let mb = mean(eb);
-    let se = (eb.iter().map(|x| (x - mb) * (x - mb)).sum::<f64>()
-        / (eb.len().max(2) - 1) as f64
-        / eb.len().max(1) as f64)
-        .sqrt();
-    ok.into_iter()
-        .filter(|&i| mean(errors[i]) <= mb + se)
-        .min_by(|a, b| {
-            tested[*a].parameters.cmp(&tested[*b].parameters).then(
-                tested[*a]
-                    .validation_rms_mm
-                    .total_cmp(&tested[*b].validation_rms_mm),
-            )
-        })
-}
-
-/// The candidate of `tested` with the lowest held-out RMS among those that pass the test
-/// (p ≤ `threshold`), with its relative drop of the held-out RMS from `rms`: what [`choose`]
-/// left out only for its size, when it chose nothing.
-pub fn too_small(tested: &[Tested], threshold: f64, rms: f64) -> Option<(&Tested, f64)> {
-    let t = tested
-        .iter()
-        .filter(|t| t.test.p <= threshold && t.validation_rms_mm < rms)
-        .min_by(|a, b| a.validation_rms_mm.total_cmp(&b.validation_rms_mm))?;
-    Some((t, 1.0 - t.validation_rms_mm / rms))
 }
 
 /// Whether `c`'s family is held back after refusals (`refused`: each refused candidate with the
@@ -657,12 +618,10 @@ pub fn diagnose_with_progress<const N: usize>(
             .zip(held_out)
             .map(|((r, p, _), e)| (r, p, e))
             .collect();
-        let chosen = choose(
-            &tested,
-            &fits.iter().map(|f| f.2.as_slice()).collect::<Vec<_>>(),
-            threshold,
-            (1.0 - cfg.min_rms_drop) * cur_rms,
-        );
+        let errs: Vec<&[f64]> = fits.iter().map(|f| f.2.as_slice()).collect();
+        let max_rms = (1.0 - cfg.min_rms_drop) * cur_rms;
+        let chosen = choose(&tested, &errs, threshold, max_rms);
+        let twin = chosen.and_then(|i| choice::twin(&tested, &errs, (threshold, max_rms), i));
         rounds.push(Round {
             start_rms_mm: cur_rms,
             screened,
@@ -686,6 +645,18 @@ pub fn diagnose_with_progress<const N: usize>(
             };
             break;
         };
+        if let Some(j) = twin {
+            // An effect the data cannot tell from another of a different cause: neither is
+            // named, and both families are held back as refused ones are.
+            refused.extend([
+                (tested[i].candidate, found.len()),
+                (tested[j].candidate, found.len()),
+            ]);
+            if let Some(r) = rounds.last_mut() {
+                r.refused = Some(choice::twin_reason(&tested[i], &tested[j]));
+            }
+            continue;
+        }
         let (robot_c, problem_c, e) = fits.swap_remove(i);
         let after_fit = fit(&robot_c, &problem_c, data, cfg.refit_iterations)?;
         let after = after_fit.robot.clone();
@@ -751,10 +722,15 @@ pub fn diagnose_with_progress<const N: usize>(
     let mut interval = noise_floor_interval(floor, dof);
     // Held-out errors are noise plus a fit's error: the floor cannot lie above what the final
     // model reaches on poses it did not see. (By construction for the held-out estimate; for
-    // repeated poses a cap when their scatter happens to exceed it.)
-    let noise_floor_mm = if floor.is_finite() && floor > final_rms {
-        interval[0] = interval[0].min(final_rms);
-        final_rms
+    // repeated poses a cap when their scatter happens to exceed it.) Nor above what a finding
+    // refused as implausible reached on them ([`refusal`]).
+    let reached = final_rms.min(refusal::least_rms(&rounds, &found));
+    let noise_floor_mm = if floor.is_finite() && floor > reached {
+        interval[0] = interval[0].min(reached);
+        if reached < final_rms {
+            interval[1] = interval[1].min(reached);
+        }
+        reached
     } else {
         floor
     };
@@ -778,6 +754,9 @@ pub fn diagnose_with_progress<const N: usize>(
         noise_floor_interval_mm: interval,
         noise_dof: dof,
         orientations_weighted_in: data.iter().any(|m| m.orientation.is_some()),
+        positions_weighted: data
+            .iter()
+            .any(|m| m.weight.iter().any(|w| (w - 1.0).abs() > 1e-6)),
         alpha: cfg.alpha,
         fit_rms_mm: (final_fit.ssr / n as f64).sqrt(),
         effective_parameters,

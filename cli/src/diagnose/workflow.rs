@@ -287,8 +287,16 @@ pub fn run<const N: usize>(
     // A few gross outliers pull the geometry (what else it says follows from them; many are a
     // file the robot file does not describe, named so first), and the search would take them
     // for noise.
-    let outliers =
-        crate::calibration::outliers::find(&d.geometric, &[(&search_poses.poses, &search)]);
+    // The poses held out of the same file are searched too, as identify searches them (a
+    // --validate file's are of another session, whose errors say whether the model holds).
+    let (searched, held_lines): (&[(&[_], &[_])], Vec<u32>) = match validate_name {
+        Some(_) => (&[(&search_poses.poses, &search)], Vec::new()),
+        None => (
+            &[(&search_poses.poses, &search), (&held_poses.poses, &held)],
+            held_poses.poses.iter().map(|p| p.line).collect(),
+        ),
+    };
+    let outliers = crate::calibration::outliers::find(&d.geometric, searched);
     // Orientation columns that do not describe the tool frame turn the wrist too: named
     // before the joint that moved.
     let fitted = crate::calibration::Residuals::of(&d.geometric, &search, &[]);
@@ -298,8 +306,14 @@ pub fn run<const N: usize>(
             .iter()
             .map(|s| s.orientation_rad.to_degrees())
             .collect();
+    // A held `[base]` the tracker or the robot moved away from, as identify tells it.
+    let geometry: Vec<kinecal::Param> =
+        crate::calibration::model_params(&d.geometric, &file.tilt_joints())
+            .into_iter()
+            .filter(|p| !(file.base_known() && p.is_base()))
+            .collect();
     d.resized = outliers
-        .few()
+        .few_given(&held_lines)
         .or_else(|| {
             crate::calibration::orientation_slip::astray(
                 fitted.identification_rms_mm,
@@ -310,7 +324,15 @@ pub fn run<const N: usize>(
         })
         .or(d.resized.take())
         .or_else(|| crate::calibration::tool_check::stated_tool_slip(&file, &nominal, &d.geometric))
-        .or_else(|| outliers.reason());
+        .or_else(|| {
+            crate::calibration::base_moved::reason(
+                &d.geometric,
+                &geometry,
+                &search,
+                file.base_known(),
+            )
+        })
+        .or_else(|| outliers.reason_given(&held_lines));
     let holdout = if held.is_empty() {
         None
     } else {

@@ -30,19 +30,28 @@ pub struct Misplaced {
     pub fitted_mm: f64,
     /// Distance, mm, between the points' centroid and the model's at the stated base.
     pub offset_mm: f64,
+    /// How far (degrees) the fitted base turns the model from the stated one.
+    pub turned_deg: f64,
 }
 
 impl Misplaced {
     /// The one-line reason.
     pub fn message(&self, origin: &str) -> String {
+        // The RMS distance, not the centroids': a base turned about the points' centre moves
+        // their centre little and the points far.
+        let far = if self.stated_mm >= 1000.0 {
+            format!("{} m", sig(self.stated_mm / 1000.0, 3))
+        } else {
+            format!("{} mm", sig(self.stated_mm, 3))
+        };
         format!(
-            "{origin}: the robot file's [base] puts the measured points {} m from the model \
-             (nominal RMS {} mm with the stated base, {} mm with the base fitted to the data): \
-             the data are in another frame; remove [base] from the robot file to have the base \
-             estimated, or correct it",
-            sig(self.offset_mm / 1000.0, 3),
-            sig(self.stated_mm, 3),
-            sig(self.fitted_mm, 3)
+            "{origin}: the robot file's [base] puts the measured points {far} from the model \
+             (RMS; {} mm with the base fitted to the data, which turns it {}° and moves the \
+             points' centre {} mm): the data are in another frame; remove [base] from the \
+             robot file to have the base estimated, or correct it",
+            sig(self.fitted_mm, 3),
+            sig(self.turned_deg, 3),
+            sig(self.offset_mm, 3)
         )
     }
 }
@@ -96,5 +105,9 @@ pub fn check<const N: usize, V: kinecal::ValueStorage>(
         stated_mm,
         fitted_mm,
         offset_mm,
+        turned_deg: ((fit.x.x + fit.y.y + fit.z.z - 1.0) / 2.0)
+            .clamp(-1.0, 1.0)
+            .acos()
+            .to_degrees(),
     })
 }

@@ -54,6 +54,11 @@ pub struct DiagnoseReport {
     /// gross outliers pulled it (`calibration::outliers`); then `converged` is false.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub resized: Option<String>,
+    /// A finding refused as implausible that would have left less than 1/√2 of what the final
+    /// model leaves (`diagnose::refusal`): the data hold an error the model cannot take, and
+    /// the diagnosis is no calibration (exit 3).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub unexplained: Option<String>,
     /// Errors on the poses kept out of the whole search (`--holdout`, `--validate`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub holdout: Option<HoldoutReport>,
@@ -374,6 +379,9 @@ impl DiagnoseReport {
             poses: d.folds.of.len(),
             converged: crate::diagnose::workflow::geometry_fits(d, stall_rms_mm),
             resized: d.resized.clone(),
+            unexplained: crate::diagnose::refusal::standing(&d.rounds, &d.found)
+                .filter(|r| r.blocks(d.final_validation_rms_mm))
+                .map(|r| r.unexplained()),
             holdout: None,
             held_out_worse: None,
             acceptance: None,
@@ -447,6 +455,10 @@ fn coarse_tables<const N: usize>(d: &Diagnosis<N>) -> String {
 pub const WEIGHTED_IN: &str = "per observation, the orientation's residual weighted in as the \
     point's mm: not position RMS, which `observations` gives";
 
+/// What the search's figures are with σ that differ between the points' axes or rows.
+pub const SIGMA_WEIGHTED: &str = "per point, weighted by the stated σ: not position RMS, which \
+    `observations` gives";
+
 /// The headline: what is missing, or that nothing is.
 pub fn summary<const N: usize>(d: &Diagnosis<N>) -> String {
     let [base, fin, floor] = distinct_figures([
@@ -457,9 +469,26 @@ pub fn summary<const N: usize>(d: &Diagnosis<N>) -> String {
     let floor = floor_phrase(d.noise_floor_mm, &floor);
     let floor = if d.orientations_weighted_in {
         format!("{floor} ({WEIGHTED_IN})")
+    } else if d.positions_weighted {
+        format!("{floor} ({SIGMA_WEIGHTED})")
     } else {
         floor
     };
+    // A significant finding refused as implausible: said in the headline, never "nothing
+    // significant is missing".
+    if let Some(r) = crate::diagnose::refusal::standing(&d.rounds, &d.found) {
+        let said = r.clause();
+        return match d.found.len() {
+            0 => format!(
+                "No plausible effect explains what the geometric model leaves: cross-validated \
+                 RMS {base} mm, {floor}; {said}."
+            ),
+            n => format!(
+                "{n} effect(s) missing from the model: cross-validated RMS {base} → {fin} mm, \
+                 {floor}; {said}."
+            ),
+        };
+    }
     if d.found.is_empty() {
         // Why nothing was added: the test found nothing, or the search did not get to test.
         let why = if d.rounds.is_empty() {
@@ -483,12 +512,39 @@ pub fn summary<const N: usize>(d: &Diagnosis<N>) -> String {
     }
 }
 
+impl DiagnoseReport {
+    /// Why nothing is diagnosed, or the diagnosis is no calibration, as the command's error
+    /// line says it (exit 3); `None` when neither (the held-out verdict is told apart).
+    pub fn error_line(&self, stall_rms_mm: f64) -> Option<String> {
+        if let Some(why) = &self.resized {
+            return Some(format!(
+                "the geometric fit {why}; nothing is diagnosed (exit 3)"
+            ));
+        }
+        if !self.converged {
+            // A geometric model that cannot reach the data is not "missing an effect": the
+            // data or the model are wrong, and a noise floor of metres is no finding.
+            return Some(format!(
+                "the geometric model does not fit the data (held-out RMS {} mm, above \
+                 --stall-rms-mm {}): check the units (--length-unit, --angle-unit), coupled \
+                 joints ([[couplings]], see `kinecal check`), the tool and the base; nothing is \
+                 diagnosed (exit 3)",
+                sig(self.baseline_validation_rms_mm, 4),
+                sig(stall_rms_mm, 3)
+            ));
+        }
+        self.unexplained
+            .as_ref()
+            .map(|u| format!("{u}; the model is no calibration of these data (exit 3)"))
+    }
+}
+
 impl super::Report for DiagnoseReport {
     fn to_json(&self) -> serde_json::Value {
         super::with_accepted(self.to_value(), self)
     }
     fn converged(&self) -> bool {
-        self.converged && self.held_out_worse != Some(true)
+        self.converged && self.held_out_worse != Some(true) && self.unexplained.is_none()
     }
     fn non_finite(&self) -> Option<String> {
         super::finite::first_non_finite(self)
@@ -526,7 +582,7 @@ impl fmt::Display for DiagnoseReport {
         if self.noise_floor_mm.is_finite() {
             let iv = self.noise_floor_interval_mm;
             let [floor, lo, hi] = distinct_figures([self.noise_floor_mm, iv[0], iv[1]]);
-            let interval = if iv.iter().all(|x| x.is_finite()) {
+            let interval = if iv.iter().all(|x| x.is_finite()) && iv[0] < iv[1] {
                 format!(" (approximately 95 % within {lo}–{hi} mm)")
             } else {
                 String::new()
@@ -545,7 +601,7 @@ impl fmt::Display for DiagnoseReport {
             writeln!(f, "noise floor {floor} mm{interval}{weighted}, {source}")?;
         }
         for r in self.rounds.iter().filter_map(|r| r.refused.as_ref()) {
-            writeln!(f, "refused as implausible: {} ({})", r.candidate, r.reason)?;
+            writeln!(f, "refused: {} ({})", r.candidate, r.reason)?;
         }
         writeln!(f, "stopped: {}", self.stop_reason)?;
         if let Some(h) = &self.holdout {

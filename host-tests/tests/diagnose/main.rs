@@ -12,6 +12,7 @@ mod grids;
 mod matrix;
 mod observations;
 mod orientation;
+mod refusals;
 mod row_step;
 mod ur10;
 mod workflow;

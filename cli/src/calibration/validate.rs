@@ -313,8 +313,10 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
         .flatten();
     let tool_shift_mm = (model_placed.tool() - inp.model.tool()).norm();
     // A reflector re-seated or a tracker bumped halfway: neither registration describes the
-    // session (a 3 mm step "held" at 1.5 mm with exit 0).
-    let step = inp.step_check.and_then(|check| {
+    // session (a 3 mm step "held" at 1.5 mm with exit 0). Not when a joint's scale explains the
+    // session: its residuals jump between rows far apart in that joint, and are no step.
+    let scaled = recalibration.as_ref().is_some_and(|r| r.joint_scale());
+    let step = inp.step_check.filter(|_| !scaled).and_then(|check| {
         let lines: Vec<u32> = observed
             .poses
             .iter()

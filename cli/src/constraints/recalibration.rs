@@ -64,5 +64,6 @@ pub fn recalibrate<const N: usize>(
         folds: k,
         model_rms_mm,
         recalibrated_rms_mm,
+        with_joint_scales_rms_mm: None,
     })
 }

@@ -373,9 +373,19 @@ impl ValidateReport {
                 } else if let Some(r) = v.recalibration.as_ref().filter(|_| v.changed) {
                     let left_out = format!(
                         "left-out poses of the session: {} mm RMS with the model, {} mm with the \
-                         robot calibrated again on the others; {figures}",
+                         robot calibrated again on the others{}; {figures}",
                         sig(r.model_rms_mm, 4),
-                        sig(r.recalibrated_rms_mm, 4)
+                        sig(r.recalibrated_rms_mm, 4),
+                        match r.with_joint_scales_rms_mm.filter(|_| r.joint_scale()) {
+                            Some(s) => format!(
+                                ", {} mm with a scale on each joint's readings too: a joint's \
+                                 readings changed their scale since calibration (a gear ratio or \
+                                 an encoder's resolution set anew, a bad export); kinecal \
+                                 diagnose names the joint",
+                                sig(s, 4)
+                            ),
+                            None => String::new(),
+                        }
                     );
                     // A new tool: the model's fitted wrist errors act differently at its
                     // point, so the robot need not have changed.

@@ -246,6 +246,37 @@ fn ur10_model_beats_the_nominal_robot_on_the_poses_it_never_saw() {
         err.contains("the data do not fit the robot file") && err.contains("swapped"),
         "{err}"
     );
+    // The same rows with joint 4 read 1 % off (a gear ratio or an encoder's resolution set
+    // anew): the model (3.68 mm), the nominal robot (3.69 mm) and a geometric recalibration
+    // miss them alike, which said "the model still holds", exit 0. A recalibration with a
+    // scale on each joint's readings predicts them as the model did at calibration.
+    let scaled: Vec<String> = rows[1000..]
+        .iter()
+        .map(|l| {
+            let mut c: Vec<String> = l.split(',').map(String::from).collect();
+            c[3] = (c[3].parse::<f64>().unwrap() * 1.01).to_string();
+            c.join(",")
+        })
+        .collect();
+    let s4 = write(
+        dir.path(),
+        "q4_scaled.csv",
+        &format!("{head}\n{}\n", scaled.join("\n")),
+    );
+    let out = validate(&robot, &model, &s4, &[]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    let j = json_any(&out);
+    assert_eq!(j["changed_since_calibration"], true, "{j}");
+    let (m, with_scales) = (
+        num(&j, &["recalibration", "model_rms_mm"]),
+        num(&j, &["recalibration", "with_joint_scales_rms_mm"]),
+    );
+    eprintln!(
+        "UR10, q4 read 1 % off: left out, model {m:.4} mm, with joint scales {with_scales:.4} mm"
+    );
+    assert!(m > 3.0 * with_scales, "{m} against {with_scales}");
+    assert!(err.contains("a scale on each joint's readings"), "{err}");
 }
 
 /// `--register base` on a session whose probe moved (10 mm, or 60 mm and 15 mm sideways) said

@@ -320,6 +320,8 @@ pub fn identify<const N: usize>(
     } else {
         valid_set.iter().map(|p| p.line).collect()
     };
+    // One joint's readings on another scale (no geometry takes it up).
+    let scaled = crate::calibration::joint_scale::check(&fit.robot, &params, &ident);
     let resized = outliers
         .few_given(&held_lines)
         .or_else(|| {
@@ -344,6 +346,7 @@ pub fn identify<const N: usize>(
         .or_else(|| {
             crate::calibration::base_moved::reason(&fit.robot, &params, &ident, file.base_known())
         })
+        .or_else(|| scaled.filter(|s| s.readings()).map(|s| s.reason()))
         .or_else(|| outliers.reason_given(&held_lines));
     let converged = fit.solver_converged()
         && !stalled
@@ -385,6 +388,12 @@ pub fn identify<const N: usize>(
     report
         .notes
         .extend(crate::calibration::acceptance::narrow_joints(&ident));
+    // A scale no more than a gearbox's that explains the fit: a missing effect of that joint.
+    if verdict.converged {
+        report
+            .notes
+            .extend(scaled.filter(|s| !s.readings()).map(|s| s.warning()));
+    }
     // A reflector or a tracker that moved at one row: the fit took the mean of the two parts.
     if verdict.converged {
         let lines: Vec<u32> = ident_set

@@ -12,6 +12,7 @@ pub mod effects_in_degrees;
 pub mod extrapolation;
 pub mod folds;
 pub mod inputs;
+pub mod joint_scale;
 pub mod method;
 pub mod orientation_slip;
 pub mod outliers;

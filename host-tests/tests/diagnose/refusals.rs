@@ -26,6 +26,30 @@ fn ur10_placed(dir: &Path, tool_x: f64) -> PathBuf {
     )
 }
 
+/// 300 poses of the ER20 placed in the tracker's frame with geometric errors, at 0.02 mm noise.
+fn er20_session(dir: &Path, name: &str, seed: u64) -> PathBuf {
+    let data = dir.join(name);
+    let placed = data_file("er20_placed.toml");
+    simulate(
+        &placed,
+        Some(300),
+        Some(0.02),
+        Some(seed),
+        &["--geom-errors"],
+        &data,
+    );
+    data
+}
+
+/// The number in `text` between `before` and `after`.
+fn number_between(text: &str, before: &str, after: &str) -> f64 {
+    text.split(before)
+        .nth(1)
+        .and_then(|r| r.split(after).next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no number after {before:?}: {text}"))
+}
+
 /// `diagnose --json` on `data` with `extra`: its exit status, JSON and stderr.
 fn diagnose(robot: &Path, data: &Path, extra: &[&str]) -> (Option<i32>, serde_json::Value, String) {
     let mut args = vec!["--json"];
@@ -120,22 +144,9 @@ fn rows_of_another_robot_among_the_held_out_poses_are_named() {
     let base = "[base]\nxyz_mm = [2500.0, -1200.0, -300.0]\nrpy_deg = [0.7, -1.3, 155.0]\n";
     assert!(text.contains(base), "{text}");
     let robot = write(dir.path(), "unplaced.toml", &text.replace(base, ""));
-    let (a, b) = (dir.path().join("a.csv"), dir.path().join("b.csv"));
-    simulate(
-        &placed,
-        Some(300),
-        Some(0.02),
-        Some(1),
-        &["--geom-errors"],
-        &a,
-    );
-    simulate(
-        &placed,
-        Some(300),
-        Some(0.02),
-        Some(11),
-        &["--geom-errors"],
-        &b,
+    let (a, b) = (
+        er20_session(dir.path(), "a.csv", 1),
+        er20_session(dir.path(), "b.csv", 11),
     );
     let (a, b) = (
         std::fs::read_to_string(&a).unwrap(),
@@ -167,15 +178,7 @@ fn rows_of_another_robot_among_the_held_out_poses_are_named() {
 fn a_stated_base_the_tracker_moved_from_is_named() {
     let dir = tempfile::tempdir().unwrap();
     let placed = data_file("er20_placed.toml");
-    let data = dir.path().join("d.csv");
-    simulate(
-        &placed,
-        Some(300),
-        Some(0.02),
-        Some(1),
-        &["--geom-errors"],
-        &data,
-    );
+    let data = er20_session(dir.path(), "d.csv", 1);
     let text = std::fs::read_to_string(&placed).unwrap();
     let turned = text.replace(
         "rpy_deg = [0.7, -1.3, 155.0]",
@@ -202,12 +205,7 @@ fn a_stated_base_the_tracker_moved_from_is_named() {
     let out = run_on("identify", &far, &data, &[]);
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(2), "{err}");
-    let turned: f64 = err
-        .split("which turns it ")
-        .nth(1)
-        .and_then(|r| r.split('°').next())
-        .and_then(|t| t.parse().ok())
-        .unwrap_or_else(|| panic!("{err}"));
+    let turned = number_between(&err, "which turns it ", "°");
     assert!((turned - 10.0).abs() < 0.5, "{err}");
     assert!(err.contains(" mm from the model (RMS"), "{err}");
     // The base where the tracker stands: diagnosed.
@@ -328,15 +326,7 @@ fn sigma_weighted_figures_are_said_to_be_weighted() {
 fn a_joint_read_one_percent_off_is_named_by_its_scale() {
     let dir = tempfile::tempdir().unwrap();
     let placed = data_file("er20_placed.toml");
-    let data = dir.path().join("d.csv");
-    simulate(
-        &placed,
-        Some(300),
-        Some(0.02),
-        Some(1),
-        &["--geom-errors"],
-        &data,
-    );
+    let data = er20_session(dir.path(), "d.csv", 1);
     let text = std::fs::read_to_string(&data).unwrap();
     let scaled = write(
         dir.path(),
@@ -353,12 +343,8 @@ fn a_joint_read_one_percent_off_is_named_by_its_scale() {
             && err.contains("--effect joint-scale:4"),
         "{err}"
     );
-    let ppm: f64 = err
-        .split("joint 4 turns ")
-        .nth(1)
-        .and_then(|r| r.split(" ppm less").next())
-        .and_then(|v| v.parse().ok())
-        .unwrap_or_else(|| panic!("{err}"));
+    // 1/1.01: 9901 ppm less.
+    let ppm = number_between(&err, "joint 4 turns ", " ppm less");
     assert!((ppm - 9901.0).abs() < 200.0, "{err}");
     let out = run_on("identify", &placed, &data, &["--holdout", "0.3"]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));

@@ -320,8 +320,13 @@ pub fn identify<const N: usize>(
     } else {
         valid_set.iter().map(|p| p.line).collect()
     };
-    // One joint's readings on another scale (no geometry takes it up).
-    let scaled = crate::calibration::joint_scale::check(&fit.robot, &params, &ident);
+    // One joint's readings on another scale (no geometry takes it up): checked only when no
+    // earlier reason refuses the fit.
+    let scaled_once = std::cell::OnceCell::new();
+    let scaled = || {
+        *scaled_once
+            .get_or_init(|| crate::calibration::joint_scale::check(&fit.robot, &params, &ident))
+    };
     let resized = outliers
         .few_given(&held_lines)
         .or_else(|| {
@@ -346,7 +351,7 @@ pub fn identify<const N: usize>(
         .or_else(|| {
             crate::calibration::base_moved::reason(&fit.robot, &params, &ident, file.base_known())
         })
-        .or_else(|| scaled.filter(|s| s.readings()).map(|s| s.reason()))
+        .or_else(|| scaled().filter(|s| s.readings()).map(|s| s.reason()))
         .or_else(|| outliers.reason_given(&held_lines));
     let converged = fit.solver_converged()
         && !stalled
@@ -392,7 +397,7 @@ pub fn identify<const N: usize>(
     if verdict.converged {
         report
             .notes
-            .extend(scaled.filter(|s| !s.readings()).map(|s| s.warning()));
+            .extend(scaled().filter(|s| !s.readings()).map(|s| s.warning()));
     }
     // A reflector or a tracker that moved at one row: the fit took the mean of the two parts.
     if verdict.converged {

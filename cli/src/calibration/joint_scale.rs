@@ -80,8 +80,9 @@ impl Scaled {
 
 /// The joint whose readings' scale best explains what a fit of `params` (converged at
 /// `fitted`) leaves on `data`, when it leaves at most [`EXPLAINS`] of it and [`MIN_GAIN_MM`]
-/// less; `None` otherwise. Both fits are continued from `fitted` by the LM over `params` (a
-/// fit stopped short, a stochastic search's, gains from the continuation alone).
+/// less; `None` otherwise. Both fits are continued from `fitted` by the LM over `params` and
+/// the joint's zero (a fit stopped short, a stochastic search's, gains from the continuation
+/// alone; a zero error is no scale).
 pub fn check<const N: usize>(
     fitted: &HostRobot<N>,
     params: &[Param],
@@ -98,7 +99,8 @@ pub fn check<const N: usize>(
         return None;
     }
     let refit = super::fit_lm(fitted, params, &sample, LmConfig::default()).ok()?;
-    let rms_mm = Residuals::of(&refit.robot, &sample, &[]).identification_rms_mm;
+    let rms_of = |r: &HostRobot<N>| Residuals::of(r, &sample, &[]).identification_rms_mm;
+    let rms_mm = rms_of(&refit.robot);
     if rms_mm.is_nan() || rms_mm * (1.0 - EXPLAINS) < MIN_GAIN_MM {
         return None;
     }
@@ -110,7 +112,21 @@ pub fn check<const N: usize>(
         .collect();
     let mut best: Option<Scaled> = None;
     for joint in (0..N).filter(|j| !scaled.contains(j)) {
-        let mut start = refit.robot.clone();
+        // The joint's zero is free in both fits: a fit that holds it (`--only`) would read a
+        // zero error as a scale.
+        let zero = Param::Theta(joint as u8);
+        let (base, rms_mm) = if params.contains(&zero) {
+            (refit.robot.clone(), rms_mm)
+        } else {
+            let with_zero: Vec<Param> = params.iter().copied().chain([zero]).collect();
+            let Ok(f) = super::fit_lm(&refit.robot, &with_zero, &sample, LmConfig::default())
+            else {
+                continue;
+            };
+            let r = rms_of(&f.robot);
+            (f.robot, r)
+        };
+        let mut start = base;
         let req = EffectRequest {
             kind: "joint-scale".into(),
             joint,
@@ -122,14 +138,21 @@ pub fn check<const N: usize>(
         let Some(Param::Effect(k)) = extra.first().copied() else {
             continue;
         };
-        let with: Vec<Param> = params.iter().copied().chain(extra).collect();
+        let with: Vec<Param> = params
+            .iter()
+            .copied()
+            .chain((!params.contains(&zero)).then_some(zero))
+            .chain(extra)
+            .collect();
         let Ok(fit) = super::fit_lm(&start, &with, &sample, LmConfig::default()) else {
             continue;
         };
-        let scaled_rms_mm = Residuals::of(&fit.robot, &sample, &[]).identification_rms_mm;
+        let scaled_rms_mm = rms_of(&fit.robot);
         let value = fit.robot.effects().values().get(usize::from(k)).copied();
-        if let Some(scale) = value.filter(|v| v.is_finite() && scaled_rms_mm.is_finite()) {
-            if best.is_none_or(|b| scaled_rms_mm < b.scaled_rms_mm) {
+        let finite = rms_mm.is_finite() && scaled_rms_mm.is_finite();
+        if let Some(scale) = value.filter(|v| v.is_finite() && finite) {
+            // The best is the one that leaves the least of its own fit's RMS.
+            if best.is_none_or(|b| scaled_rms_mm / rms_mm < b.scaled_rms_mm / b.rms_mm) {
                 best = Some(Scaled {
                     joint,
                     rms_mm,

@@ -10,7 +10,9 @@
 //! mm, where the nominal robot leaves 1.81 mm and a new calibration 0.035 mm (`validate` called
 //! that "still holds"; host-tests `validate_sessions`).
 //! Both figures are on left-out poses, so a new calibration's own estimation error counts
-//! against it as the model's counted against it at its calibration.
+//! against it as the model's counted against it at its calibration. When the robot did not
+//! change, a third recalibration frees a scale on every joint's reading besides: what it
+//! gains names a joint read on another scale since (`with_joint_scales_rms_mm`).
 
 use super::fit_lm;
 use super::thin_data::cross_validate;
@@ -88,27 +90,37 @@ pub fn recalibrate<const N: usize>(
         with_joint_scales_rms_mm: None,
     };
     if !r.changed() {
-        let mut scaled = model.clone();
-        let mut with_scales = params.clone();
-        let scaled_joints: Vec<usize> = model
-            .effects()
-            .iter()
-            .filter(|e| e.kind == kinecal::EffectKind::Scale)
-            .map(|e| e.joint as usize)
-            .collect();
-        for joint in (0..N).filter(|j| !scaled_joints.contains(j)) {
-            let req = super::EffectRequest {
-                kind: "joint-scale".into(),
-                joint,
-                arg: None,
-            };
-            with_scales.extend(super::add_effect(&mut scaled, &req, (0.0, 0.0)).ok()?);
-        }
-        r.with_joint_scales_rms_mm = left_out(&scaled, &with_scales, register, data)
+        r.with_joint_scales_rms_mm = with_joint_scales(model, &params)
+            .and_then(|(scaled, with)| left_out(&scaled, &with, register, data))
             .map(|(_, _, rms)| rms)
             .filter(|rms| rms.is_finite());
     }
     Some(r)
+}
+
+/// `model` with a scale on every joint's reading it has none on, and `params` with theirs;
+/// `None` when one cannot be added (the effects store is full): no such recalibration then.
+fn with_joint_scales<const N: usize>(
+    model: &HostRobot<N>,
+    params: &[Param],
+) -> Option<(HostRobot<N>, Vec<Param>)> {
+    let mut scaled = model.clone();
+    let mut with = params.to_vec();
+    let has_scale: Vec<usize> = model
+        .effects()
+        .iter()
+        .filter(|e| e.kind == kinecal::EffectKind::Scale)
+        .map(|e| e.joint as usize)
+        .collect();
+    for joint in (0..N).filter(|j| !has_scale.contains(j)) {
+        let req = super::EffectRequest {
+            kind: "joint-scale".into(),
+            joint,
+            arg: None,
+        };
+        with.extend(super::add_effect(&mut scaled, &req, (0.0, 0.0)).ok()?);
+    }
+    Some((scaled, with))
 }
 
 /// Folds, and the left-out RMS of `model` registered (`register`) and of `model` calibrated

@@ -92,7 +92,7 @@ pub fn twin(
 }
 
 /// How the reason of a [`twin`] refusal begins.
-pub const TWIN: &str = "the data cannot tell it from";
+const TWIN: &str = "the data cannot tell it from";
 
 /// Why neither twin is named ([`twin`]).
 pub fn twin_reason(chosen: &Tested, other: &Tested) -> String {

@@ -149,9 +149,12 @@ pub struct Round {
     pub threshold: f64,
     /// Index into `tested` of the one added (or refused, see `refused`).
     pub chosen: Option<usize>,
-    /// Why the chosen candidate was refused as physically implausible (then nothing was added
-    /// this round and its family is held back, [`held_back`]).
+    /// Why the chosen candidate was refused: physically implausible, or a twin of another
+    /// cause the data cannot tell it from (`twin`); then nothing was added this round and its
+    /// family is held back, [`held_back`].
     pub refused: Option<String>,
+    /// Index into `tested` of the twin ([`choice::twin`]) when that is why it was refused.
+    pub twin: Option<usize>,
     pub seconds: f64,
 }
 
@@ -629,6 +632,7 @@ pub fn diagnose_with_progress<const N: usize>(
             threshold,
             chosen,
             refused: None,
+            twin: None,
             seconds: tr.elapsed().as_secs_f64(),
         });
         let Some(i) = chosen else {
@@ -645,18 +649,12 @@ pub fn diagnose_with_progress<const N: usize>(
             };
             break;
         };
-        if let Some(j) = twin {
-            // An effect the data cannot tell from another of a different cause: neither is
-            // named, and both families are held back as refused ones are.
-            refused.extend([
-                (tested[i].candidate, found.len()),
-                (tested[j].candidate, found.len()),
-            ]);
-            if let Some(r) = rounds.last_mut() {
-                r.refused = Some(choice::twin_reason(&tested[i], &tested[j]));
-            }
-            continue;
-        }
+        // The twin's own fit, when the data cannot tell the chosen one from it: only a
+        // plausible twin vetoes the chosen one.
+        let twin_fit = match twin {
+            Some(j) => Some((j, fit(&fits[j].0, &fits[j].1, data, cfg.refit_iterations)?)),
+            None => None,
+        };
         let (robot_c, problem_c, e) = fits.swap_remove(i);
         let after_fit = fit(&robot_c, &problem_c, data, cfg.refit_iterations)?;
         let after = after_fit.robot.clone();
@@ -668,6 +666,25 @@ pub fn diagnose_with_progress<const N: usize>(
             refused.push((t.candidate, found.len()));
             if let Some(r) = rounds.last_mut() {
                 r.refused = Some(why);
+            }
+            continue;
+        }
+        let plausible_twin = twin_fit.and_then(|(j, f)| {
+            let c = &tested[j].candidate;
+            plausibility::implausible(c, &c.values(&f.robot), &cfg.plausible)
+                .is_none()
+                .then_some(j)
+        });
+        if let Some(j) = plausible_twin {
+            // An effect the data cannot tell from another of a different cause: neither is
+            // named, and both families are held back as refused ones are.
+            refused.extend([
+                (tested[i].candidate, found.len()),
+                (tested[j].candidate, found.len()),
+            ]);
+            if let Some(r) = rounds.last_mut() {
+                r.refused = Some(choice::twin_reason(&tested[i], &tested[j]));
+                r.twin = Some(j);
             }
             continue;
         }
@@ -724,7 +741,7 @@ pub fn diagnose_with_progress<const N: usize>(
     // model reaches on poses it did not see. (By construction for the held-out estimate; for
     // repeated poses a cap when their scatter happens to exceed it.) Nor above what a finding
     // refused as implausible reached on them ([`refusal`]).
-    let reached = final_rms.min(refusal::least_rms(&rounds, &found));
+    let reached = final_rms.min(refusal::least_rms(&rounds, &found, final_rms));
     let noise_floor_mm = if floor.is_finite() && floor > reached {
         interval[0] = interval[0].min(reached);
         if reached < final_rms {

@@ -379,8 +379,13 @@ impl DiagnoseReport {
             poses: d.folds.of.len(),
             converged: crate::diagnose::workflow::geometry_fits(d, stall_rms_mm),
             resized: d.resized.clone(),
-            unexplained: crate::diagnose::refusal::standing(&d.rounds, &d.found)
-                .filter(|r| r.blocks(d.final_validation_rms_mm))
+            unexplained: crate::diagnose::refusal::standing(
+                &d.rounds,
+                &d.found,
+                d.final_validation_rms_mm,
+            )
+            .filter(|r| r.blocks(d.final_validation_rms_mm))
+            .filter(|_| d.resized.is_none() && crate::diagnose::workflow::geometry_fits(d, stall_rms_mm))
                 .map(|r| r.unexplained()),
             holdout: None,
             held_out_worse: None,
@@ -476,7 +481,9 @@ pub fn summary<const N: usize>(d: &Diagnosis<N>) -> String {
     };
     // A significant finding refused as implausible: said in the headline, never "nothing
     // significant is missing".
-    if let Some(r) = crate::diagnose::refusal::standing(&d.rounds, &d.found) {
+    if let Some(r) =
+        crate::diagnose::refusal::standing(&d.rounds, &d.found, d.final_validation_rms_mm)
+    {
         let said = r.clause();
         return match d.found.len() {
             0 => format!(

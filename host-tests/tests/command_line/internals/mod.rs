@@ -16,6 +16,7 @@ mod map_spec;
 mod map_translate;
 mod numfmt;
 mod parallel;
+mod refusal;
 mod rotation_order;
 mod rows_avx2;
 mod selection;

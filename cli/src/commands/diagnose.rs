@@ -120,7 +120,7 @@ fn run_with_joints<const N: usize>(args: &Args) -> anyhow::Result<DiagnoseReport
     } else if w.held_out_worse() {
         Some("the model predicts the held-out poses worse than the nominal robot")
     } else if report.unexplained.is_some() {
-        Some("an effect the data need was refused as implausible")
+        Some("an effect the data need was refused (implausible, or not told from another cause)")
     } else {
         (!report.converged).then_some("the geometric model is no calibration of these data")
     };

@@ -72,7 +72,7 @@ impl Standing {
     /// What the headline says of it: the cross-validated RMS it would reach.
     pub fn clause(&self) -> String {
         format!(
-            "{} would lower it to {} mm but is refused (below)",
+            "{} would lower it to {} mm but is refused, as said below",
             self.candidate.label(),
             sig(self.validation_rms_mm, 4)
         )

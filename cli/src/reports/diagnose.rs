@@ -32,6 +32,9 @@ pub struct DiagnoseReport {
     /// observation with the orientation weighted in, not position RMS (those are under
     /// `observations`).
     pub figures_include_orientations: bool,
+    /// The points carry σ that differ between their axes or rows: the search's RMS figures and
+    /// noise floor are weighted by them, not position RMS (those are under `observations`).
+    pub figures_sigma_weighted: bool,
     /// The headline.
     pub summary: String,
     /// One sentence per effect found.
@@ -54,8 +57,8 @@ pub struct DiagnoseReport {
     /// gross outliers pulled it (`calibration::outliers`); then `converged` is false.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub resized: Option<String>,
-    /// A finding refused as implausible that would have left less than 1/√2 of what the final
-    /// model leaves (`diagnose::refusal`): the data hold an error the model cannot take, and
+    /// A finding refused (implausible, or not told from its twin) that would have left less
+    /// than 1/√2 of what the final model leaves (`diagnose::refusal`): the data hold an error the model cannot take, and
     /// the diagnosis is no calibration (exit 3).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub unexplained: Option<String>,
@@ -137,14 +140,14 @@ pub struct RoundReport {
     pub refitted: Vec<Refitted>,
     /// The candidate added (null: none).
     pub added: Option<String>,
-    /// The candidate the test chose but that was refused as physically implausible, and why
-    /// (absent when none was).
+    /// The candidate the test chose but that was refused, as physically implausible or as the
+    /// twin of another cause, and why (absent when none was).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refused: Option<Refused>,
     pub seconds: f64,
 }
 
-/// A significant candidate refused for its implausible size.
+/// A significant candidate refused for its implausible size, or as a twin.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Refused {
     pub candidate: String,
@@ -354,6 +357,7 @@ impl DiagnoseReport {
             noise_floor_dof: d.noise_dof,
             noise_sigma_mm: d.noise_sigma_mm,
             figures_include_orientations: d.orientations_weighted_in,
+            figures_sigma_weighted: d.positions_weighted && !d.orientations_weighted_in,
             summary: summary(d),
             sentences: d
                 .found
@@ -464,6 +468,18 @@ pub const WEIGHTED_IN: &str = "per observation, the orientation's residual weigh
 pub const SIGMA_WEIGHTED: &str = "per point, weighted by the stated σ: not position RMS, which \
     `observations` gives";
 
+/// What the search's figures are when they are no position RMS: with 6-D rows
+/// (`orientations`), or σ that differ between the points' axes or rows (`sigma`).
+pub fn weighting(orientations: bool, sigma: bool) -> Option<&'static str> {
+    if orientations {
+        Some(WEIGHTED_IN)
+    } else if sigma {
+        Some(SIGMA_WEIGHTED)
+    } else {
+        None
+    }
+}
+
 /// The headline: what is missing, or that nothing is.
 pub fn summary<const N: usize>(d: &Diagnosis<N>) -> String {
     let [base, fin, floor] = distinct_figures([
@@ -471,16 +487,12 @@ pub fn summary<const N: usize>(d: &Diagnosis<N>) -> String {
         d.final_validation_rms_mm,
         d.noise_floor_mm,
     ]);
-    let floor = floor_phrase(d.noise_floor_mm, &floor);
-    let floor = if d.orientations_weighted_in {
-        format!("{floor} ({WEIGHTED_IN})")
-    } else if d.positions_weighted {
-        format!("{floor} ({SIGMA_WEIGHTED})")
-    } else {
-        floor
-    };
-    // A significant finding refused as implausible: said in the headline, never "nothing
-    // significant is missing".
+    let weighted = weighting(d.orientations_weighted_in, d.positions_weighted)
+        .map_or(String::new(), |w| format!(" ({w})"));
+    let floor = format!("{}{weighted}", floor_phrase(d.noise_floor_mm, &floor));
+    // A significant finding refused (implausible, or a twin): said in the headline, never
+    // "nothing significant is missing". The noise floor is left to its own line: the refusal
+    // bounds it, and the headline would give the same figure twice.
     if let Some(r) =
         crate::diagnose::refusal::standing(&d.rounds, &d.found, d.final_validation_rms_mm)
     {
@@ -488,11 +500,11 @@ pub fn summary<const N: usize>(d: &Diagnosis<N>) -> String {
         return match d.found.len() {
             0 => format!(
                 "No plausible effect explains what the geometric model leaves: cross-validated \
-                 RMS {base} mm, {floor}; {said}."
+                 RMS {base} mm{weighted}; {said}."
             ),
             n => format!(
-                "{n} effect(s) missing from the model: cross-validated RMS {base} → {fin} mm, \
-                 {floor}; {said}."
+                "{n} effect(s) missing from the model: cross-validated RMS {base} → {fin} \
+                 mm{weighted}; {said}."
             ),
         };
     }
@@ -600,11 +612,11 @@ impl fmt::Display for DiagnoseReport {
                     "from the held-out errors less what the fold fits add to them (it also holds whatever the model still misses)"
                 }
             };
-            let weighted = if self.figures_include_orientations {
-                format!(" ({WEIGHTED_IN})")
-            } else {
-                String::new()
-            };
+            let weighted = weighting(
+                self.figures_include_orientations,
+                self.figures_sigma_weighted,
+            )
+            .map_or(String::new(), |w| format!(" ({w})"));
             writeln!(f, "noise floor {floor} mm{interval}{weighted}, {source}")?;
         }
         for r in self.rounds.iter().filter_map(|r| r.refused.as_ref()) {
@@ -612,8 +624,11 @@ impl fmt::Display for DiagnoseReport {
         }
         writeln!(f, "stopped: {}", self.stop_reason)?;
         if let Some(h) = &self.holdout {
-            if self.figures_include_orientations {
-                writeln!(f, "held-out figures below: {WEIGHTED_IN}")?;
+            if let Some(w) = weighting(
+                self.figures_include_orientations,
+                self.figures_sigma_weighted,
+            ) {
+                writeln!(f, "held-out figures below: {w}")?;
             }
             if self.found.is_empty() {
                 // One model: nothing was added to the starting model as refitted.

@@ -91,10 +91,20 @@ fn a_joint_logged_with_the_other_sign_is_no_noise_floor() {
     // The floor is bounded by what the refused finding reached on unseen poses (the 3.3 mm the
     // geometry leaves is no floor).
     let floor = v["noise_floor_mm"].as_f64().unwrap();
-    let baseline = v["baseline_validation_rms_mm"].as_f64().unwrap();
+    let refused_rms = v["rounds"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find_map(|r| {
+            let name = r["refused"]["candidate"].as_str()?;
+            r["refitted"].as_array()?.iter().find_map(|t| {
+                (t["candidate"] == name).then(|| t["validation_rms_mm"].as_f64().unwrap())
+            })
+        })
+        .unwrap_or_else(|| panic!("no refused candidate: {v}"));
     assert!(
-        floor < baseline / 2f64.sqrt(),
-        "floor {floor} mm, baseline {baseline} mm"
+        floor <= refused_rms,
+        "floor {floor} mm, refused {refused_rms} mm"
     );
     assert!(!out.exists(), "a model was written on exit 3");
     // The same session with the sign right is diagnosed as before.
@@ -333,20 +343,27 @@ fn sigma_weighted_figures_are_said_to_be_weighted() {
         &data,
     );
     let text = std::fs::read_to_string(&data).unwrap();
-    let mut lines = text.lines();
-    let mut out = format!("{},sx_mm,sy_mm,sz_mm\n", lines.next().unwrap());
-    for l in lines {
-        out.push_str(&format!("{l},0.01,0.01,0.3\n"));
-    }
-    let weighted = write(dir.path(), "sigma.csv", &out);
+    let with_sigma = |name: &str, sigma: &str| {
+        let mut lines = text.lines();
+        let mut out = format!("{},sx_mm,sy_mm,sz_mm\n", lines.next().unwrap());
+        for l in lines {
+            out.push_str(&format!("{l},{sigma}\n"));
+        }
+        write(dir.path(), name, &out)
+    };
+    let weighted = with_sigma("sigma.csv", "0.01,0.01,0.3");
     let (code, v, err) = diagnose(&robot, &weighted, &[]);
     assert_eq!(code, Some(0), "{err}");
     let summary = v["summary"].as_str().unwrap();
     assert!(summary.contains("weighted by the stated σ"), "{summary}");
-    // Equal σ everywhere: plain distances, nothing said.
-    let (code, v, err) = diagnose(&robot, &data, &[]);
-    assert_eq!(code, Some(0), "{err}");
-    assert!(!v["summary"].as_str().unwrap().contains("weighted"), "{v}");
+    assert_eq!(v["figures_sigma_weighted"], true, "{v}");
+    // Equal σ everywhere, stated or not: plain distances, nothing said.
+    for plain in [data.clone(), with_sigma("equal.csv", "0.05,0.05,0.05")] {
+        let (code, v, err) = diagnose(&robot, &plain, &[]);
+        assert_eq!(code, Some(0), "{err}");
+        assert!(!v["summary"].as_str().unwrap().contains("weighted"), "{v}");
+        assert_eq!(v["figures_sigma_weighted"], false, "{v}");
+    }
 }
 
 /// Joint 4 read 1 % off in every row: identify's geometry took up little of it and was

@@ -462,7 +462,15 @@ def diagnose(
     report = json.loads(text)
     model = None if toml is None else Robot.from_toml(toml, "model")
     if warn:
-        _warn_not_converged(converged, "diagnose: the geometric model does not fit the data")
+        # The command line's reason (its error line), else the geometric fit's stall.
+        why = report.get("unexplained")
+        if report.get("resized"):
+            why = f"the geometric fit {report['resized']}"
+        if why is None and report.get("held_out_worse"):
+            why = "the model predicts the held-out poses worse than the one it started from"
+        _warn_not_converged(
+            converged, f"diagnose: {why or 'the geometric model does not fit the data'}"
+        )
     return DiagnoseResult(report, converged, robot=model, text=printed)
 
 

@@ -384,3 +384,33 @@ def test_diagnose_positions_only_equals_cli(ur10, cli, tmp_path):
                     "--deg-weight-mm", 50, "--max-effects", 1, "--out", tmp_path / "b.toml")
     assert_same(both.json, ref)
     assert both.figures_include_orientations is True
+
+
+def test_diagnose_no_calibration_warns_with_the_cli_reason(ur10, kinecal_bin, tmp_path):
+    """Joint 6 logged with the other sign: the command line exits 3 naming the joint's
+    readings; the package warns with that reason, not with "the geometry does not fit"."""
+    text = (ur10 / "robot.toml").read_text().replace(
+        "xyz_mm = [0.0, 0.0, 109.0]", "xyz_mm = [3.0, 0.0, 109.0]")
+    text += "\n[base]\nxyz_mm = [400.0, -3000.0, 100.0]\nrpy_deg = [0.2, 0.1, -60.0]\n"
+    robot = kinecal.Robot.from_toml(text, "placed")
+    sim = kinecal.simulate(robot, 300, noise_mm=0.02, seed=2, geom_errors=True).measurements
+    q = sim.q.copy()
+    q[:, 5] = -q[:, 5]
+    (tmp_path / "robot.toml").write_text((ur10 / "robot.toml").read_text())
+    kinecal.write_csv(tmp_path / "d.csv", q, sim.xyz)
+    code, lines = stderr_of(kinecal_bin, "diagnose", "--robot", tmp_path / "robot.toml",
+                            "--data", tmp_path / "d.csv", "--holdout", 0.3)
+    assert code == 3
+    error = next(line for line in lines if line.startswith("error: "))
+    assert "joint 6's readings do not follow" in error
+    unplaced = kinecal.Robot.from_file(tmp_path / "robot.toml")
+    with pytest.warns(kinecal.NotConvergedWarning) as w:
+        r = kinecal.diagnose(unplaced, q, sim.xyz, holdout=0.3)
+    assert not r.converged
+    message = str(w[0].message)
+    assert "joint 6's readings do not follow" in message, message
+    assert "does not fit" not in message
+    # The same session with the sign right: no warning.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert kinecal.diagnose(unplaced, sim.q, sim.xyz, holdout=0.3).converged

@@ -236,6 +236,25 @@ fn ur10_around_one_pose(dir: &Path, span: f64) -> PathBuf {
     write(dir, &format!("around_{span}.toml"), &out)
 }
 
+/// 500 poses of the UR10 within `span` degrees of one pose (with geometric errors, 0.01 mm
+/// noise), warming from 15 to 35 °C over `session_s` seconds with the effect `truth`: the robot
+/// file and the data.
+fn warm_up(dir: &Path, span: f64, session_s: &str, truth: &str) -> (PathBuf, PathBuf) {
+    let robot = ur10_around_one_pose(dir, span);
+    let data = dir.join("warm.csv");
+    let args = [
+        "--geom-errors",
+        "--temperature",
+        "15:35",
+        "--session-s",
+        session_s,
+    ];
+    let effect = ["--effect", truth];
+    let extra: Vec<&str> = args.iter().chain(&effect).copied().collect();
+    simulate(&robot, Some(500), Some(0.01), Some(1), &extra, &data);
+    (robot, data)
+}
+
 /// A warm-up (15 → 35 °C over an hour) measured in one small region: an arm that expands
 /// 12 ppm/K and a tracker drifting along the region's position vector move the points alike
 /// there. Within ±1.5° a drift was named `thermal-expansion` and written to the model with
@@ -252,24 +271,7 @@ fn an_arm_warming_and_a_tracker_drifting_are_told_apart_or_neither_is_named() {
         (8.0, drift, Some("base-drift")),
         (8.0, thermal, Some("thermal-expansion")),
     ] {
-        let robot = ur10_around_one_pose(dir.path(), span);
-        let data = dir.path().join("warm.csv");
-        simulate(
-            &robot,
-            Some(500),
-            Some(0.01),
-            Some(1),
-            &[
-                "--geom-errors",
-                "--temperature",
-                "15:35",
-                "--session-s",
-                "3600",
-                "--effect",
-                truth,
-            ],
-            &data,
-        );
+        let (robot, data) = warm_up(dir.path(), span, "3600", truth);
         let (code, v, err) = diagnose(&robot, &data, &[]);
         let found: Vec<&str> = v["found"]
             .as_array()
@@ -303,24 +305,7 @@ fn an_arm_warming_and_a_tracker_drifting_are_told_apart_or_neither_is_named() {
 #[test]
 fn a_drift_no_tracker_has_does_not_veto_a_warming_arm() {
     let dir = tempfile::tempdir().unwrap();
-    let robot = ur10_around_one_pose(dir.path(), 1.5);
-    let data = dir.path().join("warm.csv");
-    simulate(
-        &robot,
-        Some(500),
-        Some(0.01),
-        Some(1),
-        &[
-            "--geom-errors",
-            "--temperature",
-            "15:35",
-            "--session-s",
-            "40",
-            "--effect",
-            "thermal-expansion:0:1.2e-5",
-        ],
-        &data,
-    );
+    let (robot, data) = warm_up(dir.path(), 1.5, "40", "thermal-expansion:0:1.2e-5");
     let (code, v, err) = diagnose(&robot, &data, &[]);
     assert_eq!(code, Some(0), "{err}");
     assert_eq!(v["found"][0]["effect"], "thermal-expansion", "{v}");

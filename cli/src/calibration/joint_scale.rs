@@ -36,6 +36,8 @@ pub struct Scaled {
     pub scaled_rms_mm: f64,
     /// The scale `s` (the model angle is `reading + s · reading`).
     pub scale: f64,
+    /// The fit held the joint's zero and both refits freed it (`--only` without `thetaJ`).
+    pub zero_freed: bool,
 }
 
 impl Scaled {
@@ -46,9 +48,14 @@ impl Scaled {
 
     fn figures(&self) -> String {
         let j = self.joint + 1;
+        let zero = if self.zero_freed {
+            format!(" with joint {j}'s zero free (theta{j}, held by --only)")
+        } else {
+            String::new()
+        };
         format!(
-            "leaves {} mm; with a scale on joint {j}'s readings too it leaves {} mm (joint {j} \
-             turns {} ppm {} than its readings say)",
+            "leaves {} mm{zero}; with a scale on joint {j}'s readings too it leaves {} mm (joint \
+             {j} turns {} ppm {} than its readings say)",
             sig(self.rms_mm, 4),
             sig(self.scaled_rms_mm, 4),
             sig(self.scale.abs() * 1e6, 3),
@@ -61,9 +68,14 @@ impl Scaled {
         format!(
             "{}: its readings are on another scale than the robot file's (a gear ratio or an \
              encoder's resolution set anew, an axis exported in another unit), which no \
-             geometry takes up: correct the readings, or identify with --effect joint-scale:{}",
+             geometry takes up: correct the readings, or identify with --effect joint-scale:{}{}",
             self.figures(),
-            self.joint + 1
+            self.joint + 1,
+            if self.zero_freed {
+                format!(" and theta{} among --only", self.joint + 1)
+            } else {
+                String::new()
+            }
         )
     }
 
@@ -149,20 +161,20 @@ pub fn check<const N: usize>(
         };
         let scaled_rms_mm = rms_of(&fit.robot);
         let value = fit.robot.effects().values().get(usize::from(k)).copied();
-        let finite = rms_mm.is_finite() && scaled_rms_mm.is_finite();
-        if let Some(scale) = value.filter(|v| v.is_finite() && finite) {
-            // The best is the one that leaves the least of its own fit's RMS.
+        // Only a scale that explains enough of its own fit's RMS counts (each joint's fit
+        // differs when its zero was freed); the best leaves the least share of it.
+        let explains = scaled_rms_mm <= EXPLAINS * rms_mm && rms_mm - scaled_rms_mm >= MIN_GAIN_MM;
+        if let Some(scale) = value.filter(|v| v.is_finite() && explains) {
             if best.is_none_or(|b| scaled_rms_mm / rms_mm < b.scaled_rms_mm / b.rms_mm) {
                 best = Some(Scaled {
                     joint,
                     rms_mm,
                     scaled_rms_mm,
                     scale,
+                    zero_freed: !params.contains(&zero),
                 });
             }
         }
     }
-    best.filter(|b| {
-        b.scaled_rms_mm <= EXPLAINS * b.rms_mm && b.rms_mm - b.scaled_rms_mm >= MIN_GAIN_MM
-    })
+    best
 }

@@ -493,7 +493,8 @@ pub fn diagnose_with_progress<const N: usize>(
     let mut errors = baseline_errors.clone();
     let mut free_tilt: Vec<usize> = free_tilt.to_vec();
     let mut found: Vec<Found<N>> = Vec::new();
-    // Candidates refused as physically implausible, with the number of effects found by then.
+    // Candidates refused (physically implausible, or twins), with the number of effects found
+    // by then.
     // A refused family is held back until another effect has been added (its fit was made with
     // that effect still missing: a compliance at its limit reads beyond it while a table is
     // missing); refused a second time, it is dropped.
@@ -649,12 +650,7 @@ pub fn diagnose_with_progress<const N: usize>(
             };
             break;
         };
-        // The twin's own fit, when the data cannot tell the chosen one from it: only a
-        // plausible twin vetoes the chosen one.
-        let twin_fit = match twin {
-            Some(j) => Some((j, fit(&fits[j].0, &fits[j].1, data, cfg.refit_iterations)?)),
-            None => None,
-        };
+        let last = fits.len() - 1;
         let (robot_c, problem_c, e) = fits.swap_remove(i);
         let after_fit = fit(&robot_c, &problem_c, data, cfg.refit_iterations)?;
         let after = after_fit.robot.clone();
@@ -669,11 +665,15 @@ pub fn diagnose_with_progress<const N: usize>(
             }
             continue;
         }
-        let plausible_twin = twin_fit.and_then(|(j, f)| {
+        // The data cannot tell the chosen one from its twin: only a plausible twin vetoes it
+        // (one whose full-data fit fails counts as plausible). `swap_remove` moved the last
+        // fit to `i`.
+        let plausible_twin = twin.filter(|&j| {
+            let (robot, problem, _) = &fits[if j == last { i } else { j }];
             let c = &tested[j].candidate;
-            plausibility::implausible(c, &c.values(&f.robot), &cfg.plausible)
-                .is_none()
-                .then_some(j)
+            fit(robot, problem, data, cfg.refit_iterations).map_or(true, |f| {
+                plausibility::implausible(c, &c.values(&f.robot), &cfg.plausible).is_none()
+            })
         });
         if let Some(j) = plausible_twin {
             // An effect the data cannot tell from another of a different cause: neither is
@@ -739,8 +739,8 @@ pub fn diagnose_with_progress<const N: usize>(
     let mut interval = noise_floor_interval(floor, dof);
     // Held-out errors are noise plus a fit's error: the floor cannot lie above what the final
     // model reaches on poses it did not see. (By construction for the held-out estimate; for
-    // repeated poses a cap when their scatter happens to exceed it.) Nor above what a finding
-    // refused as implausible reached on them ([`refusal`]).
+    // repeated poses a cap when their scatter happens to exceed it.) Nor above what a standing
+    // refused finding (implausible, or a twin) reached on them ([`refusal`]).
     let reached = final_rms.min(refusal::least_rms(&rounds, &found, final_rms));
     let noise_floor_mm = if floor.is_finite() && floor > reached {
         interval[0] = interval[0].min(reached);

@@ -32,8 +32,9 @@ pub struct DiagnoseReport {
     /// observation with the orientation weighted in, not position RMS (those are under
     /// `observations`).
     pub figures_include_orientations: bool,
-    /// The points carry σ that differ between their axes or rows: the search's RMS figures and
-    /// noise floor are weighted by them, not position RMS (those are under `observations`).
+    /// The points carry σ that differ between their axes or rows and no 6-D rows weigh
+    /// orientations in (then `figures_include_orientations` says it): the search's RMS figures
+    /// and noise floor are weighted by them, not position RMS (those are under `observations`).
     pub figures_sigma_weighted: bool,
     /// The headline.
     pub summary: String,
@@ -343,6 +344,7 @@ impl DiagnoseReport {
                 seconds: r.seconds,
             })
             .collect();
+        let fits = crate::diagnose::workflow::geometry_fits(d, stall_rms_mm);
         Self {
             baseline_validation_rms_mm: d.baseline_validation_rms_mm,
             found,
@@ -381,16 +383,15 @@ impl DiagnoseReport {
             geometry_seconds: d.geometry_seconds,
             seconds: d.seconds,
             poses: d.folds.of.len(),
-            converged: crate::diagnose::workflow::geometry_fits(d, stall_rms_mm),
+            converged: fits,
             resized: d.resized.clone(),
             unexplained: crate::diagnose::refusal::standing(
                 &d.rounds,
                 &d.found,
                 d.final_validation_rms_mm,
             )
-            .filter(|r| r.blocks(d.final_validation_rms_mm))
-            .filter(|_| d.resized.is_none() && crate::diagnose::workflow::geometry_fits(d, stall_rms_mm))
-                .map(|r| r.unexplained()),
+            .filter(|r| fits && r.blocks(d.final_validation_rms_mm))
+            .map(|r| r.unexplained()),
             holdout: None,
             held_out_worse: None,
             acceptance: None,
@@ -498,6 +499,10 @@ pub fn summary<const N: usize>(d: &Diagnosis<N>) -> String {
     {
         let said = r.clause();
         return match d.found.len() {
+            0 if r.twin.is_some() => format!(
+                "No effect is named: the data cannot tell two causes apart; cross-validated \
+                 RMS {base} mm{weighted}; {said}."
+            ),
             0 => format!(
                 "No plausible effect explains what the geometric model leaves: cross-validated \
                  RMS {base} mm{weighted}; {said}."

@@ -289,6 +289,11 @@ fn an_arm_warming_and_a_tracker_drifting_are_told_apart_or_neither_is_named() {
                         && why.contains("hold the temperature"),
                     "{why}"
                 );
+                let summary = v["summary"].as_str().unwrap();
+                assert!(
+                    summary.starts_with("No effect is named: the data cannot tell two causes"),
+                    "{summary}"
+                );
             }
             Some(effect) => {
                 assert_eq!(code, Some(0), "±{span}°, {truth}: {err}");
@@ -360,14 +365,15 @@ fn a_joint_read_one_percent_off_is_named_by_its_scale() {
     let dir = tempfile::tempdir().unwrap();
     let placed = data_file("er20_placed.toml");
     let data = er20_session(dir.path(), "d.csv", 1);
-    let text = std::fs::read_to_string(&data).unwrap();
-    let scaled = write(
-        dir.path(),
-        "q4_scaled.csv",
-        &edit_rows(&text, |c| {
+    // Joint 4's readings 1 % off in the file at `from`, written to `name`.
+    let q4_off = |from: &Path, name: &str| {
+        let text = std::fs::read_to_string(from).unwrap();
+        let edited = edit_rows(&text, |c| {
             c[3] = (c[3].parse::<f64>().unwrap() * 1.01).to_string();
-        }),
-    );
+        });
+        write(dir.path(), name, &edited)
+    };
+    let scaled = q4_off(&data, "q4_scaled.csv");
     let out = run_on("identify", &placed, &scaled, &["--holdout", "0.3"]);
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(3), "{err}");
@@ -379,6 +385,20 @@ fn a_joint_read_one_percent_off_is_named_by_its_scale() {
     // 1/1.01: 9901 ppm less.
     let ppm = number_between(&err, "joint 4 turns ", " ppm less");
     assert!((ppm - 9901.0).abs() < 200.0, "{err}");
+    // A robot as its file gives it, with joint 4 read 1 % off, calibrated with --only holding
+    // joint 4's zero: the check frees it, and says so.
+    let clean = dir.path().join("clean.csv");
+    simulate(&placed, Some(300), Some(0.02), Some(1), &[], &clean);
+    let clean_scaled = q4_off(&clean, "clean_q4_scaled.csv");
+    let only = ["--only", "base,tool"];
+    let out = run_on("identify", &placed, &clean_scaled, &only);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("with joint 4's zero free (theta4, held by --only)")
+            && err.contains("--effect joint-scale:4 and theta4 among --only"),
+        "{err}"
+    );
     let out = run_on("identify", &placed, &data, &["--holdout", "0.3"]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     let (code, v, err) = diagnose(&placed, &scaled, &[]);
@@ -447,6 +467,7 @@ fn a_zero_error_held_by_only_is_no_scale() {
     let held = ["--only", "base,tool,d2,a2,a3,d4"];
     let out = run_on("identify", &placed, &shifted, &held);
     let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(0), "{err}");
     assert!(!err.contains("scale on joint"), "{err}");
     let out = run_on("identify", &placed, &shifted, &["--holdout", "0.3"]);
     let err = stderr(&out);

@@ -462,15 +462,21 @@ def diagnose(
     report = json.loads(text)
     model = None if toml is None else Robot.from_toml(toml, "model")
     if warn:
-        # The command line's reason (its error line), else the geometric fit's stall.
-        why = report.get("unexplained")
+        # The command line's reasons in its order: the geometric fit (resized, stalled), a
+        # refusal the data need, then the held-out verdict (its message says whether the model
+        # is not determined across the joint ranges or predicts the held-out poses worse).
+        acceptance = report.get("acceptance") or {}
         if report.get("resized"):
             why = f"the geometric fit {report['resized']}"
-        if why is None and report.get("held_out_worse"):
+        elif report.get("converged") is False:
+            why = "the geometric model does not fit the data"
+        elif report.get("unexplained"):
+            why = report["unexplained"]
+        elif acceptance.get("message"):
+            why = acceptance["message"]
+        else:
             why = "the model predicts the held-out poses worse than the one it started from"
-        _warn_not_converged(
-            converged, f"diagnose: {why or 'the geometric model does not fit the data'}"
-        )
+        _warn_not_converged(converged, f"diagnose: {why}")
     return DiagnoseResult(report, converged, robot=model, text=printed)
 
 

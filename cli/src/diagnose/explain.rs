@@ -51,6 +51,10 @@ pub const RANGE_FRACTION: f64 = 0.8;
 pub const PERIOD_VARIANCE_FRACTION: f64 = 0.8;
 /// Points of the dense grid over the covered joint range.
 const GRID: usize = 2001;
+/// A correction that moves the measured point by less than this (mm, a micrometre: below any
+/// instrument's resolution) is said to turn the tool frame only: the point lies on the joint's
+/// axis and the orientations show the effect.
+pub const POINT_UNMOVED_MM: f64 = 1e-3;
 
 /// What [`Explanation::gap_closed`] is a fraction of.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -589,7 +593,15 @@ pub fn explain<const N: usize>(
     e.short = short_text(c, &values, &e, covered_deg, tau_max);
     // Where: the angle interval (for effects of q_j) and the poses.
     let [rms, max] = distinct_figures([e.tool_rms_mm, e.tool_max_mm]);
-    let mut details = vec![format!("{rms} mm RMS at the tool, up to {max} mm")];
+    let mut details = vec![if e.tool_max_mm < POINT_UNMOVED_MM {
+        format!(
+            "it turns the tool frame only (the measured point moves by under {} mm: it lies on \
+             the joint's axis), as the orientations show",
+            sig(POINT_UNMOVED_MM, 1)
+        )
+    } else {
+        format!("{rms} mm RMS at the tool, up to {max} mm")
+    }];
     if let Some(t) = e.tool_peak_to_peak_mm.filter(|_| {
         matches!(c.kind, CandidateKind::Table { .. } | CandidateKind::Scale) && !ranges.is_empty()
     }) {

@@ -98,6 +98,12 @@ fn an_orientation_only_error_is_named_and_removed() {
             .any(|f| f["effect"] == "joint-cyclic" && f["joint"] == 6),
         "{found:?}"
     );
+    // Sized by the turn it gives the tool frame, not by a point move of 1e-7 mm.
+    let text = found[0]["explanation"]["text"].as_str().unwrap();
+    assert!(
+        text.contains("turns the tool frame only") && !text.contains("e-"),
+        "{text}"
+    );
     assert!(before > 5.0 * floor, "{before}°: the geometry explains it");
     assert!(after < 1.25 * floor, "{after}° against a floor of {floor}°");
 }

@@ -30,6 +30,7 @@ pub mod tool_check;
 pub mod validate;
 pub mod weights;
 pub mod wrapped_readings;
+pub mod zero_moved;
 
 use crate::compute::vec_lm::VecLm;
 use kinecal::identify::lm::{Levenberg, LmConfig, LmStop};

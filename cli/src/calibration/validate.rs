@@ -172,6 +172,9 @@ pub struct Validation {
     /// A joint whose readings are a turn (360°) from those the model's scale or table was
     /// calibrated on, on many rows ([`super::wrapped_readings`]): no verdict.
     pub wrapped: Option<super::wrapped_readings::Wrapped>,
+    /// With a bad verdict: a joint whose zero, registered free too, explains what the model
+    /// leaves ([`super::zero_moved`]): it moved since the calibration.
+    pub zero_moved: Option<super::zero_moved::ZeroMoved>,
 }
 
 /// Registers the model and the nominal robot onto the session the same way (the parameters of
@@ -325,7 +328,13 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
         let floor = (model.figures.total.rms, "the model's RMS");
         check(&model_placed, (&data, &lines), params.len() as f64, floor)
     });
+    // A bad verdict one joint's zero explains: that zero moved since (a 5° shift read as "the
+    // data do not fit the robot file: check the units").
+    let zero_moved = (bad && outlier_reason.is_none() && wrapped.is_none() && step.is_none())
+        .then(|| super::zero_moved::find(&model_placed, &params, &weighted))
+        .flatten();
     Ok(Validation {
+        zero_moved,
         step,
         wrapped,
         tool_shift_mm,

@@ -111,8 +111,20 @@ pub struct ValidateReport {
     /// verdict (exit 3).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub wrapped_readings: Option<WrappedReport>,
+    /// With a bad verdict, the joint whose zero moved since the calibration (`joint`,
+    /// `shift_deg`, `rms_mm` as registered, `freed_rms_mm` with that zero free too): the
+    /// verdict names it (exit 3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub zero_moved: Option<crate::calibration::zero_moved::ZeroMoved>,
     /// The verdict in one line.
     pub verdict: String,
+}
+
+/// "; joint J's zero moved …" when one joint's zero explains a bad verdict, else nothing.
+fn zero_clause(v: &crate::calibration::validate::Validation) -> String {
+    v.zero_moved.map_or(String::new(), |z| {
+        format!("; {}", z.clause(v.register.id()))
+    })
 }
 
 /// Below this many equations per registered parameter `validate` warns that its verdict is
@@ -303,6 +315,7 @@ impl ValidateReport {
             session_step: v.step.clone(),
             recalibration: v.recalibration.clone(),
             gross_outliers: v.gross_outliers.clone(),
+            zero_moved: v.zero_moved,
             wrapped_readings: v.wrapped.as_ref().map(|w| WrappedReport {
                 joint: w.joint,
                 effect: w.effect.to_string(),
@@ -313,7 +326,13 @@ impl ValidateReport {
             }),
             verdict: tool_moved_clause(
                 v,
-                if m > MISMATCH_RMS_MM && n > MISMATCH_RMS_MM {
+                if let Some(z) = v
+                    .zero_moved
+                    .filter(|_| m > MISMATCH_RMS_MM && n > MISMATCH_RMS_MM)
+                {
+                    // Not the units: one joint's zero explains the session.
+                    format!("{} ({figures})", z.clause(v.register.id()))
+                } else if m > MISMATCH_RMS_MM && n > MISMATCH_RMS_MM {
                     format!(
                     "the data do not fit the robot file ({figures}; above {MISMATCH_RMS_MM} mm \
                      neither robot describes the session): check the units, the axes (swapped \
@@ -369,7 +388,7 @@ impl ValidateReport {
                     sig(v.model.orientation_median_deg.unwrap_or(f64::NAN), 3)
                 )
                 } else if v.worse_than_nominal {
-                    format!("{RECALIBRATE} ({figures})")
+                    format!("{RECALIBRATE} ({figures}){}", zero_clause(v))
                 } else if let Some(r) = v.recalibration.as_ref().filter(|_| v.changed) {
                     let left_out = format!(
                         "left-out poses of the session: {} mm RMS with the model, {} mm with the \
@@ -394,11 +413,15 @@ impl ValidateReport {
                             "the model no longer fits this set-up: recalibrate ({left_out}); the \
                              tool point registered {} mm from the model's: a new probe or \
                              reflector, which the model's fitted wrist errors move differently \
-                             (calibrate again with it), or the robot changed since calibration",
-                            sig(v.tool_shift_mm, 3)
+                             (calibrate again with it), or the robot changed since calibration{}",
+                            sig(v.tool_shift_mm, 3),
+                            zero_clause(v)
                         )
                     } else {
-                        format!("the robot changed since calibration: recalibrate ({left_out})")
+                        format!(
+                            "the robot changed since calibration: recalibrate ({left_out}){}",
+                            zero_clause(v)
+                        )
                     }
                 } else if unjudged {
                     format!(

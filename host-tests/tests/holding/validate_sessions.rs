@@ -549,3 +549,40 @@ fn a_session_that_steps_at_one_row_gives_no_verdict() {
         }
     }
 }
+
+/// Joint 3's zero moved 5° since calibration (a motor swapped, the joint re-mastered): both
+/// robots miss the session by tens of millimetres, and the verdict said "the data do not fit
+/// the robot file: check the units, the axes …". It now names the joint and its shift (exit 3,
+/// `zero_moved`), as it does beside "the robot changed since calibration" for a 0.05° shift.
+/// A session of the same robot with a link 0.5 mm longer names no zero.
+#[test]
+fn a_joint_zero_moved_since_calibration_is_named() {
+    let c = calibrated();
+    let d = c.dir.path();
+    for (shift, name) in [(5.0, "zero5.toml"), (0.05, "zero005.toml")] {
+        let truth = edited(&c.truth, d, name, |f| f.joints[2].theta_deg += shift);
+        let data = d.join(format!("{name}.csv"));
+        simulate(&truth, Some(150), Some(0.02), Some(32), &[], &data);
+        let out = validate(&c.robot, &c.model, &data, &[]);
+        let j = json_any(&out);
+        assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+        assert_eq!(j["zero_moved"]["joint"], 3, "{j}");
+        let fitted = num(&j, &["zero_moved", "shift_deg"]);
+        assert!(
+            (fitted - shift).abs() < 0.01 * shift + 0.002,
+            "{fitted}° for {shift}°"
+        );
+        let v = j["verdict"].as_str().unwrap();
+        eprintln!("{shift}°: {v}");
+        assert!(v.contains("joint 3's zero moved by"), "{v}");
+        assert!(!v.contains("check the units"), "{v}");
+        assert!(v.contains("--only base,tool,theta3"), "{v}");
+    }
+    let bent = edited(&c.truth, d, "bent3.toml", |f| f.joints[2].a_mm += 0.5);
+    let data = d.join("bent3.csv");
+    simulate(&bent, Some(150), Some(0.02), Some(32), &[], &data);
+    let out = validate(&c.robot, &c.model, &data, &[]);
+    let j = json_any(&out);
+    assert_eq!(j["changed_since_calibration"], true, "{j}");
+    assert!(j.get("zero_moved").is_none(), "{j}");
+}

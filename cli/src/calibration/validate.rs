@@ -329,8 +329,17 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
         check(&model_placed, (&data, &lines), params.len() as f64, floor)
     });
     // A bad verdict one joint's zero explains: that zero moved since (a 5° shift read as "the
-    // data do not fit the robot file: check the units").
-    let zero_moved = (bad && outlier_reason.is_none() && wrapped.is_none() && step.is_none())
+    // data do not fit the robot file: check the units"). Not beside another named cause: wrong,
+    // wrapped or stepping readings, a joint's scale, effect values in degrees, a tool
+    // orientation off, a probe moved.
+    let named = outlier_reason.is_some()
+        || wrapped.is_some()
+        || step.is_some()
+        || scaled
+        || effects_in_degrees.is_some()
+        || worse_orientation
+        || tool_moved.is_some();
+    let zero_moved = (bad && !named)
         .then(|| super::zero_moved::find(&model_placed, &params, &weighted))
         .flatten();
     Ok(Validation {

@@ -120,10 +120,11 @@ pub struct ValidateReport {
     pub verdict: String,
 }
 
-/// "; joint J's zero moved …" when one joint's zero explains a bad verdict, else nothing.
-fn zero_clause(v: &crate::calibration::validate::Validation) -> String {
+/// "; joint J's zero moved …" when one joint's zero explains a bad verdict of `model` on
+/// `data` (the files' names), else nothing.
+fn zero_clause(v: &crate::calibration::validate::Validation, model: &str, data: &str) -> String {
     v.zero_moved.map_or(String::new(), |z| {
-        format!("; {}", z.clause(v.register.id()))
+        format!("; {}", z.clause(v.register.id(), model, data))
     })
 }
 
@@ -331,7 +332,7 @@ impl ValidateReport {
                     .filter(|_| m > MISMATCH_RMS_MM && n > MISMATCH_RMS_MM)
                 {
                     // Not the units: one joint's zero explains the session.
-                    format!("{} ({figures})", z.clause(v.register.id()))
+                    format!("{} ({figures})", z.clause(v.register.id(), model, data))
                 } else if m > MISMATCH_RMS_MM && n > MISMATCH_RMS_MM {
                     format!(
                     "the data do not fit the robot file ({figures}; above {MISMATCH_RMS_MM} mm \
@@ -388,7 +389,7 @@ impl ValidateReport {
                     sig(v.model.orientation_median_deg.unwrap_or(f64::NAN), 3)
                 )
                 } else if v.worse_than_nominal {
-                    format!("{RECALIBRATE} ({figures}){}", zero_clause(v))
+                    format!("{RECALIBRATE} ({figures}){}", zero_clause(v, model, data))
                 } else if let Some(r) = v.recalibration.as_ref().filter(|_| v.changed) {
                     let left_out = format!(
                         "left-out poses of the session: {} mm RMS with the model, {} mm with the \
@@ -415,12 +416,12 @@ impl ValidateReport {
                              reflector, which the model's fitted wrist errors move differently \
                              (calibrate again with it), or the robot changed since calibration{}",
                             sig(v.tool_shift_mm, 3),
-                            zero_clause(v)
+                            zero_clause(v, model, data)
                         )
                     } else {
                         format!(
                             "the robot changed since calibration: recalibrate ({left_out}){}",
-                            zero_clause(v)
+                            zero_clause(v, model, data)
                         )
                     }
                 } else if unjudged {

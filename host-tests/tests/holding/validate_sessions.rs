@@ -552,31 +552,68 @@ fn a_session_that_steps_at_one_row_gives_no_verdict() {
 
 /// Joint 3's zero moved 5° since calibration (a motor swapped, the joint re-mastered): both
 /// robots miss the session by tens of millimetres, and the verdict said "the data do not fit
-/// the robot file: check the units, the axes …". It now names the joint and its shift (exit 3,
-/// `zero_moved`), as it does beside "the robot changed since calibration" for a 0.05° shift.
+/// the robot file: check the units, the axes …". It now names the joint and its signed shift
+/// (exit 3, `zero_moved`), as it does beside "the robot changed since calibration" for a 0.05°
+/// shift; −45° on joint 2 (beyond one LM's reach from zero) and a session registered by its
+/// base alone too, with the command that calibrates the zero again.
 /// A session of the same robot with a link 0.5 mm longer names no zero.
 #[test]
 fn a_joint_zero_moved_since_calibration_is_named() {
     let c = calibrated();
     let d = c.dir.path();
-    for (shift, name) in [(5.0, "zero5.toml"), (0.05, "zero005.toml")] {
-        let truth = edited(&c.truth, d, name, |f| f.joints[2].theta_deg += shift);
+    // (joint, shift, registration, what the suggested command frees beside the zero)
+    let cases = [
+        (3, 5.0, "base+tool", "base,tool,"),
+        (3, 0.05, "base+tool", "base,tool,"),
+        (2, -45.0, "base+tool", "base,tool,"),
+        (3, 5.0, "base", "base,"),
+    ];
+    for (joint, shift, register, free) in cases {
+        let name = format!("zero{joint}_{shift}_{register}.toml");
+        let truth = edited(&c.truth, d, &name, |f| {
+            f.joints[joint - 1].theta_deg += shift
+        });
         let data = d.join(format!("{name}.csv"));
         simulate(&truth, Some(150), Some(0.02), Some(32), &[], &data);
-        let out = validate(&c.robot, &c.model, &data, &[]);
+        let out = validate(&c.robot, &c.model, &data, &["--register", register]);
         let j = json_any(&out);
         assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
-        assert_eq!(j["zero_moved"]["joint"], 3, "{j}");
+        assert_eq!(j["zero_moved"]["joint"], joint, "{j}");
         let fitted = num(&j, &["zero_moved", "shift_deg"]);
         assert!(
-            (fitted - shift).abs() < 0.01 * shift + 0.002,
+            (fitted - shift).abs() < 0.01 * shift.abs() + 0.002,
             "{fitted}° for {shift}°"
         );
         let v = j["verdict"].as_str().unwrap();
-        eprintln!("{shift}°: {v}");
-        assert!(v.contains("joint 3's zero moved by"), "{v}");
+        eprintln!("{shift}° on joint {joint}, {register}: {v}");
+        let signed = if shift > 0.0 { "+" } else { "-" };
+        assert!(
+            v.contains(&format!("joint {joint}'s zero moved by {signed}")),
+            "{v}"
+        );
         assert!(!v.contains("check the units"), "{v}");
-        assert!(v.contains("--only base,tool,theta3"), "{v}");
+        assert_eq!(
+            v.contains(&format!("--only {free}theta{joint} --out")),
+            shift.abs() < 10.0,
+            "{v}"
+        );
+        // The command it suggests calibrates the zero again (identify refuses a joint turned
+        // beyond 10° from its file as no calibration: a re-mastering then).
+        if shift.abs() < 10.0 {
+            let args = v
+                .split("(kinecal ")
+                .nth(1)
+                .and_then(|r| r.split(" --out NEW.toml)").next())
+                .unwrap_or_else(|| panic!("{v}"));
+            let new = d.join("new.toml");
+            let mut argv: Vec<&str> = args.split(' ').collect();
+            argv.extend(["--out", s(&new), "--json"]);
+            let out = kinecal(&argv);
+            assert_eq!(out.status.code(), Some(0), "{argv:?}: {}", stderr(&out));
+            let fit = json_of(&out);
+            let rms = fit["after"]["identification_rms_mm"].as_f64().unwrap();
+            assert!(rms < 0.05, "{rms} mm after {argv:?}");
+        }
     }
     let bent = edited(&c.truth, d, "bent3.toml", |f| f.joints[2].a_mm += 0.5);
     let data = d.join("bent3.csv");

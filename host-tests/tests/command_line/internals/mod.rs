@@ -22,3 +22,4 @@ mod rows_avx2;
 mod selection;
 mod stats;
 mod units;
+mod zero_moved;

@@ -475,7 +475,7 @@ def diagnose(
         elif acceptance.get("message"):
             why = acceptance["message"]
         else:
-            why = "the model predicts the held-out poses worse than the one it started from"
+            why = "the model predicts the held-out poses worse than the nominal robot"
         _warn_not_converged(converged, f"diagnose: {why}")
     return DiagnoseResult(report, converged, robot=model, text=printed)
 

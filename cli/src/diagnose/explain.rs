@@ -603,7 +603,9 @@ pub fn explain<const N: usize>(
         format!("{rms} mm RMS at the tool, up to {max} mm")
     }];
     if let Some(t) = e.tool_peak_to_peak_mm.filter(|_| {
-        matches!(c.kind, CandidateKind::Table { .. } | CandidateKind::Scale) && !ranges.is_empty()
+        matches!(c.kind, CandidateKind::Table { .. } | CandidateKind::Scale)
+            && !ranges.is_empty()
+            && e.tool_max_mm >= POINT_UNMOVED_MM
     }) {
         details.push(format!(
             "{} mm peak to peak at the longest lever arm",

@@ -7,7 +7,8 @@
 //! and [`MIN_GAIN_MM`] less, that joint and its shift are named. Each joint's fit starts from
 //! the best of a grid of shifts ([`GRID_DEG`]), so a shift of tens of degrees is found too.
 //! What the data cannot tell from a zero is said beside it: a joint that barely moves in the
-//! session with its readings' sign flipped (a shift of −2 × their mean), the base turned about
+//! session with its readings' sign flipped (a shift of −2 × their mean, readings that span a
+//! fifth of it at most), the base turned about
 //! joint 1's axis when nothing is registered, a probe turned about the flange axis when the
 //! tool is not registered.
 
@@ -27,7 +28,8 @@ pub const SAMPLE: usize = 2000;
 /// Each joint's fit starts from the shift of this grid (degrees, over a whole turn) that
 /// leaves the least, registration held.
 pub const GRID_DEG: f64 = 10.0;
-/// A shift within this share of −2 × the joint's mean reading may be a flipped sign instead.
+/// A shift within this share of −2 × the joint's mean reading, on readings that span at most
+/// this share of it, may be a flipped sign instead (a joint that barely moves).
 const SIGN_SHARE: f64 = 0.2;
 
 /// A joint whose zero moved ([`find`]).
@@ -41,8 +43,9 @@ pub struct ZeroMoved {
     /// The model's RMS as registered, and with the zero free too (mm).
     pub rms_mm: f64,
     pub freed_rms_mm: f64,
-    /// The joint's mean reading over the session (degrees).
+    /// The joint's mean reading over the session, and the span of its readings (degrees).
     pub mean_reading_deg: f64,
+    pub reading_span_deg: f64,
     /// It is the robot's last joint.
     pub last_joint: bool,
 }
@@ -60,7 +63,9 @@ impl ZeroMoved {
         let plus = if self.shift_deg > 0.0 { "+" } else { "" };
         let shift = format!("{plus}{}", sig(self.shift_deg, 3));
         let mut alike = Vec::new();
-        if (self.shift_deg + 2.0 * self.mean_reading_deg).abs() <= SIGN_SHARE * self.shift_deg.abs()
+        let share = SIGN_SHARE * self.shift_deg.abs();
+        if (self.shift_deg + 2.0 * self.mean_reading_deg).abs() <= share
+            && self.reading_span_deg <= share
         {
             alike.push(format!(
                 "its readings' sign flipped (they average {}°, the shift is −2 × that): check it \
@@ -161,14 +166,18 @@ pub fn find<const N: usize>(
         let shift_deg = raw - 360.0 * ((raw + 180.0) / 360.0).ceil() + 360.0;
         let explains = freed_rms_mm <= EXPLAINS * rms_mm && rms_mm - freed_rms_mm >= MIN_GAIN_MM;
         if explains && shift_deg.is_finite() && best.is_none_or(|b| freed_rms_mm < b.freed_rms_mm) {
-            let mean_reading_deg =
-                data.iter().map(|m| m.q[joint]).sum::<f64>().to_degrees() / data.len() as f64;
+            let readings = data.iter().map(|m| m.q[joint].to_degrees());
+            let mean_reading_deg = readings.clone().sum::<f64>() / data.len() as f64;
+            let (lo, hi) = readings.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+                (lo.min(q), hi.max(q))
+            });
             best = Some(ZeroMoved {
                 joint: joint + 1,
                 shift_deg,
                 rms_mm,
                 freed_rms_mm,
                 mean_reading_deg,
+                reading_span_deg: hi - lo,
                 last_joint: joint + 1 == N,
             });
         }

@@ -112,8 +112,8 @@ pub struct ValidateReport {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub wrapped_readings: Option<WrappedReport>,
     /// With a bad verdict, the joint whose zero moved since the calibration (`joint`,
-    /// `shift_deg`, `rms_mm` as registered, `freed_rms_mm` with that zero free too): the
-    /// verdict names it (exit 3).
+    /// `shift_deg`, `rms_mm` as registered, `freed_rms_mm` with that zero free too,
+    /// `mean_reading_deg`, `reading_span_deg`, `last_joint`): the verdict names it (exit 3).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub zero_moved: Option<crate::calibration::zero_moved::ZeroMoved>,
     /// The verdict in one line.

@@ -3,6 +3,7 @@
 
 use kinecal_cli::calibration::zero_moved::ZeroMoved;
 
+/// Joint `joint` moved by `shift_deg`, its readings spanning 0.5° around `mean_reading_deg`.
 fn moved(joint: usize, shift_deg: f64, mean_reading_deg: f64, last_joint: bool) -> ZeroMoved {
     ZeroMoved {
         joint,
@@ -10,6 +11,7 @@ fn moved(joint: usize, shift_deg: f64, mean_reading_deg: f64, last_joint: bool) 
         rms_mm: 40.0,
         freed_rms_mm: 0.03,
         mean_reading_deg,
+        reading_span_deg: 0.5,
         last_joint,
     }
 }
@@ -30,6 +32,13 @@ fn look_alikes_are_named_beside_the_zero() {
     let flip = moved(3, 5.0, -2.6, false).clause("base", "M.toml", "D.csv");
     assert!(flip.contains("its readings' sign flipped"), "{flip}");
     assert!(flip.contains("--only base,theta3 "), "{flip}");
+    // ... not when the joint moves over the session: a flipped sign would not look constant.
+    let wide = ZeroMoved {
+        reading_span_deg: 90.0,
+        ..moved(3, 5.0, -2.6, false)
+    };
+    let wide = wide.clause("base", "M.toml", "D.csv");
+    assert!(!wide.contains("sign flipped"), "{wide}");
     // Nothing registered: joint 1's zero is a turned base; the last joint's a turned probe
     // unless the tool is registered.
     let base = moved(1, -2.0, 40.0, false).clause("none", "M.toml", "D.csv");

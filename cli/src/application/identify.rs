@@ -352,6 +352,20 @@ pub fn identify<const N: usize>(
             crate::calibration::base_moved::reason(&fit.robot, &params, &ident, file.base_known())
         })
         .or_else(|| scaled().filter(|s| s.readings()).map(|s| s.reason()))
+        .or_else(|| {
+            // A reflector or a tracker that moved at one row: the fit took the mean.
+            let lines: Vec<u32> = ident_set
+                .iter()
+                .flat_map(|p| std::iter::repeat_n(p.line, p.count as usize))
+                .collect();
+            let floor = (after.identification_rms_mm, "the fit's RMS");
+            crate::diagnose::row_step::refusal(
+                &fit.robot,
+                (&ident, &lines),
+                estimated as f64,
+                floor,
+            )
+        })
         .or_else(|| outliers.reason_given(&held_lines));
     let converged = fit.solver_converged()
         && !stalled
@@ -399,7 +413,8 @@ pub fn identify<const N: usize>(
             .notes
             .extend(scaled().filter(|s| !s.readings()).map(|s| s.warning()));
     }
-    // A reflector or a tracker that moved at one row: the fit took the mean of the two parts.
+    // A creep of the measured point, or a joint's zero changing at one row (a step of the
+    // residuals is a refusal above).
     if verdict.converged {
         let lines: Vec<u32> = ident_set
             .iter()

@@ -212,6 +212,21 @@ pub fn worth_telling(p: f64, size_mm: f64, floor_mm: f64) -> bool {
     p < TREND_P && (!floor_mm.is_finite() || size_mm >= STEP_SHARE * floor_mm)
 }
 
+/// Why a fit whose residuals step at one row is no calibration, as the rest of a sentence
+/// that starts "the fit": a step (not a creep) that [`warning`] tells. The fit took the mean
+/// of two set-ups (300 UR10 rows with the reflector moved 1.1 mm after row 150 were calibrated
+/// with exit 0 and a warning; host-tests `row_step`).
+pub fn refusal<const N: usize, V: kinecal::ValueStorage>(
+    robot: &Robot<f64, N, V>,
+    at: (&[Measurement<f64, N>], &[u32]),
+    fitted: f64,
+    floor: (f64, &str),
+) -> Option<String> {
+    change(robot, at, fitted)?.at?;
+    let w = warning(robot, at, fitted, floor)?;
+    Some(format!("took the mean of two set-ups: {w}"))
+}
+
 /// The warning for a significant change ([`TREND_P`]) at least [`STEP_SHARE`] of `floor_mm`
 /// (any size when the floor is not a finite number) in the residuals of `robot` over `data`,
 /// whose observations stand on the file's lines `lines`; `None` otherwise. `floor` names the

@@ -332,6 +332,20 @@ pub fn run<const N: usize>(
                 file.base_known(),
             )
         })
+        .or_else(|| {
+            // A reflector or a tracker that moved at one row, as identify tells it.
+            let lines: Vec<u32> = search_poses
+                .poses
+                .iter()
+                .flat_map(|p| std::iter::repeat_n(p.line, p.count as usize))
+                .collect();
+            super::row_step::refusal(
+                &d.geometric,
+                (&search, &lines),
+                geometry.len() as f64,
+                (fitted.identification_rms_mm, "the fit's RMS"),
+            )
+        })
         .or_else(|| outliers.reason_given(&held_lines));
     let holdout = if held.is_empty() {
         None

@@ -304,6 +304,8 @@ pub fn identify<const N: usize>(
         .map(|c| c.name.clone())
         .collect();
     let stalled = after.identification_rms_mm > opts.stall_rms_mm;
+    // The file line of each identification observation (the row-step checks name them).
+    let lines = crate::formats::observations::line_of(&ident_set);
     // A fit that a few gross outliers pulled is no calibration (what else it says follows from
     // them); nor is one that stretched or shrank the arm or turned a joint, however small its
     // error (a file the robot file does not describe: named so before its many outliers). The poses
@@ -354,10 +356,6 @@ pub fn identify<const N: usize>(
         .or_else(|| scaled().filter(|s| s.readings()).map(|s| s.reason()))
         .or_else(|| {
             // A reflector or a tracker that moved at one row: the fit took the mean.
-            let lines: Vec<u32> = ident_set
-                .iter()
-                .flat_map(|p| std::iter::repeat_n(p.line, p.count as usize))
-                .collect();
             let floor = (after.identification_rms_mm, "the fit's RMS");
             crate::diagnose::row_step::refusal(
                 &fit.robot,
@@ -416,10 +414,6 @@ pub fn identify<const N: usize>(
     // A creep of the measured point, or a joint's zero changing at one row (a step of the
     // residuals is a refusal above).
     if verdict.converged {
-        let lines: Vec<u32> = ident_set
-            .iter()
-            .flat_map(|p| std::iter::repeat_n(p.line, p.count as usize))
-            .collect();
         let floor = (report.after.identification_rms_mm, "the fit's RMS");
         let at = (ident.as_slice(), lines.as_slice());
         report.notes.extend(

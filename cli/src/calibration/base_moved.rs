@@ -32,8 +32,7 @@ pub fn reason<const N: usize>(
     if params.iter().any(|p| p.is_base()) || data.is_empty() {
         return None;
     }
-    let every = data.len().div_ceil(SAMPLE);
-    let sample: Vec<Measurement<f64, N>> = data.iter().step_by(every).copied().collect();
+    let sample = super::every_kth(data, SAMPLE);
     let rms_mm = Residuals::of(fitted, &sample, &[]).identification_rms_mm;
     if rms_mm.is_nan() || rms_mm <= MIN_GAIN_MM {
         return None;

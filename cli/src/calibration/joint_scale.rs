@@ -103,8 +103,7 @@ pub fn check<const N: usize>(
     if data.is_empty() || params.is_empty() {
         return None;
     }
-    let every = data.len().div_ceil(SAMPLE);
-    let sample: Vec<Measurement<f64, N>> = data.iter().step_by(every).copied().collect();
+    let sample = super::every_kth(data, SAMPLE);
     // No scale can gain enough: not worth the fits.
     let first = Residuals::of(fitted, &sample, &[]).identification_rms_mm;
     if first.is_nan() || first * (1.0 - EXPLAINS) < MIN_GAIN_MM {

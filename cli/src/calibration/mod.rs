@@ -453,6 +453,16 @@ pub struct Held {
     pub stand_ins: Vec<(String, f64)>,
 }
 
+/// Every k-th observation of `data`, at most `most` of them: the sample on which the checks
+/// of a fit refit it ([`base_moved`], [`joint_scale`], [`zero_moved`]).
+pub fn every_kth<const N: usize>(
+    data: &[Measurement<f64, N>],
+    most: usize,
+) -> Vec<Measurement<f64, N>> {
+    let every = data.len().div_ceil(most.max(1)).max(1);
+    data.iter().step_by(every).copied().collect()
+}
+
 /// Levenberg–Marquardt from `start` over `params`, its normal equations on the heap sized
 /// for exactly these parameters ([`VecLm`]).
 pub fn fit_lm<const N: usize, V: kinecal::ValueStorage>(

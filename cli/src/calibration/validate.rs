@@ -320,11 +320,7 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
     // session: its residuals jump between rows far apart in that joint, and are no step.
     let scaled = recalibration.as_ref().is_some_and(|r| r.joint_scale());
     let step = inp.step_check.filter(|_| !scaled).and_then(|check| {
-        let lines: Vec<u32> = observed
-            .poses
-            .iter()
-            .flat_map(|p| std::iter::repeat_n(p.line, p.count as usize))
-            .collect();
+        let lines = crate::formats::observations::line_of(&observed.poses);
         let floor = (model.figures.total.rms, "the model's RMS");
         check(&model_placed, (&data, &lines), params.len() as f64, floor)
     });

@@ -125,8 +125,7 @@ pub fn find<const N: usize>(
     if data.is_empty() {
         return None;
     }
-    let every = data.len().div_ceil(SAMPLE);
-    let sample: Vec<Measurement<f64, N>> = data.iter().step_by(every).copied().collect();
+    let sample = super::every_kth(data, SAMPLE);
     let rms_of = |r: &HostRobot<N>| Residuals::of(r, &sample, &[]).identification_rms_mm;
     let rms_mm = rms_of(placed);
     if !rms_mm.is_finite() || rms_mm * (1.0 - EXPLAINS) < MIN_GAIN_MM {

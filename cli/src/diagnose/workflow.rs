@@ -312,6 +312,8 @@ pub fn run<const N: usize>(
             .into_iter()
             .filter(|p| !(file.base_known() && p.is_base()))
             .collect();
+    // The file line of each searched observation (the row-step checks name them).
+    let lines = crate::formats::observations::line_of(&search_poses.poses);
     d.resized = outliers
         .few_given(&held_lines)
         .or_else(|| {
@@ -334,11 +336,6 @@ pub fn run<const N: usize>(
         })
         .or_else(|| {
             // A reflector or a tracker that moved at one row, as identify tells it.
-            let lines: Vec<u32> = search_poses
-                .poses
-                .iter()
-                .flat_map(|p| std::iter::repeat_n(p.line, p.count as usize))
-                .collect();
             super::row_step::refusal(
                 &d.geometric,
                 (&search, &lines),
@@ -419,11 +416,6 @@ pub fn run<const N: usize>(
     // carry no time (`t_s`): the search took it for noise. (Not when the geometry did not fit:
     // its residuals are no measure of the tracker.)
     if converged {
-        let lines: Vec<u32> = search_poses
-            .poses
-            .iter()
-            .flat_map(|p| std::iter::repeat_n(p.line, p.count as usize))
-            .collect();
         let w = super::row_step::warning(
             &d.model,
             (&search, &lines),

@@ -84,6 +84,14 @@ pub fn pose_of(poses: &[Pose]) -> Vec<usize> {
         .collect()
 }
 
+/// The file line of every observation of the list `poses` index.
+pub fn line_of(poses: &[Pose]) -> Vec<u32> {
+    poses
+        .iter()
+        .flat_map(|p| std::iter::repeat_n(p.line, p.count as usize))
+        .collect()
+}
+
 impl<const N: usize> Observed<N> {
     /// Every observation, pose after pose (a copy).
     pub fn all(&self) -> Vec<Measurement<f64, N>> {

@@ -4,7 +4,7 @@
 //! these and writes what they return (docs/formats.md, "URDF export", "DH table", "Binary
 //! model (.kcm)").
 
-use crate::formats::robot_file::RobotFile;
+use crate::formats::robot_file::{CouplingSpec, RobotFile};
 use crate::formats::urdf::mdh::Imported;
 use crate::formats::urdf::parse::Urdf;
 use crate::formats::urdf::splice;
@@ -63,7 +63,8 @@ pub fn check_match(
     Ok(())
 }
 
-/// The first row value of `model` further than the tolerances from `nominal`, described.
+/// The first row value of `model` further than the tolerances from `nominal`, or the first
+/// coupling they do not share, described.
 pub fn mismatch(
     model: &RobotFile,
     nominal: &RobotFile,
@@ -108,7 +109,40 @@ pub fn mismatch(
             }
         }
     }
-    None
+    coupling_mismatch(model, nominal)
+}
+
+/// The first `[[couplings]]` entry that `model` and `nominal` do not share, described.
+/// Calibration never changes a coupling (its ratio is not a parameter), and one joint read
+/// against another moves the tool by decimetres: a model without the nominal's coupling (or with
+/// one it lacks) was calibrated from another robot file.
+fn coupling_mismatch(model: &RobotFile, nominal: &RobotFile) -> Option<String> {
+    let same = |a: &CouplingSpec, b: &CouplingSpec| {
+        a.joint == b.joint
+            && a.from == b.from
+            && (a.ratio - b.ratio).abs() <= 1e-9 * a.ratio.abs().max(b.ratio.abs()).max(1.0)
+    };
+    let describe = |c: &CouplingSpec| {
+        format!(
+            "joint {} read against joint {} with ratio {}",
+            c.joint, c.from, c.ratio
+        )
+    };
+    if let Some(c) = nominal
+        .couplings
+        .iter()
+        .find(|c| !model.couplings.iter().any(|m| same(m, c)))
+    {
+        return Some(format!(
+            "the nominal couples {} and the model does not",
+            describe(c)
+        ));
+    }
+    model
+        .couplings
+        .iter()
+        .find(|c| !nominal.couplings.iter().any(|n| same(n, c)))
+        .map(|c| format!("the model couples {} and the nominal does not", describe(c)))
 }
 
 /// What a URDF cannot hold of `model`, named (effects other than axis tilts, couplings).

@@ -8,7 +8,7 @@ use crate::common::{
 };
 use kinecal::compensate::{compensate, Config, Target};
 use kinecal::{ForwardKinematics, Frame};
-use kinecal_cli::formats::robot_file::RobotFile;
+use kinecal_cli::formats::robot_file::{CouplingSpec, RobotFile};
 use kinecal_cli::formats::rotation_order::RotationOrder;
 use rand::{RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -341,6 +341,28 @@ fn a_model_of_another_robot_is_refused_as_export_refuses_it() {
     assert_eq!(r.status.code(), Some(2), "{r:?}");
     assert!(
         stderr(&r).contains("not a calibration of") && stderr(&r).contains("a3 is"),
+        "{}",
+        stderr(&r)
+    );
+    assert!(!out.exists());
+    // A nominal whose joint 3 is read against joint 2 (a coupling the model lacks) put the
+    // targets 0.35–1.0 m off with status ok and exit 0; the reverse pair as well.
+    let coupled = {
+        let mut f = RobotFile::load(&model).unwrap();
+        f.couplings.push(CouplingSpec {
+            joint: 3,
+            from: 2,
+            ratio: -1.0,
+        });
+        let path = dir.path().join("coupled.toml");
+        std::fs::write(&path, f.to_toml().unwrap()).unwrap();
+        path
+    };
+    let r = run(&coupled);
+    assert_eq!(r.status.code(), Some(2), "{r:?}");
+    assert!(
+        stderr(&r).contains("not a calibration of")
+            && stderr(&r).contains("joint 3 read against joint 2"),
         "{}",
         stderr(&r)
     );

@@ -162,7 +162,7 @@ pub struct Validation {
     pub gross_outliers: Vec<super::outliers::Outlier>,
     /// Why those rows leave no verdict, in words.
     pub outlier_reason: Option<String>,
-    /// With `--register base` and a bad verdict: the model's RMS (mm) when the tool is
+    /// With `--register base` (or `none`) and a bad verdict: the model's RMS (mm) when the tool is
     /// registered too, when that is under [`TOOL_EXPLAINS`] of it with the base alone (the
     /// probe moved since calibration).
     pub tool_moved: Option<f64>,
@@ -303,15 +303,26 @@ pub fn validate<const N: usize>(inp: Inputs<'_, N>, opts: &Options) -> anyhow::R
     // A bad verdict with the base alone registered that registering the tool too mostly
     // explains: the probe moved (the robot may have too: the verdict with both says).
     let bad = worse_than_nominal || changed || model.figures.total.rms > MISMATCH_RMS_MM;
-    let tool_moved = (opts.register == Register::Base && bad && outlier_reason.is_none())
+    // With `--register none` the base too is registered for the test, and the tool must be
+    // what explains it: registering the base alone must leave far more (a tracker moved is
+    // not a probe moved).
+    let held_tool = matches!(opts.register, Register::Base | Register::None);
+    let tool_moved = (held_tool && bad && outlier_reason.is_none())
         .then(|| {
-            let both = Options {
-                register: Register::BaseTool,
-                ..opts.clone()
+            let rms_with = |register| {
+                let o = Options {
+                    register,
+                    ..opts.clone()
+                };
+                validate(inp, &o).ok().map(|v| v.model.figures.total.rms)
             };
-            let v = validate(inp, &both).ok()?;
-            let rms = v.model.figures.total.rms;
-            (rms < TOOL_EXPLAINS * model.figures.total.rms).then_some(rms)
+            let rms = rms_with(Register::BaseTool)?;
+            let base_alone = match opts.register {
+                Register::None => rms_with(Register::Base)?,
+                _ => model.figures.total.rms,
+            };
+            (rms < TOOL_EXPLAINS * model.figures.total.rms && rms < TOOL_EXPLAINS * base_alone)
+                .then_some(rms)
         })
         .flatten();
     let tool_shift_mm = (model_placed.tool() - inp.model.tool()).norm();

@@ -33,8 +33,8 @@ pub struct WrappedReport {
 /// "changed since calibration" verdict names.
 pub const NEW_TOOL_MM: f64 = 5.0;
 
-/// `verdict` with, when registering the tool too lets the model hold (`--register base`), the
-/// clause that says so.
+/// `verdict` with, when registering the tool too lets the model hold (`--register base` or
+/// `none`), the clause that says so.
 fn tool_moved_clause(v: &Validation, verdict: String) -> String {
     match v.tool_moved {
         Some(rms) => format!(

@@ -279,7 +279,7 @@ fn ur10_model_beats_the_nominal_robot_on_the_poses_it_never_saw() {
     assert!(err.contains("a scale on each joint's readings"), "{err}");
 }
 
-/// `--register base` on a session whose probe moved (10 mm, or 60 mm and 15 mm sideways) said
+/// `--register base` (or `none`) on a session whose probe moved (10 mm, or 60 mm and 15 mm sideways) said
 /// "recalibrate" or "check the units, the axes …": registering the tool too explains the
 /// session, and the verdict now says so (with `base+tool` the model holds); a robot whose joint
 /// zero moved draws no such clause.
@@ -300,10 +300,22 @@ fn a_moved_probe_is_named_when_only_the_base_is_registered() {
         });
         let data = d.join(format!("{name}.csv"));
         simulate(&truth, Some(150), Some(0.02), Some(51), &[], &data);
-        let out = validate(&c.robot, &c.model, &data, &["--register", "base"]);
-        assert_eq!(out.status.code(), Some(3), "{name}: {}", stderr(&out));
-        let verdict = json_any(&out)["verdict"].as_str().unwrap().to_string();
-        assert_eq!(verdict.contains(TOOL), moved, "{name}: {verdict}");
+        // `none` (the tracker where it stood) used to say "recalibrate" for a moved probe.
+        for register in ["base", "none"] {
+            let out = validate(&c.robot, &c.model, &data, &["--register", register]);
+            assert_eq!(
+                out.status.code(),
+                Some(3),
+                "{name} {register}: {}",
+                stderr(&out)
+            );
+            let verdict = json_any(&out)["verdict"].as_str().unwrap().to_string();
+            assert_eq!(
+                verdict.contains(TOOL),
+                moved,
+                "{name} {register}: {verdict}"
+            );
+        }
         // With the tool registered, the moved probe's sessions hold.
         if moved {
             let out = validate(&c.robot, &c.model, &data, &[]);

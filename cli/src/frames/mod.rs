@@ -12,6 +12,7 @@
 
 mod axes_agree;
 mod stray_rows;
+mod tracker_slip;
 
 use crate::formats::measurements::Dataset;
 use crate::formats::origin::Origin;
@@ -283,6 +284,8 @@ pub fn find<const N: usize>(
             Ok(_) => None,
         };
         if let Some(why) = why {
+            // Mirrored or scaled points contradict the file too, for another reason.
+            let why = tracker_slip::slip(robot, &sweeps).unwrap_or(why);
             crate::refuse!("{origin}: {why}");
         }
     }

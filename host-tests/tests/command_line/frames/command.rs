@@ -135,7 +135,8 @@ fn frames_binary_prints_one_json_object() {
 /// points by 2.4 m). The sweeps of joints 3 to 5 now tell (their axes point away from, or lie
 /// metres from, the model's at that base: exit 2 naming the signs), so do the points with
 /// sweeps of joints 1 and 2 alone (the stated tool metres from them), and rows whose `sweep`
-/// names a joint that did not turn (within an encoder's jitter) name the one that did.
+/// names a joint that did not turn (within an encoder's jitter) name the one that did. Points
+/// mirrored or in inches are named as such.
 #[test]
 fn frames_refuses_a_base_the_other_sweeps_contradict() {
     let dir = tempfile::tempdir().unwrap();
@@ -179,6 +180,18 @@ fn frames_refuses_a_base_the_other_sweeps_contradict() {
             joint + 1
         );
     }
+    // The tracker's y axis mirrored, or the points in inches: named as such, where the axes
+    // used to blame a joint's sign or zero.
+    let e = run("mirrored.csv", &|r| r.xyz_mm[1] = -r.xyz_mm[1]).unwrap_err();
+    assert_eq!(kinecal_cli::commands::exit_status(&e), 2);
+    let e = format!("{e:#}");
+    assert!(
+        e.contains("model mirrored") && !e.contains("sign in the data"),
+        "{e}"
+    );
+    let e = run("inches.csv", &|r| r.xyz_mm = r.xyz_mm.map(|v| v / 25.4)).unwrap_err();
+    assert_eq!(kinecal_cli::commands::exit_status(&e), 2);
+    assert!(format!("{e:#}").contains("inches"), "{e:#}");
     let sweep = data.extra_names.iter().position(|n| n == "sweep").unwrap();
     // Labels exchanged, on readings with an encoder's jitter.
     let e = run("labels.csv", &|r| {

@@ -156,6 +156,20 @@ pub fn parse<const N: usize>(
              comma-separated with `.` decimals (--map does not read them); convert it"
         );
     }
+    // A name given twice would be read at its first column, the other ignored in silence.
+    for (k, n) in names.iter().enumerate() {
+        if let Some(first) = names[..k]
+            .iter()
+            .position(|m| m == n)
+            .filter(|_| !n.is_empty())
+        {
+            crate::refuse!(
+                "{origin}: the header names column `{n}` twice (columns {} and {}): keep one",
+                first + 1,
+                k + 1
+            );
+        }
+    }
     let col = |name: &str| names.iter().position(|n| *n == name);
     let required = |name: &str| {
         col(name).ok_or_else(|| {
@@ -357,6 +371,12 @@ pub fn parse<const N: usize>(
              --angle-unit rad (or --angle-unit deg to keep them)"
         );
     }
+    let stated: Vec<(u64, f64)> = rows
+        .iter()
+        .filter(|_| sigma_stated)
+        .map(|r| (r.line as u64, r.sigma_mm))
+        .collect();
+    crate::formats::tiny_sigma::refuse_tiny(&stated, "sigma_mm", origin)?;
     Ok(Session {
         groups,
         sigma_stated,

@@ -1,9 +1,11 @@
 //! Measurement, sweep and target files through their doors (docs/formats.md, "Measurement
 //! CSV"): read (in kinecal's layout, or another through `--map`), a stated base checked
 //! ("Base"), the units checked and converted ("Units and the plausibility check"), then the
-//! order of the angles of 6-D rows ("The convention check"); measurements lose the rows whose
+//! order of the angles of 6-D rows ("The convention check"), points computed from the joints and
+//! joints rounded past use ("Rounded and computed points"); measurements lose the rows whose
 //! tracker reading did not update ("Stale readings").
 
+use crate::formats::computed_points;
 use crate::formats::measurements::{self, Dataset};
 use crate::formats::rotation_order::RotationOrder;
 use crate::formats::stale;
@@ -37,6 +39,8 @@ pub fn load_as<const N: usize, V: kinecal::ValueStorage>(
     if measured && base_known {
         placement(&m.dataset, &m.units, nominal, &origin)?;
     }
+    let steps = steps_of(&m.dataset, &m.units);
+    stated_told(&m.dataset, &m.units, nominal, base_known, &origin, kind);
     let ds = accept(m.dataset, &origin, &m.units, nominal, base_known, kind).map_err(|e| {
         crate::refused(format!(
             "{e} (with --map {}: or state the unit in its [units])",
@@ -46,10 +50,15 @@ pub fn load_as<const N: usize, V: kinecal::ValueStorage>(
     if measured {
         let stated = Some((m.raw_angles.as_slice(), m.rotation, map.as_path()));
         convention(&ds, stated, nominal, &origin)?;
+        rounded(&ds, &steps, nominal, base_known, &origin)?;
         let ds = told(without_stale(ds, nominal, &origin), &origin);
         return Ok(tables_told(ds, nominal, &origin));
     }
     if kind == FileKind::Targets {
+        let stated = Some((m.raw_angles.as_slice(), m.rotation, map.as_path()));
+        if m.raw_angles.len() == ds.len() {
+            convention(&ds, stated, nominal, &origin)?;
+        }
         return Ok(tables_told(ds, nominal, &origin));
     }
     Ok(ds)
@@ -146,16 +155,92 @@ pub fn accept_dataset<const N: usize, V: kinecal::ValueStorage>(
     if measured && base_known {
         placement(&ds, units, nominal, origin)?;
     }
+    let steps = steps_of(&ds, units);
+    stated_told(&ds, units, nominal, base_known, origin, kind);
     let ds = accept(ds, origin, units, nominal, base_known, kind)?;
     if measured {
         convention(&ds, None, nominal, origin)?;
+        rounded(&ds, &steps, nominal, base_known, origin)?;
         let ds = told(without_stale(ds, nominal, origin), origin);
         return Ok(tables_told(ds, nominal, origin));
     }
     if kind == FileKind::Targets {
+        if units.angle_unit.is_none() {
+            target_radians(&ds, nominal, origin)?;
+        }
+        convention(&ds, None, nominal, origin)?;
         return Ok(tables_told(ds, nominal, origin));
     }
     Ok(ds)
+}
+
+/// Refuses (exit 2) pose targets whose `rx`, `ry`, `rz` (read as degrees, the unit not given)
+/// the nominal model's orientations at the seeds explain [`crate::formats::convention::CLEAR_RATIO`]
+/// times better read as radians, in whichever order.
+fn target_radians<const N: usize, V: kinecal::ValueStorage>(
+    ds: &Dataset<N>,
+    nominal: &Robot<f64, N, V>,
+    origin: &str,
+) -> anyhow::Result<()> {
+    use crate::formats::convention::{scores, CLEAR_RATIO, FLOOR_DEG};
+    let [Some(x), Some(y), Some(z)] = ["rx", "ry", "rz"].map(|c| ds.extra(c)) else {
+        return Ok(());
+    };
+    let q: Vec<[f64; N]> = ds.records.iter().map(|r| r.q_deg).collect();
+    let deg: Vec<[f64; 3]> = (0..ds.len()).map(|i| [x[i], y[i], z[i]]).collect();
+    let rad: Vec<[f64; 3]> = deg.iter().map(|a| a.map(f64::to_degrees)).collect();
+    let best = |a: &[[f64; 3]]| {
+        scores(&q, a, nominal).and_then(|s| s.into_iter().map(|(_, v)| v).reduce(f64::min))
+    };
+    if let (Some(as_deg), Some(as_rad)) = (best(&deg), best(&rad)) {
+        if as_rad * CLEAR_RATIO <= as_deg && as_deg > FLOOR_DEG {
+            crate::refuse!(
+                "{origin}: rx, ry, rz look like radians (the nominal orientations at the seeds \
+                 leave {:.3}° RMS read as radians, {:.3}° as degrees): convert them to degrees, \
+                 give --angle-unit rad when the joints are in radians too, or read the file \
+                 with --map M.toml whose [units] say orientation = \"rad\"",
+                as_rad,
+                as_deg
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The warning of [`crate::formats::stated_units`] about `ds` (as read), told on stderr.
+fn stated_told<const N: usize, V: kinecal::ValueStorage>(
+    ds: &Dataset<N>,
+    units: &UnitArgs,
+    nominal: &Robot<f64, N, V>,
+    base_known: bool,
+    origin: &str,
+    kind: FileKind,
+) {
+    use crate::formats::stated_units::stated_otherwise;
+    if let Some(w) = stated_otherwise(&ds.records, units, nominal, base_known, origin, kind) {
+        crate::Tell::line(&mut crate::Stderr, &w);
+    }
+}
+
+/// The steps `ds` (as read, in `units`) is written with.
+fn steps_of<const N: usize>(ds: &Dataset<N>, units: &UnitArgs) -> computed_points::Steps<N> {
+    let radians = units.angle() == crate::formats::units::AngleUnit::Rad;
+    computed_points::Steps::of(ds, units.length().mm_per_unit(), radians)
+}
+
+/// Refuses computed points and joints rounded past use ([`computed_points`]); tells the
+/// warning about coarse joints on stderr.
+fn rounded<const N: usize, V: kinecal::ValueStorage>(
+    ds: &Dataset<N>,
+    steps: &computed_points::Steps<N>,
+    nominal: &Robot<f64, N, V>,
+    base_known: bool,
+    origin: &str,
+) -> anyhow::Result<()> {
+    if let Some(w) = computed_points::check(ds, steps, nominal, base_known, origin)? {
+        crate::Tell::line(&mut crate::Stderr, &w);
+    }
+    Ok(())
 }
 
 /// `ds` after the lines about joint tables of `nominal` whose knots miss its readings
@@ -324,7 +409,11 @@ fn convention<const N: usize, V: kinecal::ValueStorage>(
     let (angles, assumed, map) = match stated {
         Some((a, o, m)) => (a.to_vec(), o, Some(m)),
         None => {
-            let cols = ["rx_deg", "ry_deg", "rz_deg"].map(|c| ds.extra(c));
+            let names = match ds.extra("rx_deg") {
+                Some(_) => ["rx_deg", "ry_deg", "rz_deg"],
+                None => ["rx", "ry", "rz"],
+            };
+            let cols = names.map(|c| ds.extra(c));
             match cols {
                 [Some(x), Some(y), Some(z)] => (
                     (0..ds.len()).map(|i| [x[i], y[i], z[i]]).collect(),

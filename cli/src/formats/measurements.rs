@@ -330,7 +330,7 @@ pub fn load<const N: usize>(path: &Path) -> anyhow::Result<Dataset<N>> {
     let bytes = file.bytes();
     let bytes = bytes.strip_prefix(&[0xEF, 0xBB, 0xBF]).unwrap_or(bytes);
     // Malformed content is refused input (exit status 2, docs/formats.md "Command line: exit status and JSON").
-    read_bytes::<N>(bytes).map_err(|e| {
+    let ds = read_bytes::<N>(bytes).map_err(|e| {
         let (header, text) = context_lines(path, e.line);
         crate::refused(describe_error(
             &origin,
@@ -339,7 +339,19 @@ pub fn load<const N: usize>(path: &Path) -> anyhow::Result<Dataset<N>> {
             header.as_deref(),
             text.as_deref(),
         ))
-    })
+    })?;
+    // Cells the reader took for empty: words in a number column (only read again when any).
+    let empty = |k: usize| {
+        ds.records
+            .iter()
+            .any(|r| r.extra.get(k).is_some_and(|v| v.is_nan()))
+    };
+    if (0..ds.extra_names.len()).any(empty) {
+        if let Some(why) = super::text_cells::refusal(bytes, &ds.extra_names, &origin) {
+            crate::refuse!("{why}");
+        }
+    }
+    Ok(ds)
 }
 
 /// A file's bytes: a large regular file mapped (the parsing threads read it in place, nothing

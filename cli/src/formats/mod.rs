@@ -2,6 +2,7 @@
 //! (TOML), measurements (CSV), the measurement cell of `plan` (TOML) and the units at the door.
 
 pub mod cell_file;
+pub mod computed_points;
 pub mod convention;
 pub mod dh_table;
 pub mod firmware_model;
@@ -16,7 +17,10 @@ pub mod prior;
 pub mod robot_file;
 pub mod rotation_order;
 pub mod stale;
+pub mod stated_units;
 pub mod table_reach;
+pub mod text_cells;
+pub mod tiny_sigma;
 pub mod units;
 pub mod urdf;
 

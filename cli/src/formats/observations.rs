@@ -207,6 +207,22 @@ pub fn observe<const N: usize>(
     if has_sig && sig.iter().any(Option::is_none) {
         crate::refuse!("{origin}: position uncertainty needs all of sx_mm, sy_mm, sz_mm");
     }
+    if has_sig {
+        for (c, name) in sig.iter().zip(["sx_mm", "sy_mm", "sz_mm"]) {
+            let Some(k) = *c else { continue };
+            let column: Vec<(u64, f64)> = ds
+                .records
+                .iter()
+                .map(|r| {
+                    (
+                        u64::from(r.line),
+                        r.extra.get(k).copied().unwrap_or(f64::NAN),
+                    )
+                })
+                .collect();
+            crate::formats::tiny_sigma::refuse_tiny(&column, name, origin)?;
+        }
+    }
     if six_d && has_sig && !has_srot {
         crate::refuse!(
             "{origin}: sx_mm, sy_mm, sz_mm but no srot_deg for the orientation: add it, or give \

@@ -162,6 +162,57 @@ fn cartesian_targets_through_the_nominal_ik_reach_the_targets_on_the_calibrated_
     }
     let poses = write(dir.path(), "poses.csv", &poses);
     written_back_in_the_map_s_units(dir.path(), &model_path, &nominal_path, &poses);
+    misstated_angles_are_refused(dir.path(), &model_path, &poses);
+}
+
+/// Pose targets whose `rx`, `ry`, `rz` are in radians, or compose in another order than
+/// kinecal's, are refused naming the unit or the order: they gave every row `limited` without a
+/// hint, and with a larger `--max-step-deg` commands far from the targets with status `ok`.
+fn misstated_angles_are_refused(
+    dir: &std::path::Path,
+    model: &std::path::Path,
+    poses: &std::path::Path,
+) {
+    let text = std::fs::read_to_string(poses).unwrap();
+    let rewrite = |f: &dyn Fn([f64; 3]) -> [f64; 3]| -> String {
+        let mut out = format!("{}\n", text.lines().next().unwrap());
+        for line in text.lines().skip(1) {
+            let v = cells(line);
+            let a = f([v[9], v[10], v[11]]);
+            let row: Vec<String> = v[..9].iter().chain(&a).map(|x| format!("{x}")).collect();
+            out.push_str(&format!("{}\n", row.join(",")));
+        }
+        out
+    };
+    let order = RotationOrder::parse("Rx*Ry*Rz").unwrap();
+    let cases = [
+        (
+            "radians.csv",
+            rewrite(&|a| a.map(f64::to_radians)),
+            "look like radians",
+        ),
+        (
+            "order.csv",
+            rewrite(&|a| order.angles_deg(&RotationOrder::KINECAL.matrix(a))),
+            "composed as R = Rx*Ry*Rz",
+        ),
+    ];
+    for (name, text, said) in cases {
+        let targets = write(dir, name, &text);
+        let out = dir.join("refused.csv");
+        let run = kinecal(&[
+            "compensate",
+            "--model",
+            s(model),
+            "--targets",
+            s(&targets),
+            "--out",
+            s(&out),
+        ]);
+        assert_eq!(run.status.code(), Some(2), "{name}: {}", stderr(&run));
+        assert!(stderr(&run).contains(said), "{name}: {}", stderr(&run));
+        assert!(!out.exists(), "{name}: nothing written");
+    }
 }
 
 /// The rows of `text` (kinecal's layout: degrees, mm, kinecal's angle order) as a vendor

@@ -301,19 +301,21 @@ fn without_base_simulate_uses_identity_and_check_fits_it() {
     let b = t.base.expect("truth has a base");
     assert_eq!((b.xyz_mm, b.rpy_deg), ([0.0; 3], [0.0; 3]));
 
-    // Data of the placed robot, checked against the unplaced file: the base is recovered.
-    simulate(&placed, Some(60), None, Some(5), &[], &csv);
+    // Data of the placed robot, checked against the unplaced file: the base is recovered. (A
+    // micrometre of noise: points that are the file's own model to nanometres are refused as
+    // computed, not measured.)
+    simulate(&placed, Some(60), Some(0.001), Some(5), &[], &csv);
     let v = json_of(&run_on("check", &unplaced, &csv, &["--json"]));
     assert_eq!(v["poses"], 60);
     assert_eq!(v["base_fitted"], true);
-    assert!(v["nominal_rms_mm"].as_f64().unwrap() < 1e-5, "{v}");
+    assert!(v["nominal_rms_mm"].as_f64().unwrap() < 0.003, "{v}");
     let xyz = f64s(&v["base"]["xyz_mm"]);
     let rpy = f64s(&v["base"]["rpy_deg"]);
     for (a, b) in xyz.iter().zip([2500.0, -1200.0, -300.0]) {
-        assert!((a - b).abs() < 1e-5, "{xyz:?}");
+        assert!((a - b).abs() < 1e-3, "{xyz:?}");
     }
     for (a, b) in rpy.iter().zip([0.7, -1.3, 155.0]) {
-        assert!((a - b).abs() < 1e-8, "{rpy:?}");
+        assert!((a - b).abs() < 1e-5, "{rpy:?}");
     }
 }
 

@@ -2,8 +2,8 @@
 //! map's `[units] time` pattern (docs/formats.md, "Files in other layouts"): the rows get the
 //! same `t_s` (seconds since 1970-01-01 00:00:00 of the file's clock) as a file that writes
 //! those seconds, so `identify --effect base-drift` gives the same figures and finds the
-//! simulated drift. A time that does not match the pattern, a pattern that is none, and a
-//! date written as digits in a `t_s` column are refused in one line.
+//! simulated drift. A time that does not match the pattern, a pattern that is none, a date
+//! written as digits in a `t_s` column, and dates without a pattern are refused in one line.
 
 use crate::common::*;
 use std::path::{Path, PathBuf};
@@ -137,7 +137,29 @@ fn times_that_cannot_be_right_are_refused_in_one_line() {
         .join("\n")
         + "\n";
     let digits = write(dir.path(), "digits.csv", &digits);
+    // Dates under kinecal's own name without a pattern, in kinecal's layout or through a map
+    // that names no pattern: every row's time used to be read as empty, the drift fitted to
+    // nothing and the drift check blind.
+    let named = write(
+        dir.path(),
+        "named.csv",
+        &text.replacen(";stamp", ";t_s", 1).replace(';', ","),
+    );
+    let no_time = write(
+        dir.path(),
+        "notime.toml",
+        &map_text.replace("[units]\ntime = \"%Y-%m-%d %H:%M:%S\"\n", ""),
+    );
+    assert!(!std::fs::read_to_string(&no_time)
+        .unwrap()
+        .contains("time ="));
     for (data, map, says) in [
+        (&named, None, "named.csv:2: '2021-03-04 12:00:00' in column t_s is not a number"),
+        (
+            &dated,
+            Some(&no_time),
+            "dated.csv:2: '2021-03-04 12:00:00' in column t_s (the file's `stamp`) is not a number",
+        ),
         (
             &other,
             Some(&map),

@@ -98,6 +98,8 @@ fn a_drift_that_cannot_be_right_is_refused() {
         "60",
         "--seed",
         "2",
+        "--noise-mm",
+        "0.02",
         "--out",
         s(&still),
     ]);

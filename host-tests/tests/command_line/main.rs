@@ -33,6 +33,7 @@ mod report;
 mod report_verdicts;
 mod reports;
 mod robot_file;
+mod rounded_points;
 mod stale_readings;
 mod suspicious_readings;
 mod thermal_tracker;

@@ -178,6 +178,81 @@ fn a_map_reading_one_column_twice_or_the_wrong_unit_is_refused() {
     }
 }
 
+/// A header that names a column twice (`X;Y;Z;X;Y;Z`: a tracker's nominal and measured
+/// point) used to be read at its first column in silence; a file without a header read with
+/// a map that expects one lost its first pose as the "names". Both are refused (exit 2): the
+/// first naming both columns, the second saying `header = false`. A cell like `-3,241` is
+/// called what it may be, a decimal comma or a comma grouping thousands.
+#[test]
+fn a_header_that_names_a_column_twice_or_is_numbers_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = crate::common::ur10_dir().join("robot.toml");
+    let data = crate::common::ur10_rows(d, "d.csv", 30, |_, _| {});
+    let text = std::fs::read_to_string(&data).unwrap();
+    let body: Vec<&str> = text.lines().skip(1).collect();
+    // Nominal and measured point under the same names; the map names them.
+    let twice_text = std::iter::once("q1,q2,q3,q4,q5,q6,X,Y,Z,temp_c,X,Y,Z".to_string())
+        .chain(body.iter().map(|l| {
+            let c: Vec<&str> = l.split(',').collect();
+            format!("{l},{},{},{}", c[6], c[7], c[8])
+        }))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let twice = write(d, "twice.csv", &twice_text);
+    let xyz = write(
+        d,
+        "xyz.toml",
+        "[columns]\nx = \"X\"\ny = \"Y\"\nz = \"Z\"\n",
+    );
+    // The same rows without their header line.
+    let bare = write(d, "bare.csv", &body.join("\n"));
+    let numbered = write(
+        d,
+        "numbered.toml",
+        "[columns]\nq1 = 1\nq2 = 2\nq3 = 3\nq4 = 4\nq5 = 5\nq6 = 6\nx = 7\ny = 8\nz = 9\n",
+    );
+    let grouped_text = format!(
+        "q1;q2;q3;q4;q5;q6;x;y;z\n{}",
+        body.iter()
+            .map(|l| {
+                let c: Vec<&str> = l.split(',').take(9).collect();
+                let mut row = c.join(";");
+                if c[7].starts_with("-3") {
+                    row = row.replacen(c[7], "-3,241", 1);
+                }
+                row
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    );
+    assert!(grouped_text.contains("-3,241"));
+    let grouped = write(d, "grouped.csv", &grouped_text);
+    let semicolon = write(d, "semicolon.toml", "delimiter = \";\"\n");
+    for (file, map, says) in [
+        (&twice, &xyz, "names 2 columns \"X\" (columns 7 and 11)"),
+        (&bare, &numbered, "the first line is numbers, not a header"),
+        (&grouped, &semicolon, "a comma grouping thousands"),
+    ] {
+        let out = run_on("check", &robot, file, &["--map", s(map)]);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{file:?}: {err}");
+        assert!(err.contains(says), "{file:?}: {err}");
+    }
+    // With header = false the bare rows are read, every one of them.
+    let bare_map = write(
+        d,
+        "bare.toml",
+        &format!(
+            "header = false\n{}",
+            std::fs::read_to_string(&numbered).unwrap()
+        ),
+    );
+    let out = run_on("check", &robot, &bare, &["--map", s(&bare_map), "--json"]);
+    let v = crate::common::json_of(&out);
+    assert_eq!(v["poses"], 30, "{v}");
+}
+
 /// A map key that is none of kinecal's column names (`temp` for `temp_c`, `X` for `x`, `sx_m`
 /// for `sx_mm`) used to be carried along as an extra column, its values silently unread: the
 /// temperature left out of a `thermal-expansion` fit, the σ out of the weights. It is refused

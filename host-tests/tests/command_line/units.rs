@@ -438,6 +438,18 @@ fn an_explicit_unit_is_never_second_guessed() {
         "deg",
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // Kept but said (every reason that follows would blame something else); right ones not.
+    const SAID: &str =
+        "say otherwise: they are kept; if the file is in those units, give --length-unit m";
+    assert!(stderr(&o).contains(SAID), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("and --angle-unit rad"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run_on("check", &c.robot, &c.data, &["--angle-unit", "deg"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("say otherwise"), "{}", stderr(&o));
     // One unit given (right), the other free and wrong: only the free one is named.
     let o = kinecal(&["check", "--robot", r, "--data", s(&m), "--length-unit", "m"]);
     assert_eq!(o.status.code(), Some(2));

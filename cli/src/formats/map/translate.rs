@@ -109,6 +109,18 @@ fn resolve(
         }
         ColumnRef::Name(n) => {
             let h = header.unwrap_or(&[]);
+            let at: Vec<usize> = (0..h.len()).filter(|&k| h[k] == *n).collect();
+            if let [first, second, ..] = at[..] {
+                crate::refuse!(
+                    "{map}: [columns] {key} = {n:?}: {data}'s header names {} columns {n:?} \
+                     (columns {} and {}): give the one meant by its number ({key} = {} or {})",
+                    at.len(),
+                    first + 1,
+                    second + 1,
+                    first + 1,
+                    second + 1
+                );
+            }
             h.iter().position(|c| c == n).ok_or_else(|| {
                 let mut list: Vec<&str> = h.iter().take(12).map(String::as_str).collect();
                 if h.len() > 12 {
@@ -518,6 +530,18 @@ pub fn translate(
             .map(|c| cell_text(c).to_string())
             .collect()
     });
+    if let Some(h) = &header {
+        let numeric = |c: &String| number(c, map.decimal_comma).is_ok_and(|v| v.is_some());
+        if h.len() >= 2 && h.iter().all(numeric) {
+            crate::refuse!(
+                "{data}:{}: the first line is numbers, not a header ({}): a header = true map \
+                 would read that row as the names and lose it; say header = false in \
+                 {map_origin} and name the columns by number",
+                first.number,
+                h.iter().take(4).cloned().collect::<Vec<_>>().join(", ")
+            );
+        }
+    }
     let width = header
         .as_ref()
         .map_or_else(|| delimiter.split(first.text).len(), Vec::len);
@@ -551,9 +575,18 @@ pub fn translate(
     }
     text.push_str(&head.join(","));
     let mut raw_angles = Vec::with_capacity(body.len());
+    // Words in the columns read as empty when no number (a placeholder); mostly words: refused.
+    let mut words = vec![crate::formats::text_cells::Words::default(); columns.len()];
     for line in body {
         newline_to(&mut text, line.number);
         let cells = delimiter.split(line.text);
+        for (col, w) in columns.iter().zip(&mut words) {
+            if let (Source::Cell(k), false) = (&col.source, col.kind == Kind::Time) {
+                let t = cells.get(*k).map_or("", |c| cell_text(c));
+                let is_number = number(t, map.decimal_comma).is_ok_and(|v| v.is_some());
+                w.count(line.number, t, is_number);
+            }
+        }
         let mut v = values(
             &columns,
             &cells,
@@ -592,9 +625,19 @@ pub fn translate(
                              the numbers without grouping)",
                         );
                     } else if !map.decimal_comma && t.contains(',') {
-                        s.push_str(&format!(
-                            " (a decimal comma? say decimal = \",\" in {map_origin})"
-                        ));
+                        // "-3,241": three digits after each comma can be either.
+                        let grouped = t.split(',').skip(1).all(|g| {
+                            g.len() == 3 && g.bytes().all(|b| b.is_ascii_digit())
+                        });
+                        s.push_str(&if grouped {
+                            format!(
+                                " (a decimal comma, or a comma grouping thousands? for a decimal \
+                                 comma say decimal = \",\" in {map_origin}; for thousands write \
+                                 the numbers without grouping)"
+                            )
+                        } else {
+                            format!(" (a decimal comma? say decimal = \",\" in {map_origin})")
+                        });
                     } else if map.decimal_comma && t.contains('.') {
                         s.push_str(&format!(
                             " (a decimal point: {map_origin} says decimal = \",\")"
@@ -627,6 +670,12 @@ pub fn translate(
         }
     }
     text.push('\n');
+    for (col, w) in columns.iter().zip(&words) {
+        let how = format!(" (the file's {})", col.file_name);
+        if let Some(why) = w.refusal(data, &col.name, &how) {
+            crate::refuse!("{why}");
+        }
+    }
     Ok(Translated {
         text,
         columns,

@@ -491,3 +491,111 @@ fn validate_tells_the_robot_itself_and_refuses_another_robot_as_the_model() {
     let out = run(&truth);
     assert_ne!(out.status.code(), Some(2), "{}", stderr(&out));
 }
+
+/// One row whose σ lost its decimal point (1e-5 mm among 0.02 mm) weighed as millions of the
+/// others: the constraint fit stalled on it and the refusal blamed two good rows. A σ a
+/// thousand times below the file's median is refused naming its line, in constraint files and
+/// tracker files alike; σ that vary as real ones do (0.01 to 0.05 mm) are read.
+#[test]
+fn a_sigma_a_thousand_times_below_the_others_is_refused_naming_its_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = data_file("er20.toml");
+    // The σ columns `header` (replacing the file's own, if any) with σ from 0.01 to 0.05 mm,
+    // and `tiny` on line 6.
+    let with_sigma = |name: &str, source: &Path, header: &str, tiny: &str| -> PathBuf {
+        let text = std::fs::read_to_string(source).unwrap();
+        let head: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+        let own = head.iter().position(|c| *c == "sigma_mm");
+        let mut out = String::new();
+        for (k, line) in text.lines().enumerate() {
+            let mut cells: Vec<String> = line.split(',').map(String::from).collect();
+            if let Some(c) = own {
+                cells.remove(c);
+            }
+            let sigma = match k {
+                0 => header.to_string(),
+                5 => tiny.to_string(),
+                _ => {
+                    let s = format!("{}", 0.01 + 0.01 * (k % 5) as f64);
+                    header
+                        .split(',')
+                        .map(|_| s.clone())
+                        .collect::<Vec<_>>()
+                        .join(",")
+                }
+            };
+            out.push_str(&format!("{},{sigma}\n", cells.join(",")));
+        }
+        write(d, name, &out)
+    };
+    let session = d.join("session.csv");
+    let o = kinecal(&[
+        "simulate",
+        "--robot",
+        s(&robot),
+        "--constraints",
+        "socket:4x10,distance:20",
+        "--noise-mm",
+        "0.02",
+        "--geom-errors",
+        "--out",
+        s(&session),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let points = d.join("points.csv");
+    crate::common::simulate(
+        &robot,
+        Some(60),
+        Some(0.02),
+        Some(4),
+        &["--geom-errors"],
+        &points,
+    );
+    let cases = [
+        (
+            with_sigma("c.csv", &session, "sigma_mm", "0.00001"),
+            "sigma_mm",
+        ),
+        (
+            with_sigma("p.csv", &points, "sx_mm,sy_mm,sz_mm", "0.00001,0.02,0.02"),
+            "sx_mm",
+        ),
+    ];
+    for (data, column) in &cases {
+        let o = kinecal(&["identify", "--robot", s(&robot), "--data", s(data)]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{data:?}: {e}");
+        let at = format!(
+            "{}:6: {column} 0.00001 is",
+            data.file_name().unwrap().to_string_lossy()
+        );
+        assert!(
+            e.contains(&at) && e.contains("--ignore-sigma"),
+            "{data:?}: {e}"
+        );
+    }
+    // A constraint header naming sigma_mm twice read the first in silence.
+    let twice = std::fs::read_to_string(&session).unwrap();
+    let twice =
+        crate::common::edit_rows(&twice.replacen("sigma_mm", "sigma_mm,sigma_mm", 1), |c| {
+            c.insert(9, "0.5".to_string())
+        });
+    let twice = write(d, "twice.csv", &twice);
+    let o = kinecal(&["identify", "--robot", s(&robot), "--data", s(&twice)]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("names column `sigma_mm` twice (columns 10 and 11)"),
+        "{}",
+        stderr(&o)
+    );
+    // The same files with that row's σ as the others': read.
+    for (name, source, header, row) in [
+        ("c2.csv", &session, "sigma_mm", "0.03"),
+        ("p2.csv", &points, "sx_mm,sy_mm,sz_mm", "0.03,0.02,0.02"),
+    ] {
+        let data = with_sigma(name, source, header, row);
+        let o = kinecal(&["check", "--robot", s(&robot), "--data", s(&data)]);
+        assert_eq!(o.status.code(), Some(0), "{name}: {}", stderr(&o));
+    }
+}

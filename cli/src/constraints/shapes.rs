@@ -110,7 +110,12 @@ pub const LENGTH_RATIO: [f64; 2] = [0.7, 1.4];
 
 /// Length-unit slips: the ratio they give, what they are, and what to do.
 const LENGTH_SLIPS: [(f64, &str, &str); 6] = [
-    (1e-3, "metres read as millimetres", "give --length-unit m"),
+    (
+        1e-3,
+        "metres read as millimetres",
+        "give --length-unit m (which reads sigma_mm and x, y, z in metres too: convert any of \
+         them written in millimetres)",
+    ),
     (
         1.0 / 25.4,
         "inches",

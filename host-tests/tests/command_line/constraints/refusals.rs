@@ -287,6 +287,20 @@ fn a_mislabelled_group_or_lengths_in_another_unit_are_no_calibration() {
         "{}",
         stderr(&out)
     );
+    // Metres read as millimetres: the flag is named, with what else it reads in metres (the
+    // σ, stated in millimetres, came back a thousand times too large).
+    let metres = write(dir.path(), "m.csv", &scaled_lengths(&text, 1e-3));
+    let err = stderr(&kinecal(&[
+        "check",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(&metres),
+    ]));
+    assert!(
+        err.contains("give --length-unit m (which reads sigma_mm"),
+        "{err}"
+    );
     // Lengths 50 % too long: no unit explains them.
     let long = write(dir.path(), "long.csv", &scaled_lengths(&text, 1.5));
     let out = kinecal(&["check", "--robot", s(&robot), "--data", s(&long)]);

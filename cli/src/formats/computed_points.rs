@@ -16,6 +16,9 @@
 //!   better than it allows, the readings were whole by design (a sweep commanded in steps of
 //!   15°) and nothing is said.
 //!
+//! Both verdicts read at most [`crate::formats::units::SCORED_POSES`] evenly spaced poses, so a
+//! file of a million rows costs no more than one of a few thousand.
+//!
 //! A column's step is the largest power of ten (down to [`FINEST_STEP`]) every value of it is a
 //! multiple of; finer steps are "full precision" and round nothing.
 
@@ -95,7 +98,8 @@ impl<const N: usize> Steps<N> {
     }
 }
 
-/// What the rounding of a file does at its poses.
+/// What the rounding of a file does at its poses (at most
+/// [`crate::formats::units::SCORED_POSES`] of them, evenly spaced).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Rounding {
     /// Per pose, the most the rounding of x, y, z and the joints can move the point (mm).
@@ -121,12 +125,14 @@ pub fn rounding<const N: usize, V: kinecal::ValueStorage>(
     if !base_known {
         placed.set_base(Frame::identity()).ok()?;
     }
+    let records =
+        crate::formats::units::evenly_spaced(&ds.records, crate::formats::units::SCORED_POSES);
     let mut fk = ForwardKinematics::<f64, N>::new();
     let h = 1e-6;
-    let mut model = Vec::with_capacity(ds.len());
-    let mut bound_mm = Vec::with_capacity(ds.len());
+    let mut model = Vec::with_capacity(records.len());
+    let mut bound_mm = Vec::with_capacity(records.len());
     let mut per_joint = [0.0; N];
-    for r in &ds.records {
+    for r in records.iter() {
         let q: [f64; N] = r.q_deg.map(f64::to_radians);
         let p = fk.compute(&placed, &q);
         let mut bound = 3f64.sqrt() / 2.0 * steps.xyz_mm;
@@ -144,7 +150,7 @@ pub fn rounding<const N: usize, V: kinecal::ValueStorage>(
         model.push(p);
         bound_mm.push(bound);
     }
-    let pts: Vec<Vector3<f64>> = ds.records.iter().map(|r| Vector3::from(r.xyz_mm)).collect();
+    let pts: Vec<Vector3<f64>> = records.iter().map(|r| Vector3::from(r.xyz_mm)).collect();
     let residual_mm: Vec<f64> = if base_known {
         pts.iter()
             .zip(&model)
@@ -157,7 +163,7 @@ pub fn rounding<const N: usize, V: kinecal::ValueStorage>(
             .map(|(p, m)| (f.point(m) - p).norm())
             .collect()
     };
-    let n = ds.len().max(1) as f64;
+    let n = records.len().max(1) as f64;
     let worst_joint = (0..N)
         .max_by(|&a, &b| per_joint[a].total_cmp(&per_joint[b]))
         .unwrap_or(0);
@@ -202,11 +208,16 @@ pub fn check<const N: usize, V: kinecal::ValueStorage>(
     if r.computed() {
         let largest = r.residual_mm.iter().copied().fold(0.0, f64::max);
         crate::refuse!(
-            "{origin}: x, y, z are the robot file's own model at every one of the {} poses \
+            "{origin}: x, y, z are the robot file's own model at every one of the {} poses{} \
              (largest difference {} mm{}): points computed from the joints (a controller's TCP \
              columns, or a simulation of this very model), not measured; map x, y, z to the \
              instrument's columns (--map) and give the robot's nominal model",
-            ds.len(),
+            r.residual_mm.len(),
+            if r.residual_mm.len() < ds.len() {
+                format!(" read (evenly spaced, of {})", ds.len())
+            } else {
+                String::new()
+            },
             crate::output::numfmt::sig(largest, 2),
             if base_known {
                 ""

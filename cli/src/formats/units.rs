@@ -231,7 +231,7 @@ pub const FLOOR_OF_REACH: f64 = 1e-3;
 pub const SCORED_POSES: usize = 4096;
 
 /// At most `most` of `items`, evenly spaced from the first (all of them when there are few).
-fn evenly_spaced<T: Clone>(items: &[T], most: usize) -> std::borrow::Cow<'_, [T]> {
+pub(crate) fn evenly_spaced<T: Clone>(items: &[T], most: usize) -> std::borrow::Cow<'_, [T]> {
     if items.len() <= most {
         return std::borrow::Cow::Borrowed(items);
     }

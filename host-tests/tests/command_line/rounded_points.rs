@@ -58,6 +58,28 @@ fn points_computed_from_the_joints_are_refused_by_every_command_that_reads_measu
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
 }
 
+/// A file longer than the rounding door reads (4,096 poses, evenly spaced) is judged on those
+/// poses and says so: computed points are refused, measured ones pass.
+#[test]
+fn a_long_file_is_judged_on_evenly_spaced_poses_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = ur10_dir().join("robot.toml");
+    let fk = dir.path().join("fk.csv");
+    simulate(&robot, Some(5000), Some(0.0), Some(8), &[], &fk);
+    let out = run_on("check", &robot, &fk, &[]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("at every one of the 4096 poses read (evenly spaced, of 5000)"),
+        "{err}"
+    );
+    // The same poses measured (0.01 mm of noise) pass.
+    let measured = dir.path().join("measured.csv");
+    simulate(&robot, Some(5000), Some(0.01), Some(8), &[], &measured);
+    let out = run_on("check", &robot, &measured, &[]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+}
+
 #[test]
 fn joints_written_with_too_few_decimals_are_warned_about_or_refused() {
     let dir = tempfile::tempdir().unwrap();

@@ -87,8 +87,14 @@ pub struct CatalogueConfig {
     /// Bisection steps of the phase refinement of the best grids: shifts of ±1/(2·pitch_phases)
     /// of the pitch, then half that, and so on (0: no refinement).
     pub phase_levels: u32,
-    /// How many of a promising table's best screened grids (distinct spacings) are refined.
+    /// How many of a promising table's best screened grids (distinct spacings) are refined…
     pub phase_search_grids: usize,
+    /// …and on fewer poses, where a refinement costs less and cross-validation tells grids
+    /// apart less surely, up to this many: as many as [`Self::phase_search_pose_grids`] poses
+    /// × grids allow.
+    pub phase_search_grids_most: usize,
+    /// The work the phase refinement may spend, in poses × refined grids.
+    pub phase_search_pose_grids: usize,
     /// A table grid is offered only when the data have at least this many poses per interval
     /// of the range they cover…
     pub min_poses_per_interval: f64,
@@ -116,11 +122,25 @@ impl Default for CatalogueConfig {
             pitch_phases: 2,
             phase_levels: 5,
             phase_search_grids: 6,
+            phase_search_grids_most: 12,
+            phase_search_pose_grids: 12_000,
             min_poses_per_interval: 4.0,
             min_knots: 4,
             parallel_tolerance_deg: 2.0,
             min_temperature_span_c: 1.0,
         }
+    }
+}
+
+impl CatalogueConfig {
+    /// How many grids of a promising table are refined on `poses` poses: at least
+    /// `phase_search_grids`, at most `phase_search_grids_most`, as many as
+    /// `phase_search_pose_grids / poses`.
+    pub fn phase_grids_for(&self, poses: usize) -> usize {
+        (self.phase_search_pose_grids / poses.max(1)).clamp(
+            self.phase_search_grids,
+            self.phase_search_grids_most.max(self.phase_search_grids),
+        )
     }
 }
 

@@ -560,7 +560,7 @@ pub fn diagnose_with_progress<const N: usize>(
             .collect();
         // The knots' phase: the best grids of the most promising tables shifted along the
         // joint, screened the same way (and counted in m below).
-        let starts = phase_search_starts(&screened, &cfg.catalogue, cfg.refit_best + 2);
+        let starts = phase_search_starts(&screened, &cfg.catalogue, cfg.refit_best + 2, data.len());
         let (lo, hi) = coverage(data);
         let catalogue_screened = screened.len();
         phase_search(

@@ -10,7 +10,9 @@ pub fn phase_search_starts(
     screened: &[Screened],
     cfg: &CatalogueConfig,
     families: usize,
+    poses: usize,
 ) -> Vec<Screened> {
+    let grids = cfg.phase_grids_for(poses);
     let mut order: Vec<&Screened> = screened.iter().collect();
     order.sort_by(|a, b| a.linear_rms_mm.total_cmp(&b.linear_rms_mm));
     let mut ranked: Vec<Candidate> = Vec::new();
@@ -32,7 +34,7 @@ pub fn phase_search_starts(
             let CandidateKind::Table { step, .. } = s.candidate.kind else {
                 continue;
             };
-            if steps.len() >= cfg.phase_search_grids {
+            if steps.len() >= grids {
                 break;
             }
             if !steps.iter().any(|t| (t - step).abs() < 1e-12) {

@@ -412,7 +412,9 @@ pub fn identify<const N: usize>(
             .extend(scaled().filter(|s| !s.readings()).map(|s| s.warning()));
     }
     // A creep of the measured point, or a joint's zero changing at one row (a step of the
-    // residuals is a refusal above).
+    // residuals is a refusal above). A drift of the tracker is diagnose's to tell: the
+    // residuals of a geometric fit hold the effects it misses, and in a session measured in
+    // an order (series B: targets grid by grid) those trend along the rows as well.
     if verdict.converged {
         let floor = (report.after.identification_rms_mm, "the fit's RMS");
         let at = (ident.as_slice(), lines.as_slice());

@@ -176,24 +176,24 @@ pub fn change<const N: usize, V: kinecal::ValueStorage>(
                 },
             ));
         }
-        // A creep: the flange frame's only (the measurement frame's is time_trend's).
-        (frame == StepFrame::Flange).then(|| {
-            let p = f_p(s.trend, s.total - s.trend, df2, 2.0);
-            (
-                s.trend,
-                RowStep {
-                    at: None,
-                    at_edge: false,
-                    frame,
-                    change_mm: s.slope * (n - 1) as f64,
-                    p,
-                },
-            )
-        })
+        // A creep. The measurement frame's competes too: when it explains more, the change is
+        // a drifting tracker, time_trend's to tell, and none of this module's.
+        let p = f_p(s.trend, s.total - s.trend, df2, 2.0);
+        Some((
+            s.trend,
+            RowStep {
+                at: None,
+                at_edge: false,
+                frame,
+                change_mm: s.slope * (n - 1) as f64,
+                p,
+            },
+        ))
     })
     .filter(|(_, s)| s.p.is_finite())
     .max_by(|a, b| a.0.total_cmp(&b.0))
     .map(|(_, s)| s)
+    .filter(|s| s.at.is_some() || s.frame == StepFrame::Flange)
 }
 
 /// A probability as the warnings print it: `p = 0.000123`, or `p < 1e-16`.

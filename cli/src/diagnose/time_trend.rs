@@ -83,12 +83,13 @@ pub const TREND_SHARE: f64 = 0.2;
 
 /// The warning for the residuals of `robot` (fitted with `fitted` effective parameters) over
 /// `data` when they drift significantly ([`TREND_P`]) by at least [`TREND_SHARE`] of
-/// `noise_floor_mm` (any size when the floor is not a finite number); `None` otherwise.
+/// `noise_floor_mm` (any size when the floor is not a finite number); `None` otherwise. `floor`
+/// names the floor in the text (`diagnose`'s noise floor, or `identify`'s RMS).
 pub fn warning<const N: usize, V: kinecal::ValueStorage>(
     robot: &Robot<f64, N, V>,
     data: &[Measurement<f64, N>],
     fitted: f64,
-    noise_floor_mm: f64,
+    (noise_floor_mm, floor): (f64, &str),
 ) -> Option<String> {
     let t = trend(robot, data, fitted)?;
     let large = !noise_floor_mm.is_finite() || t.rms_mm >= TREND_SHARE * noise_floor_mm;
@@ -103,7 +104,7 @@ pub fn warning<const N: usize, V: kinecal::ValueStorage>(
     };
     Some(format!(
         "the residuals drift along the rows' order by {} mm from the first row to the last \
-         (x {}, y {}, z {} mm; {} mm RMS beside a noise floor of {} mm, {p}), which the model \
+         (x {}, y {}, z {} mm; {} mm RMS beside {floor} of {} mm, {p}), which the model \
          does not explain: a tracker or a base that moved during the session, or the arm \
          warming beyond what `temp_c` records. Check the tracker's drift (re-measure its \
          reference), or split the session where it moved{}",

@@ -431,7 +431,12 @@ pub fn run<const N: usize>(
             )
         })
         .or_else(|| {
-            super::time_trend::warning(&d.model, &search, d.effective_parameters, d.noise_floor_mm)
+            super::time_trend::warning(
+                &d.model,
+                &search,
+                d.effective_parameters,
+                (d.noise_floor_mm, "a noise floor"),
+            )
         });
         let drift = d
             .found

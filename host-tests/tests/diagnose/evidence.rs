@@ -346,12 +346,23 @@ fn a_drifting_tracker_in_a_warm_up_is_not_taken_for_thermal_expansion() {
             "{est} vs {drift_mm}"
         );
         assert!(t.drift_mm.normalize().dot(&dir) > 0.95, "{}", t.drift_mm);
-        let w =
-            warning(&d.model, &data, d.effective_parameters, d.noise_floor_mm).expect("a warning");
+        let w = warning(
+            &d.model,
+            &data,
+            d.effective_parameters,
+            (d.noise_floor_mm, "a noise floor"),
+        )
+        .expect("a warning");
         eprintln!("  warning: {w}");
         assert!(w.contains("drift") && w.contains("tracker"), "{w}");
         // Without the size threshold (a floor that is not a number) it warns too.
-        assert!(warning(&d.model, &data, d.effective_parameters, f64::NAN).is_some());
+        assert!(warning(
+            &d.model,
+            &data,
+            d.effective_parameters,
+            (f64::NAN, "a noise floor")
+        )
+        .is_some());
     }
     // The rows of a drifting session shuffled (a seeded random order): no trend left.
     let (_, mut data) = warm_up(0.0, (15.0, 35.0), 13);
@@ -370,13 +381,29 @@ fn a_drifting_tracker_in_a_warm_up_is_not_taken_for_thermal_expansion() {
     let fitted = d.effective_parameters;
     let p = trend(&d.model, &shuffled, fitted).unwrap().p;
     assert!(p > 1e-3, "shuffled: p {p}");
-    assert_eq!(warning(&d.model, &shuffled, fitted, d.noise_floor_mm), None);
+    assert_eq!(
+        warning(
+            &d.model,
+            &shuffled,
+            fitted,
+            (d.noise_floor_mm, "a noise floor")
+        ),
+        None
+    );
     // Without a drift: no warning.
     let (_, still) = warm_up(0.0, (15.0, 35.0), 13);
     let d =
         kinecal_cli::diagnose::diagnose(&er20(), true, &[], &still, &Default::default()).unwrap();
     let fitted = d.effective_parameters;
-    assert_eq!(warning(&d.model, &still, fitted, d.noise_floor_mm), None);
+    assert_eq!(
+        warning(
+            &d.model,
+            &still,
+            fitted,
+            (d.noise_floor_mm, "a noise floor")
+        ),
+        None
+    );
     assert!(trend(&d.model, &still, fitted).unwrap().p > 1e-3);
 }
 

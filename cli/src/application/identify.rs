@@ -353,6 +353,12 @@ pub fn identify<const N: usize>(
         .or_else(|| {
             crate::calibration::base_moved::reason(&fit.robot, &params, &ident, file.base_known())
         })
+        .or_else(|| {
+            // `--only` or `--fix` held a geometry the session no longer agrees with.
+            (!opts.only.is_empty() || !opts.fix.is_empty())
+                .then(|| crate::calibration::held_geometry::reason(&fit.robot, &params, &ident))
+                .flatten()
+        })
         .or_else(|| scaled().filter(|s| s.readings()).map(|s| s.reason()))
         .or_else(|| {
             // A reflector or a tracker that moved at one row: the fit took the mean.

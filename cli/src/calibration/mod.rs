@@ -11,6 +11,7 @@ pub mod drift;
 pub mod effects_in_degrees;
 pub mod extrapolation;
 pub mod folds;
+pub mod held_geometry;
 pub mod inputs;
 pub mod joint_scale;
 pub mod method;

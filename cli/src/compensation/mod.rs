@@ -217,6 +217,25 @@ fn run_with_joints<const N: usize>(
             }
         }
     };
+    // A controller whose TCP is not the model's tool: the targets are for the model's tool, so
+    // the commands bring that point, not the TCP, to them (a gripper's TCP 141 mm from the
+    // reflector moved every written target by 141 mm with status `ok` and no word).
+    if let (Some(r), Some(path)) = (&nominal, &job.cartesian) {
+        let apart = (robot.tool() - r.tool()).norm();
+        if apart > job.tolerance.0 {
+            crate::Tell::line(
+                &mut crate::Stderr,
+                &format!(
+                    "warning: --robot {}: its tool point lies {} mm from the model's: the \
+                     targets are taken as the model's tool's, so the controller will bring that \
+                     point, not its own TCP, to each target; if they are the TCP's, give the \
+                     model the TCP's point ([tool] xyz_mm) and --robot the same",
+                    path.display(),
+                    crate::output::numfmt::sig(apart, 3)
+                ),
+            );
+        }
+    }
     let targets = load_targets(&job.targets, &job.units, &robot)?;
     // With --map the map's units: the commands and targets go back in them.
     let (units, angles) = crate::formats::map::in_force(&job.units)?;

@@ -424,6 +424,27 @@ fn a_model_of_another_robot_is_refused_as_export_refuses_it() {
     let r = run(&near);
     assert_eq!(r.status.code(), Some(3), "{}", stderr(&r));
     assert!(!stderr(&r).contains("not a calibration"), "{}", stderr(&r));
+    assert!(
+        !stderr(&r).contains("its tool point lies"),
+        "{}",
+        stderr(&r)
+    );
+    // A controller whose TCP is a gripper 141 mm beyond the model's reflector: the commands
+    // bring the reflector to the targets, which moved every written target by 141 mm with
+    // status ok and no word. A warning says whose point the targets are taken for.
+    let gripper = {
+        let mut f = RobotFile::load(&near).unwrap();
+        f.tool.xyz_mm[2] += 141.0;
+        let path = dir.path().join("gripper.toml");
+        std::fs::write(&path, f.to_toml().unwrap()).unwrap();
+        path
+    };
+    let err = stderr(&run(&gripper));
+    assert!(
+        err.contains("its tool point lies 141 mm from the model's")
+            && err.contains("not its own TCP"),
+        "{err}"
+    );
 }
 
 /// A seed beyond a joint's limit (q1 = 175° on a ±170° joint): the command was solved from it

@@ -280,6 +280,9 @@ fn a_time_column_in_another_unit_is_warned_about() {
         ("minutes.csv", 1.0 / 60.0, "minutes"),
         // A pose every 27 s logged in minutes: 0.45 "s" apart over 3 "minutes".
         ("slow_minutes.csv", 3.0 / 60.0, "minutes"),
+        // A pose every 96 s (300 poses over eight hours) logged in minutes: 1.6 "s" apart,
+        // which passed as seconds.
+        ("slower_minutes.csv", 96.0 / 9.0 / 60.0, "minutes"),
     ] {
         let out = run_on("identify", &robot, &scaled(name, factor), &drift);
         let err = stderr(&out);

@@ -7,17 +7,16 @@
 //! nominal robot leaves 2.02 mm (exit 0 before). Judged as `validate` judges a model
 //! ([`super::recalibration`]): the session's poses are left out fold by fold and predicted by
 //! the file's model with the estimated parameters fitted on the others, and by the whole
-//! geometry calibrated again on them; when the first leaves [`CHANGED_RATIO`] times the second
-//! and [`CHANGED_MIN_MM`] more, the fit is no calibration (exit 3). Left-out poses, so a few
+//! geometry calibrated again on them; when the first leaves
+//! [`super::recalibration::CHANGED_RATIO`] times the second and
+//! [`super::recalibration::CHANGED_MIN_MM`] more (`Recalibration::geometry_changed`), the fit is
+//! no calibration (exit 3). Left-out poses, so a few
 //! poses (a re-mastering from 10 planned poses) cannot calibrate the whole geometry well
 //! enough to refuse anything.
 
-use super::recalibration::{recalibrate, CHANGED_MIN_MM, CHANGED_RATIO};
+use super::recalibration::recalibrate_geometry;
 use crate::HostRobot;
 use kinecal::{Measurement, Param};
-
-/// At most this many observations are left out fold by fold (evenly spaced).
-pub const SAMPLE: usize = 2000;
 
 /// Whether `params` leave some of the joint rows' geometry (`alpha`, `a`, `theta`, `d`) held.
 pub fn holds_geometry<const N: usize>(params: &[Param]) -> bool {
@@ -38,10 +37,11 @@ pub fn reason<const N: usize>(
     if !holds_geometry::<N>(params) || data.is_empty() {
         return None;
     }
-    let sample = super::every_kth(data, SAMPLE);
-    let r = recalibrate(fitted, params, &sample)?;
+    // At most as many observations as base_moved refits on, evenly spaced.
+    let sample = super::every_kth(data, super::base_moved::SAMPLE);
+    let r = recalibrate_geometry(fitted, params, &sample)?;
     let (m, g) = (r.model_rms_mm, r.recalibrated_rms_mm);
-    (m.is_finite() && g.is_finite() && m > CHANGED_RATIO * g && m - g > CHANGED_MIN_MM).then(|| {
+    r.geometry_changed().then(|| {
         use crate::output::numfmt::sig;
         format!(
             "held the robot file's geometry, which no longer describes this arm: left out fold \

@@ -60,16 +60,26 @@ impl Recalibration {
         let r = self
             .recalibrated_rms_mm
             .min(self.with_joint_scales_rms_mm.unwrap_or(f64::INFINITY));
-        let m = self.model_rms_mm;
-        m > CHANGED_RATIO * r && m - r > CHANGED_MIN_MM
+        worse(self.model_rms_mm, r)
+    }
+
+    /// Whether the geometry calibrated again alone tells the change (the joints' scales
+    /// aside).
+    pub fn geometry_changed(&self) -> bool {
+        worse(self.model_rms_mm, self.recalibrated_rms_mm)
     }
 
     /// Whether only the recalibration with the joints' scales tells the change: a joint's
     /// readings changed their scale since calibration.
     pub fn joint_scale(&self) -> bool {
-        let (m, r) = (self.model_rms_mm, self.recalibrated_rms_mm);
-        self.changed() && !(m > CHANGED_RATIO * r && m - r > CHANGED_MIN_MM)
+        self.changed() && !self.geometry_changed()
     }
+}
+
+/// Whether a left-out RMS `model` is so much worse than `recalibrated` ([`CHANGED_RATIO`],
+/// [`CHANGED_MIN_MM`]) that the robot changed.
+fn worse(model: f64, recalibrated: f64) -> bool {
+    model > CHANGED_RATIO * recalibrated && model - recalibrated > CHANGED_MIN_MM
 }
 
 /// [`Recalibration`] of `model` on `data` (weighted as `validate` registered it), registering
@@ -80,22 +90,38 @@ pub fn recalibrate<const N: usize>(
     register: &[Param],
     data: &[Measurement<f64, N>],
 ) -> Option<Recalibration> {
-    let mut params = super::model_params(model, &[]);
-    params.retain(|p| !matches!(p, Param::Effect(_)));
-    let (folds, model_rms_mm, recalibrated_rms_mm) = left_out(model, &params, register, data)?;
-    let mut r = Recalibration {
-        folds,
-        model_rms_mm,
-        recalibrated_rms_mm,
-        with_joint_scales_rms_mm: None,
-    };
+    let mut r = recalibrate_geometry(model, register, data)?;
     if !r.changed() {
-        r.with_joint_scales_rms_mm = with_joint_scales(model, &params)
+        r.with_joint_scales_rms_mm = with_joint_scales(model, &geometry_params(model))
             .and_then(|(scaled, with)| left_out(&scaled, &with, register, data))
             .map(|(_, _, rms)| rms)
             .filter(|rms| rms.is_finite());
     }
     Some(r)
+}
+
+/// [`recalibrate`] without the recalibration with the joints' scales: the model against its
+/// geometry (base, MDH rows, tool) calibrated again on the session, on left-out poses.
+pub fn recalibrate_geometry<const N: usize>(
+    model: &HostRobot<N>,
+    register: &[Param],
+    data: &[Measurement<f64, N>],
+) -> Option<Recalibration> {
+    let (folds, model_rms_mm, recalibrated_rms_mm) =
+        left_out(model, &geometry_params(model), register, data)?;
+    Some(Recalibration {
+        folds,
+        model_rms_mm,
+        recalibrated_rms_mm,
+        with_joint_scales_rms_mm: None,
+    })
+}
+
+/// Every parameter of `model` but its effects' values.
+fn geometry_params<const N: usize>(model: &HostRobot<N>) -> Vec<Param> {
+    let mut params = super::model_params(model, &[]);
+    params.retain(|p| !matches!(p, Param::Effect(_)));
+    params
 }
 
 /// `model` with a scale on every joint's reading it has none on, and `params` with theirs;

@@ -14,12 +14,12 @@
 //! of the cost; only the best few are refitted.
 
 pub use crate::calibration::folds::{subset, Folds};
-use crate::compute::banded::{is_banded, BandedFactor};
+use crate::compute::banded::{is_banded, BandedFactor, SymmetricBand};
 use crate::compute::dense::{cholesky, cholesky_inverse, sub_gram_lower, LowerFactor};
 use crate::compute::parallel;
 use crate::diagnose::linear::{
-    add_table_penalty, add_tiny_ridge, observation_blocks, Normal, NormalSums, Problem,
-    TablePenalty,
+    add_table_penalty, add_table_penalty_band, add_tiny_ridge, add_tiny_ridge_band,
+    observation_blocks, Normal, NormalSums, Problem, TablePenalty,
 };
 use crate::diagnose::pose_columns::PoseColumns;
 use crate::diagnose::refit::fold_errors;
@@ -73,7 +73,96 @@ struct FoldFactor {
 }
 
 /// A fold's own sums of a candidate's columns `C`: `B = JᵀC`, `D = CᵀC`, `e = Cᵀr`.
-type OwnSums<'a> = (&'a DMatrix<f64>, &'a DMatrix<f64>, &'a DVector<f64>);
+type OwnSums<'a> = (&'a DMatrix<f64>, &'a Gram, &'a DVector<f64>);
+
+/// A candidate's block `D = CᵀC` of the normal matrix: a table's knots as a band (hundreds of
+/// knots: `m²` entries would cost more than the fold's solve), any other candidate's dense.
+#[derive(Clone, Debug)]
+enum Gram {
+    Dense(DMatrix<f64>),
+    Band(SymmetricBand),
+}
+
+impl Gram {
+    /// The sum of the folds' blocks (all of one kind and size).
+    fn sum(parts: &[Gram]) -> Gram {
+        let mut total = parts[0].clone();
+        for part in &parts[1..] {
+            match (&mut total, part) {
+                (Gram::Dense(t), Gram::Dense(x)) => *t += x,
+                (Gram::Band(t), Gram::Band(x)) => t.add_assign(x),
+                (t, x) => *t = Gram::Dense(t.dense() + x.dense()),
+            }
+        }
+        total
+    }
+
+    fn minus(&self, other: &Gram) -> Gram {
+        match (self, other) {
+            (Gram::Dense(a), Gram::Dense(b)) => Gram::Dense(a - b),
+            (Gram::Band(a), Gram::Band(b)) => Gram::Band(a.minus(b)),
+            (a, b) => Gram::Dense(a.dense() - b.dense()),
+        }
+    }
+
+    fn dense(&self) -> DMatrix<f64> {
+        match self {
+            Gram::Dense(d) => d.clone(),
+            Gram::Band(d) => d.to_dense(),
+        }
+    }
+
+    fn into_dense(self) -> DMatrix<f64> {
+        match self {
+            Gram::Dense(d) => d,
+            Gram::Band(d) => d.to_dense(),
+        }
+    }
+
+    /// Adds a table's penalty on all of its rows (its knots).
+    fn add_table_penalty(&mut self, tp: TablePenalty) {
+        match self {
+            Gram::Dense(d) => {
+                let diag = d.diagonal();
+                add_table_penalty(d, d.nrows(), &diag, tp);
+            }
+            Gram::Band(d) => {
+                let diag = d.diagonal();
+                add_table_penalty_band(d, &diag, tp);
+            }
+        }
+    }
+
+    /// `xᵀ D x`.
+    fn quadratic(&self, x: &DVector<f64>) -> f64 {
+        match self {
+            Gram::Dense(d) => x.dot(&(d * x)),
+            Gram::Band(d) => x.dot(&d.mul_vector(x)),
+        }
+    }
+
+    /// [`Elimination::cheaper`] for this block with `p` model parameters.
+    fn cheaper(&self, p: usize) -> Elimination {
+        match self {
+            Gram::Dense(d) => Elimination::cheaper(p, d.nrows(), d),
+            Gram::Band(d) => Elimination::cheaper_of(p, d.len(), true),
+        }
+    }
+
+    /// `R` of `D + tiny ridge = R Rᵀ` (`None`: not positive definite).
+    fn band_factor(self) -> Option<BandedFactor> {
+        match self {
+            Gram::Dense(mut d) => {
+                add_tiny_ridge(&mut d);
+                BandedFactor::new(&d, TABLE_BAND)
+            }
+            Gram::Band(mut d) => {
+                add_tiny_ridge_band(&mut d);
+                BandedFactor::of_band(&d)
+            }
+        }
+    }
+}
 
 /// The current model linearised at its full-data solution, with per-fold factors.
 #[derive(Debug)]
@@ -233,65 +322,35 @@ impl Linearised {
         // Per-fold blocks: B = Jᵀ C (p × m), D = Cᵀ C (m × m), e = Cᵀ r.
         let k = self.fold_poses.len();
         let mut b = vec![DMatrix::<f64>::zeros(p, m); k];
-        let mut d = vec![DMatrix::<f64>::zeros(m, m); k];
         let mut e = vec![DVector::<f64>::zeros(m); k];
-        let reading = self.shortcut(extra);
         // Fold by fold, so that only one fold's blocks are being written at a time.
-        for (f, poses) in self.fold_poses.iter().enumerate() {
-            let (bf, df, ef) = (b[f].as_mut_slice(), &mut d[f], &mut e[f]);
-            if let Some((products, along)) = reading {
-                products.add_fold(f, along, bf, df, ef);
-                continue;
-            }
-            for i in poses
-                .iter()
-                .flat_map(|&i| self.blocks[i]..self.blocks[i + 1])
-            {
-                let cols = extra.pose(i);
-                let r = &self.residuals[i];
-                for (x, (ci, cv)) in cols.iter().enumerate() {
-                    ef[*ci] += cv.dot(r);
-                    for (cj, cw) in &cols[..=x] {
-                        let v = cv.dot(cw);
-                        df[(*ci, *cj)] += v;
-                        if ci != cj {
-                            df[(*cj, *ci)] += v;
-                        }
-                    }
-                }
-                // B's columns two at a time (a table's two knots around the reading), so that
-                // the model's columns are read once per pair.
-                let model = self.columns.pose(i);
-                let mut rest = cols;
-                while let [(c1, v1), (c2, v2), tail @ ..] = rest {
-                    let (o1, o2) = (c1 * p, c2 * p);
-                    for (gj, gv) in model {
-                        bf[o1 + gj] += dot3(gv, v1);
-                        bf[o2 + gj] += dot3(gv, v2);
-                    }
-                    rest = tail;
-                }
-                if let [(c1, v1)] = rest {
-                    let bc = &mut bf[c1 * p..(c1 + 1) * p];
-                    for (gj, gv) in model {
-                        bc[*gj] += dot3(gv, v1);
-                    }
-                }
-            }
-        }
-        let (bt, dt, et) = (sum(&b), sum(&d), sum(&e));
+        let d: Vec<Gram> = match self.shortcut(extra) {
+            Some((products, along)) => (0..k)
+                .map(|f| {
+                    let mut df = SymmetricBand::zeros(m, TABLE_BAND);
+                    products.add_fold(f, along, b[f].as_mut_slice(), &mut df, &mut e[f]);
+                    Gram::Band(df)
+                })
+                .collect(),
+            None => (0..k)
+                .map(|f| {
+                    let mut df = DMatrix::zeros(m, m);
+                    self.add_own_sums(f, extra, b[f].as_mut_slice(), &mut df, &mut e[f]);
+                    Gram::Dense(df)
+                })
+                .collect(),
+        };
+        let (bt, dt, et) = (sum(&b), Gram::sum(&d), sum(&e));
         for (f, ((bf, df), ef)) in b.iter().zip(&d).zip(&e).enumerate() {
             let Some(factor) = &self.factors[f] else {
                 continue;
             };
             // The training blocks: totals minus the fold's own.
-            let (btr, mut dtr, etr) = (&bt - bf, &dt - df, &et - ef);
+            let (btr, mut dtr, etr) = (&bt - bf, dt.minus(df), &et - ef);
             if let (Some(tp), true) = (table, m > 0) {
-                // Added in place: each entry of the band once, as `dtr + Π` would.
-                let diag = dtr.diagonal();
-                add_table_penalty(&mut dtr, m, &diag, tp);
+                dtr.add_table_penalty(tp);
             }
-            let eliminate = elimination.unwrap_or_else(|| Elimination::cheaper(p, m, &dtr));
+            let eliminate = elimination.unwrap_or_else(|| dtr.cheaper(p));
             let solved = match eliminate {
                 _ if m == 0 => factor
                     .l
@@ -299,10 +358,58 @@ impl Linearised {
                     .tr_solve_lower_triangular(&factor.z)
                     .map(|dp| (dp, DVector::zeros(0))),
                 Elimination::Candidate => eliminate_candidate(factor, btr, dtr, etr),
-                Elimination::Model => eliminate_model(factor, btr, dtr, etr),
+                Elimination::Model => eliminate_model(factor, btr, dtr.into_dense(), etr),
             };
             let Some((dp, dc)) = solved else { continue };
             visit(f, &dp, &dc, (bf, df, ef));
+        }
+    }
+
+    /// Fold `f`'s own sums of the columns `extra` (any candidate): `bf` is `B = JᵀC`
+    /// (`p × m`, column-major), `df` is `D = CᵀC` and `ef` is `e = Cᵀr`, all added to.
+    fn add_own_sums(
+        &self,
+        f: usize,
+        extra: &PoseColumns,
+        bf: &mut [f64],
+        df: &mut DMatrix<f64>,
+        ef: &mut DVector<f64>,
+    ) {
+        let p = self.p;
+        for i in self.fold_poses[f]
+            .iter()
+            .flat_map(|&i| self.blocks[i]..self.blocks[i + 1])
+        {
+            let cols = extra.pose(i);
+            let r = &self.residuals[i];
+            for (x, (ci, cv)) in cols.iter().enumerate() {
+                ef[*ci] += cv.dot(r);
+                for (cj, cw) in &cols[..=x] {
+                    let v = cv.dot(cw);
+                    df[(*ci, *cj)] += v;
+                    if ci != cj {
+                        df[(*cj, *ci)] += v;
+                    }
+                }
+            }
+            // B's columns two at a time (a table's two knots around the reading), so that
+            // the model's columns are read once per pair.
+            let model = self.columns.pose(i);
+            let mut rest = cols;
+            while let [(c1, v1), (c2, v2), tail @ ..] = rest {
+                let (o1, o2) = (c1 * p, c2 * p);
+                for (gj, gv) in model {
+                    bf[o1 + gj] += dot3(gv, v1);
+                    bf[o2 + gj] += dot3(gv, v2);
+                }
+                rest = tail;
+            }
+            if let [(c1, v1)] = rest {
+                let bc = &mut bf[c1 * p..(c1 + 1) * p];
+                for (gj, gv) in model {
+                    bc[*gj] += dot3(gv, v1);
+                }
+            }
         }
     }
 
@@ -320,7 +427,7 @@ impl Linearised {
             let fold = own.ssr - 2.0 * dp.dot(&own.g) - 2.0 * dc.dot(e)
                 + dp.dot(&(&own.a * dp))
                 + 2.0 * dp.dot(&cross)
-                + dc.dot(&(d * dc));
+                + d.quadratic(dc);
             ssr += fold.max(0.0);
             solved[f] = true;
         });
@@ -365,8 +472,14 @@ pub enum Elimination {
 impl Elimination {
     /// The one with fewer operations for `p` model parameters and the candidate block `d`.
     pub fn cheaper(p: usize, m: usize, d: &DMatrix<f64>) -> Self {
+        Self::cheaper_of(p, m, is_banded(d, TABLE_BAND))
+    }
+
+    /// The one with fewer operations for `p` model parameters and `m` candidate columns whose
+    /// block is (`banded`) or is not a band of [`TABLE_BAND`].
+    fn cheaper_of(p: usize, m: usize, banded: bool) -> Self {
         let (pf, mf) = (p as f64, m as f64);
-        if pf * pf * pf < 3.0 * pf * mf * mf + mf * mf * mf && is_banded(d, TABLE_BAND) {
+        if banded && pf * pf * pf < 3.0 * pf * mf * mf + mf * mf * mf {
             Elimination::Candidate
         } else {
             Elimination::Model
@@ -408,11 +521,10 @@ fn eliminate_model(
 fn eliminate_candidate(
     factor: &FoldFactor,
     btr: DMatrix<f64>,
-    mut dtr: DMatrix<f64>,
+    dtr: Gram,
     etr: DVector<f64>,
 ) -> Option<(DVector<f64>, DVector<f64>)> {
-    add_tiny_ridge(&mut dtr);
-    let r = BandedFactor::new(&dtr, TABLE_BAND)?;
+    let r = dtr.band_factor()?;
     let mut w = btr;
     r.solve_right_transposed(&mut w);
     let mut we = etr;

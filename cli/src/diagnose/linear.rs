@@ -15,6 +15,7 @@
 //! units and `Π` the table penalty, scaled by the table's own mean diagonal of `JᵀJ` so that
 //! it is light whatever the number of poses.
 
+use crate::compute::banded::SymmetricBand;
 use crate::compute::dense::{cholesky, cholesky_inverse};
 use kinecal::identify::lm::{observation_cost, PenaltyTerm};
 use kinecal::model::effects::EffectKind;
@@ -318,10 +319,20 @@ pub fn table_term(first: usize, len: usize, p: TablePenalty) -> PenaltyTerm<f64>
 /// Adds the term `t`, weighted as the library weighs it for a normal matrix whose diagonal is
 /// `diag`, to `pen`.
 fn add_term(pen: &mut DMatrix<f64>, t: &PenaltyTerm<f64>, diag: &DVector<f64>) {
+    for_term_entries(t, diag, |i, j, v| pen[(i, j)] += v);
+}
+
+/// Calls `add(i, j, w · entry)` for each entry of the term `t` (half-bandwidth 2), weighted
+/// as the library weighs it for a normal matrix whose diagonal is `diag`.
+fn for_term_entries(
+    t: &PenaltyTerm<f64>,
+    diag: &DVector<f64>,
+    mut add: impl FnMut(usize, usize, f64),
+) {
     let w = t.weight(|k| diag[k]);
     for i in 0..t.len {
         for j in i.saturating_sub(2)..(i + 3).min(t.len) {
-            pen[(t.first + i, t.first + j)] += w * t.entry(i, j);
+            add(t.first + i, t.first + j, w * t.entry(i, j));
         }
     }
 }
@@ -331,6 +342,18 @@ fn add_term(pen: &mut DMatrix<f64>, t: &PenaltyTerm<f64>, diag: &DVector<f64>) {
 pub fn add_table_penalty(pen: &mut DMatrix<f64>, m: usize, diag: &DVector<f64>, p: TablePenalty) {
     if m > 0 {
         add_term(pen, &table_term(0, m, p), diag);
+    }
+}
+
+/// [`add_table_penalty`] on a table's block kept as a band (half-bandwidth 2 or more).
+pub fn add_table_penalty_band(pen: &mut SymmetricBand, diag: &DVector<f64>, p: TablePenalty) {
+    if !pen.is_empty() {
+        let term = table_term(0, pen.len(), p);
+        for_term_entries(&term, diag, |i, j, v| {
+            if j <= i {
+                pen.add_lower(i, j, v)
+            }
+        });
     }
 }
 
@@ -470,16 +493,29 @@ impl NormalSums {
 /// to each column's own size (so that a weakly excited but real direction is not held), with a
 /// floor that keeps directions no pose excites (an empty knot) at zero.
 pub fn add_tiny_ridge(h: &mut DMatrix<f64>) {
-    let p = h.nrows();
-    if p == 0 {
-        return;
+    if let Some(floor) = tiny_ridge_floor(h.diagonal().as_slice()) {
+        for i in 0..h.nrows() {
+            h[(i, i)] = with_tiny_ridge(h[(i, i)], floor);
+        }
     }
-    let mean = (0..p).map(|i| h[(i, i)]).sum::<f64>() / p as f64;
-    let floor = 1e-12 * mean.max(f64::MIN_POSITIVE);
-    for i in 0..p {
-        let d = h[(i, i)];
-        h[(i, i)] = d + 1e-10 * d.max(floor) + floor;
+}
+
+/// [`add_tiny_ridge`] on a band.
+pub fn add_tiny_ridge_band(h: &mut SymmetricBand) {
+    if let Some(floor) = tiny_ridge_floor(h.diagonal().as_slice()) {
+        h.update_diagonal(|_, d| with_tiny_ridge(d, floor));
     }
+}
+
+/// The tiny ridge's floor for the diagonal `diag` (`None`: empty).
+fn tiny_ridge_floor(diag: &[f64]) -> Option<f64> {
+    let mean = diag.iter().sum::<f64>() / diag.len() as f64;
+    (!diag.is_empty()).then(|| 1e-12 * mean.max(f64::MIN_POSITIVE))
+}
+
+/// A diagonal element `d` with the tiny ridge of `floor`.
+fn with_tiny_ridge(d: f64, floor: f64) -> f64 {
+    d + 1e-10 * d.max(floor) + floor
 }
 
 /// `tr((A + Π)⁻¹ A)`: the degrees of freedom a penalised fit uses (directions no pose

@@ -17,8 +17,9 @@
 //! earlier table's knots, two per block, are added block by block, like `D = CᵀC` and
 //! `e = Cᵀr`: one multiply-add per block and knot.
 
+use crate::compute::banded::SymmetricBand;
 use kinecal::model::effects::Effect;
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DVector, Vector3};
 use std::sync::Arc;
 
 /// A table candidate's columns along its joint's reading direction: block `b`'s columns are
@@ -160,7 +161,7 @@ impl ReadingProducts {
     }
 
     /// Fold `f`'s own sums of the table candidate `along`: `bf` is `B = JᵀC` (`p × m`,
-    /// column-major, `m` the knots), `df` is `D = CᵀC` and `ef` is `e = Cᵀr`, all added to.
+    /// column-major, `m` the knots), `df` is `D = CᵀC` (a band) and `ef` is `e = Cᵀr`, all added to.
     // The comparisons are `Effect::segment`'s. The readings are finite (the files' readers
     // refuse others); a NaN reading would give meaningless sums, without a panic.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -169,7 +170,7 @@ impl ReadingProducts {
         f: usize,
         along: &AlongReading,
         bf: &mut [f64],
-        df: &mut DMatrix<f64>,
+        df: &mut SymmetricBand,
         ef: &mut DVector<f64>,
     ) {
         let (fold, p, e, scales) = (&self.folds[f], self.p, &along.table, &along.scales[..]);
@@ -179,16 +180,15 @@ impl ReadingProducts {
             let lower = (1.0 - w) / scales[k];
             let sparse = &fold.sparse[fold.offsets[i]..fold.offsets[i + 1]];
             ef[k] += lower * dr;
-            df[(k, k)] += lower * lower * dd;
+            df.add_lower(k, k, lower * lower * dd);
             for (j, g) in sparse {
                 bf[k * p + j] += lower * g;
             }
             if w != 0.0 {
                 let upper = w / scales[k + 1];
                 ef[k + 1] += upper * dr;
-                df[(k + 1, k + 1)] += upper * upper * dd;
-                df[(k, k + 1)] += lower * upper * dd;
-                df[(k + 1, k)] += lower * upper * dd;
+                df.add_lower(k + 1, k + 1, upper * upper * dd);
+                df.add_lower(k + 1, k, lower * upper * dd);
                 for (j, g) in sparse {
                     bf[(k + 1) * p + j] += upper * g;
                 }

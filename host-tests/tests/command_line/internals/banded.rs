@@ -56,3 +56,38 @@ fn band_factor_refuses_what_is_not_positive_definite() {
     assert!(BandedFactor::new(&d, 2).is_none());
     assert!(BandedFactor::new(&-pentadiagonal(12), 2).is_none());
 }
+
+/// The band storage against the dense matrix it stands for: entries, sums, products and the
+/// factor are the dense ones bit for bit (the screen's results must not change with it).
+#[test]
+fn symmetric_band_is_its_dense_matrix() {
+    let m = 23;
+    let d = pentadiagonal(m);
+    let mut band = SymmetricBand::zeros(m, 2);
+    for i in 0..m {
+        for j in i.saturating_sub(2)..=i {
+            band.add_lower(i, j, d[(i, j)]);
+        }
+    }
+    assert_eq!(band.to_dense(), d);
+    assert_eq!(band.diagonal(), d.diagonal());
+    let v = DVector::from_fn(m, |i, _| (i as f64 * 0.71).cos());
+    assert_eq!(band.mul_vector(&v), &d * &v);
+    let twice = {
+        let mut b = band.clone();
+        b.add_assign(&band);
+        b
+    };
+    assert_eq!(twice.to_dense(), &d + &d);
+    assert_eq!(twice.minus(&band).to_dense(), &d + &d - &d);
+    let (a, b) = (
+        BandedFactor::of_band(&band).unwrap(),
+        BandedFactor::new(&d, 2).unwrap(),
+    );
+    let (mut x, mut y) = (v.clone(), v.clone());
+    a.solve_lower(&mut x);
+    b.solve_lower(&mut y);
+    assert_eq!(x, y);
+    assert_eq!(band.get(0, 3), 0.0);
+    assert_eq!(band.get(1, 3), d[(3, 1)]);
+}

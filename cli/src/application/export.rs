@@ -4,6 +4,7 @@
 //! these and writes what they return (docs/formats.md, "URDF export", "DH table", "Binary
 //! model (.kcm)").
 
+use crate::application::leaving_out;
 use crate::formats::robot_file::{CouplingSpec, RobotFile};
 use crate::formats::urdf::mdh::Imported;
 use crate::formats::urdf::parse::Urdf;
@@ -176,30 +177,48 @@ pub fn dropped_from_dh_table(model: &RobotFile, nominal: Option<&RobotFile>) -> 
 }
 
 /// The effects (but axis tilts) and couplings of `model`, each named with why `holder` (with
-/// `coupling_why` for couplings) cannot hold it.
+/// `coupling_why` for couplings) cannot hold it and how far the tool point moves without it
+/// ([`leaving_out`]); with more than one, a last line for all of them together.
 fn dropped_from(model: &RobotFile, holder: &str, coupling_why: &str) -> Vec<String> {
-    let mut v: Vec<String> = model
-        .effects
-        .iter()
-        .filter(|e| e.kind != crate::formats::robot_file::AXIS_TILT)
-        .map(|e| {
-            // Thermal expansion and base drift act on no joint (joint 0).
+    let is_dropped = |i: usize| model.effects[i].kind != crate::formats::robot_file::AXIS_TILT;
+    let cost = |effect: Option<usize>, coupling: Option<usize>| {
+        let shift = leaving_out::shift(model, |i| Some(i) != effect, |i| Some(i) != coupling);
+        shift.map_or(String::new(), |s| format!("; {}", s.sentence()))
+    };
+    let mut v: Vec<String> = (0..model.effects.len())
+        .filter(|&i| is_dropped(i))
+        .map(|i| {
+            let e = &model.effects[i];
+            // Thermal expansion acts on no joint (joint 0).
             let on = match e.joint {
                 0 => String::new(),
                 j => format!(" on joint {j}"),
             };
             format!(
-                "effect {}{on} (non-geometric: {holder} cannot hold it)",
-                e.kind
+                "effect {}{on} (non-geometric: {holder} cannot hold it{})",
+                e.kind,
+                cost(Some(i), None)
             )
         })
         .collect();
-    v.extend(model.couplings.iter().map(|c| {
+    v.extend(model.couplings.iter().enumerate().map(|(i, c)| {
         format!(
-            "coupling of joint {} to joint {} (ratio {}: {coupling_why})",
-            c.joint, c.from, c.ratio
+            "coupling of joint {} to joint {} (ratio {}: {coupling_why}{})",
+            c.joint,
+            c.from,
+            c.ratio,
+            cost(None, Some(i))
         )
     }));
+    if v.len() > 1 {
+        let all = leaving_out::shift(model, |i| !is_dropped(i), |_| false);
+        if let Some(s) = all {
+            v.push(format!(
+                "all of the above together ({})",
+                s.sentence().replacen("without it", "without them", 1)
+            ));
+        }
+    }
     v
 }
 

@@ -8,6 +8,7 @@
 //!   distances).
 //! - [`constraint_diagnose`]: `kinecal diagnose` on constraint observations.
 //! - [`export`]: `kinecal export`'s checks and outputs (URDF, DH table, firmware model).
+//! - [`leaving_out`]: what an export that cannot hold a model's effects and couplings gives up.
 //! - [`study`]: `kinecal study`, the measurement-planning study over a grid of arms.
 //! - [`demo`]: `kinecal demo`, the BPNN-PSO paper's simulation and its four methods.
 //! - [`simulate`]: `kinecal simulate`, the true robot and a session measured on it.
@@ -19,6 +20,7 @@ pub mod constraints;
 pub mod demo;
 pub mod export;
 pub mod identify;
+pub mod leaving_out;
 pub mod report;
 pub mod simulate;
 pub mod study;

@@ -144,13 +144,22 @@ fn dh_table_names_what_it_drops_and_keeps_a_fitted_tilt() {
         .iter()
         .map(|v| v.as_str().unwrap())
         .collect();
-    assert_eq!(dropped.len(), 2, "{j}");
+    assert_eq!(dropped.len(), 3, "{j}");
     assert!(
         dropped[0].starts_with("effect joint-scale on joint 2 (non-geometric: a DH table"),
         "{dropped:?}"
     );
     assert!(
         dropped[1].starts_with("effect thermal-expansion (non-geometric"),
+        "{dropped:?}"
+    );
+    // Each with what leaving it out costs, and the two together.
+    assert!(
+        dropped[1].contains("at 32 °C (10 K above the model's reference temperature)"),
+        "{dropped:?}"
+    );
+    assert!(
+        dropped[2].starts_with("all of the above together (without them the tool point moves"),
         "{dropped:?}"
     );
     let err = stderr(&o);
@@ -170,4 +179,48 @@ fn dh_table_names_what_it_drops_and_keeps_a_fitted_tilt() {
         .unwrap();
     let b = beta["calibrated"].as_f64().unwrap();
     assert!((b - 0.0005f64.to_degrees()).abs() < 1e-9, "{beta}");
+}
+
+/// What leaving an effect out costs, against known truth: a 2R arm whose last joint reads
+/// 1e-3 of its angle short (`joint-scale`) with the tool point 300 mm from that joint's axis.
+/// Without the effect the point moves `2 · 300 · sin(|1e-3 · q2| / 2)` ≈ 0.3 mm per rad of
+/// `q2`: with `q2` uniform over ±90°, up to 0.471 mm and 0.272 mm RMS (`0.3 · (π/2) / √3`).
+#[test]
+fn what_leaving_an_effect_out_costs_is_said_and_right() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = crate::common::write(
+        dir.path(),
+        "m.toml",
+        "name = \"2R\"\n\
+         [[joints]]\nalpha_deg = 0.0\na_mm = 0.0\ntheta_deg = 0.0\nd_mm = 0.0\nlimits_deg = [-90.0, 90.0]\n\
+         [[joints]]\nalpha_deg = 0.0\na_mm = 500.0\ntheta_deg = 0.0\nd_mm = 0.0\nlimits_deg = [-90.0, 90.0]\n\
+         [tool]\nxyz_mm = [300.0, 0.0, 0.0]\n\
+         [base]\nxyz_mm = [0.0, 0.0, 0.0]\n\
+         [[effects]]\nkind = \"joint-scale\"\njoint = 2\nvalues = [0.001]\n",
+    );
+    let out = dir.path().join("t.csv");
+    let o = kinecal_ok(&[
+        "export",
+        "--model",
+        s(&model),
+        "--format",
+        "dh-table",
+        "--out",
+        s(&out),
+        "--json",
+    ]);
+    let j = crate::common::json_of(&o);
+    let dropped = j["dropped"].as_array().unwrap();
+    assert_eq!(dropped.len(), 1, "{j}");
+    let text = dropped[0].as_str().unwrap();
+    let number = |after: &str| -> f64 {
+        let rest = &text[text.find(after).unwrap_or_else(|| panic!("{text}")) + after.len()..];
+        rest.split_whitespace().next().unwrap().parse().unwrap()
+    };
+    let (rms, max) = (number("moves "), number("up to "));
+    let truth_max = 600.0 * (1e-3 * std::f64::consts::FRAC_PI_2 / 2.0).sin();
+    let truth_rms = 0.3 * std::f64::consts::FRAC_PI_2 / 3f64.sqrt();
+    assert!(max <= truth_max + 1e-3 && max > 0.99 * truth_max, "{text}");
+    assert!((rms / truth_rms - 1.0).abs() < 0.05, "{text}");
+    assert!(stderr(&o).contains("warning: not exported: effect joint-scale on joint 2"));
 }
